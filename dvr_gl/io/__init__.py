@@ -1,0 +1,102 @@
+"""Volume readers: one entry point, :func:`load_volume`, choosing the reader by format.
+
+=========  ====================================  ==========================
+format     files                                 read with
+=========  ====================================  ==========================
+raw        any (dims, dtype, endian, header)     numpy (+ gzip/bz2 by suffix)
+nrrd       ``.nrrd``, ``.nhdr``                   pynrrd (extra ``nrrd``)
+nifti      ``.nii``, ``.nii.gz``                  nibabel (extra ``nifti``)
+metaimage  ``.mhd``, ``.mha``                     built-in reader (see its module)
+vtk        ``.vtk`` STRUCTURED_POINTS             built-in parser
+npy        ``.npy``                               numpy
+tiff       ``.tif`` pages, a folder, a glob       OpenImageIO
+=========  ====================================  ==========================
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from ..errors import VolumeError
+from ..volume import Volume, replace_non_finite
+from .common import RawArray
+from .compression import exists_or_split
+
+FORMATS = ("raw", "nrrd", "nifti", "metaimage", "vtk", "npy", "tiff")
+
+_SUFFIXES = {
+    ".nrrd": "nrrd", ".nhdr": "nrrd", ".nii": "nifti", ".nii.gz": "nifti", ".mhd": "metaimage",
+    ".mha": "metaimage", ".vtk": "vtk", ".npy": "npy", ".tif": "tiff", ".tiff": "tiff",
+    ".raw": "raw", ".raw.gz": "raw", ".raw.bz2": "raw", ".bin": "raw", ".dat": "raw", ".den": "raw",
+}
+
+
+def detect_format(path: Path) -> str:
+    """The format a path's suffix (or being a folder or glob) names."""
+    name = path.name.lower()
+    if path.is_dir() or any(c in str(path) for c in "*?["):
+        return "tiff"
+    for suffix in sorted(_SUFFIXES, key=len, reverse=True):
+        if name.endswith(suffix):
+            return _SUFFIXES[suffix]
+    raise VolumeError(f"{path}: cannot tell the format from the suffix; set volume.format to one of "
+                      f"{', '.join(FORMATS)}")
+
+
+def _read(path: Path, fmt: str, raw_options: dict) -> RawArray:
+    if fmt == "raw":
+        from .raw import read_raw
+        return read_raw(path, **raw_options)
+    if raw_options.get("dims") is not None or raw_options.get("dtype") is not None:
+        raise VolumeError(f"{path}: dims and dtype apply to raw files only; this is {fmt}")
+    if fmt == "nrrd":
+        from .nrrd import read_nrrd
+        return read_nrrd(path)
+    if fmt == "nifti":
+        from .nifti import read_nifti
+        return read_nifti(path)
+    if fmt == "metaimage":
+        from .metaimage import read_metaimage
+        return read_metaimage(path)
+    if fmt == "vtk":
+        from .vtk_legacy import read_vtk_structured_points
+        return read_vtk_structured_points(path)
+    if fmt == "npy":
+        from .npy import read_npy
+        return read_npy(path)
+    if fmt == "tiff":
+        from .tiff import read_tiff_stack
+        return read_tiff_stack(path)
+    raise VolumeError(f"{path}: unknown format {fmt!r}; use one of {', '.join(FORMATS)} or auto")
+
+
+def load_volume(path, format: str = "auto", *, dims=None, dtype=None, endian: str = "little",
+                header_bytes: int = 0, spacing=None, origin=None, nan_value: float | None = None) -> Volume:
+    """Load a volume file.
+
+    Args:
+        path: the file (for TIFF stacks also a folder or a glob pattern).
+        format: one of :data:`FORMATS`, or ``auto`` to choose by suffix.
+        dims, dtype, endian, header_bytes: the layout of a raw file, ``dims = (nx, ny, nz)``.
+        spacing, origin: override what the file states (world units, x first).
+        nan_value: replace NaN and Inf by this value; without it they are an error.
+    """
+    path = Path(os.path.expanduser(str(path)))
+    is_pattern = any(c in str(path) for c in "*?[")
+    if not is_pattern and not path.is_dir() and not exists_or_split(path):
+        raise VolumeError(f"{path}: file not found")
+    fmt = detect_format(path) if format == "auto" else format
+    options = {"dims": dims, "dtype": dtype}
+    if fmt == "raw":
+        options.update(endian=endian, header_bytes=header_bytes)
+    raw = _read(path, fmt, options)
+    data = raw.data
+    if nan_value is not None:
+        data = replace_non_finite(data, float(nan_value))
+    return Volume(
+        data,
+        spacing=spacing if spacing is not None else (raw.spacing or (1.0, 1.0, 1.0)),
+        origin=origin if origin is not None else (raw.origin or (0.0, 0.0, 0.0)),
+        name=path.name,
+    )

@@ -1,0 +1,133 @@
+"""The volume: a node-centred regular grid of scalars.
+
+Conventions (``docs/conventions.md``):
+
+* ``data[z, y, x]``, C order, x fastest, as raw files store it;
+* ``spacing = (sx, sy, sz)`` and ``origin = (ox, oy, oz)`` in world units, x first;
+* sample ``(i, j, k)`` sits at ``origin + (i*sx, j*sy, k*sz)``; the box is the
+  hull of the samples, ``[origin, origin + (n - 1) * spacing]``;
+* an axis with a single sample would give a box of zero thickness, so such an
+  axis gets a slab one spacing thick centred on the sample (a project
+  extension of the conventions: a single slice must be visible);
+* scalar types are uint8, uint16, int16 and float32.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import VolumeError
+
+SCALAR_TYPES = (np.dtype(np.uint8), np.dtype(np.uint16), np.dtype(np.int16), np.dtype(np.float32))
+
+
+def to_scalar_type(data: np.ndarray, name: str = "volume") -> np.ndarray:
+    """Convert ``data`` to one of the four scalar types, native byte order.
+
+    Lossless where possible: int8 -> int16, bool -> uint8; wider integers and
+    float64 become float32, which must hold the values (else an error).
+    """
+    dt = data.dtype
+    if dt.kind == "b":
+        return data.astype(np.uint8)
+    native = dt.newbyteorder("=")
+    if native in SCALAR_TYPES:
+        return data.astype(native, copy=False)
+    if dt.kind == "i" and dt.itemsize == 1:
+        return data.astype(np.int16)
+    if dt.kind in "iuf":
+        if dt.kind == "f" and data.size:
+            finite = data[np.isfinite(data)]
+            if finite.size and np.abs(finite).max() > np.finfo(np.float32).max:
+                raise VolumeError(f"{name}: values exceed the float32 range; rescale the data before loading")
+        return data.astype(np.float32)
+    raise VolumeError(f"{name}: unsupported scalar type {dt}; use uint8, uint16, int16 or float32 data")
+
+
+@dataclass(frozen=True, eq=False)
+class Volume:
+    """A regular grid of scalar samples in world space.
+
+    Attributes:
+        data: ``(nz, ny, nx)`` array of uint8, uint16, int16 or float32, read-only.
+        spacing: distance between samples along x, y, z (world units, > 0).
+        origin: world position of sample ``(0, 0, 0)``.
+        name: a label for messages (file name or demo name).
+    """
+
+    data: np.ndarray
+    spacing: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    name: str = "volume"
+    value_range: tuple[float, float] = field(init=False)
+
+    def __post_init__(self):
+        data = np.asarray(self.data)
+        if data.ndim != 3:
+            raise VolumeError(f"{self.name}: expected a 3D array (z, y, x), got shape {data.shape}")
+        if min(data.shape) < 1:
+            raise VolumeError(f"{self.name}: zero-sized dimension in shape (z, y, x) = {data.shape}")
+        data = np.ascontiguousarray(to_scalar_type(data, self.name))
+        if data.dtype.kind == "f" and not np.isfinite(data).all():
+            bad = int(np.count_nonzero(~np.isfinite(data)))
+            raise VolumeError(f"{self.name}: {bad} NaN or Inf values; choose a replacement value "
+                              f"(scene key volume.nan_value, or --nan-value)")
+        data.setflags(write=False)
+        spacing = tuple(float(s) for s in self.spacing)
+        origin = tuple(float(o) for o in self.origin)
+        if len(spacing) != 3 or not all(np.isfinite(spacing)) or min(spacing) <= 0:
+            raise VolumeError(f"{self.name}: spacing must be three positive numbers, got {self.spacing}")
+        if len(origin) != 3 or not all(np.isfinite(origin)):
+            raise VolumeError(f"{self.name}: origin must be three finite numbers, got {self.origin}")
+        object.__setattr__(self, "data", data)
+        object.__setattr__(self, "spacing", spacing)
+        object.__setattr__(self, "origin", origin)
+        object.__setattr__(self, "value_range", (float(data.min()), float(data.max())))
+
+    @property
+    def dims(self) -> tuple[int, int, int]:
+        """Number of samples along x, y, z."""
+        nz, ny, nx = self.data.shape
+        return (nx, ny, nz)
+
+    @property
+    def box(self) -> tuple[np.ndarray, np.ndarray]:
+        """The world-space box ``(lo, hi)``: the hull of the samples (see module doc)."""
+        n = np.array(self.dims, dtype=np.float64)
+        s = np.array(self.spacing)
+        o = np.array(self.origin)
+        lo = o.copy()
+        hi = o + (n - 1) * s
+        single = n == 1
+        lo[single] -= 0.5 * s[single]
+        hi[single] += 0.5 * s[single]
+        return lo, hi
+
+    def world_to_index(self, points: np.ndarray) -> np.ndarray:
+        """Continuous voxel coordinates ``(i, j, k)`` (x, y, z order) of world points ``(..., 3)``."""
+        return (np.asarray(points, dtype=np.float64) - np.array(self.origin)) / np.array(self.spacing)
+
+    def world_to_texture(self, points: np.ndarray) -> np.ndarray:
+        """Texture coordinates in [0, 1]^3: sample ``i`` of ``n`` maps to ``(i + 0.5) / n``."""
+        return (self.world_to_index(points) + 0.5) / np.array(self.dims, dtype=np.float64)
+
+    def voxels_to_world(self, distance_in_voxels: float) -> float:
+        """A distance in voxels (of the smallest spacing) in world units."""
+        return float(distance_in_voxels) * min(self.spacing)
+
+    def describe(self) -> str:
+        nx, ny, nz = self.dims
+        lo, hi = self.value_range
+        return (f"{self.name}: {nx}x{ny}x{nz} {self.data.dtype}, spacing {self.spacing}, "
+                f"origin {self.origin}, values {lo:g}..{hi:g}")
+
+
+def replace_non_finite(data: np.ndarray, value: float) -> np.ndarray:
+    """Replace NaN and +-Inf by ``value`` (the user's explicit choice)."""
+    if data.dtype.kind != "f":
+        return data
+    out = np.array(data, copy=True)
+    out[~np.isfinite(out)] = value
+    return out
