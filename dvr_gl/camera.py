@@ -1,0 +1,191 @@
+"""Camera: look-at or orbit, perspective or orthographic, one ray per pixel centre.
+
+World units throughout; angles in degrees.  The orbit frame is built from
+``up`` (default +z, the slice axis of most scans): at azimuth 0 and
+elevation 0 the eye is on the -y side of the target looking toward +y;
+azimuth turns the eye toward +x (counter-clockwise seen from +up) and
+elevation lifts it toward +up.  Image row 0 is the top row.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .errors import SceneError
+
+PROJECTIONS = ("perspective", "orthographic")
+
+
+def _unit(v, what: str) -> np.ndarray:
+    v = np.asarray(v, dtype=np.float64)
+    n = np.linalg.norm(v)
+    if not np.isfinite(n) or n == 0:
+        raise SceneError(f"camera: {what} must be a non-zero vector, got {v.tolist()}")
+    return v / n
+
+
+def orbit_frame(up) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(up, front, side)``: the eye direction at azimuth 0 is ``front``, at azimuth 90 ``side``."""
+    u = _unit(up, "up")
+    front = np.array([0.0, -1.0, 0.0]) - u * (-u[1])
+    if np.linalg.norm(front) < 1e-9:  # up along y: use -z as the front
+        front = np.array([0.0, 0.0, -1.0]) - u * (-u[2])
+    front /= np.linalg.norm(front)
+    return u, front, np.cross(u, front)
+
+
+def orbit_eye(target, up, azimuth: float, elevation: float, distance: float) -> np.ndarray:
+    """Eye position of an orbit about ``target`` (angles in degrees)."""
+    u, front, side = orbit_frame(up)
+    az, el = math.radians(azimuth), math.radians(elevation)
+    direction = math.cos(el) * (math.cos(az) * front + math.sin(az) * side) + math.sin(el) * u
+    return np.asarray(target, dtype=np.float64) + distance * direction
+
+
+def orbit_of(eye, target, up) -> tuple[float, float, float]:
+    """``(azimuth, elevation, distance)`` that put the eye at ``eye``."""
+    u, front, side = orbit_frame(up)
+    d = np.asarray(eye, dtype=np.float64) - np.asarray(target, dtype=np.float64)
+    dist = float(np.linalg.norm(d))
+    if dist == 0:
+        raise SceneError("camera: eye and target coincide")
+    d = d / dist
+    el = math.degrees(math.asin(max(-1.0, min(1.0, float(d @ u)))))
+    az = math.degrees(math.atan2(float(d @ side), float(d @ front)))
+    return az, el, dist
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A pinhole (perspective) or parallel (orthographic) camera.
+
+    Attributes:
+        eye, target, up: look-at, world units.
+        projection: ``perspective`` or ``orthographic``.
+        fov: vertical field of view in degrees (perspective).
+        view_height: height of the view in world units (orthographic).
+        near: distance of the near plane from the eye along the view axis;
+            rays start there (or where they enter the volume, if later).
+        orbit: ``(azimuth, elevation, distance)`` when the eye was computed from an
+            orbit, so that a saved scene repeats the same computation; else None.
+    """
+
+    eye: tuple[float, float, float]
+    target: tuple[float, float, float]
+    up: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    projection: str = "perspective"
+    fov: float = 30.0
+    view_height: float = 1.0
+    near: float = 0.0
+    orbit: tuple[float, float, float] | None = None
+
+    def __post_init__(self):
+        if self.projection not in PROJECTIONS:
+            raise SceneError(f"camera: projection {self.projection!r} is not one of {', '.join(PROJECTIONS)}")
+        if not 0 < self.fov < 180:
+            raise SceneError(f"camera: fov must be between 0 and 180 degrees, got {self.fov}")
+        if not self.view_height > 0:
+            raise SceneError(f"camera: view_height must be positive, got {self.view_height}")
+        if not self.near >= 0:
+            raise SceneError(f"camera: near must be >= 0, got {self.near}")
+        for name in ("eye", "target", "up"):
+            v = tuple(float(x) for x in getattr(self, name))
+            if len(v) != 3 or not all(map(math.isfinite, v)):
+                raise SceneError(f"camera: {name} must be three finite numbers, got {getattr(self, name)}")
+            object.__setattr__(self, name, v)
+        _unit(np.subtract(self.target, self.eye), "target - eye")
+        _unit(self.up, "up")
+
+    @classmethod
+    def from_orbit(cls, target, up, azimuth: float, elevation: float, distance: float, **kw) -> "Camera":
+        if not distance > 0:
+            raise SceneError(f"camera: distance must be positive, got {distance}")
+        eye = orbit_eye(target, up, azimuth, elevation, distance)
+        return cls(tuple(eye), tuple(target), tuple(up), orbit=(azimuth, elevation, distance), **kw)
+
+    def orbited(self, azimuth=None, elevation=None, distance=None) -> "Camera":
+        """The same camera moved on its orbit; unspecified parameters are kept."""
+        az, el, dist = self.orbit if self.orbit else orbit_of(self.eye, self.target, self.up)
+        az = az if azimuth is None else azimuth
+        el = el if elevation is None else elevation
+        dist = dist if distance is None else distance
+        return Camera.from_orbit(self.target, self.up, az, el, dist, projection=self.projection,
+                                 fov=self.fov, view_height=self.view_height, near=self.near)
+
+    def with_(self, **changes) -> "Camera":
+        return replace(self, **changes)
+
+    def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(forward, right, up)`` orthonormal; right-handed, right x up = -forward."""
+        f = _unit(np.subtract(self.target, self.eye), "view direction")
+        r = np.cross(f, self.up)
+        if np.linalg.norm(r) < 1e-12:
+            # Looking along up: take right from the orbit frame so it is continuous
+            # with nearby views (at the pole, the azimuth sets the image rotation).
+            u, front, side = orbit_frame(self.up)
+            az = math.radians(self.orbit[0]) if self.orbit else 0.0
+            r = np.cross(u, math.cos(az) * front + math.sin(az) * side)
+        r /= np.linalg.norm(r)
+        return f, r, np.cross(r, f)
+
+    def pixel_rays(self, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+        """Origins and unit directions ``(H*W, 3)`` through every pixel centre, row 0 at the top.
+
+        Perspective rays start at the eye; orthographic rays start on the plane
+        through the eye perpendicular to the view direction.
+        """
+        f, r, u = self.basis()
+        x = ((np.arange(width) + 0.5) / width) * 2.0 - 1.0
+        y = 1.0 - ((np.arange(height) + 0.5) / height) * 2.0
+        xx, yy = np.meshgrid(x, y)
+        xx, yy = xx.reshape(-1, 1), yy.reshape(-1, 1)
+        aspect = width / height
+        eye = np.array(self.eye)
+        if self.projection == "perspective":
+            h = math.tan(math.radians(self.fov) / 2.0)
+            d = f + xx * (h * aspect) * r + yy * h * u
+            d /= np.linalg.norm(d, axis=1, keepdims=True)
+            o = np.broadcast_to(eye, d.shape).copy()
+        else:
+            half = self.view_height / 2.0
+            o = eye + xx * (half * aspect) * r + yy * half * u
+            d = np.broadcast_to(f, o.shape).copy()
+        return o, d
+
+    def near_distance(self, directions: np.ndarray) -> np.ndarray:
+        """Ray parameter of the near plane along each (unit) direction."""
+        if self.near == 0:
+            return np.zeros(len(directions))
+        f, _, _ = self.basis()
+        return self.near / (directions @ f)
+
+    def to_dict(self) -> dict:
+        d = {"projection": self.projection, "target": list(self.target), "up": list(self.up),
+             "near": self.near}
+        if self.orbit:
+            d.update(azimuth=self.orbit[0], elevation=self.orbit[1], distance=self.orbit[2])
+        else:
+            d["eye"] = list(self.eye)
+        d["fov" if self.projection == "perspective" else "view_height"] = (
+            self.fov if self.projection == "perspective" else self.view_height)
+        return d
+
+
+DEFAULT_AZIMUTH = 30.0
+DEFAULT_ELEVATION = 20.0
+FRAME_MARGIN = 1.05
+
+
+def framing_distance(radius: float, fov: float, aspect: float) -> float:
+    """Eye distance at which a sphere of ``radius`` fits the view (with a 5 % margin)."""
+    half_v = math.radians(fov) / 2.0
+    half = min(half_v, math.atan(math.tan(half_v) * aspect))
+    return FRAME_MARGIN * radius / math.sin(half)
+
+
+def framing_view_height(radius: float, aspect: float) -> float:
+    """Orthographic view height that fits a sphere of ``radius`` (with a 5 % margin)."""
+    return FRAME_MARGIN * 2.0 * radius * max(1.0, 1.0 / aspect)

@@ -1,0 +1,250 @@
+"""Transfer functions: piecewise-linear control points in data units.
+
+A control point is ``(value, r, g, b, opacity)``; the function is linear
+between points and constant beyond the first and last (conventions).
+Colour is linear and non-associated.  ``opacity`` means, by ``opacity_model``:
+
+* ``alpha`` (default, as VTK): the opacity of a layer of constant material
+  ``unit_distance`` thick.  Alpha is what is interpolated linearly; extinction
+  is ``sigma = -ln(1 - alpha) / unit_distance``.  Alpha = 1 is clamped to
+  :data:`ALPHA_MAX`, the largest float32 below 1, so the largest extinction is
+  :data:`MAX_OPTICAL_DEPTH` / unit_distance (16.64 per unit distance).
+* ``extinction``: the extinction coefficient sigma itself (per world unit),
+  interpolated linearly (physical units, and closed forms for linear ramps).
+
+Emission is ``q = sigma * c``; a segment of length ``d`` at constant value has
+opacity ``1 - exp(-sigma d)`` and associated colour ``c (1 - exp(-sigma d))``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import SceneError
+
+ALPHA_MAX = 1.0 - 2.0 ** -24
+MAX_OPTICAL_DEPTH = -np.log1p(-ALPHA_MAX)  # = 24 ln 2 = 16.6355...
+OPACITY_MODELS = ("alpha", "extinction")
+
+
+def extinction_from_alpha(alpha, unit_distance: float):
+    """``sigma = -ln(1 - alpha) / unit_distance`` in the stable form, alpha clamped to [0, ALPHA_MAX]."""
+    a = np.clip(np.asarray(alpha, dtype=np.float64), 0.0, ALPHA_MAX)
+    return -np.log1p(-a) / unit_distance
+
+
+def segment_opacity(sigma, length):
+    """Opacity ``1 - exp(-sigma * length)`` of a segment, stable for tiny optical depth."""
+    return -np.expm1(-np.asarray(sigma) * np.asarray(length))
+
+
+@dataclass(frozen=True, eq=False)
+class TransferFunction:
+    """Piecewise-linear transfer function (see module doc).
+
+    Attributes:
+        points: ``(K, 5)`` float64 rows ``(value, r, g, b, opacity)``, values strictly increasing.
+        unit_distance: world length to which ``alpha`` refers (> 0).
+        opacity_model: ``alpha`` or ``extinction``.
+    """
+
+    points: np.ndarray
+    unit_distance: float = 1.0
+    opacity_model: str = "alpha"
+
+    def __post_init__(self):
+        pts = np.array(self.points, dtype=np.float64)
+        if pts.ndim != 2 or pts.shape[1] != 5 or len(pts) < 1:
+            raise SceneError("transfer function: points must be a list of [value, r, g, b, opacity] rows")
+        if not np.isfinite(pts).all():
+            raise SceneError("transfer function: points must be finite numbers (no NaN or Inf)")
+        bad = np.nonzero(np.diff(pts[:, 0]) <= 0)[0]
+        if bad.size:
+            i = int(bad[0])
+            raise SceneError(f"transfer function: values must increase strictly, but point {i + 1} "
+                             f"({pts[i + 1, 0]:g}) follows {pts[i, 0]:g}; sort the points")
+        if self.opacity_model not in OPACITY_MODELS:
+            raise SceneError(f"transfer function: opacity_model {self.opacity_model!r} is not one of "
+                             f"{', '.join(OPACITY_MODELS)}")
+        _check_range(pts[:, 1:4], 0.0, 1.0, "colour (r, g, b)")
+        hi = 1.0 if self.opacity_model == "alpha" else np.inf
+        _check_range(pts[:, 4:5], 0.0, hi, "alpha" if self.opacity_model == "alpha" else "extinction")
+        u = float(self.unit_distance)
+        if not np.isfinite(u) or u <= 0:
+            raise SceneError(f"transfer function: unit_distance must be a positive number, got {u}")
+        pts.setflags(write=False)
+        object.__setattr__(self, "points", pts)
+        object.__setattr__(self, "unit_distance", u)
+
+    @property
+    def domain(self) -> tuple[float, float]:
+        """Value range spanned by the control points."""
+        return float(self.points[0, 0]), float(self.points[-1, 0])
+
+    def _interp(self, values, column: int) -> np.ndarray:
+        v = np.asarray(values, dtype=np.float64)
+        return np.interp(v, self.points[:, 0], self.points[:, column])
+
+    def color(self, values) -> np.ndarray:
+        """Non-associated linear colour ``(..., 3)`` at data values."""
+        return np.stack([self._interp(values, c) for c in (1, 2, 3)], axis=-1)
+
+    def opacity(self, values) -> np.ndarray:
+        """The interpolated opacity column (alpha or sigma, by ``opacity_model``)."""
+        return self._interp(values, 4)
+
+    def extinction(self, values) -> np.ndarray:
+        """Extinction coefficient sigma (per world unit) at data values."""
+        o = self.opacity(values)
+        if self.opacity_model == "alpha":
+            return extinction_from_alpha(o, self.unit_distance)
+        return o
+
+    def evaluate(self, values) -> tuple[np.ndarray, np.ndarray]:
+        """``(colour (..., 3), sigma (...))`` at data values, exactly (no table)."""
+        return self.color(values), self.extinction(values)
+
+    def breakpoints(self) -> np.ndarray:
+        """Data values where colour or extinction is not smooth: the control values and,
+        in the alpha model, where alpha reaches ALPHA_MAX inside a segment (the clamp)."""
+        v, a = self.points[:, 0], self.points[:, 4]
+        extra = []
+        if self.opacity_model == "alpha":
+            for i in range(len(v) - 1):
+                a0, a1 = a[i], a[i + 1]
+                if (a0 - ALPHA_MAX) * (a1 - ALPHA_MAX) < 0:
+                    extra.append(v[i] + (ALPHA_MAX - a0) / (a1 - a0) * (v[i + 1] - v[i]))
+        return np.unique(np.concatenate([v, np.array(extra)]))
+
+    def tabulate(self, size: int = 4096) -> "TransferFunctionLUT":
+        """Sample the function at ``size`` evenly spaced values over its domain (a LUT)."""
+        if int(size) < 2:
+            raise SceneError(f"lut_size must be at least 2, got {size}")
+        lo, hi = self.domain
+        if hi <= lo:  # a single control point: a constant function
+            hi = lo + 1.0
+        nodes = np.linspace(lo, hi, int(size))
+        table = np.concatenate([self.color(nodes), self.opacity(nodes)[:, None]], axis=1)
+        return TransferFunctionLUT(table, (lo, hi), self.unit_distance, self.opacity_model)
+
+    def to_dict(self) -> dict:
+        return {"points": self.points.tolist(), "unit_distance": self.unit_distance,
+                "opacity_model": self.opacity_model}
+
+
+def _check_range(cols: np.ndarray, lo: float, hi: float, what: str):
+    bad = np.nonzero(((cols < lo) | (cols > hi)).any(axis=1))[0]
+    if bad.size:
+        i = int(bad[0])
+        raise SceneError(f"transfer function: point {i} has {what} {cols[i].tolist()} outside "
+                         f"[{lo:g}, {hi:g}]")
+
+
+@dataclass(frozen=True, eq=False)
+class TransferFunctionLUT:
+    """A transfer function tabulated at evenly spaced values (the GPU's 1D texture).
+
+    ``table[i] = (r, g, b, opacity)`` at value ``domain[0] + i * (domain[1] - domain[0]) / (N - 1)``:
+    node-centred in value, so texture coordinate ``(x + 0.5) / N`` with ``x`` the
+    fractional node index reproduces :meth:`lookup` under linear filtering.
+    The opacity column is interpolated in the function's own model (alpha or sigma).
+    """
+
+    table: np.ndarray
+    domain: tuple[float, float]
+    unit_distance: float
+    opacity_model: str
+
+    @property
+    def size(self) -> int:
+        return len(self.table)
+
+    def node_coordinate(self, values) -> np.ndarray:
+        """Fractional node index of data values, clamped to ``[0, N - 1]``."""
+        lo, hi = self.domain
+        x = (np.asarray(values, dtype=np.float64) - lo) * ((self.size - 1) / (hi - lo))
+        return np.clip(x, 0.0, self.size - 1)
+
+    def lookup(self, values) -> tuple[np.ndarray, np.ndarray]:
+        """``(colour (..., 3), sigma (...))`` by linear interpolation of the table."""
+        x = self.node_coordinate(values)
+        i0 = np.minimum(np.floor(x).astype(np.int64), self.size - 2) if self.size > 1 else np.zeros_like(x, int)
+        f = (x - i0)[..., None]
+        row = self.table[i0] * (1.0 - f) + self.table[np.minimum(i0 + 1, self.size - 1)] * f
+        o = row[..., 3]
+        sigma = extinction_from_alpha(o, self.unit_distance) if self.opacity_model == "alpha" else o
+        return row[..., :3], sigma
+
+
+# --- presets -------------------------------------------------------------------------------------
+
+def srgb_to_linear(c):
+    """sRGB-encoded colour (colour maps are published that way) to linear."""
+    c = np.asarray(c, dtype=np.float64)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+# Viridis (matplotlib, CC0) at 0, 1/4, 1/2, 3/4, 1, sRGB-encoded.
+_VIRIDIS = [(0.267, 0.005, 0.329), (0.229, 0.322, 0.546), (0.128, 0.567, 0.551),
+            (0.369, 0.789, 0.383), (0.993, 0.906, 0.144)]
+
+
+def _grayscale(lo, hi, intercept):
+    return [[lo, 0, 0, 0, 0], [hi, 1, 1, 1, 0.1]]
+
+
+def _viridis(lo, hi, intercept):
+    t = np.linspace(0, 1, len(_VIRIDIS))
+    cols = srgb_to_linear(_VIRIDIS)
+    return [[lo + ti * (hi - lo), *c, 0.1 * ti] for ti, c in zip(t, cols)]
+
+
+def _ct_bone(lo, hi, intercept):
+    """Bone from about +200 HU, opaque and ivory above +700 HU (opacity per mm)."""
+    hu = [(-1024, (0, 0, 0), 0), (150, (0.55, 0.25, 0.15), 0), (300, (0.85, 0.7, 0.55), 0.25),
+          (700, (0.95, 0.9, 0.8), 0.8), (3000, (1, 1, 0.95), 0.95)]
+    return [[h - intercept, *c, a] for h, c, a in hu]
+
+
+def _ct_skin(lo, hi, intercept):
+    """Skin and soft tissue around -500..+100 HU, with faint bone (opacity per mm)."""
+    hu = [(-1024, (0, 0, 0), 0), (-600, (0.7, 0.4, 0.3), 0), (-400, (0.9, 0.6, 0.5), 0.15),
+          (100, (0.9, 0.65, 0.55), 0.2), (300, (1, 0.95, 0.9), 0.3), (3000, (1, 1, 1), 0.6)]
+    return [[h - intercept, *c, a] for h, c, a in hu]
+
+
+def _shepp_logan(lo, hi, intercept):
+    """For the built-in Shepp-Logan phantom (values 0..1): faint blue brain,
+    orange lesions, a thin translucent white skull."""
+    return [[0.0, 0, 0, 0, 0], [0.12, 0.1, 0.2, 0.6, 0], [0.18, 0.15, 0.3, 0.8, 0.005],
+            [0.24, 0.15, 0.3, 0.8, 0.005], [0.27, 0.3, 0.4, 0.9, 0.0], [0.31, 1.0, 0.3, 0.05, 0.08],
+            [0.41, 1.0, 0.75, 0.1, 0.12], [0.45, 0.9, 0.9, 0.85, 0.0], [0.85, 0.9, 0.9, 0.85, 0.0],
+            [1.0, 1.0, 1.0, 0.95, 0.03]]
+
+
+PRESETS = {
+    "grayscale": (_grayscale, "grey ramp over the volume's value range"),
+    "viridis": (_viridis, "viridis colour map over the value range, opacity ramp"),
+    "ct-bone": (_ct_bone, "CT bone (Hounsfield units, see rescale_intercept)"),
+    "ct-skin": (_ct_skin, "CT skin and soft tissue (Hounsfield units, see rescale_intercept)"),
+    "shepp-logan": (_shepp_logan, "the built-in Shepp-Logan phantom"),
+}
+
+
+def preset(name: str, value_range: tuple[float, float], rescale_intercept: float = 0.0,
+           unit_distance: float = 1.0) -> TransferFunction:
+    """A named preset as a :class:`TransferFunction` in data units.
+
+    Generic presets span ``value_range``; CT presets are written in Hounsfield
+    units and placed with ``HU = data + rescale_intercept`` (DICOM's meaning:
+    -1024 for CT data stored as HU + 1024, such as CThead and the CT bunny).
+    """
+    if name not in PRESETS:
+        raise SceneError(f"unknown transfer function preset {name!r}; choose one of {', '.join(PRESETS)}")
+    lo, hi = value_range
+    if hi <= lo:
+        hi = lo + 1.0
+    return TransferFunction(np.array(PRESETS[name][0](lo, hi, rescale_intercept), dtype=np.float64),
+                            unit_distance=unit_distance)
