@@ -1,0 +1,46 @@
+"""Classification for the reference: from a point to (non-associated colour, extinction).
+
+* post-classification: reconstruct the scalar, then look it up (the LUT, as the
+  GPU does, or the exact transfer function for the converged reference);
+* pre-classification: classify every voxel exactly, reconstruct the classified
+  volume.  With ``associated`` colours the volume holds ``(sigma c, sigma)``
+  (emission and extinction), so a transparent voxel adds no colour; the
+  non-associated variant interpolates ``(c, sigma)`` and lets the colour of
+  invisible voxels bleed into edges (kept to show that artefact).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .reconstruction import SampledField
+
+
+class PostClassifier:
+    def __init__(self, scalar: SampledField, table):
+        """``table``: a :class:`TransferFunctionLUT` or a :class:`TransferFunction` (exact)."""
+        self.scalar = scalar
+        self.lookup = table.lookup if hasattr(table, "lookup") else table.evaluate
+
+    def __call__(self, points: np.ndarray, scalars: np.ndarray | None = None):
+        s = self.scalar.sample(points) if scalars is None else scalars
+        return self.lookup(s)
+
+
+class PreClassifier:
+    def __init__(self, volume, tf, filter_kind: str, associated: bool = True):
+        colour, sigma = tf.evaluate(volume.data.astype(np.float64))
+        first = colour * sigma[..., None] if associated else colour
+        classified = np.concatenate([first, sigma[..., None]], axis=-1)
+        self.field = SampledField(classified, volume.spacing, volume.origin, filter_kind)
+        self.associated = associated
+
+    def __call__(self, points: np.ndarray, scalars: np.ndarray | None = None):
+        rgba = self.field.sample(points)
+        sigma = np.maximum(rgba[:, 3], 0.0)
+        first = np.maximum(rgba[:, :3], 0.0)  # cubic filters may overshoot below zero
+        if not self.associated:
+            return first, sigma
+        with np.errstate(invalid="ignore", divide="ignore"):
+            colour = np.where(sigma[:, None] > 0, first / sigma[:, None], 0.0)
+        return colour, sigma

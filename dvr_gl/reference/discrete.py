@@ -1,0 +1,234 @@
+"""The same-discretization reference: samples exactly where the conventions place them.
+
+For each pixel's ray (:class:`~dvr_gl.rays.RayBatch`), segment ``k`` of
+length ``d`` starts at ``t0 + k d`` (the last one shortened to end at ``t1``)
+and is sampled at its midpoint or jittered offset.  Everything is float64 and
+vectorized over rays; segments are processed in chunks of several steps at a
+time, so rays of thousands of steps stay fast.
+
+Compositing modes:
+
+* ``emission_absorption``, front to back: accumulated optical depth ``tau``,
+  transmittance ``exp(-tau)``; a segment of extinction ``sigma`` and length
+  ``l`` has opacity ``1 - exp(-sigma l)`` and colour ``c`` times that.  Early
+  ray termination skips every segment after accumulated opacity reaches
+  ``ert_threshold``.  Back to front: the over operator from the last segment
+  to the first (no early termination possible).
+* ``isosurface``: the first point with value >= iso among ``t0`` and the
+  samples; bisection between the bracketing positions, then one linear
+  interpolation; colour from the transfer function at iso, shaded, opaque.
+* ``average`` (length-weighted mean of the samples), ``mip`` and ``minip``
+  (maximum and minimum sample): the value is classified once, with the
+  opacity of one ``unit_distance``.
+
+Rays that miss the volume are transparent black.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..rays import RayBatch, segment_counts
+from .model import OpticalModel
+
+SAMPLES_PER_CHUNK = 1 << 21
+
+
+class SegmentGrid:
+    """Segments ``k .. k + m - 1`` of rays ``rows``: parameters, lengths and validity ``(rows, m)``."""
+
+    def __init__(self, rays: RayBatch, n_seg: np.ndarray, d: float, rows: np.ndarray, k: int, m: int):
+        ks = k + np.arange(m)[None, :]
+        t0 = rays.t0[rows, None]
+        start = t0 + ks * d
+        self.valid = ks < n_seg[rows, None]
+        self.length = np.where(self.valid, np.minimum(d, rays.t1[rows, None] - start), 0.0)
+        self.t = start + rays.offset[rows, None] * self.length
+        self.rows = rows
+        self.points = rays.points(rows, self.t)[self.valid.reshape(-1)]
+        self.dirs = np.repeat(rays.directions[rows], m, axis=0)[self.valid.reshape(-1)]
+
+    def scatter(self, values: np.ndarray, fill=0.0) -> np.ndarray:
+        """Values computed for the valid segments back into a ``(rows, m, ...)`` grid."""
+        out = np.full(self.valid.shape + values.shape[1:], fill, dtype=np.float64)
+        out[self.valid] = values
+        return out
+
+
+def _chunks(n_seg: np.ndarray, active: np.ndarray, descending: bool = False):
+    """Yield ``(rows, k, m)``: segments ``k .. k + m - 1`` of the active rays that have them,
+    about :data:`SAMPLES_PER_CHUNK` samples at a time, in ray order or (``descending``) reversed."""
+    kmax = int(n_seg.max()) if len(n_seg) else 0
+    if not descending:
+        k = 0
+        while k < kmax:
+            rows = np.nonzero(active & (n_seg > k))[0]
+            if rows.size == 0:
+                return
+            m = max(1, min(SAMPLES_PER_CHUNK // rows.size, kmax - k))
+            yield rows, k, m
+            k += m
+        return
+    end = kmax
+    while end > 0:
+        longest = np.count_nonzero(active & (n_seg >= end))
+        m = max(1, min(SAMPLES_PER_CHUNK // max(longest, 1), end))
+        rows = np.nonzero(active & (n_seg > end - m))[0]
+        if rows.size:
+            yield rows, end - m, m
+        end -= m
+
+
+class DiscreteReference:
+    """Render a resolved scene with the same discretization as the GPU renderers."""
+
+    def __init__(self, scene):
+        self.scene = scene
+        r = scene.renderer
+        self.model = OpticalModel(scene, exact=False)
+        self.d = r.sample_distance
+        self.rays = RayBatch.for_camera(scene.camera, scene.image.width, scene.image.height,
+                                        scene.volume.box, r.jitter_seed if r.jitter else None)
+        self.n_seg = segment_counts(self.rays.t0, self.rays.t1, self.d)
+        self.samples = 0
+
+    def render(self) -> np.ndarray:
+        """Premultiplied linear RGBA ``(H, W, 4)`` float32."""
+        return self.render_float64().astype(np.float32)
+
+    def render_float64(self) -> np.ndarray:
+        """The image before rounding to float32 (for closed-form checks)."""
+        r = self.scene.renderer
+        mode = r.compositing
+        if mode == "emission_absorption":
+            rgba = self._back_to_front() if r.order == "back_to_front" else self._front_to_back()
+        elif mode == "isosurface":
+            rgba = self._isosurface()
+        else:
+            rgba = self._projection(mode)
+        return rgba.reshape(self.scene.image.height, self.scene.image.width, 4)
+
+    def _segments(self, grid: SegmentGrid):
+        """Associated colour and optical depth of each segment, ``(rows, m, 3)`` and ``(rows, m)``."""
+        colour, sigma = self.model.emission(grid.points, grid.dirs)
+        tau = sigma * grid.length[grid.valid]
+        premult = colour * (-np.expm1(-tau))[:, None]
+        return grid.scatter(premult), grid.scatter(tau)
+
+    def _front_to_back(self) -> np.ndarray:
+        n = len(self.rays)
+        colour = np.zeros((n, 3))
+        tau_acc = np.zeros(n)
+        active = self.n_seg > 0
+        threshold = self.scene.renderer.ert_threshold
+        for rows, k, m in _chunks(self.n_seg, active):
+            grid = SegmentGrid(self.rays, self.n_seg, self.d, rows, k, m)
+            premult, tau = self._segments(grid)
+            tau_before = tau_acc[rows, None] + np.cumsum(tau, axis=1) - tau
+            include = grid.valid & (-np.expm1(-tau_before) < threshold)
+            transmittance = np.exp(-tau_before)
+            colour[rows] += np.sum(np.where(include[..., None], transmittance[..., None] * premult, 0.0), axis=1)
+            tau_acc[rows] += np.sum(np.where(include, tau, 0.0), axis=1)
+            active[rows] &= -np.expm1(-tau_acc[rows]) < threshold
+            self.samples += int(include.sum())
+        return np.concatenate([colour, -np.expm1(-tau_acc)[:, None]], axis=1)
+
+    def _back_to_front(self) -> np.ndarray:
+        n = len(self.rays)
+        rgba = np.zeros((n, 4))
+        active = self.n_seg > 0
+        for rows, k, m in _chunks(self.n_seg, active, descending=True):
+            grid = SegmentGrid(self.rays, self.n_seg, self.d, rows, k, m)
+            premult, tau = self._segments(grid)
+            alpha = -np.expm1(-tau)
+            acc = rgba[rows]
+            for j in range(m - 1, -1, -1):
+                seg = np.concatenate([premult[:, j], alpha[:, j, None]], axis=1)
+                over = seg + (1.0 - alpha[:, j, None]) * acc
+                acc = np.where(grid.valid[:, j, None], over, acc)
+            rgba[rows] = acc
+            self.samples += int(grid.valid.sum())
+        return rgba
+
+    def _isosurface(self) -> np.ndarray:
+        r = self.scene.renderer
+        iso = r.iso_value
+        n = len(self.rays)
+        scalar = self.model.scalar
+        has = self.n_seg > 0
+        entry = self.rays.points(np.arange(n), self.rays.t0[:, None])
+        prev_s = scalar.sample(entry)
+        prev_t = self.rays.t0.copy()
+        hit = has & (prev_s >= iso)
+        bracket = np.zeros((n, 4))  # t_a, s_a, t_b, s_b with s_a < iso <= s_b
+        bracket[hit] = np.stack([prev_t[hit], prev_s[hit], prev_t[hit], prev_s[hit]], axis=1)
+        active = has & ~hit
+        for rows, k, m in _chunks(self.n_seg, active):
+            grid = SegmentGrid(self.rays, self.n_seg, self.d, rows, k, m)
+            s = grid.scatter(scalar.sample(grid.points), fill=-np.inf)
+            above = grid.valid & (s >= iso)
+            found = above.any(axis=1)
+            j = np.argmax(above, axis=1)
+            self.samples += int(np.where(found, j + 1, grid.valid.sum(axis=1)).sum())
+            fr = rows[found]
+            jf = j[found]
+            t_b, s_b = grid.t[found, jf], s[found, jf]
+            t_a = np.where(jf > 0, grid.t[found, jf - 1], prev_t[fr])
+            s_a = np.where(jf > 0, s[found, np.maximum(jf - 1, 0)], prev_s[fr])
+            bracket[fr] = np.stack([t_a, s_a, t_b, s_b], axis=1)
+            hit[fr] = True
+            active[fr] = False
+            last = np.maximum(grid.valid.sum(axis=1) - 1, 0)
+            prev_t[rows] = grid.t[np.arange(len(rows)), last]
+            prev_s[rows] = s[np.arange(len(rows)), last]
+        rows = np.nonzero(hit)[0]
+        t = self._refine(rows, bracket[rows], iso, r.iso_refinement)
+        points = self.rays.points(rows, t[:, None])
+        colour, _ = self.model.classify_value(np.full(len(rows), iso))
+        if self.model.shading is not None:
+            colour = self.model.shade(colour, points, self.rays.directions[rows])
+        rgba = np.zeros((n, 4))
+        rgba[rows, :3] = colour
+        rgba[rows, 3] = 1.0
+        return rgba
+
+    def _refine(self, rows, bracket, iso, steps: int) -> np.ndarray:
+        """Bisection on ``[t_a, t_b]`` keeping ``s(t_a) < iso <= s(t_b)``, then linear interpolation."""
+        t_a, s_a, t_b, s_b = bracket.T.copy()
+        scalar = self.model.scalar
+        for _ in range(steps):
+            t_m = 0.5 * (t_a + t_b)
+            s_m = scalar.sample(self.rays.points(rows, t_m[:, None]))
+            up = s_m >= iso
+            t_b, s_b = np.where(up, t_m, t_b), np.where(up, s_m, s_b)
+            t_a, s_a = np.where(up, t_a, t_m), np.where(up, s_a, s_m)
+        span = s_b - s_a
+        with np.errstate(invalid="ignore", divide="ignore"):
+            w = np.where(span > 0, (iso - s_a) / span, 1.0)
+        return t_a + np.clip(w, 0.0, 1.0) * (t_b - t_a)
+
+    def _projection(self, mode: str) -> np.ndarray:
+        n = len(self.rays)
+        acc = np.zeros(n) if mode == "average" else np.full(n, -np.inf if mode == "mip" else np.inf)
+        length = np.zeros(n)
+        active = self.n_seg > 0
+        for rows, k, m in _chunks(self.n_seg, active):
+            grid = SegmentGrid(self.rays, self.n_seg, self.d, rows, k, m)
+            s = self.model.scalar.sample(grid.points)
+            if mode == "average":
+                acc[rows] += np.sum(grid.scatter(s) * grid.length, axis=1)
+                length[rows] += grid.length.sum(axis=1)
+            elif mode == "mip":
+                acc[rows] = np.maximum(acc[rows], grid.scatter(s, -np.inf).max(axis=1))
+            else:
+                acc[rows] = np.minimum(acc[rows], grid.scatter(s, np.inf).min(axis=1))
+            self.samples += int(grid.valid.sum())
+        has = self.n_seg > 0
+        value = np.where(has, acc, 0.0)
+        if mode == "average":
+            value = np.where(has, acc / np.where(length > 0, length, 1.0), 0.0)
+        colour, alpha = self.model.classify_value(value[has])
+        rgba = np.zeros((n, 4))
+        rgba[has, :3] = colour * alpha[:, None]
+        rgba[has, 3] = alpha
+        return rgba

@@ -1,0 +1,56 @@
+"""What a point along a ray emits and absorbs: the scene's optical model, in float64.
+
+Shared by the same-discretization and the converged reference; they differ
+only in where they evaluate it and how they integrate along the ray.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..transfer_function import TransferFunction
+from .classification import PostClassifier, PreClassifier
+from .reconstruction import SampledField
+from .shading import blinn_phong, normals_from_gradient
+
+
+class OpticalModel:
+    """Colour (shaded, non-associated) and extinction at world points.
+
+    Args:
+        scene: a resolved :class:`~dvr_gl.scene.Scene`.
+        exact: evaluate the transfer function exactly (converged reference)
+            instead of through the ``lut_size`` table (as the GPU does).
+        scalar_field: a field to use instead of the volume's (an analytic
+            field with ``sample``, ``gradient`` and ``knots``, for closed forms).
+    """
+
+    def __init__(self, scene, exact: bool = False, scalar_field=None):
+        r = scene.renderer
+        self.tf: TransferFunction = scene.transfer_function
+        self.scalar = scalar_field or SampledField.of_volume(scene.volume, r.filter)
+        self.table = self.tf if exact else self.tf.tabulate(r.lut_size)
+        if r.classification == "pre" and r.compositing == "emission_absorption":
+            if scalar_field is not None:
+                raise ValueError("pre-classification needs the volume's own field")
+            self.classify = PreClassifier(scene.volume, self.tf, r.filter, r.associated_colors)
+        else:
+            self.classify = PostClassifier(self.scalar, self.table)
+        self.shading = r.shading if r.shading.enabled else None
+
+    def emission(self, points: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(colour (N, 3), sigma (N,))`` at points, shaded if the scene asks for it."""
+        colour, sigma = self.classify(points)
+        if self.shading is not None:
+            colour = self.shade(colour, points, directions)
+        return colour, sigma
+
+    def shade(self, colour, points, directions):
+        normal = normals_from_gradient(self.scalar.gradient(points))
+        return blinn_phong(colour, normal, directions, self.shading)
+
+    def classify_value(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Colour and opacity for projected scalars (average, MIP, MinIP, isosurface colour):
+        the opacity over one ``unit_distance``."""
+        colour, sigma = self.table.lookup(values) if hasattr(self.table, "lookup") else self.tf.evaluate(values)
+        return colour, -np.expm1(-sigma * self.tf.unit_distance)

@@ -1,0 +1,50 @@
+"""Blinn-Phong shading from the gradient, in float64 (the reference's version).
+
+``normal = -gradient / |gradient|`` (pointing toward lower values, i.e. out of
+bright structures); a zero gradient gives a zero normal, hence ambient light
+only.  Two-sided lighting flips the normal toward the viewer.  For each light
+with direction ``l`` (toward the light) and colour ``I``:
+
+    c' = c * (ambient + diffuse * sum I max(n.l, 0)) + specular * sum I [n.l > 0] max(n.h, 0)^shininess
+
+with ``h = normalize(l + v)`` and ``v`` the direction toward the eye (``-ray``).
+A headlight has ``l = v``; a directional light ``l = -direction``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..scene_schema import ShadingSpec
+
+
+def normals_from_gradient(gradient: np.ndarray) -> np.ndarray:
+    g = np.asarray(gradient, dtype=np.float64)
+    mag = np.linalg.norm(g, axis=-1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        n = np.where(mag > 0, -g / mag, 0.0)
+    return n
+
+
+def blinn_phong(color: np.ndarray, normal: np.ndarray, ray_dir: np.ndarray, shading: ShadingSpec) -> np.ndarray:
+    """Shaded colour ``(N, 3)`` from non-associated colour, normal and ray direction (all ``(N, 3)``)."""
+    v = -np.asarray(ray_dir, dtype=np.float64)
+    n = np.asarray(normal, dtype=np.float64)
+    if shading.two_sided:
+        n = np.where(np.sum(n * v, axis=1, keepdims=True) < 0, -n, n)
+    diffuse = np.zeros_like(color)
+    specular = np.zeros_like(color)
+    for light in shading.lights:
+        if light.type == "headlight":
+            l = v
+        else:
+            d = np.asarray(light.direction, dtype=np.float64)
+            l = np.broadcast_to(-d / np.linalg.norm(d), v.shape)
+        intensity = np.asarray(light.color, dtype=np.float64)
+        ndotl = np.sum(n * l, axis=1, keepdims=True)
+        diffuse += intensity * np.maximum(ndotl, 0.0)
+        h = l + v
+        h = h / np.linalg.norm(h, axis=1, keepdims=True).clip(1e-300)
+        ndoth = np.maximum(np.sum(n * h, axis=1, keepdims=True), 0.0)
+        specular += intensity * np.where(ndotl > 0, ndoth ** shading.shininess, 0.0)
+    return color * (shading.ambient + shading.diffuse * diffuse) + shading.specular * specular
