@@ -1,0 +1,131 @@
+"""GLSL sources: found on disk, composed from snippets, specialized with defines.
+
+Shaders live in the top-level ``shaders/`` folder, installed as package data
+in ``dvr_gl/shaders/``.  A source may ``#include "snippet.glsl"`` (paths
+relative to the shaders folder, each file included once, as VTK composes its
+volume shaders from snippets); ``#define`` lines for the features a scene
+uses are inserted after ``#version``, so one source specializes into many
+programs, each compiled once per context and feature set.  Compiler messages
+are mapped back to the file and line that caused them.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import moderngl
+
+from ..errors import ShaderError
+
+_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
+
+
+def shader_dir() -> Path:
+    """The installed ``dvr_gl/shaders`` folder, or ``shaders/`` of a source checkout."""
+    here = Path(__file__).resolve().parent.parent
+    for candidate in (here / "shaders", here.parent / "shaders"):
+        if candidate.is_dir():
+            return candidate
+    raise ShaderError(f"the GLSL shaders folder was not found next to {here}; reinstall dvr-gl")
+
+
+@dataclass(frozen=True)
+class ShaderSource:
+    text: str
+    origins: tuple[tuple[str, int], ...]  # (file, line) of each line of text
+
+    def where(self, line: int) -> str:
+        if 1 <= line <= len(self.origins):
+            f, n = self.origins[line - 1]
+            return f"{f} line {n}"
+        return f"line {line}"
+
+
+def _expand(name: str, root: Path, seen: set, lines: list, origins: list):
+    path = root / name
+    if not path.is_file():
+        raise ShaderError(f"shader file {name} not found in {root}; reinstall dvr-gl")
+    if name in seen:
+        return
+    seen.add(name)
+    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
+        m = _INCLUDE.match(line)
+        if m:
+            _expand(m.group(1), root, seen, lines, origins)
+        else:
+            lines.append(line)
+            origins.append((name, number))
+
+
+def define_lines(defines: dict | None) -> list[str]:
+    out = []
+    for key, value in sorted((defines or {}).items()):
+        if value is False or value is None:
+            continue
+        out.append(f"#define {key}" if value is True else f"#define {key} {value}")
+    return out
+
+
+def load_shader(name: str, defines: dict | None = None) -> ShaderSource:
+    """The expanded source of ``name`` with ``defines`` after its ``#version`` line.
+
+    ``defines`` maps names to values; ``True`` defines a flag, ``False``/``None`` omits it.
+    """
+    root = shader_dir()
+    lines: list[str] = []
+    origins: list[tuple[str, int]] = []
+    _expand(name, root, set(), lines, origins)
+    if not lines or not lines[0].lstrip().startswith("#version"):
+        raise ShaderError(f"shader {name} must start with a #version line")
+    extra = define_lines(defines)
+    lines[1:1] = extra
+    origins[1:1] = [("(defines)", i + 1) for i in range(len(extra))]
+    return ShaderSource("\n".join(lines) + "\n", tuple(origins))
+
+
+_MESA_LINE = re.compile(r"\b\d+:(\d+)\(\d+\)")       # Mesa: 0:12(5): error: ...
+_NVIDIA_LINE = re.compile(r"\b\d+\((\d+)\)\s*:")     # NVIDIA: 0(12) : error C1008: ...
+
+
+def _first_error(message: str, sources: dict[str, ShaderSource]) -> str:
+    stage = None
+    for raw in message.splitlines():
+        line = raw.strip()
+        if line in ("vertex_shader", "fragment_shader", "geometry_shader"):
+            stage = line.split("_")[0]
+        if "error" in line.lower() and line.lower() != "glsl compiler failed":
+            m = _MESA_LINE.search(line) or _NVIDIA_LINE.search(line)
+            src = sources.get(stage or "", None)
+            where = src.where(int(m.group(1))) if (m and src) else "?"
+            text = line[m.end():].lstrip(" :") if m else line
+            return f"{where}: {text}"
+    return " ".join(message.split())[:300]
+
+
+_CACHE: dict[tuple, moderngl.Program] = {}
+
+
+def create_program(ctx: moderngl.Context, vertex: str, fragment: str,
+                   defines: dict | None = None) -> moderngl.Program:
+    """Compile (or fetch from the cache) the program of these sources and defines."""
+    key = (id(ctx), vertex, fragment, tuple(sorted((defines or {}).items())))
+    program = _CACHE.get(key)
+    if program is not None and program.ctx is ctx:
+        return program
+    sources = {"vertex": load_shader(vertex, defines), "fragment": load_shader(fragment, defines)}
+    try:
+        program = ctx.program(vertex_shader=sources["vertex"].text, fragment_shader=sources["fragment"].text)
+    except moderngl.Error as exc:
+        raise ShaderError(f"GLSL compile failed in {_first_error(str(exc), sources)} "
+                          f"(renderer {ctx.info['GL_RENDERER']}); the shader sources are "
+                          f"in {shader_dir()}") from exc
+    _CACHE[key] = program
+    return program
+
+
+def release_programs(ctx: moderngl.Context):
+    """Forget (and release) the cached programs of a context being released."""
+    for key in [k for k in _CACHE if k[0] == id(ctx)]:
+        _CACHE.pop(key).release()

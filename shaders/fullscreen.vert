@@ -1,0 +1,10 @@
+#version 330 core
+// One triangle covering the viewport; no vertex buffer needed.
+// uv runs over [0, 1] across the viewport, v = 0 at the bottom (GL convention).
+out vec2 uv;
+
+void main() {
+    vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));
+    uv = p;
+    gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
+}

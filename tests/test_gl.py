@@ -1,0 +1,81 @@
+"""The headless GL path: context, info, shader composition, compile errors, missing EGL."""
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from dvr_gl.errors import GLUnavailableError, ShaderError
+from dvr_gl.gl import shaders
+from dvr_gl.gl.context import create_context, gl_info
+from dvr_gl.gl.selftest import VALUE, render_selftest, selftest
+
+
+def test_context_and_info(gl_context):
+    info = gl_info(gl_context)
+    assert info["max_3d_texture_size"] >= 256
+    assert info["vendor"] and info["renderer"] and info["version"]
+    assert gl_context.version_code >= 330
+
+
+def test_selftest_renders_float_values_in_image_row_order(gl_context):
+    assert selftest(gl_context) is None
+    img = render_selftest(gl_context, 4, 3)
+    np.testing.assert_array_equal(img[0, :, 0], [0.5, 1.5, 2.5, 3.5])
+    np.testing.assert_array_equal(img[:, 0, 1], [2.5, 1.5, 0.5])  # row 0 is the top
+    assert img[1, 1, 2] == np.float32(VALUE) != np.float32(round(VALUE * 255) / 255)
+
+
+def test_includes_and_defines_are_expanded_with_origins():
+    src = shaders.load_shader("selftest.frag", {"SELFTEST_VALUE": "0.5", "FLAG": True, "OFF": False})
+    lines = src.text.splitlines()
+    assert lines[0].startswith("#version")
+    assert "#define FLAG" in lines and "#define SELFTEST_VALUE 0.5" in lines
+    assert not any("OFF" in ln for ln in lines)
+    assert not any("#include" in ln for ln in lines)
+    line = next(i for i, ln in enumerate(lines, 1) if "vec2 pixel_centre()" in ln)
+    assert src.where(line) == "common/pixel.glsl line 4"
+
+
+@pytest.fixture
+def broken_shaders(tmp_path, monkeypatch):
+    (tmp_path / "common").mkdir()
+    (tmp_path / "common" / "bad.glsl").write_text("// a snippet\nfloat broken() {\n    return vec3(1.0);\n}\n")
+    (tmp_path / "fullscreen.vert").write_text(shaders.load_shader("fullscreen.vert").text)
+    (tmp_path / "bad.frag").write_text('#version 330 core\n#include "common/bad.glsl"\nout vec4 c;\n'
+                                       'void main() { c = vec4(broken()); }\n')
+    (tmp_path / "noversion.frag").write_text("void main() {}\n")
+    monkeypatch.setattr(shaders, "shader_dir", lambda: tmp_path)
+    return tmp_path
+
+
+def test_compile_errors_name_the_file_and_line(gl_context, broken_shaders):
+    with pytest.raises(ShaderError, match=r"GLSL compile failed in common/bad.glsl line 3: .*vec3"):
+        shaders.create_program(gl_context, "fullscreen.vert", "bad.frag")
+    with pytest.raises(ShaderError, match="must start with a #version line"):
+        shaders.load_shader("noversion.frag")
+    with pytest.raises(ShaderError, match="shader file missing.frag not found"):
+        shaders.load_shader("missing.frag")
+
+
+def test_programs_are_cached_per_feature_set(gl_context):
+    a = shaders.create_program(gl_context, "fullscreen.vert", "selftest.frag", {"SELFTEST_VALUE": "1.0"})
+    b = shaders.create_program(gl_context, "fullscreen.vert", "selftest.frag", {"SELFTEST_VALUE": "1.0"})
+    c = shaders.create_program(gl_context, "fullscreen.vert", "selftest.frag", {"SELFTEST_VALUE": "2.0"})
+    assert a is b and a is not c
+
+
+def test_missing_egl_library_names_the_package():
+    with pytest.raises(GLUnavailableError, match="could not be loaded; install .*apt install libegl1"):
+        create_context(libegl="libEGL_does_not_exist.so.1")
+
+
+def test_no_egl_driver_is_one_line_and_nonzero_exit():
+    """With no EGL vendor driver visible, `dvr info` explains in one line what to install."""
+    env = dict(os.environ, __EGL_VENDOR_LIBRARY_FILENAMES="/nonexistent/egl_vendor.json")
+    proc = subprocess.run([sys.executable, "-m", "dvr_gl.apps", "info"], env=env, capture_output=True, text=True)
+    assert proc.returncode == 1
+    last = proc.stderr.strip().splitlines()
+    assert len(last) == 1 and "libegl-mesa0" in last[0] and "Traceback" not in proc.stderr
