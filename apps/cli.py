@@ -1,0 +1,58 @@
+"""The ``dvr`` command: one entry point, a subcommand per job.
+
+User errors (:class:`~dvr_gl.errors.DvrError`) print one line and exit 1;
+``--debug`` adds the traceback.  Anything else is a bug: one line naming it
+(exit 3), or the traceback with ``--debug``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import traceback
+
+from dvr_gl import __version__
+from dvr_gl.errors import DvrError
+
+from . import info as info_cmd
+from . import render as render_cmd
+
+SUBCOMMANDS = {"render": render_cmd, "info": info_cmd}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="dvr", description="dvr-gl: direct volume rendering on OpenGL")
+    parser.add_argument("--version", action="version", version=f"dvr-gl {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for name, module in SUBCOMMANDS.items():
+        p = sub.add_parser(name, help=module.HELP, description=module.__doc__)
+        p.add_argument("--debug", action="store_true", help="show tracebacks of errors")
+        module.add_arguments(p)
+        p.set_defaults(run=module.run)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.run(args) or 0
+    except DvrError as exc:
+        if args.debug:
+            traceback.print_exc()
+        print(f"dvr {args.command}: error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"dvr {args.command}: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # a bug: say so in one line unless debugging
+        if args.debug:
+            traceback.print_exc()
+        else:
+            print(f"dvr {args.command}: internal error: {type(exc).__name__}: {exc} "
+                  f"(run with --debug for the traceback, and please report it)", file=sys.stderr)
+        return 3
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,178 @@
+"""Render a scene (a TOML file, a volume file, or the built-in demo) to an image.
+
+Flags override the scene's keys; ``--set section.key=value`` reaches any key.
+Output is written to a temporary file and renamed, so a failed render leaves
+no partial file; an existing file is replaced only with ``--overwrite``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+import tomllib
+from pathlib import Path
+
+from dvr_gl.errors import DvrError
+from dvr_gl.image import check_output_path, check_writable, composite_over, write_image, write_text
+from dvr_gl.phantoms import DEMOS, demo_scene
+from dvr_gl.renderers import create_renderer
+from dvr_gl.scene import load_scene
+from dvr_gl.scene_schema import CLASSIFICATIONS, COMPOSITING_MODES, FILTERS, ORDERS
+from dvr_gl.transfer_function import PRESETS
+
+from .progress import Progress
+
+HELP = "render a scene, a volume file or the demo to an image (.png .exr .tif)"
+
+# flag destination -> scene key
+_SCENE_KEYS = {
+    "renderer": "renderer.name", "sample_distance": "renderer.sample_distance",
+    "sample_distance_voxels": "renderer.sample_distance_voxels", "compositing": "renderer.compositing",
+    "order": "renderer.order", "classification": "renderer.classification", "filter": "renderer.filter",
+    "iso_value": "renderer.iso_value", "ert_threshold": "renderer.ert_threshold",
+    "jitter": "renderer.jitter", "jitter_seed": "renderer.jitter_seed", "lut_size": "renderer.lut_size",
+    "shading": "renderer.shading.enabled", "azimuth": "camera.azimuth", "elevation": "camera.elevation",
+    "distance": "camera.distance", "projection": "camera.projection", "fov": "camera.fov",
+    "transfer_function": "transfer_function.preset", "rescale_intercept": "transfer_function.rescale_intercept",
+    "volume": "volume.path", "format": "volume.format", "dims": "volume.dims", "dtype": "volume.dtype",
+    "endian": "volume.endian", "header_bytes": "volume.header_bytes", "spacing": "volume.spacing",
+    "nan_value": "volume.nan_value",
+}
+
+
+def add_arguments(p: argparse.ArgumentParser):
+    p.add_argument("scene", nargs="?", help="scene file (.toml)")
+    p.add_argument("-o", "--output", required=True, help="output image: .png (8-bit sRGB), .exr or .tif (float)")
+    p.add_argument("--demo", nargs="?", const="shepp-logan", choices=list(DEMOS),
+                   help="render a built-in phantom (default shepp-logan)")
+    p.add_argument("--volume", metavar="FILE", help="volume file (overrides the scene's)")
+    p.add_argument("--overwrite", action="store_true", help="replace existing output files")
+    p.add_argument("--save-scene", metavar="FILE", help="also write the effective scene (TOML)")
+    p.add_argument("--frames", type=int, metavar="N",
+                   help="render an orbit of N frames to OUTPUT_0000.ext, OUTPUT_0001.ext, ...")
+    p.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    g = p.add_argument_group("scene overrides")
+    g.add_argument("--size", metavar="WxH", help="image size, e.g. 512x512 (or 512)")
+    g.add_argument("--renderer", help="renderer name (see dvr info)")
+    g.add_argument("--sample-distance", type=float, metavar="D", help="sample distance, world units")
+    g.add_argument("--sample-distance-voxels", type=float, metavar="V", help="sample distance in voxels")
+    g.add_argument("--compositing", choices=COMPOSITING_MODES)
+    g.add_argument("--order", choices=ORDERS)
+    g.add_argument("--classification", choices=CLASSIFICATIONS)
+    g.add_argument("--filter", choices=FILTERS)
+    g.add_argument("--iso-value", type=float)
+    g.add_argument("--ert-threshold", type=float, help="early ray termination opacity (1 = off)")
+    g.add_argument("--jitter", action=argparse.BooleanOptionalAction, default=None)
+    g.add_argument("--jitter-seed", type=int)
+    g.add_argument("--lut-size", type=int)
+    g.add_argument("--shading", action=argparse.BooleanOptionalAction, default=None)
+    g.add_argument("--azimuth", type=float, help="degrees about the up axis")
+    g.add_argument("--elevation", type=float, help="degrees above the horizontal plane")
+    g.add_argument("--distance", type=float, help="eye to target, world units")
+    g.add_argument("--projection", choices=("perspective", "orthographic"))
+    g.add_argument("--fov", type=float, help="vertical field of view, degrees")
+    g.add_argument("--transfer-function", metavar="PRESET", choices=list(PRESETS),
+                   help=f"transfer function preset: {', '.join(PRESETS)}")
+    g.add_argument("--rescale-intercept", type=float, help="CT presets: HU = data + intercept")
+    g.add_argument("--background", metavar="R,G,B[,A]", help="background colour, linear, 0..1")
+    g.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="set any scene key, e.g. renderer.shading.shininess=20 (value in TOML syntax)")
+    v = p.add_argument_group("volume file options (raw files need --dims and --dtype)")
+    v.add_argument("--format", help="reader: raw, nrrd, nifti, metaimage, vtk, npy, tiff (default: by suffix)")
+    v.add_argument("--dims", type=int, nargs=3, metavar=("NX", "NY", "NZ"))
+    v.add_argument("--dtype", help="raw sample type: uint8, int16, uint16, float32, ...")
+    v.add_argument("--endian", choices=("little", "big"))
+    v.add_argument("--header-bytes", type=int)
+    v.add_argument("--spacing", type=float, nargs=3, metavar=("SX", "SY", "SZ"))
+    v.add_argument("--nan-value", type=float, help="replace NaN/Inf in the data by this value")
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    try:
+        parts = [int(x) for x in text.lower().split("x")]
+    except ValueError:
+        parts = []
+    if len(parts) == 1:
+        parts *= 2
+    if len(parts) != 2:
+        raise DvrError(f"--size {text!r}: use WIDTHxHEIGHT, e.g. 512x384, or one number for a square")
+    return parts[0], parts[1]
+
+
+def parse_value(text: str):
+    """A --set value in TOML syntax; a bare word is a string."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+
+
+def overrides_from(args) -> dict:
+    out = {}
+    for dest, key in _SCENE_KEYS.items():
+        value = getattr(args, dest, None)
+        if value is not None:
+            out[key] = list(value) if isinstance(value, tuple | list) else value
+    if args.demo:
+        out["volume.demo"] = args.demo
+    if args.size:
+        out["image.width"], out["image.height"] = parse_size(args.size)
+    if args.background:
+        try:
+            bg = [float(x) for x in args.background.split(",")]
+        except ValueError:
+            bg = []
+        if len(bg) not in (3, 4):
+            raise DvrError(f"--background {args.background!r}: use R,G,B or R,G,B,A numbers in 0..1")
+        out["image.background"] = bg + [1.0] * (4 - len(bg))
+    for item in args.set:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise DvrError(f"--set {item!r}: use KEY=VALUE, e.g. renderer.filter=nearest")
+        out[key.strip()] = parse_value(value.strip())
+    return out
+
+
+def frame_paths(output: Path, frames: int | None) -> list[Path]:
+    if not frames:
+        return [output]
+    if frames < 1:
+        raise DvrError(f"--frames must be at least 1, got {frames}")
+    return [output.with_name(f"{output.stem}_{i:04d}{output.suffix}") for i in range(frames)]
+
+
+def run(args) -> int:
+    if not args.scene and not args.demo and not args.volume:
+        raise DvrError("nothing to render: give a scene file, --volume FILE or --demo")
+    base = demo_scene(args.demo) if args.demo and not args.scene else None
+    scene = load_scene(args.scene, overrides_from(args), base)
+    outputs = frame_paths(Path(args.output), args.frames)
+    for path in outputs:  # before rendering: fail fast, and never half-overwrite a sequence
+        check_output_path(path, args.overwrite)
+    if args.save_scene:
+        check_writable(Path(args.save_scene), args.overwrite)
+    renderer = create_renderer(scene.renderer.name)
+    progress = Progress(len(outputs), "rendering") if args.frames and not args.quiet else None
+    start = time.perf_counter()
+    try:
+        for i, path in enumerate(outputs):
+            frame = scene
+            if args.frames and i:
+                az0 = scene.camera.orbited().orbit[0]
+                frame = scene.replace(camera=scene.camera.orbited(azimuth=az0 + 360.0 * i / len(outputs)))
+            image = renderer.render(frame)
+            write_image(path, composite_over(image, scene.image.background), args.overwrite)
+            if progress:
+                progress.update(i + 1)
+    finally:
+        renderer.close()
+        if progress:
+            progress.close()
+    if args.save_scene:
+        scene_path = Path(args.save_scene)
+        write_text(scene_path, scene.to_toml(relative_to=scene_path.resolve().parent), args.overwrite)
+    if not args.quiet:
+        what = f"{len(outputs)} frames to {outputs[0]} .. {outputs[-1].name}" if args.frames else str(outputs[0])
+        print(f"wrote {what} ({scene.image.width}x{scene.image.height}, {scene.renderer.name}, "
+              f"{time.perf_counter() - start:.2f} s)")
+    return 0

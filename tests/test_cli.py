@@ -1,0 +1,221 @@
+"""The dvr command end to end: rendering, overrides, frames, saved scenes and bad input.
+
+Most cases call ``main`` in-process (fast); one runs the installed console script."""
+
+import gzip
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dvr_gl.apps.cli import main
+from dvr_gl.image import read_image
+
+SMALL = ["--size", "40x32", "--set", "volume.size=24"]
+
+
+def run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def assert_one_line_error(code, err, *fragments):
+    assert code == 1
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err  # one line, no traceback
+    for f in fragments:
+        assert f in lines[0], lines[0]
+
+
+def test_render_demo_writes_a_picture(tmp_path, capsys):
+    out = tmp_path / "demo.png"
+    code, stdout, _ = run(capsys, "render", "--demo", "-o", out, *SMALL)
+    assert code == 0 and "wrote" in stdout
+    img = read_image(out)
+    assert img.shape == (32, 40, 4)
+    assert img[..., :3].max() > 0.3 and (img[..., :3].max(axis=2) < 0.01).mean() > 0.2  # object on black
+
+
+def test_console_script_renders_the_demo(tmp_path):
+    dvr = Path(sys.executable).parent / "dvr"
+    out = tmp_path / "demo.exr"
+    proc = subprocess.run([str(dvr), "render", "--demo", "-o", str(out), *SMALL], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert read_image(out).dtype == np.float32
+
+
+def test_overrides_change_the_image(tmp_path, capsys):
+    a, b = tmp_path / "a.exr", tmp_path / "b.exr"
+    run(capsys, "render", "--demo", "-o", a, *SMALL)
+    run(capsys, "render", "--demo", "-o", b, *SMALL, "--azimuth", "140", "--filter", "nearest")
+    assert np.abs(read_image(a) - read_image(b)).max() > 0.05
+
+
+def test_saved_scene_renders_the_same_image(tmp_path, capsys):
+    first, again, scene = tmp_path / "first.exr", tmp_path / "again.exr", tmp_path / "sub" / "scene.toml"
+    scene.parent.mkdir()
+    code, _, _ = run(capsys, "render", "--demo", "-o", first, *SMALL, "--elevation", "-10", "--jitter",
+                     "--set", "renderer.shading.shininess=12.5", "--background", "0.1,0.2,0.3", "--save-scene", scene)
+    assert code == 0
+    code, _, _ = run(capsys, "render", scene, "-o", again)
+    assert code == 0
+    np.testing.assert_array_equal(read_image(first), read_image(again))  # bit for bit
+
+
+def test_frames_render_an_orbit_with_progress(tmp_path, capsys):
+    out = tmp_path / "orbit.png"
+    code, stdout, err = run(capsys, "render", "--demo", "-o", out, *SMALL, "--frames", "3")
+    assert code == 0
+    frames = [tmp_path / f"orbit_{i:04d}.png" for i in range(3)]
+    assert all(f.exists() for f in frames) and not out.exists()
+    assert "3/3" in err  # the progress bar
+    imgs = [read_image(f) for f in frames]
+    assert np.abs(imgs[0] - imgs[1]).max() > 0.05
+
+
+def test_render_a_volume_file_with_a_preset(tmp_path, capsys):
+    data = (np.arange(16 ** 3) % 4096).reshape(16, 16, 16).astype(">i2")
+    path = tmp_path / "ct.raw.gz"
+    path.write_bytes(gzip.compress(data.tobytes()))
+    code, _, err = run(capsys, "render", "--volume", path, "--dims", 16, 16, 16, "--dtype", "int16",
+                       "--endian", "big", "--transfer-function", "ct-bone", "--rescale-intercept", "-1024",
+                       "--size", "16", "-o", tmp_path / "ct.png")
+    assert code == 0, err
+    assert read_image(tmp_path / "ct.png")[..., :3].max() > 0.1
+
+
+def test_existing_output_is_kept_unless_overwrite(tmp_path, capsys):
+    out = tmp_path / "keep.png"
+    out.write_bytes(b"precious")
+    code, _, err = run(capsys, "render", "--demo", "-o", out, *SMALL)
+    assert_one_line_error(code, err, "exists; pass --overwrite")
+    assert out.read_bytes() == b"precious"
+    code, _, _ = run(capsys, "render", "--demo", "-o", out, *SMALL, "--overwrite")
+    assert code == 0 and out.read_bytes() != b"precious"
+
+
+def test_a_frame_sequence_is_checked_before_rendering(tmp_path, capsys):
+    (tmp_path / "o_0001.png").write_bytes(b"x")
+    code, _, err = run(capsys, "render", "--demo", "-o", tmp_path / "o.png", *SMALL, "--frames", "3")
+    assert_one_line_error(code, err, "o_0001.png: exists")
+    assert not (tmp_path / "o_0000.png").exists()
+
+
+def _raw(tmp_path, nbytes, name="v.raw", compress=False):
+    path = tmp_path / name
+    blob = bytes(range(256)) * (nbytes // 256) + bytes(nbytes % 256)
+    path.write_bytes(gzip.compress(blob)[:-8] if compress else blob)
+    return path
+
+
+def _scene(tmp_path, text):
+    path = tmp_path / "s.toml"
+    path.write_text(text)
+    return path
+
+
+BAD_INPUTS = {
+    "size mismatch": (lambda t: ["--volume", _raw(t, 1000), "--dims", 10, 10, 11, "--dtype", "uint8"],
+                      ["holds 1000 bytes", "needs 1100"]),
+    "unknown dtype": (lambda t: ["--volume", _raw(t, 1000), "--dims", 10, 10, 10, "--dtype", "uint12"],
+                      ["unknown dtype 'uint12'"]),
+    "truncated gzip": (lambda t: ["--volume", _raw(t, 1000, "v.raw.gz", compress=True), "--dims", 10, 10, 10,
+                                  "--dtype", "uint8"], ["truncated or corrupt"]),
+    "zero dims": (lambda t: ["--volume", _raw(t, 0), "--dims", 10, 0, 10, "--dtype", "uint8"],
+                  ["dims must be three positive integers"]),
+    "nan in data": (lambda t: ["--volume", _nan_npy(t)], ["NaN or Inf", "--nan-value"]),
+    "unsorted tf": (lambda t: [_scene(t, '[volume]\ndemo = "shepp-logan"\n[transfer_function]\n'
+                                      'points = [[0.5, 0, 0, 0, 0], [0.1, 1, 1, 1, 1]]\n')],
+                    ["values must increase strictly"]),
+    "tf out of range": (lambda t: [_scene(t, '[volume]\ndemo = "shepp-logan"\n[transfer_function]\n'
+                                          'points = [[0, 0, 0, 0, 0], [1, 1, 1, 1, 1.2]]\n')],
+                        ["alpha [1.2] outside [0, 1]"]),
+    "unknown key": (lambda t: ["--demo", "--set", "renderer.samples=3"], ["unknown key 'samples'", "valid keys"]),
+    "unknown renderer": (lambda t: ["--demo", "--renderer", "magic"], ["unknown renderer 'magic'"]),
+    "missing volume": (lambda t: ["--volume", t / "absent.nrrd"], ["file not found"]),
+    "nothing to render": (lambda t: [], ["nothing to render"]),
+}
+
+
+def _nan_npy(tmp_path):
+    data = np.ones((4, 4, 4), np.float32)
+    data[1, 2, 3] = np.nan
+    np.save(tmp_path / "nan.npy", data)
+    return tmp_path / "nan.npy"
+
+
+@pytest.mark.parametrize("case", list(BAD_INPUTS))
+def test_bad_input_gives_one_line_and_no_output(tmp_path, capsys, case):
+    args, fragments = BAD_INPUTS[case]
+    out = tmp_path / "out.png"
+    code, _, err = run(capsys, "render", *args(tmp_path), "-o", out, *SMALL)
+    assert_one_line_error(code, err, *fragments)
+    assert not out.exists()
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out.")]  # no temporary files
+
+
+def test_nan_replacement_value_makes_the_data_usable(tmp_path, capsys):
+    code, _, err = run(capsys, "render", "--volume", _nan_npy(tmp_path), "--nan-value", "0", "-o",
+                       tmp_path / "ok.png", "--size", "8")
+    assert code == 0, err
+
+
+@pytest.mark.parametrize("output, fragment", [("missing/dir/out.png", "does not exist"), ("out.bmpx", "unsupported"),
+                                              (".", "is a folder")])
+def test_unwritable_outputs(tmp_path, capsys, output, fragment):
+    code, _, err = run(capsys, "render", "--demo", "-o", tmp_path / output, *SMALL)
+    assert_one_line_error(code, err, fragment)
+
+
+@pytest.mark.parametrize("make_folder", ["read-only", "proc"])
+def test_unwritable_folder(tmp_path, capsys, make_folder):
+    """A read-only folder (root may write into it anyway, so also /proc, where nobody can create files)."""
+    if make_folder == "read-only":
+        if os.geteuid() == 0:
+            pytest.skip("root writes into read-only folders; the /proc case covers root")
+        folder = tmp_path / "ro"
+        folder.mkdir(mode=0o555)
+    else:
+        folder = Path("/proc")
+        if not folder.is_dir():
+            pytest.skip("no /proc on this system")
+    code, _, err = run(capsys, "render", "--demo", "-o", folder / "dvr_test_output.png", *SMALL)
+    assert_one_line_error(code, err, "choose another output path")
+    assert not (folder / "dvr_test_output.png").exists()
+
+
+def test_failed_write_leaves_no_partial_file(tmp_path):
+    from dvr_gl import image
+    from dvr_gl.errors import DvrError
+
+    def broken(tmp):
+        tmp.write_bytes(b"half an image")
+        raise OSError(28, "No space left on device")
+
+    with pytest.raises(DvrError, match="writing failed .No space left on device.; nothing was written"):
+        image.atomic_write(tmp_path / "x.png", broken)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_debug_shows_the_traceback(tmp_path, capsys):
+    code, _, err = run(capsys, "render", "--demo", "--renderer", "magic", "-o", tmp_path / "x.png", "--debug")
+    assert code == 1 and "Traceback" in err
+
+
+def test_info_prints_the_gl_context(capsys):
+    code, out, _ = run(capsys, "info")
+    assert code == 0
+    for label in ("OpenGL vendor:", "OpenGL renderer:", "OpenGL version:", "max 3D texture size:",
+                  "GL self-test (shaders, float32 target, read-back): ok"):
+        assert label in out
+
+
+def test_unwritable_scene_path_is_refused_before_rendering(tmp_path, capsys):
+    out = tmp_path / "x.png"
+    code, _, err = run(capsys, "render", "--demo", "-o", out, *SMALL, "--save-scene", tmp_path / "no" / "s.toml")
+    assert_one_line_error(code, err, "does not exist")
+    assert not out.exists()

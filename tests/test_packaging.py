@@ -1,0 +1,31 @@
+"""A regular (non-editable) install finds its shaders and its CLI, and installs no package 'apps'."""
+
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+from conftest import REPO
+
+
+@pytest.mark.slow
+def test_regular_install_finds_shaders(tmp_path):
+    src = tmp_path / "src"
+    shutil.copytree(REPO, src, ignore=shutil.ignore_patterns(".git", ".venv", "*.egg-info", "build",
+                                                             "__pycache__", ".pytest_cache", "tests"))
+    target = tmp_path / "site"
+    pip = subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation",
+                          "--target", str(target), str(src)], capture_output=True, text=True)
+    assert pip.returncode == 0, pip.stderr[-2000:]
+    assert not (target / "apps").exists()
+    assert (target / "dvr_gl" / "apps" / "cli.py").is_file()
+    assert (target / "dvr_gl" / "shaders" / "common" / "pixel.glsl").is_file()
+    shutil.rmtree(src)  # nothing may come from the source tree any more
+    check = ("import dvr_gl, dvr_gl.gl.shaders as s, dvr_gl.apps.cli; "
+             "d = s.shader_dir(); print(d); "
+             "assert str(d).startswith(%r), d; "
+             "assert '#version' in s.load_shader('selftest.frag', {'SELFTEST_VALUE': '1.0'}).text" % str(target))
+    proc = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True, cwd=tmp_path,
+                          env={"PYTHONPATH": str(target), "PATH": "/usr/bin:/bin"})
+    assert proc.returncode == 0, proc.stderr
