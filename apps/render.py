@@ -8,6 +8,7 @@ no partial file; an existing file is replaced only with ``--overwrite``.
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 import tomllib
 from pathlib import Path
@@ -162,6 +163,9 @@ def run(args) -> int:
                 frame = scene.replace(camera=scene.camera.orbited(azimuth=az0 + 360.0 * i / len(outputs)))
             image = renderer.render(frame)
             write_image(path, composite_over(image, scene.image.background), args.overwrite)
+            if renderer.stats.get("converged") is False:
+                print(f"dvr render: warning: {path} did not reach renderer.converged_tolerance "
+                      f"{scene.renderer.converged_tolerance:g} in every pixel", file=sys.stderr)
             if progress:
                 progress.update(i + 1)
     finally:

@@ -54,6 +54,15 @@ def check_output_path(path: Path, overwrite: bool = False) -> Path:
     return check_writable(path, overwrite)
 
 
+def _file_mode(path: Path) -> int:
+    """The mode of the file being replaced, or what the umask gives a new file."""
+    if path.exists():
+        return path.stat().st_mode & 0o7777
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
+
+
 def atomic_write(path: Path, write, overwrite: bool = False):
     """Call ``write(tmp_path)`` for a temporary file beside ``path``, then rename it over ``path``
     (callers check the path first: :func:`check_output_path`)."""
@@ -67,6 +76,7 @@ def atomic_write(path: Path, write, overwrite: bool = False):
     os.close(fd)
     try:
         write(Path(tmp))
+        os.chmod(tmp, _file_mode(path))  # mkstemp makes private files; outputs are ordinary ones
         if path.exists() and not overwrite:
             raise DvrError(f"{path}: appeared while rendering; not replaced (pass --overwrite)")
         os.replace(tmp, path)

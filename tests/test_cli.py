@@ -40,6 +40,19 @@ def test_render_demo_writes_a_picture(tmp_path, capsys):
     assert img[..., :3].max() > 0.3 and (img[..., :3].max(axis=2) < 0.01).mean() > 0.2  # object on black
 
 
+def test_outputs_get_ordinary_permissions(tmp_path, capsys):
+    umask = os.umask(0o022)
+    try:
+        run(capsys, "render", "--demo", "-o", tmp_path / "a.png", *SMALL, "--save-scene", tmp_path / "a.toml")
+    finally:
+        os.umask(umask)
+    assert (tmp_path / "a.png").stat().st_mode & 0o777 == 0o644
+    assert (tmp_path / "a.toml").stat().st_mode & 0o777 == 0o644
+    (tmp_path / "a.png").chmod(0o600)  # replacing keeps the owner's choice
+    run(capsys, "render", "--demo", "-o", tmp_path / "a.png", *SMALL, "--overwrite")
+    assert (tmp_path / "a.png").stat().st_mode & 0o777 == 0o600
+
+
 def test_console_script_renders_the_demo(tmp_path):
     dvr = Path(sys.executable).parent / "dvr"
     out = tmp_path / "demo.exr"

@@ -15,6 +15,7 @@ tiff       ``.tif`` pages, a folder, a glob       OpenImageIO
 
 from __future__ import annotations
 
+import importlib
 import os
 from pathlib import Path
 
@@ -44,31 +45,24 @@ def detect_format(path: Path) -> str:
                       f"{', '.join(FORMATS)}")
 
 
+# format -> (module, reader function); modules load on first use
+_READERS = {
+    "raw": (".raw", "read_raw"), "nrrd": (".nrrd", "read_nrrd"), "nifti": (".nifti", "read_nifti"),
+    "metaimage": (".metaimage", "read_metaimage"), "vtk": (".vtk_legacy", "read_vtk_structured_points"),
+    "npy": (".npy", "read_npy"), "tiff": (".tiff", "read_tiff_stack"),
+}
+
+
 def _read(path: Path, fmt: str, raw_options: dict) -> RawArray:
+    if fmt not in _READERS:
+        raise VolumeError(f"{path}: unknown format {fmt!r}; use one of {', '.join(FORMATS)} or auto")
+    module, function = _READERS[fmt]
+    reader = getattr(importlib.import_module(module, __name__), function)
     if fmt == "raw":
-        from .raw import read_raw
-        return read_raw(path, **raw_options)
+        return reader(path, **raw_options)
     if raw_options.get("dims") is not None or raw_options.get("dtype") is not None:
         raise VolumeError(f"{path}: dims and dtype apply to raw files only; this is {fmt}")
-    if fmt == "nrrd":
-        from .nrrd import read_nrrd
-        return read_nrrd(path)
-    if fmt == "nifti":
-        from .nifti import read_nifti
-        return read_nifti(path)
-    if fmt == "metaimage":
-        from .metaimage import read_metaimage
-        return read_metaimage(path)
-    if fmt == "vtk":
-        from .vtk_legacy import read_vtk_structured_points
-        return read_vtk_structured_points(path)
-    if fmt == "npy":
-        from .npy import read_npy
-        return read_npy(path)
-    if fmt == "tiff":
-        from .tiff import read_tiff_stack
-        return read_tiff_stack(path)
-    raise VolumeError(f"{path}: unknown format {fmt!r}; use one of {', '.join(FORMATS)} or auto")
+    return reader(path)
 
 
 def load_volume(path, format: str = "auto", *, dims=None, dtype=None, endian: str = "little",

@@ -126,48 +126,44 @@ class ConvergedReference:
         weight = half[:, None] * self.w[None, :] * sigma * np.exp(-tau_nodes)
         return tau, np.einsum("pn,pnc->pc", weight, colour)
 
-    def _estimate(self, ray, a, b, coarse):
-        """Pieces with their coarse estimate, the estimates of their halves, the refined
-        estimate (halves composited) and its error estimate."""
+    def _estimate(self, ray, a, b, coarse_tau, coarse_col):
+        """Pieces with the estimates of their halves (``lt, lc, rt, rc``), the refined estimate
+        (halves composited: ``tau``, ``col``) and its error against the coarse one (``err``)."""
         m = 0.5 * (a + b)
-        left, right = self._gauss(ray, a, m), self._gauss(ray, m, b)
-        tau = left[0] + right[0]
-        col = left[1] + np.exp(-left[0])[:, None] * right[1]
-        err = np.maximum(np.abs(col - coarse[1]).max(axis=1), np.abs(tau - coarse[0]))
-        return {"ray": ray, "a": a, "b": b, "left": left, "right": right, "tau": tau, "col": col, "err": err}
-
-    @staticmethod
-    def _take(p, idx):
-        return {k: (tuple(x[idx] for x in v) if isinstance(v, tuple) else v[idx]) for k, v in p.items()}
+        lt, lc = self._gauss(ray, a, m)
+        rt, rc = self._gauss(ray, m, b)
+        tau = lt + rt
+        col = lc + np.exp(-lt)[:, None] * rc
+        err = np.maximum(np.abs(col - coarse_col).max(axis=1), np.abs(tau - coarse_tau))
+        return {"ray": ray, "a": a, "b": b, "lt": lt, "lc": lc, "rt": rt, "rc": rc,
+                "tau": tau, "col": col, "err": err}
 
     def _emission_absorption(self, rows):
         """Adaptive integration with one error budget per ray: while a ray's summed error
         estimate exceeds the tolerance, bisect its pieces whose error exceeds their equal
         share of it.  (A piece holding a jump, say where a normal flips, then converges
         like its width instead of never meeting a width-proportional tolerance.)"""
+        take = lambda p, idx: {k: v[idx] for k, v in p.items()}  # noqa: E731
         ray, a, b = self._pieces(rows)
-        live = self._estimate(ray, a, b, self._gauss(ray, a, b))
+        live = self._estimate(ray, a, b, *self._gauss(ray, a, b))
         done = []
         for step in range(MAX_ROUNDS + 1):
             slot = np.searchsorted(rows, live["ray"])
             total = np.bincount(slot, live["err"], minlength=len(rows))
             count = np.bincount(slot, minlength=len(rows))
-            finished = (total <= self.tol)[slot] | (step == MAX_ROUNDS)
-            if step == MAX_ROUNDS and not finished.all():
-                self.stats["converged"] = False
+            finished = total[slot] <= self.tol
+            if step == MAX_ROUNDS:
+                self.stats["converged"] &= bool(finished.all())
+                finished[:] = True
             split = ~finished & (live["err"] > self.tol / np.maximum(count[slot], 1))
-            keep = ~finished & ~split
-            done.append(self._take(live, finished))
-            if not (split.any() or keep.any()):
+            done.append(take(live, finished))
+            if finished.all():
                 break
-            parent = self._take(live, split)
-            m = 0.5 * (parent["a"] + parent["b"])
-            children = [self._estimate(parent["ray"], parent["a"], m, parent["left"]),
-                        self._estimate(parent["ray"], m, parent["b"], parent["right"])]
-            parts = [self._take(live, keep)] + children
-            live = {k: (tuple(np.concatenate([p[k][i] for p in parts]) for i in range(2))
-                        if isinstance(parts[0][k], tuple) else np.concatenate([p[k] for p in parts]))
-                    for k in parts[0]}
+            p = take(live, split)
+            m = 0.5 * (p["a"] + p["b"])
+            parts = [take(live, ~finished & ~split), self._estimate(p["ray"], p["a"], m, p["lt"], p["lc"]),
+                     self._estimate(p["ray"], m, p["b"], p["rt"], p["rc"])]
+            live = {k: np.concatenate([q[k] for q in parts]) for k in live}
         ray, a, tau, col = (np.concatenate([d[k] for d in done]) for k in ("ray", "a", "tau", "col"))
         self.stats["pieces"] += len(ray)
         order = np.lexsort((a, ray))

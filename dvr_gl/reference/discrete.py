@@ -92,6 +92,11 @@ class DiscreteReference:
         self.n_seg = segment_counts(self.rays.t0, self.rays.t1, self.d)
         self.samples = 0
 
+    @property
+    def stats(self) -> dict:
+        """``samples``: segments sampled (after early termination) in the last render."""
+        return {"samples": self.samples}
+
     def render(self) -> np.ndarray:
         """Premultiplied linear RGBA ``(H, W, 4)`` float32."""
         return self.render_float64().astype(np.float32)

@@ -18,25 +18,24 @@ from ..reference.discrete import DiscreteReference
 from .base import Renderer
 
 
-class DiscreteReferenceRenderer(Renderer):
-    name = "reference"
-    description = "CPU float64, same discretization as the GPU (samples, LUT)"
+class _ReferenceRenderer(Renderer):
+    integrator: type
 
     def render(self, scene) -> np.ndarray:
         start = time.perf_counter()
-        ref = DiscreteReference(scene)
-        image = ref.render()
-        self.stats = {"samples": ref.samples, "seconds": time.perf_counter() - start}
-        return image
-
-
-class ConvergedReferenceRenderer(Renderer):
-    name = "reference-converged"
-    description = "CPU float64, exact transfer function, integrated to a tolerance"
-
-    def render(self, scene) -> np.ndarray:
-        start = time.perf_counter()
-        ref = ConvergedReference(scene)
+        ref = self.integrator(scene)
         image = ref.render()
         self.stats = {"seconds": time.perf_counter() - start, **ref.stats}
         return image
+
+
+class DiscreteReferenceRenderer(_ReferenceRenderer):
+    name = "reference"
+    description = "CPU float64, same discretization as the GPU (samples, LUT)"
+    integrator = DiscreteReference
+
+
+class ConvergedReferenceRenderer(_ReferenceRenderer):
+    name = "reference-converged"
+    description = "CPU float64, exact transfer function, integrated to a tolerance"
+    integrator = ConvergedReference
