@@ -145,6 +145,8 @@ def frame_paths(output: Path, frames: int | None) -> list[Path]:
 def run(args) -> int:
     if not args.scene and not args.demo and not args.volume:
         raise DvrError("nothing to render: give a scene file, --volume FILE or --demo")
+    if args.demo and args.volume:
+        raise DvrError("give --demo or --volume, not both")
     base = demo_scene(args.demo) if args.demo and not args.scene else None
     scene = load_scene(args.scene, overrides_from(args), base)
     outputs = frame_paths(Path(args.output), args.frames)

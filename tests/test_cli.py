@@ -151,6 +151,8 @@ BAD_INPUTS = {
     "unknown renderer": (lambda t: ["--demo", "--renderer", "magic"], ["unknown renderer 'magic'"]),
     "missing volume": (lambda t: ["--volume", t / "absent.nrrd"], ["file not found"]),
     "nothing to render": (lambda t: [], ["nothing to render"]),
+    "demo and volume": (lambda t: ["--demo", "--volume", _nan_npy(t)], ["give --demo or --volume, not both"]),
+    "bad size": (lambda t: ["--demo", "--set", "image.width=0"], ["width and height must be at least 1"]),
 }
 
 
