@@ -119,15 +119,15 @@ class TransferFunction:
         return np.unique(np.concatenate([v, np.array(extra)]))
 
     def tabulate(self, size: int = 4096) -> "TransferFunctionLUT":
-        """Sample the function at ``size`` evenly spaced values over its domain (a LUT)."""
+        """Sample colour and extinction at ``size`` evenly spaced values over the domain (a LUT)."""
         if int(size) < 2:
             raise SceneError(f"lut_size must be at least 2, got {size}")
         lo, hi = self.domain
         if hi <= lo:  # a single control point: a constant function
             hi = lo + 1.0
         nodes = np.linspace(lo, hi, int(size))
-        table = np.concatenate([self.color(nodes), self.opacity(nodes)[:, None]], axis=1)
-        return TransferFunctionLUT(table, (lo, hi), self.unit_distance, self.opacity_model)
+        table = np.concatenate([self.color(nodes), self.extinction(nodes)[:, None]], axis=1)
+        return TransferFunctionLUT(table, (lo, hi))
 
     def to_dict(self) -> dict:
         return {"points": self.points.tolist(), "unit_distance": self.unit_distance,
@@ -144,18 +144,21 @@ def _check_range(cols: np.ndarray, lo: float, hi: float, what: str):
 
 @dataclass(frozen=True, eq=False)
 class TransferFunctionLUT:
-    """A transfer function tabulated at evenly spaced values (the GPU's 1D texture).
+    """A transfer function tabulated at evenly spaced values (the GPU's lookup texture).
 
-    ``table[i] = (r, g, b, opacity)`` at value ``domain[0] + i * (domain[1] - domain[0]) / (N - 1)``:
+    ``table[i] = (r, g, b, sigma)`` at value ``domain[0] + i * (domain[1] - domain[0]) / (N - 1)``:
     node-centred in value, so texture coordinate ``(x + 0.5) / N`` with ``x`` the
     fractional node index reproduces :meth:`lookup` under linear filtering.
-    The opacity column is interpolated in the function's own model (alpha or sigma).
+
+    Extinction (computed in float64 from the model) is what is interpolated
+    between nodes, not alpha: shaders then need no ``log(1 - alpha)``, which
+    float32 computes poorly for small alpha, and a steep ramp to alpha = 1 inside
+    one interval keeps most of its optical depth (the model is convex in alpha).
+    Between nodes this differs from the model at second order in the node spacing.
     """
 
     table: np.ndarray
     domain: tuple[float, float]
-    unit_distance: float
-    opacity_model: str
 
     @property
     def size(self) -> int:
@@ -170,12 +173,10 @@ class TransferFunctionLUT:
     def lookup(self, values) -> tuple[np.ndarray, np.ndarray]:
         """``(colour (..., 3), sigma (...))`` by linear interpolation of the table."""
         x = self.node_coordinate(values)
-        i0 = np.minimum(np.floor(x).astype(np.int64), self.size - 2) if self.size > 1 else np.zeros_like(x, int)
+        i0 = np.minimum(np.floor(x).astype(np.int64), self.size - 2)
         f = (x - i0)[..., None]
-        row = self.table[i0] * (1.0 - f) + self.table[np.minimum(i0 + 1, self.size - 1)] * f
-        o = row[..., 3]
-        sigma = extinction_from_alpha(o, self.unit_distance) if self.opacity_model == "alpha" else o
-        return row[..., :3], sigma
+        row = self.table[i0] * (1.0 - f) + self.table[i0 + 1] * f
+        return row[..., :3], row[..., 3]
 
 
 # --- presets -------------------------------------------------------------------------------------

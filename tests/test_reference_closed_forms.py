@@ -139,18 +139,21 @@ def test_sphere_of_constant_material(tmp_path, view):
 
 
 def test_ramp_average_and_maximum(tmp_path):
-    """Average (X-ray) and MIP of a ramp along x: (n - 1) / 2 and n - 1, classified by the TF."""
+    """Average (X-ray) and MIP of a ramp along x: (n - 1) / 2 and n - 1, classified by a linear
+    extinction ramp (sigma = value / 10) with the opacity of one unit distance."""
     n = 9
     data = np.broadcast_to(np.arange(n, dtype=np.float32), (4, 5, n)).copy()
     overrides = {**COMMON, **views((4.0, 2.0, 1.5), 14.0)[0], "renderer.sample_distance": 0.5,
-                 "transfer_function.points": [[0.0, 0, 0, 0, 0.0], [8.0, 1, 1, 1, 0.8]]}
+                 "transfer_function.points": [[0.0, 0, 0, 0, 0.0], [8.0, 1, 1, 1, 0.8]],
+                 "transfer_function.opacity_model": "extinction"}
+    opacity = lambda value: -math.expm1(-value / 10)  # noqa: E731
     average = array_scene(tmp_path, data, {**overrides, "renderer.compositing": "average"})
     images = render_both(average)
     inside = images[0][..., 3] > 0
     for image in images:  # midpoint samples of a linear function average exactly
-        np.testing.assert_allclose(image[inside][:, 3], 0.4, rtol=REL)
+        np.testing.assert_allclose(image[inside][:, 3], opacity(4.0), rtol=REL)
     mip = array_scene(tmp_path, data, {**overrides, "renderer.compositing": "mip"})
     converged = ConvergedReference(mip).render_float64()
-    np.testing.assert_allclose(converged[inside][:, 3], 0.8, rtol=REL)  # the exit value, 8
+    np.testing.assert_allclose(converged[inside][:, 3], opacity(8.0), rtol=REL)  # the exit value
     discrete = DiscreteReference(mip).render_float64()  # the last midpoint: x = 7.75
-    np.testing.assert_allclose(discrete[inside][:, 3], 0.8 * 7.75 / 8, rtol=REL)
+    np.testing.assert_allclose(discrete[inside][:, 3], opacity(7.75), rtol=REL)

@@ -52,5 +52,5 @@ class OpticalModel:
     def classify_value(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Colour and opacity for projected scalars (average, MIP, MinIP, isosurface colour):
         the opacity over one ``unit_distance``."""
-        colour, sigma = self.table.lookup(values) if hasattr(self.table, "lookup") else self.tf.evaluate(values)
+        colour, sigma = self.table.lookup(values) if hasattr(self.table, "lookup") else self.table.evaluate(values)
         return colour, -np.expm1(-sigma * self.tf.unit_distance)
