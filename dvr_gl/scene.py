@@ -172,8 +172,17 @@ def _resolve_renderer(spec: RendererSpec, volume: Volume) -> RendererSpec:
             raise SceneError(f"renderer.shading.lights[{i}].direction must be a non-zero vector")
         if any(c < 0 for c in light.color):
             raise SceneError(f"renderer.shading.lights[{i}].color must be >= 0")
+    if spec.texture_budget_mb < 1:
+        raise SceneError(f"renderer.texture_budget_mb must be at least 1, got {spec.texture_budget_mb}")
     iso = spec.iso_value if spec.iso_value is not None else sum(volume.value_range) / 2.0
-    return dataclasses.replace(spec, sample_distance=d, sample_distance_voxels=None, iso_value=iso)
+    g_ref = spec.gradient_opacity_reference
+    if g_ref is None:
+        lo, hi = volume.value_range
+        g_ref = 0.1 * max(hi - lo, 1e-30) / min(volume.spacing)
+    if not g_ref > 0:
+        raise SceneError(f"renderer.gradient_opacity_reference must be positive, got {g_ref}")
+    return dataclasses.replace(spec, sample_distance=d, sample_distance_voxels=None, iso_value=iso,
+                               gradient_opacity_reference=g_ref)
 
 
 @dataclass(frozen=True, eq=False)

@@ -56,7 +56,7 @@ class ShadingSpec:
 class RendererSpec:
     """The renderer and its settings (each renderer uses those that apply to it)."""
 
-    name: str = "reference"
+    name: str = "raycast"
     sample_distance: Optional[float] = None           # world units
     sample_distance_voxels: Optional[float] = None    # in voxels of the smallest spacing (default 0.5)
     compositing: str = choices(*COMPOSITING_MODES, default="emission_absorption")
@@ -64,13 +64,18 @@ class RendererSpec:
     classification: str = choices(*CLASSIFICATIONS, default="post")
     associated_colors: bool = True                    # pre-classification: interpolate sigma*c, not c
     filter: str = choices(*FILTERS, default="linear")
+    filtering: str = choices("hardware", "shader", default="hardware")  # GPU: texture unit or float weights
+    gradient: str = choices("central_differences", "texture", default="central_differences")
+    gradient_opacity: bool = False                    # scale extinction by min(1, |gradient| / reference)
+    gradient_opacity_reference: Optional[float] = None  # default: 0.1 value range per smallest spacing
     iso_value: Optional[float] = None                 # isosurface; default: middle of the value range
     iso_refinement: int = 8                           # bisection steps refining the first hit
     jitter: bool = False
     jitter_seed: int = 0
     ert_threshold: float = 0.99                       # early ray termination at accumulated opacity
     lut_size: int = 4096                              # transfer-function table entries
-    converged_tolerance: float = 1e-4                 # reference-converged: max change per refinement
+    converged_tolerance: float = 1e-4                 # reference-converged: error budget per pixel
+    texture_budget_mb: int = 2048                     # GPU: largest texture memory to use
     shading: ShadingSpec = field(default_factory=ShadingSpec)
 
 

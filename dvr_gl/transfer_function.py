@@ -129,6 +129,13 @@ class TransferFunction:
         table = np.concatenate([self.color(nodes), self.extinction(nodes)[:, None]], axis=1)
         return TransferFunctionLUT(table, (lo, hi))
 
+    def classify_voxels(self, data: np.ndarray, associated: bool = True) -> np.ndarray:
+        """Pre-classification: ``(..., 4)`` float64 per voxel, ``(sigma c, sigma)`` (associated:
+        emission and extinction, so transparent voxels carry no colour) or ``(c, sigma)``."""
+        colour, sigma = self.evaluate(np.asarray(data, dtype=np.float64))
+        first = colour * sigma[..., None] if associated else colour
+        return np.concatenate([first, sigma[..., None]], axis=-1)
+
     def to_dict(self) -> dict:
         return {"points": self.points.tolist(), "unit_distance": self.unit_distance,
                 "opacity_model": self.opacity_model}

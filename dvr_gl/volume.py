@@ -117,6 +117,14 @@ class Volume:
         """A distance in voxels (of the smallest spacing) in world units."""
         return float(distance_in_voxels) * min(self.spacing)
 
+    @property
+    def gradient_epsilon(self) -> float:
+        """Gradient magnitude (data units per world unit) below which shading takes the normal
+        as zero: 1e-5 of the value scale per voxel, far above float32 rounding noise in
+        homogeneous regions and far below any structure worth a normal."""
+        lo, hi = self.value_range
+        return 1e-5 * max(abs(lo), abs(hi), hi - lo, 1e-30) / min(self.spacing)
+
     def describe(self) -> str:
         nx, ny, nz = self.dims
         lo, hi = self.value_range

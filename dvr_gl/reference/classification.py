@@ -29,9 +29,7 @@ class PostClassifier:
 
 class PreClassifier:
     def __init__(self, volume, tf, filter_kind: str, associated: bool = True):
-        colour, sigma = tf.evaluate(volume.data.astype(np.float64))
-        first = colour * sigma[..., None] if associated else colour
-        classified = np.concatenate([first, sigma[..., None]], axis=-1)
+        classified = tf.classify_voxels(volume.data, associated)
         self.field = SampledField(classified, volume.spacing, volume.origin, filter_kind)
         self.associated = associated
 

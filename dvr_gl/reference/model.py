@@ -37,16 +37,24 @@ class OpticalModel:
         else:
             self.classify = PostClassifier(self.scalar, self.table)
         self.shading = r.shading if r.shading.enabled else None
+        self.epsilon = scene.volume.gradient_epsilon
+        self.gradient_reference = r.gradient_opacity_reference if r.gradient_opacity else None
 
     def emission(self, points: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(colour (N, 3), sigma (N,))`` at points, shaded if the scene asks for it."""
+        """``(colour (N, 3), sigma (N,))`` at points: shaded, and extinction scaled by
+        ``min(1, |gradient| / reference)`` (gradient-magnitude opacity), if the scene asks."""
         colour, sigma = self.classify(points)
+        if self.shading is None and self.gradient_reference is None:
+            return colour, sigma
+        gradient = self.scalar.gradient(points)
+        if self.gradient_reference is not None:
+            sigma = sigma * np.minimum(1.0, np.linalg.norm(gradient, axis=1) / self.gradient_reference)
         if self.shading is not None:
-            colour = self.shade(colour, points, directions)
+            colour = blinn_phong(colour, normals_from_gradient(gradient, self.epsilon), directions, self.shading)
         return colour, sigma
 
     def shade(self, colour, points, directions):
-        normal = normals_from_gradient(self.scalar.gradient(points))
+        normal = normals_from_gradient(self.scalar.gradient(points), self.epsilon)
         return blinn_phong(colour, normal, directions, self.shading)
 
     def classify_value(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

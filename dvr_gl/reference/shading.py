@@ -1,9 +1,12 @@
 """Blinn-Phong shading from the gradient, in float64 (the reference's version).
 
 ``normal = -gradient / |gradient|`` (pointing toward lower values, i.e. out of
-bright structures); a zero gradient gives a zero normal, hence ambient light
-only.  Two-sided lighting flips the normal toward the viewer.  For each light
-with direction ``l`` (toward the light) and colour ``I``:
+bright structures).  A gradient weaker than ``Volume.gradient_epsilon`` (1e-5 of
+the volume's value scale per voxel) gives a zero normal, hence ambient light
+only: in homogeneous regions the direction would be rounding noise (random in
+float64, exactly zero in float32), so the model makes it zero for both.
+Two-sided lighting flips the normal toward the viewer.  For each light with
+direction ``l`` (toward the light) and colour ``I``:
 
     c' = c * (ambient + diffuse * sum I max(n.l, 0)) + specular * sum I [n.l > 0] max(n.h, 0)^shininess
 
@@ -18,11 +21,11 @@ import numpy as np
 from ..scene_schema import ShadingSpec
 
 
-def normals_from_gradient(gradient: np.ndarray) -> np.ndarray:
+def normals_from_gradient(gradient: np.ndarray, epsilon: float = 0.0) -> np.ndarray:
     g = np.asarray(gradient, dtype=np.float64)
     mag = np.linalg.norm(g, axis=-1, keepdims=True)
     with np.errstate(invalid="ignore", divide="ignore"):
-        n = np.where(mag > 0, -g / mag, 0.0)
+        n = np.where(mag > epsilon, -g / mag, 0.0)
     return n
 
 
