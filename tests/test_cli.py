@@ -234,3 +234,15 @@ def test_unwritable_scene_path_is_refused_before_rendering(tmp_path, capsys):
     code, _, err = run(capsys, "render", "--demo", "-o", out, *SMALL, "--save-scene", tmp_path / "no" / "s.toml")
     assert_one_line_error(code, err, "does not exist")
     assert not out.exists()
+
+
+def test_no_gl_context_is_one_line_and_no_output(tmp_path):
+    """The GPU renderer (the default) on a machine where EGL finds no driver."""
+    env = dict(os.environ, __EGL_VENDOR_LIBRARY_FILENAMES="/nonexistent/egl_vendor.json")
+    out = tmp_path / "x.png"
+    proc = subprocess.run([sys.executable, "-m", "dvr_gl.apps", "render", "--demo", "-o", str(out), *SMALL],
+                          env=env, capture_output=True, text=True)
+    assert proc.returncode == 1
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "apt install libegl1 libegl-mesa0" in lines[0], proc.stderr
+    assert not out.exists()

@@ -83,24 +83,6 @@ def test_isosurface_refinement_approaches_the_exact_hit():
     assert errors[20] < 1e-12
 
 
-def test_pre_classification_with_associated_colours_does_not_bleed(tmp_path):
-    """An opaque red region beside empty space whose transfer-function colour is green: interpolating
-    non-associated colours mixes the invisible green into the edge; associated colours do not."""
-    data = np.zeros((6, 6, 6), np.float32)
-    data[:, :, 3:] = 1.0
-    overrides = {"transfer_function.points": [[0.0, 0, 1, 0, 0.0], [1.0, 1, 0, 0, 0.9]],
-                 "renderer.classification": "pre", "image.width": 16, "image.height": 16,
-                 "camera.azimuth": 0.0, "camera.elevation": 0.0}
-    green_share = {}
-    for associated in (True, False):
-        scene = array_scene(tmp_path, data, {**overrides, "renderer.associated_colors": associated})
-        img = DiscreteReference(scene).render_float64()
-        seen = img[..., 3] > 1e-3
-        green_share[associated] = (img[..., 1][seen] / img[..., 0][seen]).max()
-    assert green_share[True] < 1e-12
-    assert green_share[False] > 0.2
-
-
 def test_camera_inside_a_homogeneous_volume(tmp_path):
     data = np.ones((9, 9, 9), np.float32)
     sigma = 0.2

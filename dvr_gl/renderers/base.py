@@ -38,6 +38,7 @@ class Renderer:
 
 # name -> "module:Class": adding a renderer is one line here; modules load on first use.
 RENDERERS = {
+    "raycast": "dvr_gl.renderers.raycast:RayCastRenderer",
     "reference": "dvr_gl.renderers.reference:DiscreteReferenceRenderer",
     "reference-converged": "dvr_gl.renderers.reference:ConvergedReferenceRenderer",
 }

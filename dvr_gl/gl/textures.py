@@ -1,0 +1,100 @@
+"""Uploading volumes and tables as textures, in the volume's own precision.
+
+=========  ============  ===============================================
+data       texture       back to data units
+=========  ============  ===============================================
+uint8      R8 (unorm)    ``texel * 255``
+uint16     R16 (unorm)   ``texel * 65535``
+int16      R16 (unorm)   ``texel * 65535 - 32768`` (uploaded + 32768: all
+                         65536 values survive, unlike R16_SNORM's -32768)
+float32    R32F          ``texel``
+=========  ============  ===============================================
+
+Textures clamp to the edge; 3D textures filter linearly (the shaders use
+``texelFetch`` where they want no filtering).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import moderngl
+import numpy as np
+
+from ..errors import DvrError
+
+FORMATS = {
+    np.dtype(np.uint8): ("f1", 255.0, 0.0, 1),
+    np.dtype(np.uint16): ("nu2", 65535.0, 0.0, 2),
+    np.dtype(np.int16): ("nu2", 65535.0, -32768.0, 2),
+    np.dtype(np.float32): ("f4", 1.0, 0.0, 4),
+}
+
+
+@dataclass
+class VolumeTexture:
+    texture: moderngl.Texture3D
+    value_scale: float    # data value = texel * value_scale + value_offset
+    value_offset: float
+    nbytes: int
+
+
+def volume_bytes(volume) -> int:
+    return volume.data.size * FORMATS[volume.data.dtype][3]
+
+
+def _texture3d(ctx, data: np.ndarray, components: int, dtype: str) -> moderngl.Texture3D:
+    nz, ny, nx = data.shape[:3]
+    tex = ctx.texture3d((nx, ny, nz), components, np.ascontiguousarray(data).tobytes(), dtype=dtype)
+    tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+    tex.repeat_x = tex.repeat_y = tex.repeat_z = False
+    return tex
+
+
+def upload_volume(ctx, volume) -> VolumeTexture:
+    """The scalar volume as R8, R16 or R32F (see the module table)."""
+    dtype, scale, offset, size = FORMATS[volume.data.dtype]
+    data = volume.data
+    if data.dtype == np.int16:
+        data = (data.astype(np.int32) + 32768).astype(np.uint16)
+    return VolumeTexture(_texture3d(ctx, data, 1, dtype), scale, offset, data.size * size)
+
+
+def upload_field(ctx, data: np.ndarray) -> moderngl.Texture3D:
+    """A float32 multi-channel field ``(nz, ny, nx, C)``: classified RGBA, gradients."""
+    return _texture3d(ctx, data.astype(np.float32), data.shape[3], "f4")
+
+
+def upload_table(ctx, table: np.ndarray) -> moderngl.Texture:
+    """A transfer-function table ``(N, 4)`` as an N x 1 RGBA32F texture (fetched, not filtered)."""
+    tex = ctx.texture((len(table), 1), 4, np.ascontiguousarray(table, dtype=np.float32).tobytes(), dtype="f4")
+    tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    tex.repeat_x = tex.repeat_y = False
+    return tex
+
+
+def check_fits(ctx, volume, nbytes: int, budget_mb: int, what: str):
+    """Refuse volumes larger than the GL limit or the texture-memory budget, with advice."""
+    limit = ctx.info["GL_MAX_3D_TEXTURE_SIZE"]
+    if max(volume.dims) > limit:
+        nx, ny, nz = volume.dims
+        raise DvrError(f"{volume.name}: {nx}x{ny}x{nz} exceeds GL_MAX_3D_TEXTURE_SIZE {limit} of this GPU; "
+                       f"bricking is not available yet: crop or downsample the volume")
+    if nbytes > budget_mb * 2 ** 20:
+        raise DvrError(f"{volume.name}: {what} need {nbytes / 2 ** 20:.0f} MB of textures, over the budget of "
+                       f"{budget_mb} MB (renderer.texture_budget_mb); raise the budget, use post-classification "
+                       f"and on-the-fly gradients, or downsample the volume")
+
+
+def central_difference_gradients(volume) -> np.ndarray:
+    """Gradients at the voxels, ``(nz, ny, nx, 3)`` float32 in data units per world unit:
+    central differences with indices clamped to the edge, the same as central differences
+    of the reconstructed field taken one voxel apart (every filter is linear in the samples)."""
+    data = volume.data.astype(np.float64)
+    out = np.empty(data.shape + (3,), np.float32)
+    for axis_xyz, axis_zyx in ((0, 2), (1, 1), (2, 0)):
+        n = data.shape[axis_zyx]
+        up = np.take(data, np.minimum(np.arange(n) + 1, n - 1), axis=axis_zyx)
+        down = np.take(data, np.maximum(np.arange(n) - 1, 0), axis=axis_zyx)
+        out[..., axis_xyz] = (up - down) / (2.0 * volume.spacing[axis_xyz])
+    return out

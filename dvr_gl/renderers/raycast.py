@@ -1,0 +1,218 @@
+"""GPU ray casting: one GLSL fragment loop per pixel (``shaders/raycast.frag``).
+
+The scene decides the program: :func:`shader_features` turns it into defines
+(compositing mode, filter, classification, shading, jitter, early termination,
+...), so a feature the scene does not use is not compiled, computed or
+uploaded; programs are cached per feature set.  Textures are cached per
+volume and transfer function, so an orbit or a transfer-function edit
+uploads only what changed.  The result is read back from a float32 RGBA
+target: premultiplied, linear, background not applied.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from ..gl.context import create_context
+from ..gl.shaders import create_program, release_programs
+from ..gl.textures import (central_difference_gradients, check_fits, upload_field, upload_table,
+                           upload_volume, volume_bytes)
+from .base import Renderer
+
+COMPOSITING = {"emission_absorption": "COMPOSITE_EMISSION", "isosurface": "COMPOSITE_ISOSURFACE",
+               "average": "COMPOSITE_AVERAGE", "mip": "COMPOSITE_MIP", "minip": "COMPOSITE_MINIP"}
+FILTER = {"nearest": "FILTER_NEAREST", "linear": "FILTER_LINEAR", "cubic_bspline": "FILTER_CUBIC_BSPLINE",
+          "catmull_rom": "FILTER_CATMULL_ROM"}
+
+
+def shader_features(scene, count_samples: bool = False) -> dict:
+    """The defines for exactly the features this scene uses."""
+    r = scene.renderer
+    emission = r.compositing == "emission_absorption"
+    defines = {COMPOSITING[r.compositing]: True, FILTER[r.filter]: True}
+    if r.filtering == "shader" and r.filter != "nearest":
+        defines["FILTER_IN_SHADER"] = True
+    if scene.camera.projection == "orthographic":
+        defines["CAMERA_ORTHOGRAPHIC"] = True
+    if emission:
+        defines["BACK_TO_FRONT"] = r.order == "back_to_front"
+        defines["EARLY_TERMINATION"] = r.order == "front_to_back" and r.ert_threshold < 1.0
+        defines["CLASSIFY_PRE"] = r.classification == "pre"
+        defines["ASSOCIATED_COLORS"] = r.classification == "pre" and r.associated_colors
+        defines["GRADIENT_OPACITY"] = r.gradient_opacity
+    shaded = r.shading.enabled and (emission or r.compositing == "isosurface")
+    if shaded and r.shading.lights:
+        defines.update(SHADING=True, NUM_LIGHTS=len(r.shading.lights), TWO_SIDED=r.shading.two_sided)
+    if defines.get("SHADING") or defines.get("GRADIENT_OPACITY"):
+        defines["GRADIENT_TEXTURE"] = r.gradient == "texture"
+    defines["JITTER"] = r.jitter
+    defines["COUNT_SAMPLES"] = count_samples
+    return {k: v for k, v in defines.items() if v is not False}
+
+
+class RayCastRenderer(Renderer):
+    name = "raycast"
+    description = "GPU ray casting in a GLSL fragment loop"
+
+    def __init__(self, ctx=None, count_samples: bool = False, fragment_shader: str = "raycast.frag"):
+        """``ctx``: a moderngl context to render with (default: a new headless EGL context).
+        ``count_samples``: also record the samples each ray takes (for benchmarks).
+        ``fragment_shader``: another program with the same uniforms (benchmarks compare one)."""
+        super().__init__()
+        self.ctx = ctx or create_context()
+        self._owns_context = ctx is None
+        self.count_samples = count_samples
+        self.fragment_shader = fragment_shader
+        self._vao = None
+        self._cache: dict = {}   # what -> (key objects, texture)
+        self._targets = None
+
+    # --- textures, cached by identity of what they were made from ---
+
+    def _cached(self, what: str, key: tuple, make):
+        entry = self._cache.get(what)
+        if entry is not None and len(entry[0]) == len(key) and all(a is b or a == b for a, b in zip(entry[0], key)):
+            return entry[1]
+        if entry is not None:
+            getattr(entry[1], "texture", entry[1]).release()
+        value = make()
+        self._cache[what] = (key, value)
+        return value
+
+    def _textures(self, scene, defines) -> dict:
+        r, volume, tf = scene.renderer, scene.volume, scene.transfer_function
+        needs_classified = "CLASSIFY_PRE" in defines
+        needs_gradient = "GRADIENT_TEXTURE" in defines
+        nbytes = volume_bytes(volume) + (16 * volume.data.size if needs_classified else 0) \
+            + (12 * volume.data.size if needs_gradient else 0)
+        what = "the volume" + (", its classified copy" if needs_classified else "") \
+            + (" and its gradients" if needs_gradient else "")
+        check_fits(self.ctx, volume, nbytes, r.texture_budget_mb, what)
+        out = {"u_volume": self._cached("volume", (volume,), lambda: upload_volume(self.ctx, volume))}
+        out["u_lut"] = self._cached("lut", (tf, r.lut_size),
+                                    lambda: upload_table(self.ctx, tf.tabulate(r.lut_size).table))
+        if needs_classified:
+            out["u_classified"] = self._cached(
+                "classified", (volume, tf, r.associated_colors),
+                lambda: upload_field(self.ctx, tf.classify_voxels(volume.data, r.associated_colors)))
+        if needs_gradient:
+            out["u_gradient"] = self._cached("gradient", (volume,),
+                                             lambda: upload_field(self.ctx, central_difference_gradients(volume)))
+        return out
+
+    # --- uniforms ---
+
+    @staticmethod
+    def _uniforms(scene) -> dict:
+        r, cam, vol, img = scene.renderer, scene.camera, scene.volume, scene.image
+        f, right, up = cam.basis()
+        aspect = img.width / img.height
+        if cam.projection == "perspective":
+            h = math.tan(math.radians(cam.fov) / 2.0)
+            half = (h * aspect, h)
+        else:
+            half = (cam.view_height / 2.0 * aspect, cam.view_height / 2.0)
+        lo, hi = vol.box
+        spacing = np.array(vol.spacing)
+        tf = scene.transfer_function
+        lut_lo, lut_hi = tf.domain if tf.domain[1] > tf.domain[0] else (tf.domain[0], tf.domain[0] + 1.0)
+        ert = r.ert_threshold
+        u = {
+            "u_eye": cam.eye, "u_forward": f, "u_right": right, "u_up": up, "u_half_extent": half,
+            "u_image_size": (img.width, img.height), "u_near": cam.near,
+            "u_box_lo": lo, "u_box_hi": hi, "u_world_to_voxel_scale": 1.0 / spacing,
+            "u_world_to_voxel_offset": -np.array(vol.origin) / spacing, "u_voxel_spacing": spacing,
+            "u_dims": vol.dims, "u_sample_distance": r.sample_distance,
+            "u_unit_distance": tf.unit_distance, "u_iso_value": r.iso_value, "u_iso_steps": r.iso_refinement,
+            "u_ert_depth": -math.log1p(-ert) if ert < 1.0 else 3.0e38,
+            "u_gradient_reference": r.gradient_opacity_reference,
+            "u_lut_size": r.lut_size, "u_lut_lo": lut_lo, "u_lut_scale": (r.lut_size - 1) / (lut_hi - lut_lo),
+            "u_jitter_seed": r.jitter_seed % 2 ** 32,
+            "u_ambient": r.shading.ambient, "u_diffuse": r.shading.diffuse, "u_specular": r.shading.specular,
+            "u_shininess": r.shading.shininess, "u_gradient_epsilon": vol.gradient_epsilon,
+        }
+        lights = r.shading.lights
+        if lights:
+            u["u_light_dir"] = [(0.0, 0.0, 0.0, 1.0) if l.type == "headlight" else
+                                (*(-np.asarray(l.direction) / np.linalg.norm(l.direction)), 0.0) for l in lights]
+            u["u_light_color"] = [tuple(l.color) for l in lights]
+        return u
+
+    @staticmethod
+    def _set(program, name, value):
+        if name not in program:
+            return  # unused by this feature set: compiled out
+        uniform = program[name]
+        if isinstance(value, list):  # a uniform array: write its packed float32 values
+            uniform.write(np.asarray(value, dtype=np.float32).tobytes())
+        elif isinstance(value, (tuple, list, np.ndarray)):
+            uniform.value = tuple(int(x) if uniform.fmt.endswith("i") else float(x) for x in value)
+        else:
+            uniform.value = value
+
+    # --- rendering ---
+
+    def _framebuffer(self, width: int, height: int):
+        if self._targets is None or self._targets[0].size != (width, height) or \
+                (len(self._targets) > 2) != self.count_samples:
+            if self._targets:
+                for t in self._targets:
+                    t.release()
+            colour = self.ctx.texture((width, height), 4, dtype="f4")
+            attachments = [colour]
+            if self.count_samples:
+                attachments.append(self.ctx.texture((width, height), 1, dtype="f4"))
+            fbo = self.ctx.framebuffer(color_attachments=attachments)
+            self._targets = (*attachments, fbo)
+        return self._targets
+
+    def render(self, scene) -> np.ndarray:
+        start = time.perf_counter()
+        defines = shader_features(scene, self.count_samples)
+        program = create_program(self.ctx, "fullscreen.vert", self.fragment_shader, defines)
+        textures = self._textures(scene, defines)
+        for name, value in self._uniforms(scene).items():
+            self._set(program, name, value)
+        for unit, (name, tex) in enumerate(textures.items()):
+            getattr(tex, "texture", tex).use(location=unit)
+            self._set(program, name, unit)
+            if name == "u_volume":
+                self._set(program, "u_value_scale", tex.value_scale)
+                self._set(program, "u_value_offset", tex.value_offset)
+        width, height = scene.image.width, scene.image.height
+        *attachments, fbo = self._framebuffer(width, height)
+        fbo.use()
+        self.ctx.viewport = (0, 0, width, height)
+        self.ctx.disable(self.ctx.BLEND | self.ctx.DEPTH_TEST)
+        vao = self.ctx.vertex_array(program, [])
+        try:
+            drawn = time.perf_counter()
+            vao.render(mode=self.ctx.TRIANGLES, vertices=3)
+            self.ctx.finish()
+            gpu_seconds = time.perf_counter() - drawn
+            data = np.frombuffer(fbo.read(components=4, dtype="f4", attachment=0), dtype=np.float32)
+            image = data.reshape(height, width, 4)[::-1].copy()  # GL rows run bottom up
+            self.stats = {"seconds": time.perf_counter() - start, "gpu_seconds": gpu_seconds, "defines": defines}
+            if self.count_samples:
+                counts = np.frombuffer(fbo.read(components=1, dtype="f4", attachment=1), dtype=np.float32)
+                self.stats["samples"] = int(counts.sum(dtype=np.float64))
+                hit = counts > 0
+                self.stats["samples_per_ray"] = float(counts[hit].mean()) if hit.any() else 0.0
+        finally:
+            vao.release()
+        return image
+
+    def close(self):
+        for _, value in self._cache.values():
+            getattr(value, "texture", value).release()
+        self._cache.clear()
+        if self._targets:
+            for t in self._targets:
+                t.release()
+            self._targets = None
+        if self._owns_context:
+            release_programs(self.ctx)
+            self.ctx.release()

@@ -1,0 +1,185 @@
+#version 330 core
+// GPU ray casting in one fragment loop; dvr_gl/renderers/raycast.py chooses the defines, so a
+// program holds exactly the features its scene uses.
+//   compositing:     COMPOSITE_EMISSION [BACK_TO_FRONT] | COMPOSITE_ISOSURFACE |
+//                    COMPOSITE_AVERAGE | COMPOSITE_MIP | COMPOSITE_MINIP
+//   classification:  post (default) | CLASSIFY_PRE [ASSOCIATED_COLORS]
+//   filters:         see common/volume_sample.glsl
+//   options:         SHADING (NUM_LIGHTS, TWO_SIDED), GRADIENT_TEXTURE, GRADIENT_OPACITY, JITTER,
+//                    EARLY_TERMINATION, COUNT_SAMPLES, CAMERA_ORTHOGRAPHIC
+// Segments and samples follow the conventions exactly as dvr_gl.reference.discrete places them.
+
+#if defined(SHADING) || defined(GRADIENT_OPACITY)
+#define NEEDS_GRADIENT
+#endif
+
+#include "common/camera_ray.glsl"
+#include "common/volume_sample.glsl"
+#include "common/transfer_function.glsl"
+#include "common/optics.glsl"
+#include "common/shading.glsl"
+#ifdef JITTER
+#include "common/jitter.glsl"
+#endif
+
+uniform vec3 u_box_lo;
+uniform vec3 u_box_hi;
+uniform float u_sample_distance;     // world units
+uniform float u_unit_distance;       // projections: opacity over this length
+uniform float u_ert_depth;           // optical depth at the early-termination opacity
+uniform float u_iso_value;
+uniform int u_iso_steps;
+uniform float u_gradient_reference;  // GRADIENT_OPACITY: |gradient| giving full opacity
+
+#ifdef CLASSIFY_PRE
+uniform sampler3D u_classified;      // (sigma c, sigma), or (c, sigma) without ASSOCIATED_COLORS
+#endif
+
+layout(location = 0) out vec4 frag_color;
+#ifdef COUNT_SAMPLES
+layout(location = 1) out float frag_samples;
+#endif
+
+// Shaded non-associated colour and extinction at p.
+vec4 classify(vec3 p, vec3 dir) {
+#ifdef CLASSIFY_PRE
+    vec4 c = max(sample_texture(u_classified, voxel_coord(p)), 0.0);  // cubics may overshoot
+  #ifdef ASSOCIATED_COLORS
+    vec3 colour = c.a > 0.0 ? c.rgb / c.a : vec3(0.0);
+  #else
+    vec3 colour = c.rgb;
+  #endif
+    float sigma = c.a;
+#else
+    vec4 tf = transfer_function(sample_scalar(p));
+    vec3 colour = tf.rgb;
+    float sigma = tf.a;
+#endif
+#ifdef NEEDS_GRADIENT
+    vec3 g = gradient(p);
+#endif
+#ifdef GRADIENT_OPACITY
+    sigma *= min(1.0, length(g) / u_gradient_reference);
+#endif
+#ifdef SHADING
+    colour = blinn_phong(colour, g, dir);
+#endif
+    return vec4(colour, sigma);
+}
+
+void main() {
+    frag_color = vec4(0.0);
+    float samples = 0.0;
+    vec3 o, d;
+    camera_ray(o, d);
+    float t0, t1;
+    bool hit = intersect_box(o, d, u_box_lo, u_box_hi, t0, t1);
+    t0 = max(t0, near_distance(d));
+    if (hit && t1 > t0) {
+        // The step count comes from the ray's length: no loop cap truncates long rays.
+        int n = max(int(ceil((t1 - t0) / u_sample_distance)), 1);
+#ifdef JITTER
+        float offset = jitter_offset();
+#else
+        float offset = 0.5;
+#endif
+
+#if defined(COMPOSITE_EMISSION) && !defined(BACK_TO_FRONT)
+        vec3 colour = vec3(0.0);
+        float depth = 0.0;  // accumulated optical depth: transmittance is exp(-depth)
+        for (int k = 0; k < n; ++k) {
+            float start = t0 + float(k) * u_sample_distance;
+            float len = min(u_sample_distance, t1 - start);
+            vec3 p = o + (start + offset * len) * d;
+            vec4 cs = classify(p, d);
+            float tau = cs.a * len;
+            colour += exp(-depth) * opacity_of_depth(tau) * cs.rgb;
+            depth += tau;
+            samples += 1.0;
+  #ifdef EARLY_TERMINATION
+            if (depth >= u_ert_depth) break;
+  #endif
+        }
+        frag_color = vec4(colour, opacity_of_depth(depth));
+
+#elif defined(COMPOSITE_EMISSION)
+        vec4 acc = vec4(0.0);  // the over operator, from the last segment to the first
+        for (int k = n - 1; k >= 0; --k) {
+            float start = t0 + float(k) * u_sample_distance;
+            float len = min(u_sample_distance, t1 - start);
+            vec3 p = o + (start + offset * len) * d;
+            vec4 cs = classify(p, d);
+            float alpha = opacity_of_depth(cs.a * len);
+            acc = vec4(cs.rgb * alpha, alpha) + (1.0 - alpha) * acc;
+            samples += 1.0;
+        }
+        frag_color = acc;
+
+#elif defined(COMPOSITE_ISOSURFACE)
+        // The first point with value >= iso among the entry point and the samples.
+        float ta = t0, sa = sample_scalar(o + t0 * d);
+        float tb = ta, sb = sa;
+        bool found = sa >= u_iso_value;
+        for (int k = 0; k < n && !found; ++k) {
+            float start = t0 + float(k) * u_sample_distance;
+            float t = start + offset * min(u_sample_distance, t1 - start);
+            float s = sample_scalar(o + t * d);
+            samples += 1.0;
+            if (s >= u_iso_value) {
+                tb = t;
+                sb = s;
+                found = true;
+            } else {
+                ta = t;
+                sa = s;
+            }
+        }
+        if (found) {
+            for (int i = 0; i < u_iso_steps; ++i) {  // bisection keeps s(ta) < iso <= s(tb)
+                float tm = 0.5 * (ta + tb);
+                float sm = sample_scalar(o + tm * d);
+                if (sm >= u_iso_value) { tb = tm; sb = sm; } else { ta = tm; sa = sm; }
+            }
+            float w = sb > sa ? clamp((u_iso_value - sa) / (sb - sa), 0.0, 1.0) : 1.0;
+            vec3 p = o + (ta + w * (tb - ta)) * d;
+            vec3 colour = transfer_function(u_iso_value).rgb;
+  #ifdef SHADING
+            colour = blinn_phong(colour, gradient(p), d);
+  #endif
+            frag_color = vec4(colour, 1.0);
+        }
+
+#else
+  #if defined(COMPOSITE_AVERAGE)
+        float acc = 0.0, total = 0.0;
+  #elif defined(COMPOSITE_MIP)
+        float acc = -3.0e38;
+  #else
+        float acc = 3.0e38;
+  #endif
+        for (int k = 0; k < n; ++k) {
+            float start = t0 + float(k) * u_sample_distance;
+            float len = min(u_sample_distance, t1 - start);
+            float s = sample_scalar(o + (start + offset * len) * d);
+  #if defined(COMPOSITE_AVERAGE)
+            acc += s * len;
+            total += len;
+  #elif defined(COMPOSITE_MIP)
+            acc = max(acc, s);
+  #else
+            acc = min(acc, s);
+  #endif
+            samples += 1.0;
+        }
+  #if defined(COMPOSITE_AVERAGE)
+        acc /= total;
+  #endif
+        vec4 tf = transfer_function(acc);
+        float alpha = opacity_of_depth(tf.a * u_unit_distance);
+        frag_color = vec4(tf.rgb * alpha, alpha);
+#endif
+    }
+#ifdef COUNT_SAMPLES
+    frag_samples = samples;
+#endif
+}
