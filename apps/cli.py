@@ -14,10 +14,11 @@ import traceback
 from dvr_gl import __version__
 from dvr_gl.errors import DvrError
 
+from . import bench as bench_cmd
 from . import info as info_cmd
 from . import render as render_cmd
 
-SUBCOMMANDS = {"render": render_cmd, "info": info_cmd}
+SUBCOMMANDS = {"render": render_cmd, "info": info_cmd, "bench": bench_cmd}
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,69 @@
+"""``dvr bench raycast``: frame time and samples of the GPU ray caster.
+
+Every case renders the same view; the frame time is the median of ``repeat``
+frames after one warm-up frame, measured from the draw call to ``glFinish``
+(textures already uploaded, read-back excluded).  Samples are counted by the
+shader itself in the warm-up frame (``COUNT_SAMPLES``, a define only benchmarks
+set); the timed frames run the program without it.
+"""
+
+from __future__ import annotations
+
+import statistics
+
+from ..renderers.raycast import RayCastRenderer
+from ..scene import load_scene
+
+CASES = [  # (label, overrides, fragment shader)
+    ("emission, early termination off", {"renderer.ert_threshold": 1.0}, "raycast.frag"),
+    ("emission, early termination 0.99", {"renderer.ert_threshold": 0.99}, "raycast.frag"),
+    ("  same, minimal hand-written shader", {"renderer.ert_threshold": 1.0}, "bench/minimal_raycast.frag"),
+    ("emission, cubic B-spline (8 fetches)", {"renderer.filter": "cubic_bspline"}, "raycast.frag"),
+    ("emission, cubic B-spline in shader (64)", {"renderer.filter": "cubic_bspline",
+                                                 "renderer.filtering": "shader"}, "raycast.frag"),
+    ("emission + shading, central differences", {"renderer.shading.enabled": True}, "raycast.frag"),
+    ("emission + shading, gradient texture", {"renderer.shading.enabled": True,
+                                              "renderer.gradient": "texture"}, "raycast.frag"),
+    ("isosurface + shading", {"renderer.compositing": "isosurface", "renderer.shading.enabled": True},
+     "raycast.frag"),
+    ("maximum intensity projection", {"renderer.compositing": "mip"}, "raycast.frag"),
+]
+
+COLUMNS = [("case", "case", ""), ("volume", "volume", ""), ("image", "image", ""),
+           ("samples_per_ray", "samples/ray", ".1f"), ("ms", "frame ms (median)", ".1f"),
+           ("msamples_per_s", "Msamples/s", ".1f")]
+
+
+def run(base: dict, repeat: int = 5, cases=CASES) -> list[dict]:
+    """Render each case ``repeat`` times (after a warm-up) over the scene ``base`` (dotted keys)."""
+    renderers: dict[str, RayCastRenderer] = {}
+    rows = []
+    try:
+        scene0 = load_scene(None, base)
+        for label, overrides, shader in cases:
+            scene = load_scene(None, {**base, **overrides}) if overrides else scene0
+            scene = scene.replace(volume=scene0.volume)  # one volume, uploaded once
+            if shader not in renderers:
+                ctx = next(iter(renderers.values())).ctx if renderers else None
+                renderers[shader] = RayCastRenderer(ctx=ctx, fragment_shader=shader)
+            r = renderers[shader]
+            r.count_samples = shader == "raycast.frag"
+            r.render(scene)  # warm-up: compile, upload, count the samples
+            samples = r.stats.get("samples")
+            per_ray = r.stats.get("samples_per_ray")
+            r.count_samples = False
+            r.render(scene)  # compile the program the timed frames use
+            times = []
+            for _ in range(repeat):
+                r.render(scene)
+                times.append(r.stats["gpu_seconds"])
+            t = statistics.median(times)
+            nx, ny, nz = scene.volume.dims
+            rows.append({"case": label, "volume": f"{nx}x{ny}x{nz}",
+                         "image": f"{scene.image.width}x{scene.image.height}", "ms": 1e3 * t,
+                         "samples_per_ray": per_ray if shader == "raycast.frag" else None,
+                         "msamples_per_s": samples / t / 1e6 if samples and shader == "raycast.frag" else None})
+    finally:
+        for r in reversed(list(renderers.values())):
+            r.close()
+    return rows

@@ -1,0 +1,31 @@
+"""The benchmarks run and report sensible numbers (their timings are not asserted)."""
+
+import numpy as np
+
+from dvr_gl.apps.cli import main
+from dvr_gl.bench import format_table
+from dvr_gl.renderers.raycast import RayCastRenderer
+
+from conftest import small_scene
+
+
+def test_minimal_shader_renders_the_emission_only_image():
+    """The benchmark's hand-written shader does the same work as the specialized program."""
+    scene = small_scene({"renderer.ert_threshold": 1.0})
+    with RayCastRenderer() as ours, RayCastRenderer(fragment_shader="bench/minimal_raycast.frag") as minimal:
+        a, b = ours.render(scene), minimal.render(scene)
+    assert a[..., 3].max() > 0.3
+    assert np.abs(a - b).max() <= 1e-5  # the same arithmetic but 1 - exp(-tau) for small tau
+
+
+def test_bench_raycast_prints_a_table(capsys):
+    assert main(["bench", "raycast", "--volume-size", "16", "--size", "16", "--repeat", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "samples/ray" in out and "minimal hand-written shader" in out and "16x16x16" in out
+
+
+def test_format_table_aligns_columns():
+    text = format_table([{"a": "x", "b": 1.5}, {"a": "longer", "b": None}], [("a", "A", ""), ("b", "B", ".2f")])
+    lines = text.splitlines()
+    assert lines[0].startswith("A") and lines[2].endswith("1.50") and lines[3].endswith("-")
+    assert len({len(line) for line in lines}) == 1
