@@ -53,6 +53,14 @@ def shader_features(scene, count_samples: bool = False) -> dict:
     return {k: v for k, v in defines.items() if v is not False}
 
 
+class TableTexture:
+    """A transfer-function table and its texture (the table knows its value domain)."""
+
+    def __init__(self, ctx, lut):
+        self.lut = lut
+        self.texture = upload_table(ctx, lut.table)
+
+
 class RayCastRenderer(Renderer):
     name = "raycast"
     description = "GPU ray casting in a GLSL fragment loop"
@@ -92,8 +100,7 @@ class RayCastRenderer(Renderer):
             + (" and its gradients" if needs_gradient else "")
         check_fits(self.ctx, volume, nbytes, r.texture_budget_mb, what)
         out = {"u_volume": self._cached("volume", (volume,), lambda: upload_volume(self.ctx, volume))}
-        out["u_lut"] = self._cached("lut", (tf, r.lut_size),
-                                    lambda: upload_table(self.ctx, tf.tabulate(r.lut_size).table))
+        out["u_lut"] = self._cached("lut", (tf, r.lut_size), lambda: TableTexture(self.ctx, tf.tabulate(r.lut_size)))
         if needs_classified:
             out["u_classified"] = self._cached(
                 "classified", (volume, tf, r.associated_colors),
@@ -106,7 +113,7 @@ class RayCastRenderer(Renderer):
     # --- uniforms ---
 
     @staticmethod
-    def _uniforms(scene) -> dict:
+    def _uniforms(scene, lut) -> dict:
         r, cam, vol, img = scene.renderer, scene.camera, scene.volume, scene.image
         f, right, up = cam.basis()
         aspect = img.width / img.height
@@ -118,7 +125,7 @@ class RayCastRenderer(Renderer):
         lo, hi = vol.box
         spacing = np.array(vol.spacing)
         tf = scene.transfer_function
-        lut_lo, lut_hi = tf.domain if tf.domain[1] > tf.domain[0] else (tf.domain[0], tf.domain[0] + 1.0)
+        lut_lo, lut_hi = lut.domain
         ert = r.ert_threshold
         u = {
             "u_eye": cam.eye, "u_forward": f, "u_right": right, "u_up": up, "u_half_extent": half,
@@ -174,7 +181,7 @@ class RayCastRenderer(Renderer):
         defines = shader_features(scene, self.count_samples)
         program = create_program(self.ctx, "fullscreen.vert", self.fragment_shader, defines)
         textures = self._textures(scene, defines)
-        for name, value in self._uniforms(scene).items():
+        for name, value in self._uniforms(scene, textures["u_lut"].lut).items():
             self._set(program, name, value)
         for unit, (name, tex) in enumerate(textures.items()):
             getattr(tex, "texture", tex).use(location=unit)
