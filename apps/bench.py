@@ -1,6 +1,7 @@
 """Benchmarks that print a table (speed and memory targets live here, not in unit tests).
 
   dvr bench raycast    frame time and samples per ray of the GPU ray caster
+  dvr bench accel      what early termination and empty-space skipping save, on real data
 """
 
 from __future__ import annotations
@@ -21,12 +22,41 @@ def add_arguments(p):
     rc.add_argument("--transfer-function", choices=list(PRESETS), help="preset (default: the volume's)")
     rc.add_argument("--rescale-intercept", type=float, default=0.0)
     rc.add_argument("--up", type=float, nargs=3, metavar=("X", "Y", "Z"), help="camera up (default +z)")
+    ac = sub.add_parser("accel", help="acceleration on the datasets in ../shared/data: samples, frame time, error")
+    ac.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder (default ../shared/data)")
+    ac.add_argument("--size", type=int, default=512, help="square image size (default 512)")
+    ac.add_argument("--repeat", type=int, default=5, help="timed frames per case, after a warm-up (default 5)")
+    ac.add_argument("--only", metavar="TEXT", help="only datasets whose name contains TEXT")
 
 
 def run(args) -> int:
+    return {"raycast": run_raycast, "accel": run_accel}[args.benchmark](args)
+
+
+def run_accel(args) -> int:
+    from pathlib import Path
+
+    from dvr_gl.bench import acceleration
+    from dvr_gl.errors import DvrError
+
+    data_dir = Path(args.data_dir)
+    if not data_dir.is_dir():
+        raise DvrError(f"{data_dir}: the shared datasets folder was not found; pass --data-dir")
+    datasets = [d for d in acceleration.DATASETS if not args.only or args.only.lower() in d[0].lower()]
+    print(f"dvr bench accel: {args.size}x{args.size} images, sample distance 0.5 voxel, 8^3 blocks, "
+          f"{args.repeat} timed frames per case after a warm-up")
+    rows, notes = acceleration.run(data_dir, args.size, args.repeat, datasets)
+    print(format_table(rows, acceleration.COLUMNS))
+    for note in notes:
+        print(note)
+    return 0
+
+
+def run_raycast(args) -> int:
     from dvr_gl.bench import raycast
 
-    base = {"image.width": args.size, "image.height": args.size, "renderer.name": "raycast"}
+    base = {"image.width": args.size, "image.height": args.size, "renderer.name": "raycast",
+            "renderer.acceleration": False}  # the core loop; dvr bench accel measures acceleration
     if args.volume:
         base["volume.path"] = args.volume
     else:
@@ -36,6 +66,7 @@ def run(args) -> int:
         base["transfer_function.rescale_intercept"] = args.rescale_intercept
     if args.up:
         base["camera.up"] = list(args.up)
-    print(f"dvr bench raycast: {args.repeat} timed frames per case after a warm-up, sample distance 0.5 voxel")
+    print(f"dvr bench raycast: {args.repeat} timed frames per case after a warm-up, sample distance 0.5 voxel, "
+          f"acceleration structures off")
     print(format_table(raycast.run(base, repeat=args.repeat), raycast.COLUMNS))
     return 0

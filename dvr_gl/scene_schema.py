@@ -76,6 +76,9 @@ class RendererSpec:
     lut_size: int = 4096                              # transfer-function table entries
     converged_tolerance: float = 1e-4                 # reference-converged: error budget per pixel
     texture_budget_mb: int = 2048                     # GPU: largest texture memory to use
+    acceleration: bool = True                         # GPU: jump empty and constant blocks (same image)
+    block_size: int = 8                               # voxels per block edge (4, 8, 16 or 32)
+    homogeneity_tolerance: float = 0.0                # > 0: also jump nearly constant blocks (approximate)
     shading: ShadingSpec = field(default_factory=ShadingSpec)
 
 

@@ -6,8 +6,10 @@
 //   classification:  post (default) | CLASSIFY_PRE [ASSOCIATED_COLORS]
 //   filters:         see common/volume_sample.glsl
 //   options:         SHADING (NUM_LIGHTS, TWO_SIDED), GRADIENT_TEXTURE, GRADIENT_OPACITY, JITTER,
-//                    EARLY_TERMINATION, COUNT_SAMPLES, CAMERA_ORTHOGRAPHIC
-// Segments and samples follow the conventions exactly as dvr_gl.reference.discrete places them.
+//                    EARLY_TERMINATION, ACCELERATE (NUM_LEVELS), COUNT_SAMPLES, CAMERA_ORTHOGRAPHIC
+// Segments and samples follow the conventions exactly as dvr_gl.reference.discrete places them;
+// ACCELERATE jumps runs of segments whose samples cannot change the result (common/blocks.glsl)
+// without moving any sample, so the image stays the same to rounding.
 
 #if defined(SHADING) || defined(GRADIENT_OPACITY)
 #define NEEDS_GRADIENT
@@ -31,13 +33,28 @@ uniform float u_iso_value;
 uniform int u_iso_steps;
 uniform float u_gradient_reference;  // GRADIENT_OPACITY: |gradient| giving full opacity
 
+#ifdef ACCELERATE
+  // Which blocks a ray may jump: constant (colour, sigma) for emission; values that cannot reach
+  // the iso-value, raise the maximum or lower the minimum for the others.
+  #if defined(COMPOSITE_EMISSION)
+    #define SKIPPABLE(b, bound) ((b).a >= 0.0)
+  #elif defined(COMPOSITE_ISOSURFACE)
+    #define SKIPPABLE(b, bound) ((b).y < u_iso_value)
+  #elif defined(COMPOSITE_MIP)
+    #define SKIPPABLE(b, bound) ((b).y <= (bound))
+  #elif defined(COMPOSITE_MINIP)
+    #define SKIPPABLE(b, bound) ((b).x >= (bound))
+  #endif
+#include "common/blocks.glsl"
+#endif
+
 #ifdef CLASSIFY_PRE
 uniform sampler3D u_classified;      // (sigma c, sigma), or (c, sigma) without ASSOCIATED_COLORS
 #endif
 
 layout(location = 0) out vec4 frag_color;
 #ifdef COUNT_SAMPLES
-layout(location = 1) out float frag_samples;
+layout(location = 1) out vec2 frag_samples;   // volume samples, block jumps
 #endif
 
 // Shaded non-associated colour and extinction at p.
@@ -67,9 +84,15 @@ vec4 classify(vec3 p, vec3 dir) {
     return vec4(colour, sigma);
 }
 
+// Parameter of the sample of segment k (the last segment is shortened to end at t1).
+float sample_t(int k, float t0, float t1, float offset) {
+    float start = t0 + float(k) * u_sample_distance;
+    return start + offset * min(u_sample_distance, t1 - start);
+}
+
 void main() {
     frag_color = vec4(0.0);
-    float samples = 0.0;
+    float samples = 0.0, jumps = 0.0;
     vec3 o, d;
     camera_ray(o, d);
     float t0, t1;
@@ -83,19 +106,52 @@ void main() {
 #else
         float offset = 0.5;
 #endif
+#ifdef ACCELERATE
+        vec3 du = d * u_world_to_voxel_scale;  // voxels per unit of t
+        vec4 block;
+        // Samples before (after, walking backward) this parameter lie in a level-0 block already
+        // found not skippable: no need to fetch it again.  Rounding can only delay a jump.
+        float known_until = -3.0e38;
+        float known_from = 3.0e38;
+#endif
 
 #if defined(COMPOSITE_EMISSION) && !defined(BACK_TO_FRONT)
         vec3 colour = vec3(0.0);
         float depth = 0.0;  // accumulated optical depth: transmittance is exp(-depth)
-        for (int k = 0; k < n; ++k) {
-            float start = t0 + float(k) * u_sample_distance;
-            float len = min(u_sample_distance, t1 - start);
-            vec3 p = o + (start + offset * len) * d;
+        int k = 0;
+        while (k < n) {
+            float t = sample_t(k, t0, t1, offset);
+            vec3 p = o + t * d;
+  #ifdef ACCELERATE
+            int level = -1;
+            if (k < n - 1 && t >= known_until) {
+                level = skip_level(voxel_coord(p), 0.0, block);
+                if (level < 0) known_until = t + block_exit_distance(0, voxel_coord(p), du);
+            }
+            if (level >= 0) {  // m segments of constant (colour, sigma): closed form, as stepping sums
+                int k_end = segments_before(t + block_exit_distance(level, voxel_coord(p), du), t0, offset, k, n);
+                float m = float(k_end - k);
+                float tau = block.a * u_sample_distance;
+    #ifdef EARLY_TERMINATION
+                if (tau > 0.0) m = min(m, ceil((u_ert_depth - depth) / tau));  // where stepping stops
+    #endif
+                colour += exp(-depth) * opacity_of_depth(tau * m) * block.rgb;
+                depth += tau * m;
+                k += int(m);
+                jumps += 1.0;
+    #ifdef EARLY_TERMINATION
+                if (depth >= u_ert_depth) break;
+    #endif
+                continue;
+            }
+  #endif
+            float len = min(u_sample_distance, t1 - (t0 + float(k) * u_sample_distance));
             vec4 cs = classify(p, d);
             float tau = cs.a * len;
             colour += exp(-depth) * opacity_of_depth(tau) * cs.rgb;
             depth += tau;
             samples += 1.0;
+            k += 1;
   #ifdef EARLY_TERMINATION
             if (depth >= u_ert_depth) break;
   #endif
@@ -104,14 +160,31 @@ void main() {
 
 #elif defined(COMPOSITE_EMISSION)
         vec4 acc = vec4(0.0);  // the over operator, from the last segment to the first
-        for (int k = n - 1; k >= 0; --k) {
-            float start = t0 + float(k) * u_sample_distance;
-            float len = min(u_sample_distance, t1 - start);
-            vec3 p = o + (start + offset * len) * d;
+        int k = n - 1;
+        while (k >= 0) {
+            float t = sample_t(k, t0, t1, offset);
+            vec3 p = o + t * d;
+  #ifdef ACCELERATE
+            int level = -1;
+            if (k < n - 1 && t <= known_from) {
+                level = skip_level(voxel_coord(p), 0.0, block);
+                if (level < 0) known_from = t - block_entry_distance(0, voxel_coord(p), du);
+            }
+            if (level >= 0) {
+                int k_begin = segments_after(t - block_entry_distance(level, voxel_coord(p), du), t0, offset, k);
+                float alpha = opacity_of_depth(block.a * u_sample_distance * float(k - k_begin + 1));
+                acc = vec4(block.rgb * alpha, alpha) + (1.0 - alpha) * acc;
+                k = k_begin - 1;
+                jumps += 1.0;
+                continue;
+            }
+  #endif
+            float len = min(u_sample_distance, t1 - (t0 + float(k) * u_sample_distance));
             vec4 cs = classify(p, d);
             float alpha = opacity_of_depth(cs.a * len);
             acc = vec4(cs.rgb * alpha, alpha) + (1.0 - alpha) * acc;
             samples += 1.0;
+            k -= 1;
         }
         frag_color = acc;
 
@@ -120,19 +193,45 @@ void main() {
         float ta = t0, sa = sample_scalar(o + t0 * d);
         float tb = ta, sb = sa;
         bool found = sa >= u_iso_value;
-        for (int k = 0; k < n && !found; ++k) {
-            float start = t0 + float(k) * u_sample_distance;
-            float t = start + offset * min(u_sample_distance, t1 - start);
+  #ifdef ACCELERATE
+        bool previous_known = true;  // is (ta, sa) the sample just before segment k?
+  #endif
+        int k = 0;
+        while (k < n && !found) {
+            float t = sample_t(k, t0, t1, offset);
+  #ifdef ACCELERATE
+            int level = -1;
+            if (k < n - 1 && t >= known_until) {
+                level = skip_level(voxel_coord(o + t * d), 0.0, block);
+                if (level < 0) known_until = t + block_exit_distance(0, voxel_coord(o + t * d), du);
+            }
+            if (level >= 0) {  // no value in the block reaches iso
+                k = segments_before(t + block_exit_distance(level, voxel_coord(o + t * d), du), t0, offset, k, n);
+                previous_known = false;
+                jumps += 1.0;
+                continue;
+            }
+  #endif
             float s = sample_scalar(o + t * d);
             samples += 1.0;
             if (s >= u_iso_value) {
                 tb = t;
                 sb = s;
                 found = true;
+  #ifdef ACCELERATE
+                if (!previous_known) {  // the bracket starts at the sample before, as without jumps
+                    ta = sample_t(k - 1, t0, t1, offset);
+                    sa = sample_scalar(o + ta * d);
+                }
+  #endif
             } else {
                 ta = t;
                 sa = s;
+  #ifdef ACCELERATE
+                previous_known = true;
+  #endif
             }
+            k += 1;
         }
         if (found) {
             for (int i = 0; i < u_iso_steps; ++i) {  // bisection keeps s(ta) < iso <= s(tb)
@@ -157,11 +256,24 @@ void main() {
   #else
         float acc = 3.0e38;
   #endif
-        for (int k = 0; k < n; ++k) {
-            float start = t0 + float(k) * u_sample_distance;
-            float len = min(u_sample_distance, t1 - start);
-            float s = sample_scalar(o + (start + offset * len) * d);
+        int k = 0;
+        while (k < n) {
+            float t = sample_t(k, t0, t1, offset);
+  #ifdef ACCELERATE
+            int level = -1;
+            if (k < n - 1 && t >= known_until) {  // a block rechecked later may pass: the bound moved
+                level = skip_level(voxel_coord(o + t * d), acc, block);
+                if (level < 0) known_until = t + block_exit_distance(0, voxel_coord(o + t * d), du);
+            }
+            if (level >= 0) {  // the block cannot raise the maximum (lower the minimum)
+                k = segments_before(t + block_exit_distance(level, voxel_coord(o + t * d), du), t0, offset, k, n);
+                jumps += 1.0;
+                continue;
+            }
+  #endif
+            float s = sample_scalar(o + t * d);
   #if defined(COMPOSITE_AVERAGE)
+            float len = min(u_sample_distance, t1 - (t0 + float(k) * u_sample_distance));
             acc += s * len;
             total += len;
   #elif defined(COMPOSITE_MIP)
@@ -170,6 +282,7 @@ void main() {
             acc = min(acc, s);
   #endif
             samples += 1.0;
+            k += 1;
         }
   #if defined(COMPOSITE_AVERAGE)
         acc /= total;
@@ -180,6 +293,6 @@ void main() {
 #endif
     }
 #ifdef COUNT_SAMPLES
-    frag_samples = samples;
+    frag_samples = vec2(samples, jumps);
 #endif
 }

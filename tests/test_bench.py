@@ -29,3 +29,17 @@ def test_format_table_aligns_columns():
     lines = text.splitlines()
     assert lines[0].startswith("A") and lines[2].endswith("1.50") and lines[3].endswith("-")
     assert len({len(line) for line in lines}) == 1
+
+
+def test_bench_accel_prints_a_table(shared_data, capsys):
+    assert main(["bench", "accel", "--data-dir", str(shared_data), "--size", "24", "--repeat", "1",
+                 "--only", "hydrogen"]) == 0
+    out = capsys.readouterr().out
+    assert "empty-space skipping" in out and "block classes" in out and "hydrogen" in out
+    skipping = next(line for line in out.splitlines() if "empty-space skipping" in line)
+    assert skipping.split()[-1] == "0.0e+00"  # skipping leaves the image unchanged
+
+
+def test_bench_accel_needs_the_data(tmp_path, capsys):
+    assert main(["bench", "accel", "--data-dir", str(tmp_path / "absent")]) == 1
+    assert "shared datasets folder was not found" in capsys.readouterr().err

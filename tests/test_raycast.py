@@ -130,20 +130,23 @@ def test_real_datasets(shared_data, gpu, name, mode, points):
 
 def test_default_scene_features_and_program_cache(gpu):
     """An emission-only scene compiles no shading, gradients, jitter or termination code."""
-    plain = small_scene({**NO_ERT})
+    plain = small_scene({**NO_ERT, "renderer.acceleration": False})
     assert shader_features(plain) == {"COMPOSITE_EMISSION": True, "FILTER_LINEAR": True}
+    assert shader_features(small_scene({**NO_ERT})) == {"COMPOSITE_EMISSION": True, "FILTER_LINEAR": True,
+                                                        "ACCELERATE": True, "NUM_LEVELS": 3}
     rich = small_scene({"renderer.shading.enabled": True, "renderer.jitter": True,
                         "renderer.gradient": "texture", "renderer.filter": "catmull_rom",
                         "renderer.filtering": "shader", "camera.projection": "orthographic"})
     assert shader_features(rich) == {
         "COMPOSITE_EMISSION": True, "FILTER_CATMULL_ROM": True, "FILTER_IN_SHADER": True,
         "CAMERA_ORTHOGRAPHIC": True, "EARLY_TERMINATION": True, "SHADING": True, "NUM_LIGHTS": 1,
-        "TWO_SIDED": True, "GRADIENT_TEXTURE": True, "JITTER": True}
+        "TWO_SIDED": True, "GRADIENT_TEXTURE": True, "JITTER": True, "ACCELERATE": True, "NUM_LEVELS": 3}
     from dvr_gl.gl.shaders import create_program
     a = create_program(gpu.ctx, "fullscreen.vert", "raycast.frag", shader_features(plain))
-    b = create_program(gpu.ctx, "fullscreen.vert", "raycast.frag", shader_features(small_scene({**NO_ERT})))
+    b = create_program(gpu.ctx, "fullscreen.vert", "raycast.frag",
+                       shader_features(small_scene({**NO_ERT, "renderer.acceleration": False})))
     assert a is b
-    assert "u_light_dir" not in a and "u_gradient" not in a and "u_jitter_seed" not in a
+    assert "u_light_dir" not in a and "u_gradient" not in a and "u_jitter_seed" not in a and "u_blocks0" not in a
 
 
 def test_back_to_front_equals_front_to_back(gpu):
@@ -238,10 +241,14 @@ def test_very_long_rays_are_not_truncated(tmp_path, gpu):
         "transfer_function.points": [[0, 1, 1, 1, 0.03], [2, 1, 1, 1, 0.03]],
         "transfer_function.opacity_model": "extinction", **NO_ERT, "renderer.sample_distance": 0.01,
         "camera.projection": "orthographic", "camera.eye": [-10.0, 1.5, 1.5], "camera.target": [0.0, 1.5, 1.5],
-        "camera.view_height": 2.0, "image.width": 4, "image.height": 4})
+        "camera.view_height": 2.0, "image.width": 4, "image.height": 4, "renderer.acceleration": False})
     image = gpu.render(scene)
     assert gpu.stats["samples_per_ray"] == pytest.approx(7900, abs=1)  # 79 units / 0.01
     np.testing.assert_allclose(image[..., 3], -math.expm1(-0.03 * 79.0), atol=2e-5)
+    # accelerated, the homogeneous volume is one closed-form jump per block: the same result
+    jumped = gpu.render(scene.with_renderer(acceleration=True))
+    assert gpu.stats["samples_per_ray"] == 1.0
+    np.testing.assert_allclose(jumped[..., 3], -math.expm1(-0.03 * 79.0), atol=2e-5)
 
 
 @pytest.mark.parametrize("renderer", ["gpu", "reference"])

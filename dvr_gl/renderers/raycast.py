@@ -14,8 +14,11 @@ from __future__ import annotations
 import math
 import time
 
+import moderngl
 import numpy as np
 
+from .. import acceleration as accel
+from ..acceleration import level_count
 from ..gl.context import create_context
 from ..gl.shaders import create_program, release_programs
 from ..gl.textures import (central_difference_gradients, check_fits, upload_field, upload_table,
@@ -49,8 +52,30 @@ def shader_features(scene, count_samples: bool = False) -> dict:
     if defines.get("SHADING") or defines.get("GRADIENT_OPACITY"):
         defines["GRADIENT_TEXTURE"] = r.gradient == "texture"
     defines["JITTER"] = r.jitter
+    if r.acceleration and r.compositing != "average":  # every sample counts in an average
+        defines.update(ACCELERATE=True, NUM_LEVELS=level_count(scene.volume.dims, r.block_size))
     defines["COUNT_SAMPLES"] = count_samples
     return {k: v for k, v in defines.items() if v is not False}
+
+
+def _release(value):
+    """Release what a cache entry holds on the GPU (pyramids hold nothing)."""
+    target = getattr(value, "texture", value)
+    if hasattr(target, "release"):
+        target.release()
+
+
+class BlockTextures(list):
+    """One nearest-filtered float texture per pyramid level (releases them together)."""
+
+    def __init__(self, ctx, levels: list[np.ndarray]):
+        super().__init__(upload_field(ctx, a) for a in levels)
+        for tex in self:
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+
+    def release(self):
+        for tex in self:
+            tex.release()
 
 
 class TableTexture:
@@ -85,7 +110,7 @@ class RayCastRenderer(Renderer):
         if entry is not None and len(entry[0]) == len(key) and all(a is b or a == b for a, b in zip(entry[0], key)):
             return entry[1]
         if entry is not None:
-            getattr(entry[1], "texture", entry[1]).release()
+            _release(entry[1])
         value = make()
         self._cache[what] = (key, value)
         return value
@@ -108,7 +133,38 @@ class RayCastRenderer(Renderer):
         if needs_gradient:
             out["u_gradient"] = self._cached("gradient", (volume,),
                                              lambda: upload_field(self.ctx, central_difference_gradients(volume)))
+        if "ACCELERATE" in defines:
+            for level, tex in enumerate(self._block_textures(scene, defines)):
+                out[f"u_blocks{level}"] = tex
         return out
+
+    def _pyramid(self, source, data, r):
+        support = accel.SUPPORT[r.filter]
+        return self._cached("pyramid", (source, support, r.block_size),
+                            lambda: accel.MinMaxPyramid.build(data, r.block_size, support))
+
+    def _block_textures(self, scene, defines) -> list:
+        """Per-level block textures for this mode (see dvr_gl.acceleration), cached by what they depend on."""
+        r, volume, tf = scene.renderer, scene.volume, scene.transfer_function
+        if "COMPOSITE_EMISSION" not in defines:
+            pyramid = self._pyramid(volume, volume.data, r)
+            return self._cached("blocks", ("minmax", pyramid, r.filter), lambda: BlockTextures(
+                self.ctx, accel.minmax_textures(pyramid, r.filter)))
+        constant_allowed = not ("SHADING" in defines or "GRADIENT_OPACITY" in defines)
+        key = (tf, r.lut_size, r.filter, r.classification, r.associated_colors, r.homogeneity_tolerance,
+               constant_allowed, volume, r.block_size)
+        if "CLASSIFY_PRE" not in defines:
+            pyramid = self._pyramid(volume, volume.data, r)
+            make = lambda: accel.table_classes(pyramid, tf.tabulate(r.lut_size), r.filter, volume.spacing,  # noqa: E731
+                                               r.homogeneity_tolerance, constant_allowed)
+        else:
+            classified = tf.classify_voxels(volume.data, r.associated_colors).astype(np.float32)
+            def make():
+                pyramids = [accel.MinMaxPyramid.build(classified[..., c], r.block_size, accel.SUPPORT[r.filter])
+                            for c in range(4)]
+                return accel.classified_classes(pyramids, r.associated_colors, r.filter, volume.spacing,
+                                                r.homogeneity_tolerance, constant_allowed)
+        return self._cached("blocks", key, lambda: BlockTextures(self.ctx, make()))
 
     # --- uniforms ---
 
@@ -137,7 +193,7 @@ class RayCastRenderer(Renderer):
             "u_ert_depth": -math.log1p(-ert) if ert < 1.0 else 3.0e38,
             "u_gradient_reference": r.gradient_opacity_reference,
             "u_lut_size": r.lut_size, "u_lut_lo": lut_lo, "u_lut_scale": (r.lut_size - 1) / (lut_hi - lut_lo),
-            "u_jitter_seed": r.jitter_seed % 2 ** 32,
+            "u_jitter_seed": r.jitter_seed % 2 ** 32, "u_block_size": r.block_size,
             "u_ambient": r.shading.ambient, "u_diffuse": r.shading.diffuse, "u_specular": r.shading.specular,
             "u_shininess": r.shading.shininess, "u_gradient_epsilon": vol.gradient_epsilon,
         }
@@ -171,7 +227,7 @@ class RayCastRenderer(Renderer):
             colour = self.ctx.texture((width, height), 4, dtype="f4")
             attachments = [colour]
             if self.count_samples:
-                attachments.append(self.ctx.texture((width, height), 1, dtype="f4"))
+                attachments.append(self.ctx.texture((width, height), 2, dtype="f4"))
             fbo = self.ctx.framebuffer(color_attachments=attachments)
             self._targets = (*attachments, fbo)
         return self._targets
@@ -204,17 +260,19 @@ class RayCastRenderer(Renderer):
             image = data.reshape(height, width, 4)[::-1].copy()  # GL rows run bottom up
             self.stats = {"seconds": time.perf_counter() - start, "gpu_seconds": gpu_seconds, "defines": defines}
             if self.count_samples:
-                counts = np.frombuffer(fbo.read(components=1, dtype="f4", attachment=1), dtype=np.float32)
-                self.stats["samples"] = int(counts.sum(dtype=np.float64))
-                hit = counts > 0
-                self.stats["samples_per_ray"] = float(counts[hit].mean()) if hit.any() else 0.0
+                counts = np.frombuffer(fbo.read(components=2, dtype="f4", attachment=1), dtype=np.float32)
+                samples, jumps = counts[0::2], counts[1::2]
+                hit = (samples + jumps) > 0
+                self.stats["samples"] = int(samples.sum(dtype=np.float64))
+                self.stats["samples_per_ray"] = float(samples[hit].mean()) if hit.any() else 0.0
+                self.stats["jumps_per_ray"] = float(jumps[hit].mean()) if hit.any() else 0.0
         finally:
             vao.release()
         return image
 
     def close(self):
         for _, value in self._cache.values():
-            getattr(value, "texture", value).release()
+            _release(value)
         self._cache.clear()
         if self._targets:
             for t in self._targets:

@@ -1,0 +1,82 @@
+// Blocks of the acceleration structure (dvr_gl.acceleration), one texture per level:
+// emission-absorption reads (colour, sigma) of constant blocks and sigma = -1 elsewhere;
+// isosurface, MIP and MinIP read (min, max) of the values the filter can produce in a block.
+// Level l blocks are u_block_size << l voxels wide; a sample at voxel coordinate u is in block
+// floor(u / size).
+
+uniform int u_block_size;
+uniform sampler3D u_blocks0;
+#if NUM_LEVELS > 1
+uniform sampler3D u_blocks1;
+#endif
+#if NUM_LEVELS > 2
+uniform sampler3D u_blocks2;
+#endif
+#if NUM_LEVELS > 3
+uniform sampler3D u_blocks3;
+#endif
+
+ivec3 block_of(int level, vec3 u) {
+    return ivec3(floor(u / float(u_block_size << level)));
+}
+
+vec4 block_fetch(int level, vec3 u) {
+    ivec3 b = block_of(level, u);
+#if NUM_LEVELS > 1
+    if (level == 1) return texelFetch(u_blocks1, clamp(b, ivec3(0), textureSize(u_blocks1, 0) - 1), 0);
+#endif
+#if NUM_LEVELS > 2
+    if (level == 2) return texelFetch(u_blocks2, clamp(b, ivec3(0), textureSize(u_blocks2, 0) - 1), 0);
+#endif
+#if NUM_LEVELS > 3
+    if (level == 3) return texelFetch(u_blocks3, clamp(b, ivec3(0), textureSize(u_blocks3, 0) - 1), 0);
+#endif
+    return texelFetch(u_blocks0, clamp(b, ivec3(0), textureSize(u_blocks0, 0) - 1), 0);
+}
+
+// The coarsest level whose block around u passes `skippable` (-1 if level 0 does not), and that block.
+// SKIPPABLE(block, bound) is defined by the including shader for its compositing mode.
+int skip_level(vec3 u, float bound, out vec4 block) {
+    block = block_fetch(0, u);
+    if (!SKIPPABLE(block, bound)) return -1;
+    int level = 0;
+    for (int l = 1; l < NUM_LEVELS; ++l) {
+        vec4 up = block_fetch(l, u);
+        if (!SKIPPABLE(up, bound)) break;
+        block = up;
+        level = l;
+    }
+    return level;
+}
+
+// Ray parameter from voxel position u, moving by du voxels per unit t, to where the ray leaves
+// (forward) or entered (backward) its block at `level`.
+float block_exit_distance(int level, vec3 u, vec3 du) {
+    float size = float(u_block_size << level);
+    vec3 face = (floor(u / size) + step(0.0, du)) * size;
+    bvec3 still = equal(du, vec3(0.0));
+    vec3 t = (face - u) / mix(du, vec3(1.0), still);
+    t = mix(t, vec3(3.0e38), still);
+    return min(min(t.x, t.y), t.z);
+}
+
+float block_entry_distance(int level, vec3 u, vec3 du) {
+    float size = float(u_block_size << level);
+    vec3 face = (floor(u / size) + (1.0 - step(0.0, du))) * size;
+    bvec3 still = equal(du, vec3(0.0));
+    vec3 t = (u - face) / mix(du, vec3(1.0), still);
+    t = mix(t, vec3(3.0e38), still);
+    return min(min(t.x, t.y), t.z);
+}
+
+// Segments k .. result - 1 have their samples inside the block the ray leaves at t_exit.
+// floor, not ceil: a rounding error in t_exit may cost one sample, never skip one outside.
+int segments_before(float t_exit, float t0, float offset, int k, int n) {
+    return clamp(int(floor((t_exit - t0) / u_sample_distance - offset)), k + 1, n - 1);
+}
+
+// Segments result .. k have their samples inside the block the ray entered at t_entry
+// (walking backward); one segment of margin against rounding.
+int segments_after(float t_entry, float t0, float offset, int k) {
+    return clamp(int(ceil((t_entry - t0) / u_sample_distance - offset)) + 1, 0, k);
+}
