@@ -58,6 +58,13 @@ def shader_features(scene, count_samples: bool = False) -> dict:
     return {k: v for k, v in defines.items() if v is not False}
 
 
+def _same(a, b) -> bool:
+    if a is b:
+        return True
+    plain = (int, float, str, bool, type(None))
+    return isinstance(a, plain) and isinstance(b, plain) and a == b
+
+
 def _release(value):
     """Release what a cache entry holds on the GPU (pyramids hold nothing)."""
     target = getattr(value, "texture", value)
@@ -99,15 +106,16 @@ class RayCastRenderer(Renderer):
         self._owns_context = ctx is None
         self.count_samples = count_samples
         self.fragment_shader = fragment_shader
-        self._vao = None
-        self._cache: dict = {}   # what -> (key objects, texture)
+        self._cache: dict = {}   # what -> (key objects, texture or host data)
         self._targets = None
 
     # --- textures, cached by identity of what they were made from ---
 
     def _cached(self, what: str, key: tuple, make):
+        """``make()``, unless the entry ``what`` was made from the same key (objects by identity,
+        plain values by value)."""
         entry = self._cache.get(what)
-        if entry is not None and len(entry[0]) == len(key) and all(a is b or a == b for a, b in zip(entry[0], key)):
+        if entry is not None and len(entry[0]) == len(key) and all(map(_same, entry[0], key)):
             return entry[1]
         if entry is not None:
             _release(entry[1])
@@ -127,43 +135,44 @@ class RayCastRenderer(Renderer):
         out = {"u_volume": self._cached("volume", (volume,), lambda: upload_volume(self.ctx, volume))}
         out["u_lut"] = self._cached("lut", (tf, r.lut_size), lambda: TableTexture(self.ctx, tf.tabulate(r.lut_size)))
         if needs_classified:
-            out["u_classified"] = self._cached(
-                "classified", (volume, tf, r.associated_colors),
-                lambda: upload_field(self.ctx, tf.classify_voxels(volume.data, r.associated_colors)))
+            voxels = self._classified_voxels(scene)
+            out["u_classified"] = self._cached("classified", (voxels,), lambda: upload_field(self.ctx, voxels))
         if needs_gradient:
             out["u_gradient"] = self._cached("gradient", (volume,),
                                              lambda: upload_field(self.ctx, central_difference_gradients(volume)))
         if "ACCELERATE" in defines:
-            for level, tex in enumerate(self._block_textures(scene, defines)):
+            for level, tex in enumerate(self._block_textures(scene, defines, out["u_lut"].lut)):
                 out[f"u_blocks{level}"] = tex
         return out
 
-    def _pyramid(self, source, data, r):
-        support = accel.SUPPORT[r.filter]
-        return self._cached("pyramid", (source, support, r.block_size),
-                            lambda: accel.MinMaxPyramid.build(data, r.block_size, support))
-
-    def _block_textures(self, scene, defines) -> list:
-        """Per-level block textures for this mode (see dvr_gl.acceleration), cached by what they depend on."""
+    def _classified_voxels(self, scene) -> np.ndarray:
+        """Pre-classified voxels (float32), shared by their texture and their block classes."""
         r, volume, tf = scene.renderer, scene.volume, scene.transfer_function
-        if "COMPOSITE_EMISSION" not in defines:
-            pyramid = self._pyramid(volume, volume.data, r)
-            return self._cached("blocks", ("minmax", pyramid, r.filter), lambda: BlockTextures(
-                self.ctx, accel.minmax_textures(pyramid, r.filter)))
-        constant_allowed = not ("SHADING" in defines or "GRADIENT_OPACITY" in defines)
-        key = (tf, r.lut_size, r.filter, r.classification, r.associated_colors, r.homogeneity_tolerance,
-               constant_allowed, volume, r.block_size)
-        if "CLASSIFY_PRE" not in defines:
-            pyramid = self._pyramid(volume, volume.data, r)
-            make = lambda: accel.table_classes(pyramid, tf.tabulate(r.lut_size), r.filter, volume.spacing,  # noqa: E731
-                                               r.homogeneity_tolerance, constant_allowed)
+        return self._cached("classified voxels", (volume, tf, r.associated_colors),
+                            lambda: tf.classify_voxels(volume.data, r.associated_colors).astype(np.float32))
+
+    def _block_textures(self, scene, defines, lut) -> list:
+        """Per-level block textures for this mode (see dvr_gl.acceleration), cached by what they depend on."""
+        r, volume = scene.renderer, scene.volume
+        support = accel.SUPPORT[r.filter]
+        if "CLASSIFY_PRE" in defines:
+            voxels = self._classified_voxels(scene)
+            pyramids = self._cached("pyramid", (voxels, support, r.block_size), lambda: [
+                accel.MinMaxPyramid.build(voxels[..., c], r.block_size, support) for c in range(4)])
         else:
-            classified = tf.classify_voxels(volume.data, r.associated_colors).astype(np.float32)
-            def make():
-                pyramids = [accel.MinMaxPyramid.build(classified[..., c], r.block_size, accel.SUPPORT[r.filter])
-                            for c in range(4)]
-                return accel.classified_classes(pyramids, r.associated_colors, r.filter, volume.spacing,
-                                                r.homogeneity_tolerance, constant_allowed)
+            pyramids = self._cached("pyramid", (volume, support, r.block_size),
+                                    lambda: accel.MinMaxPyramid.build(volume.data, r.block_size, support))
+        if "COMPOSITE_EMISSION" not in defines:
+            return self._cached("blocks", ("minmax", pyramids, r.filter), lambda: BlockTextures(
+                self.ctx, accel.minmax_textures(pyramids, r.filter)))
+        constant_allowed = not ("SHADING" in defines or "GRADIENT_OPACITY" in defines)
+        if "CLASSIFY_PRE" in defines:
+            make = lambda: accel.classified_classes(pyramids, r.associated_colors, r.filter,  # noqa: E731
+                                                    volume.spacing, r.homogeneity_tolerance, constant_allowed)
+        else:
+            make = lambda: accel.table_classes(pyramids, lut, r.filter, volume.spacing,  # noqa: E731
+                                               r.homogeneity_tolerance, constant_allowed)
+        key = ("classes", pyramids, lut, r.filter, r.homogeneity_tolerance, constant_allowed)
         return self._cached("blocks", key, lambda: BlockTextures(self.ctx, make()))
 
     # --- uniforms ---
