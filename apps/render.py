@@ -32,7 +32,8 @@ _SCENE_KEYS = {
     "order": "renderer.order", "classification": "renderer.classification", "filter": "renderer.filter",
     "iso_value": "renderer.iso_value", "ert_threshold": "renderer.ert_threshold",
     "jitter": "renderer.jitter", "jitter_seed": "renderer.jitter_seed", "lut_size": "renderer.lut_size",
-    "shading": "renderer.shading.enabled", "azimuth": "camera.azimuth", "elevation": "camera.elevation",
+    "shading": "renderer.shading.enabled", "filtering": "renderer.filtering", "gradient": "renderer.gradient",
+    "acceleration": "renderer.acceleration", "block_size": "renderer.block_size", "azimuth": "camera.azimuth", "elevation": "camera.elevation",
     "distance": "camera.distance", "projection": "camera.projection", "fov": "camera.fov",
     "transfer_function": "transfer_function.preset", "rescale_intercept": "transfer_function.rescale_intercept",
     "volume": "volume.path", "format": "volume.format", "dims": "volume.dims", "dtype": "volume.dtype",
@@ -67,6 +68,11 @@ def add_arguments(p: argparse.ArgumentParser):
     g.add_argument("--jitter-seed", type=int)
     g.add_argument("--lut-size", type=int)
     g.add_argument("--shading", action=argparse.BooleanOptionalAction, default=None)
+    g.add_argument("--filtering", choices=("hardware", "shader"), help="GPU: texture unit or exact float weights")
+    g.add_argument("--gradient", choices=("central_differences", "texture"), help="GPU shading gradients")
+    g.add_argument("--acceleration", action=argparse.BooleanOptionalAction, default=None,
+                   help="GPU: jump empty and constant blocks (default on; the image is unchanged)")
+    g.add_argument("--block-size", type=int, choices=(4, 8, 16, 32), help="acceleration block edge, voxels")
     g.add_argument("--azimuth", type=float, help="degrees about the up axis")
     g.add_argument("--elevation", type=float, help="degrees above the horizontal plane")
     g.add_argument("--distance", type=float, help="eye to target, world units")

@@ -61,6 +61,13 @@ def test_console_script_renders_the_demo(tmp_path):
     assert read_image(out).dtype == np.float32
 
 
+def test_acceleration_flags_leave_the_image_unchanged(tmp_path, capsys):
+    a, b = tmp_path / "a.exr", tmp_path / "b.exr"
+    run(capsys, "render", "--demo", "-o", a, *SMALL, "--no-acceleration", "--ert-threshold", "1")
+    run(capsys, "render", "--demo", "-o", b, *SMALL, "--acceleration", "--block-size", "4", "--ert-threshold", "1")
+    assert np.abs(read_image(a) - read_image(b)).max() <= 2e-6
+
+
 def test_overrides_change_the_image(tmp_path, capsys):
     a, b = tmp_path / "a.exr", tmp_path / "b.exr"
     run(capsys, "render", "--demo", "-o", a, *SMALL)
