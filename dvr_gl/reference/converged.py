@@ -91,10 +91,14 @@ class ConvergedReference:
 
     # --- pieces ------------------------------------------------------------------------------
 
-    def _pieces(self, rows: np.ndarray):
-        """Smooth pieces ``(ray, a, b)`` of rays ``rows``, sorted along each ray."""
+    def _pieces(self, rows: np.ndarray, extra=None):
+        """Smooth pieces ``(ray, a, b)`` of rays ``rows``, sorted along each ray: cut at the field's knots
+        and at ``extra = (ray, t)`` cuts."""
         r = self.rays
         k_ray, k_t = self.model.scalar.knots(r.origins[rows], r.directions[rows], r.t0[rows], r.t1[rows])
+        if extra is not None:
+            k_ray = np.concatenate([k_ray, np.searchsorted(rows, extra[0])])
+            k_t = np.concatenate([k_t, extra[1]])
         local = np.concatenate([np.arange(len(rows)), np.arange(len(rows)), k_ray])
         t = np.concatenate([r.t0[rows], r.t1[rows], k_t])
         order = np.lexsort((t, local))
@@ -102,6 +106,38 @@ class ConvergedReference:
         same = local[1:] == local[:-1]
         keep = same & (t[1:] > t[:-1])
         return rows[local[:-1][keep]], t[:-1][keep], t[1:][keep]
+
+    def _breakpoint_cuts(self, ray, a, b):
+        """Where the field crosses a transfer-function breakpoint inside a piece, as ``(ray, t)``:
+        kinks in colour or extinction there would make quadrature converge erratically (and its
+        error estimate unreliable), so pieces are cut at them.  Found on each piece's exact
+        polynomial: sign changes on a 64-point grid, then bisection to float64 resolution."""
+        breaks = self.model.breakpoints()
+        if not len(breaks) or self.model.scalar.degree == 0:  # constant pieces cross nothing
+            return None
+        coeffs = self._fit(ray, a, b)
+        grid = np.linspace(-1.0, 1.0, GRID_PER_PIECE + 1)
+        values = self._horner(coeffs, np.broadcast_to(grid, (len(ray), len(grid))))
+        lo, hi = values.min(axis=1), values.max(axis=1)
+        cut_ray, cut_t = [], []
+        for v in breaks:
+            cand = np.nonzero((lo < v) & (hi > v))[0]
+            if not len(cand):
+                continue
+            above = values[cand] >= v
+            piece, j = np.nonzero(above[:, 1:] != above[:, :-1])
+            piece = cand[piece]
+            x_lo, x_hi = grid[j], grid[j + 1]
+            up = self._horner(coeffs[piece], x_hi) >= v
+            for _ in range(60):
+                m = 0.5 * (x_lo + x_hi)
+                same = (self._horner(coeffs[piece], m) >= v) == up
+                x_lo, x_hi = np.where(same, x_lo, m), np.where(same, m, x_hi)
+            cut_ray.append(ray[piece])
+            cut_t.append(a[piece] + 0.5 * (b[piece] - a[piece]) * (0.5 * (x_lo + x_hi) + 1.0))
+        if not cut_ray:
+            return None
+        return np.concatenate(cut_ray), np.concatenate(cut_t)
 
     def _points(self, ray, t):
         """World points and ray directions at parameters ``t`` ``(N, k)`` along rays ``ray``."""
@@ -145,6 +181,9 @@ class ConvergedReference:
         like its width instead of never meeting a width-proportional tolerance.)"""
         take = lambda p, idx: {k: v[idx] for k, v in p.items()}  # noqa: E731
         ray, a, b = self._pieces(rows)
+        cuts = self._breakpoint_cuts(ray, a, b)
+        if cuts is not None:
+            ray, a, b = self._pieces(rows, cuts)
         live = self._estimate(ray, a, b, *self._gauss(ray, a, b))
         done = []
         for step in range(MAX_ROUNDS + 1):
@@ -195,11 +234,10 @@ class ConvergedReference:
 
     # --- exact extrema and first hits on the pieces' polynomials ------------------------------
 
-    def _polynomials(self, rows):
-        """Pieces ``(ray, a, b)`` and the monomial coefficients ``(N, D + 1)`` of the field along
-        each, in the variable ``x`` in [-1, 1] across the piece (the field is a polynomial
-        of degree D between knots, so D + 1 samples determine it exactly)."""
-        ray, a, b = self._pieces(rows)
+    def _fit(self, ray, a, b):
+        """Monomial coefficients ``(N, D + 1)`` of the field along pieces ``[a, b]``, in the variable
+        ``x`` in [-1, 1] across each (the field is a polynomial of degree D between knots, so D + 1
+        samples determine it exactly)."""
         degree = self.model.scalar.degree
         nodes = np.cos(np.pi * (np.arange(degree + 1) + 0.5) / (degree + 1))  # Chebyshev points
         half = 0.5 * (b - a)
@@ -207,8 +245,12 @@ class ConvergedReference:
         pts, _ = self._points(ray, t)
         values = self.model.scalar.sample(pts).reshape(len(ray), degree + 1)
         self.stats["evaluations"] += values.size
-        coeffs = values @ np.linalg.inv(nodes[:, None] ** np.arange(degree + 1)[None, :]).T
-        return ray, a, b, coeffs
+        return values @ np.linalg.inv(nodes[:, None] ** np.arange(degree + 1)[None, :]).T
+
+    def _polynomials(self, rows):
+        """Pieces ``(ray, a, b)`` and their polynomials (see :meth:`_fit`)."""
+        ray, a, b = self._pieces(rows)
+        return ray, a, b, self._fit(ray, a, b)
 
     @staticmethod
     def _horner(coeffs, x):

@@ -57,6 +57,14 @@ class OpticalModel:
         normal = normals_from_gradient(self.scalar.gradient(points), self.epsilon)
         return blinn_phong(colour, normal, directions, self.shading)
 
+    def breakpoints(self) -> np.ndarray:
+        """Scalar values where emission or extinction has a kink along a ray: the transfer function's
+        breakpoints under post-classification; none under pre-classification (the classified field
+        is interpolated like the scalar, smooth between knots)."""
+        if isinstance(self.classify, PreClassifier):
+            return np.zeros(0)
+        return self.tf.breakpoints()
+
     def classify_value(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Colour and opacity for projected scalars (average, MIP, MinIP, isosurface colour):
         the opacity over one ``unit_distance``."""
