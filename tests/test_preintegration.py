@@ -1,0 +1,122 @@
+"""Pre-integration tables against the converged reference and at the numerical extremes."""
+
+import math
+
+import numpy as np
+import pytest
+
+from dvr_gl.errors import SceneError
+from dvr_gl.preintegration import preintegrate, shortened
+from dvr_gl.reference.converged import ConvergedReference
+from dvr_gl.transfer_function import TransferFunction
+
+from conftest import array_scene
+
+SIZE = 33          # table nodes: value = index / 32
+REFINEMENT = 257   # fine nodes: 8 per table interval
+
+
+def random_tf(seed: int, peak: float = 3.0) -> TransferFunction:
+    """Extinction-model control points on fine nodes, so the fine table is the function itself."""
+    rng = np.random.default_rng(seed)
+    values = np.sort(rng.choice(np.arange(1, 256), 6, replace=False)) / 256.0
+    values = np.concatenate([[0.0], values, [1.0]])
+    rows = np.column_stack([values, rng.uniform(0, 1, (len(values), 3)), rng.uniform(0, peak, len(values))])
+    return TransferFunction(rows, opacity_model="extinction")
+
+
+def converged_segment(tmp_path, tf, front, back, d):
+    """The converged reference along one ray through a two-sample volume: the scalar runs linearly
+    from ``front`` to ``back`` over length ``d`` (trilinear reconstruction is exact for it)."""
+    data = np.array([[[front, back]]], np.float32)
+    scene = array_scene(tmp_path, data, {
+        "transfer_function.points": tf.points.tolist(), "transfer_function.opacity_model": "extinction",
+        "camera.projection": "orthographic", "camera.eye": [-5.0, 0.0, 0.0], "camera.target": [0.0, 0.0, 0.0],
+        "camera.view_height": 0.1, "image.width": 1, "image.height": 1,
+        "renderer.converged_tolerance": 1e-13}, spacing=(d, 1.0, 1.0))
+    rgba = ConvergedReference(scene).render_float64()[0, 0]
+    return rgba[:3], rgba[3]
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("d", [0.1, 1.0, 6.0])
+def test_exact_table_matches_the_converged_reference(tmp_path, seed, d):
+    tf = random_tf(seed)
+    table = preintegrate(tf, d, SIZE, refinement=REFINEMENT)
+    rng = np.random.default_rng(100 + seed)
+    for i, j in [(0, SIZE - 1), (SIZE - 1, 0), (5, 5)] + [tuple(rng.integers(0, SIZE, 2)) for _ in range(4)]:
+        sf, sb = i / (SIZE - 1), j / (SIZE - 1)
+        colour, alpha = converged_segment(tmp_path, tf, sf, sb, d)
+        entry = table.table[i, j]
+        # the segment's data are float32 in the volume: use the stored values for the table too
+        assert -math.expm1(-entry[3]) == pytest.approx(alpha, rel=1e-9, abs=1e-13), (i, j)
+        np.testing.assert_allclose(entry[:3], colour, rtol=1e-9, atol=1e-13)
+
+
+def test_equal_ends_are_the_closed_form():
+    tf = random_tf(9)
+    d = 0.7
+    table = preintegrate(tf, d, SIZE, refinement=REFINEMENT)
+    values = np.arange(SIZE) / (SIZE - 1)
+    colour, sigma = tf.evaluate(values)
+    diag = table.table[np.arange(SIZE), np.arange(SIZE)]
+    np.testing.assert_allclose(diag[:, 3], sigma * d, rtol=1e-14)
+    np.testing.assert_allclose(diag[:, :3], colour * -np.expm1(-sigma * d)[:, None], rtol=1e-14)
+
+
+def test_tiny_extinction_has_no_cancellation():
+    """sigma d around 1e-12: opacity and colour keep their relative precision (first order: exact)."""
+    tf = TransferFunction(np.array([[0.0, 1, 0.5, 0.2, 1e-12], [1.0, 1, 0.5, 0.2, 3e-12]]),
+                          opacity_model="extinction")
+    table = preintegrate(tf, 1.0, SIZE, refinement=REFINEMENT)
+    tau = table.table[0, SIZE - 1, 3]
+    assert tau == pytest.approx(2e-12, rel=1e-12)  # the mean extinction times d
+    assert table.table[0, SIZE - 1, 0] == pytest.approx(2e-12, rel=1e-9)
+
+
+@pytest.mark.parametrize("d", [50.0, 1e4])
+def test_huge_optical_depth_stays_finite(tmp_path, d):
+    tf = random_tf(3, peak=16.0)
+    table = preintegrate(tf, d, SIZE, refinement=REFINEMENT)
+    assert np.all(np.isfinite(table.table))
+    colour = table.table[..., :3]
+    assert colour.min() >= 0 and colour.max() <= 1 + 1e-12  # saturated, not blown up
+    if d == 50.0:  # and still right where the reference can follow
+        c, alpha = converged_segment(tmp_path, tf, 0.0, 1.0, d)
+        np.testing.assert_allclose(table.table[0, SIZE - 1, :3], c, rtol=1e-8, atol=1e-13)
+
+
+def test_fast_table_ignores_self_attenuation():
+    """Engel et al.: exact optical depth; colour too bright by O(tau) where segments are thick."""
+    tf = random_tf(5)
+    for d, low, high in [(1e-3, 0.0, 2e-3), (2.0, 0.05, np.inf)]:
+        exact = preintegrate(tf, d, SIZE, refinement=REFINEMENT)
+        fast = preintegrate(tf, d, SIZE, method="fast", refinement=REFINEMENT)
+        np.testing.assert_allclose(fast.table[..., 3], exact.table[..., 3], rtol=1e-9, atol=1e-15)
+        err = np.abs(fast.table[..., :3] - exact.table[..., :3]).max() / exact.table[..., :3].max()
+        assert low <= err <= high, (d, err)
+        assert np.all(fast.table[..., :3] >= exact.table[..., :3] - 1e-15)  # never darker
+
+
+def test_shortened_segment_correction_is_exact_for_constant_material():
+    colour, depth = np.array([[0.3, 0.2, 0.1]]) * -math.expm1(-1.2), np.array([1.2])
+    c, t = shortened(colour, depth, 0.25)
+    assert t[0] == pytest.approx(0.3)
+    np.testing.assert_allclose(c[0], np.array([0.3, 0.2, 0.1]) * -math.expm1(-0.3))
+    c0, t0 = shortened(np.zeros((1, 3)), np.zeros(1), 0.5)
+    assert np.all(c0 == 0) and t0[0] == 0
+
+
+def test_lookup_interpolates_between_nodes():
+    tf = random_tf(2)
+    table = preintegrate(tf, 1.0, SIZE, refinement=REFINEMENT)
+    colour, depth = table.lookup(np.array([0.5 / 32]), np.array([0.0]))
+    np.testing.assert_allclose(depth[0], (table.table[0, 0, 3] + table.table[1, 0, 3]) / 2)
+
+
+@pytest.mark.parametrize("kwargs, message", [({"method": "approximate"}, "not one of exact, fast"),
+                                             ({"size": 1}, "at least 2"), ({"segment_length": 0.0}, "positive")])
+def test_bad_settings(kwargs, message):
+    args = {"segment_length": 1.0, **kwargs}
+    with pytest.raises(SceneError, match=message):
+        preintegrate(random_tf(0), **args)
