@@ -149,13 +149,26 @@ def constant_blocks(colour_min, colour_max, sigma_min, sigma_max, block_world: f
     return out.astype(np.float32)
 
 
+def snapped(vmin: np.ndarray, vmax: np.ndarray, domain, nodes: int) -> tuple[np.ndarray, np.ndarray]:
+    """Value ranges widened outward to a grid of ``nodes`` over ``domain``: a pre-integration table
+    interpolates its entries from the nodes around the segment's end values."""
+    lo, hi = domain
+    scale = (nodes - 1) / (hi - lo)
+    x0 = np.clip(np.floor((vmin - lo) * scale), 0, nodes - 1)
+    x1 = np.clip(np.ceil((vmax - lo) * scale), 0, nodes - 1)
+    return lo + x0 / scale, lo + x1 / scale
+
+
 def table_classes(pyramid: MinMaxPyramid, lut, filter_kind: str, spacing, tolerance: float = 0.0,
-                  constant_allowed: bool = True) -> list[np.ndarray]:
-    """Post-classification block classes, one ``(nbz, nby, nbx, 4)`` array per level."""
+                  constant_allowed: bool = True, snap=None) -> list[np.ndarray]:
+    """Post-classification block classes, one ``(nbz, nby, nbx, 4)`` array per level.
+    ``snap = (domain, nodes)``: pre-integrated classification, ranges widened to its nodes."""
     table = SparseTable(np.asarray(lut.table, dtype=np.float64))
     out = []
     for level, (mins, maxs) in enumerate(pyramid.levels):
         vmin, vmax = widened(mins.astype(np.float64), maxs.astype(np.float64), filter_kind)
+        if snap is not None:
+            vmin, vmax = snapped(vmin, vmax, *snap)
         i0 = np.floor(lut.node_coordinate(vmin)).astype(np.int64)
         i1 = np.minimum(np.ceil(lut.node_coordinate(vmax)).astype(np.int64), lut.size - 1)
         tmin, tmax = table.query(i0.ravel(), i1.ravel())

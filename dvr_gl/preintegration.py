@@ -53,6 +53,7 @@ class PreintegrationTable:
     domain: tuple[float, float]
     segment_length: float
     method: str
+    source: object = None   # the fine 1D table integrated (TransferFunctionLUT)
 
     @property
     def size(self) -> int:
@@ -170,7 +171,7 @@ def preintegrate(transfer_function, segment_length: float, size: int = 256, meth
     colour, sigma = fine.table[:, :3], fine.table[:, 3]
     d = float(segment_length)
     if method == "fast":
-        return PreintegrationTable(_engel(sigma, colour, fine.domain, ratio, n, d), fine.domain, d, method)
+        return PreintegrationTable(_engel(sigma, colour, fine.domain, ratio, n, d), fine.domain, d, method, fine)
     both = _exact(sigma, colour, ratio, n, d)
     table = both[0]                                                    # front value below back
     back = both[1][::-1, ::-1]                                         # front above back, reindexed
@@ -180,7 +181,7 @@ def preintegrate(transfer_function, segment_length: float, size: int = 256, meth
     diag = np.arange(n)
     table[diag, diag, :3] = nodes_colour * (-np.expm1(-nodes_sigma * d))[:, None]
     table[diag, diag, 3] = nodes_sigma * d
-    return PreintegrationTable(table, fine.domain, d, method)
+    return PreintegrationTable(table, fine.domain, d, method, fine)
 
 
 def _engel(sigma, colour, domain, ratio, n, d) -> np.ndarray:

@@ -172,6 +172,11 @@ def _resolve_renderer(spec: RendererSpec, volume: Volume) -> RendererSpec:
             raise SceneError(f"renderer.shading.lights[{i}].direction must be a non-zero vector")
         if any(c < 0 for c in light.color):
             raise SceneError(f"renderer.shading.lights[{i}].color must be >= 0")
+    if spec.classification == "preintegrated" and spec.jitter:
+        raise SceneError("renderer.jitter does not apply to pre-integrated classification (which needs no "
+                         "jitter against wood-grain); turn one of them off")
+    if spec.preintegration_size < 2:
+        raise SceneError(f"renderer.preintegration_size must be at least 2, got {spec.preintegration_size}")
     if spec.block_size not in (4, 8, 16, 32):
         raise SceneError(f"renderer.block_size must be 4, 8, 16 or 32, got {spec.block_size}")
     if not spec.homogeneity_tolerance >= 0:

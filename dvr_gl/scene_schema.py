@@ -26,7 +26,7 @@ def choices(*values, default=dataclasses.MISSING, doc: str = ""):
 
 COMPOSITING_MODES = ("emission_absorption", "isosurface", "average", "mip", "minip")
 FILTERS = ("nearest", "linear", "cubic_bspline", "catmull_rom")
-CLASSIFICATIONS = ("post", "pre")
+CLASSIFICATIONS = ("post", "pre", "preintegrated")
 ORDERS = ("front_to_back", "back_to_front")
 
 
@@ -63,6 +63,8 @@ class RendererSpec:
     order: str = choices(*ORDERS, default="front_to_back")
     classification: str = choices(*CLASSIFICATIONS, default="post")
     associated_colors: bool = True                    # pre-classification: interpolate sigma*c, not c
+    preintegration: str = choices("exact", "fast", default="exact")  # pre-integrated table: exact or Engel's
+    preintegration_size: int = 256                    # pre-integrated table: entries per axis
     filter: str = choices(*FILTERS, default="linear")
     filtering: str = choices("hardware", "shader", default="hardware")  # GPU: texture unit or float weights
     gradient: str = choices("central_differences", "texture", default="central_differences")

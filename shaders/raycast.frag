@@ -3,7 +3,7 @@
 // program holds exactly the features its scene uses.
 //   compositing:     COMPOSITE_EMISSION [BACK_TO_FRONT] | COMPOSITE_ISOSURFACE |
 //                    COMPOSITE_AVERAGE | COMPOSITE_MIP | COMPOSITE_MINIP
-//   classification:  post (default) | CLASSIFY_PRE [ASSOCIATED_COLORS]
+//   classification:  post (default) | CLASSIFY_PRE [ASSOCIATED_COLORS] | CLASSIFY_PREINTEGRATED
 //   filters:         see common/volume_sample.glsl
 //   options:         SHADING (NUM_LIGHTS, TWO_SIDED), GRADIENT_TEXTURE, GRADIENT_OPACITY, JITTER,
 //                    EARLY_TERMINATION, ACCELERATE (NUM_LEVELS), COUNT_SAMPLES, CAMERA_ORTHOGRAPHIC
@@ -51,6 +51,9 @@ uniform float u_gradient_reference;  // GRADIENT_OPACITY: |gradient| giving full
 #ifdef CLASSIFY_PRE
 uniform sampler3D u_classified;      // (sigma c, sigma), or (c, sigma) without ASSOCIATED_COLORS
 #endif
+#ifdef CLASSIFY_PREINTEGRATED
+#include "common/preintegration.glsl"
+#endif
 
 layout(location = 0) out vec4 frag_color;
 #ifdef COUNT_SAMPLES
@@ -83,6 +86,25 @@ vec4 classify(vec3 p, vec3 dir) {
 #endif
     return vec4(colour, sigma);
 }
+
+#ifdef CLASSIFY_PREINTEGRATED
+// (associated colour, optical depth) of a segment of length len from the table by its end values;
+// gradient opacity and shading at its midpoint p, as dvr_gl.reference.model does.
+vec4 preintegrated_segment(float front, float back, float len, vec3 p, vec3 dir) {
+    vec4 e = shorten(preintegrated(front, back), len / u_sample_distance);
+  #ifdef NEEDS_GRADIENT
+    vec3 g = gradient(p);
+  #endif
+  #ifdef GRADIENT_OPACITY
+    e = shorten(e, min(1.0, length(g) / u_gradient_reference));
+  #endif
+  #ifdef SHADING
+    float alpha = opacity_of_depth(e.a);
+    e.rgb = blinn_phong(alpha > 0.0 ? e.rgb / alpha : vec3(0.0), g, dir) * alpha;
+  #endif
+    return e;
+}
+#endif
 
 // Parameter of the sample of segment k (the last segment is shortened to end at t1).
 float sample_t(int k, float t0, float t1, float offset) {
@@ -118,18 +140,34 @@ void main() {
 #if defined(COMPOSITE_EMISSION) && !defined(BACK_TO_FRONT)
         vec3 colour = vec3(0.0);
         float depth = 0.0;  // accumulated optical depth: transmittance is exp(-depth)
+  #ifdef CLASSIFY_PREINTEGRATED
+        float front = 0.0;
+        bool front_known = false;  // the front value of segment k is the back value of segment k - 1
+  #endif
         int k = 0;
         while (k < n) {
             float t = sample_t(k, t0, t1, offset);
             vec3 p = o + t * d;
   #ifdef ACCELERATE
+    #ifdef CLASSIFY_PREINTEGRATED
+            float t_check = t0 + float(k) * u_sample_distance;  // whole segments: from their start
+    #else
+            float t_check = t;
+    #endif
+            vec3 u_check = voxel_coord(o + t_check * d);
             int level = -1;
-            if (k < n - 1 && t >= known_until) {
-                level = skip_level(voxel_coord(p), 0.0, block);
-                if (level < 0) known_until = t + block_exit_distance(0, voxel_coord(p), du);
+            if (k < n - 1 && t_check >= known_until) {
+                level = skip_level(u_check, 0.0, block);
+                if (level < 0) known_until = t_check + block_exit_distance(0, u_check, du);
             }
+    #ifdef CLASSIFY_PREINTEGRATED
+            int k_end = level < 0 ? k : min(int(floor((t_check + block_exit_distance(level, u_check, du) - t0)
+                                                      / u_sample_distance)) - 1, n - 1);
+            if (k_end <= k) level = -1;  // the segment leaves the block: sample it
+    #else
+            int k_end = level < 0 ? k : segments_before(t + block_exit_distance(level, u_check, du), t0, offset, k, n);
+    #endif
             if (level >= 0) {  // m segments of constant (colour, sigma): closed form, as stepping sums
-                int k_end = segments_before(t + block_exit_distance(level, voxel_coord(p), du), t0, offset, k, n);
                 float m = float(k_end - k);
                 float tau = block.a * u_sample_distance;
     #ifdef EARLY_TERMINATION
@@ -139,17 +177,31 @@ void main() {
                 depth += tau * m;
                 k += int(m);
                 jumps += 1.0;
+    #ifdef CLASSIFY_PREINTEGRATED
+                front_known = false;
+    #endif
     #ifdef EARLY_TERMINATION
                 if (depth >= u_ert_depth) break;
     #endif
                 continue;
             }
   #endif
-            float len = min(u_sample_distance, t1 - (t0 + float(k) * u_sample_distance));
+            float start = t0 + float(k) * u_sample_distance;
+            float len = min(u_sample_distance, t1 - start);
+  #ifdef CLASSIFY_PREINTEGRATED
+            if (!front_known) front = sample_scalar(o + start * d);
+            float back = sample_scalar(o + (start + len) * d);
+            vec4 e = preintegrated_segment(front, back, len, p, d);
+            front = back;
+            front_known = true;
+            colour += exp(-depth) * e.rgb;
+            depth += e.a;
+  #else
             vec4 cs = classify(p, d);
             float tau = cs.a * len;
             colour += exp(-depth) * opacity_of_depth(tau) * cs.rgb;
             depth += tau;
+  #endif
             samples += 1.0;
             k += 1;
   #ifdef EARLY_TERMINATION
@@ -160,29 +212,59 @@ void main() {
 
 #elif defined(COMPOSITE_EMISSION)
         vec4 acc = vec4(0.0);  // the over operator, from the last segment to the first
+  #ifdef CLASSIFY_PREINTEGRATED
+        float back = 0.0;
+        bool back_known = false;  // the back value of segment k is the front value of segment k + 1
+  #endif
         int k = n - 1;
         while (k >= 0) {
             float t = sample_t(k, t0, t1, offset);
             vec3 p = o + t * d;
+            float start = t0 + float(k) * u_sample_distance;
+            float len = min(u_sample_distance, t1 - start);
   #ifdef ACCELERATE
+    #ifdef CLASSIFY_PREINTEGRATED
+            float t_check = start + len;  // whole segments: from their end
+    #else
+            float t_check = t;
+    #endif
+            vec3 u_check = voxel_coord(o + t_check * d);
             int level = -1;
-            if (k < n - 1 && t <= known_from) {
-                level = skip_level(voxel_coord(p), 0.0, block);
-                if (level < 0) known_from = t - block_entry_distance(0, voxel_coord(p), du);
+            if (k < n - 1 && t_check <= known_from) {
+                level = skip_level(u_check, 0.0, block);
+                if (level < 0) known_from = t_check - block_entry_distance(0, u_check, du);
             }
+    #ifdef CLASSIFY_PREINTEGRATED
+            int k_begin = level < 0 ? k : max(int(ceil((t_check - block_entry_distance(level, u_check, du) - t0)
+                                                       / u_sample_distance)) + 1, 0);
+            if (k_begin >= k) level = -1;  // the segment leaves the block: sample it
+    #else
+            int k_begin = level < 0 ? k : segments_after(t - block_entry_distance(level, u_check, du), t0, offset, k);
+    #endif
             if (level >= 0) {
-                int k_begin = segments_after(t - block_entry_distance(level, voxel_coord(p), du), t0, offset, k);
                 float alpha = opacity_of_depth(block.a * u_sample_distance * float(k - k_begin + 1));
                 acc = vec4(block.rgb * alpha, alpha) + (1.0 - alpha) * acc;
                 k = k_begin - 1;
                 jumps += 1.0;
+    #ifdef CLASSIFY_PREINTEGRATED
+                back_known = false;
+    #endif
                 continue;
             }
   #endif
-            float len = min(u_sample_distance, t1 - (t0 + float(k) * u_sample_distance));
+  #ifdef CLASSIFY_PREINTEGRATED
+            if (!back_known) back = sample_scalar(o + (start + len) * d);
+            float front = sample_scalar(o + start * d);
+            vec4 e = preintegrated_segment(front, back, len, p, d);
+            back = front;
+            back_known = true;
+            float alpha = opacity_of_depth(e.a);
+            acc = vec4(e.rgb, alpha) + (1.0 - alpha) * acc;
+  #else
             vec4 cs = classify(p, d);
             float alpha = opacity_of_depth(cs.a * len);
             acc = vec4(cs.rgb * alpha, alpha) + (1.0 - alpha) * acc;
+  #endif
             samples += 1.0;
             k -= 1;
         }

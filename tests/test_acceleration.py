@@ -115,8 +115,10 @@ def _slab_scene(tmp_path, extra):
 @pytest.mark.parametrize("extra", [{}, {"renderer.order": "back_to_front"}, {"renderer.classification": "pre"},
                                    {"renderer.shading.enabled": True}, {"renderer.ert_threshold": 0.9},
                                    {"renderer.jitter": True}, {"camera.projection": "orthographic"},
-                                   {"renderer.block_size": 8}],
-                         ids=["ftb", "btf", "pre", "shaded", "ert", "jitter", "ortho", "block8"])
+                                   {"renderer.block_size": 8}, {"renderer.classification": "preintegrated"},
+                                   {"renderer.classification": "preintegrated", "renderer.order": "back_to_front"}],
+                         ids=["ftb", "btf", "pre", "shaded", "ert", "jitter", "ortho", "block8", "preint",
+                              "preint-btf"])
 def test_emission_absorption_unchanged(tmp_path, gpu, filter_kind, extra):
     """Closed-form jumps over constant blocks equal stepping to float32 rounding (measured <= 6e-8;
     asserted 2e-6), with early termination inside a block stopping where stepping does."""

@@ -69,6 +69,9 @@ def phantom_scene(tmp_path, data, mode, overrides=None):
 MODES = [("emission_absorption", {}), ("emission_absorption", {"renderer.order": "back_to_front"}),
          ("emission_absorption", {"renderer.classification": "pre"}),
          ("emission_absorption", {"renderer.classification": "pre", "renderer.associated_colors": False}),
+         ("emission_absorption", {"renderer.classification": "preintegrated"}),
+         ("emission_absorption", {"renderer.classification": "preintegrated", "renderer.order": "back_to_front",
+                                  "renderer.preintegration": "fast"}),
          ("isosurface", {}), ("average", {}), ("mip", {}), ("minip", {})]
 FILTERS = ["nearest", "linear", "cubic_bspline", "catmull_rom"]
 

@@ -126,3 +126,8 @@ def test_toml_writer_round_trips_floats_exactly():
     back = tomllib.loads(dumps(data))
     assert back == data
     assert all(a.hex() == b.hex() for a, b in zip(back["t"]["v"], values))
+
+
+def test_jitter_with_preintegration_is_refused():
+    with pytest.raises(SceneError, match="jitter does not apply to pre-integrated classification"):
+        small_scene({"renderer.classification": "preintegrated", "renderer.jitter": True})

@@ -8,6 +8,10 @@ time, so rays of thousands of steps stay fast.
 
 Compositing modes:
 
+* ``emission_absorption`` with pre-integrated classification: the scalar at both
+  ends of a segment indexes the pre-integration table (colour, optical depth);
+  the shortened last segment is corrected for its length; shading and
+  gradient opacity apply at the segment's midpoint.
 * ``emission_absorption``, front to back: accumulated optical depth ``tau``,
   transmittance ``exp(-tau)``; a segment of extinction ``sigma`` and length
   ``l`` has opacity ``1 - exp(-sigma l)`` and colour ``c`` times that.  Early
@@ -44,9 +48,17 @@ class SegmentGrid:
         self.valid = ks < n_seg[rows, None]
         self.length = np.where(self.valid, np.minimum(d, rays.t1[rows, None] - start), 0.0)
         self.t = start + rays.offset[rows, None] * self.length
+        self.start = start
+        self.rays = rays
         self.rows = rows
         self.points = rays.points(rows, self.t)[self.valid.reshape(-1)]
         self.dirs = np.repeat(rays.directions[rows], m, axis=0)[self.valid.reshape(-1)]
+
+    def ends(self) -> tuple[np.ndarray, np.ndarray]:
+        """World points where the valid segments start and end (pre-integration reads both)."""
+        mask = self.valid.reshape(-1)
+        return (self.rays.points(self.rows, self.start)[mask],
+                self.rays.points(self.rows, self.start + self.length)[mask])
 
     def scatter(self, values: np.ndarray, fill=0.0) -> np.ndarray:
         """Values computed for the valid segments back into a ``(rows, m, ...)`` grid."""
@@ -115,8 +127,12 @@ class DiscreteReference:
 
     def _segments(self, grid: SegmentGrid):
         """Associated colour and optical depth of each segment, ``(rows, m, 3)`` and ``(rows, m)``."""
+        length = grid.length[grid.valid]
+        if self.model.preintegration is not None:
+            premult, tau = self.model.preintegrated(*grid.ends(), grid.points, grid.dirs, length / self.d)
+            return grid.scatter(premult), grid.scatter(tau)
         colour, sigma = self.model.emission(grid.points, grid.dirs)
-        tau = sigma * grid.length[grid.valid]
+        tau = sigma * length
         premult = colour * (-np.expm1(-tau))[:, None]
         return grid.scatter(premult), grid.scatter(tau)
 

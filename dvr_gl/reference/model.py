@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..preintegration import preintegrate, shortened
 from ..transfer_function import TransferFunction
 from .classification import PostClassifier, PreClassifier
 from .reconstruction import SampledField
@@ -36,6 +37,10 @@ class OpticalModel:
             self.classify = PreClassifier(scene.volume, self.tf, r.filter, r.associated_colors)
         else:
             self.classify = PostClassifier(self.scalar, self.table)
+        self.preintegration = None
+        if r.classification == "preintegrated" and r.compositing == "emission_absorption" and not exact:
+            self.preintegration = preintegrate(self.tf, r.sample_distance, r.preintegration_size,
+                                               r.preintegration, r.lut_size)
         self.shading = r.shading if r.shading.enabled else None
         self.epsilon = scene.volume.gradient_epsilon
         self.gradient_reference = r.gradient_opacity_reference if r.gradient_opacity else None
@@ -52,6 +57,26 @@ class OpticalModel:
         if self.shading is not None:
             colour = blinn_phong(colour, normals_from_gradient(gradient, self.epsilon), directions, self.shading)
         return colour, sigma
+
+    def preintegrated(self, front, back, middle, directions, fraction):
+        """Associated colour and optical depth of segments from the pre-integration table: the scalar
+        at their ``front`` and ``back`` points, lengths as ``fraction`` of the table's; gradient opacity
+        scales the optical depth and shading the mean colour ``C / alpha``, both at ``middle``."""
+        premult, tau = self.preintegration.lookup(self.scalar.sample(front), self.scalar.sample(back))
+        premult, tau = shortened(premult, tau, fraction)
+        if self.shading is None and self.gradient_reference is None:
+            return premult, tau
+        gradient = self.scalar.gradient(middle)
+        if self.gradient_reference is not None:
+            premult, tau = shortened(premult, tau, np.minimum(1.0, np.linalg.norm(gradient, axis=1) /
+                                                             self.gradient_reference))
+        if self.shading is not None:
+            alpha = -np.expm1(-tau)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                mean = np.where(alpha[:, None] > 0, premult / alpha[:, None], 0.0)
+            normal = normals_from_gradient(gradient, self.epsilon)
+            premult = blinn_phong(mean, normal, directions, self.shading) * alpha[:, None]
+        return premult, tau
 
     def shade(self, colour, points, directions):
         normal = normals_from_gradient(self.scalar.gradient(points), self.epsilon)

@@ -21,6 +21,7 @@ from .. import acceleration as accel
 from ..acceleration import level_count
 from ..gl.context import create_context
 from ..gl.shaders import create_program, release_programs
+from ..preintegration import preintegrate
 from ..gl.textures import (central_difference_gradients, check_fits, upload_field, upload_table,
                            upload_volume, volume_bytes)
 from .base import Renderer
@@ -44,6 +45,7 @@ def shader_features(scene, count_samples: bool = False) -> dict:
         defines["BACK_TO_FRONT"] = r.order == "back_to_front"
         defines["EARLY_TERMINATION"] = r.order == "front_to_back" and r.ert_threshold < 1.0
         defines["CLASSIFY_PRE"] = r.classification == "pre"
+        defines["CLASSIFY_PREINTEGRATED"] = r.classification == "preintegrated"
         defines["ASSOCIATED_COLORS"] = r.classification == "pre" and r.associated_colors
         defines["GRADIENT_OPACITY"] = r.gradient_opacity
     shaded = r.shading.enabled and (emission or r.compositing == "isosurface")
@@ -83,6 +85,17 @@ class BlockTextures(list):
     def release(self):
         for tex in self:
             tex.release()
+
+
+class PreintegrationTexture:
+    """A pre-integration table and its N x N RGBA32F texture (x: front value, y: back value)."""
+
+    def __init__(self, ctx, table):
+        self.table = table
+        data = np.ascontiguousarray(table.table.transpose(1, 0, 2), dtype=np.float32)  # rows: back value
+        self.texture = ctx.texture((table.size, table.size), 4, data.tobytes(), dtype="f4")
+        self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.texture.repeat_x = self.texture.repeat_y = False
 
 
 class TableTexture:
@@ -140,8 +153,14 @@ class RayCastRenderer(Renderer):
         if needs_gradient:
             out["u_gradient"] = self._cached("gradient", (volume,),
                                              lambda: upload_field(self.ctx, central_difference_gradients(volume)))
+        if "CLASSIFY_PREINTEGRATED" in defines:
+            out["u_preint"] = self._cached(
+                "preintegration", (tf, r.sample_distance, r.preintegration_size, r.preintegration, r.lut_size),
+                lambda: PreintegrationTexture(self.ctx, preintegrate(tf, r.sample_distance, r.preintegration_size,
+                                                                     r.preintegration, r.lut_size)))
         if "ACCELERATE" in defines:
-            for level, tex in enumerate(self._block_textures(scene, defines, out["u_lut"].lut)):
+            preint = out["u_preint"].table if "u_preint" in out else None
+            for level, tex in enumerate(self._block_textures(scene, defines, out["u_lut"].lut, preint)):
                 out[f"u_blocks{level}"] = tex
         return out
 
@@ -151,7 +170,7 @@ class RayCastRenderer(Renderer):
         return self._cached("classified voxels", (volume, tf, r.associated_colors),
                             lambda: tf.classify_voxels(volume.data, r.associated_colors).astype(np.float32))
 
-    def _block_textures(self, scene, defines, lut) -> list:
+    def _block_textures(self, scene, defines, lut, preint=None) -> list:
         """Per-level block textures for this mode (see dvr_gl.acceleration), cached by what they depend on."""
         r, volume = scene.renderer, scene.volume
         support = accel.SUPPORT[r.filter]
@@ -165,14 +184,19 @@ class RayCastRenderer(Renderer):
         if "COMPOSITE_EMISSION" not in defines:
             return self._cached("blocks", ("minmax", pyramids, r.filter), lambda: BlockTextures(
                 self.ctx, accel.minmax_textures(pyramids, r.filter)))
-        constant_allowed = not ("SHADING" in defines or "GRADIENT_OPACITY" in defines)
+        # Shaded colours differ at every sample, and pre-integrated segments see the table's own
+        # values: only empty blocks are jumped then (exactly zero in both).
+        constant_allowed = not ("SHADING" in defines or "GRADIENT_OPACITY" in defines or preint is not None)
+        snap = (preint.domain, preint.size) if preint is not None else None
+        if preint is not None:
+            lut = preint.source
         if "CLASSIFY_PRE" in defines:
             make = lambda: accel.classified_classes(pyramids, r.associated_colors, r.filter,  # noqa: E731
                                                     volume.spacing, r.homogeneity_tolerance, constant_allowed)
         else:
             make = lambda: accel.table_classes(pyramids, lut, r.filter, volume.spacing,  # noqa: E731
-                                               r.homogeneity_tolerance, constant_allowed)
-        key = ("classes", pyramids, lut, r.filter, r.homogeneity_tolerance, constant_allowed)
+                                               r.homogeneity_tolerance, constant_allowed, snap)
+        key = ("classes", pyramids, lut, r.filter, r.homogeneity_tolerance, constant_allowed, snap)
         return self._cached("blocks", key, lambda: BlockTextures(self.ctx, make()))
 
     # --- uniforms ---
@@ -254,6 +278,11 @@ class RayCastRenderer(Renderer):
             if name == "u_volume":
                 self._set(program, "u_value_scale", tex.value_scale)
                 self._set(program, "u_value_offset", tex.value_offset)
+            if name == "u_preint":
+                lo, hi = tex.table.domain
+                self._set(program, "u_preint_size", tex.table.size)
+                self._set(program, "u_preint_lo", lo)
+                self._set(program, "u_preint_scale", (tex.table.size - 1) / (hi - lo))
         width, height = scene.image.width, scene.image.height
         *attachments, fbo = self._framebuffer(width, height)
         fbo.use()
