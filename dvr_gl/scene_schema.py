@@ -77,7 +77,7 @@ class RendererSpec:
     ert_threshold: float = 0.99                       # early ray termination at accumulated opacity
     lut_size: int = 4096                              # transfer-function table entries
     converged_tolerance: float = 1e-4                 # reference-converged: error budget per pixel
-    texture_budget_mb: int = 2048                     # GPU: largest texture memory to use
+    texture_budget_mb: float = 2048.0                 # GPU: largest texture memory to use (MB)
     acceleration: bool = True                         # GPU: jump empty and constant blocks (same image)
     block_size: int = 8                               # voxels per block edge (4, 8, 16 or 32)
     homogeneity_tolerance: float = 0.0                # > 0: also jump nearly constant blocks (approximate)

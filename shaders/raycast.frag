@@ -6,10 +6,15 @@
 //   classification:  post (default) | CLASSIFY_PRE [ASSOCIATED_COLORS] | CLASSIFY_PREINTEGRATED
 //   filters:         see common/volume_sample.glsl
 //   options:         SHADING (NUM_LIGHTS, TWO_SIDED), GRADIENT_TEXTURE, GRADIENT_OPACITY, JITTER,
-//                    EARLY_TERMINATION, ACCELERATE (NUM_LEVELS), COUNT_SAMPLES, CAMERA_ORTHOGRAPHIC
+//                    EARLY_TERMINATION, ACCELERATE (NUM_LEVELS), COUNT_SAMPLES, CAMERA_ORTHOGRAPHIC,
+//                    BRICKED (one pass per brick, see below)
 // Segments and samples follow the conventions exactly as dvr_gl.reference.discrete places them;
 // ACCELERATE jumps runs of segments whose samples cannot change the result (common/blocks.glsl)
 // without moving any sample, so the image stays the same to rounding.
+// BRICKED: the volume is in bricks (dvr_gl.bricking), one pass each in visibility order; a pass
+// composites the samples whose position lies in its brick's core, starting from the state the
+// previous pass left in u_state (emission: colour and optical depth; projections: the running
+// value), and writes the new state; shaders/raycast_resolve.frag turns the last into the image.
 
 #if defined(SHADING) || defined(GRADIENT_OPACITY)
 #define NEEDS_GRADIENT
@@ -27,6 +32,7 @@
 uniform vec3 u_box_lo;
 uniform vec3 u_box_hi;
 uniform float u_sample_distance;     // world units
+#define u_slab_length u_sample_distance  // the pre-integration table's segment length
 uniform float u_unit_distance;       // projections: opacity over this length
 uniform float u_ert_depth;           // optical depth at the early-termination opacity
 uniform float u_iso_value;
@@ -48,11 +54,24 @@ uniform float u_gradient_reference;  // GRADIENT_OPACITY: |gradient| giving full
 #include "common/blocks.glsl"
 #endif
 
-#ifdef CLASSIFY_PRE
-uniform sampler3D u_classified;      // (sigma c, sigma), or (c, sigma) without ASSOCIATED_COLORS
-#endif
-#ifdef CLASSIFY_PREINTEGRATED
-#include "common/preintegration.glsl"
+
+#ifdef BRICKED
+uniform sampler2D u_state;      // the previous pass's state, this pixel
+uniform vec3 u_grid_lo;         // the brick texture's first voxel: global = local voxel coordinate + this
+uniform vec3 u_core_lo;         // the brick's core in global voxel coordinates: [lo, hi), or [lo, hi] where
+uniform vec3 u_core_hi;         //   u_core_closed (the last brick along an axis)
+uniform vec3 u_core_closed;
+uniform vec3 u_brick_lo;        // and in world coordinates (to clip the ray)
+uniform vec3 u_brick_hi;
+
+// Does this brick own the sample at p?  The same test in every pass: each sample in exactly one.
+bool in_brick(vec3 p) {
+    vec3 g = voxel_coord(p) + u_grid_lo;
+    bvec3 above = greaterThanEqual(g, u_core_lo);
+    bvec3 below = lessThan(g, u_core_hi);
+    bvec3 at_end = bvec3(ivec3(equal(g, u_core_hi)) & ivec3(greaterThan(u_core_closed, vec3(0.5))));
+    return all(above) && all(bvec3(ivec3(below) | ivec3(at_end)));
+}
 #endif
 
 layout(location = 0) out vec4 frag_color;
@@ -60,51 +79,7 @@ layout(location = 0) out vec4 frag_color;
 layout(location = 1) out vec2 frag_samples;   // volume samples, block jumps
 #endif
 
-// Shaded non-associated colour and extinction at p.
-vec4 classify(vec3 p, vec3 dir) {
-#ifdef CLASSIFY_PRE
-    vec4 c = max(sample_texture(u_classified, voxel_coord(p)), 0.0);  // cubics may overshoot
-  #ifdef ASSOCIATED_COLORS
-    vec3 colour = c.a > 0.0 ? c.rgb / c.a : vec3(0.0);
-  #else
-    vec3 colour = c.rgb;
-  #endif
-    float sigma = c.a;
-#else
-    vec4 tf = transfer_function(sample_scalar(p));
-    vec3 colour = tf.rgb;
-    float sigma = tf.a;
-#endif
-#ifdef NEEDS_GRADIENT
-    vec3 g = gradient(p);
-#endif
-#ifdef GRADIENT_OPACITY
-    sigma *= min(1.0, length(g) / u_gradient_reference);
-#endif
-#ifdef SHADING
-    colour = blinn_phong(colour, g, dir);
-#endif
-    return vec4(colour, sigma);
-}
-
-#ifdef CLASSIFY_PREINTEGRATED
-// (associated colour, optical depth) of a segment of length len from the table by its end values;
-// gradient opacity and shading at its midpoint p, as dvr_gl.reference.model does.
-vec4 preintegrated_segment(float front, float back, float len, vec3 p, vec3 dir) {
-    vec4 e = shorten(preintegrated(front, back), len / u_sample_distance);
-  #ifdef NEEDS_GRADIENT
-    vec3 g = gradient(p);
-  #endif
-  #ifdef GRADIENT_OPACITY
-    e = shorten(e, min(1.0, length(g) / u_gradient_reference));
-  #endif
-  #ifdef SHADING
-    float alpha = opacity_of_depth(e.a);
-    e.rgb = blinn_phong(alpha > 0.0 ? e.rgb / alpha : vec3(0.0), g, dir) * alpha;
-  #endif
-    return e;
-}
-#endif
+#include "common/classify.glsl"
 
 // Parameter of the sample of segment k (the last segment is shortened to end at t1).
 float sample_t(int k, float t0, float t1, float offset) {
@@ -113,16 +88,35 @@ float sample_t(int k, float t0, float t1, float offset) {
 }
 
 void main() {
-    frag_color = vec4(0.0);
     float samples = 0.0, jumps = 0.0;
+#ifdef BRICKED
+    vec4 state = texelFetch(u_state, ivec2(gl_FragCoord.xy), 0);
+#else
+    vec4 state = vec4(0.0);
+  #if defined(COMPOSITE_MIP)
+    state.x = -3.0e38;
+  #elif defined(COMPOSITE_MINIP)
+    state.x = 3.0e38;
+  #endif
+#endif
     vec3 o, d;
     camera_ray(o, d);
     float t0, t1;
     bool hit = intersect_box(o, d, u_box_lo, u_box_hi, t0, t1);
     t0 = max(t0, near_distance(d));
+    // Segments k_first .. k_last - 1 are this pass's (all of them without bricks).
+    int n = max(int(ceil((t1 - t0) / u_sample_distance)), 1);  // from the ray's length: no loop cap
+    int k_first = 0, k_last = n;
+#ifdef BRICKED
+    float b0, b1;
+    hit = hit && intersect_box(o, d, u_brick_lo, u_brick_hi, b0, b1);
+    k_first = clamp(int(floor((b0 - t0) / u_sample_distance)) - 1, 0, n);
+    k_last = clamp(int(ceil((b1 - t0) / u_sample_distance)) + 1, 0, n);
+  #if defined(COMPOSITE_EMISSION) && defined(EARLY_TERMINATION)
+    hit = hit && state.a < u_ert_depth;  // terminated in an earlier brick
+  #endif
+#endif
     if (hit && t1 > t0) {
-        // The step count comes from the ray's length: no loop cap truncates long rays.
-        int n = max(int(ceil((t1 - t0) / u_sample_distance)), 1);
 #ifdef JITTER
         float offset = jitter_offset();
 #else
@@ -138,16 +132,19 @@ void main() {
 #endif
 
 #if defined(COMPOSITE_EMISSION) && !defined(BACK_TO_FRONT)
-        vec3 colour = vec3(0.0);
-        float depth = 0.0;  // accumulated optical depth: transmittance is exp(-depth)
+        vec3 colour = state.rgb;
+        float depth = state.a;  // accumulated optical depth: transmittance is exp(-depth)
   #ifdef CLASSIFY_PREINTEGRATED
         float front = 0.0;
         bool front_known = false;  // the front value of segment k is the back value of segment k - 1
   #endif
-        int k = 0;
-        while (k < n) {
+        int k = k_first;
+        while (k < k_last) {
             float t = sample_t(k, t0, t1, offset);
             vec3 p = o + t * d;
+  #ifdef BRICKED
+            if (!in_brick(p)) { k += 1; continue; }
+  #endif
   #ifdef ACCELERATE
     #ifdef CLASSIFY_PREINTEGRATED
             float t_check = t0 + float(k) * u_sample_distance;  // whole segments: from their start
@@ -208,18 +205,21 @@ void main() {
             if (depth >= u_ert_depth) break;
   #endif
         }
-        frag_color = vec4(colour, opacity_of_depth(depth));
+        state = vec4(colour, depth);
 
 #elif defined(COMPOSITE_EMISSION)
-        vec4 acc = vec4(0.0);  // the over operator, from the last segment to the first
+        vec4 acc = state;  // the over operator, from the last segment to the first
   #ifdef CLASSIFY_PREINTEGRATED
         float back = 0.0;
         bool back_known = false;  // the back value of segment k is the front value of segment k + 1
   #endif
-        int k = n - 1;
-        while (k >= 0) {
+        int k = k_last - 1;
+        while (k >= k_first) {
             float t = sample_t(k, t0, t1, offset);
             vec3 p = o + t * d;
+  #ifdef BRICKED
+            if (!in_brick(p)) { k -= 1; continue; }
+  #endif
             float start = t0 + float(k) * u_sample_distance;
             float len = min(u_sample_distance, t1 - start);
   #ifdef ACCELERATE
@@ -268,7 +268,7 @@ void main() {
             samples += 1.0;
             k -= 1;
         }
-        frag_color = acc;
+        state = acc;
 
 #elif defined(COMPOSITE_ISOSURFACE)
         // The first point with value >= iso among the entry point and the samples.
@@ -327,20 +327,17 @@ void main() {
   #ifdef SHADING
             colour = blinn_phong(colour, gradient(p), d);
   #endif
-            frag_color = vec4(colour, 1.0);
+            state = vec4(colour, 1.0);
         }
 
 #else
-  #if defined(COMPOSITE_AVERAGE)
-        float acc = 0.0, total = 0.0;
-  #elif defined(COMPOSITE_MIP)
-        float acc = -3.0e38;
-  #else
-        float acc = 3.0e38;
-  #endif
-        int k = 0;
-        while (k < n) {
+        float acc = state.x, total = state.y;  // the running maximum, minimum, or sum and length
+        int k = k_first;
+        while (k < k_last) {
             float t = sample_t(k, t0, t1, offset);
+  #ifdef BRICKED
+            if (!in_brick(o + t * d)) { k += 1; continue; }
+  #endif
   #ifdef ACCELERATE
             int level = -1;
             if (k < n - 1 && t >= known_until) {  // a block rechecked later may pass: the bound moved
@@ -366,14 +363,14 @@ void main() {
             samples += 1.0;
             k += 1;
         }
-  #if defined(COMPOSITE_AVERAGE)
-        acc /= total;
-  #endif
-        vec4 tf = transfer_function(acc);
-        float alpha = opacity_of_depth(tf.a * u_unit_distance);
-        frag_color = vec4(tf.rgb * alpha, alpha);
+        state.xy = vec2(acc, total);
 #endif
     }
+#ifdef BRICKED
+    frag_color = state;  // raycast_resolve.frag finishes it
+#else
+  #include "common/resolve.glsl"
+#endif
 #ifdef COUNT_SAMPLES
     frag_samples = vec2(samples, jumps);
 #endif

@@ -290,13 +290,11 @@ def test_gradient_magnitude_opacity(gpu):
     assert image[..., 3].sum() < plain[..., 3].sum()  # homogeneous regions lose opacity
 
 
-def test_volume_over_the_texture_budget(gpu):
-    scene = small_scene({"renderer.texture_budget_mb": 1, "volume.size": 80})  # 80^3 float32 = 2 MB
-    with pytest.raises(DvrError, match=r"need 2 MB of textures, over the budget of 1 MB"):
-        gpu.render(scene)
-    pre = small_scene({"renderer.texture_budget_mb": 1, "volume.size": 48, "renderer.classification": "pre"})
-    with pytest.raises(DvrError, match="the volume, its classified copy need"):
-        gpu.render(pre)
+def test_budget_too_small_even_for_bricks(gpu):
+    with pytest.raises(DvrError, match="cannot hold even a 8\\^3 brick"):
+        gpu.render(small_scene({"renderer.texture_budget_mb": 1, "volume.size": 48,
+                                "renderer.classification": "pre", "renderer.gradient": "texture",
+                                "renderer.shading.enabled": True}).with_renderer(texture_budget_mb=0))
 
 
 def test_volume_over_the_gl_size_limit():

@@ -1,8 +1,10 @@
-"""The same-discretization reference: samples exactly where the conventions place them.
+"""The same-discretization reference: samples exactly where a renderer places them.
 
-For each pixel's ray (:class:`~dvr_gl.rays.RayBatch`), segment ``k`` of
+For each pixel's ray (:class:`~dvr_gl.rays.RayBatch`), the samples come from a
+plan (:mod:`.plans`): by default the ray caster's, where segment ``k`` of
 length ``d`` starts at ``t0 + k d`` (the last one shortened to end at ``t1``)
-and is sampled at its midpoint or jittered offset.  Everything is float64 and
+and is sampled at its midpoint or jittered offset; or the crossings with the
+slice planes of a slicing renderer.  Everything is float64 and
 vectorized over rays; segments are processed in chunks of several steps at a
 time, so rays of thousands of steps stay fast.
 
@@ -32,39 +34,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..rays import RayBatch, segment_counts
+from ..rays import RayBatch
 from .model import OpticalModel
+from .plans import RaySegments, SegmentGrid
 
 SAMPLES_PER_CHUNK = 1 << 21
-
-
-class SegmentGrid:
-    """Segments ``k .. k + m - 1`` of rays ``rows``: parameters, lengths and validity ``(rows, m)``."""
-
-    def __init__(self, rays: RayBatch, n_seg: np.ndarray, d: float, rows: np.ndarray, k: int, m: int):
-        ks = k + np.arange(m)[None, :]
-        t0 = rays.t0[rows, None]
-        start = t0 + ks * d
-        self.valid = ks < n_seg[rows, None]
-        self.length = np.where(self.valid, np.minimum(d, rays.t1[rows, None] - start), 0.0)
-        self.t = start + rays.offset[rows, None] * self.length
-        self.start = start
-        self.rays = rays
-        self.rows = rows
-        self.points = rays.points(rows, self.t)[self.valid.reshape(-1)]
-        self.dirs = np.repeat(rays.directions[rows], m, axis=0)[self.valid.reshape(-1)]
-
-    def ends(self) -> tuple[np.ndarray, np.ndarray]:
-        """World points where the valid segments start and end (pre-integration reads both)."""
-        mask = self.valid.reshape(-1)
-        return (self.rays.points(self.rows, self.start)[mask],
-                self.rays.points(self.rows, self.start + self.length)[mask])
-
-    def scatter(self, values: np.ndarray, fill=0.0) -> np.ndarray:
-        """Values computed for the valid segments back into a ``(rows, m, ...)`` grid."""
-        out = np.full(self.valid.shape + values.shape[1:], fill, dtype=np.float64)
-        out[self.valid] = values
-        return out
 
 
 def _chunks(n_seg: np.ndarray, active: np.ndarray, descending: bool = False):
@@ -94,14 +68,16 @@ def _chunks(n_seg: np.ndarray, active: np.ndarray, descending: bool = False):
 class DiscreteReference:
     """Render a resolved scene with the same discretization as the GPU renderers."""
 
-    def __init__(self, scene):
+    def __init__(self, scene, plan=None):
+        """``plan``: where to sample, a function of the rays (see :mod:`.plans`); default: the ray
+        caster's segments."""
         self.scene = scene
         r = scene.renderer
-        self.model = OpticalModel(scene, exact=False)
-        self.d = r.sample_distance
         self.rays = RayBatch.for_camera(scene.camera, scene.image.width, scene.image.height,
                                         scene.volume.box, r.jitter_seed if r.jitter else None)
-        self.n_seg = segment_counts(self.rays.t0, self.rays.t1, self.d)
+        self.plan = plan(self.rays) if plan is not None else RaySegments(self.rays, r.sample_distance)
+        self.model = OpticalModel(scene, exact=False, segment_length=self.plan.slab_length)
+        self.n_seg = self.plan.count
         self.samples = 0
 
     @property
@@ -129,7 +105,8 @@ class DiscreteReference:
         """Associated colour and optical depth of each segment, ``(rows, m, 3)`` and ``(rows, m)``."""
         length = grid.length[grid.valid]
         if self.model.preintegration is not None:
-            premult, tau = self.model.preintegrated(*grid.ends(), grid.points, grid.dirs, length / self.d)
+            premult, tau = self.model.preintegrated(*grid.ends(), grid.points, grid.dirs,
+                                                    length / self.plan.slab_length)
             return grid.scatter(premult), grid.scatter(tau)
         colour, sigma = self.model.emission(grid.points, grid.dirs)
         tau = sigma * length
@@ -141,9 +118,9 @@ class DiscreteReference:
         colour = np.zeros((n, 3))
         tau_acc = np.zeros(n)
         active = self.n_seg > 0
-        threshold = self.scene.renderer.ert_threshold
+        threshold = self.scene.renderer.ert_threshold if self.plan.terminates else 1.0
         for rows, k, m in _chunks(self.n_seg, active):
-            grid = SegmentGrid(self.rays, self.n_seg, self.d, rows, k, m)
+            grid = self.plan.grid(rows, k, m)
             premult, tau = self._segments(grid)
             tau_before = tau_acc[rows, None] + np.cumsum(tau, axis=1) - tau
             include = grid.valid & (-np.expm1(-tau_before) < threshold)
@@ -159,7 +136,7 @@ class DiscreteReference:
         rgba = np.zeros((n, 4))
         active = self.n_seg > 0
         for rows, k, m in _chunks(self.n_seg, active, descending=True):
-            grid = SegmentGrid(self.rays, self.n_seg, self.d, rows, k, m)
+            grid = self.plan.grid(rows, k, m)
             premult, tau = self._segments(grid)
             alpha = -np.expm1(-tau)
             acc = rgba[rows]
@@ -185,7 +162,7 @@ class DiscreteReference:
         bracket[hit] = np.stack([prev_t[hit], prev_s[hit], prev_t[hit], prev_s[hit]], axis=1)
         active = has & ~hit
         for rows, k, m in _chunks(self.n_seg, active):
-            grid = SegmentGrid(self.rays, self.n_seg, self.d, rows, k, m)
+            grid = self.plan.grid(rows, k, m)
             s = grid.scatter(scalar.sample(grid.points), fill=-np.inf)
             above = grid.valid & (s >= iso)
             found = above.any(axis=1)
@@ -234,7 +211,7 @@ class DiscreteReference:
         length = np.zeros(n)
         active = self.n_seg > 0
         for rows, k, m in _chunks(self.n_seg, active):
-            grid = SegmentGrid(self.rays, self.n_seg, self.d, rows, k, m)
+            grid = self.plan.grid(rows, k, m)
             s = self.model.scalar.sample(grid.points)
             if mode == "average":
                 acc[rows] += np.sum(grid.scatter(s) * grid.length, axis=1)

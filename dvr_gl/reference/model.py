@@ -24,9 +24,11 @@ class OpticalModel:
             instead of through the ``lut_size`` table (as the GPU does).
         scalar_field: a field to use instead of the volume's (an analytic
             field with ``sample``, ``gradient`` and ``knots``, for closed forms).
+        segment_length: the length pre-integration tables are made for
+            (default: the sample distance; slicing uses its slice spacing).
     """
 
-    def __init__(self, scene, exact: bool = False, scalar_field=None):
+    def __init__(self, scene, exact: bool = False, scalar_field=None, segment_length: float | None = None):
         r = scene.renderer
         self.tf: TransferFunction = scene.transfer_function
         self.scalar = scalar_field or SampledField.of_volume(scene.volume, r.filter)
@@ -39,8 +41,8 @@ class OpticalModel:
             self.classify = PostClassifier(self.scalar, self.table)
         self.preintegration = None
         if r.classification == "preintegrated" and r.compositing == "emission_absorption" and not exact:
-            self.preintegration = preintegrate(self.tf, r.sample_distance, r.preintegration_size,
-                                               r.preintegration, r.lut_size)
+            self.preintegration = preintegrate(self.tf, segment_length or r.sample_distance,
+                                               r.preintegration_size, r.preintegration, r.lut_size)
         self.shading = r.shading if r.shading.enabled else None
         self.epsilon = scene.volume.gradient_epsilon
         self.gradient_reference = r.gradient_opacity_reference if r.gradient_opacity else None

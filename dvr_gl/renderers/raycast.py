@@ -2,76 +2,57 @@
 
 The scene decides the program: :func:`shader_features` turns it into defines
 (compositing mode, filter, classification, shading, jitter, early termination,
-...), so a feature the scene does not use is not compiled, computed or
-uploaded; programs are cached per feature set.  Textures are cached per
-volume and transfer function, so an orbit or a transfer-function edit
-uploads only what changed.  The result is read back from a float32 RGBA
-target: premultiplied, linear, background not applied.
+acceleration), so a feature the scene does not use is not compiled, computed
+or uploaded; programs are cached per feature set, textures per what they were
+made from (:mod:`.gl_base`).  A volume beyond the GL texture limit or the
+texture budget is rendered in bricks: one pass per brick, front to back (back
+to front for that order), each continuing the compositing state of the last,
+so the image is the one a single texture would give.
 """
 
 from __future__ import annotations
 
 import math
-import time
 
 import moderngl
 import numpy as np
 
 from .. import acceleration as accel
 from ..acceleration import level_count
-from ..gl.context import create_context
-from ..gl.shaders import create_program, release_programs
-from ..preintegration import preintegrate
-from ..gl.textures import (central_difference_gradients, check_fits, upload_field, upload_table,
-                           upload_volume, volume_bytes)
-from .base import Renderer
+from ..bricking import visibility_order
+from ..errors import DvrError
+from ..gl.shaders import create_program
+from ..gl.textures import upload_field
+from .gl_base import GLVolumeRenderer, classification_features, now
 
 COMPOSITING = {"emission_absorption": "COMPOSITE_EMISSION", "isosurface": "COMPOSITE_ISOSURFACE",
                "average": "COMPOSITE_AVERAGE", "mip": "COMPOSITE_MIP", "minip": "COMPOSITE_MINIP"}
-FILTER = {"nearest": "FILTER_NEAREST", "linear": "FILTER_LINEAR", "cubic_bspline": "FILTER_CUBIC_BSPLINE",
-          "catmull_rom": "FILTER_CATMULL_ROM"}
 
 
-def shader_features(scene, count_samples: bool = False) -> dict:
+def shader_features(scene, count_samples: bool = False, bricked: bool = False) -> dict:
     """The defines for exactly the features this scene uses."""
     r = scene.renderer
     emission = r.compositing == "emission_absorption"
-    defines = {COMPOSITING[r.compositing]: True, FILTER[r.filter]: True}
-    if r.filtering == "shader" and r.filter != "nearest":
-        defines["FILTER_IN_SHADER"] = True
-    if scene.camera.projection == "orthographic":
-        defines["CAMERA_ORTHOGRAPHIC"] = True
+    defines = classification_features(scene)
+    defines[COMPOSITING[r.compositing]] = True
+    if not emission:  # classification, gradient opacity: emission-absorption only
+        for key in ("CLASSIFY_PRE", "CLASSIFY_PREINTEGRATED", "ASSOCIATED_COLORS", "GRADIENT_OPACITY"):
+            defines.pop(key, None)
+        if r.compositing != "isosurface":
+            for key in ("SHADING", "NUM_LIGHTS", "TWO_SIDED", "GRADIENT_TEXTURE"):
+                defines.pop(key, None)
+        elif "SHADING" not in defines:
+            defines.pop("GRADIENT_TEXTURE", None)
     if emission:
         defines["BACK_TO_FRONT"] = r.order == "back_to_front"
         defines["EARLY_TERMINATION"] = r.order == "front_to_back" and r.ert_threshold < 1.0
-        defines["CLASSIFY_PRE"] = r.classification == "pre"
-        defines["CLASSIFY_PREINTEGRATED"] = r.classification == "preintegrated"
-        defines["ASSOCIATED_COLORS"] = r.classification == "pre" and r.associated_colors
-        defines["GRADIENT_OPACITY"] = r.gradient_opacity
-    shaded = r.shading.enabled and (emission or r.compositing == "isosurface")
-    if shaded and r.shading.lights:
-        defines.update(SHADING=True, NUM_LIGHTS=len(r.shading.lights), TWO_SIDED=r.shading.two_sided)
-    if defines.get("SHADING") or defines.get("GRADIENT_OPACITY"):
-        defines["GRADIENT_TEXTURE"] = r.gradient == "texture"
     defines["JITTER"] = r.jitter
-    if r.acceleration and r.compositing != "average":  # every sample counts in an average
+    if bricked:
+        defines["BRICKED"] = True
+    elif r.acceleration and r.compositing != "average":  # every sample counts in an average
         defines.update(ACCELERATE=True, NUM_LEVELS=level_count(scene.volume.dims, r.block_size))
-    defines["COUNT_SAMPLES"] = count_samples
+    defines["COUNT_SAMPLES"] = count_samples and not bricked
     return {k: v for k, v in defines.items() if v is not False}
-
-
-def _same(a, b) -> bool:
-    if a is b:
-        return True
-    plain = (int, float, str, bool, type(None))
-    return isinstance(a, plain) and isinstance(b, plain) and a == b
-
-
-def _release(value):
-    """Release what a cache entry holds on the GPU (pyramids hold nothing)."""
-    target = getattr(value, "texture", value)
-    if hasattr(target, "release"):
-        target.release()
 
 
 class BlockTextures(list):
@@ -87,26 +68,7 @@ class BlockTextures(list):
             tex.release()
 
 
-class PreintegrationTexture:
-    """A pre-integration table and its N x N RGBA32F texture (x: front value, y: back value)."""
-
-    def __init__(self, ctx, table):
-        self.table = table
-        data = np.ascontiguousarray(table.table.transpose(1, 0, 2), dtype=np.float32)  # rows: back value
-        self.texture = ctx.texture((table.size, table.size), 4, data.tobytes(), dtype="f4")
-        self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self.texture.repeat_x = self.texture.repeat_y = False
-
-
-class TableTexture:
-    """A transfer-function table and its texture (the table knows its value domain)."""
-
-    def __init__(self, ctx, lut):
-        self.lut = lut
-        self.texture = upload_table(ctx, lut.table)
-
-
-class RayCastRenderer(Renderer):
+class RayCastRenderer(GLVolumeRenderer):
     name = "raycast"
     description = "GPU ray casting in a GLSL fragment loop"
 
@@ -114,61 +76,11 @@ class RayCastRenderer(Renderer):
         """``ctx``: a moderngl context to render with (default: a new headless EGL context).
         ``count_samples``: also record the samples each ray takes (for benchmarks).
         ``fragment_shader``: another program with the same uniforms (benchmarks compare one)."""
-        super().__init__()
-        self.ctx = ctx or create_context()
-        self._owns_context = ctx is None
+        super().__init__(ctx)
         self.count_samples = count_samples
         self.fragment_shader = fragment_shader
-        self._cache: dict = {}   # what -> (key objects, texture or host data)
-        self._targets = None
 
-    # --- textures, cached by identity of what they were made from ---
-
-    def _cached(self, what: str, key: tuple, make):
-        """``make()``, unless the entry ``what`` was made from the same key (objects by identity,
-        plain values by value)."""
-        entry = self._cache.get(what)
-        if entry is not None and len(entry[0]) == len(key) and all(map(_same, entry[0], key)):
-            return entry[1]
-        if entry is not None:
-            _release(entry[1])
-        value = make()
-        self._cache[what] = (key, value)
-        return value
-
-    def _textures(self, scene, defines) -> dict:
-        r, volume, tf = scene.renderer, scene.volume, scene.transfer_function
-        needs_classified = "CLASSIFY_PRE" in defines
-        needs_gradient = "GRADIENT_TEXTURE" in defines
-        nbytes = volume_bytes(volume) + (16 * volume.data.size if needs_classified else 0) \
-            + (12 * volume.data.size if needs_gradient else 0)
-        what = "the volume" + (", its classified copy" if needs_classified else "") \
-            + (" and its gradients" if needs_gradient else "")
-        check_fits(self.ctx, volume, nbytes, r.texture_budget_mb, what)
-        out = {"u_volume": self._cached("volume", (volume,), lambda: upload_volume(self.ctx, volume))}
-        out["u_lut"] = self._cached("lut", (tf, r.lut_size), lambda: TableTexture(self.ctx, tf.tabulate(r.lut_size)))
-        if needs_classified:
-            voxels = self._classified_voxels(scene)
-            out["u_classified"] = self._cached("classified", (voxels,), lambda: upload_field(self.ctx, voxels))
-        if needs_gradient:
-            out["u_gradient"] = self._cached("gradient", (volume,),
-                                             lambda: upload_field(self.ctx, central_difference_gradients(volume)))
-        if "CLASSIFY_PREINTEGRATED" in defines:
-            out["u_preint"] = self._cached(
-                "preintegration", (tf, r.sample_distance, r.preintegration_size, r.preintegration, r.lut_size),
-                lambda: PreintegrationTexture(self.ctx, preintegrate(tf, r.sample_distance, r.preintegration_size,
-                                                                     r.preintegration, r.lut_size)))
-        if "ACCELERATE" in defines:
-            preint = out["u_preint"].table if "u_preint" in out else None
-            for level, tex in enumerate(self._block_textures(scene, defines, out["u_lut"].lut, preint)):
-                out[f"u_blocks{level}"] = tex
-        return out
-
-    def _classified_voxels(self, scene) -> np.ndarray:
-        """Pre-classified voxels (float32), shared by their texture and their block classes."""
-        r, volume, tf = scene.renderer, scene.volume, scene.transfer_function
-        return self._cached("classified voxels", (volume, tf, r.associated_colors),
-                            lambda: tf.classify_voxels(volume.data, r.associated_colors).astype(np.float32))
+    # --- acceleration structures ---
 
     def _block_textures(self, scene, defines, lut, preint=None) -> list:
         """Per-level block textures for this mode (see dvr_gl.acceleration), cached by what they depend on."""
@@ -202,7 +114,7 @@ class RayCastRenderer(Renderer):
     # --- uniforms ---
 
     @staticmethod
-    def _uniforms(scene, lut) -> dict:
+    def ray_uniforms(scene) -> dict:
         r, cam, vol, img = scene.renderer, scene.camera, scene.volume, scene.image
         f, right, up = cam.basis()
         aspect = img.width / img.height
@@ -212,110 +124,100 @@ class RayCastRenderer(Renderer):
         else:
             half = (cam.view_height / 2.0 * aspect, cam.view_height / 2.0)
         lo, hi = vol.box
-        spacing = np.array(vol.spacing)
-        tf = scene.transfer_function
-        lut_lo, lut_hi = lut.domain
         ert = r.ert_threshold
-        u = {
-            "u_eye": cam.eye, "u_forward": f, "u_right": right, "u_up": up, "u_half_extent": half,
-            "u_image_size": (img.width, img.height), "u_near": cam.near,
-            "u_box_lo": lo, "u_box_hi": hi, "u_world_to_voxel_scale": 1.0 / spacing,
-            "u_world_to_voxel_offset": -np.array(vol.origin) / spacing, "u_voxel_spacing": spacing,
-            "u_dims": vol.dims, "u_sample_distance": r.sample_distance,
-            "u_unit_distance": tf.unit_distance, "u_iso_value": r.iso_value, "u_iso_steps": r.iso_refinement,
-            "u_ert_depth": -math.log1p(-ert) if ert < 1.0 else 3.0e38,
-            "u_gradient_reference": r.gradient_opacity_reference,
-            "u_lut_size": r.lut_size, "u_lut_lo": lut_lo, "u_lut_scale": (r.lut_size - 1) / (lut_hi - lut_lo),
-            "u_jitter_seed": r.jitter_seed % 2 ** 32, "u_block_size": r.block_size,
-            "u_ambient": r.shading.ambient, "u_diffuse": r.shading.diffuse, "u_specular": r.shading.specular,
-            "u_shininess": r.shading.shininess, "u_gradient_epsilon": vol.gradient_epsilon,
-        }
-        lights = r.shading.lights
-        if lights:
-            u["u_light_dir"] = [(0.0, 0.0, 0.0, 1.0) if l.type == "headlight" else
-                                (*(-np.asarray(l.direction) / np.linalg.norm(l.direction)), 0.0) for l in lights]
-            u["u_light_color"] = [tuple(l.color) for l in lights]
-        return u
-
-    @staticmethod
-    def _set(program, name, value):
-        if name not in program:
-            return  # unused by this feature set: compiled out
-        uniform = program[name]
-        if isinstance(value, list):  # a uniform array: write its packed float32 values
-            uniform.write(np.asarray(value, dtype=np.float32).tobytes())
-        elif isinstance(value, (tuple, list, np.ndarray)):
-            uniform.value = tuple(int(x) if uniform.fmt.endswith("i") else float(x) for x in value)
-        else:
-            uniform.value = value
+        return {"u_eye": cam.eye, "u_forward": f, "u_right": right, "u_up": up, "u_half_extent": half,
+                "u_image_size": (img.width, img.height), "u_near": cam.near, "u_box_lo": lo, "u_box_hi": hi,
+                "u_sample_distance": r.sample_distance, "u_iso_value": r.iso_value,
+                "u_iso_steps": r.iso_refinement, "u_ert_depth": -math.log1p(-ert) if ert < 1.0 else 3.0e38,
+                "u_jitter_seed": r.jitter_seed % 2 ** 32, "u_block_size": r.block_size}
 
     # --- rendering ---
 
-    def _framebuffer(self, width: int, height: int):
-        if self._targets is None or self._targets[0].size != (width, height) or \
-                (len(self._targets) > 2) != self.count_samples:
-            if self._targets:
-                for t in self._targets:
-                    t.release()
-            colour = self.ctx.texture((width, height), 4, dtype="f4")
-            attachments = [colour]
-            if self.count_samples:
-                attachments.append(self.ctx.texture((width, height), 2, dtype="f4"))
-            fbo = self.ctx.framebuffer(color_attachments=attachments)
-            self._targets = (*attachments, fbo)
-        return self._targets
-
     def render(self, scene) -> np.ndarray:
-        start = time.perf_counter()
+        start = now()
+        views = self.grid_views(scene, shader_features(scene))
+        if len(views) > 1:
+            return self._render_bricks(scene, views, start)
         defines = shader_features(scene, self.count_samples)
         program = create_program(self.ctx, "fullscreen.vert", self.fragment_shader, defines)
-        textures = self._textures(scene, defines)
-        for name, value in self._uniforms(scene, textures["u_lut"].lut).items():
-            self._set(program, name, value)
-        for unit, (name, tex) in enumerate(textures.items()):
-            getattr(tex, "texture", tex).use(location=unit)
-            self._set(program, name, unit)
-            if name == "u_volume":
-                self._set(program, "u_value_scale", tex.value_scale)
-                self._set(program, "u_value_offset", tex.value_offset)
-            if name == "u_preint":
-                lo, hi = tex.table.domain
-                self._set(program, "u_preint_size", tex.table.size)
-                self._set(program, "u_preint_lo", lo)
-                self._set(program, "u_preint_scale", (tex.table.size - 1) / (hi - lo))
+        textures = {**self.view_textures(scene, defines, views[0], resident=True),
+                    **self.table_textures(scene, defines, scene.renderer.sample_distance)}
+        lut = textures["u_lut"].lut
+        if "ACCELERATE" in defines:
+            preint = textures["u_preint"].table if "u_preint" in textures else None
+            for level, tex in enumerate(self._block_textures(scene, defines, lut, preint)):
+                textures[f"u_blocks{level}"] = tex
+        uniforms = {**self.ray_uniforms(scene), **self.grid_uniforms(scene, views[0]),
+                    **self.optics_uniforms(scene, lut)}
+        self.bind(program, uniforms, textures)
         width, height = scene.image.width, scene.image.height
-        *attachments, fbo = self._framebuffer(width, height)
+        (colour, *counts), fbo = self.target("main", width, height, (4, 2) if self.count_samples else (4,))
+        gpu_seconds = self._draw(program, fbo, width, height)
+        image = self.read(fbo, width, height)
+        self.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines, "bricks": 1}
+        if self.count_samples:
+            c = self.read(fbo, width, height, 2, attachment=1).reshape(-1, 2)
+            samples, jumps = c[:, 0], c[:, 1]
+            hit = (samples + jumps) > 0
+            self.stats["samples"] = int(samples.sum(dtype=np.float64))
+            self.stats["samples_per_ray"] = float(samples[hit].mean()) if hit.any() else 0.0
+            self.stats["jumps_per_ray"] = float(jumps[hit].mean()) if hit.any() else 0.0
+        return image
+
+    def _draw(self, program, fbo, width, height) -> float:
         fbo.use()
         self.ctx.viewport = (0, 0, width, height)
         self.ctx.disable(self.ctx.BLEND | self.ctx.DEPTH_TEST)
         vao = self.ctx.vertex_array(program, [])
         try:
-            drawn = time.perf_counter()
+            drawn = now()
             vao.render(mode=self.ctx.TRIANGLES, vertices=3)
             self.ctx.finish()
-            gpu_seconds = time.perf_counter() - drawn
-            data = np.frombuffer(fbo.read(components=4, dtype="f4", attachment=0), dtype=np.float32)
-            image = data.reshape(height, width, 4)[::-1].copy()  # GL rows run bottom up
-            self.stats = {"seconds": time.perf_counter() - start, "gpu_seconds": gpu_seconds, "defines": defines}
-            if self.count_samples:
-                counts = np.frombuffer(fbo.read(components=2, dtype="f4", attachment=1), dtype=np.float32)
-                samples, jumps = counts[0::2], counts[1::2]
-                hit = (samples + jumps) > 0
-                self.stats["samples"] = int(samples.sum(dtype=np.float64))
-                self.stats["samples_per_ray"] = float(samples[hit].mean()) if hit.any() else 0.0
-                self.stats["jumps_per_ray"] = float(jumps[hit].mean()) if hit.any() else 0.0
+            return now() - drawn
         finally:
             vao.release()
-        return image
 
-    def close(self):
-        for _, value in self._cache.values():
-            _release(value)
-        self._cache.clear()
-        if self._targets:
-            for t in self._targets:
-                t.release()
-            self._targets = None
-        if self._owns_context:
-            release_programs(self.ctx)
-            self.ctx.release()
+    def _render_bricks(self, scene, views, start) -> np.ndarray:
+        r = scene.renderer
+        if r.compositing == "isosurface":
+            raise DvrError(f"{scene.volume.name}: the isosurface needs the volume in one texture, and it needs "
+                           f"bricks here; raise renderer.texture_budget_mb or use another compositing mode")
+        defines = shader_features(scene, bricked=True)
+        program = create_program(self.ctx, "fullscreen.vert", "raycast.frag", defines)
+        resolve = create_program(self.ctx, "fullscreen.vert", "raycast_resolve.frag", defines)
+        tables = self.table_textures(scene, defines, r.sample_distance)
+        lut = tables["u_lut"].lut
+        width, height = scene.image.width, scene.image.height
+        front_to_back = not ("BACK_TO_FRONT" in defines)
+        bricks = visibility_order([v.brick for v in views], scene.volume, scene.camera, front_to_back)
+        by_brick = {v.brick: v for v in views}
+        per_voxel = scene.volume.data.itemsize + self.texture_bytes_per_voxel(defines)
+        resident = sum(np.prod(v.dims) for v in views) * per_voxel <= r.texture_budget_mb * 2 ** 20
+        initial = {"COMPOSITE_MIP": -3.0e38, "COMPOSITE_MINIP": 3.0e38}
+        first = next((v for k, v in initial.items() if k in defines), 0.0)
+        targets = [self.target(f"state {i}", width, height) for i in range(2)]
+        targets[0][1].use()
+        self.ctx.clear(first, 0.0, 0.0, 0.0)
+        common = {**self.ray_uniforms(scene), **self.optics_uniforms(scene, lut)}
+        gpu_seconds, current = 0.0, 0
+        for brick in bricks:
+            view = by_brick[brick]
+            textures = {**self.view_textures(scene, defines, view, resident), **tables,
+                        "u_state": targets[current][0][0]}
+            lo, hi = brick.world_box(scene.volume)
+            single = np.asarray(scene.volume.dims) == 1
+            uniforms = {**common, **self.grid_uniforms(scene, view), "u_grid_lo": view.tex_lo,
+                        "u_core_lo": np.where(single, -1e30, brick.core_lo),
+                        "u_core_hi": np.where(single, 1e30, brick.core_hi),
+                        "u_core_closed": np.asarray(brick.last, dtype=float), "u_brick_lo": lo, "u_brick_hi": hi}
+            self.bind(program, uniforms, textures)
+            gpu_seconds += self._draw(program, targets[1 - current][1], width, height)
+            current = 1 - current
+        self.bind(resolve, {"u_unit_distance": scene.transfer_function.unit_distance,
+                            **self.optics_uniforms(scene, lut)}, {**tables, "u_state": targets[current][0][0]})
+        out = self.target("main", width, height)[1]
+        gpu_seconds += self._draw(resolve, out, width, height)
+        image = self.read(out, width, height)
+        self.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines,
+                      "bricks": len(bricks)}
+        return image

@@ -1,0 +1,277 @@
+"""What the GPU renderers share: context, cached textures, uniforms, float render targets.
+
+Textures are cached by what they were made from (objects by identity, values
+by value), so an orbit re-renders without uploads and a transfer-function edit
+re-uploads only its table.  The voxel grid a program samples is a *grid view*:
+the whole volume, or one brick of it (first voxel and size), so bricked and
+unbricked rendering share every shader and uniform.
+"""
+
+from __future__ import annotations
+
+import time
+
+import moderngl
+import numpy as np
+
+from ..bricking import GHOST, brick_size_for, plan_bricks
+from ..gl.context import create_context
+from ..gl.shaders import release_programs
+from ..errors import DvrError
+from ..gl.textures import FORMATS, central_difference_gradients, upload_field, upload_table, upload_volume
+from ..preintegration import preintegrate
+from .base import Renderer
+
+FILTER = {"nearest": "FILTER_NEAREST", "linear": "FILTER_LINEAR", "cubic_bspline": "FILTER_CUBIC_BSPLINE",
+          "catmull_rom": "FILTER_CATMULL_ROM"}
+
+
+def classification_features(scene) -> dict:
+    """Defines for filtering, classification, shading and gradients: what every renderer's
+    classify() (shaders/common/classify.glsl) needs.  Emission-absorption only."""
+    r = scene.renderer
+    defines = {FILTER[r.filter]: True}
+    if r.filtering == "shader" and r.filter != "nearest":
+        defines["FILTER_IN_SHADER"] = True
+    if scene.camera.projection == "orthographic":
+        defines["CAMERA_ORTHOGRAPHIC"] = True
+    defines["CLASSIFY_PRE"] = r.classification == "pre"
+    defines["CLASSIFY_PREINTEGRATED"] = r.classification == "preintegrated"
+    defines["ASSOCIATED_COLORS"] = r.classification == "pre" and r.associated_colors
+    defines["GRADIENT_OPACITY"] = r.gradient_opacity
+    shading_defines(scene, defines)
+    return defines
+
+
+def shading_defines(scene, defines: dict):
+    r = scene.renderer
+    if r.shading.enabled and r.shading.lights:
+        defines.update(SHADING=True, NUM_LIGHTS=len(r.shading.lights), TWO_SIDED=r.shading.two_sided)
+    if defines.get("SHADING") or defines.get("GRADIENT_OPACITY"):
+        defines["GRADIENT_TEXTURE"] = r.gradient == "texture"
+
+
+def _same(a, b) -> bool:
+    if a is b:
+        return True
+    plain = (int, float, str, bool, type(None))
+    return isinstance(a, plain) and isinstance(b, plain) and a == b
+
+
+def _release(value):
+    """Release what a cache entry holds on the GPU (host data holds nothing)."""
+    target = getattr(value, "texture", value)
+    if hasattr(target, "release"):
+        target.release()
+
+
+class PreintegrationTexture:
+    """A pre-integration table and its N x N RGBA32F texture (x: front value, y: back value)."""
+
+    def __init__(self, ctx, table):
+        self.table = table
+        data = np.ascontiguousarray(table.table.transpose(1, 0, 2), dtype=np.float32)  # rows: back value
+        self.texture = ctx.texture((table.size, table.size), 4, data.tobytes(), dtype="f4")
+        self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.texture.repeat_x = self.texture.repeat_y = False
+
+
+class TableTexture:
+    """A transfer-function table and its texture (the table knows its value domain)."""
+
+    def __init__(self, ctx, lut):
+        self.lut = lut
+        self.texture = upload_table(ctx, lut.table)
+
+
+class GridView:
+    """The part of the voxel grid a pass samples: ``tex_lo`` (x, y, z) and ``dims`` of its texture."""
+
+    def __init__(self, tex_lo=(0, 0, 0), dims=None, brick=None):
+        self.tex_lo, self.dims, self.brick = tuple(tex_lo), tuple(dims), brick
+
+
+class GLVolumeRenderer(Renderer):
+    """Base of the GPU renderers (see the module doc)."""
+
+    def __init__(self, ctx=None):
+        super().__init__()
+        self.ctx = ctx or create_context()
+        self._owns_context = ctx is None
+        self._cache: dict = {}   # what -> (key objects, texture or host data)
+        self._targets: dict = {}
+
+    # --- caching ---
+
+    def _cached(self, what: str, key: tuple, make):
+        """``make()``, unless the entry ``what`` was made from the same key (objects by identity,
+        plain values by value)."""
+        entry = self._cache.get(what)
+        if entry is not None and len(entry[0]) == len(key) and all(map(_same, entry[0], key)):
+            return entry[1]
+        if entry is not None:
+            _release(entry[1])
+        value = make()
+        self._cache[what] = (key, value)
+        return value
+
+    def _forget(self, prefix: str):
+        for what in [w for w in self._cache if w.startswith(prefix)]:
+            _release(self._cache.pop(what)[1])
+
+    # --- what to sample: the volume or its bricks ---
+
+    def texture_bytes_per_voxel(self, defines) -> int:
+        per = 0
+        if "CLASSIFY_PRE" in defines:
+            per += 16
+        if "GRADIENT_TEXTURE" in defines:
+            per += 12
+        return per
+
+    def grid_views(self, scene, defines) -> list[GridView]:
+        """The whole volume if its textures fit the GL limit and the budget, else bricks that do."""
+        r, volume = scene.renderer, scene.volume
+        per_voxel = FORMATS[volume.data.dtype][3] + self.texture_bytes_per_voxel(defines)
+        limit = self.ctx.info["GL_MAX_3D_TEXTURE_SIZE"]
+        budget = r.texture_budget_mb * 2 ** 20
+        if max(volume.dims) <= limit and volume.data.size * per_voxel <= budget:
+            return [GridView((0, 0, 0), volume.dims)]
+        edge = brick_size_for(volume, per_voxel, budget, limit)
+        if edge ** 3 * per_voxel > budget or edge <= 2 * GHOST + 1:
+            raise DvrError(f"renderer.texture_budget_mb = {r.texture_budget_mb} cannot hold even a "
+                           f"{2 * GHOST + 2}^3 brick of {volume.name}; raise it")
+        return [GridView(b.tex_lo, b.tex_dims, b) for b in plan_bricks(volume.dims, edge)]
+
+    def view_textures(self, scene, defines, view: GridView, resident: bool) -> dict:
+        """The textures of one grid view: scalar volume, classified copy, gradients.  ``resident``:
+        keep them cached (all bricks fit the budget) rather than replace them per pass."""
+        r, volume, tf = scene.renderer, scene.volume, scene.transfer_function
+        tag = f"view {view.tex_lo}" if resident else "view"
+        key = (volume, view.tex_lo, view.dims)
+
+        def part(array):
+            return view.brick.data(array) if view.brick is not None else array
+
+        out = {"u_volume": self._cached(tag + " volume", key, lambda: upload_volume(
+            self.ctx, _SubVolume(part(volume.data))))}
+        if "CLASSIFY_PRE" in defines:
+            voxels = self._classified_voxels(scene)
+            out["u_classified"] = self._cached(tag + " classified", key + (voxels,),
+                                               lambda: upload_field(self.ctx, part(voxels)))
+        if "GRADIENT_TEXTURE" in defines:
+            out["u_gradient"] = self._cached(tag + " gradient", key, lambda: upload_field(
+                self.ctx, part(self._cached("gradients", (volume,), lambda: central_difference_gradients(volume)))))
+        return out
+
+    def table_textures(self, scene, defines, slab_length: float) -> dict:
+        r, tf = scene.renderer, scene.transfer_function
+        out = {"u_lut": self._cached("lut", (tf, r.lut_size), lambda: TableTexture(self.ctx, tf.tabulate(r.lut_size)))}
+        if "CLASSIFY_PREINTEGRATED" in defines:
+            out["u_preint"] = self._cached(
+                "preintegration", (tf, slab_length, r.preintegration_size, r.preintegration, r.lut_size),
+                lambda: PreintegrationTexture(self.ctx, preintegrate(tf, slab_length, r.preintegration_size,
+                                                                     r.preintegration, r.lut_size)))
+        return out
+
+    def _classified_voxels(self, scene) -> np.ndarray:
+        """Pre-classified voxels (float32), shared by their textures and block classes."""
+        r, volume, tf = scene.renderer, scene.volume, scene.transfer_function
+        return self._cached("classified voxels", (volume, tf, r.associated_colors),
+                            lambda: tf.classify_voxels(volume.data, r.associated_colors).astype(np.float32))
+
+    # --- uniforms ---
+
+    @staticmethod
+    def grid_uniforms(scene, view: GridView) -> dict:
+        vol = scene.volume
+        spacing = np.array(vol.spacing)
+        return {"u_world_to_voxel_scale": 1.0 / spacing,
+                "u_world_to_voxel_offset": -np.array(vol.origin) / spacing - np.array(view.tex_lo),
+                "u_voxel_spacing": spacing, "u_dims": view.dims}
+
+    @staticmethod
+    def optics_uniforms(scene, lut) -> dict:
+        """Transfer function, shading and lights (shared by every renderer's classify())."""
+        r, vol, tf = scene.renderer, scene.volume, scene.transfer_function
+        lut_lo, lut_hi = lut.domain
+        u = {"u_unit_distance": tf.unit_distance, "u_gradient_reference": r.gradient_opacity_reference,
+             "u_lut_size": r.lut_size, "u_lut_lo": lut_lo, "u_lut_scale": (r.lut_size - 1) / (lut_hi - lut_lo),
+             "u_ambient": r.shading.ambient, "u_diffuse": r.shading.diffuse, "u_specular": r.shading.specular,
+             "u_shininess": r.shading.shininess, "u_gradient_epsilon": vol.gradient_epsilon}
+        lights = r.shading.lights
+        if lights:
+            u["u_light_dir"] = [(0.0, 0.0, 0.0, 1.0) if light.type == "headlight" else
+                                (*(-np.asarray(light.direction) / np.linalg.norm(light.direction)), 0.0)
+                                for light in lights]
+            u["u_light_color"] = [tuple(light.color) for light in lights]
+        return u
+
+    @staticmethod
+    def set_uniform(program, name, value):
+        if name not in program:
+            return  # unused by this feature set: compiled out
+        uniform = program[name]
+        if isinstance(value, list):  # a uniform array: write its packed float32 values
+            uniform.write(np.asarray(value, dtype=np.float32).tobytes())
+        elif isinstance(value, (tuple, np.ndarray)):
+            uniform.value = tuple(int(x) if uniform.fmt.endswith("i") else float(x) for x in value)
+        else:
+            uniform.value = value
+
+    def bind(self, program, uniforms: dict, textures: dict):
+        for name, value in uniforms.items():
+            self.set_uniform(program, name, value)
+        for unit, (name, tex) in enumerate(textures.items()):
+            getattr(tex, "texture", tex).use(location=unit)
+            self.set_uniform(program, name, unit)
+            if name == "u_volume":
+                self.set_uniform(program, "u_value_scale", tex.value_scale)
+                self.set_uniform(program, "u_value_offset", tex.value_offset)
+            if name == "u_preint":
+                lo, hi = tex.table.domain
+                self.set_uniform(program, "u_preint_size", tex.table.size)
+                self.set_uniform(program, "u_preint_lo", lo)
+                self.set_uniform(program, "u_preint_scale", (tex.table.size - 1) / (hi - lo))
+
+    # --- render targets ---
+
+    def target(self, name: str, width: int, height: int, components=(4,)):
+        """A framebuffer of float32 textures (one per entry of ``components``), reused while its size fits."""
+        entry = self._targets.get(name)
+        if entry is None or entry[0][0].size != (width, height) or len(entry[0]) != len(components):
+            if entry is not None:
+                for t in (*entry[0], entry[1]):
+                    t.release()
+            textures = [self.ctx.texture((width, height), c, dtype="f4") for c in components]
+            entry = (textures, self.ctx.framebuffer(color_attachments=textures))
+            self._targets[name] = entry
+        return entry
+
+    @staticmethod
+    def read(fbo, width: int, height: int, components: int = 4, attachment: int = 0) -> np.ndarray:
+        data = np.frombuffer(fbo.read(components=components, dtype="f4", attachment=attachment), dtype=np.float32)
+        return data.reshape(height, width, components)[::-1].copy()  # GL rows run bottom up
+
+    def close(self):
+        for _, value in self._cache.values():
+            _release(value)
+        self._cache.clear()
+        for textures, fbo in self._targets.values():
+            for t in (*textures, fbo):
+                t.release()
+        self._targets.clear()
+        if self._owns_context:
+            release_programs(self.ctx)
+            self.ctx.release()
+
+
+class _SubVolume:
+    """Enough of a Volume for :func:`upload_volume`: a data array."""
+
+    def __init__(self, data):
+        self.data = data
+
+
+def now() -> float:
+    return time.perf_counter()
