@@ -22,6 +22,7 @@
 
 #include "common/camera_ray.glsl"
 #include "common/volume_sample.glsl"
+#include "common/gradient.glsl"
 #include "common/transfer_function.glsl"
 #include "common/optics.glsl"
 #include "common/shading.glsl"

@@ -73,10 +73,10 @@ def slice_polygons(normal, offsets: np.ndarray, lo, hi, reference_point, right, 
     depth = (corners - np.asarray(reference_point)) @ np.asarray(normal)      # (8,)
     a, b = BOX_EDGES[:, 0], BOX_EDGES[:, 1]
     da, db = depth[a], depth[b]
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore"):  # edges parallel to the planes: no cut
         s = (offsets[:, None] - da[None, :]) / (db - da)[None, :]             # (K, 12)
-    cut = (s >= 0) & (s <= 1) & np.isfinite(s)
-    points = corners[a][None] + s[..., None] * (corners[b] - corners[a])[None]  # (K, 12, 3)
+        cut = (s >= 0) & (s <= 1) & np.isfinite(s)
+        points = corners[a][None] + s[..., None] * (corners[b] - corners[a])[None]  # (K, 12, 3)
     points[~cut] = np.nan
     centre = np.nanmean(points, axis=1, keepdims=True)
     rel = points - centre

@@ -39,6 +39,8 @@ class Renderer:
 # name -> "module:Class": adding a renderer is one line here; modules load on first use.
 RENDERERS = {
     "raycast": "dvr_gl.renderers.raycast:RayCastRenderer",
+    "slicing3d": "dvr_gl.renderers.slicing:Slicing3DRenderer",
+    "slicing2d": "dvr_gl.renderers.slicing:Slicing2DRenderer",
     "reference": "dvr_gl.renderers.reference:DiscreteReferenceRenderer",
     "reference-converged": "dvr_gl.renderers.reference:ConvergedReferenceRenderer",
 }

@@ -40,7 +40,7 @@ def classification_features(scene) -> dict:
     defines["ASSOCIATED_COLORS"] = r.classification == "pre" and r.associated_colors
     defines["GRADIENT_OPACITY"] = r.gradient_opacity
     shading_defines(scene, defines)
-    return defines
+    return {k: v for k, v in defines.items() if v is not False}
 
 
 def shading_defines(scene, defines: dict):

@@ -114,21 +114,3 @@ float sample_scalar_voxel(vec3 u) {
 float sample_scalar(vec3 p) {
     return sample_scalar_voxel(voxel_coord(p));
 }
-
-#ifdef NEEDS_GRADIENT
-  #ifdef GRADIENT_TEXTURE
-uniform sampler3D u_gradient;   // central differences at the voxels (world units), same filter
-vec3 gradient(vec3 p) {
-    return sample_texture(u_gradient, voxel_coord(p)).xyz;
-}
-  #else
-// Central differences one voxel apart along each axis (world units).
-vec3 gradient(vec3 p) {
-    vec3 u = voxel_coord(p);
-    return vec3(sample_scalar_voxel(u + vec3(1, 0, 0)) - sample_scalar_voxel(u - vec3(1, 0, 0)),
-                sample_scalar_voxel(u + vec3(0, 1, 0)) - sample_scalar_voxel(u - vec3(0, 1, 0)),
-                sample_scalar_voxel(u + vec3(0, 0, 1)) - sample_scalar_voxel(u - vec3(0, 0, 1)))
-           / (2.0 * u_voxel_spacing);
-}
-  #endif
-#endif

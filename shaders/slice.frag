@@ -1,0 +1,51 @@
+#version 330 core
+// One fragment of one slice of the texture-slicing renderers (dvr_gl/renderers/slicing.py):
+// the slices are drawn back to front and blended with the over operator on premultiplied colour
+// (GL_ONE, GL_ONE_MINUS_SRC_ALPHA).  A slice stands for the slab to the next slice along this
+// pixel's ray, of length spacing / |cos| (per fragment: under perspective every pixel's ray meets
+// the slices at its own angle): opacity correction for that length; pre-integrated slabs read the
+// scalar here and where the ray meets the next slice.
+//   STACK: 2D texture stacks (object-aligned slices of a texture array); else 3D texture slicing.
+//   classification and options as in raycast.frag.
+
+#if defined(SHADING) || defined(GRADIENT_OPACITY)
+#define NEEDS_GRADIENT
+#endif
+
+#ifdef STACK
+#include "common/stack_sample.glsl"
+#else
+#include "common/volume_sample.glsl"
+#endif
+#include "common/gradient.glsl"
+#include "common/transfer_function.glsl"
+#include "common/optics.glsl"
+#include "common/shading.glsl"
+
+uniform vec3 u_eye;
+uniform vec3 u_forward;
+uniform vec3 u_slice_normal;      // view axis (3D) or the stack's axis (2D)
+uniform float u_slab_length;      // the slice spacing, world units
+uniform float u_gradient_reference;
+
+#include "common/classify.glsl"
+
+in vec3 world;
+out vec4 frag_color;
+
+void main() {
+#ifdef CAMERA_ORTHOGRAPHIC
+    vec3 dir = u_forward;
+#else
+    vec3 dir = normalize(world - u_eye);
+#endif
+    float len = u_slab_length / abs(dot(dir, u_slice_normal));
+#ifdef CLASSIFY_PREINTEGRATED
+    vec4 e = preintegrated_segment(sample_scalar(world), sample_scalar(world + len * dir), len, world, dir);
+    frag_color = vec4(e.rgb, opacity_of_depth(e.a));
+#else
+    vec4 cs = classify(world, dir);
+    float alpha = opacity_of_depth(cs.a * len);
+    frag_color = vec4(cs.rgb * alpha, alpha);
+#endif
+}
