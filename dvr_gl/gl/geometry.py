@@ -53,11 +53,14 @@ def depth_range(camera, lo, hi) -> tuple[float, float]:
 
 
 def clip_planes(camera, lo, hi) -> tuple[float, float]:
-    """Near and far clip distances for drawing the box: near at the camera's (not zero, for a
-    perspective matrix), far beyond the box."""
+    """Near and far clip distances for drawing the box: far beyond it, and near at the camera's but
+    at least 1e-3 of the box diagonal for a perspective matrix.  A nearer near plane squeezes every
+    depth against 1 in normalized device coordinates, and float32 rounding then pushes vertices past
+    the far plane, clipping whole triangles (seen with 1e-6).  Renderers that draw geometry take
+    this near plane as their camera's (see :func:`dvr_gl.renderers.slicing.reference`)."""
     diag = float(np.linalg.norm(np.asarray(hi) - np.asarray(lo)))
     _, far = depth_range(camera, lo, hi)
-    near = max(camera.near, 1e-6 * diag) if camera.projection == "perspective" else camera.near
+    near = max(camera.near, 1e-3 * diag) if camera.projection == "perspective" else camera.near
     return near, max(far, near) + 0.01 * diag + 1e-6
 
 

@@ -93,8 +93,10 @@ def _crossings(rays: RayBatch, offset: np.ndarray, rate: np.ndarray, anchor: flo
     with np.errstate(divide="ignore", invalid="ignore"):
         a = (offset + rays.t0 * rate - anchor) / spacing   # plane coordinates at t0 and t1
         b = (offset + rays.t1 * rate - anchor) / spacing
-    k0 = np.ceil(np.minimum(a, b))
-    k1 = np.floor(np.maximum(a, b))
+    # Planes on the box's faces (2D stacks: the first and last voxel planes) are drawn, so they count
+    # even when rounding puts them a hair outside [t0, t1].
+    k0 = np.ceil(np.minimum(a, b) - 1e-9)
+    k1 = np.floor(np.maximum(a, b) + 1e-9)
     if k_lo is not None:
         k0, k1 = np.maximum(k0, k_lo), np.minimum(k1, k_hi)
     count = np.where(moving, np.maximum(k1 - k0 + 1, 0), 0)

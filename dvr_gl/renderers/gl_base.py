@@ -146,7 +146,7 @@ class GLVolumeRenderer(Renderer):
     def view_textures(self, scene, defines, view: GridView, resident: bool) -> dict:
         """The textures of one grid view: scalar volume, classified copy, gradients.  ``resident``:
         keep them cached (all bricks fit the budget) rather than replace them per pass."""
-        r, volume, tf = scene.renderer, scene.volume, scene.transfer_function
+        volume = scene.volume
         tag = f"view {view.tex_lo}" if resident else "view"
         key = (volume, view.tex_lo, view.dims)
 
@@ -275,3 +275,4 @@ class _SubVolume:
 
 def now() -> float:
     return time.perf_counter()
+

@@ -13,8 +13,8 @@
 
 Both composite emission-absorption with post-, pre- (3D only) or pre-integrated
 classification, shading and gradient opacity; every slice is blended (no early
-termination).  The same-discretization reference samples the same planes:
-:func:`reference_plan`.
+termination).  The same-discretization reference samples the same planes, clipped by
+the same near plane: :func:`reference`.
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ from ..errors import SceneError
 from ..gl.geometry import clip_planes, depth_range, gl_matrix, projection_matrix, slice_polygons, view_matrix
 from ..gl.shaders import create_program
 from ..reference import plans
+from ..reference.discrete import DiscreteReference
 from .gl_base import GLVolumeRenderer, classification_features, now
 
 
@@ -34,6 +35,13 @@ def reference_plan(scene, kind: str):
     if kind == "slicing3d":
         return lambda rays: plans.view_planes(rays, scene.camera, scene.volume.box, scene.renderer.sample_distance)
     return lambda rays: plans.axis_planes(rays, scene.camera, scene.volume)
+
+
+def reference(scene, kind: str) -> DiscreteReference:
+    """The same-discretization reference of a slicer: its planes, and its near clip plane."""
+    near, _ = clip_planes(scene.camera, *scene.volume.box)
+    clipped = scene.replace(camera=scene.camera.with_(near=near))
+    return DiscreteReference(clipped, plan=reference_plan(clipped, kind))
 
 
 class SlicingRenderer(GLVolumeRenderer):
