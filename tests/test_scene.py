@@ -49,7 +49,8 @@ def test_invalid_scenes(tmp_path, text, message):
     path = write(tmp_path, text)
     if message is None:  # resolves; the unknown renderer is reported when one is created
         from dvr_gl.renderers import create_renderer
-        with pytest.raises(SceneError, match="unknown renderer 'raytracer'; available: raycast, slicing3d, slicing2d, reference"):
+        expected = "unknown renderer 'raytracer'; available: raycast, slicing3d, slicing2d, reference"
+        with pytest.raises(SceneError, match=expected):
             create_renderer(load_scene(path).renderer.name)
         return
     with pytest.raises(SceneError, match=message):

@@ -115,10 +115,6 @@ class GLVolumeRenderer(Renderer):
         self._cache[what] = (key, value)
         return value
 
-    def _forget(self, prefix: str):
-        for what in [w for w in self._cache if w.startswith(prefix)]:
-            _release(self._cache.pop(what)[1])
-
     # --- what to sample: the volume or its bricks ---
 
     def texture_bytes_per_voxel(self, defines) -> int:
