@@ -4,6 +4,8 @@
   dvr bench accel      what early termination and empty-space skipping save, on real data
   dvr bench quality    error against the converged reference versus samples: post-classified and
                        pre-integrated, for a narrow transfer-function spike
+  dvr bench slicing    2D texture stacks against view-aligned slices across view angles: error, the
+                       jump when the stack switches, and pictures
 """
 
 from __future__ import annotations
@@ -34,10 +36,18 @@ def add_arguments(p):
     qu.add_argument("--volume-size", type=int, default=41, help="Marschner-Lobb samples per axis (default 41)")
     qu.add_argument("--spike-width", type=float, metavar="W",
                     help="only this spike width, a fraction of the value range (default: 0.02 and 0.005)")
+    sl = sub.add_parser("slicing", help="slicing2d against slicing3d across azimuths: error, stack-switch jump, "
+                                        "pictures")
+    sl.add_argument("--volume", metavar="FILE", help="a volume file (default: the Shepp-Logan phantom)")
+    sl.add_argument("--volume-size", type=int, default=64, help="phantom samples per axis (default 64)")
+    sl.add_argument("--size", type=int, default=128, help="square image size (default 128)")
+    sl.add_argument("--pictures", metavar="DIR", help="write slicing_sweep.png and slicing_jump.png into DIR")
+    sl.add_argument("--overwrite", action="store_true", help="replace pictures that exist")
 
 
 def run(args) -> int:
-    return {"raycast": run_raycast, "accel": run_accel, "quality": run_quality}[args.benchmark](args)
+    return {"raycast": run_raycast, "accel": run_accel, "quality": run_quality,
+            "slicing": run_slicing}[args.benchmark](args)
 
 
 def run_quality(args) -> int:
@@ -54,6 +64,31 @@ def run_quality(args) -> int:
         for line in lines:
             print(line)
         print(f"table build at {n}x{n}: exact {builds['exact']:.2f} s, fast {builds['fast']:.2f} s\n")
+    return 0
+
+
+def run_slicing(args) -> int:
+    from pathlib import Path
+
+    from dvr_gl.bench import slicing
+    from dvr_gl.errors import DvrError
+
+    pictures = Path(args.pictures) if args.pictures else None
+    if pictures is not None:
+        if not pictures.is_dir():
+            raise DvrError(f"{pictures}: no such folder for the pictures; create it first")
+        slicing.check_pictures(pictures, args.overwrite)
+    base = slicing.base_scene(args.volume_size, args.size, args.volume)
+    what = args.volume or f"Shepp-Logan {args.volume_size}^3"
+    print(f"dvr bench slicing: {what}, {args.size}x{args.size}, elevation 0, one slice per voxel, RMS error "
+          f"against the converged reference")
+    rows, jumps, written = slicing.run(base, pictures=pictures, overwrite=args.overwrite)
+    print(format_table(rows, slicing.COLUMNS))
+    print(f"\nimage change (RMS) between azimuth - {slicing.JUMP_STEP:g} and + {slicing.JUMP_STEP:g} degrees; "
+          f"the stacks switch at 45")
+    print(format_table(jumps, slicing.JUMP_COLUMNS))
+    for path in written:
+        print(f"wrote {path}")
     return 0
 
 

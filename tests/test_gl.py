@@ -79,3 +79,33 @@ def test_no_egl_driver_is_one_line_and_nonzero_exit():
     assert proc.returncode == 1
     last = proc.stderr.strip().splitlines()
     assert len(last) == 1 and "libegl-mesa0" in last[0] and "Traceback" not in proc.stderr
+
+
+def test_renderers_with_their_own_contexts_interleave():
+    """Each renderer owns a context and the newest is current after creation: an older renderer
+    must make its own current (it once rendered empty images into the newer one's context),
+    and closing one must not release objects in another's."""
+    from dvr_gl.renderers import create_renderer
+
+    from conftest import small_scene
+
+    scenes = [small_scene({"camera.azimuth": a, "renderer.classification": c, "image.width": 16,
+                           "image.height": 16}) for a, c in [(0.0, "post"), (0.0, "preintegrated"), (30.0, "post")]]
+    names = ["slicing2d", "slicing3d", "raycast"]
+    alone = {}
+    for name in names:
+        with create_renderer(name) as r:
+            alone[name] = [r.render(s) for s in scenes]
+    renderers = []
+    try:
+        for i, s in enumerate(scenes):
+            for k, name in enumerate(names):
+                if k == len(renderers):              # created between the others' frames
+                    renderers.append(create_renderer(name))
+                assert np.array_equal(renderers[k].render(s), alone[name][i]), (name, i)
+        renderers.pop(0).close()                     # the oldest goes; the others keep working
+        for name, r in zip(names[1:], renderers):
+            assert np.array_equal(r.render(scenes[0]), alone[name][0]), name
+    finally:
+        for r in renderers:
+            r.close()

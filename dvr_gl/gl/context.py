@@ -54,6 +54,17 @@ def create_context(backend: str = "egl", **kwargs) -> moderngl.Context:
     return ctx
 
 
+def make_current(ctx: moderngl.Context) -> moderngl.Context:
+    """Make ``ctx`` this thread's current context, and leave it current.
+
+    Creating a context makes it current, so with two renderers alive (each with its
+    own context) the older one would issue its calls into the newer one's context:
+    wrong objects, empty images.  Every GL entry point of a renderer calls this
+    first.  (``with ctx:`` is not used: leaving it unbinds every context.)"""
+    ctx.__enter__()
+    return ctx
+
+
 def gl_info(ctx: moderngl.Context) -> dict:
     """What ``dvr info`` prints: vendor, renderer, version and texture limits."""
     info = ctx.info

@@ -15,7 +15,7 @@ import moderngl
 import numpy as np
 
 from ..bricking import GHOST, brick_size_for, plan_bricks
-from ..gl.context import create_context
+from ..gl.context import create_context, make_current
 from ..gl.shaders import release_programs
 from ..errors import DvrError
 from ..gl.textures import FORMATS, central_difference_gradients, upload_field, upload_table, upload_volume
@@ -249,7 +249,12 @@ class GLVolumeRenderer(Renderer):
         data = np.frombuffer(fbo.read(components=components, dtype="f4", attachment=attachment), dtype=np.float32)
         return data.reshape(height, width, components)[::-1].copy()  # GL rows run bottom up
 
+    def activate(self):
+        """Make this renderer's context current (see :func:`make_current`); first in every GL entry point."""
+        make_current(self.ctx)
+
     def close(self):
+        self.activate()
         for _, value in self._cache.values():
             _release(value)
         self._cache.clear()

@@ -134,6 +134,7 @@ class RayCastRenderer(GLVolumeRenderer):
     # --- rendering ---
 
     def render(self, scene) -> np.ndarray:
+        self.activate()
         start = now()
         views = self.grid_views(scene, shader_features(scene))
         if len(views) > 1:

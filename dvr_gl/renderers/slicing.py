@@ -59,6 +59,7 @@ class SlicingRenderer(GLVolumeRenderer):
         return scene.renderer.sample_distance
 
     def render(self, scene) -> np.ndarray:
+        self.activate()
         start = now()
         self.check(scene)
         defines = classification_features(scene)
