@@ -4,6 +4,8 @@
   dvr bench accel      what early termination and empty-space skipping save, on real data
   dvr bench quality    error against the converged reference versus samples: post-classified and
                        pre-integrated, for a narrow transfer-function spike
+  dvr bench renderers  frame time of the ray caster and both slicers, post-classified and
+                       pre-integrated, from one texture and from bricks
   dvr bench slicing    2D texture stacks against view-aligned slices across view angles: error, the
                        jump when the stack switches, and pictures
 """
@@ -36,6 +38,13 @@ def add_arguments(p):
     qu.add_argument("--volume-size", type=int, default=41, help="Marschner-Lobb samples per axis (default 41)")
     qu.add_argument("--spike-width", type=float, metavar="W",
                     help="only this spike width, a fraction of the value range (default: 0.02 and 0.005)")
+    rn = sub.add_parser("renderers", help="frame time of raycast, slicing3d and slicing2d, whole and bricked")
+    rn.add_argument("--volume", metavar="FILE", help="a volume file (default: the Shepp-Logan phantom)")
+    rn.add_argument("--volume-size", type=int, default=256, help="phantom samples per axis (default 256)")
+    rn.add_argument("--size", type=int, default=512, help="square image size (default 512)")
+    rn.add_argument("--repeat", type=int, default=5, help="timed frames per case, after a warm-up (default 5)")
+    rn.add_argument("--budget", type=float, default=48.0, metavar="MB",
+                    help="texture budget of the bricked runs, MB (default 48)")
     sl = sub.add_parser("slicing", help="slicing2d against slicing3d across azimuths: error, stack-switch jump, "
                                         "pictures")
     sl.add_argument("--volume", metavar="FILE", help="a volume file (default: the Shepp-Logan phantom)")
@@ -47,7 +56,7 @@ def add_arguments(p):
 
 def run(args) -> int:
     return {"raycast": run_raycast, "accel": run_accel, "quality": run_quality,
-            "slicing": run_slicing}[args.benchmark](args)
+            "slicing": run_slicing, "renderers": run_renderers}[args.benchmark](args)
 
 
 def run_quality(args) -> int:
@@ -64,6 +73,22 @@ def run_quality(args) -> int:
         for line in lines:
             print(line)
         print(f"table build at {n}x{n}: exact {builds['exact']:.2f} s, fast {builds['fast']:.2f} s\n")
+    return 0
+
+
+def run_renderers(args) -> int:
+    from dvr_gl.bench import renderers
+
+    base = {"image.width": args.size, "image.height": args.size}
+    if args.volume:
+        base["volume.path"] = args.volume
+    else:
+        base.update({"volume.demo": "shepp-logan", "volume.size": args.volume_size})
+    what = args.volume or f"Shepp-Logan {args.volume_size}^3"
+    print(f"dvr bench renderers: {what}, {args.size}x{args.size}, sample distance 0.5 voxel (2D stacks: the voxel "
+          f"planes), early termination and acceleration off, {args.repeat} timed frames per case after a warm-up; "
+          f"bricked under {args.budget:g} MB")
+    print(format_table(renderers.run(base, args.repeat, args.budget), renderers.COLUMNS))
     return 0
 
 

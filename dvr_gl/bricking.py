@@ -4,8 +4,9 @@ Brick cores tile the volume's voxel grid and share their boundary voxel (the
 core of brick ``b`` along an axis is voxels ``[lo, hi]`` and the next brick's
 starts at ``hi``), so together they cover the box without gaps; each brick's
 texture adds ``ghost`` voxels on every side (clamped to the volume), so that a
-filter (cubic: one below, two above) and central differences (one more) read
-the same voxels as in the whole volume.  A sample belongs to the brick whose
+filter (cubic: one below, two above), central differences (one more) and
+samples a renderer takes beyond the core for what the core owns (see
+:func:`ghost_width`) read the same voxels as in the whole volume.  A sample belongs to the brick whose
 half-open core ``[lo, hi)`` holds its voxel coordinate (the last brick along an
 axis closes at the volume's end), so every sample is composited exactly once.
 
@@ -17,11 +18,13 @@ eye's brick index, so the sum over axes of the index distance never decreases.
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
-GHOST = 3  # cubic support (2) + central differences (1)
+GHOST = 3  # cubic support (2) + central differences (1): enough for point samples in the core
+FILTER_SUPPORT = {"nearest": 1, "linear": 1, "cubic_bspline": 2, "catmull_rom": 2}  # voxels read beyond a point
 
 
 @dataclass(frozen=True)
@@ -68,10 +71,17 @@ def plan_bricks(dims, max_texture: int, ghost: int = GHOST) -> list[Brick]:
     return bricks
 
 
-def brick_size_for(volume, bytes_per_voxel: int, budget_bytes: int, max_size: int) -> int:
+def ghost_width(filter_name: str, central_differences: bool, reach: float = 0.0) -> int:
+    """Ghost voxels a brick needs on each side: the filter's support, one more where gradients are
+    central differences, and ``reach``: how far (voxels, along any axis) beyond its core a renderer
+    samples for what the brick owns (the ends of a pre-integrated segment, an isosurface's bracket)."""
+    return FILTER_SUPPORT[filter_name] + int(central_differences) + math.ceil(reach - 1e-9)
+
+
+def brick_size_for(volume, bytes_per_voxel: int, budget_bytes: int, max_size: int, ghost: int = GHOST) -> int:
     """The largest brick edge (voxels, ghosts included) whose texture fits the budget and the GL limit."""
-    edge = min(max_size, max(volume.dims) + 2 * GHOST + 1)
-    while edge > 2 * GHOST + 2 and edge ** 3 * bytes_per_voxel > budget_bytes:
+    edge = min(max_size, max(volume.dims) + 2 * ghost + 1)
+    while edge > 2 * ghost + 2 and edge ** 3 * bytes_per_voxel > budget_bytes:
         edge = int(edge * 0.8)
     return edge
 

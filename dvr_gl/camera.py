@@ -131,6 +131,18 @@ class Camera:
         r /= np.linalg.norm(r)
         return f, r, np.cross(r, f)
 
+    def corner_directions(self, width: int, height: int) -> np.ndarray:
+        """Unit directions ``(5, 3)`` of the view axis and the rays through the image's four corners
+        (all five the view axis when orthographic): any linear-fractional function of the ray
+        direction, such as the ray length between two planes, takes its extremes among them."""
+        f, r, u = self.basis()
+        if self.projection == "orthographic":
+            return np.tile(f, (5, 1))
+        half_h = math.tan(math.radians(self.fov) / 2.0)
+        half_w = half_h * width / height
+        dirs = [f] + [f + sx * half_w * r + sy * half_h * u for sx in (-1, 1) for sy in (-1, 1)]
+        return np.array([d / np.linalg.norm(d) for d in dirs])
+
     def pixel_rays(self, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
         """Origins and unit directions ``(H*W, 3)`` through every pixel centre, row 0 at the top.
 

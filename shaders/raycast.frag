@@ -14,7 +14,9 @@
 // BRICKED: the volume is in bricks (dvr_gl.bricking), one pass each in visibility order; a pass
 // composites the samples whose position lies in its brick's core, starting from the state the
 // previous pass left in u_state (emission: colour and optical depth; projections: the running
-// value), and writes the new state; shaders/raycast_resolve.frag turns the last into the image.
+// value; isosurface: the shaded hit, alpha 1, once found), and writes the new state;
+// shaders/raycast_resolve.frag turns the last into the image.  Bricks carry enough ghost voxels
+// for what a pass reads beyond its core (dvr_gl.bricking.ghost_width).
 
 #if defined(SHADING) || defined(GRADIENT_OPACITY)
 #define NEEDS_GRADIENT
@@ -58,20 +60,34 @@ uniform float u_gradient_reference;  // GRADIENT_OPACITY: |gradient| giving full
 
 #ifdef BRICKED
 uniform sampler2D u_state;      // the previous pass's state, this pixel
-uniform vec3 u_grid_lo;         // the brick texture's first voxel: global = local voxel coordinate + this
+uniform vec3 u_world_to_global_offset;  // global voxel coordinate = p * u_world_to_voxel_scale + this
 uniform vec3 u_core_lo;         // the brick's core in global voxel coordinates: [lo, hi), or [lo, hi] where
 uniform vec3 u_core_hi;         //   u_core_closed (the last brick along an axis)
 uniform vec3 u_core_closed;
 uniform vec3 u_brick_lo;        // and in world coordinates (to clip the ray)
 uniform vec3 u_brick_hi;
 
-// Does this brick own the sample at p?  The same test in every pass: each sample in exactly one.
+// Global voxel coordinates, computed from the same uniforms in every pass (not from the brick's
+// local ones), so that every pass rounds a point alike: each sample has exactly one owner.
+vec3 global_voxel(vec3 p) {
+    return p * u_world_to_voxel_scale + u_world_to_global_offset;
+}
+
+// Does this brick own the sample at p?
 bool in_brick(vec3 p) {
-    vec3 g = voxel_coord(p) + u_grid_lo;
-    bvec3 above = greaterThanEqual(g, u_core_lo);
-    bvec3 below = lessThan(g, u_core_hi);
-    bvec3 at_end = bvec3(ivec3(equal(g, u_core_hi)) & ivec3(greaterThan(u_core_closed, vec3(0.5))));
-    return all(above) && all(bvec3(ivec3(below) | ivec3(at_end)));
+    vec3 g = global_voxel(p);
+    ivec3 above = ivec3(greaterThanEqual(g, u_core_lo));
+    ivec3 below = ivec3(lessThan(g, u_core_hi)) | (ivec3(equal(g, u_core_hi)) & ivec3(u_core_closed));
+    return all(bvec3(above & below));
+}
+
+// The entry point lies on the box, where rounding may put it a hair outside every core: the
+// bricks at the volume's ends also own what lies just beyond them.
+bool owns_entry(vec3 p) {
+    vec3 g = global_voxel(p);
+    ivec3 above = ivec3(greaterThanEqual(g, u_core_lo)) | ivec3(lessThanEqual(u_core_lo, vec3(0.0)));
+    ivec3 below = ivec3(lessThan(g, u_core_hi)) | ivec3(u_core_closed);
+    return all(bvec3(above & below));
 }
 #endif
 
@@ -115,6 +131,8 @@ void main() {
     k_last = clamp(int(ceil((b1 - t0) / u_sample_distance)) + 1, 0, n);
   #if defined(COMPOSITE_EMISSION) && defined(EARLY_TERMINATION)
     hit = hit && state.a < u_ert_depth;  // terminated in an earlier brick
+  #elif defined(COMPOSITE_ISOSURFACE)
+    hit = hit && state.a == 0.0;         // an earlier brick found the surface
   #endif
 #endif
     if (hit && t1 > t0) {
@@ -272,16 +290,30 @@ void main() {
         state = acc;
 
 #elif defined(COMPOSITE_ISOSURFACE)
-        // The first point with value >= iso among the entry point and the samples.
-        float ta = t0, sa = sample_scalar(o + t0 * d);
-        float tb = ta, sb = sa;
-        bool found = sa >= u_iso_value;
-  #ifdef ACCELERATE
-        bool previous_known = true;  // is (ta, sa) the sample just before segment k?
+        // The first point with value >= iso among the entry point and the samples.  (ta, sa) is the
+        // last point looked at; where it is not the sample just before segment k (after a jump, or
+        // in a brick's first sample), a hit re-reads it, so the bisection bracket is always the same.
+        // BRICKED: a pass looks at the points its brick owns, the bracket's start in its ghost voxels.
+        float ta = t0, sa = 0.0;
+        float tb = t0, sb = 0.0;
+        bool found = false;
+        bool previous_known = false;
+  #ifdef BRICKED
+        if (owns_entry(o + t0 * d)) {
   #endif
-        int k = 0;
-        while (k < n && !found) {
+            sa = sample_scalar(o + t0 * d);
+            sb = sa;
+            found = sa >= u_iso_value;
+            previous_known = true;
+  #ifdef BRICKED
+        }
+  #endif
+        int k = k_first;
+        while (k < k_last && !found) {
             float t = sample_t(k, t0, t1, offset);
+  #ifdef BRICKED
+            if (!in_brick(o + t * d)) { k += 1; previous_known = false; continue; }
+  #endif
   #ifdef ACCELERATE
             int level = -1;
             if (k < n - 1 && t >= known_until) {
@@ -301,18 +333,14 @@ void main() {
                 tb = t;
                 sb = s;
                 found = true;
-  #ifdef ACCELERATE
-                if (!previous_known) {  // the bracket starts at the sample before, as without jumps
-                    ta = sample_t(k - 1, t0, t1, offset);
+                if (!previous_known) {
+                    ta = k > 0 ? sample_t(k - 1, t0, t1, offset) : t0;
                     sa = sample_scalar(o + ta * d);
                 }
-  #endif
             } else {
                 ta = t;
                 sa = s;
-  #ifdef ACCELERATE
                 previous_known = true;
-  #endif
             }
             k += 1;
         }

@@ -109,3 +109,30 @@ def test_renderers_with_their_own_contexts_interleave():
     finally:
         for r in renderers:
             r.close()
+
+
+@pytest.mark.parametrize("name", ["raycast", "slicing3d", "slicing2d"])
+@pytest.mark.parametrize("budget", [None, 0.2])
+def test_a_new_view_uploads_nothing(name, budget):
+    """Textures and tables are cached across frames (a tuple in a cache key once missed every time,
+    re-uploading the volume each frame).  Bricks that do not all fit the budget take turns in one
+    texture; the tables stay."""
+    import dataclasses
+
+    from dvr_gl.renderers import create_renderer
+
+    from conftest import small_scene
+
+    overrides = {"volume.size": 48, "renderer.classification": "preintegrated"}
+    if budget:
+        overrides["renderer.texture_budget_mb"] = budget   # 48^3 float32 is 0.42 MB
+    scene = small_scene(overrides)
+    moved = scene.replace(camera=dataclasses.replace(scene.camera, eye=tuple(np.add(scene.camera.eye, 0.5))))
+    with create_renderer(name) as r:
+        r.render(scene)
+        assert (r.stats["bricks"] == 1) == (budget is None)
+        before = {what: entry[1] for what, entry in r._cache.items()}
+        r.render(moved)
+        kept = [what for what, value in before.items() if r._cache[what][1] is value]
+        streamed = {"view volume", "stack 0", "stack 1", "stack 2"} if budget else set()
+        assert set(before) - set(kept) <= streamed and "lut" in kept and "preintegration" in kept

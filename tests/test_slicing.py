@@ -83,8 +83,12 @@ def test_slicers_refuse_other_compositing_and_jitter(slicer, extra, message):
 @pytest.mark.parametrize("extra", [{}, {"renderer.classification": "preintegrated"},
                                    {"renderer.shading.enabled": True},
                                    {"camera.azimuth": 0.0, "camera.elevation": 0.0,
-                                    "camera.projection": "orthographic"}],
-                         ids=["default", "preintegrated", "shaded", "axis-aligned"])
+                                    "camera.projection": "orthographic"},
+                                   # slabs 5 voxels long: the next slice lies beyond the default ghost
+                                   # (3 voxels); the bricks get more (it once read clamped voxels: 0.3 off)
+                                   {"renderer.classification": "preintegrated",
+                                    "renderer.sample_distance_voxels": 5.0}],
+                         ids=["default", "preintegrated", "shaded", "axis-aligned", "long-slabs"])
 def test_bricked_equals_unbricked(slicer, extra):
     """Bricks drawn back to front, each with its own slices: the same image to rounding.  Splitting a
     slice's polygon among bricks changes how fragment positions are interpolated across triangles
@@ -92,7 +96,7 @@ def test_bricked_equals_unbricked(slicer, extra):
     scene = small_scene({**NO_ERT, **extra})
     whole = slicer.render(scene)
     bricked = slicer.render(scene.with_renderer(texture_budget_mb=1 / 16))
-    assert slicer.stats["bricks"] >= 8
+    assert slicer.stats["bricks"] >= 4
     assert np.abs(bricked - whole).max() <= 2e-5, np.abs(bricked - whole).max()
 
 

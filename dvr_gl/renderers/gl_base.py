@@ -14,7 +14,7 @@ import time
 import moderngl
 import numpy as np
 
-from ..bricking import GHOST, brick_size_for, plan_bricks
+from ..bricking import brick_size_for, ghost_width, plan_bricks
 from ..gl.context import create_context, make_current
 from ..gl.shaders import release_programs
 from ..errors import DvrError
@@ -52,9 +52,12 @@ def shading_defines(scene, defines: dict):
 
 
 def _same(a, b) -> bool:
+    """Cache keys match: objects by identity, plain values (numbers, strings, and tuples of them) by value."""
     if a is b:
         return True
-    plain = (int, float, str, bool, type(None))
+    if isinstance(a, tuple) and isinstance(b, tuple):
+        return len(a) == len(b) and all(map(_same, a, b))
+    plain = (int, float, str, bool, type(None), np.integer, np.floating, np.bool_)
     return isinstance(a, plain) and isinstance(b, plain) and a == b
 
 
@@ -133,11 +136,19 @@ class GLVolumeRenderer(Renderer):
         budget = r.texture_budget_mb * 2 ** 20
         if max(volume.dims) <= limit and volume.data.size * per_voxel <= budget:
             return [GridView((0, 0, 0), volume.dims)]
-        edge = brick_size_for(volume, per_voxel, budget, limit)
-        if edge ** 3 * per_voxel > budget or edge <= 2 * GHOST + 1:
+        central = ("SHADING" in defines or "GRADIENT_OPACITY" in defines) and "GRADIENT_TEXTURE" not in defines
+        ghost = ghost_width(r.filter, central, self.brick_reach(scene))
+        edge = brick_size_for(volume, per_voxel, budget, limit, ghost)
+        if edge ** 3 * per_voxel > budget or edge <= 2 * ghost + 1:
             raise DvrError(f"renderer.texture_budget_mb = {r.texture_budget_mb} cannot hold even a "
-                           f"{2 * GHOST + 2}^3 brick of {volume.name}; raise it")
-        return [GridView(b.tex_lo, b.tex_dims, b) for b in plan_bricks(volume.dims, edge)]
+                           f"{2 * ghost + 2}^3 brick of {volume.name} ({ghost} ghost voxel{'s' * (ghost > 1)} a side); "
+                           f"raise it")
+        return [GridView(b.tex_lo, b.tex_dims, b) for b in plan_bricks(volume.dims, edge, ghost)]
+
+    def brick_reach(self, scene) -> float:
+        """How far (voxels along any axis) beyond a brick's core this renderer samples for what the
+        core owns; point samples in the core only: 0."""
+        return 0.0
 
     def view_textures(self, scene, defines, view: GridView, resident: bool) -> dict:
         """The textures of one grid view: scalar volume, classified copy, gradients.  ``resident``:

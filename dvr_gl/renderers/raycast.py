@@ -20,7 +20,6 @@ import numpy as np
 from .. import acceleration as accel
 from ..acceleration import level_count
 from ..bricking import visibility_order
-from ..errors import DvrError
 from ..gl.shaders import create_program
 from ..gl.textures import upload_field
 from .gl_base import GLVolumeRenderer, classification_features, now
@@ -133,6 +132,17 @@ class RayCastRenderer(GLVolumeRenderer):
 
     # --- rendering ---
 
+    def brick_reach(self, scene) -> float:
+        """A brick owns the segments whose sample lies in its core: pre-integration also reads the
+        segment's ends (half a segment away); the isosurface its bracket back to the previous sample."""
+        r = scene.renderer
+        segment = r.sample_distance / min(scene.volume.spacing)   # voxels, along any axis at most
+        if r.compositing == "isosurface":
+            return segment
+        if r.compositing == "emission_absorption" and r.classification == "preintegrated":
+            return segment / 2.0
+        return 0.0
+
     def render(self, scene) -> np.ndarray:
         self.activate()
         start = now()
@@ -180,9 +190,6 @@ class RayCastRenderer(GLVolumeRenderer):
 
     def _render_bricks(self, scene, views, start) -> np.ndarray:
         r = scene.renderer
-        if r.compositing == "isosurface":
-            raise DvrError(f"{scene.volume.name}: the isosurface needs the volume in one texture, and it needs "
-                           f"bricks here; raise renderer.texture_budget_mb or use another compositing mode")
         defines = shader_features(scene, bricked=True)
         program = create_program(self.ctx, "fullscreen.vert", "raycast.frag", defines)
         resolve = create_program(self.ctx, "fullscreen.vert", "raycast_resolve.frag", defines)
@@ -201,13 +208,14 @@ class RayCastRenderer(GLVolumeRenderer):
         self.ctx.clear(first, 0.0, 0.0, 0.0)
         common = {**self.ray_uniforms(scene), **self.optics_uniforms(scene, lut)}
         gpu_seconds, current = 0.0, 0
+        to_global = -np.asarray(scene.volume.origin) / np.asarray(scene.volume.spacing)
         for brick in bricks:
             view = by_brick[brick]
             textures = {**self.view_textures(scene, defines, view, resident), **tables,
                         "u_state": targets[current][0][0]}
             lo, hi = brick.world_box(scene.volume)
             single = np.asarray(scene.volume.dims) == 1
-            uniforms = {**common, **self.grid_uniforms(scene, view), "u_grid_lo": view.tex_lo,
+            uniforms = {**common, **self.grid_uniforms(scene, view), "u_world_to_global_offset": to_global,
                         "u_core_lo": np.where(single, -1e30, brick.core_lo),
                         "u_core_hi": np.where(single, 1e30, brick.core_hi),
                         "u_core_closed": np.asarray(brick.last, dtype=float), "u_brick_lo": lo, "u_brick_hi": hi}

@@ -29,6 +29,8 @@ from ..reference import plans
 from ..reference.discrete import DiscreteReference
 from .gl_base import GLVolumeRenderer, classification_features, now
 
+MAX_REACH = 64.0  # voxels: rays this close to parallel with the slices need more ghost than any brick has
+
 
 def reference_plan(scene, kind: str):
     """The sample plan of ``slicing3d`` or ``slicing2d`` for :class:`~dvr_gl.reference.discrete.DiscreteReference`."""
@@ -58,6 +60,17 @@ class SlicingRenderer(GLVolumeRenderer):
     def slab_length(self, scene) -> float:
         return scene.renderer.sample_distance
 
+    def brick_reach(self, scene) -> float:
+        """Pre-integrated slabs read the scalar where the ray meets the next slice, ``d / cos`` away
+        along the ray (largest at the image's corners)."""
+        if scene.renderer.classification != "preintegrated":
+            return 0.0
+        normal = self.view_uniforms(scene)["u_slice_normal"]
+        dirs = scene.camera.corner_directions(scene.image.width, scene.image.height)
+        along = np.abs(dirs @ normal)
+        steps = self.slab_length(scene) * np.abs(dirs) / np.maximum(along, 1e-9)[:, None]
+        return float(min(np.max(steps / np.asarray(scene.volume.spacing)), MAX_REACH))
+
     def render(self, scene) -> np.ndarray:
         self.activate()
         start = now()
@@ -82,7 +95,7 @@ class SlicingRenderer(GLVolumeRenderer):
         self.ctx.enable(self.ctx.BLEND)
         self.ctx.blend_func = (self.ctx.ONE, self.ctx.ONE_MINUS_SRC_ALPHA)  # over, premultiplied
         common = {**self.camera_uniforms(scene), **self.optics_uniforms(scene, tables["u_lut"].lut)}
-        drawn, triangles = now(), 0
+        gpu_seconds, triangles = 0.0, 0
         try:
             for view in views:
                 tris = self.geometry(scene, view)
@@ -94,15 +107,17 @@ class SlicingRenderer(GLVolumeRenderer):
                 vbo = self.ctx.buffer(np.ascontiguousarray(tris, dtype=np.float32).tobytes())
                 vao = self.ctx.vertex_array(program, [(vbo, "3f", "position")])
                 try:
+                    self.ctx.finish()         # uploads done: time the drawing alone, as the ray caster does
+                    drawn = now()
                     vao.render(self.ctx.TRIANGLES)
+                    self.ctx.finish()
+                    gpu_seconds += now() - drawn
                 finally:
                     vao.release()
                     vbo.release()
                 triangles += len(tris) // 3
-            self.ctx.finish()
         finally:
             self.ctx.disable(self.ctx.BLEND)
-        gpu_seconds = now() - drawn
         image = self.read(fbo, width, height)
         self.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines,
                       "bricks": len(views), "triangles": triangles}
