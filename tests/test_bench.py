@@ -87,3 +87,14 @@ def test_bench_slicing_shows_the_stack_switch(tmp_path, capsys):
     assert main(args) == 1                                   # no --overwrite: refused before any work
     assert "exists; pass --overwrite" in capsys.readouterr().err
     assert (tmp_path / "slicing_jump.png").read_bytes() == before
+
+
+def test_bench_renderers_times_whole_and_bricked(capsys):
+    assert main(["bench", "renderers", "--volume-size", "24", "--size", "16", "--repeat", "1",
+                 "--budget", "0.03"]) == 0
+    out = capsys.readouterr().out
+    rows = [line.split() for line in out.splitlines() if line.startswith(("raycast ", "slicing3d ", "slicing2d "))]
+    assert len(rows) == 3 * 2 * 2
+    bricks = [int(r[2]) for r in rows]
+    assert bricks[0::2] == [1] * 6 and min(bricks[1::2]) > 1  # the budget run really is bricked
+    assert all(float(r[3]) > 0 and float(r[4]) >= float(r[3]) for r in rows)  # a frame includes its draws
