@@ -181,6 +181,8 @@ def _resolve_renderer(spec: RendererSpec, volume: Volume) -> RendererSpec:
         raise SceneError(f"renderer.block_size must be 4, 8, 16 or 32, got {spec.block_size}")
     if not spec.homogeneity_tolerance >= 0:
         raise SceneError(f"renderer.homogeneity_tolerance must be >= 0, got {spec.homogeneity_tolerance}")
+    if not 0.0 <= spec.opacity_threshold < 1.0:
+        raise SceneError(f"renderer.opacity_threshold must be in [0, 1), got {spec.opacity_threshold}")
     if not spec.texture_budget_mb > 0:
         raise SceneError(f"renderer.texture_budget_mb must be positive, got {spec.texture_budget_mb}")
     iso = spec.iso_value if spec.iso_value is not None else sum(volume.value_range) / 2.0

@@ -81,6 +81,7 @@ class RendererSpec:
     acceleration: bool = True                         # GPU: jump empty and constant blocks (same image)
     block_size: int = 8                               # voxels per block edge (4, 8, 16 or 32)
     homogeneity_tolerance: float = 0.0                # > 0: also jump nearly constant blocks (approximate)
+    opacity_threshold: float = 0.0                    # shearwarp: voxels at most this opaque are skipped
     shading: ShadingSpec = field(default_factory=ShadingSpec)
 
 

@@ -68,13 +68,15 @@ def _chunks(n_seg: np.ndarray, active: np.ndarray, descending: bool = False):
 class DiscreteReference:
     """Render a resolved scene with the same discretization as the GPU renderers."""
 
-    def __init__(self, scene, plan=None):
+    def __init__(self, scene, plan=None, rays: RayBatch | None = None):
         """``plan``: where to sample, a function of the rays (see :mod:`.plans`); default: the ray
-        caster's segments."""
+        caster's segments.  ``rays``: other rays than the camera's pixels' (shear-warp's
+        intermediate image)."""
         self.scene = scene
         r = scene.renderer
-        self.rays = RayBatch.for_camera(scene.camera, scene.image.width, scene.image.height,
-                                        scene.volume.box, r.jitter_seed if r.jitter else None)
+        self.rays = rays if rays is not None else RayBatch.for_camera(
+            scene.camera, scene.image.width, scene.image.height, scene.volume.box,
+            r.jitter_seed if r.jitter else None)
         self.plan = plan(self.rays) if plan is not None else RaySegments(self.rays, r.sample_distance)
         self.model = OpticalModel(scene, exact=False, segment_length=self.plan.slab_length)
         self.n_seg = self.plan.count
@@ -89,8 +91,9 @@ class DiscreteReference:
         """Premultiplied linear RGBA ``(H, W, 4)`` float32."""
         return self.render_float64().astype(np.float32)
 
-    def render_float64(self) -> np.ndarray:
-        """The image before rounding to float32 (for closed-form checks)."""
+    def render_float64(self, shape: tuple[int, int] | None = None) -> np.ndarray:
+        """The image before rounding to float32 (for closed-form checks); ``shape``: (rows, columns)
+        of the rays, if not the scene's image."""
         r = self.scene.renderer
         mode = r.compositing
         if mode == "emission_absorption":
@@ -99,7 +102,8 @@ class DiscreteReference:
             rgba = self._isosurface()
         else:
             rgba = self._projection(mode)
-        return rgba.reshape(self.scene.image.height, self.scene.image.width, 4)
+        rows, cols = shape or (self.scene.image.height, self.scene.image.width)
+        return rgba.reshape(rows, cols, 4)
 
     def _segments(self, grid: SegmentGrid):
         """Associated colour and optical depth of each segment, ``(rows, m, 3)`` and ``(rows, m)``."""

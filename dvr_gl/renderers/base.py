@@ -41,6 +41,7 @@ RENDERERS = {
     "raycast": "dvr_gl.renderers.raycast:RayCastRenderer",
     "slicing3d": "dvr_gl.renderers.slicing:Slicing3DRenderer",
     "slicing2d": "dvr_gl.renderers.slicing:Slicing2DRenderer",
+    "shearwarp": "dvr_gl.renderers.shearwarp:ShearWarpRenderer",
     "reference": "dvr_gl.renderers.reference:DiscreteReferenceRenderer",
     "reference-converged": "dvr_gl.renderers.reference:ConvergedReferenceRenderer",
 }

@@ -1,0 +1,324 @@
+"""Shear-warp: run-length encoded slices composited on the host, the intermediate image warped in GL.
+
+Lacroute and Levoy's object-order renderer (:mod:`dvr_gl.shear_warp` for the
+factorization, :mod:`dvr_gl.run_length` for the encoding):
+
+1. the view is factored into a permutation (the principal axis), a shear (and,
+   under perspective, a per-slice scale) and a 2D warp;
+2. the slices across the principal axis are composited front to back into the
+   *intermediate image*, whose pixels are the rays through the front slice's
+   voxel grid: slice ``k``'s voxel ``(i, j)`` lands at ``(s i + a_k, s j + b_k)``,
+   so every voxel of a slice shares the same bilinear weights (point sampling the
+   slice where each ray crosses it; under perspective far slices are minified,
+   ``s < 1``).  Transparent runs are never read; runs and voxels that land only on
+   pixels already opaque (accumulated opacity at ``ert_threshold``) are skipped;
+   opacity is corrected for the ray length between slices, ``spacing / |cos|``
+   along each pixel's ray;
+3. the intermediate image, as a float RGBA texture, is drawn on a quad transformed
+   by ``M_warp`` into the float output, bilinear.
+
+The work vectorized per slice is proportional to the stored (non-transparent)
+voxels and their runs, not to the volume's size.  Emission-absorption with post-
+or pre-classification, linear filtering; shading, gradient opacity,
+pre-integration and jitter are refused with the reason.  The same-discretization
+reference of step 2 is the 2D-stack plan across the principal axis sampled along
+the intermediate pixels' rays (:func:`intermediate_reference`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import moderngl
+import numpy as np
+
+from ..errors import SceneError
+from ..gl.shaders import create_program
+from ..rays import RayBatch, intersect_box
+from ..reference import plans
+from ..reference.discrete import DiscreteReference
+from ..run_length import RunLengthVolume, SliceClassifier, expand_runs
+from ..shear_warp import factorize
+from .gl_base import GLVolumeRenderer, now
+
+OPEN_REFRESH = 4  # slices between refreshes of the per-row count of open pixels (stale counts are safe)
+
+
+def check(scene):
+    r = scene.renderer
+    if r.compositing != "emission_absorption":
+        raise SceneError(f"shearwarp composites emission-absorption only; use renderer raycast for {r.compositing}")
+    if r.classification not in ("post", "pre"):
+        raise SceneError("shearwarp classifies voxels (pre) or interpolated samples (post); pre-integrated "
+                         "classification needs renderer raycast, slicing3d or slicing2d")
+    if r.classification == "pre" and not r.associated_colors:
+        raise SceneError("shearwarp composites associated colours; set renderer.associated_colors = true")
+    if r.filter != "linear":
+        raise SceneError(f"shearwarp resamples slices bilinearly: use renderer.filter linear, not {r.filter}")
+    if r.shading.enabled or r.gradient_opacity:
+        raise SceneError("shearwarp does not shade or scale opacity by the gradient; turn shading and "
+                         "gradient_opacity off or use renderer raycast")
+    if r.jitter:
+        raise SceneError("shearwarp samples fixed slices: renderer.jitter applies to raycast only")
+
+
+def slab_lengths(fact, scene) -> np.ndarray:
+    """World length of each intermediate pixel's ray between two slices, ``(Hi * Wi,)`` (or one value)."""
+    spacing = scene.volume.spacing[fact.axis]
+    if not fact.perspective:
+        f, _, _ = scene.camera.basis()
+        return np.array(spacing / abs(f[fact.axis]))
+    width, height = fact.size
+    v, u = np.mgrid[0:height, 0:width]
+    d = fact.front_points(u.ravel(), v.ravel()) - np.asarray(scene.camera.eye)
+    return spacing * np.linalg.norm(d, axis=1) / np.abs(d[:, fact.axis])
+
+
+class _Depth:
+    """Near-plane clipping: the depth along the view axis of slice ``k``'s crossing with pixel ``(u, v)``,
+    affine in ``u`` and ``v``; None when the whole box lies beyond the near plane (no test needed)."""
+
+    def __init__(self, fact, scene):
+        f, _, _ = scene.camera.basis()
+        self.f, self.eye, self.fact = f, np.asarray(scene.camera.eye), fact
+        self.near = scene.camera.near
+        lo, hi = scene.volume.box
+        corners = np.array([[(hi if i & m else lo)[a] for a, m in enumerate((1, 2, 4))] for i in range(8)])
+        self.needed = float(np.min((corners - self.eye) @ f)) < self.near
+
+    def keep(self, k: int, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        scale, ou, ov = self.fact.slice_transform(k)
+        q = np.stack([(u - ou) / scale, (v - ov) / scale, np.full(u.shape, float(k)), np.ones(u.shape)], axis=-1)
+        return ((q @ self.fact.to_world.T)[:, :3] - self.eye) @ self.f >= self.near
+
+
+def composite(fact, rle: RunLengthVolume, scene) -> tuple[np.ndarray, dict]:
+    """The intermediate image ``(Hi, Wi, 4)`` float64 (premultiplied colour, opacity) and counts."""
+    width, height = fact.size
+    ni, nj, _ = fact.dims
+    r = scene.renderer
+    pixels = width * height
+    colour = np.zeros((pixels, 3))
+    tau = np.zeros(pixels)
+    open_ = np.ones(pixels, dtype=bool)
+    open_rows = np.full((height, width + 1), 0, dtype=np.int64)
+    tau_stop = -math.log1p(-r.ert_threshold) if r.ert_threshold < 1.0 else np.inf
+    slab = slab_lengths(fact, scene)
+    lut = scene.transfer_function.tabulate(r.lut_size) if r.classification == "post" else None
+    depth = _Depth(fact, scene)
+    slot = np.zeros(pixels, dtype=np.int64)  # compacting scratch: pixel -> one of its entries
+    counts = {"voxels_read": 0, "samples": 0}
+    for n, k in enumerate(fact.slices):
+        if n % OPEN_REFRESH == 0:
+            open_rows[:, 1:] = np.cumsum(open_.reshape(height, width), axis=1)
+        first, length, first_row = rle.runs(int(k))
+        if not len(first):
+            continue
+        scale, ou, ov = (float(x) for x in fact.slice_transform(k))
+        first, length, first_row = _runs_in_view(first, length, first_row, ni, scale, ou, ov, open_rows)
+        if not len(first):
+            continue
+        offset, run = expand_runs(first, length)
+        flat = first[run] + offset
+        rows = first_row[run] + offset
+        counts["voxels_read"] += len(flat)
+        p, w, rows = _footprints(flat % ni, flat // ni, rows, scale, ou, ov, width, open_)
+        u, v = p % width, p // width
+        keep = _inside(u, ou, scale, ni) & _inside(v, ov, scale, nj)
+        if depth.needed:
+            keep &= depth.keep(int(k), u.astype(np.float64), v.astype(np.float64))
+        p, w, rows = p[keep], w[keep], rows[keep]
+        if not len(p):
+            continue
+        pix, weight, values = _accumulate(p, w, rle.payload[rows], slot)
+        c, sigma, pix = _classify(pix, weight, values, lut)
+        seg_tau = sigma * (slab[pix] if slab.ndim else slab)
+        colour[pix] += np.exp(-tau[pix])[:, None] * c * (-np.expm1(-seg_tau))[:, None]
+        tau[pix] += seg_tau
+        open_[pix] = tau[pix] < tau_stop
+        counts["samples"] += len(pix)
+    rgba = np.concatenate([colour, -np.expm1(-tau)[:, None]], axis=1).reshape(height, width, 4)
+    return rgba, counts
+
+
+def _runs_in_view(first, length, first_row, ni, scale, ou, ov, open_rows):
+    """Drop the runs whose pixels (two intermediate rows, the run's span of columns) are all opaque.
+    ``open_rows`` counts open pixels per row cumulatively, refreshed every few slices: pixels only
+    ever close, so a stale count can keep a run needlessly but never drop one that is needed."""
+    i0, j = first % ni, first // ni
+    height, width1 = open_rows.shape
+    y = scale * j + ov
+    v0 = np.floor(y).astype(np.int64)
+    c0 = np.clip(np.floor(scale * i0 + ou).astype(np.int64), 0, width1 - 1)
+    c1 = np.clip(np.floor(scale * (i0 + length - 1) + ou).astype(np.int64) + 2, 0, width1 - 1)
+    rows0, rows1 = np.clip(v0, 0, height - 1), np.clip(v0 + 1, 0, height - 1)
+    open_count = (open_rows[rows0, c1] - open_rows[rows0, c0]) + (open_rows[rows1, c1] - open_rows[rows1, c0])
+    keep = open_count > 0
+    return first[keep], length[keep], first_row[keep]
+
+
+def _footprints(i, j, rows, scale, ou, ov, width, open_):
+    """Each voxel's (up to four) pixels and bilinear weights: pixel ``u`` samples the slice at
+    ``x = (u - ou) / scale`` and weighs voxel ``i`` by ``max(0, 1 - |x - i|)``; only open pixels."""
+    x, y = scale * i + ou, scale * j + ov
+    u0, v0 = np.floor(x), np.floor(y)
+    fx, fy = x - u0, y - v0
+    wx = (np.maximum(0.0, 1.0 - fx / scale), np.maximum(0.0, 1.0 - (1.0 - fx) / scale))
+    wy = (np.maximum(0.0, 1.0 - fy / scale), np.maximum(0.0, 1.0 - (1.0 - fy) / scale))
+    base = v0.astype(np.int64) * width + u0.astype(np.int64)
+    p = np.concatenate([base, base + 1, base + width, base + width + 1])
+    w = np.concatenate([wx[0] * wy[0], wx[1] * wy[0], wx[0] * wy[1], wx[1] * wy[1]])
+    rows = np.tile(rows, 4)
+    keep = (w > 0) & open_[p]
+    return p[keep], w[keep], rows[keep]
+
+
+def _inside(u, offset, scale, n) -> np.ndarray:
+    """Pixels whose ray crosses the slice within its ``n`` voxels (``x = (u - offset) / scale``)."""
+    x = (u - offset) / scale
+    return (x >= -1e-9) & (x <= n - 1 + 1e-9)
+
+
+def _accumulate(p, w, payload, slot):
+    """Sum weights and weighted payload per distinct pixel, in O(entries): every entry finds its
+    pixel's representative through ``slot`` (no sort)."""
+    m = len(p)
+    idx = np.arange(m)
+    slot[p] = idx
+    rep = slot[p]
+    first = rep == idx
+    compact = np.cumsum(first) - 1
+    ids = compact[rep]
+    n = int(compact[-1]) + 1
+    weight = np.bincount(ids, w, n)
+    values = np.stack([np.bincount(ids, w * payload[:, c], n) for c in range(payload.shape[1])], axis=1)
+    return p[first], weight, values
+
+
+def _classify(pix, weight, values, lut):
+    """Colour and extinction of the accumulated samples.  Post-classification keeps only samples whose
+    four voxels were all stored (weights adding to 1); the others are transparent by construction."""
+    if lut is None:
+        sigma = np.maximum(values[:, 3], 0.0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            colour = np.where(sigma[:, None] > 0, np.maximum(values[:, :3], 0.0) / sigma[:, None], 0.0)
+        return colour, sigma, pix
+    complete = weight >= 1.0 - 1e-9
+    colour, sigma = lut.lookup(values[complete, 0] / weight[complete])
+    return colour, sigma, pix[complete]
+
+
+def intermediate_rays(fact, scene) -> RayBatch:
+    """The rays of the intermediate image's pixels (row-major ``(v, u)``), clipped like the camera's."""
+    width, height = fact.size
+    v, u = np.mgrid[0:height, 0:width]
+    points = fact.front_points(u.ravel().astype(float), v.ravel().astype(float))
+    cam = scene.camera
+    f, _, _ = cam.basis()
+    eye = np.asarray(cam.eye)
+    if fact.perspective:
+        d = points - eye
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        o = np.broadcast_to(eye, d.shape).copy()
+    else:
+        d = np.broadcast_to(f, points.shape).copy()
+        o = points - ((points - eye) @ f)[:, None] * f
+    t_enter, t_exit = intersect_box(o, d, *scene.volume.box)
+    t0 = np.maximum(t_enter, cam.near_distance(d))
+    hit = t_exit > t0
+    return RayBatch(o, d, np.where(hit, t0, 0.0), np.where(hit, t_exit, 0.0), np.full(len(o), 0.5))
+
+
+def intermediate_reference(scene) -> np.ndarray:
+    """The same-discretization reference of the intermediate image, float64 ``(Hi, Wi, 4)``: the
+    rays of its pixels, sampled where they cross the slices across the principal axis."""
+    fact = factorize(scene.camera, scene.volume, scene.image.width, scene.image.height)
+    rays = intermediate_rays(fact, scene)
+    def plan(rs):
+        planes = plans.axis_planes(rs, scene.camera, scene.volume, fact.axis)
+        planes.terminates = True  # shear-warp stops compositing opaque pixels
+        return planes
+
+    ref = DiscreteReference(scene, plan=plan, rays=rays)
+    width, height = fact.size
+    return ref.render_float64(shape=(height, width))
+
+
+def warp_reference(fact, intermediate: np.ndarray, width: int, height: int) -> np.ndarray:
+    """The warp on the host: each final pixel's intermediate coordinates, bilinear, zero outside."""
+    py, px = np.mgrid[0:height, 0:width] + 0.5
+    inverse = np.linalg.inv(fact.warp)
+    h = np.stack([px.ravel(), py.ravel(), np.ones(px.size)])
+    uvw = inverse @ h
+    u, v = uvw[0] / uvw[2], uvw[1] / uvw[2]
+    hi, wi = intermediate.shape[:2]
+    u0, v0 = np.floor(u), np.floor(v)
+    fu, fv = u - u0, v - v0
+    out = np.zeros((len(u), 4))
+    for du, dv, wgt in ((0, 0, (1 - fu) * (1 - fv)), (1, 0, fu * (1 - fv)), (0, 1, (1 - fu) * fv), (1, 1, fu * fv)):
+        uu, vv = (u0 + du).astype(np.int64), (v0 + dv).astype(np.int64)
+        ok = (uu >= 0) & (uu < wi) & (vv >= 0) & (vv < hi) & (uvw[2] > 0)
+        out[ok] += wgt[ok, None] * intermediate[vv[ok], uu[ok]]
+    return out.reshape(height, width, 4)
+
+
+class ShearWarpRenderer(GLVolumeRenderer):
+    name = "shearwarp"
+    description = "shear-warp: run-length encoded slices composited on the host, warped in GL"
+
+    def encoding(self, scene, axis: int) -> RunLengthVolume:
+        """The run-length encoding across ``axis``, rebuilt only when the volume, transfer function,
+        classification, threshold or table size change."""
+        r = scene.renderer
+        key = (scene.volume, scene.transfer_function, r.classification, r.opacity_threshold, r.lut_size)
+        return self._cached(f"rle {axis}", key, lambda: RunLengthVolume(
+            scene.volume.data, axis, SliceClassifier(scene.transfer_function, r.classification, r.lut_size,
+                                                     r.opacity_threshold)))
+
+    def render(self, scene) -> np.ndarray:
+        self.activate()
+        start = now()
+        check(scene)
+        width, height = scene.image.width, scene.image.height
+        fact = factorize(scene.camera, scene.volume, width, height)
+        rle = self.encoding(scene, fact.axis)
+        composited = now()
+        intermediate, counts = composite(fact, rle, scene)
+        composited = now() - composited
+        image = self.warp(fact, intermediate, width, height)
+        total = int(np.prod(scene.volume.dims))
+        self.stats = {"seconds": now() - start, "composite_seconds": composited, "axis": fact.axis,
+                      "intermediate": fact.size, "voxels": total, "stored_voxels": rle.stored_voxels,
+                      "skipped_fraction": 1.0 - counts["voxels_read"] / total, **counts}
+        return image
+
+    def warp(self, fact, intermediate: np.ndarray, width: int, height: int) -> np.ndarray:
+        """Draw the intermediate image on a quad transformed by ``M_warp`` (homogeneous, so that GL
+        interpolates texture coordinates perspective-correctly), bilinear."""
+        wi, hi = fact.size
+        to_ndc = np.array([[2.0 / width, 0.0, -1.0], [0.0, -2.0 / height, 1.0], [0.0, 0.0, 1.0]])
+        program = create_program(self.ctx, "warp.vert", "warp.frag", {})
+        texture = self.ctx.texture((wi, hi), 4, np.ascontiguousarray(intermediate, dtype=np.float32).tobytes(),
+                                   dtype="f4")
+        texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        texture.repeat_x = texture.repeat_y = False
+        corners = np.array([[-0.5, -0.5], [wi - 0.5, -0.5], [wi - 0.5, hi - 0.5],
+                            [-0.5, -0.5], [wi - 0.5, hi - 0.5], [-0.5, hi - 0.5]], dtype=np.float32)
+        vbo = self.ctx.buffer(corners.tobytes())
+        vao = self.ctx.vertex_array(program, [(vbo, "2f", "position")])
+        (_,), fbo = self.target("main", width, height)
+        try:
+            fbo.use()
+            self.ctx.viewport = (0, 0, width, height)
+            self.ctx.clear(0.0, 0.0, 0.0, 0.0)
+            self.ctx.disable(self.ctx.BLEND | self.ctx.DEPTH_TEST | self.ctx.CULL_FACE)
+            program["u_warp"].write((to_ndc @ fact.warp).T.astype("f4").tobytes())  # GL: column-major
+            program["u_size"].value = (float(wi), float(hi))
+            texture.use(0)
+            program["u_intermediate"].value = 0
+            vao.render(moderngl.TRIANGLES)
+            return self.read(fbo, width, height)
+        finally:
+            vao.release()
+            vbo.release()
+            texture.release()

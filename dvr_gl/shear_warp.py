@@ -1,0 +1,206 @@
+"""Shear-warp factorization of the viewing transformation (Lacroute and Levoy 1994).
+
+Coordinates:
+
+* *voxel* coordinates ``x`` (x, y, z order): sample ``(i, j, k)`` of the volume at
+  integers, ``world = origin + x * spacing``;
+* *permuted* coordinates ``q = P x = (i, j, k)``: ``k`` along the principal
+  viewing axis ``c``, ``i`` and ``j`` along the axes ``(c + 1) % 3`` and
+  ``(c + 2) % 3``, so slice ``k`` of the permuted volume is a 2D image
+  ``[j, i]``;
+* *intermediate* image coordinates ``(u, v)``: pixel centres at integers.  The
+  intermediate image is the plane of the *front* slice (the one nearest the eye),
+  one pixel per voxel of it, translated by ``(tu, tv)`` so that every slice lands
+  at non-negative coordinates with a one-pixel border of zeros;
+* final image pixel coordinates ``(px, py)``: pixel centres at ``col + 0.5``, row
+  0 at the top (the conventions).
+
+The *shear* ``S`` maps a point to where the ray through it meets the front
+slice: parallel projection, ``u = i + sx (k - k_f) + tu`` with ``sx = -D_i / D_k``
+for the viewing direction ``D`` in permuted coordinates; perspective, the ray from
+the eye ``E``, ``u = E_i + (i - E_i) s_k + tu`` with the per-slice scale
+``s_k = (E_k - k_f) / (E_k - k)`` (1 on the front slice, below 1 behind it: far
+slices are minified, so an intermediate scanline gathers from more than one voxel
+scanline).  Every point of one ray shears to the same ``(u, v)``, so the rest of
+the viewing transformation, the *warp* ``M_warp`` from ``(u, v, 1)`` to
+homogeneous ``(px w, py w, w)``, is a 2D transformation: affine for parallel
+projection, projective (a homography) for perspective.  The viewing
+transformation is ``M_view = W3 S P`` with ``W3`` independent of ``k``
+(:meth:`Factorization.matrices`; tested to rounding).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import SceneError
+
+EYE_MARGIN = 1e-3  # voxels: perspective needs the eye this far outside the slab of slices
+
+
+def permuted_axes(axis: int) -> tuple[int, int, int]:
+    """World axes ``(a, b, c)`` that become ``(i, j, k)`` for principal axis ``c``."""
+    return (axis + 1) % 3, (axis + 2) % 3, axis
+
+
+def camera_matrix(camera, width: int, height: int) -> np.ndarray:
+    """4x4: world (homogeneous) to ``(px w, py w, depth-ish, w)`` final pixel coordinates.
+
+    Orthographic: ``w = 1`` and the third row is the depth along the view axis;
+    perspective: ``w`` is the depth and the third row is 1 (so ``Z / w`` is its inverse)."""
+    f, r, up = camera.basis()
+    eye = np.asarray(camera.eye)
+    to_camera = np.zeros((4, 4))
+    to_camera[0, :3], to_camera[1, :3], to_camera[2, :3] = r, up, f
+    to_camera[:3, 3] = -to_camera[:3, :3] @ eye
+    to_camera[3, 3] = 1.0
+    aspect = width / height
+    k = np.zeros((4, 4))
+    if camera.projection == "orthographic":
+        half = camera.view_height / 2.0
+        k[0, 0], k[0, 3] = width / (2.0 * half * aspect), width / 2.0
+        k[1, 1], k[1, 3] = -height / (2.0 * half), height / 2.0
+        k[2, 2], k[3, 3] = 1.0, 1.0
+    else:
+        h = math.tan(math.radians(camera.fov) / 2.0)
+        k[0, 0], k[0, 2] = width / (2.0 * h * aspect), width / 2.0
+        k[1, 1], k[1, 2] = -height / (2.0 * h), height / 2.0
+        k[2, 3], k[3, 2] = 1.0, 1.0
+    return k @ to_camera
+
+
+def voxel_to_world(volume) -> np.ndarray:
+    m = np.diag([*volume.spacing, 1.0])
+    m[:3, 3] = volume.origin
+    return m
+
+
+def permutation_matrix(axis: int) -> np.ndarray:
+    """4x4 ``P``: voxel coordinates to permuted ``(i, j, k)``."""
+    p = np.zeros((4, 4))
+    for row, world_axis in enumerate(permuted_axes(axis)):
+        p[row, world_axis] = 1.0
+    p[3, 3] = 1.0
+    return p
+
+
+def principal_axis(camera, volume) -> int:
+    """The slice axis: the largest component of the viewing direction in voxel coordinates (so that
+    consecutive slices shift by at most one voxel along a ray).  Perspective: the direction from the
+    eye to the volume's centre, among the axes whose slab of slices the eye lies outside; an eye
+    within every slab (inside the volume) cannot be sheared (``SceneError``)."""
+    spacing = np.asarray(volume.spacing)
+    lo, hi = volume.box
+    if camera.projection == "orthographic":
+        f, _, _ = camera.basis()
+        return int(np.argmax(np.abs(f / spacing)))
+    eye_voxel = (np.asarray(camera.eye) - lo) / spacing
+    n = np.asarray(volume.dims) - 1
+    outside = (eye_voxel < -EYE_MARGIN) | (eye_voxel > n + EYE_MARGIN)
+    if not outside.any():
+        raise SceneError("shearwarp: the perspective eye is inside the volume, where no slice axis has all "
+                         "rays crossing the slices one way; move the camera out, use an orthographic camera, "
+                         "or use renderer raycast")
+    direction = np.abs(((lo + hi) / 2.0 - np.asarray(camera.eye)) / spacing)
+    return int(np.argmax(np.where(outside, direction, -1.0)))
+
+
+@dataclass(frozen=True)
+class Factorization:
+    """The factored view (see the module doc).  ``slices`` run front to back."""
+
+    axis: int
+    perspective: bool
+    dims: tuple[int, int, int]        # permuted (Ni, Nj, Nk)
+    front: int                        # k of the front slice
+    step: int                         # +1 or -1: k order front to back
+    shear: tuple[float, float]        # parallel: (sx, sy) per slice
+    eye: tuple[float, float, float]   # perspective: the eye in permuted coordinates
+    translation: tuple[float, float]  # (tu, tv)
+    size: tuple[int, int]             # intermediate image (width, height), border included
+    warp: np.ndarray                  # 3x3: (u, v, 1) -> (px w, py w, w)
+    to_world: np.ndarray              # 4x4: permuted (i, j, k, 1) -> world
+
+    @property
+    def slices(self) -> np.ndarray:
+        return self.front + self.step * np.arange(self.dims[2])
+
+    def slice_transform(self, k):
+        """``(scale, offset_u, offset_v)``: slice ``k``'s voxel ``(i, j)`` lands at
+        ``(scale i + offset_u, scale j + offset_v)`` in the intermediate image (``k`` may be an array)."""
+        k = np.asarray(k, dtype=np.float64)
+        tu, tv = self.translation
+        if not self.perspective:
+            sx, sy = self.shear
+            return np.ones_like(k), sx * (k - self.front) + tu, sy * (k - self.front) + tv
+        ei, ej, ek = self.eye
+        scale = (ek - self.front) / (ek - k)
+        return scale, ei * (1.0 - scale) + tu, ej * (1.0 - scale) + tv
+
+    def front_points(self, u, v) -> np.ndarray:
+        """World points ``(..., 3)`` on the front slice's plane at intermediate ``(u, v)``."""
+        tu, tv = self.translation
+        q = np.stack([np.asarray(u, float) - tu, np.asarray(v, float) - tv,
+                      np.full(np.shape(u), float(self.front)), np.ones(np.shape(u))], axis=-1)
+        return (q @ self.to_world.T)[..., :3]
+
+    def matrices(self, camera, width: int, height: int) -> dict:
+        """``M_view`` (voxel to final image), ``P``, ``S`` and ``W3 = M_view P^-1 S^-1`` (4x4 each)."""
+        tu, tv = self.translation
+        s = np.eye(4)
+        if not self.perspective:
+            sx, sy = self.shear
+            s[0, 2], s[0, 3] = sx, tu - sx * self.front
+            s[1, 2], s[1, 3] = sy, tv - sy * self.front
+        else:
+            ei, ej, ek = self.eye
+            depth = ek - self.front
+            for row, (e, t) in enumerate(((ei, tu), (ej, tv))):
+                s[row, 2], s[row, 3] = -(e + t) / depth, (e + t) * ek / depth - e
+            s[3, 2], s[3, 3] = -1.0 / depth, ek / depth
+        # s maps (i, j, k, 1) to (u w, v w, k, w); for parallel projection w = 1
+        view = camera_matrix(camera, width, height)
+        return {"view": view @ voxel_to_world_of(self), "P": permutation_matrix(self.axis), "S": s,
+                "W3": view @ self.to_world @ np.linalg.inv(s)}
+
+
+def voxel_to_world_of(fact: Factorization) -> np.ndarray:
+    return fact.to_world @ permutation_matrix(fact.axis)
+
+
+def factorize(camera, volume, width: int, height: int) -> Factorization:
+    """Factor the view of ``volume`` by ``camera`` into an ``(width, height)`` image."""
+    axis = principal_axis(camera, volume)
+    a, b, c = permuted_axes(axis)
+    n = np.asarray(volume.dims)
+    dims = (int(n[a]), int(n[b]), int(n[c]))
+    p = permutation_matrix(axis)
+    to_world = voxel_to_world(volume) @ np.linalg.inv(p)
+    spacing = np.asarray(volume.spacing)
+    perspective = camera.projection == "perspective"
+    if perspective:
+        eye_voxel = (np.asarray(camera.eye) - np.asarray(volume.origin)) / spacing
+        eye = (float(eye_voxel[a]), float(eye_voxel[b]), float(eye_voxel[c]))
+        front, step = (0, 1) if eye[2] < 0 else (dims[2] - 1, -1)
+        shear = (0.0, 0.0)
+    else:
+        f, _, _ = camera.basis()
+        d = f / spacing
+        shear = (float(-d[a] / d[c]), float(-d[b] / d[c]))
+        front, step = (0, 1) if d[c] > 0 else (dims[2] - 1, -1)
+        eye = (0.0, 0.0, 0.0)
+    probe = Factorization(axis, perspective, dims, front, step, shear, eye, (0.0, 0.0), (0, 0), np.eye(3), to_world)
+    k = np.arange(dims[2])
+    scale, ou, ov = probe.slice_transform(k)
+    lo_u, hi_u = np.min(ou), np.max(ou + scale * (dims[0] - 1))
+    lo_v, hi_v = np.min(ov), np.max(ov + scale * (dims[1] - 1))
+    # one pixel of zeros on every side: bilinear warping then fades to transparent at the edges
+    tu, tv = 1.0 - math.floor(lo_u), 1.0 - math.floor(lo_v)
+    size = (int(math.floor(hi_u) + tu) + 3, int(math.floor(hi_v) + tv) + 3)
+    fact = Factorization(axis, perspective, dims, front, step, shear, eye, (tu, tv), size, np.eye(3), to_world)
+    w3 = fact.matrices(camera, width, height)["W3"]
+    warp = w3[np.ix_([0, 1, 3], [0, 1, 3])]
+    return Factorization(axis, perspective, dims, front, step, shear, eye, (tu, tv), size, warp, to_world)
