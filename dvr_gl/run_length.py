@@ -32,7 +32,6 @@ import time
 
 import numpy as np
 
-from .acceleration import SparseTable
 from .shear_warp import permuted_axes
 
 
@@ -73,7 +72,11 @@ class SliceClassifier:
         self.channels = 4 if classification == "pre" else 1
         if classification == "post":
             self.lut = transfer_function.tabulate(lut_size)
-            self.sigma_range = SparseTable(self.lut.table[:, 3:4])
+            # the table is linear between nodes, so values between nodes i0 and i1 reach extinction above
+            # the threshold exactly when a node in i0 .. i1 does: the first such node at or after i0
+            nodes = np.arange(self.lut.size)
+            above = np.where(self.lut.table[:, 3] > self.sigma_threshold, nodes, self.lut.size)
+            self.next_visible_node = np.minimum.accumulate(above[::-1])[::-1]
 
     def __call__(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(payload (Nj, Ni, C) float32, visible (Nj, Ni) bool)`` of a slice."""
@@ -83,21 +86,21 @@ class SliceClassifier:
         lo, hi = _neighbourhood_range(values.astype(np.float64))
         i0 = np.floor(self.lut.node_coordinate(lo)).astype(np.int64)
         i1 = np.minimum(np.ceil(self.lut.node_coordinate(hi)).astype(np.int64), self.lut.size - 1)
-        _, sigma_max = self.sigma_range.query(i0.ravel(), i1.ravel())
-        visible = sigma_max[:, 0].reshape(values.shape) > self.sigma_threshold
+        visible = self.next_visible_node[i0] <= i1
         return values.astype(np.float32)[..., None], visible
 
 
 def _neighbourhood_range(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Minimum and maximum over each voxel's 3x3 in-slice neighbourhood (clamped at the edges)."""
-    padded = np.pad(values, 1, mode="edge")
-    lo = hi = values
-    nj, ni = values.shape
-    for dj in range(3):
-        for di in range(3):
-            window = padded[dj:dj + nj, di:di + ni]
-            lo, hi = np.minimum(lo, window), np.maximum(hi, window)
-    return lo, hi
+    """Minimum and maximum over each voxel's 3x3 in-slice neighbourhood (clamped at the edges),
+    separably: across rows, then across columns."""
+    def window(a, op, axis):
+        padded = np.pad(a, [(1, 1) if ax == axis else (0, 0) for ax in range(2)], mode="edge")
+        n = a.shape[axis]
+        parts = [padded[d:d + n] if axis == 0 else padded[:, d:d + n] for d in range(3)]
+        return op(op(parts[0], parts[1]), parts[2])
+
+    return (window(window(values, np.minimum, 0), np.minimum, 1),
+            window(window(values, np.maximum, 0), np.maximum, 1))
 
 
 class RunLengthVolume:

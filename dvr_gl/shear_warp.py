@@ -195,8 +195,9 @@ def factorize(camera, volume, width: int, height: int) -> Factorization:
     probe = Factorization(axis, perspective, dims, front, step, shear, eye, (0.0, 0.0), (0, 0), np.eye(3), to_world)
     k = np.arange(dims[2])
     scale, ou, ov = probe.slice_transform(k)
-    lo_u, hi_u = np.min(ou), np.max(ou + scale * (dims[0] - 1))
-    lo_v, hi_v = np.min(ov), np.max(ov + scale * (dims[1] - 1))
+    pad = [0.5 if n == 1 else 0.0 for n in dims]  # a single sample spans half a voxel either side
+    lo_u, hi_u = np.min(ou - scale * pad[0]), np.max(ou + scale * (dims[0] - 1 + pad[0]))
+    lo_v, hi_v = np.min(ov - scale * pad[1]), np.max(ov + scale * (dims[1] - 1 + pad[1]))
     # one pixel of zeros on every side: bilinear warping then fades to transparent at the edges
     tu, tv = 1.0 - math.floor(lo_u), 1.0 - math.floor(lo_v)
     size = (int(math.floor(hi_u) + tu) + 3, int(math.floor(hi_v) + tv) + 3)

@@ -8,6 +8,7 @@ import pytest
 
 from dvr_gl.reference.discrete import DiscreteReference
 from dvr_gl.renderers import create_renderer
+from dvr_gl.renderers.shearwarp import reference as shearwarp_reference
 from dvr_gl.renderers.slicing import reference as slicer_reference
 from dvr_gl.scene import load_scene
 
@@ -25,7 +26,7 @@ DATASETS = {
 
 @pytest.fixture(scope="module")
 def renderers():
-    made = {name: create_renderer(name) for name in ("raycast", "slicing3d", "slicing2d")}
+    made = {name: create_renderer(name) for name in ("raycast", "slicing3d", "slicing2d", "shearwarp")}
     yield made
     for r in made.values():
         r.close()
@@ -58,3 +59,19 @@ def test_dataset_renders(shared_data, renderers, volumes, name, renderer):
     assert_close(image, reference)
     if "bunny" in name:
         assert renderers[renderer].stats["bricks"] > 1
+
+
+@pytest.mark.parametrize("name", list(DATASETS), ids=lambda n: n.split("/")[1].split(".")[0])
+def test_dataset_renders_with_shear_warp(shared_data, renderers, volumes, name):
+    """Parallel and perspective against shear-warp's same-discretization reference (the same slices
+    along the intermediate pixels' rays, warped bilinearly): measured max 3.1e-5 (the bunny,
+    orthographic), mean <= 2.5e-7; asserted as for the other renderers."""
+    overrides = {"volume.path": str(shared_data / name), "image.width": 24, "image.height": 24,
+                 "renderer.ert_threshold": 1.0, **DATASETS[name]}
+    for projection in ("perspective", "orthographic"):
+        scene = load_scene(None, {**overrides, "camera.projection": projection}).replace(volume=volumes(name))
+        image = renderers["shearwarp"].render(scene)
+        reference = shearwarp_reference(scene)
+        assert np.all(np.isfinite(image)) and image.min() >= 0 and image[..., 3].max() <= 1
+        assert reference[..., 3].max() > 0.05, "the preset shows nothing of this dataset"
+        assert_close(image, reference)

@@ -42,6 +42,7 @@ from ..shear_warp import factorize
 from .gl_base import GLVolumeRenderer, now
 
 OPEN_REFRESH = 4  # slices between refreshes of the per-row count of open pixels (stale counts are safe)
+PIECE = 8         # voxels: runs are cut into pieces this long for skipping occluded ones
 
 
 def check(scene):
@@ -85,11 +86,13 @@ class _Depth:
         lo, hi = scene.volume.box
         corners = np.array([[(hi if i & m else lo)[a] for a, m in enumerate((1, 2, 4))] for i in range(8)])
         self.needed = float(np.min((corners - self.eye) @ f)) < self.near
+        # the reference counts a plane crossed up to 1e-9 plane spacings before the ray's start
+        self.slack = 1e-9 * scene.volume.spacing[fact.axis] / max(abs(f[fact.axis]), 1e-12)
 
     def keep(self, k: int, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         scale, ou, ov = self.fact.slice_transform(k)
         q = np.stack([(u - ou) / scale, (v - ov) / scale, np.full(u.shape, float(k)), np.ones(u.shape)], axis=-1)
-        return ((q @ self.fact.to_world.T)[:, :3] - self.eye) @ self.f >= self.near
+        return ((q @ self.fact.to_world.T)[:, :3] - self.eye) @ self.f >= self.near - self.slack
 
 
 def composite(fact, rle: RunLengthVolume, scene) -> tuple[np.ndarray, dict]:
@@ -100,7 +103,8 @@ def composite(fact, rle: RunLengthVolume, scene) -> tuple[np.ndarray, dict]:
     pixels = width * height
     colour = np.zeros((pixels, 3))
     tau = np.zeros(pixels)
-    open_ = np.ones(pixels, dtype=bool)
+    rays = intermediate_rays(fact, scene)
+    open_ = rays.t1 > rays.t0  # rays that only touch the box (at an edge) miss it, as in the reference
     open_rows = np.full((height, width + 1), 0, dtype=np.int64)
     tau_stop = -math.log1p(-r.ert_threshold) if r.ert_threshold < 1.0 else np.inf
     slab = slab_lengths(fact, scene)
@@ -122,7 +126,7 @@ def composite(fact, rle: RunLengthVolume, scene) -> tuple[np.ndarray, dict]:
         flat = first[run] + offset
         rows = first_row[run] + offset
         counts["voxels_read"] += len(flat)
-        p, w, rows = _footprints(flat % ni, flat // ni, rows, scale, ou, ov, width, open_)
+        p, w, rows = _footprints(flat % ni, flat // ni, rows, scale, ou, ov, fact.dims, width, open_)
         u, v = p % width, p // width
         keep = _inside(u, ou, scale, ni) & _inside(v, ov, scale, nj)
         if depth.needed:
@@ -142,9 +146,16 @@ def composite(fact, rle: RunLengthVolume, scene) -> tuple[np.ndarray, dict]:
 
 
 def _runs_in_view(first, length, first_row, ni, scale, ou, ov, open_rows):
-    """Drop the runs whose pixels (two intermediate rows, the run's span of columns) are all opaque.
-    ``open_rows`` counts open pixels per row cumulatively, refreshed every few slices: pixels only
-    ever close, so a stale count can keep a run needlessly but never drop one that is needed."""
+    """Cut the runs into pieces of at most :data:`PIECE` voxels and drop the pieces whose pixels (two
+    intermediate rows, the piece's span of columns) are all opaque: early termination at the
+    granularity of pieces, as Lacroute's offsets to the next open pixel do per pixel.  ``open_rows``
+    counts open pixels per row cumulatively, refreshed every few slices: pixels only ever close, so a
+    stale count can keep a piece needlessly but never drop one that is needed."""
+    pieces = -(-length // PIECE)
+    run = np.repeat(np.arange(len(length)), pieces)
+    skip = PIECE * (np.arange(len(run)) - np.repeat(np.cumsum(pieces) - pieces, pieces))
+    first, first_row = first[run] + skip, first_row[run] + skip
+    length = np.minimum(length[run] - skip, PIECE)
     i0, j = first % ni, first // ni
     height, width1 = open_rows.shape
     y = scale * j + ov
@@ -157,14 +168,13 @@ def _runs_in_view(first, length, first_row, ni, scale, ou, ov, open_rows):
     return first[keep], length[keep], first_row[keep]
 
 
-def _footprints(i, j, rows, scale, ou, ov, width, open_):
+def _footprints(i, j, rows, scale, ou, ov, dims, width, open_):
     """Each voxel's (up to four) pixels and bilinear weights: pixel ``u`` samples the slice at
     ``x = (u - ou) / scale`` and weighs voxel ``i`` by ``max(0, 1 - |x - i|)``; only open pixels."""
     x, y = scale * i + ou, scale * j + ov
     u0, v0 = np.floor(x), np.floor(y)
-    fx, fy = x - u0, y - v0
-    wx = (np.maximum(0.0, 1.0 - fx / scale), np.maximum(0.0, 1.0 - (1.0 - fx) / scale))
-    wy = (np.maximum(0.0, 1.0 - fy / scale), np.maximum(0.0, 1.0 - (1.0 - fy) / scale))
+    wx = _axis_weights(x - u0, scale, dims[0] == 1)
+    wy = _axis_weights(y - v0, scale, dims[1] == 1)
     base = v0.astype(np.int64) * width + u0.astype(np.int64)
     p = np.concatenate([base, base + 1, base + width, base + width + 1])
     w = np.concatenate([wx[0] * wy[0], wx[1] * wy[0], wx[0] * wy[1], wx[1] * wy[1]])
@@ -173,10 +183,21 @@ def _footprints(i, j, rows, scale, ou, ov, width, open_):
     return p[keep], w[keep], rows[keep]
 
 
+def _axis_weights(frac, scale, single: bool):
+    """Weights of a voxel for the pixels ``floor(x)`` and ``floor(x) + 1``, ``frac = x - floor(x)``:
+    the tent of bilinear interpolation, or, across a single sample, its value within half a voxel
+    (the conventions' one-spacing slab)."""
+    if single:
+        return (frac <= 0.5 * scale).astype(np.float64), (1.0 - frac <= 0.5 * scale).astype(np.float64)
+    return np.maximum(0.0, 1.0 - frac / scale), np.maximum(0.0, 1.0 - (1.0 - frac) / scale)
+
+
 def _inside(u, offset, scale, n) -> np.ndarray:
-    """Pixels whose ray crosses the slice within its ``n`` voxels (``x = (u - offset) / scale``)."""
+    """Pixels whose ray crosses the slice within its ``n`` voxels (``x = (u - offset) / scale``); a
+    single sample's extent is half a voxel either side."""
     x = (u - offset) / scale
-    return (x >= -1e-9) & (x <= n - 1 + 1e-9)
+    lo, hi = (-0.5, 0.5) if n == 1 else (0.0, n - 1.0)
+    return (x >= lo - 1e-9) & (x <= hi + 1e-9)
 
 
 def _accumulate(p, w, payload, slot):
@@ -208,11 +229,12 @@ def _classify(pix, weight, values, lut):
     return colour, sigma, pix[complete]
 
 
-def intermediate_rays(fact, scene) -> RayBatch:
-    """The rays of the intermediate image's pixels (row-major ``(v, u)``), clipped like the camera's."""
-    width, height = fact.size
-    v, u = np.mgrid[0:height, 0:width]
-    points = fact.front_points(u.ravel().astype(float), v.ravel().astype(float))
+def intermediate_rays(fact, scene, u=None, v=None) -> RayBatch:
+    """The rays of intermediate pixels ``(u, v)`` (default: all, row-major), clipped like the camera's."""
+    if u is None:
+        width, height = fact.size
+        v, u = (a.ravel() for a in np.mgrid[0:height, 0:width])
+    points = fact.front_points(np.asarray(u, dtype=np.float64), np.asarray(v, dtype=np.float64))
     cam = scene.camera
     f, _, _ = cam.basis()
     eye = np.asarray(cam.eye)
@@ -229,37 +251,62 @@ def intermediate_rays(fact, scene) -> RayBatch:
     return RayBatch(o, d, np.where(hit, t0, 0.0), np.where(hit, t_exit, 0.0), np.full(len(o), 0.5))
 
 
+def _same_slices_reference(scene, fact, rays) -> np.ndarray:
+    """Float64 RGBA ``(len(rays), 4)`` of rays sampled where they cross the slices across the
+    principal axis, stopping at ``ert_threshold`` as shear-warp does."""
+    def plan(rs):
+        planes = plans.axis_planes(rs, scene.camera, scene.volume, fact.axis)
+        planes.terminates = True
+        return planes
+
+    return DiscreteReference(scene, plan=plan, rays=rays).render_float64(shape=(len(rays), 1))[:, 0]
+
+
 def intermediate_reference(scene) -> np.ndarray:
     """The same-discretization reference of the intermediate image, float64 ``(Hi, Wi, 4)``: the
     rays of its pixels, sampled where they cross the slices across the principal axis."""
     fact = factorize(scene.camera, scene.volume, scene.image.width, scene.image.height)
-    rays = intermediate_rays(fact, scene)
-    def plan(rs):
-        planes = plans.axis_planes(rs, scene.camera, scene.volume, fact.axis)
-        planes.terminates = True  # shear-warp stops compositing opaque pixels
-        return planes
-
-    ref = DiscreteReference(scene, plan=plan, rays=rays)
     width, height = fact.size
-    return ref.render_float64(shape=(height, width))
+    return _same_slices_reference(scene, fact, intermediate_rays(fact, scene)).reshape(height, width, 4)
+
+
+def reference(scene) -> np.ndarray:
+    """The same-discretization reference of the final image, float64 ``(H, W, 4)``: the four
+    intermediate pixels around each final pixel's warped position, each by
+    :func:`_same_slices_reference`, interpolated bilinearly (only the pixels needed are computed)."""
+    width, height = scene.image.width, scene.image.height
+    fact = factorize(scene.camera, scene.volume, width, height)
+    u, v, weights, valid = _warp_taps(fact, width, height)
+    wi, hi = fact.size
+    key = np.where(valid, v * wi + u, -1)
+    needed = np.unique(key[valid])
+    values = np.zeros((len(needed) + 1, 4))  # the last row: transparent, for taps outside
+    values[:-1] = _same_slices_reference(scene, fact, intermediate_rays(fact, scene, needed % wi, needed // wi))
+    rows = np.where(valid, np.searchsorted(needed, key), len(needed))
+    return np.einsum("tp,tpc->pc", weights, values[rows]).reshape(height, width, 4)
+
+
+def _warp_taps(fact, width: int, height: int):
+    """For every final pixel centre, its four bilinear taps in the intermediate image: ``u, v``
+    ``(4, H * W)`` int, weights, and whether each tap lies in the image (else it reads zero)."""
+    py, px = np.mgrid[0:height, 0:width] + 0.5
+    uvw = np.linalg.inv(fact.warp) @ np.stack([px.ravel(), py.ravel(), np.ones(px.size)])
+    u, v = uvw[0] / uvw[2], uvw[1] / uvw[2]
+    u0, v0 = np.floor(u), np.floor(v)
+    fu, fv = u - u0, v - v0
+    du, dv = np.array([0, 1, 0, 1])[:, None], np.array([0, 0, 1, 1])[:, None]
+    weights = np.stack([(1 - fu) * (1 - fv), fu * (1 - fv), (1 - fu) * fv, fu * fv])
+    uu, vv = (u0 + du).astype(np.int64), (v0 + dv).astype(np.int64)
+    wi, hi = fact.size
+    valid = (uu >= 0) & (uu < wi) & (vv >= 0) & (vv < hi) & (uvw[2] > 0)
+    return uu, vv, weights, valid
 
 
 def warp_reference(fact, intermediate: np.ndarray, width: int, height: int) -> np.ndarray:
     """The warp on the host: each final pixel's intermediate coordinates, bilinear, zero outside."""
-    py, px = np.mgrid[0:height, 0:width] + 0.5
-    inverse = np.linalg.inv(fact.warp)
-    h = np.stack([px.ravel(), py.ravel(), np.ones(px.size)])
-    uvw = inverse @ h
-    u, v = uvw[0] / uvw[2], uvw[1] / uvw[2]
-    hi, wi = intermediate.shape[:2]
-    u0, v0 = np.floor(u), np.floor(v)
-    fu, fv = u - u0, v - v0
-    out = np.zeros((len(u), 4))
-    for du, dv, wgt in ((0, 0, (1 - fu) * (1 - fv)), (1, 0, fu * (1 - fv)), (0, 1, (1 - fu) * fv), (1, 1, fu * fv)):
-        uu, vv = (u0 + du).astype(np.int64), (v0 + dv).astype(np.int64)
-        ok = (uu >= 0) & (uu < wi) & (vv >= 0) & (vv < hi) & (uvw[2] > 0)
-        out[ok] += wgt[ok, None] * intermediate[vv[ok], uu[ok]]
-    return out.reshape(height, width, 4)
+    u, v, weights, valid = _warp_taps(fact, width, height)
+    taps = np.where(valid[..., None], intermediate[np.where(valid, v, 0), np.where(valid, u, 0)], 0.0)
+    return np.einsum("tp,tpc->pc", weights, taps).reshape(height, width, 4)
 
 
 class ShearWarpRenderer(GLVolumeRenderer):
