@@ -8,6 +8,8 @@
                        pre-integrated, from one texture and from bricks
   dvr bench slicing    2D texture stacks against view-aligned slices across view angles: error, the
                        jump when the stack switches, and pictures
+  dvr bench shearwarp  run-length encoding build and frame time of shear-warp on real data with
+                       50, 90 and 99 % transparent voxels, against the GPU ray caster
 """
 
 from __future__ import annotations
@@ -45,6 +47,12 @@ def add_arguments(p):
     rn.add_argument("--repeat", type=int, default=5, help="timed frames per case, after a warm-up (default 5)")
     rn.add_argument("--budget", type=float, default=48.0, metavar="MB",
                     help="texture budget of the bricked runs, MB (default 48)")
+    sw = sub.add_parser("shearwarp", help="shear-warp on the datasets in ../shared/data: encoding, frame time, "
+                                          "voxels skipped, against raycast")
+    sw.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder (default ../shared/data)")
+    sw.add_argument("--size", type=int, default=512, help="square image size (default 512)")
+    sw.add_argument("--repeat", type=int, default=5, help="timed frames per case, after a warm-up (default 5)")
+    sw.add_argument("--only", metavar="TEXT", help="only datasets whose name contains TEXT")
     sl = sub.add_parser("slicing", help="slicing2d against slicing3d across azimuths: error, stack-switch jump, "
                                         "pictures")
     sl.add_argument("--volume", metavar="FILE", help="a volume file (default: the Shepp-Logan phantom)")
@@ -56,7 +64,7 @@ def add_arguments(p):
 
 def run(args) -> int:
     return {"raycast": run_raycast, "accel": run_accel, "quality": run_quality,
-            "slicing": run_slicing, "renderers": run_renderers}[args.benchmark](args)
+            "slicing": run_slicing, "renderers": run_renderers, "shearwarp": run_shearwarp}[args.benchmark](args)
 
 
 def run_quality(args) -> int:
@@ -131,6 +139,26 @@ def run_accel(args) -> int:
           f"{args.repeat} timed frames per case after a warm-up")
     rows, notes = acceleration.run(data_dir, args.size, args.repeat, datasets)
     print(format_table(rows, acceleration.COLUMNS))
+    for note in notes:
+        print(note)
+    return 0
+
+
+def run_shearwarp(args) -> int:
+    from pathlib import Path
+
+    from dvr_gl.bench import shearwarp
+    from dvr_gl.errors import DvrError
+
+    data_dir = Path(args.data_dir)
+    if not data_dir.is_dir():
+        raise DvrError(f"{data_dir}: the shared datasets folder was not found; pass --data-dir")
+    datasets = [d for d in shearwarp.DATASETS if not args.only or args.only.lower() in d[0].lower()]
+    print(f"dvr bench shearwarp: {args.size}x{args.size} images, pre-classified opacity ramps from the 50, 90 "
+          f"and 99 % quantiles, default view, {args.repeat} timed frames per case after a warm-up; raycast at "
+          f"0.5-voxel steps with early termination and empty-space skipping")
+    rows, notes = shearwarp.run(data_dir, args.size, args.repeat, datasets)
+    print(format_table(rows, shearwarp.COLUMNS))
     for note in notes:
         print(note)
     return 0

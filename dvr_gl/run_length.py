@@ -139,6 +139,12 @@ class RunLengthVolume:
     def stored_voxels(self) -> int:
         return len(self.payload)
 
+    @property
+    def nbytes(self) -> int:
+        """Memory held: runs, offsets and payload."""
+        return sum(a.nbytes for a in (self.transparent, self.visible, self.pair_offset, self.payload,
+                                      self.payload_offset))
+
     def runs(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Slice ``k``'s non-transparent runs: first voxel (flat ``j Ni + i``), length, first payload row."""
         lo, hi = self.pair_offset[k], self.pair_offset[k + 1]

@@ -98,3 +98,20 @@ def test_bench_renderers_times_whole_and_bricked(capsys):
     bricks = [int(r[2]) for r in rows]
     assert bricks[0::2] == [1] * 6 and min(bricks[1::2]) > 1  # the budget run really is bricked
     assert all(float(r[3]) > 0 and float(r[4]) >= float(r[3]) for r in rows)  # a frame includes its draws
+
+
+def test_bench_shearwarp_prints_a_table(shared_data, capsys):
+    from dvr_gl.bench import shearwarp
+
+    rows, notes = shearwarp.run(shared_data, size=24, repeat=1, datasets=shearwarp.DATASETS[1:2], fractions=(0.9,))
+    assert not notes and len(rows) == 1
+    row = rows[0]
+    # the ramp starts at the 90 % quantile: about 90 % of the lobster's voxels are transparent (ties in
+    # uint8 data move it), and at least those are never read
+    assert 0.85 <= row["transparent"] <= 0.95 and row["skipped"] >= row["transparent"] - 1e-12
+    assert row["build_s"] > 0 and row["ms"] > 0 and row["raycast_ms"] > 0 and row["rle_mb"] > 0
+
+
+def test_bench_shearwarp_needs_the_data(tmp_path, capsys):
+    assert main(["bench", "shearwarp", "--data-dir", str(tmp_path / "absent")]) == 1
+    assert "shared datasets folder was not found" in capsys.readouterr().err
