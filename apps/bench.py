@@ -31,10 +31,7 @@ def add_arguments(p):
     rc.add_argument("--rescale-intercept", type=float, default=0.0)
     rc.add_argument("--up", type=float, nargs=3, metavar=("X", "Y", "Z"), help="camera up (default +z)")
     ac = sub.add_parser("accel", help="acceleration on the datasets in ../shared/data: samples, frame time, error")
-    ac.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder (default ../shared/data)")
-    ac.add_argument("--size", type=int, default=512, help="square image size (default 512)")
-    ac.add_argument("--repeat", type=int, default=5, help="timed frames per case, after a warm-up (default 5)")
-    ac.add_argument("--only", metavar="TEXT", help="only datasets whose name contains TEXT")
+    _shared_data_arguments(ac)
     qu = sub.add_parser("quality", help="error versus sample spacing, post-classified and pre-integrated")
     qu.add_argument("--size", type=int, default=128, help="square image size (default 128)")
     qu.add_argument("--volume-size", type=int, default=41, help="Marschner-Lobb samples per axis (default 41)")
@@ -49,10 +46,7 @@ def add_arguments(p):
                     help="texture budget of the bricked runs, MB (default 48)")
     sw = sub.add_parser("shearwarp", help="shear-warp on the datasets in ../shared/data: encoding, frame time, "
                                           "voxels skipped, against raycast")
-    sw.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder (default ../shared/data)")
-    sw.add_argument("--size", type=int, default=512, help="square image size (default 512)")
-    sw.add_argument("--repeat", type=int, default=5, help="timed frames per case, after a warm-up (default 5)")
-    sw.add_argument("--only", metavar="TEXT", help="only datasets whose name contains TEXT")
+    _shared_data_arguments(sw)
     sl = sub.add_parser("slicing", help="slicing2d against slicing3d across azimuths: error, stack-switch jump, "
                                         "pictures")
     sl.add_argument("--volume", metavar="FILE", help="a volume file (default: the Shepp-Logan phantom)")
@@ -60,6 +54,13 @@ def add_arguments(p):
     sl.add_argument("--size", type=int, default=128, help="square image size (default 128)")
     sl.add_argument("--pictures", metavar="DIR", help="write slicing_sweep.png and slicing_jump.png into DIR")
     sl.add_argument("--overwrite", action="store_true", help="replace pictures that exist")
+
+
+def _shared_data_arguments(p):
+    p.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder (default ../shared/data)")
+    p.add_argument("--size", type=int, default=512, help="square image size (default 512)")
+    p.add_argument("--repeat", type=int, default=5, help="timed frames per case, after a warm-up (default 5)")
+    p.add_argument("--only", metavar="TEXT", help="only datasets whose name contains TEXT")
 
 
 def run(args) -> int:
@@ -125,43 +126,38 @@ def run_slicing(args) -> int:
     return 0
 
 
-def run_accel(args) -> int:
+def _on_shared_data(args, module, title: str) -> int:
+    """Run a benchmark over the shared datasets (``module.DATASETS``, filtered by ``--only``)."""
     from pathlib import Path
 
-    from dvr_gl.bench import acceleration
     from dvr_gl.errors import DvrError
 
     data_dir = Path(args.data_dir)
     if not data_dir.is_dir():
         raise DvrError(f"{data_dir}: the shared datasets folder was not found; pass --data-dir")
-    datasets = [d for d in acceleration.DATASETS if not args.only or args.only.lower() in d[0].lower()]
-    print(f"dvr bench accel: {args.size}x{args.size} images, sample distance 0.5 voxel, 8^3 blocks, "
-          f"{args.repeat} timed frames per case after a warm-up")
-    rows, notes = acceleration.run(data_dir, args.size, args.repeat, datasets)
-    print(format_table(rows, acceleration.COLUMNS))
+    datasets = [d for d in module.DATASETS if not args.only or args.only.lower() in d[0].lower()]
+    print(title)
+    rows, notes = module.run(data_dir, args.size, args.repeat, datasets)
+    print(format_table(rows, module.COLUMNS))
     for note in notes:
         print(note)
     return 0
+
+
+def run_accel(args) -> int:
+    from dvr_gl.bench import acceleration
+
+    return _on_shared_data(args, acceleration, f"dvr bench accel: {args.size}x{args.size} images, sample distance "
+                           f"0.5 voxel, 8^3 blocks, {args.repeat} timed frames per case after a warm-up")
 
 
 def run_shearwarp(args) -> int:
-    from pathlib import Path
-
     from dvr_gl.bench import shearwarp
-    from dvr_gl.errors import DvrError
 
-    data_dir = Path(args.data_dir)
-    if not data_dir.is_dir():
-        raise DvrError(f"{data_dir}: the shared datasets folder was not found; pass --data-dir")
-    datasets = [d for d in shearwarp.DATASETS if not args.only or args.only.lower() in d[0].lower()]
-    print(f"dvr bench shearwarp: {args.size}x{args.size} images, pre-classified opacity ramps from the 50, 90 "
-          f"and 99 % quantiles, default view, {args.repeat} timed frames per case after a warm-up; raycast at "
-          f"0.5-voxel steps with early termination and empty-space skipping")
-    rows, notes = shearwarp.run(data_dir, args.size, args.repeat, datasets)
-    print(format_table(rows, shearwarp.COLUMNS))
-    for note in notes:
-        print(note)
-    return 0
+    return _on_shared_data(args, shearwarp, f"dvr bench shearwarp: {args.size}x{args.size} images, pre-classified "
+                           f"opacity ramps from the 50, 90 and 99 % quantiles, default view, {args.repeat} timed "
+                           f"frames per case after a warm-up; raycast at 0.5-voxel steps with early termination "
+                           f"and empty-space skipping")
 
 
 def run_raycast(args) -> int:

@@ -49,7 +49,7 @@ def test_invalid_scenes(tmp_path, text, message):
     path = write(tmp_path, text)
     if message is None:  # resolves; the unknown renderer is reported when one is created
         from dvr_gl.renderers import create_renderer
-        expected = "unknown renderer 'raytracer'; available: raycast, slicing3d, slicing2d, reference"
+        expected = "unknown renderer 'raytracer'; available: raycast, slicing3d, slicing2d, shearwarp, reference"
         with pytest.raises(SceneError, match=expected):
             create_renderer(load_scene(path).renderer.name)
         return

@@ -12,3 +12,16 @@ def format_table(rows: list[dict], columns: list[tuple[str, str, str]]) -> str:
              for row in cells]
     lines.insert(1, "  ".join("-" * w for w in widths))
     return "\n".join(lines)
+
+
+def median_seconds(renderer, scene, repeat: int, stat: str = "seconds", warm_up: bool = True) -> float:
+    """Median over ``repeat`` renders of ``renderer.stats[stat]`` (after one untimed render)."""
+    import statistics
+
+    if warm_up:
+        renderer.render(scene)
+    times = []
+    for _ in range(repeat):
+        renderer.render(scene)
+        times.append(renderer.stats[stat])
+    return statistics.median(times)

@@ -12,13 +12,13 @@ its blocks (once per transfer function edit).
 
 from __future__ import annotations
 
-import statistics
 import time
 from pathlib import Path
 
 import numpy as np
 
 from .. import acceleration as accel
+from . import median_seconds
 from ..renderers.raycast import RayCastRenderer
 from ..scene import load_scene
 
@@ -45,14 +45,6 @@ CONFIGS = [  # label, overrides
 COLUMNS = [("dataset", "dataset", ""), ("config", "acceleration", ""), ("samples_per_ray", "samples/ray", ".1f"),
            ("jumps_per_ray", "jumps/ray", ".1f"), ("ms", "frame ms", ".1f"), ("speedup", "speed-up", ".2f"),
            ("fewer_samples", "fewer samples", ".2f"), ("max_error", "max |diff|", ".1e")]
-
-
-def _timed(renderer, scene, repeat: int) -> float:
-    times = []
-    for _ in range(repeat):
-        renderer.render(scene)
-        times.append(renderer.stats["gpu_seconds"])
-    return statistics.median(times)
 
 
 def run(data_dir: Path, size: int = 512, repeat: int = 5, datasets=DATASETS, configs=CONFIGS):
@@ -83,7 +75,7 @@ def run(data_dir: Path, size: int = 512, repeat: int = 5, datasets=DATASETS, con
                 stats = dict(renderer.stats)
                 renderer.count_samples = False
                 renderer.render(scene)
-                seconds = _timed(renderer, scene, repeat)
+                seconds = median_seconds(renderer, scene, repeat, "gpu_seconds", warm_up=False)
                 if reference is None:
                     reference = (image, seconds, stats["samples_per_ray"])
                 rows.append({"dataset": name, "config": label, "samples_per_ray": stats["samples_per_ray"],

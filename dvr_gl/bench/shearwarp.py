@@ -18,7 +18,6 @@ below the quantile; ties in the data make the measured fraction differ a little)
 
 from __future__ import annotations
 
-import statistics
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +25,7 @@ import numpy as np
 from ..renderers import create_renderer
 from ..run_length import RunLengthVolume, SliceClassifier
 from ..scene import load_scene
+from . import median_seconds
 
 DATASETS = [  # name, file under the data folder, scene overrides
     ("CThead", "regular/cthead.nhdr", {"camera.up": [0, 0, -1]}),
@@ -47,15 +47,6 @@ def ramp(data: np.ndarray, fraction: float) -> list[list[float]]:
     return [[lo, 1.0, 0.9, 0.8, 0.0], [start, 1.0, 0.9, 0.8, 0.0], [hi, 0.9, 0.5, 0.3, 0.6]]
 
 
-def _median_frame(renderer, scene, repeat: int) -> float:
-    renderer.render(scene)  # warm-up: shaders, textures, the encoding of this view's axis
-    times = []
-    for _ in range(repeat):
-        renderer.render(scene)
-        times.append(renderer.stats["seconds"])
-    return statistics.median(times)
-
-
 def run(data_dir: Path, size: int = 512, repeat: int = 5, datasets=DATASETS, fractions=TRANSPARENT):
     """Rows for the table, and notes (datasets not found)."""
     rows, notes = [], []
@@ -74,9 +65,9 @@ def run(data_dir: Path, size: int = 512, repeat: int = 5, datasets=DATASETS, fra
                 scene = load_scene(None, base).replace(volume=volume)
                 encodings = [RunLengthVolume(volume.data, axis, SliceClassifier(
                     scene.transfer_function, "pre", scene.renderer.lut_size, 0.0)) for axis in range(3)]
-                ms = 1e3 * _median_frame(shearwarp, scene, repeat)
+                ms = 1e3 * median_seconds(shearwarp, scene, repeat)
                 stats = dict(shearwarp.stats)
-                raycast_ms = 1e3 * _median_frame(raycast, scene.with_renderer(name="raycast"), repeat)
+                raycast_ms = 1e3 * median_seconds(raycast, scene.with_renderer(name="raycast"), repeat)
                 rows.append({"dataset": name, "target": fraction,
                              "transparent": 1.0 - stats["stored_voxels"] / stats["voxels"],
                              "rle_mb": sum(e.nbytes for e in encodings) / 2 ** 20,
