@@ -112,6 +112,7 @@ class RunLengthVolume:
         transparent, visible: run lengths of the pairs, all slices concatenated.
         pair_offset: ``(Nk + 1,)`` index of each slice's first pair.
         payload: ``(voxels stored, C)`` float32; ``payload_offset``: each slice's first row.
+        lut: post-classification's transfer-function table (None for pre-classified payloads).
         seconds: the time the encoding took.
     """
 
@@ -121,6 +122,7 @@ class RunLengthVolume:
         shape_xyz = data.shape[::-1]
         self.axis = axis
         self.dims = (shape_xyz[a], shape_xyz[b], shape_xyz[c])
+        self.lut = getattr(classify, "lut", None)  # post-classification: the table samples are classified by
         transparent, visible, payload = [], [], []
         for k in range(self.dims[2]):
             values, mask = classify(permuted_slice(data, axis, k))

@@ -22,7 +22,8 @@ voxels and their runs, not to the volume's size.  Emission-absorption with post-
 or pre-classification, linear filtering; shading, gradient opacity,
 pre-integration and jitter are refused with the reason.  The same-discretization
 reference of step 2 is the 2D-stack plan across the principal axis sampled along
-the intermediate pixels' rays (:func:`intermediate_reference`).
+the intermediate pixels' rays (:func:`intermediate_reference`); warped bilinearly on the host, the
+reference of the final image (:func:`reference`).
 """
 
 from __future__ import annotations
@@ -108,7 +109,7 @@ def composite(fact, rle: RunLengthVolume, scene) -> tuple[np.ndarray, dict]:
     open_rows = np.full((height, width + 1), 0, dtype=np.int64)
     tau_stop = -math.log1p(-r.ert_threshold) if r.ert_threshold < 1.0 else np.inf
     slab = slab_lengths(fact, scene)
-    lut = scene.transfer_function.tabulate(r.lut_size) if r.classification == "post" else None
+    lut = rle.lut
     depth = _Depth(fact, scene)
     slot = np.zeros(pixels, dtype=np.int64)  # compacting scratch: pixel -> one of its entries
     counts = {"voxels_read": 0, "samples": 0}
