@@ -12,7 +12,7 @@ from dvr_gl.renderers.shearwarp import reference as shearwarp_reference
 from dvr_gl.renderers.slicing import reference as slicer_reference
 from dvr_gl.scene import load_scene
 
-from test_slicing import assert_close
+from conftest import assert_close
 
 HU = {"transfer_function.preset": "ct-bone", "transfer_function.rescale_intercept": -1024.0}
 DATASETS = {

@@ -15,7 +15,7 @@ from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.renderers import create_renderer
 from dvr_gl.renderers.slicing import reference as slicer_reference
 
-from conftest import array_scene, small_scene
+from conftest import array_scene, assert_close, small_scene
 
 NO_ERT = {"renderer.ert_threshold": 1.0}
 
@@ -25,13 +25,6 @@ def slicer(request):
     renderer = create_renderer(request.param)
     yield renderer
     renderer.close()
-
-
-def assert_close(image, reference):
-    err = np.abs(image.astype(np.float64) - reference)
-    close = err <= 1e-4
-    assert np.mean(~close) <= 0.005, f"{np.mean(~close):.3%} of values off by > 1e-4"
-    assert err[close].mean() <= 2e-6, err[close].mean()
 
 
 def same_planes(scene, name):
