@@ -159,8 +159,9 @@ def _resolve_renderer(spec: RendererSpec, volume: Volume) -> RendererSpec:
         raise SceneError(f"renderer.ert_threshold must be in (0, 1], got {spec.ert_threshold}")
     if spec.lut_size < 2:
         raise SceneError(f"renderer.lut_size must be at least 2, got {spec.lut_size}")
-    if spec.iso_refinement < 0:
-        raise SceneError(f"renderer.iso_refinement must be >= 0, got {spec.iso_refinement}")
+    if not 0 <= spec.iso_refinement <= 64:
+        raise SceneError(f"renderer.iso_refinement must be between 0 and 64 bisection steps, got "
+                         f"{spec.iso_refinement}")
     if not spec.converged_tolerance > 0:
         raise SceneError(f"renderer.converged_tolerance must be positive, got {spec.converged_tolerance}")
     sh = spec.shading

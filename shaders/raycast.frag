@@ -66,6 +66,7 @@ uniform vec3 u_core_hi;         //   u_core_closed (the last brick along an axis
 uniform vec3 u_core_closed;
 uniform vec3 u_brick_lo;        // and in world coordinates (to clip the ray)
 uniform vec3 u_brick_hi;
+uniform ivec2 u_segment_window;  // this pass's segments (llvmpipe caps a shader's loop iterations)
 
 // Global voxel coordinates, computed from the same uniforms in every pass (not from the brick's
 // local ones), so that every pass rounds a point alike: each sample has exactly one owner.
@@ -129,6 +130,8 @@ void main() {
     hit = hit && intersect_box(o, d, u_brick_lo, u_brick_hi, b0, b1);
     k_first = clamp(int(floor((b0 - t0) / u_sample_distance)) - 1, 0, n);
     k_last = clamp(int(ceil((b1 - t0) / u_sample_distance)) + 1, 0, n);
+    k_first = max(k_first, u_segment_window.x);
+    k_last = min(k_last, u_segment_window.y);
   #if defined(COMPOSITE_EMISSION) && defined(EARLY_TERMINATION)
     hit = hit && state.a < u_ert_depth;  // terminated in an earlier brick
   #elif defined(COMPOSITE_ISOSURFACE)

@@ -19,10 +19,10 @@ import numpy as np
 
 from .. import acceleration as accel
 from ..acceleration import level_count
-from ..bricking import visibility_order
+from ..bricking import plan_bricks, visibility_order
 from ..gl.shaders import create_program
 from ..gl.textures import upload_field
-from .gl_base import GLVolumeRenderer, classification_features, now
+from .gl_base import GLVolumeRenderer, GridView, classification_features, now
 
 COMPOSITING = {"emission_absorption": "COMPOSITE_EMISSION", "isosurface": "COMPOSITE_ISOSURFACE",
                "average": "COMPOSITE_AVERAGE", "mip": "COMPOSITE_MIP", "minip": "COMPOSITE_MINIP"}
@@ -65,6 +65,30 @@ class BlockTextures(list):
     def release(self):
         for tex in self:
             tex.release()
+
+
+# llvmpipe stops a shader invocation's loops after 65535 iterations in all (gallivm's
+# LP_MAX_TGSI_LOOP_ITERATIONS, one counter per invocation), silently truncating longer rays; rays
+# that may take more segments are composited in passes of at most this many, carrying their state
+# as bricked passes do.  The margin leaves room for the isosurface's bisection loop.
+PASS_SEGMENTS = 65535 - 535
+MAX_INT = 2 ** 31 - 1
+
+
+def segment_windows(scene) -> list[tuple[int, int]]:
+    """Segment index ranges, one per pass: all segments at once unless the longest possible ray
+    (the box's diagonal) takes more than :data:`PASS_SEGMENTS`."""
+    lo, hi = scene.volume.box
+    longest = math.ceil(float(np.linalg.norm(hi - lo)) / scene.renderer.sample_distance)
+    per_pass = PASS_SEGMENTS - scene.renderer.iso_refinement
+    if longest <= per_pass:
+        return [(0, MAX_INT)]
+    return [(k, k + per_pass) for k in range(0, longest + 1, per_pass)]
+
+
+def whole_volume_brick(volume):
+    """The whole volume as the one brick of a bricked pass (core: every voxel)."""
+    return plan_bricks(volume.dims, max(volume.dims) + 1, ghost=0)[0]
 
 
 class RayCastRenderer(GLVolumeRenderer):
@@ -147,8 +171,11 @@ class RayCastRenderer(GLVolumeRenderer):
         self.activate()
         start = now()
         views = self.grid_views(scene, shader_features(scene))
-        if len(views) > 1:
-            return self._render_bricks(scene, views, start)
+        windows = segment_windows(scene)
+        if len(views) > 1 or len(windows) > 1:
+            if len(views) == 1:  # long rays: the whole volume as one brick, in passes over segment windows
+                views = [GridView((0, 0, 0), scene.volume.dims, whole_volume_brick(scene.volume))]
+            return self._render_bricks(scene, views, start, windows)
         defines = shader_features(scene, self.count_samples)
         program = create_program(self.ctx, "fullscreen.vert", self.fragment_shader, defines)
         textures = {**self.view_textures(scene, defines, views[0], resident=True),
@@ -188,7 +215,7 @@ class RayCastRenderer(GLVolumeRenderer):
         finally:
             vao.release()
 
-    def _render_bricks(self, scene, views, start) -> np.ndarray:
+    def _render_bricks(self, scene, views, start, windows) -> np.ndarray:
         r = scene.renderer
         defines = shader_features(scene, bricked=True)
         program = create_program(self.ctx, "fullscreen.vert", "raycast.frag", defines)
@@ -209,7 +236,8 @@ class RayCastRenderer(GLVolumeRenderer):
         common = {**self.ray_uniforms(scene), **self.optics_uniforms(scene, lut)}
         gpu_seconds, current = 0.0, 0
         to_global = -np.asarray(scene.volume.origin) / np.asarray(scene.volume.spacing)
-        for brick in bricks:
+        passes = [(b, w) for b in bricks for w in (windows if front_to_back else windows[::-1])]
+        for brick, window in passes:
             view = by_brick[brick]
             textures = {**self.view_textures(scene, defines, view, resident), **tables,
                         "u_state": targets[current][0][0]}
@@ -218,7 +246,8 @@ class RayCastRenderer(GLVolumeRenderer):
             uniforms = {**common, **self.grid_uniforms(scene, view), "u_world_to_global_offset": to_global,
                         "u_core_lo": np.where(single, -1e30, brick.core_lo),
                         "u_core_hi": np.where(single, 1e30, brick.core_hi),
-                        "u_core_closed": np.asarray(brick.last, dtype=float), "u_brick_lo": lo, "u_brick_hi": hi}
+                        "u_core_closed": np.asarray(brick.last, dtype=float), "u_brick_lo": lo, "u_brick_hi": hi,
+                        "u_segment_window": window}
             self.bind(program, uniforms, textures)
             gpu_seconds += self._draw(program, targets[1 - current][1], width, height)
             current = 1 - current
@@ -228,5 +257,5 @@ class RayCastRenderer(GLVolumeRenderer):
         gpu_seconds += self._draw(resolve, out, width, height)
         image = self.read(out, width, height)
         self.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines,
-                      "bricks": len(bricks)}
+                      "bricks": len(bricks), "passes": len(passes)}
         return image
