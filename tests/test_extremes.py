@@ -135,3 +135,57 @@ def test_long_rays_in_passes_equal_one_pass(monkeypatch, extra):
         assert r.stats["passes"] > 4
     assert one[..., 3].max() > 4e-3  # something to continue (MIP and average of this phantom are faint)
     assert np.abs(windowed - one).max() <= 2e-6
+
+
+@pytest.mark.parametrize("voxels", [1e-4, 0.37, 10.0])
+def test_sample_distance_extremes_against_the_closed_form(tmp_path, voxels):
+    """A homogeneous cube, 3 units deep, sampled every 1e-4 to 10 voxels: opacity correction
+    (1 - exp(-sigma l), the last segment shortened) makes every step size exact up to float32:
+    measured relative error 0 at 0.37 and 10 voxels and 5.0e-5 at 1e-4 voxel, where 3e4 optical
+    depths of 7e-5 are summed in float32 (the accumulation error the issue asks to bound); asserted
+    1e-4."""
+    sigma = 0.7
+    scene = array_scene(tmp_path, np.ones((4, 4, 4), np.float32),
+                        {"transfer_function.points": [[0, 1, 1, 1, sigma], [1, 1, 1, 1, sigma]],
+                         "transfer_function.opacity_model": "extinction", **NO_ERT,
+                         "renderer.sample_distance": voxels, "renderer.acceleration": False,
+                         "camera.projection": "orthographic", "camera.azimuth": 0.0, "camera.elevation": 0.0,
+                         "camera.view_height": 2.0, "image.width": 4, "image.height": 4})
+    with create_renderer("raycast") as r:
+        image = r.render(scene)
+    np.testing.assert_allclose(image[..., 3], -math.expm1(-sigma * 3.0), rtol=1e-4)
+
+
+CAMERAS = {
+    "along an axis": {"camera.azimuth": 0.0, "camera.elevation": 0.0},
+    "at 45 degrees": {"camera.azimuth": 45.0, "camera.elevation": 0.0},
+    "along a diagonal": {"camera.azimuth": 45.0, "camera.elevation": 35.26},
+    "orthographic eye on a face": {"camera.projection": "orthographic", "camera.eye": [0.0, -2.5, 0.3],
+                                   "camera.target": [0.0, 10.0, 0.3], "camera.view_height": 6.0},
+    "grazing the top face": {"camera.projection": "orthographic", "camera.eye": [0.0, -20.0, 2.5],
+                             "camera.target": [0.0, 0.0, 2.5], "camera.view_height": 2.0,
+                             "image.height": 11},  # the middle row's rays run in the face
+}
+
+
+@pytest.mark.parametrize("camera", list(CAMERAS))
+def test_special_views(tmp_path, renderer, camera):
+    """Views exactly along an axis, at 45 degrees (2D stacks and shear-warp switch axes there),
+    along a diagonal, an eye on a face and rays grazing a face: each renderer against its own
+    reference (6^3 random data, 12x12)."""
+    rng = np.random.default_rng(2)
+    scene = array_scene(tmp_path, rng.random((6, 6, 6)).astype(np.float32),
+                        {"transfer_function.points": [[0, 1, 0.5, 0.2, 0.0], [1, 0.2, 0.5, 1, 0.4]],
+                         "image.width": 12, "image.height": 12, **NO_ERT, **CAMERAS[camera]},
+                        origin=(-2.5, -2.5, -2.5))
+    if camera == "grazing the top face" and renderer.name.startswith("slicing"):
+        # GL's fill rule leaves out fragments centred exactly on a polygon's top edge, so the slicers
+        # draw nothing for the rays that run in the face, which the reference (a closed box) samples:
+        # by design, and confined to that row
+        image = renderer.render(scene)
+        reference = SAME_DISCRETIZATION[renderer.name](scene)
+        assert np.all(image[5] == 0.0) and reference[5, :, 3].max() > 0.5
+        assert_close(np.delete(image, 5, axis=0), np.delete(reference, 5, axis=0))
+        return
+    _, reference = check_against_reference(renderer, scene)
+    assert reference[..., 3].max() > 0.05
