@@ -31,6 +31,7 @@ transformation is ``M_view = W3 S P`` with ``W3`` independent of ``k``
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -163,12 +164,8 @@ class Factorization:
             s[3, 2], s[3, 3] = -1.0 / depth, ek / depth
         # s maps (i, j, k, 1) to (u w, v w, k, w); for parallel projection w = 1
         view = camera_matrix(camera, width, height)
-        return {"view": view @ voxel_to_world_of(self), "P": permutation_matrix(self.axis), "S": s,
-                "W3": view @ self.to_world @ np.linalg.inv(s)}
-
-
-def voxel_to_world_of(fact: Factorization) -> np.ndarray:
-    return fact.to_world @ permutation_matrix(fact.axis)
+        p = permutation_matrix(self.axis)
+        return {"view": view @ self.to_world @ p, "P": p, "S": s, "W3": view @ self.to_world @ np.linalg.inv(s)}
 
 
 def factorize(camera, volume, width: int, height: int) -> Factorization:
@@ -193,6 +190,7 @@ def factorize(camera, volume, width: int, height: int) -> Factorization:
         front, step = (0, 1) if d[c] > 0 else (dims[2] - 1, -1)
         eye = (0.0, 0.0, 0.0)
     probe = Factorization(axis, perspective, dims, front, step, shear, eye, (0.0, 0.0), (0, 0), np.eye(3), to_world)
+    # the slices' extent fixes the translation and size, and those the warp
     k = np.arange(dims[2])
     scale, ou, ov = probe.slice_transform(k)
     pad = [0.5 if n == 1 else 0.0 for n in dims]  # a single sample spans half a voxel either side
@@ -201,7 +199,6 @@ def factorize(camera, volume, width: int, height: int) -> Factorization:
     # one pixel of zeros on every side: bilinear warping then fades to transparent at the edges
     tu, tv = 1.0 - math.floor(lo_u), 1.0 - math.floor(lo_v)
     size = (int(math.floor(hi_u) + tu) + 3, int(math.floor(hi_v) + tv) + 3)
-    fact = Factorization(axis, perspective, dims, front, step, shear, eye, (tu, tv), size, np.eye(3), to_world)
+    fact = dataclasses.replace(probe, translation=(tu, tv), size=size)
     w3 = fact.matrices(camera, width, height)["W3"]
-    warp = w3[np.ix_([0, 1, 3], [0, 1, 3])]
-    return Factorization(axis, perspective, dims, front, step, shear, eye, (tu, tv), size, warp, to_world)
+    return dataclasses.replace(fact, warp=w3[np.ix_([0, 1, 3], [0, 1, 3])])

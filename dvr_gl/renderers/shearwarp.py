@@ -34,6 +34,7 @@ import moderngl
 import numpy as np
 
 from ..errors import SceneError
+from ..gl.geometry import depth_range
 from ..gl.shaders import create_program
 from ..rays import RayBatch, intersect_box
 from ..reference import plans
@@ -64,29 +65,21 @@ def check(scene):
         raise SceneError("shearwarp samples fixed slices: renderer.jitter applies to raycast only")
 
 
-def slab_lengths(fact, scene) -> np.ndarray:
-    """World length of each intermediate pixel's ray between two slices, ``(Hi * Wi,)`` (or one value)."""
-    spacing = scene.volume.spacing[fact.axis]
-    if not fact.perspective:
-        f, _, _ = scene.camera.basis()
-        return np.array(spacing / abs(f[fact.axis]))
-    width, height = fact.size
-    v, u = np.mgrid[0:height, 0:width]
-    d = fact.front_points(u.ravel(), v.ravel()) - np.asarray(scene.camera.eye)
-    return spacing * np.linalg.norm(d, axis=1) / np.abs(d[:, fact.axis])
+def slab_lengths(fact, rays: RayBatch, scene) -> np.ndarray:
+    """World length of each intermediate pixel's ray between two slices, ``spacing / |cos|``,
+    ``(Hi * Wi,)``: one value for parallel rays, varying across the image under perspective."""
+    return scene.volume.spacing[fact.axis] / np.abs(rays.directions[:, fact.axis])
 
 
 class _Depth:
     """Near-plane clipping: the depth along the view axis of slice ``k``'s crossing with pixel ``(u, v)``,
-    affine in ``u`` and ``v``; None when the whole box lies beyond the near plane (no test needed)."""
+    affine in ``u`` and ``v``; ``needed`` is False when the whole box lies beyond the near plane."""
 
     def __init__(self, fact, scene):
         f, _, _ = scene.camera.basis()
         self.f, self.eye, self.fact = f, np.asarray(scene.camera.eye), fact
         self.near = scene.camera.near
-        lo, hi = scene.volume.box
-        corners = np.array([[(hi if i & m else lo)[a] for a, m in enumerate((1, 2, 4))] for i in range(8)])
-        self.needed = float(np.min((corners - self.eye) @ f)) < self.near
+        self.needed = depth_range(scene.camera, *scene.volume.box)[0] < self.near
         # the reference counts a plane crossed up to 1e-9 plane spacings before the ray's start
         self.slack = 1e-9 * scene.volume.spacing[fact.axis] / max(abs(f[fact.axis]), 1e-12)
 
@@ -108,7 +101,7 @@ def composite(fact, rle: RunLengthVolume, scene) -> tuple[np.ndarray, dict]:
     open_ = rays.t1 > rays.t0  # rays that only touch the box (at an edge) miss it, as in the reference
     open_rows = np.full((height, width + 1), 0, dtype=np.int64)
     tau_stop = -math.log1p(-r.ert_threshold) if r.ert_threshold < 1.0 else np.inf
-    slab = slab_lengths(fact, scene)
+    slab = slab_lengths(fact, rays, scene)
     lut = rle.lut
     depth = _Depth(fact, scene)
     slot = np.zeros(pixels, dtype=np.int64)  # compacting scratch: pixel -> one of its entries
@@ -137,7 +130,7 @@ def composite(fact, rle: RunLengthVolume, scene) -> tuple[np.ndarray, dict]:
             continue
         pix, weight, values = _accumulate(p, w, rle.payload[rows], slot)
         c, sigma, pix = _classify(pix, weight, values, lut)
-        seg_tau = sigma * (slab[pix] if slab.ndim else slab)
+        seg_tau = sigma * slab[pix]
         colour[pix] += np.exp(-tau[pix])[:, None] * c * (-np.expm1(-seg_tau))[:, None]
         tau[pix] += seg_tau
         open_[pix] = tau[pix] < tau_stop
