@@ -10,11 +10,14 @@
                        jump when the stack switches, and pictures
   dvr bench shearwarp  run-length encoding build and frame time of shear-warp on real data with
                        50, 90 and 99 % transparent voxels, against the GPU ray caster
+  dvr bench tradeoff   every renderer x accuracy setting: frame time against error (RMS, max, PSNR,
+                       FLIP) versus the converged reference, the Pareto front; CSV, JSON and a plot
 """
 
 from __future__ import annotations
 
 from dvr_gl.bench import format_table
+from dvr_gl.phantoms import DEMOS
 from dvr_gl.transfer_function import PRESETS
 
 HELP = "run a benchmark and print its table"
@@ -47,6 +50,19 @@ def add_arguments(p):
     sw = sub.add_parser("shearwarp", help="shear-warp on the datasets in ../shared/data: encoding, frame time, "
                                           "voxels skipped, against raycast")
     _shared_data_arguments(sw)
+    to = sub.add_parser("tradeoff", help="error against frame time for every renderer and accuracy setting; "
+                                         "CSV, JSON and a log-log plot with the Pareto front")
+    to.add_argument("scene", nargs="?", metavar="SCENE.toml", help="the scene (or --demo, or --shared)")
+    to.add_argument("--demo", choices=list(DEMOS), help="a built-in demo scene")
+    to.add_argument("--volume-size", type=int, default=64, help="demo samples per axis (default 64)")
+    to.add_argument("--shared", action="store_true", help="the datasets in ../shared/data (see --data-dir, --only)")
+    _shared_data_arguments(to, size=128)
+    to.add_argument("--renderers", metavar="A,B", help="only these renderers (default: every one with a sweep)")
+    to.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="set any scene key")
+    to.add_argument("--output", default="tradeoff", metavar="PREFIX",
+                    help="write PREFIX.csv, PREFIX.json and PREFIX.png (default: tradeoff)")
+    to.add_argument("--overwrite", action="store_true", help="replace output files that exist")
+    to.add_argument("--no-plot", action="store_true", help="skip the PNG plot")
     sl = sub.add_parser("slicing", help="slicing2d against slicing3d across azimuths: error, stack-switch jump, "
                                         "pictures")
     sl.add_argument("--volume", metavar="FILE", help="a volume file (default: the Shepp-Logan phantom)")
@@ -56,16 +72,17 @@ def add_arguments(p):
     sl.add_argument("--overwrite", action="store_true", help="replace pictures that exist")
 
 
-def _shared_data_arguments(p):
+def _shared_data_arguments(p, size: int = 512):
     p.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder (default ../shared/data)")
-    p.add_argument("--size", type=int, default=512, help="square image size (default 512)")
+    p.add_argument("--size", type=int, default=size, help=f"square image size (default {size})")
     p.add_argument("--repeat", type=int, default=5, help="timed frames per case, after a warm-up (default 5)")
     p.add_argument("--only", metavar="TEXT", help="only datasets whose name contains TEXT")
 
 
 def run(args) -> int:
     return {"raycast": run_raycast, "accel": run_accel, "quality": run_quality,
-            "slicing": run_slicing, "renderers": run_renderers, "shearwarp": run_shearwarp}[args.benchmark](args)
+            "slicing": run_slicing, "renderers": run_renderers, "shearwarp": run_shearwarp,
+            "tradeoff": run_tradeoff}[args.benchmark](args)
 
 
 def run_quality(args) -> int:
@@ -177,4 +194,99 @@ def run_raycast(args) -> int:
     print(f"dvr bench raycast: {args.repeat} timed frames per case after a warm-up, sample distance 0.5 voxel, "
           f"acceleration structures off")
     print(format_table(raycast.run(base, repeat=args.repeat), raycast.COLUMNS))
+    return 0
+
+
+def _tradeoff_scenes(args):
+    """(name, scene) pairs to sweep: the SCENE file, the demo, or the shared datasets."""
+    from pathlib import Path
+
+    from dvr_gl.errors import DvrError
+    from dvr_gl.phantoms import demo_scene
+    from dvr_gl.scene import load_scene
+
+    from .render import parse_value
+
+    given = [bool(args.scene), bool(args.demo), args.shared]
+    if sum(given) != 1:
+        raise DvrError("give one of SCENE.toml, --demo NAME or --shared")
+    overrides = {"image.width": args.size, "image.height": args.size}
+    for item in args.set:
+        key, sep, value = item.partition("=")
+        if not sep:
+            raise DvrError(f"--set {item!r}: use KEY=VALUE, e.g. renderer.filter=nearest")
+        overrides[key.strip()] = parse_value(value.strip())
+    if args.scene:
+        return [(Path(args.scene).stem, load_scene(args.scene, overrides))]
+    if args.demo:
+        overrides["volume.size"] = args.volume_size
+        return [(args.demo, load_scene(None, overrides, demo_scene(args.demo)))]
+    from dvr_gl.bench.tradeoff import DATASETS
+
+    data_dir = Path(args.data_dir)
+    if not data_dir.is_dir():
+        raise DvrError(f"{data_dir}: the shared datasets folder was not found; pass --data-dir")
+    chosen = [d for d in DATASETS if not args.only or args.only.lower() in d[0].lower()]
+    scenes = []
+    for name, path, extra in chosen:
+        if not (data_dir / path).exists():
+            print(f"{name}: {data_dir / path} not found, skipped")
+            continue
+        scenes.append((name, load_scene(None, {"volume.path": str(data_dir / path), **extra, **overrides})))
+    if not scenes:
+        raise DvrError(f"no dataset of the tradeoff list was found in {data_dir}")
+    return scenes
+
+
+def run_tradeoff(args) -> int:
+    import time
+    from pathlib import Path
+
+    from dvr_gl.bench import plot, tradeoff
+    from dvr_gl.errors import DvrError
+    from dvr_gl.image import check_writable, write_text
+
+    renderers = args.renderers.split(",") if args.renderers else None
+    unknown = [r for r in renderers or () if r not in tradeoff.SWEEPS]
+    if unknown:
+        raise DvrError(f"--renderers: no sweep for {', '.join(unknown)}; choose from {', '.join(tradeoff.SWEEPS)}")
+    outputs = {ext: Path(f"{args.output}.{ext}") for ext in ("csv", "json", "png")}
+    drawing = not args.no_plot and plot.have_matplotlib()
+    for ext, path in outputs.items():  # before measuring: fail fast, overwrite nothing unasked
+        if ext != "png" or drawing:
+            check_writable(path, args.overwrite)
+    scenes = _tradeoff_scenes(args)
+    all_rows, meta = [], {"repeat": args.repeat, "size": args.size, "scenes": {}}
+    for name, scene in scenes:
+        start = time.perf_counter()
+        truth = tradeoff.converged_truth(scene)
+        print(f"dvr bench tradeoff: {name} ({scene.volume.describe()}), {args.size}x{args.size}, median of "
+              f"{args.repeat} frames after a warm-up; error against the converged reference "
+              f"({time.perf_counter() - start:.1f} s to compute)")
+        rows, notes = tradeoff.run(scene, args.repeat, renderers, truth, scene_name=name)
+        print(format_table(rows, tradeoff.COLUMNS))
+        for note in notes:
+            print(note)
+        checks, note = tradeoff.tolerance_check(scene, rows, truth, args.repeat)
+        if checks:
+            print("\n--tolerance E: the error model's choice, measured, against the measured front")
+            print(format_table(checks, tradeoff.TOLERANCE_COLUMNS))
+        else:
+            print(note)
+        if rows[0]["flip"] is None:
+            print("FLIP: not measured (install the optional extra: pip install 'dvr-gl[perceptual]')")
+        print()
+        meta["scenes"][name] = {"notes": notes, "tolerance": checks, "scene": scene.to_dict()}
+        all_rows += rows
+    write_text(outputs["csv"], tradeoff.csv_text(all_rows), args.overwrite)
+    write_text(outputs["json"], tradeoff.json_text(all_rows, meta), args.overwrite)
+    written = [outputs["csv"], outputs["json"]]
+    if drawing:
+        from dvr_gl.image import atomic_write
+
+        atomic_write(outputs["png"], lambda tmp: plot.tradeoff_plot(all_rows, tmp), args.overwrite)
+        written.append(outputs["png"])
+    elif not args.no_plot:
+        print("no plot: install the optional extra for plots (pip install 'dvr-gl[plot]')")
+    print("wrote " + ", ".join(map(str, written)))
     return 0

@@ -1,0 +1,252 @@
+"""``dvr bench tradeoff``: error against the converged reference versus frame time.
+
+For every renderer registered in :data:`SWEEPS` and every family of accuracy
+settings that applies to it (:data:`FAMILIES`: one setting varied, the others at
+the scene's values), render, time the frame (median of ``repeat`` after a
+warm-up; the read-back finishes GL) and measure the error against the converged
+reference of the scene as given: RMS, maximum and PSNR through OpenImageIO, and
+the mean FLIP error (NVIDIA's perceptual difference for rendered images, from
+the optional ``flip-evaluator`` package) of the two images as displayed (over the
+background, sRGB).  The truth is one image for every row: the scene's own
+reconstruction filter and the exact transfer function, so a filter or a
+classification that differs from the model shows its bias as an error floor.
+
+Rows on the Pareto front (no other row is both faster and more accurate) are
+marked.  Adding a renderer is one line in :data:`SWEEPS`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import SceneError
+from ..image import compare_images, composite_over
+from ..reference.converged import ConvergedReference
+from ..renderers import create_renderer
+from . import median_seconds
+
+DISTANCES = (4.0, 2.0, 1.0, 0.5, 0.25, 0.125)   # sample distances, voxels
+
+
+@dataclass(frozen=True)
+class Family:
+    """One curve: ``key`` takes ``values`` with ``fixed`` set (scene keys, dotted)."""
+
+    label: str
+    key: str
+    values: tuple
+    fixed: tuple = ()   # ((dotted key, value), ...)
+
+
+FAMILIES = {f.label: f for f in (
+    Family("post, linear", "renderer.sample_distance_voxels", DISTANCES),
+    Family("pre-classified", "renderer.sample_distance_voxels", DISTANCES, (("renderer.classification", "pre"),)),
+    Family("pre-integrated", "renderer.sample_distance_voxels", DISTANCES,
+           (("renderer.classification", "preintegrated"),)),
+    Family("pre-integrated fast", "renderer.sample_distance_voxels", DISTANCES,
+           (("renderer.classification", "preintegrated"), ("renderer.preintegration", "fast"))),
+    Family("nearest", "renderer.sample_distance_voxels", DISTANCES, (("renderer.filter", "nearest"),)),
+    Family("cubic B-spline", "renderer.sample_distance_voxels", DISTANCES[2:],
+           (("renderer.filter", "cubic_bspline"),)),
+    Family("LUT size", "renderer.lut_size", (64, 256, 1024, 4096, 16384)),
+    Family("pre-integration table", "renderer.preintegration_size", (32, 64, 128, 256, 512),
+           (("renderer.classification", "preintegrated"), ("renderer.sample_distance_voxels", 1.0))),
+    Family("early termination", "renderer.ert_threshold", (0.8, 0.9, 0.95, 0.99, 1.0)),
+    Family("bricked 4 MB", "renderer.sample_distance_voxels", DISTANCES[1:5],
+           (("renderer.texture_budget_mb", 4.0),)),
+    Family("classification", "renderer.classification", ("post", "pre", "preintegrated")),
+    Family("opacity threshold", "renderer.opacity_threshold", (0.0, 1e-3, 1e-2, 3e-2)),
+)}
+
+# renderer -> the families that vary something it uses: adding a renderer is one line here.
+SWEEPS = {
+    "raycast": ("post, linear", "pre-classified", "pre-integrated", "pre-integrated fast", "nearest",
+                "cubic B-spline", "LUT size", "pre-integration table", "early termination", "bricked 4 MB"),
+    "slicing3d": ("post, linear", "pre-classified", "pre-integrated", "nearest", "LUT size",
+                  "pre-integration table", "bricked 4 MB"),
+    "slicing2d": ("classification", "LUT size"),
+    "shearwarp": ("classification", "LUT size", "early termination", "opacity threshold"),
+}
+
+COLUMNS = [("renderer", "renderer", ""), ("family", "setting family", ""), ("setting", "setting", ""),
+           ("ms", "frame ms", ".1f"), ("rms", "RMS", ".2e"), ("max", "max", ".2e"), ("psnr", "PSNR dB", ".1f"),
+           ("flip", "FLIP", ".4f"), ("pareto", "front", "")]
+
+
+def flip_error(image: np.ndarray, truth: np.ndarray, background) -> float | None:
+    """Mean FLIP error of the two images as displayed (over ``background``, sRGB, 8-bit range);
+    None without the optional ``flip-evaluator`` package."""
+    try:
+        import flip_evaluator
+    except ImportError:
+        return None
+    shown = [np.clip(_srgb(composite_over(x, background)[..., :3]), 0.0, 1.0).astype(np.float32)
+             for x in (image, truth)]
+    _, mean, _ = flip_evaluator.evaluate(shown[1], shown[0], "LDR", applyMagma=False)
+    return float(mean)
+
+
+def _srgb(linear: np.ndarray) -> np.ndarray:
+    c = np.clip(linear, 0.0, None)
+    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
+
+
+def converged_truth(scene, tolerance: float = 1e-4) -> np.ndarray:
+    """The converged reference of ``scene`` as float32 (its error budget per pixel: ``tolerance``)."""
+    truth_scene = scene.with_renderer(converged_tolerance=tolerance)
+    return ConvergedReference(truth_scene).render_float64().astype(np.float32)
+
+
+def cases(renderers=None):
+    """(renderer, family, value) for every setting to measure."""
+    for name, families in SWEEPS.items():
+        if renderers and name not in renderers:
+            continue
+        for label in families:
+            for value in FAMILIES[label].values:
+                yield name, FAMILIES[label], value
+
+
+def variant(scene, name: str, family: Family, value):
+    """``scene`` rendered by ``name`` with the family's fixed settings and ``key = value``
+    (renderer keys; a distance in voxels becomes world units as scenes resolve it)."""
+    changes = {"name": name}
+    for key, v in (*family.fixed, (family.key, value)):
+        field = key.removeprefix("renderer.")
+        if field == "sample_distance_voxels":
+            field, v = "sample_distance", scene.volume.voxels_to_world(v)
+        changes[field] = v
+    return scene.with_renderer(**changes)
+
+
+def run(scene, repeat: int = 5, renderers=None, truth=None, progress=None, scene_name: str = "scene"):
+    """Rows (one per renderer x setting) and notes (settings a renderer refused)."""
+    truth = converged_truth(scene) if truth is None else truth
+    rows, refused, open_renderers = [], {}, {}
+    try:
+        for name, family, value in cases(renderers):
+            case = variant(scene, name, family, value)
+            renderer = open_renderers.get(name) or open_renderers.setdefault(name, create_renderer(name))
+            try:
+                ms = 1e3 * median_seconds(renderer, case, repeat)
+            except SceneError as exc:
+                refused.setdefault((name, str(exc)), []).append(f"{family.label} {_text(value)}")
+                continue
+            image = renderer.render(case)
+            err = compare_images(image, truth)
+            rows.append({"scene": scene_name, "renderer": name, "family": family.label, "key": family.key,
+                         "setting": _text(value), "value": value, "ms": ms, "rms": err["rms"], "max": err["max"],
+                         "psnr": err["psnr"], "mean": err["mean"],
+                         "flip": flip_error(image, truth, scene.image.background)})
+            if progress:
+                progress(rows[-1])
+    finally:
+        for r in open_renderers.values():
+            r.close()
+    mark_pareto(rows)
+    return rows, _refusal_notes(refused, rows)
+
+
+def _refusal_notes(refused: dict, rows: list[dict]) -> list[str]:
+    """One line per renderer and reason: what it refused (all of it, if it rendered nothing)."""
+    rendered = {r["renderer"] for r in rows}
+    notes, whole = [], set()
+    for (name, reason), what in refused.items():
+        if name in rendered:
+            notes.append(f"{name}: refused {', '.join(what)} ({reason})")
+        elif name not in whole:  # nothing rendered: its first reason says why
+            whole.add(name)
+            notes.append(f"{name}: refused this scene ({reason})")
+    return notes
+
+
+def _text(value) -> str:
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def mark_pareto(rows: list[dict], error: str = "rms") -> list[dict]:
+    """Mark (``pareto = "*"``) the rows no other row beats in both time and error."""
+    best = math.inf
+    for row in sorted(rows, key=lambda r: (r["ms"], r[error])):
+        on_front = row[error] < best
+        row["pareto"] = "*" if on_front else ""
+        best = min(best, row[error])
+    return [r for r in rows if r["pareto"]]
+
+
+TOLERANCES = (1e-2, 3e-3, 1e-3)
+TOLERANCE_COLUMNS = [("tolerance", "tolerance", "g"), ("choice", "chosen (raycast)", ""),
+                     ("predicted", "predicted RMS", ".2e"), ("rms", "measured RMS", ".2e"), ("met", "met", ""),
+                     ("ms", "frame ms", ".1f"), ("front", "front: fastest meeting it", ""),
+                     ("front_ms", "its ms", ".1f")]
+
+
+def tolerance_check(scene, rows: list[dict], truth, repeat: int = 5, tolerances=TOLERANCES):
+    """For each tolerance: what the error model chooses, its measured error and frame time, and the
+    fastest measured row (the front) that meets it.  Returns (rows, note or None)."""
+    from .. import tolerance as model
+
+    out = []
+    try:
+        model.check_tolerance(scene.with_renderer(name="raycast"), tolerances[0])
+    except SceneError as exc:
+        return out, f"--tolerance not checked: {exc}"
+    with create_renderer("raycast") as renderer:
+        for e in tolerances:
+            chosen, choice = model.apply(scene.with_renderer(name="raycast"), e)
+            ms = 1e3 * median_seconds(renderer, chosen, repeat)
+            rms = compare_images(renderer.render(chosen), truth)["rms"]
+            best = cheapest_meeting(rows, e)
+            voxels = choice.sample_distance / min(scene.volume.spacing)
+            out.append({"scene": rows[0]["scene"] if rows else "scene", "tolerance": e,
+                        "choice": f"{choice.classification} {voxels:.3g} vox",
+                        "predicted": choice.predicted_error, "rms": rms, "met": "yes" if rms <= e else "NO", "ms": ms,
+                        "front": f"{best['renderer']} {best['family']} {best['setting']}" if best else "none",
+                        "front_ms": best["ms"] if best else None})
+    return out, None
+
+
+def cheapest_meeting(rows: list[dict], tolerance: float, error: str = "rms") -> dict | None:
+    """The fastest measured row whose error is at most ``tolerance`` (None if none is)."""
+    meeting = [r for r in rows if r[error] <= tolerance]
+    return min(meeting, key=lambda r: r["ms"]) if meeting else None
+
+
+# The shared datasets (../shared/data) as scenes: name, file, scene overrides.
+HU = {"transfer_function.rescale_intercept": -1024.0}
+DATASETS = [
+    ("CThead, bone", "regular/cthead.nhdr", {"transfer_function.preset": "ct-bone", **HU, "camera.up": [0, 0, -1]}),
+    ("lobster, shell", "regular/lobster.nhdr", {"transfer_function.points": [
+        [0, 0, 0, 0, 0], [100, 0.9, 0.4, 0.2, 0], [120, 0.9, 0.4, 0.2, 0.6], [140, 0.9, 0.5, 0.3, 0],
+        [255, 0, 0, 0, 0]]}),
+    ("hydrogen, narrow shell", "regular/hydrogen_atom.nhdr", {"transfer_function.points": [
+        [0, 0, 0, 0, 0], [55, 0.2, 0.6, 1, 0], [60, 0.2, 0.6, 1, 0.5], [65, 0.2, 0.6, 1, 0], [255, 0, 0, 0, 0]]}),
+    ("CT bunny, bone", "large/bunny_ct.nhdr", {"transfer_function.preset": "ct-bone", **HU}),
+]
+
+
+def csv_text(rows: list[dict]) -> str:
+    """The rows as CSV (one header line; the columns of the JSON records)."""
+    import csv
+    import io
+
+    keys = ["scene", "renderer", "family", "key", "setting", "ms", "rms", "max", "mean", "psnr", "flip", "pareto"]
+    out = io.StringIO()
+    writer = csv.DictWriter(out, keys, extrasaction="ignore", lineterminator="\n")
+    writer.writeheader()
+    for row in rows:
+        writer.writerow({k: ("" if row.get(k) is None else row[k]) for k in keys})
+    return out.getvalue()
+
+
+def json_text(rows: list[dict], meta: dict) -> str:
+    import json
+
+    def clean(v):
+        return None if isinstance(v, float) and not math.isfinite(v) else v
+
+    records = [{k: clean(v) for k, v in row.items()} for row in rows]
+    return json.dumps({"meta": meta, "rows": records}, indent=1) + "\n"

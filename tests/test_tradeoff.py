@@ -1,0 +1,93 @@
+"""dvr bench tradeoff: the sweep, the Pareto front, the files it writes, and the registration rule."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from dvr_gl.apps.cli import main
+from dvr_gl.bench import plot, tradeoff
+from dvr_gl.image import read_image
+from dvr_gl.renderers import RENDERERS
+from dvr_gl.scene import load_scene
+
+from conftest import array_scene
+
+SMALL = {"volume.demo": "shepp-logan", "volume.size": 24, "image.width": 24, "image.height": 24}
+
+
+def test_every_renderer_has_a_sweep():
+    """Adding a renderer means one line in SWEEPS; this fails until it is there (the references judge,
+    they are not swept), and every family a sweep names exists."""
+    assert set(tradeoff.SWEEPS) == {name for name in RENDERERS if not name.startswith("reference")}
+    for families in tradeoff.SWEEPS.values():
+        assert set(families) <= set(tradeoff.FAMILIES)
+
+
+def test_pareto_front():
+    rows = [{"ms": 1.0, "rms": 0.1}, {"ms": 2.0, "rms": 0.2}, {"ms": 3.0, "rms": 0.05}, {"ms": 3.0, "rms": 0.01},
+            {"ms": 5.0, "rms": 0.01}, {"ms": 6.0, "rms": 0.001}]
+    front = tradeoff.mark_pareto(rows)
+    assert [(r["ms"], r["rms"]) for r in front] == [(1.0, 0.1), (3.0, 0.01), (6.0, 0.001)]
+    assert tradeoff.cheapest_meeting(rows, 0.02) == {"ms": 3.0, "rms": 0.01, "pareto": "*"}
+    assert tradeoff.cheapest_meeting(rows, 1e-4) is None
+
+
+def test_variant_converts_voxels_and_keeps_the_volume(tmp_path):
+    scene = array_scene(tmp_path, np.zeros((4, 4, 4), np.float32), {}, spacing=(0.5, 0.5, 2.0))
+    family = tradeoff.FAMILIES["pre-integrated"]
+    v = tradeoff.variant(scene, "slicing3d", family, 2.0)
+    assert v.renderer.name == "slicing3d" and v.renderer.classification == "preintegrated"
+    assert v.renderer.sample_distance == pytest.approx(1.0)   # 2 voxels of the smallest spacing
+    assert v.volume is scene.volume                           # no reload, no re-upload
+
+
+def test_sweep_measures_every_renderer():
+    """Every swept renderer renders; errors are finite and fall as the ray caster's samples get
+    denser (4 voxels to 1/8: measured RMS 3.6e-2 to 3.4e-4 here, a factor 100; asserted monotone and
+    at least 10x), and a renderer's refusals become notes, not rows."""
+    scene = load_scene(None, SMALL)
+    rows, notes = tradeoff.run(scene, repeat=1)
+    assert {r["renderer"] for r in rows} == set(tradeoff.SWEEPS)
+    for r in rows:
+        assert np.isfinite(r["rms"]) and r["ms"] > 0 and r["max"] >= r["rms"] >= 0
+        assert r["flip"] is None or 0.0 <= r["flip"] <= 1.0
+    curve = [r["rms"] for r in rows if r["renderer"] == "raycast" and r["family"] == "post, linear"]
+    assert all(a > b for a, b in zip(curve, curve[1:])) and curve[0] > 10 * curve[-1]
+    assert any(r["pareto"] for r in rows)
+    assert any(n.startswith("slicing2d: refused classification pre") for n in notes)
+    assert not any(r["renderer"] == "slicing2d" and r["setting"] == "pre" for r in rows)
+
+
+def test_cli_writes_csv_json_plot_and_refuses_to_overwrite(tmp_path, capsys):
+    prefix = tmp_path / "to"
+    args = ["bench", "tradeoff", "--demo", "shepp-logan", "--volume-size", "20", "--size", "16", "--repeat", "1",
+            "--renderers", "raycast,shearwarp", "--set", "renderer.shading.enabled=false", "--output", str(prefix)]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert "--tolerance E" in out and "front" in out
+    with open(f"{prefix}.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    data = json.loads((tmp_path / "to.json").read_text())
+    assert len(rows) == len(data["rows"]) > 20
+    assert {r["renderer"] for r in rows} == {"raycast", "shearwarp"}
+    assert float(rows[0]["rms"]) == pytest.approx(data["rows"][0]["rms"])
+    assert data["meta"]["scenes"]["shepp-logan"]["tolerance"]
+    if plot.have_matplotlib():
+        picture = read_image(tmp_path / "to.png")
+        assert picture.shape[0] > 200 and picture[..., :3].std() > 0.05
+    before = (tmp_path / "to.csv").read_bytes()
+    assert main(args) == 1                                   # exists: refused before measuring anything
+    assert "--overwrite" in capsys.readouterr().err
+    assert (tmp_path / "to.csv").read_bytes() == before
+
+
+def test_cli_bad_input_is_one_line(tmp_path, capsys):
+    assert main(["bench", "tradeoff", "--output", str(tmp_path / "x")]) == 1
+    assert "give one of SCENE.toml, --demo NAME or --shared" in capsys.readouterr().err
+    assert main(["bench", "tradeoff", "--demo", "shepp-logan", "--renderers", "splat",
+                 "--output", str(tmp_path / "x")]) == 1
+    err = capsys.readouterr().err
+    assert "no sweep for splat" in err and len(err.strip().splitlines()) == 1
+    assert not list(tmp_path.iterdir())
