@@ -28,7 +28,8 @@ HELP = "render a scene, a volume file or the demo to an image (.png .exr .tif)"
 # flag destination -> scene key
 _SCENE_KEYS = {
     "renderer": "renderer.name", "sample_distance": "renderer.sample_distance",
-    "sample_distance_voxels": "renderer.sample_distance_voxels", "compositing": "renderer.compositing",
+    "sample_distance_voxels": "renderer.sample_distance_voxels", "tolerance": "renderer.tolerance",
+    "compositing": "renderer.compositing",
     "order": "renderer.order", "classification": "renderer.classification", "filter": "renderer.filter",
     "iso_value": "renderer.iso_value", "ert_threshold": "renderer.ert_threshold",
     "jitter": "renderer.jitter", "jitter_seed": "renderer.jitter_seed", "lut_size": "renderer.lut_size",
@@ -59,6 +60,9 @@ def add_arguments(p: argparse.ArgumentParser):
     g.add_argument("--renderer", help="renderer name (see dvr info)")
     g.add_argument("--sample-distance", type=float, metavar="D", help="sample distance, world units")
     g.add_argument("--sample-distance-voxels", type=float, metavar="V", help="sample distance in voxels")
+    g.add_argument("--tolerance", type=float, metavar="E",
+                   help="RMS error to meet (5e-4 to 0.1): the ray caster's sample distance, classification and "
+                        "early termination are chosen by the error model (README: Render to a tolerance)")
     g.add_argument("--compositing", choices=COMPOSITING_MODES)
     g.add_argument("--order", choices=ORDERS)
     g.add_argument("--classification", choices=CLASSIFICATIONS)
@@ -161,6 +165,9 @@ def run(args) -> int:
         check_output_path(path, args.overwrite)
     if args.save_scene:
         check_writable(Path(args.save_scene), args.overwrite)
+    if scene.tolerance_choice is not None and not args.quiet:
+        print(f"tolerance {args.tolerance if args.tolerance is not None else 'from the scene'}: "
+              f"{scene.tolerance_choice.describe(min(scene.volume.spacing))}")
     renderer = create_renderer(scene.renderer.name)
     progress = Progress(len(outputs), "rendering") if args.frames and not args.quiet else None
     start = time.perf_counter()

@@ -30,13 +30,13 @@ from .volume import Volume
 
 DEFAULT_SAMPLE_DISTANCE_VOXELS = 0.5
 
-# Keys that replace one another when overridden (giving one drops the other).
+# Keys that replace one another when overridden (giving one drops the others).
 _EXCLUSIVE = {
-    ("volume", "path"): ("volume", "demo"), ("volume", "demo"): ("volume", "path"),
-    ("transfer_function", "preset"): ("transfer_function", "points"),
-    ("transfer_function", "points"): ("transfer_function", "preset"),
-    ("renderer", "sample_distance"): ("renderer", "sample_distance_voxels"),
-    ("renderer", "sample_distance_voxels"): ("renderer", "sample_distance"),
+    ("volume", "path"): ("demo",), ("volume", "demo"): ("path",),
+    ("transfer_function", "preset"): ("points",), ("transfer_function", "points"): ("preset",),
+    ("renderer", "sample_distance"): ("sample_distance_voxels", "tolerance"),
+    ("renderer", "sample_distance_voxels"): ("sample_distance", "tolerance"),
+    ("renderer", "tolerance"): ("sample_distance", "sample_distance_voxels"),
 }
 
 
@@ -65,9 +65,8 @@ def apply_overrides(raw: dict, overrides: dict[str, object]) -> dict:
             if not isinstance(node, dict):
                 raise SceneError(f"override {dotted!r}: {p} is not a table")
         node[parts[-1]] = value
-        other = _EXCLUSIVE.get((parts[0], parts[-1])) if len(parts) == 2 else None
-        if other:
-            out.get(other[0], {}).pop(other[1], None)
+        for other in _EXCLUSIVE.get((parts[0], parts[-1]), ()) if len(parts) == 2 else ():
+            out.get(parts[0], {}).pop(other, None)
     return out
 
 
@@ -207,6 +206,7 @@ class Scene:
     image: ImageSpec
     renderer: RendererSpec
     volume_source: VolumeSpec
+    tolerance_choice: object = None   # what renderer.tolerance chose (dvr_gl.tolerance.Choice), if given
 
     @property
     def sample_distance(self) -> float:
@@ -250,7 +250,19 @@ def resolve_scene(spec: SceneSpec, base_dir: Path | str = ".") -> Scene:
     tf = _resolve_transfer_function(spec.transfer_function, volume, spec.volume.demo)
     camera = _resolve_camera(spec.camera, volume, spec.image)
     renderer = _resolve_renderer(spec.renderer, volume)
-    return Scene(volume, tf, camera, spec.image, renderer, source)
+    scene = Scene(volume, tf, camera, spec.image, renderer, source)
+    return _meet_tolerance(scene, spec.renderer) if renderer.tolerance is not None else scene
+
+
+def _meet_tolerance(scene: Scene, spec: RendererSpec) -> Scene:
+    """Replace ``renderer.tolerance`` by the settings the error model chooses for it (so the
+    effective scene holds those settings, and rendering it again repeats the image)."""
+    from . import tolerance
+
+    if spec.sample_distance is not None or spec.sample_distance_voxels is not None:
+        raise SceneError("renderer: give tolerance or a sample distance, not both (the tolerance chooses it)")
+    chosen, choice = tolerance.apply(scene.with_renderer(tolerance=None), spec.tolerance)
+    return chosen.replace(tolerance_choice=choice)
 
 
 def load_scene(path: Path | str | None = None, overrides: dict | None = None, base: dict | None = None) -> Scene:

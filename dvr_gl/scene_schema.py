@@ -59,6 +59,8 @@ class RendererSpec:
     name: str = "raycast"
     sample_distance: Optional[float] = None           # world units
     sample_distance_voxels: Optional[float] = None    # in voxels of the smallest spacing (default 0.5)
+    tolerance: Optional[float] = None                 # RMS error to meet: chooses sample distance,
+                                                      # classification and early termination (raycast)
     compositing: str = choices(*COMPOSITING_MODES, default="emission_absorption")
     order: str = choices(*ORDERS, default="front_to_back")
     classification: str = choices(*CLASSIFICATIONS, default="post")

@@ -1,0 +1,219 @@
+"""Render to a tolerance: the cheapest settings expected to meet an RMS image error ``E``.
+
+The model (after Bergner et al. 2006, "A spectral analysis of function composition
+and its implications for sampling in direct volume visualization"): what a ray
+integrates is the transfer function *composed* with the reconstructed data,
+``sigma(s(x))`` and ``sigma c(s(x))``, whose bandwidth is roughly the transfer
+function's bandwidth (cycles per value unit) times the data's gradient, plus the
+data's own (Carson's rule for frequency modulation).  Rather than multiply
+percentiles, the composed signal is sampled along random lines through the
+volume (``LINES`` lines, ``OVERSAMPLING`` samples per voxel, the scene's filter
+and its exact transfer function) and its power spectrum measured directly; the
+bandwidth ``nu`` is the frequency below which ``ENERGY`` of the signal's variance
+lies, and the Nyquist distance is ``1 / (2 nu)``.
+
+For post-classification the signal is the composed one; pre-integrated
+classification integrates the transfer function exactly between two samples when
+the data is linear between them, so its signal is the data itself, on the parts
+of the lines where the transfer function is not transparent.
+
+The error then follows a power law in the sample distance relative to the
+Nyquist distance, scaled by the signal's amplitude ``A`` (the standard deviation
+over the lines inside the box of the opacity of one voxel's length,
+``1 - exp(-sigma * voxel)``: it saturates where an optical depth would not, as
+the image does): ``E(d) = kappa * A * (d / d_nyquist) ** p``, with ``kappa`` and ``p``
+fitted to measured errors (``dvr bench tradeoff`` against the converged reference,
+on the calibration scenes listed in :data:`CALIBRATION`) and ``kappa`` raised to
+the upper envelope of those measurements, so the prediction errs on the safe
+side.  The README states how well it predicts on the shared datasets.
+
+Early ray termination is set so that what it drops is below ``E / 4``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import SceneError
+from .reference.reconstruction import SampledField
+
+LINES = 192
+OVERSAMPLING = 8          # samples per voxel along the lines
+ENERGY = 0.999             # fraction of the signal's variance below the bandwidth
+SEED = 20261121
+MIN_TOLERANCE, MAX_TOLERANCE = 5e-4, 0.1
+# Below this, 8-bit texture-unit filtering weights (llvmpipe) would dominate: filter in the shader.
+SHADER_FILTERING_BELOW = 3e-3
+# Cost of a sample relative to post-classification, measured (dvr bench tradeoff, raycast, 64^3 demo):
+PREINTEGRATED_COST = 1.15
+
+
+@dataclass(frozen=True)
+class ErrorLaw:
+    """``E = kappa * amplitude * (d / d_nyquist) ** power`` (RMS over the image, colour and alpha)."""
+
+    kappa: float
+    power: float
+
+    def error(self, ratio: float, amplitude: float) -> float:
+        return self.kappa * amplitude * ratio ** self.power
+
+    def ratio_for(self, tolerance: float, amplitude: float) -> float:
+        if amplitude <= 0:
+            return np.inf
+        return (tolerance / (self.kappa * amplitude)) ** (1.0 / self.power)
+
+
+# Fitted by benchmarks/tolerance_calibration.py (see the README, "Render to a tolerance").
+LAWS = {"post": ErrorLaw(kappa=0.101, power=2.07), "preintegrated": ErrorLaw(kappa=0.0545, power=1.29)}
+
+
+def random_lines(volume, count: int, seed: int = SEED):
+    """``count`` lines through the box: random directions, through uniformly random points,
+    each as (start, unit direction, length) spanning the box's diagonal around its point."""
+    rng = np.random.default_rng(seed)
+    lo, hi = volume.box
+    centre = lo + rng.random((count, 3)) * (hi - lo)
+    direction = rng.normal(size=(count, 3))
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    length = float(np.linalg.norm(hi - lo))
+    return centre - direction * length / 2.0, direction, length
+
+
+def line_samples(scene, count: int = LINES, oversampling: int = OVERSAMPLING):
+    """The data and the composed signal along random lines: ``(s, signal, inside, step)`` with
+    ``s`` (lines, n), ``signal`` (lines, n, 4) = (sigma, sigma r, sigma g, sigma b) in per world
+    unit (zero outside the box), ``inside`` the samples in the box, ``step`` in world units."""
+    volume, tf = scene.volume, scene.transfer_function
+    start, direction, length = random_lines(volume, count)
+    step = min(volume.spacing) / oversampling
+    t = np.arange(int(length / step)) * step
+    points = start[:, None, :] + direction[:, None, :] * t[None, :, None]
+    lo, hi = volume.box
+    inside = np.all((points >= lo) & (points <= hi), axis=-1)
+    field = SampledField.of_volume(volume, scene.renderer.filter)
+    s = field.sample(points.reshape(-1, 3)).reshape(inside.shape)
+    sigma = np.where(inside, tf.extinction(s.ravel()).reshape(s.shape), 0.0)
+    colour = tf.color(s.ravel()).reshape(*s.shape, 3)
+    return s, np.concatenate([sigma[..., None], sigma[..., None] * colour], axis=-1), inside, step
+
+
+def bandwidth(signal: np.ndarray, step: float, energy: float = ENERGY) -> float:
+    """Cycles per world unit below which ``energy`` of the variance of ``signal`` (lines along
+    axis 1; any trailing channels) lies; 0 for a constant signal."""
+    x = signal - signal.mean(axis=1, keepdims=True)
+    power = np.abs(np.fft.rfft(x, axis=1)) ** 2
+    power = power.reshape(power.shape[0], power.shape[1], -1).sum(axis=(0, 2))
+    power[0] = 0.0
+    total = power.sum()
+    if not total > 0:
+        return 0.0
+    frequencies = np.fft.rfftfreq(signal.shape[1], step)
+    k = int(np.searchsorted(np.cumsum(power) / total, energy))
+    return float(frequencies[min(k, len(frequencies) - 1)])
+
+
+@dataclass(frozen=True)
+class SamplingModel:
+    """Nyquist distances (world units) of the signals each classification integrates."""
+
+    post: float            # composed transfer function and data
+    preintegrated: float   # the data where the transfer function is not transparent
+    amplitude: float       # standard deviation of the opacity of one voxel's length in the box
+
+    def distance_for(self, classification: str, tolerance: float) -> float:
+        return getattr(self, classification) * LAWS[classification].ratio_for(tolerance, self.amplitude)
+
+    def predicted_error(self, classification: str, distance: float) -> float:
+        return LAWS[classification].error(distance / getattr(self, classification), self.amplitude)
+
+
+def sampling_model(scene) -> SamplingModel:
+    """Measure the bandwidths of the scene's signals (a fraction of a second for 64^3)."""
+    s, composed, inside, step = line_samples(scene)
+    voxel = min(scene.volume.spacing)
+    visible = composed[..., 0] > 0
+    nu_post = bandwidth(composed, step)
+    # Pre-integration: the data, on the visible parts (constant elsewhere, so it adds nothing)
+    near = _dilate(visible, 2 * OVERSAMPLING)
+    if near.any():
+        held = np.where(near, s, s[near].mean())
+        nu_pre = bandwidth(held, step)
+    else:
+        nu_pre = 0.0
+    amplitude = float(np.std(-np.expm1(-composed[..., 0][inside] * voxel)))
+    return SamplingModel(post=_nyquist(nu_post, voxel), preintegrated=_nyquist(nu_pre, voxel), amplitude=amplitude)
+
+
+def _nyquist(nu: float, voxel: float) -> float:
+    """``1 / (2 nu)``, kept within [1/64, 64] voxels (a constant signal has no Nyquist rate)."""
+    return float(np.clip(1.0 / (2.0 * nu), voxel / 64.0, 64.0 * voxel)) if nu > 0 else 64.0 * voxel
+
+
+def _dilate(mask: np.ndarray, reach: int) -> np.ndarray:
+    """``mask`` grown by ``reach`` samples along each line (axis 1)."""
+    c = np.cumsum(np.pad(mask.astype(np.int32), ((0, 0), (reach + 1, reach))), axis=1)
+    return (c[:, 2 * reach + 1:] - c[:, :-(2 * reach + 1)]) > 0
+
+
+@dataclass(frozen=True)
+class Choice:
+    """What :func:`choose` picked and why."""
+
+    classification: str
+    sample_distance: float      # world units
+    ert_threshold: float
+    filtering: str
+    predicted_error: float
+    model: SamplingModel
+
+    def renderer_changes(self) -> dict:
+        return {"classification": self.classification, "sample_distance": self.sample_distance,
+                "ert_threshold": self.ert_threshold, "filtering": self.filtering}
+
+    def describe(self, voxel: float) -> str:
+        return (f"{self.classification} classification, sample distance {self.sample_distance / voxel:.3g} voxel, "
+                f"early termination at {self.ert_threshold:g}, {self.filtering} filtering; "
+                f"predicted RMS error {self.predicted_error:.2g}")
+
+
+def check_tolerance(scene, tolerance: float):
+    r = scene.renderer
+    if not MIN_TOLERANCE <= tolerance <= MAX_TOLERANCE:
+        raise SceneError(f"tolerance {tolerance:g} is outside the range the error model is fitted for "
+                         f"({MIN_TOLERANCE:g} to {MAX_TOLERANCE:g} RMS); choose a value in it")
+    if r.name != "raycast":
+        raise SceneError(f"a tolerance chooses settings of the ray caster; renderer {r.name!r} is not modelled "
+                         f"(use renderer raycast, or set the sample distance yourself)")
+    if r.compositing != "emission_absorption":
+        raise SceneError(f"a tolerance is modelled for emission_absorption compositing, not {r.compositing}; "
+                         f"set the sample distance yourself")
+    if r.shading.enabled or r.gradient_opacity or r.jitter:
+        raise SceneError("a tolerance is modelled without shading, gradient opacity or jitter; turn them off "
+                         "or set the sample distance yourself")
+
+
+def choose(scene, tolerance: float) -> Choice:
+    """The classification and sample distance of least expected cost whose predicted RMS error
+    is at most ``tolerance``, and early termination dropping at most ``tolerance / 4``."""
+    check_tolerance(scene, tolerance)
+    model = sampling_model(scene)
+    voxel = min(scene.volume.spacing)
+    ert = 1.0 - tolerance / 4.0  # what termination drops is at most 1 - threshold
+    options = []
+    for classification, cost in (("post", 1.0), ("preintegrated", PREINTEGRATED_COST)):
+        d = min(model.distance_for(classification, 0.75 * tolerance), 8.0 * voxel)
+        d = max(d, voxel / 64.0)
+        options.append((cost / d, classification, d))
+    _, classification, d = min(options)
+    filtering = "shader" if tolerance < SHADER_FILTERING_BELOW else scene.renderer.filtering
+    return Choice(classification, d, ert, filtering, model.predicted_error(classification, d), model)
+
+
+def apply(scene, tolerance: float):
+    """``scene`` with the chosen settings, and the :class:`Choice`."""
+    choice = choose(scene, tolerance)
+    return scene.with_renderer(**choice.renderer_changes()), choice
+

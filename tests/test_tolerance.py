@@ -1,0 +1,120 @@
+"""Render to a tolerance: the frequency model, the choice, and the promise (measured error <= E)."""
+
+import numpy as np
+import pytest
+
+from dvr_gl import tolerance
+from dvr_gl.apps.cli import main
+from dvr_gl.bench.quality import spike
+from dvr_gl.bench.tradeoff import converged_truth
+from dvr_gl.errors import SceneError
+from dvr_gl.image import compare_images, read_image
+from dvr_gl.renderers import create_renderer
+from dvr_gl.scene import load_scene
+
+ML = {"volume.demo": "marschner-lobb", "volume.size": 33, "image.width": 48, "image.height": 48,
+      "transfer_function.opacity_model": "extinction"}
+
+
+def test_bandwidth_of_a_sinusoid():
+    """A sinusoid of 0.3 cycles per unit, sampled at 0.05 over whole periods: all its energy is at
+    0.3 (one FFT bin of 1/200 = 0.005 wide)."""
+    t = np.arange(4000) * 0.05
+    signal = np.sin(2 * np.pi * 0.3 * t)[None, :] * np.ones((3, 1))
+    assert tolerance.bandwidth(signal, 0.05) == pytest.approx(0.3, abs=0.005)
+    assert tolerance.bandwidth(np.ones((2, 100)), 0.1) == 0.0
+
+
+def test_narrower_features_need_finer_sampling():
+    """The composed signal's Nyquist distance shrinks as the transfer-function spike narrows; a
+    transfer function that is zero everywhere has nothing to resolve (amplitude 0)."""
+    d = [tolerance.sampling_model(load_scene(None, {**ML, "transfer_function.points": spike(w, 1.0)})).post
+         for w in (0.4, 0.1, 0.02)]
+    assert d[0] > d[1] > d[2]
+    empty = load_scene(None, {**ML, "transfer_function.points": [[0, 1, 1, 1, 0], [1, 1, 1, 1, 0]]})
+    model = tolerance.sampling_model(empty)
+    assert model.amplitude == 0.0
+    assert tolerance.choose(empty, 1e-3).sample_distance == pytest.approx(8.0)   # the cap: 8 voxels
+
+
+CASES = {
+    "Marschner-Lobb, 5 % spike": {**ML, "transfer_function.points": spike(0.05, 1.0)},
+    "Marschner-Lobb, viridis ramp": {**ML, "transfer_function.preset": "viridis",
+                                     "transfer_function.opacity_model": "alpha", "camera.azimuth": 70.0},
+    "Shepp-Logan": {"volume.demo": "shepp-logan", "volume.size": 40, "image.width": 48, "image.height": 48},
+}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_tolerance_is_met(case):
+    """The promise, on small scenes not used for the fit: the chosen settings' RMS error against the
+    converged reference is at most E, for E from 1e-2 to 1e-3.  (The law is the upper envelope of
+    the calibration, so the measured error is typically 2-4x below E; the README's table shows it.)"""
+    scene = load_scene(None, CASES[case])
+    truth = converged_truth(scene)
+    with create_renderer("raycast") as renderer:
+        for e in (1e-2, 3e-3, 1e-3):
+            chosen, choice = tolerance.apply(scene, e)
+            rms = compare_images(renderer.render(chosen), truth)["rms"]
+            assert rms <= e, f"E = {e:g}: measured {rms:.3g} with {choice.describe(1.0)}"
+            assert choice.predicted_error <= e
+
+
+def test_tighter_tolerance_samples_more():
+    scene = load_scene(None, CASES["Shepp-Logan"])
+    d = [tolerance.choose(scene, e).sample_distance for e in (3e-2, 3e-3, 1e-3)]
+    assert d[0] > d[1] > d[2]
+    assert tolerance.choose(scene, 1e-3).ert_threshold >= 1 - 1e-3 / 4
+
+
+def test_scene_key_cli_and_effective_scene(tmp_path, capsys):
+    """``--tolerance`` (the scene key renderer.tolerance) prints what it chose; the effective scene
+    holds the chosen settings, and rendering it gives the same image, bit for bit."""
+    out, saved = tmp_path / "t.exr", tmp_path / "t.toml"
+    common = ["--demo", "marschner-lobb", "--set", "volume.size=24", "--size", "32", "--no-shading"]
+    assert main(["render", *common, "--tolerance", "3e-3", "-o", str(out), "--save-scene", str(saved)]) == 0
+    assert "predicted RMS error" in capsys.readouterr().out
+    text = saved.read_text()
+    assert "\ntolerance =" not in text and "\nsample_distance = " in text
+    again = tmp_path / "again.exr"
+    assert main(["render", str(saved), "-o", str(again)]) == 0
+    assert np.array_equal(read_image(out), read_image(again))
+
+
+def test_bad_tolerances_are_one_line_errors(tmp_path, capsys):
+    out = tmp_path / "x.png"
+    for extra, message in ((["--tolerance", "1e-6", "--no-shading"], "outside the range"),
+                           (["--tolerance", "1e-2"], "without shading"),
+                           (["--tolerance", "1e-2", "--no-shading", "--renderer", "slicing3d"], "not modelled"),
+                           (["--tolerance", "1e-2", "--no-shading", "--compositing", "mip"], "emission_absorption")):
+        assert main(["render", "--demo", "shepp-logan", "--set", "volume.size=16", *extra, "-o", str(out)]) == 1
+        err = capsys.readouterr().err
+        assert message in err and len(err.strip().splitlines()) == 1
+        assert not out.exists()
+    with pytest.raises(SceneError, match="tolerance or a sample distance"):
+        load_scene(None, None, {"volume": {"demo": "shepp-logan", "size": 16},
+                                "renderer": {"tolerance": 1e-2, "sample_distance": 1.0}})
+
+
+SHARED = {  # small datasets of ../shared/data with a feature-revealing transfer function
+    "nucleon": ("regular/nucleon.nhdr", None),
+    "neghip, narrow shell": ("regular/neghip.nhdr", [[0, 0, 0, 0, 0], [60, 0.9, 0.5, 0.2, 0], [70, 0.9, 0.5, 0.2, 0.7],
+                                                     [80, 0.9, 0.5, 0.2, 0], [255, 0, 0, 0, 0]]),
+    "bucky": ("regular/bucky.nhdr", [[0, 0, 0, 0, 0], [100, 0.2, 0.6, 1, 0], [255, 1, 1, 1, 0.8]]),
+}
+
+
+@pytest.mark.parametrize("name", list(SHARED))
+def test_tolerance_is_met_on_shared_datasets(shared_data, name):
+    """The promise on real data (small datasets, 40x40 images): measured RMS <= E."""
+    path, points = SHARED[name]
+    overrides = {"volume.path": str(shared_data / path), "image.width": 40, "image.height": 40}
+    if points:
+        overrides["transfer_function.points"] = points
+    scene = load_scene(None, overrides)
+    truth = converged_truth(scene)
+    with create_renderer("raycast") as renderer:
+        for e in (1e-2, 3e-3, 1e-3):
+            chosen, choice = tolerance.apply(scene, e)
+            rms = compare_images(renderer.render(chosen), truth)["rms"]
+            assert rms <= e, f"E = {e:g}: measured {rms:.3g} with {choice.describe(1.0)}"
