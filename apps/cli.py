@@ -17,8 +17,9 @@ from dvr_gl.errors import DvrError
 from . import bench as bench_cmd
 from . import info as info_cmd
 from . import render as render_cmd
+from . import view as view_cmd
 
-SUBCOMMANDS = {"render": render_cmd, "info": info_cmd, "bench": bench_cmd}
+SUBCOMMANDS = {"render": render_cmd, "view": view_cmd, "info": info_cmd, "bench": bench_cmd}
 
 
 def build_parser() -> argparse.ArgumentParser:

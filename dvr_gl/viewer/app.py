@@ -1,0 +1,601 @@
+"""The viewer's window and loop: input to scene changes, the refinement controller's plan to
+frames, frames to the screen.
+
+The window holds the *render area* (left) and, with imgui-bundle installed, a side panel (right,
+:data:`PANEL_WIDTH` window pixels).  The render area's size in framebuffer pixels is the scene's
+image size, so a screenshot's saved scene has the size it was rendered at.  Every renderer draws
+into the window's own OpenGL context (the CPU references render on the host).  Images are
+premultiplied and linear; the background is composited once, before display or writing, as in
+``dvr render``.
+
+A frame log (``--frame-log FILE``) records one JSON object per line: every rendered frame (its
+refinement level, times, state) and the events (window ready with its layout, screenshots,
+messages), for profiling and for driving the viewer from tests.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DvrError
+from ..image import composite_over
+from ..renderers import create_renderer
+from . import navigation, settings
+from .display import ImageDisplay
+from .hud import FrameStats, hud_lines, nominal_samples
+from .imgui_backend import load_imgui
+from .keys import KEYS, help_lines
+from .refinement import FramePlan, RefinementController
+from .screenshots import write_screenshot
+from .tf_editor import TransferFunctionEditor
+
+imgui = load_imgui()  # before glfw: imgui-bundle points pyGLFW at the GLFW library it ships
+import glfw  # noqa: E402
+
+PANEL_WIDTH = 360            # window pixels
+TIMED_GESTURE_SECONDS = 0.3  # wheel and window resizing count as interaction until this long after
+MESSAGE_SECONDS = 8.0
+NO_DISPLAY = ("cannot open a window: no display (DISPLAY is unset); run under a desktop session or Xvfb, "
+              "or use `dvr render` for headless images")
+
+
+@dataclass
+class ViewerOptions:
+    """How the viewer runs (the scene says what it shows).
+
+    budget_ms: frame-time budget while interacting, milliseconds.
+    passes: jittered passes averaged when idle (with jitter on).
+    screenshot_dir, screenshot_format: where screenshots go, and their suffix (.png, .exr, .tif).
+    frame_log: a JSON-lines file of frames and events (None: none).
+    gui: panels and HUD through imgui-bundle when installed.
+    rescale_intercept: for the CT presets in the transfer-function panel (HU = data + intercept).
+    benchmark: seconds of a simulated orbit drag, then refinement to full quality, a summary of
+        the frame times on stdout, and exit (None: interactive).
+    """
+
+    budget_ms: float = 100.0
+    passes: int = 8
+    screenshot_dir: Path = Path(".")
+    screenshot_format: str = ".png"
+    frame_log: Path | None = None
+    gui: bool = True
+    rescale_intercept: float = 0.0
+    benchmark: float | None = None
+    frames: list = field(default_factory=list)  # filled with the frame records (benchmarks, tests)
+
+
+def check_display():
+    if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        raise DvrError(NO_DISPLAY)
+
+
+def open_window(width: int, height: int, title: str):
+    """A GLFW window with an OpenGL 3.3 core context, current; DvrError with the reason if none."""
+    check_display()
+    errors: list[str] = []
+    glfw.ERROR_REPORTING = "ignore"
+    glfw.set_error_callback(lambda code, text: errors.append(text.decode() if isinstance(text, bytes) else text))
+    if not glfw.init():
+        why = errors[-1] if errors else "unknown reason"
+        raise DvrError(f"cannot open a window: GLFW could not start ({why}); run under a desktop session or "
+                       f"Xvfb, or use `dvr render` for headless images")
+    for hint, value in ((glfw.CONTEXT_VERSION_MAJOR, 3), (glfw.CONTEXT_VERSION_MINOR, 3),
+                        (glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE), (glfw.OPENGL_FORWARD_COMPAT, True)):
+        glfw.window_hint(hint, value)
+    window = glfw.create_window(width, height, title, None, None)
+    if not window:
+        why = errors[-1] if errors else "unknown reason"
+        glfw.terminate()
+        raise DvrError(f"cannot open a window: no OpenGL 3.3 window could be created ({why}); update the "
+                       f"graphics driver (Debian: apt install libgl1-mesa-dri), or use `dvr render`")
+    glfw.make_context_current(window)
+    glfw.swap_interval(0)
+    return window
+
+
+def run_viewer(scene, options: ViewerOptions | None = None) -> int:
+    """Open the window on ``scene`` and run until it is closed."""
+    viewer = Viewer(scene, options or ViewerOptions())
+    try:
+        viewer.run()
+    finally:
+        viewer.close()
+    return 0
+
+
+class FrameLog:
+    """JSON lines (see the module doc); nothing when no path is given."""
+
+    def __init__(self, path: Path | None):
+        self.file = open(path, "w", encoding="utf-8") if path else None
+        self.start = time.perf_counter()
+
+    def write(self, **record):
+        if self.file:
+            record["t"] = round(time.perf_counter() - self.start, 4)
+            self.file.write(json.dumps(record) + "\n")
+            self.file.flush()
+
+    def close(self):
+        if self.file:
+            self.file.close()
+
+
+def _key_table() -> dict:
+    table = {}
+    for name, action, _ in KEYS:
+        shift, _, key = name.rpartition("+")
+        table[(getattr(glfw, f"KEY_{key}"), bool(shift))] = action
+    return table
+
+
+class Viewer:
+    """One window on one scene (see the module doc)."""
+
+    def __init__(self, scene, options: ViewerOptions):
+        self.options = options
+        self.gui_module = imgui if options.gui else None
+        panel = PANEL_WIDTH if self.gui_module else 0
+        self.window = open_window(scene.image.width + panel, scene.image.height, "dvr view")
+        try:
+            self._start(scene, options)
+        except BaseException:
+            glfw.destroy_window(self.window)
+            glfw.terminate()
+            raise
+
+    def _start(self, scene, options: ViewerOptions):
+        from ..gl.context import create_context
+
+        self.ctx = create_context("window")
+        self.display = ImageDisplay(self.ctx)
+        self.scene = self.good_scene = scene
+        self.initial_camera = scene.camera
+        self.editor = TransferFunctionEditor(scene.transfer_function)
+        self.tf_version = self.editor.version
+        self.controller = RefinementController(options.budget_ms / 1e3, self._passes(scene))
+        self.renderers: dict = {}
+        self.stats = FrameStats()
+        self.version = 0                      # counts scene changes
+        self.full_image: tuple[int, np.ndarray] | None = None   # (version, pass-0 full-quality image)
+        self.accum: np.ndarray | None = None  # running mean of the jittered passes shown
+        self.gesture: str | None = None
+        self.cursor = (0.0, 0.0)
+        self.gesture_until = 0.0
+        self.last_event = time.perf_counter()
+        self.message, self.message_error, self.message_until = "", False, 0.0
+        self.show_hud, self.show_help, self.show_panel = True, False, self.gui_module is not None
+        self.running = True
+        self.stalled = -1                     # the version whose rendering failed with no way back
+        self.frame_count = 0
+        self.log = FrameLog(options.frame_log)
+        self.keys = _key_table()
+        self.benchmark = OrbitBenchmark(options.benchmark) if options.benchmark else None
+        self.gui = None
+        if self.gui_module is not None:
+            from .gui import ViewerGui
+
+            self.gui = ViewerGui(self.gui_module, glfw, self.ctx, self)
+        self._install_callbacks()
+        self._sync_size()
+        if self.gui is None:
+            print("dvr view: keys (install dvr-gl[viewer] for the panels and the transfer-function editor):")
+            print("\n".join("  " + line for line in help_lines()))
+
+    # --- scene changes ---
+
+    def _passes(self, scene) -> int:
+        return self.options.passes if scene.renderer.jitter else 1
+
+    def set_scene(self, scene, interactive: bool = False, costs: bool = False):
+        """Show ``scene`` from now on; ``costs``: its frames cost differently (measure again)."""
+        self.scene = scene
+        self.version += 1
+        self.accum = None
+        self.controller.changed(interactive)
+        self.controller.set_passes(self._passes(scene))
+        if costs:
+            self.controller.forget_costs()
+
+    def apply(self, change, interactive: bool = False) -> bool:
+        """Apply ``change(scene) -> scene`` to the renderer settings; on a DvrError show it and keep
+        the settings as they were."""
+        try:
+            scene = change(self.scene)
+        except DvrError as exc:
+            self.notify(str(exc), error=True)
+            return False
+        self.set_scene(scene, interactive, costs=True)
+        return True
+
+    def move_camera(self, camera, interactive: bool = True):
+        self.set_scene(self.scene.replace(camera=camera), interactive)
+
+    def end_gesture(self):
+        self.controller.idle()
+
+    def notify(self, text: str, error: bool = False):
+        self.message, self.message_error = text, error
+        self.message_until = time.perf_counter() + MESSAGE_SECONDS
+        print(f"dvr view: {'error: ' if error else ''}{text}", file=sys.stderr if error else sys.stdout, flush=True)
+        self.log.write(event="message", error=error, text=text)
+
+    def _sync_editor(self):
+        if self.editor.version == self.tf_version:
+            return
+        self.tf_version = self.editor.version
+        try:
+            tf = self.editor.transfer_function()
+        except DvrError as exc:
+            self.notify(str(exc), error=True)
+            return
+        dragging = self.gui is not None and self.gui.busy
+        self.set_scene(self.scene.replace(transfer_function=tf), interactive=dragging)
+
+    # --- window geometry ---
+
+    def render_area(self) -> tuple[int, int, int, int]:
+        """``(width, height)`` of the render area in window pixels, then in framebuffer pixels."""
+        win_w, win_h = glfw.get_window_size(self.window)
+        fb_w, fb_h = glfw.get_framebuffer_size(self.window)
+        panel = PANEL_WIDTH if self.show_panel else 0
+        area_w = max(1, win_w - panel)
+        scale = fb_w / win_w if win_w else 1.0
+        return area_w, win_h, max(1, round(area_w * scale)), fb_h
+
+    def _sync_size(self):
+        _, _, w, h = self.render_area()
+        image = self.scene.image
+        if h > 0 and (w, h) != (image.width, image.height):
+            resized = self.scene.replace(image=dataclasses.replace(image, width=w, height=h))
+            self.set_scene(resized, interactive=self.frame_count > 0, costs=True)
+            self.good_scene = self.good_scene.replace(image=resized.image)
+            self.gesture_until = time.perf_counter() + TIMED_GESTURE_SECONDS
+
+    def in_render_area(self, x: float, y: float) -> bool:
+        area_w, area_h, _, _ = self.render_area()
+        return 0 <= x < area_w and 0 <= y < area_h
+
+    # --- input ---
+
+    def _install_callbacks(self):
+        w = self.window
+        glfw.set_cursor_pos_callback(w, self._on_cursor)
+        glfw.set_mouse_button_callback(w, self._on_button)
+        glfw.set_scroll_callback(w, self._on_scroll)
+        glfw.set_key_callback(w, self._on_key)
+        glfw.set_char_callback(w, self._on_char)
+
+    def _on_cursor(self, window, x, y):
+        self.last_event = time.perf_counter()
+        if self.gui:
+            self.gui.input.cursor(x, y)
+        dx, dy = x - self.cursor[0], y - self.cursor[1]
+        self.cursor = (x, y)
+        if self.gesture and (dx or dy):
+            self.navigate(self.gesture, dx, dy)
+
+    def navigate(self, gesture: str, dx: float, dy: float):
+        """A drag of ``(dx, dy)`` window pixels: ``orbit``, ``pan`` or ``zoom``."""
+        cam = self.scene.camera
+        if gesture == "orbit":
+            cam = navigation.orbit(cam, dx, dy)
+        elif gesture == "pan":
+            _, area_h, _, _ = self.render_area()
+            cam = navigation.pan(cam, dx, dy, area_h)
+        else:
+            cam = navigation.zoom(cam, -dy / 20.0)   # 20 pixels up: one wheel step in
+        self.move_camera(cam)
+
+    def _on_button(self, window, button, action, mods):
+        self.last_event = time.perf_counter()
+        if self.gui:
+            self.gui.input.button(button, action == glfw.PRESS)
+        if action == glfw.PRESS and self.gesture is None and self.in_render_area(*self.cursor):
+            shift = bool(mods & glfw.MOD_SHIFT)
+            self.gesture = {glfw.MOUSE_BUTTON_LEFT: "pan" if shift else "orbit", glfw.MOUSE_BUTTON_MIDDLE: "pan",
+                            glfw.MOUSE_BUTTON_RIGHT: "zoom"}.get(button)
+            self.gesture_button = button
+        elif action == glfw.RELEASE and self.gesture and button == self.gesture_button:
+            self.gesture = None
+            self.end_gesture()
+
+    def _on_scroll(self, window, dx, dy):
+        self.last_event = time.perf_counter()
+        if self.gui:
+            self.gui.input.scroll(dx, dy)
+        if dy and self.in_render_area(*self.cursor):
+            self.move_camera(navigation.zoom(self.scene.camera, dy))
+            self.gesture_until = time.perf_counter() + TIMED_GESTURE_SECONDS
+
+    def _on_key(self, window, key, scancode, action, mods):
+        self.last_event = time.perf_counter()
+        if self.gui:
+            self.gui.input.key(key, action)
+            if self.gui.input.wants_text:
+                return
+        if action == glfw.RELEASE:
+            return
+        shift = bool(mods & glfw.MOD_SHIFT)
+        name = self.keys.get((key, shift)) or self.keys.get((key, False))
+        repeatable = ("finer", "coarser")
+        if name and (action == glfw.PRESS or name in repeatable):
+            self.action(name)
+
+    def _on_char(self, window, codepoint):
+        if self.gui:
+            self.gui.input.char(codepoint)
+
+    # --- actions (keys and buttons) ---
+
+    def action(self, name: str):
+        if name.startswith("renderer_"):
+            self.apply(lambda s: settings.change(s, name=name.removeprefix("renderer_")))
+            return
+        simple = {
+            "next_compositing": lambda: self.apply(lambda s: settings.cycle(s, "compositing")),
+            "next_classification": lambda: self.apply(lambda s: settings.cycle(s, "classification")),
+            "next_filter": lambda: self.apply(lambda s: settings.cycle(s, "filter")),
+            "toggle_shading": lambda: self.apply(settings.toggle_shading),
+            "toggle_jitter": lambda: self.apply(settings.toggle_jitter),
+            "finer": lambda: self.apply(lambda s: settings.scale_sample_distance(s, 1 / 1.5)),
+            "coarser": lambda: self.apply(lambda s: settings.scale_sample_distance(s, 1.5)),
+            "toggle_projection": lambda: self.move_camera(navigation.toggle_projection(self.scene.camera), False),
+            "reset_view": lambda: self.move_camera(self.initial_camera, False),
+            "screenshot": self.screenshot,
+            "toggle_hud": lambda: setattr(self, "show_hud", not self.show_hud),
+            "toggle_panel": self._toggle_panel,
+            "toggle_help": lambda: setattr(self, "show_help", not self.show_help),
+            "quit": self.quit,
+        }
+        simple[name]()
+
+    def _toggle_panel(self):
+        if self.gui is not None:
+            self.show_panel = not self.show_panel
+
+    def quit(self):
+        self.running = False
+
+    def screenshot(self) -> tuple[Path, Path] | None:
+        """Write the full-quality image of the current scene and the scene (see :mod:`.screenshots`)."""
+        scene = self.scene
+        if self.full_image is not None and self.full_image[0] == self.version:
+            rgba = self.full_image[1]
+        else:
+            try:
+                rgba = self._renderer(scene.renderer.name).render(scene)
+            except DvrError as exc:
+                self.notify(f"screenshot not taken: {exc}", error=True)
+                return None
+        try:
+            paths = write_screenshot(scene, rgba, Path(self.options.screenshot_dir), self.options.screenshot_format)
+        except DvrError as exc:
+            self.notify(f"screenshot not written: {exc}", error=True)
+            return None
+        self.log.write(event="screenshot", image=str(paths[0]), scene=str(paths[1]))
+        self.notify(f"wrote {paths[0]} and {paths[1].name}")
+        return paths
+
+    # --- rendering ---
+
+    def _renderer(self, name: str):
+        if name not in self.renderers:
+            kwargs = {"ctx": self.ctx} if name in settings.GL_RENDERERS else {}
+            self.renderers[name] = create_renderer(name, **kwargs)
+        return self.renderers[name]
+
+    def frame_scene(self, plan: FramePlan):
+        """The scene a frame of ``plan`` renders: fewer pixels, a longer sample distance, another seed."""
+        s, level = self.scene, plan.level
+        w, h = level.image_size(s.image.width, s.image.height)
+        changes = {}
+        if level.distance_factor != 1.0:
+            changes["sample_distance"] = s.renderer.sample_distance * level.distance_factor
+        if plan.jitter_pass:
+            changes["jitter_seed"] = s.renderer.jitter_seed + plan.jitter_pass
+        renderer = dataclasses.replace(s.renderer, **changes) if changes else s.renderer
+        return s.replace(image=dataclasses.replace(s.image, width=w, height=h), renderer=renderer)
+
+    def render(self, plan: FramePlan) -> float | None:
+        """Render and show a frame of ``plan``; the seconds it took in the renderer (None if refused)."""
+        scene = self.frame_scene(plan)
+        try:
+            renderer = self._renderer(scene.renderer.name)
+            start = time.perf_counter()
+            rgba = renderer.render(scene)
+            seconds = time.perf_counter() - start
+        except DvrError as exc:
+            self._refused(exc)
+            return None
+        self.good_scene = self.scene
+        if plan.level.full and plan.jitter_pass and self.accum is not None:
+            self.accum += (rgba - self.accum) / (plan.jitter_pass + 1)
+        else:
+            self.accum = rgba.copy() if plan.level.full else None
+        if plan.level.full and plan.jitter_pass == 0:
+            self.full_image = (self.version, rgba)
+        shown = self.accum if self.accum is not None else rgba
+        self.display.upload(composite_over(shown, self.scene.image.background))
+        samples = renderer.stats.get("samples")
+        self.stats.measured_samples = samples is not None
+        self.stats.samples = float(samples) if samples is not None else nominal_samples(scene)
+        self.stats.render_seconds, self.stats.size = seconds, (scene.image.width, scene.image.height)
+        return seconds
+
+    def _refused(self, exc: DvrError):
+        """A renderer refused the settings: say why, and go back to the last settings that rendered."""
+        if self.scene.renderer != self.good_scene.renderer:
+            self.notify(f"{exc}; keeping {self.good_scene.renderer.name} with the previous settings", error=True)
+            self.set_scene(self.scene.replace(renderer=self.good_scene.renderer), costs=True)
+        else:  # nothing to go back to: wait for the next change
+            self.notify(str(exc), error=True)
+            self.stalled = self.version
+
+    def _level_text(self, plan: FramePlan) -> str:
+        lv = plan.level
+        parts = [f"1/{lv.block} resolution" if lv.block > 1 else "full resolution"]
+        if lv.distance_factor != 1:
+            parts.append(f"{lv.distance_factor:g}x sample distance")
+        if self.controller.passes > 1:
+            parts.append(f"pass {plan.jitter_pass + 1}/{self.controller.passes}")
+        return ", ".join(parts)
+
+    # --- the loop ---
+
+    def run(self):
+        self.log.write(event="ready", **self.layout())
+        while self.running and not glfw.window_should_close(self.window):
+            self.step()
+
+    def layout(self) -> dict:
+        area_w, area_h, fb_w, fb_h = self.render_area()
+        out = {"render_area": [0, 0, area_w, area_h], "image": [fb_w, fb_h]}
+        if self.gui is not None and self.gui.tf_canvas is not None and self.show_panel:
+            out["tf_canvas"] = [round(v, 1) for v in self.gui.tf_canvas]
+        return out
+
+    def step(self):
+        """One pass of the loop: events, at most one rendered frame, the window redrawn."""
+        start = time.perf_counter()
+        busy = ((self.controller.next_frame() is not None and self.stalled != self.version) or self.gesture is not None
+                or self.benchmark is not None)
+        if busy or start - self.last_event < 1.0:
+            glfw.poll_events()
+        else:
+            glfw.wait_events_timeout(0.25)
+        start = time.perf_counter()
+        if self.benchmark:
+            self.benchmark.step(self)
+        if self.gesture is None and start > self.gesture_until and self.controller.state == "interactive" \
+                and not (self.gui is not None and self.gui.busy):
+            self.end_gesture()
+        self._sync_size()
+        self._sync_editor()
+        plan = self.controller.next_frame() if self.stalled != self.version else None
+        seconds = self.render(plan) if plan is not None else None
+        self.draw()
+        if plan is not None and seconds is not None:
+            total = time.perf_counter() - start
+            self.controller.measured(plan, seconds, max(0.0, total - seconds))
+            self.controller.shown(plan)
+            self.stats.frame_seconds = total
+            self.stats.state = self.controller.state
+            self.stats.level_text = self._level_text(plan)
+            self._record(plan, seconds, total)
+        self._update_title()
+
+    def _record(self, plan: FramePlan, seconds: float, total: float):
+        self.frame_count += 1
+        record = {"frame": self.frame_count, "state": self.controller.state, "interactive": plan.interactive,
+                  "block": plan.level.block, "distance_factor": plan.level.distance_factor,
+                  "jitter_pass": plan.jitter_pass, "passes": self.controller.passes,
+                  "width": self.stats.size[0], "height": self.stats.size[1], "renderer": self.scene.renderer.name,
+                  "render_ms": round(seconds * 1e3, 3), "frame_ms": round(total * 1e3, 3)}
+        self.options.frames.append(record)
+        self.log.write(**record)
+
+    def draw(self):
+        fb_w, fb_h = glfw.get_framebuffer_size(self.window)
+        if fb_w <= 0 or fb_h <= 0:
+            return
+        _, _, area_w, area_h = self.render_area()
+        self.ctx.screen.use()
+        self.ctx.viewport = (0, 0, fb_w, fb_h)
+        self.ctx.clear(0.08, 0.08, 0.09, 1.0)
+        self.display.draw((0, 0, area_w, area_h))
+        if self.gui is not None:
+            self.gui.frame()
+        glfw.swap_buffers(self.window)
+
+    def hud_lines(self) -> list[str]:
+        return hud_lines(self.scene, self.stats)
+
+    def current_message(self) -> tuple[str, bool] | None:
+        if self.message and time.perf_counter() < self.message_until:
+            return self.message, self.message_error
+        return None
+
+    def _update_title(self):
+        state = self.controller.state
+        if state == "accumulating":
+            state = f"accumulating {self.controller.passes_done}/{self.controller.passes}"
+        title = f"dvr view: {self.scene.volume.name} | {self.scene.renderer.name} | {state}"
+        if self.gui is None:
+            title += f" | {self.stats.frame_seconds * 1e3:.0f} ms"
+        if title != getattr(self, "_title", None):
+            glfw.set_window_title(self.window, title)
+            self._title = title
+
+    def close(self):
+        for renderer in self.renderers.values():
+            renderer.close()
+        self.renderers.clear()
+        if self.gui is not None:
+            self.gui.close()
+        self.display.release()
+        self.log.close()
+        glfw.destroy_window(self.window)
+        glfw.terminate()
+
+
+class OrbitBenchmark:
+    """``--benchmark SECONDS``: wait for the first full-quality frame, then orbit as a steady left
+    drag would (:data:`STEP_PIXELS` per frame) for the given seconds, release, wait for full quality,
+    print the frame times and exit."""
+
+    STEP_PIXELS = 6.0
+
+    def __init__(self, seconds: float):
+        self.seconds = seconds
+        self.phase = "warmup"
+        self.first = self.settle = 0     # indices of the first orbit and the first settling frame
+        self.until = 0.0
+
+    def step(self, viewer: Viewer):
+        state = viewer.controller.state
+        if self.phase == "warmup" and state == "full":
+            self.phase, self.first = "orbit", len(viewer.options.frames)
+            self.until = time.perf_counter() + self.seconds
+        if self.phase == "orbit":
+            if time.perf_counter() < self.until:
+                viewer.gesture = "orbit"   # as if the left button were held
+                viewer.navigate("orbit", self.STEP_PIXELS, 0.0)
+                return
+            self.phase, self.settle = "settle", len(viewer.options.frames)
+            viewer.gesture = None
+            viewer.end_gesture()
+        elif self.phase == "settle" and state == "full":
+            print(self.summary(viewer))
+            viewer.quit()
+
+    def summary(self, viewer: Viewer) -> str:
+        frames = viewer.options.frames
+        moving = [f for f in frames[self.first:self.settle] if f["interactive"]]
+        still = [f for f in frames[self.settle:] if f["block"] == 1 and f["distance_factor"] == 1]
+        s = viewer.scene
+        lines = [f"dvr view benchmark: {s.volume.name} {'x'.join(map(str, s.volume.dims))}, {s.renderer.name}, "
+                 f"render area {s.image.width}x{s.image.height}, budget {viewer.options.budget_ms:g} ms"]
+        if moving:
+            ms = np.array([f["frame_ms"] for f in moving[1:] or moving])
+            levels: dict = {}
+            for f in moving:
+                key = f"1/{f['block']} res x{f['distance_factor']:g} d"
+                levels[key] = levels.get(key, 0) + 1
+            lines.append(f"interactive: {len(moving)} frames in {self.seconds:g} s, frame time median "
+                         f"{np.median(ms):.1f} ms, 90th percentile {np.percentile(ms, 90):.1f} ms, "
+                         f"max {ms.max():.1f} ms; "
+                         f"levels {', '.join(f'{k}: {v}' for k, v in levels.items())}")
+        if still:
+            f = still[0]
+            lines.append(f"full quality: render {f['render_ms']:.1f} ms, frame {f['frame_ms']:.1f} ms "
+                         f"({f['width']}x{f['height']})")
+        return "\n".join(lines)

@@ -1,0 +1,373 @@
+"""The viewer's panels, HUD and help overlay, in Dear ImGui (imgui-bundle).
+
+* **Side panel** (right): the renderer settings (every renderer, compositing, classification,
+  filter, shading, jitter and passes, sample distance, projection, frame-time budget), the view
+  (reset, screenshot), and the **transfer-function editor**: the data histogram (log counts), the
+  opacity curve with its control points, the colour bar; click to add a point, drag to move,
+  right-click to delete; the selected point's value, opacity and colour; presets; save and load.
+* **HUD** (top left of the render area): settings, frame time, samples per second, refinement state,
+  and the last message (errors in red).
+* **Help** (F1): the key and mouse bindings of :mod:`.keys`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..transfer_function import PRESETS, preset
+from . import navigation, settings
+from .imgui_backend import ImGuiInput, ImGuiRenderer
+from .keys import help_lines
+from .tf_editor import CanvasMapping, load_points, nice_opacity_max
+
+CANVAS_HEIGHT = 150       # window pixels of the transfer-function canvas
+COLOUR_BAR_HEIGHT = 14
+HISTOGRAM_BINS = 128
+OPACITY_AXES = ("auto", "0.01", "0.05", "0.2", "0.5", "1")
+
+
+def _srgb(c):
+    c = np.clip(np.asarray(c, dtype=np.float64), 0.0, 1.0)
+    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055)
+
+
+def _linear(c):
+    c = np.clip(np.asarray(c, dtype=np.float64), 0.0, 1.0)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def _col32(r, g, b, a=1.0) -> int:
+    """Packed ABGR colour from components in [0, 1] (already display-encoded)."""
+    r, g, b, a = (int(round(min(1.0, max(0.0, float(x))) * 255)) for x in (r, g, b, a))
+    return (a << 24) | (b << 16) | (g << 8) | r
+
+
+def histogram(data: np.ndarray, value_range: tuple[float, float], bins: int = HISTOGRAM_BINS) -> np.ndarray:
+    """Heights in [0, 1] of the data's histogram over ``value_range``: log(1 + count), scaled to the
+    highest bin (a strided subset of at most about 2^24 voxels)."""
+    step = max(1, int(round((data.size / 2 ** 24) ** (1 / 3))))
+    counts, _ = np.histogram(data[::step, ::step, ::step], bins=bins, range=value_range)
+    heights = np.log1p(counts.astype(np.float64))
+    return heights / heights.max() if heights.max() > 0 else heights
+
+
+class ViewerGui:
+    """ImGui context, input and renderer for one viewer window, and what it draws each frame."""
+
+    def __init__(self, imgui, glfw, ctx, viewer):
+        self.imgui, self.glfw, self.viewer = imgui, glfw, viewer
+        self.context = imgui.create_context()
+        io = imgui.get_io()
+        io.set_ini_filename(None)
+        imgui.style_colors_dark()
+        self.input = ImGuiInput(imgui, glfw)
+        self.renderer = ImGuiRenderer(imgui, ctx)
+        self.tf_canvas: tuple[float, float, float, float] | None = None
+        self.dragging: int | None = None
+        self.axis_choice = 0
+        self.axis_max: float | None = None
+        self.preset_choice = 0
+        self.tf_path = "transfer_function.toml"
+        self._histogram_key = None
+        self._heights = None
+        self._last_time = glfw.get_time()
+        self.any_active = False
+
+    @property
+    def tf_dragging(self) -> bool:
+        return self.dragging is not None
+
+    @property
+    def busy(self) -> bool:
+        """A gesture in the panel is going on: a point or a slider is being dragged."""
+        return self.dragging is not None or self.any_active
+
+    # --- frame ---
+
+    def frame(self):
+        imgui, glfw, v = self.imgui, self.glfw, self.viewer
+        io = imgui.get_io()
+        win_w, win_h = glfw.get_window_size(v.window)
+        fb_size = glfw.get_framebuffer_size(v.window)
+        io.display_size = imgui.ImVec2(win_w, win_h)
+        if win_w:
+            io.display_framebuffer_scale = imgui.ImVec2(fb_size[0] / win_w, fb_size[1] / max(win_h, 1))
+        now = glfw.get_time()
+        io.delta_time = max(now - self._last_time, 1e-4)
+        self._last_time = now
+        imgui.new_frame()
+        area_w, area_h, _, _ = v.render_area()
+        if v.show_panel:
+            self.panel(area_w, win_w - area_w, win_h)
+        else:
+            self._set_canvas(None)
+        if v.show_hud:
+            self.hud()
+        if v.show_help:
+            self.help(area_w, area_h)
+        self.any_active = imgui.is_any_item_active()
+        imgui.render()
+        self.renderer.render(imgui.get_draw_data(), fb_size)
+
+    def _set_canvas(self, rect):
+        """Where the transfer-function canvas is (window pixels); a change goes to the frame log."""
+        if rect != self.tf_canvas:
+            self.tf_canvas = rect
+            self.viewer.log.write(event="layout", **self.viewer.layout())
+
+    # --- overlays ---
+
+    def hud(self):
+        imgui = self.imgui
+        flags = (imgui.WindowFlags_.no_decoration | imgui.WindowFlags_.no_inputs | imgui.WindowFlags_.no_nav
+                 | imgui.WindowFlags_.always_auto_resize | imgui.WindowFlags_.no_focus_on_appearing
+                 | imgui.WindowFlags_.no_saved_settings)
+        imgui.set_next_window_pos(imgui.ImVec2(8, 8))
+        imgui.set_next_window_bg_alpha(0.55)
+        imgui.begin("HUD", None, flags)
+        area_w = self.viewer.render_area()[0]
+        imgui.push_text_wrap_pos(max(200.0, area_w - 24.0))
+        for line in self.viewer.hud_lines():
+            imgui.text_wrapped(line)
+        message = self.viewer.current_message()
+        if message:
+            text, error = message
+            colour = imgui.ImVec4(1.0, 0.35, 0.3, 1.0) if error else imgui.ImVec4(0.6, 0.9, 0.6, 1.0)
+            imgui.push_style_color(imgui.Col_.text, colour)
+            imgui.text_wrapped(text)
+            imgui.pop_style_color()
+        imgui.text_disabled("F1: help")
+        imgui.pop_text_wrap_pos()
+        imgui.end()
+
+    def help(self, area_w: float, area_h: float):
+        imgui = self.imgui
+        flags = (imgui.WindowFlags_.no_inputs | imgui.WindowFlags_.always_auto_resize
+                 | imgui.WindowFlags_.no_collapse | imgui.WindowFlags_.no_saved_settings)
+        imgui.set_next_window_pos(imgui.ImVec2(area_w / 2, area_h / 2), 0, imgui.ImVec2(0.5, 0.5))
+        imgui.set_next_window_bg_alpha(0.85)
+        imgui.begin("Keys and mouse (F1 closes)", None, flags)
+        for line in help_lines():
+            imgui.text(line)
+        imgui.end()
+
+    # --- side panel ---
+
+    def panel(self, x: float, width: float, height: float):
+        imgui = self.imgui
+        imgui.set_next_window_pos(imgui.ImVec2(x, 0))
+        imgui.set_next_window_size(imgui.ImVec2(width, height))
+        flags = (imgui.WindowFlags_.no_move | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_collapse
+                 | imgui.WindowFlags_.no_saved_settings | imgui.WindowFlags_.no_title_bar)
+        imgui.begin("dvr view", None, flags)
+        imgui.push_item_width(-130)
+        if imgui.collapsing_header("Transfer function", imgui.TreeNodeFlags_.default_open):
+            self.transfer_function_section()
+        else:
+            self._set_canvas(None)
+        if imgui.collapsing_header("Rendering", imgui.TreeNodeFlags_.default_open):
+            self.rendering_section()
+        if imgui.collapsing_header("View", imgui.TreeNodeFlags_.default_open):
+            self.view_section()
+        imgui.pop_item_width()
+        imgui.end()
+
+    def _combo(self, label: str, options, current: str) -> str | None:
+        options = list(options)
+        index = options.index(current) if current in options else 0
+        changed, index = self.imgui.combo(label, index, options)
+        return options[index] if changed else None
+
+    def rendering_section(self):
+        imgui, v = self.imgui, self.viewer
+        r = v.scene.renderer
+        for key, label in (("name", "renderer"), ("compositing", "compositing"),
+                           ("classification", "classification"), ("filter", "filter")):
+            choice = self._combo(label, settings.CHOICES[key], getattr(r, key))
+            if choice is not None:
+                v.apply(lambda s, k=key, c=choice: settings.change(s, **{k: c}))
+        changed, _ = imgui.checkbox("shading (L)", r.shading.enabled)
+        if changed:
+            v.apply(settings.toggle_shading)
+        changed, _ = imgui.checkbox("jitter (J)", r.jitter)
+        if changed:
+            v.apply(settings.toggle_jitter)
+        changed, passes = imgui.slider_int("jitter passes", v.options.passes, 1, 64)
+        if changed:
+            v.options.passes = passes
+            v.controller.set_passes(v._passes(v.scene))
+        voxels = settings.sample_distance_voxels(v.scene)
+        label = "slice spacing, voxels" if r.name == "slicing3d" else "sample distance, voxels"
+        changed, voxels = imgui.slider_float(label, voxels, settings.MIN_SAMPLE_VOXELS, settings.MAX_SAMPLE_VOXELS,
+                                             "%.3f", imgui.SliderFlags_.logarithmic)
+        if changed:
+            v.apply(lambda s: settings.set_sample_distance_voxels(s, voxels), interactive=imgui.is_item_active())
+        if imgui.is_item_deactivated_after_edit():
+            v.end_gesture()
+        imgui.text_disabled(settings.sampling_text(v.scene))
+        if r.compositing == "isosurface":
+            lo, hi = v.scene.volume.value_range
+            changed, iso = imgui.slider_float("iso value", r.iso_value, lo, hi, "%.4g")
+            if changed:
+                v.apply(lambda s: settings.change(s, iso_value=iso), interactive=imgui.is_item_active())
+            if imgui.is_item_deactivated_after_edit():
+                v.end_gesture()
+        changed, budget = imgui.slider_float("budget, ms", v.options.budget_ms, 10.0, 1000.0, "%.0f",
+                                             imgui.SliderFlags_.logarithmic)
+        if changed:
+            v.options.budget_ms = budget
+            v.controller.budget = budget / 1e3
+
+    def view_section(self):
+        imgui, v = self.imgui, self.viewer
+        cam = v.scene.camera
+        az, el, dist = cam.orbit or cam.orbited().orbit
+        imgui.text(f"azimuth {az:.1f}, elevation {el:.1f}, distance {dist:.4g}")
+        changed, ortho = imgui.checkbox("orthographic (P)", cam.projection == "orthographic")
+        if changed:
+            v.move_camera(navigation.toggle_projection(cam), interactive=False)
+        if imgui.button("reset view (R)"):
+            v.action("reset_view")
+        imgui.same_line()
+        if imgui.button("screenshot (S)"):
+            v.action("screenshot")
+        imgui.text_disabled(f"screenshots: {v.options.screenshot_dir}/dvr_view_NNNN{v.options.screenshot_format}")
+
+    # --- transfer-function editor ---
+
+    def _value_range(self) -> tuple[float, float]:
+        v = self.viewer
+        lo, hi = v.scene.volume.value_range
+        lo, hi = min(lo, v.editor.points[0, 0]), max(hi, v.editor.points[-1, 0])
+        return (lo, hi) if hi > lo else (lo, lo + 1.0)
+
+    def _heights_for(self, value_range) -> np.ndarray:
+        key = (id(self.viewer.scene.volume), value_range)
+        if key != self._histogram_key:
+            self._histogram_key, self._heights = key, histogram(self.viewer.scene.volume.data, value_range)
+        return self._heights
+
+    def _opacity_max(self) -> float:
+        editor = self.viewer.editor
+        if self.axis_choice:
+            return float(OPACITY_AXES[self.axis_choice])
+        if self.dragging is None or self.axis_max is None:   # the axis holds still while a point moves
+            self.axis_max = nice_opacity_max(editor.points[:, 4], editor.opacity_model)
+        return self.axis_max
+
+    def transfer_function_section(self):
+        imgui, v = self.imgui, self.viewer
+        editor = v.editor
+        value_range = self._value_range()
+        pos = imgui.get_cursor_screen_pos()
+        width = max(imgui.get_content_region_avail().x, 50.0)
+        mapping = CanvasMapping(pos.x, pos.y, width, CANVAS_HEIGHT, value_range, self._opacity_max())
+        self._set_canvas((pos.x, pos.y, width, float(CANVAS_HEIGHT)))
+        imgui.invisible_button("tf canvas", imgui.ImVec2(width, CANVAS_HEIGHT + COLOUR_BAR_HEIGHT),
+                               imgui.ButtonFlags_.mouse_button_left | imgui.ButtonFlags_.mouse_button_right)
+        self._canvas_input(mapping)
+        self._draw_canvas(mapping, value_range)
+        imgui.text_disabled("click: add | drag: move | right-click: delete")
+        self._selected_point()
+        changed, self.axis_choice = imgui.combo("opacity axis", self.axis_choice, list(OPACITY_AXES))
+        names = list(PRESETS)
+        changed, self.preset_choice = imgui.combo("preset", self.preset_choice, names)
+        imgui.same_line()
+        if imgui.button("apply"):
+            volume = v.scene.volume
+            editor.replace(preset(names[self.preset_choice], volume.value_range, v.options.rescale_intercept,
+                                  editor.unit_distance))
+        _, self.tf_path = imgui.input_text("file", self.tf_path)
+        if imgui.button("save"):
+            try:
+                v.notify(f"saved the transfer function to {editor.save(self.tf_path)}")
+            except Exception as exc:  # DvrError: shown, not raised
+                v.notify(str(exc), error=True)
+        imgui.same_line()
+        if imgui.button("load"):
+            try:
+                editor.replace(load_points(self.tf_path))
+                v.notify(f"loaded the transfer function from {self.tf_path}")
+            except Exception as exc:
+                v.notify(str(exc), error=True)
+
+    def _canvas_input(self, mapping: CanvasMapping):
+        imgui, editor = self.imgui, self.viewer.editor
+        mouse = imgui.get_mouse_pos()
+        inside = (mapping.x <= mouse.x <= mapping.x + mapping.width
+                  and mapping.y <= mouse.y <= mapping.y + mapping.height)
+        if imgui.is_item_hovered() and inside:
+            if imgui.is_mouse_clicked(0):
+                i = editor.pick(mapping, mouse.x, mouse.y)
+                if i is None:
+                    i = editor.add(*mapping.from_pixel(mouse.x, mouse.y))
+                editor.selected = self.dragging = i
+            elif imgui.is_mouse_clicked(1):
+                i = editor.pick(mapping, mouse.x, mouse.y)
+                if i is not None and not editor.delete(i):
+                    self.viewer.notify("a transfer function keeps at least two points", error=True)
+        if self.dragging is not None:
+            if imgui.is_mouse_down(0):
+                if imgui.is_mouse_dragging(0, 1.0):
+                    editor.move(self.dragging, *mapping.from_pixel(mouse.x, mouse.y))
+            else:
+                self.dragging = None
+                self.viewer.end_gesture()
+
+    def _draw_canvas(self, mapping: CanvasMapping, value_range):
+        imgui, editor = self.imgui, self.viewer.editor
+        draw = imgui.get_window_draw_list()
+        x0, y0, w, h = mapping.x, mapping.y, mapping.width, mapping.height
+        draw.add_rect_filled(imgui.ImVec2(x0, y0), imgui.ImVec2(x0 + w, y0 + h), _col32(0.1, 0.1, 0.12))
+        heights = self._heights_for(value_range)
+        bar = w / len(heights)
+        grey = _col32(0.35, 0.35, 0.4)
+        for i, hgt in enumerate(heights):
+            if hgt > 0:
+                draw.add_rect_filled(imgui.ImVec2(x0 + i * bar, y0 + h * (1 - hgt)),
+                                     imgui.ImVec2(x0 + (i + 1) * bar, y0 + h), grey)
+        # the colour bar: the function's colour at each value, display-encoded
+        n = 96
+        values = np.linspace(value_range[0], value_range[1], n + 1)
+        colours = _srgb(editor.transfer_function().color((values[:-1] + values[1:]) / 2))
+        for i in range(n):
+            draw.add_rect_filled(imgui.ImVec2(x0 + w * i / n, y0 + h + 2),
+                                 imgui.ImVec2(x0 + w * (i + 1) / n + 0.5, y0 + h + COLOUR_BAR_HEIGHT),
+                                 _col32(*colours[i]))
+        points = [imgui.ImVec2(*mapping.to_pixel(vv, o)) for vv, o in editor.points[:, [0, 4]]]
+        ends = [imgui.ImVec2(x0, points[0].y), *points, imgui.ImVec2(x0 + w, points[-1].y)]
+        draw.add_polyline(ends, _col32(0.95, 0.95, 0.95), 1.5, 0)
+        for i, (p, row) in enumerate(zip(points, editor.points)):
+            selected = i == editor.selected
+            draw.add_circle_filled(p, 6.0 if selected else 5.0, _col32(*_srgb(row[1:4])))
+            draw.add_circle(p, 6.0 if selected else 5.0, _col32(1, 1, 0) if selected else _col32(1, 1, 1), 0,
+                            2.0 if selected else 1.0)
+        top = mapping.opacity_max
+        draw.add_text(imgui.ImVec2(x0 + 3, y0 + 2), _col32(0.8, 0.8, 0.8), f"opacity {top:g}")
+        draw.add_text(imgui.ImVec2(x0 + 3, y0 + h - 15), _col32(0.8, 0.8, 0.8), f"{value_range[0]:.4g}")
+        label = f"{value_range[1]:.4g}"
+        draw.add_text(imgui.ImVec2(x0 + w - 7 * len(label) - 3, y0 + h - 15), _col32(0.8, 0.8, 0.8), label)
+
+    def _selected_point(self):
+        imgui, editor = self.imgui, self.viewer.editor
+        i = editor.selected
+        if i is None or i >= len(editor.points):
+            imgui.text_disabled("no point selected")
+            return
+        value, opacity = float(editor.points[i, 0]), float(editor.points[i, 4])
+        lo, hi = self._value_range()
+        changed, value = imgui.drag_float("value", value, (hi - lo) / 1000.0, 0.0, 0.0, "%.5g")
+        if changed:
+            editor.move(i, value, opacity)
+        changed, opacity = imgui.drag_float("opacity", opacity, 0.001, 0.0, float(editor.opacity_limit), "%.4f")
+        if changed:
+            editor.move(i, float(editor.points[i, 0]), opacity)
+        changed, colour = imgui.color_edit3("colour", list(_srgb(editor.points[i, 1:4])))
+        if changed:
+            editor.set_color(i, _linear(colour))
+        if imgui.button("delete point") and not editor.delete(i):
+            self.viewer.notify("a transfer function keeps at least two points", error=True)
+
+    def close(self):
+        self.renderer.release()
+        self.imgui.destroy_context(self.context)

@@ -1,0 +1,53 @@
+"""Key bindings and mouse controls: one table, read by the viewer, its help overlay and the docs.
+
+Keys are named as GLFW names them (``glfw.KEY_<NAME>``); ``shift+`` marks a shifted binding.
+"""
+
+from __future__ import annotations
+
+# (key, action, description); the action names are the viewer's methods (app.Viewer.action_*).
+KEYS = (
+    ("1", "renderer_raycast", "renderer: raycast (GPU ray casting)"),
+    ("2", "renderer_slicing3d", "renderer: slicing3d (view-aligned 3D texture slices)"),
+    ("3", "renderer_slicing2d", "renderer: slicing2d (object-aligned 2D slice stacks)"),
+    ("4", "renderer_shearwarp", "renderer: shearwarp (host compositing, GL warp)"),
+    ("5", "renderer_reference", "renderer: reference (CPU float64; slow)"),
+    ("6", "renderer_reference-converged", "renderer: reference-converged (CPU; very slow)"),
+    ("C", "next_compositing", "compositing: emission-absorption, isosurface, average, MIP, MinIP"),
+    ("K", "next_classification", "classification: post, pre, pre-integrated"),
+    ("F", "next_filter", "filter: nearest, linear, cubic B-spline, Catmull-Rom"),
+    ("L", "toggle_shading", "shading (lighting) on/off"),
+    ("J", "toggle_jitter", "jitter on/off (idle: averages jittered passes)"),
+    ("RIGHT_BRACKET", "finer", "finer sampling: sample distance or slice spacing / 1.5"),
+    ("LEFT_BRACKET", "coarser", "coarser sampling: sample distance or slice spacing x 1.5"),
+    ("P", "toggle_projection", "perspective / orthographic"),
+    ("R", "reset_view", "reset the view"),
+    ("S", "screenshot", "screenshot: image and effective scene (.toml), numbered"),
+    ("H", "toggle_hud", "HUD on/off"),
+    ("TAB", "toggle_panel", "side panel on/off"),
+    ("F1", "toggle_help", "this help (also ?)"),
+    ("Q", "quit", "quit (also Esc)"),
+    ("ESCAPE", "quit", ""),
+    ("shift+SLASH", "toggle_help", ""),
+)
+
+MOUSE = (
+    ("left drag", "orbit (turn the volume)"),
+    ("middle drag, shift + left drag", "pan"),
+    ("wheel, right drag", "zoom"),
+    ("transfer-function panel", "click: add a point; drag: move it; right-click: delete; "
+                                "select it to edit its colour"),
+)
+
+
+def help_lines() -> list[str]:
+    """The help overlay's text."""
+    shown = [(k, d) for k, _, d in KEYS if d]
+    lines = [f"{_label(k):>6}  {d}" for k, d in shown]
+    lines.append("")
+    lines += [f"{m}: {d}" for m, d in MOUSE]
+    return lines
+
+
+def _label(key: str) -> str:
+    return {"RIGHT_BRACKET": "]", "LEFT_BRACKET": "[", "TAB": "Tab", "ESCAPE": "Esc"}.get(key, key)

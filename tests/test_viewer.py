@@ -1,0 +1,331 @@
+"""dvr view without a window: navigation, progressive refinement, transfer-function editing,
+settings, HUD numbers, screenshots, and the command's errors."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from conftest import small_scene
+from dvr_gl.camera import Camera
+from dvr_gl.errors import DvrError, SceneError
+from dvr_gl.scene import load_scene
+from dvr_gl.transfer_function import TransferFunction
+from dvr_gl.viewer import navigation, settings
+from dvr_gl.viewer.hud import FrameStats, hud_lines, nominal_samples
+from dvr_gl.viewer.keys import KEYS, help_lines
+from dvr_gl.viewer.refinement import FIRST_GUESS, FULL, LADDER, FramePlan, Level, RefinementController
+from dvr_gl.viewer.screenshots import next_paths, write_screenshot
+from dvr_gl.viewer.tf_editor import CanvasMapping, TransferFunctionEditor, load_points, nice_opacity_max
+
+
+def project(camera: Camera, point, height: int = 200) -> tuple[float, float]:
+    """Pixel offset of a world point from the image centre (x right, y down), perspective."""
+    f, r, u = camera.basis()
+    d = np.asarray(point) - np.asarray(camera.eye)
+    scale = height / 2 / math.tan(math.radians(camera.fov) / 2)
+    return float(d @ r / (d @ f) * scale), float(-(d @ u) / (d @ f) * scale)
+
+
+CAMERA = Camera.from_orbit((1.0, 2.0, 3.0), (0.0, 0.0, 1.0), 30.0, 20.0, 10.0)
+
+
+# --- navigation ---
+
+def test_orbit_grabs_the_volume():
+    """Dragging right turns the volume right: the point nearest the viewer moves right on screen."""
+    turned = navigation.orbit(CAMERA, 10.0, 0.0)
+    assert turned.orbit == pytest.approx((30.0 - 4.0, 20.0, 10.0))
+    near = np.asarray(CAMERA.target) + 2.0 * (np.asarray(CAMERA.eye) - CAMERA.target) / 10.0
+    x, y = project(turned, near)
+    assert x > 1.0 and abs(y) < 1.0
+    down = navigation.orbit(CAMERA, 0.0, 10.0)   # dragging down: the near point moves down
+    assert down.orbit[1] == pytest.approx(24.0) and project(down, near)[1] > 1.0
+
+
+def test_orbit_stops_short_of_the_poles():
+    assert navigation.orbit(CAMERA, 0.0, 1e4).orbit[1] == navigation.MAX_ELEVATION
+    assert navigation.orbit(CAMERA, 0.0, -1e4).orbit[1] == -navigation.MAX_ELEVATION
+
+
+def test_pan_keeps_the_target_plane_under_the_cursor():
+    """The world point at the image centre before a pan is under the cursor's new position after it
+    (perspective, 200-pixel-high image), to rounding."""
+    moved = navigation.pan(CAMERA, 12.0, -7.0, 200)
+    x, y = project(moved, CAMERA.target)
+    assert (x, y) == pytest.approx((12.0, -7.0), abs=1e-9)
+    assert moved.orbit == pytest.approx(CAMERA.orbit)
+    ortho = CAMERA.with_(projection="orthographic", view_height=4.0)
+    shifted = np.subtract(navigation.pan(ortho, 50.0, 0.0, 200).target, ortho.target)
+    assert np.linalg.norm(shifted) == pytest.approx(50.0 * 4.0 / 200)
+
+
+def test_zoom_and_projection_toggle():
+    assert navigation.zoom(CAMERA, 2).orbit[2] == pytest.approx(10.0 * 0.81)
+    assert navigation.zoom(CAMERA, -1).orbit[2] == pytest.approx(10.0 / 0.9)
+    ortho = navigation.toggle_projection(CAMERA)
+    assert ortho.projection == "orthographic"
+    assert ortho.view_height == pytest.approx(2 * 10.0 * math.tan(math.radians(15.0)))
+    assert navigation.zoom(ortho, 1).view_height == pytest.approx(ortho.view_height * 0.9)
+    back = navigation.toggle_projection(ortho)
+    assert back.projection == "perspective" and back.orbit == pytest.approx(CAMERA.orbit)
+
+
+# --- progressive refinement ---
+
+def test_levels_and_ladder():
+    assert FULL.work == 1.0 and Level(2, 2.0).work == 0.125
+    assert Level(3, 1.0).image_size(100, 50) == (34, 17)
+    works = [lv.work for lv in LADDER]
+    assert works == sorted(works, reverse=True) and LADDER[0] == FULL
+    assert all(a / b <= 2.25 + 1e-12 for a, b in zip(works, works[1:]))   # no step much beyond halving
+
+
+def test_interaction_holds_the_budget_from_measured_times():
+    c = RefinementController(budget=0.1)
+    c.changed(interactive=True)
+    plan = c.next_frame()
+    assert plan == FramePlan(FIRST_GUESS, 0, interactive=True)   # nothing measured yet
+    c.measured(FramePlan(FULL), 1.0, other_seconds=0.02)          # a full frame took 1 s (+ 20 ms)
+    c.measured(FramePlan(FULL), 1.0, other_seconds=0.02)
+    level = c.interactive_level()
+    assert c.predict(level) <= 0.1
+    better = LADDER[LADDER.index(level) - 1]
+    assert c.predict(better) > 0.1                                # the best level that fits
+    c.shown(FramePlan(level, 0, interactive=True))
+    assert c.next_frame() is None                                 # held still: nothing new to draw
+    c.changed(interactive=True)
+    assert c.next_frame().level == level and c.state == "interactive"
+
+
+def test_fixed_costs_are_interpolated_not_scaled():
+    """Measured: full quality 1 s, 1/8 resolution at twice the sample distance (1/128 of the work)
+    50 ms, most of it fixed cost.  A level between them is predicted on the line through both (not
+    1 s x its work, which would be too optimistic), and one beyond the cheapest proportionally."""
+    c = RefinementController(budget=0.1)
+    c.measured(FramePlan(FULL), 1.0)
+    c.measured(FramePlan(Level(8, 2.0)), 0.05)
+    w = Level(4, 2.0).work
+    assert c.predict_render(Level(4, 2.0)) == pytest.approx(0.05 + 0.95 * (w - 1 / 128) / (1 - 1 / 128))
+    assert c.predict_render(Level(16, 4.0)) == pytest.approx(0.05 * Level(16, 4.0).work * 128)
+    assert c.interactive_level() == Level(3, 2.0)   # predicted 96 ms; (2, 2) would take 162 ms
+    c.forget_costs()
+    assert c.predict(FULL) is None
+
+
+def test_idle_refines_to_full_quality_and_accumulates_jittered_passes():
+    c = RefinementController(budget=0.05, passes=4)
+    c.measured(FramePlan(FULL), 0.2)
+    c.changed(interactive=True)
+    c.shown(c.next_frame())
+    c.idle()
+    assert c.state == "refining"
+    seen = []
+    while (plan := c.next_frame()) is not None:
+        assert plan.level == FULL and not plan.interactive
+        seen.append(plan.jitter_pass)
+        c.shown(plan)
+        assert c.state == ("full" if len(seen) == 4 else "accumulating")
+    assert seen == [0, 1, 2, 3]
+    c.changed(interactive=False)                                  # any change starts over
+    assert c.next_frame() == FramePlan(FULL, 0) and c.passes_done == 0
+
+
+def test_slow_renderers_refine_one_level_at_a_time():
+    """A full frame predicted at 20 s (a CPU reference): idle frames climb the ladder, each within the
+    idle step until the last, and end at full quality."""
+    c = RefinementController(budget=0.1, idle_step=1.5)
+    c.measured(FramePlan(FULL), 20.0)
+    c.changed(interactive=True)
+    c.shown(c.next_frame())
+    c.idle()
+    levels = []
+    while (plan := c.next_frame()) is not None and len(levels) < 20:
+        levels.append(plan.level)
+        c.shown(plan)
+    assert levels[-1] == FULL
+    ranks = [LADDER.index(lv) for lv in levels]
+    assert ranks == sorted(ranks, reverse=True) and len(set(ranks)) == len(ranks)
+    assert 20.0 * levels[0].work <= 1.5
+
+
+def test_first_frame_of_an_unmeasured_renderer_is_cheap():
+    c = RefinementController()
+    c.changed(interactive=False)
+    assert c.next_frame().level == FIRST_GUESS
+    c.measured(c.next_frame(), 0.01)
+    c.shown(FramePlan(FIRST_GUESS))
+    assert c.next_frame().level == FULL
+
+
+# --- transfer-function editing ---
+
+def editor():
+    return TransferFunctionEditor(TransferFunction(np.array([[0.0, 0, 0, 0, 0.0], [1.0, 1, 0.5, 0, 0.4]])))
+
+
+MAPPING = CanvasMapping(10.0, 20.0, 200.0, 100.0, (0.0, 1.0), 0.5)
+
+
+def test_canvas_mapping_round_trip():
+    assert MAPPING.to_pixel(0.25, 0.5) == (60.0, 20.0)
+    assert MAPPING.from_pixel(60.0, 70.0) == pytest.approx((0.25, 0.25))
+    assert MAPPING.from_pixel(-100.0, 500.0) == (0.0, 0.0)        # clamped to the canvas
+
+
+def test_add_move_delete_points():
+    e = editor()
+    i = e.add(0.5, 0.2)
+    assert i == 1 and e.points[1].tolist() == pytest.approx([0.5, 0.5, 0.25, 0.0, 0.2])  # colour interpolated
+    assert e.move(1, 2.0, 0.3) == 1 and e.points[1, 0] < 1.0        # clamped below its right neighbour
+    assert e.points[1, 0] == pytest.approx(1.0 - 1e-4)
+    e.move(1, 0.6, 7.0)
+    assert e.points[1, 4] == 1.0                                     # alpha at most 1
+    e.move(0, -3.0, 0.0)                                             # the first point moves outward freely
+    assert e.points[0, 0] == -3.0
+    assert e.pick(MAPPING, *MAPPING.to_pixel(1.0, 0.4)) == 2
+    assert e.pick(MAPPING, 300.0, 300.0) is None
+    version = e.version
+    assert e.delete(1) and len(e.points) == 2 and e.version > version
+    assert not e.delete(0)                                           # two points remain
+    tf = e.transfer_function()
+    assert np.all(np.diff(tf.points[:, 0]) > 0)
+
+
+def test_recolour_and_add_on_an_existing_value():
+    e = editor()
+    e.set_color(1, (2.0, 0.3, -1.0))
+    assert e.points[1, 1:4].tolist() == [1.0, 0.3, 0.0]
+    assert e.add(1.0, 0.1) == 1 and len(e.points) == 2 and e.points[1, 4] == 0.1
+
+
+def test_save_and_load(tmp_path):
+    e = editor()
+    e.add(0.3, 0.05)
+    path = e.save(tmp_path / "tf.toml")
+    loaded = load_points(path)
+    assert np.array_equal(loaded.points, e.points)
+    with pytest.raises(DvrError, match="exists"):
+        e.save(path)                                                  # never replaced
+    (tmp_path / "empty.toml").write_text("[camera]\nfov = 20.0\n")
+    with pytest.raises(SceneError, match="no \\[transfer_function\\] table"):
+        load_points(tmp_path / "empty.toml")
+    with pytest.raises(SceneError, match="not found"):
+        load_points(tmp_path / "missing.toml")
+
+
+def test_nice_opacity_axis():
+    assert nice_opacity_max([0.0, 0.12]) == 0.2
+    assert nice_opacity_max([0.95]) == 1.0
+    assert nice_opacity_max([30.0], "extinction") == 100.0
+
+
+# --- settings, HUD, keys ---
+
+def test_settings_switch_and_refuse():
+    scene = small_scene()
+    assert settings.cycle(scene, "compositing").renderer.compositing == "isosurface"
+    assert settings.cycle(scene, "name", -1).renderer.name == "reference-converged"
+    jittered = settings.toggle_jitter(scene)
+    with pytest.raises(SceneError, match="jitter"):
+        settings.change(jittered, classification="preintegrated")  # the scene file's own check
+    fine = settings.set_sample_distance_voxels(scene, 1e-9)
+    assert settings.sample_distance_voxels(fine) == settings.MIN_SAMPLE_VOXELS
+    assert settings.toggle_shading(scene).renderer.shading.enabled != scene.renderer.shading.enabled
+    assert "voxel plane" in settings.sampling_text(settings.change(scene, name="slicing2d"))
+    assert "slices" in settings.sampling_text(settings.change(scene, name="slicing3d"))
+
+
+def test_hud_lines_and_nominal_samples():
+    """An orthographic view straight down the y axis of a 32^3 volume (box side 31), view height
+    twice the box: the 16 x 16 central pixels of a 32 x 32 image each cross 31 units."""
+    scene = small_scene({"camera.projection": "orthographic", "camera.view_height": 62.0, "camera.azimuth": 0.0,
+                         "camera.elevation": 0.0, "renderer.sample_distance": 0.5})
+    assert nominal_samples(scene) == pytest.approx(16 * 16 * 31 / 0.5)
+    lines = hud_lines(scene, FrameStats(render_seconds=0.5, frame_seconds=0.6, samples=1e6, size=(32, 32),
+                                        state="full", level_text="full resolution"))
+    assert "raycast" in lines[0] and "2.0 M samples/s (nominal)" in lines[2] and lines[3].endswith("full")
+
+
+def test_every_key_has_an_action_and_help():
+    names = {k for k, _, _ in KEYS}
+    assert {"S", "R", "P", "F1", "1"} <= names
+    from dvr_gl.renderers.base import RENDERERS
+    for _, action, _ in KEYS:
+        if action.startswith("renderer_"):
+            assert action.removeprefix("renderer_") in RENDERERS
+    assert any("screenshot" in line for line in help_lines())
+
+
+# --- screenshots ---
+
+def test_screenshot_paths_are_numbered_and_never_reused(tmp_path):
+    assert next_paths(tmp_path)[0].name == "dvr_view_0001.png"
+    (tmp_path / "dvr_view_0001.toml").write_text("")
+    image, scene = next_paths(tmp_path, ".exr")
+    assert (image.name, scene.name) == ("dvr_view_0002.exr", "dvr_view_0002.toml")
+    with pytest.raises(DvrError, match="format"):
+        next_paths(tmp_path, ".bmp")
+
+
+def test_screenshot_scene_loads_back(tmp_path):
+    scene = small_scene({"camera.azimuth": 77.0})
+    rgba = np.zeros((32, 32, 4), dtype=np.float32)
+    image, toml = write_screenshot(scene, rgba, tmp_path, ".exr")
+    again = load_scene(toml)
+    assert again.camera.orbit == pytest.approx(scene.camera.orbit)
+    assert (again.image.width, again.image.height) == (32, 32) and image.is_file()
+
+
+# --- the command's errors (no window needed) ---
+
+def test_no_display_is_one_line(monkeypatch, capsys):
+    from dvr_gl.apps.cli import main
+
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert main(["view", "--demo"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err == ("dvr view: error: cannot open a window: no display (DISPLAY is unset); run under a desktop "
+                   "session or Xvfb, or use `dvr render` for headless images")
+
+
+def test_bad_volume_gets_the_render_error(monkeypatch, capsys, tmp_path):
+    from dvr_gl.apps.cli import main
+
+    monkeypatch.setenv("DISPLAY", ":9999")  # never opened: the volume fails first
+    bad = tmp_path / "v.raw"
+    bad.write_bytes(b"\0" * 10)
+    assert main(["view", "--volume", str(bad), "--dims", "4", "4", "4", "--dtype", "uint8"]) == 1
+    view_err = capsys.readouterr().err.strip()
+    assert main(["render", "--volume", str(bad), "--dims", "4", "4", "4", "--dtype", "uint8",
+                 "-o", str(tmp_path / "x.png")]) == 1
+    render_err = capsys.readouterr().err.strip()
+    assert view_err.removeprefix("dvr view: ") == render_err.removeprefix("dvr render: ")
+    assert "\n" not in view_err and "Traceback" not in view_err
+
+
+def test_render_only_flags_are_refused(monkeypatch, capsys):
+    from dvr_gl.apps.cli import main
+
+    monkeypatch.setenv("DISPLAY", ":9999")
+    assert main(["view", "--demo", "-o", "x.png"]) == 1
+    assert "--output belongs to dvr render" in capsys.readouterr().err
+
+
+def test_a_display_that_cannot_be_opened_is_one_line():
+    """DISPLAY names no X server: GLFW cannot start; one line, exit status 1, no traceback."""
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, DISPLAY=":9999")
+    env.pop("WAYLAND_DISPLAY", None)
+    proc = subprocess.run([sys.executable, "-m", "dvr_gl.apps.cli", "view", "--demo", "--set", "volume.size=8"],
+                          capture_output=True, text=True, env=env, timeout=120)
+    assert proc.returncode == 1
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("dvr view: error: cannot open a window: GLFW could not start")
+    assert ":9999" in lines[0]
