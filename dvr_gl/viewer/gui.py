@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import DvrError
 from ..transfer_function import PRESETS, preset
 from . import navigation, settings
 from .imgui_backend import ImGuiInput, ImGuiRenderer
@@ -223,7 +224,7 @@ class ViewerGui:
         cam = v.scene.camera
         az, el, dist = cam.orbit or cam.orbited().orbit
         imgui.text(f"azimuth {az:.1f}, elevation {el:.1f}, distance {dist:.4g}")
-        changed, ortho = imgui.checkbox("orthographic (P)", cam.projection == "orthographic")
+        changed, _ = imgui.checkbox("orthographic (P)", cam.projection == "orthographic")
         if changed:
             v.move_camera(navigation.toggle_projection(cam), interactive=False)
         if imgui.button("reset view (R)"):
@@ -269,9 +270,9 @@ class ViewerGui:
         self._draw_canvas(mapping, value_range)
         imgui.text_disabled("click: add | drag: move | right-click: delete")
         self._selected_point()
-        changed, self.axis_choice = imgui.combo("opacity axis", self.axis_choice, list(OPACITY_AXES))
+        _, self.axis_choice = imgui.combo("opacity axis", self.axis_choice, list(OPACITY_AXES))
         names = list(PRESETS)
-        changed, self.preset_choice = imgui.combo("preset", self.preset_choice, names)
+        _, self.preset_choice = imgui.combo("preset", self.preset_choice, names)
         imgui.same_line()
         if imgui.button("apply"):
             volume = v.scene.volume
@@ -281,14 +282,14 @@ class ViewerGui:
         if imgui.button("save"):
             try:
                 v.notify(f"saved the transfer function to {editor.save(self.tf_path)}")
-            except Exception as exc:  # DvrError: shown, not raised
+            except DvrError as exc:  # shown, not raised
                 v.notify(str(exc), error=True)
         imgui.same_line()
         if imgui.button("load"):
             try:
                 editor.replace(load_points(self.tf_path))
                 v.notify(f"loaded the transfer function from {self.tf_path}")
-            except Exception as exc:
+            except DvrError as exc:
                 v.notify(str(exc), error=True)
 
     def _canvas_input(self, mapping: CanvasMapping):

@@ -5,7 +5,7 @@ Keys are named as GLFW names them (``glfw.KEY_<NAME>``); ``shift+`` marks a shif
 
 from __future__ import annotations
 
-# (key, action, description); the action names are the viewer's methods (app.Viewer.action_*).
+# (key, action, description); Viewer.action (app.py) carries out the actions by name.
 KEYS = (
     ("1", "renderer_raycast", "renderer: raycast (GPU ray casting)"),
     ("2", "renderer_slicing3d", "renderer: slicing3d (view-aligned 3D texture slices)"),

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SceneError
+from ..errors import DvrError, SceneError
 from ..image import write_text
 from ..scene_schema import TransferFunctionSpec, parse_table
 from ..toml_writer import dumps
@@ -155,6 +155,8 @@ class TransferFunctionEditor:
         """Write the points as a ``[transfer_function]`` table (scene-file syntax), atomically;
         an existing file is not replaced (:class:`~dvr_gl.errors.DvrError`)."""
         path = Path(path)
+        if path.exists():
+            raise DvrError(f"{path}: exists; choose another file name (saving never replaces a file)")
         text = dumps({"transfer_function": self.transfer_function().to_dict()},
                      header="dvr-gl transfer function (dvr view); paste into a scene file or load in dvr view")
         write_text(path, text, overwrite=False)
