@@ -45,19 +45,24 @@ CASES = {
 }
 
 
+def assert_tolerances_met(scene, tolerances=(1e-2, 3e-3, 1e-3)):
+    """Render with what each tolerance chooses; the RMS error against the converged reference is <= E."""
+    truth = converged_truth(scene)
+    with create_renderer("raycast") as renderer:
+        for e in tolerances:
+            chosen, choice = tolerance.apply(scene, e)
+            rms = compare_images(renderer.render(chosen), truth)["rms"]
+            assert rms <= e, f"E = {e:g}: measured {rms:.3g} with {choice.describe(1.0)}"
+            assert choice.predicted_error <= e
+
+
 @pytest.mark.parametrize("case", list(CASES))
 def test_tolerance_is_met(case):
     """The promise, on small scenes not used for the fit: the chosen settings' RMS error against the
     converged reference is at most E, for E from 1e-2 to 1e-3.  (The law is the upper envelope of
     the calibration, so the measured error is typically 2-4x below E; the README's table shows it.)"""
     scene = load_scene(None, CASES[case])
-    truth = converged_truth(scene)
-    with create_renderer("raycast") as renderer:
-        for e in (1e-2, 3e-3, 1e-3):
-            chosen, choice = tolerance.apply(scene, e)
-            rms = compare_images(renderer.render(chosen), truth)["rms"]
-            assert rms <= e, f"E = {e:g}: measured {rms:.3g} with {choice.describe(1.0)}"
-            assert choice.predicted_error <= e
+    assert_tolerances_met(scene)
 
 
 def test_tighter_tolerance_samples_more():
@@ -112,9 +117,4 @@ def test_tolerance_is_met_on_shared_datasets(shared_data, name):
     if points:
         overrides["transfer_function.points"] = points
     scene = load_scene(None, overrides)
-    truth = converged_truth(scene)
-    with create_renderer("raycast") as renderer:
-        for e in (1e-2, 3e-3, 1e-3):
-            chosen, choice = tolerance.apply(scene, e)
-            rms = compare_images(renderer.render(chosen), truth)["rms"]
-            assert rms <= e, f"E = {e:g}: measured {rms:.3g} with {choice.describe(1.0)}"
+    assert_tolerances_met(scene)
