@@ -143,8 +143,8 @@ def run_slicing(args) -> int:
     return 0
 
 
-def _on_shared_data(args, module, title: str) -> int:
-    """Run a benchmark over the shared datasets (``module.DATASETS``, filtered by ``--only``)."""
+def _chosen_datasets(args, datasets):
+    """The shared datasets folder (checked) and the entries of ``datasets`` that ``--only`` keeps."""
     from pathlib import Path
 
     from dvr_gl.errors import DvrError
@@ -152,7 +152,12 @@ def _on_shared_data(args, module, title: str) -> int:
     data_dir = Path(args.data_dir)
     if not data_dir.is_dir():
         raise DvrError(f"{data_dir}: the shared datasets folder was not found; pass --data-dir")
-    datasets = [d for d in module.DATASETS if not args.only or args.only.lower() in d[0].lower()]
+    return data_dir, [d for d in datasets if not args.only or args.only.lower() in d[0].lower()]
+
+
+def _on_shared_data(args, module, title: str) -> int:
+    """Run a benchmark over the shared datasets (``module.DATASETS``, filtered by ``--only``)."""
+    data_dir, datasets = _chosen_datasets(args, module.DATASETS)
     print(title)
     rows, notes = module.run(data_dir, args.size, args.repeat, datasets)
     print(format_table(rows, module.COLUMNS))
@@ -205,17 +210,12 @@ def _tradeoff_scenes(args):
     from dvr_gl.phantoms import demo_scene
     from dvr_gl.scene import load_scene
 
-    from .render import parse_value
+    from .render import set_overrides
 
     given = [bool(args.scene), bool(args.demo), args.shared]
     if sum(given) != 1:
         raise DvrError("give one of SCENE.toml, --demo NAME or --shared")
-    overrides = {"image.width": args.size, "image.height": args.size}
-    for item in args.set:
-        key, sep, value = item.partition("=")
-        if not sep:
-            raise DvrError(f"--set {item!r}: use KEY=VALUE, e.g. renderer.filter=nearest")
-        overrides[key.strip()] = parse_value(value.strip())
+    overrides = {"image.width": args.size, "image.height": args.size, **set_overrides(args.set)}
     if args.scene:
         return [(Path(args.scene).stem, load_scene(args.scene, overrides))]
     if args.demo:
@@ -223,10 +223,7 @@ def _tradeoff_scenes(args):
         return [(args.demo, load_scene(None, overrides, demo_scene(args.demo)))]
     from dvr_gl.bench.tradeoff import DATASETS
 
-    data_dir = Path(args.data_dir)
-    if not data_dir.is_dir():
-        raise DvrError(f"{data_dir}: the shared datasets folder was not found; pass --data-dir")
-    chosen = [d for d in DATASETS if not args.only or args.only.lower() in d[0].lower()]
+    data_dir, chosen = _chosen_datasets(args, DATASETS)
     scenes = []
     for name, path, extra in chosen:
         if not (data_dir / path).exists():

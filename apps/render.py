@@ -137,7 +137,14 @@ def overrides_from(args) -> dict:
         if len(bg) not in (3, 4):
             raise DvrError(f"--background {args.background!r}: use R,G,B or R,G,B,A numbers in 0..1")
         out["image.background"] = bg + [1.0] * (4 - len(bg))
-    for item in args.set:
+    out.update(set_overrides(args.set))
+    return out
+
+
+def set_overrides(items: list[str]) -> dict:
+    """``--set KEY=VALUE`` items as scene overrides (values in TOML syntax)."""
+    out = {}
+    for item in items:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
             raise DvrError(f"--set {item!r}: use KEY=VALUE, e.g. renderer.filter=nearest")

@@ -143,7 +143,7 @@ def _check_image(spec: ImageSpec):
         raise SceneError(f"image.background: components must be in [0, 1], got {list(spec.background)}")
 
 
-def _resolve_renderer(spec: RendererSpec, volume: Volume) -> RendererSpec:
+def resolve_renderer(spec: RendererSpec, volume: Volume) -> RendererSpec:
     if spec.sample_distance is not None and spec.sample_distance_voxels is not None:
         raise SceneError("renderer: give sample_distance or sample_distance_voxels, not both")
     d = spec.sample_distance
@@ -249,7 +249,7 @@ def resolve_scene(spec: SceneSpec, base_dir: Path | str = ".") -> Scene:
     volume, source = _resolve_volume(spec.volume, base_dir)
     tf = _resolve_transfer_function(spec.transfer_function, volume, spec.volume.demo)
     camera = _resolve_camera(spec.camera, volume, spec.image)
-    renderer = _resolve_renderer(spec.renderer, volume)
+    renderer = resolve_renderer(spec.renderer, volume)
     scene = Scene(volume, tf, camera, spec.image, renderer, source)
     return _meet_tolerance(scene, spec.renderer) if renderer.tolerance is not None else scene
 

@@ -195,11 +195,12 @@ def check_tolerance(scene, tolerance: float):
                          "or set the sample distance yourself")
 
 
-def choose(scene, tolerance: float) -> Choice:
+def choose(scene, tolerance: float, model: SamplingModel | None = None) -> Choice:
     """The classification and sample distance of least expected cost whose predicted RMS error
-    is at most ``tolerance``, and early termination dropping at most ``tolerance / 4``."""
+    is at most ``tolerance``, and early termination dropping at most ``tolerance / 4``
+    (``model``: the scene's :func:`sampling_model`, if already measured)."""
     check_tolerance(scene, tolerance)
-    model = sampling_model(scene)
+    model = model or sampling_model(scene)
     voxel = min(scene.volume.spacing)
     ert = 1.0 - tolerance / 4.0  # what termination drops is at most 1 - threshold
     options = []
@@ -212,8 +213,8 @@ def choose(scene, tolerance: float) -> Choice:
     return Choice(classification, d, ert, filtering, model.predicted_error(classification, d), model)
 
 
-def apply(scene, tolerance: float):
+def apply(scene, tolerance: float, model: SamplingModel | None = None):
     """``scene`` with the chosen settings, and the :class:`Choice`."""
-    choice = choose(scene, tolerance)
+    choice = choose(scene, tolerance, model)
     return scene.with_renderer(**choice.renderer_changes()), choice
 

@@ -194,6 +194,12 @@ def srgb_to_linear(c):
     return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
 
 
+def linear_to_srgb(c):
+    """Linear colour in [0, 1] (clipped) to sRGB-encoded, as displays show it."""
+    c = np.clip(np.asarray(c, dtype=np.float64), 0.0, 1.0)
+    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055)
+
+
 # Viridis (matplotlib, CC0) at 0, 1/4, 1/2, 3/4, 1, sRGB-encoded.
 _VIRIDIS = [(0.267, 0.005, 0.329), (0.229, 0.322, 0.546), (0.128, 0.567, 0.551),
             (0.369, 0.789, 0.383), (0.993, 0.906, 0.144)]

@@ -26,7 +26,8 @@ from ..errors import SceneError
 from ..image import compare_images, composite_over
 from ..reference.converged import ConvergedReference
 from ..renderers import create_renderer
-from . import median_seconds
+from ..transfer_function import linear_to_srgb
+from . import acceleration, median_seconds
 
 DISTANCES = (4.0, 2.0, 1.0, 0.5, 0.25, 0.125)   # sample distances, voxels
 
@@ -83,15 +84,9 @@ def flip_error(image: np.ndarray, truth: np.ndarray, background) -> float | None
         import flip_evaluator
     except ImportError:
         return None
-    shown = [np.clip(_srgb(composite_over(x, background)[..., :3]), 0.0, 1.0).astype(np.float32)
-             for x in (image, truth)]
+    shown = [linear_to_srgb(composite_over(x, background)[..., :3]).astype(np.float32) for x in (image, truth)]
     _, mean, _ = flip_evaluator.evaluate(shown[1], shown[0], "LDR", applyMagma=False)
     return float(mean)
-
-
-def _srgb(linear: np.ndarray) -> np.ndarray:
-    c = np.clip(linear, 0.0, None)
-    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
 
 
 def converged_truth(scene, tolerance: float = 1e-4) -> np.ndarray:
@@ -190,13 +185,15 @@ def tolerance_check(scene, rows: list[dict], truth, repeat: int = 5, tolerances=
     from .. import tolerance as model
 
     out = []
+    scene = scene.with_renderer(name="raycast")
     try:
-        model.check_tolerance(scene.with_renderer(name="raycast"), tolerances[0])
+        model.check_tolerance(scene, tolerances[0])
     except SceneError as exc:
         return out, f"--tolerance not checked: {exc}"
+    bandwidths = model.sampling_model(scene)
     with create_renderer("raycast") as renderer:
         for e in tolerances:
-            chosen, choice = model.apply(scene.with_renderer(name="raycast"), e)
+            chosen, choice = model.apply(scene, e, bandwidths)
             ms = 1e3 * median_seconds(renderer, chosen, repeat)
             rms = compare_images(renderer.render(chosen), truth)["rms"]
             best = cheapest_meeting(rows, e)
@@ -215,17 +212,9 @@ def cheapest_meeting(rows: list[dict], tolerance: float, error: str = "rms") -> 
     return min(meeting, key=lambda r: r["ms"]) if meeting else None
 
 
-# The shared datasets (../shared/data) as scenes: name, file, scene overrides.
-HU = {"transfer_function.rescale_intercept": -1024.0}
-DATASETS = [
-    ("CThead, bone", "regular/cthead.nhdr", {"transfer_function.preset": "ct-bone", **HU, "camera.up": [0, 0, -1]}),
-    ("lobster, shell", "regular/lobster.nhdr", {"transfer_function.points": [
-        [0, 0, 0, 0, 0], [100, 0.9, 0.4, 0.2, 0], [120, 0.9, 0.4, 0.2, 0.6], [140, 0.9, 0.5, 0.3, 0],
-        [255, 0, 0, 0, 0]]}),
-    ("hydrogen, narrow shell", "regular/hydrogen_atom.nhdr", {"transfer_function.points": [
-        [0, 0, 0, 0, 0], [55, 0.2, 0.6, 1, 0], [60, 0.2, 0.6, 1, 0.5], [65, 0.2, 0.6, 1, 0], [255, 0, 0, 0, 0]]}),
-    ("CT bunny, bone", "large/bunny_ct.nhdr", {"transfer_function.preset": "ct-bone", **HU}),
-]
+# The shared datasets (../shared/data) as scenes: those of ``dvr bench accel`` (name, file, overrides).
+DATASETS = [d for name in ("CThead, bone", "lobster, shell", "hydrogen, narrow shell", "CT bunny, bone")
+            for d in acceleration.DATASETS if d[0] == name]
 
 
 def csv_text(rows: list[dict]) -> str:

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import DvrError
-from ..transfer_function import PRESETS, preset
+from ..transfer_function import PRESETS, linear_to_srgb, preset, srgb_to_linear
 from . import navigation, settings
 from .imgui_backend import ImGuiInput, ImGuiRenderer
 from .keys import help_lines
@@ -27,14 +27,8 @@ HISTOGRAM_BINS = 128
 OPACITY_AXES = ("auto", "0.01", "0.05", "0.2", "0.5", "1")
 
 
-def _srgb(c):
-    c = np.clip(np.asarray(c, dtype=np.float64), 0.0, 1.0)
-    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055)
-
-
 def _linear(c):
-    c = np.clip(np.asarray(c, dtype=np.float64), 0.0, 1.0)
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    return srgb_to_linear(np.clip(c, 0.0, 1.0))
 
 
 def _col32(r, g, b, a=1.0) -> int:
@@ -330,7 +324,7 @@ class ViewerGui:
         # the colour bar: the function's colour at each value, display-encoded
         n = 96
         values = np.linspace(value_range[0], value_range[1], n + 1)
-        colours = _srgb(editor.transfer_function().color((values[:-1] + values[1:]) / 2))
+        colours = linear_to_srgb(editor.transfer_function().color((values[:-1] + values[1:]) / 2))
         for i in range(n):
             draw.add_rect_filled(imgui.ImVec2(x0 + w * i / n, y0 + h + 2),
                                  imgui.ImVec2(x0 + w * (i + 1) / n + 0.5, y0 + h + COLOUR_BAR_HEIGHT),
@@ -340,7 +334,7 @@ class ViewerGui:
         draw.add_polyline(ends, _col32(0.95, 0.95, 0.95), 1.5, 0)
         for i, (p, row) in enumerate(zip(points, editor.points)):
             selected = i == editor.selected
-            draw.add_circle_filled(p, 6.0 if selected else 5.0, _col32(*_srgb(row[1:4])))
+            draw.add_circle_filled(p, 6.0 if selected else 5.0, _col32(*linear_to_srgb(row[1:4])))
             draw.add_circle(p, 6.0 if selected else 5.0, _col32(1, 1, 0) if selected else _col32(1, 1, 1), 0,
                             2.0 if selected else 1.0)
         top = mapping.opacity_max
@@ -363,7 +357,7 @@ class ViewerGui:
         changed, opacity = imgui.drag_float("opacity", opacity, 0.001, 0.0, float(editor.opacity_limit), "%.4f")
         if changed:
             editor.move(i, float(editor.points[i, 0]), opacity)
-        changed, colour = imgui.color_edit3("colour", list(_srgb(editor.points[i, 1:4])))
+        changed, colour = imgui.color_edit3("colour", list(linear_to_srgb(editor.points[i, 1:4])))
         if changed:
             editor.set_color(i, _linear(colour))
         if imgui.button("delete point") and not editor.delete(i):

@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from ..renderers.base import RENDERERS
-from ..scene import Scene, _resolve_renderer
+from ..scene import Scene, resolve_renderer
 from ..scene_schema import CLASSIFICATIONS, COMPOSITING_MODES, FILTERS
 
 RENDERER_NAMES = tuple(RENDERERS)
@@ -30,7 +30,7 @@ MIN_SAMPLE_VOXELS, MAX_SAMPLE_VOXELS = 1.0 / 64, 8.0
 def change(scene: Scene, **changes) -> Scene:
     """The scene with renderer settings changed, checked as a scene file's would be (SceneError if not)."""
     spec = scene.with_renderer(**changes).renderer
-    return scene.replace(renderer=_resolve_renderer(spec, scene.volume))
+    return scene.replace(renderer=resolve_renderer(spec, scene.volume))
 
 
 def cycle(scene: Scene, key: str, step: int = 1) -> Scene:
