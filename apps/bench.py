@@ -244,9 +244,10 @@ def run_tradeoff(args) -> int:
     from dvr_gl.image import check_writable, write_text
 
     renderers = args.renderers.split(",") if args.renderers else None
-    unknown = [r for r in renderers or () if r not in tradeoff.SWEEPS]
+    swept = tradeoff.sweeps()
+    unknown = [r for r in renderers or () if r not in swept]
     if unknown:
-        raise DvrError(f"--renderers: no sweep for {', '.join(unknown)}; choose from {', '.join(tradeoff.SWEEPS)}")
+        raise DvrError(f"--renderers: no sweep for {', '.join(unknown)}; choose from {', '.join(swept)}")
     outputs = {ext: Path(f"{args.output}.{ext}") for ext in ("csv", "json", "png")}
     drawing = not args.no_plot and plot.have_matplotlib()
     for ext, path in outputs.items():  # before measuring: fail fast, overwrite nothing unasked
@@ -257,7 +258,7 @@ def run_tradeoff(args) -> int:
     for name, scene in scenes:
         start = time.perf_counter()
         truth = tradeoff.converged_truth(scene)
-        print(f"dvr bench tradeoff: {name} ({scene.volume.describe()}), {args.size}x{args.size}, median of "
+        print(f"dvr bench tradeoff: {name} ({scene.field.describe()}), {args.size}x{args.size}, median of "
               f"{args.repeat} frames after a warm-up; error against the converged reference "
               f"({time.perf_counter() - start:.1f} s to compute)")
         rows, notes = tradeoff.run(scene, args.repeat, renderers, truth, scene_name=name)

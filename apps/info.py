@@ -1,4 +1,5 @@
-"""Print versions, the volume readers available, and what the OpenGL context offers."""
+"""Print versions, the volume readers, the registered renderers (what each renders and reads), and
+what the OpenGL context offers."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import platform
 from dvr_gl import __version__
 from dvr_gl.gl.context import create_context, gl_info
 from dvr_gl.gl.selftest import selftest
-from dvr_gl.renderers import RENDERERS, renderer_class
+from dvr_gl.renderers import registry
 
 HELP = "show versions, volume readers, renderers and the OpenGL context"
 
@@ -17,6 +18,22 @@ READERS = [("NRRD", "nrrd", "pynrrd", "nrrd"), ("NIfTI", "nibabel", "nibabel", "
 
 def add_arguments(p):
     pass
+
+
+def renderer_lines() -> list[str]:
+    """Each registered renderer: what it renders, the choices it supports, the settings it reads."""
+    lines = []
+    for name, p in registry.plugins().items():
+        kinds = "any field" if p.data_kinds is None else ", ".join(p.data_kinds)
+        traits = [kinds, "OpenGL" if p.needs_gl else "CPU"] + (["fixed voxel planes"] if p.fixed_planes else [])
+        lines.append(f"{name}: {p.description} [{'; '.join(traits)}]")
+        for key in ("compositing", "classification", "filter"):
+            lines.append(f"    {key}: {', '.join(map(str, p.choices(key)))}")
+        own = [s.name for s in p.settings if s.name not in ("compositing", "classification", "filter")]
+        lines.append(f"    settings: {', '.join(own)}")
+    for name, reason in registry.broken().items():
+        lines.append(f"{name}: NOT AVAILABLE: {reason}")
+    return lines
 
 
 def _version(module: str) -> str | None:
@@ -35,7 +52,9 @@ def run(args) -> int:
     for fmt, module, package, extra in READERS:
         v = _version(module)
         print(f"  {fmt:10s} {(package + ' ' + v) if v else f'not available: pip install dvr-gl[{extra}]'}")
-    print("renderers: " + ", ".join(f"{n} ({renderer_class(n).description})" for n in RENDERERS))
+    print("renderers (plugins in the entry-point group dvr_gl.renderers):")
+    for line in renderer_lines():
+        print("  " + line)
     ctx = create_context()
     try:
         gl = gl_info(ctx)

@@ -8,33 +8,28 @@ no partial file; an existing file is replaced only with ``--overwrite``.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 import tomllib
+import typing
 from pathlib import Path
 
 from dvr_gl.errors import DvrError
 from dvr_gl.image import check_output_path, check_writable, composite_over, write_image, write_text
 from dvr_gl.phantoms import DEMOS, demo_scene
-from dvr_gl.renderers import create_renderer
+from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.scene import load_scene
-from dvr_gl.scene_schema import CLASSIFICATIONS, COMPOSITING_MODES, FILTERS, ORDERS
+from dvr_gl.scene_schema import CameraSpec, VolumeSpec
 from dvr_gl.transfer_function import PRESETS
 
 from .progress import Progress
 
 HELP = "render a scene, a volume file or the demo to an image (.png .exr .tif)"
 
-# flag destination -> scene key
+# flag destination -> scene key, for the flags of the other tables (the renderer's come from the registry)
 _SCENE_KEYS = {
-    "renderer": "renderer.name", "sample_distance": "renderer.sample_distance",
-    "sample_distance_voxels": "renderer.sample_distance_voxels", "tolerance": "renderer.tolerance",
-    "compositing": "renderer.compositing",
-    "order": "renderer.order", "classification": "renderer.classification", "filter": "renderer.filter",
-    "iso_value": "renderer.iso_value", "ert_threshold": "renderer.ert_threshold",
-    "jitter": "renderer.jitter", "jitter_seed": "renderer.jitter_seed", "lut_size": "renderer.lut_size",
-    "shading": "renderer.shading.enabled", "filtering": "renderer.filtering", "gradient": "renderer.gradient",
-    "acceleration": "renderer.acceleration", "block_size": "renderer.block_size",
+    "renderer": "renderer.name", "shading": "renderer.shading.enabled",
     "azimuth": "camera.azimuth", "elevation": "camera.elevation",
     "distance": "camera.distance", "projection": "camera.projection", "fov": "camera.fov",
     "transfer_function": "transfer_function.preset", "rescale_intercept": "transfer_function.rescale_intercept",
@@ -42,6 +37,12 @@ _SCENE_KEYS = {
     "endian": "volume.endian", "header_bytes": "volume.header_bytes", "spacing": "volume.spacing",
     "nan_value": "volume.nan_value",
 }
+SETTING_DEST = "setting_"  # a renderer setting's flag stores into setting_<name>
+
+
+def _choices(spec, key: str) -> tuple:
+    """The choices a scene-file key allows (from the schema)."""
+    return next(f.metadata["choices"] for f in dataclasses.fields(spec) if f.name == key)
 
 
 def add_arguments(p: argparse.ArgumentParser):
@@ -57,31 +58,14 @@ def add_arguments(p: argparse.ArgumentParser):
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
     g = p.add_argument_group("scene overrides")
     g.add_argument("--size", metavar="WxH", help="image size, e.g. 512x512 (or 512)")
-    g.add_argument("--renderer", help="renderer name (see dvr info)")
-    g.add_argument("--sample-distance", type=float, metavar="D", help="sample distance, world units")
-    g.add_argument("--sample-distance-voxels", type=float, metavar="V", help="sample distance in voxels")
-    g.add_argument("--tolerance", type=float, metavar="E",
-                   help="RMS error to meet (5e-4 to 0.1): the ray caster's sample distance, classification and "
-                        "early termination are chosen by the error model (README: Render to a tolerance)")
-    g.add_argument("--compositing", choices=COMPOSITING_MODES)
-    g.add_argument("--order", choices=ORDERS)
-    g.add_argument("--classification", choices=CLASSIFICATIONS)
-    g.add_argument("--filter", choices=FILTERS)
-    g.add_argument("--iso-value", type=float)
-    g.add_argument("--ert-threshold", type=float, help="early ray termination opacity (1 = off)")
-    g.add_argument("--jitter", action=argparse.BooleanOptionalAction, default=None)
-    g.add_argument("--jitter-seed", type=int)
-    g.add_argument("--lut-size", type=int)
-    g.add_argument("--shading", action=argparse.BooleanOptionalAction, default=None)
-    g.add_argument("--filtering", choices=("hardware", "shader"), help="GPU: texture unit or exact float weights")
-    g.add_argument("--gradient", choices=("central_differences", "texture"), help="GPU shading gradients")
-    g.add_argument("--acceleration", action=argparse.BooleanOptionalAction, default=None,
-                   help="GPU: jump empty and constant blocks (default on; the image is unchanged)")
-    g.add_argument("--block-size", type=int, choices=(4, 8, 16, 32), help="acceleration block edge, voxels")
+    g.add_argument("--renderer", metavar="NAME",
+                   help="renderer: " + "; ".join(f"{n} ({q.description})" for n, q in registry.plugins().items()))
+    g.add_argument("--shading", action=argparse.BooleanOptionalAction, default=None,
+                   help="Blinn-Phong shading from the gradient")
     g.add_argument("--azimuth", type=float, help="degrees about the up axis")
     g.add_argument("--elevation", type=float, help="degrees above the horizontal plane")
     g.add_argument("--distance", type=float, help="eye to target, world units")
-    g.add_argument("--projection", choices=("perspective", "orthographic"))
+    g.add_argument("--projection", choices=_choices(CameraSpec, "projection"))
     g.add_argument("--fov", type=float, help="vertical field of view, degrees")
     g.add_argument("--transfer-function", metavar="PRESET", choices=list(PRESETS),
                    help=f"transfer function preset: {', '.join(PRESETS)}")
@@ -89,14 +73,34 @@ def add_arguments(p: argparse.ArgumentParser):
     g.add_argument("--background", metavar="R,G,B[,A]", help="background colour, linear, 0..1")
     g.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="set any scene key, e.g. renderer.shading.shininess=20 (value in TOML syntax)")
+    add_setting_arguments(p.add_argument_group("renderer settings (docs/scene-files.md; which renderer reads "
+                                               "which: dvr info)"))
     v = p.add_argument_group("volume file options (raw files need --dims and --dtype)")
-    v.add_argument("--format", help="reader: raw, nrrd, nifti, metaimage, vtk, npy, tiff (default: by suffix)")
+    v.add_argument("--format", choices=_choices(VolumeSpec, "format"), help="reader (default: by suffix)")
     v.add_argument("--dims", type=int, nargs=3, metavar=("NX", "NY", "NZ"))
     v.add_argument("--dtype", help="raw sample type: uint8, int16, uint16, float32, ...")
-    v.add_argument("--endian", choices=("little", "big"))
+    v.add_argument("--endian", choices=_choices(VolumeSpec, "endian"))
     v.add_argument("--header-bytes", type=int)
     v.add_argument("--spacing", type=float, nargs=3, metavar=("SX", "SY", "SZ"))
     v.add_argument("--nan-value", type=float, help="replace NaN/Inf in the data by this value")
+
+
+def add_setting_arguments(g):
+    """A flag per renderer setting that asks for one (:attr:`dvr_gl.settings.Setting.flag`), from the
+    registry: ``--name-with-dashes``; booleans as ``--x/--no-x``; choices and types as declared."""
+    for setting in registry.all_settings():
+        if not setting.flag:
+            continue
+        flag = "--" + setting.name.replace("_", "-")
+        text = setting.doc + (f" ({setting.units})" if setting.units else "")
+        dest = SETTING_DEST + setting.name
+        kind = next(t for t in (typing.get_args(setting.type) or (setting.type,)) if t is not type(None))
+        if kind is bool:
+            g.add_argument(flag, dest=dest, action=argparse.BooleanOptionalAction, default=None, help=text)
+        elif setting.choices:
+            g.add_argument(flag, dest=dest, type=kind, choices=setting.choices, help=text)
+        else:
+            g.add_argument(flag, dest=dest, type=kind, metavar=kind.__name__.upper(), help=text)
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -125,6 +129,9 @@ def overrides_from(args) -> dict:
         value = getattr(args, dest, None)
         if value is not None:
             out[key] = list(value) if isinstance(value, tuple | list) else value
+    for dest, value in vars(args).items():
+        if dest.startswith(SETTING_DEST) and value is not None:
+            out["renderer." + dest.removeprefix(SETTING_DEST)] = value
     if args.demo:
         out["volume.demo"] = args.demo
     if args.size:
@@ -172,9 +179,11 @@ def run(args) -> int:
         check_output_path(path, args.overwrite)
     if args.save_scene:
         check_writable(Path(args.save_scene), args.overwrite)
+    registry.check(scene)  # before rendering: the renderer's one-line refusal, if any
     if scene.tolerance_choice is not None and not args.quiet:
-        print(f"tolerance {args.tolerance if args.tolerance is not None else 'from the scene'}: "
-              f"{scene.tolerance_choice.describe(min(scene.volume.spacing))}")
+        given = getattr(args, SETTING_DEST + "tolerance", None)
+        print(f"tolerance {given if given is not None else 'from the scene'}: "
+              f"{scene.tolerance_choice.describe(scene.field.sample_spacing)}")
     renderer = create_renderer(scene.renderer.name)
     progress = Progress(len(outputs), "rendering") if args.frames and not args.quiet else None
     start = time.perf_counter()

@@ -24,13 +24,17 @@ HELP = "explore a scene, a volume file or the demo in a window (orbit, renderers
 # What `dvr render`'s parser has and the viewer uses: the scene and its overrides.  Its other
 # flags (output, frames, ...) are hidden here and refused if given.
 _SCENE_DESTS = {"scene", "demo", "volume", "size", "background", "set", "help", *render_cmd._SCENE_KEYS}
+
+
+def _is_scene_dest(dest: str) -> bool:
+    return dest in _SCENE_DESTS or dest.startswith(render_cmd.SETTING_DEST)
 DEMO_SIZE = "512x512"  # the demo's window: larger than `dvr render --demo`'s image, for the panels
 
 
 def add_arguments(p: argparse.ArgumentParser):
     render_cmd.add_arguments(p)  # the same scene and override flags as `dvr render`
     for action in p._actions:
-        if action.dest not in _SCENE_DESTS and action.dest != "debug":
+        if not _is_scene_dest(action.dest) and action.dest != "debug":
             action.required, action.help = False, argparse.SUPPRESS
     v = p.add_argument_group("viewer")
     v.add_argument("--budget", type=float, default=100.0, metavar="MS",
@@ -48,7 +52,7 @@ def add_arguments(p: argparse.ArgumentParser):
 
 def _refuse_render_only(args, parser_defaults: dict):
     for dest, default in parser_defaults.items():
-        if dest not in _SCENE_DESTS and getattr(args, dest, default) != default:
+        if not _is_scene_dest(dest) and getattr(args, dest, default) != default:
             raise DvrError(f"--{dest.replace('_', '-')} belongs to dvr render, not dvr view")
 
 

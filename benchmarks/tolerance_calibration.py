@@ -54,7 +54,7 @@ def measure(size: int):
                                demo_scene(demo) if demo else None)
             model = tolerance.sampling_model(scene)
             truth = tradeoff.converged_truth(scene)
-            voxel = min(scene.volume.spacing)
+            voxel = scene.field.sample_spacing
             for classification in ("post", "preintegrated"):
                 for d in DISTANCES:
                     image = renderer.render(scene.with_renderer(classification=classification,

@@ -1,3 +1,24 @@
-"""dvr-gl: direct volume rendering in Python on OpenGL, checked against a float64 CPU reference."""
+"""dvr-gl: direct volume rendering in Python on OpenGL, checked against a float64 CPU reference.
+
+The Python API in one line: ``dvr_gl.render(data, ...)`` (:func:`render`) takes a numpy array indexed
+``[z, y, x]``, a field, a volume or scene file, or a :class:`Scene`, and returns an :class:`Image`
+(inline in Jupyter; ``.rgba``, ``.srgb8()``, ``.save()``).  The parts: :class:`Scene` and
+:func:`load_scene`; the fields (:class:`Volume`, a regular grid; :class:`Field`, the protocol every
+data kind implements); :class:`TransferFunction`; :class:`Camera`; the renderers
+(:func:`create_renderer`, and :mod:`dvr_gl.renderers.registry` for what is registered).
+"""
 
 __version__ = "0.1.0"
+
+from .api import Image, render, scene_of  # noqa: E402
+from .camera import Camera  # noqa: E402
+from .errors import DvrError, SceneError, VolumeError  # noqa: E402
+from .fields import Field, SphereField, Volume  # noqa: E402
+from .io import load_volume  # noqa: E402
+from .renderers import create_renderer, registry  # noqa: E402
+from .scene import Scene, load_scene  # noqa: E402
+from .transfer_function import PRESETS, TransferFunction, preset  # noqa: E402
+
+__all__ = ["Camera", "DvrError", "Field", "Image", "PRESETS", "Scene", "SceneError", "SphereField", "TransferFunction",
+           "Volume", "VolumeError", "create_renderer", "load_scene", "load_volume", "preset", "registry", "render",
+           "scene_of", "__version__"]

@@ -58,7 +58,7 @@ def orbit_of(eye, target, up) -> tuple[float, float, float]:
     return az, el, dist
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class Camera:
     """A pinhole (perspective) or parallel (orthographic) camera.
 
@@ -131,6 +131,15 @@ class Camera:
         r /= np.linalg.norm(r)
         return f, r, np.cross(r, f)
 
+    def half_extent(self, aspect: float) -> tuple[float, float]:
+        """Half the width and height of the view: in the plane one unit in front of the eye
+        (perspective: ``tan(fov / 2)`` high), or in world units (orthographic: ``view_height / 2``),
+        for an image of ``aspect`` = width / height.  The one place the projection is written:
+        rays, the ray caster's uniforms, the slicers' projection matrix, shear-warp's factorization
+        and the viewer's pan and zoom all take it from here."""
+        half_h = math.tan(math.radians(self.fov) / 2.0) if self.projection == "perspective" else self.view_height / 2.0
+        return half_h * aspect, half_h
+
     def corner_directions(self, width: int, height: int) -> np.ndarray:
         """Unit directions ``(5, 3)`` of the view axis and the rays through the image's four corners
         (all five the view axis when orthographic): any linear-fractional function of the ray
@@ -138,8 +147,7 @@ class Camera:
         f, r, u = self.basis()
         if self.projection == "orthographic":
             return np.tile(f, (5, 1))
-        half_h = math.tan(math.radians(self.fov) / 2.0)
-        half_w = half_h * width / height
+        half_w, half_h = self.half_extent(width / height)
         dirs = [f] + [f + sx * half_w * r + sy * half_h * u for sx in (-1, 1) for sy in (-1, 1)]
         return np.array([d / np.linalg.norm(d) for d in dirs])
 
@@ -154,16 +162,14 @@ class Camera:
         y = 1.0 - ((np.arange(height) + 0.5) / height) * 2.0
         xx, yy = np.meshgrid(x, y)
         xx, yy = xx.reshape(-1, 1), yy.reshape(-1, 1)
-        aspect = width / height
+        half_w, half_h = self.half_extent(width / height)
         eye = np.array(self.eye)
         if self.projection == "perspective":
-            h = math.tan(math.radians(self.fov) / 2.0)
-            d = f + xx * (h * aspect) * r + yy * h * u
+            d = f + xx * half_w * r + yy * half_h * u
             d /= np.linalg.norm(d, axis=1, keepdims=True)
             o = np.broadcast_to(eye, d.shape).copy()
         else:
-            half = self.view_height / 2.0
-            o = eye + xx * (half * aspect) * r + yy * half * u
+            o = eye + xx * half_w * r + yy * half_h * u
             d = np.broadcast_to(f, o.shape).copy()
         return o, d
 
@@ -173,6 +179,13 @@ class Camera:
             return np.zeros(len(directions))
         f, _, _ = self.basis()
         return self.near / (directions @ f)
+
+    def __repr__(self) -> str:
+        fmt = lambda v: "(" + ", ".join(f"{x:.4g}" for x in v) + ")"  # noqa: E731
+        lens = f"fov={self.fov:g}" if self.projection == "perspective" else f"view_height={self.view_height:.4g}"
+        where = (f"azimuth={self.orbit[0]:g}, elevation={self.orbit[1]:g}, distance={self.orbit[2]:.4g}"
+                 if self.orbit else f"eye={fmt(self.eye)}")
+        return f"Camera({self.projection}, {where}, target={fmt(self.target)}, {lens})"
 
     def to_dict(self) -> dict:
         d = {"projection": self.projection, "target": list(self.target), "up": list(self.up),

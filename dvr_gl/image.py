@@ -104,6 +104,19 @@ def _encode(rgba: np.ndarray, suffix: str):
     return buf, oiio.FLOAT
 
 
+def encode_8bit(rgba: np.ndarray) -> np.ndarray:
+    """Linear RGBA (background composited) as the 8-bit sRGB pixels a PNG file holds, ``(H, W, 4)`` uint8."""
+    import OpenImageIO as oiio
+
+    buf, _ = _encode(rgba, ".png")
+    return np.asarray(buf.get_pixels(oiio.UINT8))
+
+
+def read_image_bytes(path) -> bytes:
+    """A file's bytes (an encoded image, e.g. for a notebook's inline display)."""
+    return Path(path).read_bytes()
+
+
 def write_image(path, rgba: np.ndarray, overwrite: bool = False):
     """Write linear RGBA (background already composited) to ``path``, atomically."""
     path = Path(path)

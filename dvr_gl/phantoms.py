@@ -20,7 +20,7 @@ import math
 import numpy as np
 
 from .errors import SceneError
-from .volume import Volume
+from .fields.grid import Volume
 
 # A, a, b, c, x0, y0, z0, phi (degrees, about z)
 SHEPP_LOGAN_3D = [

@@ -1,10 +1,15 @@
 """Scenes: what to render, read from TOML, resolved into the model, saved back.
 
 ``load_scene_spec`` reads and checks a file; ``apply_overrides`` changes keys
-(the CLI's flags); ``resolve_scene`` loads the volume, expands presets and
+(the CLI's flags); ``resolve_scene`` loads the field, expands presets and
 defaults, and returns a :class:`Scene` whose :meth:`Scene.to_toml` is the
 *effective* scene: every value explicit, so rendering it again gives the same
 image.
+
+A :class:`Scene` remembers what was asked for (its ``spec``), so replacing its
+field (``scene.replace(volume=...)``) re-frames the camera and re-resolves what
+depended on the old data: a preset transfer function's range, the default
+iso-value, a sample distance given in voxels.
 """
 
 from __future__ import annotations
@@ -21,14 +26,13 @@ import numpy as np
 from . import phantoms
 from .camera import (DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Camera, framing_distance, framing_view_height)
 from .errors import SceneError
+from .fields import diagonal
 from .io import load_volume
-from .scene_schema import (ImageSpec, RendererSpec, SceneSpec, TransferFunctionSpec, VolumeSpec,
-                           parse_table, spec_to_dict)
+from .scene_schema import (CameraSpec, ImageSpec, SceneSpec, TransferFunctionSpec, VolumeSpec, parse_table,
+                           renderer_spec_class, spec_to_dict)
+from .settings import resolve_renderer as resolve_settings
 from .toml_writer import dumps
 from .transfer_function import PRESETS, TransferFunction, preset
-from .volume import Volume
-
-DEFAULT_SAMPLE_DISTANCE_VOXELS = 0.5
 
 # Keys that replace one another when overridden (giving one drops the others).
 _EXCLUSIVE = {
@@ -79,7 +83,7 @@ def parse_scene(raw: dict, source: str = "scene") -> SceneSpec:
 
 # --- resolution ---------------------------------------------------------------------------------
 
-def _resolve_volume(spec: VolumeSpec, base_dir: Path) -> tuple[Volume, VolumeSpec]:
+def _resolve_volume(spec: VolumeSpec, base_dir: Path):
     if spec.path and spec.demo:
         raise SceneError("volume: give path or demo, not both")
     if spec.demo:
@@ -97,7 +101,7 @@ def _resolve_volume(spec: VolumeSpec, base_dir: Path) -> tuple[Volume, VolumeSpe
     return volume, dataclasses.replace(spec, path=str(path.resolve()))
 
 
-def _resolve_transfer_function(spec: TransferFunctionSpec, volume: Volume, demo: str | None) -> TransferFunction:
+def _resolve_transfer_function(spec: TransferFunctionSpec, field, demo: str | None) -> TransferFunction:
     if spec.preset and spec.points:
         raise SceneError("transfer_function: give preset or points, not both")
     if spec.points:
@@ -105,15 +109,20 @@ def _resolve_transfer_function(spec: TransferFunctionSpec, volume: Volume, demo:
         if any(len(r) != 5 for r in rows):
             raise SceneError("transfer_function.points: each point is [value, r, g, b, opacity]")
         return TransferFunction(np.array(rows), spec.unit_distance, spec.opacity_model)
-    name = spec.preset or ("shepp-logan" if demo == "shepp-logan" else "grayscale")
+    name = spec.preset or _default_preset(VolumeSpec(demo=demo))
     if spec.opacity_model != "alpha":
         raise SceneError("transfer_function: presets are written in alpha; use opacity_model = 'alpha'")
-    return preset(name, volume.value_range, spec.rescale_intercept, spec.unit_distance)
+    return preset(name, field.value_range, spec.rescale_intercept, spec.unit_distance)
 
 
-def _resolve_camera(spec, volume: Volume, image: ImageSpec) -> Camera:
-    lo, hi = volume.box
-    radius = max(float(np.linalg.norm(hi - lo)) / 2.0, 1e-12)
+def _default_preset(volume: VolumeSpec) -> str:
+    return "shepp-logan" if volume.demo == "shepp-logan" else "grayscale"
+
+
+def _resolve_camera(spec: CameraSpec, field, image: ImageSpec) -> Camera:
+    """The camera: look-at or orbit; what is not given frames the field's box."""
+    lo, hi = (np.asarray(b, dtype=np.float64) for b in field.bounds)
+    radius = max(diagonal(field) / 2.0, 1e-12)
     aspect = image.width / image.height
     target = spec.target if spec.target is not None else tuple((lo + hi) / 2.0)
     view_height = spec.view_height or framing_view_height(radius, aspect)
@@ -143,84 +152,114 @@ def _check_image(spec: ImageSpec):
         raise SceneError(f"image.background: components must be in [0, 1], got {list(spec.background)}")
 
 
-def resolve_renderer(spec: RendererSpec, volume: Volume) -> RendererSpec:
-    if spec.sample_distance is not None and spec.sample_distance_voxels is not None:
-        raise SceneError("renderer: give sample_distance or sample_distance_voxels, not both")
-    d = spec.sample_distance
-    if d is None:
-        voxels = spec.sample_distance_voxels or DEFAULT_SAMPLE_DISTANCE_VOXELS
-        if voxels <= 0:
-            raise SceneError(f"renderer.sample_distance_voxels must be positive, got {voxels}")
-        d = volume.voxels_to_world(voxels)
-    if not d > 0:
-        raise SceneError(f"renderer.sample_distance must be positive, got {d}")
-    if not 0.0 < spec.ert_threshold <= 1.0:
-        raise SceneError(f"renderer.ert_threshold must be in (0, 1], got {spec.ert_threshold}")
-    if spec.lut_size < 2:
-        raise SceneError(f"renderer.lut_size must be at least 2, got {spec.lut_size}")
-    if not 0 <= spec.iso_refinement <= 64:
-        raise SceneError(f"renderer.iso_refinement must be between 0 and 64 bisection steps, got "
-                         f"{spec.iso_refinement}")
-    if not spec.converged_tolerance > 0:
-        raise SceneError(f"renderer.converged_tolerance must be positive, got {spec.converged_tolerance}")
-    sh = spec.shading
-    for key in ("ambient", "diffuse", "specular", "shininess"):
-        if getattr(sh, key) < 0:
-            raise SceneError(f"renderer.shading.{key} must be >= 0, got {getattr(sh, key)}")
-    for i, light in enumerate(sh.lights):
-        if light.type == "directional" and not any(light.direction):
-            raise SceneError(f"renderer.shading.lights[{i}].direction must be a non-zero vector")
-        if any(c < 0 for c in light.color):
-            raise SceneError(f"renderer.shading.lights[{i}].color must be >= 0")
-    if spec.classification == "preintegrated" and spec.jitter:
-        raise SceneError("renderer.jitter does not apply to pre-integrated classification (which needs no "
-                         "jitter against wood-grain); turn one of them off")
-    if spec.preintegration_size < 2:
-        raise SceneError(f"renderer.preintegration_size must be at least 2, got {spec.preintegration_size}")
-    if spec.block_size not in (4, 8, 16, 32):
-        raise SceneError(f"renderer.block_size must be 4, 8, 16 or 32, got {spec.block_size}")
-    if not spec.homogeneity_tolerance >= 0:
-        raise SceneError(f"renderer.homogeneity_tolerance must be >= 0, got {spec.homogeneity_tolerance}")
-    if not 0.0 <= spec.opacity_threshold < 1.0:
-        raise SceneError(f"renderer.opacity_threshold must be in [0, 1), got {spec.opacity_threshold}")
-    if not spec.texture_budget_mb > 0:
-        raise SceneError(f"renderer.texture_budget_mb must be positive, got {spec.texture_budget_mb}")
-    iso = spec.iso_value if spec.iso_value is not None else sum(volume.value_range) / 2.0
-    g_ref = spec.gradient_opacity_reference
-    if g_ref is None:
-        lo, hi = volume.value_range
-        g_ref = 0.1 * max(hi - lo, 1e-30) / min(volume.spacing)
-    if not g_ref > 0:
-        raise SceneError(f"renderer.gradient_opacity_reference must be positive, got {g_ref}")
-    return dataclasses.replace(spec, sample_distance=d, sample_distance_voxels=None, iso_value=iso,
-                               gradient_opacity_reference=g_ref)
+def resolve_renderer(spec, field):
+    """The renderer settings checked (the renderer exists; every setting as its declaration says) with
+    the data-dependent defaults made explicit (:func:`dvr_gl.settings.resolve_renderer`)."""
+    from .renderers import registry
+
+    registry.plugin(spec.name)
+    return resolve_settings(spec, field, registry.all_settings())
 
 
-@dataclass(frozen=True, eq=False)
+def camera_spec_of(camera: Camera) -> CameraSpec:
+    """The explicit spec that resolves to ``camera`` (an orbit if it has one, else look-at)."""
+    spec = CameraSpec(projection=camera.projection, fov=camera.fov, view_height=camera.view_height,
+                      target=tuple(camera.target), up=tuple(camera.up), near=camera.near)
+    if camera.orbit:
+        az, el, dist = camera.orbit
+        return dataclasses.replace(spec, azimuth=az, elevation=el, distance=dist)
+    return dataclasses.replace(spec, eye=tuple(camera.eye))
+
+
+def _reframed(camera: Camera) -> CameraSpec:
+    """The view direction and lens of ``camera``, to be framed anew on another field."""
+    az, el, _ = camera.orbit or camera.orbited().orbit
+    return CameraSpec(projection=camera.projection, fov=camera.fov, up=tuple(camera.up), azimuth=az, elevation=el,
+                      near=camera.near)
+
+
+@dataclass(frozen=True, eq=False, repr=False)
 class Scene:
-    """A scene resolved into the model: what every renderer receives."""
+    """A scene resolved into the model: what every renderer receives.
 
-    volume: Volume
+    field: the data (:mod:`dvr_gl.fields`; ``volume`` is the same field, for grids).
+    transfer_function, camera, image: resolved.
+    renderer: the renderer's settings, resolved (sample distance in world units, iso-value, ...).
+    volume_source: where the field came from (a file or a demo), for the saved scene.
+    spec: what was asked for (unresolved defaults), for re-resolution when the field changes.
+    tolerance_choice: what ``renderer.tolerance`` chose (:class:`dvr_gl.tolerance.Choice`), if given.
+    """
+
+    field: object
     transfer_function: TransferFunction
     camera: Camera
     image: ImageSpec
-    renderer: RendererSpec
-    volume_source: VolumeSpec
-    tolerance_choice: object = None   # what renderer.tolerance chose (dvr_gl.tolerance.Choice), if given
+    renderer: object
+    volume_source: VolumeSpec = dataclasses.field(default_factory=VolumeSpec)
+    spec: SceneSpec | None = None
+    tolerance_choice: object = None
+
+    @property
+    def volume(self):
+        """The field, when it is a regular grid (the grid renderers read it as ``scene.volume``)."""
+        if getattr(self.field, "kind", None) != "grid":
+            raise SceneError(f"this scene's data is {getattr(self.field, 'kind', 'unknown')}, not a regular grid")
+        return self.field
 
     @property
     def sample_distance(self) -> float:
         return self.renderer.sample_distance
 
     def replace(self, **changes) -> "Scene":
-        return dataclasses.replace(self, **changes)
+        """The scene with parts replaced.  A new field (``field=`` or ``volume=``) re-frames the camera
+        (same view direction and lens, the new box) and re-resolves what depended on the old data
+        (a preset's value range, the default iso-value, a sample distance in voxels), unless those
+        are replaced in the same call."""
+        if "volume" in changes:
+            changes["field"] = changes.pop("volume")
+        spec = self.spec or SceneSpec(renderer=self.renderer)
+        if "camera" in changes:
+            spec = dataclasses.replace(spec, camera=camera_spec_of(changes["camera"]))
+        if "transfer_function" in changes:
+            tf = changes["transfer_function"]
+            spec = dataclasses.replace(spec, transfer_function=TransferFunctionSpec(
+                points=tf.points.tolist(), unit_distance=tf.unit_distance, opacity_model=tf.opacity_model))
+        if "image" in changes:
+            spec = dataclasses.replace(spec, image=changes["image"])
+        if "renderer" in changes:
+            spec = dataclasses.replace(spec, renderer=changes["renderer"])
+        if "field" in changes and changes["field"] is not self.field:
+            field = changes.pop("field")
+            if "camera" not in changes:
+                spec = dataclasses.replace(spec, camera=_reframed(self.camera))
+            source = changes.pop("volume_source", VolumeSpec())
+            tf_spec = spec.transfer_function
+            if not tf_spec.preset and not tf_spec.points:  # the old data's default preset, by name
+                tf_spec = dataclasses.replace(tf_spec, preset=_default_preset(spec.volume))
+            spec = dataclasses.replace(spec, volume=source, transfer_function=tf_spec)
+            return resolve_scene(spec, field=field, volume_source=source,
+                                 **{k: v for k, v in changes.items() if k in ("camera", "transfer_function")})
+        return dataclasses.replace(self, spec=spec, **changes)
 
     def with_renderer(self, **changes) -> "Scene":
-        return dataclasses.replace(self, renderer=dataclasses.replace(self.renderer, **changes))
+        """The scene with renderer settings changed, checked as a scene file's would be.  A sample
+        distance given here replaces one in voxels and a tolerance (and the other way round)."""
+        for key, others in _EXCLUSIVE.items():
+            if key[0] == "renderer" and key[1] in changes:
+                for other in others:
+                    if hasattr(self.renderer, other):
+                        changes.setdefault(other, None)
+        requested = dataclasses.replace(self.spec.renderer if self.spec else self.renderer, **changes)
+        resolved = resolve_renderer(dataclasses.replace(self.renderer, **changes), self.field)
+        spec = dataclasses.replace(self.spec or SceneSpec(), renderer=requested)
+        return dataclasses.replace(self, renderer=resolved, spec=spec)
 
     def to_dict(self, relative_to: Path | None = None) -> dict:
         """The effective scene as a TOML-ready dict (paths relative to ``relative_to`` if given)."""
         source = self.volume_source
+        if not source.path and not source.demo:
+            raise SceneError("this scene's data is in memory, so a scene file cannot name it; save it "
+                             "(e.g. numpy.save('data.npy', array)) and load the scene from volume.path")
         if source.path and relative_to is not None:
             try:
                 source = dataclasses.replace(source, path=os.path.relpath(source.path, relative_to))
@@ -233,7 +272,7 @@ class Scene:
                                   "opacity_model": tf.opacity_model},
             "camera": self.camera.to_dict(),
             "image": spec_to_dict(self.image),
-            "renderer": spec_to_dict(self.renderer),
+            "renderer": effective_renderer_dict(self.renderer),
         }
 
     def to_toml(self, relative_to: Path | None = None) -> str:
@@ -241,28 +280,41 @@ class Scene:
                      header="dvr-gl effective scene: every value explicit; `dvr render` of this file\n"
                             "repeats the image it was saved with.")
 
+    def __repr__(self) -> str:
+        r = self.renderer
+        tf = self.transfer_function
+        lo, hi = tf.domain
+        return (f"Scene({self.field!r}, transfer_function=<{len(tf.points)} points, {lo:g}..{hi:g}>, "
+                f"camera={self.camera!r}, image={self.image.width}x{self.image.height}, renderer={r.name!r})")
 
-def resolve_scene(spec: SceneSpec, base_dir: Path | str = ".") -> Scene:
-    """Load the volume and turn presets and defaults into explicit values."""
+
+def effective_renderer_dict(renderer) -> dict:
+    """The settings the scene's renderer reads, every one explicit, and any other setting that differs
+    from its default (so that nothing the user gave is lost)."""
+    from .renderers import registry
+
+    full = spec_to_dict(renderer)
+    declared = set(registry.plugin(renderer.name).setting_names)
+    defaults = spec_to_dict(renderer_spec_class()())
+    return {k: v for k, v in full.items() if k == "name" or k in declared or defaults.get(k) != v}
+
+
+def resolve_scene(spec: SceneSpec, base_dir: Path | str = ".", field=None, volume_source: VolumeSpec | None = None,
+                  camera: Camera | None = None, transfer_function: TransferFunction | None = None) -> Scene:
+    """Load the field (unless given) and turn presets and defaults into explicit values; then the
+    scene's renderer resolves what is its own (the ray caster: a tolerance)."""
+    from .renderers import registry
+
     base_dir = Path(base_dir)
     _check_image(spec.image)
-    volume, source = _resolve_volume(spec.volume, base_dir)
-    tf = _resolve_transfer_function(spec.transfer_function, volume, spec.volume.demo)
-    camera = _resolve_camera(spec.camera, volume, spec.image)
-    renderer = resolve_renderer(spec.renderer, volume)
-    scene = Scene(volume, tf, camera, spec.image, renderer, source)
-    return _meet_tolerance(scene, spec.renderer) if renderer.tolerance is not None else scene
-
-
-def _meet_tolerance(scene: Scene, spec: RendererSpec) -> Scene:
-    """Replace ``renderer.tolerance`` by the settings the error model chooses for it (so the
-    effective scene holds those settings, and rendering it again repeats the image)."""
-    from . import tolerance
-
-    if spec.sample_distance is not None or spec.sample_distance_voxels is not None:
-        raise SceneError("renderer: give tolerance or a sample distance, not both (the tolerance chooses it)")
-    chosen, choice = tolerance.apply(scene.with_renderer(tolerance=None), spec.tolerance)
-    return chosen.replace(tolerance_choice=choice)
+    if field is None:
+        field, volume_source = _resolve_volume(spec.volume, base_dir)
+    tf = transfer_function or _resolve_transfer_function(spec.transfer_function, field, spec.volume.demo)
+    camera = camera or _resolve_camera(spec.camera, field, spec.image)
+    renderer = resolve_renderer(spec.renderer, field)
+    scene = Scene(field, tf, camera, spec.image, renderer, volume_source or VolumeSpec(), spec)
+    hook = registry.plugin(renderer.name).resolve
+    return registry._load(hook)(scene) if hook is not None else scene
 
 
 def load_scene(path: Path | str | None = None, overrides: dict | None = None, base: dict | None = None) -> Scene:

@@ -2,7 +2,11 @@
 
 Every table is a dataclass; its fields are the valid keys.  Parsing checks
 names and types and names the offending key; unknown keys list the valid
-ones.  ``choices`` in a field's metadata restrict string values.
+ones.  ``choices`` in a field's metadata restrict string values.  The
+``[renderer]`` table is the union of what the registered renderers declare
+(:mod:`dvr_gl.settings`, :mod:`dvr_gl.renderers.registry`);
+``docs/scene-files.md`` is generated from these declarations
+(:mod:`dvr_gl.scene_reference`).
 """
 
 from __future__ import annotations
@@ -15,104 +19,58 @@ from dataclasses import dataclass, field
 from typing import Optional, Union
 
 from .errors import SceneError
+from .model import choices, doc
 
 Vec3 = tuple[float, float, float]
 Vec4 = tuple[float, float, float, float]
 
 
-def choices(*values, default=dataclasses.MISSING, doc: str = ""):
-    return field(default=default, metadata={"choices": values, "doc": doc})
+class RendererTable:
+    """Marks the ``[renderer]`` table: its dataclass is built from the renderer registry (the union of
+    the settings every registered renderer declares: :func:`dvr_gl.renderers.registry.renderer_spec_class`)."""
 
 
-COMPOSITING_MODES = ("emission_absorption", "isosurface", "average", "mip", "minip")
-FILTERS = ("nearest", "linear", "cubic_bspline", "catmull_rom")
-CLASSIFICATIONS = ("post", "pre", "preintegrated")
-ORDERS = ("front_to_back", "back_to_front")
+def renderer_spec_class():
+    from .renderers.registry import renderer_spec_class as build
+
+    return build()
 
 
-@dataclass
-class LightSpec:
-    """A light: ``headlight`` (from the eye, along each ray) or ``directional``."""
-
-    type: str = choices("headlight", "directional", default="headlight")
-    direction: Vec3 = (0.0, 0.0, -1.0)   # directional: the direction the light travels (world)
-    color: Vec3 = (1.0, 1.0, 1.0)        # linear RGB intensity
-
-
-@dataclass
-class ShadingSpec:
-    """Blinn-Phong shading from the gradient (emission-absorption and isosurface)."""
-
-    enabled: bool = False
-    ambient: float = 0.2
-    diffuse: float = 0.7
-    specular: float = 0.3
-    shininess: float = 32.0
-    two_sided: bool = True
-    lights: list[LightSpec] = field(default_factory=lambda: [LightSpec()])
-
-
-@dataclass
-class RendererSpec:
-    """The renderer and its settings (each renderer uses those that apply to it)."""
-
-    name: str = "raycast"
-    sample_distance: Optional[float] = None           # world units
-    sample_distance_voxels: Optional[float] = None    # in voxels of the smallest spacing (default 0.5)
-    tolerance: Optional[float] = None                 # RMS error to meet: chooses sample distance,
-                                                      # classification and early termination (raycast)
-    compositing: str = choices(*COMPOSITING_MODES, default="emission_absorption")
-    order: str = choices(*ORDERS, default="front_to_back")
-    classification: str = choices(*CLASSIFICATIONS, default="post")
-    associated_colors: bool = True                    # pre-classification: interpolate sigma*c, not c
-    preintegration: str = choices("exact", "fast", default="exact")  # pre-integrated table: exact or Engel's
-    preintegration_size: int = 256                    # pre-integrated table: entries per axis
-    filter: str = choices(*FILTERS, default="linear")
-    filtering: str = choices("hardware", "shader", default="hardware")  # GPU: texture unit or float weights
-    gradient: str = choices("central_differences", "texture", default="central_differences")
-    gradient_opacity: bool = False                    # scale extinction by min(1, |gradient| / reference)
-    gradient_opacity_reference: Optional[float] = None  # default: 0.1 value range per smallest spacing
-    iso_value: Optional[float] = None                 # isosurface; default: middle of the value range
-    iso_refinement: int = 8                           # bisection steps refining the first hit
-    jitter: bool = False
-    jitter_seed: int = 0
-    ert_threshold: float = 0.99                       # early ray termination at accumulated opacity
-    lut_size: int = 4096                              # transfer-function table entries
-    converged_tolerance: float = 1e-4                 # reference-converged: error budget per pixel
-    texture_budget_mb: float = 2048.0                 # GPU: largest texture memory to use (MB)
-    acceleration: bool = True                         # GPU: jump empty and constant blocks (same image)
-    block_size: int = 8                               # voxels per block edge (4, 8, 16 or 32)
-    homogeneity_tolerance: float = 0.0                # > 0: also jump nearly constant blocks (approximate)
-    opacity_threshold: float = 0.0                    # shearwarp: voxels at most this opaque are skipped
-    shading: ShadingSpec = field(default_factory=ShadingSpec)
+def default_renderer_spec():
+    return renderer_spec_class()()
 
 
 @dataclass
 class VolumeSpec:
     """Where the volume comes from: a file (``path``) or a built-in phantom (``demo``)."""
 
-    path: Optional[str] = None
-    demo: Optional[str] = None
-    size: int = 64                          # demo volumes: samples per axis
-    format: str = choices("auto", "raw", "nrrd", "nifti", "metaimage", "vtk", "npy", "tiff", default="auto")
-    dims: Optional[tuple[int, int, int]] = None  # raw: (nx, ny, nz)
-    dtype: Optional[str] = None                  # raw: uint8, int16, uint16, float32, ...
-    endian: str = choices("little", "big", default="little")
-    header_bytes: int = 0
-    spacing: Optional[Vec3] = None          # override the file's spacing
-    origin: Optional[Vec3] = None           # override the file's origin
-    nan_value: Optional[float] = None       # replace NaN/Inf by this value (else they are an error)
+    path: Optional[str] = doc(None, "a volume file (relative to the scene file); or give `demo`")
+    demo: Optional[str] = doc(None, "a built-in phantom: `shepp-logan`, `marschner-lobb`")
+    size: int = doc(64, "samples per axis of a demo phantom")
+    format: str = choices("auto", "raw", "nrrd", "nifti", "metaimage", "vtk", "npy", "tiff", default="auto",
+                          doc="the reader; `auto` goes by the suffix")
+    dims: Optional[tuple[int, int, int]] = doc(None, "raw files: `[nx, ny, nz]`")
+    dtype: Optional[str] = doc(None, "raw files: `uint8`, `int8`, `uint16`, `int16`, `uint32`, `int32`, "
+                                     "`float32`, `float64`")
+    endian: str = choices("little", "big", default="little", doc="raw files: byte order")
+    header_bytes: int = doc(0, "raw files: bytes to skip before the data")
+    spacing: Optional[Vec3] = doc(None, "override the file's spacing (world units, x first)")
+    origin: Optional[Vec3] = doc(None, "override the file's origin (world units, x first)")
+    nan_value: Optional[float] = doc(None, "replace NaN/Inf by this value; without it they are an error")
 
 
 @dataclass
 class TransferFunctionSpec:
     """A preset by name, or explicit ``points = [[value, r, g, b, opacity], ...]``."""
 
-    preset: Optional[str] = None
-    points: Optional[list[list[float]]] = None
-    unit_distance: float = 1.0
-    opacity_model: str = choices("alpha", "extinction", default="alpha")
-    rescale_intercept: float = 0.0          # CT presets: HU = data + rescale_intercept
+    preset: Optional[str] = doc(None, "`grayscale`, `viridis`, `ct-bone`, `ct-skin`, `shepp-logan` (default "
+                                      "`grayscale`; `shepp-logan` for that demo)")
+    points: Optional[list[list[float]]] = doc(None, "`[[value, r, g, b, opacity], ...]`, values strictly "
+                                                    "increasing, data units; or give `preset`")
+    unit_distance: float = doc(1.0, "world length that `alpha` refers to")
+    opacity_model: str = choices("alpha", "extinction", default="alpha",
+                                 doc="what the 5th column means: `alpha` per `unit_distance`, or `extinction` sigma")
+    rescale_intercept: float = doc(0.0, "CT presets: HU = data + intercept")
 
 
 @dataclass
@@ -122,23 +80,25 @@ class CameraSpec:
     With both, the orbit keys given replace the matching parameters of the eye's orbit.
     """
 
-    projection: str = choices("perspective", "orthographic", default="perspective")
-    fov: float = 30.0
-    view_height: Optional[float] = None
-    eye: Optional[Vec3] = None
-    target: Optional[Vec3] = None
-    up: Vec3 = (0.0, 0.0, 1.0)
-    azimuth: Optional[float] = None
-    elevation: Optional[float] = None
-    distance: Optional[float] = None
-    near: float = 0.0
+    projection: str = choices("perspective", "orthographic", default="perspective", doc="the projection")
+    fov: float = doc(30.0, "vertical field of view, degrees (perspective)")
+    view_height: Optional[float] = doc(None, "view height, world units (orthographic; default: frames the data)")
+    eye: Optional[Vec3] = doc(None, "look-at: the eye (world)")
+    target: Optional[Vec3] = doc(None, "what the camera looks at (default: the box centre)")
+    up: Vec3 = doc((0.0, 0.0, 1.0), "the up direction")
+    azimuth: Optional[float] = doc(None, "orbit about the target, degrees (default 30); with `eye`, replaces "
+                                         "the eye's")
+    elevation: Optional[float] = doc(None, "orbit elevation, degrees (default 20)")
+    distance: Optional[float] = doc(None, "eye to target, world units (default: frames the data)")
+    near: float = doc(0.0, "near plane distance from the eye; rays start there or at the data")
 
 
 @dataclass
 class ImageSpec:
-    width: int = 256
-    height: int = 256
-    background: Vec4 = (0.0, 0.0, 0.0, 1.0)   # linear RGBA, not premultiplied
+    width: int = doc(256, "pixels")
+    height: int = doc(256, "pixels")
+    background: Vec4 = doc((0.0, 0.0, 0.0, 1.0), "linear RGBA, not premultiplied; composited once, after "
+                                                  "rendering")
 
 
 @dataclass
@@ -147,7 +107,7 @@ class SceneSpec:
     transfer_function: TransferFunctionSpec = field(default_factory=TransferFunctionSpec)
     camera: CameraSpec = field(default_factory=CameraSpec)
     image: ImageSpec = field(default_factory=ImageSpec)
-    renderer: RendererSpec = field(default_factory=RendererSpec)
+    renderer: RendererTable = field(default_factory=default_renderer_spec)
 
 
 # --- parsing ------------------------------------------------------------------------------------
@@ -160,7 +120,7 @@ def _type_name(tp) -> str:
         return f"a list of {len(typing.get_args(tp))} numbers"
     if origin is list:
         return "a list"
-    if dataclasses.is_dataclass(tp):
+    if dataclasses.is_dataclass(tp) or tp is RendererTable:
         return "a table"
     return {float: "a number", int: "an integer", bool: "true or false", str: "a string"}.get(tp, str(tp))
 
@@ -192,6 +152,8 @@ def _convert(value, tp, where: str):
         if not isinstance(value, (list, tuple)):
             raise bad
         return [_convert(v, args[0], f"{where}[{i}]") for i, v in enumerate(value)]
+    if tp is RendererTable:
+        tp = renderer_spec_class()
     if dataclasses.is_dataclass(tp):
         if not isinstance(value, dict):
             raise bad

@@ -25,7 +25,7 @@ the image does): ``E(d) = kappa * A * (d / d_nyquist) ** p``, with ``kappa`` and
 fitted to measured errors (``dvr bench tradeoff`` against the converged reference,
 on the calibration scenes listed in :data:`CALIBRATION`) and ``kappa`` raised to
 the upper envelope of those measurements, so the prediction errs on the safe
-side.  The README states how well it predicts on the shared datasets.
+side.  docs/tolerance.md states how well it predicts on the shared datasets.
 
 Early ray termination is set so that what it drops is below ``E / 4``.
 """
@@ -37,7 +37,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import SceneError
-from .reference.reconstruction import SampledField
 
 LINES = 192
 OVERSAMPLING = 8          # samples per voxel along the lines
@@ -66,15 +65,15 @@ class ErrorLaw:
         return (tolerance / (self.kappa * amplitude)) ** (1.0 / self.power)
 
 
-# Fitted by benchmarks/tolerance_calibration.py (see the README, "Render to a tolerance").
+# Fitted by benchmarks/tolerance_calibration.py (see docs/tolerance.md).
 LAWS = {"post": ErrorLaw(kappa=0.101, power=2.07), "preintegrated": ErrorLaw(kappa=0.0545, power=1.29)}
 
 
-def random_lines(volume, count: int, seed: int = SEED):
-    """``count`` lines through the box: random directions, through uniformly random points,
+def random_lines(field, count: int, seed: int = SEED):
+    """``count`` lines through the field's box: random directions, through uniformly random points,
     each as (start, unit direction, length) spanning the box's diagonal around its point."""
     rng = np.random.default_rng(seed)
-    lo, hi = volume.box
+    lo, hi = field.bounds
     centre = lo + rng.random((count, 3)) * (hi - lo)
     direction = rng.normal(size=(count, 3))
     direction /= np.linalg.norm(direction, axis=1, keepdims=True)
@@ -86,15 +85,14 @@ def line_samples(scene, count: int = LINES, oversampling: int = OVERSAMPLING):
     """The data and the composed signal along random lines: ``(s, signal, inside, step)`` with
     ``s`` (lines, n), ``signal`` (lines, n, 4) = (sigma, sigma r, sigma g, sigma b) in per world
     unit (zero outside the box), ``inside`` the samples in the box, ``step`` in world units."""
-    volume, tf = scene.volume, scene.transfer_function
-    start, direction, length = random_lines(volume, count)
-    step = min(volume.spacing) / oversampling
+    field, tf = scene.field, scene.transfer_function
+    start, direction, length = random_lines(field, count)
+    step = field.sample_spacing / oversampling
     t = np.arange(int(length / step)) * step
     points = start[:, None, :] + direction[:, None, :] * t[None, :, None]
-    lo, hi = volume.box
+    lo, hi = field.bounds
     inside = np.all((points >= lo) & (points <= hi), axis=-1)
-    field = SampledField.of_volume(volume, scene.renderer.filter)
-    s = field.sample(points.reshape(-1, 3)).reshape(inside.shape)
+    s = field.reconstruct(scene.renderer.filter).sample(points.reshape(-1, 3)).reshape(inside.shape)
     sigma = np.where(inside, tf.extinction(s.ravel()).reshape(s.shape), 0.0)
     colour = tf.color(s.ravel()).reshape(*s.shape, 3)
     return s, np.concatenate([sigma[..., None], sigma[..., None] * colour], axis=-1), inside, step
@@ -133,7 +131,7 @@ class SamplingModel:
 def sampling_model(scene) -> SamplingModel:
     """Measure the bandwidths of the scene's signals (a fraction of a second for 64^3)."""
     s, composed, inside, step = line_samples(scene)
-    voxel = min(scene.volume.spacing)
+    voxel = scene.field.sample_spacing
     visible = composed[..., 0] > 0
     nu_post = bandwidth(composed, step)
     # Pre-integration: the data, on the visible parts (constant elsewhere, so it adds nothing)
@@ -201,7 +199,7 @@ def choose(scene, tolerance: float, model: SamplingModel | None = None) -> Choic
     (``model``: the scene's :func:`sampling_model`, if already measured)."""
     check_tolerance(scene, tolerance)
     model = model or sampling_model(scene)
-    voxel = min(scene.volume.spacing)
+    voxel = scene.field.sample_spacing
     ert = 1.0 - tolerance / 4.0  # what termination drops is at most 1 - threshold
     options = []
     for classification, cost in (("post", 1.0), ("preintegrated", PREINTEGRATED_COST)):
@@ -218,3 +216,17 @@ def apply(scene, tolerance: float, model: SamplingModel | None = None):
     choice = choose(scene, tolerance, model)
     return scene.with_renderer(**choice.renderer_changes()), choice
 
+
+
+def resolve(scene):
+    """The ray caster's resolution hook (its plugin's ``resolve``): ``renderer.tolerance`` replaced by the
+    settings the error model chooses for it, so that the effective scene holds those settings and
+    rendering it again repeats the image."""
+    requested = scene.spec.renderer if scene.spec is not None else scene.renderer
+    tolerance = getattr(requested, "tolerance", None)
+    if tolerance is None:
+        return scene
+    if requested.sample_distance is not None or requested.sample_distance_voxels is not None:
+        raise SceneError("renderer: give tolerance or a sample distance, not both (the tolerance chooses it)")
+    chosen, choice = apply(scene.with_renderer(tolerance=None), tolerance)
+    return chosen.replace(tolerance_choice=choice)

@@ -40,7 +40,7 @@ def segment_opacity(sigma, length):
     return -np.expm1(-np.asarray(sigma) * np.asarray(length))
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)
 class TransferFunction:
     """Piecewise-linear transfer function (see module doc).
 
@@ -135,6 +135,11 @@ class TransferFunction:
         colour, sigma = self.evaluate(np.asarray(data, dtype=np.float64))
         first = colour * sigma[..., None] if associated else colour
         return np.concatenate([first, sigma[..., None]], axis=-1)
+
+    def __repr__(self) -> str:
+        lo, hi = self.domain
+        return (f"TransferFunction({len(self.points)} points over {lo:g}..{hi:g}, {self.opacity_model} "
+                f"per {self.unit_distance:g} unit{'s' * (self.unit_distance != 1)})")
 
     def to_dict(self) -> dict:
         return {"points": self.points.tolist(), "unit_distance": self.unit_distance,

@@ -6,7 +6,7 @@ import numpy as np
 
 from dvr_gl.apps.cli import main
 from dvr_gl.bench import format_table
-from dvr_gl.renderers.raycast import RayCastRenderer
+from dvr_gl.renderers.raycast.renderer import RayCastRenderer
 
 from conftest import small_scene
 

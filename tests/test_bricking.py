@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from dvr_gl.bricking import plan_bricks, visibility_order
+from dvr_gl.renderers.grid.bricking import plan_bricks, visibility_order
 from dvr_gl.camera import Camera
-from dvr_gl.renderers.raycast import RayCastRenderer
+from dvr_gl.renderers.raycast.renderer import RayCastRenderer
 
 from conftest import small_scene
 
@@ -88,7 +88,7 @@ def test_bricked_equals_unbricked(gpu, extra, filter_kind):
 
 
 def test_ghosts_grow_with_what_a_brick_reads_beyond_its_core():
-    from dvr_gl.bricking import ghost_width
+    from dvr_gl.renderers.grid.bricking import ghost_width
 
     assert ghost_width("linear", False) == 1 and ghost_width("catmull_rom", True) == 3
     assert ghost_width("linear", True, reach=0.25) == 3 and ghost_width("cubic_bspline", False, reach=3.5) == 6

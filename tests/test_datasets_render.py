@@ -8,8 +8,8 @@ import pytest
 
 from dvr_gl.reference.discrete import DiscreteReference
 from dvr_gl.renderers import create_renderer
-from dvr_gl.renderers.shearwarp import reference as shearwarp_reference
-from dvr_gl.renderers.slicing import reference as slicer_reference
+from dvr_gl.renderers.shearwarp.renderer import reference as shearwarp_reference
+from dvr_gl.renderers.grid.slicing import reference as slicer_reference
 from dvr_gl.scene import load_scene
 
 from conftest import assert_close

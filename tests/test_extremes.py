@@ -1,9 +1,10 @@
-"""Numerical extremes across every GPU and host renderer: closed forms or each renderer's
-same-discretization reference, and never a NaN or an infinity.
+"""Numerical extremes across every registered renderer that has an oracle (its plugin's
+same-discretization reference; the CPU references are the judges and are tested against closed
+forms in test_reference_closed_forms.py): closed forms or the oracle, and never a NaN or an infinity.
 
-Adding a renderer here is one line in SAME_DISCRETIZATION.  Tolerances: against the references,
-the float32 assertion of the other renderer tests (conftest.assert_close); against closed forms,
-as stated per test from the measured error.
+The renderers come from the registry: a new renderer is tested here the day it registers.
+Tolerances: against the oracles, the float32 assertion of the other renderer tests
+(conftest.assert_close); against closed forms, as stated per test from the measured error.
 """
 
 import math
@@ -12,23 +13,22 @@ import numpy as np
 import pytest
 
 from dvr_gl.errors import SceneError
-from dvr_gl.reference.discrete import DiscreteReference
-from dvr_gl.renderers import create_renderer
-from dvr_gl.renderers import shearwarp, slicing
+from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.rays import intersect_box
 
 from conftest import array_scene, assert_close
 
-SAME_DISCRETIZATION = {
-    "raycast": lambda scene: DiscreteReference(scene).render_float64(),
-    "slicing3d": lambda scene: slicing.reference(scene, "slicing3d").render_float64(),
-    "slicing2d": lambda scene: slicing.reference(scene, "slicing2d").render_float64(),
-    "shearwarp": shearwarp.reference,
-}
+WITH_ORACLE = [name for name, p in registry.plugins().items() if p.oracle is not None]
+
+
+def oracle(name, scene):
+    return registry.plugin(name).oracle_image(scene)
+
+
 NO_ERT = {"renderer.ert_threshold": 1.0}
 
 
-@pytest.fixture(scope="module", params=list(SAME_DISCRETIZATION))
+@pytest.fixture(scope="module", params=WITH_ORACLE)
 def renderer(request):
     r = create_renderer(request.param)
     yield r
@@ -38,7 +38,7 @@ def renderer(request):
 def check_against_reference(renderer, scene):
     image = renderer.render(scene)
     assert np.all(np.isfinite(image)) and image.min() >= 0.0 and image[..., 3].max() <= 1.0
-    reference = SAME_DISCRETIZATION[renderer.name](scene)
+    reference = oracle(renderer.name, scene)
     assert np.all(np.isfinite(reference))
     assert_close(image, reference)
     return image, reference
@@ -72,7 +72,7 @@ def test_transfer_function_narrower_than_one_data_step(tmp_path, renderer):
     scene = array_scene(tmp_path, data, {"transfer_function.points": tf, "image.width": 12, "image.height": 12,
                                          "renderer.filtering": "shader", **NO_ERT})
     image = renderer.render(scene)
-    reference = SAME_DISCRETIZATION[renderer.name](scene)
+    reference = oracle(renderer.name, scene)
     assert reference[..., 3].max() > 0.3 and np.all(np.isfinite(image))
     error = np.abs(image - reference)
     assert error.max() <= 1e-4 and error.mean() <= 5e-6
@@ -125,7 +125,7 @@ def test_long_rays_in_passes_equal_one_pass(monkeypatch, extra):
     continue each ray exactly: forced here to windows of 20 segments, against one pass.  Measured
     identical (the state passes between them in float32 textures, losslessly); asserted 2e-6,
     the bound of bricked passes, which share the mechanism."""
-    from dvr_gl.renderers import raycast
+    from dvr_gl.renderers.raycast import renderer as raycast
     from conftest import small_scene
 
     scene = small_scene({**NO_ERT, "renderer.acceleration": False, **extra})
@@ -184,7 +184,7 @@ def test_special_views(tmp_path, renderer, camera):
         # draw nothing for the rays that run in the face, which the reference (a closed box) samples:
         # by design, and confined to that row
         image = renderer.render(scene)
-        reference = SAME_DISCRETIZATION[renderer.name](scene)
+        reference = oracle(renderer.name, scene)
         assert np.all(image[5] == 0.0) and reference[5, :, 3].max() > 0.5
         assert_close(np.delete(image, 5, axis=0), np.delete(reference, 5, axis=0))
         return
@@ -223,7 +223,7 @@ def test_camera_inside_the_volume(tmp_path, renderer):
                          "image.width": 12, "image.height": 12, "camera.eye": [0.2, 0.1, 0.3],
                          "camera.target": [5.0, 3.0, 1.0], "camera.fov": 70.0, **NO_ERT},
                         origin=(-3.5, -3.5, -3.5))
-    if renderer.name == "shearwarp":
+    if registry.refusal(scene, renderer.name):  # shear-warp: one line naming the reason, before rendering
         with pytest.raises(SceneError, match="inside"):
             renderer.render(scene)
         return

@@ -29,3 +29,16 @@ def test_regular_install_finds_shaders(tmp_path):
     proc = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True, cwd=tmp_path,
                           env={"PYTHONPATH": str(target), "PATH": "/usr/bin:/bin"})
     assert proc.returncode == 0, proc.stderr
+
+
+def test_every_package_is_listed_in_pyproject():
+    """setuptools cannot discover packages here (apps/ and shaders/ install under dvr_gl), so
+    pyproject.toml lists them: a package under dvr_gl/ missing from the list would be absent from a
+    regular install.  (Renderers in other packages need no entry here: tests/test_plugins.py.)"""
+    import tomllib
+
+    listed = set(tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    on_disk = {".".join(p.parent.relative_to(REPO).parts) for p in (REPO / "dvr_gl").rglob("__init__.py")}
+    missing = sorted(on_disk - listed)
+    assert not missing, f"add {missing} to [tool.setuptools] packages in pyproject.toml"
+    assert {"dvr_gl.apps", "dvr_gl.shaders"} <= listed

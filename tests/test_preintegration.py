@@ -145,7 +145,7 @@ def test_table_is_rebuilt_only_when_the_transfer_function_or_length_changes(monk
     """A new camera reuses the table; a new transfer function or sample distance rebuilds it."""
     import dataclasses
 
-    import dvr_gl.renderers.gl_base as gl_base
+    import dvr_gl.renderers.grid.gl_base as gl_base
     from dvr_gl.renderers import create_renderer
 
     from conftest import small_scene

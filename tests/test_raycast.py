@@ -25,7 +25,7 @@ import pytest
 from dvr_gl.errors import DvrError
 from dvr_gl.phantoms import shepp_logan
 from dvr_gl.reference.discrete import DiscreteReference
-from dvr_gl.renderers.raycast import RayCastRenderer, shader_features
+from dvr_gl.renderers.raycast.renderer import RayCastRenderer, shader_features
 from dvr_gl.scene import load_scene
 
 from conftest import array_scene, assert_close, small_scene
@@ -288,11 +288,11 @@ def test_budget_too_small_even_for_bricks(gpu):
     with pytest.raises(DvrError, match="cannot hold even a 4\\^3 brick of .* \\(1 ghost voxel a side\\)"):
         gpu.render(small_scene({"renderer.texture_budget_mb": 1, "volume.size": 48,
                                 "renderer.classification": "pre", "renderer.gradient": "texture",
-                                "renderer.shading.enabled": True}).with_renderer(texture_budget_mb=0))
+                                "renderer.shading.enabled": True}).with_renderer(texture_budget_mb=1e-6))
 
 
 def test_volume_over_the_gl_size_limit():
-    from dvr_gl.gl.textures import check_fits
+    from dvr_gl.renderers.grid.textures import check_fits
 
     class TinyGL:
         info = {"GL_MAX_3D_TEXTURE_SIZE": 16}

@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from dvr_gl.reference.analytic import SphereField
+from dvr_gl.fields import SphereField
 from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.reference.discrete import DiscreteReference
 
@@ -58,9 +58,10 @@ def assert_relative(got, expected, rel=REL):
     assert nonzero.sum() > 10  # the view saw the volume
 
 
-def render_both(scene, field=None):
-    images = [DiscreteReference(scene).render_float64()] if field is None else []
-    images.append(ConvergedReference(scene, scalar_field=field).render_float64())
+def render_both(scene):
+    """Both references, or only the converged one for an analytic field (no samples to discretize)."""
+    images = [DiscreteReference(scene).render_float64()] if scene.field.kind == "grid" else []
+    images.append(ConvergedReference(scene).render_float64())
     return images
 
 
@@ -125,15 +126,17 @@ def test_sphere_of_constant_material(tmp_path, view):
     overrides = {**COMMON, **views(centre, 7.0)[view],
                  "transfer_function.points": [[0.0, *colour, 0.0], [1.0, *colour, sigma]],
                  "transfer_function.opacity_model": "extinction"}
-    scene = array_scene(tmp_path, data, overrides)
-    field = SphereField(centre, radius)
+    box = array_scene(tmp_path, data, overrides)
+    # the analytic sphere as the scene's field (rendered in the same box, seen by the same camera)
+    scene = box.replace(field=SphereField(centre, radius, bounds=box.field.bounds), camera=box.camera)
+    assert scene.field.kind == "analytic"
     o, d = rays_of(scene)
     lengths = []
     for oi, di in zip(o, d):
         b = np.linalg.norm(np.cross(centre - oi, di))  # distance from the centre to the ray's line
         lengths.append(2 * math.sqrt(radius ** 2 - b ** 2) if b < radius else 0.0)
     alpha = -np.expm1(-sigma * np.array(lengths)).reshape(20, 24)
-    (image,) = render_both(scene, field)
+    (image,) = render_both(scene)
     assert_relative(image[..., 3], alpha)
     assert_relative(image[..., 0], colour[0] * alpha)
 

@@ -24,9 +24,9 @@ from dvr_gl.reference import plans
 from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.reference.discrete import DiscreteReference
 from dvr_gl.renderers import create_renderer
-from dvr_gl.renderers.shearwarp import ShearWarpRenderer, composite, intermediate_reference, warp_reference
-from dvr_gl.run_length import RunLengthVolume, SliceClassifier, encode_scanlines, expand_runs
-from dvr_gl.shear_warp import factorize
+from dvr_gl.renderers.shearwarp.renderer import ShearWarpRenderer, composite, intermediate_reference, warp_reference
+from dvr_gl.renderers.shearwarp.run_length import RunLengthVolume, SliceClassifier, encode_scanlines, expand_runs
+from dvr_gl.renderers.shearwarp.factorization import factorize
 
 from conftest import array_scene, small_scene
 
@@ -321,11 +321,11 @@ def test_shearwarp_against_the_converged_reference_is_close_to_2d_stacks():
 # --- what it refuses ---
 
 @pytest.mark.parametrize("extra, message", [
-    ({"renderer.compositing": "mip"}, "emission-absorption only"),
-    ({"renderer.classification": "preintegrated"}, "pre-integrated"),
-    ({"renderer.filter": "cubic_bspline"}, "bilinearly"),
-    ({"renderer.shading.enabled": True}, "shade"),
-    ({"renderer.jitter": True}, "jitter"),
+    ({"renderer.compositing": "mip"}, "does not support renderer.compositing = 'mip'"),
+    ({"renderer.classification": "preintegrated"}, "does not support renderer.classification = 'preintegrated'"),
+    ({"renderer.filter": "cubic_bspline"}, "does not support renderer.filter = 'cubic_bspline'"),
+    ({"renderer.shading.enabled": True}, "does not support renderer.shading"),
+    ({"renderer.jitter": True}, "does not support renderer.jitter"),
     ({"camera.eye": [2.0, -3.0, 1.0], "camera.target": [0.0, 10.0, 0.0]}, "eye is inside the volume"),
 ], ids=lambda v: v if isinstance(v, str) else None)
 def test_refuses_what_it_cannot_render(shearwarp, extra, message):

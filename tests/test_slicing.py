@@ -13,7 +13,7 @@ import pytest
 from dvr_gl.errors import SceneError
 from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.renderers import create_renderer
-from dvr_gl.renderers.slicing import reference as slicer_reference
+from dvr_gl.renderers.grid.slicing import reference as slicer_reference
 
 from conftest import array_scene, assert_close, small_scene
 
@@ -66,8 +66,10 @@ def test_slicing2d_refuses_what_stacks_cannot_do(extra):
         slicer.render(small_scene(extra))
 
 
-@pytest.mark.parametrize("extra, message", [({"renderer.compositing": "mip"}, "emission-absorption only"),
-                                            ({"renderer.jitter": True}, "jitter applies to raycast only")])
+@pytest.mark.parametrize("extra, message", [({"renderer.compositing": "mip"},
+                                             "does not support renderer.compositing = 'mip' .it takes emission_absorption"),
+                                            ({"renderer.jitter": True}, "does not support renderer.jitter; turn it off or "
+                                                                        "use raycast, reference or reference-converged")])
 def test_slicers_refuse_other_compositing_and_jitter(slicer, extra, message):
     with pytest.raises(SceneError, match=message):
         slicer.render(small_scene(extra))

@@ -90,7 +90,8 @@ def test_bad_tolerances_are_one_line_errors(tmp_path, capsys):
     out = tmp_path / "x.png"
     for extra, message in ((["--tolerance", "1e-6", "--no-shading"], "outside the range"),
                            (["--tolerance", "1e-2"], "without shading"),
-                           (["--tolerance", "1e-2", "--no-shading", "--renderer", "slicing3d"], "not modelled"),
+                           (["--tolerance", "1e-2", "--no-shading", "--renderer", "slicing3d"],
+                            "slicing3d does not support renderer.tolerance"),
                            (["--tolerance", "1e-2", "--no-shading", "--compositing", "mip"], "emission_absorption")):
         assert main(["render", "--demo", "shepp-logan", "--set", "volume.size=16", *extra, "-o", str(out)]) == 1
         err = capsys.readouterr().err

@@ -15,7 +15,7 @@ from dvr_gl.scene import load_scene
 from dvr_gl.transfer_function import TransferFunction
 from dvr_gl.viewer import navigation, settings
 from dvr_gl.viewer.hud import FrameStats, hud_lines, nominal_samples
-from dvr_gl.viewer.keys import KEYS, help_lines
+from dvr_gl.viewer.keys import help_lines, key_table
 from dvr_gl.viewer.refinement import FIRST_GUESS, FULL, LADDER, FramePlan, Level, RefinementController
 from dvr_gl.viewer.screenshots import next_paths, write_screenshot
 from dvr_gl.viewer.tf_editor import CanvasMapping, TransferFunctionEditor, load_points, nice_opacity_max
@@ -250,12 +250,13 @@ def test_hud_lines_and_nominal_samples():
 
 
 def test_every_key_has_an_action_and_help():
-    names = {k for k, _, _ in KEYS}
+    """Keys 1 to 6 choose the registered renderers, from the registry."""
+    table = key_table()
+    names = {k for k, _, _ in table}
     assert {"S", "R", "P", "F1", "1"} <= names
-    from dvr_gl.renderers.base import RENDERERS
-    for _, action, _ in KEYS:
-        if action.startswith("renderer_"):
-            assert action.removeprefix("renderer_") in RENDERERS
+    from dvr_gl.renderers import registry
+    chosen = [action.removeprefix("renderer_") for _, action, _ in table if action.startswith("renderer_")]
+    assert chosen == registry.names()[:9]
     assert any("screenshot" in line for line in help_lines())
 
 

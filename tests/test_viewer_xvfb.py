@@ -10,6 +10,7 @@ why, where Xvfb or libXtst is missing (``.ci/run`` installs both).
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import json
 import os
@@ -120,8 +121,9 @@ class XDisplay:
 
 # --- fixtures: Xvfb, the viewer ---
 
-@pytest.fixture(scope="module")
-def xvfb():
+@contextlib.contextmanager
+def xvfb_display():
+    """A running Xvfb's display name (skips the test, saying why, without Xvfb or libXtst)."""
     exe = shutil.which("Xvfb")
     if exe is None:
         pytest.skip("Xvfb not installed (Debian: apt install xvfb; .ci/run installs it)")
@@ -139,9 +141,17 @@ def xvfb():
     if not number:
         proc.kill()
         pytest.skip("Xvfb did not start")
-    yield f":{number}"
-    proc.terminate()
-    proc.wait(timeout=10)
+    try:
+        yield f":{number}"
+    finally:
+        proc.terminate()
+        proc.wait(timeout=10)
+
+
+@pytest.fixture(scope="module")
+def xvfb():
+    with xvfb_display() as display:
+        yield display
 
 
 class ViewerProcess:
@@ -354,14 +364,17 @@ def test_editing_a_control_point_changes_the_rendering(viewer):
 
 
 def test_a_refused_setting_is_shown_and_the_previous_kept(viewer):
-    """Shear-warp refuses shading (on in the demo): the message is logged (and shown in the HUD)
-    and the ray caster stays, still rendering."""
+    """Shear-warp refuses shading (on in the demo): the registry's reason is logged (and shown in the
+    HUD) before anything renders, and the ray caster stays: the next change (shading off) renders
+    with it."""
     frame = viewer.last_frame()
     viewer.x.move(SIZE / 2, SIZE / 2)
     viewer.x.key("4")
     message = viewer.wait(lambda rs: next((r for r in rs if r.get("event") == "message" and r["error"]), None),
                           "the refusal")
-    assert "shearwarp does not shade" in message["text"] and "keeping raycast" in message["text"]
+    assert "shearwarp does not support renderer.shading" in message["text"] and "keeping raycast" in message["text"]
+    assert viewer.last_frame() == frame  # refused before rendering: no shear-warp frame was drawn
+    viewer.x.key("L")
     last = viewer.wait_full(frame)
     assert last["renderer"] == "raycast"
 

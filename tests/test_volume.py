@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from dvr_gl.errors import VolumeError
-from dvr_gl.volume import Volume, replace_non_finite
+from dvr_gl.fields.grid import Volume, replace_non_finite
 
 
 def test_geometry_follows_the_node_centred_convention():

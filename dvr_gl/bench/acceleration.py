@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import acceleration as accel
+from ..renderers.raycast import acceleration as accel
 from . import median_seconds
-from ..renderers.raycast import RayCastRenderer
+from ..renderers.raycast.renderer import RayCastRenderer
 from ..scene import load_scene
 
 HU = {"transfer_function.rescale_intercept": -1024.0}

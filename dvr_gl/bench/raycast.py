@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import statistics
 
-from ..renderers.raycast import RayCastRenderer
+from ..renderers.raycast.renderer import RayCastRenderer
 from ..scene import load_scene
 
 CASES = [  # (label, overrides, fragment shader)

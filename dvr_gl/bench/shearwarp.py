@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..renderers import create_renderer
-from ..run_length import RunLengthVolume, SliceClassifier
+from ..renderers.shearwarp.run_length import RunLengthVolume, SliceClassifier
 from ..scene import load_scene
 from . import median_seconds
 

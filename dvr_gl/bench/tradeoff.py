@@ -1,7 +1,7 @@
 """``dvr bench tradeoff``: error against the converged reference versus frame time.
 
-For every renderer registered in :data:`SWEEPS` and every family of accuracy
-settings that applies to it (:data:`FAMILIES`: one setting varied, the others at
+For every registered renderer and every family of accuracy settings it declares
+(its plugin's ``sweeps``, :mod:`dvr_gl.sweeps`: one setting varied, the others at
 the scene's values), render, time the frame (median of ``repeat`` after a
 warm-up; the read-back finishes GL) and measure the error against the converged
 reference of the scene as given: RMS, maximum and PSNR through OpenImageIO, and
@@ -12,65 +12,28 @@ reconstruction filter and the exact transfer function, so a filter or a
 classification that differs from the model shows its bias as an error floor.
 
 Rows on the Pareto front (no other row is both faster and more accurate) are
-marked.  Adding a renderer is one line in :data:`SWEEPS`.
+marked.  A renderer joins the bench by declaring its sweeps in its plugin.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import SceneError
 from ..image import compare_images, composite_over
 from ..reference.converged import ConvergedReference
-from ..renderers import create_renderer
+from ..renderers import create_renderer, registry
 from ..transfer_function import linear_to_srgb
 from . import acceleration, median_seconds
 
-DISTANCES = (4.0, 2.0, 1.0, 0.5, 0.25, 0.125)   # sample distances, voxels
+def sweeps(renderers=None) -> dict:
+    """renderer -> its trade-off families (:mod:`dvr_gl.sweeps`), as its plugin declares them: every
+    registered renderer with a sweep (``renderers``: only these)."""
+    return {name: p.sweeps for name, p in registry.plugins().items()
+            if p.sweeps and (not renderers or name in renderers)}
 
-
-@dataclass(frozen=True)
-class Family:
-    """One curve: ``key`` takes ``values`` with ``fixed`` set (scene keys, dotted)."""
-
-    label: str
-    key: str
-    values: tuple
-    fixed: tuple = ()   # ((dotted key, value), ...)
-
-
-FAMILIES = {f.label: f for f in (
-    Family("post, linear", "renderer.sample_distance_voxels", DISTANCES),
-    Family("pre-classified", "renderer.sample_distance_voxels", DISTANCES, (("renderer.classification", "pre"),)),
-    Family("pre-integrated", "renderer.sample_distance_voxels", DISTANCES,
-           (("renderer.classification", "preintegrated"),)),
-    Family("pre-integrated fast", "renderer.sample_distance_voxels", DISTANCES,
-           (("renderer.classification", "preintegrated"), ("renderer.preintegration", "fast"))),
-    Family("nearest", "renderer.sample_distance_voxels", DISTANCES, (("renderer.filter", "nearest"),)),
-    Family("cubic B-spline", "renderer.sample_distance_voxels", DISTANCES[2:],
-           (("renderer.filter", "cubic_bspline"),)),
-    Family("LUT size", "renderer.lut_size", (64, 256, 1024, 4096, 16384)),
-    Family("pre-integration table", "renderer.preintegration_size", (32, 64, 128, 256, 512),
-           (("renderer.classification", "preintegrated"), ("renderer.sample_distance_voxels", 1.0))),
-    Family("early termination", "renderer.ert_threshold", (0.8, 0.9, 0.95, 0.99, 1.0)),
-    Family("bricked 4 MB", "renderer.sample_distance_voxels", DISTANCES[1:5],
-           (("renderer.texture_budget_mb", 4.0),)),
-    Family("classification", "renderer.classification", ("post", "pre", "preintegrated")),
-    Family("opacity threshold", "renderer.opacity_threshold", (0.0, 1e-3, 1e-2, 3e-2)),
-)}
-
-# renderer -> the families that vary something it uses: adding a renderer is one line here.
-SWEEPS = {
-    "raycast": ("post, linear", "pre-classified", "pre-integrated", "pre-integrated fast", "nearest",
-                "cubic B-spline", "LUT size", "pre-integration table", "early termination", "bricked 4 MB"),
-    "slicing3d": ("post, linear", "pre-classified", "pre-integrated", "nearest", "LUT size",
-                  "pre-integration table", "bricked 4 MB"),
-    "slicing2d": ("classification", "LUT size"),
-    "shearwarp": ("classification", "LUT size", "early termination", "opacity threshold"),
-}
 
 COLUMNS = [("renderer", "renderer", ""), ("family", "setting family", ""), ("setting", "setting", ""),
            ("ms", "frame ms", ".1f"), ("rms", "RMS", ".2e"), ("max", "max", ".2e"), ("psnr", "PSNR dB", ".1f"),
@@ -97,23 +60,18 @@ def converged_truth(scene, tolerance: float = 1e-4) -> np.ndarray:
 
 def cases(renderers=None):
     """(renderer, family, value) for every setting to measure."""
-    for name, families in SWEEPS.items():
-        if renderers and name not in renderers:
-            continue
-        for label in families:
-            for value in FAMILIES[label].values:
-                yield name, FAMILIES[label], value
+    for name, families in sweeps(renderers).items():
+        for family in families:
+            for value in family.values:
+                yield name, family, value
 
 
-def variant(scene, name: str, family: Family, value):
-    """``scene`` rendered by ``name`` with the family's fixed settings and ``key = value``
-    (renderer keys; a distance in voxels becomes world units as scenes resolve it)."""
+def variant(scene, name: str, family, value):
+    """``scene`` rendered by ``name`` with the family's fixed settings and ``key = value`` (renderer keys;
+    a distance in voxels becomes world units where the scene resolves it)."""
     changes = {"name": name}
     for key, v in (*family.fixed, (family.key, value)):
-        field = key.removeprefix("renderer.")
-        if field == "sample_distance_voxels":
-            field, v = "sample_distance", scene.volume.voxels_to_world(v)
-        changes[field] = v
+        changes[key.removeprefix("renderer.")] = v
     return scene.with_renderer(**changes)
 
 
@@ -197,7 +155,7 @@ def tolerance_check(scene, rows: list[dict], truth, repeat: int = 5, tolerances=
             ms = 1e3 * median_seconds(renderer, chosen, repeat)
             rms = compare_images(renderer.render(chosen), truth)["rms"]
             best = cheapest_meeting(rows, e)
-            voxels = choice.sample_distance / min(scene.volume.spacing)
+            voxels = choice.sample_distance / scene.field.sample_spacing
             out.append({"scene": rows[0]["scene"] if rows else "scene", "tolerance": e,
                         "choice": f"{choice.classification} {voxels:.3g} vox",
                         "predicted": choice.predicted_error, "rms": rms, "met": "yes" if rms <= e else "NO", "ms": ms,

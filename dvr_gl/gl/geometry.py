@@ -7,7 +7,6 @@ to the pixel whose ray passes through it.  Matrices are numpy row-major
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
@@ -32,14 +31,12 @@ def view_matrix(camera) -> np.ndarray:
 
 def projection_matrix(camera, aspect: float, near: float, far: float) -> np.ndarray:
     p = np.zeros((4, 4))
+    half_w, half_h = camera.half_extent(aspect)
+    p[0, 0], p[1, 1] = 1.0 / half_w, 1.0 / half_h
     if camera.projection == "perspective":
-        t = 1.0 / math.tan(math.radians(camera.fov) / 2.0)
-        p[0, 0], p[1, 1] = t / aspect, t
         p[2, 2], p[2, 3] = (far + near) / (near - far), 2.0 * far * near / (near - far)
         p[3, 2] = -1.0
     else:
-        half_h = camera.view_height / 2.0
-        p[0, 0], p[1, 1] = 1.0 / (half_h * aspect), 1.0 / half_h
         p[2, 2], p[2, 3] = -2.0 / (far - near), -(far + near) / (far - near)
         p[3, 3] = 1.0
     return p

@@ -5,7 +5,8 @@ in ``dvr_gl/shaders/``.  A source may ``#include "snippet.glsl"`` (paths
 relative to the shaders folder, each file included once, as VTK composes its
 volume shaders from snippets); ``#define`` lines for the features a scene
 uses are inserted after ``#version``, so one source specializes into many
-programs, each compiled once per context and feature set.  Compiler messages
+programs, each compiled once per context and feature set (the cache belongs to the context:
+:func:`program_cache`).  Compiler messages
 are mapped back to the file and line that caused them.
 """
 
@@ -104,15 +105,25 @@ def _first_error(message: str, sources: dict[str, ShaderSource]) -> str:
     return " ".join(message.split())[:300]
 
 
-_CACHE: dict[tuple, moderngl.Program] = {}
+_CACHE_KEY = "dvr_gl.programs"
+
+
+def program_cache(ctx: moderngl.Context) -> dict:
+    """The context's own program cache (in ``ctx.extra``, moderngl's slot for its user's objects): it
+    lives and dies with the context, so no program can outlive it or be found by another context that
+    reuses its address."""
+    if ctx.extra is None:
+        ctx.extra = {}
+    return ctx.extra.setdefault(_CACHE_KEY, {})
 
 
 def create_program(ctx: moderngl.Context, vertex: str, fragment: str,
                    defines: dict | None = None) -> moderngl.Program:
-    """Compile (or fetch from the cache) the program of these sources and defines."""
-    key = (id(ctx), vertex, fragment, tuple(sorted((defines or {}).items())))
-    program = _CACHE.get(key)
-    if program is not None and program.ctx is ctx:
+    """Compile (or fetch from the context's cache) the program of these sources and defines."""
+    cache = program_cache(ctx)
+    key = (vertex, fragment, tuple(sorted((defines or {}).items())))
+    program = cache.get(key)
+    if program is not None:
         return program
     sources = {"vertex": load_shader(vertex, defines), "fragment": load_shader(fragment, defines)}
     try:
@@ -121,11 +132,12 @@ def create_program(ctx: moderngl.Context, vertex: str, fragment: str,
         raise ShaderError(f"GLSL compile failed in {_first_error(str(exc), sources)} "
                           f"(renderer {ctx.info['GL_RENDERER']}); the shader sources are "
                           f"in {shader_dir()}") from exc
-    _CACHE[key] = program
+    cache[key] = program
     return program
 
 
 def release_programs(ctx: moderngl.Context):
-    """Forget (and release) the cached programs of a context being released."""
-    for key in [k for k in _CACHE if k[0] == id(ctx)]:
-        _CACHE.pop(key).release()
+    """Release the cached programs of a context being released."""
+    for program in program_cache(ctx).values():
+        program.release()
+    program_cache(ctx).clear()

@@ -20,7 +20,7 @@ import os
 from pathlib import Path
 
 from ..errors import VolumeError
-from ..volume import Volume, replace_non_finite
+from ..fields.grid import Volume, replace_non_finite
 from .common import RawArray
 from .compression import exists_or_split
 

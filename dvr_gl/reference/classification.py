@@ -13,11 +13,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .reconstruction import SampledField
+from ..errors import SceneError
 
 
 class PostClassifier:
-    def __init__(self, scalar: SampledField, table):
+    def __init__(self, scalar, table):
         """``table``: a :class:`TransferFunctionLUT` or a :class:`TransferFunction` (exact)."""
         self.scalar = scalar
         self.lookup = table.lookup if hasattr(table, "lookup") else table.evaluate
@@ -28,9 +28,13 @@ class PostClassifier:
 
 
 class PreClassifier:
-    def __init__(self, volume, tf, filter_kind: str, associated: bool = True):
-        classified = tf.classify_voxels(volume.data, associated)
-        self.field = SampledField(classified, volume.spacing, volume.origin, filter_kind)
+    def __init__(self, field, tf, filter_kind: str, associated: bool = True):
+        """Classify the field's own samples, reconstruct the classified values as the field's."""
+        if not hasattr(field, "reconstruct_values"):
+            raise SceneError(f"pre-classification classifies samples, and {field.kind} data has none; "
+                             f"use classification post")
+        classified = tf.classify_voxels(field.samples, associated)
+        self.field = field.reconstruct_values(classified, filter_kind)
         self.associated = associated
 
     def __call__(self, points: np.ndarray, scalars: np.ndarray | None = None):

@@ -63,11 +63,13 @@ def _pad_rows(ray: np.ndarray, *columns: np.ndarray):
 
 
 class ConvergedReference:
-    def __init__(self, scene, scalar_field=None, nodes: int = 4):
+    def __init__(self, scene, nodes: int = 4):
+        """``scene``: any field (:mod:`dvr_gl.fields`) with the scene's filter; ``nodes``: Gauss-Legendre
+        points per piece."""
         self.scene = scene
-        self.model = OpticalModel(scene, exact=True, scalar_field=scalar_field)
+        self.model = OpticalModel(scene, exact=True)
         self.rays = RayBatch.for_camera(scene.camera, scene.image.width, scene.image.height,
-                                        scene.volume.box)
+                                        scene.field.bounds)
         self.tol = scene.renderer.converged_tolerance
         self.x, self.w, self.S = collocation(nodes)
         self.stats = {"pieces": 0, "evaluations": 0, "converged": True}

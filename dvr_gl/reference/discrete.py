@@ -75,7 +75,7 @@ class DiscreteReference:
         self.scene = scene
         r = scene.renderer
         self.rays = rays if rays is not None else RayBatch.for_camera(
-            scene.camera, scene.image.width, scene.image.height, scene.volume.box,
+            scene.camera, scene.image.width, scene.image.height, scene.field.bounds,
             r.jitter_seed if r.jitter else None)
         self.plan = plan(self.rays) if plan is not None else RaySegments(self.rays, r.sample_distance)
         self.model = OpticalModel(scene, exact=False, segment_length=self.plan.slab_length)
@@ -234,3 +234,8 @@ class DiscreteReference:
         rgba[has, :3] = colour * alpha[:, None]
         rgba[has, 3] = alpha
         return rgba
+
+
+def same_discretization(scene) -> np.ndarray:
+    """The ray caster's oracle: the float64 image ``(H, W, 4)`` of the conventions' segments."""
+    return DiscreteReference(scene).render_float64()

@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..fields import gradient_epsilon
 from ..preintegration import preintegrate, shortened
 from ..transfer_function import TransferFunction
 from .classification import PostClassifier, PreClassifier
-from .reconstruction import SampledField
 from .shading import blinn_phong, normals_from_gradient
 
 
@@ -19,24 +19,21 @@ class OpticalModel:
     """Colour (shaded, non-associated) and extinction at world points.
 
     Args:
-        scene: a resolved :class:`~dvr_gl.scene.Scene`.
+        scene: a resolved :class:`~dvr_gl.scene.Scene`; its field (:mod:`dvr_gl.fields`: a
+            grid, or an analytic field for closed forms) reconstructed by the scene's filter.
         exact: evaluate the transfer function exactly (converged reference)
             instead of through the ``lut_size`` table (as the GPU does).
-        scalar_field: a field to use instead of the volume's (an analytic
-            field with ``sample``, ``gradient`` and ``knots``, for closed forms).
         segment_length: the length pre-integration tables are made for
             (default: the sample distance; slicing uses its slice spacing).
     """
 
-    def __init__(self, scene, exact: bool = False, scalar_field=None, segment_length: float | None = None):
+    def __init__(self, scene, exact: bool = False, segment_length: float | None = None):
         r = scene.renderer
         self.tf: TransferFunction = scene.transfer_function
-        self.scalar = scalar_field or SampledField.of_volume(scene.volume, r.filter)
+        self.scalar = scene.field.reconstruct(r.filter)
         self.table = self.tf if exact else self.tf.tabulate(r.lut_size)
         if r.classification == "pre" and r.compositing == "emission_absorption":
-            if scalar_field is not None:
-                raise ValueError("pre-classification needs the volume's own field")
-            self.classify = PreClassifier(scene.volume, self.tf, r.filter, r.associated_colors)
+            self.classify = PreClassifier(scene.field, self.tf, r.filter, r.associated_colors)
         else:
             self.classify = PostClassifier(self.scalar, self.table)
         self.preintegration = None
@@ -44,7 +41,7 @@ class OpticalModel:
             self.preintegration = preintegrate(self.tf, segment_length or r.sample_distance,
                                                r.preintegration_size, r.preintegration, r.lut_size)
         self.shading = r.shading if r.shading.enabled else None
-        self.epsilon = scene.volume.gradient_epsilon
+        self.epsilon = gradient_epsilon(scene.field)
         self.gradient_reference = r.gradient_opacity_reference if r.gradient_opacity else None
 
     def emission(self, points: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

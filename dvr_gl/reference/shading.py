@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..scene_schema import ShadingSpec
+from ..model import ShadingSpec
 
 
 def normals_from_gradient(gradient: np.ndarray, epsilon: float = 0.0) -> np.ndarray:

@@ -1,5 +1,14 @@
-"""Renderers behind one interface (:class:`Renderer`); see :data:`RENDERERS`."""
+"""Renderers: one package each, registered as plugins (:mod:`.registry`), behind one interface
+(:class:`Renderer`: a scene in, an image out).
 
-from .base import RENDERERS, Renderer, available_renderers, create_renderer, render, renderer_class
+Built in: ``raycast``, ``slicing3d``, ``slicing2d``, ``shearwarp`` (GL, regular grids; their
+shared grid machinery in :mod:`.grid`), and the float64 CPU references ``reference`` and
+``reference-converged`` (any field).
+"""
 
-__all__ = ["RENDERERS", "Renderer", "available_renderers", "create_renderer", "render", "renderer_class"]
+from . import registry
+from .base import Renderer, available_renderers, create_renderer, render, renderer_class
+from .registry import RendererPlugin
+
+__all__ = ["Renderer", "RendererPlugin", "available_renderers", "create_renderer", "registry", "render",
+           "renderer_class"]

@@ -2,18 +2,22 @@
 
 A renderer returns premultiplied, linear, float32 RGBA ``(H, W, 4)`` with
 row 0 at the top and the background not yet applied (conventions).  After
-``render`` its ``stats`` dict describes the last frame (at least
-``samples``, the number of volume samples taken, where that is meaningful).
+``render`` its ``stats`` dict describes the last frame: ``seconds``, and
+``samples``, the number of volume samples taken, where that is meaningful.
+
+Subclasses implement :meth:`Renderer.draw`; :meth:`Renderer.render` first asks the
+registry whether this renderer can render the scene (:func:`.registry.check`), so a
+refusal is the same one-line reason whether it comes from here, the CLI or the viewer.
 """
 
 from __future__ import annotations
 
-import importlib
+import time
 from typing import ClassVar
 
 import numpy as np
 
-from ..errors import SceneError
+from . import registry
 
 
 class Renderer:
@@ -23,7 +27,21 @@ class Renderer:
     def __init__(self):
         self.stats: dict = {}
 
+    @property
+    def plugin(self) -> "registry.RendererPlugin":
+        return registry.plugin(self.name)
+
     def render(self, scene) -> np.ndarray:
+        """The image of ``scene`` (SceneError with the reason if this renderer cannot render it).
+        ``stats["seconds"]`` is the frame's wall time, unless ``draw`` measured it itself."""
+        registry.check(scene, self.name)
+        self.stats = {}
+        start = time.perf_counter()
+        image = self.draw(scene)
+        self.stats.setdefault("seconds", time.perf_counter() - start)
+        return image
+
+    def draw(self, scene) -> np.ndarray:
         raise NotImplementedError
 
     def close(self):
@@ -36,30 +54,20 @@ class Renderer:
         self.close()
 
 
-# name -> "module:Class": adding a renderer is one line here; modules load on first use.
-RENDERERS = {
-    "raycast": "dvr_gl.renderers.raycast:RayCastRenderer",
-    "slicing3d": "dvr_gl.renderers.slicing:Slicing3DRenderer",
-    "slicing2d": "dvr_gl.renderers.slicing:Slicing2DRenderer",
-    "shearwarp": "dvr_gl.renderers.shearwarp:ShearWarpRenderer",
-    "reference": "dvr_gl.renderers.reference:DiscreteReferenceRenderer",
-    "reference-converged": "dvr_gl.renderers.reference:ConvergedReferenceRenderer",
-}
-
-
 def available_renderers() -> list[str]:
-    return list(RENDERERS)
+    return registry.names()
 
 
 def renderer_class(name: str) -> type[Renderer]:
-    if name not in RENDERERS:
-        raise SceneError(f"unknown renderer {name!r}; available: {', '.join(RENDERERS)}")
-    module, cls = RENDERERS[name].split(":")
-    return getattr(importlib.import_module(module), cls)
+    return registry.plugin(name).renderer_class()
 
 
 def create_renderer(name: str, **kwargs) -> Renderer:
-    return renderer_class(name)(**kwargs)
+    """A renderer by name; ``ctx=`` (a moderngl context) is passed to those that draw with GL only."""
+    p = registry.plugin(name)
+    if not p.needs_gl:
+        kwargs.pop("ctx", None)
+    return p.create(**kwargs)
 
 
 def render(scene) -> np.ndarray:

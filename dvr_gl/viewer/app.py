@@ -28,11 +28,12 @@ import numpy as np
 from ..errors import DvrError
 from ..image import composite_over
 from ..renderers import create_renderer
+from ..settings import with_sample_distance
 from . import navigation, settings
 from .display import ImageDisplay
 from .hud import FrameStats, hud_lines, nominal_samples
 from .imgui_backend import load_imgui
-from .keys import KEYS, help_lines
+from .keys import help_lines, key_table
 from .refinement import FramePlan, RefinementController
 from .screenshots import write_screenshot
 from .tf_editor import TransferFunctionEditor
@@ -131,7 +132,7 @@ class FrameLog:
 
 def _key_table() -> dict:
     table = {}
-    for name, action, _ in KEYS:
+    for name, action, _ in key_table():
         shift, _, key = name.rpartition("+")
         table[(getattr(glfw, f"KEY_{key}"), bool(shift))] = action
     return table
@@ -206,12 +207,13 @@ class Viewer:
             self.controller.forget_costs()
 
     def apply(self, change, interactive: bool = False) -> bool:
-        """Apply ``change(scene) -> scene`` to the renderer settings; on a DvrError show it and keep
-        the settings as they were."""
+        """Apply ``change(scene) -> scene`` to the renderer settings; on a DvrError (a value out of range,
+        or a setting the renderer refuses: :mod:`.settings` asks the registry before anything renders)
+        show it and keep the settings as they were."""
         try:
             scene = change(self.scene)
         except DvrError as exc:
-            self.notify(str(exc), error=True)
+            self.notify(f"{exc}; keeping {self.scene.renderer.name} with the previous settings", error=True)
             return False
         self.set_scene(scene, interactive, costs=True)
         return True
@@ -389,20 +391,18 @@ class Viewer:
 
     def _renderer(self, name: str):
         if name not in self.renderers:
-            kwargs = {"ctx": self.ctx} if name in settings.GL_RENDERERS else {}
-            self.renderers[name] = create_renderer(name, **kwargs)
+            self.renderers[name] = create_renderer(name, ctx=self.ctx)  # GL renderers draw in the window's context
         return self.renderers[name]
 
     def frame_scene(self, plan: FramePlan):
         """The scene a frame of ``plan`` renders: fewer pixels, a longer sample distance, another seed."""
         s, level = self.scene, plan.level
         w, h = level.image_size(s.image.width, s.image.height)
-        changes = {}
+        renderer = s.renderer
         if level.distance_factor != 1.0:
-            changes["sample_distance"] = s.renderer.sample_distance * level.distance_factor
+            renderer = with_sample_distance(renderer, s.field, factor=level.distance_factor)
         if plan.jitter_pass:
-            changes["jitter_seed"] = s.renderer.jitter_seed + plan.jitter_pass
-        renderer = dataclasses.replace(s.renderer, **changes) if changes else s.renderer
+            renderer = dataclasses.replace(renderer, jitter_seed=s.renderer.jitter_seed + plan.jitter_pass)
         return s.replace(image=dataclasses.replace(s.image, width=w, height=h), renderer=renderer)
 
     def render(self, plan: FramePlan) -> float | None:
@@ -528,7 +528,7 @@ class Viewer:
         state = self.controller.state
         if state == "accumulating":
             state = f"accumulating {self.controller.passes_done}/{self.controller.passes}"
-        title = f"dvr view: {self.scene.volume.name} | {self.scene.renderer.name} | {state}"
+        title = f"dvr view: {self.scene.field.name} | {self.scene.renderer.name} | {state}"
         if self.gui is None:
             title += f" | {self.stats.frame_seconds * 1e3:.0f} ms"
         if title != getattr(self, "_title", None):

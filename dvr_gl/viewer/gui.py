@@ -1,7 +1,8 @@
 """The viewer's panels, HUD and help overlay, in Dear ImGui (imgui-bundle).
 
-* **Side panel** (right): the renderer settings (every renderer, compositing, classification,
-  filter, shading, jitter and passes, sample distance, projection, frame-time budget), the view
+* **Side panel** (right): the renderer settings (every registered renderer, compositing,
+  classification, filter, shading, jitter and passes, sample distance, projection, frame-time
+  budget; what the current renderer refuses is greyed out, the reason in a tooltip), the view
   (reset, screenshot), and the **transfer-function editor**: the data histogram (log counts), the
   opacity curve with its control points, the colour bar; click to add a point, drag to move,
   right-click to delete; the selected point's value, opacity and colour; presets; save and load.
@@ -15,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import DvrError
+from ..renderers import registry
 from ..transfer_function import PRESETS, linear_to_srgb, preset, srgb_to_linear
 from . import navigation, settings
 from .imgui_backend import ImGuiInput, ImGuiRenderer
@@ -67,6 +69,8 @@ class ViewerGui:
         self._heights = None
         self._last_time = glfw.get_time()
         self.any_active = False
+        self._refusal_cache: dict = {}
+        self._refusal_version = -1
 
     @property
     def tf_dragging(self) -> bool:
@@ -167,25 +171,56 @@ class ViewerGui:
         imgui.pop_item_width()
         imgui.end()
 
-    def _combo(self, label: str, options, current: str) -> str | None:
-        options = list(options)
-        index = options.index(current) if current in options else 0
-        changed, index = self.imgui.combo(label, index, options)
-        return options[index] if changed else None
+    def _refusals(self, key: str) -> dict:
+        """Option -> why the current scene's renderer refuses it (None: available), asked of the
+        registry once per scene change (the panel greys refused options out)."""
+        v = self.viewer
+        if self._refusal_version != v.version:
+            self._refusal_cache, self._refusal_version = {}, v.version
+        if key not in self._refusal_cache:
+            current = v.scene.renderer.name if key == "name" else getattr(v.scene.renderer, key)
+            self._refusal_cache[key] = {o: (None if o == current else settings.refusal(v.scene, **{key: o}))
+                                        for o in settings.choices(key)}
+        return self._refusal_cache[key]
+
+    def _combo(self, label: str, key: str, current: str) -> str | None:
+        """A combo box of a setting's choices; those the renderer refuses are greyed out, the reason
+        in their tooltip."""
+        imgui = self.imgui
+        chosen = None
+        if imgui.begin_combo(label, str(current)):
+            for option, reason in self._refusals(key).items():
+                flags = imgui.SelectableFlags_.disabled if reason else 0
+                clicked, _ = imgui.selectable(str(option), option == current, flags)
+                if reason:
+                    imgui.set_item_tooltip(reason)
+                if clicked and option != current:
+                    chosen = option
+            imgui.end_combo()
+        return chosen
+
+    def _checkbox(self, label: str, value: bool, available: bool) -> bool:
+        """A check box, greyed out when the renderer does not support the feature; True when clicked."""
+        imgui = self.imgui
+        if not available:
+            imgui.begin_disabled(True)
+        changed, _ = imgui.checkbox(label, value)
+        if not available:
+            imgui.end_disabled()
+        return changed
 
     def rendering_section(self):
         imgui, v = self.imgui, self.viewer
         r = v.scene.renderer
+        plugin = registry.plugin(r.name)
         for key, label in (("name", "renderer"), ("compositing", "compositing"),
                            ("classification", "classification"), ("filter", "filter")):
-            choice = self._combo(label, settings.CHOICES[key], getattr(r, key))
+            choice = self._combo(label, key, r.name if key == "name" else getattr(r, key))
             if choice is not None:
                 v.apply(lambda s, k=key, c=choice: settings.change(s, **{k: c}))
-        changed, _ = imgui.checkbox("shading (L)", r.shading.enabled)
-        if changed:
+        if self._checkbox("shading (L)", r.shading.enabled, plugin.declared("shading") is not None):
             v.apply(settings.toggle_shading)
-        changed, _ = imgui.checkbox("jitter (J)", r.jitter)
-        if changed:
+        if self._checkbox("jitter (J)", r.jitter, plugin.declared("jitter") is not None):
             v.apply(settings.toggle_jitter)
         changed, passes = imgui.slider_int("jitter passes", v.options.passes, 1, 64)
         if changed:
@@ -193,15 +228,20 @@ class ViewerGui:
             v.controller.set_passes(v._passes(v.scene))
         voxels = settings.sample_distance_voxels(v.scene)
         label = "slice spacing, voxels" if r.name == "slicing3d" else "sample distance, voxels"
+        fixed = settings.fixed_planes(r.name)
+        if fixed:
+            imgui.begin_disabled(True)
         changed, voxels = imgui.slider_float(label, voxels, settings.MIN_SAMPLE_VOXELS, settings.MAX_SAMPLE_VOXELS,
                                              "%.3f", imgui.SliderFlags_.logarithmic)
+        if fixed:
+            imgui.end_disabled()
         if changed:
             v.apply(lambda s: settings.set_sample_distance_voxels(s, voxels), interactive=imgui.is_item_active())
         if imgui.is_item_deactivated_after_edit():
             v.end_gesture()
         imgui.text_disabled(settings.sampling_text(v.scene))
         if r.compositing == "isosurface":
-            lo, hi = v.scene.volume.value_range
+            lo, hi = v.scene.field.value_range
             changed, iso = imgui.slider_float("iso value", r.iso_value, lo, hi, "%.4g")
             if changed:
                 v.apply(lambda s: settings.change(s, iso_value=iso), interactive=imgui.is_item_active())
@@ -232,14 +272,14 @@ class ViewerGui:
 
     def _value_range(self) -> tuple[float, float]:
         v = self.viewer
-        lo, hi = v.scene.volume.value_range
+        lo, hi = v.scene.field.value_range
         lo, hi = min(lo, v.editor.points[0, 0]), max(hi, v.editor.points[-1, 0])
         return (lo, hi) if hi > lo else (lo, lo + 1.0)
 
     def _heights_for(self, value_range) -> np.ndarray:
-        key = (id(self.viewer.scene.volume), value_range)
+        key = (id(self.viewer.scene.field), value_range)
         if key != self._histogram_key:
-            self._histogram_key, self._heights = key, histogram(self.viewer.scene.volume.data, value_range)
+            self._histogram_key, self._heights = key, histogram(self.viewer.scene.field.samples, value_range)
         return self._heights
 
     def _opacity_max(self) -> float:
@@ -269,7 +309,7 @@ class ViewerGui:
         _, self.preset_choice = imgui.combo("preset", self.preset_choice, names)
         imgui.same_line()
         if imgui.button("apply"):
-            volume = v.scene.volume
+            volume = v.scene.field
             editor.replace(preset(names[self.preset_choice], volume.value_range, v.options.rescale_intercept,
                                   editor.unit_distance))
         _, self.tf_path = imgui.input_text("file", self.tf_path)

@@ -6,23 +6,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..rays import intersect_box
 from .settings import describe
 
 
 def nominal_samples(scene, grid: int = 32) -> float:
     """Samples a full frame of ``scene`` takes before any skipping or early termination: the
-    length of every pixel's ray inside the volume's box (from the near plane on) over the sample
+    length of every pixel's ray inside the field's box (from the near plane on) over the sample
     distance, summed, estimated from the rays of an image at most ``grid`` pixels wide and high."""
     img, cam = scene.image, scene.camera
     scale = min(1.0, grid / max(img.width, img.height))   # a coarser image of the same aspect
     w, h = max(1, round(img.width * scale)), max(1, round(img.height * scale))
     origins, dirs = cam.pixel_rays(w, h)
-    lo, hi = scene.volume.box
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv = 1.0 / dirs
-        t_a, t_b = (lo - origins) * inv, (hi - origins) * inv
-    t0 = np.nanmax(np.minimum(t_a, t_b), axis=1)
-    t1 = np.nanmin(np.maximum(t_a, t_b), axis=1)
+    t0, t1 = intersect_box(origins, dirs, *scene.field.bounds)
     t0 = np.maximum(t0, cam.near_distance(dirs))
     length = np.clip(t1 - t0, 0.0, None)
     return float(length.sum() / scene.renderer.sample_distance * (img.width * img.height) / (w * h))

@@ -5,14 +5,9 @@ Keys are named as GLFW names them (``glfw.KEY_<NAME>``); ``shift+`` marks a shif
 
 from __future__ import annotations
 
-# (key, action, description); Viewer.action (app.py) carries out the actions by name.
-KEYS = (
-    ("1", "renderer_raycast", "renderer: raycast (GPU ray casting)"),
-    ("2", "renderer_slicing3d", "renderer: slicing3d (view-aligned 3D texture slices)"),
-    ("3", "renderer_slicing2d", "renderer: slicing2d (object-aligned 2D slice stacks)"),
-    ("4", "renderer_shearwarp", "renderer: shearwarp (host compositing, GL warp)"),
-    ("5", "renderer_reference", "renderer: reference (CPU float64; slow)"),
-    ("6", "renderer_reference-converged", "renderer: reference-converged (CPU; very slow)"),
+# (key, action, description); Viewer.action (app.py) carries out the actions by name.  The keys 1 to 9
+# choose the registered renderers in the registry's order (renderer_keys); these are the rest.
+SETTING_KEYS = (
     ("C", "next_compositing", "compositing: emission-absorption, isosurface, average, MIP, MinIP"),
     ("K", "next_classification", "classification: post, pre, pre-integrated"),
     ("F", "next_filter", "filter: nearest, linear, cubic B-spline, Catmull-Rom"),
@@ -31,6 +26,20 @@ KEYS = (
     ("shift+SLASH", "toggle_help", ""),
 )
 
+
+def renderer_keys() -> tuple:
+    """1 to 9: the registered renderers (a renderer installed from another package included)."""
+    from ..renderers import registry
+
+    return tuple((str(i), f"renderer_{name}", f"renderer: {name} ({plugin.description})")
+                 for i, (name, plugin) in enumerate(list(registry.plugins().items())[:9], start=1))
+
+
+def key_table() -> tuple:
+    """Every key binding: ``(key, action, description)``."""
+    return renderer_keys() + SETTING_KEYS
+
+
 MOUSE = (
     ("left drag", "orbit (turn the volume)"),
     ("middle drag, shift + left drag", "pan"),
@@ -42,7 +51,7 @@ MOUSE = (
 
 def help_lines() -> list[str]:
     """The help overlay's text."""
-    shown = [(k, d) for k, _, d in KEYS if d]
+    shown = [(k, d) for k, _, d in key_table() if d]
     lines = [f"{_label(k):>6}  {d}" for k, d in shown]
     lines.append("")
     lines += [f"{m}: {d}" for m, d in MOUSE]

@@ -18,8 +18,6 @@ Conventions (:mod:`dvr_gl.camera`): angles in degrees, world units, image y down
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..camera import Camera
@@ -39,10 +37,11 @@ def orbit(camera: Camera, dx: float, dy: float) -> Camera:
 
 def world_per_pixel(camera: Camera, image_height: int) -> float:
     """World length of one pixel on the plane through the target, perpendicular to the view."""
+    _, half_h = camera.half_extent(1.0)
     if camera.projection == "orthographic":
-        return camera.view_height / image_height
+        return 2.0 * half_h / image_height
     dist = float(np.linalg.norm(np.subtract(camera.eye, camera.target)))
-    return 2.0 * dist * math.tan(math.radians(camera.fov) / 2.0) / image_height
+    return 2.0 * dist * half_h / image_height
 
 
 def pan(camera: Camera, dx: float, dy: float, image_height: int) -> Camera:
@@ -68,7 +67,7 @@ def zoom(camera: Camera, steps: float) -> Camera:
 def toggle_projection(camera: Camera) -> Camera:
     """Perspective to orthographic or back, keeping the size of the plane through the target."""
     _, _, dist = camera.orbit or camera.orbited().orbit
-    half = math.tan(math.radians(camera.fov) / 2.0)
+    _, half = camera.with_(projection="perspective").half_extent(1.0)
     if camera.projection == "perspective":
         return camera.with_(projection="orthographic", view_height=2.0 * dist * half)
     distance = camera.view_height / (2.0 * half)

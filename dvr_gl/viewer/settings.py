@@ -1,10 +1,11 @@
-"""Switching renderer settings at run time (pure; no window).
+"""Switching renderer settings at run time (pure; no window), from the renderer registry.
 
 Every change returns a new :class:`~dvr_gl.scene.Scene` whose renderer settings passed the same
-checks as a scene file's (``dvr render`` would accept them), or raises
-:class:`~dvr_gl.errors.SceneError` with the one-line reason; the viewer then shows the reason and
-keeps the previous settings.  What a renderer refuses only when it renders (shear-warp with
-shading, slicing with MIP) is caught the same way by the viewer when it renders.
+checks as a scene file's (``dvr render`` would accept them) and that its renderer can render (the
+registry's :func:`~dvr_gl.renderers.registry.check`: declared modes, classifications and filters,
+and the renderer's own check), or raises :class:`~dvr_gl.errors.SceneError` with the one-line
+reason; the viewer then shows the reason and keeps the previous settings.  :func:`refusal` tells,
+without changing anything, why an option is unavailable (the panel greys it out).
 """
 
 from __future__ import annotations
@@ -12,33 +13,68 @@ from __future__ import annotations
 import dataclasses
 import math
 
-import numpy as np
+from ..errors import SceneError
+from ..fields import diagonal
+from ..renderers import registry
+from ..scene import Scene
+from ..settings import with_sample_distance
 
-from ..renderers.base import RENDERERS
-from ..scene import Scene, resolve_renderer
-from ..scene_schema import CLASSIFICATIONS, COMPOSITING_MODES, FILTERS
-
-RENDERER_NAMES = tuple(RENDERERS)
-GL_RENDERERS = ("raycast", "slicing3d", "slicing2d", "shearwarp")
-# Renderers whose slices are the voxel planes: the sample distance does not apply.
-VOXEL_PLANES = ("slicing2d", "shearwarp")
-CHOICES = {"name": RENDERER_NAMES, "compositing": COMPOSITING_MODES, "classification": CLASSIFICATIONS,
-           "filter": FILTERS}
 MIN_SAMPLE_VOXELS, MAX_SAMPLE_VOXELS = 1.0 / 64, 8.0
+# The settings with named choices that keys and combo boxes cycle through.
+CYCLED = ("compositing", "classification", "filter")
+
+
+def renderer_names() -> list[str]:
+    """Every registered renderer, in the registry's order (built-ins first: keys 1 to 6)."""
+    return registry.names()
+
+
+def choices(key: str) -> tuple:
+    """The options of a setting with named choices (``name``: the renderers)."""
+    if key == "name":
+        return tuple(renderer_names())
+    return registry.setting(key).choices
+
+
+def needs_gl(name: str) -> bool:
+    return registry.plugin(name).needs_gl
+
+
+def fixed_planes(name: str) -> bool:
+    """The renderer samples the voxel planes: the sample distance does not apply."""
+    return registry.plugin(name).fixed_planes
 
 
 def change(scene: Scene, **changes) -> Scene:
-    """The scene with renderer settings changed, checked as a scene file's would be (SceneError if not)."""
-    spec = scene.with_renderer(**changes).renderer
-    return scene.replace(renderer=resolve_renderer(spec, scene.volume))
+    """The scene with renderer settings changed, checked as a scene file's would be and refused (with
+    SceneError) if its renderer cannot render it."""
+    changed = scene.with_renderer(**changes)
+    registry.check(changed)
+    return changed
+
+
+def refusal(scene: Scene, **changes) -> str | None:
+    """Why the change would be refused (None: it would not); for greying out options."""
+    try:
+        change(scene, **changes)
+    except SceneError as exc:
+        return str(exc)
+    return None
 
 
 def cycle(scene: Scene, key: str, step: int = 1) -> Scene:
-    """The next (``step`` = 1) or previous (-1) choice of a setting with named choices."""
-    options = CHOICES[key]
-    current = getattr(scene.renderer, key)
+    """The next (``step`` = 1) or previous (-1) choice of a setting with named choices that the
+    renderer can render (SceneError with the reason for the next one if none can)."""
+    options = choices(key)
+    current = scene.renderer.name if key == "name" else getattr(scene.renderer, key)
     i = options.index(current) if current in options else -1
-    return change(scene, **{key: options[(i + step) % len(options)]})
+    first_error = None
+    for k in range(1, len(options)):
+        try:
+            return change(scene, **{key: options[(i + step * k) % len(options)]})
+        except SceneError as exc:
+            first_error = first_error or exc
+    raise first_error or SceneError(f"renderer.{key}: no other choice")
 
 
 def toggle_shading(scene: Scene) -> Scene:
@@ -52,14 +88,14 @@ def toggle_jitter(scene: Scene) -> Scene:
 
 def sample_distance_voxels(scene: Scene) -> float:
     """The sample distance in voxels of the smallest spacing."""
-    return scene.renderer.sample_distance / min(scene.volume.spacing)
+    return scene.renderer.sample_distance / scene.field.sample_spacing
 
 
 def set_sample_distance_voxels(scene: Scene, voxels: float) -> Scene:
     """The sample distance (slice spacing for ``slicing3d``) in voxels, clamped to
     [:data:`MIN_SAMPLE_VOXELS`, :data:`MAX_SAMPLE_VOXELS`]."""
     voxels = min(MAX_SAMPLE_VOXELS, max(MIN_SAMPLE_VOXELS, float(voxels)))
-    return change(scene, sample_distance=scene.volume.voxels_to_world(voxels))
+    return scene.replace(renderer=with_sample_distance(scene.renderer, scene.field, voxels=voxels))
 
 
 def scale_sample_distance(scene: Scene, factor: float) -> Scene:
@@ -69,12 +105,11 @@ def scale_sample_distance(scene: Scene, factor: float) -> Scene:
 def sampling_text(scene: Scene) -> str:
     """How the renderer samples: the sample distance, slice spacing and count, or voxel planes."""
     r = scene.renderer
-    if r.name in VOXEL_PLANES:
+    if fixed_planes(r.name):
         return "one slice per voxel plane"
     voxels = sample_distance_voxels(scene)
     if r.name == "slicing3d":
-        lo, hi = scene.volume.box
-        count = math.ceil(float(np.linalg.norm(hi - lo)) / r.sample_distance)
+        count = math.ceil(diagonal(scene.field) / r.sample_distance)
         return f"slice spacing {voxels:.3g} voxel (up to {count} slices)"
     return f"sample distance {voxels:.3g} voxel"
 
@@ -82,13 +117,16 @@ def sampling_text(scene: Scene) -> str:
 def describe(scene: Scene) -> str:
     """One line naming the renderer and the settings that matter to it."""
     r = scene.renderer
+    plugin = registry.plugin(r.name)
     parts = [r.name, r.compositing.replace("_", "-")]
     if r.compositing == "emission_absorption":
         parts.append(f"{r.classification}-classified")
     parts.append(f"filter {r.filter}")
-    if r.compositing in ("emission_absorption", "isosurface"):
+    if r.compositing in ("emission_absorption", "isosurface") and plugin.declared("shading"):
         parts.append("shading on" if r.shading.enabled else "shading off")
-    parts.append("jitter on" if r.jitter else "jitter off")
+    if plugin.declared("jitter"):
+        parts.append("jitter on" if r.jitter else "jitter off")
     parts.append(sampling_text(scene))
     parts.append(scene.camera.projection)
     return " | ".join(parts)
+

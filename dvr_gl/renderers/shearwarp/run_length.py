@@ -1,7 +1,7 @@
 """Run-length encoded classified volumes for shear-warp (Lacroute and Levoy 1994).
 
 For a principal axis ``c`` the volume is read as slices ``k`` across ``c``, each
-a 2D image ``[j, i]`` (permuted coordinates, :mod:`dvr_gl.shear_warp`).  Every
+a 2D image ``[j, i]`` (permuted coordinates, :mod:`.factorization`).  Every
 voxel scanline ``(k, j)`` is stored as pairs of runs, a run of transparent
 voxels then a run of non-transparent ones, the last pair closing the scanline
 (its non-transparent run may be empty), so a scanline's pairs add up to ``Ni``.
@@ -32,7 +32,7 @@ import time
 
 import numpy as np
 
-from .shear_warp import permuted_axes
+from .factorization import permuted_axes
 
 
 def permuted_slice(data: np.ndarray, axis: int, k: int) -> np.ndarray:

@@ -1,7 +1,7 @@
 """Shear-warp: run-length encoded slices composited on the host, the intermediate image warped in GL.
 
-Lacroute and Levoy's object-order renderer (:mod:`dvr_gl.shear_warp` for the
-factorization, :mod:`dvr_gl.run_length` for the encoding):
+Lacroute and Levoy's object-order renderer (:mod:`.factorization` for the
+factorization, :mod:`.run_length` for the encoding):
 
 1. the view is factored into a permutation (the principal axis), a shear (and,
    under perspective, a per-slice scale) and a 2D warp;
@@ -33,36 +33,17 @@ import math
 import moderngl
 import numpy as np
 
-from ..errors import SceneError
-from ..gl.geometry import depth_range
-from ..gl.shaders import create_program
-from ..rays import RayBatch, intersect_box
-from ..reference import plans
-from ..reference.discrete import DiscreteReference
-from ..run_length import RunLengthVolume, SliceClassifier, expand_runs
-from ..shear_warp import factorize
-from .gl_base import GLVolumeRenderer, now
+from ...gl.geometry import depth_range
+from ...gl.shaders import create_program
+from ...rays import RayBatch, intersect_box
+from ...reference import plans
+from ...reference.discrete import DiscreteReference
+from .run_length import RunLengthVolume, SliceClassifier, expand_runs
+from .factorization import factorize
+from ..grid.gl_base import GLVolumeRenderer, now
 
 OPEN_REFRESH = 4  # slices between refreshes of the per-row count of open pixels (stale counts are safe)
 PIECE = 8         # voxels: runs are cut into pieces this long for skipping occluded ones
-
-
-def check(scene):
-    r = scene.renderer
-    if r.compositing != "emission_absorption":
-        raise SceneError(f"shearwarp composites emission-absorption only; use renderer raycast for {r.compositing}")
-    if r.classification not in ("post", "pre"):
-        raise SceneError("shearwarp classifies voxels (pre) or interpolated samples (post); pre-integrated "
-                         "classification needs renderer raycast, slicing3d or slicing2d")
-    if r.classification == "pre" and not r.associated_colors:
-        raise SceneError("shearwarp composites associated colours; set renderer.associated_colors = true")
-    if r.filter != "linear":
-        raise SceneError(f"shearwarp resamples slices bilinearly: use renderer.filter linear, not {r.filter}")
-    if r.shading.enabled or r.gradient_opacity:
-        raise SceneError("shearwarp does not shade or scale opacity by the gradient; turn shading and "
-                         "gradient_opacity off or use renderer raycast")
-    if r.jitter:
-        raise SceneError("shearwarp samples fixed slices: renderer.jitter applies to raycast only")
 
 
 def slab_lengths(fact, rays: RayBatch, scene) -> np.ndarray:
@@ -316,10 +297,9 @@ class ShearWarpRenderer(GLVolumeRenderer):
             scene.volume.data, axis, SliceClassifier(scene.transfer_function, r.classification, r.lut_size,
                                                      r.opacity_threshold)))
 
-    def render(self, scene) -> np.ndarray:
+    def draw(self, scene) -> np.ndarray:
         self.activate()
         start = now()
-        check(scene)
         width, height = scene.image.width, scene.image.height
         fact = factorize(scene.camera, scene.volume, width, height)
         rle = self.encoding(scene, fact.axis)

@@ -14,13 +14,14 @@ import time
 import moderngl
 import numpy as np
 
-from ..bricking import brick_size_for, ghost_width, plan_bricks
-from ..gl.context import create_context, make_current
-from ..gl.shaders import release_programs
-from ..errors import DvrError
-from ..gl.textures import FORMATS, central_difference_gradients, upload_field, upload_table, upload_volume
-from ..preintegration import preintegrate
-from .base import Renderer
+from .bricking import brick_size_for, ghost_width, plan_bricks
+from ...gl.context import create_context, make_current
+from ...gl.shaders import release_programs
+from ...errors import DvrError
+from .textures import FORMATS, central_difference_gradients, upload_field, upload_table, upload_volume
+from ...fields import gradient_epsilon
+from ...preintegration import preintegrate
+from ..base import Renderer
 
 FILTER = {"nearest": "FILTER_NEAREST", "linear": "FILTER_LINEAR", "cubic_bspline": "FILTER_CUBIC_BSPLINE",
           "catmull_rom": "FILTER_CATMULL_ROM"}
@@ -205,7 +206,7 @@ class GLVolumeRenderer(Renderer):
         u = {"u_unit_distance": tf.unit_distance, "u_gradient_reference": r.gradient_opacity_reference,
              "u_lut_size": r.lut_size, "u_lut_lo": lut_lo, "u_lut_scale": (r.lut_size - 1) / (lut_hi - lut_lo),
              "u_ambient": r.shading.ambient, "u_diffuse": r.shading.diffuse, "u_specular": r.shading.specular,
-             "u_shininess": r.shading.shininess, "u_gradient_epsilon": vol.gradient_epsilon}
+             "u_shininess": r.shading.shininess, "u_gradient_epsilon": gradient_epsilon(vol)}
         lights = r.shading.lights
         if lights:
             u["u_light_dir"] = [(0.0, 0.0, 0.0, 1.0) if light.type == "headlight" else

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from ..errors import DvrError
+from ...errors import DvrError
 
 FORMATS = {
     np.dtype(np.uint8): ("f1", 255.0, 0.0, 1),

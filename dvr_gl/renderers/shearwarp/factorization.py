@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import SceneError
+from ...errors import SceneError
 
 EYE_MARGIN = 1e-3  # voxels: perspective needs the eye this far outside the slab of slices
 
@@ -58,17 +58,14 @@ def camera_matrix(camera, width: int, height: int) -> np.ndarray:
     to_camera[0, :3], to_camera[1, :3], to_camera[2, :3] = r, up, f
     to_camera[:3, 3] = -to_camera[:3, :3] @ eye
     to_camera[3, 3] = 1.0
-    aspect = width / height
+    half_w, half_h = camera.half_extent(width / height)
     k = np.zeros((4, 4))
+    k[0, 0], k[1, 1] = width / (2.0 * half_w), -height / (2.0 * half_h)
     if camera.projection == "orthographic":
-        half = camera.view_height / 2.0
-        k[0, 0], k[0, 3] = width / (2.0 * half * aspect), width / 2.0
-        k[1, 1], k[1, 3] = -height / (2.0 * half), height / 2.0
+        k[0, 3], k[1, 3] = width / 2.0, height / 2.0
         k[2, 2], k[3, 3] = 1.0, 1.0
     else:
-        h = math.tan(math.radians(camera.fov) / 2.0)
-        k[0, 0], k[0, 2] = width / (2.0 * h * aspect), width / 2.0
-        k[1, 1], k[1, 2] = -height / (2.0 * h), height / 2.0
+        k[0, 2], k[1, 2] = width / 2.0, height / 2.0
         k[2, 3], k[3, 2] = 1.0, 1.0
     return k @ to_camera
 

@@ -1,4 +1,4 @@
-"""The volume: a node-centred regular grid of scalars.
+"""The regular grid (data kind ``"grid"``): a node-centred grid of scalars, :class:`Volume`.
 
 Conventions (``docs/conventions.md``):
 
@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import VolumeError
+from ..errors import VolumeError
 
 SCALAR_TYPES = (np.dtype(np.uint8), np.dtype(np.uint16), np.dtype(np.int16), np.dtype(np.float32))
 
@@ -46,9 +46,9 @@ def to_scalar_type(data: np.ndarray, name: str = "volume") -> np.ndarray:
     raise VolumeError(f"{name}: unsupported scalar type {dt}; use uint8, uint16, int16 or float32 data")
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)
 class Volume:
-    """A regular grid of scalar samples in world space.
+    """A regular grid of scalar samples in world space; a :class:`~dvr_gl.fields.Field` of kind ``"grid"``.
 
     Attributes:
         data: ``(nz, ny, nx)`` array of uint8, uint16, int16 or float32, read-only.
@@ -62,6 +62,8 @@ class Volume:
     origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
     name: str = "volume"
     value_range: tuple[float, float] = field(init=False)
+
+    kind = "grid"
 
     def __post_init__(self):
         data = np.asarray(self.data)
@@ -105,6 +107,33 @@ class Volume:
         hi[single] += 0.5 * s[single]
         return lo, hi
 
+    @property
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The field's bounding box (:class:`~dvr_gl.fields.Field`): :attr:`box`."""
+        return self.box
+
+    @property
+    def sample_spacing(self) -> float:
+        """One voxel: the smallest spacing (world units), the unit of distances in voxels."""
+        return min(self.spacing)
+
+    @property
+    def samples(self) -> np.ndarray:
+        """The sample values, ``data``."""
+        return self.data
+
+    def reconstruct(self, filter: str = "linear"):
+        """The continuous field under a reconstruction filter (:mod:`.reconstruction`)."""
+        from .reconstruction import SampledField
+
+        return SampledField(self.data, self.spacing, self.origin, filter)
+
+    def reconstruct_values(self, values: np.ndarray, filter: str = "linear"):
+        """Other values at this grid's samples (``(nz, ny, nx[, C])``), reconstructed alike."""
+        from .reconstruction import SampledField
+
+        return SampledField(values, self.spacing, self.origin, filter)
+
     def world_to_index(self, points: np.ndarray) -> np.ndarray:
         """Continuous voxel coordinates ``(i, j, k)`` (x, y, z order) of world points ``(..., 3)``."""
         return (np.asarray(points, dtype=np.float64) - np.array(self.origin)) / np.array(self.spacing)
@@ -115,21 +144,23 @@ class Volume:
 
     def voxels_to_world(self, distance_in_voxels: float) -> float:
         """A distance in voxels (of the smallest spacing) in world units."""
-        return float(distance_in_voxels) * min(self.spacing)
-
-    @property
-    def gradient_epsilon(self) -> float:
-        """Gradient magnitude (data units per world unit) below which shading takes the normal
-        as zero: 1e-5 of the value scale per voxel, far above float32 rounding noise in
-        homogeneous regions and far below any structure worth a normal."""
-        lo, hi = self.value_range
-        return 1e-5 * max(abs(lo), abs(hi), hi - lo, 1e-30) / min(self.spacing)
+        return float(distance_in_voxels) * self.sample_spacing
 
     def describe(self) -> str:
         nx, ny, nz = self.dims
         lo, hi = self.value_range
         return (f"{self.name}: {nx}x{ny}x{nz} {self.data.dtype}, spacing {self.spacing}, "
                 f"origin {self.origin}, values {lo:g}..{hi:g}")
+
+    def __repr__(self) -> str:
+        nx, ny, nz = self.dims
+        lo, hi = self.value_range
+        return (f"Volume({self.name!r}, {nx}x{ny}x{nz} {self.data.dtype}, spacing={_short(self.spacing)}, "
+                f"origin={_short(self.origin)}, values {lo:g}..{hi:g})")
+
+
+def _short(v) -> str:
+    return "(" + ", ".join(f"{x:g}" for x in v) + ")"
 
 
 def replace_non_finite(data: np.ndarray, value: float) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""Reconstruction filters in float64: the continuous field a volume stands for.
+"""Reconstruction filters in float64: the continuous field a regular grid stands for.
 
 Voxel coordinate ``u = (p - origin) / spacing`` per axis; sample ``i`` sits at
 ``u = i``.  Out-of-range taps are clamped to the edge (as GL's
@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..scene_schema import FILTERS
+from ..model import FILTERS
 
 TAPS = {"nearest": 1, "linear": 2, "cubic_bspline": 4, "catmull_rom": 4}
 # Degree of the field as a polynomial of the ray parameter between knots.

@@ -4,7 +4,7 @@ The scene decides the program: :func:`shader_features` turns it into defines
 (compositing mode, filter, classification, shading, jitter, early termination,
 acceleration), so a feature the scene does not use is not compiled, computed
 or uploaded; programs are cached per feature set, textures per what they were
-made from (:mod:`.gl_base`).  A volume beyond the GL texture limit or the
+made from (:mod:`..grid.gl_base`).  A volume beyond the GL texture limit or the
 texture budget is rendered in bricks: one pass per brick, front to back (back
 to front for that order), each continuing the compositing state of the last,
 so the image is the one a single texture would give.
@@ -17,19 +17,20 @@ import math
 import moderngl
 import numpy as np
 
-from .. import acceleration as accel
-from ..acceleration import level_count
-from ..bricking import plan_bricks, visibility_order
-from ..gl.shaders import create_program
-from ..gl.textures import upload_field
-from .gl_base import GLVolumeRenderer, GridView, classification_features, now
+from ...gl.shaders import create_program
+from ..grid.bricking import plan_bricks, visibility_order
+from ..grid.gl_base import GLVolumeRenderer, GridView, classification_features, now
+from ..grid.textures import upload_field
+from . import acceleration as accel
+from .acceleration import level_count
 
 COMPOSITING = {"emission_absorption": "COMPOSITE_EMISSION", "isosurface": "COMPOSITE_ISOSURFACE",
                "average": "COMPOSITE_AVERAGE", "mip": "COMPOSITE_MIP", "minip": "COMPOSITE_MINIP"}
 
 
 def shader_features(scene, count_samples: bool = False, bricked: bool = False) -> dict:
-    """The defines for exactly the features this scene uses."""
+    """The defines for exactly the features this scene uses (computed once per frame; the bricked
+    passes' program is :func:`bricked_features` of the same)."""
     r = scene.renderer
     emission = r.compositing == "emission_absorption"
     defines = classification_features(scene)
@@ -46,12 +47,19 @@ def shader_features(scene, count_samples: bool = False, bricked: bool = False) -
         defines["BACK_TO_FRONT"] = r.order == "back_to_front"
         defines["EARLY_TERMINATION"] = r.order == "front_to_back" and r.ert_threshold < 1.0
     defines["JITTER"] = r.jitter
-    if bricked:
-        defines["BRICKED"] = True
-    elif r.acceleration and r.compositing != "average":  # every sample counts in an average
+    if r.acceleration and r.compositing != "average":  # every sample counts in an average
         defines.update(ACCELERATE=True, NUM_LEVELS=level_count(scene.volume.dims, r.block_size))
-    defines["COUNT_SAMPLES"] = count_samples and not bricked
-    return {k: v for k, v in defines.items() if v is not False}
+    defines["COUNT_SAMPLES"] = count_samples
+    defines = {k: v for k, v in defines.items() if v is not False}
+    return bricked_features(defines) if bricked else defines
+
+
+def bricked_features(defines: dict) -> dict:
+    """The defines of the bricked (or long-ray) passes: the same features, one pass per brick and
+    segment window, no empty-space skipping or sample counting (yet)."""
+    out = {k: v for k, v in defines.items() if k not in ("ACCELERATE", "NUM_LEVELS", "COUNT_SAMPLES")}
+    out["BRICKED"] = True
+    return out
 
 
 class BlockTextures(list):
@@ -106,7 +114,7 @@ class RayCastRenderer(GLVolumeRenderer):
     # --- acceleration structures ---
 
     def _block_textures(self, scene, defines, lut, preint=None) -> list:
-        """Per-level block textures for this mode (see dvr_gl.acceleration), cached by what they depend on."""
+        """Per-level block textures for this mode (see .acceleration), cached by what they depend on."""
         r, volume = scene.renderer, scene.volume
         support = accel.SUPPORT[r.filter]
         if "CLASSIFY_PRE" in defines:
@@ -140,12 +148,7 @@ class RayCastRenderer(GLVolumeRenderer):
     def ray_uniforms(scene) -> dict:
         r, cam, vol, img = scene.renderer, scene.camera, scene.volume, scene.image
         f, right, up = cam.basis()
-        aspect = img.width / img.height
-        if cam.projection == "perspective":
-            h = math.tan(math.radians(cam.fov) / 2.0)
-            half = (h * aspect, h)
-        else:
-            half = (cam.view_height / 2.0 * aspect, cam.view_height / 2.0)
+        half = cam.half_extent(img.width / img.height)
         lo, hi = vol.box
         ert = r.ert_threshold
         return {"u_eye": cam.eye, "u_forward": f, "u_right": right, "u_up": up, "u_half_extent": half,
@@ -167,16 +170,16 @@ class RayCastRenderer(GLVolumeRenderer):
             return segment / 2.0
         return 0.0
 
-    def render(self, scene) -> np.ndarray:
+    def draw(self, scene) -> np.ndarray:
         self.activate()
         start = now()
-        views = self.grid_views(scene, shader_features(scene))
+        defines = shader_features(scene, self.count_samples)
+        views = self.grid_views(scene, defines)
         windows = segment_windows(scene)
         if len(views) > 1 or len(windows) > 1:
             if len(views) == 1:  # long rays: the whole volume as one brick, in passes over segment windows
                 views = [GridView((0, 0, 0), scene.volume.dims, whole_volume_brick(scene.volume))]
-            return self._render_bricks(scene, views, start, windows)
-        defines = shader_features(scene, self.count_samples)
+            return self._render_bricks(scene, bricked_features(defines), views, start, windows)
         program = create_program(self.ctx, "fullscreen.vert", self.fragment_shader, defines)
         textures = {**self.view_textures(scene, defines, views[0], resident=True),
                     **self.table_textures(scene, defines, scene.renderer.sample_distance)}
@@ -215,9 +218,8 @@ class RayCastRenderer(GLVolumeRenderer):
         finally:
             vao.release()
 
-    def _render_bricks(self, scene, views, start, windows) -> np.ndarray:
+    def _render_bricks(self, scene, defines, views, start, windows) -> np.ndarray:
         r = scene.renderer
-        defines = shader_features(scene, bricked=True)
         program = create_program(self.ctx, "fullscreen.vert", "raycast.frag", defines)
         resolve = create_program(self.ctx, "fullscreen.vert", "raycast_resolve.frag", defines)
         tables = self.table_textures(scene, defines, r.sample_distance)

@@ -1,0 +1,216 @@
+"""The Python API: :func:`render` takes data (an array, a field, a file, or a scene) and keywords, and
+returns an :class:`Image` that shows itself in Jupyter, gives its pixels and saves.
+
+    >>> import numpy as np, dvr_gl
+    >>> image = dvr_gl.render(np.random.rand(32, 32, 32).astype(np.float32), size=64)
+    >>> image.rgba.shape
+    (64, 64, 4)
+
+Keywords (each optional): ``spacing`` and ``origin`` (world units, x first, as in scene files) for
+arrays; ``transfer_function`` (a preset name, control points ``[[value, r, g, b, opacity], ...]``, or a
+:class:`~dvr_gl.transfer_function.TransferFunction`); the camera (a :class:`~dvr_gl.camera.Camera`, or
+``azimuth``, ``elevation``, ``distance``, ``projection``, ``fov``, ``up``); ``renderer`` (a registered
+renderer's name) and any renderer setting by its scene-file name (``sample_distance_voxels=0.25``,
+``compositing="mip"``, ``shading=True``); ``size`` (pixels: ``n`` or ``(width, height)``) and
+``background`` (linear RGB or RGBA).  What is not given is resolved as a scene file would be: the
+camera frames the data, a transfer function spans its values.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .camera import Camera
+from .errors import SceneError
+from .fields import Field
+from .fields.grid import Volume
+from .image import composite_over, encode_8bit, read_image_bytes, write_image
+from .renderers import create_renderer, registry
+from .scene import Scene, apply_overrides, load_scene, parse_scene, resolve_scene
+from .transfer_function import TransferFunction, preset
+
+_CAMERA_KEYS = ("azimuth", "elevation", "distance", "projection", "fov", "up")
+
+
+class Image:
+    """A rendered image.
+
+    rgba: premultiplied, linear, float32 ``(H, W, 4)``, row 0 at the top, background not applied (what
+        renderers return).
+    scene: the effective scene it was rendered from (``scene.to_toml()`` repeats it, for file data).
+    stats: what the renderer reported (``seconds``, ``samples``, ...).
+    """
+
+    def __init__(self, rgba: np.ndarray, scene: Scene, stats: dict | None = None):
+        self.rgba = rgba
+        self.scene = scene
+        self.stats = dict(stats or {})
+
+    @property
+    def background(self) -> tuple:
+        return tuple(self.scene.image.background)
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        return self.rgba.shape
+
+    def composited(self) -> np.ndarray:
+        """Linear float32 RGBA over the scene's background (what EXR and TIFF files hold)."""
+        return composite_over(self.rgba, self.background)
+
+    def srgb8(self) -> np.ndarray:
+        """8-bit sRGB ``(H, W, 4)`` uint8 over the background: what a PNG file holds and a screen shows."""
+        return encode_8bit(self.composited())
+
+    def save(self, path, overwrite: bool = False) -> Path:
+        """Write ``.png``/``.jpg`` (8-bit sRGB) or ``.exr``/``.tif`` (linear float), never replacing a
+        file unless ``overwrite``."""
+        write_image(path, self.composited(), overwrite)
+        return Path(path)
+
+    def _repr_png_(self) -> bytes:
+        """Jupyter shows the image inline (the PNG :meth:`save` would write)."""
+        with tempfile.TemporaryDirectory() as folder:
+            path = Path(folder) / "image.png"
+            write_image(path, self.composited())
+            return read_image_bytes(path)
+
+    def __array__(self, dtype=None, copy=None):
+        return self.rgba if dtype is None else self.rgba.astype(dtype)
+
+    def __repr__(self) -> str:
+        h, w, _ = self.rgba.shape
+        seconds = self.stats.get("seconds")
+        took = f", {1e3 * seconds:.0f} ms" if seconds is not None else ""
+        return f"Image({w}x{h}, {self.scene.renderer.name}{took})"
+
+
+def render(data, *, spacing=None, origin=None, transfer_function=None, camera: Camera | None = None,
+           renderer: str | None = None, size=None, background=None, ctx=None, **keywords) -> Image:
+    """Render ``data`` (see the module doc): a numpy array indexed ``[z, y, x]``, a field
+    (:mod:`dvr_gl.fields`), a path (a ``.toml`` scene file or a volume file), or a :class:`Scene`.
+    ``ctx``: a moderngl context for GL renderers (default: a new headless one, released after)."""
+    scene = scene_of(data, spacing=spacing, origin=origin, transfer_function=transfer_function, camera=camera,
+                     renderer=renderer, size=size, background=background, **keywords)
+    registry.check(scene)
+    with create_renderer(scene.renderer.name, ctx=ctx) as r:
+        rgba = r.render(scene)
+        return Image(rgba, scene, r.stats)
+
+
+def scene_of(data, *, spacing=None, origin=None, transfer_function=None, camera: Camera | None = None,
+             renderer: str | None = None, size=None, background=None, **keywords) -> Scene:
+    """The :class:`Scene` :func:`render` would render (same arguments, no rendering)."""
+    camera_keys = {k: keywords.pop(k) for k in _CAMERA_KEYS if k in keywords}
+    settings = _renderer_settings(renderer, keywords)
+    if isinstance(data, Scene):
+        if spacing is not None or origin is not None:
+            raise SceneError("spacing and origin apply to arrays; this is a scene (replace its field instead)")
+        return _changed(data, transfer_function, camera, camera_keys, settings, size, background)
+    overrides = {f"camera.{k}": (list(v) if k == "up" else v) for k, v in camera_keys.items()}
+    overrides.update({f"renderer.{k}": v for k, v in settings.items()})
+    overrides.update(_image_overrides(size, background))
+    tf = None
+    if isinstance(transfer_function, TransferFunction):
+        tf = transfer_function
+    elif isinstance(transfer_function, str):
+        overrides["transfer_function.preset"] = transfer_function
+    elif transfer_function is not None:
+        overrides["transfer_function.points"] = np.asarray(transfer_function, dtype=np.float64).tolist()
+    if isinstance(data, (str, os.PathLike)):
+        path = Path(data)
+        if path.suffix.lower() == ".toml":
+            if spacing is not None or origin is not None:
+                raise SceneError("spacing and origin of a scene file's volume: set volume.spacing in the file")
+            scene = load_scene(path, overrides)
+        else:
+            if spacing is not None:
+                overrides["volume.spacing"] = list(spacing)
+            if origin is not None:
+                overrides["volume.origin"] = list(origin)
+            scene = load_scene(None, {"volume.path": str(path), **overrides})
+        if tf is not None or camera is not None:
+            scene = _changed(scene, tf, camera, {}, {}, None, None)
+        return scene
+    field = _field_of(data, spacing, origin)
+    spec = parse_scene(apply_overrides({}, overrides), "render()")
+    return resolve_scene(spec, field=field, camera=camera, transfer_function=tf)
+
+
+def _field_of(data, spacing, origin):
+    if isinstance(data, np.ndarray) or (hasattr(data, "__array__") and not isinstance(data, Field)):
+        array = np.asarray(data)
+        if array.ndim != 3:
+            raise SceneError(f"data: expected a 3D array indexed [z, y, x], got shape {array.shape}")
+        return Volume(array, spacing=spacing or (1.0, 1.0, 1.0), origin=origin or (0.0, 0.0, 0.0), name="array")
+    if isinstance(data, Field):
+        if spacing is not None or origin is not None:
+            raise SceneError("spacing and origin apply to arrays; a field has its own")
+        return data
+    raise SceneError(f"data: expected a numpy array [z, y, x], a field, a file path or a Scene, "
+                     f"got {type(data).__name__}")
+
+
+def _renderer_settings(renderer: str | None, keywords: dict) -> dict:
+    """Renderer keywords as ``[renderer]`` keys (``shading=True`` enables shading); unknown keywords are
+    an error listing the valid ones."""
+    valid = {s.name for s in registry.all_settings()}
+    unknown = sorted(set(keywords) - valid)
+    if unknown:
+        raise SceneError(f"unknown keyword {', '.join(map(repr, unknown))}; renderer settings are "
+                         f"{', '.join(sorted(valid))}, and the camera takes {', '.join(_CAMERA_KEYS)}")
+    out = dict(keywords)
+    if isinstance(out.get("shading"), bool):
+        out["shading.enabled"] = out.pop("shading")
+    if renderer is not None:
+        out["name"] = renderer
+    return out
+
+
+def _image_overrides(size, background) -> dict:
+    out = {}
+    if size is not None:
+        width, height = (size, size) if np.isscalar(size) else size
+        out["image.width"], out["image.height"] = int(width), int(height)
+    if background is not None:
+        bg = [float(c) for c in background]
+        out["image.background"] = bg + [1.0] * (4 - len(bg))
+    return out
+
+
+def _changed(scene: Scene, transfer_function, camera, camera_keys: dict, settings: dict, size, background) -> Scene:
+    """A scene with the keywords applied (renderer settings checked as a scene file's would be)."""
+    image = _image_overrides(size, background)
+    if image:
+        import dataclasses
+
+        changes = {k.removeprefix("image."): v for k, v in image.items()}
+        if "background" in changes:
+            changes["background"] = tuple(changes["background"])
+        scene = scene.replace(image=dataclasses.replace(scene.image, **changes))
+    if transfer_function is not None:
+        tf = transfer_function if isinstance(transfer_function, TransferFunction) else (
+            preset(transfer_function, scene.field.value_range) if isinstance(transfer_function, str)
+            else TransferFunction(np.asarray(transfer_function, dtype=np.float64)))
+        scene = scene.replace(transfer_function=tf)
+    if camera is not None:
+        scene = scene.replace(camera=camera)
+    if camera_keys:
+        cam = scene.camera
+        if "projection" in camera_keys or "fov" in camera_keys or "up" in camera_keys:
+            cam = cam.with_(**{k: (tuple(v) if k == "up" else v) for k, v in camera_keys.items()
+                               if k in ("projection", "fov", "up")})
+        cam = cam.orbited(camera_keys.get("azimuth"), camera_keys.get("elevation"), camera_keys.get("distance"))
+        scene = scene.replace(camera=cam)
+    if settings:
+        nested = apply_overrides({}, {f"renderer.{k}": v for k, v in settings.items()})["renderer"]
+        if "shading" in nested:
+            import dataclasses
+
+            nested["shading"] = dataclasses.replace(scene.renderer.shading, **nested["shading"])
+        scene = scene.with_renderer(**nested)
+    return scene

@@ -1,0 +1,90 @@
+"""Fields: what renderers and references sample.
+
+Every kind of data (today the regular grid; tetrahedral meshes and particle sets
+are next) implements one protocol, :class:`Field`:
+
+* ``kind``: the data kind renderers declare they render (``"grid"``, ``"analytic"``, ...);
+* ``bounds``: the world-space box ``(lo, hi)`` holding the field (camera framing, ray
+  clipping);
+* ``value_range``: the smallest and largest value (transfer-function presets, defaults);
+* ``sample_spacing``: the world length of "one voxel", the unit of sample distances
+  given in voxels (a grid's smallest spacing);
+* ``reconstruct(filter)``: the continuous field under a reconstruction filter, a
+  :class:`Reconstruction`: values and gradients at world points, its polynomial
+  degree between knots, and the ``knots`` along rays where it is not smooth (the
+  converged reference cuts rays there);
+* ``samples`` and ``reconstruct_values(values, filter)`` (optional): the field's own
+  sample values, and other values at the same samples reconstructed alike
+  (pre-classification classifies the samples and reconstructs the result).
+
+What only makes sense on a grid (textures, bricking, min-max pyramids, run-length
+encoding) lives with the grid renderers (:mod:`dvr_gl.renderers`), not here.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from .analytic import SphereField
+from .grid import Volume
+
+
+@runtime_checkable
+class Reconstruction(Protocol):
+    """A continuous scalar field: values, gradients and its non-smooth places along rays."""
+
+    degree: int  # polynomial degree along a ray between knots (0: piecewise constant)
+
+    def sample(self, points: np.ndarray) -> np.ndarray:
+        """Values at world points ``(N, 3)``: ``(N,)`` float64 (``(N, C)`` for multi-channel values)."""
+
+    def gradient(self, points: np.ndarray) -> np.ndarray:
+        """Gradients ``(N, 3)`` in value units per world unit."""
+
+    def knots(self, origins, directions, t0, t1) -> tuple[np.ndarray, np.ndarray]:
+        """``(ray_index, t)`` where rays cross a place where the field is not smooth, in ``(t0, t1)``."""
+
+
+@runtime_checkable
+class Field(Protocol):
+    """Scalar data in world space (see the module doc)."""
+
+    kind: str
+    name: str
+
+    @property
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]: ...
+
+    @property
+    def value_range(self) -> tuple[float, float]: ...
+
+    @property
+    def sample_spacing(self) -> float: ...
+
+    def reconstruct(self, filter: str = "linear") -> Reconstruction: ...
+
+    def describe(self) -> str: ...
+
+
+def voxels_to_world(field: Field, voxels: float) -> float:
+    """A distance in voxels (``field.sample_spacing``) in world units."""
+    return float(voxels) * field.sample_spacing
+
+
+def gradient_epsilon(field: Field) -> float:
+    """Gradient magnitude (value units per world unit) below which shading takes the normal as
+    zero: 1e-5 of the value scale per voxel, far above float32 rounding noise in homogeneous
+    regions and far below any structure worth a normal (conventions, "Shading")."""
+    lo, hi = field.value_range
+    return 1e-5 * max(abs(lo), abs(hi), hi - lo, 1e-30) / field.sample_spacing
+
+
+def diagonal(field: Field) -> float:
+    """Length of the diagonal of the field's bounding box (world units)."""
+    lo, hi = field.bounds
+    return float(np.linalg.norm(np.asarray(hi) - np.asarray(lo)))
+
+
+__all__ = ["Field", "Reconstruction", "Volume", "SphereField", "voxels_to_world", "gradient_epsilon", "diagonal"]

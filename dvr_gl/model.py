@@ -1,0 +1,53 @@
+"""The rendering model's vocabulary: what the picture should be, independent of any file format.
+
+The compositing modes, classifications, reconstruction filters and compositing orders, and the
+lighting of gradient shading.  The float64 references, the renderers and the scene-file schema all
+use these; the model never imports the schema (the schema imports the model).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+COMPOSITING_MODES = ("emission_absorption", "isosurface", "average", "mip", "minip")
+CLASSIFICATIONS = ("post", "pre", "preintegrated")
+FILTERS = ("nearest", "linear", "cubic_bspline", "catmull_rom")
+ORDERS = ("front_to_back", "back_to_front")
+LIGHT_TYPES = ("headlight", "directional")
+
+Vec3 = tuple[float, float, float]
+
+
+def choices(*values, default, doc: str = ""):
+    """A dataclass field restricted to ``values`` (scene parsing checks them), with one line of documentation."""
+    return field(default=default, metadata={"choices": values, "doc": doc})
+
+
+def doc(default, text: str, factory=None):
+    """A dataclass field with one line of documentation (the scene-format reference shows it)."""
+    if factory is not None:
+        return field(default_factory=factory, metadata={"doc": text})
+    return field(default=default, metadata={"doc": text})
+
+
+@dataclass
+class LightSpec:
+    """A light: ``headlight`` (from the eye, along each ray) or ``directional``."""
+
+    type: str = choices(*LIGHT_TYPES, default="headlight", doc="from the eye along each ray, or directional")
+    direction: Vec3 = doc((0.0, 0.0, -1.0), "directional: the direction the light travels (world)")
+    color: Vec3 = doc((1.0, 1.0, 1.0), "linear RGB intensity")
+
+
+@dataclass
+class ShadingSpec:
+    """Blinn-Phong shading from the gradient (emission-absorption and isosurface)."""
+
+    enabled: bool = doc(False, "Blinn-Phong from the gradient (emission-absorption, isosurface)")
+    ambient: float = doc(0.2, "ambient coefficient")
+    diffuse: float = doc(0.7, "diffuse coefficient")
+    specular: float = doc(0.3, "specular coefficient")
+    shininess: float = doc(32.0, "specular exponent")
+    two_sided: bool = doc(True, "light both sides of a surface (the normal turned toward the viewer)")
+    lights: list[LightSpec] = doc(None, "`[[renderer.shading.lights]]` tables (default: one headlight)",
+                                  factory=lambda: [LightSpec()])

@@ -1,0 +1,28 @@
+"""``reference-converged``: the converged reference, float64 on the CPU (:mod:`dvr_gl.reference.converged`).
+
+The judge of "how accurate is this setting?": the rendering integral of the continuous model
+(the scene's filter, classification and shading, the exact transfer function), to a per-pixel
+error budget.  It has no sampling grid, so the sample distance and jitter do not change it
+(pre-integrated classification is the exact integral it computes anyway).  It renders any
+field (:mod:`dvr_gl.fields`).  See ``docs/renderers/references.md``.
+"""
+
+from __future__ import annotations
+
+from ... import settings as s
+from ..registry import RendererPlugin
+
+CONVERGED_TOLERANCE = s.Setting("converged_tolerance", float, 1e-4, "error budget per pixel",
+                                check=s.positive, group="reference-converged")
+
+PLUGIN = RendererPlugin(
+    name="reference-converged",
+    description="CPU float64, exact transfer function, integrated to a tolerance",
+    renderer="dvr_gl.renderers.reference_converged.renderer:ConvergedReferenceRenderer",
+    settings=(s.COMPOSITING, s.CLASSIFICATION, s.ASSOCIATED_COLORS, s.FILTER, s.GRADIENT_OPACITY,
+              s.GRADIENT_OPACITY_REFERENCE, s.ISO_VALUE, s.JITTER, s.SHADING, CONVERGED_TOLERANCE),
+    data_kinds=None,
+    reference=True,
+    # Against the closed forms (tests/closed_forms.py), at converged_tolerance 1e-6: measured 5e-8.
+    tolerances={"box": 1e-6, "ramp": 1e-6, "sphere": 1e-6, "analytic sphere": 1e-6},
+)

@@ -1,0 +1,291 @@
+"""The renderer registry: every renderer is a plugin, found through Python entry points.
+
+A renderer declares everything about itself in one :class:`RendererPlugin`, in its own
+package, and registers it in the entry-point group ``dvr_gl.renderers``, the same way
+for the built-in renderers (``pyproject.toml``) and for a renderer in another package::
+
+    [project.entry-points."dvr_gl.renderers"]
+    myrenderer = "my_package:PLUGIN"
+
+Everything else reads the registry: the scene file's ``[renderer]`` keys (the union of
+the declared settings), the CLI's ``--renderer`` choices and setting flags, ``dvr info``,
+the viewer's renderer list and greyed-out options, ``dvr bench tradeoff``'s sweeps, and
+the conformance and extremes tests.  :func:`refusal` tells, before rendering, why a
+renderer cannot render a scene.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import importlib
+from dataclasses import dataclass
+from importlib import metadata
+from typing import Any, Callable, Optional
+
+from ..errors import DvrError, SceneError
+from ..settings import MODEL_SETTINGS, Setting
+
+ENTRY_POINT_GROUP = "dvr_gl.renderers"
+
+
+@dataclass(frozen=True)
+class RendererPlugin:
+    """What a renderer declares about itself.
+
+    name, description: as listed by ``dvr info`` and chosen with ``renderer.name``.
+    renderer: the :class:`~dvr_gl.renderers.base.Renderer` subclass, or ``"module:Class"``
+        (imported when first created, so that reading the registry stays cheap).
+    settings: the :class:`~dvr_gl.settings.Setting` s it reads beyond its ``name``:
+        the model settings it supports (narrowed to its choices) and its own.
+    data_kinds: the field kinds it renders (:mod:`dvr_gl.fields`); None: any field.
+    needs_gl: it draws with OpenGL (it takes a moderngl context: ``ctx=``).
+    fixed_planes: it samples fixed planes (the voxel planes), not a sample distance.
+    check: ``check(scene)`` raises SceneError with the reason it cannot render a scene,
+        beyond what its settings say (e.g. an eye inside the volume); or ``"module:function"``.
+    oracle: ``oracle(scene)``, the float64 same-discretization image ``(H, W, 4)`` it must
+        match (None for the references, which are the judges); or ``"module:function"``.
+    resolve: ``resolve(scene) -> scene``: resolves settings of its own when a scene is read
+        (the ray caster turns a tolerance into settings); or ``"module:function"``.
+    sweeps: the trade-off families (:mod:`dvr_gl.sweeps`) that vary something it reads.
+    tolerances: what it promises against the conformance tests' closed forms: the largest
+        absolute error outside the exact bounds, per closed form (``"box"``, ``"ramp"``,
+        ``"sphere"``, ``"analytic sphere"``) or per closed form and mode (``("ramp", "mip")``), at
+        the tests' resolution (``tests/test_conformance.py``, ``tests/closed_forms.py``).
+    reference: a CPU float64 reference (a judge: no oracle, slow).
+    """
+
+    name: str
+    description: str
+    renderer: Any
+    settings: tuple[Setting, ...] = ()
+    data_kinds: Optional[tuple[str, ...]] = ("grid",)
+    needs_gl: bool = False
+    fixed_planes: bool = False
+    check: Any = None
+    oracle: Any = None
+    resolve: Any = None
+    sweeps: tuple = ()
+    tolerances: Any = None
+    reference: bool = False
+
+    def declared(self, name: str) -> Optional[Setting]:
+        return next((s for s in self.settings if s.name == name), None)
+
+    @property
+    def setting_names(self) -> tuple[str, ...]:
+        return tuple(s.name for s in self.settings)
+
+    def choices(self, name: str) -> tuple:
+        """The values of a setting with choices that this renderer supports (none if it does not
+        declare the setting: then only the default)."""
+        own = self.declared(name)
+        if own is not None:
+            return own.choices
+        shared = next((s for s in MODEL_SETTINGS if s.name == name), None)
+        return (shared.default_value(),) if shared is not None else ()
+
+    def renderer_class(self):
+        return _load(self.renderer)
+
+    def create(self, **kwargs):
+        return self.renderer_class()(**kwargs)
+
+    def oracle_image(self, scene):
+        return _load(self.oracle)(scene)
+
+
+def _load(obj):
+    """An object, or the one a ``"module:attribute"`` string names."""
+    if not isinstance(obj, str):
+        return obj
+    module, _, attribute = obj.partition(":")
+    return getattr(importlib.import_module(module), attribute)
+
+
+# --- loading -----------------------------------------------------------------------------------
+
+@dataclass
+class _Registry:
+    plugins: dict
+    broken: dict       # name -> one-line reason it could not be loaded
+    settings: tuple    # the union, in declaration order
+
+
+def _entry_points():
+    seen = {}
+    for ep in metadata.entry_points(group=ENTRY_POINT_GROUP):
+        # the same distribution may be visible twice (an editable install and a target directory)
+        if ep.name in seen and seen[ep.name].value != ep.value:
+            raise DvrError(f"two packages register a renderer named {ep.name!r} ({seen[ep.name].value} and "
+                           f"{ep.value}); uninstall one of them")
+        seen.setdefault(ep.name, ep)
+    return list(seen.values())
+
+
+@functools.lru_cache(maxsize=1)
+def _registry() -> _Registry:
+    plugins, broken = {}, {}
+    for ep in _entry_points():
+        try:
+            plugin = ep.load()
+        except Exception as exc:  # a broken third-party plugin must not take the others down
+            broken[ep.name] = f"{ep.value} failed to import ({type(exc).__name__}: {exc})"
+            continue
+        if not isinstance(plugin, RendererPlugin) or plugin.name != ep.name:
+            broken[ep.name] = (f"{ep.value} is not a RendererPlugin named {ep.name!r} "
+                               f"(see dvr_gl.renderers.registry)")
+            continue
+        plugins[ep.name] = plugin
+    if not plugins and not broken:
+        raise DvrError("no renderers are registered: dvr-gl's entry points are missing; install it "
+                       "(pip install -e . in the repository) rather than running it from the source tree")
+    return _Registry(_builtin_first(plugins), broken, _union(plugins))
+
+
+BUILTIN_ORDER = ("raycast", "slicing3d", "slicing2d", "shearwarp", "reference", "reference-converged")
+
+
+def _builtin_first(plugins: dict) -> dict:
+    """The built-in renderers in their documented order (viewer keys 1-6), then the others by name."""
+    names = [n for n in BUILTIN_ORDER if n in plugins] + sorted(n for n in plugins if n not in BUILTIN_ORDER)
+    return {n: plugins[n] for n in names}
+
+
+def _union(plugins: dict) -> tuple:
+    """Every declared setting once, in declaration order (the built-in renderers first), then the model
+    settings no renderer declares; a name declared differently by two plugins (or differently from
+    the model's) is an error: rename one."""
+    model = {s.name: s for s in MODEL_SETTINGS}
+    out: dict[str, Setting] = {}
+    owner: dict[str, str] = {}
+    for plugin in _builtin_first(plugins).values():
+        for s in plugin.settings:
+            known = out.get(s.name) or model.get(s.name)
+            if known is not None and known.base != s.base:
+                raise DvrError(f"renderer {plugin.name!r} declares setting {s.name!r}, which "
+                               f"{owner.get(s.name, 'dvr_gl.settings')} declares differently; give it another name")
+            if s.name not in out:
+                out[s.name], owner[s.name] = s.base, plugin.name
+    for s in MODEL_SETTINGS:
+        out.setdefault(s.name, s)
+    return tuple(out.values())
+
+
+def reload():
+    """Forget what was loaded (after installing or removing a plugin in this process)."""
+    _registry.cache_clear()
+    renderer_spec_class.cache_clear()
+
+
+# --- queries -----------------------------------------------------------------------------------
+
+def plugins() -> dict[str, RendererPlugin]:
+    """The registered renderers by name (built-ins first)."""
+    return dict(_registry().plugins)
+
+
+def names() -> list[str]:
+    return list(_registry().plugins)
+
+
+def broken() -> dict[str, str]:
+    """Registered renderers that failed to load, with the reason."""
+    return dict(_registry().broken)
+
+
+def plugin(name: str) -> RendererPlugin:
+    reg = _registry()
+    if name in reg.plugins:
+        return reg.plugins[name]
+    if name in reg.broken:
+        raise SceneError(f"renderer {name!r} cannot be used: {reg.broken[name]}")
+    raise SceneError(f"unknown renderer {name!r}; available: {', '.join(reg.plugins)}")
+
+
+def all_settings() -> tuple[Setting, ...]:
+    """The union of the declared settings (the ``[renderer]`` table's keys besides ``name``)."""
+    return _registry().settings
+
+
+def setting(name: str) -> Setting:
+    return next(s for s in all_settings() if s.name == name)
+
+
+@functools.lru_cache(maxsize=1)
+def renderer_spec_class():
+    """The ``[renderer]`` table as a dataclass: ``name`` and every registered setting."""
+    fields = [("name", str, dataclasses.field(default="raycast", metadata={"doc": "the renderer"}))]
+    for s in all_settings():
+        default = (dataclasses.field(default_factory=s.default_factory, metadata=_meta(s)) if s.default_factory
+                   else dataclasses.field(default=s.default, metadata=_meta(s)))
+        fields.append((s.name, s.type, default))
+    cls = dataclasses.make_dataclass("RendererSpec", fields)
+    cls.__module__ = __name__
+    cls.__doc__ = "The renderer and its settings: the union of what the registered renderers declare."
+    return cls
+
+
+def _meta(s: Setting) -> dict:
+    return {"choices": s.choices, "doc": s.doc} if s.choices else {"doc": s.doc}
+
+
+def renderers_with(predicate: Callable[[RendererPlugin], bool]) -> list[str]:
+    return [n for n, p in plugins().items() if predicate(p)]
+
+
+# --- refusals ----------------------------------------------------------------------------------
+
+def refusal(scene, name: str | None = None) -> str | None:
+    """Why renderer ``name`` (default: the scene's) cannot render ``scene``, in one line; None if it can."""
+    try:
+        check(scene, name)
+    except SceneError as exc:
+        return str(exc)
+    return None
+
+
+def check(scene, name: str | None = None):
+    """Raise SceneError with the reason renderer ``name`` (default: the scene's) cannot render
+    ``scene``: a data kind it does not render, a setting it does not support, or its own check."""
+    p = plugin(name or scene.renderer.name)
+    kind = getattr(scene.field, "kind", "?")
+    if p.data_kinds is not None and kind not in p.data_kinds:
+        others = renderers_with(lambda q: q.data_kinds is None or kind in q.data_kinds)
+        raise SceneError(f"{p.name} renders {', '.join(p.data_kinds)} data, not {kind}"
+                         + (f"; use {_either(others)}" if others else ""))
+    spec = scene.renderer
+    for s in all_settings():
+        if not s.must_support or not s.matters(spec):
+            continue
+        value = getattr(spec, s.name)
+        own = p.declared(s.name)
+        if own is None and s.used(value):
+            others = renderers_with(lambda q: _allows(q.declared(s.name), value))
+            raise SceneError(f"{p.name} does not support {_describe(s, value)}; turn it off"
+                             + (f" or use {_either(others)}" if others else ""))
+        if own is not None and own.choices and value not in own.choices:
+            others = renderers_with(lambda q: _allows(q.declared(s.name), value))
+            raise SceneError(f"{p.name} does not support renderer.{s.name} = {value!r} (it takes "
+                             f"{_either(own.choices)})" + (f"; use {_either(others)}" if others else ""))
+    if p.check is not None:
+        _load(p.check)(scene)
+
+
+def _allows(s: Setting | None, value) -> bool:
+    return s is not None and (not s.choices or value in s.choices)
+
+
+def _describe(s: Setting, value) -> str:
+    if isinstance(value, bool):
+        return f"renderer.{s.name}"
+    if s.type is bool or value is True:
+        return f"renderer.{s.name}"
+    if s.in_use is not None:
+        return f"renderer.{s.name}"
+    return f"renderer.{s.name} = {value!r}"
+
+
+def _either(items) -> str:
+    items = [str(i) for i in items]
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " or " + items[-1]

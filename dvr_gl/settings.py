@@ -1,0 +1,258 @@
+"""Renderer settings, each declared once: type, default, documentation, checks.
+
+A renderer plugin (:mod:`dvr_gl.renderers.registry`) lists the settings it reads: shared
+ones from this module, narrowed to the choices it supports where it supports fewer
+(:meth:`Setting.only`), and its own.  The scene file's ``[renderer]`` table is the union
+of what the registered renderers declare; the CLI flags, ``dvr info``, the viewer's
+options and the scene-format reference (``docs/scene-files.md``) are generated from these
+declarations.
+
+*Model* settings (``must_support=True``) change what the picture should be: the compositing
+mode, classification, reconstruction filter, shading, gradient opacity and jitter.  A
+renderer that does not declare one refuses a scene that uses it (rather than render
+another picture than the one asked for); one that declares it with fewer choices
+refuses the others.  The other settings tune how closely a renderer approaches the
+picture (sample distance, tables, early termination) or how it runs (budgets,
+acceleration); a renderer that does not read one ignores it.
+
+Values that depend on the data are resolved here, once, for every writer
+(:func:`resolve_renderer`): the sample distance in world units (from voxels, the
+default, or a tolerance), the iso-value and the gradient-opacity reference.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any, Callable, Optional
+
+from .errors import SceneError
+from .model import CLASSIFICATIONS, COMPOSITING_MODES, FILTERS, ORDERS, ShadingSpec
+
+DEFAULT_SAMPLE_DISTANCE_VOXELS = 0.5
+
+
+@dataclass(frozen=True)
+class Setting:
+    """One ``[renderer]`` key (see the module doc).
+
+    name: the key; ``type``: float, int, bool, str, ``Optional[...]`` or a table dataclass.
+    default: its value when the scene does not give one (``default_factory`` for tables).
+    doc: one line for the CLI help, ``dvr info`` and the scene-format reference.
+    choices: the values allowed (strings), if restricted.
+    check: ``check(value)`` returns what is wrong with a value (a phrase completing
+        "renderer.<name> ..."), or None.
+    units: for the documentation ("world units", "voxels", "MB").
+    flag: a ``dvr render`` / ``dvr view`` flag ``--name-with-dashes`` (bools: ``--x/--no-x``).
+    must_support: a renderer that does not declare it refuses a scene that uses it (the model
+        settings, and promises such as a tolerance; see the module doc).
+    in_use: whether a value uses the feature (default: it differs from the default).
+    applies: whether the setting changes the picture, given the others (``applies(spec)``; shading
+        and classification do not change a maximum intensity projection); default: always.
+    group: where the reference lists it ("model", "sampling", "gpu", or a renderer's name).
+    """
+
+    name: str
+    type: Any
+    default: Any = None
+    doc: str = ""
+    choices: tuple = ()
+    check: Optional[Callable[[Any], Optional[str]]] = None
+    units: str = ""
+    flag: bool = True
+    must_support: bool = False
+    in_use: Optional[Callable[[Any], bool]] = None
+    group: str = "sampling"
+    default_factory: Optional[Callable[[], Any]] = None
+    applies: Optional[Callable[[Any], bool]] = None
+    origin: Optional["Setting"] = field(default=None, compare=False)
+
+    @property
+    def key(self) -> str:
+        return f"renderer.{self.name}"
+
+    @property
+    def base(self) -> "Setting":
+        """The shared declaration this one narrows (itself if it narrows none)."""
+        return self.origin or self
+
+    def only(self, *values) -> "Setting":
+        """This setting with fewer choices (what one renderer supports)."""
+        unknown = [v for v in values if self.choices and v not in self.choices]
+        if unknown:
+            raise ValueError(f"{self.name}: {unknown} are not among its choices {self.choices}")
+        return dataclasses.replace(self, choices=tuple(values), origin=self.base)
+
+    def default_value(self):
+        return self.default_factory() if self.default_factory else self.default
+
+    def used(self, value) -> bool:
+        """Whether ``value`` uses the feature (``must_support`` settings: a renderer without it refuses)."""
+        return self.in_use(value) if self.in_use else value != self.default_value()
+
+    def matters(self, spec) -> bool:
+        """Whether this setting changes the picture of renderer settings ``spec``."""
+        return self.applies(spec) if self.applies else True
+
+    def validate(self, value):
+        """Raise SceneError naming the key if ``value`` is not allowed (types are checked by parsing)."""
+        if value is None:
+            return
+        problem = self.check(value) if self.check else None
+        if problem:
+            raise SceneError(f"renderer.{self.name} {problem}, got {value!r}")
+
+
+# --- checks ----------------------------------------------------------------------------------
+
+def positive(value) -> Optional[str]:
+    return None if value > 0 else "must be positive"
+
+
+def at_least(n):
+    return lambda value: None if value >= n else f"must be at least {n}"
+
+
+def between(lo, hi, open_lo=False, open_hi=False, what=""):
+    text = f"must be in {'(' if open_lo else '['}{lo:g}, {hi:g}{')' if open_hi else ']'}{what}"
+
+    def check(value):
+        ok_lo = value > lo if open_lo else value >= lo
+        ok_hi = value < hi if open_hi else value <= hi
+        return None if ok_lo and ok_hi else text
+    return check
+
+
+def one_of(*values):
+    return lambda value: None if value in values else f"must be {', '.join(map(str, values[:-1]))} or {values[-1]}"
+
+
+def _check_shading(sh: ShadingSpec) -> Optional[str]:
+    for key in ("ambient", "diffuse", "specular", "shininess"):
+        if getattr(sh, key) < 0:
+            return f".{key} must be >= 0 (renderer.shading.{key} = {getattr(sh, key)})"
+    for i, light in enumerate(sh.lights):
+        if light.type == "directional" and not any(light.direction):
+            return f".lights[{i}].direction must be a non-zero vector"
+        if any(c < 0 for c in light.color):
+            return f".lights[{i}].color must be >= 0"
+    return None
+
+
+# --- the model: what the picture should be ---------------------------------------------------
+
+COMPOSITING = Setting("compositing", str, "emission_absorption", "compositing mode: emission-absorption, "
+                      "the isosurface's first hit, average (X-ray), maximum or minimum intensity projection",
+                      choices=COMPOSITING_MODES, must_support=True, group="model")
+def _emission(spec) -> bool:
+    return spec.compositing == "emission_absorption"
+
+
+def _lit(spec) -> bool:
+    """Shading lights emission-absorption samples and the isosurface; projections classify a value."""
+    return spec.compositing in ("emission_absorption", "isosurface")
+
+
+CLASSIFICATION = Setting("classification", str, "post", "post (interpolate, then apply the transfer function), "
+                         "pre (classify voxels, interpolate them) or preintegrated (each segment from a table "
+                         "by its two end values)", choices=CLASSIFICATIONS, must_support=True, group="model",
+                         applies=_emission)
+ASSOCIATED_COLORS = Setting("associated_colors", bool, True, "pre-classification interpolates sigma*c (no colour "
+                            "bleeding); false shows the artefact", group="model", flag=False)
+FILTER = Setting("filter", str, "linear", "reconstruction filter", choices=FILTERS, must_support=True, group="model")
+ISO_VALUE = Setting("iso_value", Optional[float], None, "isosurface value, data units (default: the middle of "
+                    "the value range)", group="model")
+GRADIENT_OPACITY = Setting("gradient_opacity", bool, False, "scale extinction by min(1, |gradient| / reference) "
+                           "(emission-absorption)", must_support=True, group="model", flag=False,
+                           applies=_emission)
+GRADIENT_OPACITY_REFERENCE = Setting("gradient_opacity_reference", Optional[float], None,
+                                     "gradient magnitude giving full opacity (default: 0.1 value range per voxel)",
+                                     check=positive, group="model", flag=False)
+SHADING = Setting("shading", ShadingSpec, None, "Blinn-Phong shading from the gradient: the "
+                  "[renderer.shading] table (enabled, ambient, diffuse, specular, shininess, two_sided, lights)",
+                  check=_check_shading, must_support=True, in_use=lambda sh: sh.enabled, group="model",
+                  default_factory=ShadingSpec, flag=False, applies=_lit)
+
+# --- sampling: how closely a renderer approaches the picture ---------------------------------
+
+SAMPLE_DISTANCE = Setting("sample_distance", Optional[float], None, "segment length (default 0.5 voxel)",
+                          check=positive, units="world units")
+SAMPLE_DISTANCE_VOXELS = Setting("sample_distance_voxels", Optional[float], None,
+                                 "segment length in voxels of the smallest spacing", check=positive,
+                                 units="voxels")
+ORDER = Setting("order", str, "front_to_back", "compositing order (back_to_front: the over operator; the same "
+                "image within rounding)", choices=ORDERS)
+ISO_REFINEMENT = Setting("iso_refinement", int, 8, "bisection steps refining the isosurface's first hit",
+                         check=between(0, 64, what=" bisection steps"), flag=False)
+JITTER = Setting("jitter", bool, False, "per-pixel sample offset against wood-grain artefacts", must_support=True)
+JITTER_SEED = Setting("jitter_seed", int, 0, "seed of the jitter offsets")
+ERT_THRESHOLD = Setting("ert_threshold", float, 0.99, "early ray termination at this accumulated opacity (1: off)",
+                        check=between(0.0, 1.0, open_lo=True))
+LUT_SIZE = Setting("lut_size", int, 4096, "transfer-function table entries", check=at_least(2))
+PREINTEGRATION = Setting("preintegration", str, "exact", "the pre-integration table: exact, or fast (Engel et al.; "
+                         "no self-attenuation within a segment)", choices=("exact", "fast"), flag=False)
+PREINTEGRATION_SIZE = Setting("preintegration_size", int, 256, "pre-integration table entries per axis "
+                              "(front value x back value)", check=at_least(2), flag=False)
+
+# --- GPU renderers on grids ------------------------------------------------------------------
+
+FILTERING = Setting("filtering", str, "hardware", "hardware (the texture unit interpolates; fast) or shader "
+                    "(texelFetch and float weights: exact on any GPU)", choices=("hardware", "shader"), group="gpu")
+GRADIENT = Setting("gradient", str, "central_differences", "shading gradients on the fly, or from a precomputed "
+                   "texture (12 bytes per voxel, faster)", choices=("central_differences", "texture"), group="gpu")
+TEXTURE_BUDGET_MB = Setting("texture_budget_mb", float, 2048.0, "GPU texture memory allowed; larger volumes are "
+                            "rendered in bricks", check=positive, units="MB", group="gpu", flag=False)
+
+#: Every renderer reads these (narrowed where it supports fewer choices).
+MODEL_SETTINGS = (COMPOSITING, CLASSIFICATION, ASSOCIATED_COLORS, FILTER, ISO_VALUE, GRADIENT_OPACITY,
+                  GRADIENT_OPACITY_REFERENCE, SHADING)
+
+
+# --- resolution ------------------------------------------------------------------------------
+
+def resolve_sample_distance(spec, field) -> float:
+    """The sample distance in world units: ``sample_distance``, or ``sample_distance_voxels`` (default
+    0.5) times the field's voxel; the one place that turns voxels into world units."""
+    if spec.sample_distance is not None and spec.sample_distance_voxels is not None:
+        raise SceneError("renderer: give sample_distance or sample_distance_voxels, not both")
+    if spec.sample_distance is not None:
+        return spec.sample_distance
+    voxels = spec.sample_distance_voxels if spec.sample_distance_voxels is not None else DEFAULT_SAMPLE_DISTANCE_VOXELS
+    return voxels * field.sample_spacing
+
+
+def resolve_renderer(spec, field, settings):
+    """``spec`` with every declared setting checked and the data-dependent defaults made explicit:
+    the sample distance in world units (``sample_distance_voxels`` dropped), the iso-value (middle of
+    the value range) and the gradient-opacity reference (0.1 of the range per voxel)."""
+    for setting in settings:
+        setting.validate(getattr(spec, setting.name))
+    d = resolve_sample_distance(spec, field)
+    if not d > 0:
+        raise SceneError(f"renderer.sample_distance must be positive, got {d}")
+    if spec.classification == "preintegrated" and spec.jitter:
+        raise SceneError("renderer.jitter does not apply to pre-integrated classification (which needs no "
+                         "jitter against wood-grain); turn one of them off")
+    lo, hi = field.value_range
+    iso = spec.iso_value if spec.iso_value is not None else (lo + hi) / 2.0
+    g_ref = spec.gradient_opacity_reference
+    if g_ref is None:
+        g_ref = 0.1 * max(hi - lo, 1e-30) / field.sample_spacing
+    return dataclasses.replace(spec, sample_distance=d, sample_distance_voxels=None, iso_value=iso,
+                               gradient_opacity_reference=g_ref)
+
+
+def with_sample_distance(renderer_spec, field, world: float | None = None, voxels: float | None = None,
+                         factor: float | None = None):
+    """Renderer settings with another sample distance (world units, voxels, or a factor of the
+    current one), checked as a scene file's would be."""
+    if voxels is not None:
+        world = voxels * field.sample_spacing
+    elif factor is not None:
+        world = renderer_spec.sample_distance * factor
+    if world is None or not world > 0:
+        raise SceneError(f"renderer.sample_distance must be positive, got {world}")
+    changes = {"sample_distance": float(world), "sample_distance_voxels": None}
+    if getattr(renderer_spec, "tolerance", None) is not None:
+        changes["tolerance"] = None  # a distance given by hand replaces the one a tolerance chose
+    return dataclasses.replace(renderer_spec, **changes)
