@@ -8,7 +8,8 @@ returns an :class:`Image` that shows itself in Jupyter, gives its pixels and sav
 
 Keywords (each optional): ``spacing`` and ``origin`` (world units, x first, as in scene files) for
 arrays; ``transfer_function`` (a preset name, control points ``[[value, r, g, b, opacity], ...]``, or a
-:class:`~dvr_gl.transfer_function.TransferFunction`); the camera (a :class:`~dvr_gl.camera.Camera`, or
+:class:`~dvr_gl.transfer_function.TransferFunction`) and ``rescale_intercept`` for the CT presets
+(HU = data + intercept); the camera (a :class:`~dvr_gl.camera.Camera`, or
 ``azimuth``, ``elevation``, ``distance``, ``projection``, ``fov``, ``up``); ``renderer`` (a registered
 renderer's name) and any renderer setting by its scene-file name (``sample_distance_voxels=0.25``,
 ``compositing="mip"``, ``shading=True``); ``size`` (pixels: ``n`` or ``(width, height)``) and
@@ -89,28 +90,32 @@ class Image:
         return f"Image({w}x{h}, {self.scene.renderer.name}{took})"
 
 
-def render(data, *, spacing=None, origin=None, transfer_function=None, camera: Camera | None = None,
-           renderer: str | None = None, size=None, background=None, ctx=None, **keywords) -> Image:
+def render(data, *, spacing=None, origin=None, transfer_function=None, rescale_intercept=None,
+           camera: Camera | None = None, renderer: str | None = None, size=None, background=None, ctx=None,
+           **keywords) -> Image:
     """Render ``data`` (see the module doc): a numpy array indexed ``[z, y, x]``, a field
     (:mod:`dvr_gl.fields`), a path (a ``.toml`` scene file or a volume file), or a :class:`Scene`.
     ``ctx``: a moderngl context for GL renderers (default: a new headless one, released after)."""
-    scene = scene_of(data, spacing=spacing, origin=origin, transfer_function=transfer_function, camera=camera,
-                     renderer=renderer, size=size, background=background, **keywords)
+    scene = scene_of(data, spacing=spacing, origin=origin, transfer_function=transfer_function,
+                     rescale_intercept=rescale_intercept, camera=camera, renderer=renderer, size=size,
+                     background=background, **keywords)
     registry.check(scene)
     with create_renderer(scene.renderer.name, ctx=ctx) as r:
         rgba = r.render(scene)
         return Image(rgba, scene, r.stats)
 
 
-def scene_of(data, *, spacing=None, origin=None, transfer_function=None, camera: Camera | None = None,
-             renderer: str | None = None, size=None, background=None, **keywords) -> Scene:
+def scene_of(data, *, spacing=None, origin=None, transfer_function=None, rescale_intercept=None,
+             camera: Camera | None = None, renderer: str | None = None, size=None, background=None,
+             **keywords) -> Scene:
     """The :class:`Scene` :func:`render` would render (same arguments, no rendering)."""
     camera_keys = {k: keywords.pop(k) for k in _CAMERA_KEYS if k in keywords}
     settings = _renderer_settings(renderer, keywords)
     if isinstance(data, Scene):
         if spacing is not None or origin is not None:
             raise SceneError("spacing and origin apply to arrays; this is a scene (replace its field instead)")
-        return _changed(data, transfer_function, camera, camera_keys, settings, size, background)
+        return _changed(data, transfer_function, camera, camera_keys, settings, size, background,
+                        rescale_intercept or 0.0)
     overrides = {f"camera.{k}": (list(v) if k == "up" else v) for k, v in camera_keys.items()}
     overrides.update({f"renderer.{k}": v for k, v in settings.items()})
     overrides.update(_image_overrides(size, background))
@@ -119,6 +124,8 @@ def scene_of(data, *, spacing=None, origin=None, transfer_function=None, camera:
         tf = transfer_function
     elif isinstance(transfer_function, str):
         overrides["transfer_function.preset"] = transfer_function
+        if rescale_intercept is not None:
+            overrides["transfer_function.rescale_intercept"] = float(rescale_intercept)
     elif transfer_function is not None:
         overrides["transfer_function.points"] = np.asarray(transfer_function, dtype=np.float64).tolist()
     if isinstance(data, (str, os.PathLike)):
@@ -182,7 +189,8 @@ def _image_overrides(size, background) -> dict:
     return out
 
 
-def _changed(scene: Scene, transfer_function, camera, camera_keys: dict, settings: dict, size, background) -> Scene:
+def _changed(scene: Scene, transfer_function, camera, camera_keys: dict, settings: dict, size, background,
+             rescale_intercept: float = 0.0) -> Scene:
     """A scene with the keywords applied (renderer settings checked as a scene file's would be)."""
     image = _image_overrides(size, background)
     if image:
@@ -194,7 +202,7 @@ def _changed(scene: Scene, transfer_function, camera, camera_keys: dict, setting
         scene = scene.replace(image=dataclasses.replace(scene.image, **changes))
     if transfer_function is not None:
         tf = transfer_function if isinstance(transfer_function, TransferFunction) else (
-            preset(transfer_function, scene.field.value_range) if isinstance(transfer_function, str)
+            preset(transfer_function, scene.field.value_range, rescale_intercept) if isinstance(transfer_function, str)
             else TransferFunction(np.asarray(transfer_function, dtype=np.float64)))
         scene = scene.replace(transfer_function=tf)
     if camera is not None:

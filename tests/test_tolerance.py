@@ -60,7 +60,7 @@ def assert_tolerances_met(scene, tolerances=(1e-2, 3e-3, 1e-3)):
 def test_tolerance_is_met(case):
     """The promise, on small scenes not used for the fit: the chosen settings' RMS error against the
     converged reference is at most E, for E from 1e-2 to 1e-3.  (The law is the upper envelope of
-    the calibration, so the measured error is typically 2-4x below E; the README's table shows it.)"""
+    the calibration, so the measured error is typically 2-4x below E; docs/tolerance.md's table shows it.)"""
     scene = load_scene(None, CASES[case])
     assert_tolerances_met(scene)
 
