@@ -16,7 +16,6 @@
 
 from __future__ import annotations
 
-from dvr_gl.bench import format_table
 from dvr_gl.phantoms import DEMOS
 from dvr_gl.transfer_function import PRESETS
 
@@ -70,6 +69,11 @@ def add_arguments(p):
     sl.add_argument("--size", type=int, default=128, help="square image size (default 128)")
     sl.add_argument("--pictures", metavar="DIR", help="write slicing_sweep.png and slicing_jump.png into DIR")
     sl.add_argument("--overwrite", action="store_true", help="replace pictures that exist")
+    for parser in sub.choices.values():
+        parser.add_argument("--markdown", metavar="FILE", help="also write the tables as Markdown to FILE (the "
+                                                               "measured tables in docs/ are written this way)")
+        if "--overwrite" not in parser._option_string_actions:
+            parser.add_argument("--overwrite", action="store_true", help="replace FILE if it exists")
 
 
 def _shared_data_arguments(p, size: int = 512):
@@ -80,9 +84,21 @@ def _shared_data_arguments(p, size: int = 512):
 
 
 def run(args) -> int:
-    return {"raycast": run_raycast, "accel": run_accel, "quality": run_quality,
+    from pathlib import Path
+
+    from dvr_gl.bench import Report
+    from dvr_gl.image import check_writable, write_text
+
+    if args.markdown:  # before measuring: fail fast, overwrite nothing unasked
+        check_writable(Path(args.markdown), args.overwrite)
+    args.report = Report()
+    code = {"raycast": run_raycast, "accel": run_accel, "quality": run_quality,
             "slicing": run_slicing, "renderers": run_renderers, "shearwarp": run_shearwarp,
             "tradeoff": run_tradeoff}[args.benchmark](args)
+    if args.markdown:
+        write_text(Path(args.markdown), args.report.markdown(args.command_line), args.overwrite)
+        print(f"wrote {args.markdown}")
+    return code
 
 
 def run_quality(args) -> int:
@@ -91,14 +107,14 @@ def run_quality(args) -> int:
     widths = [args.spike_width] if args.spike_width else quality.WIDTHS
     for width in widths:
         n = quality.table_size(width)
-        print(f"dvr bench quality: Marschner-Lobb {args.volume_size}^3, extinction spike {100 * width:g} % of the "
+        args.report.text(f"dvr bench quality: Marschner-Lobb {args.volume_size}^3, extinction spike {100 * width:g} % of the "
               f"range wide, {args.size}x{args.size}, against the converged reference (tolerance 1e-5), "
               f"pre-integration table {n}x{n}")
         rows, lines, builds = quality.run(args.size, args.volume_size, width)
-        print(format_table(rows, quality.COLUMNS))
+        args.report.table(rows, quality.COLUMNS)
         for line in lines:
-            print(line)
-        print(f"table build at {n}x{n}: exact {builds['exact']:.2f} s, fast {builds['fast']:.2f} s\n")
+            args.report.text(line)
+        args.report.text(f"table build at {n}x{n}: exact {builds['exact']:.2f} s, fast {builds['fast']:.2f} s\n")
     return 0
 
 
@@ -111,10 +127,10 @@ def run_renderers(args) -> int:
     else:
         base.update({"volume.demo": "shepp-logan", "volume.size": args.volume_size})
     what = args.volume or f"Shepp-Logan {args.volume_size}^3"
-    print(f"dvr bench renderers: {what}, {args.size}x{args.size}, sample distance 0.5 voxel (2D stacks: the voxel "
+    args.report.text(f"dvr bench renderers: {what}, {args.size}x{args.size}, sample distance 0.5 voxel (2D stacks: the voxel "
           f"planes), early termination and acceleration off, {args.repeat} timed frames per case after a warm-up; "
           f"bricked under {args.budget:g} MB")
-    print(format_table(renderers.run(base, args.repeat, args.budget), renderers.COLUMNS))
+    args.report.table(renderers.run(base, args.repeat, args.budget), renderers.COLUMNS)
     return 0
 
 
@@ -131,13 +147,13 @@ def run_slicing(args) -> int:
         slicing.check_pictures(pictures, args.overwrite)
     base = slicing.base_scene(args.volume_size, args.size, args.volume)
     what = args.volume or f"Shepp-Logan {args.volume_size}^3"
-    print(f"dvr bench slicing: {what}, {args.size}x{args.size}, elevation 0, one slice per voxel, RMS error "
+    args.report.text(f"dvr bench slicing: {what}, {args.size}x{args.size}, elevation 0, one slice per voxel, RMS error "
           f"against the converged reference")
     rows, jumps, written = slicing.run(base, pictures=pictures, overwrite=args.overwrite)
-    print(format_table(rows, slicing.COLUMNS))
-    print(f"\nimage change (RMS) between azimuth - {slicing.JUMP_STEP:g} and + {slicing.JUMP_STEP:g} degrees; "
+    args.report.table(rows, slicing.COLUMNS)
+    args.report.text(f"\nimage change (RMS) between azimuth - {slicing.JUMP_STEP:g} and + {slicing.JUMP_STEP:g} degrees; "
           f"the stacks switch at 45")
-    print(format_table(jumps, slicing.JUMP_COLUMNS))
+    args.report.table(jumps, slicing.JUMP_COLUMNS)
     for path in written:
         print(f"wrote {path}")
     return 0
@@ -158,11 +174,11 @@ def _chosen_datasets(args, datasets):
 def _on_shared_data(args, module, title: str) -> int:
     """Run a benchmark over the shared datasets (``module.DATASETS``, filtered by ``--only``)."""
     data_dir, datasets = _chosen_datasets(args, module.DATASETS)
-    print(title)
+    args.report.text(title)
     rows, notes = module.run(data_dir, args.size, args.repeat, datasets)
-    print(format_table(rows, module.COLUMNS))
+    args.report.table(rows, module.COLUMNS)
     for note in notes:
-        print(note)
+        args.report.text(note)
     return 0
 
 
@@ -196,9 +212,9 @@ def run_raycast(args) -> int:
         base["transfer_function.rescale_intercept"] = args.rescale_intercept
     if args.up:
         base["camera.up"] = list(args.up)
-    print(f"dvr bench raycast: {args.repeat} timed frames per case after a warm-up, sample distance 0.5 voxel, "
+    args.report.text(f"dvr bench raycast: {args.repeat} timed frames per case after a warm-up, sample distance 0.5 voxel, "
           f"acceleration structures off")
-    print(format_table(raycast.run(base, repeat=args.repeat), raycast.COLUMNS))
+    args.report.table(raycast.run(base, repeat=args.repeat), raycast.COLUMNS)
     return 0
 
 
@@ -258,22 +274,22 @@ def run_tradeoff(args) -> int:
     for name, scene in scenes:
         start = time.perf_counter()
         truth = tradeoff.converged_truth(scene)
-        print(f"dvr bench tradeoff: {name} ({scene.field.describe()}), {args.size}x{args.size}, median of "
+        args.report.text(f"dvr bench tradeoff: {name} ({scene.field.describe()}), {args.size}x{args.size}, median of "
               f"{args.repeat} frames after a warm-up; error against the converged reference "
               f"({time.perf_counter() - start:.1f} s to compute)")
         rows, notes = tradeoff.run(scene, args.repeat, renderers, truth, scene_name=name)
-        print(format_table(rows, tradeoff.COLUMNS))
+        args.report.table(rows, tradeoff.COLUMNS)
         for note in notes:
-            print(note)
+            args.report.text(note)
         checks, note = tradeoff.tolerance_check(scene, rows, truth, args.repeat)
         if checks:
-            print("\n--tolerance E: the error model's choice, measured, against the measured front")
-            print(format_table(checks, tradeoff.TOLERANCE_COLUMNS))
+            args.report.text("\n--tolerance E: the error model's choice, measured, against the measured front")
+            args.report.table(checks, tradeoff.TOLERANCE_COLUMNS)
         else:
-            print(note)
+            args.report.text(note)
         if rows[0]["flip"] is None:
-            print("FLIP: not measured (install the optional extra: pip install 'dvr-gl[perceptual]')")
-        print()
+            args.report.text("FLIP: not measured (install the optional extra: pip install 'dvr-gl[perceptual]')")
+        args.report.text()
         meta["scenes"][name] = {"notes": notes, "tolerance": checks, "scene": scene.to_dict()}
         all_rows += rows
     write_text(outputs["csv"], tradeoff.csv_text(all_rows), args.overwrite)

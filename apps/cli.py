@@ -37,6 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.command_line = "dvr " + " ".join(sys.argv[1:] if argv is None else argv)
     try:
         return args.run(args) or 0
     except DvrError as exc:

@@ -20,10 +20,18 @@ def test_minimal_shader_renders_the_emission_only_image():
     assert np.abs(a - b).max() <= 1e-5  # the same arithmetic but 1 - exp(-tau) for small tau
 
 
-def test_bench_raycast_prints_a_table(capsys):
-    assert main(["bench", "raycast", "--volume-size", "16", "--size", "16", "--repeat", "1"]) == 0
+def test_bench_raycast_prints_a_table(capsys, tmp_path):
+    """It prints the table, and with --markdown writes it for the docs (never over a file unasked)."""
+    md = tmp_path / "raycast.md"
+    assert main(["bench", "raycast", "--volume-size", "16", "--size", "16", "--repeat", "1", "--markdown", str(md)]) == 0
     out = capsys.readouterr().out
     assert "samples/ray" in out and "minimal hand-written shader" in out and "16x16x16" in out
+    text = md.read_text()
+    assert text.startswith("<!-- written by `dvr bench raycast --volume-size 16")
+    assert "| case | volume | image | samples/ray | frame ms (median) | Msamples/s |" in text
+    assert text.count("| emission") == 6
+    assert main(["bench", "raycast", "--volume-size", "16", "--markdown", str(md)]) == 1  # exists: refused first
+    assert "exists" in capsys.readouterr().err
 
 
 def test_format_table_aligns_columns():

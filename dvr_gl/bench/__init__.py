@@ -14,6 +14,53 @@ def format_table(rows: list[dict], columns: list[tuple[str, str, str]]) -> str:
     return "\n".join(lines)
 
 
+def format_markdown(rows: list[dict], columns: list[tuple[str, str, str]]) -> str:
+    """Rows as a Markdown table (what ``--markdown`` writes for the docs)."""
+    def cell(r, k, f):
+        return (format(r[k], f) if r.get(k) is not None else "-").strip().replace("|", "\\|")
+    lines = ["| " + " | ".join(h for _, h, _ in columns) + " |",
+             "|" + "|".join("---" if i == 0 else "---:" for i in range(len(columns))) + "|"]
+    lines += ["| " + " | ".join(cell(r, k, f) for k, _, f in columns) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+class Report:
+    """What a bench prints, also collected as Markdown for ``--markdown FILE`` (the docs' measured
+    tables are written this way, never pasted)."""
+
+    def __init__(self):
+        self.parts: list[str] = []
+
+    def text(self, line: str = ""):
+        print(line)
+        self.parts.append(line)
+
+    def table(self, rows: list[dict], columns):
+        print(format_table(rows, columns))
+        self.parts += ["", format_markdown(rows, columns), ""]
+
+    def markdown(self, command: str) -> str:
+        import datetime
+        import platform
+
+        header = (f"<!-- written by `{command}` on {datetime.date.today().isoformat()}, {platform.machine()} "
+                  f"with {_gl_renderer()}; run it again to update -->")
+        return header + "\n\n" + "\n".join(self.parts).strip() + "\n"
+
+
+def _gl_renderer() -> str:
+    try:
+        from ..gl.context import create_context
+
+        ctx = create_context()
+        try:
+            return ctx.info["GL_RENDERER"]
+        finally:
+            ctx.release()
+    except Exception:  # the machine is described for the record only
+        return "an unknown GL renderer"
+
+
 def median_seconds(renderer, scene, repeat: int, stat: str = "seconds", warm_up: bool = True) -> float:
     """Median over ``repeat`` renders of ``renderer.stats[stat]`` (after one untimed render)."""
     import statistics

@@ -1,0 +1,113 @@
+"""The public Python API: dvr_gl.render on arrays, fields, files and scenes; the Image it returns;
+scenes that re-resolve when their field changes; compact reprs."""
+
+import numpy as np
+import pytest
+
+import dvr_gl
+from dvr_gl.image import read_image
+from dvr_gl.renderers import create_renderer
+
+from conftest import REPO, small_scene
+
+
+def blob(shape=(20, 16, 12)):
+    z, y, x = np.indices(shape, dtype=np.float32)
+    c = [(n - 1) / 2 for n in shape]
+    return np.exp(-((z - c[0]) ** 2 + (y - c[1]) ** 2 + (x - c[2]) ** 2) / 20.0).astype(np.float32)
+
+
+def test_the_top_level_exports_the_parts():
+    for name in ("render", "Image", "Scene", "load_scene", "Volume", "Field", "TransferFunction", "Camera",
+                 "create_renderer", "registry"):
+        assert hasattr(dvr_gl, name), name
+
+
+def test_render_of_an_array_is_the_renderer_on_the_resolved_scene():
+    """The array with x-first spacing, a preset and the camera keywords: the same image as the ray caster
+    on the scene the API resolved, and that scene holds what was given."""
+    data = blob()
+    image = dvr_gl.render(data, spacing=(0.5, 1.0, 2.0), transfer_function="viridis", azimuth=40, elevation=10,
+                          size=(40, 30), sample_distance_voxels=0.25)
+    scene = image.scene
+    assert scene.volume.dims == (12, 16, 20) and scene.volume.spacing == (0.5, 1.0, 2.0)
+    assert scene.camera.orbit[:2] == (40.0, 10.0) and (scene.image.width, scene.image.height) == (40, 30)
+    assert scene.renderer.sample_distance == pytest.approx(0.125)   # a quarter of the smallest spacing
+    with create_renderer("raycast") as r:
+        np.testing.assert_array_equal(image.rgba, r.render(scene))
+    assert image.rgba.shape == (30, 40, 4) and image.rgba.dtype == np.float32 and image.rgba[..., 3].max() > 0.05
+
+
+def test_keywords_reach_every_renderer_setting_and_unknown_ones_are_named():
+    image = dvr_gl.render(blob(), renderer="reference", compositing="mip", filter="nearest", size=16)
+    assert (image.scene.renderer.name, image.scene.renderer.compositing, image.scene.renderer.filter) == (
+        "reference", "mip", "nearest")
+    with pytest.raises(dvr_gl.SceneError, match="unknown keyword 'sample_distanse'; renderer settings are"):
+        dvr_gl.render(blob(), sample_distanse=0.5)
+    with pytest.raises(dvr_gl.SceneError, match="slicing2d does not support renderer.compositing = 'mip'"):
+        dvr_gl.render(blob(), renderer="slicing2d", compositing="mip", size=8)
+
+
+def test_shading_keyword_and_transfer_function_points():
+    points = [[0.0, 0.2, 0.4, 0.9, 0.0], [1.0, 1.0, 0.8, 0.3, 0.5]]
+    image = dvr_gl.render(blob(), transfer_function=points, shading=True, size=16)
+    assert image.scene.renderer.shading.enabled
+    np.testing.assert_array_equal(image.scene.transfer_function.points, points)
+
+
+def test_render_of_files_and_of_scenes(tmp_path):
+    path = tmp_path / "blob.npy"
+    np.save(path, blob())
+    from_file = dvr_gl.render(path, spacing=(1, 1, 2), size=16)
+    assert from_file.scene.volume.spacing == (1.0, 1.0, 2.0)
+    from_array = dvr_gl.render(blob(), spacing=(1, 1, 2), size=16)
+    np.testing.assert_array_equal(from_file.rgba, from_array.rgba)
+    scene_file = REPO / "examples" / "shepp-logan.toml"
+    from_toml = dvr_gl.render(scene_file, size=16, renderer="slicing3d")
+    assert from_toml.scene.renderer.name == "slicing3d" and from_toml.scene.volume.name == "shepp-logan"
+    again = dvr_gl.render(from_toml.scene, renderer="raycast", azimuth=0)
+    assert again.scene.renderer.name == "raycast" and again.scene.camera.orbit[0] == 0.0
+    assert again.scene.volume is from_toml.scene.volume
+
+
+def test_image_pixels_and_files(tmp_path):
+    image = dvr_gl.render(blob(), size=24, background=(0.1, 0.2, 0.3))
+    composited = image.composited()
+    np.testing.assert_allclose(composited[..., :3], image.rgba[..., :3] + (1 - image.rgba[..., 3:]) * [0.1, 0.2, 0.3],
+                               atol=1e-6)
+    png = image.save(tmp_path / "x.png")
+    assert np.array_equal(np.round(read_image(png) * 255).astype(np.uint8), image.srgb8())
+    exr = image.save(tmp_path / "x.exr")
+    np.testing.assert_allclose(read_image(exr), composited, atol=1e-7)
+    with pytest.raises(dvr_gl.DvrError, match="exists"):
+        image.save(png)
+    assert image._repr_png_()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert repr(image).startswith("Image(24x24, raycast")
+
+
+def test_replacing_the_volume_reframes_and_re_resolves():
+    """The issue's trap: a scene built for one volume, given another. The camera keeps its direction
+    but aims at the new box's centre from a distance that frames it; the preset spans the new values;
+    the default iso-value and the sample distance in voxels follow the new data."""
+    scene = small_scene({"camera.azimuth": 70.0, "renderer.sample_distance_voxels": 0.5})
+    far = dvr_gl.Volume(10.0 * blob(), spacing=(3.0, 3.0, 3.0), origin=(100.0, 50.0, 0.0))
+    moved = scene.replace(volume=far)
+    lo, hi = far.box
+    np.testing.assert_allclose(moved.camera.target, (lo + hi) / 2)
+    assert moved.camera.orbit[:2] == pytest.approx(scene.camera.orbit[:2])
+    from dvr_gl.camera import framing_distance
+    radius = float(np.linalg.norm(hi - lo)) / 2
+    assert moved.camera.orbit[2] == pytest.approx(framing_distance(radius, scene.camera.fov, 1.0))  # frames it
+    assert moved.renderer.sample_distance == pytest.approx(1.5)              # 0.5 voxel of 3 units
+    assert moved.renderer.iso_value == pytest.approx(sum(far.value_range) / 2)
+    assert moved.transfer_function.domain[1] == pytest.approx(1.0)          # the demo's preset keeps its name
+    image = dvr_gl.render(moved, size=32)
+    rows, cols = np.nonzero(image.rgba[..., 3] > 0.01)
+    assert abs(rows.mean() - 15.5) < 3 and abs(cols.mean() - 15.5) < 3       # centred on the new data
+
+
+def test_reprs_are_short():
+    scene = small_scene()
+    for obj in (scene, scene.volume, scene.transfer_function, scene.camera):
+        text = repr(obj)
+        assert len(text) < 400 and "\n" not in text and "array(" not in text, text
