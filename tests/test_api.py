@@ -111,3 +111,19 @@ def test_reprs_are_short():
     for obj in (scene, scene.volume, scene.transfer_function, scene.camera):
         text = repr(obj)
         assert len(text) < 400 and "\n" not in text and "array(" not in text, text
+
+
+def test_any_field_renders_with_the_renderers_that_declare_its_kind():
+    """An analytic field through the same call: the references render it (any field), the grid
+    renderers refuse it in one line naming those that do."""
+    sphere = dvr_gl.SphereField((0.0, 0.0, 0.0), 2.0)
+    points = [[0.0, 1, 1, 1, 0.0], [1.0, 1, 1, 1, 0.5]]
+    image = dvr_gl.render(sphere, renderer="reference-converged", transfer_function=points, size=16)
+    o, d = image.scene.camera.pixel_rays(16, 16)
+    b = np.linalg.norm(np.cross(-o, d), axis=1)                    # each ray's distance from the centre
+    chord = 2.0 * np.sqrt(np.maximum(4.0 - b * b, 0.0)).reshape(16, 16)
+    sigma = -np.log1p(-0.5)                                         # alpha 0.5 per unit distance
+    np.testing.assert_allclose(image.rgba[..., 3], -np.expm1(-sigma * chord), atol=1e-6)  # measured 1.9e-8 (float32 output)
+    with pytest.raises(dvr_gl.SceneError, match="raycast renders grid data, not analytic; use reference or "
+                                                "reference-converged"):
+        dvr_gl.render(sphere, transfer_function=points, size=16)
