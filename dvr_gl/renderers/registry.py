@@ -277,11 +277,8 @@ def _allows(s: Setting | None, value) -> bool:
 
 
 def _describe(s: Setting, value) -> str:
-    if isinstance(value, bool):
-        return f"renderer.{s.name}"
-    if s.type is bool or value is True:
-        return f"renderer.{s.name}"
-    if s.in_use is not None:
+    """The setting in use, as a refusal names it: a switch or a table by name, a value with it."""
+    if isinstance(value, bool) or s.in_use is not None:
         return f"renderer.{s.name}"
     return f"renderer.{s.name} = {value!r}"
 
