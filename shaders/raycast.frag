@@ -19,26 +19,27 @@
 // for what a pass reads beyond its core (dvr_gl.bricking.ghost_width).  Rays longer than
 // llvmpipe's loop cap are composited the same way, in passes over windows of segments.
 //
-// This file is the skeleton every mode shares: the ray and its segments, the pass's window,
-// brick ownership, block skipping, sample counting and the resolve.  The compositing mode adds
-// its parts from one snippet (raycast/emission.glsl, raycast/emission_back_to_front.glsl,
-// raycast/isosurface.glsl, raycast/projection.glsl), in globals and these functions:
-//   const vec4 EMPTY_STATE     the state of a ray before its first sample (the first pass's u_state)
-//   bool mode_init(vec4 state) take over the state (the previous pass's, or EMPTY_STATE); true
-//                              where the ray is done already (an earlier pass finished it; the
-//                              isosurface's entry point is a hit)
-//   bool mode_sample(int k, float start, float len, float t, vec3 p)
-//                              segment k, [start, start + len], whose sample is at t, p = o + t d;
-//                              true where the ray is done (early termination, a hit)
-//   void mode_gap()            the loop passed segments without sampling them (another brick's,
-//                              or a jump): the next sample does not follow the last one
-//   bool mode_skippable(vec4 block)   ACCELERATE: may the loop jump this block (for the state
-//                              so far)?  common/blocks.glsl's SKIPPABLE
+// This file is the skeleton every mode shares: the ray and its segments, the pass's window, one
+// loop over the segments (k upward, or downward for BACK_TO_FRONT), brick ownership, block
+// skipping, early termination, sample counting and the resolve.  The compositing mode supplies
+// its parts from one snippet (raycast/emission.glsl, emission_back_to_front.glsl, isosurface.glsl
+// or projection.glsl), which keeps its state in globals and may read the ray's (o, d, t0, t1,
+// offset, sample_t below):
+//   const vec4 EMPTY_STATE   the state of a ray before any sample (as the first pass's u_state)
+//   bool mode_init(vec4 state)   before the loop: take over the state (the previous pass's, or
+//                            EMPTY_STATE); true where the ray is done already (an earlier pass
+//                            finished it; the isosurface's entry point is a hit)
+//   bool mode_sample(int k, float start, float len, float t, vec3 p)   composite segment k,
+//                            [start, start + len], sampled at t, p = o + t d; true where the ray
+//                            is done (early termination, a hit)
+//   void mode_gap()          the loop went past segments without sampling them (another brick's,
+//                            or a jump): the next sample does not follow the last one
+//   bool mode_skippable(vec4 block)   ACCELERATE: can no sample in the block change the result
+//                            (for the state so far)?  common/blocks.glsl's SKIPPABLE
 //   bool mode_jump(vec4 block, inout int m)   ACCELERATE: composite the next m segments, which
-//                              lie in the block, without sampling them; may shorten m to where
-//                              the ray is done, and returns whether it is
-//   vec4 mode_finish(vec4 state)      the new state (unchanged where the ray was done already)
-// The loop walks k upward, or downward for back-to-front emission (BACK_TO_FRONT).
+//                            lie in the block, without sampling them (mode_gap follows); may
+//                            shorten m to where the ray is done, and returns whether it is
+//   vec4 mode_finish(vec4 state)   after the loop: the new state (`state` as given to mode_init)
 
 #if defined(SHADING) || defined(GRADIENT_OPACITY)
 #define NEEDS_GRADIENT
@@ -220,7 +221,7 @@ void main() {
         du = d * u_world_to_voxel_scale;
         known = float(STEP) * -3.0e38;  // nothing known yet
 #endif
-        bool done = mode_init(state);
+        bool done = mode_init(state);  // BRICKED: an earlier pass may have finished the ray
 #ifdef BACK_TO_FRONT
         int k = k_last - 1;
         while (!done && k >= k_first) {
@@ -228,17 +229,17 @@ void main() {
         int k = k_first;
         while (!done && k < k_last) {
 #endif
-            float start = t0 + float(k) * u_sample_distance;
+            float start = t0 + float(k) * u_sample_distance;  // segment k (as sample_t)
             float len = min(u_sample_distance, t1 - start);
             float t = start + offset * len;
             vec3 p = o + t * d;
 #ifdef BRICKED
-            if (!in_brick(p)) { mode_gap(); k += STEP; continue; }
+            if (!in_brick(p)) { mode_gap(); k += STEP; continue; }  // another brick's sample
 #endif
 #ifdef ACCELERATE
             vec4 block;
             int m = segments_to_jump(k, start, len, t, block);
-            if (m > 0) {
+            if (m > 0) {  // m segments in a skippable block: no samples
                 done = mode_jump(block, m);
                 mode_gap();
                 k += STEP * m;
