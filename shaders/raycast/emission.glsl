@@ -1,0 +1,76 @@
+// Emission-absorption, front to back (raycast.frag's mode parts; the interface is described there).
+// State: (colour reaching the eye, optical depth), the opacity taken in the resolve.
+
+vec3 colour;   // the light of the samples so far that reaches the eye
+float depth;   // their optical depth: the transmittance to the next sample is exp(-depth)
+#ifdef CLASSIFY_PREINTEGRATED
+float front;        // the front value of segment k is the back value of segment k - 1
+bool front_known;
+#endif
+
+const vec4 EMPTY_STATE = vec4(0.0);
+
+bool terminated() {
+#ifdef EARLY_TERMINATION
+    return depth >= u_ert_depth;
+#else
+    return false;
+#endif
+}
+
+bool mode_init(vec4 state) {
+    colour = state.rgb;
+    depth = state.a;
+#ifdef CLASSIFY_PREINTEGRATED
+    front = 0.0;
+    front_known = false;
+#endif
+    return terminated();  // BRICKED: in an earlier pass
+}
+
+bool mode_sample(int k, float start, float len, float t, vec3 p) {
+#ifdef CLASSIFY_PREINTEGRATED
+    if (!front_known) front = sample_scalar(o + start * d);
+    float back = sample_scalar(o + (start + len) * d);
+    vec4 e = preintegrated_segment(front, back, len, p, d);
+    front = back;
+    front_known = true;
+    colour += exp(-depth) * e.rgb;
+    depth += e.a;
+#else
+    vec4 cs = classify(p, d);
+    float tau = cs.a * len;
+    colour += exp(-depth) * opacity_of_depth(tau) * cs.rgb;
+    depth += tau;
+#endif
+    return terminated();
+}
+
+void mode_gap() {
+#ifdef CLASSIFY_PREINTEGRATED
+    front_known = false;
+#endif
+}
+
+// Blocks of constant (colour, sigma) (empty ones: sigma = 0); the others have sigma = -1.
+bool mode_skippable(vec4 block) {
+    return block.a >= 0.0;
+}
+
+// m segments of constant (colour, sigma): closed form, as stepping sums, up to where stepping
+// would terminate.
+bool mode_jump(vec4 block, inout int m) {
+    float count = float(m);
+    float tau = block.a * u_sample_distance;
+#ifdef EARLY_TERMINATION
+    if (tau > 0.0) count = min(count, ceil((u_ert_depth - depth) / tau));
+#endif
+    colour += exp(-depth) * opacity_of_depth(tau * count) * block.rgb;
+    depth += tau * count;
+    m = int(count);
+    return terminated();
+}
+
+vec4 mode_finish(vec4 state) {
+    return vec4(colour, depth);
+}
