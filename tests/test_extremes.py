@@ -117,6 +117,7 @@ def test_tiny_opacity_over_a_hundred_thousand_samples(tmp_path, name):
 
 
 @pytest.mark.parametrize("extra", [{}, {"renderer.order": "back_to_front"}, {"renderer.compositing": "isosurface"},
+                                   {"renderer.compositing": "isosurface", "renderer.shading.enabled": True},
                                    {"renderer.compositing": "mip"}, {"renderer.compositing": "average"},
                                    {"renderer.classification": "preintegrated"}, {"renderer.ert_threshold": 0.9}],
                          ids=lambda e: "-".join(f"{k.split('.')[-1]}={v}" for k, v in e.items()) or "default")

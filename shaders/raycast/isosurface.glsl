@@ -21,7 +21,9 @@ bool mode_init(vec4 state) {
     previous_known = false;
 #ifdef BRICKED
     if (state.a != 0.0) return true;  // an earlier pass found the surface
-    if (owns_entry(o + t0 * d)) {
+    // The entry point belongs to the first window of segments only: a later window's bracket starts at
+    // the sample before its first one (re-read on a hit), as one pass's would.
+    if (u_segment_window.x == 0 && owns_entry(o + t0 * d)) {
 #endif
         sa = sample_scalar(o + t0 * d);
         sb = sa;
