@@ -18,7 +18,7 @@ def format_markdown(rows: list[dict], columns: list[tuple[str, str, str]]) -> st
     """Rows as a Markdown table (what ``--markdown`` writes for the docs)."""
     def cell(r, k, f):
         return (format(r[k], f) if r.get(k) is not None else "-").strip().replace("|", "\\|")
-    lines = ["| " + " | ".join(h for _, h, _ in columns) + " |",
+    lines = ["| " + " | ".join(h.replace("|", "\\|") for _, h, _ in columns) + " |",
              "|" + "|".join("---" if i == 0 else "---:" for i in range(len(columns))) + "|"]
     lines += ["| " + " | ".join(cell(r, k, f) for k, _, f in columns) + " |" for r in rows]
     return "\n".join(lines)
