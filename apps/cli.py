@@ -1,6 +1,6 @@
 """The ``dvr`` command: one entry point, a subcommand per job.
 
-User errors (:class:`~dvr_gl.errors.DvrError`) print one line and exit 1;
+User errors (:class:`~dvr_gl.errors.DvrError`) and command-line mistakes print one line and exit 1;
 ``--debug`` adds the traceback.  Anything else is a bug: one line naming it
 (exit 3), or the traceback with ``--debug``.
 """
@@ -22,8 +22,16 @@ from . import view as view_cmd
 SUBCOMMANDS = {"render": render_cmd, "view": view_cmd, "info": info_cmd, "bench": bench_cmd}
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """Command-line mistakes as every other bad input: one line naming the problem and where the flags
+    are listed, exit status 1 (argparse prints its whole usage and exits 2)."""
+
+    def error(self, message):
+        self.exit(1, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="dvr", description="dvr-gl: direct volume rendering on OpenGL")
+    parser = OneLineParser(prog="dvr", description="dvr-gl: direct volume rendering on OpenGL")
     parser.add_argument("--version", action="version", version=f"dvr-gl {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name, module in SUBCOMMANDS.items():

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from dvr_gl.errors import DvrError
 from dvr_gl.phantoms import demo_scene
+from dvr_gl.renderers import registry
 from dvr_gl.scene import load_scene, read_scene_dict
 
 from . import render as render_cmd
@@ -82,6 +83,7 @@ def run(args) -> int:
     overrides = render_cmd.overrides_from(args)
     base = demo_scene(args.demo) if args.demo and not args.scene else None
     scene = load_scene(args.scene, overrides, base)
+    registry.check(scene)  # the renderer's one-line refusal, before a window opens
     shots = Path(args.screenshot_dir)
     if not shots.is_dir():
         raise DvrError(f"--screenshot-dir {shots}: not a folder; create it first")

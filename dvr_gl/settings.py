@@ -41,7 +41,7 @@ class Setting:
     doc: one line for the CLI help, ``dvr info`` and the scene-format reference.
     choices: the values allowed (strings), if restricted.
     check: ``check(value)`` returns what is wrong with a value (a phrase completing
-        "renderer.<name> ..."), or None.
+        "renderer.<name> ..."), or None; a table's check raises SceneError naming the key itself.
     units: for the documentation ("world units", "voxels", "MB").
     flag: a ``dvr render`` / ``dvr view`` flag ``--name-with-dashes`` (bools: ``--x/--no-x``).
     must_support: a renderer that does not declare it refuses a scene that uses it (the model
@@ -127,16 +127,16 @@ def one_of(*values):
     return lambda value: None if value in values else f"must be {', '.join(map(str, values[:-1]))} or {values[-1]}"
 
 
-def _check_shading(sh: ShadingSpec) -> Optional[str]:
+def _check_shading(sh: ShadingSpec) -> None:
+    """The [renderer.shading] table's values, each named by its own key."""
     for key in ("ambient", "diffuse", "specular", "shininess"):
         if getattr(sh, key) < 0:
-            return f".{key} must be >= 0 (renderer.shading.{key} = {getattr(sh, key)})"
+            raise SceneError(f"renderer.shading.{key} must be >= 0, got {getattr(sh, key)}")
     for i, light in enumerate(sh.lights):
         if light.type == "directional" and not any(light.direction):
-            return f".lights[{i}].direction must be a non-zero vector"
+            raise SceneError(f"renderer.shading.lights[{i}].direction must be a non-zero vector")
         if any(c < 0 for c in light.color):
-            return f".lights[{i}].color must be >= 0"
-    return None
+            raise SceneError(f"renderer.shading.lights[{i}].color must be >= 0, got {list(light.color)}")
 
 
 # --- the model: what the picture should be ---------------------------------------------------

@@ -18,7 +18,10 @@ SMALL = ["--size", "40x32", "--set", "volume.size=24"]
 
 
 def run(capsys, *argv):
-    code = main([str(a) for a in argv])
+    try:
+        code = main([str(a) for a in argv])
+    except SystemExit as exc:  # argparse's own errors (one line, exit 1: apps/cli.py)
+        code = exc.code
     out, err = capsys.readouterr()
     return code, out, err
 
@@ -160,6 +163,12 @@ BAD_INPUTS = {
     "nothing to render": (lambda t: [], ["nothing to render"]),
     "demo and volume": (lambda t: ["--demo", "--volume", _nan_npy(t)], ["give --demo or --volume, not both"]),
     "bad size": (lambda t: ["--demo", "--set", "image.width=0"], ["width and height must be at least 1"]),
+    "bad flag choice": (lambda t: ["--demo", "--compositing", "bogus"], ["invalid choice: 'bogus'",
+                                                                         "see dvr render --help"]),
+    "renderer refuses": (lambda t: ["--demo", "--renderer", "shearwarp"],
+                         ["shearwarp does not support renderer.shading", "use raycast"]),
+    "shading value": (lambda t: ["--demo", "--set", "renderer.shading.ambient=-1"],
+                      ["renderer.shading.ambient must be >= 0, got -1.0"]),
 }
 
 

@@ -397,3 +397,13 @@ def test_without_the_gui_keys_still_work(xvfb, tmp_path):
         v.close()
     assert v.proc.returncode == 0
     assert "install dvr-gl[viewer]" in (tmp_path / "viewer.out").read_text()
+
+
+def test_a_refused_scene_is_one_line_before_a_window_opens(xvfb, tmp_path):
+    """dvr view on settings its renderer refuses (the demo shades; shear-warp does not): the registry's
+    one-line reason and exit 1, as dvr render gives, and no window."""
+    out = subprocess.run([sys.executable, "-m", "dvr_gl.apps.cli", "view", "--demo", "--renderer", "shearwarp"],
+                         env=dict(os.environ, DISPLAY=xvfb), capture_output=True, text=True, cwd=tmp_path, timeout=60)
+    assert out.returncode == 1
+    assert out.stderr.strip() == ("dvr view: error: shearwarp does not support renderer.shading; turn it off or use "
+                                  "raycast, slicing3d, slicing2d, reference or reference-converged")
