@@ -19,6 +19,7 @@ camera frames the data, a transfer function spans its values.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import tempfile
 from pathlib import Path
@@ -29,7 +30,7 @@ from .camera import Camera
 from .errors import SceneError
 from .fields import Field
 from .fields.grid import Volume
-from .image import composite_over, encode_8bit, read_image_bytes, write_image
+from .image import composite_over, encode_8bit, write_image
 from .renderers import create_renderer, registry
 from .scene import Scene, apply_overrides, load_scene, parse_scene, resolve_scene
 from .transfer_function import TransferFunction, preset
@@ -78,7 +79,7 @@ class Image:
         with tempfile.TemporaryDirectory() as folder:
             path = Path(folder) / "image.png"
             write_image(path, self.composited())
-            return read_image_bytes(path)
+            return path.read_bytes()
 
     def __array__(self, dtype=None, copy=None):
         return self.rgba if dtype is None else self.rgba.astype(dtype)
@@ -194,8 +195,6 @@ def _changed(scene: Scene, transfer_function, camera, camera_keys: dict, setting
     """A scene with the keywords applied (renderer settings checked as a scene file's would be)."""
     image = _image_overrides(size, background)
     if image:
-        import dataclasses
-
         changes = {k.removeprefix("image."): v for k, v in image.items()}
         if "background" in changes:
             changes["background"] = tuple(changes["background"])
@@ -217,8 +216,6 @@ def _changed(scene: Scene, transfer_function, camera, camera_keys: dict, setting
     if settings:
         nested = apply_overrides({}, {f"renderer.{k}": v for k, v in settings.items()})["renderer"]
         if "shading" in nested:
-            import dataclasses
-
             nested["shading"] = dataclasses.replace(scene.renderer.shading, **nested["shading"])
         scene = scene.with_renderer(**nested)
     return scene

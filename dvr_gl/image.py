@@ -112,11 +112,6 @@ def encode_8bit(rgba: np.ndarray) -> np.ndarray:
     return np.asarray(buf.get_pixels(oiio.UINT8))
 
 
-def read_image_bytes(path) -> bytes:
-    """A file's bytes (an encoded image, e.g. for a notebook's inline display)."""
-    return Path(path).read_bytes()
-
-
 def write_image(path, rgba: np.ndarray, overwrite: bool = False):
     """Write linear RGBA (background already composited) to ``path``, atomically."""
     path = Path(path)

@@ -123,10 +123,6 @@ def between(lo, hi, open_lo=False, open_hi=False, what=""):
     return check
 
 
-def one_of(*values):
-    return lambda value: None if value in values else f"must be {', '.join(map(str, values[:-1]))} or {values[-1]}"
-
-
 def _check_shading(sh: ShadingSpec) -> None:
     """The [renderer.shading] table's values, each named by its own key."""
     for key in ("ambient", "diffuse", "specular", "shininess"):

@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import SceneError
+from .fields import diagonal
 
 LINES = 192
 OVERSAMPLING = 8          # samples per voxel along the lines
@@ -77,7 +78,7 @@ def random_lines(field, count: int, seed: int = SEED):
     centre = lo + rng.random((count, 3)) * (hi - lo)
     direction = rng.normal(size=(count, 3))
     direction /= np.linalg.norm(direction, axis=1, keepdims=True)
-    length = float(np.linalg.norm(hi - lo))
+    length = diagonal(field)
     return centre - direction * length / 2.0, direction, length
 
 

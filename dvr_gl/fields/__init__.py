@@ -68,11 +68,6 @@ class Field(Protocol):
     def describe(self) -> str: ...
 
 
-def voxels_to_world(field: Field, voxels: float) -> float:
-    """A distance in voxels (``field.sample_spacing``) in world units."""
-    return float(voxels) * field.sample_spacing
-
-
 def gradient_epsilon(field: Field) -> float:
     """Gradient magnitude (value units per world unit) below which shading takes the normal as
     zero: 1e-5 of the value scale per voxel, far above float32 rounding noise in homogeneous
@@ -87,4 +82,4 @@ def diagonal(field: Field) -> float:
     return float(np.linalg.norm(np.asarray(hi) - np.asarray(lo)))
 
 
-__all__ = ["Field", "Reconstruction", "Volume", "SphereField", "voxels_to_world", "gradient_epsilon", "diagonal"]
+__all__ = ["Field", "Reconstruction", "Volume", "SphereField", "gradient_epsilon", "diagonal"]

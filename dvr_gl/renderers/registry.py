@@ -172,12 +172,6 @@ def _union(plugins: dict) -> tuple:
     return tuple(out.values())
 
 
-def reload():
-    """Forget what was loaded (after installing or removing a plugin in this process)."""
-    _registry.cache_clear()
-    renderer_spec_class.cache_clear()
-
-
 # --- queries -----------------------------------------------------------------------------------
 
 def plugins() -> dict[str, RendererPlugin]:

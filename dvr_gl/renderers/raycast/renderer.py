@@ -17,6 +17,7 @@ import math
 import moderngl
 import numpy as np
 
+from ...fields import diagonal
 from ...gl.shaders import create_program
 from ..grid.bricking import plan_bricks, visibility_order
 from ..grid.gl_base import GLVolumeRenderer, GridView, classification_features, now
@@ -86,8 +87,7 @@ MAX_INT = 2 ** 31 - 1
 def segment_windows(scene) -> list[tuple[int, int]]:
     """Segment index ranges, one per pass: all segments at once unless the longest possible ray
     (the box's diagonal) takes more than :data:`PASS_SEGMENTS`."""
-    lo, hi = scene.volume.box
-    longest = math.ceil(float(np.linalg.norm(hi - lo)) / scene.renderer.sample_distance)
+    longest = math.ceil(diagonal(scene.volume) / scene.renderer.sample_distance)
     per_pass = PASS_SEGMENTS - scene.renderer.iso_refinement
     if longest <= per_pass:
         return [(0, MAX_INT)]
