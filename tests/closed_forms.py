@@ -31,7 +31,7 @@ from typing import Callable
 import numpy as np
 
 from dvr_gl.fields import SphereField
-from dvr_gl.rays import intersect_box
+from dvr_gl.rays import RayBatch, intersect_box
 from dvr_gl.scene import load_scene
 
 WIDTH, HEIGHT = 24, 20
@@ -69,10 +69,9 @@ def _scene(tmp_path, name, data, spacing, origin, points, mode, view, renderer, 
 
 
 def _rays(scene):
-    o, d = scene.camera.pixel_rays(scene.image.width, scene.image.height)
-    t0, t1 = intersect_box(o, d, *scene.field.bounds)
-    t0 = np.maximum(t0, scene.camera.near_distance(d))
-    return o, d, t0, np.maximum(t1, t0)
+    """The pixels' rays and their part inside the box (empty for misses), as the references clip them."""
+    rays = RayBatch.for_camera(scene.camera, scene.image.width, scene.image.height, scene.field.bounds)
+    return rays.origins, rays.directions, rays.t0, rays.t1
 
 
 def _margin_mask(scene, margin):
@@ -184,7 +183,7 @@ def _sphere_scene(tmp_path, mode, view, renderer):
                   {"renderer.iso_value": SPHERE_ISO})
 
 
-def _chord_geometry(o, d, t0, t1):
+def _chord_geometry(o, d):
     """Squared distance ``b^2`` of each ray's line from the centre (the origin), and the parameter of
     its closest point."""
     s = -np.sum(o * d, axis=1)
@@ -196,7 +195,7 @@ def _sphere_bounds(scene):
     mode = scene.renderer.compositing
     o, d, t0, t1 = _rays(scene)
     hit = t1 > t0
-    b2, s = _chord_geometry(o, d, t0, t1)
+    b2, s = _chord_geometry(o, d)
     bias = 3.0 * SPHERE_H ** 2 / 4.0            # trilinear interpolation of the quadratic: 0 <= e <= bias
     compared = _margin_mask(scene, 0.05)
     if mode == "emission_absorption":
@@ -236,7 +235,7 @@ def _analytic_scene(tmp_path, mode, view, renderer):
 
 def _analytic_bounds(scene):
     o, d, t0, t1 = _rays(scene)
-    b2, _ = _chord_geometry(o, d, t0, t1)
+    b2, _ = _chord_geometry(o, d)
     chord = 2.0 * np.sqrt(np.maximum(SPHERE_R ** 2 - b2, 0.0))
     image = _image(_rgba(COLOUR, -np.expm1(-0.5 * chord)), scene)
     edge = np.abs(np.sqrt(b2) - SPHERE_R) > 0.05
