@@ -4,24 +4,33 @@
 format     files                                 read with
 =========  ====================================  ==========================
 raw        any (dims, dtype, endian, header)     numpy (+ gzip/bz2 by suffix)
-nrrd       ``.nrrd``, ``.nhdr``                   pynrrd (extra ``nrrd``)
+nrrd       ``.nrrd``, ``.nhdr``                   built-in fields, pynrrd vectors
 nifti      ``.nii``, ``.nii.gz``                  nibabel (extra ``nifti``)
 metaimage  ``.mhd``, ``.mha``                     built-in reader (see its module)
 vtk        ``.vtk`` STRUCTURED_POINTS             built-in parser
 npy        ``.npy``                               numpy
 tiff       ``.tif`` pages, a folder, a glob       OpenImageIO
 =========  ====================================  ==========================
+
+Readers are strict: a malformed header or data file is one :class:`VolumeError` naming
+the file, the field as the format writes it and what is valid.  They are bounded:
+every file goes through :func:`dvr_gl.sandbox.check_input_path`, and the bytes a header
+promises are checked against the memory budget (and the file's size) before anything
+is allocated or decompressed (see :mod:`.compression`).
 """
 
 from __future__ import annotations
 
 import importlib
 import os
+import warnings
 from pathlib import Path
+
+import numpy as np
 
 from ..errors import VolumeError
 from ..fields.grid import Volume, replace_non_finite
-from .common import RawArray
+from .common import RawArray, check_spacing
 from .compression import exists_or_split
 
 FORMATS = ("raw", "nrrd", "nifti", "metaimage", "vtk", "npy", "tiff")
@@ -73,7 +82,7 @@ def load_volume(path, format: str = "auto", *, dims=None, dtype=None, endian: st
         path: the file (for TIFF stacks also a folder or a glob pattern).
         format: one of :data:`FORMATS`, or ``auto`` to choose by suffix.
         dims, dtype, endian, header_bytes: the layout of a raw file, ``dims = (nx, ny, nz)``.
-        spacing, origin: override what the file states (world units, x first).
+        spacing, origin: override what the file states (world units, x first; spacing finite, > 0).
         nan_value: replace NaN and Inf by this value; without it they are an error.
     """
     path = Path(os.path.expanduser(str(path)))
@@ -84,13 +93,19 @@ def load_volume(path, format: str = "auto", *, dims=None, dtype=None, endian: st
     options = {"dims": dims, "dtype": dtype}
     if fmt == "raw":
         options.update(endian=endian, header_bytes=header_bytes)
-    raw = _read(path, fmt, options)
-    data = raw.data
-    if nan_value is not None:
-        data = replace_non_finite(data, float(nan_value))
-    return Volume(
-        data,
-        spacing=spacing if spacing is not None else (raw.spacing or (1.0, 1.0, 1.0)),
-        origin=origin if origin is not None else (raw.origin or (0.0, 0.0, 0.0)),
-        name=path.name,
-    )
+    if spacing is not None:
+        spacing = check_spacing(spacing, str(path), "spacing (volume.spacing)")
+    # Libraries warn about headers they repair, numpy about values it casts: the readers'
+    # own checks say what matters in one line, and nothing else may reach the terminal.
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore")
+        raw = _read(path, fmt, options)
+        data = raw.data
+        if nan_value is not None:
+            data = replace_non_finite(data, float(nan_value))
+        return Volume(
+            data,
+            spacing=spacing if spacing is not None else (raw.spacing or (1.0, 1.0, 1.0)),
+            origin=origin if origin is not None else (raw.origin or (0.0, 0.0, 0.0)),
+            name=path.name,
+        )

@@ -1,21 +1,31 @@
-"""Reading bytes: gzip/bzip2 by file suffix, and files split into numbered parts.
+"""Reading a header's data bytes, bounded by what the header promises.
+
+Every reader gets its voxel bytes from :func:`read_data`: it checks each file with
+:func:`dvr_gl.sandbox.check_input_path` (a FIFO or device would block), checks the
+promised byte count against the memory budget before anything is allocated, and
+for raw data against the file's size before anything is read.  Compressed data
+(gzip, bzip2, zlib) is decoded piece by piece and stops one byte past the promised
+size, so a small header over a huge stream (a "zip bomb") fails at once.
 
 A data file too large for its host is sometimes split into ``name.part1``,
-``name.part2``, ... which together form the original byte stream (the CT
-bunny in ``shared/data/large`` is one bzip2 stream split in two).  When
-``name`` does not exist but ``name.part1`` does, the parts are joined.
+``name.part2``, ... which together form the original byte stream (the CT bunny
+in ``shared/data/large`` is one bzip2 stream split in two).  When ``name`` does
+not exist but ``name.part1`` does, the parts are joined.
 """
 
 from __future__ import annotations
 
 import bz2
-import gzip
 import os
 import re
 import zlib
 from pathlib import Path
 
 from ..errors import VolumeError
+from ..sandbox import check_bytes, check_input_path
+
+ENCODINGS = ("raw", "gzip", "bzip2", "zlib")
+CHUNK = 1 << 20  # bytes read from a file at a time
 
 
 def split_parts(path: Path) -> list[Path]:
@@ -37,39 +47,16 @@ def split_parts(path: Path) -> list[Path]:
 
 
 def exists_or_split(path: Path) -> bool:
-    return path.is_file() or bool(split_parts(path))
+    return os.path.lexists(path) or bool(split_parts(path))
 
 
-def read_stored_bytes(path: Path) -> bytes:
-    """The bytes of ``path`` as stored (joined from its parts if it is split)."""
+def stored_files(path: Path, what: str, name: str) -> list[Path]:
+    """The files holding ``path``'s bytes (itself, or its parts), each one allowed to be read."""
     path = Path(path)
-    if path.is_file():
-        return path.read_bytes()
-    parts = split_parts(path)
-    if not parts:
-        raise VolumeError(f"{path}: file not found")
-    return b"".join(p.read_bytes() for p in parts)
-
-
-def decompress(blob: bytes, encoding: str, name: str) -> bytes:
-    """Decompress ``blob`` (encoding ``raw``, ``gzip``, ``bzip2`` or ``zlib``), or explain why not."""
-    try:
-        if encoding == "raw":
-            return blob
-        if encoding == "gzip":
-            return gzip.decompress(blob)
-        if encoding == "bzip2":
-            return bz2.decompress(blob)
-        if encoding == "zlib":
-            d = zlib.decompressobj()
-            out = d.decompress(blob)
-            if not d.eof:
-                raise EOFError("zlib stream ended early")
-            return out
-    except (EOFError, OSError, zlib.error, ValueError) as exc:
-        raise VolumeError(f"{name}: {encoding} data is truncated or corrupt ({exc}); "
-                          f"download or copy the file again") from exc
-    raise VolumeError(f"{name}: unknown encoding {encoding!r}; use raw, gzip, bzip2 or zlib")
+    files = [path] if os.path.lexists(path) else split_parts(path)
+    if not files:
+        raise VolumeError(f"{name}: its {what} {path} was not found; put it next to the header or fix its name")
+    return [check_input_path(f, what) for f in files]
 
 
 def encoding_from_suffix(path: Path) -> str:
@@ -83,7 +70,135 @@ def encoding_from_suffix(path: Path) -> str:
     return "raw"
 
 
-def read_bytes(path: Path, encoding: str | None = None) -> bytes:
-    """The decoded bytes of ``path``; the encoding defaults to the one the suffix names."""
-    path = Path(path)
-    return decompress(read_stored_bytes(path), encoding or encoding_from_suffix(path), os.fspath(path))
+def _pieces(files: list[Path], start: int, line_skip: int, name: str):
+    """The stored bytes from ``start`` (bytes into the joined files) after ``line_skip`` lines."""
+    lines_left = line_skip
+    for f in files:
+        with open(f, "rb") as fh:
+            size = os.fstat(fh.fileno()).st_size
+            if start >= size:
+                start -= size
+                continue
+            fh.seek(start)
+            start = 0
+            while piece := fh.read(CHUNK):
+                while lines_left and piece:
+                    newline = piece.find(b"\n")
+                    piece = piece[newline + 1:] if newline >= 0 else b""
+                    lines_left -= newline >= 0
+                if piece:
+                    yield piece
+    if lines_left:
+        raise VolumeError(f"{name}: line skip {line_skip} goes past the end of the data file "
+                          f"({line_skip - lines_left} lines); fix the line skip")
+
+
+def _decoder(encoding: str):
+    if encoding == "bzip2":
+        return bz2.BZ2Decompressor()
+    return zlib.decompressobj(zlib.MAX_WBITS | (16 if encoding == "gzip" else 0))
+
+
+def _decode(pieces, encoding: str, limit: int) -> bytearray:
+    """At most ``limit + 1`` decoded bytes: one more than ``limit`` says the stream holds more.
+
+    gzip members and bzip2 streams may follow each other (as ``gzip -c a b`` writes); bytes
+    after a zlib stream are ignored, as MetaImage writers sometimes pad the file."""
+    out = bytearray()
+    decoder = _decoder(encoding)
+    for data in pieces:
+        while True:
+            if decoder.eof:
+                data = decoder.unused_data + data
+                if encoding == "zlib" or not data:
+                    break
+                decoder = _decoder(encoding)
+            if not data:
+                break
+            out += decoder.decompress(data, limit + 1 - len(out))
+            if len(out) > limit:
+                return out
+            data = getattr(decoder, "unconsumed_tail", b"")
+        if decoder.eof and encoding == "zlib":
+            break
+    if not decoder.eof:
+        raise EOFError("the compressed stream ends early")
+    return out
+
+
+def read_data(path: Path, nbytes: int, *, name: str, encoding: str = "raw", start: int = 0,
+              line_skip: int = 0, skip: int = 0, what: str = "data file", promise: str = "the header",
+              exact: bool = True) -> bytes:
+    """Exactly the ``nbytes`` bytes the header promises, or a :class:`VolumeError`.
+
+    Args:
+        path: the data file (or the header itself for attached data); may be split into parts.
+        nbytes: the bytes the header promises (dims x sample size).
+        name: the header, to name in messages.
+        encoding: ``raw``, ``gzip``, ``bzip2`` or ``zlib``.
+        start: bytes of the stored file before the data (an attached header's length).
+        line_skip: lines of the stored file to skip after ``start``.
+        skip: bytes to skip in the decoded data; -1 (raw only): the data is the file's last bytes.
+        what, promise: how messages name the data file and what promised its size.
+        exact: raw data must end where the promised bytes end (False: later bytes are ignored).
+    Decoded (compressed) data must hold exactly ``skip + nbytes`` bytes, whatever ``exact`` says:
+    more is how a decompression bomb shows itself.
+    """
+    if encoding not in ENCODINGS:
+        raise VolumeError(f"{name}: unknown encoding {encoding!r}; use raw, gzip, bzip2 or zlib")
+    files = stored_files(path, what, name)
+    check_bytes(nbytes, f"{name}: the {nbytes}-byte volume {promise} promises",
+                "check the sizes in the header, or raise the memory budget")
+    stored = sum(f.stat().st_size for f in files) - start
+    if encoding == "raw":
+        return _read_raw(files, nbytes, name, start, line_skip, skip, stored, promise, exact, what)
+    if skip < 0:
+        raise VolumeError(f"{name}: a skip of -1 (data at the end of the file) is valid only for raw "
+                          f"data, not {encoding}; give the byte count to skip")
+    try:
+        out = _decode(_pieces(files, start, line_skip, name), encoding, skip + nbytes)
+    except (EOFError, OSError, zlib.error, ValueError) as exc:
+        raise VolumeError(f"{name}: {encoding} data is truncated or corrupt ({exc}); "
+                          f"download or copy the file again") from None
+    if len(out) != skip + nbytes:
+        size = "more than " if len(out) > skip + nbytes else ""
+        raise VolumeError(f"{name}: the {encoding} data decodes to {size}{len(out)} bytes, but {promise} "
+                          f"promises {_bytes(skip, nbytes)}; the header or the data file is wrong")
+    return bytes(memoryview(out)[skip:])
+
+
+def _bytes(skip: int, nbytes: int) -> str:
+    return f"{nbytes} bytes" if skip == 0 else f"{skip} bytes to skip and {nbytes} of data"
+
+
+def _read_raw(files, nbytes, name, start, line_skip, skip, stored, promise, exact, what) -> bytes:
+    if skip < 0:  # the data is the last nbytes of the file
+        skip = stored - nbytes
+        if skip < 0:
+            raise VolumeError(f"{name}: the {what} holds {stored} bytes, but {promise} promises {nbytes}; "
+                              f"the data file is truncated or the header is wrong")
+    elif line_skip == 0 and (stored < skip + nbytes or exact and stored != skip + nbytes):
+        raise VolumeError(f"{name}: the {what} holds {stored} bytes{' after the header' if start else ''}, "
+                          f"but {promise} promises {_bytes(skip, nbytes)}; the data file is truncated or "
+                          f"the header is wrong")
+    out = bytearray()
+    for piece in _pieces(files, start, line_skip, name):
+        out += piece
+        if len(out) > skip + nbytes:
+            break
+    if len(out) < skip + nbytes or exact and len(out) != skip + nbytes:
+        raise VolumeError(f"{name}: the {what} holds {len(out)} bytes after the line skip, but {promise} "
+                          f"promises {_bytes(skip, nbytes)}; fix the skips or the sizes")
+    return bytes(memoryview(out)[skip:skip + nbytes])
+
+
+def read_text(path: Path, name: str, start: int, line_skip: int, count: int, what: str = "data file") -> bytes:
+    """The stored bytes of an ASCII data section (after ``start`` bytes and ``line_skip`` lines),
+    checked against the memory budget: the text, and ``count`` parsed values."""
+    files = stored_files(path, what, name)
+    stored = max(sum(f.stat().st_size for f in files) - start, 0)
+    # the text, its tokens (about 50 bytes each as Python objects, at most one per 2 bytes)
+    # and the values as float64
+    need = stored + 50 * min(count, stored // 2 + 1) + 8 * count
+    check_bytes(need, f"{name}: the ASCII data ({count} values)", "check the sizes in the header")
+    return b"".join(_pieces(files, start, line_skip, name))

@@ -4,7 +4,8 @@ SimpleITK, the obvious library, was tried and rejected: version 2.5.7 trusts the
 header's ``CompressedDataSize``, and where that is short of the real stream (it is
 in ``shared/data/large/frogtissue.mhd``: 260020 of 262087 bytes) it returns about a
 million uninitialized voxels, different on every read, without any error.  This
-reader decompresses the whole zlib stream and checks that it holds exactly the
+reader decodes the zlib stream (up to one byte past the promised size, so a small
+header over a huge stream fails at once) and checks that it holds exactly the
 voxels the header promises.  Only the voxel grid, spacing and origin are used; a
 ``TransformMatrix`` other than the identity is not applied.
 """
@@ -16,8 +17,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import VolumeError
-from .common import RawArray
-from .compression import decompress, read_stored_bytes
+from ..sandbox import check_input_path
+from .common import RawArray, check_spacing, integer, integers, numbers, promised_bytes, show
+from .compression import read_data
 
 ELEMENT_TYPES = {
     "MET_UCHAR": "u1", "MET_CHAR": "i1", "MET_USHORT": "u2", "MET_SHORT": "i2", "MET_UINT": "u4",
@@ -26,8 +28,13 @@ ELEMENT_TYPES = {
 }
 
 
-def _parse_header(blob: bytes, name: str) -> tuple[dict, int]:
+MAX_HEADER = 1 << 20  # bytes: a header longer than this is not a header
+
+
+def _parse_header(path: Path, name: str) -> tuple[dict, int]:
     """Header fields and the offset just after the ``ElementDataFile`` line."""
+    with open(path, "rb") as fh:
+        blob = fh.read(MAX_HEADER)
     fields: dict[str, str] = {}
     pos = 0
     while pos < len(blob):
@@ -39,61 +46,54 @@ def _parse_header(blob: bytes, name: str) -> tuple[dict, int]:
             continue
         key, sep, value = line.partition("=")
         if not sep:
-            raise VolumeError(f"{name}: header line {line[:40]!r} is not 'Key = Value'")
+            raise VolumeError(f"{name}: header line {show(line)} is not 'Key = Value'; fix the header")
         fields[key.strip()] = value.strip()
         if key.strip() == "ElementDataFile":
-            return fields, pos
-    raise VolumeError(f"{name}: no ElementDataFile line; not a MetaImage header or truncated")
+            return fields, min(pos, len(blob))
+    raise VolumeError(f"{name}: no ElementDataFile line; not a MetaImage header, or a truncated one")
 
 
-def _numbers(fields: dict, key: str, name: str, count: int, kind=float):
-    try:
-        values = [kind(v) for v in fields[key].split()]
-    except (KeyError, ValueError):
-        raise VolumeError(f"{name}: missing or malformed {key}") from None
-    if len(values) != count:
-        raise VolumeError(f"{name}: {key} has {len(values)} values, expected {count}")
-    return tuple(values)
+def _flag(fields: dict, key: str, name: str) -> bool:
+    value = fields.get(key, "False")
+    if value.lower() not in ("true", "false"):
+        raise VolumeError(f"{name}: {key} = {show(value)}; use True or False")
+    return value.lower() == "true"
+
+
+def _first(fields: dict, *keys):
+    return next((k for k in keys if k in fields), None)
 
 
 def read_metaimage(path: Path) -> RawArray:
-    path = Path(path)
+    path = check_input_path(Path(path), "MetaImage file")
     name = str(path)
-    blob = path.read_bytes()
-    fields, data_start = _parse_header(blob, name)
-    ndims = int(fields.get("NDims", "0") or 0)
+    fields, data_start = _parse_header(path, name)
+    ndims = integer(fields.get("NDims", "missing"), name, "NDims")
     if ndims != 3:
         raise VolumeError(f"{name}: NDims = {ndims}; a volume needs 3")
-    if int(fields.get("ElementNumberOfChannels", "1")) != 1:
-        raise VolumeError(f"{name}: ElementNumberOfChannels = {fields['ElementNumberOfChannels']}; a volume needs 1")
-    dims = _numbers(fields, "DimSize", name, 3, int)
+    channels = integer(fields.get("ElementNumberOfChannels", "1"), name, "ElementNumberOfChannels")
+    if channels != 1:
+        raise VolumeError(f"{name}: ElementNumberOfChannels = {channels}; a volume needs 1")
+    nx, ny, nz = dims = integers(fields.get("DimSize", ""), name, "DimSize", 3, minimum=1)
     etype = fields.get("ElementType", "")
     if etype not in ELEMENT_TYPES:
-        raise VolumeError(f"{name}: unsupported ElementType {etype!r}")
-    msb = fields.get("BinaryDataByteOrderMSB", fields.get("ElementByteOrderMSB", "False")).lower() == "true"
+        raise VolumeError(f"{name}: ElementType = {show(etype)} is not supported; use one of "
+                          f"{', '.join(ELEMENT_TYPES)}")
+    msb = _flag(fields, _first(fields, "BinaryDataByteOrderMSB", "ElementByteOrderMSB") or "-", name)
     dtype = np.dtype((">" if msb else "<") + ELEMENT_TYPES[etype])
-    spacing = _numbers(fields, "ElementSpacing" if "ElementSpacing" in fields else "ElementSize", name, 3) \
-        if ("ElementSpacing" in fields or "ElementSize" in fields) else None
-    origin_key = next((k for k in ("Offset", "Origin", "Position") if k in fields), None)
-    origin = _numbers(fields, origin_key, name, 3) if origin_key else None
+    spacing_key = _first(fields, "ElementSpacing", "ElementSize")
+    spacing = check_spacing(numbers(fields[spacing_key], name, spacing_key, 3), name, spacing_key) \
+        if spacing_key else None
+    origin_key = _first(fields, "Offset", "Origin", "Position")
+    origin = numbers(fields[origin_key], name, origin_key, 3) if origin_key else None
 
     datafile = fields["ElementDataFile"]
-    if datafile.upper() == "LOCAL":
-        stored = blob[data_start:]
-    elif datafile.upper().startswith("LIST") or "%" in datafile:
+    if datafile.upper().startswith("LIST") or "%" in datafile:
         raise VolumeError(f"{name}: multi-file MetaImage ({datafile}) is not supported; join the slices first")
-    else:
-        stored = read_stored_bytes(path.parent / datafile)
-    compressed = fields.get("CompressedData", "False").lower() == "true"
-    data = decompress(stored, "zlib" if compressed else "raw", name)
-    header = int(fields.get("HeaderSize", "0"))
-    need = int(np.prod(dims, dtype=np.int64)) * dtype.itemsize
-    if header == -1:  # the data is the last `need` bytes
-        header = max(len(data) - need, 0)
-    if len(data) - header != need:
-        nx, ny, nz = dims
-        raise VolumeError(f"{name}: data holds {len(data) - header} bytes, but {nx}x{ny}x{nz} {etype} needs "
-                          f"{need}; the data file is truncated or the header is wrong")
-    nx, ny, nz = dims
-    array = np.frombuffer(data, dtype=dtype, count=need // dtype.itemsize, offset=header).reshape(nz, ny, nx)
-    return RawArray(array, spacing, origin)
+    local = datafile.upper() == "LOCAL"
+    header = integer(fields.get("HeaderSize", "0"), name, "HeaderSize", minimum=-1)
+    blob = read_data(path if local else path.parent / datafile, promised_bytes(dims, dtype), name=name,
+                     encoding="zlib" if _flag(fields, "CompressedData", name) else "raw",
+                     start=data_start if local else 0, skip=header, what="MetaImage data file",
+                     promise=f"DimSize {nx} {ny} {nz} of {etype}")
+    return RawArray(np.frombuffer(blob, dtype=dtype).reshape(nz, ny, nx), spacing, origin)

@@ -1,41 +1,78 @@
 """NIfTI-1/2 (``.nii``, ``.nii.gz``) through nibabel.
 
-The voxel grid is used as stored: spacing from the header's zooms, origin
-from the affine's translation.  A rotation or flip in the affine is not
-applied (the renderer's volumes are axis-aligned); the voxel order is
-kept, x fastest.
+The voxel grid is used as stored: spacing from ``pixdim[1..3]``, origin from the
+affine's translation.  A rotation or flip in the affine is not applied (the
+renderer's volumes are axis-aligned); the voxel order is kept, x fastest.
+
+Before nibabel reads the voxels the header is checked here: 3 dimensions of at
+least 1 voxel, a scalar ``datatype``, finite positive ``pixdim`` (nibabel would
+silently take the absolute value of a negative one), the promised bytes against the
+memory budget and, uncompressed, against the file's size.  nibabel's log messages
+about headers it repairs are kept off the terminal.
 """
 
 from __future__ import annotations
 
+import math
 import zlib
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import VolumeError
-from .common import RawArray, require
+from ..sandbox import check_bytes, check_input_path
+from .common import RawArray, check_sample_type, check_spacing, require
+
+MAX_GZIP_OFFSET = 64 << 20  # bytes: header and extensions; seeking a .nii.gz decodes all of them
 
 
 def read_nifti(path: Path) -> RawArray:
     nib = require("nibabel", "nibabel", "nifti")
-    path = Path(path)
+    from nibabel.imageglobals import LoggingOutputSuppressor
+
+    path = check_input_path(Path(path), "NIfTI file")
+    errors = (EOFError, zlib.error, OSError, ValueError, OverflowError, TypeError, IndexError, KeyError,
+              nib.filebasedimages.ImageFileError, nib.spatialimages.HeaderDataError)
     try:
-        img = nib.load(str(path))
-        shape = img.shape
-        if len(shape) < 3 or any(s != 1 for s in shape[3:]):
-            raise VolumeError(f"{path}: expected a 3D image, the NIfTI has shape {shape}; "
-                              f"extract one 3D volume first")
-        proxy = img.dataobj
-        slope, inter = getattr(proxy, "slope", 1.0), getattr(proxy, "inter", 0.0)
-        scaled = not (np.isnan(slope) or slope in (0.0, 1.0)) or not (np.isnan(inter) or inter == 0.0)
-        arr = np.asarray(proxy) if scaled else np.asarray(proxy.get_unscaled())
-    except VolumeError:
-        raise
-    except (EOFError, zlib.error, OSError, ValueError, nib.filebasedimages.ImageFileError) as exc:
-        raise VolumeError(f"{path}: NIfTI file is truncated or corrupt ({exc})") from exc
-    arr = arr.reshape(shape[:3])
-    data = np.ascontiguousarray(arr.transpose(2, 1, 0))  # nibabel indexes (i, j, k): x first
-    spacing = tuple(float(z) for z in img.header.get_zooms()[:3])
-    origin = tuple(float(v) for v in img.affine[:3, 3])
+        with LoggingOutputSuppressor():
+            img = nib.load(str(path))
+            shape, scaled, spacing = _check_header(img, path)
+            proxy = img.dataobj
+            arr = np.asarray(proxy) if scaled else np.asarray(proxy.get_unscaled())
+            affine = img.affine
+    except errors as exc:
+        raise VolumeError(f"{path}: NIfTI file is truncated or corrupt ({exc})") from None
+    data = np.ascontiguousarray(arr.reshape(shape).transpose(2, 1, 0))  # nibabel indexes (i, j, k): x first
+    origin = tuple(float(v) for v in affine[:3, 3])
+    if not all(math.isfinite(v) for v in origin):
+        raise VolumeError(f"{path}: the qform/sform offsets give origin {origin}; they must be finite")
     return RawArray(data, spacing, origin)
+
+
+def _check_header(img, path: Path) -> tuple[tuple, bool, tuple]:
+    """The 3D shape, whether the data is scaled and the spacing, after the header's checks."""
+    header = img.header
+    shape = tuple(int(s) for s in header.get_data_shape())
+    if len(shape) < 3 or any(s != 1 for s in shape[3:]) or min(shape) < 1:
+        raise VolumeError(f"{path}: dim gives shape {shape}; a volume needs 3 dimensions of at least 1 voxel "
+                          f"(extract one 3D volume first)")
+    shape = shape[:3]
+    dtype = header.get_data_dtype()
+    check_sample_type(dtype, str(path), "datatype", str(dtype))
+    spacing = check_spacing(header["pixdim"][1:4], str(path), "pixdim[1..3]")
+    proxy = img.dataobj
+    slope, inter = getattr(proxy, "slope", 1.0), getattr(proxy, "inter", 0.0)
+    scaled = not (np.isnan(slope) or slope in (0.0, 1.0)) or not (np.isnan(inter) or inter == 0.0)
+    count = math.prod(shape)
+    nbytes = count * dtype.itemsize
+    check_bytes(nbytes + 8 * count * scaled, f"{path}: the {shape} volume its header promises",
+                "check dim in the header, or raise the memory budget")
+    offset = int(header.get_data_offset())
+    if path.name.lower().endswith(".gz"):
+        if offset > MAX_GZIP_OFFSET:
+            raise VolumeError(f"{path}: vox_offset {offset} is beyond any header and extensions "
+                              f"({MAX_GZIP_OFFSET} bytes); fix the header")
+    elif path.stat().st_size < offset + nbytes:
+        raise VolumeError(f"{path}: the file holds {path.stat().st_size} bytes, but vox_offset {offset} and "
+                          f"{shape} of {dtype} need {offset + nbytes}; the file is truncated or the header wrong")
+    return shape, scaled, spacing

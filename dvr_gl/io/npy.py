@@ -1,4 +1,9 @@
-"""NumPy ``.npy`` arrays, indexed ``[z, y, x]`` (no pickles)."""
+"""NumPy ``.npy`` arrays, indexed ``[z, y, x]`` (no pickles).
+
+The header (shape, dtype, order) is read and checked first, with numpy's own
+parser; the array is read only when the file holds exactly the bytes it promises
+and they fit the memory budget.
+"""
 
 from __future__ import annotations
 
@@ -7,16 +12,31 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import VolumeError
-from .common import RawArray
+from ..sandbox import check_input_path
+from .common import RawArray, check_dims, check_sample_type, promised_bytes
+from .compression import read_data
 
 
 def read_npy(path: Path) -> RawArray:
+    path = check_input_path(Path(path), ".npy file")
+    name = str(path)
     try:
-        data = np.load(path, allow_pickle=False)
-    except (ValueError, OSError, EOFError) as exc:
-        raise VolumeError(f"{path}: not a readable .npy array ({exc})") from exc
-    if not isinstance(data, np.ndarray):
-        raise VolumeError(f"{path}: expected one array, found {type(data).__name__}")
-    if data.ndim != 3:
-        raise VolumeError(f"{path}: expected a 3D array indexed [z, y, x], got shape {data.shape}")
+        with open(path, "rb") as fh:
+            version = np.lib.format.read_magic(fh)
+            read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                           else np.lib.format.read_array_header_2_0)
+            shape, fortran, dtype = read_header(fh)
+            start = fh.tell()
+    except (ValueError, OSError, EOFError, SyntaxError, TypeError) as exc:
+        raise VolumeError(f"{path}: not a readable .npy array ({exc})") from None
+    if dtype.hasobject or dtype.fields is not None or dtype.subdtype is not None:
+        raise VolumeError(f"{path}: holds {dtype} records or objects; save a plain numeric array")
+    check_sample_type(dtype, name, "dtype", str(dtype))
+    if len(shape) != 3:
+        raise VolumeError(f"{path}: expected a 3D array indexed [z, y, x], got shape {shape}")
+    nz, ny, nx = check_dims(shape[::-1], name, "shape")[::-1]
+    blob = read_data(path, promised_bytes(shape, dtype), name=name, start=start, what=".npy file",
+                     promise=f"its header (shape {shape}, {dtype})")
+    data = np.frombuffer(blob, dtype=dtype)
+    data = data.reshape(shape[::-1]).T if fortran else data.reshape(shape)
     return RawArray(data)

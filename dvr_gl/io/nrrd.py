@@ -1,63 +1,196 @@
-"""NRRD (``.nrrd`` and detached ``.nhdr``) through pynrrd.
+"""NRRD (``.nrrd`` and detached ``.nhdr``): strict header fields, bounded data.
 
-pynrrd handles the raw, gzip and bzip2 encodings, byte/line skips and
-endianness.  The one thing added here: a detached data file that is split
-into ``.part1, .part2, ...`` (see :mod:`.compression`) is joined in memory.
+pynrrd parses the vector fields (``space directions``, ``space origin``).  The rest is
+done here, because pynrrd's header parser is lossy and its data reader is unbounded
+(``tests/test_io.py::test_why_not_pynrrd_alone`` shows both): it truncates
+``sizes: 32.5`` to 32 and casts ``sizes: 1e30`` to garbage, reads a ``line skip`` one
+line at a time (``line skip: 100000000`` runs for minutes), and decompresses the whole
+stream before comparing its size with the header.  Here each field must be what the
+NRRD specification says, and the data comes from :func:`.compression.read_data`, which
+stops at the promised size.  A detached data file split into ``.part1, .part2, ...``
+(see :mod:`.compression`) is joined.
 """
 
 from __future__ import annotations
 
-import io
-import zlib
+import math
+import os
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import VolumeError
-from .common import RawArray, require
-from .compression import read_stored_bytes, split_parts
+from ..sandbox import check_input_path
+from .common import (RawArray, check_sample_type, integer, integers, numbers, parse_ascii, promised_bytes,
+                     require, show)
+from .compression import read_data, read_text
+
+MAX_HEADER = 1 << 20  # bytes: a header longer than this is not a header
+# The NRRD type names (teem's nrrdTypeStr and its synonyms), as numpy codes.
+TYPES = {
+    **dict.fromkeys(("signed char", "int8", "int8_t"), "i1"),
+    **dict.fromkeys(("uchar", "unsigned char", "uint8", "uint8_t"), "u1"),
+    **dict.fromkeys(("short", "short int", "signed short", "signed short int", "int16", "int16_t"), "i2"),
+    **dict.fromkeys(("ushort", "unsigned short", "unsigned short int", "uint16", "uint16_t"), "u2"),
+    **dict.fromkeys(("int", "signed int", "int32", "int32_t"), "i4"),
+    **dict.fromkeys(("uint", "unsigned int", "uint32", "uint32_t"), "u4"),
+    **dict.fromkeys(("longlong", "long long", "long long int", "signed long long", "signed long long int",
+                     "int64", "int64_t"), "i8"),
+    **dict.fromkeys(("ulonglong", "unsigned long long", "unsigned long long int", "uint64", "uint64_t"), "u8"),
+    "float": "f4", "double": "f8",
+}
+ENCODINGS = {"raw": "raw", "gzip": "gzip", "gz": "gzip", "bzip2": "bzip2", "bz2": "bzip2",
+             "ascii": "ascii", "text": "ascii", "txt": "ascii"}
 
 
-def _geometry(header) -> tuple:
-    spacing = origin = None
-    if "spacings" in header:
-        sp = np.asarray(header["spacings"], dtype=np.float64)
-        if np.all(np.isfinite(sp)):
-            spacing = tuple(float(s) for s in sp[-3:])
-    elif "space directions" in header:
-        dirs = np.asarray(header["space directions"], dtype=np.float64)
-        rows = dirs[np.all(np.isfinite(dirs), axis=1)]
-        if len(rows) == 3:
-            spacing = tuple(float(v) for v in np.linalg.norm(rows, axis=1))
-    if "space origin" in header:
-        origin = tuple(float(v) for v in np.asarray(header["space origin"], dtype=np.float64))
-    return spacing, origin
+def read_header(path: Path) -> tuple[dict, int]:
+    """The header's fields as written (``key: value``) and its length in bytes."""
+    with open(path, "rb") as fh:
+        head = fh.read(MAX_HEADER)
+    if not (head.startswith(b"NRRD000") and head[7:8].isdigit()):
+        raise VolumeError(f"{path}: not an NRRD file (the first line must be NRRD0001 to NRRD0005, got "
+                          f"{show(head[:20].decode('latin-1'))})")
+    fields: dict[str, str] = {}
+    pos = head.find(b"\n") + 1 if b"\n" in head else len(head)
+    while pos < len(head):
+        end = head.find(b"\n", pos)
+        if end < 0:
+            if len(head) == MAX_HEADER:
+                raise VolumeError(f"{path}: no blank line ends the header in its first {MAX_HEADER} bytes")
+            end = len(head)  # a detached header may end without a newline
+        line = head[pos:end].decode("latin-1").rstrip()
+        pos = end + 1
+        if not line:
+            break
+        field, sep, value = line.partition(":")
+        if line.startswith("#") or value.startswith("="):
+            continue  # comments and key:=value pairs carry nothing the renderer uses
+        if not sep:
+            raise VolumeError(f"{path}: header line {show(line)} is not 'field: value'; fix the header")
+        if field in fields:
+            raise VolumeError(f"{path}: field {field!r} appears twice; keep one")
+        fields[field] = value.strip()
+    return fields, min(pos, len(head))
+
+
+def _get(fields, *names, default=None):
+    return next((fields[n] for n in names if n in fields), default)
+
+
+def _required(fields, field, name) -> str:
+    if field not in fields:
+        raise VolumeError(f"{name}: the required field {field!r} is missing; fix the header")
+    return fields[field]
+
+
+def _dtype(fields, name, encoding) -> np.dtype:
+    written = _required(fields, "type", name)
+    if written not in TYPES:
+        raise VolumeError(f"{name}: type {show(written)} is not an NRRD scalar type; use one of uint8, int8, "
+                          f"uint16, int16, uint32, int32, uint64, int64, float, double")
+    code = TYPES[written]
+    endian = fields.get("endian")
+    if endian is not None and endian not in ("little", "big"):
+        raise VolumeError(f"{name}: endian {show(endian)} is neither little nor big; fix the header")
+    if endian is None and code[1] != "1" and encoding != "ascii":
+        raise VolumeError(f"{name}: the field 'endian' (little or big) is required for type {written}")
+    return check_sample_type(np.dtype((">" if endian == "big" else "<") + code), name, "type", written)
+
+
+def _axes(sizes, name) -> list[int]:
+    """The three axes that form the volume: all of them, or those left after dropping leading
+    axes of size 1 (a one-valued "list" axis, for example)."""
+    axes = list(range(len(sizes)))
+    while len(axes) > 3 and sizes[axes[0]] == 1:
+        axes.pop(0)
+    if len(axes) != 3:
+        raise VolumeError(f"{name}: sizes {' '.join(map(str, sizes))} do not form a 3D volume; a volume "
+                          f"needs dimension 3 (or extra leading axes of size 1)")
+    return axes
+
+
+def _vectors(fields, field, name, parse):
+    nrrd = require("nrrd", "pynrrd", "nrrd")
+    try:
+        return parse(fields[field], dtype=float)
+    except (nrrd.NRRDError, ValueError, TypeError, IndexError) as exc:
+        raise VolumeError(f"{name}: {field} {show(fields[field])} is not a list of vectors like "
+                          f"(1,0,0) ({exc}); fix the header") from None
+
+
+def _spacing(fields, name, dim, axes):
+    """Spacing of the three axes from ``spacings`` or the lengths of ``space directions``;
+    None where the header gives none (NaN or ``none``)."""
+    if "spacings" in fields:
+        values = numbers(fields["spacings"], name, "spacings", dim, allow_nan=True)
+        chosen = [values[a] for a in axes]
+        field = "spacings"
+    elif "space directions" in fields:
+        nrrd = require("nrrd", "pynrrd", "nrrd")
+        rows = _vectors(fields, "space directions", name, nrrd.parse_optional_vector_list)
+        if len(rows) != dim:
+            raise VolumeError(f"{name}: space directions has {len(rows)} entries for dimension {dim}")
+        chosen = [math.nan if rows[a] is None else float(np.linalg.norm(rows[a])) for a in axes]
+        field = "space directions"
+    else:
+        return None
+    if any(math.isnan(s) for s in chosen):
+        return None
+    if not all(math.isfinite(s) and s > 0 for s in chosen):
+        raise VolumeError(f"{name}: {field} {show(fields[field])} must give spacings that are finite and > 0; "
+                          f"fix the header or set volume.spacing")
+    return tuple(chosen)
+
+
+def _origin(fields, name):
+    if "space origin" not in fields:
+        return None
+    nrrd = require("nrrd", "pynrrd", "nrrd")
+    origin = _vectors(fields, "space origin", name, nrrd.parse_vector)
+    if len(origin) != 3 or not np.all(np.isfinite(origin)):
+        raise VolumeError(f"{name}: space origin {show(fields['space origin'])} must be three finite numbers")
+    return tuple(float(v) for v in origin)
+
+
+def _data_file(fields, path) -> tuple[Path, int]:
+    """The file holding the data and where it starts in it (after an attached header)."""
+    datafile = _get(fields, "data file", "datafile")
+    if datafile is None:
+        return path, None
+    if datafile.startswith("LIST") or "%" in datafile:
+        raise VolumeError(f"{path}: data file {show(datafile)} names several files; join them into one")
+    return path.parent / os.path.expanduser(datafile), 0
 
 
 def read_nrrd(path: Path) -> RawArray:
-    nrrd = require("nrrd", "pynrrd", "nrrd")
-    path = Path(path)
-    try:
-        with open(path, "rb") as fh:
-            header = nrrd.read_header(fh)
-            datafile = header.get("data file", header.get("datafile"))
-            target = path.parent / datafile if datafile else None
-            if target is not None and not target.exists() and split_parts(target):
-                header = {k: v for k, v in header.items() if k not in ("data file", "datafile")}
-                data = nrrd.read_data(header, io.BytesIO(read_stored_bytes(target)), index_order="C")
-            else:
-                if target is not None and not target.exists():
-                    raise VolumeError(f"{path}: its data file {target} was not found")
-                data = nrrd.read_data(header, fh, filename=str(path), index_order="C")
-    except nrrd.NRRDError as exc:
-        raise VolumeError(f"{path}: not a readable NRRD file ({exc}); if the data is compressed it may be "
-                          f"truncated") from exc
-    except (EOFError, zlib.error, OSError, ValueError) as exc:
-        raise VolumeError(f"{path}: NRRD data is truncated or corrupt ({exc})") from exc
-    if data.ndim != 3:
-        squeezed = np.squeeze(data)
-        if squeezed.ndim != 3:
-            raise VolumeError(f"{path}: expected 3 dimensions, the NRRD has sizes {list(header['sizes'])}")
-        data = squeezed
-    spacing, origin = _geometry(header)
+    path = check_input_path(Path(path), "NRRD file")
+    name = str(path)
+    fields, header_size = read_header(path)
+    dim = integer(_required(fields, "dimension", name), name, "dimension", minimum=1)
+    sizes = integers(_required(fields, "sizes", name), name, "sizes", dim, minimum=1)
+    encoding = ENCODINGS.get(_required(fields, "encoding", name))
+    if encoding is None:
+        raise VolumeError(f"{name}: encoding {show(fields['encoding'])} is not supported; use raw, gzip, "
+                          f"bzip2 or ascii")
+    dtype = _dtype(fields, name, encoding)
+    if "kinds" in fields and len(fields["kinds"].split()) != dim:
+        raise VolumeError(f"{name}: kinds {show(fields['kinds'])} has {len(fields['kinds'].split())} entries "
+                          f"for dimension {dim}; give one kind per axis")
+    axes = _axes(sizes, name)
+    spacing, origin = _spacing(fields, name, dim, axes), _origin(fields, name)
+    line_skip = integer(_get(fields, "line skip", "lineskip", default="0"), name, "line skip", minimum=0)
+    byte_skip = integer(_get(fields, "byte skip", "byteskip", default="0"), name, "byte skip", minimum=-1)
+    target, start = _data_file(fields, path)
+    start = header_size if start is None else start
+    count = math.prod(sizes)
+    if encoding == "ascii":
+        flat = parse_ascii(read_text(target, name, start, line_skip, count), count, dtype, name, "data")
+    else:
+        blob = read_data(target, promised_bytes(sizes, dtype), name=name, encoding=encoding, start=start,
+                         line_skip=line_skip, skip=byte_skip, what="NRRD data file",
+                         promise=f"the header (sizes {fields['sizes']}, type {fields['type']})")
+        flat = np.frombuffer(blob, dtype=dtype)
+    # NRRD lists the fastest axis first: sizes "nx ny nz" is the array [z, y, x]
+    data = flat.reshape(tuple(reversed(sizes))).reshape(tuple(sizes[a] for a in reversed(axes)))
     return RawArray(data, spacing, origin)
+

@@ -1,7 +1,8 @@
 """Raw voxel files: dims, dtype, endianness and header size given explicitly.
 
 ``.gz`` / ``.bz2`` suffixes are decompressed first; the header bytes are
-skipped in the decompressed stream.
+skipped in the decompressed stream.  The file must hold exactly the header
+bytes and ``nx * ny * nz`` samples: anything else means a wrong dims or dtype.
 """
 
 from __future__ import annotations
@@ -11,8 +12,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import VolumeError
-from .compression import read_bytes
-from .common import RawArray
+from .common import RawArray, promised_bytes
+from .compression import encoding_from_suffix, read_data
 
 DTYPES = {
     "uint8": "u1", "int8": "i1", "uint16": "u2", "int16": "i2",
@@ -35,19 +36,13 @@ def read_raw(path: Path, dims, dtype: str | None, endian: str = "little", header
     if dims is None or dtype is None:
         raise VolumeError(f"{name}: a raw file needs dims and dtype (scene keys volume.dims, volume.dtype; "
                           f"or --dims NX NY NZ --dtype TYPE)")
-    dims = tuple(int(d) for d in dims)
-    if len(dims) != 3 or min(dims) < 1:
+    if not (isinstance(dims, (list, tuple)) and len(dims) == 3
+            and all(isinstance(d, (int, np.integer)) and not isinstance(d, bool) and d >= 1 for d in dims)):
         raise VolumeError(f"{name}: dims must be three positive integers (nx, ny, nz), got {list(dims)}")
-    if header_bytes < 0:
-        raise VolumeError(f"{name}: header_bytes must be >= 0, got {header_bytes}")
+    if not isinstance(header_bytes, (int, np.integer)) or header_bytes < 0:
+        raise VolumeError(f"{name}: header_bytes must be an integer >= 0, got {header_bytes}")
     dt = parse_dtype(dtype, endian, name)
-    blob = read_bytes(Path(path))
-    expected = int(np.prod(dims, dtype=np.int64)) * dt.itemsize
-    available = len(blob) - header_bytes
-    if available != expected:
-        nx, ny, nz = dims
-        raise VolumeError(f"{name}: holds {available} bytes after the {header_bytes}-byte header, but "
-                          f"{nx}x{ny}x{nz} {dtype} needs {expected}; check dims, dtype and header_bytes")
-    data = np.frombuffer(blob, dtype=dt, count=expected // dt.itemsize, offset=header_bytes)
-    nx, ny, nz = dims
-    return RawArray(data.reshape(nz, ny, nx))
+    nx, ny, nz = (int(d) for d in dims)
+    blob = read_data(Path(path), promised_bytes(dims, dt), name=name, encoding=encoding_from_suffix(Path(path)),
+                     skip=int(header_bytes), promise=f"{nx}x{ny}x{nz} {dtype} (dims, dtype and header_bytes)")
+    return RawArray(np.frombuffer(blob, dtype=dt).reshape(nz, ny, nx))

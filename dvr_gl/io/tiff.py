@@ -1,7 +1,8 @@
 """TIFF stacks through OpenImageIO: a multi-page TIFF, a folder of slices, or a glob.
 
 Each page (or file, in natural sort order) is one z slice; all must have the
-same size and one channel.  TIFF resolution tags rarely hold the voxel
+same size and one channel.  Every file is checked (a FIFO named ``x.tif`` is refused)
+and each page's size counts against the memory budget before it is read.  TIFF resolution tags rarely hold the voxel
 spacing, so spacing defaults to 1 and is set in the scene (``volume.spacing``).
 """
 
@@ -14,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import VolumeError
+from ..sandbox import check_bytes, check_input_path
 from .common import RawArray
 
 
@@ -32,10 +34,11 @@ def stack_files(path: Path) -> list[Path]:
         files = [path]
     if not files:
         raise VolumeError(f"{path}: no TIFF files found")
-    return sorted(files, key=_natural_key)
+    return [check_input_path(f, "TIFF file") for f in sorted(files, key=_natural_key)]
 
 
-def _read_pages(path: Path) -> list[np.ndarray]:
+def _read_pages(path: Path, budget: list[int]) -> list[np.ndarray]:
+    """The pages of one file; ``budget[0]`` counts the bytes of all pages read so far."""
     import OpenImageIO as oiio
 
     inp = oiio.ImageInput.open(str(path))
@@ -49,6 +52,9 @@ def _read_pages(path: Path) -> list[np.ndarray]:
             if spec.nchannels != 1:
                 raise VolumeError(f"{path}: page {sub} has {spec.nchannels} channels; "
                                   f"a volume slice needs 1 (grey)")
+            budget[0] += spec.image_bytes()
+            check_bytes(budget[0], f"{path}: the TIFF pages up to page {sub}",
+                        "read fewer slices, or raise the memory budget")
             pixels = inp.read_image(sub, 0, 0, 1, oiio.UNKNOWN)
             if pixels is None:
                 raise VolumeError(f"{path}: page {sub} is truncated or corrupt ({inp.geterror().strip()})")
@@ -62,8 +68,9 @@ def _read_pages(path: Path) -> list[np.ndarray]:
 def read_tiff_stack(path: Path) -> RawArray:
     path = Path(path)
     slices: list[np.ndarray] = []
+    budget = [0]
     for f in stack_files(path):
-        slices.extend(_read_pages(f))
+        slices.extend(_read_pages(f, budget))
     shapes = {s.shape for s in slices}
     if len(shapes) != 1:
         raise VolumeError(f"{path}: slices differ in size {sorted(shapes)}; all slices must match")

@@ -13,13 +13,18 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import VolumeError
-from .common import RawArray
+from ..sandbox import check_input_path
+from .common import RawArray, check_spacing, integer, integers, numbers, parse_ascii, promised_bytes, show
+from .compression import read_data, read_text
 
 VTK_TYPES = {
     "bit": None, "unsigned_char": "u1", "char": "i1", "unsigned_short": "u2", "short": "i2",
     "unsigned_int": "u4", "int": "i4", "unsigned_long": "u8", "long": "i8", "float": "f4",
     "double": "f8", "vtktypeint64": "i8", "vtktypeuint64": "u8",
 }
+
+
+MAX_HEADER = 1 << 20  # bytes: a header longer than this is not a header
 
 
 def _header_lines(blob: bytes):
@@ -35,62 +40,71 @@ def _header_lines(blob: bytes):
             yield line, pos
 
 
+def _parse(lines, name: str) -> dict:
+    """The header's DIMENSIONS, SPACING, ORIGIN, POINT_DATA and SCALARS, and where the data starts."""
+    found: dict = {"spacing": None, "origin": None}
+    for line, after in lines:
+        key, _, rest = line.partition(" ")
+        key = key.upper()
+        if key == "DATASET" and rest.strip().upper() != "STRUCTURED_POINTS":
+            raise VolumeError(f"{name}: DATASET {show(rest)} is not STRUCTURED_POINTS; only regular grids "
+                              f"are volumes")
+        elif key == "DIMENSIONS":
+            found["dims"] = integers(rest, name, "DIMENSIONS", 3, minimum=1)
+        elif key in ("SPACING", "ASPECT_RATIO"):
+            found["spacing"] = check_spacing(numbers(rest, name, key, 3), name, key)
+        elif key == "ORIGIN":
+            found["origin"] = numbers(rest, name, "ORIGIN", 3)
+        elif key == "POINT_DATA":
+            found["count"] = integer(rest, name, "POINT_DATA", minimum=1)
+        elif key == "SCALARS":
+            words = rest.split()
+            if len(words) not in (2, 3):
+                raise VolumeError(f"{name}: SCALARS {show(rest)} must be 'SCALARS name type [components]'")
+            found["type"] = words[1].lower()
+            found["components"] = integer(words[2], name, "SCALARS components") if len(words) == 3 else 1
+        elif key == "LOOKUP_TABLE" and "type" in found:
+            found["offset"] = after
+            return found
+    raise VolumeError(f"{name}: no DIMENSIONS or no SCALARS/LOOKUP_TABLE point data in the header")
+
+
 def read_vtk_structured_points(path: Path) -> RawArray:
-    path = Path(path)
+    path = check_input_path(Path(path), "VTK file")
     name = str(path)
-    blob = path.read_bytes()
-    lines = _header_lines(blob)
+    with open(path, "rb") as fh:
+        lines = _header_lines(fh.read(MAX_HEADER))
     try:
         magic, _ = next(lines)
         _title, _ = next(lines)
         mode, _ = next(lines)
     except StopIteration:
-        raise VolumeError(f"{name}: truncated legacy VTK header") from None
+        raise VolumeError(f"{name}: truncated legacy VTK header (it needs a version, a title and "
+                          f"ASCII or BINARY)") from None
     if not magic.startswith("# vtk DataFile"):
-        raise VolumeError(f"{name}: not a legacy VTK file (first line {magic[:40]!r})")
+        raise VolumeError(f"{name}: not a legacy VTK file (first line {show(magic)})")
     mode = mode.upper()
     if mode not in ("ASCII", "BINARY"):
-        raise VolumeError(f"{name}: expected ASCII or BINARY on line 3, got {mode[:20]!r}")
-    dims = spacing = origin = None
-    scalar_type = None
-    ncomp = 1
-    data_offset = None
-    for line, after in lines:
-        fields = line.split()
-        key = fields[0].upper()
-        if key == "DATASET" and (len(fields) < 2 or fields[1].upper() != "STRUCTURED_POINTS"):
-            raise VolumeError(f"{name}: dataset {' '.join(fields[1:])} is not STRUCTURED_POINTS; "
-                              f"only regular grids are volumes")
-        elif key == "DIMENSIONS":
-            dims = tuple(int(v) for v in fields[1:4])
-        elif key in ("SPACING", "ASPECT_RATIO"):
-            spacing = tuple(float(v) for v in fields[1:4])
-        elif key == "ORIGIN":
-            origin = tuple(float(v) for v in fields[1:4])
-        elif key == "SCALARS":
-            scalar_type = fields[2].lower() if len(fields) > 2 else None
-            ncomp = int(fields[3]) if len(fields) > 3 else 1
-        elif key == "LOOKUP_TABLE" and scalar_type is not None:
-            data_offset = after
-            break
-    if dims is None or scalar_type is None or data_offset is None:
-        raise VolumeError(f"{name}: no DIMENSIONS or no SCALARS/LOOKUP_TABLE point data in the header")
-    code = VTK_TYPES.get(scalar_type)
+        raise VolumeError(f"{name}: expected ASCII or BINARY on line 3, got {show(mode)}")
+    found = _parse(lines, name)
+    if "dims" not in found:
+        raise VolumeError(f"{name}: no DIMENSIONS line before the point data")
+    nx, ny, nz = dims = found["dims"]
+    count = nx * ny * nz
+    if found.get("count", count) != count:
+        raise VolumeError(f"{name}: POINT_DATA {found['count']} does not match DIMENSIONS {nx} {ny} {nz} "
+                          f"({count} points); fix the header")
+    code = VTK_TYPES.get(found["type"])
     if code is None:
-        raise VolumeError(f"{name}: unsupported VTK scalar type {scalar_type!r}")
-    if ncomp != 1:
-        raise VolumeError(f"{name}: SCALARS has {ncomp} components; a volume needs 1")
-    count = int(np.prod(dims, dtype=np.int64))
+        raise VolumeError(f"{name}: SCALARS type {show(found['type'])} is not supported; use one of "
+                          f"{', '.join(t for t, c in VTK_TYPES.items() if c)}")
+    if found["components"] != 1:
+        raise VolumeError(f"{name}: SCALARS has {found['components']} components; a volume needs 1")
+    dt = np.dtype(">" + code)  # binary legacy VTK is big-endian by definition
     if mode == "BINARY":
-        dt = np.dtype(">" + code)
-        if len(blob) - data_offset < count * dt.itemsize:
-            raise VolumeError(f"{name}: binary data is truncated: {len(blob) - data_offset} bytes for "
-                              f"{count} values of {scalar_type}")
-        data = np.frombuffer(blob, dtype=dt, count=count, offset=data_offset)
+        blob = read_data(path, promised_bytes(dims, dt), name=name, start=found["offset"], exact=False,
+                         what="VTK file", promise=f"DIMENSIONS {nx} {ny} {nz} of {found['type']}")
+        data = np.frombuffer(blob, dtype=dt)
     else:
-        values = blob[data_offset:].split()
-        if len(values) < count:
-            raise VolumeError(f"{name}: ASCII data is truncated: {len(values)} of {count} values")
-        data = np.array(values[:count], dtype=np.float64).astype(np.dtype(code))
-    nx, ny, nz = dims
-    return RawArray(data.reshape(nz, ny, nx), spacing, origin)
+        data = parse_ascii(read_text(path, name, found["offset"], 0, count), count, dt, name, "point data")
+    return RawArray(data.reshape(nz, ny, nx), found["spacing"], found["origin"])
