@@ -306,3 +306,238 @@ def test_tiff_slices_of_different_size(tmp_path):
                                        ("a.raw.bz2", "raw"), ("a.den", "raw"), ("a.tiff", "tiff")])
 def test_detect_format(tmp_path, name, fmt):
     assert detect_format(tmp_path / name) == fmt
+
+
+# --- strictness and bounds (issue 14) ------------------------------------------------------------
+
+import os  # noqa: E402
+import struct  # noqa: E402
+import time  # noqa: E402
+
+from dvr_gl.errors import DvrError  # noqa: E402
+from dvr_gl.sandbox import Sandbox, SandboxError, active  # noqa: E402
+
+
+def _nhdr_with(tmp_path, replace=None, extra="", data=None):
+    """A detached big-endian int16 NRRD of DATA with one header line replaced (or added)."""
+    (tmp_path / "v.raw").write_bytes(DATA.astype(">i2").tobytes() if data is None else data)
+    header = "NRRD0004\ntype: int16\ndimension: 3\nsizes: 4 3 2\nspacings: 1 1 2\nendian: big\nencoding: raw\n"
+    for field, value in (replace or {}).items():
+        header = "\n".join(f"{field}: {value}" if line.startswith(field + ":") else line
+                           for line in header.split("\n"))
+    path = tmp_path / "v.nhdr"
+    path.write_text(header + extra + "data file: v.raw\n")
+    return path
+
+
+@pytest.mark.parametrize("field, value, message", [
+    ("type", "banana", "type 'banana' is not an NRRD scalar type; use one of"),
+    ("type", "float128", "type 'float128' is not an NRRD scalar type"),
+    ("type", "block", "type 'block' is not an NRRD scalar type"),
+    ("sizes", "4.5 3 2", "sizes must hold integers, got '4.5 3 2'"),
+    ("sizes", "4 3", "sizes must hold 3 integers"),
+    ("sizes", "4 0 2", "sizes must be >= 1"),
+    ("sizes", "1e30 3 2", "sizes must hold integers"),
+    ("endian", "middle", "endian 'middle' is neither little nor big"),
+    ("spacings", "inf 1 2", "spacings must hold 3 finite numbers, got 'inf 1 2'"),
+    ("spacings", "0 1 2", "spacings '0 1 2' must give spacings that are finite and > 0"),
+    ("spacings", "-1 1 2", "must give spacings that are finite and > 0"),
+    ("dimension", "x", "dimension must hold integers"),
+    ("dimension", "2", "sizes must hold 2 integers"),
+    ("encoding", "hex", "encoding 'hex' is not supported"),
+])
+def test_nrrd_malformed_field_is_named(tmp_path, field, value, message):
+    with pytest.raises(VolumeError, match=message):
+        load_volume(_nhdr_with(tmp_path, {field: value}))
+
+
+@pytest.mark.parametrize("extra, message", [
+    ("kinds: domain domain\n", "kinds 'domain domain' has 2 entries for dimension 3"),
+    ("space origin: (nan,0,0)\n", "space origin .* must be three finite numbers"),
+    ("space origin: banana\n", "space origin 'banana' is not a list of vectors"),
+    ("line skip: -1\n", "line skip must be >= 0"),
+    ("byte skip: 100000000\n", "holds 48 bytes, but the header .* promises 100000000 bytes to skip and 48"),
+    ("spacings: 1 1 1\n", "field 'spacings' appears twice"),
+])
+def test_nrrd_malformed_extra_line_is_named(tmp_path, extra, message):
+    with pytest.raises(VolumeError, match=message):
+        load_volume(_nhdr_with(tmp_path, extra=extra))
+
+
+def test_nrrd_empty_header_and_missing_fields(tmp_path):
+    (tmp_path / "e.nhdr").write_bytes(b"")
+    with pytest.raises(VolumeError, match="not an NRRD file"):
+        load_volume(tmp_path / "e.nhdr")
+    (tmp_path / "e.nhdr").write_text("NRRD0004\ntype: uint8\n")
+    with pytest.raises(VolumeError, match="the required field 'dimension' is missing"):
+        load_volume(tmp_path / "e.nhdr")
+
+
+def test_nrrd_huge_line_skip_fails_at_once(tmp_path):
+    """pynrrd reads skipped lines one at a time: 1e8 of them took minutes (issue 14)."""
+    path = _nhdr_with(tmp_path, extra="line skip: 100000000\n")
+    with pytest.raises(VolumeError, match="line skip 100000000 goes past the end of the data file"):
+        load_volume(path)
+
+
+def test_nrrd_line_skip_within_the_file(tmp_path):
+    path = _nhdr_with(tmp_path, extra="line skip: 2\n", data=b"one\ntwo\n" + DATA.astype(">i2").tobytes())
+    np.testing.assert_array_equal(load_volume(path).data, DATA)
+
+
+def test_tiny_spacing_is_accepted_without_work_proportional_to_its_inverse(tmp_path):
+    v = load_volume(_nhdr_with(tmp_path, {"spacings": "1e-300 1 2"}))
+    assert v.spacing == (1e-300, 1.0, 2.0)
+
+
+@pytest.mark.parametrize("encoding, compress", [("gzip", gzip.compress), ("bzip2", bz2.compress)])
+def test_decompression_bomb_stops_at_the_promised_size(tmp_path, encoding, compress):
+    """16 MiB of zeros behind a header promising 48 bytes: decoding stops at 49 bytes."""
+    bomb = compress(bytes(16 << 20))
+    path = _nhdr_with(tmp_path, {"encoding": encoding}, data=bomb)
+    with pytest.raises(VolumeError, match=f"the {encoding} data decodes to more than 48 bytes"):
+        load_volume(path)
+    (tmp_path / "b.raw.gz").write_bytes(gzip.compress(bytes(16 << 20)))
+    with pytest.raises(VolumeError, match="decodes to more than 48 bytes"):
+        load_volume(tmp_path / "b.raw.gz", dims=(4, 3, 2), dtype="int16")
+
+
+def test_multi_member_gzip_is_read_whole(tmp_path):
+    raw = DATA.astype(">i2").tobytes()
+    path = _nhdr_with(tmp_path, {"encoding": "gzip"}, data=gzip.compress(raw[:20]) + gzip.compress(raw[20:]))
+    np.testing.assert_array_equal(load_volume(path).data, DATA)
+
+
+def test_fifo_data_file_is_refused_without_blocking(tmp_path):
+    path = _nhdr_with(tmp_path)
+    os.remove(tmp_path / "v.raw")
+    os.mkfifo(tmp_path / "v.raw")
+    with pytest.raises(SandboxError, match="NRRD data file is not a regular file"):
+        load_volume(path)
+    os.mkfifo(tmp_path / "f.npy")
+    with pytest.raises(SandboxError, match="not a regular file"):
+        load_volume(tmp_path / "f.npy")
+
+
+def test_promised_bytes_are_checked_against_the_budget_before_reading(tmp_path):
+    path = _nhdr_with(tmp_path, {"sizes": "100000 100000 100000"})
+    with pytest.raises(SandboxError, match="promises would take .* over the memory budget"):
+        load_volume(path)
+    with active(Sandbox(max_bytes=40)):
+        with pytest.raises(SandboxError, match="over the memory budget"):
+            load_volume(_nhdr_with(tmp_path))
+    with active(Sandbox(roots=(tmp_path / "elsewhere",))):
+        with pytest.raises(SandboxError, match="outside the allowed folders"):
+            load_volume(_nhdr_with(tmp_path))
+
+
+@pytest.mark.parametrize("spacing", [(0, 1, 1), (float("inf"), 1, 1), (-1, 1, 1), (1, 1)])
+def test_spacing_override_must_be_finite_and_positive(tmp_path, spacing):
+    np.save(tmp_path / "v.npy", DATA)
+    with pytest.raises(VolumeError, match=r"spacing \(volume.spacing\) must be three finite numbers > 0"):
+        load_volume(tmp_path / "v.npy", spacing=spacing)
+
+
+def test_raw_dims_must_be_integers(tmp_path):
+    (tmp_path / "v.raw").write_bytes(bytes(48))
+    with pytest.raises(VolumeError, match="dims must be three positive integers"):
+        load_volume(tmp_path / "v.raw", dims=(4.5, 3, 2), dtype="int16")
+
+
+@pytest.mark.parametrize("line, value, message", [
+    ("NDims", "x", "NDims must hold integers, got 'x'"),
+    ("DimSize", "4 3", "DimSize must hold 3 integers"),
+    ("DimSize", "4 3 2.5", "DimSize must hold integers"),
+    ("ElementSpacing", "0.5 nan 2", "ElementSpacing must hold 3 finite numbers"),
+    ("ElementSpacing", "0.5 0 2", "ElementSpacing must be three finite numbers > 0"),
+    ("ElementType", "MET_FLOAT128", "ElementType = 'MET_FLOAT128' is not supported"),
+    ("BinaryDataByteOrderMSB", "maybe", "BinaryDataByteOrderMSB = 'maybe'; use True or False"),
+])
+def test_metaimage_malformed_field_is_named(tmp_path, line, value, message):
+    (tmp_path / "v.raw").write_bytes(DATA.astype("<i2").tobytes())
+    header = "\n".join(f"{line} = {value}" if h.startswith(line + " ") else h
+                       for h in _mhd_header("v.raw").split("\n"))
+    (tmp_path / "v.mhd").write_text(header)
+    with pytest.raises(VolumeError, match=message):
+        load_volume(tmp_path / "v.mhd")
+
+
+def test_metaimage_zlib_bomb(tmp_path):
+    import zlib
+
+    (tmp_path / "v.zraw").write_bytes(zlib.compress(bytes(16 << 20)))
+    (tmp_path / "v.mhd").write_text(_mhd_header("v.zraw", compressed=True))
+    with pytest.raises(VolumeError, match="the zlib data decodes to more than 48 bytes"):
+        load_volume(tmp_path / "v.mhd")
+
+
+@pytest.mark.parametrize("old, new, message", [
+    ("DIMENSIONS 4 3 2", "DIMENSIONS 2 2", "DIMENSIONS must hold 3 integers"),
+    ("DIMENSIONS 4 3 2", "DIMENSIONS a b c", "DIMENSIONS must hold integers"),
+    ("SPACING 0.5 1 2", "SPACING x 1 2", "SPACING must hold 3 finite numbers"),
+    ("SPACING 0.5 1 2", "SPACING 0 1 2", "SPACING must be three finite numbers > 0"),
+    ("POINT_DATA 24", "POINT_DATA 25", "POINT_DATA 25 does not match DIMENSIONS 4 3 2"),
+    ("SCALARS s short 1", "SCALARS s short x", "SCALARS components must hold integers"),
+    ("SCALARS s short 1", "SCALARS s bit 1", "SCALARS type 'bit' is not supported"),
+])
+def test_vtk_malformed_field_is_named(tmp_path, old, new, message):
+    path = tmp_path / "v.vtk"
+    path.write_bytes(_vtk_header("BINARY").replace(old, new).encode() + DATA.astype(">i2").tobytes())
+    with pytest.raises(VolumeError, match=message):
+        load_volume(path)
+
+
+def _nifti_bytes(tmp_path):
+    nib = pytest.importorskip("nibabel")
+    nib.save(nib.Nifti1Image(DATA.transpose(2, 1, 0), np.diag([0.5, 1, 2, 1])), str(tmp_path / "v.nii"))
+    return bytearray((tmp_path / "v.nii").read_bytes())
+
+
+@pytest.mark.parametrize("offset, fmt, value, message", [
+    (42, "<h", -5, r"dim gives shape \(-5, 3, 2\)"),  # dim[1]: nibabel raised OverflowError/ValueError
+    (70, "<h", 1234, "truncated or corrupt .*data code 1234 not recognized"),  # datatype
+    (70, "<h", 32, "datatype complex64 is not a scalar type a volume can hold"),  # complex64
+    (80, "<f", -0.5, r"pixdim\[1..3\] must be three finite numbers > 0"),  # nibabel took abs()
+    (80, "<f", float("inf"), r"pixdim\[1..3\] must be three finite numbers > 0"),
+    (44, "<h", 30000, "the file holds 400 bytes, but vox_offset 352 and .* need 480352"),  # dim[2]: more than stored
+])
+def test_nifti_malformed_field_is_named(tmp_path, offset, fmt, value, message):
+    blob = _nifti_bytes(tmp_path)
+    struct.pack_into(fmt, blob, offset, value)
+    (tmp_path / "bad.nii").write_bytes(blob)
+    with pytest.raises(VolumeError, match=message):
+        load_volume(tmp_path / "bad.nii")
+
+
+@pytest.mark.parametrize("array, message", [
+    (np.zeros((2, 3, 4), np.complex64), "dtype complex64 is not a scalar type"),
+    (np.zeros((2, 3, 4), "U3"), "dtype <U3 is not a scalar type"),
+    (np.zeros((2, 3, 0), np.uint8), "shape must be three integers >= 1"),
+])
+def test_npy_unsupported_arrays(tmp_path, array, message):
+    np.save(tmp_path / "v.npy", array)
+    with pytest.raises(VolumeError, match=message):
+        load_volume(tmp_path / "v.npy")
+
+
+def test_npy_truncated_and_fortran_order(tmp_path):
+    np.save(tmp_path / "v.npy", np.asfortranarray(DATA))
+    np.testing.assert_array_equal(load_volume(tmp_path / "v.npy").data, DATA)
+    blob = (tmp_path / "v.npy").read_bytes()
+    (tmp_path / "v.npy").write_bytes(blob[:-2])
+    with pytest.raises(VolumeError, match="holds 46 bytes after the header, but its header .* promises 48"):
+        load_volume(tmp_path / "v.npy")
+
+
+def test_bool_and_float64_are_converted(tmp_path):
+    np.save(tmp_path / "b.npy", DATA > 0)
+    assert load_volume(tmp_path / "b.npy").data.dtype == np.uint8
+    np.save(tmp_path / "d.npy", DATA.astype(np.float64))
+    assert load_volume(tmp_path / "d.npy").data.dtype == np.float32
+
+
+def test_why_not_pynrrd_alone(tmp_path):
+    """pynrrd's header parser truncates a fractional size without a word, so the sizes (and the
+    other fields the renderer uses) are parsed here; see dvr_gl/io/nrrd.py."""
+    header = nrrd.read_header(["NRRD0004", "type: uint8", "dimension: 3", "sizes: 4.5 3 2", "encoding: raw"])
+    assert list(header["sizes"]) == [4, 3, 2]

@@ -161,8 +161,8 @@ def read_data(path: Path, nbytes: int, *, name: str, encoding: str = "raw", star
         raise VolumeError(f"{name}: {encoding} data is truncated or corrupt ({exc}); "
                           f"download or copy the file again") from None
     if len(out) != skip + nbytes:
-        size = "more than " if len(out) > skip + nbytes else ""
-        raise VolumeError(f"{name}: the {encoding} data decodes to {size}{len(out)} bytes, but {promise} "
+        size = f"more than {skip + nbytes}" if len(out) > skip + nbytes else len(out)
+        raise VolumeError(f"{name}: the {encoding} data decodes to {size} bytes, but {promise} "
                           f"promises {_bytes(skip, nbytes)}; the header or the data file is wrong")
     return bytes(memoryview(out)[skip:])
 

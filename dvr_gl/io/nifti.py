@@ -36,7 +36,7 @@ def read_nifti(path: Path) -> RawArray:
     try:
         with LoggingOutputSuppressor():
             img = nib.load(str(path))
-            shape, scaled, spacing = _check_header(img, path)
+            shape, scaled, spacing = _check_header(nib, img, path)
             proxy = img.dataobj
             arr = np.asarray(proxy) if scaled else np.asarray(proxy.get_unscaled())
             affine = img.affine
@@ -49,7 +49,7 @@ def read_nifti(path: Path) -> RawArray:
     return RawArray(data, spacing, origin)
 
 
-def _check_header(img, path: Path) -> tuple[tuple, bool, tuple]:
+def _check_header(nib, img, path: Path) -> tuple[tuple, bool, tuple]:
     """The 3D shape, whether the data is scaled and the spacing, after the header's checks."""
     header = img.header
     shape = tuple(int(s) for s in header.get_data_shape())
@@ -59,7 +59,10 @@ def _check_header(img, path: Path) -> tuple[tuple, bool, tuple]:
     shape = shape[:3]
     dtype = header.get_data_dtype()
     check_sample_type(dtype, str(path), "datatype", str(dtype))
-    spacing = check_spacing(header["pixdim"][1:4], str(path), "pixdim[1..3]")
+    # nibabel's loaded header has negative pixdim already made positive: check the stored one
+    with nib.openers.ImageOpener(str(path)) as stored:
+        pixdim = type(header).from_fileobj(stored, check=False)["pixdim"]
+    spacing = check_spacing(pixdim[1:4], str(path), "pixdim[1..3]")
     proxy = img.dataobj
     slope, inter = getattr(proxy, "slope", 1.0), getattr(proxy, "inter", 0.0)
     scaled = not (np.isnan(slope) or slope in (0.0, 1.0)) or not (np.isnan(inter) or inter == 0.0)
@@ -67,7 +70,7 @@ def _check_header(img, path: Path) -> tuple[tuple, bool, tuple]:
     nbytes = count * dtype.itemsize
     check_bytes(nbytes + 8 * count * scaled, f"{path}: the {shape} volume its header promises",
                 "check dim in the header, or raise the memory budget")
-    offset = int(header.get_data_offset())
+    offset = int(proxy.offset)  # after nibabel's repair of a vox_offset of 0
     if path.name.lower().endswith(".gz"):
         if offset > MAX_GZIP_OFFSET:
             raise VolumeError(f"{path}: vox_offset {offset} is beyond any header and extensions "
