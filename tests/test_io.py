@@ -541,3 +541,18 @@ def test_why_not_pynrrd_alone(tmp_path):
     other fields the renderer uses) are parsed here; see dvr_gl/io/nrrd.py."""
     header = nrrd.read_header(["NRRD0004", "type: uint8", "dimension: 3", "sizes: 4.5 3 2", "encoding: raw"])
     assert list(header["sizes"]) == [4, 3, 2]
+
+
+def test_npy_header_findings_of_the_fuzzer(tmp_path):
+    """A header length of 4 GiB made numpy try to read (and allocate) that much; an unclosed
+    bracket in the header raised tokenize.TokenError: both are now user errors."""
+    np.save(tmp_path / "v.npy", DATA)
+    blob = bytearray((tmp_path / "v.npy").read_bytes())
+    lying = b"\x93NUMPY\x02\x00" + struct.pack("<I", 0xFFFFFFF0) + bytes(blob[10:])
+    (tmp_path / "a.npy").write_bytes(lying)
+    with pytest.raises(VolumeError, match="not a readable .npy array"):
+        load_volume(tmp_path / "a.npy")
+    blob[blob.index(b")")] = ord(" ")
+    (tmp_path / "b.npy").write_bytes(bytes(blob))
+    with pytest.raises(VolumeError, match="not a readable .npy array"):
+        load_volume(tmp_path / "b.npy")

@@ -13,6 +13,7 @@ about headers it repairs are kept off the terminal.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import zlib
 from pathlib import Path
@@ -28,13 +29,11 @@ MAX_GZIP_OFFSET = 64 << 20  # bytes: header and extensions; seeking a .nii.gz de
 
 def read_nifti(path: Path) -> RawArray:
     nib = require("nibabel", "nibabel", "nifti")
-    from nibabel.imageglobals import LoggingOutputSuppressor
-
     path = check_input_path(Path(path), "NIfTI file")
     errors = (EOFError, zlib.error, OSError, ValueError, OverflowError, TypeError, IndexError, KeyError,
               nib.filebasedimages.ImageFileError, nib.spatialimages.HeaderDataError)
     try:
-        with LoggingOutputSuppressor():
+        with _quiet(nib.imageglobals.logger):
             img = nib.load(str(path))
             shape, scaled, spacing = _check_header(nib, img, path)
             proxy = img.dataobj
@@ -47,6 +46,17 @@ def read_nifti(path: Path) -> RawArray:
     if not all(math.isfinite(v) for v in origin):
         raise VolumeError(f"{path}: the qform/sform offsets give origin {origin}; they must be finite")
     return RawArray(data, spacing, origin)
+
+
+@contextlib.contextmanager
+def _quiet(logger):
+    """Keep nibabel's messages about headers it repairs off the terminal (its own
+    LoggingOutputSuppressor removes the handler, and Python's last-resort handler prints them)."""
+    disabled, logger.disabled = logger.disabled, True
+    try:
+        yield
+    finally:
+        logger.disabled = disabled
 
 
 def _check_header(nib, img, path: Path) -> tuple[tuple, bool, tuple]:

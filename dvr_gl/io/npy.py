@@ -7,6 +7,8 @@ and they fit the memory budget.
 
 from __future__ import annotations
 
+import io
+import tokenize
 from pathlib import Path
 
 import numpy as np
@@ -16,18 +18,24 @@ from ..sandbox import check_input_path
 from .common import RawArray, check_dims, check_sample_type, promised_bytes
 from .compression import read_data
 
+MAX_HEADER = 1 << 16  # bytes: numpy refuses headers over 10000 bytes anyway
+
 
 def read_npy(path: Path) -> RawArray:
     path = check_input_path(Path(path), ".npy file")
     name = str(path)
     try:
-        with open(path, "rb") as fh:
+        with open(path, "rb") as f:
+            # numpy reads as many bytes as the header says its header has (up to 4 GiB):
+            # from a bounded copy of the file's start, a lying length is a short read, not an allocation
+            fh = io.BytesIO(f.read(MAX_HEADER))
             version = np.lib.format.read_magic(fh)
             read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
                            else np.lib.format.read_array_header_2_0)
             shape, fortran, dtype = read_header(fh)
             start = fh.tell()
-    except (ValueError, OSError, EOFError, SyntaxError, TypeError) as exc:
+    # numpy parses the header with ast and tokenize, whose errors pass through it unchanged
+    except (ValueError, OSError, EOFError, SyntaxError, TypeError, tokenize.TokenError, RecursionError) as exc:
         raise VolumeError(f"{path}: not a readable .npy array ({exc})") from None
     if dtype.hasobject or dtype.fields is not None or dtype.subdtype is not None:
         raise VolumeError(f"{path}: holds {dtype} records or objects; save a plain numeric array")

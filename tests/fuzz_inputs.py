@@ -1,0 +1,254 @@
+"""Inputs for fuzzing the volume readers: small valid files of every format, their mutations,
+and the one property every reader must have.
+
+Shared by ``tests/test_fuzz_readers.py`` (hypothesis draws the ``random.Random``, a bounded
+number of examples in CI) and ``benchmarks/fuzz_readers.py`` (a long seeded run with a table).
+
+The property: reading a mutated file either raises a :class:`DvrError` (a user error, one line)
+or returns a valid :class:`Volume` (3D, finite samples, finite positive spacing), printing
+nothing, within
+:data:`TIMEOUT` seconds and :data:`BUDGET` bytes of the sandbox's memory budget.
+"""
+
+from __future__ import annotations
+
+import bz2
+import contextlib
+import gzip
+import io
+import math
+import os
+import random
+import signal
+import zlib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from dvr_gl.errors import DvrError
+from dvr_gl.io import load_volume
+from dvr_gl.sandbox import Sandbox, active
+
+TIMEOUT = 5.0  # seconds per example: each reads at most a few KB, so this is a hang, not a slow machine
+BUDGET = 64 << 20  # bytes: the sandbox's memory budget while fuzzing (nothing huge is allocated)
+DATA = (np.arange(4 * 3 * 2, dtype=np.int16).reshape(2, 3, 4) * 37 - 300)  # [z, y, x]
+# Field values of the wrong type or range, as a header would hold them.
+BAD_TOKENS = ["", "0", "-1", "1", "2", "32.5", "1e30", "1e-300", "-0", "nan", "inf", "-inf", "banana",
+              "99999999999999999999", "0x10", "(1,2)", "(nan,0,0)", "none", "True", "LOCAL", "-1 -1 -1",
+              "4 3", "4 3 2 1", "1 1 1", "1e308 1e308 1e308", "\u00e9", "%d", "../../../etc/passwd",
+              "100000000", "float128", "complex64", "MET_FLOAT", "gzip", "bzip2", "ascii", "big", "little"]
+
+
+@dataclass
+class Seed:
+    """A valid input: files by name, the one to load, and load_volume's keyword arguments."""
+
+    reader: str
+    files: dict[str, bytes]
+    main: str
+    options: dict = field(default_factory=dict)
+    text: tuple[str, ...] = ()  # files whose header is text (line mutations apply)
+    link: Path | None = None  # a folder whose data files are linked beside the header
+
+
+def _nifti(gz: bool) -> bytes:
+    import nibabel as nib
+
+    img = nib.Nifti1Image(DATA.transpose(2, 1, 0), np.diag([0.5, 1.0, 2.0, 1.0]))
+    blob = img.to_bytes()
+    return gzip.compress(blob, mtime=0) if gz else blob
+
+
+def _tiff() -> bytes:
+    import tempfile
+
+    import OpenImageIO as oiio
+
+    slices = list(DATA.astype(np.uint16))
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "s.tif")
+        specs = [oiio.ImageSpec(4, 3, 1, oiio.UINT16) for _ in slices]
+        out = oiio.ImageOutput.create(path)
+        out.open(path, specs)
+        for i, s in enumerate(slices):
+            if i:
+                out.open(path, specs[i], "AppendSubimage")
+            out.write_image(np.ascontiguousarray(s[..., None]))
+        out.close()
+        return Path(path).read_bytes()
+
+
+def _npy() -> bytes:
+    buf = io.BytesIO()
+    np.save(buf, DATA)
+    return buf.getvalue()
+
+
+def seeds() -> list[Seed]:
+    """One small valid file set per reader and encoding (4x3x2 int16 samples)."""
+    be, le = DATA.astype(">i2").tobytes(), DATA.astype("<i2").tobytes()
+    nrrd = "NRRD0004\ntype: int16\ndimension: 3\nsizes: 4 3 2\nspacings: 0.5 1 2\nendian: {}\nencoding: {}\n"
+    mhd = ("ObjectType = Image\nNDims = 3\nBinaryData = True\nBinaryDataByteOrderMSB = False\n"
+           "CompressedData = {}\nElementSpacing = 0.5 1 2\nOffset = 1 2 3\nDimSize = 4 3 2\n"
+           "ElementType = MET_SHORT\nHeaderSize = 0\nElementDataFile = {}\n")
+    vtk = ("# vtk DataFile Version 3.0\nseed\n{}\nDATASET STRUCTURED_POINTS\nDIMENSIONS 4 3 2\n"
+           "SPACING 0.5 1 2\nORIGIN 1 2 3\nPOINT_DATA 24\nSCALARS s short 1\nLOOKUP_TABLE default\n")
+    return [
+        Seed("raw", {"v.raw": b"HEAD" + le}, "v.raw", dict(dims=(4, 3, 2), dtype="int16", header_bytes=4)),
+        Seed("raw", {"v.raw.gz": gzip.compress(le, mtime=0)}, "v.raw.gz", dict(dims=(4, 3, 2), dtype="int16")),
+        Seed("nrrd", {"v.nrrd": nrrd.format("big", "raw").encode() + b"\n" + be}, "v.nrrd", text=("v.nrrd",)),
+        Seed("nrrd", {"v.nhdr": (nrrd.format("big", "gzip") + "data file: v.raw.gz\n").encode(),
+                      "v.raw.gz": gzip.compress(be, mtime=0)}, "v.nhdr", text=("v.nhdr",)),
+        Seed("nrrd", {"v.nhdr": (nrrd.format("little", "bzip2") + "byte skip: 2\ndata file: v.raw.bz2\n").encode(),
+                      "v.raw.bz2": bz2.compress(b"\0\0" + le)}, "v.nhdr", text=("v.nhdr",)),
+        Seed("nrrd", {"v.nhdr": (nrrd.format("big", "ascii") + "line skip: 1\ndata file: v.txt\n").encode(),
+                      "v.txt": b"# values\n" + " ".join(map(str, DATA.ravel())).encode()}, "v.nhdr",
+             text=("v.nhdr", "v.txt")),
+        Seed("metaimage", {"v.mha": mhd.format("False", "LOCAL").encode() + le}, "v.mha", text=("v.mha",)),
+        Seed("metaimage", {"v.mhd": mhd.format("True", "v.zraw").encode(), "v.zraw": zlib.compress(le)},
+             "v.mhd", text=("v.mhd",)),
+        Seed("vtk", {"v.vtk": vtk.format("BINARY").encode() + be + b"\n"}, "v.vtk", text=("v.vtk",)),
+        Seed("vtk", {"v.vtk": (vtk.format("ASCII") + " ".join(map(str, DATA.ravel())) + "\n").encode()},
+             "v.vtk", text=("v.vtk",)),
+        Seed("npy", {"v.npy": _npy()}, "v.npy"),
+        Seed("nifti", {"v.nii": _nifti(False)}, "v.nii"),
+        Seed("nifti", {"v.nii.gz": _nifti(True)}, "v.nii.gz"),
+        Seed("tiff", {"s.tif": _tiff()}, "s.tif"),
+    ]
+
+
+def shared_seeds(shared: Path) -> list[Seed]:
+    """The text headers in the shared datasets folder; their data files are linked, not copied."""
+    found = []
+    for header in sorted([*shared.glob("*/*.nhdr"), *shared.glob("*/*.mhd")]):
+        reader = "nrrd" if header.suffix == ".nhdr" else "metaimage"
+        found.append(Seed(reader, {header.name: header.read_bytes()}, header.name, text=(header.name,),
+                          link=header.parent))
+    vtk = shared / "regular" / "ironProt.vtk"
+    if vtk.is_file():
+        found.append(Seed("vtk", {vtk.name: vtk.read_bytes()}, vtk.name, text=(vtk.name,)))
+    return found
+
+
+# --- mutations ------------------------------------------------------------------------------------
+
+def mutate_bytes(blob: bytes, rnd: random.Random) -> tuple[bytes, str]:
+    """A random byte-level change: set, insert, delete or truncate."""
+    b = bytearray(blob)
+    kind = rnd.choice(["set", "set", "insert", "delete", "truncate"])
+    at = rnd.randrange(len(b) + 1)
+    if kind == "set" and b:
+        for _ in range(rnd.randint(1, 4)):
+            b[rnd.randrange(len(b))] = rnd.choice([0, 0xFF, 0x7F, 0x80, rnd.randrange(256)])
+    elif kind == "insert":
+        b[at:at] = bytes(rnd.randrange(256) for _ in range(rnd.randint(1, 8)))
+    elif kind == "delete":
+        del b[at:at + rnd.randint(1, 16)]
+    else:
+        del b[at:]
+    return bytes(b), f"{kind} at {at}"
+
+
+def mutate_lines(blob: bytes, rnd: random.Random) -> tuple[bytes, str]:
+    """A random change to the header's lines: a value replaced by a bad token, a line dropped,
+    duplicated or swapped, or the header cut; binary data after the header is kept."""
+    head, sep, tail = _split_header(blob)
+    lines = head.split(b"\n")
+    i = rnd.randrange(len(lines))
+    kind = rnd.choice(["value", "value", "value", "drop", "duplicate", "swap", "cut"])
+    if kind == "value":
+        line = lines[i].decode("latin-1")
+        cut = max(line.find(":"), line.find("="), line.find(" "))
+        token = rnd.choice(BAD_TOKENS)
+        lines[i] = ((line[:cut + 1] + " " if cut >= 0 else "") + token).encode("utf-8")
+        what = f"line {i} value -> {token!r}"
+    elif kind == "drop":
+        del lines[i]
+        what = f"drop line {i}"
+    elif kind == "duplicate":
+        lines.insert(i, lines[i])
+        what = f"duplicate line {i}"
+    elif kind == "swap":
+        j = rnd.randrange(len(lines))
+        lines[i], lines[j] = lines[j], lines[i]
+        what = f"swap lines {i}, {j}"
+    else:
+        return head[:rnd.randrange(len(head) + 1)], "cut the header"
+    return b"\n".join(lines) + sep + tail, what
+
+
+def _split_header(blob: bytes) -> tuple[bytes, bytes, bytes]:
+    """(header text, separator, the rest): the rest starts after the NRRD blank line, the
+    MetaImage ElementDataFile line or the VTK LOOKUP_TABLE line."""
+    for marker in (b"\n\n", b"ElementDataFile = LOCAL\n", b"LOOKUP_TABLE default\n"):
+        at = blob.find(marker)
+        if at >= 0:
+            end = at + len(marker)
+            return blob[:end - 1], b"\n", blob[end:]
+    return blob, b"", b""
+
+
+def mutate(seed: Seed, rnd: random.Random) -> tuple[dict[str, bytes], str]:
+    """A mutated copy of ``seed``'s files and what was changed."""
+    files = dict(seed.files)
+    name = rnd.choice(sorted(files))
+    if name in seed.text and rnd.random() < 0.7:
+        files[name], what = mutate_lines(files[name], rnd)
+    else:
+        files[name], what = mutate_bytes(files[name], rnd)
+    return files, f"{name}: {what}"
+
+
+# --- the property ---------------------------------------------------------------------------------
+
+class Hang(Exception):
+    """A reader ran past TIMEOUT."""
+
+
+@contextlib.contextmanager
+def time_limit(seconds: float):
+    def alarm(signum, frame):
+        raise Hang(f"no result after {seconds} s")
+
+    previous = signal.signal(signal.SIGALRM, alarm)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def write_case(folder: Path, seed: Seed, files: dict[str, bytes]) -> Path:
+    """Write ``files`` into an empty ``folder`` (linking a shared header's data files)."""
+    for old in folder.iterdir():
+        old.unlink()
+    if seed.link is not None:
+        for data in seed.link.iterdir():
+            if data.suffix not in (".nhdr", ".mhd", ".md", ".txt"):
+                (folder / data.name).symlink_to(data)
+    for name, blob in files.items():
+        (folder / name).write_bytes(blob)
+    return folder / seed.main
+
+
+def check_reader(path: Path, seed: Seed) -> str:
+    """``user error`` or ``volume``; any other exception (or a hang) propagates."""
+    printed = io.StringIO()
+    try:
+        with active(Sandbox(max_bytes=BUDGET)), time_limit(TIMEOUT), \
+                contextlib.redirect_stderr(printed), contextlib.redirect_stdout(printed):
+            volume = load_volume(path, **seed.options)
+    except DvrError as exc:
+        message = str(exc)
+        assert message and "\n" not in message
+        return "user error"
+    finally:  # a library's log line or warning would reach the user's terminal
+        assert not printed.getvalue(), f"printed {printed.getvalue()[:200]!r}"
+    data = volume.data
+    assert data.ndim == 3 and data.size > 0
+    assert data.dtype.kind != "f" or np.isfinite(data).all()
+    assert len(volume.spacing) == 3 and all(math.isfinite(s) and s > 0 for s in volume.spacing)
+    assert all(math.isfinite(o) for o in volume.origin)
+    return "volume"
