@@ -34,7 +34,8 @@ def test_raw_compressed_by_suffix(tmp_path, suffix, compress):
 def test_raw_size_mismatch_names_both_sizes(tmp_path):
     path = tmp_path / "v.raw"
     path.write_bytes(DATA.astype("<i2").tobytes()[:-2])
-    with pytest.raises(VolumeError, match=r"holds 46 bytes, but 4x3x2 int16 \(dims, dtype and header_bytes\) promises 48 bytes"):
+    with pytest.raises(VolumeError,
+                       match=r"holds 46 bytes, but 4x3x2 int16 \(dims, dtype and header_bytes\) needs 48 bytes"):
         load_volume(path, dims=(4, 3, 2), dtype="int16")
 
 
@@ -217,7 +218,7 @@ def test_metaimage_truncated_and_missing_data(tmp_path):
         load_volume(tmp_path / "v.mhd")
     (tmp_path / "v.zraw").write_bytes(DATA.astype("<i2").tobytes()[:-2])
     (tmp_path / "v.mhd").write_text(_mhd_header("v.zraw"))
-    with pytest.raises(VolumeError, match="holds 46 bytes, but DimSize 4 3 2 of MET_SHORT promises 48 bytes"):
+    with pytest.raises(VolumeError, match="holds 46 bytes, but DimSize 4 3 2 of MET_SHORT needs 48 bytes"):
         load_volume(tmp_path / "v.mhd")
     (tmp_path / "v.mhd").write_text(_mhd_header("gone.raw"))
     with pytest.raises(VolumeError, match="its MetaImage data file .*gone.raw was not found"):
@@ -248,7 +249,8 @@ def test_vtk_ascii(tmp_path):
 def test_vtk_truncated_and_unstructured(tmp_path):
     path = tmp_path / "v.vtk"
     path.write_bytes(_vtk_header("BINARY").encode() + DATA.astype(">i2").tobytes()[:30])
-    with pytest.raises(VolumeError, match="holds 30 bytes after the header, but DIMENSIONS 4 3 2 of short promises 48 bytes"):
+    with pytest.raises(VolumeError,
+                       match="holds 30 bytes after the header, but DIMENSIONS 4 3 2 of short needs 48 bytes"):
         load_volume(path)
     path.write_text("# vtk DataFile Version 2.0\nmesh\nASCII\nDATASET UNSTRUCTURED_GRID\n")
     with pytest.raises(VolumeError, match="not STRUCTURED_POINTS"):
@@ -356,7 +358,7 @@ def test_nrrd_malformed_field_is_named(tmp_path, field, value, message):
     ("space origin: (nan,0,0)\n", "space origin .* must be three finite numbers"),
     ("space origin: banana\n", "space origin 'banana' is not a list of vectors"),
     ("line skip: -1\n", "line skip must be >= 0"),
-    ("byte skip: 100000000\n", "holds 48 bytes, but the header .* promises 100000000 bytes to skip and 48"),
+    ("byte skip: 100000000\n", "holds 48 bytes, but the header .* needs 100000000 bytes to skip and 48"),
     ("spacings: 1 1 1\n", "field 'spacings' appears twice"),
 ])
 def test_nrrd_malformed_extra_line_is_named(tmp_path, extra, message):
@@ -525,7 +527,7 @@ def test_npy_truncated_and_fortran_order(tmp_path):
     np.testing.assert_array_equal(load_volume(tmp_path / "v.npy").data, DATA)
     blob = (tmp_path / "v.npy").read_bytes()
     (tmp_path / "v.npy").write_bytes(blob[:-2])
-    with pytest.raises(VolumeError, match="holds 46 bytes after the header, but its header .* promises 48"):
+    with pytest.raises(VolumeError, match="holds 46 bytes after the header, but its header .* needs 48"):
         load_volume(tmp_path / "v.npy")
 
 

@@ -163,7 +163,7 @@ def read_data(path: Path, nbytes: int, *, name: str, encoding: str = "raw", star
     if len(out) != skip + nbytes:
         size = f"more than {skip + nbytes}" if len(out) > skip + nbytes else len(out)
         raise VolumeError(f"{name}: the {encoding} data decodes to {size} bytes, but {promise} "
-                          f"promises {_bytes(skip, nbytes)}; the header or the data file is wrong")
+                          f"needs {_bytes(skip, nbytes)}; the header or the data file is wrong")
     return bytes(memoryview(out)[skip:])
 
 
@@ -175,11 +175,11 @@ def _read_raw(files, nbytes, name, start, line_skip, skip, stored, promise, exac
     if skip < 0:  # the data is the last nbytes of the file
         skip = stored - nbytes
         if skip < 0:
-            raise VolumeError(f"{name}: the {what} holds {stored} bytes, but {promise} promises {nbytes}; "
+            raise VolumeError(f"{name}: the {what} holds {stored} bytes, but {promise} needs {nbytes}; "
                               f"the data file is truncated or the header is wrong")
     elif line_skip == 0 and (stored < skip + nbytes or exact and stored != skip + nbytes):
         raise VolumeError(f"{name}: the {what} holds {stored} bytes{' after the header' if start else ''}, "
-                          f"but {promise} promises {_bytes(skip, nbytes)}; the data file is truncated or "
+                          f"but {promise} needs {_bytes(skip, nbytes)}; the data file is truncated or "
                           f"the header is wrong")
     out = bytearray()
     for piece in _pieces(files, start, line_skip, name):
@@ -188,7 +188,7 @@ def _read_raw(files, nbytes, name, start, line_skip, skip, stored, promise, exac
             break
     if len(out) < skip + nbytes or exact and len(out) != skip + nbytes:
         raise VolumeError(f"{name}: the {what} holds {len(out)} bytes after the line skip, but {promise} "
-                          f"promises {_bytes(skip, nbytes)}; fix the skips or the sizes")
+                          f"needs {_bytes(skip, nbytes)}; fix the skips or the sizes")
     return bytes(memoryview(out)[skip:skip + nbytes])
 
 
