@@ -558,3 +558,17 @@ def test_npy_header_findings_of_the_fuzzer(tmp_path):
     (tmp_path / "b.npy").write_bytes(bytes(blob))
     with pytest.raises(VolumeError, match="not a readable .npy array"):
         load_volume(tmp_path / "b.npy")
+
+
+def test_skips_are_seeked_or_counted_against_the_budget(tmp_path):
+    """A raw byte skip is seeked over; a skip in decoded (gzip) data is held, so it counts."""
+    raw = DATA.astype(">i2").tobytes()
+    with active(Sandbox(max_bytes=1000)):
+        path = _nhdr_with(tmp_path, extra="byte skip: 5000\n", data=bytes(5000) + raw)
+        np.testing.assert_array_equal(load_volume(path).data, DATA)
+        path = _nhdr_with(tmp_path, {"encoding": "gzip"}, extra="byte skip: 5000\n",
+                          data=gzip.compress(bytes(5000) + raw))
+        with pytest.raises(SandboxError, match=r"\(and 5000 bytes to skip\) would take"):
+            load_volume(path)
+    path = _nhdr_with(tmp_path, extra="line skip: 1\nbyte skip: -1\n", data=b"x\nabc" + raw)
+    np.testing.assert_array_equal(load_volume(path).data, DATA)

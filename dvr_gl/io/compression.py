@@ -147,8 +147,11 @@ def read_data(path: Path, nbytes: int, *, name: str, encoding: str = "raw", star
     if encoding not in ENCODINGS:
         raise VolumeError(f"{name}: unknown encoding {encoding!r}; use raw, gzip, bzip2 or zlib")
     files = stored_files(path, what, name)
-    check_bytes(nbytes, f"{name}: the {nbytes}-byte volume {promise} promises",
-                "check the sizes in the header, or raise the memory budget")
+    # decoded skipped bytes are held too (a raw skip is seeked over unless lines are skipped first)
+    held = nbytes + (max(skip, 0) if encoding != "raw" or line_skip else 0)
+    check_bytes(held, f"{name}: the {nbytes}-byte volume {promise} promises"
+                + (f" (and {skip} bytes to skip)" if held > nbytes else ""),
+                "check the sizes and skips in the header, or raise the memory budget")
     stored = sum(f.stat().st_size for f in files) - start
     if encoding == "raw":
         return _read_raw(files, nbytes, name, start, line_skip, skip, stored, promise, exact, what)
@@ -172,8 +175,8 @@ def _bytes(skip: int, nbytes: int) -> str:
 
 
 def _read_raw(files, nbytes, name, start, line_skip, skip, stored, promise, exact, what) -> bytes:
-    if skip < 0:  # the data is the last nbytes of the file
-        skip = stored - nbytes
+    if skip < 0:  # the data is the last nbytes of the file, wherever the lines end
+        skip, line_skip = stored - nbytes, 0
         if skip < 0:
             raise VolumeError(f"{name}: the {what} holds {stored} bytes, but {promise} needs {nbytes}; "
                               f"the data file is truncated or the header is wrong")
@@ -181,6 +184,8 @@ def _read_raw(files, nbytes, name, start, line_skip, skip, stored, promise, exac
         raise VolumeError(f"{name}: the {what} holds {stored} bytes{' after the header' if start else ''}, "
                           f"but {promise} needs {_bytes(skip, nbytes)}; the data file is truncated or "
                           f"the header is wrong")
+    if line_skip == 0:  # seek over the skip instead of reading it
+        start, skip = start + skip, 0
     out = bytearray()
     for piece in _pieces(files, start, line_skip, name):
         out += piece
