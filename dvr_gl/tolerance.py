@@ -326,7 +326,8 @@ def apply(scene, tolerance: float, model: SamplingModel | None = None, verify: b
 
 def resolve(scene):
     """The ray caster's resolution hook (its plugin's ``resolve``): ``renderer.tolerance`` replaced by the
-    settings the error model chooses for it, so that the effective scene holds those settings and
+    settings the error model chooses for it and the a-posteriori check confirms (:func:`check`, which
+    renders the scene small on the ray caster), so that the effective scene holds those settings and
     rendering it again repeats the image."""
     requested = scene.spec.renderer if scene.spec is not None else scene.renderer
     tolerance = getattr(requested, "tolerance", None)
