@@ -24,9 +24,11 @@ factors at most 1, no subtraction, no overflow.  ``sf == sb`` is the closed form
 
 **Fast table** (Engel, Kraus and Ertl 2001).  Integral functions ignore the
 attenuation inside the segment: optical depth ``d (S(sb) - S(sf)) / (sb - sf)``
-with ``S`` the integral of extinction (exact), and colour
-``d (K(sb) - K(sf)) / (sb - sf)`` with ``K`` the integral of extinction times
-colour (too bright where the segment is not thin); ``O(N^2)``.
+with ``S`` the integral of extinction (exact), and emission
+``E = d (K(sb) - K(sf)) / (sb - sf)`` with ``K`` the integral of extinction times
+colour; the colour held is ``E (1 - exp(-tau)) / tau``, the extinction-weighted mean colour
+times the exact opacity (see :func:`_engel`: without the normalization ``E`` exceeds 1 on
+optically thick segments); ``O(N^2)``.
 """
 
 from __future__ import annotations
@@ -232,7 +234,18 @@ def preintegrate(transfer_function, segment_length: float, size: int = 256, meth
 
 
 def _engel(sigma, colour, domain, ratio, n, d) -> np.ndarray:
-    """The fast table: integral functions of extinction and emission (no self-attenuation)."""
+    """The fast table: integral functions of extinction and emission, then the colour normalized.
+
+    Without self-attenuation the emission of a segment is ``E = int sigma c dt``, which grows like
+    the optical depth ``tau`` without bound (7 on a thick spike).  The exact colour is
+    ``C = int sigma c T dt`` with the transmittance ``T`` in [0, 1] and ``int sigma T dt = 1 - exp(-tau)``,
+    so ``C`` is ``alpha = 1 - exp(-tau)`` times a weighted mean of the colours on the segment:
+    ``alpha min(c) <= C <= alpha max(c)`` per channel.  The table holds ``E alpha / tau``: the
+    extinction-weighted mean colour ``E / tau`` times the exact opacity.  It stays within those
+    bounds (so at most 1), is exact wherever the colour is constant along the segment (a thick
+    segment of one value: ``c (1 - exp(-sigma d))``, whatever the extinction does) and to first
+    order in ``tau`` (``alpha / tau = 1 - tau / 2 + ...``); what it ignores is only that attenuation
+    weights the front's colour more than the back's.  Still ``O(N^2)``."""
     h = (domain[1] - domain[0]) / (len(sigma) - 1)        # value step between fine nodes
     s0, s1, c0, c1 = sigma[:-1], sigma[1:], colour[:-1], colour[1:]
     # exact integrals of the linear sigma and the quadratic sigma * c over each piece
@@ -248,4 +261,11 @@ def _engel(sigma, colour, domain, ratio, n, d) -> np.ndarray:
     diag = np.arange(n)
     tau[diag, diag] = d * sigma[::ratio]
     emit[diag, diag] = d * (sigma[::ratio, None] * colour[::ratio])
-    return np.concatenate([emit, tau[..., None]], axis=-1)
+    tau = np.maximum(tau, 0.0)   # cancellation in S(sb) - S(sf) can leave -1e-17
+    return np.concatenate([emit * _opacity_per_depth(tau)[..., None], tau[..., None]], axis=-1)
+
+
+def _opacity_per_depth(tau: np.ndarray) -> np.ndarray:
+    """``(1 - exp(-tau)) / tau``, 1 at ``tau = 0`` (no 0/0)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(tau > 1e-12, -np.expm1(-tau) / tau, 1.0 - tau / 2.0)

@@ -9,8 +9,11 @@ from dvr_gl.bench.quality import spike
 from dvr_gl.bench.tradeoff import converged_truth
 from dvr_gl.errors import SceneError
 from dvr_gl.image import compare_images, read_image
+from dvr_gl.phantoms import marschner_lobb, shepp_logan
 from dvr_gl.renderers import create_renderer
 from dvr_gl.scene import load_scene
+
+from conftest import array_scene
 
 ML = {"volume.demo": "marschner-lobb", "volume.size": 33, "image.width": 48, "image.height": 48,
       "transfer_function.opacity_model": "extinction"}
@@ -53,7 +56,53 @@ def assert_tolerances_met(scene, tolerances=(1e-2, 3e-3, 1e-3)):
             chosen, choice = tolerance.apply(scene, e)
             rms = compare_images(renderer.render(chosen), truth)["rms"]
             assert rms <= e, f"E = {e:g}: measured {rms:.3g} with {choice.describe(1.0)}"
-            assert choice.predicted_error <= e
+            assert choice.estimated_error <= tolerance.MARGIN * e
+
+
+def test_richardson_estimate_of_a_power_law():
+    """Images whose error is ``c d^p`` (p = 2): the estimate from d, d/2, d/4 is the error at d and
+    the measured order is 2; an order below 1 counts as 1 (the safe side)."""
+    truth = np.zeros((4, 4, 4))
+    pattern = np.linspace(0.5, 1.0, 64).reshape(4, 4, 4)
+    coarse, middle, fine = (truth + pattern * 1e-2 * h ** 2 for h in (1.0, 0.5, 0.25))
+    estimate, order = tolerance.richardson(coarse, middle, fine)
+    assert order == pytest.approx(2.0)
+    assert estimate == pytest.approx(compare_images(coarse, truth)["rms"], rel=1e-6)
+    _, order = tolerance.richardson(coarse, coarse * 0.9, coarse * 0.85)
+    assert order == 1.0
+
+
+def narrow(kind: str, bits: int, width: float, centre: float, spike: bool):
+    """A generated volume quantized to ``bits`` and a transfer function zero but for a tent ``width``
+    of the value range wide at its base: alpha 0.6 at its peak, or (``spike``) extinction 0.3 / width
+    per voxel (the same area for every width)."""
+    data = (marschner_lobb if kind == "ml" else shepp_logan)(32)
+    top = 2 ** bits - 1
+    data = np.round((data - data.min()) / (data.max() - data.min()) * top).astype(f"uint{bits}")
+    peak = 0.3 / width if spike else 0.6
+    c, w = centre * top, width * top
+    points = [[0, 1, 0.5, 0.2, 0], [c - w / 2, 1, 0.5, 0.2, 0], [c, 1, 0.9, 0.6, peak], [c + w / 2, 0.4, 0.6, 1, 0],
+              [top, 0.4, 0.6, 1, 0]]
+    return data, {"transfer_function.points": points, "image.width": 48, "image.height": 48,
+                  "transfer_function.opacity_model": "extinction" if spike else "alpha",
+                  "renderer.shading.enabled": False, "camera.azimuth": 35.0}
+
+
+NARROW = {  # not the scenes the check was measured on (docs/tolerance.md): other sizes, centres, views
+    "8-bit Marschner-Lobb, 5 % tent": ("ml", 8, 0.05, 0.6, False),
+    "8-bit Shepp-Logan, 2 % spike": ("sl", 8, 0.02, 0.25, True),
+    "16-bit Marschner-Lobb, 0.5 % tent": ("ml", 16, 0.005, 0.4, False),
+    "16-bit Shepp-Logan, 0.5 % spike": ("sl", 16, 0.005, 0.2, True),
+}
+
+
+@pytest.mark.parametrize("case", list(NARROW))
+def test_tolerance_is_met_on_narrow_features(tmp_path, case):
+    """Issue 14: transfer-function features of 0.5-5 % of the range on 8- and 16-bit data.  The
+    a-priori model alone measured up to 11x E on such scenes; the a-posteriori check (renders at
+    d, d/2, d/4) holds the promise, measured 0.2-0.5 E on the calibration scenes."""
+    data, overrides = narrow(*NARROW[case])
+    assert_tolerances_met(array_scene(tmp_path, data, overrides))
 
 
 @pytest.mark.parametrize("case", list(CASES))
