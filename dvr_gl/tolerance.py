@@ -291,6 +291,12 @@ def check(scene, choice: Choice, tolerance: float, renderer=None) -> Choice:
     finally:
         if own:
             renderer.close()
+    if estimate > tolerance:  # never deliver an image that is estimated to break the promise
+        voxel = scene.field.sample_spacing
+        raise SceneError(f"renderer.tolerance {tolerance:g} cannot be met: the error is still estimated at "
+                         f"{estimate:.2g} at a sample distance of {d / voxel:.3g} voxel, {2 ** CHECK_HALVINGS}x "
+                         f"finer than the model's choice; ask for a larger tolerance or set the sample "
+                         f"distance yourself")
     return dataclasses.replace(choice, sample_distance=d, estimated_error=estimate,
                                first_guess=choice.sample_distance,
                                predicted_error=choice.model.predicted_error(choice.classification, d))

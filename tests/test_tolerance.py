@@ -168,3 +168,16 @@ def test_tolerance_is_met_on_shared_datasets(shared_data, name):
         overrides["transfer_function.points"] = points
     scene = load_scene(None, overrides)
     assert_tolerances_met(scene)
+
+
+def test_a_tolerance_the_check_cannot_reach_is_refused(tmp_path, monkeypatch):
+    """Never a silently wrong image: where the a-posteriori estimate still exceeds E after the last
+    halving, the render is refused in one line naming renderer.tolerance.  With no halving allowed,
+    the model's own guess on a 0.5 % tent (which it under-predicts, up to 11x E measured) is refused
+    at E = 1e-3."""
+    monkeypatch.setattr(tolerance, "CHECK_HALVINGS", 0)
+    data, overrides = narrow(*NARROW["16-bit Marschner-Lobb, 0.5 % tent"])
+    scene = array_scene(tmp_path, data, overrides)
+    choice = tolerance.choose(scene, 1e-3)
+    with pytest.raises(SceneError, match=r"renderer.tolerance 0.001 cannot be met: the error is still estimated"):
+        tolerance.check(scene, choice, 1e-3)
