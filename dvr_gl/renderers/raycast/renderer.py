@@ -17,6 +17,7 @@ import math
 import moderngl
 import numpy as np
 
+from ... import limits
 from ...fields import diagonal
 from ...gl.shaders import create_program
 from ..grid.bricking import plan_bricks, visibility_order
@@ -110,6 +111,9 @@ class RayCastRenderer(GLVolumeRenderer):
         super().__init__(ctx)
         self.count_samples = count_samples
         self.fragment_shader = fragment_shader
+
+    def work(self, scene):
+        return limits.ray_samples(scene, "gpu samples")
 
     # --- acceleration structures ---
 
