@@ -29,10 +29,11 @@ class Renderer:
     name: ClassVar[str] = ""
     description: ClassVar[str] = ""
 
+    progress = None   # progress(done, total) after each step of a frame (a progress bar), or None
+    _started = 0.0    # when the frame began (perf_counter seconds), for the sandbox's time budget
+
     def __init__(self):
         self.stats: dict = {}
-        self.progress = None  # progress(done, total) after each step of a frame (a progress bar), or None
-        self._started = 0.0
 
     @property
     def plugin(self) -> "registry.RendererPlugin":
