@@ -227,6 +227,36 @@ def test_ctrl_c_mid_render_exits_130_and_writes_nothing(tmp_path, monkeypatch, c
     assert not list(tmp_path.iterdir())
 
 
+def test_ctrl_c_between_bricked_gl_passes(tmp_path, monkeypatch, capsys):
+    from apps import render
+
+    real = limits.gl_limits
+
+    def small(ctx):  # bricks of at most 10 voxels: several passes of the ray caster
+        return dataclasses.replace(real(ctx), texture_3d_size=10)
+
+    passes = []
+
+    class Interrupting:
+        def __init__(self, *args, **kwargs):
+            pass
+
+        def __call__(self, done, total):
+            passes.append(done)
+            if done == 2:
+                raise KeyboardInterrupt
+
+        def close(self):
+            pass
+
+    monkeypatch.setattr(limits, "gl_limits", small)
+    monkeypatch.setattr(render, "Progress", Interrupting)
+    assert cli.main(cli_args(tmp_path, "raycast")) == 130
+    assert passes == [1, 2]
+    assert capsys.readouterr().err.strip() == "dvr render: interrupted"
+    assert not list(tmp_path.iterdir())
+
+
 def test_cli_refuses_a_frame_larger_than_the_gl_in_one_line(tmp_path, capsys):
     assert cli.main(["render", "--demo", "--set", "volume.size=16", "--size", "20000x16",
                      "-o", str(tmp_path / "e.exr")]) == 1
