@@ -191,17 +191,23 @@ BYTES_PER_LUT_ENTRY = 128                    # the float64 table and its tabulat
 BYTES_PER_PREINTEGRATION_ENTRY = 192         # both directions' float64 (C, tau) and the assembled table
 
 
+def count(n) -> float:
+    """An integer count as a float that cannot overflow when multiplied a few times (a Python int
+    past 1e100 is refused all the same)."""
+    return float(min(n, 10 ** 100))
+
+
 def check_image_memory(scene, kind: str):
     width, height = scene.image.width, scene.image.height
-    check_bytes(float(width) * height * BYTES_PER_PIXEL[kind], f"a {width}x{height} image",
+    check_bytes(count(width) * count(height) * BYTES_PER_PIXEL[kind], f"a {width}x{height} image",
                 "lower --size (image.width, image.height)")
 
 
 def check_lut_memory(lut_size: int):
-    check_bytes(float(lut_size) * BYTES_PER_LUT_ENTRY, f"renderer.lut_size = {lut_size} (the transfer-function "
+    check_bytes(count(lut_size) * BYTES_PER_LUT_ENTRY, f"renderer.lut_size = {lut_size} (the transfer-function "
                 f"table)", "lower renderer.lut_size (4096 is the default)")
 
 
 def check_preintegration_memory(size: int):
-    check_bytes(float(size) ** 2 * BYTES_PER_PREINTEGRATION_ENTRY, f"renderer.preintegration_size = {size} "
+    check_bytes(count(size) ** 2 * BYTES_PER_PREINTEGRATION_ENTRY, f"renderer.preintegration_size = {size} "
                 f"(a {size} x {size} pre-integration table)", "lower renderer.preintegration_size (256 is the default)")

@@ -21,6 +21,7 @@ import numpy as np
 
 from .errors import SceneError
 from .fields.grid import Volume
+from .limits import count
 from .sandbox import check_bytes
 
 # Peak bytes per voxel while a phantom is generated: float64 coordinate grids, the rotated
@@ -119,7 +120,7 @@ def demo_volume(name: str, size: int = 64) -> Volume:
     """A built-in phantom as a :class:`Volume` centred on the origin, spacing 1."""
     if name not in DEMOS:
         raise SceneError(f"unknown demo volume {name!r}; choose one of {', '.join(DEMOS)}")
-    check_bytes(float(size) ** 3 * BYTES_PER_VOXEL, f"the demo volume (volume.size = {size}: {size}^3 voxels)",
+    check_bytes(count(size) ** 3 * BYTES_PER_VOXEL, f"the demo volume (volume.size = {size}: {size}^3 voxels)",
                 "lower volume.size")
     half = (size - 1) / 2.0
     return Volume(DEMOS[name](size), spacing=(1.0, 1.0, 1.0), origin=(-half, -half, -half), name=name)
