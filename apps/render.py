@@ -23,6 +23,7 @@ from dvr_gl.scene import load_scene
 from dvr_gl.scene_schema import CameraSpec, VolumeSpec
 from dvr_gl.transfer_function import PRESETS
 
+from .progress import DELAY as PROGRESS_DELAY
 from .progress import Progress
 
 HELP = "render a scene, a volume file or the demo to an image (.png .exr .tif)"
@@ -186,6 +187,8 @@ def run(args) -> int:
               f"{scene.tolerance_choice.describe(scene.field.sample_spacing)}")
     renderer = create_renderer(scene.renderer.name)
     progress = Progress(len(outputs), "rendering") if args.frames and not args.quiet else None
+    steps = None if args.quiet or args.frames else Progress(0, "rendering", delay=PROGRESS_DELAY)
+    renderer.progress = steps  # long work's steps (the CPU references'), shown after PROGRESS_DELAY seconds
     start = time.perf_counter()
     try:
         for i, path in enumerate(outputs):
@@ -201,9 +204,10 @@ def run(args) -> int:
             if progress:
                 progress.update(i + 1)
     finally:
-        renderer.close()
-        if progress:
-            progress.close()
+        renderer.close()  # also on Ctrl-C (exit 130): the GL context is released, nothing was written
+        for bar in (progress, steps):
+            if bar:
+                bar.close()
     if args.save_scene:
         scene_path = Path(args.save_scene)
         write_text(scene_path, scene.to_toml(relative_to=scene_path.resolve().parent), args.overwrite)

@@ -21,6 +21,12 @@ import numpy as np
 
 from .errors import SceneError
 from .fields.grid import Volume
+from .limits import count
+from .sandbox import check_bytes
+
+# Peak bytes per voxel while a phantom is generated: float64 coordinate grids, the rotated
+# coordinates and the accumulated density, the blur's padded copy and temporaries.
+BYTES_PER_VOXEL = 100
 
 # A, a, b, c, x0, y0, z0, phi (degrees, about z)
 SHEPP_LOGAN_3D = [
@@ -114,5 +120,7 @@ def demo_volume(name: str, size: int = 64) -> Volume:
     """A built-in phantom as a :class:`Volume` centred on the origin, spacing 1."""
     if name not in DEMOS:
         raise SceneError(f"unknown demo volume {name!r}; choose one of {', '.join(DEMOS)}")
+    check_bytes(count(size) ** 3 * BYTES_PER_VOXEL, f"the demo volume (volume.size = {size}: {size}^3 voxels)",
+                "lower volume.size")
     half = (size - 1) / 2.0
     return Volume(DEMOS[name](size), spacing=(1.0, 1.0, 1.0), origin=(-half, -half, -half), name=name)

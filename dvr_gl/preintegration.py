@@ -40,6 +40,7 @@ import math
 import numpy as np
 
 from .errors import SceneError
+from .limits import check_preintegration_memory
 
 def _gauss(n: int) -> tuple[np.ndarray, np.ndarray]:
     x, w = np.polynomial.legendre.leggauss(n)
@@ -215,6 +216,7 @@ def preintegrate(transfer_function, segment_length: float, size: int = 256, meth
     if not (np.isfinite(segment_length) and segment_length > 0):
         raise SceneError(f"pre-integration needs a positive segment length, got {segment_length}")
     n = int(size)
+    check_preintegration_memory(n)
     ratio = max(1, -(-(refinement - 1) // (n - 1)))
     fine = transfer_function.tabulate(ratio * (n - 1) + 1)
     colour, sigma = fine.table[:, :3], fine.table[:, 3]

@@ -14,6 +14,7 @@ from __future__ import annotations
 import moderngl
 
 from ..errors import GLUnavailableError
+from ..limits import gl_limits
 
 MIN_GL_VERSION = 330  # 3.3 core: 3D and float textures, texelFetch, float render targets
 
@@ -66,12 +67,13 @@ def make_current(ctx: moderngl.Context) -> moderngl.Context:
 
 
 def gl_info(ctx: moderngl.Context) -> dict:
-    """What ``dvr info`` prints: vendor, renderer, version and texture limits."""
-    info = ctx.info
+    """What ``dvr info`` prints: vendor, renderer, version and texture limits (read where the renderers
+    read them: :func:`dvr_gl.limits.gl_limits`)."""
+    info, limits = ctx.info, gl_limits(ctx)
     return {
         "vendor": info["GL_VENDOR"],
         "renderer": info["GL_RENDERER"],
         "version": info["GL_VERSION"],
-        "max_3d_texture_size": int(info["GL_MAX_3D_TEXTURE_SIZE"]),
-        "max_texture_size": int(info["GL_MAX_TEXTURE_SIZE"]),
+        "max_3d_texture_size": limits.texture_3d_size,
+        "max_texture_size": limits.texture_size,
     }

@@ -30,12 +30,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..rays import RayBatch
+from ..sandbox import check_bytes
 from .model import OpticalModel
 
 RAYS_PER_BATCH = 2048
 MAX_ROUNDS = 60
 GRID_PER_PIECE = 64
 GOLDEN = (np.sqrt(5.0) - 1.0) / 2.0
+BYTES_PER_PIECE = 256  # a live piece's estimates (11 float64 columns) and their refined halves
 
 
 def collocation(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -73,6 +75,7 @@ class ConvergedReference:
         self.tol = scene.renderer.converged_tolerance
         self.x, self.w, self.S = collocation(nodes)
         self.stats = {"pieces": 0, "evaluations": 0, "converged": True}
+        self.progress = None  # progress(done, total) per batch of rays
 
     def render(self) -> np.ndarray:
         """Premultiplied linear RGBA ``(H, W, 4)`` float32."""
@@ -89,6 +92,8 @@ class ConvergedReference:
         for i in range(0, len(hit), RAYS_PER_BATCH):
             rows = hit[i:i + RAYS_PER_BATCH]
             rgba[rows] = method(rows)
+            if self.progress is not None:
+                self.progress(min(i + RAYS_PER_BATCH, len(hit)), len(hit))
         return rgba.reshape(self.scene.image.height, self.scene.image.width, 4)
 
     # --- pieces ------------------------------------------------------------------------------
@@ -201,6 +206,9 @@ class ConvergedReference:
             if finished.all():
                 break
             p = take(live, split)
+            # refinement doubles what it splits: stop before memory runs out, not after
+            check_bytes((len(live["ray"]) + len(p["ray"])) * BYTES_PER_PIECE * 2.0, "the converged reference's "
+                        "pieces", "raise renderer.converged_tolerance or lower --size")
             m = 0.5 * (p["a"] + p["b"])
             parts = [take(live, ~finished & ~split), self._estimate(p["ray"], p["a"], m, p["lt"], p["lc"]),
                      self._estimate(p["ray"], m, p["b"], p["rt"], p["rc"])]

@@ -81,6 +81,15 @@ class DiscreteReference:
         self.model = OpticalModel(scene, exact=False, segment_length=self.plan.slab_length)
         self.n_seg = self.plan.count
         self.samples = 0
+        self.progress = None  # progress(done, total) per chunk: segments done of the longest ray's
+
+    def _steps(self, active: np.ndarray, descending: bool = False):
+        """:func:`_chunks` of the active rays, reporting each to :attr:`progress`."""
+        total = int(self.n_seg.max()) if len(self.n_seg) else 0
+        for rows, k, m in _chunks(self.n_seg, active, descending):
+            yield rows, k, m
+            if self.progress is not None:
+                self.progress(total - k if descending else k + m, total)
 
     @property
     def stats(self) -> dict:
@@ -123,7 +132,7 @@ class DiscreteReference:
         tau_acc = np.zeros(n)
         active = self.n_seg > 0
         threshold = self.scene.renderer.ert_threshold if self.plan.terminates else 1.0
-        for rows, k, m in _chunks(self.n_seg, active):
+        for rows, k, m in self._steps(active):
             grid = self.plan.grid(rows, k, m)
             premult, tau = self._segments(grid)
             tau_before = tau_acc[rows, None] + np.cumsum(tau, axis=1) - tau
@@ -139,7 +148,7 @@ class DiscreteReference:
         n = len(self.rays)
         rgba = np.zeros((n, 4))
         active = self.n_seg > 0
-        for rows, k, m in _chunks(self.n_seg, active, descending=True):
+        for rows, k, m in self._steps(active, descending=True):
             grid = self.plan.grid(rows, k, m)
             premult, tau = self._segments(grid)
             alpha = -np.expm1(-tau)
@@ -165,7 +174,7 @@ class DiscreteReference:
         bracket = np.zeros((n, 4))  # t_a, s_a, t_b, s_b with s_a < iso <= s_b
         bracket[hit] = np.stack([prev_t[hit], prev_s[hit], prev_t[hit], prev_s[hit]], axis=1)
         active = has & ~hit
-        for rows, k, m in _chunks(self.n_seg, active):
+        for rows, k, m in self._steps(active):
             grid = self.plan.grid(rows, k, m)
             s = grid.scatter(scalar.sample(grid.points), fill=-np.inf)
             above = grid.valid & (s >= iso)
@@ -214,7 +223,7 @@ class DiscreteReference:
         acc = np.zeros(n) if mode == "average" else np.full(n, -np.inf if mode == "mip" else np.inf)
         length = np.zeros(n)
         active = self.n_seg > 0
-        for rows, k, m in _chunks(self.n_seg, active):
+        for rows, k, m in self._steps(active):
             grid = self.plan.grid(rows, k, m)
             s = self.model.scalar.sample(grid.points)
             if mode == "average":

@@ -7,7 +7,10 @@ row 0 at the top and the background not yet applied (conventions).  After
 
 Subclasses implement :meth:`Renderer.draw`; :meth:`Renderer.render` first asks the
 registry whether this renderer can render the scene (:func:`.registry.check`), so a
-refusal is the same one-line reason whether it comes from here, the CLI or the viewer.
+refusal is the same one-line reason whether it comes from here, the CLI or the viewer;
+then :meth:`Renderer.check_resources` refuses what would exceed a GL limit, the memory
+budget or the work bound (:mod:`dvr_gl.limits`), before anything is allocated or drawn.
+Renderers that work in steps (the CPU references) report them to :attr:`Renderer.progress`.
 """
 
 from __future__ import annotations
@@ -17,12 +20,17 @@ from typing import ClassVar
 
 import numpy as np
 
+from .. import limits
+from ..sandbox import SandboxError, current
 from . import registry
 
 
 class Renderer:
     name: ClassVar[str] = ""
     description: ClassVar[str] = ""
+
+    progress = None   # progress(done, total) after each step of a frame (a progress bar), or None
+    _started = 0.0    # when the frame began (perf_counter seconds), for the sandbox's time budget
 
     def __init__(self):
         self.stats: dict = {}
@@ -35,14 +43,34 @@ class Renderer:
         """The image of ``scene`` (SceneError with the reason if this renderer cannot render it).
         ``stats["seconds"]`` is the frame's wall time, unless ``draw`` measured it itself."""
         registry.check(scene, self.name)
+        self.check_resources(scene)
         self.stats = {}
-        start = time.perf_counter()
+        start = self._started = time.perf_counter()
         image = self.draw(scene)
         self.stats.setdefault("seconds", time.perf_counter() - start)
         return image
 
     def draw(self, scene) -> np.ndarray:
         raise NotImplementedError
+
+    def check_resources(self, scene):
+        """Refuse, in one line, a scene whose frame would exceed a GL limit, the memory budget or the
+        work bound (:mod:`dvr_gl.limits`)."""
+        limits.check_work(self.work(scene), self.name)
+
+    def work(self, scene) -> "limits.Work | None":
+        """The estimated work of one frame (None: bounded by the data, nothing to check)."""
+        return None
+
+    def report(self, done: int, total: int):
+        """A step of the frame is done: tell :attr:`progress`, and stop at the sandbox's time budget
+        (a KeyboardInterrupt raised by ``progress`` ends the render the same way: nothing is written)."""
+        if self.progress is not None:
+            self.progress(done, total)
+        seconds = current().max_seconds
+        if seconds is not None and time.perf_counter() - self._started > seconds:
+            raise SandboxError(f"{self.name} ran past the time budget of {seconds:g} s ({done} of {total} "
+                               f"steps done); lower --size or the quality settings, or raise the budget")
 
     def close(self):
         """Release GPU resources (nothing for CPU renderers)."""

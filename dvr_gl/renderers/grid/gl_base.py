@@ -14,6 +14,7 @@ import time
 import moderngl
 import numpy as np
 
+from ... import limits
 from .bricking import brick_size_for, ghost_width, plan_bricks
 from ...gl.context import create_context, make_current
 from ...gl.shaders import release_programs
@@ -105,6 +106,31 @@ class GLVolumeRenderer(Renderer):
         self._cache: dict = {}   # what -> (key objects, texture or host data)
         self._targets: dict = {}
 
+    # --- limits: checked before anything is drawn ---
+
+    def check_resources(self, scene):
+        """The image against the render-target limit, the tables against the texture limit, and their
+        memory (see :mod:`dvr_gl.limits`); the volume is bricked to fit (:meth:`grid_views`)."""
+        super().check_resources(scene)
+        self.activate()
+        gl = limits.gl_limits(self.ctx)
+        limits.check_image(scene, gl)
+        limits.check_image_memory(scene, "gpu")
+        self.check_tables(scene, gl)
+
+    def check_tables(self, scene, gl: "limits.GLLimits"):
+        """The transfer-function table (one texture row) and the pre-integration table (N x N)."""
+        r = scene.renderer
+        limits.check_table("renderer.lut_size", r.lut_size, gl, "one row")
+        limits.check_lut_memory(r.lut_size)
+        if r.classification == "preintegrated" and r.compositing == "emission_absorption":
+            n = r.preintegration_size
+            limits.check_table("renderer.preintegration_size", n, gl, f"{n} x {n} texels")
+
+    def grid_texture_limit(self, gl: "limits.GLLimits") -> int:
+        """The largest grid (brick) edge one texture may hold: a 3D texture's side."""
+        return gl.texture_3d_size
+
     # --- caching ---
 
     def _cached(self, what: str, key: tuple, make):
@@ -133,7 +159,7 @@ class GLVolumeRenderer(Renderer):
         """The whole volume if its textures fit the GL limit and the budget, else bricks that do."""
         r, volume = scene.renderer, scene.volume
         per_voxel = FORMATS[volume.data.dtype][3] + self.texture_bytes_per_voxel(defines)
-        limit = self.ctx.info["GL_MAX_3D_TEXTURE_SIZE"]
+        limit = self.grid_texture_limit(limits.gl_limits(self.ctx))
         budget = r.texture_budget_mb * 2 ** 20
         if max(volume.dims) <= limit and volume.data.size * per_voxel <= budget:
             return [GridView((0, 0, 0), volume.dims)]

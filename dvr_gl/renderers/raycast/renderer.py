@@ -17,6 +17,7 @@ import math
 import moderngl
 import numpy as np
 
+from ... import limits
 from ...fields import diagonal
 from ...gl.shaders import create_program
 from ..grid.bricking import plan_bricks, visibility_order
@@ -110,6 +111,9 @@ class RayCastRenderer(GLVolumeRenderer):
         super().__init__(ctx)
         self.count_samples = count_samples
         self.fragment_shader = fragment_shader
+
+    def work(self, scene):
+        return limits.ray_samples(scene, "gpu samples")
 
     # --- acceleration structures ---
 
@@ -239,7 +243,7 @@ class RayCastRenderer(GLVolumeRenderer):
         gpu_seconds, current = 0.0, 0
         to_global = -np.asarray(scene.volume.origin) / np.asarray(scene.volume.spacing)
         passes = [(b, w) for b in bricks for w in (windows if front_to_back else windows[::-1])]
-        for brick, window in passes:
+        for done, (brick, window) in enumerate(passes):
             view = by_brick[brick]
             textures = {**self.view_textures(scene, defines, view, resident), **tables,
                         "u_state": targets[current][0][0]}
@@ -253,6 +257,7 @@ class RayCastRenderer(GLVolumeRenderer):
             self.bind(program, uniforms, textures)
             gpu_seconds += self._draw(program, targets[1 - current][1], width, height)
             current = 1 - current
+            self.report(done + 1, len(passes))  # long bricked or windowed frames: a progress bar, Ctrl-C
         self.bind(resolve, {"u_unit_distance": scene.transfer_function.unit_distance,
                             **self.optics_uniforms(scene, lut)}, {**tables, "u_state": targets[current][0][0]})
         out = self.target("main", width, height)[1]

@@ -10,6 +10,7 @@ import time
 
 import numpy as np
 
+from ... import limits
 from ...reference.discrete import DiscreteReference
 from ..base import Renderer
 
@@ -19,9 +20,14 @@ class ReferenceRenderer(Renderer):
 
     integrator: type
 
+    def check_resources(self, scene):
+        super().check_resources(scene)
+        limits.check_image_memory(scene, "cpu")
+
     def draw(self, scene) -> np.ndarray:
         start = time.perf_counter()
         ref = self.integrator(scene)
+        ref.progress = self.report
         image = ref.render()
         self.stats = {"seconds": time.perf_counter() - start, **ref.stats}
         return image
@@ -31,3 +37,10 @@ class DiscreteReferenceRenderer(ReferenceRenderer):
     name = "reference"
     description = "CPU float64, same discretization as the GPU (samples, LUT)"
     integrator = DiscreteReference
+
+    def check_resources(self, scene):
+        super().check_resources(scene)
+        limits.check_lut_memory(scene.renderer.lut_size)
+
+    def work(self, scene):
+        return limits.ray_samples(scene, "cpu samples")

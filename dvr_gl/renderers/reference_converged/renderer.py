@@ -6,6 +6,7 @@ less than ``renderer.converged_tolerance``: "how accurate is this setting?".
 
 from __future__ import annotations
 
+from ... import limits
 from ...reference.converged import ConvergedReference
 from ..reference.renderer import ReferenceRenderer
 
@@ -14,3 +15,6 @@ class ConvergedReferenceRenderer(ReferenceRenderer):
     name = "reference-converged"
     description = "CPU float64, exact transfer function, integrated to a tolerance"
     integrator = ConvergedReference
+
+    def work(self, scene):
+        return limits.converged_pieces(scene)

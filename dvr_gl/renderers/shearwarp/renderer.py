@@ -33,6 +33,7 @@ import math
 import moderngl
 import numpy as np
 
+from ... import limits
 from ...gl.geometry import depth_range
 from ...gl.shaders import create_program
 from ...rays import RayBatch, intersect_box
@@ -296,6 +297,14 @@ class ShearWarpRenderer(GLVolumeRenderer):
         return self._cached(f"rle {axis}", key, lambda: RunLengthVolume(
             scene.volume.data, axis, SliceClassifier(scene.transfer_function, r.classification, r.lut_size,
                                                      r.opacity_threshold)))
+
+    def check_tables(self, scene, gl):
+        """Classification runs on the host: the table is no texture, only its memory counts; the
+        intermediate image is one (one pixel per voxel of the front slice, plus the shear)."""
+        limits.check_lut_memory(scene.renderer.lut_size)
+        fact = factorize(scene.camera, scene.volume, scene.image.width, scene.image.height)
+        limits.check_texture("shear-warp's intermediate image", fact.size, gl,
+                             "downsample the volume or use another renderer (raycast bricks large volumes)")
 
     def draw(self, scene) -> np.ndarray:
         self.activate()

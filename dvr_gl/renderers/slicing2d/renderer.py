@@ -21,6 +21,11 @@ class Slicing2DRenderer(SlicingRenderer):
     description = "three stacks of 2D slices, the most view-aligned one blended back to front (GPU)"
     stack = True
 
+    def grid_texture_limit(self, gl) -> int:
+        """A stack is a 2D texture array: slices a side at most the texture size, layers at most the
+        array-layer limit (larger volumes are rendered in bricks that fit both)."""
+        return min(gl.texture_size, gl.array_layers)
+
     def axis(self, scene) -> int:
         return plans.stack_axis(scene.camera)
 

@@ -9,13 +9,26 @@ from __future__ import annotations
 
 import numpy as np
 
+from ... import limits
 from ...gl.geometry import clip_planes, depth_range, slice_polygons
+from ...sandbox import check_bytes
 from ..grid.slicing import SlicingRenderer, core_box
+
+
+BYTES_PER_SLICE = 2048  # a slice's polygon (up to 4 triangles, float64) and its clipping's temporaries
 
 
 class Slicing3DRenderer(SlicingRenderer):
     name = "slicing3d"
     description = "3D texture, view-aligned slices blended back to front (GPU)"
+
+    def work(self, scene):
+        return limits.slice_fragments(scene)
+
+    def check_resources(self, scene):
+        super().check_resources(scene)
+        slices = limits.samples_per_ray(scene)
+        check_bytes(slices * BYTES_PER_SLICE, f"{slices:.3g} slice polygons", limits.SAMPLE_FIX)
 
     def geometry(self, scene, view) -> np.ndarray:
         """Triangles of the slices within this view's box, back to front, as a flat (N * 3, 3) array."""
