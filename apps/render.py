@@ -37,7 +37,8 @@ _SCENE_KEYS = {
     "endian": "volume.endian", "header_bytes": "volume.header_bytes", "spacing": "volume.spacing",
     "nan_value": "volume.nan_value",
 }
-SETTING_DEST = "setting_"  # a renderer setting's flag stores into setting_<name>
+SETTING_DEST = "setting_"
+MAX_FRAMES = 10_000  # a renderer setting's flag stores into setting_<name>
 
 
 def _choices(spec, key: str) -> tuple:
@@ -160,10 +161,11 @@ def set_overrides(items: list[str]) -> dict:
 
 
 def frame_paths(output: Path, frames: int | None) -> list[Path]:
-    if not frames:
+    if frames is None:
         return [output]
-    if frames < 1:
-        raise DvrError(f"--frames must be at least 1, got {frames}")
+    if not 1 <= frames <= MAX_FRAMES:
+        raise DvrError(f"--frames must be in [1, {MAX_FRAMES}] (the images of the orbit, numbered with 4 "
+                       f"digits), got {frames}")
     return [output.with_name(f"{output.stem}_{i:04d}{output.suffix}") for i in range(frames)]
 
 
@@ -185,12 +187,12 @@ def run(args) -> int:
         print(f"tolerance {given if given is not None else 'from the scene'}: "
               f"{scene.tolerance_choice.describe(scene.field.sample_spacing)}")
     renderer = create_renderer(scene.renderer.name)
-    progress = Progress(len(outputs), "rendering") if args.frames and not args.quiet else None
+    progress = Progress(len(outputs), "rendering") if args.frames is not None and not args.quiet else None
     start = time.perf_counter()
     try:
         for i, path in enumerate(outputs):
             frame = scene
-            if args.frames and i:
+            if args.frames is not None and i:
                 az0 = scene.camera.orbited().orbit[0]
                 frame = scene.replace(camera=scene.camera.orbited(azimuth=az0 + 360.0 * i / len(outputs)))
             image = renderer.render(frame)
@@ -208,7 +210,8 @@ def run(args) -> int:
         scene_path = Path(args.save_scene)
         write_text(scene_path, scene.to_toml(relative_to=scene_path.resolve().parent), args.overwrite)
     if not args.quiet:
-        what = f"{len(outputs)} frames to {outputs[0]} .. {outputs[-1].name}" if args.frames else str(outputs[0])
+        what = (f"{len(outputs)} frames to {outputs[0]} .. {outputs[-1].name}" if args.frames is not None
+                else str(outputs[0]))
         print(f"wrote {what} ({scene.image.width}x{scene.image.height}, {scene.renderer.name}, "
               f"{time.perf_counter() - start:.2f} s)")
     return 0

@@ -33,6 +33,7 @@ from .fields.grid import Volume
 from .image import composite_over, encode_8bit, write_image
 from .renderers import create_renderer, registry
 from .scene import Scene, apply_overrides, load_scene, parse_scene, resolve_scene
+from .scene_schema import ImageSpec, parse_table, spec_to_dict
 from .transfer_function import TransferFunction, preset
 
 _CAMERA_KEYS = ("azimuth", "elevation", "distance", "projection", "fov", "up")
@@ -183,7 +184,8 @@ def _image_overrides(size, background) -> dict:
     out = {}
     if size is not None:
         width, height = (size, size) if np.isscalar(size) else size
-        out["image.width"], out["image.height"] = int(width), int(height)
+        # numpy integers as ints; anything else as given, for parsing to accept or refuse (1.5 is no size)
+        out["image.width"], out["image.height"] = (int(n) if isinstance(n, np.integer) else n for n in (width, height))
     if background is not None:
         bg = [float(c) for c in background]
         out["image.background"] = bg + [1.0] * (4 - len(bg))
@@ -196,9 +198,7 @@ def _changed(scene: Scene, transfer_function, camera, camera_keys: dict, setting
     image = _image_overrides(size, background)
     if image:
         changes = {k.removeprefix("image."): v for k, v in image.items()}
-        if "background" in changes:
-            changes["background"] = tuple(changes["background"])
-        scene = scene.replace(image=dataclasses.replace(scene.image, **changes))
+        scene = scene.replace(image=parse_table(ImageSpec, {**spec_to_dict(scene.image), **changes}, "image"))
     if transfer_function is not None:
         tf = transfer_function if isinstance(transfer_function, TransferFunction) else (
             preset(transfer_function, scene.field.value_range, rescale_intercept) if isinstance(transfer_function, str)

@@ -15,8 +15,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .errors import SceneError
+from .settings import at_least, between, positive
 
 PROJECTIONS = ("perspective", "orthographic")
+#: What the lens keys allow, as scene-file checks (``[camera]`` in :mod:`dvr_gl.scene_schema` uses these too,
+#: so a scene and a Camera built in Python are refused with the same words).
+LENS_CHECKS = {"fov": between(0, 180, open_lo=True, open_hi=True, what=" degrees"),
+               "view_height": positive, "near": at_least(0)}
 
 
 def _unit(v, what: str) -> np.ndarray:
@@ -51,7 +56,7 @@ def orbit_of(eye, target, up) -> tuple[float, float, float]:
     d = np.asarray(eye, dtype=np.float64) - np.asarray(target, dtype=np.float64)
     dist = float(np.linalg.norm(d))
     if dist == 0:
-        raise SceneError("camera: eye and target coincide")
+        raise SceneError("camera.eye and camera.target coincide; move the eye")
     d = d / dist
     el = math.degrees(math.asin(max(-1.0, min(1.0, float(d @ u)))))
     az = math.degrees(math.atan2(float(d @ side), float(d @ front)))
@@ -85,12 +90,11 @@ class Camera:
     def __post_init__(self):
         if self.projection not in PROJECTIONS:
             raise SceneError(f"camera: projection {self.projection!r} is not one of {', '.join(PROJECTIONS)}")
-        if not 0 < self.fov < 180:
-            raise SceneError(f"camera: fov must be between 0 and 180 degrees, got {self.fov}")
-        if not self.view_height > 0:
-            raise SceneError(f"camera: view_height must be positive, got {self.view_height}")
-        if not self.near >= 0:
-            raise SceneError(f"camera: near must be >= 0, got {self.near}")
+        for key, check in LENS_CHECKS.items():
+            value = getattr(self, key)
+            problem = check(value) if math.isfinite(value) else "must be a finite number"
+            if problem:
+                raise SceneError(f"camera.{key} {problem}, got {value}")
         for name in ("eye", "target", "up"):
             v = tuple(float(x) for x in getattr(self, name))
             if len(v) != 3 or not all(map(math.isfinite, v)):
@@ -102,7 +106,7 @@ class Camera:
     @classmethod
     def from_orbit(cls, target, up, azimuth: float, elevation: float, distance: float, **kw) -> "Camera":
         if not distance > 0:
-            raise SceneError(f"camera: distance must be positive, got {distance}")
+            raise SceneError(f"camera.distance must be positive, got {distance}")
         eye = orbit_eye(target, up, azimuth, elevation, distance)
         return cls(tuple(eye), tuple(target), tuple(up), orbit=(azimuth, elevation, distance), **kw)
 

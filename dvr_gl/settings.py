@@ -181,7 +181,8 @@ ORDER = Setting("order", str, "front_to_back", "compositing order (back_to_front
 ISO_REFINEMENT = Setting("iso_refinement", int, 8, "bisection steps refining the isosurface's first hit",
                          check=between(0, 64, what=" bisection steps"), flag=False)
 JITTER = Setting("jitter", bool, False, "per-pixel sample offset against wood-grain artefacts", must_support=True)
-JITTER_SEED = Setting("jitter_seed", int, 0, "seed of the jitter offsets")
+JITTER_SEED = Setting("jitter_seed", int, 0, "seed of the jitter offsets (32 bits: the shaders' hash)",
+                      check=lambda v: None if 0 <= v < 2**32 else "must be in [0, 4294967295]")
 ERT_THRESHOLD = Setting("ert_threshold", float, 0.99, "early ray termination at this accumulated opacity (1: off)",
                         check=between(0.0, 1.0, open_lo=True))
 LUT_SIZE = Setting("lut_size", int, 4096, "transfer-function table entries", check=at_least(2))
