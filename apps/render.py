@@ -19,6 +19,7 @@ from dvr_gl.errors import DvrError
 from dvr_gl.image import check_output_path, check_writable, composite_over, write_image, write_text
 from dvr_gl.phantoms import DEMOS, demo_scene
 from dvr_gl.renderers import create_renderer, registry
+from dvr_gl.sandbox import Sandbox, active, parse_bytes
 from dvr_gl.scene import load_scene
 from dvr_gl.scene_schema import CameraSpec, VolumeSpec
 from dvr_gl.transfer_function import PRESETS
@@ -57,6 +58,12 @@ def add_arguments(p: argparse.ArgumentParser):
     p.add_argument("--frames", type=int, metavar="N",
                    help="render an orbit of N frames to OUTPUT_0000.ext, OUTPUT_0001.ext, ...")
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    b = p.add_argument_group("sandbox, for scenes you did not write (docs/robustness.md)")
+    b.add_argument("--sandbox", action="append", metavar="ROOT", help="read and write only inside folder ROOT "
+                   "(repeatable): the scene, every file it names and the outputs; FIFOs and devices are refused")
+    b.add_argument("--max-seconds", type=float, metavar="S", help="stop a render that runs longer (wall clock)")
+    b.add_argument("--max-memory", metavar="SIZE", help="memory budget for volumes, tables and images, e.g. 2GiB "
+                   "(default: half the physical memory)")
     g = p.add_argument_group("scene overrides")
     g.add_argument("--size", metavar="WxH", help="image size, e.g. 512x512 (or 512)")
     g.add_argument("--renderer", metavar="NAME",
@@ -169,7 +176,18 @@ def frame_paths(output: Path, frames: int | None) -> list[Path]:
     return [output.with_name(f"{output.stem}_{i:04d}{output.suffix}") for i in range(frames)]
 
 
+def sandbox_of(args) -> Sandbox:
+    """The limits the sandbox flags ask for (none given: the unbounded default)."""
+    memory = parse_bytes(args.max_memory) if args.max_memory is not None else None
+    return Sandbox(tuple(args.sandbox or ()), memory, args.max_seconds)
+
+
 def run(args) -> int:
+    with active(sandbox_of(args)):
+        return render(args)
+
+
+def render(args) -> int:
     if not args.scene and not args.demo and not args.volume:
         raise DvrError("nothing to render: give a scene file, --volume FILE or --demo")
     if args.demo and args.volume:

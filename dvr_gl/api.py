@@ -19,6 +19,7 @@ camera frames the data, a transfer function spans its values.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
 import tempfile
@@ -32,6 +33,7 @@ from .fields import Field
 from .fields.grid import Volume
 from .image import composite_over, encode_8bit, write_image
 from .renderers import create_renderer, registry
+from .sandbox import Sandbox, active
 from .scene import Scene, apply_overrides, load_scene, parse_scene, resolve_scene
 from .scene_schema import ImageSpec, parse_table, spec_to_dict
 from .transfer_function import TransferFunction, preset
@@ -94,13 +96,20 @@ class Image:
 
 def render(data, *, spacing=None, origin=None, transfer_function=None, rescale_intercept=None,
            camera: Camera | None = None, renderer: str | None = None, size=None, background=None, ctx=None,
-           **keywords) -> Image:
+           sandbox: Sandbox | None = None, **keywords) -> Image:
     """Render ``data`` (see the module doc): a numpy array indexed ``[z, y, x]``, a field
     (:mod:`dvr_gl.fields`), a path (a ``.toml`` scene file or a volume file), or a :class:`Scene`.
-    ``ctx``: a moderngl context for GL renderers (default: a new headless one, released after)."""
-    scene = scene_of(data, spacing=spacing, origin=origin, transfer_function=transfer_function,
-                     rescale_intercept=rescale_intercept, camera=camera, renderer=renderer, size=size,
-                     background=background, **keywords)
+    ``ctx``: a moderngl context for GL renderers (default: a new headless one, released after).
+    ``sandbox``: limits for scenes one did not write (:class:`dvr_gl.sandbox.Sandbox`: folders files may
+    be read from, memory, time), for loading and rendering both."""
+    with active(sandbox) if sandbox is not None else contextlib.nullcontext():
+        return _render(data, spacing=spacing, origin=origin, transfer_function=transfer_function,
+                       rescale_intercept=rescale_intercept, camera=camera, renderer=renderer, size=size,
+                       background=background, ctx=ctx, **keywords)
+
+
+def _render(data, *, ctx=None, **keywords) -> Image:
+    scene = scene_of(data, **keywords)
     registry.check(scene)
     with create_renderer(scene.renderer.name, ctx=ctx) as r:
         rgba = r.render(scene)

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import sandbox
 from .errors import DvrError
 
 FLOAT_FORMATS = (".exr", ".tif", ".tiff")
@@ -42,6 +43,7 @@ def check_writable(path: Path, overwrite: bool = False) -> Path:
                        f"longer than the {name_max} the file system allows; choose a shorter name")
     if path.is_dir():
         raise DvrError(f"{path}: is a folder; give a file name such as {path / 'image.png'}")
+    sandbox.check_output_path(path)
     if path.exists() and not overwrite:
         raise DvrError(f"{path}: exists; pass --overwrite to replace it, or choose another name")
     if not folder.is_dir():
@@ -80,7 +82,7 @@ def _file_mode(path: Path) -> int:
 def atomic_write(path: Path, write, overwrite: bool = False):
     """Call ``write(tmp_path)`` for a temporary file beside ``path``, then rename it over ``path``
     (callers check the path first: :func:`check_output_path`)."""
-    path = Path(path)
+    path = sandbox.check_output_path(path)
     folder = path.parent if str(path.parent) else Path(".")
     try:
         fd, tmp = tempfile.mkstemp(prefix=".dvr-", suffix=path.suffix, dir=folder)
