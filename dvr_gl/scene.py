@@ -31,7 +31,7 @@ from .io import load_volume
 from .sandbox import check_bytes, check_input_path
 from .scene_schema import (CameraSpec, ImageSpec, SceneSpec, TransferFunctionSpec, VolumeSpec, parse_table,
                            renderer_spec_class, spec_to_dict)
-from .settings import resolve_renderer as resolve_settings
+from .settings import WORLD_RANGE, resolve_renderer as resolve_settings
 from .toml_writer import dumps
 from .transfer_function import PRESETS, TransferFunction, preset
 
@@ -112,11 +112,6 @@ def _resolve_volume(spec: VolumeSpec, base_dir: Path):
 
 
 _FILE_KEYS = ("dims", "dtype", "spacing", "origin", "nan_value")
-
-#: World lengths (voxel spacing, box extent, coordinates) must lie in this range: GL shaders work in
-#: float32, whose squared lengths leave the normal range (1.2e-38 .. 3.4e38) beyond it.
-WORLD_RANGE = (1e-18, 1e18)
-
 
 def _check_extent(field, spec: VolumeSpec):
     """Refuse a field whose voxels, box or position are out of :data:`WORLD_RANGE`, naming where the

@@ -21,7 +21,7 @@ from typing import Optional, Union
 from .camera import LENS_CHECKS
 from .errors import SceneError
 from .model import choices, doc
-from .settings import at_least, between, positive
+from .settings import at_least, between, world_coordinates, world_length
 
 Vec3 = tuple[float, float, float]
 Vec4 = tuple[float, float, float, float]
@@ -73,8 +73,9 @@ class VolumeSpec:
                                      "`float32`, `float64`")
     endian: str = choices("little", "big", default="little", doc="raw files: byte order")
     header_bytes: int = checked(0, "raw files: bytes to skip before the data", at_least(0))
-    spacing: Optional[Vec3] = checked(None, "override the file's spacing (world units, x first)", each(positive))
-    origin: Optional[Vec3] = doc(None, "override the file's origin (world units, x first)")
+    spacing: Optional[Vec3] = checked(None, "override the file's spacing (world units, x first)",
+                                      each(world_length))
+    origin: Optional[Vec3] = checked(None, "override the file's origin (world units, x first)", world_coordinates)
     nan_value: Optional[float] = doc(None, "replace NaN/Inf by this value; without it they are an error")
 
 
@@ -86,7 +87,7 @@ class TransferFunctionSpec:
                                       "`grayscale`; `shepp-logan` for that demo)")
     points: Optional[list[list[float]]] = doc(None, "`[[value, r, g, b, opacity], ...]`, values strictly "
                                                     "increasing, data units; or give `preset`")
-    unit_distance: float = checked(1.0, "world length that `alpha` refers to", positive)
+    unit_distance: float = checked(1.0, "world length that `alpha` refers to", world_length)
     opacity_model: str = choices("alpha", "extinction", default="alpha",
                                  doc="what the 5th column means: `alpha` per `unit_distance`, or `extinction` sigma")
     rescale_intercept: float = doc(0.0, "CT presets: HU = data + intercept")
@@ -103,13 +104,14 @@ class CameraSpec:
     fov: float = checked(30.0, "vertical field of view, degrees (perspective)", LENS_CHECKS["fov"])
     view_height: Optional[float] = checked(None, "view height, world units (orthographic; default: frames the "
                                                  "data)", LENS_CHECKS["view_height"])
-    eye: Optional[Vec3] = doc(None, "look-at: the eye (world)")
-    target: Optional[Vec3] = doc(None, "what the camera looks at (default: the box centre)")
+    eye: Optional[Vec3] = checked(None, "look-at: the eye (world)", world_coordinates)
+    target: Optional[Vec3] = checked(None, "what the camera looks at (default: the box centre)", world_coordinates)
     up: Vec3 = checked((0.0, 0.0, 1.0), "the up direction", non_zero)
     azimuth: Optional[float] = doc(None, "orbit about the target, degrees (default 30); with `eye`, replaces "
                                          "the eye's")
     elevation: Optional[float] = doc(None, "orbit elevation, degrees (default 20)")
-    distance: Optional[float] = checked(None, "eye to target, world units (default: frames the data)", positive)
+    distance: Optional[float] = checked(None, "eye to target, world units (default: frames the data)",
+                                        world_length)
     near: float = checked(0.0, "near plane distance from the eye; rays start there or at the data",
                          LENS_CHECKS["near"])
 

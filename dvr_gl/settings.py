@@ -113,6 +113,22 @@ def at_least(n):
     return lambda value: None if value >= n else f"must be at least {n}"
 
 
+#: World lengths (voxel spacing, box extent, coordinates, camera distances) must lie in this range: GL
+#: shaders work in float32, whose squared lengths leave the normal range (1.2e-38 .. 3.4e38) beyond it.
+WORLD_RANGE = (1e-18, 1e18)
+
+
+def world_coordinates(values) -> Optional[str]:
+    """A point (world units) within :data:`WORLD_RANGE` of the origin."""
+    return None if all(abs(v) <= WORLD_RANGE[1] for v in values) else f"must be within {WORLD_RANGE[1]:g} of the origin"
+
+
+def world_length(value) -> Optional[str]:
+    """A length (world units) in :data:`WORLD_RANGE`."""
+    lo, hi = WORLD_RANGE
+    return None if lo <= value <= hi else f"must be in [{lo:g}, {hi:g}] world units"
+
+
 def between(lo, hi, open_lo=False, open_hi=False, what=""):
     text = f"must be in {'(' if open_lo else '['}{lo:g}, {hi:g}{')' if open_hi else ']'}{what}"
 

@@ -68,7 +68,7 @@ def _valid(tp, key: str, choices: tuple):
         return _valid(next(a for a in args if a is not type(None)), key, choices)
     if tp is float:
         return st.one_of(st.floats(1e-3, 1.0), st.floats(1e-3, 1.0), st.floats(-2, 400, allow_nan=False),
-                         st.sampled_from([0.0, -1.0, 1e-30, 180.0]))
+                         st.sampled_from([0.0, -1.0, 1e-300, -1e-300, 1e-30, 1e30, 1e300, -1e300, 180.0]))
     if tp is int:
         return st.integers(-3, 64)
     if tp is bool:

@@ -182,13 +182,19 @@ BAD_INPUTS = {
     "fov zero on a volume": (lambda t: ["--volume", _ones_npy(t), "--fov", 0], ["camera.fov must be in (0, 180)"]),
     "fov zero on the demo": (lambda t: ["--demo", "--fov", 0], ["camera.fov must be in (0, 180)"]),
     "huge spacing": (lambda t: ["--volume", _ones_npy(t), "--spacing", 1e300, 1, 1],
-                     ["volume.spacing: a voxel of 1 and a box of 3e+300", "out of range"]),
-    "tiny spacing": (lambda t: ["--volume", _ones_npy(t), "--spacing", 1e-300, 1, 1], ["volume.spacing", "out of range"]),
+                     ["volume.spacing must be in [1e-18, 1e+18] world units, got [1e+300, 1.0, 1.0]"]),
+    "tiny spacing": (lambda t: ["--volume", _ones_npy(t), "--spacing", 1e-300, 1, 1],
+                     ["volume.spacing must be in [1e-18, 1e+18] world units"]),
+    "huge extent": (lambda t: ["--volume", _ones_npy(t), "--spacing", 5e17, 1, 1],
+                    ["volume.spacing: a voxel of 1 and a box of 1.5e+18 world units are out of range"]),
+    "huge eye": (lambda t: ["--demo", "--set", "camera.eye=[1e300, 0, 0]"], ["camera.eye must be within 1e+18"]),
     "huge origin": (lambda t: ["--volume", _ones_npy(t), "--set", "volume.origin=[0,1e300,0]"],
-                    ["volume.origin: the box reaches 1e+300"]),
+                    ["volume.origin must be within 1e+18 of the origin"]),
+    "far origin": (lambda t: ["--volume", _ones_npy(t), "--set", "volume.origin=[0,9e17,0]", "--spacing", 1e17, 1e17,
+                              1e17], ["volume.origin: the box reaches 1.2e+18"]),
     "nan spacing": (lambda t: ["--volume", _ones_npy(t), "--spacing", "nan", 1, 1],
                     ["volume.spacing[0] must be a finite number"]),
-    "zero spacing": (lambda t: ["--volume", _ones_npy(t), "--spacing", 1, 0, 1], ["volume.spacing must be positive"]),
+    "zero spacing": (lambda t: ["--volume", _ones_npy(t), "--spacing", 1, 0, 1], ["volume.spacing must be in [1e-18, 1e+18] world units"]),
     "spacing on a demo": (lambda t: ["--demo", "--spacing", 1, 1, 2], ["volume.spacing applies to volume files"]),
     "infinite distance": (lambda t: ["--demo", "--distance", "inf"], ["camera.distance must be a finite number"]),
     "non-integer width": (lambda t: ["--demo", "--set", "image.width=1.5"], ["image.width: expected an integer"]),
@@ -295,3 +301,13 @@ def test_no_gl_context_is_one_line_and_no_output(tmp_path):
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "apt install libegl1 libegl-mesa0" in lines[0], proc.stderr
     assert not out.exists()
+
+
+@pytest.mark.parametrize("argv, fragment", [(["raycast", "--repeat", "0"], "argument --repeat: give a whole number"),
+                                            (["accel", "--repeat", "-1"], "argument --repeat"),
+                                            (["quality", "--spike-width", "nan"], "argument --spike-width"),
+                                            (["quality", "--spike-width", "0"], "in (0, 1], got '0'")])
+def test_bench_counts_and_fractions_are_checked(capsys, argv, fragment):
+    """--repeat 0 was an internal error (no median of no frames); --spike-width 0 silently ran the defaults."""
+    code, _, err = run(capsys, "bench", *argv)
+    assert_one_line_error(code, err, fragment)
