@@ -44,6 +44,8 @@ def check_writable(path: Path, overwrite: bool = False) -> Path:
     if path.is_dir():
         raise DvrError(f"{path}: is a folder; give a file name such as {path / 'image.png'}")
     sandbox.check_output_path(path)
+    if path.exists() and not path.is_file():  # replacing /dev/... or a FIFO by a rename is never meant
+        raise DvrError(f"{path}: exists and is not a regular file (a device, FIFO or socket); choose another name")
     if path.exists() and not overwrite:
         raise DvrError(f"{path}: exists; pass --overwrite to replace it, or choose another name")
     if not folder.is_dir():

@@ -75,6 +75,14 @@ def test_devices_are_refused():
         load_scene("/dev/zero")
 
 
+def test_a_fifo_is_never_replaced_by_an_output(tmp_path, capsys):
+    os.mkfifo(tmp_path / "o.png")
+    code = main(["render", "--demo", "--size", "8", "--set", "volume.size=8", "--overwrite",
+                 "-o", str(tmp_path / "o.png")])
+    assert code == 1 and "is not a regular file" in capsys.readouterr().err
+    assert (tmp_path / "o.png").is_fifo()
+
+
 def test_outputs_outside_the_roots_are_refused(box, capsys):
     root, outside = box
     code = main(["render", "--sandbox", str(root), str(_scene(root, "v.npy")), "-o", str(outside / "o.png")])
