@@ -192,11 +192,15 @@ def _renderer_settings(renderer: str | None, keywords: dict) -> dict:
 def _image_overrides(size, background) -> dict:
     out = {}
     if size is not None:
+        if not (np.isscalar(size) or (isinstance(size, (tuple, list)) and len(size) == 2)):
+            raise SceneError(f"size: give pixels as n or (width, height), got {size!r}")
         width, height = (size, size) if np.isscalar(size) else size
         # numpy integers as ints; anything else as given, for parsing to accept or refuse (1.5 is no size)
         out["image.width"], out["image.height"] = (int(n) if isinstance(n, np.integer) else n for n in (width, height))
     if background is not None:
-        bg = [float(c) for c in background]
+        if isinstance(background, str) or len(np.shape(background)) != 1 or len(background) not in (3, 4):
+            raise SceneError(f"background: give linear RGB or RGBA numbers in [0, 1], got {background!r}")
+        bg = [c.item() if isinstance(c, np.generic) else c for c in background]  # parsing checks the values
         out["image.background"] = bg + [1.0] * (4 - len(bg))
     return out
 

@@ -123,14 +123,19 @@ def _check_extent(field, spec: VolumeSpec):
     voxel = float(getattr(field, "sample_spacing", extent))
     small, large = WORLD_RANGE
     if not (voxel >= small and extent <= large):
-        where = "volume.spacing" if spec.spacing is not None else f"{spec.path or spec.demo}: the header's spacing"
+        where = "volume.spacing" if spec.spacing is not None else f"{_source_name(field, spec)}: the spacing"
         raise SceneError(f"{where}: a voxel of {voxel:.3g} and a box of {extent:.3g} world units are out of "
-                         f"range; voxels and extent must lie in [{small:g}, {large:g}]: give volume.spacing "
-                         f"in range")
+                         f"range; voxels and extent must lie in [{small:g}, {large:g}]: give a spacing in range "
+                         f"(volume.spacing, --spacing)")
     if not reach <= large:
-        where = "volume.origin" if spec.origin is not None else f"{spec.path or spec.demo}: the header's origin"
+        where = "volume.origin" if spec.origin is not None else f"{_source_name(field, spec)}: the origin"
         raise SceneError(f"{where}: the box reaches {reach:.3g} world units from the origin, beyond "
-                         f"{large:g}; give volume.origin in range")
+                         f"{large:g}; give an origin in range (volume.origin)")
+
+
+def _source_name(field, spec: VolumeSpec) -> str:
+    """Where a field's geometry came from, for messages: its file (header), its demo, or its name."""
+    return spec.path or spec.demo or getattr(field, "name", None) or "the data"
 
 
 def _resolve_transfer_function(spec: TransferFunctionSpec, field, demo: str | None) -> TransferFunction:
