@@ -29,6 +29,7 @@ import re
 import signal
 import stat
 import threading
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -121,7 +122,8 @@ def _time_limit(seconds: float | None):
         raise _Expired()
 
     previous = signal.signal(signal.SIGALRM, expired)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
+    outer, _ = signal.setitimer(signal.ITIMER_REAL, seconds)
+    start = time.monotonic()
     try:
         with _cpu_backstop(seconds):
             yield
@@ -131,6 +133,8 @@ def _time_limit(seconds: float | None):
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, previous)
+        if outer:  # an enclosing limit (a nested sandbox): its timer goes on with what is left of it
+            signal.setitimer(signal.ITIMER_REAL, max(outer - (time.monotonic() - start), 1e-3))
 
 
 @contextlib.contextmanager
@@ -179,8 +183,8 @@ def check_input_path(path, what: str = "file") -> Path:
 
 def check_output_path(path, what: str = "output file") -> Path:
     """``path`` if it may be written: inside the sandbox's roots, judged by where it will be created
-    (its folder, symlinks followed; the file itself is replaced by a rename, which does not follow a
-    link)."""
+    (its folder, symlinks followed), and by the target of a link already at that name (stricter than
+    needed: the rename that writes it would replace the link, not follow it)."""
     path = Path(path)
     box = current()
     folder = os.path.realpath(path.parent if str(path.parent) else ".")

@@ -105,6 +105,16 @@ def test_time_limit_stops_a_slow_render():
     assert signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)  # the timer is disarmed after
 
 
+def test_a_nested_time_limit_leaves_the_outer_one_running():
+    with pytest.raises(SandboxError, match="time limit of 0.5 s"):
+        with active(Sandbox(max_seconds=0.5)):
+            with active(Sandbox(max_seconds=100)):
+                pass
+            assert 0 < signal.getitimer(signal.ITIMER_REAL)[0] <= 0.5
+            time.sleep(2)  # interrupted by the outer limit
+    assert signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)
+
+
 def test_time_limit_on_the_command_line_is_one_line(tmp_path, capsys):
     code = main(["render", "--demo", "--set", "volume.size=24", "--size", "32", "--renderer", "reference",
                  "--sample-distance-voxels", "0.0005", "--max-seconds", "0.3", "-o", str(tmp_path / "o.png")])
