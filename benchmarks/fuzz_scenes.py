@@ -3,7 +3,8 @@
     python benchmarks/fuzz_scenes.py [--examples 2000] [--seed 0]
 
 Targets: ``scene`` (random scene dicts from the schema, loaded), ``render`` (the same, rendered at
-16x16 on the CPU reference; a third of the examples) and ``cli`` (random ``dvr render`` flag lists on a
+16x16 on the CPU reference; a third of the examples), ``render-own`` (on the scene's own renderer, the
+GL ones included; a tenth) and ``cli`` (random ``dvr render`` flag lists on a
 tiny demo; a tenth).  Prints a table (target, examples, user errors, scenes loaded or rendered, other
 exceptions) and each distinct finding (an exception other than a user error) with one example input.
 The strategies are the tests' (``tests/scene_fuzzing.py``); docs/robustness.md has the last run.
@@ -62,6 +63,8 @@ def main(argv=None) -> int:
         targets = [
             ("scene", scene_dicts(files), scene_outcome, args.examples),
             ("render", scene_dicts(files), lambda raw: scene_outcome(raw, render=True), max(1, args.examples // 3)),
+            ("render-own", scene_dicts(files), lambda raw: scene_outcome(raw, render="own"),
+             max(1, args.examples // 10)),
             ("cli", cli_argvs(build_parser()),
              lambda a: cli_outcome(["render", "--demo", *a, "--set", "volume.size=8", "--size", "8", "--overwrite",
                                     "-o", str(out)]), max(1, args.examples // 10)),

@@ -187,9 +187,9 @@ def scene_dicts(draw, files: dict[str, Path]):
 
 # --- outcomes ----------------------------------------------------------------------------------
 
-def scene_outcome(raw: dict, render: bool = False) -> tuple[str, BaseException | None]:
-    """Load ``raw`` as a scene (and, if asked, render it at 16x16 on the CPU reference); a warning on the
-    way is a finding too."""
+def scene_outcome(raw: dict, render: bool | str = False) -> tuple[str, BaseException | None]:
+    """Load ``raw`` as a scene (and, if asked, render it at 16x16 on the CPU reference, or with
+    ``render="own"`` on the scene's own renderer, GL ones included); a warning on the way is a finding too."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         outcome = _scene_outcome(raw, render)
@@ -207,9 +207,11 @@ def _scene_outcome(raw: dict, render: bool):
         scene = load_scene(None, base=raw)
         if not render:
             return "loaded", None
-        scene = scene.replace(image=ImageSpec(16, 16, scene.image.background)).with_renderer(name="reference")
+        scene = scene.replace(image=ImageSpec(16, 16, scene.image.background))
+        if render != "own":
+            scene = scene.with_renderer(name="reference")
         registry.check(scene)
-        with create_renderer("reference") as renderer:
+        with create_renderer(scene.renderer.name) as renderer:
             rgba = renderer.render(scene)
         if not (np.isfinite(rgba).all() and rgba.min() >= 0 and rgba.max() <= 1 + 1e-6):
             return "other", AssertionError(f"pixels out of [0, 1] or not finite: {rgba.min()}..{rgba.max()}")
