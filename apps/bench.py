@@ -16,10 +16,35 @@
 
 from __future__ import annotations
 
+import argparse
+import math
+
 from dvr_gl.phantoms import DEMOS
 from dvr_gl.transfer_function import PRESETS
 
 HELP = "run a benchmark and print its table"
+
+
+def count(text: str) -> int:
+    """A flag's whole number of at least 1 (frames, repeats)."""
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"give a whole number of at least 1, got {text!r}")
+    return n
+
+
+def fraction(text: str) -> float:
+    """A flag's fraction of the value range, in (0, 1]."""
+    try:
+        x = float(text)
+    except ValueError:
+        x = math.nan
+    if not 0 < x <= 1:
+        raise argparse.ArgumentTypeError(f"give a fraction of the value range in (0, 1], got {text!r}")
+    return x
 
 
 def add_arguments(p):
@@ -28,7 +53,7 @@ def add_arguments(p):
     rc.add_argument("--volume", metavar="FILE", help="a volume file (default: the Shepp-Logan phantom)")
     rc.add_argument("--volume-size", type=int, default=256, help="phantom samples per axis (default 256)")
     rc.add_argument("--size", type=int, default=512, help="square image size (default 512)")
-    rc.add_argument("--repeat", type=int, default=5, help="timed frames per case, after a warm-up (default 5)")
+    rc.add_argument("--repeat", type=count, default=5, help="timed frames per case, after a warm-up (default 5)")
     rc.add_argument("--transfer-function", choices=list(PRESETS), help="preset (default: the volume's)")
     rc.add_argument("--rescale-intercept", type=float, default=0.0)
     rc.add_argument("--up", type=float, nargs=3, metavar=("X", "Y", "Z"), help="camera up (default +z)")
@@ -37,13 +62,13 @@ def add_arguments(p):
     qu = sub.add_parser("quality", help="error versus sample spacing, post-classified and pre-integrated")
     qu.add_argument("--size", type=int, default=128, help="square image size (default 128)")
     qu.add_argument("--volume-size", type=int, default=41, help="Marschner-Lobb samples per axis (default 41)")
-    qu.add_argument("--spike-width", type=float, metavar="W",
+    qu.add_argument("--spike-width", type=fraction, metavar="W",
                     help="only this spike width, a fraction of the value range (default: 0.02 and 0.005)")
     rn = sub.add_parser("renderers", help="frame time of raycast, slicing3d and slicing2d, whole and bricked")
     rn.add_argument("--volume", metavar="FILE", help="a volume file (default: the Shepp-Logan phantom)")
     rn.add_argument("--volume-size", type=int, default=256, help="phantom samples per axis (default 256)")
     rn.add_argument("--size", type=int, default=512, help="square image size (default 512)")
-    rn.add_argument("--repeat", type=int, default=5, help="timed frames per case, after a warm-up (default 5)")
+    rn.add_argument("--repeat", type=count, default=5, help="timed frames per case, after a warm-up (default 5)")
     rn.add_argument("--budget", type=float, default=48.0, metavar="MB",
                     help="texture budget of the bricked runs, MB (default 48)")
     sw = sub.add_parser("shearwarp", help="shear-warp on the datasets in ../shared/data: encoding, frame time, "
@@ -79,7 +104,7 @@ def add_arguments(p):
 def _shared_data_arguments(p, size: int = 512):
     p.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder (default ../shared/data)")
     p.add_argument("--size", type=int, default=size, help=f"square image size (default {size})")
-    p.add_argument("--repeat", type=int, default=5, help="timed frames per case, after a warm-up (default 5)")
+    p.add_argument("--repeat", type=count, default=5, help="timed frames per case, after a warm-up (default 5)")
     p.add_argument("--only", metavar="TEXT", help="only datasets whose name contains TEXT")
 
 
@@ -104,7 +129,7 @@ def run(args) -> int:
 def run_quality(args) -> int:
     from dvr_gl.bench import quality
 
-    widths = [args.spike_width] if args.spike_width else quality.WIDTHS
+    widths = [args.spike_width] if args.spike_width is not None else quality.WIDTHS
     for width in widths:
         n = quality.table_size(width)
         args.report.text(f"dvr bench quality: Marschner-Lobb {args.volume_size}^3, extinction spike {100 * width:g} % of the "

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import sys
 import traceback
+import warnings
 
 from dvr_gl import __version__
 from dvr_gl.errors import DvrError
@@ -47,7 +48,12 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     args.command_line = "dvr " + " ".join(sys.argv[1:] if argv is None else argv)
     try:
-        return args.run(args) or 0
+        with warnings.catch_warnings():
+            if not args.debug:
+                # The last guard: a library warning (numpy's RuntimeWarning) is no line for the user; their
+                # sources are fixed where found (the scene's checks), and --debug shows any that remain.
+                warnings.simplefilter("ignore")
+            return args.run(args) or 0
     except DvrError as exc:
         if args.debug:
             traceback.print_exc()

@@ -19,6 +19,7 @@ from dvr_gl.errors import DvrError
 from dvr_gl.image import check_output_path, check_writable, composite_over, write_image, write_text
 from dvr_gl.phantoms import DEMOS, demo_scene
 from dvr_gl.renderers import create_renderer, registry
+from dvr_gl.sandbox import Sandbox, active, parse_bytes
 from dvr_gl.scene import load_scene
 from dvr_gl.scene_schema import CameraSpec, VolumeSpec
 from dvr_gl.transfer_function import PRESETS
@@ -38,7 +39,8 @@ _SCENE_KEYS = {
     "endian": "volume.endian", "header_bytes": "volume.header_bytes", "spacing": "volume.spacing",
     "nan_value": "volume.nan_value",
 }
-SETTING_DEST = "setting_"  # a renderer setting's flag stores into setting_<name>
+SETTING_DEST = "setting_"
+MAX_FRAMES = 10_000  # a renderer setting's flag stores into setting_<name>
 
 
 def _choices(spec, key: str) -> tuple:
@@ -57,6 +59,12 @@ def add_arguments(p: argparse.ArgumentParser):
     p.add_argument("--frames", type=int, metavar="N",
                    help="render an orbit of N frames to OUTPUT_0000.ext, OUTPUT_0001.ext, ...")
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    b = p.add_argument_group("sandbox, for scenes you did not write (docs/robustness.md)")
+    b.add_argument("--sandbox", action="append", metavar="ROOT", help="read and write only inside folder ROOT "
+                   "(repeatable): the scene, every file it names and the outputs; FIFOs and devices are refused")
+    b.add_argument("--max-seconds", type=float, metavar="S", help="stop a render that runs longer (wall clock)")
+    b.add_argument("--max-memory", metavar="SIZE", help="memory budget for volumes, tables and images, e.g. 2GiB "
+                   "(default: half the physical memory)")
     g = p.add_argument_group("scene overrides")
     g.add_argument("--size", metavar="WxH", help="image size, e.g. 512x512 (or 512)")
     g.add_argument("--renderer", metavar="NAME",
@@ -161,14 +169,26 @@ def set_overrides(items: list[str]) -> dict:
 
 
 def frame_paths(output: Path, frames: int | None) -> list[Path]:
-    if not frames:
+    if frames is None:
         return [output]
-    if frames < 1:
-        raise DvrError(f"--frames must be at least 1, got {frames}")
+    if not 1 <= frames <= MAX_FRAMES:
+        raise DvrError(f"--frames must be in [1, {MAX_FRAMES}] (the images of the orbit, numbered with 4 "
+                       f"digits), got {frames}")
     return [output.with_name(f"{output.stem}_{i:04d}{output.suffix}") for i in range(frames)]
 
 
+def sandbox_of(args) -> Sandbox:
+    """The limits the sandbox flags ask for (none given: the unbounded default)."""
+    memory = parse_bytes(args.max_memory) if args.max_memory is not None else None
+    return Sandbox(tuple(args.sandbox or ()), memory, args.max_seconds)
+
+
 def run(args) -> int:
+    with active(sandbox_of(args)):
+        return render(args)
+
+
+def render(args) -> int:
     if not args.scene and not args.demo and not args.volume:
         raise DvrError("nothing to render: give a scene file, --volume FILE or --demo")
     if args.demo and args.volume:
@@ -186,14 +206,14 @@ def run(args) -> int:
         print(f"tolerance {given if given is not None else 'from the scene'}: "
               f"{scene.tolerance_choice.describe(scene.field.sample_spacing)}")
     renderer = create_renderer(scene.renderer.name)
-    progress = Progress(len(outputs), "rendering") if args.frames and not args.quiet else None
-    steps = None if args.quiet or args.frames else Progress(0, "rendering", delay=PROGRESS_DELAY)
+    progress = Progress(len(outputs), "rendering") if args.frames is not None and not args.quiet else None
+    steps = None if args.quiet or args.frames is not None else Progress(0, "rendering", delay=PROGRESS_DELAY)
     renderer.progress = steps  # long work's steps (the CPU references'), shown after PROGRESS_DELAY seconds
     start = time.perf_counter()
     try:
         for i, path in enumerate(outputs):
             frame = scene
-            if args.frames and i:
+            if args.frames is not None and i:
                 az0 = scene.camera.orbited().orbit[0]
                 frame = scene.replace(camera=scene.camera.orbited(azimuth=az0 + 360.0 * i / len(outputs)))
             image = renderer.render(frame)
@@ -212,7 +232,8 @@ def run(args) -> int:
         scene_path = Path(args.save_scene)
         write_text(scene_path, scene.to_toml(relative_to=scene_path.resolve().parent), args.overwrite)
     if not args.quiet:
-        what = f"{len(outputs)} frames to {outputs[0]} .. {outputs[-1].name}" if args.frames else str(outputs[0])
+        what = (f"{len(outputs)} frames to {outputs[0]} .. {outputs[-1].name}" if args.frames is not None
+                else str(outputs[0]))
         print(f"wrote {what} ({scene.image.width}x{scene.image.height}, {scene.renderer.name}, "
               f"{time.perf_counter() - start:.2f} s)")
     return 0

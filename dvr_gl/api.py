@@ -19,6 +19,7 @@ camera frames the data, a transfer function spans its values.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
 import tempfile
@@ -32,7 +33,9 @@ from .fields import Field
 from .fields.grid import Volume
 from .image import composite_over, encode_8bit, write_image
 from .renderers import create_renderer, registry
+from .sandbox import Sandbox, active
 from .scene import Scene, apply_overrides, load_scene, parse_scene, resolve_scene
+from .scene_schema import ImageSpec, parse_table, spec_to_dict
 from .transfer_function import TransferFunction, preset
 
 _CAMERA_KEYS = ("azimuth", "elevation", "distance", "projection", "fov", "up")
@@ -93,13 +96,20 @@ class Image:
 
 def render(data, *, spacing=None, origin=None, transfer_function=None, rescale_intercept=None,
            camera: Camera | None = None, renderer: str | None = None, size=None, background=None, ctx=None,
-           **keywords) -> Image:
+           sandbox: Sandbox | None = None, **keywords) -> Image:
     """Render ``data`` (see the module doc): a numpy array indexed ``[z, y, x]``, a field
     (:mod:`dvr_gl.fields`), a path (a ``.toml`` scene file or a volume file), or a :class:`Scene`.
-    ``ctx``: a moderngl context for GL renderers (default: a new headless one, released after)."""
-    scene = scene_of(data, spacing=spacing, origin=origin, transfer_function=transfer_function,
-                     rescale_intercept=rescale_intercept, camera=camera, renderer=renderer, size=size,
-                     background=background, **keywords)
+    ``ctx``: a moderngl context for GL renderers (default: a new headless one, released after).
+    ``sandbox``: limits for scenes one did not write (:class:`dvr_gl.sandbox.Sandbox`: folders files may
+    be read from, memory, time), for loading and rendering both."""
+    with active(sandbox) if sandbox is not None else contextlib.nullcontext():
+        return _render(data, spacing=spacing, origin=origin, transfer_function=transfer_function,
+                       rescale_intercept=rescale_intercept, camera=camera, renderer=renderer, size=size,
+                       background=background, ctx=ctx, **keywords)
+
+
+def _render(data, *, ctx=None, **keywords) -> Image:
+    scene = scene_of(data, **keywords)
     registry.check(scene)
     with create_renderer(scene.renderer.name, ctx=ctx) as r:
         rgba = r.render(scene)
@@ -182,10 +192,15 @@ def _renderer_settings(renderer: str | None, keywords: dict) -> dict:
 def _image_overrides(size, background) -> dict:
     out = {}
     if size is not None:
+        if not (np.isscalar(size) or (isinstance(size, (tuple, list)) and len(size) == 2)):
+            raise SceneError(f"size: give pixels as n or (width, height), got {size!r}")
         width, height = (size, size) if np.isscalar(size) else size
-        out["image.width"], out["image.height"] = int(width), int(height)
+        # numpy integers as ints; anything else as given, for parsing to accept or refuse (1.5 is no size)
+        out["image.width"], out["image.height"] = (int(n) if isinstance(n, np.integer) else n for n in (width, height))
     if background is not None:
-        bg = [float(c) for c in background]
+        if isinstance(background, str) or len(np.shape(background)) != 1 or len(background) not in (3, 4):
+            raise SceneError(f"background: give linear RGB or RGBA numbers in [0, 1], got {background!r}")
+        bg = [c.item() if isinstance(c, np.generic) else c for c in background]  # parsing checks the values
         out["image.background"] = bg + [1.0] * (4 - len(bg))
     return out
 
@@ -196,9 +211,7 @@ def _changed(scene: Scene, transfer_function, camera, camera_keys: dict, setting
     image = _image_overrides(size, background)
     if image:
         changes = {k.removeprefix("image."): v for k, v in image.items()}
-        if "background" in changes:
-            changes["background"] = tuple(changes["background"])
-        scene = scene.replace(image=dataclasses.replace(scene.image, **changes))
+        scene = scene.replace(image=parse_table(ImageSpec, {**spec_to_dict(scene.image), **changes}, "image"))
     if transfer_function is not None:
         tf = transfer_function if isinstance(transfer_function, TransferFunction) else (
             preset(transfer_function, scene.field.value_range, rescale_intercept) if isinstance(transfer_function, str)

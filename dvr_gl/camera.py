@@ -15,16 +15,22 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .errors import SceneError
+from .settings import WORLD_RANGE, between, world_length
 
 PROJECTIONS = ("perspective", "orthographic")
+#: What the lens keys allow, as scene-file checks (``[camera]`` in :mod:`dvr_gl.scene_schema` uses these too,
+#: so a scene and a Camera built in Python are refused with the same words).
+LENS_CHECKS = {"fov": between(0, 180, open_lo=True, open_hi=True, what=" degrees"),
+               "view_height": world_length, "near": between(0, WORLD_RANGE[1], what=" world units")}
 
 
 def _unit(v, what: str) -> np.ndarray:
     v = np.asarray(v, dtype=np.float64)
-    n = np.linalg.norm(v)
-    if not np.isfinite(n) or n == 0:
+    scale = np.max(np.abs(v)) if v.size else 0.0
+    if not np.isfinite(scale) or scale == 0:
         raise SceneError(f"camera: {what} must be a non-zero vector, got {v.tolist()}")
-    return v / n
+    v = v / scale  # first to the largest component: no overflow or underflow in the norm (up = 1e300, 0, 0)
+    return v / np.linalg.norm(v)
 
 
 def orbit_frame(up) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -51,7 +57,7 @@ def orbit_of(eye, target, up) -> tuple[float, float, float]:
     d = np.asarray(eye, dtype=np.float64) - np.asarray(target, dtype=np.float64)
     dist = float(np.linalg.norm(d))
     if dist == 0:
-        raise SceneError("camera: eye and target coincide")
+        raise SceneError("camera.eye and camera.target coincide; move the eye")
     d = d / dist
     el = math.degrees(math.asin(max(-1.0, min(1.0, float(d @ u)))))
     az = math.degrees(math.atan2(float(d @ side), float(d @ front)))
@@ -85,24 +91,26 @@ class Camera:
     def __post_init__(self):
         if self.projection not in PROJECTIONS:
             raise SceneError(f"camera: projection {self.projection!r} is not one of {', '.join(PROJECTIONS)}")
-        if not 0 < self.fov < 180:
-            raise SceneError(f"camera: fov must be between 0 and 180 degrees, got {self.fov}")
-        if not self.view_height > 0:
-            raise SceneError(f"camera: view_height must be positive, got {self.view_height}")
-        if not self.near >= 0:
-            raise SceneError(f"camera: near must be >= 0, got {self.near}")
+        for key, check in LENS_CHECKS.items():
+            value = getattr(self, key)
+            problem = check(value) if math.isfinite(value) else "must be a finite number"
+            if problem:
+                raise SceneError(f"camera.{key} {problem}, got {value}")
         for name in ("eye", "target", "up"):
             v = tuple(float(x) for x in getattr(self, name))
-            if len(v) != 3 or not all(map(math.isfinite, v)):
-                raise SceneError(f"camera: {name} must be three finite numbers, got {getattr(self, name)}")
+            limit = math.inf if name == "up" else WORLD_RANGE[1]  # up is a direction: any finite length
+            if len(v) != 3 or not all(abs(x) <= limit for x in v):  # NaN fails too
+                raise SceneError(f"camera.{name} must be three finite numbers"
+                                 f"{'' if name == 'up' else f' within {limit:g} of the origin'}, got {list(v)}")
             object.__setattr__(self, name, v)
         _unit(np.subtract(self.target, self.eye), "target - eye")
         _unit(self.up, "up")
 
     @classmethod
     def from_orbit(cls, target, up, azimuth: float, elevation: float, distance: float, **kw) -> "Camera":
-        if not distance > 0:
-            raise SceneError(f"camera: distance must be positive, got {distance}")
+        problem = world_length(distance) if math.isfinite(distance) else "must be a finite number"
+        if problem:
+            raise SceneError(f"camera.distance {problem}, got {distance}")
         eye = orbit_eye(target, up, azimuth, elevation, distance)
         return cls(tuple(eye), tuple(target), tuple(up), orbit=(azimuth, elevation, distance), **kw)
 
@@ -121,7 +129,7 @@ class Camera:
     def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(forward, right, up)`` orthonormal; right-handed, right x up = -forward."""
         f = _unit(np.subtract(self.target, self.eye), "view direction")
-        r = np.cross(f, self.up)
+        r = np.cross(f, _unit(self.up, "up"))  # up may be any length (1e300): normalized first
         if np.linalg.norm(r) < 1e-12:
             # Looking along up: take right from the orbit frame so it is continuous
             # with nearby views (at the pole, the azimuth sets the image rotation).

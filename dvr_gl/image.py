@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import sandbox
 from .errors import DvrError
 
 FLOAT_FORMATS = (".exr", ".tif", ".tiff")
@@ -35,16 +36,31 @@ def composite_over(rgba: np.ndarray, background) -> np.ndarray:
 def check_writable(path: Path, overwrite: bool = False) -> Path:
     """Fail early, before any work, if ``path`` cannot or must not be written."""
     path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    name_max = _name_max(folder)
+    if len(os.fsencode(path.name)) > name_max:
+        raise DvrError(f"{path.name[:40]}...: the output file name is {len(os.fsencode(path.name))} bytes, "
+                       f"longer than the {name_max} the file system allows; choose a shorter name")
     if path.is_dir():
         raise DvrError(f"{path}: is a folder; give a file name such as {path / 'image.png'}")
+    sandbox.check_output_path(path)
+    if path.exists() and not path.is_file():  # replacing /dev/... or a FIFO by a rename is never meant
+        raise DvrError(f"{path}: exists and is not a regular file (a device, FIFO or socket); choose another name")
     if path.exists() and not overwrite:
         raise DvrError(f"{path}: exists; pass --overwrite to replace it, or choose another name")
-    folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
         raise DvrError(f"{path}: folder {folder} does not exist; create it first")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise DvrError(f"{path}: folder {folder} is not writable; choose another output path")
     return path
+
+
+def _name_max(folder: Path) -> int:
+    """The longest file name (bytes) the folder's file system allows (255 where it does not say)."""
+    try:
+        return os.pathconf(folder, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        return 255
 
 
 def check_output_path(path: Path, overwrite: bool = False) -> Path:
@@ -68,10 +84,10 @@ def _file_mode(path: Path) -> int:
 def atomic_write(path: Path, write, overwrite: bool = False):
     """Call ``write(tmp_path)`` for a temporary file beside ``path``, then rename it over ``path``
     (callers check the path first: :func:`check_output_path`)."""
-    path = Path(path)
+    path = sandbox.check_output_path(path)
     folder = path.parent if str(path.parent) else Path(".")
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=folder)
+        fd, tmp = tempfile.mkstemp(prefix=".dvr-", suffix=path.suffix, dir=folder)
     except OSError as exc:
         raise DvrError(f"{path}: cannot create a file in {folder} ({exc.strerror}); "
                        f"choose another output path") from exc

@@ -9,6 +9,15 @@ allocate what a header or a setting promises.
 
 Outside a sandbox (the default) any regular file may be read and the memory budget
 is half the machine's physical memory.
+
+Time (``max_seconds``) is bounded twice, since no Python code runs while a single GL call
+(llvmpipe drawing a frame) or numpy call is under way:
+
+* a wall-clock timer (``signal.setitimer``, main thread only) raises :class:`SandboxError` at
+  the deadline, between Python operations: the usual way a render stops, with one line;
+* a hard backstop, the process's CPU-time limit (``RLIMIT_CPU``, soft limit only, restored
+  after): a render stuck in one call is killed by the kernel (``SIGXCPU``) once it has used
+  ``max_seconds`` per core plus :data:`CPU_GRACE_SECONDS` of CPU time.
 """
 
 from __future__ import annotations
@@ -16,7 +25,11 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import os
+import re
+import signal
 import stat
+import threading
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,6 +38,10 @@ from .errors import DvrError
 
 class SandboxError(DvrError):
     """A path, size or duration the active sandbox (or the machine) does not allow."""
+
+
+#: The longest time limit (seconds, a year): the timer takes no more.
+MAX_SECONDS = 3.2e7
 
 
 @dataclass(frozen=True)
@@ -40,6 +57,17 @@ class Sandbox:
     roots: tuple[Path, ...] = ()
     max_bytes: int | None = None
     max_seconds: float | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "roots", tuple(Path(r) for r in self.roots))
+        for root in self.roots:
+            if not root.is_dir():
+                raise SandboxError(f"{root}: a sandbox root (--sandbox) must be an existing folder")
+        if self.max_bytes is not None and not 1 <= self.max_bytes < 2**63:
+            raise SandboxError(f"the memory budget (--max-memory) must be at least 1 byte, got {self.max_bytes}")
+        if self.max_seconds is not None and not 0 < self.max_seconds <= MAX_SECONDS:
+            raise SandboxError(f"the time limit (--max-seconds) must be in (0, {MAX_SECONDS:g}] seconds, "
+                               f"got {self.max_seconds}")
 
     def allows(self, path: Path) -> bool:
         if not self.roots:
@@ -61,12 +89,73 @@ def current() -> Sandbox:
 
 @contextlib.contextmanager
 def active(sandbox: Sandbox):
-    """Run the body under ``sandbox``."""
+    """Run the body under ``sandbox``: its roots and memory budget, and its time limit (see the module
+    doc; ``max_seconds`` needs the main thread)."""
     token = _CURRENT.set(sandbox)
     try:
-        yield sandbox
+        with _time_limit(sandbox.max_seconds):
+            yield sandbox
     finally:
         _CURRENT.reset(token)
+
+
+#: CPU seconds beyond ``max_seconds`` per core before the kernel stops a render stuck in one call.
+CPU_GRACE_SECONDS = 5
+
+
+class _Expired(BaseException):
+    """The timer's interruption: a BaseException, as KeyboardInterrupt, so that no ``except Exception``
+    on the way (a reader's, the GL context's) turns it into another message; :func:`active` turns it
+    into a :class:`SandboxError`."""
+
+
+@contextlib.contextmanager
+def _time_limit(seconds: float | None):
+    if seconds is None:
+        yield
+        return
+    if threading.current_thread() is not threading.main_thread():
+        raise SandboxError("a time limit (max_seconds) needs the main thread (a timer signal); render there, "
+                           "or in a subprocess")
+
+    def expired(signum, frame):
+        raise _Expired()
+
+    previous = signal.signal(signal.SIGALRM, expired)
+    outer, _ = signal.setitimer(signal.ITIMER_REAL, seconds)
+    start = time.monotonic()
+    try:
+        with _cpu_backstop(seconds):
+            yield
+    except _Expired:
+        raise SandboxError(f"the render ran past the time limit of {seconds:g} s (--max-seconds); stopped. "
+                           f"Render less (a smaller image, a longer sample distance) or allow more time") from None
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+        if outer:  # an enclosing limit (a nested sandbox): its timer goes on with what is left of it
+            signal.setitimer(signal.ITIMER_REAL, max(outer - (time.monotonic() - start), 1e-3))
+
+
+@contextlib.contextmanager
+def _cpu_backstop(seconds: float):
+    """Lower the soft CPU-time limit to what ``seconds`` of wall time on every core could use, plus the
+    grace; the soft limit only, so that it can be restored after (a process may raise it again)."""
+    import resource
+
+    soft, hard = resource.getrlimit(resource.RLIMIT_CPU)
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    limit = int(usage.ru_utime + usage.ru_stime + seconds * (os.cpu_count() or 1) + CPU_GRACE_SECONDS) + 1
+    if hard != resource.RLIM_INFINITY:
+        limit = min(limit, hard)
+    if soft != resource.RLIM_INFINITY and soft <= limit:  # already tighter
+        yield
+        return
+    resource.setrlimit(resource.RLIMIT_CPU, (limit, hard))
+    try:
+        yield
+    finally:
+        resource.setrlimit(resource.RLIMIT_CPU, (soft, hard))
 
 
 def check_input_path(path, what: str = "file") -> Path:
@@ -90,6 +179,38 @@ def check_input_path(path, what: str = "file") -> Path:
         raise SandboxError(f"{path}: the {what} is not a regular file (a FIFO, device or socket "
                            f"could block); give a regular file")
     return path
+
+
+def check_output_path(path, what: str = "output file") -> Path:
+    """``path`` if it may be written: inside the sandbox's roots, judged by where it will be created
+    (its folder, symlinks followed), and by the target of a link already at that name (stricter than
+    needed: the rename that writes it would replace the link, not follow it)."""
+    path = Path(path)
+    box = current()
+    folder = os.path.realpath(path.parent if str(path.parent) else ".")
+    if not box.allows(Path(folder) / path.name):
+        roots = ", ".join(str(r) for r in box.roots)
+        raise SandboxError(f"{path}: the {what} lies outside the allowed folders ({roots}); write it into "
+                           f"one of them")
+    return path
+
+
+_UNITS = {"": 1, "b": 1, "kb": 10**3, "mb": 10**6, "gb": 10**9, "tb": 10**12,
+          "kib": 2**10, "mib": 2**20, "gib": 2**30, "tib": 2**40}
+
+
+def parse_bytes(text: str, what: str = "--max-memory") -> int:
+    """Bytes from ``"2GiB"``, ``"512MB"``, ``"1e9"`` (decimal kB, MB, GB, TB; binary KiB, MiB, GiB, TiB)."""
+    match = re.fullmatch(r"\s*([0-9.]+(?:e[+-]?[0-9]+)?)\s*([a-z]*)\s*", str(text), re.IGNORECASE)
+    unit = match and match.group(2).lower()
+    try:
+        value = float(match.group(1)) * _UNITS[unit] if match else None
+    except (KeyError, ValueError):
+        value = None
+    if value is None or not 1 <= value < 2**63:
+        raise SandboxError(f"{what} {text!r}: give a size of at least 1 byte, e.g. 2GiB, 512MB or 1e9 (units: "
+                           f"B, kB, MB, GB, TB, KiB, MiB, GiB, TiB)")
+    return int(value)
 
 
 def physical_memory() -> int:

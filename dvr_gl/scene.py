@@ -28,9 +28,10 @@ from .camera import (DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Camera, framing_distanc
 from .errors import SceneError
 from .fields import diagonal
 from .io import load_volume
+from .sandbox import check_bytes, check_input_path
 from .scene_schema import (CameraSpec, ImageSpec, SceneSpec, TransferFunctionSpec, VolumeSpec, parse_table,
                            renderer_spec_class, spec_to_dict)
-from .settings import resolve_renderer as resolve_settings
+from .settings import WORLD_RANGE, resolve_renderer as resolve_settings
 from .toml_writer import dumps
 from .transfer_function import PRESETS, TransferFunction, preset
 
@@ -45,11 +46,14 @@ _EXCLUSIVE = {
 
 
 def read_scene_dict(path: Path) -> dict:
+    """The scene file's TOML: a regular file inside the sandbox's roots (:func:`dvr_gl.sandbox.check_input_path`)."""
+    check_input_path(path, "scene file")
+    check_bytes(os.path.getsize(path), f"{path}: the scene file", "scene files are a few kB; check the path")
     try:
         with open(path, "rb") as fh:
             return tomllib.load(fh)
-    except FileNotFoundError:
-        raise SceneError(f"{path}: scene file not found") from None
+    except OSError as exc:
+        raise SceneError(f"{path}: cannot read the scene file ({exc.strerror or exc})") from None
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{path}: not valid TOML ({exc})") from exc
     except UnicodeDecodeError as exc:
@@ -74,10 +78,13 @@ def apply_overrides(raw: dict, overrides: dict[str, object]) -> dict:
     return out
 
 
-def parse_scene(raw: dict, source: str = "scene") -> SceneSpec:
+def parse_scene(raw: dict, source: str | None = None) -> SceneSpec:
+    """The checked spec of a scene dict; errors name the key, after ``source`` (the file) if given."""
     try:
         return parse_table(SceneSpec, raw, "")
     except SceneError as exc:
+        if source is None:
+            raise
         raise SceneError(f"{source}: {exc}") from None
 
 
@@ -87,28 +94,55 @@ def _resolve_volume(spec: VolumeSpec, base_dir: Path):
     if spec.path and spec.demo:
         raise SceneError("volume: give path or demo, not both")
     if spec.demo:
-        if spec.size < 2:
-            raise SceneError(f"volume.size must be at least 2, got {spec.size}")
+        for key in _FILE_KEYS:
+            if getattr(spec, key) is not None:
+                raise SceneError(f"volume.{key} applies to volume files, not to the demo {spec.demo!r} "
+                                 f"(voxels of 1 world unit); remove it or give volume.path")
         return phantoms.demo_volume(spec.demo, spec.size), spec
     if not spec.path:
         raise SceneError("volume: no volume given; set volume.path (or --volume FILE) or volume.demo (--demo)")
     path = Path(os.path.expanduser(spec.path))
     if not path.is_absolute():
         path = base_dir / path
+    check_input_path(path, "volume file")
     volume = load_volume(path, spec.format, dims=spec.dims, dtype=spec.dtype, endian=spec.endian,
                          header_bytes=spec.header_bytes, spacing=spec.spacing, origin=spec.origin,
                          nan_value=spec.nan_value)
     return volume, dataclasses.replace(spec, path=str(path.resolve()))
 
 
+_FILE_KEYS = ("dims", "dtype", "spacing", "origin", "nan_value")
+
+def _check_extent(field, spec: VolumeSpec):
+    """Refuse a field whose voxels, box or position are out of :data:`WORLD_RANGE`, naming where the
+    numbers came from (the scene's ``volume.spacing``/``volume.origin`` or the file's header)."""
+    lo, hi = (np.asarray(b, dtype=np.float64) for b in field.bounds)
+    with np.errstate(over="ignore", invalid="ignore"):  # judged below, not warned about
+        extent = float(np.max(hi - lo))
+        reach = float(np.max(np.abs(np.concatenate([lo, hi]))))
+    voxel = float(getattr(field, "sample_spacing", extent))
+    small, large = WORLD_RANGE
+    if not (voxel >= small and extent <= large):
+        where = "volume.spacing" if spec.spacing is not None else f"{_source_name(field, spec)}: the spacing"
+        raise SceneError(f"{where}: a voxel of {voxel:.3g} and a box of {extent:.3g} world units are out of "
+                         f"range; voxels and extent must lie in [{small:g}, {large:g}]: give a spacing in range "
+                         f"(volume.spacing, --spacing)")
+    if not reach <= large:
+        where = "volume.origin" if spec.origin is not None else f"{_source_name(field, spec)}: the origin"
+        raise SceneError(f"{where}: the box reaches {reach:.3g} world units from the origin, beyond "
+                         f"{large:g}; give an origin in range (volume.origin)")
+
+
+def _source_name(field, spec: VolumeSpec) -> str:
+    """Where a field's geometry came from, for messages: its file (header), its demo, or its name."""
+    return spec.path or spec.demo or getattr(field, "name", None) or "the data"
+
+
 def _resolve_transfer_function(spec: TransferFunctionSpec, field, demo: str | None) -> TransferFunction:
-    if spec.preset and spec.points:
+    if spec.preset is not None and spec.points is not None:
         raise SceneError("transfer_function: give preset or points, not both")
-    if spec.points:
-        rows = spec.points
-        if any(len(r) != 5 for r in rows):
-            raise SceneError("transfer_function.points: each point is [value, r, g, b, opacity]")
-        return TransferFunction(np.array(rows), spec.unit_distance, spec.opacity_model)
+    if spec.points is not None:
+        return TransferFunction(spec.points, spec.unit_distance, spec.opacity_model)
     name = spec.preset or _default_preset(VolumeSpec(demo=demo))
     if spec.opacity_model != "alpha":
         raise SceneError("transfer_function: presets are written in alpha; use opacity_model = 'alpha'")
@@ -144,12 +178,9 @@ def _resolve_camera(spec: CameraSpec, field, image: ImageSpec) -> Camera:
 
 
 def _check_image(spec: ImageSpec):
-    if spec.width < 1 or spec.height < 1:
-        raise SceneError(f"image: width and height must be at least 1, got {spec.width}x{spec.height}")
+    """What the schema cannot check key by key (each key's own range is checked by parsing)."""
     if spec.width * spec.height > 64_000_000:
         raise SceneError(f"image: {spec.width}x{spec.height} is too large (at most 64 megapixels)")
-    if any(not 0.0 <= c <= 1.0 for c in spec.background):
-        raise SceneError(f"image.background: components must be in [0, 1], got {list(spec.background)}")
 
 
 def resolve_renderer(spec, field):
@@ -234,7 +265,7 @@ class Scene:
                 spec = dataclasses.replace(spec, camera=_reframed(self.camera))
             source = changes.pop("volume_source", VolumeSpec())
             tf_spec = spec.transfer_function
-            if not tf_spec.preset and not tf_spec.points:  # the old data's default preset, by name
+            if tf_spec.preset is None and tf_spec.points is None:  # the old data's default preset, by name
                 tf_spec = dataclasses.replace(tf_spec, preset=_default_preset(spec.volume))
             spec = dataclasses.replace(spec, volume=source, transfer_function=tf_spec)
             return resolve_scene(spec, field=field, volume_source=source,
@@ -309,6 +340,7 @@ def resolve_scene(spec: SceneSpec, base_dir: Path | str = ".", field=None, volum
     _check_image(spec.image)
     if field is None:
         field, volume_source = _resolve_volume(spec.volume, base_dir)
+    _check_extent(field, volume_source or spec.volume)
     tf = transfer_function or _resolve_transfer_function(spec.transfer_function, field, spec.volume.demo)
     camera = camera or _resolve_camera(spec.camera, field, spec.image)
     renderer = resolve_renderer(spec.renderer, field)
@@ -322,8 +354,7 @@ def load_scene(path: Path | str | None = None, overrides: dict | None = None, ba
     raw = read_scene_dict(Path(path)) if path is not None else copy.deepcopy(base or {})
     if overrides:
         raw = apply_overrides(raw, overrides)
-    source = str(path) if path is not None else "scene"
-    spec = parse_scene(raw, source)
+    spec = parse_scene(raw, str(path) if path is not None else None)
     return resolve_scene(spec, Path(path).parent if path is not None else Path.cwd())
 
 

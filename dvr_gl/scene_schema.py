@@ -18,8 +18,10 @@ import typing
 from dataclasses import dataclass, field
 from typing import Optional, Union
 
+from .camera import LENS_CHECKS
 from .errors import SceneError
 from .model import choices, doc
+from .settings import at_least, between, world_coordinates, world_length
 
 Vec3 = tuple[float, float, float]
 Vec4 = tuple[float, float, float, float]
@@ -28,6 +30,23 @@ Vec4 = tuple[float, float, float, float]
 class RendererTable:
     """Marks the ``[renderer]`` table: its dataclass is built from the renderer registry (the union of
     the settings every registered renderer declares: :func:`dvr_gl.renderers.registry.renderer_spec_class`)."""
+
+
+def checked(default, text: str, check):
+    """A documented field whose parsed value must pass ``check`` (a phrase completing "<key> ...", as
+    :class:`dvr_gl.settings.Setting` checks are; None when the value is fine)."""
+    return dataclasses.field(default=default, metadata={"doc": text, "check": check})
+
+
+def each(check):
+    """``check`` applied to every component of a list value (spacing, dims, a colour)."""
+    def check_all(values):
+        return next((p for p in map(check, values) if p), None)
+    return check_all
+
+
+def non_zero(vector) -> str | None:
+    return None if any(vector) else "must be a non-zero vector"
 
 
 def renderer_spec_class():
@@ -46,16 +65,17 @@ class VolumeSpec:
 
     path: Optional[str] = doc(None, "a volume file (relative to the scene file); or give `demo`")
     demo: Optional[str] = doc(None, "a built-in phantom: `shepp-logan`, `marschner-lobb`")
-    size: int = doc(64, "samples per axis of a demo phantom")
+    size: int = checked(64, "samples per axis of a demo phantom", at_least(2))
     format: str = choices("auto", "raw", "nrrd", "nifti", "metaimage", "vtk", "npy", "tiff", default="auto",
                           doc="the reader; `auto` goes by the suffix")
-    dims: Optional[tuple[int, int, int]] = doc(None, "raw files: `[nx, ny, nz]`")
+    dims: Optional[tuple[int, int, int]] = checked(None, "raw files: `[nx, ny, nz]`", each(at_least(1)))
     dtype: Optional[str] = doc(None, "raw files: `uint8`, `int8`, `uint16`, `int16`, `uint32`, `int32`, "
                                      "`float32`, `float64`")
     endian: str = choices("little", "big", default="little", doc="raw files: byte order")
-    header_bytes: int = doc(0, "raw files: bytes to skip before the data")
-    spacing: Optional[Vec3] = doc(None, "override the file's spacing (world units, x first)")
-    origin: Optional[Vec3] = doc(None, "override the file's origin (world units, x first)")
+    header_bytes: int = checked(0, "raw files: bytes to skip before the data", at_least(0))
+    spacing: Optional[Vec3] = checked(None, "override the file's spacing (world units, x first)",
+                                      each(world_length))
+    origin: Optional[Vec3] = checked(None, "override the file's origin (world units, x first)", world_coordinates)
     nan_value: Optional[float] = doc(None, "replace NaN/Inf by this value; without it they are an error")
 
 
@@ -67,7 +87,7 @@ class TransferFunctionSpec:
                                       "`grayscale`; `shepp-logan` for that demo)")
     points: Optional[list[list[float]]] = doc(None, "`[[value, r, g, b, opacity], ...]`, values strictly "
                                                     "increasing, data units; or give `preset`")
-    unit_distance: float = doc(1.0, "world length that `alpha` refers to")
+    unit_distance: float = checked(1.0, "world length that `alpha` refers to", world_length)
     opacity_model: str = choices("alpha", "extinction", default="alpha",
                                  doc="what the 5th column means: `alpha` per `unit_distance`, or `extinction` sigma")
     rescale_intercept: float = doc(0.0, "CT presets: HU = data + intercept")
@@ -81,24 +101,27 @@ class CameraSpec:
     """
 
     projection: str = choices("perspective", "orthographic", default="perspective", doc="the projection")
-    fov: float = doc(30.0, "vertical field of view, degrees (perspective)")
-    view_height: Optional[float] = doc(None, "view height, world units (orthographic; default: frames the data)")
-    eye: Optional[Vec3] = doc(None, "look-at: the eye (world)")
-    target: Optional[Vec3] = doc(None, "what the camera looks at (default: the box centre)")
-    up: Vec3 = doc((0.0, 0.0, 1.0), "the up direction")
+    fov: float = checked(30.0, "vertical field of view, degrees (perspective)", LENS_CHECKS["fov"])
+    view_height: Optional[float] = checked(None, "view height, world units (orthographic; default: frames the "
+                                                 "data)", LENS_CHECKS["view_height"])
+    eye: Optional[Vec3] = checked(None, "look-at: the eye (world)", world_coordinates)
+    target: Optional[Vec3] = checked(None, "what the camera looks at (default: the box centre)", world_coordinates)
+    up: Vec3 = checked((0.0, 0.0, 1.0), "the up direction", non_zero)
     azimuth: Optional[float] = doc(None, "orbit about the target, degrees (default 30); with `eye`, replaces "
                                          "the eye's")
     elevation: Optional[float] = doc(None, "orbit elevation, degrees (default 20)")
-    distance: Optional[float] = doc(None, "eye to target, world units (default: frames the data)")
-    near: float = doc(0.0, "near plane distance from the eye; rays start there or at the data")
+    distance: Optional[float] = checked(None, "eye to target, world units (default: frames the data)",
+                                        world_length)
+    near: float = checked(0.0, "near plane distance from the eye; rays start there or at the data",
+                         LENS_CHECKS["near"])
 
 
 @dataclass
 class ImageSpec:
-    width: int = doc(256, "pixels")
-    height: int = doc(256, "pixels")
-    background: Vec4 = doc((0.0, 0.0, 0.0, 1.0), "linear RGBA, not premultiplied; composited once, after "
-                                                  "rendering")
+    width: int = checked(256, "pixels", at_least(1))
+    height: int = checked(256, "pixels", at_least(1))
+    background: Vec4 = checked((0.0, 0.0, 0.0, 1.0), "linear RGBA, not premultiplied; composited once, after "
+                                                      "rendering", each(between(0.0, 1.0)))
 
 
 @dataclass
@@ -125,6 +148,14 @@ def _type_name(tp) -> str:
     return {float: "a number", int: "an integer", bool: "true or false", str: "a string"}.get(tp, str(tp))
 
 
+def _clamped(n: int) -> float:
+    """An int as a float, infinite when too large for one (Python's float() raises instead)."""
+    try:
+        return float(n)
+    except OverflowError:
+        return math.inf
+
+
 def _convert(value, tp, where: str):
     origin = typing.get_origin(tp)
     args = typing.get_args(tp)
@@ -133,12 +164,16 @@ def _convert(value, tp, where: str):
         return _convert(value, inner[0], where)
     bad = SceneError(f"{where}: expected {_type_name(tp)}, got {value!r}")
     if tp is float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise bad
+        if not math.isfinite(value if isinstance(value, float) else _clamped(value)):
+            raise SceneError(f"{where} must be a finite number, got {value!r}")
         return float(value)
     if tp is int:
         if isinstance(value, bool) or not isinstance(value, int):
             raise bad
+        if not -2**63 <= value < 2**63:  # what TOML allows; larger ones overflow every consumer
+            raise SceneError(f"{where} must be an integer of at most 64 bits, got {value}")
         return value
     if tp in (bool, str):
         if not isinstance(value, tp):
@@ -174,6 +209,11 @@ def parse_table(cls, table: dict, where: str):
         allowed = fields[key].metadata.get("choices")
         if allowed and converted not in allowed:
             raise SceneError(f"{here}: {converted!r} is not one of {', '.join(map(str, allowed))}")
+        check = fields[key].metadata.get("check")
+        problem = check(converted) if check and converted is not None else None
+        if problem:
+            shown = list(converted) if isinstance(converted, tuple) else converted
+            raise SceneError(f"{here} {problem}, got {shown!r}")
         kwargs[key] = converted
     return cls(**kwargs)
 

@@ -113,6 +113,22 @@ def at_least(n):
     return lambda value: None if value >= n else f"must be at least {n}"
 
 
+#: World lengths (voxel spacing, box extent, coordinates, camera distances) must lie in this range: GL
+#: shaders work in float32, whose squared lengths leave the normal range (1.2e-38 .. 3.4e38) beyond it.
+WORLD_RANGE = (1e-18, 1e18)
+
+
+def world_coordinates(values) -> Optional[str]:
+    """A point (world units) within :data:`WORLD_RANGE` of the origin."""
+    return None if all(abs(v) <= WORLD_RANGE[1] for v in values) else f"must be within {WORLD_RANGE[1]:g} of the origin"
+
+
+def world_length(value) -> Optional[str]:
+    """A length (world units) in :data:`WORLD_RANGE`."""
+    lo, hi = WORLD_RANGE
+    return None if lo <= value <= hi else f"must be in [{lo:g}, {hi:g}] world units"
+
+
 def between(lo, hi, open_lo=False, open_hi=False, what=""):
     text = f"must be in {'(' if open_lo else '['}{lo:g}, {hi:g}{')' if open_hi else ']'}{what}"
 
@@ -181,7 +197,8 @@ ORDER = Setting("order", str, "front_to_back", "compositing order (back_to_front
 ISO_REFINEMENT = Setting("iso_refinement", int, 8, "bisection steps refining the isosurface's first hit",
                          check=between(0, 64, what=" bisection steps"), flag=False)
 JITTER = Setting("jitter", bool, False, "per-pixel sample offset against wood-grain artefacts", must_support=True)
-JITTER_SEED = Setting("jitter_seed", int, 0, "seed of the jitter offsets")
+JITTER_SEED = Setting("jitter_seed", int, 0, "seed of the jitter offsets (32 bits: the shaders' hash)",
+                      check=lambda v: None if 0 <= v < 2**32 else "must be in [0, 4294967295]")
 ERT_THRESHOLD = Setting("ert_threshold", float, 0.99, "early ray termination at this accumulated opacity (1: off)",
                         check=between(0.0, 1.0, open_lo=True))
 LUT_SIZE = Setting("lut_size", int, 4096, "transfer-function table entries", check=at_least(2))

@@ -55,25 +55,32 @@ class TransferFunction:
     opacity_model: str = "alpha"
 
     def __post_init__(self):
-        pts = np.array(self.points, dtype=np.float64)
+        try:
+            pts = np.array(self.points, dtype=np.float64)
+        except (ValueError, TypeError):  # ragged rows or non-numbers
+            pts = np.empty((0, 0))
         if pts.ndim != 2 or pts.shape[1] != 5 or len(pts) < 1:
-            raise SceneError("transfer function: points must be a list of [value, r, g, b, opacity] rows")
-        if not np.isfinite(pts).all():
-            raise SceneError("transfer function: points must be finite numbers (no NaN or Inf)")
-        bad = np.nonzero(np.diff(pts[:, 0]) <= 0)[0]
+            raise SceneError("transfer_function.points must be a non-empty list of [value, r, g, b, opacity] "
+                             "rows (or give transfer_function.preset)")
+        with np.errstate(over="ignore", invalid="ignore"):  # infinite steps are refused below
+            steps = np.diff(pts[:, 0])
+        if not (np.isfinite(pts).all() and np.isfinite(steps).all()):
+            raise SceneError("transfer_function.points must be finite numbers (no NaN or Inf, values at most "
+                             "1e308 apart)")
+        bad = np.nonzero(steps <= 0)[0]
         if bad.size:
             i = int(bad[0])
-            raise SceneError(f"transfer function: values must increase strictly, but point {i + 1} "
+            raise SceneError(f"transfer_function.points: values must increase strictly, but point {i + 1} "
                              f"({pts[i + 1, 0]:g}) follows {pts[i, 0]:g}; sort the points")
         if self.opacity_model not in OPACITY_MODELS:
-            raise SceneError(f"transfer function: opacity_model {self.opacity_model!r} is not one of "
+            raise SceneError(f"transfer_function.opacity_model {self.opacity_model!r} is not one of "
                              f"{', '.join(OPACITY_MODELS)}")
         _check_range(pts[:, 1:4], 0.0, 1.0, "colour (r, g, b)")
         hi = 1.0 if self.opacity_model == "alpha" else np.inf
         _check_range(pts[:, 4:5], 0.0, hi, "alpha" if self.opacity_model == "alpha" else "extinction")
         u = float(self.unit_distance)
         if not np.isfinite(u) or u <= 0:
-            raise SceneError(f"transfer function: unit_distance must be a positive number, got {u}")
+            raise SceneError(f"transfer_function.unit_distance must be a positive number, got {u}")
         pts.setflags(write=False)
         object.__setattr__(self, "points", pts)
         object.__setattr__(self, "unit_distance", u)
@@ -150,7 +157,7 @@ def _check_range(cols: np.ndarray, lo: float, hi: float, what: str):
     bad = np.nonzero(((cols < lo) | (cols > hi)).any(axis=1))[0]
     if bad.size:
         i = int(bad[0])
-        raise SceneError(f"transfer function: point {i} has {what} {cols[i].tolist()} outside "
+        raise SceneError(f"transfer_function.points[{i}] has {what} {cols[i].tolist()} outside "
                          f"[{lo:g}, {hi:g}]")
 
 

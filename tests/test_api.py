@@ -127,3 +127,20 @@ def test_any_field_renders_with_the_renderers_that_declare_its_kind():
     with pytest.raises(dvr_gl.SceneError, match="raycast renders grid data, not analytic; use reference or "
                                                 "reference-converged"):
         dvr_gl.render(sphere, transfer_function=points, size=16)
+
+
+@pytest.mark.parametrize("keywords, fragment", [
+    ({"size": (8,)}, "size: give pixels as n or (width, height)"),
+    ({"size": 1.5}, "image.width: expected an integer, got 1.5"),
+    ({"background": "red"}, "background: give linear RGB or RGBA"),
+    ({"background": (1, 0, 2)}, "image.background must be in [0, 1]"),
+    ({"transfer_function": []}, "transfer_function.points must be a non-empty list"),
+    ({"fov": 0}, "camera.fov must be in (0, 180) degrees"),
+    ({"sample_distance_voxels": 0}, "renderer.sample_distance_voxels must be positive"),
+    ({"spacing": (1e300, 1, 1)}, "array: the spacing: a voxel of 1 and a box of 7e+300 world units are out of range"),
+])
+def test_bad_keywords_name_the_key(keywords, fragment):
+    """Keywords are checked as scene keys are: a DvrError naming them, never a ValueError (issue 14)."""
+    with pytest.raises(dvr_gl.DvrError) as caught:
+        dvr_gl.render(np.zeros((8, 8, 8), np.float32), renderer="reference", **{"size": 8, **keywords})
+    assert fragment in str(caught.value)

@@ -149,7 +149,7 @@ BAD_INPUTS = {
     "truncated gzip": (lambda t: ["--volume", _raw(t, 1000, "v.raw.gz", compress=True), "--dims", 10, 10, 10,
                                   "--dtype", "uint8"], ["truncated or corrupt"]),
     "zero dims": (lambda t: ["--volume", _raw(t, 0), "--dims", 10, 0, 10, "--dtype", "uint8"],
-                  ["dims must be three positive integers"]),
+                  ["volume.dims must be at least 1"]),
     "nan in data": (lambda t: ["--volume", _nan_npy(t)], ["NaN or Inf", "--nan-value"]),
     "unsorted tf": (lambda t: [_scene(t, '[volume]\ndemo = "shepp-logan"\n[transfer_function]\n'
                                       'points = [[0.5, 0, 0, 0, 0], [0.1, 1, 1, 1, 1]]\n')],
@@ -162,14 +162,54 @@ BAD_INPUTS = {
     "missing volume": (lambda t: ["--volume", t / "absent.nrrd"], ["file not found"]),
     "nothing to render": (lambda t: [], ["nothing to render"]),
     "demo and volume": (lambda t: ["--demo", "--volume", _nan_npy(t)], ["give --demo or --volume, not both"]),
-    "bad size": (lambda t: ["--demo", "--set", "image.width=0"], ["width and height must be at least 1"]),
+    "bad size": (lambda t: ["--demo", "--set", "image.width=0"], ["image.width must be at least 1"]),
     "bad flag choice": (lambda t: ["--demo", "--compositing", "bogus"], ["invalid choice: 'bogus'",
                                                                          "see dvr render --help"]),
     "renderer refuses": (lambda t: ["--demo", "--renderer", "shearwarp"],
                          ["shearwarp does not support renderer.shading", "use raycast"]),
     "shading value": (lambda t: ["--demo", "--set", "renderer.shading.ambient=-1"],
                       ["renderer.shading.ambient must be >= 0, got -1.0"]),
+    # issue 14: each of these was silently accepted, misreported or an internal error
+    "zero sample distance": (lambda t: ["--demo", "--sample-distance-voxels", 0],
+                             ["renderer.sample_distance_voxels must be positive, got 0.0"]),
+    "negative sample distance": (lambda t: ["--demo", "--set", "renderer.sample_distance=-1"],
+                                 ["renderer.sample_distance must be positive"]),
+    "empty points": (lambda t: [_scene(t, '[volume]\ndemo = "shepp-logan"\n[transfer_function]\npoints = []\n')],
+                     ["transfer_function.points must be a non-empty list"]),
+    "ragged points": (lambda t: ["--demo", "--set", "transfer_function.points=[[0,1,1,1,1],[1,1]]"],
+                      ["transfer_function.points must be a non-empty list of [value, r, g, b, opacity]"]),
+    "zero frames": (lambda t: ["--demo", "--frames", 0], ["--frames must be in [1, 10000]"]),
+    "fov zero on a volume": (lambda t: ["--volume", _ones_npy(t), "--fov", 0], ["camera.fov must be in (0, 180)"]),
+    "fov zero on the demo": (lambda t: ["--demo", "--fov", 0], ["camera.fov must be in (0, 180)"]),
+    "huge spacing": (lambda t: ["--volume", _ones_npy(t), "--spacing", 1e300, 1, 1],
+                     ["volume.spacing must be in [1e-18, 1e+18] world units, got [1e+300, 1.0, 1.0]"]),
+    "tiny spacing": (lambda t: ["--volume", _ones_npy(t), "--spacing", 1e-300, 1, 1],
+                     ["volume.spacing must be in [1e-18, 1e+18] world units"]),
+    "huge extent": (lambda t: ["--volume", _ones_npy(t), "--spacing", 5e17, 1, 1],
+                    ["volume.spacing: a voxel of 1 and a box of 1.5e+18 world units are out of range"]),
+    "huge eye": (lambda t: ["--demo", "--set", "camera.eye=[1e300, 0, 0]"], ["camera.eye must be within 1e+18"]),
+    "huge origin": (lambda t: ["--volume", _ones_npy(t), "--set", "volume.origin=[0,1e300,0]"],
+                    ["volume.origin must be within 1e+18 of the origin"]),
+    "far origin": (lambda t: ["--volume", _ones_npy(t), "--set", "volume.origin=[0,9e17,0]", "--spacing", 1e17, 1e17,
+                              1e17], ["volume.origin: the box reaches 1.2e+18"]),
+    "nan spacing": (lambda t: ["--volume", _ones_npy(t), "--spacing", "nan", 1, 1],
+                    ["volume.spacing[0] must be a finite number"]),
+    "zero spacing": (lambda t: ["--volume", _ones_npy(t), "--spacing", 1, 0, 1],
+                     ["volume.spacing must be in [1e-18, 1e+18] world units"]),
+    "spacing on a demo": (lambda t: ["--demo", "--spacing", 1, 1, 2], ["volume.spacing applies to volume files"]),
+    "infinite distance": (lambda t: ["--demo", "--distance", "inf"], ["camera.distance must be a finite number"]),
+    "non-integer width": (lambda t: ["--demo", "--set", "image.width=1.5"], ["image.width: expected an integer"]),
+    "huge integer": (lambda t: ["--demo", "--set", "renderer.lut_size=100000000000000000000"],
+                     ["renderer.lut_size must be an integer of at most 64 bits"]),
+    "negative seed": (lambda t: ["--demo", "--jitter-seed", -1], ["renderer.jitter_seed must be in [0, 4294967295]"]),
+    "zero up": (lambda t: ["--demo", "--set", "camera.up=[0,0,0]"], ["camera.up must be a non-zero vector"]),
+    "scene is a folder": (lambda t: [t], ["the scene file is a folder"]),
 }
+
+
+def _ones_npy(tmp_path):
+    np.save(tmp_path / "ones.npy", np.ones((4, 4, 4), np.float32))
+    return tmp_path / "ones.npy"
 
 
 def _nan_npy(tmp_path):
@@ -186,7 +226,7 @@ def test_bad_input_gives_one_line_and_no_output(tmp_path, capsys, case):
     code, _, err = run(capsys, "render", *args(tmp_path), "-o", out, *SMALL)
     assert_one_line_error(code, err, *fragments)
     assert not out.exists()
-    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out.")]  # no temporary files
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".dvr-")]  # no temporary files
 
 
 def test_nan_replacement_value_makes_the_data_usable(tmp_path, capsys):
@@ -196,7 +236,7 @@ def test_nan_replacement_value_makes_the_data_usable(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("output, fragment", [("missing/dir/out.png", "does not exist"), ("out.bmpx", "unsupported"),
-                                              (".", "is a folder")])
+                                              (".", "is a folder"), ("x" * 300 + ".png", "longer than the 255")])
 def test_unwritable_outputs(tmp_path, capsys, output, fragment):
     code, _, err = run(capsys, "render", "--demo", "-o", tmp_path / output, *SMALL)
     assert_one_line_error(code, err, fragment)
@@ -262,3 +302,13 @@ def test_no_gl_context_is_one_line_and_no_output(tmp_path):
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "apt install libegl1 libegl-mesa0" in lines[0], proc.stderr
     assert not out.exists()
+
+
+@pytest.mark.parametrize("argv, fragment", [(["raycast", "--repeat", "0"], "argument --repeat: give a whole number"),
+                                            (["accel", "--repeat", "-1"], "argument --repeat"),
+                                            (["quality", "--spike-width", "nan"], "argument --spike-width"),
+                                            (["quality", "--spike-width", "0"], "in (0, 1], got '0'")])
+def test_bench_counts_and_fractions_are_checked(capsys, argv, fragment):
+    """--repeat 0 was an internal error (no median of no frames); --spike-width 0 silently ran the defaults."""
+    code, _, err = run(capsys, "bench", *argv)
+    assert_one_line_error(code, err, fragment)

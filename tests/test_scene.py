@@ -132,3 +132,15 @@ def test_toml_writer_round_trips_floats_exactly():
 def test_jitter_with_preintegration_is_refused():
     with pytest.raises(SceneError, match="jitter does not apply to pre-integrated classification"):
         small_scene({"renderer.classification": "preintegrated", "renderer.jitter": True})
+
+
+def test_extreme_camera_vectors_are_normalized_without_warnings():
+    """An up vector of 1e300 (its norm overflows float64) is a direction like any other (fuzzing found
+    numpy's overflow warning); warnings are errors here."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        huge = small_scene({"camera.up": [0.0, -1e300, 1e300]}).camera
+        plain = small_scene({"camera.up": [0.0, -1.0, 1.0]}).camera
+    assert np.allclose(huge.eye, plain.eye) and np.allclose(huge.basis(), plain.basis())

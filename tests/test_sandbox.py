@@ -1,0 +1,181 @@
+"""The sandbox for scenes one did not write (issue 14, item 4): files only inside the roots (after
+``..`` and symlinks), no FIFOs or devices, outputs inside the roots, a memory budget and a time limit."""
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import numpy as np
+import pytest
+
+import dvr_gl
+from dvr_gl.apps.cli import main
+from dvr_gl.sandbox import Sandbox, SandboxError, active, memory_budget, parse_bytes
+from dvr_gl.scene import load_scene
+
+SCENE = '[volume]\npath = "{path}"\n[image]\nwidth = 8\nheight = 8\n'
+
+
+@pytest.fixture
+def box(tmp_path):
+    """``root/`` holding a small volume, and ``outside/`` beside it holding another."""
+    root, outside = tmp_path / "root", tmp_path / "outside"
+    root.mkdir()
+    outside.mkdir()
+    for folder in (root, outside):
+        np.save(folder / "v.npy", np.linspace(0, 1, 64, dtype=np.float32).reshape(4, 4, 4))
+    return root, outside
+
+
+def _scene(folder, volume_path, name="s.toml"):
+    path = folder / name
+    path.write_text(SCENE.format(path=volume_path))
+    return path
+
+
+def test_files_inside_the_roots_load(box):
+    root, _ = box
+    with active(Sandbox((root,))):
+        assert load_scene(_scene(root, "v.npy")).field.data.shape == (4, 4, 4)
+
+
+@pytest.mark.parametrize("how", ["absolute", "dot-dot", "symlink"])
+def test_a_volume_outside_the_roots_is_refused(box, how):
+    root, outside = box
+    if how == "symlink":
+        (root / "link.npy").symlink_to(outside / "v.npy")
+    volume = {"absolute": outside / "v.npy", "dot-dot": "../outside/v.npy", "symlink": "link.npy"}[how]
+    with active(Sandbox((root,))), pytest.raises(SandboxError, match="volume file lies outside the allowed"):
+        load_scene(_scene(root, volume))
+
+
+def test_a_scene_file_outside_the_roots_is_refused(box):
+    root, outside = box
+    with active(Sandbox((root,))), pytest.raises(SandboxError, match="scene file lies outside"):
+        load_scene(_scene(outside, "v.npy"))
+
+
+@pytest.mark.parametrize("what", ["scene", "volume"])
+def test_fifos_are_refused_without_blocking(box, what):
+    root, _ = box
+    fifo = root / "pipe"
+    os.mkfifo(fifo)
+    scene = fifo if what == "scene" else _scene(root, "pipe")
+    start = time.perf_counter()
+    with active(Sandbox((root,))), pytest.raises(SandboxError, match="not a regular file"):
+        load_scene(scene)
+    assert time.perf_counter() - start < 5  # refused from stat(), never opened (opening would block)
+
+
+def test_devices_are_refused():
+    with pytest.raises(SandboxError, match="not a regular file"):
+        load_scene("/dev/zero")
+
+
+def test_a_fifo_is_never_replaced_by_an_output(tmp_path, capsys):
+    os.mkfifo(tmp_path / "o.png")
+    code = main(["render", "--demo", "--size", "8", "--set", "volume.size=8", "--overwrite",
+                 "-o", str(tmp_path / "o.png")])
+    assert code == 1 and "is not a regular file" in capsys.readouterr().err
+    assert (tmp_path / "o.png").is_fifo()
+
+
+def test_outputs_outside_the_roots_are_refused(box, capsys):
+    root, outside = box
+    code = main(["render", "--sandbox", str(root), str(_scene(root, "v.npy")), "-o", str(outside / "o.png")])
+    err = capsys.readouterr().err.strip()
+    assert code == 1 and "o.png: the output file lies outside the allowed folders" in err and "\n" not in err
+    assert not (outside / "o.png").exists()
+    assert main(["render", "--sandbox", str(root), str(_scene(root, "v.npy")), "-o", str(root / "o.png"),
+                 "--quiet"]) == 0
+    assert (root / "o.png").exists()
+
+
+def test_time_limit_stops_a_slow_render():
+    """The float64 reference at 1/2000 voxel takes seconds (3.3 s measured); the timer stops it at 0.3 s,
+    between numpy operations."""
+    start = time.perf_counter()
+    with pytest.raises(SandboxError, match="time limit of 0.3 s"):
+        dvr_gl.render(np.random.default_rng(0).random((24, 24, 24)), size=32, renderer="reference",
+                      sample_distance_voxels=0.0005, sandbox=Sandbox(max_seconds=0.3))
+    assert time.perf_counter() - start < 2.0
+    assert signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)  # the timer is disarmed after
+
+
+def test_a_nested_time_limit_leaves_the_outer_one_running():
+    with pytest.raises(SandboxError, match="time limit of 0.5 s"):
+        with active(Sandbox(max_seconds=0.5)):
+            with active(Sandbox(max_seconds=100)):
+                pass
+            assert 0 < signal.getitimer(signal.ITIMER_REAL)[0] <= 0.5
+            time.sleep(2)  # interrupted by the outer limit
+    assert signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)
+
+
+def test_time_limit_on_the_command_line_is_one_line(tmp_path, capsys):
+    code = main(["render", "--demo", "--set", "volume.size=24", "--size", "32", "--renderer", "reference",
+                 "--sample-distance-voxels", "0.0005", "--max-seconds", "0.3", "-o", str(tmp_path / "o.png")])
+    err = capsys.readouterr().err.strip()
+    assert code == 1 and "ran past the time limit of 0.3 s (--max-seconds)" in err and "\n" not in err
+    assert list(tmp_path.iterdir()) == []  # no output, no temporary file
+
+
+def test_cpu_backstop_kills_a_call_the_timer_cannot_interrupt():
+    """One C call (``sum`` over a range) holds the interpreter, so the timer's handler never runs; the
+    CPU-time limit (1 s per core plus the grace, here 0) ends the process with SIGXCPU."""
+    code = textwrap.dedent("""
+        from dvr_gl import sandbox
+        sandbox.CPU_GRACE_SECONDS = 0
+        with sandbox.active(sandbox.Sandbox(max_seconds=1)):
+            sum(range(10**12))
+    """)
+    start = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-c", code], timeout=60)
+    assert proc.returncode == -signal.SIGXCPU
+    assert time.perf_counter() - start < 30
+
+
+def test_cpu_limit_is_restored_after():
+    import resource
+
+    before = resource.getrlimit(resource.RLIMIT_CPU)
+    with active(Sandbox(max_seconds=100)):
+        assert resource.getrlimit(resource.RLIMIT_CPU)[0] != before[0]
+    assert resource.getrlimit(resource.RLIMIT_CPU) == before
+
+
+def test_memory_budget_follows_the_flag(tmp_path, capsys):
+    with active(Sandbox(max_bytes=parse_bytes("3MiB"))):
+        assert memory_budget() == 3 << 20
+    big = tmp_path / "big.toml"
+    big.write_text("# " + "x" * 5000 + "\n")
+    code = main(["render", str(big), "--max-memory", "4kB", "-o", str(tmp_path / "o.png")])
+    err = capsys.readouterr().err
+    assert code == 1 and "over the memory budget of" in err
+
+
+@pytest.mark.skipif("check_bytes" not in open(dvr_gl.io.__file__.replace("__init__.py", "npy.py")).read()
+                    and "check_bytes" not in open(dvr_gl.io.__file__).read(),
+                    reason="the readers check the memory budget in the readers branch (issue 14, item 2)")
+def test_memory_budget_refuses_a_big_volume(box):
+    root, _ = box
+    np.save(root / "big.npy", np.zeros((64, 64, 64), np.float32))  # 1 MiB
+    with active(Sandbox((root,), max_bytes=64 << 10)), pytest.raises(SandboxError, match="memory budget"):
+        load_scene(_scene(root, "big.npy"))
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["--max-memory", "banana"], "--max-memory 'banana': give a size"),
+    (["--max-memory", "0"], "--max-memory '0'"),
+    (["--max-seconds", "0"], "--max-seconds) must be in (0,"),
+    (["--max-seconds", "nan"], "--max-seconds) must be in (0,"),
+    (["--max-seconds", "inf"], "--max-seconds) must be in (0,"),
+    (["--sandbox", "/no/such/folder"], "must be an existing folder"),
+])
+def test_bad_sandbox_flags_are_one_line(tmp_path, capsys, argv, fragment):
+    code = main(["render", "--demo", "--size", "8", *argv, "-o", str(tmp_path / "o.png")])
+    err = capsys.readouterr().err.strip()
+    assert code == 1 and fragment in err and "\n" not in err, err
