@@ -125,9 +125,22 @@ def check_work(work: Work | None, renderer: str):
         return
     limit = bound(work.unit)
     if not work.count <= limit:  # also NaN
-        hours = work.count / RATES[work.unit] / 3600.0
-        raise SceneError(f"{renderer} would take {work.count:.3g} {work.unit} ({work.how}; about {hours:.3g} "
-                         f"hours at the rate measured on two CPU cores), over the bound of {limit:.3g}; {work.fix}")
+        duration = _duration(work.count / RATES[work.unit])
+        raise SceneError(f"{renderer} would take {work.count:.3g} {work.unit} ({work.how}; about {duration} "
+                         f"at the rate measured on two CPU cores), over the bound of {limit:.3g}; {work.fix}")
+
+
+def estimated_seconds(work: Work | None) -> float:
+    """Seconds ``work`` takes at the measured rate (0 for None: bounded by the data)."""
+    return 0.0 if work is None else work.count / RATES[work.unit]
+
+
+def _duration(seconds: float) -> str:
+    """``seconds`` in the unit a person reads best (the count is an upper bound, the rate the fastest measured)."""
+    for unit, size in (("hours", 3600.0), ("minutes", 60.0)):
+        if seconds >= 2 * size:
+            return f"{seconds / size:.3g} {unit}"
+    return f"{seconds:.3g} s"
 
 
 def samples_per_ray(scene) -> float:

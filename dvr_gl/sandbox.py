@@ -109,6 +109,13 @@ class _Expired(BaseException):
     into a :class:`SandboxError`."""
 
 
+def time_limit_error(seconds: float, done: str = "") -> SandboxError:
+    """The one message for a render stopped at the time limit, by the timer or by a renderer's own
+    check between steps (``done``: how far it got)."""
+    return SandboxError(f"the render ran past the time limit of {seconds:g} s (--max-seconds){done}; stopped. "
+                        f"Render less (a smaller image, a longer sample distance) or allow more time")
+
+
 @contextlib.contextmanager
 def _time_limit(seconds: float | None):
     if seconds is None:
@@ -128,8 +135,7 @@ def _time_limit(seconds: float | None):
         with _cpu_backstop(seconds):
             yield
     except _Expired:
-        raise SandboxError(f"the render ran past the time limit of {seconds:g} s (--max-seconds); stopped. "
-                           f"Render less (a smaller image, a longer sample distance) or allow more time") from None
+        raise time_limit_error(seconds) from None
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, previous)

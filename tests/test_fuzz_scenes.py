@@ -16,11 +16,13 @@ CI = settings(max_examples=100, deadline=None, derandomize=True, database=None,
 
 @pytest.fixture(scope="module")
 def files(tmp_path_factory):
-    """Volumes a fuzzed volume.path may name: a small one, a folder, a missing file.  (Malformed files are
-    the readers' fuzz tests' business; benchmarks/fuzz_scenes.py also names an empty one.)"""
+    """Volumes a fuzzed volume.path may name: a small one, a folder, a missing file, an empty one (read
+    under any volume.format the fuzzer picks; malformed files are the readers' fuzz tests' business)."""
     folder = tmp_path_factory.mktemp("fuzz")
     np.save(folder / "small.npy", np.linspace(0, 1, 6 * 5 * 4, dtype=np.float32).reshape(6, 5, 4))
-    return {"small": folder / "small.npy", "folder": folder, "missing": folder / "absent.nrrd"}
+    (folder / "empty.raw").write_bytes(b"")
+    return {"small": folder / "small.npy", "folder": folder, "missing": folder / "absent.nrrd",
+            "empty": folder / "empty.raw"}
 
 
 def test_scenes_load_or_give_a_user_error(files):

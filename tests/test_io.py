@@ -428,6 +428,7 @@ def test_promised_bytes_are_checked_against_the_budget_before_reading(tmp_path):
     with active(Sandbox(max_bytes=40)):
         with pytest.raises(SandboxError, match="over the memory budget"):
             load_volume(_nhdr_with(tmp_path))
+    (tmp_path / "elsewhere").mkdir()
     with active(Sandbox(roots=(tmp_path / "elsewhere",))):
         with pytest.raises(SandboxError, match="outside the allowed folders"):
             load_volume(_nhdr_with(tmp_path))

@@ -8,6 +8,7 @@ bricking that handles a volume over a texture limit.
 from __future__ import annotations
 
 import dataclasses
+import re
 import time
 
 import numpy as np
@@ -148,29 +149,45 @@ def test_demo_volume_size_is_checked_before_generation():
 
 
 def test_tiny_spacing_is_refused_by_the_work_estimate(renderers, tmp_path):
-    # spacings 1e-300 1 1 made a 0.5e-300 default sample distance: 7 GB of segment windows before failing
+    # spacings 1e-300 1 1 made a 0.5e-300 default sample distance: 7 GB of segment windows before failing.
+    # The scene now refuses voxels below 1e-18 (float32's safe range); within it, a tiny voxel beside
+    # unit ones still means absurd work, which the estimate refuses
     from conftest import array_scene
 
     scene = array_scene(tmp_path, np.zeros((8, 8, 8), np.float32), {"image.width": 8, "image.height": 8},
-                        spacing=(1e-300, 1.0, 1.0))
-    with pytest.raises(DvrError, match=r"0.5 voxels of the smallest spacing, 1e-300"):
+                        spacing=(1e-15, 1.0, 1.0))
+    with pytest.raises(DvrError, match=r"0.5 voxels of the smallest spacing, 1e-15"):
         renderers["raycast"].render(scene)
 
 
 def test_a_sandbox_time_budget_lowers_the_work_bound(renderers):
-    scene = small_scene({"volume.size": 16, "image.width": 64, "image.height": 64,
+    # 128^2 rays x about 2600 samples: 4e7, under the bound of an hour, over a tenth of a second's 3e7
+    scene = small_scene({"volume.size": 16, "image.width": 128, "image.height": 128,
                          "renderer.sample_distance_voxels": 0.01})
     renderers["raycast"].check_resources(scene)  # fine without a budget
-    with active(Sandbox(max_seconds=1e-3)), pytest.raises(DvrError, match="over the bound of 3e\\+05"):
+    with active(Sandbox(max_seconds=0.1)), pytest.raises(DvrError, match="over the bound of 3e\\+07"):
         renderers["raycast"].render(scene)
 
 
-def test_a_sandbox_time_budget_stops_a_cpu_reference_mid_render():
+def test_a_sandbox_time_budget_stops_a_cpu_reference_mid_render(monkeypatch):
+    """Between steps the renderer checks the time itself, with the timer's message: here the sandbox's
+    timer is switched off, so that the renderer's own check is what stops it."""
+    import contextlib
+
+    from dvr_gl import sandbox
+
+    from dvr_gl.reference import discrete
+
+    monkeypatch.setattr(sandbox, "_time_limit", lambda seconds: contextlib.nullcontext())
+    monkeypatch.setattr(discrete, "SAMPLES_PER_CHUNK", 64)  # several steps
     scene = small_scene({"renderer.name": "reference", "volume.size": 16, "image.width": 16, "image.height": 16})
     renderer = create_renderer("reference")
     renderer.progress = lambda done, total: time.sleep(0.05)  # a slow step
-    with active(Sandbox(max_seconds=0.01)), pytest.raises(SandboxError, match="ran past the time budget"):
-        renderer.render(scene)
+    with pytest.raises(SandboxError, match=r"time limit of 0.01 s \(--max-seconds\) in reference") as caught:
+        with active(Sandbox(max_seconds=0.01)):
+            renderer.render(scene)
+    done, total = map(int, re.search(r"(\d+) of (\d+) steps done", str(caught.value)).groups())
+    assert done < total  # stopped mid-render, at the first step past the limit
 
 
 # --- progress and Ctrl-C -----------------------------------------------------------------------
@@ -276,3 +293,32 @@ def test_cli_lut_over_the_limit_on_a_real_volume(shared_data, tmp_path, capsys):
         assert not list(tmp_path.iterdir())
     else:
         assert status == 0
+
+
+def test_long_one_pass_frames_are_drawn_in_bands(renderers, monkeypatch):
+    """A frame estimated over BAND_SECONDS is drawn in scissored bands of rows, reporting each: the
+    image is bit-identical to the one-pass frame (each pixel's ray runs the same code), and a
+    KeyboardInterrupt raised between bands stops the frame there (no Python runs inside a draw)."""
+    from dvr_gl.renderers.raycast import renderer as raycast
+
+    scene = small_scene({"volume.size": 16, "image.width": 40, "image.height": 30})
+    one_pass = renderers["raycast"].render(scene)
+    monkeypatch.setattr(raycast, "BAND_SECONDS", 1e-9)  # a band a row
+    steps = []
+    renderers["raycast"].progress = lambda done, total: steps.append((done, total))
+    try:
+        banded = renderers["raycast"].render(scene)
+        assert steps == [(k, 30) for k in range(1, 31)]
+        np.testing.assert_array_equal(banded, one_pass)
+
+        def interrupt(done, total):
+            if done == 3:
+                raise KeyboardInterrupt
+
+        renderers["raycast"].progress = interrupt
+        with pytest.raises(KeyboardInterrupt):
+            renderers["raycast"].render(scene)
+        renderers["raycast"].progress = None
+        np.testing.assert_array_equal(renderers["raycast"].render(scene), one_pass)  # the GL state is clean after
+    finally:
+        renderers["raycast"].progress = None

@@ -94,7 +94,16 @@ def test_outputs_outside_the_roots_are_refused(box, capsys):
     assert (root / "o.png").exists()
 
 
-def test_time_limit_stops_a_slow_render():
+@pytest.fixture
+def unbounded_work(monkeypatch):
+    """The work estimate (dvr_gl.limits) refuses up front what the measured rates say would run past
+    the time limit; faster rates let a slow render start, so that the timer is what stops it."""
+    from dvr_gl import limits
+
+    monkeypatch.setattr(limits, "RATES", {unit: 1e6 * rate for unit, rate in limits.RATES.items()})
+
+
+def test_time_limit_stops_a_slow_render(unbounded_work):
     """The float64 reference at 1/2000 voxel takes seconds (3.3 s measured); the timer stops it at 0.3 s,
     between numpy operations."""
     start = time.perf_counter()
@@ -115,12 +124,22 @@ def test_a_nested_time_limit_leaves_the_outer_one_running():
     assert signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)
 
 
-def test_time_limit_on_the_command_line_is_one_line(tmp_path, capsys):
+def test_time_limit_on_the_command_line_is_one_line(tmp_path, capsys, unbounded_work):
     code = main(["render", "--demo", "--set", "volume.size=24", "--size", "32", "--renderer", "reference",
                  "--sample-distance-voxels", "0.0005", "--max-seconds", "0.3", "-o", str(tmp_path / "o.png")])
     err = capsys.readouterr().err.strip()
     assert code == 1 and "ran past the time limit of 0.3 s (--max-seconds)" in err and "\n" not in err
     assert list(tmp_path.iterdir()) == []  # no output, no temporary file
+
+
+def test_work_over_the_time_limit_is_refused_before_it_starts(tmp_path, capsys):
+    """Without faked rates, the same render is refused at once by the work estimate (at the rate
+    measured here it would take longer than the limit), in one line, writing nothing."""
+    code = main(["render", "--demo", "--set", "volume.size=24", "--size", "32", "--renderer", "reference",
+                 "--sample-distance-voxels", "0.0005", "--max-seconds", "0.3", "-o", str(tmp_path / "o.png")])
+    err = capsys.readouterr().err.strip()
+    assert code == 1 and "reference would take" in err and "over the bound of 3e+06" in err and "\n" not in err
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_cpu_backstop_kills_a_call_the_timer_cannot_interrupt():
@@ -157,9 +176,6 @@ def test_memory_budget_follows_the_flag(tmp_path, capsys):
     assert code == 1 and "over the memory budget of" in err
 
 
-@pytest.mark.skipif("check_bytes" not in open(dvr_gl.io.__file__.replace("__init__.py", "npy.py")).read()
-                    and "check_bytes" not in open(dvr_gl.io.__file__).read(),
-                    reason="the readers check the memory budget in the readers branch (issue 14, item 2)")
 def test_memory_budget_refuses_a_big_volume(box):
     root, _ = box
     np.save(root / "big.npy", np.zeros((64, 64, 64), np.float32))  # 1 MiB

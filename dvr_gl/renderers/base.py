@@ -21,7 +21,7 @@ from typing import ClassVar
 import numpy as np
 
 from .. import limits
-from ..sandbox import SandboxError, current
+from ..sandbox import current, time_limit_error
 from . import registry
 
 
@@ -69,8 +69,7 @@ class Renderer:
             self.progress(done, total)
         seconds = current().max_seconds
         if seconds is not None and time.perf_counter() - self._started > seconds:
-            raise SandboxError(f"{self.name} ran past the time budget of {seconds:g} s ({done} of {total} "
-                               f"steps done); lower --size or the quality settings, or raise the budget")
+            raise time_limit_error(seconds, f" in {self.name}, {done} of {total} steps done")
 
     def close(self):
         """Release GPU resources (nothing for CPU renderers)."""

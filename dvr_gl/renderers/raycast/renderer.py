@@ -26,6 +26,10 @@ from ..grid.textures import upload_field
 from . import acceleration as accel
 from .acceleration import level_count
 
+# A one-pass frame estimated to take longer than this (seconds, at limits.RATES) is drawn in bands of
+# about this much work: the progress bar moves, and Ctrl-C or a sandbox's timer stop it between bands.
+BAND_SECONDS = 0.25
+
 COMPOSITING = {"emission_absorption": "COMPOSITE_EMISSION", "isosurface": "COMPOSITE_ISOSURFACE",
                "average": "COMPOSITE_AVERAGE", "mip": "COMPOSITE_MIP", "minip": "COMPOSITE_MINIP"}
 
@@ -197,7 +201,7 @@ class RayCastRenderer(GLVolumeRenderer):
         self.bind(program, uniforms, textures)
         width, height = scene.image.width, scene.image.height
         (colour, *counts), fbo = self.target("main", width, height, (4, 2) if self.count_samples else (4,))
-        gpu_seconds = self._draw(program, fbo, width, height)
+        gpu_seconds = self._draw(program, fbo, width, height, self.bands(scene))
         image = self.read(fbo, width, height)
         self.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines, "bricks": 1}
         if self.count_samples:
@@ -209,17 +213,32 @@ class RayCastRenderer(GLVolumeRenderer):
             self.stats["jumps_per_ray"] = float(jumps[hit].mean()) if hit.any() else 0.0
         return image
 
-    def _draw(self, program, fbo, width, height) -> float:
+    def bands(self, scene) -> int:
+        """Horizontal bands to draw a one-pass frame in: one for a frame estimated under
+        :data:`BAND_SECONDS`, else about that much estimated work a band (at most a row each)."""
+        seconds = limits.estimated_seconds(self.work(scene))
+        return int(min(scene.image.height, max(1, math.ceil(seconds / BAND_SECONDS))))
+
+    def _draw(self, program, fbo, width, height, bands: int = 1) -> float:
+        """Draw the full-screen pass into ``fbo``, in ``bands`` scissored bands of rows; between bands
+        the frame reports progress, so that Ctrl-C and a sandbox's time limit stop it there (no Python
+        runs while one draw call is under way).  Returns the seconds spent drawing."""
         fbo.use()
         self.ctx.viewport = (0, 0, width, height)
         self.ctx.disable(self.ctx.BLEND | self.ctx.DEPTH_TEST)
         vao = self.ctx.vertex_array(program, [])
+        edges = np.linspace(0, height, bands + 1).round().astype(int)
         try:
             drawn = now()
-            vao.render(mode=self.ctx.TRIANGLES, vertices=3)
-            self.ctx.finish()
+            for band, (y0, y1) in enumerate(zip(edges[:-1], edges[1:])):
+                fbo.scissor = (0, int(y0), width, int(y1 - y0)) if bands > 1 else None
+                vao.render(mode=self.ctx.TRIANGLES, vertices=3)
+                self.ctx.finish()
+                if bands > 1:
+                    self.report(band + 1, bands)
             return now() - drawn
         finally:
+            fbo.scissor = None
             vao.release()
 
     def _render_bricks(self, scene, defines, views, start, windows) -> np.ndarray:
