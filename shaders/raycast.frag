@@ -165,15 +165,19 @@ int segments_to_jump(int k, float start, float len, float t, out vec4 block) {
 #else
     float t_check = start;
 #endif
-    vec3 u_check = voxel_coord(o + t_check * d);
-    int level = -1;
+    // Inside a block already found not skippable (the common case on dense data): nothing to look
+    // up.  A GPU takes this branch; llvmpipe predicates it, running the code below under a mask at
+    // every sample, which is the whole cost of acceleration there (docs/acceleration.md).
 #ifdef BACK_TO_FRONT
-    if (k < n - 1 && t_check <= known) {
+    if (k >= n - 1 || t_check > known) return 0;
 #else
-    if (k < n - 1 && t_check >= known) {
+    if (k >= n - 1 || t_check < known) return 0;
 #endif
-        level = skip_level(u_check, 0.0, block);
-        if (level < 0) known = block_end(t_check, 0, u_check);
+    vec3 u_check = voxel_coord(o + t_check * d);
+    int level = skip_level(u_check, 0.0, block);
+    if (level < 0) {
+        known = block_end(t_check, 0, u_check);
+        return 0;
     }
     float t_end = block_end(t_check, level, u_check);
 #if defined(BACK_TO_FRONT) && defined(CLASSIFY_PREINTEGRATED)
@@ -186,7 +190,7 @@ int segments_to_jump(int k, float start, float len, float t, out vec4 block) {
 #else
     int m = segments_before(t_end, t0, offset, k, n) - k;
 #endif
-    return level < 0 ? 0 : m;
+    return m;
 }
 #endif
 
