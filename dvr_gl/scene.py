@@ -104,7 +104,6 @@ def _resolve_volume(spec: VolumeSpec, base_dir: Path):
     path = Path(os.path.expanduser(spec.path))
     if not path.is_absolute():
         path = base_dir / path
-    check_input_path(path, "volume file")
     volume = load_volume(path, spec.format, dims=spec.dims, dtype=spec.dtype, endian=spec.endian,
                          header_bytes=spec.header_bytes, spacing=spec.spacing, origin=spec.origin,
                          nan_value=spec.nan_value)

@@ -3,12 +3,16 @@ and the bad inputs each must reject with one clear line."""
 
 import bz2
 import gzip
+import os
+import struct
+import time
 
 import numpy as np
 import pytest
 
-from dvr_gl.errors import VolumeError
+from dvr_gl.errors import DvrError, VolumeError
 from dvr_gl.io import detect_format, load_volume
+from dvr_gl.sandbox import Sandbox, SandboxError, active
 
 DATA = (np.arange(4 * 3 * 2, dtype=np.int16).reshape(2, 3, 4) * 37 - 300)  # [z, y, x]: nx=4 ny=3 nz=2
 
@@ -297,6 +301,22 @@ def test_tiff_folder_in_natural_order(tmp_path):
     np.testing.assert_array_equal(load_volume(tmp_path / "slice_*.tif").data, data)
 
 
+def test_tiff_folder_and_glob_through_a_scene(tmp_path):
+    """A scene's volume.path may name a TIFF folder or glob (the readers check each page they open;
+    a check of the path itself as one regular file refused both)."""
+    from dvr_gl.scene import load_scene
+
+    for i, s in enumerate(DATA.astype(np.uint16)):
+        _write_tiff_pages(tmp_path / f"slice_{i}.tif", [s])
+    for path in (tmp_path, tmp_path / "slice_*.tif"):
+        scene = load_scene(None, {"volume.path": str(path), "image.width": 8, "image.height": 8})
+        np.testing.assert_array_equal(scene.volume.data, DATA.astype(np.uint16))
+    (tmp_path / "root").mkdir()
+    with active(Sandbox(roots=(tmp_path / "root",))):
+        with pytest.raises(SandboxError, match="outside the allowed folders"):
+            load_scene(None, {"volume.path": str(tmp_path), "image.width": 8, "image.height": 8})
+
+
 def test_tiff_slices_of_different_size(tmp_path):
     _write_tiff_pages(tmp_path / "a.tif", [np.zeros((3, 4), np.uint16)])
     _write_tiff_pages(tmp_path / "b.tif", [np.zeros((3, 5), np.uint16)])
@@ -312,12 +332,7 @@ def test_detect_format(tmp_path, name, fmt):
 
 # --- strictness and bounds (issue 14) ------------------------------------------------------------
 
-import os  # noqa: E402
-import struct  # noqa: E402
-import time  # noqa: E402
 
-from dvr_gl.errors import DvrError  # noqa: E402
-from dvr_gl.sandbox import Sandbox, SandboxError, active  # noqa: E402
 
 
 def _nhdr_with(tmp_path, replace=None, extra="", data=None):

@@ -30,6 +30,7 @@ import numpy as np
 
 from ..errors import VolumeError
 from ..fields.grid import Volume, replace_non_finite
+from ..sandbox import check_input_path
 from .common import RawArray, check_spacing
 from .compression import exists_or_split
 
@@ -89,6 +90,8 @@ def load_volume(path, format: str = "auto", *, dims=None, dtype=None, endian: st
     is_pattern = any(c in str(path) for c in "*?[")
     if not is_pattern and not path.is_dir() and not exists_or_split(path):
         raise VolumeError(f"{path}: file not found")
+    if not is_pattern and os.path.lexists(path) and not path.is_dir():
+        check_input_path(path, "volume file")  # before its suffix is judged: a FIFO, a path outside the roots
     fmt = detect_format(path) if format == "auto" else format
     options = {"dims": dims, "dtype": dtype}
     if fmt == "raw":

@@ -82,12 +82,13 @@ def _pieces(files: list[Path], start: int, line_skip: int, name: str):
             fh.seek(start)
             start = 0
             while piece := fh.read(CHUNK):
-                while lines_left and piece:
-                    newline = piece.find(b"\n")
-                    piece = piece[newline + 1:] if newline >= 0 else b""
+                at = 0  # an offset, not slices: a chunk of short lines is not copied once a line
+                while lines_left and at < len(piece):
+                    newline = piece.find(b"\n", at)
+                    at = newline + 1 if newline >= 0 else len(piece)
                     lines_left -= newline >= 0
-                if piece:
-                    yield piece
+                if at < len(piece):
+                    yield piece[at:] if at else piece
     if lines_left:
         raise VolumeError(f"{name}: line skip {line_skip} goes past the end of the data file "
                           f"({line_skip - lines_left} lines); fix the line skip")
