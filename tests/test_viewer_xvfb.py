@@ -407,3 +407,27 @@ def test_a_refused_scene_is_one_line_before_a_window_opens(xvfb, tmp_path):
     assert out.returncode == 1
     assert out.stderr.strip() == ("dvr view: error: shearwarp does not support renderer.shading; turn it off or use "
                                   "raycast, slicing3d, slicing2d, reference or reference-converged")
+
+
+@pytest.mark.parametrize("flags, reason", [
+    (["--set", "renderer.lut_size=16385"], "exceeds GL_MAX_TEXTURE_SIZE"),  # a GL limit: known once a context exists
+    (["--sample-distance-voxels", "1e-7"], "raycast would take"),             # the work estimate
+])
+def test_a_scene_whose_first_frame_is_refused_ends_the_viewer(xvfb, tmp_path, flags, reason):
+    """A refusal that only rendering can find (a GL limit, the work bound), with nothing rendered yet to
+    go back to: one line and exit 1, as dvr render gives (the viewer used to wait with the message)."""
+    out = subprocess.run([sys.executable, "-m", "dvr_gl.apps.cli", "view", "--demo", *flags, "--benchmark", "1"],
+                         env=dict(os.environ, DISPLAY=xvfb), capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    assert out.returncode == 1, out.stderr
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("dvr view: error: ") and reason in lines[0]
+
+
+def test_a_tolerance_opens_the_viewer(xvfb, tmp_path):
+    """--tolerance's check renders headless (EGL) before the window opens; the window's GLX context must
+    still become current (libglvnd refused it while the released EGL context stayed bound)."""
+    out = subprocess.run([sys.executable, "-m", "dvr_gl.apps.cli", "view", "--demo", "--set", "volume.size=32",
+                          "--size", "96x96", "--no-shading", "--tolerance", "1e-2", "--benchmark", "0.5"],
+                         env=dict(os.environ, DISPLAY=xvfb), capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert "dvr view benchmark: shepp-logan 32x32x32, raycast" in out.stdout and "interactive: " in out.stdout

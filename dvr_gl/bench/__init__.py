@@ -50,13 +50,13 @@ class Report:
 
 def _gl_renderer() -> str:
     try:
-        from ..gl.context import create_context
+        from ..gl.context import create_context, release_context
 
         ctx = create_context()
         try:
             return ctx.info["GL_RENDERER"]
         finally:
-            ctx.release()
+            release_context(ctx)
     except Exception:  # the machine is described for the record only
         return "an unknown GL renderer"
 

@@ -11,6 +11,9 @@ provides it.
 
 from __future__ import annotations
 
+import ctypes
+import functools
+
 import moderngl
 
 from ..errors import GLUnavailableError
@@ -53,6 +56,26 @@ def create_context(backend: str = "egl", **kwargs) -> moderngl.Context:
         raise GLUnavailableError(f"OpenGL 3.3 or newer is needed, this context offers {version}; "
                                  f"update Mesa (Debian: apt install {EGL_PACKAGES}) or the GPU driver")
     return ctx
+
+
+def release_context(ctx: moderngl.Context) -> None:
+    """Release a context this process created, and leave no EGL context current on this thread.
+
+    moderngl's release leaves the thread bound to EGL; libglvnd then refuses to make a GLX
+    context current on it (BadAccess), so a window opened after a headless render (``dvr view
+    --tolerance E``, whose check renders before the window opens) would fail."""
+    ctx.release()
+    egl = _libegl()
+    if egl is not None:
+        egl.eglReleaseThread()
+
+
+@functools.cache
+def _libegl():
+    try:
+        return ctypes.CDLL("libEGL.so.1")
+    except OSError:  # no EGL library: no EGL context can have been current
+        return None
 
 
 def make_current(ctx: moderngl.Context) -> moderngl.Context:

@@ -436,6 +436,8 @@ class Viewer:
         if self.scene.renderer != self.good_scene.renderer:
             self.notify(f"{exc}; keeping {self.good_scene.renderer.name} with the previous settings", error=True)
             self.set_scene(self.scene.replace(renderer=self.good_scene.renderer), costs=True)
+        elif self.full_image is None:  # the scene as given never rendered: refuse it, as dvr render does
+            raise exc
         else:  # nothing to go back to: wait for the next change
             self.notify(str(exc), error=True)
             self.stalled = self.version

@@ -16,7 +16,7 @@ import numpy as np
 
 from ... import limits
 from .bricking import brick_size_for, ghost_width, plan_bricks
-from ...gl.context import create_context, make_current
+from ...gl.context import create_context, make_current, release_context
 from ...gl.shaders import release_programs
 from ...errors import DvrError
 from .textures import FORMATS, central_difference_gradients, upload_field, upload_table, upload_volume
@@ -302,7 +302,7 @@ class GLVolumeRenderer(Renderer):
         self._targets.clear()
         if self._owns_context:
             release_programs(self.ctx)
-            self.ctx.release()
+            release_context(self.ctx)
 
 
 class _SubVolume:
