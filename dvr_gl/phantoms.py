@@ -95,12 +95,30 @@ def marschner_lobb(n: int = 41, f_m: float = 6.0, alpha: float = 0.25) -> np.nda
     return ((1.0 - np.sin(np.pi * z / 2.0) + alpha * (1.0 + rho_r)) / (2.0 * (1.0 + alpha))).astype(np.float32)
 
 
-DEMOS = {"shepp-logan": shepp_logan, "marschner-lobb": marschner_lobb}
+# Centres (x, y, z) and widths of the blobs phantom's Gaussians: a smooth, dense volume with no
+# empty blocks (the peers' benchmark scene, docs/peers.md).
+BLOBS = ((0.35, 0.35, 0.35, 0.30), (-0.35, -0.35, 0.35, 0.25), (-0.35, 0.35, -0.35, 0.35), (0.35, -0.35, -0.35, 0.28))
+
+
+def blobs(n: int = 64) -> np.ndarray:
+    """Four Gaussians on ``n^3`` nodes over [-1, 1]^3, ``[z, y, x]`` float32, scaled to a maximum of 1
+    over the grid: every value is positive, so no block is empty."""
+    x, y, z = _grid(n, (0.0, 0.0, 0.0))
+    out = np.zeros_like(x)
+    for cx, cy, cz, w in BLOBS:
+        out += np.exp(-((x - cx) ** 2 + (y - cy) ** 2 + (z - cz) ** 2) / (2.0 * w * w))
+    return (out / out.max()).astype(np.float32)
+
+
+DEMOS = {"shepp-logan": shepp_logan, "marschner-lobb": marschner_lobb, "blobs": blobs}
 
 
 def demo_scene(name: str) -> dict:
     """The scene ``dvr render --demo NAME`` starts from (a TOML-shaped dict)."""
-    if name == "marschner-lobb":
+    if name == "blobs":
+        size, points = 64, [[0.0, 0.2, 0.3, 0.9, 0.0], [0.3, 0.2, 0.5, 0.9, 0.2], [0.6, 0.9, 0.8, 0.3, 0.6],
+                            [1.0, 0.9, 0.3, 0.1, 1.0]]
+    elif name == "marschner-lobb":
         size, points = 64, [[0.0, 0.1, 0.2, 0.8, 0.0], [0.45, 0.1, 0.4, 0.9, 0.0], [0.5, 0.9, 0.7, 0.3, 0.6],
                              [0.55, 0.9, 0.3, 0.1, 0.0], [1.0, 0.9, 0.3, 0.1, 0.0]]
     else:

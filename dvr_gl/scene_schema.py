@@ -64,7 +64,7 @@ class VolumeSpec:
     """Where the volume comes from: a file (``path``) or a built-in phantom (``demo``)."""
 
     path: Optional[str] = doc(None, "a volume file (relative to the scene file); or give `demo`")
-    demo: Optional[str] = doc(None, "a built-in phantom: `shepp-logan`, `marschner-lobb`")
+    demo: Optional[str] = doc(None, "a built-in phantom: `shepp-logan`, `marschner-lobb`, `blobs`")
     size: int = checked(64, "samples per axis of a demo phantom", at_least(2))
     format: str = choices("auto", "raw", "nrrd", "nifti", "metaimage", "vtk", "npy", "tiff", default="auto",
                           doc="the reader; `auto` goes by the suffix")
@@ -205,6 +205,9 @@ def parse_table(cls, table: dict, where: str):
         if key not in fields:
             raise SceneError(f"{where}: unknown key {key!r}; valid keys are {', '.join(fields)}")
         here = f"{where}.{key}" if where else key
+        for old, new in fields[key].metadata.get("aliases", ()):
+            if type(value) is type(old) and value == old:
+                value = new
         converted = _convert(value, hints[key], here)
         allowed = fields[key].metadata.get("choices")
         if allowed and converted not in allowed:

@@ -50,6 +50,8 @@ class Setting:
     applies: whether the setting changes the picture, given the others (``applies(spec)``; shading
         and classification do not change a maximum intensity projection); default: always.
     group: where the reference lists it ("model", "sampling", "gpu", or a renderer's name).
+    aliases: ``(old, new)`` pairs: a scene's ``old`` value (of another type, as earlier versions wrote
+        it) is read as ``new``.
     """
 
     name: str
@@ -66,6 +68,7 @@ class Setting:
     default_factory: Optional[Callable[[], Any]] = None
     applies: Optional[Callable[[Any], bool]] = None
     origin: Optional["Setting"] = field(default=None, compare=False)
+    aliases: tuple = ()
 
     @property
     def key(self) -> str:

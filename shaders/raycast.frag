@@ -101,7 +101,7 @@ bool owns_entry(vec3 p) {
 
 layout(location = 0) out vec4 frag_color;
 #ifdef COUNT_SAMPLES
-layout(location = 1) out vec2 frag_samples;   // volume samples, block jumps
+layout(location = 1) out vec4 frag_samples;   // volume samples, block jumps, block lookups
 #endif
 
 #include "common/classify.glsl"
@@ -137,12 +137,10 @@ float sample_t(int k) {
 
 #ifdef ACCELERATE
 #define SKIPPABLE(b, bound) mode_skippable(b)  // on the mode's own state: no bound needed
+#define RUN_DENSE(key) mode_dense(key)
 #include "common/blocks.glsl"
 
 vec3 du;       // voxels per unit of t
-// Samples before (after, walking backward) this parameter lie in a level-0 block already found
-// not skippable: no need to fetch it again.  Rounding can only delay a jump.
-float known;
 
 // The ray parameter where, walking from t at voxel position u, the ray leaves the block at `level`.
 float block_end(float t, int level, vec3 u) {
@@ -156,29 +154,38 @@ float block_end(float t, int level, vec3 u) {
 // How many segments, k and on in the walking direction, the loop may jump (0: sample segment k),
 // and the block they lie in.  The block is the one around the sample or, for pre-integrated
 // segments (which must lie in it whole), around the end of segment k met first.  Never the
-// shortened last segment.
-int segments_to_jump(int k, float start, float len, float t, out vec4 block) {
+// shortened last segment.  Where segment k is to be sampled, `run` is how many segments from k on
+// may be sampled before the next lookup: those whose sample lies in the same level-0 block.
+int segments_to_jump(int k, out vec4 block, out int run) {
+    float start = t0 + float(k) * u_sample_distance;  // segment k (as sample_t)
+    float len = min(u_sample_distance, t1 - start);
 #if !defined(CLASSIFY_PREINTEGRATED)
-    float t_check = t;
+    float t_check = start + offset * len;
+    float run_offset = offset;
 #elif defined(BACK_TO_FRONT)
     float t_check = start + len;
+    float run_offset = 1.0;
 #else
     float t_check = start;
+    float run_offset = 0.0;
 #endif
-    // Inside a block already found not skippable (the common case on dense data): nothing to look
-    // up.  A GPU takes this branch; llvmpipe predicates it, running the code below under a mask at
-    // every sample, which is the whole cost of acceleration there (docs/acceleration.md).
-#ifdef BACK_TO_FRONT
-    if (k >= n - 1 || t_check > known) return 0;
-#else
-    if (k >= n - 1 || t_check < known) return 0;
-#endif
+    run = 1;
+    if (k >= n - 1) return 0;
     vec3 u_check = voxel_coord(o + t_check * d);
-    int level = skip_level(u_check, 0.0, block);
-    if (level < 0) {
-        known = block_end(t_check, 0, u_check);
+    // The segments whose check point lies within `reach` of t_check; rounding only shortens or
+    // lengthens a run by one segment, which moves a lookup, never a sample.
+    float reach = dense_reach(u_check, du);
+    if (reach > 0.0) {
+#ifdef BACK_TO_FRONT
+        run = k - int(floor((t_check - reach - t0) / u_sample_distance - run_offset));
+#else
+        run = int(ceil((t_check + reach - t0) / u_sample_distance - run_offset)) - k;
+#endif
+        run = max(run, 1);
         return 0;
     }
+    int level = skip_level(u_check, 0.0, block);
+    if (level < 0) return 0;  // the state moved between the two lookups' rounding: sample one
     float t_end = block_end(t_check, level, u_check);
 #if defined(BACK_TO_FRONT) && defined(CLASSIFY_PREINTEGRATED)
     int k_begin = max(int(ceil((t_end - t0) / u_sample_distance)) + 1, 0);
@@ -195,7 +202,7 @@ int segments_to_jump(int k, float start, float len, float t, out vec4 block) {
 #endif
 
 void main() {
-    float samples = 0.0, jumps = 0.0;
+    float samples = 0.0, jumps = 0.0, lookups = 0.0;
 #ifdef BRICKED
     vec4 state = texelFetch(u_state, ivec2(gl_FragCoord.xy), 0);
 #else
@@ -223,7 +230,6 @@ void main() {
 #endif
 #ifdef ACCELERATE
         du = d * u_world_to_voxel_scale;
-        known = float(STEP) * -3.0e38;  // nothing known yet
 #endif
         bool done = mode_init(state);  // BRICKED: an earlier pass may have finished the ray
 #ifdef BACK_TO_FRONT
@@ -233,16 +239,13 @@ void main() {
         int k = k_first;
         while (!done && k < k_last) {
 #endif
-            float start = t0 + float(k) * u_sample_distance;  // segment k (as sample_t)
-            float len = min(u_sample_distance, t1 - start);
-            float t = start + offset * len;
-            vec3 p = o + t * d;
-#ifdef BRICKED
-            if (!in_brick(p)) { mode_gap(); k += STEP; continue; }  // another brick's sample
-#endif
+            int run = 1;
 #ifdef ACCELERATE
+            // Once per block: jump it, or sample the run of segments inside it in the inner loop,
+            // whose body holds nothing but sampling (llvmpipe runs a loop body's every branch).
             vec4 block;
-            int m = segments_to_jump(k, start, len, t, block);
+            int m = segments_to_jump(k, block, run);
+            lookups += 1.0;
             if (m > 0) {  // m segments in a skippable block: no samples
                 done = mode_jump(block, m);
                 mode_gap();
@@ -250,10 +253,33 @@ void main() {
                 jumps += 1.0;
                 continue;
             }
+#ifdef BACK_TO_FRONT
+            int k_stop = max(k - run, k_first - 1);
+#else
+            int k_stop = min(k + run, k_last);
 #endif
+            for (; !done && k != k_stop; k += STEP) {
+#endif
+            float start = t0 + float(k) * u_sample_distance;  // segment k (as sample_t)
+            float len = min(u_sample_distance, t1 - start);
+            float t = start + offset * len;
+            vec3 p = o + t * d;
+#ifdef BRICKED
+            if (in_brick(p)) {
+                done = mode_sample(k, start, len, t, p);
+                samples += 1.0;
+            } else {
+                mode_gap();  // another brick's sample
+            }
+#else
             done = mode_sample(k, start, len, t, p);
             samples += 1.0;
+#endif
+#ifdef ACCELERATE
+            }
+#else
             k += STEP;
+#endif
         }
         state = mode_finish(state);
     }
@@ -263,6 +289,6 @@ void main() {
   #include "common/resolve.glsl"
 #endif
 #ifdef COUNT_SAMPLES
-    frag_samples = vec2(samples, jumps);
+    frag_samples = vec4(samples, jumps, lookups, 0.0);
 #endif
 }

@@ -221,7 +221,10 @@ def renderer_spec_class():
 
 
 def _meta(s: Setting) -> dict:
-    return {"choices": s.choices, "doc": s.doc} if s.choices else {"doc": s.doc}
+    meta = {"choices": s.choices, "doc": s.doc} if s.choices else {"doc": s.doc}
+    if s.aliases:
+        meta["aliases"] = s.aliases
+    return meta
 
 
 def renderers_with(predicate: Callable[[RendererPlugin], bool]) -> list[str]:

@@ -80,3 +80,33 @@ int segments_before(float t_exit, float t0, float offset, int k, int n) {
 int segments_after(float t_entry, float t0, float offset, int k) {
     return clamp(int(ceil((t_entry - t0) / u_sample_distance - offset)) + 1, 0, k);
 }
+
+// Runs (dvr_gl.renderers.raycast.acceleration.run_keys): per level-0 block, channel i holds the
+// mode's key reduced over the blocks within Chebyshev distance RUN_RADII[i] - 1 (1, 2, 4, 8 blocks):
+// where the mode's RUN_DENSE(key) holds, no block of that neighbourhood can be skipped, and a ray
+// may sample on to the neighbourhood's edge without another lookup.  On dense data the loop then
+// looks up once per ray or so instead of once per block.
+uniform sampler3D u_runs;
+
+// How far (ray parameter) from t at voxel position u the ray may sample without a lookup: to the
+// exit (forward) or entry (backward) of the largest dense neighbourhood around u's block; 0 where
+// u's own block may be skippable.
+float dense_reach(vec3 u, vec3 du) {
+    ivec3 b = block_of(0, u);
+    vec4 key = texelFetch(u_runs, clamp(b, ivec3(0), textureSize(u_runs, 0) - 1), 0);
+    float radius = RUN_DENSE(key.w) ? 8.0 : RUN_DENSE(key.z) ? 4.0 : RUN_DENSE(key.y) ? 2.0 :
+                   RUN_DENSE(key.x) ? 1.0 : 0.0;
+    if (radius == 0.0) return 0.0;
+    float size = float(u_block_size);
+#ifdef BACK_TO_FRONT
+    vec3 face = (vec3(b) + (1.0 - step(0.0, du)) * (2.0 * radius - 1.0) - (radius - 1.0)) * size;
+    vec3 gap = u - face;
+#else
+    vec3 face = (vec3(b) + step(0.0, du) * (2.0 * radius - 1.0) - (radius - 1.0)) * size;
+    vec3 gap = face - u;
+#endif
+    bvec3 still = equal(du, vec3(0.0));
+    vec3 t = gap / mix(du, vec3(1.0), still);
+    t = mix(t, vec3(3.0e38), still);
+    return max(min(min(t.x, t.y), t.z), 0.0);
+}

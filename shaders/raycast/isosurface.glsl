@@ -61,6 +61,11 @@ bool mode_skippable(vec4 block) {
     return block.y < u_iso_value;  // no value in the block reaches iso
 }
 
+// Runs: the key is the least block maximum around: reaching iso, no block there can be skipped.
+bool mode_dense(float key) {
+    return key >= u_iso_value;
+}
+
 bool mode_jump(vec4 block, inout int m) {
     return false;
 }

@@ -45,6 +45,16 @@ bool mode_skippable(vec4 block) {
 #endif
 }
 
+// Runs: the key is the least block maximum (MinIP: the largest minimum) around; above the maximum
+// so far (below the minimum), no block there can be skipped yet.
+bool mode_dense(float key) {
+#if defined(COMPOSITE_MIP)
+    return key > value;
+#else
+    return key < value;
+#endif
+}
+
 bool mode_jump(vec4 block, inout int m) {
     return false;
 }

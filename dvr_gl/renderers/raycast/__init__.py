@@ -24,8 +24,9 @@ def _fitted_range(value):
 TOLERANCE = s.Setting("tolerance", Optional[float], None, "RMS error to meet against the converged reference "
                       "(5e-4 to 0.1): chooses the sample distance, classification and early termination "
                       "(docs/tolerance.md)", check=_fitted_range, must_support=True, group="raycast")
-ACCELERATION = s.Setting("acceleration", bool, True, "jump empty and constant blocks (the image is unchanged)",
-                         group="raycast")
+ACCELERATION = s.Setting("acceleration", str, "auto", "jump empty and constant blocks (the image is unchanged): "
+                         "auto (where the frame's block statistics say it pays), on, off",
+                         choices=("auto", "on", "off"), aliases=((True, "on"), (False, "off")), group="raycast")
 BLOCK_SIZE = s.Setting("block_size", int, 8, "voxels per edge of the finest acceleration blocks",
                        choices=(4, 8, 16, 32), group="raycast")
 HOMOGENEITY_TOLERANCE = s.Setting("homogeneity_tolerance", float, 0.0, "> 0 also jumps nearly constant blocks, "

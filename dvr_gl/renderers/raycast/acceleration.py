@@ -30,6 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ... import rays as rays_mod
+
 # Voxels a filter reads beyond a block's own: (below, above).
 SUPPORT = {"nearest": (0, 1), "linear": (0, 1), "cubic_bspline": (1, 2), "catmull_rom": (1, 2)}
 # How far a filter's output can leave the range of its taps, as a fraction of that range.
@@ -204,3 +206,87 @@ def classified_classes(channel_pyramids: list[MinMaxPyramid], associated: bool, 
 def minmax_textures(pyramid: MinMaxPyramid, filter_kind: str) -> list[np.ndarray]:
     """Per level ``(nbz, nby, nbx, 2)`` float32: the values the filter can produce in each block."""
     return [np.stack(widened(mins, maxs, filter_kind), axis=-1).astype(np.float32) for mins, maxs in pyramid.levels]
+
+
+# Neighbourhood radii of the runs texture, in level-0 blocks (shaders/common/blocks.glsl's dense_reach).
+RUN_RADII = (1, 2, 4, 8)
+
+
+def neighbourhood_reduce(key: np.ndarray, reach: int, op) -> np.ndarray:
+    """``op`` of ``key`` over the blocks within Chebyshev distance ``reach`` (clipped to the grid):
+    separable, one shifted view per offset and axis."""
+    out = key
+    for axis in range(3):
+        acc = out.copy()
+        n = out.shape[axis]
+        for shift in range(1, min(reach, n - 1) + 1):
+            lo = [slice(None)] * 3
+            hi = [slice(None)] * 3
+            lo[axis], hi[axis] = slice(0, n - shift), slice(shift, n)
+            acc[tuple(lo)] = op(acc[tuple(lo)], out[tuple(hi)])   # the neighbour above
+            acc[tuple(hi)] = op(acc[tuple(hi)], out[tuple(lo)])   # the neighbour below
+        out = acc
+    return out
+
+
+def run_keys(level0: np.ndarray, mode: str) -> np.ndarray:
+    """The runs texture ``(nbz, nby, nbx, 4)`` float32 from a mode's level-0 blocks (the classes for
+    emission-absorption, the (min, max) texture otherwise): channel ``i`` reduces the mode's key over
+    the blocks within ``RUN_RADII[i] - 1``.  Keys: emission, 1 where a block is not skippable (least
+    around: 1 only if none is); MIP and isosurface, the block maximum (least around: no block below
+    it); MinIP, the block minimum (largest around)."""
+    if mode == "emission":
+        key, op = (level0[..., 3] < 0.0).astype(np.float32), np.minimum
+    elif mode == "minip":
+        key, op = level0[..., 0], np.maximum
+    else:
+        key, op = level0[..., 1], np.minimum
+    return np.stack([neighbourhood_reduce(key, r - 1, op) for r in RUN_RADII], axis=-1).astype(np.float32)
+
+
+def skippable_fraction(level0: np.ndarray, mode: str, block_size: int, volume, camera, aspect: float = 1.0,
+                       iso_value: float = 0.0, rays: int = 24, steps_per_block: int = 2) -> float:
+    """An estimate of the fraction of a frame's samples that block skipping saves, from the level-0
+    blocks alone, for :func:`decide` (``renderer.acceleration = "auto"``).
+
+    About ``rays x rays`` pixel rays of ``camera`` (the image's ``aspect``, width / height) are walked
+    through the block grid at ``steps_per_block`` points per block width.  A point is skippable where
+    its block is: emission, a constant or empty block (``level0`` the classes); MIP (MinIP), a block
+    whose maximum is at most (minimum at least) the largest minimum (smallest maximum) of the blocks
+    met before, a bound the true running maximum (minimum) can only exceed; isosurface, a block
+    whose maximum is below iso, counting each ray only up to the end of its first block that is not.
+    Early termination is ignored: the estimate is over the whole ray."""
+    nx = rays if aspect >= 1.0 else max(1, round(rays * aspect))
+    ny = rays if aspect <= 1.0 else max(1, round(rays / aspect))
+    origins, dirs = camera.pixel_rays(nx, ny)
+    lo, hi = volume.box
+    t0, t1 = rays_mod.intersect_box(origins, dirs, lo, hi)
+    t0 = np.maximum(t0, camera.near_distance(dirs))
+    hit = t1 > t0
+    if not hit.any():
+        return 0.0
+    origins, dirs, t0, t1 = origins[hit], dirs[hit], t0[hit], t1[hit]
+    spacing, origin = np.asarray(volume.spacing, float), np.asarray(volume.origin, float)
+    step = block_size * float(spacing.min()) / steps_per_block
+    count = np.ceil((t1 - t0) / step).astype(np.int64)
+    k = np.arange(int(count.max()))
+    t = t0[:, None] + (k[None, :] + 0.5) * step
+    valid = k[None, :] < count[:, None]
+    voxel = (origins[:, None, :] + t[..., None] * dirs[:, None, :] - origin) / spacing   # (x, y, z)
+    grid = level0.shape[:3]
+    b = np.clip(np.floor(voxel / block_size).astype(np.int64), 0, np.array(grid[::-1]) - 1)
+    blocks = level0[b[..., 2], b[..., 1], b[..., 0]]
+    if mode == "emission":
+        skip = blocks[..., 3] >= 0.0
+    elif mode == "isosurface":
+        skip = blocks[..., 1] < iso_value
+        first = np.argmax(~skip & valid, axis=1)  # the first block that may hold the surface
+        reached = (~skip & valid).any(axis=1)
+        last = np.where(reached, first + steps_per_block, count)
+        valid &= k[None, :] < last[:, None]
+    else:
+        low, high = (blocks[..., 0], blocks[..., 1]) if mode == "max" else (-blocks[..., 1], -blocks[..., 0])
+        low = np.where(valid, low, -np.inf)
+        bound = np.maximum.accumulate(np.concatenate([np.full((len(t), 1), -np.inf), low[:, :-1]], axis=1), axis=1)
+        skip = high <= bound
+    return float((skip & valid).sum() / max(valid.sum(), 1))

@@ -30,6 +30,11 @@ from .acceleration import level_count
 # about this much work: the progress bar moves, and Ctrl-C or a sandbox's timer stop it between bands.
 BAND_SECONDS = 0.25
 
+# renderer.acceleration = "auto" skips blocks where the frame's estimated skippable fraction of samples
+# (acceleration.skippable_fraction) is at least this; below it, the jumps' divergence costs more than
+# they save (docs/acceleration.md, "When to skip").
+AUTO_MIN_SKIPPABLE = 0.2
+
 COMPOSITING = {"emission_absorption": "COMPOSITE_EMISSION", "isosurface": "COMPOSITE_ISOSURFACE",
                "average": "COMPOSITE_AVERAGE", "mip": "COMPOSITE_MIP", "minip": "COMPOSITE_MINIP"}
 
@@ -53,11 +58,17 @@ def shader_features(scene, count_samples: bool = False, bricked: bool = False) -
         defines["BACK_TO_FRONT"] = r.order == "back_to_front"
         defines["EARLY_TERMINATION"] = r.order == "front_to_back" and r.ert_threshold < 1.0
     defines["JITTER"] = r.jitter
-    if r.acceleration and r.compositing != "average":  # every sample counts in an average
+    if acceleration_mode(r.acceleration) != "off" and r.compositing != "average":  # every sample counts in an average
         defines.update(ACCELERATE=True, NUM_LEVELS=level_count(scene.volume.dims, r.block_size))
     defines["COUNT_SAMPLES"] = count_samples
     defines = {k: v for k, v in defines.items() if v is not False}
     return bricked_features(defines) if bricked else defines
+
+
+def acceleration_mode(value) -> str:
+    """``renderer.acceleration`` as "auto", "on" or "off" (True and False, as scene files before
+    "auto" wrote it, are "on" and "off")."""
+    return {True: "on", False: "off"}.get(value, value) if isinstance(value, bool) else value
 
 
 def bricked_features(defines: dict) -> dict:
@@ -69,10 +80,12 @@ def bricked_features(defines: dict) -> dict:
 
 
 class BlockTextures(list):
-    """One nearest-filtered float texture per pyramid level (releases them together)."""
+    """One nearest-filtered float texture per pyramid level, and the runs texture
+    (:func:`.acceleration.run_keys` of level 0) last; released together."""
 
-    def __init__(self, ctx, levels: list[np.ndarray]):
-        super().__init__(upload_field(ctx, a) for a in levels)
+    def __init__(self, ctx, levels: list[np.ndarray], mode: str):
+        super().__init__(upload_field(ctx, a) for a in levels + [accel.run_keys(levels[0], mode)])
+        self.level0, self.mode = levels[0], mode  # for the skipping estimate
         for tex in self:
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
 
@@ -133,8 +146,9 @@ class RayCastRenderer(GLVolumeRenderer):
             pyramids = self._cached("pyramid", (volume, support, r.block_size),
                                     lambda: accel.MinMaxPyramid.build(volume.data, r.block_size, support))
         if "COMPOSITE_EMISSION" not in defines:
-            return self._cached("blocks", ("minmax", pyramids, r.filter), lambda: BlockTextures(
-                self.ctx, accel.minmax_textures(pyramids, r.filter)))
+            mode = "minip" if "COMPOSITE_MINIP" in defines else "max"
+            return self._cached("blocks", ("minmax", pyramids, r.filter, mode), lambda: BlockTextures(
+                self.ctx, accel.minmax_textures(pyramids, r.filter), mode))
         # Shaded colours differ at every sample, and pre-integrated segments see the table's own
         # values: only empty blocks are jumped then (exactly zero in both).
         constant_allowed = not ("SHADING" in defines or "GRADIENT_OPACITY" in defines or preint is not None)
@@ -148,7 +162,7 @@ class RayCastRenderer(GLVolumeRenderer):
             make = lambda: accel.table_classes(pyramids, lut, r.filter, volume.spacing,  # noqa: E731
                                                r.homogeneity_tolerance, constant_allowed, snap)
         key = ("classes", pyramids, lut, r.filter, r.homogeneity_tolerance, constant_allowed, snap)
-        return self._cached("blocks", key, lambda: BlockTextures(self.ctx, make()))
+        return self._cached("blocks", key, lambda: BlockTextures(self.ctx, make(), "emission"))
 
     # --- uniforms ---
 
@@ -188,30 +202,49 @@ class RayCastRenderer(GLVolumeRenderer):
             if len(views) == 1:  # long rays: the whole volume as one brick, in passes over segment windows
                 views = [GridView((0, 0, 0), scene.volume.dims, whole_volume_brick(scene.volume))]
             return self._render_bricks(scene, bricked_features(defines), views, start, windows)
-        program = create_program(self.ctx, "fullscreen.vert", self.fragment_shader, defines)
         textures = {**self.view_textures(scene, defines, views[0], resident=True),
                     **self.table_textures(scene, defines, scene.renderer.sample_distance)}
         lut = textures["u_lut"].lut
+        skippable = None
         if "ACCELERATE" in defines:
             preint = textures["u_preint"].table if "u_preint" in textures else None
-            for level, tex in enumerate(self._block_textures(scene, defines, lut, preint)):
-                textures[f"u_blocks{level}"] = tex
+            blocks = self._block_textures(scene, defines, lut, preint)
+            if acceleration_mode(scene.renderer.acceleration) == "auto":
+                skippable = self.skippable(scene, blocks)
+                if skippable < AUTO_MIN_SKIPPABLE:
+                    defines = {k: v for k, v in defines.items() if k not in ("ACCELERATE", "NUM_LEVELS")}
+            if "ACCELERATE" in defines:
+                *levels, runs = blocks
+                for level, tex in enumerate(levels):
+                    textures[f"u_blocks{level}"] = tex
+                textures["u_runs"] = runs
+        program = create_program(self.ctx, "fullscreen.vert", self.fragment_shader, defines)
         uniforms = {**self.ray_uniforms(scene), **self.grid_uniforms(scene, views[0]),
                     **self.optics_uniforms(scene, lut)}
         self.bind(program, uniforms, textures)
         width, height = scene.image.width, scene.image.height
-        (colour, *counts), fbo = self.target("main", width, height, (4, 2) if self.count_samples else (4,))
+        (colour, *counts), fbo = self.target("main", width, height, (4, 4) if self.count_samples else (4,))
         gpu_seconds = self._draw(program, fbo, width, height, self.bands(scene))
         image = self.read(fbo, width, height)
-        self.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines, "bricks": 1}
+        self.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines, "bricks": 1,
+                      "skippable_estimate": skippable, "accelerated": "ACCELERATE" in defines}
         if self.count_samples:
-            c = self.read(fbo, width, height, 2, attachment=1).reshape(-1, 2)
-            samples, jumps = c[:, 0], c[:, 1]
+            c = self.read(fbo, width, height, 4, attachment=1).reshape(-1, 4)
+            samples, jumps, lookups = c[:, 0], c[:, 1], c[:, 2]
             hit = (samples + jumps) > 0
             self.stats["samples"] = int(samples.sum(dtype=np.float64))
             self.stats["samples_per_ray"] = float(samples[hit].mean()) if hit.any() else 0.0
             self.stats["jumps_per_ray"] = float(jumps[hit].mean()) if hit.any() else 0.0
+            self.stats["lookups_per_ray"] = float(lookups[hit].mean()) if hit.any() else 0.0
         return image
+
+    def skippable(self, scene, blocks) -> float:
+        """:func:`.acceleration.skippable_fraction` of this frame (cached per view and blocks)."""
+        r, img = scene.renderer, scene.image
+        mode = "isosurface" if r.compositing == "isosurface" else blocks.mode
+        return self._cached("skippable", (blocks, scene.camera, img.width, img.height, r.iso_value), lambda: (
+            accel.skippable_fraction(blocks.level0, mode, r.block_size, scene.volume, scene.camera,
+                                     img.width / img.height, iso_value=r.iso_value)))
 
     def bands(self, scene) -> int:
         """Horizontal bands to draw a one-pass frame in: one for a frame estimated under

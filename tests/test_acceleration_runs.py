@@ -1,0 +1,114 @@
+"""Runs and the "auto" decision of empty-space skipping (shaders/common/blocks.glsl's dense_reach,
+acceleration.run_keys and skippable_fraction; docs/acceleration.md)."""
+
+import numpy as np
+import pytest
+
+from dvr_gl.renderers.raycast import acceleration as accel
+from dvr_gl.renderers.raycast.renderer import AUTO_MIN_SKIPPABLE, RayCastRenderer
+from dvr_gl.scene import load_scene
+
+from conftest import array_scene
+
+
+def _brute_reduce(key, reach, op):
+    out = np.empty_like(key)
+    for idx in np.ndindex(key.shape):
+        window = tuple(slice(max(i - reach, 0), i + reach + 1) for i in idx)
+        out[idx] = op.reduce(key[window], axis=None)
+    return out
+
+
+@pytest.mark.parametrize("shape", [(5, 7, 3), (1, 1, 9), (10, 4, 6)])
+@pytest.mark.parametrize("op", [np.minimum, np.maximum])
+def test_neighbourhood_reduce_matches_brute_force(shape, op):
+    key = np.random.default_rng(3).uniform(0, 1, shape).astype(np.float32)
+    for reach in (0, 1, 3, 7):
+        np.testing.assert_array_equal(accel.neighbourhood_reduce(key, reach, op), _brute_reduce(key, reach, op))
+
+
+def test_run_keys_per_mode():
+    rng = np.random.default_rng(4)
+    classes = np.zeros((6, 6, 6, 4), np.float32)
+    classes[..., 3] = np.where(rng.uniform(size=(6, 6, 6)) < 0.8, -1.0, 0.0)  # 80 % not skippable
+    keys = accel.run_keys(classes, "emission")
+    for i, radius in enumerate(accel.RUN_RADII):
+        dense = _brute_reduce(classes[..., 3] < 0, radius - 1, np.logical_and)
+        np.testing.assert_array_equal(keys[..., i] > 0.5, dense)
+    minmax = np.sort(rng.uniform(size=(6, 6, 6, 2)), axis=-1).astype(np.float32)
+    keys = accel.run_keys(minmax, "max")
+    np.testing.assert_array_equal(keys[..., 2], _brute_reduce(minmax[..., 1], 3, np.minimum))
+    keys = accel.run_keys(minmax, "minip")
+    np.testing.assert_array_equal(keys[..., 3], _brute_reduce(minmax[..., 0], 7, np.maximum))
+
+
+@pytest.fixture(scope="module")
+def gpu():
+    renderer = RayCastRenderer(count_samples=True)
+    yield renderer
+    renderer.close()
+
+
+DENSE = {"volume.demo": "marschner-lobb", "volume.size": 64, "image.width": 24, "image.height": 24,
+         "renderer.block_size": 4, "renderer.ert_threshold": 1.0, "transfer_function.preset": "viridis"}
+
+
+@pytest.mark.parametrize("mode, order", [("emission_absorption", "front_to_back"),
+                                         ("emission_absorption", "back_to_front"), ("mip", "front_to_back")])
+def test_dense_volume_is_looked_up_once_per_run(gpu, mode, order):
+    """No block of the Marschner-Lobb volume can be skipped: a ray looks up its neighbourhood of
+    +-7 blocks (28 voxels at least in every direction) and samples on to its edge, so a ray of at
+    most 64 sqrt 3 = 111 voxels makes at most 4 lookups (the 16 blocks it crosses would make 16 to
+    30 without runs); the image is the unaccelerated one exactly.  MIP skips a few blocks once the
+    maximum so far passes theirs: each jump adds a lookup, and its own after it."""
+    scene = load_scene(None, {**DENSE, "renderer.compositing": mode, "renderer.order": order})
+    plain = gpu.render(scene.with_renderer(acceleration="off"))
+    image = gpu.render(scene.with_renderer(acceleration="on"))
+    jumps = gpu.stats["jumps_per_ray"]
+    assert gpu.stats["accelerated"] and (jumps == 0.0 if mode != "mip" else jumps < 0.2), jumps
+    assert 1.0 <= gpu.stats["lookups_per_ray"] <= 4.0 + 2 * jumps, gpu.stats["lookups_per_ray"]
+    np.testing.assert_array_equal(image, plain)
+
+
+def test_auto_skips_only_where_it_pays(gpu, tmp_path):
+    """auto: no skipping on a dense volume (estimate 0), skipping on a mostly empty one; the
+    estimate is within 0.1 of the fraction of samples skipping actually saves, and the images
+    are those of on and off exactly."""
+    dense = load_scene(None, DENSE)
+    gpu.render(dense)
+    assert gpu.stats["skippable_estimate"] == 0.0 and not gpu.stats["accelerated"]
+    data = np.zeros((48, 48, 48), np.float32)
+    data[20:28, 18:30, 16:32] = np.random.default_rng(5).uniform(0.4, 1.0, (8, 12, 16))
+    sparse = array_scene(tmp_path, data, {"image.width": 32, "image.height": 32, "renderer.ert_threshold": 1.0,
+                                          "renderer.block_size": 4})
+    auto = gpu.render(sparse)
+    estimate = gpu.stats["skippable_estimate"]
+    assert gpu.stats["accelerated"] and estimate >= AUTO_MIN_SKIPPABLE
+    on = gpu.render(sparse.with_renderer(acceleration="on"))
+    on_samples = gpu.stats["samples_per_ray"]
+    off = gpu.render(sparse.with_renderer(acceleration="off"))
+    saved = 1.0 - on_samples / gpu.stats["samples_per_ray"]
+    assert abs(estimate - saved) <= 0.1, (estimate, saved)
+    np.testing.assert_array_equal(auto, on)
+    assert np.abs(on - off).max() <= 2e-6  # closed-form jumps: float32 rounding (test_acceleration)
+
+
+def test_auto_estimate_follows_the_state_of_mip(tmp_path):
+    """MIP: a block is skippable once the maximum so far reaches its own; the estimate bounds the
+    maximum so far by the largest block minimum met, so a bright front plate hides what lies behind."""
+    data = np.random.default_rng(6).uniform(0.0, 0.5, (32, 32, 32)).astype(np.float32)  # no block skippable
+    data[:, :, :8] = 1.0   # x < 8: a plate of the highest value
+    level0 = accel.minmax_textures(accel.MinMaxPyramid.build(data, 4, accel.SUPPORT["linear"]), "linear")[0]
+    scene = array_scene(tmp_path, data, {"camera.azimuth": -90.0, "camera.elevation": 0.0})
+    seen_from_plate = accel.skippable_fraction(level0, "max", 4, scene.volume, scene.camera)
+    scene = array_scene(tmp_path, data, {"camera.azimuth": 90.0, "camera.elevation": 0.0})
+    seen_from_back = accel.skippable_fraction(level0, "max", 4, scene.volume, scene.camera)
+    # from the back only the plate's own far blocks pass (after its first block sets the bound to 1)
+    assert seen_from_plate > 0.9 and seen_from_back < 0.1, (seen_from_plate, seen_from_back)
+
+
+def test_acceleration_setting_reads_old_booleans():
+    base = {"volume.demo": "blobs", "volume.size": 8}
+    assert load_scene(None, {**base, "renderer.acceleration": True}).renderer.acceleration == "on"
+    assert load_scene(None, {**base, "renderer.acceleration": False}).renderer.acceleration == "off"
+    assert load_scene(None, base).renderer.acceleration == "auto"
