@@ -35,11 +35,11 @@ DATASETS = [
         [0, 0, 0, 0, 0], [55, 0.2, 0.6, 1, 0], [60, 0.2, 0.6, 1, 0.5], [65, 0.2, 0.6, 1, 0], [255, 0, 0, 0, 0]]}),
 ]
 CONFIGS = [  # label, overrides
-    ("none", {"renderer.ert_threshold": 1.0, "renderer.acceleration": False}),
-    ("early termination", {"renderer.ert_threshold": 0.99, "renderer.acceleration": False}),
-    ("empty-space skipping", {"renderer.ert_threshold": 1.0, "renderer.acceleration": True}),
-    ("both (default)", {"renderer.ert_threshold": 0.99, "renderer.acceleration": True}),
-    ("both + homogeneity 0.3", {"renderer.ert_threshold": 0.99, "renderer.acceleration": True,
+    ("none", {"renderer.ert_threshold": 1.0, "renderer.acceleration": "off"}),
+    ("early termination", {"renderer.ert_threshold": 0.99, "renderer.acceleration": "off"}),
+    ("empty-space skipping", {"renderer.ert_threshold": 1.0, "renderer.acceleration": "on"}),
+    ("both (default, auto)", {"renderer.ert_threshold": 0.99, "renderer.acceleration": "auto"}),
+    ("both + homogeneity 0.3", {"renderer.ert_threshold": 0.99, "renderer.acceleration": "on",
                                 "renderer.homogeneity_tolerance": 0.3}),
 ]
 COLUMNS = [("dataset", "dataset", ""), ("config", "acceleration", ""), ("samples_per_ray", "samples/ray", ".1f"),
@@ -86,3 +86,72 @@ def run(data_dir: Path, size: int = 512, repeat: int = 5, datasets=DATASETS, con
     finally:
         renderer.close()
     return rows, notes
+
+
+# Dense scenes, where no block (or a few) can be skipped: what acceleration may cost there.
+def dense_scenes(volume_size: int = 256) -> list[tuple[str, dict]]:
+    """(name, overrides): the two phantoms of the peers' benchmark, composite (the viridis preset: an
+    opacity ramp over the value range, so that no block is empty) and MIP, and the demo."""
+    out = []
+    for demo in ("marschner-lobb", "blobs"):
+        base = {"volume.demo": demo, "volume.size": volume_size, "renderer.sample_distance_voxels": 1.0}
+        out.append((f"{demo} {volume_size}^3, composite", {**base, "transfer_function.preset": "viridis"}))
+        out.append((f"{demo} {volume_size}^3, MIP", {**base, "renderer.compositing": "mip"}))
+    out.append(("demo (shepp-logan 96^3, shaded)", {"volume.demo": "shepp-logan", "volume.size": 96,
+                                                    "renderer.sample_distance_voxels": 0.25,
+                                                    "renderer.shading.enabled": True}))
+    return out
+
+
+OVERHEAD_COLUMNS = [("dataset", "scene", ""), ("skippable", "skippable (estimate)", ".2f"),
+                    ("saved", "samples saved", ".2f"), ("off_ms", "off ms", ".1f"), ("on_ms", "on ms", ".1f"),
+                    ("auto_ms", "auto ms", ".1f"), ("on_ratio", "on/off", ".2f"), ("on_worst", "worst", ".2f"),
+                    ("auto_ratio", "auto/off", ".2f"), ("auto_worst", "worst", ".2f")]
+
+
+def overhead(scenes: list[tuple[str, dict]], size: int = 512, views: int = 6, repeat: int = 2) -> list[dict]:
+    """Acceleration on and auto against off, in one process: for each of ``views`` azimuths the three
+    settings alternate (``repeat`` rounds, the fastest frame of each), and the ratios to off are
+    taken per view; the table gives their median and worst.  Also the auto estimate of the skippable
+    fraction and the samples skipping saves (counted by the shader), both as medians over the views."""
+    import statistics
+
+    rows = []
+    renderer = RayCastRenderer()
+    try:
+        for name, overrides in scenes:
+            base = {"image.width": size, "image.height": size, "camera.elevation": 20.0, **overrides}
+            volume = load_scene(None, base).volume
+            ratios = {"on": [], "auto": []}
+            ms = {"on": [], "off": [], "auto": []}
+            estimates, saved = [], []
+            for view in range(views):
+                azimuth = 30.0 + 360.0 * view / views
+                scenes_ = {mode: load_scene(None, {**base, "camera.azimuth": azimuth,
+                                                   "renderer.acceleration": mode}).replace(volume=volume)
+                           for mode in ("off", "on", "auto")}
+                renderer.count_samples = True
+                counted = {}
+                for mode in ("off", "on", "auto"):  # warm-up: programs, textures, block classes
+                    renderer.render(scenes_[mode])
+                    counted[mode] = renderer.stats
+                renderer.count_samples = False
+                estimates.append(counted["auto"]["skippable_estimate"] or 0.0)
+                saved.append(1.0 - counted["on"]["samples_per_ray"] / max(counted["off"]["samples_per_ray"], 1e-9))
+                best = {mode: float("inf") for mode in scenes_}
+                for _ in range(repeat):
+                    for mode, scene in scenes_.items():
+                        renderer.render(scene)
+                        best[mode] = min(best[mode], renderer.stats["gpu_seconds"])
+                for mode in ms:
+                    ms[mode].append(1e3 * best[mode])
+                for mode in ratios:
+                    ratios[mode].append(best[mode] / best["off"])
+            rows.append({"dataset": name, "skippable": statistics.median(estimates),
+                         "saved": statistics.median(saved),
+                         **{f"{m}_ms": statistics.median(v) for m, v in ms.items()},
+                         **{f"{m}_ratio": statistics.median(v) for m, v in ratios.items()},
+                         **{f"{m}_worst": max(v) for m, v in ratios.items()}})
+    finally:
+        renderer.close()
+    return rows

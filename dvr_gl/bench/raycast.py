@@ -27,11 +27,24 @@ CASES = [  # (label, overrides, fragment shader)
     ("isosurface + shading", {"renderer.compositing": "isosurface", "renderer.shading.enabled": True},
      "raycast.frag"),
     ("maximum intensity projection", {"renderer.compositing": "mip"}, "raycast.frag"),
+    # Every compositing mode and classification without shading, early termination off: their
+    # samples per second against the minimal loop's (the last column).
+    ("emission, back to front", {"renderer.ert_threshold": 1.0, "renderer.order": "back_to_front"},
+     "raycast.frag"),
+    ("emission, pre-classified", {"renderer.ert_threshold": 1.0, "renderer.classification": "pre"},
+     "raycast.frag"),
+    ("emission, pre-integrated", {"renderer.ert_threshold": 1.0, "renderer.classification": "preintegrated"},
+     "raycast.frag"),
+    ("minimum intensity projection", {"renderer.compositing": "minip"}, "raycast.frag"),
+    ("average (X-ray)", {"renderer.compositing": "average"}, "raycast.frag"),
+    ("isosurface, unshaded", {"renderer.compositing": "isosurface"}, "raycast.frag"),
 ]
+MINIMAL = "  same, minimal hand-written shader"
+MINIMAL_OF = "emission, early termination off"  # the minimal loop takes this case's samples
 
 COLUMNS = [("case", "case", ""), ("volume", "volume", ""), ("image", "image", ""),
            ("samples_per_ray", "samples/ray", ".1f"), ("ms", "frame ms (median)", ".1f"),
-           ("msamples_per_s", "Msamples/s", ".1f")]
+           ("msamples_per_s", "Msamples/s", ".1f"), ("of_minimal", "of the minimal loop", ".0%")]
 
 
 def run(base: dict, repeat: int = 5, cases=CASES) -> list[dict]:
@@ -66,4 +79,12 @@ def run(base: dict, repeat: int = 5, cases=CASES) -> list[dict]:
     finally:
         for r in reversed(list(renderers.values())):
             r.close()
+    by_label = {row["case"]: row for row in rows}
+    if MINIMAL in by_label and by_label.get(MINIMAL_OF, {}).get("msamples_per_s"):
+        minimal = by_label[MINIMAL]
+        reference = by_label[MINIMAL_OF]
+        minimal["msamples_per_s"] = reference["msamples_per_s"] * reference["ms"] / minimal["ms"]
+        for row in rows:
+            if row.get("msamples_per_s"):
+                row["of_minimal"] = row["msamples_per_s"] / minimal["msamples_per_s"]
     return rows

@@ -45,7 +45,8 @@ def volume_bytes(volume) -> int:
 
 def _texture3d(ctx, data: np.ndarray, components: int, dtype: str) -> moderngl.Texture3D:
     nz, ny, nx = data.shape[:3]
-    tex = ctx.texture3d((nx, ny, nz), components, np.ascontiguousarray(data).tobytes(), dtype=dtype)
+    # The array itself (buffer protocol): tobytes() would copy it first, 45 ms for 64 MB.
+    tex = ctx.texture3d((nx, ny, nz), components, np.ascontiguousarray(data), dtype=dtype)
     tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
     tex.repeat_x = tex.repeat_y = tex.repeat_z = False
     return tex
