@@ -237,9 +237,11 @@ def test_transparent_voxels_are_never_read(shearwarp):
 def test_early_termination_skips_voxels_behind_opaque_pixels(shearwarp, tmp_path):
     """A solid cube of opacity 0.9 per voxel: pixels close after two slices, and the pieces of runs
     behind closed pixels are not read (measured on 24^3: 45 % of the voxels read, 17 % of the samples
-    composited; the rest are rim pixels and the granularity of pieces and refreshes)."""
+    composited; the rest are rim pixels and the granularity of pieces and refreshes).  Threshold 0.99,
+    as measured: at the default 1 - 1/255 a pixel closes a slice later (52 % read)."""
     scene = array_scene(tmp_path, np.ones((24, 24, 24), np.float32),
-                        {"transfer_function.points": [[0, 1, 1, 1, 0.9], [1, 1, 0.8, 0.6, 0.9]]})
+                        {"transfer_function.points": [[0, 1, 1, 1, 0.9], [1, 1, 0.8, 0.6, 0.9]],
+                         "renderer.ert_threshold": 0.99})
     full = shearwarp.render(scene.with_renderer(ert_threshold=1.0))
     everything = dict(shearwarp.stats)
     image = shearwarp.render(scene)

@@ -242,9 +242,13 @@ class RayCastRenderer(GLVolumeRenderer):
         """:func:`.acceleration.skippable_fraction` of this frame (cached per view and blocks)."""
         r, img = scene.renderer, scene.image
         mode = "isosurface" if r.compositing == "isosurface" else blocks.mode
-        return self._cached("skippable", (blocks, scene.camera, img.width, img.height, r.iso_value), lambda: (
-            accel.skippable_fraction(blocks.level0, mode, r.block_size, scene.volume, scene.camera,
-                                     img.width / img.height, iso_value=r.iso_value)))
+        key = (blocks, scene.camera, img.width, img.height, r.iso_value)
+        last = getattr(self, "_skippable", None)  # host data only: not in the texture cache
+        if last is None or not (last[0][0] is blocks and last[0][1] is scene.camera and last[0][2:] == key[2:]):
+            self._skippable = (key, accel.skippable_fraction(blocks.level0, mode, r.block_size, scene.volume,
+                                                             scene.camera, img.width / img.height,
+                                                             iso_value=r.iso_value))
+        return self._skippable[1]
 
     def bands(self, scene) -> int:
         """Horizontal bands to draw a one-pass frame in: one for a frame estimated under
