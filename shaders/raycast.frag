@@ -174,7 +174,8 @@ int segments_to_jump(int k, out vec4 block, out int run) {
     vec3 u_check = voxel_coord(o + t_check * d);
     // The segments whose check point lies within `reach` of t_check; rounding only shortens or
     // lengthens a run by one segment, which moves a lookup, never a sample.
-    float reach = dense_reach(u_check, du);
+    block = block_fetch(0, u_check);
+    float reach = dense_reach(u_check, du, block);
     if (reach > 0.0) {
 #ifdef BACK_TO_FRONT
         run = k - int(floor((t_check - reach - t0) / u_sample_distance - run_offset));

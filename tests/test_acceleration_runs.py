@@ -112,3 +112,19 @@ def test_acceleration_setting_reads_old_booleans():
     assert load_scene(None, {**base, "renderer.acceleration": True}).renderer.acceleration == "on"
     assert load_scene(None, {**base, "renderer.acceleration": False}).renderer.acceleration == "off"
     assert load_scene(None, base).renderer.acceleration == "auto"
+
+
+def test_emission_classes_carry_the_runs():
+    """Emission-absorption folds the runs into level 0: a block that cannot be skipped holds -R for the
+    largest dense radius R, skippable blocks keep their class."""
+    rng = np.random.default_rng(7)
+    classes = rng.uniform(0, 1, (9, 9, 9, 4)).astype(np.float32)
+    classes[..., 3] = np.where(rng.uniform(size=(9, 9, 9)) < 0.9, -1.0, classes[..., 3])
+    out = accel.classes_with_runs(classes)
+    skippable = classes[..., 3] >= 0
+    np.testing.assert_array_equal(out[skippable], classes[skippable])
+    np.testing.assert_array_equal(out[..., :3], classes[..., :3])
+    for idx in zip(*np.nonzero(~skippable)):
+        expected = max(r for r in accel.RUN_RADII
+                       if not _brute_reduce(skippable, r - 1, np.logical_or)[idx])
+        assert out[idx + (3,)] == -expected

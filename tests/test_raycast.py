@@ -129,14 +129,15 @@ def test_default_scene_features_and_program_cache(gpu):
     plain = small_scene({**NO_ERT, "renderer.acceleration": False})
     assert shader_features(plain) == {"COMPOSITE_EMISSION": True, "FILTER_LINEAR": True}
     assert shader_features(small_scene({**NO_ERT})) == {"COMPOSITE_EMISSION": True, "FILTER_LINEAR": True,
-                                                        "ACCELERATE": True, "NUM_LEVELS": 3}
+                                                        "ACCELERATE": True, "NUM_LEVELS": 3, "RUNS_IN_CLASSES": True}
     rich = small_scene({"renderer.shading.enabled": True, "renderer.jitter": True,
                         "renderer.gradient": "texture", "renderer.filter": "catmull_rom",
                         "renderer.filtering": "shader", "camera.projection": "orthographic"})
     assert shader_features(rich) == {
         "COMPOSITE_EMISSION": True, "FILTER_CATMULL_ROM": True, "FILTER_IN_SHADER": True,
         "CAMERA_ORTHOGRAPHIC": True, "EARLY_TERMINATION": True, "SHADING": True, "NUM_LIGHTS": 1,
-        "TWO_SIDED": True, "GRADIENT_TEXTURE": True, "JITTER": True, "ACCELERATE": True, "NUM_LEVELS": 3}
+        "TWO_SIDED": True, "GRADIENT_TEXTURE": True, "JITTER": True, "ACCELERATE": True, "NUM_LEVELS": 3,
+        "RUNS_IN_CLASSES": True}
     from dvr_gl.gl.shaders import create_program
     a = create_program(gpu.ctx, "fullscreen.vert", "raycast.frag", shader_features(plain))
     b = create_program(gpu.ctx, "fullscreen.vert", "raycast.frag",

@@ -34,10 +34,10 @@ vec4 block_fetch(int level, vec3 u) {
     return texelFetch(u_blocks0, clamp(b, ivec3(0), textureSize(u_blocks0, 0) - 1), 0);
 }
 
-// The coarsest level whose block around u passes `skippable` (-1 if level 0 does not), and that block.
-// SKIPPABLE(block, bound) is defined by the including shader for its compositing mode.
-int skip_level(vec3 u, float bound, out vec4 block) {
-    block = block_fetch(0, u);
+// The coarsest level whose block around u passes `skippable` (-1 if level 0 does not), and that block;
+// `block` comes in as the level-0 block (already fetched).  SKIPPABLE(block, bound) is defined by
+// the including shader for its compositing mode.
+int skip_level(vec3 u, float bound, inout vec4 block) {
     if (!SKIPPABLE(block, bound)) return -1;
     int level = 0;
     for (int l = 1; l < NUM_LEVELS; ++l) {
@@ -81,21 +81,31 @@ int segments_after(float t_entry, float t0, float offset, int k) {
     return clamp(int(ceil((t_entry - t0) / u_sample_distance - offset)) + 1, 0, k);
 }
 
-// Runs (dvr_gl.renderers.raycast.acceleration.run_keys): per level-0 block, channel i holds the
-// mode's key reduced over the blocks within Chebyshev distance RUN_RADII[i] - 1 (1, 2, 4, 8 blocks):
-// where the mode's RUN_DENSE(key) holds, no block of that neighbourhood can be skipped, and a ray
-// may sample on to the neighbourhood's edge without another lookup.  On dense data the loop then
-// looks up once per ray or so instead of once per block.
+// Runs (dvr_gl.renderers.raycast.acceleration.run_keys): where a ray may sample on without another
+// lookup.  Around each level-0 block, the neighbourhoods of Chebyshev radius RUN_RADII - 1 = 0, 1,
+// 3, 7 blocks: where no block of one can be skipped, the ray samples on to its edge.  On dense data
+// the loop then looks up once per ray or so instead of once per block.
+//   RUNS_IN_CLASSES (emission-absorption, whose classes do not depend on the ray's state): the
+//     level-0 class of a block that cannot be skipped holds -R, R the largest such radius (1, 2, 4
+//     or 8), so the one fetch serves both; no runs texture.
+//   otherwise: u_runs holds, per block, the mode's key reduced over each neighbourhood, and
+//     RUN_DENSE(key) (the mode's) says whether no block there can be skipped for the state so far.
+#ifndef RUNS_IN_CLASSES
 uniform sampler3D u_runs;
+#endif
 
 // How far (ray parameter) from t at voxel position u the ray may sample without a lookup: to the
 // exit (forward) or entry (backward) of the largest dense neighbourhood around u's block; 0 where
-// u's own block may be skippable.
-float dense_reach(vec3 u, vec3 du) {
+// u's own block may be skippable.  block0: u's level-0 block.
+float dense_reach(vec3 u, vec3 du, vec4 block0) {
     ivec3 b = block_of(0, u);
+#ifdef RUNS_IN_CLASSES
+    float radius = max(-block0.a, 0.0);
+#else
     vec4 key = texelFetch(u_runs, clamp(b, ivec3(0), textureSize(u_runs, 0) - 1), 0);
     float radius = RUN_DENSE(key.w) ? 8.0 : RUN_DENSE(key.z) ? 4.0 : RUN_DENSE(key.y) ? 2.0 :
                    RUN_DENSE(key.x) ? 1.0 : 0.0;
+#endif
     if (radius == 0.0) return 0.0;
     float size = float(u_block_size);
 #ifdef BACK_TO_FRONT

@@ -290,3 +290,16 @@ def skippable_fraction(level0: np.ndarray, mode: str, block_size: int, volume, c
         bound = np.maximum.accumulate(np.concatenate([np.full((len(t), 1), -np.inf), low[:, :-1]], axis=1), axis=1)
         skip = high <= bound
     return float((skip & valid).sum() / max(valid.sum(), 1))
+
+
+def classes_with_runs(level0: np.ndarray) -> np.ndarray:
+    """Emission-absorption's level-0 classes with the runs folded in (blocks.glsl, RUNS_IN_CLASSES):
+    a block that cannot be skipped (sigma < 0) holds ``-R``, ``R`` the largest of :data:`RUN_RADII`
+    whose neighbourhood has no skippable block (at least 1: the block itself)."""
+    keys = run_keys(level0, "emission")
+    radius = np.zeros(level0.shape[:3], np.float32)
+    for i, r in enumerate(RUN_RADII):
+        radius = np.where(keys[..., i] > 0.5, np.float32(r), radius)
+    out = level0.copy()
+    out[..., 3] = np.where(level0[..., 3] < 0.0, -radius, level0[..., 3])
+    return out

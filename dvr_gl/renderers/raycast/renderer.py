@@ -59,7 +59,8 @@ def shader_features(scene, count_samples: bool = False, bricked: bool = False) -
         defines["EARLY_TERMINATION"] = r.order == "front_to_back" and r.ert_threshold < 1.0
     defines["JITTER"] = r.jitter
     if acceleration_mode(r.acceleration) != "off" and r.compositing != "average":  # every sample counts in an average
-        defines.update(ACCELERATE=True, NUM_LEVELS=level_count(scene.volume.dims, r.block_size))
+        defines.update(ACCELERATE=True, NUM_LEVELS=level_count(scene.volume.dims, r.block_size),
+                       RUNS_IN_CLASSES=emission)
     defines["COUNT_SAMPLES"] = count_samples
     defines = {k: v for k, v in defines.items() if v is not False}
     return bricked_features(defines) if bricked else defines
@@ -74,23 +75,29 @@ def acceleration_mode(value) -> str:
 def bricked_features(defines: dict) -> dict:
     """The defines of the bricked (or long-ray) passes: the same features, one pass per brick and
     segment window, no empty-space skipping or sample counting (yet)."""
-    out = {k: v for k, v in defines.items() if k not in ("ACCELERATE", "NUM_LEVELS", "COUNT_SAMPLES")}
+    out = {k: v for k, v in defines.items() if k not in ("ACCELERATE", "NUM_LEVELS", "RUNS_IN_CLASSES", "COUNT_SAMPLES")}
     out["BRICKED"] = True
     return out
 
 
 class BlockTextures(list):
-    """One nearest-filtered float texture per pyramid level, and the runs texture
-    (:func:`.acceleration.run_keys` of level 0) last; released together."""
+    """One nearest-filtered float texture per pyramid level, and ``runs``: the runs texture
+    (:func:`.acceleration.run_keys` of level 0), or None for emission-absorption, whose level 0
+    carries them (:func:`.acceleration.classes_with_runs`); released together."""
 
     def __init__(self, ctx, levels: list[np.ndarray], mode: str):
-        super().__init__(upload_field(ctx, a) for a in levels + [accel.run_keys(levels[0], mode)])
         self.level0, self.mode = levels[0], mode  # for the skipping estimate
-        for tex in self:
+        if mode == "emission":
+            uploaded, runs = [accel.classes_with_runs(levels[0])] + levels[1:], None
+        else:
+            uploaded, runs = levels, accel.run_keys(levels[0], mode)
+        super().__init__(upload_field(ctx, a) for a in uploaded)
+        self.runs = upload_field(ctx, runs) if runs is not None else None
+        for tex in self + ([self.runs] if self.runs else []):
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
 
     def release(self):
-        for tex in self:
+        for tex in self + ([self.runs] if self.runs else []):
             tex.release()
 
 
@@ -212,12 +219,13 @@ class RayCastRenderer(GLVolumeRenderer):
             if acceleration_mode(scene.renderer.acceleration) == "auto":
                 skippable = self.skippable(scene, blocks)
                 if skippable < AUTO_MIN_SKIPPABLE:
-                    defines = {k: v for k, v in defines.items() if k not in ("ACCELERATE", "NUM_LEVELS")}
+                    defines = {k: v for k, v in defines.items()
+                               if k not in ("ACCELERATE", "NUM_LEVELS", "RUNS_IN_CLASSES")}
             if "ACCELERATE" in defines:
-                *levels, runs = blocks
-                for level, tex in enumerate(levels):
+                for level, tex in enumerate(blocks):
                     textures[f"u_blocks{level}"] = tex
-                textures["u_runs"] = runs
+                if blocks.runs is not None:
+                    textures["u_runs"] = blocks.runs
         program = create_program(self.ctx, "fullscreen.vert", self.fragment_shader, defines)
         uniforms = {**self.ray_uniforms(scene), **self.grid_uniforms(scene, views[0]),
                     **self.optics_uniforms(scene, lut)}
