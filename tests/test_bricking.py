@@ -92,3 +92,15 @@ def test_ghosts_grow_with_what_a_brick_reads_beyond_its_core():
 
     assert ghost_width("linear", False) == 1 and ghost_width("catmull_rom", True) == 3
     assert ghost_width("linear", True, reach=0.25) == 3 and ghost_width("cubic_bspline", False, reach=3.5) == 6
+
+
+def test_accelerated_windows_hold_a_third_of_the_segments():
+    """llvmpipe's loop cap counts the outer loop's lookups and the inner loop's entries too: an
+    accelerated pass takes at most a third of PASS_SEGMENTS segments."""
+    from dvr_gl.renderers.raycast.renderer import ACCELERATED_COST, PASS_SEGMENTS, segment_windows
+
+    scene = small_scene({"renderer.sample_distance": 32 * np.sqrt(3) / 40000})  # 40000 segments
+    assert len(segment_windows(scene)) == 1
+    windows = segment_windows(scene, accelerated=True)
+    assert len(windows) == 2
+    assert all(b - a <= (PASS_SEGMENTS - scene.renderer.iso_refinement) // ACCELERATED_COST for a, b in windows)
