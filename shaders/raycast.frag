@@ -18,6 +18,7 @@
 // shaders/raycast_resolve.frag turns the last into the image.  Bricks carry enough ghost voxels
 // for what a pass reads beyond its core (dvr_gl.bricking.ghost_width).  Rays longer than
 // llvmpipe's loop cap are composited the same way, in passes over windows of segments.
+// COUNT_SAMPLES carries the counts between passes (u_counts).
 //
 // This file is the skeleton every mode shares: the ray and its segments, the pass's window, one
 // loop over the segments (k upward, or downward for BACK_TO_FRONT), brick ownership, block
@@ -101,7 +102,10 @@ bool owns_entry(vec3 p) {
 
 layout(location = 0) out vec4 frag_color;
 #ifdef COUNT_SAMPLES
-layout(location = 1) out vec4 frag_samples;   // volume samples, block jumps, block lookups
+layout(location = 1) out vec4 frag_samples;   // volume samples, block jumps, block lookups, segments jumped
+#ifdef BRICKED
+uniform sampler2D u_counts;     // the counts of the passes before, this pixel
+#endif
 #endif
 
 #include "common/classify.glsl"
@@ -202,7 +206,14 @@ int segments_to_jump(int k, out vec4 block, out int run) {
 #endif
 
 void main() {
-    float samples = 0.0, jumps = 0.0, lookups = 0.0;
+    float samples = 0.0, jumps = 0.0, lookups = 0.0, jumped = 0.0;
+#if defined(BRICKED) && defined(COUNT_SAMPLES)
+    vec4 counted = texelFetch(u_counts, ivec2(gl_FragCoord.xy), 0);
+    samples = counted.x;
+    jumps = counted.y;
+    lookups = counted.z;
+    jumped = counted.w;
+#endif
 #ifdef BRICKED
     vec4 state = texelFetch(u_state, ivec2(gl_FragCoord.xy), 0);
 #else
@@ -251,6 +262,7 @@ void main() {
                 mode_gap();
                 k += STEP * m;
                 jumps += 1.0;
+                jumped += float(m);
                 continue;
             }
 #ifdef BACK_TO_FRONT
@@ -289,6 +301,6 @@ void main() {
   #include "common/resolve.glsl"
 #endif
 #ifdef COUNT_SAMPLES
-    frag_samples = vec4(samples, jumps, lookups, 0.0);
+    frag_samples = vec4(samples, jumps, lookups, jumped);
 #endif
 }

@@ -87,6 +87,22 @@ def test_bricked_equals_unbricked(gpu, extra, filter_kind):
     assert np.abs(bricked - whole).max() <= tolerance, np.abs(bricked - whole).max()
 
 
+def test_bricked_passes_count_what_one_pass_counts():
+    """COUNT_SAMPLES in bricked passes: the counts carry from pass to pass, and a ray's samples over
+    all of them are its samples in one pass (each sample has one owner), pixel by pixel."""
+    renderer = RayCastRenderer(count_samples=True)
+    try:
+        for extra in ({}, {"renderer.order": "back_to_front"}, {"renderer.compositing": "mip"}):
+            scene = small_scene({"renderer.ert_threshold": 1.0, "renderer.acceleration": "off", **extra})
+            renderer.render(scene)
+            one = renderer.counts.copy()
+            renderer.render(scene.with_renderer(texture_budget_mb=TINY))
+            assert renderer.stats["bricks"] >= 8 and renderer.stats["samples_per_ray"] > 10
+            np.testing.assert_array_equal(renderer.counts, one)
+    finally:
+        renderer.close()
+
+
 def test_ghosts_grow_with_what_a_brick_reads_beyond_its_core():
     from dvr_gl.renderers.grid.bricking import ghost_width
 

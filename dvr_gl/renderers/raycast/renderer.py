@@ -73,8 +73,8 @@ def acceleration_mode(value) -> str:
 
 def bricked_features(defines: dict) -> dict:
     """The defines of the bricked (or long-ray) passes: the same features, one pass per brick and
-    segment window, no empty-space skipping or sample counting (yet)."""
-    out = {k: v for k, v in defines.items() if k not in ("ACCELERATE", "NUM_LEVELS", "COUNT_SAMPLES")}
+    segment window (sample counting included), no empty-space skipping (yet)."""
+    out = {k: v for k, v in defines.items() if k not in ("ACCELERATE", "NUM_LEVELS")}
     out["BRICKED"] = True
     return out
 
@@ -135,6 +135,7 @@ class RayCastRenderer(GLVolumeRenderer):
         super().__init__(ctx)
         self.count_samples = count_samples
         self.fragment_shader = fragment_shader
+        self.counts = None  # count_samples: the last frame's counts per pixel (see count_stats)
 
     def work(self, scene):
         return limits.ray_samples(scene, "gpu samples")
@@ -236,14 +237,21 @@ class RayCastRenderer(GLVolumeRenderer):
         self.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines, "bricks": 1,
                       "skippable_estimate": skippable, "accelerated": "ACCELERATE" in defines}
         if self.count_samples:
-            c = self.read(fbo, width, height, 4, attachment=1).reshape(-1, 4)
-            samples, jumps, lookups = c[:, 0], c[:, 1], c[:, 2]
-            hit = (samples + jumps) > 0
-            self.stats["samples"] = int(samples.sum(dtype=np.float64))
-            self.stats["samples_per_ray"] = float(samples[hit].mean()) if hit.any() else 0.0
-            self.stats["jumps_per_ray"] = float(jumps[hit].mean()) if hit.any() else 0.0
-            self.stats["lookups_per_ray"] = float(lookups[hit].mean()) if hit.any() else 0.0
+            self.count_stats(self.read(fbo, width, height, 4, attachment=1))
         return image
+
+    def count_stats(self, counts: np.ndarray):
+        """COUNT_SAMPLES: the frame's counts (height, width, 4: samples, jumps, lookups, segments
+        jumped per pixel) into the stats, per ray hitting the volume; kept in :attr:`counts`."""
+        self.counts = counts
+        c = counts.reshape(-1, 4).astype(np.float64)
+        samples, jumps, lookups, jumped = c.T
+        hit = (samples + jumps) > 0
+        self.stats["samples"] = int(samples.sum())
+        self.stats["segments"] = int((samples + jumped).sum())  # sampled or jumped
+        self.stats["samples_per_ray"] = float(samples[hit].mean()) if hit.any() else 0.0
+        self.stats["jumps_per_ray"] = float(jumps[hit].mean()) if hit.any() else 0.0
+        self.stats["lookups_per_ray"] = float(lookups[hit].mean()) if hit.any() else 0.0
 
     def skippable(self, scene, blocks) -> float:
         """:func:`.acceleration.skippable_fraction` of this frame (cached per view and blocks)."""
@@ -287,6 +295,7 @@ class RayCastRenderer(GLVolumeRenderer):
         resolve = create_program(self.ctx, "fullscreen.vert", "raycast_resolve.frag", defines)
         tables = self.table_textures(scene, defines, r.sample_distance)
         lut = tables["u_lut"].lut
+        counting = "COUNT_SAMPLES" in defines
         width, height = scene.image.width, scene.image.height
         front_to_back = not ("BACK_TO_FRONT" in defines)
         bricks = visibility_order([v.brick for v in views], scene.volume, scene.camera, front_to_back)
@@ -295,9 +304,11 @@ class RayCastRenderer(GLVolumeRenderer):
         resident = sum(np.prod(v.dims) for v in views) * per_voxel <= r.texture_budget_mb * 2 ** 20
         initial = {"COMPOSITE_MIP": -3.0e38, "COMPOSITE_MINIP": 3.0e38}
         first = next((v for k, v in initial.items() if k in defines), 0.0)
-        targets = [self.target(f"state {i}", width, height) for i in range(2)]
+        targets = [self.target(f"state {i}", width, height, (4, 4) if counting else (4,)) for i in range(2)]
         targets[0][1].use()
         self.ctx.clear(first, 0.0, 0.0, 0.0)
+        if counting:  # the counts start at zero, whatever the state's initial value
+            targets[0][0][1].write(np.zeros((height, width, 4), np.float32))
         common = {**self.ray_uniforms(scene), **self.optics_uniforms(scene, lut)}
         gpu_seconds, current = 0.0, 0
         to_global = -np.asarray(scene.volume.origin) / np.asarray(scene.volume.spacing)
@@ -306,6 +317,8 @@ class RayCastRenderer(GLVolumeRenderer):
             view = by_brick[brick]
             textures = {**self.view_textures(scene, defines, view, resident), **tables,
                         "u_state": targets[current][0][0]}
+            if counting:
+                textures["u_counts"] = targets[current][0][1]
             lo, hi = brick.world_box(scene.volume)
             single = np.asarray(scene.volume.dims) == 1
             uniforms = {**common, **self.grid_uniforms(scene, view), "u_world_to_global_offset": to_global,
@@ -324,4 +337,6 @@ class RayCastRenderer(GLVolumeRenderer):
         image = self.read(out, width, height)
         self.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines,
                       "bricks": len(bricks), "passes": len(passes)}
+        if counting:
+            self.count_stats(self.read(targets[current][1], width, height, 4, attachment=1))
         return image
