@@ -73,10 +73,8 @@ def acceleration_mode(value) -> str:
 
 def bricked_features(defines: dict) -> dict:
     """The defines of the bricked (or long-ray) passes: the same features, one pass per brick and
-    segment window (sample counting included), no empty-space skipping (yet)."""
-    out = {k: v for k, v in defines.items() if k not in ("ACCELERATE", "NUM_LEVELS")}
-    out["BRICKED"] = True
-    return out
+    segment window (empty-space skipping and sample counting included)."""
+    return {**defines, "BRICKED": True}
 
 
 class BlockTextures(list):
@@ -205,27 +203,17 @@ class RayCastRenderer(GLVolumeRenderer):
         start = now()
         defines = shader_features(scene, self.count_samples)
         views = self.grid_views(scene, defines)
-        windows = segment_windows(scene, "ACCELERATE" in defines)  # on or auto: the loop may skip
+        tables = self.table_textures(scene, defines, scene.renderer.sample_distance)
+        defines, blocks, skippable = self.decide_skipping(scene, defines, tables)
+        windows = segment_windows(scene, "ACCELERATE" in defines)
+        decided = {"skippable_estimate": skippable, "accelerated": "ACCELERATE" in defines}
         if len(views) > 1 or len(windows) > 1:
             if len(views) == 1:  # long rays: the whole volume as one brick, in passes over segment windows
                 views = [GridView((0, 0, 0), scene.volume.dims, whole_volume_brick(scene.volume))]
-            return self._render_bricks(scene, bricked_features(defines), views, start, windows)
-        textures = {**self.view_textures(scene, defines, views[0], resident=True),
-                    **self.table_textures(scene, defines, scene.renderer.sample_distance)}
+            return self._render_bricks(scene, bricked_features(defines), views, start, windows,
+                                       {**tables, **blocks}, decided)
+        textures = {**self.view_textures(scene, defines, views[0], resident=True), **tables, **blocks}
         lut = textures["u_lut"].lut
-        skippable = None
-        if "ACCELERATE" in defines:
-            preint = textures["u_preint"].table if "u_preint" in textures else None
-            blocks = self._block_textures(scene, defines, lut, preint)
-            if acceleration_mode(scene.renderer.acceleration) == "auto":
-                skippable = self.skippable(scene, blocks)
-                if skippable < AUTO_MIN_SKIPPABLE:
-                    defines = {k: v for k, v in defines.items() if k not in ("ACCELERATE", "NUM_LEVELS")}
-            if "ACCELERATE" in defines:
-                *levels, runs = blocks
-                for level, tex in enumerate(levels):
-                    textures[f"u_blocks{level}"] = tex
-                textures["u_runs"] = runs
         program = create_program(self.ctx, "fullscreen.vert", self.fragment_shader, defines)
         uniforms = {**self.ray_uniforms(scene), **self.grid_uniforms(scene, views[0]),
                     **self.optics_uniforms(scene, lut)}
@@ -235,10 +223,26 @@ class RayCastRenderer(GLVolumeRenderer):
         gpu_seconds = self._draw(program, fbo, width, height, self.bands(scene))
         image = self.read(fbo, width, height)
         self.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines, "bricks": 1,
-                      "skippable_estimate": skippable, "accelerated": "ACCELERATE" in defines}
+                      **decided}
         if self.count_samples:
             self.count_stats(self.read(fbo, width, height, 4, attachment=1))
         return image
+
+    def decide_skipping(self, scene, defines, tables) -> tuple[dict, dict, float | None]:
+        """This frame's empty-space skipping, decided once for all its passes: the defines (without
+        ACCELERATE where it is off, or "auto" finds too little to skip), the block textures to bind
+        (the whole volume's, bricked or not) and the skippable estimate ("auto" only)."""
+        if "ACCELERATE" not in defines:
+            return defines, {}, None
+        preint = tables["u_preint"].table if "u_preint" in tables else None
+        blocks = self._block_textures(scene, defines, tables["u_lut"].lut, preint)
+        skippable = None
+        if acceleration_mode(scene.renderer.acceleration) == "auto":
+            skippable = self.skippable(scene, blocks)
+            if skippable < AUTO_MIN_SKIPPABLE:
+                return {k: v for k, v in defines.items() if k not in ("ACCELERATE", "NUM_LEVELS")}, {}, skippable
+        *levels, runs = blocks
+        return defines, {**{f"u_blocks{level}": tex for level, tex in enumerate(levels)}, "u_runs": runs}, skippable
 
     def count_stats(self, counts: np.ndarray):
         """COUNT_SAMPLES: the frame's counts (height, width, 4: samples, jumps, lookups, segments
@@ -289,11 +293,13 @@ class RayCastRenderer(GLVolumeRenderer):
             fbo.scissor = None
             vao.release()
 
-    def _render_bricks(self, scene, defines, views, start, windows) -> np.ndarray:
+    def _render_bricks(self, scene, defines, views, start, windows, tables, decided) -> np.ndarray:
+        """One pass per brick and segment window; ``tables``: the frame's tables and block textures
+        (the whole volume's, shared by every pass); ``decided``: the stats of the skipping decision."""
         r = scene.renderer
         program = create_program(self.ctx, "fullscreen.vert", "raycast.frag", defines)
-        resolve = create_program(self.ctx, "fullscreen.vert", "raycast_resolve.frag", defines)
-        tables = self.table_textures(scene, defines, r.sample_distance)
+        resolve = create_program(self.ctx, "fullscreen.vert", "raycast_resolve.frag",
+                                 {k: v for k, v in defines.items() if k not in ("ACCELERATE", "NUM_LEVELS")})
         lut = tables["u_lut"].lut
         counting = "COUNT_SAMPLES" in defines
         width, height = scene.image.width, scene.image.height
@@ -336,7 +342,7 @@ class RayCastRenderer(GLVolumeRenderer):
         gpu_seconds += self._draw(resolve, out, width, height)
         image = self.read(out, width, height)
         self.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines,
-                      "bricks": len(bricks), "passes": len(passes)}
+                      "bricks": len(bricks), "passes": len(passes), **decided}
         if counting:
             self.count_stats(self.read(targets[current][1], width, height, 4, attachment=1))
         return image
