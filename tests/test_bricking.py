@@ -120,7 +120,7 @@ def test_ghosts_grow_with_what_a_brick_reads_beyond_its_core():
 def _straddling_scene(tmp_path, extra):
     """Empty space around a constant slab (a non-zero constant colour and extinction: jumped in
     closed form) around a structured core, all of them across the brick boundaries, with single
-    voxels on the boundary planes and at the shared corner."""
+    voxels on core faces (x = 18 and y = 16 with one ghost voxel)."""
     data = np.zeros((40, 32, 36), np.float32)   # z, y, x
     data[4:25, 3:29, 5:31] = 0.8   # empty beyond z = 25: 8-voxel blocks too
     data[13:27, 9:23, 11:25] = np.random.default_rng(8).uniform(0.3, 1.0, (14, 14, 14))
