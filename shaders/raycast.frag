@@ -18,6 +18,10 @@
 // shaders/raycast_resolve.frag turns the last into the image.  Bricks carry enough ghost voxels
 // for what a pass reads beyond its core (dvr_gl.bricking.ghost_width).  Rays longer than
 // llvmpipe's loop cap are composited the same way, in passes over windows of segments.
+// ACCELERATE with BRICKED: blocks are looked up in the whole volume's textures at global voxel
+// coordinates; a pass jumps only segments whose samples (pre-integrated: whole segments) lie
+// CORE_MARGIN inside its brick's core, so that every brick's in_brick() agrees they are its own,
+// and never past its window of segments.  COUNT_SAMPLES carries the counts between passes (u_counts).
 //
 // This file is the skeleton every mode shares: the ray and its segments, the pass's window, one
 // loop over the segments (k upward, or downward for BACK_TO_FRONT), brick ownership, block
@@ -101,7 +105,10 @@ bool owns_entry(vec3 p) {
 
 layout(location = 0) out vec4 frag_color;
 #ifdef COUNT_SAMPLES
-layout(location = 1) out vec4 frag_samples;   // volume samples, block jumps, block lookups
+layout(location = 1) out vec4 frag_samples;   // volume samples, block jumps, block lookups, segments jumped
+#ifdef BRICKED
+uniform sampler2D u_counts;     // the counts of the passes before, this pixel
+#endif
 #endif
 
 #include "common/classify.glsl"
@@ -142,6 +149,38 @@ float sample_t(int k) {
 
 vec3 du;       // voxels per unit of t
 
+// Where blocks are looked up: the pyramid and runs textures are the whole volume's, so a brick's
+// pass uses global voxel coordinates (voxel_coord() is its texture's); without bricks the two are one.
+#ifdef BRICKED
+#define block_voxel global_voxel
+#else
+#define block_voxel voxel_coord
+#endif
+
+#ifdef BRICKED
+// Voxels: jumps keep this far inside the core, far more than the rounding of any position there
+// (a few ulps of the global coordinate: 1e-3 voxel at 8192), so that the samples a pass jumps are
+// ones in_brick() gives to its brick in every pass; a sample nearer a core face is looked at alone.
+const float CORE_MARGIN = 1.0 / 64.0;
+
+// How far (ray parameter) the ray, walking on from global voxel position u, stays CORE_MARGIN
+// inside the brick's core; 0 where u is not that far inside.
+float core_reach(vec3 u) {
+    vec3 lo = u_core_lo + CORE_MARGIN, hi = u_core_hi - CORE_MARGIN;
+    if (any(lessThan(u, lo)) || any(greaterThan(u, hi))) return 0.0;
+#ifdef BACK_TO_FRONT
+    vec3 dir = -du;
+#else
+    vec3 dir = du;
+#endif
+    vec3 face = mix(lo, hi, step(0.0, dir));
+    bvec3 still = equal(dir, vec3(0.0));
+    vec3 t = (face - u) / mix(dir, vec3(1.0), still);
+    t = mix(t, vec3(3.0e38), still);
+    return max(min(min(t.x, t.y), t.z), 0.0);
+}
+#endif
+
 // The ray parameter where, walking from t at voxel position u, the ray leaves the block at `level`.
 float block_end(float t, int level, vec3 u) {
 #ifdef BACK_TO_FRONT
@@ -171,7 +210,7 @@ int segments_to_jump(int k, out vec4 block, out int run) {
 #endif
     run = 1;
     if (k >= n - 1) return 0;
-    vec3 u_check = voxel_coord(o + t_check * d);
+    vec3 u_check = block_voxel(o + t_check * d);
     // The segments whose check point lies within `reach` of t_check; rounding only shortens or
     // lengthens a run by one segment, which moves a lookup, never a sample.
     block = block_fetch(0, u_check);
@@ -185,9 +224,19 @@ int segments_to_jump(int k, out vec4 block, out int run) {
         run = max(run, 1);
         return 0;
     }
+#ifdef BRICKED
+    // Jump only this brick's segments: clip the block at the core (sample k itself must be inside).
+    float inside = core_reach(u_check);
+    if (inside <= 0.0) return 0;
+#endif
     int level = skip_level(u_check, 0.0, block);
     if (level < 0) return 0;  // the state moved between the two lookups' rounding: sample one
     float t_end = block_end(t_check, level, u_check);
+#if defined(BRICKED) && defined(BACK_TO_FRONT)
+    t_end = max(t_end, t_check - inside);
+#elif defined(BRICKED)
+    t_end = min(t_end, t_check + inside);
+#endif
 #if defined(BACK_TO_FRONT) && defined(CLASSIFY_PREINTEGRATED)
     int k_begin = max(int(ceil((t_end - t0) / u_sample_distance)) + 1, 0);
     int m = k_begin < k ? k - k_begin + 1 : 0;
@@ -203,7 +252,14 @@ int segments_to_jump(int k, out vec4 block, out int run) {
 #endif
 
 void main() {
-    float samples = 0.0, jumps = 0.0, lookups = 0.0;
+    float samples = 0.0, jumps = 0.0, lookups = 0.0, jumped = 0.0;
+#if defined(BRICKED) && defined(COUNT_SAMPLES)
+    vec4 counted = texelFetch(u_counts, ivec2(gl_FragCoord.xy), 0);
+    samples = counted.x;
+    jumps = counted.y;
+    lookups = counted.z;
+    jumped = counted.w;
+#endif
 #ifdef BRICKED
     vec4 state = texelFetch(u_state, ivec2(gl_FragCoord.xy), 0);
 #else
@@ -248,10 +304,16 @@ void main() {
             int m = segments_to_jump(k, block, run);
             lookups += 1.0;
             if (m > 0) {  // m segments in a skippable block: no samples
+#if defined(BRICKED) && defined(BACK_TO_FRONT)
+                m = min(m, k - k_first + 1);  // the next window's (the core's are clipped already)
+#elif defined(BRICKED)
+                m = min(m, k_last - k);
+#endif
                 done = mode_jump(block, m);
                 mode_gap();
                 k += STEP * m;
                 jumps += 1.0;
+                jumped += float(m);
                 continue;
             }
 #ifdef BACK_TO_FRONT
@@ -290,6 +352,6 @@ void main() {
   #include "common/resolve.glsl"
 #endif
 #ifdef COUNT_SAMPLES
-    frag_samples = vec4(samples, jumps, lookups, 0.0);
+    frag_samples = vec4(samples, jumps, lookups, jumped);
 #endif
 }

@@ -128,3 +128,24 @@ def test_emission_classes_carry_the_runs():
         expected = max(r for r in accel.RUN_RADII
                        if not _brute_reduce(skippable, r - 1, np.logical_or)[idx])
         assert out[idx + (3,)] == -expected
+
+
+def test_auto_decides_once_for_all_bricked_passes(gpu, tmp_path):
+    """Bricked (8 bricks and more): "auto" makes the same decision from the same estimate as one
+    pass, and its passes skip where it decides to (counted over all passes)."""
+    dense = load_scene(None, {**DENSE, "volume.size": 32})
+    gpu.render(dense.with_renderer(texture_budget_mb=1 / 16))
+    assert gpu.stats["bricks"] >= 8 and gpu.stats["skippable_estimate"] == 0.0 and not gpu.stats["accelerated"]
+    assert gpu.stats["jumps_per_ray"] == 0.0 and gpu.stats["lookups_per_ray"] == 0.0
+    data = np.zeros((40, 40, 40), np.float32)
+    data[16:24, 14:26, 12:28] = np.random.default_rng(5).uniform(0.4, 1.0, (8, 12, 16))
+    sparse = array_scene(tmp_path, data, {"image.width": 32, "image.height": 32, "renderer.ert_threshold": 1.0,
+                                          "renderer.block_size": 4})
+    one_pass = gpu.render(sparse)
+    estimate = gpu.stats["skippable_estimate"]
+    auto = gpu.render(sparse.with_renderer(texture_budget_mb=1 / 16))
+    assert gpu.stats["bricks"] >= 8 and gpu.stats["accelerated"] and gpu.stats["skippable_estimate"] == estimate
+    assert gpu.stats["jumps_per_ray"] > 1.0
+    on = gpu.render(sparse.with_renderer(texture_budget_mb=1 / 16, acceleration="on"))
+    np.testing.assert_array_equal(auto, on)
+    assert np.abs(auto - one_pass).max() <= 2e-6

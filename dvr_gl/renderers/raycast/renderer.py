@@ -74,10 +74,8 @@ def acceleration_mode(value) -> str:
 
 def bricked_features(defines: dict) -> dict:
     """The defines of the bricked (or long-ray) passes: the same features, one pass per brick and
-    segment window, no empty-space skipping or sample counting (yet)."""
-    out = {k: v for k, v in defines.items() if k not in ("ACCELERATE", "NUM_LEVELS", "RUNS_IN_CLASSES", "COUNT_SAMPLES")}
-    out["BRICKED"] = True
-    return out
+    segment window (empty-space skipping and sample counting included)."""
+    return {**defines, "BRICKED": True}
 
 
 class BlockTextures(list):
@@ -106,14 +104,21 @@ class BlockTextures(list):
 # that may take more segments are composited in passes of at most this many, carrying their state
 # as bricked passes do.  The margin leaves room for the isosurface's bisection loop.
 PASS_SEGMENTS = 65535 - 535
+# The counter counts every loop: under ACCELERATE an outer iteration (a lookup) costs one, and its
+# inner loop one more than the samples of its run (measured: 30000 outer iterations of one inner
+# iteration each stop after 21845), so a segment costs at most 3 and a pass takes a third as many.
+ACCELERATED_COST = 3
 MAX_INT = 2 ** 31 - 1
 
 
-def segment_windows(scene) -> list[tuple[int, int]]:
+def segment_windows(scene, accelerated: bool = False) -> list[tuple[int, int]]:
     """Segment index ranges, one per pass: all segments at once unless the longest possible ray
-    (the box's diagonal) takes more than :data:`PASS_SEGMENTS`."""
+    (the box's diagonal) takes more than :data:`PASS_SEGMENTS` (a third of that where the loop skips
+    empty space, ``accelerated``)."""
     longest = math.ceil(diagonal(scene.volume) / scene.renderer.sample_distance)
     per_pass = PASS_SEGMENTS - scene.renderer.iso_refinement
+    if accelerated:
+        per_pass //= ACCELERATED_COST
     if longest <= per_pass:
         return [(0, MAX_INT)]
     return [(k, k + per_pass) for k in range(0, longest + 1, per_pass)]
@@ -135,6 +140,7 @@ class RayCastRenderer(GLVolumeRenderer):
         super().__init__(ctx)
         self.count_samples = count_samples
         self.fragment_shader = fragment_shader
+        self.counts = None  # count_samples: the last frame's counts per pixel (see count_stats)
 
     def work(self, scene):
         return limits.ray_samples(scene, "gpu samples")
@@ -204,28 +210,17 @@ class RayCastRenderer(GLVolumeRenderer):
         start = now()
         defines = shader_features(scene, self.count_samples)
         views = self.grid_views(scene, defines)
-        windows = segment_windows(scene)
+        tables = self.table_textures(scene, defines, scene.renderer.sample_distance)
+        defines, blocks, skippable = self.decide_skipping(scene, defines, tables)
+        windows = segment_windows(scene, "ACCELERATE" in defines)
+        decided = {"skippable_estimate": skippable, "accelerated": "ACCELERATE" in defines}
         if len(views) > 1 or len(windows) > 1:
             if len(views) == 1:  # long rays: the whole volume as one brick, in passes over segment windows
                 views = [GridView((0, 0, 0), scene.volume.dims, whole_volume_brick(scene.volume))]
-            return self._render_bricks(scene, bricked_features(defines), views, start, windows)
-        textures = {**self.view_textures(scene, defines, views[0], resident=True),
-                    **self.table_textures(scene, defines, scene.renderer.sample_distance)}
+            return self._render_bricks(scene, bricked_features(defines), views, start, windows,
+                                       {**tables, **blocks}, decided)
+        textures = {**self.view_textures(scene, defines, views[0], resident=True), **tables, **blocks}
         lut = textures["u_lut"].lut
-        skippable = None
-        if "ACCELERATE" in defines:
-            preint = textures["u_preint"].table if "u_preint" in textures else None
-            blocks = self._block_textures(scene, defines, lut, preint)
-            if acceleration_mode(scene.renderer.acceleration) == "auto":
-                skippable = self.skippable(scene, blocks)
-                if skippable < AUTO_MIN_SKIPPABLE:
-                    defines = {k: v for k, v in defines.items()
-                               if k not in ("ACCELERATE", "NUM_LEVELS", "RUNS_IN_CLASSES")}
-            if "ACCELERATE" in defines:
-                for level, tex in enumerate(blocks):
-                    textures[f"u_blocks{level}"] = tex
-                if blocks.runs is not None:
-                    textures["u_runs"] = blocks.runs
         program = create_program(self.ctx, "fullscreen.vert", self.fragment_shader, defines)
         uniforms = {**self.ray_uniforms(scene), **self.grid_uniforms(scene, views[0]),
                     **self.optics_uniforms(scene, lut)}
@@ -235,16 +230,42 @@ class RayCastRenderer(GLVolumeRenderer):
         gpu_seconds = self._draw(program, fbo, width, height, self.bands(scene))
         image = self.read(fbo, width, height)
         self.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines, "bricks": 1,
-                      "skippable_estimate": skippable, "accelerated": "ACCELERATE" in defines}
+                      **decided}
         if self.count_samples:
-            c = self.read(fbo, width, height, 4, attachment=1).reshape(-1, 4)
-            samples, jumps, lookups = c[:, 0], c[:, 1], c[:, 2]
-            hit = (samples + jumps) > 0
-            self.stats["samples"] = int(samples.sum(dtype=np.float64))
-            self.stats["samples_per_ray"] = float(samples[hit].mean()) if hit.any() else 0.0
-            self.stats["jumps_per_ray"] = float(jumps[hit].mean()) if hit.any() else 0.0
-            self.stats["lookups_per_ray"] = float(lookups[hit].mean()) if hit.any() else 0.0
+            self.count_stats(self.read(fbo, width, height, 4, attachment=1))
         return image
+
+    def decide_skipping(self, scene, defines, tables) -> tuple[dict, dict, float | None]:
+        """This frame's empty-space skipping, decided once for all its passes: the defines (without
+        ACCELERATE where it is off, or "auto" finds too little to skip), the block textures to bind
+        (the whole volume's, bricked or not) and the skippable estimate ("auto" only)."""
+        if "ACCELERATE" not in defines:
+            return defines, {}, None
+        preint = tables["u_preint"].table if "u_preint" in tables else None
+        blocks = self._block_textures(scene, defines, tables["u_lut"].lut, preint)
+        skippable = None
+        if acceleration_mode(scene.renderer.acceleration) == "auto":
+            skippable = self.skippable(scene, blocks)
+            if skippable < AUTO_MIN_SKIPPABLE:
+                off = ("ACCELERATE", "NUM_LEVELS", "RUNS_IN_CLASSES")
+                return {k: v for k, v in defines.items() if k not in off}, {}, skippable
+        textures = {f"u_blocks{level}": tex for level, tex in enumerate(blocks)}
+        if blocks.runs is not None:
+            textures["u_runs"] = blocks.runs
+        return defines, textures, skippable
+
+    def count_stats(self, counts: np.ndarray):
+        """COUNT_SAMPLES: the frame's counts (height, width, 4: samples, jumps, lookups, segments
+        jumped per pixel) into the stats, per ray hitting the volume; kept in :attr:`counts`."""
+        self.counts = counts
+        c = counts.reshape(-1, 4).astype(np.float64)
+        samples, jumps, lookups, jumped = c.T
+        hit = (samples + jumps) > 0
+        self.stats["samples"] = int(samples.sum())
+        self.stats["segments"] = int((samples + jumped).sum())  # sampled or jumped
+        self.stats["samples_per_ray"] = float(samples[hit].mean()) if hit.any() else 0.0
+        self.stats["jumps_per_ray"] = float(jumps[hit].mean()) if hit.any() else 0.0
+        self.stats["lookups_per_ray"] = float(lookups[hit].mean()) if hit.any() else 0.0
 
     def skippable(self, scene, blocks) -> float:
         """:func:`.acceleration.skippable_fraction` of this frame (cached per view and blocks)."""
@@ -286,12 +307,15 @@ class RayCastRenderer(GLVolumeRenderer):
             fbo.scissor = None
             vao.release()
 
-    def _render_bricks(self, scene, defines, views, start, windows) -> np.ndarray:
+    def _render_bricks(self, scene, defines, views, start, windows, tables, decided) -> np.ndarray:
+        """One pass per brick and segment window; ``tables``: the frame's tables and block textures
+        (the whole volume's, shared by every pass); ``decided``: the stats of the skipping decision."""
         r = scene.renderer
         program = create_program(self.ctx, "fullscreen.vert", "raycast.frag", defines)
-        resolve = create_program(self.ctx, "fullscreen.vert", "raycast_resolve.frag", defines)
-        tables = self.table_textures(scene, defines, r.sample_distance)
+        resolve = create_program(self.ctx, "fullscreen.vert", "raycast_resolve.frag",
+                                 {k: v for k, v in defines.items() if k not in ("ACCELERATE", "NUM_LEVELS")})
         lut = tables["u_lut"].lut
+        counting = "COUNT_SAMPLES" in defines
         width, height = scene.image.width, scene.image.height
         front_to_back = not ("BACK_TO_FRONT" in defines)
         bricks = visibility_order([v.brick for v in views], scene.volume, scene.camera, front_to_back)
@@ -300,9 +324,11 @@ class RayCastRenderer(GLVolumeRenderer):
         resident = sum(np.prod(v.dims) for v in views) * per_voxel <= r.texture_budget_mb * 2 ** 20
         initial = {"COMPOSITE_MIP": -3.0e38, "COMPOSITE_MINIP": 3.0e38}
         first = next((v for k, v in initial.items() if k in defines), 0.0)
-        targets = [self.target(f"state {i}", width, height) for i in range(2)]
+        targets = [self.target(f"state {i}", width, height, (4, 4) if counting else (4,)) for i in range(2)]
         targets[0][1].use()
         self.ctx.clear(first, 0.0, 0.0, 0.0)
+        if counting:  # the counts start at zero, whatever the state's initial value
+            targets[0][0][1].write(np.zeros((height, width, 4), np.float32))
         common = {**self.ray_uniforms(scene), **self.optics_uniforms(scene, lut)}
         gpu_seconds, current = 0.0, 0
         to_global = -np.asarray(scene.volume.origin) / np.asarray(scene.volume.spacing)
@@ -311,6 +337,8 @@ class RayCastRenderer(GLVolumeRenderer):
             view = by_brick[brick]
             textures = {**self.view_textures(scene, defines, view, resident), **tables,
                         "u_state": targets[current][0][0]}
+            if counting:
+                textures["u_counts"] = targets[current][0][1]
             lo, hi = brick.world_box(scene.volume)
             single = np.asarray(scene.volume.dims) == 1
             uniforms = {**common, **self.grid_uniforms(scene, view), "u_world_to_global_offset": to_global,
@@ -328,5 +356,7 @@ class RayCastRenderer(GLVolumeRenderer):
         gpu_seconds += self._draw(resolve, out, width, height)
         image = self.read(out, width, height)
         self.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines,
-                      "bricks": len(bricks), "passes": len(passes)}
+                      "bricks": len(bricks), "passes": len(passes), **decided}
+        if counting:
+            self.count_stats(self.read(targets[current][1], width, height, 4, attachment=1))
         return image
