@@ -38,6 +38,9 @@
 //                            is done (early termination, a hit)
 //   void mode_gap()          the loop went past segments without sampling them (another brick's,
 //                            or a jump): the next sample does not follow the last one
+//   void mode_run(int k)     before a run of samples from segment k on (outside the sampling loop,
+//                            whose body llvmpipe runs whole at every sample): what a run needs
+//                            first (pre-integration: the value at the run's first segment end)
 //   bool mode_skippable(vec4 block)   ACCELERATE: can no sample in the block change the result
 //                            (for the state so far)?  common/blocks.glsl's SKIPPABLE
 //   bool mode_jump(vec4 block, inout int m)   ACCELERATE: composite the next m segments, which
@@ -291,9 +294,15 @@ void main() {
         bool done = mode_init(state);  // BRICKED: an earlier pass may have finished the ray
 #ifdef BACK_TO_FRONT
         int k = k_last - 1;
-        while (!done && k >= k_first) {
 #else
         int k = k_first;
+#endif
+#ifndef ACCELERATE
+        if (k_first < k_last) mode_run(k);  // one run: every segment
+#endif
+#ifdef BACK_TO_FRONT
+        while (!done && k >= k_first) {
+#else
         while (!done && k < k_last) {
 #endif
             int run = 1;
@@ -321,6 +330,7 @@ void main() {
 #else
             int k_stop = min(k + run, k_last);
 #endif
+            mode_run(k);
             for (; !done && k != k_stop; k += STEP) {
 #endif
             float start = t0 + float(k) * u_sample_distance;  // segment k (as sample_t)

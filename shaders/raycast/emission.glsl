@@ -30,7 +30,9 @@ bool mode_init(vec4 state) {
 
 bool mode_sample(int k, float start, float len, float t, vec3 p) {
 #ifdef CLASSIFY_PREINTEGRATED
+#ifdef BRICKED
     if (!front_known) front = sample_scalar(o + start * d);
+#endif
     float back = sample_scalar(o + (start + len) * d);
     vec4 e = preintegrated_segment(front, back, len, p, d);
     front = back;
@@ -49,6 +51,17 @@ bool mode_sample(int k, float start, float len, float t, vec3 p) {
 void mode_gap() {
 #ifdef CLASSIFY_PREINTEGRATED
     front_known = false;
+#endif
+}
+
+// Pre-integration: the run's first front value, fetched once per run rather than under a mask at
+// every sample (BRICKED keeps the fetch in mode_sample: a brick's gaps fall inside runs).
+void mode_run(int k) {
+#ifdef CLASSIFY_PREINTEGRATED
+    if (!front_known) {
+        front = sample_scalar(o + (t0 + float(k) * u_sample_distance) * d);
+        front_known = true;
+    }
 #endif
 }
 

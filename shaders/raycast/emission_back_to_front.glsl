@@ -20,7 +20,9 @@ bool mode_init(vec4 state) {
 
 bool mode_sample(int k, float start, float len, float t, vec3 p) {
 #ifdef CLASSIFY_PREINTEGRATED
+#ifdef BRICKED
     if (!back_known) back = sample_scalar(o + (start + len) * d);
+#endif
     float front = sample_scalar(o + start * d);
     vec4 e = preintegrated_segment(front, back, len, p, d);
     back = front;
@@ -38,6 +40,17 @@ bool mode_sample(int k, float start, float len, float t, vec3 p) {
 void mode_gap() {
 #ifdef CLASSIFY_PREINTEGRATED
     back_known = false;
+#endif
+}
+
+// Pre-integration: the run's first back value (the end of segment k), once per run.
+void mode_run(int k) {
+#ifdef CLASSIFY_PREINTEGRATED
+    if (!back_known) {
+        float start = t0 + float(k) * u_sample_distance;
+        back = sample_scalar(o + (start + min(u_sample_distance, t1 - start)) * d);
+        back_known = true;
+    }
 #endif
 }
 

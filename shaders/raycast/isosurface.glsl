@@ -57,6 +57,9 @@ void mode_gap() {
     previous_known = false;
 }
 
+void mode_run(int k) {
+}
+
 bool mode_skippable(vec4 block) {
     return block.y < u_iso_value;  // no value in the block reaches iso
 }

@@ -35,6 +35,9 @@ bool mode_sample(int k, float start, float len, float t, vec3 p) {
 void mode_gap() {
 }
 
+void mode_run(int k) {
+}
+
 // Blocks that cannot raise the maximum (lower the minimum); a block rechecked later may pass:
 // the bound moved.  (An average takes every sample: never accelerated.)
 bool mode_skippable(vec4 block) {
