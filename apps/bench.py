@@ -233,7 +233,7 @@ def run_accel(args) -> int:
                          f"{args.views} azimuths from 30 degrees; per azimuth off, on and auto alternate, 2 rounds, the "
                          f"fastest frame of each (draw to glFinish); ratios to off per azimuth, median and worst. "
                          f"Phantoms at 1 voxel per sample, the demo at 0.25, the datasets at 0.5; early termination "
-                         f"as the scene says (0.99)")
+                         f"at the default 1 - 1/255")
         args.report.table(acceleration.overhead(scenes, args.size, args.views), acceleration.OVERHEAD_COLUMNS)
     return 0
 
