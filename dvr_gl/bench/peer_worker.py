@@ -376,10 +376,10 @@ class PygfxPeer(Peer):
         self.camera.look_at(tuple(c["target"]))
 
     def render(self):
-        # into the renderer's own colour target (premultiplied, sRGB-encoded 8 bits), read back: the
-        # read-back is what waits for the frame; the canvas's present pass is skipped (it applied the
-        # alpha a second time)
-        self.renderer.render(self.world, self.camera, flush=False)
+        # into the renderer's own colour target (premultiplied, sRGB-encoded 8 bits), cleared each frame
+        # (without a flush pygfx would blend onto the last one), read back: the read-back is what waits
+        # for the frame; the canvas's present pass is skipped (it applied the alpha a second time)
+        self.renderer.render(self.world, self.camera, flush=False, clear=True)
         self.image = self.renderer.snapshot()
 
     def read(self) -> np.ndarray:
