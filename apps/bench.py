@@ -426,7 +426,8 @@ def run_peers(args) -> int:
     for note in notes:
         args.report.text(note)
     if pictures is not None:
-        for path in peers.write_pictures(images, pictures):
+        references = images.pop("references")
+        for path in peers.write_pictures(images, references, pictures):
             print(f"wrote {path}")
     if drawing:
         atomic_write(Path(args.plot), lambda tmp: plot.peers_plot(rows, tmp), args.overwrite)

@@ -63,7 +63,7 @@ WORKER = Path(__file__).with_name("peer_worker.py")
 
 COLUMNS = [("scene", "scene", ""), ("renderer", "renderer", ""), ("setting", "setting", ""),
            ("ms", "frame ms", ".1f"), ("spread", "runs min-max", ""), ("rms", "RMS", ".2e"),
-           ("psnr", "PSNR dB", ".1f")]
+           ("psnr", "PSNR dB", ".1f"), ("psnr_inner", "PSNR off the outline", ".1f")]
 RATIO_COLUMNS = [("scene", "scene", ""), ("peer", "peer", ""), ("peer_ms", "peer ms", ".1f"),
                  ("peer_psnr", "peer PSNR", ".1f"), ("dvrgl", "dvr-gl at the peer's error", ""),
                  ("dvrgl_ms", "dvr-gl ms", ".1f"), ("dvrgl_psnr", "dvr-gl PSNR", ".1f"),
@@ -144,6 +144,32 @@ def reference_image(keys: dict, error_size: int, cache: Path | None) -> tuple[np
     return image, took
 
 
+def outline_mask(keys: dict, size: int) -> np.ndarray:
+    """Pixels (``(size, size)`` bool) within one pixel of the box's outline in the image: where a
+    renderer whose box differs from dvr-gl's by a fraction of a voxel (vispy's and pygfx's are
+    cell-centred) or whose silhouette is softened differs the most, whatever its sampling."""
+    from ..rays import intersect_box
+    from ..scene import load_scene
+
+    scene = load_scene(None, {**keys, "image.width": size, "image.height": size})
+    origins, directions = scene.camera.pixel_rays(size, size)
+    t0, t1 = intersect_box(origins, directions, *scene.volume.box)
+    hit = np.pad((t1 >= np.maximum(t0, 0)).reshape(size, size), 1, mode="edge")
+    near = np.zeros((size, size), bool)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            near |= hit[1 + dy:1 + dy + size, 1 + dx:1 + dx + size] != hit[1:-1, 1:-1]
+    return near
+
+
+def psnr(a: np.ndarray, b: np.ndarray, keep: np.ndarray | None = None) -> float:
+    """PSNR (peak 1) of ``a`` against ``b`` over all channels of the pixels ``keep`` (default all)."""
+    d = (np.asarray(a, np.float64) - np.asarray(b, np.float64))
+    d = d[keep] if keep is not None else d
+    rms = float(np.sqrt(np.mean(d * d))) if d.size else 0.0
+    return math.inf if rms == 0 else -20.0 * math.log10(rms)
+
+
 def available(python: str | None, renderers) -> tuple[dict, dict]:
     """Which peers import in ``python`` ({renderer: version}); and {renderer: why not} for the rest."""
     from .peer_worker import MODULES
@@ -209,7 +235,8 @@ def run(renderers=RENDERERS, scenes=tuple(SCENES), size: int = 512, volume_size:
         frames: int = 20, error_size: int = 128, peers_python: str | None = None, cache: Path | None = None,
         work: Path | None = None, progress=None, timeout: float = 1800.0):
     """Rows (one per scene and renderer setting), ratio rows (one per scene and peer), notes, and the
-    images of the first round ({(scene, renderer, setting): (image, error image)})."""
+    images of the first round ({(scene, renderer, setting): (image, error image)}, and under
+    ``"references"`` {scene: converged reference})."""
     have, missing = available(peers_python, renderers)
     notes = [f"{r}: {why}" for r, why in missing.items()]
     configs = runs_for(renderers, have)
@@ -223,12 +250,12 @@ def run(renderers=RENDERERS, scenes=tuple(SCENES), size: int = 512, volume_size:
             keys = scene_keys(key, volume_file(demo, volume_size, work), volume_size, size)
             truth, how = reference_image(keys, error_size, cache)
             notes.append(f"{key}: converged reference {error_size}x{error_size} {how}")
-            prepared[key] = (keys, peer_scene(keys, mode), truth)
+            prepared[key] = (keys, peer_scene(keys, mode), truth, ~outline_mask(keys, error_size))
         results = {(key, i): [] for key in scenes for i in range(len(configs))}
         images, unsupported = {}, {}
         for rnd in range(rounds):
             for key in scenes:
-                keys, job_scene, _ = prepared[key]
+                keys, job_scene = prepared[key][:2]
                 order = list(range(len(configs)))
                 order = order[rnd % len(order):] + order[:rnd % len(order)]  # each round starts elsewhere
                 for i in order:
@@ -254,7 +281,7 @@ def run(renderers=RENDERERS, scenes=tuple(SCENES), size: int = 512, volume_size:
                                  f"{1e3 * statistics.median(res['seconds']):.1f} ms")
         rows = []
         for key in scenes:
-            truth = prepared[key][2]
+            truth, inner = prepared[key][2:]
             for i, config in enumerate(configs):
                 runs = results[(key, i)]
                 if (key, i) in unsupported:
@@ -268,10 +295,12 @@ def run(renderers=RENDERERS, scenes=tuple(SCENES), size: int = 512, volume_size:
                              "voxels": config["voxels"] or (0.5 if config["renderer"] == "dvr-gl" else None),
                              "ms": statistics.median(medians),
                              "spread": f"{min(medians):.1f}-{max(medians):.1f}",
-                             "rms": err["rms"], "psnr": err["psnr"], "runs": len(runs),
+                             "rms": err["rms"], "psnr": err["psnr"],
+                             "psnr_inner": psnr(images[(key, i)][1], truth, inner), "runs": len(runs),
                              "version": runs[0].get("version", ""), "settings": runs[0].get("settings", {})})
-        return rows, ratios(rows), notes, {(k, configs[i]["renderer"], configs[i]["setting"]): v
-                                           for (k, i), v in images.items()}
+        named = {(k, configs[i]["renderer"], configs[i]["setting"]): v for (k, i), v in images.items()}
+        named["references"] = {key: prepared[key][2] for key in scenes}
+        return rows, ratios(rows), notes, named
     finally:
         if own:
             own.cleanup()
@@ -294,19 +323,26 @@ def ratios(rows: list[dict], slack: float = PSNR_SLACK) -> list[dict]:
     return out
 
 
-def write_pictures(images: dict, folder: Path) -> list[Path]:
-    """Each scene's first-round images side by side (PNG, 8-bit sRGB over black; a row per scene,
-    the full-size frames), for checking that the peers see what dvr-gl sees."""
+def write_pictures(images: dict, references: dict, folder: Path) -> list[Path]:
+    """Each scene's first-round images side by side, for checking by eye that the peers see what dvr-gl
+    sees (PNG, premultiplied colour over black): ``peers-SCENE.png``, the full-size frames in the order
+    of ``peers-SCENE.txt``; ``peers-SCENE-error.png``, the converged reference and then each
+    renderer's error-size image, above 4x their absolute differences from the reference."""
     from ..image import write_image
+
+    def save(path, rows):
+        strip = np.concatenate([np.concatenate(row, axis=1) for row in rows], axis=0)
+        strip[..., 3] = 1.0  # premultiplied over black: the colour as it is
+        write_image(path, strip, overwrite=True)
+        written.append(path)
 
     written = []
     for key in dict.fromkeys(k for k, _, _ in images):
-        tiles = [(f"{r} {s}", v[0]) for (k, r, s), v in images.items() if k == key]
-        strip = np.concatenate([t for _, t in tiles], axis=1)
-        path = folder / f"peers-{key}.png"
-        over = strip.copy()
-        over[..., 3] = 1.0  # premultiplied over black: the colour as it is
-        write_image(path, over, overwrite=True)
-        written.append(path)
+        tiles = [(f"{r} {s}", v) for (k, r, s), v in images.items() if k == key]
+        save(folder / f"peers-{key}.png", [[v[0] for _, v in tiles]])
+        truth = references[key]
+        save(folder / f"peers-{key}-error.png", [[truth] + [v[1] for _, v in tiles],
+                                                  [0 * truth] + [np.minimum(4 * np.abs(v[1] - truth), 1)
+                                                                 for _, v in tiles]])
         (folder / f"peers-{key}.txt").write_text("\n".join(t for t, _ in tiles) + "\n")
     return written
