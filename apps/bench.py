@@ -12,6 +12,8 @@
                        50, 90 and 99 % transparent voxels, against the GPU ray caster
   dvr bench tradeoff   every renderer x accuracy setting: frame time against error (RMS, max, PSNR,
                        FLIP) versus the converged reference, the Pareto front; CSV, JSON and a plot
+  dvr bench peers      dvr-gl against VTK, vispy and pygfx (from a separate benchmark environment) on
+                       the same scenes: frame time, error against the converged reference, ratios
 """
 
 from __future__ import annotations
@@ -100,6 +102,25 @@ def add_arguments(p):
     sl.add_argument("--size", type=int, default=128, help="square image size (default 128)")
     sl.add_argument("--pictures", metavar="DIR", help="write slicing_sweep.png and slicing_jump.png into DIR")
     sl.add_argument("--overwrite", action="store_true", help="replace pictures that exist")
+    pe = sub.add_parser("peers", help="dvr-gl against VTK, vispy and pygfx on the same scenes (the peers from a "
+                                      "separate environment, docs/peers.md): frame time, error, speed ratios")
+    pe.add_argument("--size", type=int, default=512, help="square image size of the timed frames (default 512)")
+    pe.add_argument("--error-size", type=int, default=128,
+                    help="square image size of the error measurement against the converged reference (default 128)")
+    pe.add_argument("--volume-size", type=int, default=256, help="phantom samples per axis (default 256)")
+    pe.add_argument("--rounds", type=count, default=3, help="rounds of fresh processes, interleaved (default 3)")
+    pe.add_argument("--frames", type=count, default=20, help="timed frames per run, after one untimed (default 20)")
+    pe.add_argument("--scenes", metavar="A,B", help="only these scenes (ml-composite, ml-mip, blobs-composite, "
+                                                   "blobs-mip; default all)")
+    pe.add_argument("--renderers", metavar="A,B", help="only these (dvr-gl, vtk-gpu, vtk-cpu, vispy, pygfx; "
+                                                      "default all)")
+    pe.add_argument("--peers-python", metavar="PYTHON",
+                    help="the peers environment's interpreter (default .venv-peers/bin/python if it exists)")
+    pe.add_argument("--cache", metavar="DIR", help="where converged references are kept (default "
+                                                   "~/.cache/dvr-gl/peers)")
+    pe.add_argument("--pictures", metavar="DIR", help="write each scene's images side by side into DIR (PNG)")
+    pe.add_argument("--plot", metavar="FILE", help="draw each peer against dvr-gl's error-time curve (PNG; "
+                                                   "needs matplotlib)")
     for parser in sub.choices.values():
         parser.add_argument("--markdown", metavar="FILE", help="also write the tables as Markdown to FILE (the "
                                                                "measured tables in docs/ are written this way)")
@@ -125,7 +146,7 @@ def run(args) -> int:
     args.report = Report()
     code = {"raycast": run_raycast, "accel": run_accel, "quality": run_quality,
             "slicing": run_slicing, "renderers": run_renderers, "shearwarp": run_shearwarp,
-            "tradeoff": run_tradeoff}[args.benchmark](args)
+            "tradeoff": run_tradeoff, "peers": run_peers}[args.benchmark](args)
     if args.markdown:
         write_text(Path(args.markdown), args.report.markdown(args.command_line), args.overwrite)
         print(f"wrote {args.markdown}")
@@ -352,4 +373,65 @@ def run_tradeoff(args) -> int:
     elif not args.no_plot:
         print("no plot: install the optional extra for plots (pip install 'dvr-gl[plot]')")
     print("wrote " + ", ".join(map(str, written)))
+    return 0
+
+
+def run_peers(args) -> int:
+    from pathlib import Path
+
+    from dvr_gl.bench import peers, plot
+    from dvr_gl.errors import DvrError
+    from dvr_gl.image import atomic_write, check_writable
+
+    scenes = args.scenes.split(",") if args.scenes else list(peers.SCENES)
+    renderers = args.renderers.split(",") if args.renderers else list(peers.RENDERERS)
+    for what, given, known in (("--scenes", scenes, peers.SCENES), ("--renderers", renderers,
+                                                                    peers.RENDERERS + ("numpy",))):
+        unknown = [x for x in given if x not in known]
+        if unknown:
+            raise DvrError(f"{what}: unknown {', '.join(unknown)}; choose from {', '.join(known)}")
+    for flag, value, low in (("--size", args.size, 8), ("--error-size", args.error_size, 8),
+                             ("--volume-size", args.volume_size, 4)):
+        if value < low:
+            raise DvrError(f"{flag} must be at least {low}, got {value}")
+    python = args.peers_python or peers.default_peers_python()
+    if args.peers_python and not Path(args.peers_python).exists():
+        raise DvrError(f"--peers-python {args.peers_python}: no such interpreter")
+    drawing = bool(args.plot) and plot.have_matplotlib()
+    if drawing:
+        check_writable(Path(args.plot), args.overwrite)
+    pictures = Path(args.pictures) if args.pictures else None
+    if pictures is not None and not pictures.is_dir():
+        raise DvrError(f"{pictures}: no such folder for the pictures; create it first")
+    cache = Path(args.cache) if args.cache else peers.default_cache()
+    args.report.text(f"dvr bench peers: {args.volume_size}^3 uint8 phantoms, {args.size}x{args.size} frames, perspective "
+                     f"30 degrees, azimuth 30, elevation 20, distance {peers.DISTANCE_DIAGONALS:g} box diagonals, "
+                     f"trilinear, unshaded; {args.rounds} rounds of fresh processes interleaved across renderers, "
+                     f"median of {args.frames} frames each after one untimed; error (RMS, PSNR: premultiplied RGBA, "
+                     f"peak 1) against dvr-gl's converged reference at {args.error_size}x{args.error_size}; peers at "
+                     f"{peers.PEER_SAMPLE_VOXELS:g} sample per voxel")
+    rows, ratios, notes, images = peers.run(renderers, scenes, args.size, args.volume_size, args.rounds, args.frames,
+                                            args.error_size, python, cache, progress=lambda line: print(line, flush=True))
+    args.report.text()
+    args.report.table(rows, peers.COLUMNS)
+    if ratios:
+        args.report.text()
+        args.report.text(f"dvr-gl at each peer's error: the fastest dvr-gl setting above whose PSNR is at least the "
+                         f"peer's minus {peers.PSNR_SLACK:g} dB; ratio > 1: dvr-gl is faster")
+        args.report.table(ratios, peers.RATIO_COLUMNS)
+    versions = sorted({f"{r['renderer']} {r['version']}" for r in rows if r["renderer"] != "dvr-gl" and r["version"]})
+    if versions:
+        args.report.text()
+        args.report.text("Versions: " + ", ".join(versions))
+    for note in notes:
+        args.report.text(note)
+    if pictures is not None:
+        references = images.pop("references")
+        for path in peers.write_pictures(images, references, pictures):
+            print(f"wrote {path}")
+    if drawing:
+        atomic_write(Path(args.plot), lambda tmp: plot.peers_plot(rows, tmp), args.overwrite)
+        print(f"wrote {args.plot}")
+    elif args.plot:
+        print("no plot: install the optional extra for plots (pip install 'dvr-gl[plot]')")
     return 0

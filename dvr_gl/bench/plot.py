@@ -50,3 +50,46 @@ def tradeoff_plot(rows: list[dict], path: Path, error: str = "rms"):
     fig.tight_layout()
     fig.savefig(path, format="png", dpi=110)
     plt.close(fig)
+
+
+def peers_plot(rows: list[dict], path: Path):
+    """PSNR against frame time (log), one panel per scene: dvr-gl's sample-distance sweep as a curve
+    (each point labelled with its distance), each peer as one marked point."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    scenes = list(dict.fromkeys(r["scene"] for r in rows))
+    peers = list(dict.fromkeys(r["renderer"] for r in rows if r["renderer"] != "dvr-gl"))
+    from matplotlib.ticker import LogFormatter, ScalarFormatter
+
+    markers = dict(zip(peers, "s^vDP*X"))
+    ncols = min(2, len(scenes))
+    nrows = -(-len(scenes) // ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(5.2 * ncols, 4.2 * nrows), squeeze=False)
+    for ax in axes.flat[len(scenes):]:
+        ax.set_visible(False)
+    for ax, scene in zip(axes.flat, scenes):
+        ours = sorted((r for r in rows if r["scene"] == scene and r["renderer"] == "dvr-gl"),
+                      key=lambda r: r["voxels"])
+        if ours:
+            ax.plot([r["ms"] for r in ours], [r["psnr"] for r in ours], "o-", color="black", markersize=4,
+                    label="dvr-gl (sample distance)")
+            for r in ours:
+                ax.annotate(f"{r['voxels']:g}", (r["ms"], r["psnr"]), textcoords="offset points", xytext=(4, 4),
+                            fontsize=7)
+        for i, name in enumerate(peers):
+            for r in (r for r in rows if r["scene"] == scene and r["renderer"] == name):
+                ax.plot([r["ms"]], [r["psnr"]], markers[name], color=plt.cm.tab10(i % 10), markersize=7, label=name)
+        ax.set_xscale("log")
+        ax.xaxis.set_major_formatter(ScalarFormatter())
+        ax.xaxis.set_minor_formatter(LogFormatter(labelOnlyBase=False, minor_thresholds=(1, 0.5)))
+        ax.set_xlabel("frame time (ms, median)")
+        ax.set_ylabel("PSNR dB vs converged reference")
+        ax.set_title(scene)
+        ax.grid(True, which="both", linewidth=0.3)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, format="png", dpi=110)
+    plt.close(fig)

@@ -1,0 +1,348 @@
+"""``dvr bench peers``: dvr-gl against other volume renderers on the same scenes.
+
+The peers (VTK's GPU and CPU ray casters, vispy's Volume visual, pygfx's ray-cast material) are never
+dvr-gl's dependencies: they live in a benchmark environment of their own
+(``benchmarks/peers-requirements.txt``), and their render code runs in that environment's
+interpreter through :mod:`dvr_gl.bench.peer_worker`, a script that needs only numpy and the peer.
+Every run is a fresh process (dvr-gl's too, in this interpreter): one untimed frame, ``frames`` timed
+ones (median), and in the first round one more frame at the error size.  Runs interleave across the
+renderers, ``rounds`` times, so that the machine's drift falls on every renderer alike.
+
+The error of each renderer is its RMS and PSNR (peak 1, premultiplied linear RGBA) against dvr-gl's
+converged reference of the same scene at the error size (cached on disk: it takes tens of seconds).
+dvr-gl runs at its defaults and at a sweep of sample distances, its error-against-time curve; for each
+peer the table names the fastest dvr-gl setting whose PSNR is within 0.5 dB of the peer's or better
+("dvr-gl at the peer's error") and the speed ratio.  See docs/peers.md.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DvrError
+from ..image import compare_images
+
+# --- the scenes (issue 15): two phantoms, 256^3 uint8, composite and MIP ---
+
+#: Semi-transparent transfer functions in data units (uint8), alpha per unit distance (1 voxel).
+COMPOSITE_TF = {
+    "marschner-lobb": [[0, 0.1, 0.2, 0.8, 0.0], [96, 0.1, 0.4, 0.9, 0.0], [128, 0.9, 0.7, 0.3, 0.08],
+                       [160, 0.9, 0.3, 0.1, 0.0], [255, 0.9, 0.3, 0.1, 0.0]],
+    "blobs": [[0, 0.2, 0.3, 0.9, 0.0], [64, 0.2, 0.5, 0.9, 0.0], [160, 0.9, 0.8, 0.3, 0.015],
+              [255, 0.9, 0.3, 0.1, 0.04]],
+}
+#: MIP: a grey ramp over the uint8 range, colour and opacity.
+MIP_TF = [[0, 0.0, 0.0, 0.0, 0.0], [255, 1.0, 1.0, 1.0, 1.0]]
+SCENES = {  # key: (phantom, mode)
+    "ml-composite": ("marschner-lobb", "composite"),
+    "ml-mip": ("marschner-lobb", "mip"),
+    "blobs-composite": ("blobs", "composite"),
+    "blobs-mip": ("blobs", "mip"),
+}
+CAMERA = {"camera.azimuth": 30.0, "camera.elevation": 20.0, "camera.fov": 30.0, "camera.projection": "perspective"}
+DISTANCE_DIAGONALS = 1.8  # eye to the box centre, in box diagonals
+PEER_SAMPLE_VOXELS = 1.0  # the peers sample once per voxel
+SWEEP = (1.0, 2.0, 4.0)   # dvr-gl's sample distances (voxels) besides its defaults (0.5)
+PEERS = ("vtk-gpu", "vtk-cpu", "vispy", "pygfx")
+RENDERERS = ("dvr-gl",) + PEERS
+PSNR_SLACK = 0.5  # dB: "dvr-gl at the peer's error" may be this much worse
+REFERENCE_TOLERANCE = 1e-4  # the converged reference's error budget per pixel
+REFERENCE_VERSION = 1  # bump when the reference or the scenes change: the cache key holds it
+WORKER = Path(__file__).with_name("peer_worker.py")
+
+COLUMNS = [("scene", "scene", ""), ("renderer", "renderer", ""), ("setting", "setting", ""),
+           ("ms", "frame ms", ".1f"), ("spread", "runs min-max", ""), ("rms", "RMS", ".2e"),
+           ("psnr", "PSNR dB", ".1f"), ("psnr_inner", "PSNR off the outline", ".1f")]
+RATIO_COLUMNS = [("scene", "scene", ""), ("peer", "peer", ""), ("peer_ms", "peer ms", ".1f"),
+                 ("peer_psnr", "peer PSNR", ".1f"), ("dvrgl", "dvr-gl at the peer's error", ""),
+                 ("dvrgl_ms", "dvr-gl ms", ".1f"), ("dvrgl_psnr", "dvr-gl PSNR", ".1f"),
+                 ("ratio", "peer ms / dvr-gl ms", ".2f"), ("ratio_1vox", "vs dvr-gl 1 voxel", ".2f")]
+
+
+def default_peers_python() -> str | None:
+    """``.venv-peers/bin/python`` in the working directory, if there is one."""
+    path = Path(".venv-peers") / "bin" / "python"
+    return str(path) if path.exists() else None
+
+
+def default_cache() -> Path:
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "dvr-gl" / "peers"
+
+
+def volume_file(demo: str, n: int, folder: Path) -> Path:
+    """The phantom on ``n^3`` nodes, quantized to uint8 (0..1 to 0..255, rounded), as ``.npy``."""
+    from ..phantoms import DEMOS
+
+    path = folder / f"{demo}-{n}.npy"
+    if not path.exists():
+        data = np.clip(np.rint(DEMOS[demo](n).astype(np.float64) * 255.0), 0, 255).astype(np.uint8)
+        np.save(path, data)
+    return path
+
+
+def scene_keys(key: str, volume: Path, n: int, size: int) -> dict:
+    """dvr-gl's scene keys for scene ``key`` (renderer settings left at their defaults)."""
+    demo, mode = SCENES[key]
+    return {"volume.path": str(volume), **CAMERA,
+            "camera.distance": DISTANCE_DIAGONALS * (n - 1) * math.sqrt(3.0),  # spacing 1: the hull's diagonal
+            "image.width": size, "image.height": size,
+            "transfer_function.points": MIP_TF if mode == "mip" else COMPOSITE_TF[demo],
+            "transfer_function.unit_distance": 1.0,
+            "renderer.compositing": "mip" if mode == "mip" else "emission_absorption",
+            "renderer.shading.enabled": False, "renderer.filter": "linear"}
+
+
+def peer_scene(keys: dict, mode: str) -> dict:
+    """The scene as the worker reads it, resolved by dvr-gl (camera eye, target and up; the box)."""
+    from ..scene import load_scene
+
+    scene = load_scene(None, keys)
+    cam, vol = scene.camera, scene.volume
+    data = vol.data
+    return {"volume": keys["volume.path"], "dims": list(vol.dims), "spacing": list(vol.spacing),
+            "origin": list(vol.origin), "value_range": [0.0, 255.0] if data.dtype == np.uint8 else
+            [float(data.min()), float(data.max())],
+            "transfer_function": keys["transfer_function.points"], "unit_distance": 1.0, "mode": mode,
+            "camera": {"eye": list(cam.eye), "target": list(cam.target), "up": list(cam.up), "fov": cam.fov},
+            "sample_distance": PEER_SAMPLE_VOXELS * float(min(vol.spacing))}
+
+
+def reference_image(keys: dict, error_size: int, cache: Path | None) -> tuple[np.ndarray, str]:
+    """dvr-gl's converged reference of the scene at ``error_size`` (from ``cache`` when there), and where
+    it came from."""
+    from ..scene import load_scene
+    from .tradeoff import converged_truth
+
+    keys = {**keys, "image.width": error_size, "image.height": error_size}
+    digest = hashlib.sha256(json.dumps({k: v for k, v in keys.items() if k != "volume.path"}, sort_keys=True)
+                            .encode() + Path(keys["volume.path"]).read_bytes()
+                            + f"v{REFERENCE_VERSION} {REFERENCE_TOLERANCE}".encode()).hexdigest()[:20]
+    path = cache / f"reference-{digest}.npy" if cache else None
+    if path is not None and path.exists():
+        return np.load(path), f"cached {path}"
+    start = time.perf_counter()
+    image = converged_truth(load_scene(None, keys), REFERENCE_TOLERANCE)
+    took = f"computed in {time.perf_counter() - start:.0f} s"
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(".tmp.npy")
+        np.save(tmp, image)
+        os.replace(tmp, path)
+        took += f", cached as {path}"
+    return image, took
+
+
+def outline_mask(keys: dict, size: int) -> np.ndarray:
+    """Pixels (``(size, size)`` bool) within one pixel of the box's outline in the image: where a
+    renderer whose box differs from dvr-gl's by a fraction of a voxel (vispy's and pygfx's are
+    cell-centred) or whose silhouette is softened differs the most, whatever its sampling."""
+    from ..rays import intersect_box
+    from ..scene import load_scene
+
+    scene = load_scene(None, {**keys, "image.width": size, "image.height": size})
+    origins, directions = scene.camera.pixel_rays(size, size)
+    t0, t1 = intersect_box(origins, directions, *scene.volume.box)
+    hit = np.pad((t1 >= np.maximum(t0, 0)).reshape(size, size), 1, mode="edge")
+    near = np.zeros((size, size), bool)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            near |= hit[1 + dy:1 + dy + size, 1 + dx:1 + dx + size] != hit[1:-1, 1:-1]
+    return near
+
+
+def psnr(a: np.ndarray, b: np.ndarray, keep: np.ndarray | None = None) -> float:
+    """PSNR (peak 1) of ``a`` against ``b`` over all channels of the pixels ``keep`` (default all)."""
+    d = (np.asarray(a, np.float64) - np.asarray(b, np.float64))
+    d = d[keep] if keep is not None else d
+    rms = float(np.sqrt(np.mean(d * d))) if d.size else 0.0
+    return math.inf if rms == 0 else -20.0 * math.log10(rms)
+
+
+def available(python: str | None, renderers) -> tuple[dict, dict]:
+    """Which peers import in ``python`` ({renderer: version}); and {renderer: why not} for the rest."""
+    from .peer_worker import MODULES
+
+    wanted = [r for r in renderers if r in MODULES]
+    if not wanted:
+        return {}, {}
+    if python is None:
+        return {}, {r: "not installed (no peers environment: see docs/peers.md)" for r in wanted}
+    modules = sorted({MODULES[r] for r in wanted})
+    probe = ("import importlib, json\nout = {}\nfor m in %r:\n    try:\n        mod = importlib.import_module(m)\n"
+             "        out[m] = str(getattr(mod, '__version__', '') or 'yes')\n    except Exception as e:\n"
+             "        out[m] = None\nprint(json.dumps(out))" % modules)
+    try:
+        done = subprocess.run([python, "-c", probe], capture_output=True, text=True, timeout=300)
+        found = json.loads(done.stdout.strip().splitlines()[-1])
+    except (OSError, subprocess.SubprocessError, ValueError, IndexError) as exc:
+        return {}, {r: f"not installed ({python} did not answer: {exc})" for r in wanted}
+    have = {r: found[MODULES[r]] for r in wanted if found.get(MODULES[r])}
+    return have, {r: f"not installed in {python}" for r in wanted if r not in have}
+
+
+def runs_for(renderers, have: dict) -> list[dict]:
+    """The configurations to run: dvr-gl's defaults and sweep, then each importable peer."""
+    out = []
+    if "dvr-gl" in renderers:
+        out.append({"renderer": "dvr-gl", "setting": "defaults (0.5 voxel)", "keys": {}, "voxels": None})
+        for d in SWEEP:
+            out.append({"renderer": "dvr-gl", "setting": f"{d:g} voxel", "voxels": d,
+                        "keys": {"renderer.sample_distance_voxels": d}})
+    for r in renderers:
+        if r != "dvr-gl" and r in have:
+            out.append({"renderer": r, "setting": f"{PEER_SAMPLE_VOXELS:g} voxel", "keys": {}, "voxels": None})
+    return out
+
+
+def run_one(config: dict, job_scene: dict, keys: dict, python: str, size: int, frames: int,
+            error_size: int | None, folder: Path, timeout: float) -> dict:
+    """One fresh process: the worker's result (``seconds``, ...) plus ``image``, ``error`` arrays when
+    asked, or ``failed``/``unsupported``."""
+    folder.mkdir(parents=True, exist_ok=True)
+    job = {"renderer": config["renderer"], "scene": job_scene, "size": [size, size], "frames": frames,
+           "out": str(folder), "error_size": [error_size, error_size] if error_size else None,
+           "save_image": bool(error_size), "dvrgl": {**keys, **config["keys"]}}
+    (folder / "job.json").write_text(json.dumps(job, indent=1) + "\n")
+    try:
+        done = subprocess.run([python, str(WORKER), str(folder / "job.json")], capture_output=True, text=True,
+                              timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return {"failed": f"no result within {timeout:.0f} s"}
+    result_path = folder / "result.json"
+    if done.returncode != 0 or not result_path.exists():
+        lines = [ln for ln in (done.stderr or done.stdout).strip().splitlines() if ln.strip()]
+        return {"failed": lines[-1] if lines else f"exit status {done.returncode}"}
+    result = json.loads(result_path.read_text())
+    for name in ("image", "error"):
+        if (folder / f"{name}.npy").exists():
+            result[name] = np.load(folder / f"{name}.npy")
+    return result
+
+
+def run(renderers=RENDERERS, scenes=tuple(SCENES), size: int = 512, volume_size: int = 256, rounds: int = 3,
+        frames: int = 20, error_size: int = 128, peers_python: str | None = None, cache: Path | None = None,
+        work: Path | None = None, progress=None, timeout: float = 1800.0):
+    """Rows (one per scene and renderer setting), ratio rows (one per scene and peer), notes, and the
+    images of the first round ({(scene, renderer, setting): (image, error image)}, and under
+    ``"references"`` {scene: converged reference})."""
+    have, missing = available(peers_python, renderers)
+    notes = [f"{r}: {why}" for r, why in missing.items()]
+    configs = runs_for(renderers, have)
+    own = tempfile.TemporaryDirectory(prefix="dvr-peers-") if work is None else None
+    work = Path(own.name) if own else Path(work)
+    try:
+        work.mkdir(parents=True, exist_ok=True)
+        prepared = {}
+        for key in scenes:
+            demo, mode = SCENES[key]
+            keys = scene_keys(key, volume_file(demo, volume_size, work), volume_size, size)
+            truth, how = reference_image(keys, error_size, cache)
+            notes.append(f"{key}: converged reference {error_size}x{error_size} {how}")
+            prepared[key] = (keys, peer_scene(keys, mode), truth, ~outline_mask(keys, error_size))
+        results = {(key, i): [] for key in scenes for i in range(len(configs))}
+        images, unsupported = {}, {}
+        for rnd in range(rounds):
+            for key in scenes:
+                keys, job_scene = prepared[key][:2]
+                order = list(range(len(configs)))
+                order = order[rnd % len(order):] + order[:rnd % len(order)]  # each round starts elsewhere
+                for i in order:
+                    config = configs[i]
+                    if (key, i) in unsupported:
+                        continue
+                    python = sys.executable if config["renderer"] == "dvr-gl" else peers_python
+                    folder = work / "runs" / f"{key}-{i}-{rnd}"
+                    res = run_one(config, job_scene, keys, python, size, frames, error_size if rnd == 0 else None,
+                                  folder, timeout)
+                    if "unsupported" in res:
+                        unsupported[(key, i)] = res["unsupported"]
+                        continue
+                    if "failed" in res:
+                        notes.append(f"{key}, {config['renderer']} {config['setting']}, round {rnd + 1}: failed "
+                                     f"({res['failed']})")
+                        continue
+                    if "image" in res:
+                        images[(key, i)] = (res.pop("image"), res.pop("error"))
+                    results[(key, i)].append(res)
+                    if progress:
+                        progress(f"{key}: {config['renderer']} {config['setting']}, round {rnd + 1}: "
+                                 f"{1e3 * statistics.median(res['seconds']):.1f} ms")
+        rows = []
+        for key in scenes:
+            truth, inner = prepared[key][2:]
+            for i, config in enumerate(configs):
+                runs = results[(key, i)]
+                if (key, i) in unsupported:
+                    notes.append(f"{key}: {config['renderer']} not compared ({unsupported[(key, i)]})")
+                    continue
+                if not runs or (key, i) not in images:
+                    continue
+                medians = [1e3 * statistics.median(r["seconds"]) for r in runs]
+                err = compare_images(images[(key, i)][1], truth)
+                rows.append({"scene": key, "renderer": config["renderer"], "setting": config["setting"],
+                             "voxels": config["voxels"] or (0.5 if config["renderer"] == "dvr-gl" else None),
+                             "ms": statistics.median(medians),
+                             "spread": f"{min(medians):.1f}-{max(medians):.1f}",
+                             "rms": err["rms"], "psnr": err["psnr"],
+                             "psnr_inner": psnr(images[(key, i)][1], truth, inner), "runs": len(runs),
+                             "version": runs[0].get("version", ""), "settings": runs[0].get("settings", {})})
+        named = {(k, configs[i]["renderer"], configs[i]["setting"]): v for (k, i), v in images.items()}
+        named["references"] = {key: prepared[key][2] for key in scenes}
+        return rows, ratios(rows), notes, named
+    finally:
+        if own:
+            own.cleanup()
+
+
+def ratios(rows: list[dict], slack: float = PSNR_SLACK) -> list[dict]:
+    """For each peer row: the fastest dvr-gl row of its scene whose PSNR is at least the peer's minus
+    ``slack`` dB, and peer ms / dvr-gl ms; also the ratio to dvr-gl at 1 voxel (the peers' spacing)."""
+    out = []
+    for peer in (r for r in rows if r["renderer"] != "dvr-gl"):
+        ours = [r for r in rows if r["renderer"] == "dvr-gl" and r["scene"] == peer["scene"]]
+        meeting = [r for r in ours if r["psnr"] >= peer["psnr"] - slack]
+        best = min(meeting, key=lambda r: r["ms"]) if meeting else None
+        one = next((r for r in ours if r["voxels"] == 1.0), None)
+        out.append({"scene": peer["scene"], "peer": peer["renderer"], "peer_ms": peer["ms"], "peer_psnr": peer["psnr"],
+                    "dvrgl": best["setting"] if best else "none of the sweep",
+                    "dvrgl_ms": best["ms"] if best else None, "dvrgl_psnr": best["psnr"] if best else None,
+                    "ratio": peer["ms"] / best["ms"] if best else None,
+                    "ratio_1vox": peer["ms"] / one["ms"] if one else None})
+    return out
+
+
+def write_pictures(images: dict, references: dict, folder: Path) -> list[Path]:
+    """Each scene's first-round images side by side, for checking by eye that the peers see what dvr-gl
+    sees (PNG, premultiplied colour over black): ``peers-SCENE.png``, the full-size frames in the order
+    of ``peers-SCENE.txt``; ``peers-SCENE-error.png``, the converged reference and then each
+    renderer's error-size image, above 4x their absolute differences from the reference."""
+    from ..image import write_image
+
+    def save(path, rows):
+        strip = np.concatenate([np.concatenate(row, axis=1) for row in rows], axis=0)
+        strip[..., 3] = 1.0  # premultiplied over black: the colour as it is
+        write_image(path, strip, overwrite=True)
+        written.append(path)
+
+    written = []
+    for key in dict.fromkeys(k for k, _, _ in images):
+        tiles = [(f"{r} {s}", v) for (k, r, s), v in images.items() if k == key]
+        save(folder / f"peers-{key}.png", [[v[0] for _, v in tiles]])
+        truth = references[key]
+        save(folder / f"peers-{key}-error.png", [[truth] + [v[1] for _, v in tiles],
+                                                  [0 * truth] + [np.minimum(4 * np.abs(v[1] - truth), 1)
+                                                                 for _, v in tiles]])
+        (folder / f"peers-{key}.txt").write_text("\n".join(t for t, _ in tiles) + "\n")
+    return written

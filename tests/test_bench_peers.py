@@ -1,0 +1,138 @@
+"""``dvr bench peers`` at tiny sizes, without the peers' environment: dvr-gl's rows, the error against
+the converged reference, and the worker's scene description (camera, box, transfer function, image
+layout) checked against dvr-gl through the worker's numpy stub peer."""
+
+import math
+import sys
+
+import numpy as np
+import pytest
+
+from dvr_gl.apps.cli import main
+from dvr_gl.bench import peer_worker, peers
+from dvr_gl.scene import load_scene
+
+TINY = {"size": 16, "volume_size": 12, "rounds": 1, "frames": 1, "error_size": 12}
+
+
+@pytest.fixture
+def short_sweep(monkeypatch):
+    """dvr-gl's defaults and one more distance: fewer fresh processes."""
+    monkeypatch.setattr(peers, "SWEEP", (2.0,))
+
+
+def test_worker_matrices_send_dvr_gl_rays_through_pixel_centres(tmp_path):
+    """The view and projection the peers are given map every dvr-gl pixel ray to its pixel's centre
+    (row 0 at the top; a wide image, so that the aspect and the vertical field of view are told apart)."""
+    volume = peers.volume_file("blobs", 9, tmp_path)
+    keys = {**peers.scene_keys("blobs-mip", volume, 9, 16), "image.width": 24, "image.height": 10}
+    scene = peers.peer_scene(keys, "mip")
+    camera = load_scene(None, keys).camera
+    origins, directions = camera.pixel_rays(24, 10)
+    centres = np.stack(np.meshgrid(np.arange(24) + 0.5, np.arange(10) + 0.5), axis=-1).reshape(-1, 2)
+    for depth in (10.0, 40.0):
+        projected = peer_worker.project(origins + depth * directions, scene, 24, 10)
+        assert np.abs(projected - centres).max() < 1e-6
+    near, far = peer_worker.depth_range(scene)
+    lo, hi = peer_worker.box(scene)
+    assert np.allclose(hi - lo, 8.0) and 0 < near < far  # node-centred: the hull of 9 samples is 8 wide
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    cam = scene["camera"]
+    forward, _, _ = peer_worker.camera_basis(cam["eye"], cam["target"], cam["up"])
+    depths = (corners - scene["camera"]["eye"]) @ forward
+    assert near < depths.min() and depths.max() < far
+
+
+def test_from_framebuffer_flips_and_decodes():
+    """A bottom-up 8-bit sRGB framebuffer becomes dvr-gl's layout: row 0 on top, linear colour, alpha as is."""
+    fb = np.zeros((2, 1, 4), np.uint8)
+    fb[0, 0] = (255, 255, 255, 255)  # the bottom row
+    fb[1, 0] = (188, 0, 0, 128)      # the top row: sRGB 188 is linear 0.5
+    image = peer_worker.from_framebuffer(fb, bottom_up=True, srgb=True)
+    assert image.dtype == np.float32 and image.shape == (2, 1, 4)
+    assert abs(image[0, 0, 0] - 0.5) < 5e-3 and abs(image[0, 0, 3] - 128 / 255) < 1e-6
+    assert np.allclose(image[1, 0], 1.0)
+
+
+def test_classify_is_piecewise_linear_and_constant_beyond():
+    points = [[10, 0, 0, 0, 0], [20, 1, 0.5, 0, 1]]
+    rgba = peer_worker.classify(points, [0, 15, 30])
+    assert np.allclose(rgba, [[0, 0, 0, 0], [0.5, 0.25, 0, 0.5], [1, 0.5, 0, 1]])
+
+
+def test_stub_peer_sees_what_dvr_gl_sees(tmp_path, monkeypatch):
+    """The numpy stub peer renders from the worker's scene description alone (its camera, box and
+    transfer function helpers), in the worker, as a peer would: at the same sample distance its images
+    match dvr-gl's, composite and MIP, so the description means what dvr-gl means.  Its rows and ratio
+    rows come out like a real peer's."""
+    monkeypatch.setattr(peers, "SWEEP", (1.0,))  # the stub's distance
+    rows, ratio_rows, notes, images = peers.run(("dvr-gl", "numpy"), ("ml-composite", "ml-mip"),
+                                                peers_python=sys.executable, cache=tmp_path / "cache",
+                                                work=tmp_path / "work", **TINY)
+    assert [(r["scene"], r["renderer"], r["setting"]) for r in rows] == [
+        (s, r, d) for s in ("ml-composite", "ml-mip")
+        for r, d in (("dvr-gl", "defaults (0.5 voxel)"), ("dvr-gl", "1 voxel"), ("numpy", "1 voxel"))]
+    for key in ("ml-composite", "ml-mip"):
+        ours, stub = images[(key, "dvr-gl", "1 voxel")], images[(key, "numpy", "1 voxel")]
+        for a, b in zip(ours, stub):
+            assert a.shape == b.shape and a[..., 3].max() > 0.05
+            # dvr-gl stops rays early (renderer.ert_threshold) and interpolates its table; the stub does neither
+            assert np.abs(a - b).max() < 0.02, (key, np.abs(a - b).max())
+    stub_rows = [r for r in rows if r["renderer"] == "numpy"]
+    assert all(r["psnr"] > 25 and math.isfinite(r["ms"]) for r in stub_rows)
+    assert [(r["scene"], r["peer"]) for r in ratio_rows] == [("ml-composite", "numpy"), ("ml-mip", "numpy")]
+    for r in ratio_rows:
+        assert r["ratio_1vox"] == pytest.approx(r["peer_ms"] / next(
+            x["ms"] for x in rows if x["scene"] == r["scene"] and x["setting"] == "1 voxel" and x["renderer"] == "dvr-gl"))
+    assert any("computed" in n for n in notes)
+
+
+def test_bench_peers_with_dvr_gl_only(tmp_path, capsys, short_sweep):
+    """Without a peers environment: dvr-gl's rows, each peer listed as not installed (a note, not an
+    error), the reference cached, the Markdown written."""
+    md = tmp_path / "peers.md"
+    args = ["bench", "peers", "--scenes", "blobs-mip", "--volume-size", "12", "--size", "16", "--error-size", "12",
+            "--rounds", "1", "--frames", "2", "--cache", str(tmp_path / "cache"), "--renderers", "dvr-gl,vtk-gpu",
+            "--peers-python", str(tmp_path / "absent-python")]
+    assert main(args) == 1  # a named interpreter must exist
+    assert "no such interpreter" in capsys.readouterr().err
+    args = args[:-1] + [sys.executable, "--markdown", str(md), "--pictures", str(tmp_path)]  # no peers there
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    rows = [line.split() for line in out.splitlines() if line.startswith("blobs-mip ")]
+    assert [r[1:4] if r[2] == "defaults" else r[1:3] for r in rows] == [
+        ["dvr-gl", "defaults", "(0.5"], ["dvr-gl", "2"]]
+    psnr = [float(r[-2]) for r in rows]
+    assert all(20 < p < 200 for p in psnr), psnr
+    for name in ("peers-blobs-mip.png", "peers-blobs-mip-error.png", "peers-blobs-mip.txt"):
+        assert (tmp_path / name).stat().st_size > 0
+    assert "vtk-gpu: not installed" in out and "computed in" in out
+    assert md.read_text().startswith("<!-- written by `dvr bench peers")
+    assert main(args[:-4] + ["--renderers", "dvr-gl"]) == 0
+    assert "cached " in capsys.readouterr().out  # the converged reference is not computed twice
+
+
+def test_ratios_pick_the_fastest_dvr_gl_setting_at_the_peers_error():
+    rows = [{"scene": "s", "renderer": "dvr-gl", "setting": f"{d:g} voxel", "voxels": d, "ms": ms, "psnr": p}
+            for d, ms, p in ((0.5, 40.0, 50.0), (1.0, 20.0, 44.8), (2.0, 10.0, 38.0))]
+    rows += [{"scene": "s", "renderer": "peer", "setting": "1 voxel", "voxels": None, "ms": 30.0, "psnr": 45.0},
+             {"scene": "s", "renderer": "sharp", "setting": "1 voxel", "voxels": None, "ms": 30.0, "psnr": 60.0}]
+    peer, sharp = peers.ratios(rows)
+    assert peer["dvrgl"] == "1 voxel" and peer["ratio"] == pytest.approx(1.5)  # 44.8 >= 45 - 0.5
+    assert peer["ratio_1vox"] == pytest.approx(1.5)
+    assert sharp["dvrgl"] == "none of the sweep" and sharp["ratio"] is None
+
+
+def test_outline_mask_is_the_ring_around_the_box(tmp_path):
+    """The pixels left out of "PSNR off the outline": a thin ring where rays go from missing the box to
+    hitting it; not the image's corners (empty) nor its centre (inside)."""
+    volume = peers.volume_file("blobs", 9, tmp_path)
+    mask = peers.outline_mask(peers.scene_keys("blobs-mip", volume, 9, 16), 32)
+    assert mask.shape == (32, 32) and 0.05 < mask.mean() < 0.4
+    assert not mask[0, 0] and not mask[-1, -1] and not mask[16, 16]
+    assert peers.psnr(np.ones((2, 2, 4)), np.ones((2, 2, 4))) == math.inf
+    a, b = np.zeros((2, 2, 4)), np.zeros((2, 2, 4))
+    b[0, 0] = 0.5  # only in the pixel left out
+    keep = np.ones((2, 2), bool)
+    keep[0, 0] = False
+    assert peers.psnr(a, b, keep) == math.inf and peers.psnr(a, b) < 20
