@@ -23,8 +23,9 @@
 // CORE_MARGIN inside its brick's core, so that every brick's in_brick() agrees they are its own,
 // and never past its window of segments.  COUNT_SAMPLES carries the counts between passes (u_counts).
 //
-// This file is the skeleton every mode shares: the ray and its segments, the pass's window, one
-// loop over the segments (k upward, or downward for BACK_TO_FRONT), brick ownership, block
+// This file is the skeleton every mode shares: the ray and its segments, the pass's window, the
+// loop over the segments (k upward, or downward for BACK_TO_FRONT; under ACCELERATE an outer loop
+// of block lookups and an inner one sampling each run), brick ownership, block
 // skipping, early termination, sample counting and the resolve.  The compositing mode supplies
 // its parts from one snippet (raycast/emission.glsl, emission_back_to_front.glsl, isosurface.glsl
 // or projection.glsl), which keeps its state in globals and may read the ray's (o, d, t0, t1,
@@ -176,11 +177,7 @@ float core_reach(vec3 u) {
 #else
     vec3 dir = du;
 #endif
-    vec3 face = mix(lo, hi, step(0.0, dir));
-    bvec3 still = equal(dir, vec3(0.0));
-    vec3 t = (face - u) / mix(dir, vec3(1.0), still);
-    t = mix(t, vec3(3.0e38), still);
-    return max(min(min(t.x, t.y), t.z), 0.0);
+    return max(box_exit_distance(lo, hi, u, dir), 0.0);
 }
 #endif
 
@@ -197,7 +194,8 @@ float block_end(float t, int level, vec3 u) {
 // and the block they lie in.  The block is the one around the sample or, for pre-integrated
 // segments (which must lie in it whole), around the end of segment k met first.  Never the
 // shortened last segment.  Where segment k is to be sampled, `run` is how many segments from k on
-// may be sampled before the next lookup: those whose sample lies in the same level-0 block.
+// may be sampled before the next lookup: those whose check point lies in the largest neighbourhood
+// of blocks around it that has none to skip (common/blocks.glsl's dense_reach).
 int segments_to_jump(int k, out vec4 block, out int run) {
     float start = t0 + float(k) * u_sample_distance;  // segment k (as sample_t)
     float len = min(u_sample_distance, t1 - start);
@@ -233,7 +231,7 @@ int segments_to_jump(int k, out vec4 block, out int run) {
     if (inside <= 0.0) return 0;
 #endif
     int level = skip_level(u_check, 0.0, block);
-    if (level < 0) return 0;  // the state moved between the two lookups' rounding: sample one
+    if (level < 0) return 0;  // a guard: dense_reach is 0 only where level 0 is skippable
     float t_end = block_end(t_check, level, u_check);
 #if defined(BRICKED) && defined(BACK_TO_FRONT)
     t_end = max(t_end, t_check - inside);

@@ -70,6 +70,15 @@ def test_dense_volume_is_looked_up_once_per_run(gpu, mode, order):
     np.testing.assert_array_equal(image, plain)
 
 
+def _sparse_scene(tmp_path, n):
+    """An n^3 volume empty but for a random 8 x 12 x 16 box at its centre: mostly skippable."""
+    data = np.zeros((n, n, n), np.float32)
+    z, y, x = n // 2 - 4, n // 2 - 6, n // 2 - 8
+    data[z:z + 8, y:y + 12, x:x + 16] = np.random.default_rng(5).uniform(0.4, 1.0, (8, 12, 16))
+    return array_scene(tmp_path, data, {"image.width": 32, "image.height": 32, "renderer.ert_threshold": 1.0,
+                                        "renderer.block_size": 4})
+
+
 def test_auto_skips_only_where_it_pays(gpu, tmp_path):
     """auto: no skipping on a dense volume (estimate 0), skipping on a mostly empty one; the
     estimate is within 0.1 of the fraction of samples skipping actually saves, and the images
@@ -77,10 +86,7 @@ def test_auto_skips_only_where_it_pays(gpu, tmp_path):
     dense = load_scene(None, DENSE)
     gpu.render(dense)
     assert gpu.stats["skippable_estimate"] == 0.0 and not gpu.stats["accelerated"]
-    data = np.zeros((48, 48, 48), np.float32)
-    data[20:28, 18:30, 16:32] = np.random.default_rng(5).uniform(0.4, 1.0, (8, 12, 16))
-    sparse = array_scene(tmp_path, data, {"image.width": 32, "image.height": 32, "renderer.ert_threshold": 1.0,
-                                          "renderer.block_size": 4})
+    sparse = _sparse_scene(tmp_path, 48)
     auto = gpu.render(sparse)
     estimate = gpu.stats["skippable_estimate"]
     assert gpu.stats["accelerated"] and estimate >= AUTO_MIN_SKIPPABLE
@@ -137,10 +143,7 @@ def test_auto_decides_once_for_all_bricked_passes(gpu, tmp_path):
     gpu.render(dense.with_renderer(texture_budget_mb=1 / 16))
     assert gpu.stats["bricks"] >= 8 and gpu.stats["skippable_estimate"] == 0.0 and not gpu.stats["accelerated"]
     assert gpu.stats["jumps_per_ray"] == 0.0 and gpu.stats["lookups_per_ray"] == 0.0
-    data = np.zeros((40, 40, 40), np.float32)
-    data[16:24, 14:26, 12:28] = np.random.default_rng(5).uniform(0.4, 1.0, (8, 12, 16))
-    sparse = array_scene(tmp_path, data, {"image.width": 32, "image.height": 32, "renderer.ert_threshold": 1.0,
-                                          "renderer.block_size": 4})
+    sparse = _sparse_scene(tmp_path, 40)
     one_pass = gpu.render(sparse)
     estimate = gpu.stats["skippable_estimate"]
     auto = gpu.render(sparse.with_renderer(texture_budget_mb=1 / 16))

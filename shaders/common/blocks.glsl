@@ -49,24 +49,28 @@ int skip_level(vec3 u, float bound, inout vec4 block) {
     return level;
 }
 
-// Ray parameter from voxel position u, moving by du voxels per unit t, to where the ray leaves
-// (forward) or entered (backward) its block at `level`.
-float block_exit_distance(int level, vec3 u, vec3 du) {
-    float size = float(u_block_size << level);
-    vec3 face = (floor(u / size) + step(0.0, du)) * size;
-    bvec3 still = equal(du, vec3(0.0));
-    vec3 t = (face - u) / mix(du, vec3(1.0), still);
+// Ray parameter from voxel position u inside the box [lo, hi], moving by dir voxels per unit t, to
+// the face where the ray leaves the box (3e38 along no axis it moves on).
+float box_exit_distance(vec3 lo, vec3 hi, vec3 u, vec3 dir) {
+    vec3 face = mix(lo, hi, step(0.0, dir));
+    bvec3 still = equal(dir, vec3(0.0));
+    vec3 t = (face - u) / mix(dir, vec3(1.0), still);
     t = mix(t, vec3(3.0e38), still);
     return min(min(t.x, t.y), t.z);
 }
 
+// Ray parameter from voxel position u, moving by du voxels per unit t, to where the ray leaves
+// (forward) or entered (backward) its block at `level`.
+float block_exit_distance(int level, vec3 u, vec3 du) {
+    float size = float(u_block_size << level);
+    vec3 lo = floor(u / size) * size;
+    return box_exit_distance(lo, lo + size, u, du);
+}
+
 float block_entry_distance(int level, vec3 u, vec3 du) {
     float size = float(u_block_size << level);
-    vec3 face = (floor(u / size) + (1.0 - step(0.0, du))) * size;
-    bvec3 still = equal(du, vec3(0.0));
-    vec3 t = (u - face) / mix(du, vec3(1.0), still);
-    t = mix(t, vec3(3.0e38), still);
-    return min(min(t.x, t.y), t.z);
+    vec3 lo = floor(u / size) * size;
+    return box_exit_distance(lo, lo + size, u, -du);
 }
 
 // Segments k .. result - 1 have their samples inside the block the ray leaves at t_exit.
@@ -109,14 +113,9 @@ float dense_reach(vec3 u, vec3 du, vec4 block0) {
     if (radius == 0.0) return 0.0;
     float size = float(u_block_size);
 #ifdef BACK_TO_FRONT
-    vec3 face = (vec3(b) + (1.0 - step(0.0, du)) * (2.0 * radius - 1.0) - (radius - 1.0)) * size;
-    vec3 gap = u - face;
+    vec3 dir = -du;
 #else
-    vec3 face = (vec3(b) + step(0.0, du) * (2.0 * radius - 1.0) - (radius - 1.0)) * size;
-    vec3 gap = face - u;
+    vec3 dir = du;
 #endif
-    bvec3 still = equal(du, vec3(0.0));
-    vec3 t = gap / mix(du, vec3(1.0), still);
-    t = mix(t, vec3(3.0e38), still);
-    return max(min(min(t.x, t.y), t.z), 0.0);
+    return max(box_exit_distance((vec3(b) - (radius - 1.0)) * size, (vec3(b) + radius) * size, u, dir), 0.0);
 }

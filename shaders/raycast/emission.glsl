@@ -70,10 +70,6 @@ bool mode_skippable(vec4 block) {
     return block.a >= 0.0;
 }
 
-// Runs: the key is 1 where a block is not skippable (dvr_gl...acceleration.run_keys).
-bool mode_dense(float key) {
-    return key > 0.5;
-}
 
 // m segments of constant (colour, sigma): closed form, as stepping sums, up to where stepping
 // would terminate.

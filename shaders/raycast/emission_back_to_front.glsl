@@ -58,9 +58,6 @@ bool mode_skippable(vec4 block) {
     return block.a >= 0.0;  // constant (colour, sigma), as for front to back
 }
 
-bool mode_dense(float key) {
-    return key > 0.5;  // as front to back
-}
 
 // m segments of constant (colour, sigma) as one.
 bool mode_jump(vec4 block, inout int m) {

@@ -247,7 +247,7 @@ def run_keys(level0: np.ndarray, mode: str) -> np.ndarray:
 def skippable_fraction(level0: np.ndarray, mode: str, block_size: int, volume, camera, aspect: float = 1.0,
                        iso_value: float = 0.0, rays: int = 24, steps_per_block: int = 2) -> float:
     """An estimate of the fraction of a frame's samples that block skipping saves, from the level-0
-    blocks alone, for :func:`decide` (``renderer.acceleration = "auto"``).
+    blocks alone, for ``RayCastRenderer.decide_skipping`` (``renderer.acceleration = "auto"``).
 
     About ``rays x rays`` pixel rays of ``camera`` (the image's ``aspect``, width / height) are walked
     through the block grid at ``steps_per_block`` points per block width.  A point is skippable where

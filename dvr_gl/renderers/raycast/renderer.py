@@ -21,7 +21,7 @@ from ... import limits
 from ...fields import diagonal
 from ...gl.shaders import create_program
 from ..grid.bricking import plan_bricks, visibility_order
-from ..grid.gl_base import GLVolumeRenderer, GridView, classification_features, now
+from ..grid.gl_base import GLVolumeRenderer, GridView, _same, classification_features, now
 from ..grid.textures import upload_field
 from . import acceleration as accel
 from .acceleration import level_count
@@ -32,8 +32,10 @@ BAND_SECONDS = 0.25
 
 # renderer.acceleration = "auto" skips blocks where the frame's estimated skippable fraction of samples
 # (acceleration.skippable_fraction) is at least this; below it, the jumps' divergence costs more than
-# they save (docs/acceleration.md, "When to skip").
+# they save (docs/acceleration.md, "Auto").
 AUTO_MIN_SKIPPABLE = 0.2
+# The defines of empty-space skipping (a frame without it, and the resolve pass, have none of them).
+SKIPPING_DEFINES = ("ACCELERATE", "NUM_LEVELS", "RUNS_IN_CLASSES")
 
 COMPOSITING = {"emission_absorption": "COMPOSITE_EMISSION", "isosurface": "COMPOSITE_ISOSURFACE",
                "average": "COMPOSITE_AVERAGE", "mip": "COMPOSITE_MIP", "minip": "COMPOSITE_MINIP"}
@@ -247,8 +249,7 @@ class RayCastRenderer(GLVolumeRenderer):
         if acceleration_mode(scene.renderer.acceleration) == "auto":
             skippable = self.skippable(scene, blocks)
             if skippable < AUTO_MIN_SKIPPABLE:
-                off = ("ACCELERATE", "NUM_LEVELS", "RUNS_IN_CLASSES")
-                return {k: v for k, v in defines.items() if k not in off}, {}, skippable
+                return {k: v for k, v in defines.items() if k not in SKIPPING_DEFINES}, {}, skippable
         textures = {f"u_blocks{level}": tex for level, tex in enumerate(blocks)}
         if blocks.runs is not None:
             textures["u_runs"] = blocks.runs
@@ -273,7 +274,7 @@ class RayCastRenderer(GLVolumeRenderer):
         mode = "isosurface" if r.compositing == "isosurface" else blocks.mode
         key = (blocks, scene.camera, img.width, img.height, r.iso_value)
         last = getattr(self, "_skippable", None)  # host data only: not in the texture cache
-        if last is None or not (last[0][0] is blocks and last[0][1] is scene.camera and last[0][2:] == key[2:]):
+        if last is None or not _same(last[0], key):
             self._skippable = (key, accel.skippable_fraction(blocks.level0, mode, r.block_size, scene.volume,
                                                              scene.camera, img.width / img.height,
                                                              iso_value=r.iso_value))
@@ -313,7 +314,7 @@ class RayCastRenderer(GLVolumeRenderer):
         r = scene.renderer
         program = create_program(self.ctx, "fullscreen.vert", "raycast.frag", defines)
         resolve = create_program(self.ctx, "fullscreen.vert", "raycast_resolve.frag",
-                                 {k: v for k, v in defines.items() if k not in ("ACCELERATE", "NUM_LEVELS")})
+                                 {k: v for k, v in defines.items() if k not in SKIPPING_DEFINES})
         lut = tables["u_lut"].lut
         counting = "COUNT_SAMPLES" in defines
         width, height = scene.image.width, scene.image.height
