@@ -36,9 +36,16 @@ print(json.dumps({"first": first, "later": sorted(later)[2], "accelerated": r.st
 '''
 
 
-def scenes(data_dir: Path, size: int):
+def scenes(data_dir: Path, size: int, work: Path):
+    from dvr_gl.bench import peers
+
+    out = []
+    for key in ("ml-composite", "ml-mip", "blobs-composite"):  # the issue's scenes: 256^3 uint8, 1 voxel
+        demo = peers.SCENES[key][0]
+        keys = peers.scene_keys(key, peers.volume_file(demo, 256, work), 256, size)
+        out.append((f"{key} (bench peers) 256^3 uint8", keys))
     common = {"image.width": size, "image.height": size, "camera.azimuth": 30.0, "camera.elevation": 20.0}
-    out = [(f"{d} 256^3 float, viridis", {"volume.demo": d, "volume.size": 256, "transfer_function.preset": "viridis",
+    out += [(f"{d} 256^3 float, viridis", {"volume.demo": d, "volume.size": 256, "transfer_function.preset": "viridis",
                                            **common}) for d in ("marschner-lobb", "blobs")]
     out.append(("marschner-lobb 256^3 float, MIP", {"volume.demo": "marschner-lobb", "volume.size": 256,
                                                     "renderer.compositing": "mip", **common}))
@@ -59,7 +66,8 @@ def main(argv=None) -> int:
     p.add_argument("--cold", action="store_true", help="an empty Mesa shader cache for every run")
     args = p.parse_args(argv)
     print("scene | first frame ms | later frame ms | first / later | skipping")
-    for name, overrides in scenes(Path(args.data_dir), args.size):
+    work = tempfile.TemporaryDirectory(prefix="dvr-first-frame-")
+    for name, overrides in scenes(Path(args.data_dir), args.size, Path(work.name)):
         results = []
         for _ in range(args.runs):
             env = dict(os.environ)

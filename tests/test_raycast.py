@@ -300,3 +300,20 @@ def test_volume_over_the_gl_size_limit():
 
     with pytest.raises(DvrError, match="32x32x32 exceeds GL_MAX_3D_TEXTURE_SIZE 16"):
         check_fits(TinyGL(), small_scene().volume, 1, 100, "the volume")
+
+
+def test_int16_upload_in_slabs_keeps_every_value(gl_context, monkeypatch):
+    """int16 volumes reach the GPU a slab of slices at a time (flipped sign bit, one small buffer):
+    with a slab of 2 slices and 7 slices (a short last slab), every voxel's texel is x + 32768."""
+    from types import SimpleNamespace
+
+    from dvr_gl.renderers.grid import textures
+
+    monkeypatch.setattr(textures, "INT16_SLAB_BYTES", 2 * 2 * 5 * 3)  # 2 slices of 5 x 3
+    data = np.random.default_rng(1).integers(-32768, 32768, (7, 3, 5)).astype(np.int16)
+    data[0, 0, 0], data[-1, -1, -1] = -32768, 32767
+    tex = textures.upload_volume(gl_context, SimpleNamespace(data=data))
+    texels = np.frombuffer(tex.texture.read(), np.uint16).reshape(data.shape)
+    np.testing.assert_array_equal(texels.astype(np.int64) - 32768, data)
+    assert tex.value_scale * texels[0, 0, 0] / 65535 + tex.value_offset == -32768
+    tex.texture.release()

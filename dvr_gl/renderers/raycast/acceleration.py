@@ -69,6 +69,21 @@ def _window_reduce(a: np.ndarray, axis: int, block: int, lo: int, hi: int, op) -
     return np.moveaxis(out, -1, axis)
 
 
+def _z_reduce(data: np.ndarray, block: int, lo: int, hi: int) -> tuple[np.ndarray, np.ndarray]:
+    """Minimum and maximum over each block's window of z slices (as ``_window_reduce`` along axis 0),
+    one slab at a time: the slab's slices stay in cache for both reductions (the CT bunny's 190 MB:
+    70 ms against 140-250 for two whole-volume passes)."""
+    n = data.shape[0]
+    nb = -(-n // block)
+    mins = np.empty((nb,) + data.shape[1:], data.dtype)
+    maxs = np.empty_like(mins)
+    for b in range(nb):
+        slab = data[max(b * block - lo, 0):min((b + 1) * block + hi, n)]
+        np.minimum.reduce(slab, axis=0, out=mins[b])
+        np.maximum.reduce(slab, axis=0, out=maxs[b])
+    return mins, maxs
+
+
 @dataclass(frozen=True, eq=False)
 class MinMaxPyramid:
     """Per-block minimum and maximum of a volume's values, for ``MAX_LEVELS`` levels.
@@ -84,8 +99,8 @@ class MinMaxPyramid:
     @classmethod
     def build(cls, data: np.ndarray, block_size: int = 8, support=(0, 1), max_levels: int = MAX_LEVELS):
         lo, hi = support
-        mins, maxs = data, data
-        for axis in (0, 1, 2):  # z first: elementwise over whole contiguous slabs (10x faster than x first)
+        mins, maxs = _z_reduce(data, block_size, lo, hi)
+        for axis in (1, 2):
             mins = _window_reduce(mins, axis, block_size, lo, hi, np.minimum)
             maxs = _window_reduce(maxs, axis, block_size, lo, hi, np.maximum)
         levels = [(mins.astype(np.float32), maxs.astype(np.float32))]
@@ -122,12 +137,27 @@ class SparseTable:
         k = np.minimum(k, len(self.mins) - 1)
         out_min = np.empty(i0.shape + self.mins[0].shape[1:])
         out_max = np.empty_like(out_min)
-        for level in np.unique(k):
+        for level in range(len(self.mins)):  # not np.unique: its first call imports numpy.ma (20-30 ms)
             sel = k == level
+            if not sel.any():
+                continue
             a, b = i0[sel], i1[sel] - (1 << level) + 1
             out_min[sel] = np.minimum(self.mins[level][a], self.mins[level][b])
             out_max[sel] = np.maximum(self.maxs[level][a], self.maxs[level][b])
         return out_min, out_max
+
+
+def _distinct(codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Sorted distinct values of ``codes`` and, per element, the index of its value among them
+    (``np.unique(..., return_inverse=True)`` without its import of numpy.ma on the first frame)."""
+    order = np.argsort(codes, kind="stable")
+    ranked = codes[order]
+    first = np.empty(len(ranked), bool)
+    first[:1] = True
+    np.not_equal(ranked[1:], ranked[:-1], out=first[1:])
+    inverse = np.empty(len(codes), np.int64)
+    inverse[order] = np.cumsum(first) - 1
+    return ranked[first], inverse
 
 
 def widened(lo: np.ndarray, hi: np.ndarray, filter_kind: str) -> tuple[np.ndarray, np.ndarray]:
@@ -173,7 +203,10 @@ def table_classes(pyramid: MinMaxPyramid, lut, filter_kind: str, spacing, tolera
             vmin, vmax = snapped(vmin, vmax, *snap)
         i0 = np.floor(lut.node_coordinate(vmin)).astype(np.int64)
         i1 = np.minimum(np.ceil(lut.node_coordinate(vmax)).astype(np.int64), lut.size - 1)
-        tmin, tmax = table.query(i0.ravel(), i1.ravel())
+        # blocks share few distinct ranges (air, soft tissue, ...): query each once
+        pairs, inverse = _distinct(i0.ravel() * lut.size + i1.ravel())
+        tmin, tmax = table.query(pairs // lut.size, pairs % lut.size)
+        tmin, tmax = tmin[inverse], tmax[inverse]
         shape = mins.shape
         block_world = np.linalg.norm(np.asarray(spacing) * pyramid.block_voxels(level))
         out.append(constant_blocks(tmin[:, :3].reshape(shape + (3,)), tmax[:, :3].reshape(shape + (3,)),
