@@ -111,9 +111,11 @@ def add_arguments(p):
     pe.add_argument("--rounds", type=count, default=3, help="rounds of fresh processes, interleaved (default 3)")
     pe.add_argument("--frames", type=count, default=20, help="timed frames per run, after one untimed (default 20)")
     pe.add_argument("--scenes", metavar="A,B", help="only these scenes (ml-composite, ml-mip, blobs-composite, "
-                                                   "blobs-mip; default all)")
+                                                   "blobs-mip, cthead-bone; default all)")
     pe.add_argument("--renderers", metavar="A,B", help="only these (dvr-gl, vtk-gpu, vtk-cpu, vispy, pygfx; "
                                                       "default all)")
+    pe.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder, for the CThead "
+                                                                  "scene (default ../shared/data; left out if absent)")
     pe.add_argument("--peers-python", metavar="PYTHON",
                     help="the peers environment's interpreter (default .venv-peers/bin/python if it exists)")
     pe.add_argument("--cache", metavar="DIR", help="where converged references are kept (default "
@@ -404,14 +406,16 @@ def run_peers(args) -> int:
     if pictures is not None and not pictures.is_dir():
         raise DvrError(f"{pictures}: no such folder for the pictures; create it first")
     cache = Path(args.cache) if args.cache else peers.default_cache()
-    args.report.text(f"dvr bench peers: {args.volume_size}^3 uint8 phantoms, {args.size}x{args.size} frames, perspective "
+    args.report.text(f"dvr bench peers: {args.volume_size}^3 uint8 phantoms and CThead (256x256x113 int16, from "
+                     f"--data-dir), {args.size}x{args.size} frames, perspective "
                      f"30 degrees, azimuth 30, elevation 20, distance {peers.DISTANCE_DIAGONALS:g} box diagonals, "
                      f"trilinear, unshaded; {args.rounds} rounds of fresh processes interleaved across renderers, "
                      f"median of {args.frames} frames each after one untimed; error (RMS, PSNR: premultiplied RGBA, "
                      f"peak 1) against dvr-gl's converged reference at {args.error_size}x{args.error_size}; peers at "
                      f"{peers.PEER_SAMPLE_VOXELS:g} sample per voxel")
     rows, ratios, notes, images = peers.run(renderers, scenes, args.size, args.volume_size, args.rounds, args.frames,
-                                            args.error_size, python, cache, progress=lambda line: print(line, flush=True))
+                                            args.error_size, python, cache, progress=lambda line: print(line, flush=True),
+                                            data_dir=Path(args.data_dir))
     args.report.text()
     args.report.table(rows, peers.COLUMNS)
     if ratios:

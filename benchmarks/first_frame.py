@@ -42,7 +42,7 @@ def scenes(data_dir: Path, size: int, work: Path):
     out = []
     for key in ("ml-composite", "ml-mip", "blobs-composite"):  # the scenes: 256^3 uint8, 1 voxel
         demo = peers.SCENES[key][0]
-        keys = peers.scene_keys(key, peers.volume_file(demo, 256, work), 256, size)
+        keys = peers.scene_keys(key, peers.volume_file(demo, 256, work), size)
         out.append((f"{key} (bench peers) 256^3 uint8", keys))
     common = {"image.width": size, "image.height": size, "camera.azimuth": 30.0, "camera.elevation": 20.0}
     out += [(f"{d} 256^3 float, viridis", {"volume.demo": d, "volume.size": 256, "transfer_function.preset": "viridis",

@@ -169,7 +169,7 @@ def test_homogeneity_tolerance_bounds_the_error(tmp_path, gpu):
     exact_samples = gpu.stats["samples_per_ray"]
     errors = []
     for tolerance in (0.1, 0.3):  # sigma varies by ~0.012 per unit over a block's range, x diagonal 6.9
-        image = gpu.render(scene.with_renderer(homogeneity_tolerance=tolerance))
+        image = gpu.render(scene.with_renderer(homogeneity_tolerance=tolerance, acceleration="on"))
         jumps = gpu.stats["jumps_per_ray"]
         assert gpu.stats["samples_per_ray"] < exact_samples / 2
         errors.append(np.abs(image - exact).max())

@@ -152,3 +152,23 @@ def test_auto_decides_once_for_all_bricked_passes(gpu, tmp_path):
     on = gpu.render(sparse.with_renderer(texture_budget_mb=1 / 16, acceleration="on"))
     np.testing.assert_array_equal(auto, on)
     assert np.abs(auto - one_pass).max() <= 2e-6
+
+
+def test_auto_weighs_lookups_against_samples_saved(gpu, tmp_path):
+    """auto's cost model: the same sparse volume is skipped at fine sampling and not where a sample
+    falls every few blocks (a jump then saves about one sample and costs a lookup:
+    renderer.worth_skipping).  The estimate counts fewer lookups than the shader (here 2.7 against
+    5.6 a ray: rays along coarse block faces re-look up; on the benchmark volumes 0.7-1.4x of the
+    count), which the fitted LOOKUP_COST absorbs; it must still see that lookups are few."""
+    from dvr_gl.renderers.raycast.renderer import worth_skipping
+
+    sparse = _sparse_scene(tmp_path, 48)
+    gpu.render(sparse)
+    estimate = gpu._skippable[1]
+    assert gpu.stats["accelerated"] and gpu.stats["lookups_estimate"] == estimate.lookups
+    gpu.render(sparse.with_renderer(acceleration="on"))
+    assert 1.0 < estimate.lookups < gpu.stats["lookups_per_ray"] < estimate.fraction * estimate.length / 0.5 / 10
+    coarse = sparse.with_renderer(sample_distance=12.0)  # 3 blocks of 4 voxels a sample
+    gpu.render(coarse)
+    assert not gpu.stats["accelerated"] and gpu.stats["skippable_estimate"] == estimate.fraction
+    assert not worth_skipping(estimate, 12.0) and worth_skipping(estimate, sparse.renderer.sample_distance)

@@ -25,7 +25,7 @@ def test_worker_matrices_send_dvr_gl_rays_through_pixel_centres(tmp_path):
     """The view and projection the peers are given map every dvr-gl pixel ray to its pixel's centre
     (row 0 at the top; a wide image, so that the aspect and the vertical field of view are told apart)."""
     volume = peers.volume_file("blobs", 9, tmp_path)
-    keys = {**peers.scene_keys("blobs-mip", volume, 9, 16), "image.width": 24, "image.height": 10}
+    keys = {**peers.scene_keys("blobs-mip", volume, 16), "image.width": 24, "image.height": 10}
     scene = peers.peer_scene(keys, "mip")
     camera = load_scene(None, keys).camera
     origins, directions = camera.pixel_rays(24, 10)
@@ -127,7 +127,7 @@ def test_outline_mask_is_the_ring_around_the_box(tmp_path):
     """The pixels left out of "PSNR off the outline": a thin ring where rays go from missing the box to
     hitting it; not the image's corners (empty) nor its centre (inside)."""
     volume = peers.volume_file("blobs", 9, tmp_path)
-    mask = peers.outline_mask(peers.scene_keys("blobs-mip", volume, 9, 16), 32)
+    mask = peers.outline_mask(peers.scene_keys("blobs-mip", volume, 16), 32)
     assert mask.shape == (32, 32) and 0.05 < mask.mean() < 0.4
     assert not mask[0, 0] and not mask[-1, -1] and not mask[16, 16]
     assert peers.psnr(np.ones((2, 2, 4)), np.ones((2, 2, 4))) == math.inf
@@ -136,3 +136,30 @@ def test_outline_mask_is_the_ring_around_the_box(tmp_path):
     keep = np.ones((2, 2), bool)
     keep[0, 0] = False
     assert peers.psnr(a, b, keep) == math.inf and peers.psnr(a, b) < 20
+
+
+def test_ct_scene_is_left_out_without_the_datasets(tmp_path):
+    rows, ratio_rows, notes, images = peers.run(("dvr-gl",), ("cthead-bone", "blobs-mip"), data_dir=tmp_path,
+                                                cache=tmp_path / "cache", work=tmp_path / "work", **TINY)
+    assert {r["scene"] for r in rows} == {"blobs-mip"}
+    assert any(n.startswith("cthead-bone: regular/cthead.nhdr not found") for n in notes)
+    assert list(images["references"]) == ["blobs-mip"]
+
+
+def test_ct_scene_means_the_same_to_a_peer(tmp_path, monkeypatch, shared_data):
+    """CThead (int16, spacing 1 x 1 x 2 mm, bone TF in the file's units): the worker's description
+    (spacing, value range, camera up) renders in the numpy stub as in dvr-gl at the same distance."""
+    monkeypatch.setattr(peers, "SWEEP", (1.0,))
+    rows, _, notes, images = peers.run(("dvr-gl", "numpy"), ("cthead-bone",), data_dir=shared_data,
+                                       peers_python=sys.executable, cache=tmp_path / "cache",
+                                       work=tmp_path / "work", **TINY)
+    assert [(r["renderer"], r["setting"]) for r in rows] == [
+        ("dvr-gl", "defaults (0.5 voxel)"), ("dvr-gl", "1 voxel"), ("numpy", "1 voxel")]
+    job = peers.peer_scene(peers.scene_keys("cthead-bone", tmp_path / "work" / "cthead.npy", 16,
+                                            peers.dataset_file("cthead", shared_data, tmp_path / "work")[1]),
+                           "composite")
+    assert job["dims"] == [256, 256, 113] and job["spacing"] == [1.0, 1.0, 2.0] and job["value_range"][0] < 1024
+    ours, stub = images[("cthead-bone", "dvr-gl", "1 voxel")], images[("cthead-bone", "numpy", "1 voxel")]
+    for a, b in zip(ours, stub):
+        assert a[..., 3].max() > 0.5  # the skull is there
+        assert np.abs(a - b).max() < 0.02, np.abs(a - b).max()  # as for the phantoms above

@@ -287,15 +287,14 @@ class VispyPeer(Peer):
                 self._set_scene_transform(MatrixTransform(m.T))  # vispy multiplies row vectors
 
         data = np.load(scene["volume"])
-        tf = np.asarray(scene["transfer_function"], dtype=np.float64)
+        if data.dtype == np.int16:  # vispy has no texture format for int16 ("auto" raises): float32, as a user would
+            data = data.astype(np.float32)
+        points = scene["transfer_function"]
         lo, hi = scene["value_range"]
-        if tf[0, 0] > lo:
-            tf = np.vstack([[lo, *tf[0, 1:]], tf])
-        if tf[-1, 0] < hi:
-            tf = np.vstack([tf, [hi, *tf[-1, 1:]]])
-        inside = (tf[:, 0] >= lo) & (tf[:, 0] <= hi)  # vispy's colour map spans the value range exactly
-        controls = (tf[inside, 0] - lo) / (hi - lo)
-        colormap = Colormap(tf[inside, 1:5], controls=controls, interpolation="linear")
+        # vispy's colour map spans the value range exactly: the TF at both ends and its points between
+        # (piecewise linear, so nothing is lost)
+        values = np.array([lo] + [p[0] for p in points if lo < p[0] < hi] + [hi], dtype=np.float64)
+        colormap = Colormap(classify(points, values), controls=(values - lo) / (hi - lo), interpolation="linear")
         self.canvas = vscene.SceneCanvas(size=self.size, show=False, bgcolor=(0, 0, 0, 0))
         view = self.canvas.central_widget.add_view(border_width=0)
         dims = np.asarray(scene["dims"], dtype=np.float64)
@@ -317,7 +316,7 @@ class VispyPeer(Peer):
         view.camera = SceneCamera(interactive=False)
         self.image = None
         self.settings = {"method": self.volume.method, "relative_step_size": step, "interpolation": "linear",
-                         "texture_format": "auto", "clipping_planes": "the hull of the samples",
+                         "texture_format": "auto", "data": str(data.dtype), "clipping_planes": "the hull of the samples",
                          "colormap": "the transfer function's points, alpha per sample"}
 
     def render(self):

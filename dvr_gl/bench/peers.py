@@ -33,7 +33,7 @@ import numpy as np
 from ..errors import DvrError
 from ..image import compare_images
 
-# --- the scenes (issue 15): two phantoms, 256^3 uint8, composite and MIP ---
+# --- the scenes (issue 15): two phantoms, 256^3 uint8, composite and MIP; CThead with a bone TF ---
 
 #: Semi-transparent transfer functions in data units (uint8), alpha per unit distance (1 voxel).
 COMPOSITE_TF = {
@@ -42,14 +42,22 @@ COMPOSITE_TF = {
     "blobs": [[0, 0.2, 0.3, 0.9, 0.0], [64, 0.2, 0.5, 0.9, 0.0], [160, 0.9, 0.8, 0.3, 0.015],
               [255, 0.9, 0.3, 0.1, 0.04]],
 }
+#: CT with a bone transfer function (issue 15's "CT data with a bone TF"): dvr-gl's ``ct-bone`` preset
+#: in the file's own units (HU + 1024), opacity per mm.
+COMPOSITE_TF["cthead"] = [[h + 1024.0, r, g, b, a] for h, r, g, b, a in (
+    (-1024, 0, 0, 0, 0), (150, 0.55, 0.25, 0.15, 0), (300, 0.85, 0.7, 0.55, 0.25), (700, 0.95, 0.9, 0.8, 0.8),
+    (3000, 1, 1, 0.95, 0.95))]
 #: MIP: a grey ramp over the uint8 range, colour and opacity.
 MIP_TF = [[0, 0.0, 0.0, 0.0, 0.0], [255, 1.0, 1.0, 1.0, 1.0]]
-SCENES = {  # key: (phantom, mode)
+SCENES = {  # key: (phantom or dataset, mode)
     "ml-composite": ("marschner-lobb", "composite"),
     "ml-mip": ("marschner-lobb", "mip"),
     "blobs-composite": ("blobs", "composite"),
     "blobs-mip": ("blobs", "mip"),
+    "cthead-bone": ("cthead", "composite"),
 }
+#: Scenes on the shared datasets (``--data-dir``): the file, and scene keys besides its spacing.
+DATASETS = {"cthead": ("regular/cthead.nhdr", {"camera.up": [0.0, 0.0, -1.0]})}
 CAMERA = {"camera.azimuth": 30.0, "camera.elevation": 20.0, "camera.fov": 30.0, "camera.projection": "perspective"}
 DISTANCE_DIAGONALS = 1.8  # eye to the box centre, in box diagonals
 PEER_SAMPLE_VOXELS = 1.0  # the peers sample once per voxel
@@ -92,11 +100,31 @@ def volume_file(demo: str, n: int, folder: Path) -> Path:
     return path
 
 
-def scene_keys(key: str, volume: Path, n: int, size: int) -> dict:
-    """dvr-gl's scene keys for scene ``key`` (renderer settings left at their defaults)."""
+def dataset_file(name: str, data_dir: Path, folder: Path) -> tuple[Path, dict] | None:
+    """A shared dataset as ``.npy`` in its own type (the peers' worker reads only ``.npy``) and the scene
+    keys that go with it (its spacing, the camera's up); None where ``data_dir`` lacks it."""
+    from ..scene import load_scene
+
+    source, extra = DATASETS[name]
+    if not (Path(data_dir) / source).exists():
+        return None
+    volume = load_scene(None, {"volume.path": str(Path(data_dir) / source)}).volume
+    path = folder / f"{name}.npy"
+    if not path.exists():
+        np.save(path, volume.data)
+    return path, {"volume.spacing": [float(s) for s in volume.spacing], **extra}
+
+
+def scene_keys(key: str, volume: Path, size: int, extra: dict | None = None) -> dict:
+    """dvr-gl's scene keys for scene ``key`` on the ``.npy`` volume (renderer settings left at their
+    defaults); ``extra``: keys of a dataset (``dataset_file``)."""
     demo, mode = SCENES[key]
-    return {"volume.path": str(volume), **CAMERA,
-            "camera.distance": DISTANCE_DIAGONALS * (n - 1) * math.sqrt(3.0),  # spacing 1: the hull's diagonal
+    extra = extra or {}
+    dims = np.load(volume, mmap_mode="r").shape[::-1]
+    spacing = extra.get("volume.spacing", (1.0, 1.0, 1.0))
+    diagonal = math.dist((0.0, 0.0, 0.0), [(n - 1) * s for n, s in zip(dims, spacing)])  # the hull's
+    return {"volume.path": str(volume), **CAMERA, **extra,
+            "camera.distance": DISTANCE_DIAGONALS * diagonal,
             "image.width": size, "image.height": size,
             "transfer_function.points": MIP_TF if mode == "mip" else COMPOSITE_TF[demo],
             "transfer_function.unit_distance": 1.0,
@@ -233,10 +261,11 @@ def run_one(config: dict, job_scene: dict, keys: dict, python: str, size: int, f
 
 def run(renderers=RENDERERS, scenes=tuple(SCENES), size: int = 512, volume_size: int = 256, rounds: int = 3,
         frames: int = 20, error_size: int = 128, peers_python: str | None = None, cache: Path | None = None,
-        work: Path | None = None, progress=None, timeout: float = 1800.0):
+        work: Path | None = None, progress=None, timeout: float = 1800.0, data_dir: Path | None = None):
     """Rows (one per scene and renderer setting), ratio rows (one per scene and peer), notes, and the
     images of the first round ({(scene, renderer, setting): (image, error image)}, and under
-    ``"references"`` {scene: converged reference})."""
+    ``"references"`` {scene: converged reference}).  Scenes on a dataset that ``data_dir`` lacks are
+    left out with a note."""
     have, missing = available(peers_python, renderers)
     notes = [f"{r}: {why}" for r, why in missing.items()]
     configs = runs_for(renderers, have)
@@ -247,10 +276,18 @@ def run(renderers=RENDERERS, scenes=tuple(SCENES), size: int = 512, volume_size:
         prepared = {}
         for key in scenes:
             demo, mode = SCENES[key]
-            keys = scene_keys(key, volume_file(demo, volume_size, work), volume_size, size)
+            if demo in DATASETS:
+                found = dataset_file(demo, data_dir, work) if data_dir is not None else None
+                if found is None:
+                    notes.append(f"{key}: {DATASETS[demo][0]} not found under {data_dir} (--data-dir), left out")
+                    continue
+                keys = scene_keys(key, found[0], size, found[1])
+            else:
+                keys = scene_keys(key, volume_file(demo, volume_size, work), size)
             truth, how = reference_image(keys, error_size, cache)
             notes.append(f"{key}: converged reference {error_size}x{error_size} {how}")
             prepared[key] = (keys, peer_scene(keys, mode), truth, ~outline_mask(keys, error_size))
+        scenes = [key for key in scenes if key in prepared]
         results = {(key, i): [] for key in scenes for i in range(len(configs))}
         images, unsupported = {}, {}
         for rnd in range(rounds):

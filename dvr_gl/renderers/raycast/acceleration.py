@@ -277,10 +277,30 @@ def run_keys(level0: np.ndarray, mode: str) -> np.ndarray:
     return np.stack([neighbourhood_reduce(key, r - 1, op) for r in RUN_RADII], axis=-1).astype(np.float32)
 
 
+@dataclass(frozen=True)
+class SkipEstimate:
+    """What skipping would do to a frame, per ray through the volume: ``fraction`` of the samples
+    saved, ``lookups`` of blocks (one per skippable block crossed, one per run of blocks sampled),
+    over rays ``length`` world units long on average, in ``mode`` (as :func:`skip_estimate`'s)."""
+
+    fraction: float
+    lookups: float
+    length: float
+    mode: str = "emission"
+
+
 def skippable_fraction(level0: np.ndarray, mode: str, block_size: int, volume, camera, aspect: float = 1.0,
                        iso_value: float = 0.0, rays: int = 24, steps_per_block: int = 2) -> float:
-    """An estimate of the fraction of a frame's samples that block skipping saves, from the level-0
-    blocks alone, for ``RayCastRenderer.decide_skipping`` (``renderer.acceleration = "auto"``).
+    """:func:`skip_estimate`'s fraction of samples saved."""
+    return skip_estimate(level0, mode, block_size, volume, camera, aspect, iso_value, rays,
+                         steps_per_block).fraction
+
+
+def skip_estimate(level0: np.ndarray, mode: str, block_size: int, volume, camera, aspect: float = 1.0,
+                  iso_value: float = 0.0, rays: int = 24, steps_per_block: int = 2) -> SkipEstimate:
+    """An estimate of the fraction of a frame's samples that block skipping saves and of the block
+    lookups it costs, from the level-0 blocks alone, for ``RayCastRenderer.decide_skipping``
+    (``renderer.acceleration = "auto"``).
 
     About ``rays x rays`` pixel rays of ``camera`` (the image's ``aspect``, width / height) are walked
     through the block grid at ``steps_per_block`` points per block width.  A point is skippable where
@@ -288,7 +308,10 @@ def skippable_fraction(level0: np.ndarray, mode: str, block_size: int, volume, c
     whose maximum is at most (minimum at least) the largest minimum (smallest maximum) of the blocks
     met before, a bound the true running maximum (minimum) can only exceed; isosurface, a block
     whose maximum is below iso, counting each ray only up to the end of its first block that is not.
-    Early termination is ignored: the estimate is over the whole ray."""
+    Lookups: one per skippable block a ray enters, at the coarsest level whose block around the point
+    is skippable (as the shader jumps), and one per run of points that are not skippable (a run in the shader ends at its dense neighbourhood's
+    edge, at most ``2 * RUN_RADII[-1] - 1`` blocks on). Early termination is ignored: the estimate is
+    over the whole ray."""
     nx = rays if aspect >= 1.0 else max(1, round(rays * aspect))
     ny = rays if aspect <= 1.0 else max(1, round(rays / aspect))
     origins, dirs = camera.pixel_rays(nx, ny)
@@ -297,7 +320,7 @@ def skippable_fraction(level0: np.ndarray, mode: str, block_size: int, volume, c
     t0 = np.maximum(t0, camera.near_distance(dirs))
     hit = t1 > t0
     if not hit.any():
-        return 0.0
+        return SkipEstimate(0.0, 0.0, 0.0, mode)
     origins, dirs, t0, t1 = origins[hit], dirs[hit], t0[hit], t1[hit]
     spacing, origin = np.asarray(volume.spacing, float), np.asarray(volume.origin, float)
     step = block_size * float(spacing.min()) / steps_per_block
@@ -308,21 +331,61 @@ def skippable_fraction(level0: np.ndarray, mode: str, block_size: int, volume, c
     voxel = (origins[:, None, :] + t[..., None] * dirs[:, None, :] - origin) / spacing   # (x, y, z)
     grid = level0.shape[:3]
     b = np.clip(np.floor(voxel / block_size).astype(np.int64), 0, np.array(grid[::-1]) - 1)
-    blocks = level0[b[..., 2], b[..., 1], b[..., 0]]
+    # the key whose block value decides skipping, per level (coarser: the 2x2x2 children combined)
     if mode == "emission":
-        skip = blocks[..., 3] >= 0.0
+        key, op = level0[..., 3] >= 0.0, np.logical_and
+    elif mode == "minip":
+        key, op = -level0[..., 0], np.maximum
+    else:
+        key, op = level0[..., 1], np.maximum
+    keys = [key]
+    for _ in range(1, level_count(volume.dims, block_size)):
+        keys.append(_coarsen(keys[-1], op))
+    values = [kl[b[..., 2] >> lv, b[..., 1] >> lv, b[..., 0] >> lv] for lv, kl in enumerate(keys)]
+    if mode == "emission":
+        skips = values
     elif mode == "isosurface":
-        skip = blocks[..., 1] < iso_value
-        first = np.argmax(~skip & valid, axis=1)  # the first block that may hold the surface
-        reached = (~skip & valid).any(axis=1)
+        skips = [v < iso_value for v in values]
+        first = np.argmax(~skips[0] & valid, axis=1)  # the first block that may hold the surface
+        reached = (~skips[0] & valid).any(axis=1)
         last = np.where(reached, first + steps_per_block, count)
         valid &= k[None, :] < last[:, None]
     else:
-        low, high = (blocks[..., 0], blocks[..., 1]) if mode == "max" else (-blocks[..., 1], -blocks[..., 0])
+        low = level0[..., 0][b[..., 2], b[..., 1], b[..., 0]] if mode == "max" else \
+            -level0[..., 1][b[..., 2], b[..., 1], b[..., 0]]
         low = np.where(valid, low, -np.inf)
         bound = np.maximum.accumulate(np.concatenate([np.full((len(t), 1), -np.inf), low[:, :-1]], axis=1), axis=1)
-        skip = high <= bound
-    return float((skip & valid).sum() / max(valid.sum(), 1))
+        skips = [v <= bound for v in values]
+    skip = skips[0] & valid
+    # a lookup jumps the coarsest skippable block around its point: one per such block entered
+    jumped = np.full(skip.shape, -1, np.int64)
+    for lv in reversed(range(len(skips))):
+        flat = ((b[..., 2] >> lv) * (grid[1] + 1) + (b[..., 1] >> lv)) * (grid[2] + 1) + (b[..., 0] >> lv)
+        take = skips[lv] & skip & (jumped < 0)
+        jumped[take] = (flat[take] << 2) + lv
+    entered = np.ones_like(valid)
+    entered[:, 1:] = jumped[:, 1:] != jumped[:, :-1]
+    # a run samples on to the edge of its block's widest dense neighbourhood (radius R blocks, about
+    # R blocks along the ray): each sampled point is 1 / (R steps_per_block) of a lookup, and a run
+    # that starts inside a block half a lookup more on average
+    sampled = valid & ~skip
+    run_start = sampled.copy()
+    run_start[:, 1:] &= ~sampled[:, :-1]
+    dense = run_keys(level0, "emission" if mode == "emission" else "minip" if mode == "minip" else "max")
+    dense = dense[b[..., 2], b[..., 1], b[..., 0]]
+    if mode == "emission":
+        dense = dense > 0.5
+    elif mode == "isosurface":
+        dense = dense >= iso_value
+    else:
+        dense = (-dense if mode == "minip" else dense) > bound[..., None]
+    radius = np.ones(skip.shape)
+    for i, r in enumerate(RUN_RADII):
+        radius = np.where(dense[..., i], float(r), radius)
+    lookups = (skip & entered).sum() + (sampled / (radius * steps_per_block)).sum() + 0.5 * run_start.sum()
+    rays_hit = len(t)
+    return SkipEstimate(float(skip.sum() / max(valid.sum(), 1)), float(lookups / rays_hit),
+                        float(np.sum(t1 - t0) / rays_hit), mode)
 
 
 def classes_with_runs(level0: np.ndarray) -> np.ndarray:

@@ -31,9 +31,18 @@ from .acceleration import level_count
 BAND_SECONDS = 0.25
 
 # renderer.acceleration = "auto" skips blocks where the frame's estimated skippable fraction of samples
-# (acceleration.skippable_fraction) is at least this; below it, the jumps' divergence costs more than
-# they save (docs/acceleration.md, "Auto").
+# (acceleration.skip_estimate) is at least AUTO_MIN_SKIPPABLE (below it, the jumps' divergence costs
+# more than they save) and the estimated cost with skipping, the samples kept plus LOOKUP_COST samples
+# per estimated block lookup, is below the samples without: at large sample distances a jump saves
+# few samples and costs its lookup all the same (docs/acceleration.md, "Auto").
 AUTO_MIN_SKIPPABLE = 0.2
+# A block lookup's cost in samples, per mode (skip_estimate's): chosen from the break-even costs
+# that benchmarks/auto_skipping.py measures on llvmpipe (skipping on against off at 0.5 to 8 voxels on
+# Marschner-Lobb, blobs, CThead, the CT bunny, lobster; docs/acceleration.md, "Auto"): emission 4
+# puts every case where off is over 1.1x faster on the off side, and keeps skipping wherever it saves
+# more than 1.2x; MIP's lookups cost more (its runs end where the running maximum says, and lanes
+# that jump wait for lanes that sample).
+LOOKUP_COST = {"emission": 4.0, "max": 8.0, "minip": 8.0, "isosurface": 8.0}
 # The defines of empty-space skipping (a frame without it, and the resolve pass, have none of them).
 SKIPPING_DEFINES = ("ACCELERATE", "NUM_LEVELS", "RUNS_IN_CLASSES")
 
@@ -111,6 +120,14 @@ PASS_SEGMENTS = 65535 - 535
 # iteration each stop after 21845), so a segment costs at most 3 and a pass takes a third as many.
 ACCELERATED_COST = 3
 MAX_INT = 2 ** 31 - 1
+
+
+def worth_skipping(estimate, sample_distance: float) -> bool:
+    """"auto"'s decision from a :class:`.acceleration.SkipEstimate` at this sample distance (world
+    units): enough samples saved, and fewer samples plus lookups than samples without skipping."""
+    samples = estimate.length / sample_distance  # per ray, without skipping
+    cost = (1.0 - estimate.fraction) * samples + LOOKUP_COST[estimate.mode] * estimate.lookups
+    return estimate.fraction >= AUTO_MIN_SKIPPABLE and cost < samples
 
 
 def segment_windows(scene, accelerated: bool = False) -> list[tuple[int, int]]:
@@ -213,9 +230,10 @@ class RayCastRenderer(GLVolumeRenderer):
         defines = shader_features(scene, self.count_samples)
         views = self.grid_views(scene, defines)
         tables = self.table_textures(scene, defines, scene.renderer.sample_distance)
-        defines, blocks, skippable = self.decide_skipping(scene, defines, tables)
+        defines, blocks, estimate = self.decide_skipping(scene, defines, tables)
         windows = segment_windows(scene, "ACCELERATE" in defines)
-        decided = {"skippable_estimate": skippable, "accelerated": "ACCELERATE" in defines}
+        decided = {"skippable_estimate": estimate and estimate.fraction, "accelerated": "ACCELERATE" in defines,
+                   "lookups_estimate": estimate and estimate.lookups}
         if len(views) > 1 or len(windows) > 1:
             if len(views) == 1:  # long rays: the whole volume as one brick, in passes over segment windows
                 views = [GridView((0, 0, 0), scene.volume.dims, whole_volume_brick(scene.volume))]
@@ -237,7 +255,7 @@ class RayCastRenderer(GLVolumeRenderer):
             self.count_stats(self.read(fbo, width, height, 4, attachment=1))
         return image
 
-    def decide_skipping(self, scene, defines, tables) -> tuple[dict, dict, float | None]:
+    def decide_skipping(self, scene, defines, tables) -> tuple[dict, dict, accel.SkipEstimate | None]:
         """This frame's empty-space skipping, decided once for all its passes: the defines (without
         ACCELERATE where it is off, or "auto" finds too little to skip), the block textures to bind
         (the whole volume's, bricked or not) and the skippable estimate ("auto" only)."""
@@ -245,15 +263,15 @@ class RayCastRenderer(GLVolumeRenderer):
             return defines, {}, None
         preint = tables["u_preint"].table if "u_preint" in tables else None
         blocks = self._block_textures(scene, defines, tables["u_lut"].lut, preint)
-        skippable = None
+        estimate = None
         if acceleration_mode(scene.renderer.acceleration) == "auto":
-            skippable = self.skippable(scene, blocks)
-            if skippable < AUTO_MIN_SKIPPABLE:
-                return {k: v for k, v in defines.items() if k not in SKIPPING_DEFINES}, {}, skippable
+            estimate = self.skip_estimate(scene, blocks)
+            if not worth_skipping(estimate, scene.renderer.sample_distance):
+                return {k: v for k, v in defines.items() if k not in SKIPPING_DEFINES}, {}, estimate
         textures = {f"u_blocks{level}": tex for level, tex in enumerate(blocks)}
         if blocks.runs is not None:
             textures["u_runs"] = blocks.runs
-        return defines, textures, skippable
+        return defines, textures, estimate
 
     def count_stats(self, counts: np.ndarray):
         """COUNT_SAMPLES: the frame's counts (height, width, 4: samples, jumps, lookups, segments
@@ -268,16 +286,16 @@ class RayCastRenderer(GLVolumeRenderer):
         self.stats["jumps_per_ray"] = float(jumps[hit].mean()) if hit.any() else 0.0
         self.stats["lookups_per_ray"] = float(lookups[hit].mean()) if hit.any() else 0.0
 
-    def skippable(self, scene, blocks) -> float:
-        """:func:`.acceleration.skippable_fraction` of this frame (cached per view and blocks)."""
+    def skip_estimate(self, scene, blocks) -> accel.SkipEstimate:
+        """:func:`.acceleration.skip_estimate` of this frame (cached per view and blocks)."""
         r, img = scene.renderer, scene.image
         mode = "isosurface" if r.compositing == "isosurface" else blocks.mode
         key = (blocks, scene.camera, img.width, img.height, r.iso_value)
         last = getattr(self, "_skippable", None)  # host data only: not in the texture cache
         if last is None or not _same(last[0], key):
-            self._skippable = (key, accel.skippable_fraction(blocks.level0, mode, r.block_size, scene.volume,
-                                                             scene.camera, img.width / img.height,
-                                                             iso_value=r.iso_value))
+            self._skippable = (key, accel.skip_estimate(blocks.level0, mode, r.block_size, scene.volume,
+                                                        scene.camera, img.width / img.height,
+                                                        iso_value=r.iso_value))
         return self._skippable[1]
 
     def bands(self, scene) -> int:
