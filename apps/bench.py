@@ -114,6 +114,8 @@ def add_arguments(p):
                                                    "blobs-mip, cthead-bone; default all)")
     pe.add_argument("--renderers", metavar="A,B", help="only these (dvr-gl, vtk-gpu, vtk-cpu, vispy, pygfx; "
                                                       "default all)")
+    pe.add_argument("--sweep", metavar="D,D", help="dvr-gl's sample distances in voxels besides its defaults "
+                                                  "(default 1,2,4,8)")
     pe.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder, for the CThead "
                                                                   "scene (default ../shared/data; left out if absent)")
     pe.add_argument("--peers-python", metavar="PYTHON",
@@ -396,6 +398,12 @@ def run_peers(args) -> int:
                              ("--volume-size", args.volume_size, 4)):
         if value < low:
             raise DvrError(f"{flag} must be at least {low}, got {value}")
+    try:
+        sweep = tuple(float(x) for x in args.sweep.split(",")) if args.sweep else None
+    except ValueError:
+        raise DvrError(f"--sweep {args.sweep}: give sample distances in voxels, e.g. 1,2,4,8") from None
+    if sweep is not None and not all(0 < d < 1e4 for d in sweep):
+        raise DvrError(f"--sweep {args.sweep}: every sample distance must be above 0 voxels and below 10000")
     python = args.peers_python or peers.default_peers_python()
     if args.peers_python and not Path(args.peers_python).exists():
         raise DvrError(f"--peers-python {args.peers_python}: no such interpreter")
@@ -415,7 +423,7 @@ def run_peers(args) -> int:
                      f"{peers.PEER_SAMPLE_VOXELS:g} sample per voxel")
     rows, ratios, notes, images = peers.run(renderers, scenes, args.size, args.volume_size, args.rounds, args.frames,
                                             args.error_size, python, cache, progress=lambda line: print(line, flush=True),
-                                            data_dir=Path(args.data_dir))
+                                            data_dir=Path(args.data_dir), sweep=sweep)
     args.report.text()
     args.report.table(rows, peers.COLUMNS)
     if ratios:

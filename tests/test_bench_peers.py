@@ -163,3 +163,16 @@ def test_ct_scene_means_the_same_to_a_peer(tmp_path, monkeypatch, shared_data):
     for a, b in zip(ours, stub):
         assert a[..., 3].max() > 0.5  # the skull is there
         assert np.abs(a - b).max() < 0.02, np.abs(a - b).max()  # as for the phantoms above
+
+
+def test_bench_peers_sweep_option(tmp_path, capsys):
+    """--sweep names dvr-gl's sample distances; anything but positive numbers is refused in one line."""
+    base = ["bench", "peers", "--scenes", "blobs-mip", "--volume-size", "10", "--size", "12", "--error-size", "10",
+            "--rounds", "1", "--frames", "1", "--cache", str(tmp_path / "cache"), "--renderers", "dvr-gl"]
+    for bad in ("abc", "2,-1", "nan"):
+        assert main(base + ["--sweep", bad]) == 1
+        err = capsys.readouterr().err
+        assert "--sweep" in err and "internal error" not in err
+    assert main(base + ["--sweep", "3"]) == 0
+    settings = [line.split()[2:4] for line in capsys.readouterr().out.splitlines() if line.startswith("blobs-mip ")]
+    assert settings == [["defaults", "(0.5"], ["3", "voxel"]]

@@ -220,12 +220,13 @@ def available(python: str | None, renderers) -> tuple[dict, dict]:
     return have, {r: f"not installed in {python}" for r in wanted if r not in have}
 
 
-def runs_for(renderers, have: dict) -> list[dict]:
-    """The configurations to run: dvr-gl's defaults and sweep, then each importable peer."""
+def runs_for(renderers, have: dict, sweep=None) -> list[dict]:
+    """The configurations to run: dvr-gl's defaults and sweep (default :data:`SWEEP`), then each
+    importable peer."""
     out = []
     if "dvr-gl" in renderers:
         out.append({"renderer": "dvr-gl", "setting": "defaults (0.5 voxel)", "keys": {}, "voxels": None})
-        for d in SWEEP:
+        for d in (SWEEP if sweep is None else sweep):
             out.append({"renderer": "dvr-gl", "setting": f"{d:g} voxel", "voxels": d,
                         "keys": {"renderer.sample_distance_voxels": d}})
     for r in renderers:
@@ -261,14 +262,16 @@ def run_one(config: dict, job_scene: dict, keys: dict, python: str, size: int, f
 
 def run(renderers=RENDERERS, scenes=tuple(SCENES), size: int = 512, volume_size: int = 256, rounds: int = 3,
         frames: int = 20, error_size: int = 128, peers_python: str | None = None, cache: Path | None = None,
-        work: Path | None = None, progress=None, timeout: float = 1800.0, data_dir: Path | None = None):
+        work: Path | None = None, progress=None, timeout: float = 1800.0, data_dir: Path | None = None,
+        sweep=None):
     """Rows (one per scene and renderer setting), ratio rows (one per scene and peer), notes, and the
     images of the first round ({(scene, renderer, setting): (image, error image)}, and under
-    ``"references"`` {scene: converged reference}).  Scenes on a dataset that ``data_dir`` lacks are
+    ``"references"`` {scene: converged reference}).  ``sweep``: dvr-gl's sample distances in voxels
+    besides its defaults (default :data:`SWEEP`).  Scenes on a dataset that ``data_dir`` lacks are
     left out with a note."""
     have, missing = available(peers_python, renderers)
     notes = [f"{r}: {why}" for r, why in missing.items()]
-    configs = runs_for(renderers, have)
+    configs = runs_for(renderers, have, sweep)
     own = tempfile.TemporaryDirectory(prefix="dvr-peers-") if work is None else None
     work = Path(own.name) if own else Path(work)
     try:
