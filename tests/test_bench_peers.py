@@ -19,6 +19,7 @@ TINY = {"size": 16, "volume_size": 12, "rounds": 1, "frames": 1, "error_size": 1
 def short_sweep(monkeypatch):
     """dvr-gl's defaults and one more distance: fewer fresh processes."""
     monkeypatch.setattr(peers, "SWEEP", (2.0,))
+    monkeypatch.setattr(peers, "PREINTEGRATED_SWEEP", ())
 
 
 def test_worker_matrices_send_dvr_gl_rays_through_pixel_centres(tmp_path):
@@ -66,6 +67,7 @@ def test_stub_peer_sees_what_dvr_gl_sees(tmp_path, monkeypatch):
     match dvr-gl's, composite and MIP, so the description means what dvr-gl means.  Its rows and ratio
     rows come out like a real peer's."""
     monkeypatch.setattr(peers, "SWEEP", (1.0,))  # the stub's distance
+    monkeypatch.setattr(peers, "PREINTEGRATED_SWEEP", ())
     rows, ratio_rows, notes, images = peers.run(("dvr-gl", "numpy"), ("ml-composite", "ml-mip"),
                                                 peers_python=sys.executable, cache=tmp_path / "cache",
                                                 work=tmp_path / "work", **TINY)
@@ -150,6 +152,7 @@ def test_ct_scene_means_the_same_to_a_peer(tmp_path, monkeypatch, shared_data):
     """CThead (int16, spacing 1 x 1 x 2 mm, bone TF in the file's units): the worker's description
     (spacing, value range, camera up) renders in the numpy stub as in dvr-gl at the same distance."""
     monkeypatch.setattr(peers, "SWEEP", (1.0,))
+    monkeypatch.setattr(peers, "PREINTEGRATED_SWEEP", ())
     rows, _, notes, images = peers.run(("dvr-gl", "numpy"), ("cthead-bone",), data_dir=shared_data,
                                        peers_python=sys.executable, cache=tmp_path / "cache",
                                        work=tmp_path / "work", **TINY)
@@ -176,3 +179,19 @@ def test_bench_peers_sweep_option(tmp_path, capsys):
     assert main(base + ["--sweep", "3"]) == 0
     settings = [line.split()[2:4] for line in capsys.readouterr().out.splitlines() if line.startswith("blobs-mip ")]
     assert settings == [["defaults", "(0.5"], ["3", "voxel"]]
+
+
+def test_pre_integrated_points_are_run_on_composite_scenes_only(tmp_path, monkeypatch):
+    """The pre-integrated sweep is measured where classification matters (emission-absorption), its
+    images differ from the post-classified ones at the same distance, and the ratio to "1 voxel" is to
+    the post-classified row."""
+    monkeypatch.setattr(peers, "SWEEP", (1.0, 4.0))
+    monkeypatch.setattr(peers, "PREINTEGRATED_SWEEP", (4.0,))
+    rows, ratio_rows, _, images = peers.run(("dvr-gl",), ("blobs-composite", "blobs-mip"), cache=tmp_path / "cache",
+                                            work=tmp_path / "work", **TINY)
+    settings = {s: [r["setting"] for r in rows if r["scene"] == s] for s in ("blobs-composite", "blobs-mip")}
+    assert settings["blobs-composite"] == ["defaults (0.5 voxel)", "1 voxel", "4 voxel", "4 voxel pre-integrated"]
+    assert settings["blobs-mip"] == ["defaults (0.5 voxel)", "1 voxel", "4 voxel"]
+    post = images[("blobs-composite", "dvr-gl", "4 voxel")][0]
+    pre = images[("blobs-composite", "dvr-gl", "4 voxel pre-integrated")][0]
+    assert np.abs(post - pre).max() > 1e-4

@@ -53,8 +53,9 @@ def tradeoff_plot(rows: list[dict], path: Path, error: str = "rms"):
 
 
 def peers_plot(rows: list[dict], path: Path):
-    """PSNR against frame time (log), one panel per scene: dvr-gl's sample-distance sweep as a curve
-    (each point labelled with its distance), each peer as one marked point."""
+    """PSNR against frame time (log), one panel per scene: dvr-gl's sample-distance sweeps as curves
+    (post-classified, and pre-integrated where measured; each point labelled with its distance), each
+    peer as one marked point."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -71,11 +72,14 @@ def peers_plot(rows: list[dict], path: Path):
     for ax in axes.flat[len(scenes):]:
         ax.set_visible(False)
     for ax, scene in zip(axes.flat, scenes):
-        ours = sorted((r for r in rows if r["scene"] == scene and r["renderer"] == "dvr-gl"),
-                      key=lambda r: r["voxels"])
-        if ours:
-            ax.plot([r["ms"] for r in ours], [r["psnr"] for r in ours], "o-", color="black", markersize=4,
-                    label="dvr-gl (sample distance)")
+        mine = [r for r in rows if r["scene"] == scene and r["renderer"] == "dvr-gl"]
+        for pre, style, label in ((False, "o-", "dvr-gl (sample distance)"),
+                                  (True, "o--", "dvr-gl pre-integrated")):
+            ours = sorted((r for r in mine if ("pre-integrated" in r["setting"]) == pre), key=lambda r: r["voxels"])
+            if not ours:
+                continue
+            ax.plot([r["ms"] for r in ours], [r["psnr"] for r in ours], style, color="grey" if pre else "black",
+                    markersize=4, label=label)
             for r in ours:
                 ax.annotate(f"{r['voxels']:g}", (r["ms"], r["psnr"]), textcoords="offset points", xytext=(4, 4),
                             fontsize=7)
