@@ -37,7 +37,7 @@ _SCENE_KEYS = {
     "transfer_function": "transfer_function.preset", "rescale_intercept": "transfer_function.rescale_intercept",
     "volume": "volume.path", "format": "volume.format", "dims": "volume.dims", "dtype": "volume.dtype",
     "endian": "volume.endian", "header_bytes": "volume.header_bytes", "spacing": "volume.spacing",
-    "nan_value": "volume.nan_value",
+    "nan_value": "volume.nan_value", "array": "volume.array", "solution": "volume.solution",
 }
 SETTING_DEST = "setting_"
 MAX_FRAMES = 10_000  # a renderer setting's flag stores into setting_<name>
@@ -92,6 +92,8 @@ def add_arguments(p: argparse.ArgumentParser):
     v.add_argument("--header-bytes", type=int)
     v.add_argument("--spacing", type=float, nargs=3, metavar=("SX", "SY", "SZ"))
     v.add_argument("--nan-value", type=float, help="replace NaN/Inf in the data by this value")
+    v.add_argument("--array", metavar="NAME", help="meshes: the scalar array to render")
+    v.add_argument("--solution", metavar="FILE", help="PLOT3D grids: the q (solution) file")
 
 
 def add_setting_arguments(g):

@@ -27,7 +27,7 @@ from . import phantoms
 from .camera import (DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Camera, framing_distance, framing_view_height)
 from .errors import SceneError
 from .fields import diagonal
-from .io import load_volume
+from .io import load_field
 from .sandbox import check_bytes, check_input_path
 from .scene_schema import (CameraSpec, ImageSpec, SceneSpec, TransferFunctionSpec, VolumeSpec, parse_table,
                            renderer_spec_class, spec_to_dict)
@@ -104,13 +104,16 @@ def _resolve_volume(spec: VolumeSpec, base_dir: Path):
     path = Path(os.path.expanduser(spec.path))
     if not path.is_absolute():
         path = base_dir / path
-    volume = load_volume(path, spec.format, dims=spec.dims, dtype=spec.dtype, endian=spec.endian,
-                         header_bytes=spec.header_bytes, spacing=spec.spacing, origin=spec.origin,
-                         nan_value=spec.nan_value)
+    solution = spec.solution
+    if solution is not None and not Path(os.path.expanduser(solution)).is_absolute():
+        solution = str(base_dir / os.path.expanduser(solution))
+    volume = load_field(path, spec.format, array=spec.array, solution=solution, dims=spec.dims, dtype=spec.dtype,
+                        endian=spec.endian, header_bytes=spec.header_bytes, spacing=spec.spacing,
+                        origin=spec.origin, nan_value=spec.nan_value)
     return volume, dataclasses.replace(spec, path=str(path.resolve()))
 
 
-_FILE_KEYS = ("dims", "dtype", "spacing", "origin", "nan_value")
+_FILE_KEYS = ("dims", "dtype", "spacing", "origin", "nan_value", "array", "solution")
 
 def _check_extent(field, spec: VolumeSpec):
     """Refuse a field whose voxels, box or position are out of :data:`WORLD_RANGE`, naming where the
@@ -187,6 +190,8 @@ def resolve_renderer(spec, field):
     the data-dependent defaults made explicit (:func:`dvr_gl.settings.resolve_renderer`)."""
     from .renderers import registry
 
+    if spec.name is None:
+        spec = dataclasses.replace(spec, name=registry.default_for(getattr(field, "kind", "grid")))
     registry.plugin(spec.name)
     return resolve_settings(spec, field, registry.all_settings())
 

@@ -66,8 +66,8 @@ class VolumeSpec:
     path: Optional[str] = doc(None, "a volume file (relative to the scene file); or give `demo`")
     demo: Optional[str] = doc(None, "a built-in phantom: `shepp-logan`, `marschner-lobb`, `blobs`")
     size: int = checked(64, "samples per axis of a demo phantom", at_least(2))
-    format: str = choices("auto", "raw", "nrrd", "nifti", "metaimage", "vtk", "npy", "tiff", default="auto",
-                          doc="the reader; `auto` goes by the suffix")
+    format: str = choices("auto", "raw", "nrrd", "nifti", "metaimage", "vtk", "npy", "tiff", "vtu", "plot3d",
+                          default="auto", doc="the reader; `auto` goes by the suffix (`.vtk` by its dataset)")
     dims: Optional[tuple[int, int, int]] = checked(None, "raw files: `[nx, ny, nz]`", each(at_least(1)))
     dtype: Optional[str] = doc(None, "raw files: `uint8`, `int8`, `uint16`, `int16`, `uint32`, `int32`, "
                                      "`float32`, `float64`")
@@ -77,6 +77,10 @@ class VolumeSpec:
                                       each(world_length))
     origin: Optional[Vec3] = checked(None, "override the file's origin (world units, x first)", world_coordinates)
     nan_value: Optional[float] = doc(None, "replace NaN/Inf by this value; without it they are an error")
+    array: Optional[str] = doc(None, "meshes: the scalar array to render (default: the first one-component "
+                                     "array of finite values)")
+    solution: Optional[str] = doc(None, "PLOT3D grids: the q (solution) file (default: the grid's name with "
+                                        "`xyz` replaced by `q`)")
 
 
 @dataclass

@@ -16,6 +16,11 @@ exactly known bounds), for every compositing mode.
   grid's picture lies between the closed forms for ``R^2`` and ``R^2 - 3 h^2 / 4``: the bounds.
 * ``analytic sphere`` (data kind ``analytic``): a ball of constant material, the field itself
   exact (:class:`dvr_gl.fields.SphereField`): ``1 - exp(-sigma 2 sqrt(R^2 - b^2))``.
+* ``mesh boxes`` (data kind ``mesh``): two boxes of hexahedra (split into tetrahedra when read)
+  with a gap between them, one constant cell scalar: Beer-Lambert on the sum of the two chords (a
+  non-convex mesh: nothing in the gap); the projections as for ``box``.
+* ``mesh ramp`` (``mesh``): a box of hexahedra with its interior points moved, point scalar ``= x``
+  (linear, so every tetrahedron holds it exactly): the closed forms of ``ramp``.
 
 Each :class:`ClosedForm` gives the scene for a mode and view, and ``bounds(scene)``: per pixel, the
 lowest and highest value the exact image can take, and which pixels are compared (those at least a
@@ -243,11 +248,97 @@ def _analytic_bounds(scene):
 
 
 ALL_MODES = ("emission_absorption", "isosurface", "average", "mip", "minip")
+# --- meshes ------------------------------------------------------------------------------------
+
+MESH_BOXES = (((0.0, 0.0, 0.0), (1.0, 1.2, 1.4)), ((1.6, 0.0, 0.0), (2.6, 1.2, 1.4)))
+MESH_RAMP_SIZE = (3.6, 2.5, 2.75)
+
+
+def _hex_block(n, lo, hi, jitter=0.0, seed=0):
+    """Points (i fastest) and hexahedra (VTK order) of an ``n`` grid over ``[lo, hi]``; interior
+    points moved by up to ``jitter`` cells."""
+    from dvr_gl.fields.mesh_cells import hexahedra_of_grid
+
+    axes = [np.linspace(a, b, k) for a, b, k in zip(lo, hi, n)]
+    z, y, x = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
+    p = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
+    if jitter:
+        inner = np.all([(p[:, i] > lo[i]) & (p[:, i] < hi[i]) for i in range(3)], axis=0)
+        step = (np.array(hi) - np.array(lo)) / (np.array(n) - 1)
+        p[inner] += np.random.default_rng(seed).uniform(-jitter, jitter, (inner.sum(), 3)) * step
+    return p, hexahedra_of_grid(*n)
+
+
+def _mesh_file(tmp_path, name, points, hexes, point_data=None, cell_data=None) -> str:
+    import pytest
+
+    meshio = pytest.importorskip("meshio", reason="meshes are read with meshio (pip install 'dvr-gl[mesh]')")
+    path = tmp_path / f"{name}.vtu"
+    if not path.exists():
+        meshio.write(str(path), meshio.Mesh(points, [("hexahedron", hexes)], point_data=point_data or {},
+                                            cell_data={k: [v] for k, v in (cell_data or {}).items()}))
+    return str(path)
+
+
+MESH_SAMPLE_DISTANCE = 0.02  # world: renderers that sample (the discrete reference) resolve the gap
+
+
+def _mesh_scene(tmp_path, name, path, points, mode, view, renderer, extra=None):
+    overrides = {"volume.path": path, "transfer_function.points": points,
+                 "renderer.sample_distance": MESH_SAMPLE_DISTANCE,
+                 "transfer_function.opacity_model": "extinction", "image.width": WIDTH, "image.height": HEIGHT,
+                 "renderer.name": renderer, "renderer.compositing": mode, "renderer.ert_threshold": 1.0,
+                 "renderer.converged_tolerance": 1e-6, **VIEWS[view], **(extra or {})}
+    return load_scene(None, overrides)
+
+
+def _mesh_boxes_scene(tmp_path, mode, view, renderer):
+    blocks = [_hex_block((3, 2, 2), lo, hi) for lo, hi in MESH_BOXES]
+    points = np.concatenate([p for p, _ in blocks])
+    hexes = np.concatenate([blocks[0][1], blocks[1][1] + len(blocks[0][0])])
+    path = _mesh_file(tmp_path, "mesh-boxes", points, hexes, cell_data={"value": np.full(len(hexes), BOX_VALUE)})
+    tf = [[0.0, *COLOUR, BOX_SIGMA], [1.0, *COLOUR, BOX_SIGMA]]
+    return _mesh_scene(tmp_path, "mesh boxes", path, tf, mode, view, renderer, {"renderer.iso_value": BOX_ISO})
+
+
+def _mesh_boxes_bounds(scene):
+    mode = scene.renderer.compositing
+    o, d, t0, t1 = _rays(scene)
+    length = np.zeros(len(o))
+    compared = np.ones((scene.image.height, scene.image.width), bool)
+    for lo, hi in MESH_BOXES:
+        a, b = intersect_box(o, d, np.array(lo), np.array(hi))
+        length += np.maximum(b - np.maximum(a, 0.0), 0.0)
+        a0, a1 = intersect_box(o, d, np.array(lo) + 0.05, np.array(hi) - 0.05)
+        b0, b1 = intersect_box(o, d, np.array(lo) - 0.05, np.array(hi) + 0.05)
+        compared &= _image((a1 > a0) | ~(b1 > b0), scene)[..., 0]
+    hit = length > 0
+    if mode == "emission_absorption":
+        rgba = _rgba(COLOUR, -np.expm1(-BOX_SIGMA * length))
+    elif mode == "isosurface":
+        rgba = _rgba(COLOUR, hit.astype(float))
+    else:
+        rgba = np.where(hit[:, None], _classified(np.full(len(hit), BOX_VALUE),
+                                                  lambda v: BOX_SIGMA * np.ones_like(v)), 0.0)
+    image = _image(rgba, scene)
+    return image, image, compared
+
+
+def _mesh_ramp_scene(tmp_path, mode, view, renderer):
+    points, hexes = _hex_block((5, 3, 3), (0.0, 0.0, 0.0), MESH_RAMP_SIZE, jitter=0.25, seed=7)
+    path = _mesh_file(tmp_path, "mesh-ramp", points, hexes, point_data={"x": points[:, 0]})
+    top = MESH_RAMP_SIZE[0]
+    tf = [[0.0, *COLOUR, _ramp_sigma(0.0)], [top, *COLOUR, _ramp_sigma(top)]]
+    return _mesh_scene(tmp_path, "mesh ramp", path, tf, mode, view, renderer, {"renderer.iso_value": RAMP_ISO})
+
+
 CLOSED_FORMS = {cf.name: cf for cf in (
     ClosedForm("box", "grid", ALL_MODES, _box_scene, _box_bounds),
     ClosedForm("ramp", "grid", ALL_MODES, _ramp_scene, _ramp_bounds),
     ClosedForm("sphere", "grid", ("emission_absorption", "mip", "isosurface"), _sphere_scene, _sphere_bounds),
     ClosedForm("analytic sphere", "analytic", ("emission_absorption",), _analytic_scene, _analytic_bounds),
+    ClosedForm("mesh boxes", "mesh", ALL_MODES, _mesh_boxes_scene, _mesh_boxes_bounds),
+    ClosedForm("mesh ramp", "mesh", ALL_MODES, _mesh_ramp_scene, _ramp_bounds),
 )}
 
 

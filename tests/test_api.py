@@ -114,8 +114,8 @@ def test_reprs_are_short():
 
 
 def test_any_field_renders_with_the_renderers_that_declare_its_kind():
-    """An analytic field through the same call: the references render it (any field), the grid
-    renderers refuse it in one line naming those that do."""
+    """An analytic field through the same call: the references render it (any field; without a
+    renderer named, the first of them), the grid renderers refuse it in one line naming those that do."""
     sphere = dvr_gl.SphereField((0.0, 0.0, 0.0), 2.0)
     points = [[0.0, 1, 1, 1, 0.0], [1.0, 1, 1, 1, 0.5]]
     image = dvr_gl.render(sphere, renderer="reference-converged", transfer_function=points, size=16)
@@ -126,7 +126,8 @@ def test_any_field_renders_with_the_renderers_that_declare_its_kind():
     np.testing.assert_allclose(image.rgba[..., 3], -np.expm1(-sigma * chord), atol=1e-6)  # measured 1.9e-8 (float32 output)
     with pytest.raises(dvr_gl.SceneError, match="raycast renders grid data, not analytic; use reference or "
                                                 "reference-converged"):
-        dvr_gl.render(sphere, transfer_function=points, size=16)
+        dvr_gl.render(sphere, renderer="raycast", transfer_function=points, size=16)
+    assert dvr_gl.render(sphere, transfer_function=points, size=8).scene.renderer.name == "reference"
 
 
 @pytest.mark.parametrize("keywords, fragment", [

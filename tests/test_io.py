@@ -89,7 +89,7 @@ def test_missing_file(tmp_path):
 
 
 def test_unknown_suffix(tmp_path):
-    path = tmp_path / "v.xyz"
+    path = tmp_path / "v.qqq"
     path.write_bytes(b"1")
     with pytest.raises(VolumeError, match="cannot tell the format"):
         load_volume(path)

@@ -83,11 +83,11 @@ def test_dvr_render_renders_with_it_and_refuses_in_one_line(site, tmp_path):
 
 
 def test_the_viewer_offers_it(site):
-    """Key 7 and the panel's renderer list come from the registry, and switching to it is checked
+    """Its number key (after the built-in renderers') and the panel's renderer list come from the registry, and switching to it is checked
     (emission-absorption refused, MIP accepted) before anything renders."""
     code = ("from dvr_gl.viewer import keys, settings\n"
             "from dvr_gl.scene import load_scene\n"
-            "print([k for k in keys.key_table() if k[0] == '7'])\n"
+            f"print([k for k in keys.key_table() if k[1] == 'renderer_{NAME}'])\n"
             "print(settings.choices('name'))\n"
             "scene = load_scene(None, {'volume.demo': 'shepp-logan', 'volume.size': 16})\n"
             f"print(settings.refusal(scene, name='{NAME}'))\n"

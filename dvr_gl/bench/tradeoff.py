@@ -28,11 +28,13 @@ from ..renderers import create_renderer, registry
 from ..transfer_function import linear_to_srgb
 from . import acceleration, median_seconds
 
-def sweeps(renderers=None) -> dict:
+def sweeps(renderers=None, kind: str | None = None) -> dict:
     """renderer -> its trade-off families (:mod:`dvr_gl.sweeps`), as its plugin declares them: every
-    registered renderer with a sweep (``renderers``: only these)."""
+    registered renderer with a sweep (``renderers``: only these; ``kind``: only those rendering that
+    kind of data)."""
     return {name: p.sweeps for name, p in registry.plugins().items()
-            if p.sweeps and (not renderers or name in renderers)}
+            if p.sweeps and (not renderers or name in renderers)
+            and (kind is None or p.data_kinds is None or kind in p.data_kinds)}
 
 
 COLUMNS = [("renderer", "renderer", ""), ("family", "setting family", ""), ("setting", "setting", ""),
@@ -58,9 +60,9 @@ def converged_truth(scene, tolerance: float = 1e-4) -> np.ndarray:
     return ConvergedReference(truth_scene).render_float64().astype(np.float32)
 
 
-def cases(renderers=None):
+def cases(renderers=None, kind: str | None = None):
     """(renderer, family, value) for every setting to measure."""
-    for name, families in sweeps(renderers).items():
+    for name, families in sweeps(renderers, kind).items():
         for family in families:
             for value in family.values:
                 yield name, family, value
@@ -80,7 +82,7 @@ def run(scene, repeat: int = 5, renderers=None, truth=None, progress=None, scene
     truth = converged_truth(scene) if truth is None else truth
     rows, refused, open_renderers = [], {}, {}
     try:
-        for name, family, value in cases(renderers):
+        for name, family, value in cases(renderers, getattr(scene.field, "kind", None)):
             case = variant(scene, name, family, value)
             renderer = open_renderers.get(name) or open_renderers.setdefault(name, create_renderer(name))
             try:

@@ -118,16 +118,19 @@ def program_cache(ctx: moderngl.Context) -> dict:
 
 
 def create_program(ctx: moderngl.Context, vertex: str, fragment: str,
-                   defines: dict | None = None) -> moderngl.Program:
+                   defines: dict | None = None, geometry: str | None = None) -> moderngl.Program:
     """Compile (or fetch from the context's cache) the program of these sources and defines."""
     cache = program_cache(ctx)
-    key = (vertex, fragment, tuple(sorted((defines or {}).items())))
+    key = (vertex, fragment, geometry, tuple(sorted((defines or {}).items())))
     program = cache.get(key)
     if program is not None:
         return program
     sources = {"vertex": load_shader(vertex, defines), "fragment": load_shader(fragment, defines)}
+    if geometry is not None:
+        sources["geometry"] = load_shader(geometry, defines)
     try:
-        program = ctx.program(vertex_shader=sources["vertex"].text, fragment_shader=sources["fragment"].text)
+        program = ctx.program(vertex_shader=sources["vertex"].text, fragment_shader=sources["fragment"].text,
+                              geometry_shader=sources["geometry"].text if geometry else None)
     except moderngl.Error as exc:
         raise ShaderError(f"GLSL compile failed in {_first_error(str(exc), sources)} "
                           f"(renderer {ctx.info['GL_RENDERER']}); the shader sources are "

@@ -10,7 +10,13 @@ metaimage  ``.mhd``, ``.mha``                     built-in reader (see its modul
 vtk        ``.vtk`` STRUCTURED_POINTS             built-in parser
 npy        ``.npy``                               numpy
 tiff       ``.tif`` pages, a folder, a glob       OpenImageIO
+vtk        ``.vtk`` UNSTRUCTURED_GRID (a mesh)    meshio (extra ``mesh``)
+vtu        ``.vtu`` (a mesh)                      meshio (extra ``mesh``)
+plot3d     ``.xyz`` grid + ``q`` solution (mesh)   built-in reader
 =========  ====================================  ==========================
+
+:func:`load_field` reads any of them (a grid as a :class:`Volume`, a mesh as a
+:class:`~dvr_gl.fields.mesh.TetMesh`: :mod:`.mesh`); :func:`load_volume` only grids.
 
 Readers are strict: a malformed header or data file is one :class:`VolumeError` naming
 the file, the field as the format writes it and what is valid.  They are bounded:
@@ -34,11 +40,13 @@ from ..sandbox import check_input_path
 from .common import RawArray, check_spacing
 from .compression import exists_or_split
 
-FORMATS = ("raw", "nrrd", "nifti", "metaimage", "vtk", "npy", "tiff")
+FORMATS = ("raw", "nrrd", "nifti", "metaimage", "vtk", "npy", "tiff", "vtu", "plot3d")
+GRID_FORMATS = FORMATS[:7]
 
 _SUFFIXES = {
     ".nrrd": "nrrd", ".nhdr": "nrrd", ".nii": "nifti", ".nii.gz": "nifti", ".mhd": "metaimage",
     ".mha": "metaimage", ".vtk": "vtk", ".npy": "npy", ".tif": "tiff", ".tiff": "tiff",
+    ".vtu": "vtu", ".xyz": "plot3d",
     ".raw": "raw", ".raw.gz": "raw", ".raw.bz2": "raw", ".bin": "raw", ".dat": "raw", ".den": "raw",
 }
 
@@ -64,6 +72,8 @@ _READERS = {
 
 
 def _read(path: Path, fmt: str, raw_options: dict) -> RawArray:
+    if fmt in ("vtu", "plot3d"):
+        raise VolumeError(f"{path}: a {fmt} file is a mesh, not a regular grid; read it with load_field")
     if fmt not in _READERS:
         raise VolumeError(f"{path}: unknown format {fmt!r}; use one of {', '.join(FORMATS)} or auto")
     module, function = _READERS[fmt]
@@ -73,6 +83,41 @@ def _read(path: Path, fmt: str, raw_options: dict) -> RawArray:
     if raw_options.get("dims") is not None or raw_options.get("dtype") is not None:
         raise VolumeError(f"{path}: dims and dtype apply to raw files only; this is {fmt}")
     return reader(path)
+
+
+def load_field(path, format: str = "auto", *, array: str | None = None, solution=None, **grid_options):
+    """Load a grid (:func:`load_volume`, with ``grid_options``) or a mesh (``.vtu``, a legacy ``.vtk``
+    UNSTRUCTURED_GRID, PLOT3D): ``array`` names a mesh's scalar array, ``solution`` a PLOT3D q file."""
+    from . import mesh
+
+    path = Path(os.path.expanduser(str(path)))
+    try:
+        fmt = detect_format(path) if format == "auto" else format
+    except VolumeError:  # no known suffix: the grid reader's checks (the sandbox's first) say what is wrong
+        return load_volume(path, format, **grid_options)
+    if fmt == "vtk" and os.path.lexists(path):
+        check_input_path(path, "volume file")  # before its header is read: a FIFO, a path outside the roots
+    is_mesh = fmt in ("vtu", "plot3d") or (fmt == "vtk" and path.is_file() and mesh.is_legacy_unstructured(path))
+    if not is_mesh:
+        for key, value in (("array", array), ("solution", solution)):
+            if value is not None:
+                raise VolumeError(f"{path}: volume.{key} applies to meshes (.vtu, unstructured .vtk, PLOT3D); "
+                                  "this is a regular grid: remove it")
+        return load_volume(path, format, **grid_options)
+    if not path.exists():
+        raise VolumeError(f"{path}: file not found")
+    given = [k for k, v in grid_options.items() if v is not None and k not in ("endian", "header_bytes")]
+    if given:
+        raise VolumeError(f"{path}: volume.{given[0]} applies to regular grids; a mesh's points are its geometry: "
+                          "remove it")
+    if solution is not None and fmt != "plot3d":
+        raise VolumeError(f"{path}: volume.solution applies to PLOT3D grids; remove it")
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore")
+        if fmt == "plot3d":
+            return mesh.read_plot3d(path, None if solution is None else Path(os.path.expanduser(str(solution))),
+                                    array)
+        return mesh.read_mesh(path, array)
 
 
 def load_volume(path, format: str = "auto", *, dims=None, dtype=None, endian: str = "little",

@@ -23,8 +23,13 @@ class PostClassifier:
         self.lookup = table.lookup if hasattr(table, "lookup") else table.evaluate
 
     def __call__(self, points: np.ndarray, scalars: np.ndarray | None = None):
+        """Colour and extinction; none where the scalar is NaN (outside a mesh: no material there)."""
         s = self.scalar.sample(points) if scalars is None else scalars
-        return self.lookup(s)
+        outside = np.isnan(s)
+        if not outside.any():
+            return self.lookup(s)
+        colour, sigma = self.lookup(np.where(outside, 0.0, s))
+        return np.where(outside[:, None], 0.0, colour), np.where(outside, 0.0, sigma)
 
 
 class PreClassifier:

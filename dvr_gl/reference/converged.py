@@ -73,6 +73,7 @@ class ConvergedReference:
         self.rays = RayBatch.for_camera(scene.camera, scene.image.width, scene.image.height,
                                         scene.field.bounds)
         self.tol = scene.renderer.converged_tolerance
+        self.by_cell = hasattr(self.model.scalar, "pieces")  # a mesh: pieces know their cells
         self.x, self.w, self.S = collocation(nodes)
         self.stats = {"pieces": 0, "evaluations": 0, "converged": True}
         self.progress = None  # progress(done, total) per batch of rays
@@ -98,31 +99,44 @@ class ConvergedReference:
 
     # --- pieces ------------------------------------------------------------------------------
 
-    def _pieces(self, rows: np.ndarray, extra=None):
-        """Smooth pieces ``(ray, a, b)`` of rays ``rows``, sorted along each ray: cut at the field's knots
-        and at ``extra = (ray, t)`` cuts."""
+    def _pieces(self, rows: np.ndarray):
+        """Smooth pieces ``(ray, a, b, cell)`` of rays ``rows``, sorted along each ray: a mesh's pieces
+        in its cells (``cell``: the cell, the field is linear there); a grid's rays cut at the
+        filter's knots (``cell`` 0, unused)."""
         r = self.rays
+        if self.by_cell:
+            ray, a, b, cell = self.model.scalar.pieces(r.origins[rows], r.directions[rows], r.t0[rows], r.t1[rows])
+            return rows[ray], a, b, cell
         k_ray, k_t = self.model.scalar.knots(r.origins[rows], r.directions[rows], r.t0[rows], r.t1[rows])
-        if extra is not None:
-            k_ray = np.concatenate([k_ray, np.searchsorted(rows, extra[0])])
-            k_t = np.concatenate([k_t, extra[1]])
         local = np.concatenate([np.arange(len(rows)), np.arange(len(rows)), k_ray])
         t = np.concatenate([r.t0[rows], r.t1[rows], k_t])
         order = np.lexsort((t, local))
         local, t = local[order], t[order]
         same = local[1:] == local[:-1]
         keep = same & (t[1:] > t[:-1])
-        return rows[local[:-1][keep]], t[:-1][keep], t[1:][keep]
+        ray = rows[local[:-1][keep]]
+        return ray, t[:-1][keep], t[1:][keep], np.zeros(len(ray), np.int64)
 
-    def _breakpoint_cuts(self, ray, a, b):
-        """Where the field crosses a transfer-function breakpoint inside a piece, as ``(ray, t)``:
+    @staticmethod
+    def _split(ray, a, b, cell, piece, t):
+        """Pieces cut at ``t`` inside pieces ``piece`` (still sorted along rays; each part keeps its cell)."""
+        idx = np.concatenate([np.arange(len(a)), np.arange(len(a)), piece])
+        at = np.concatenate([a, b, t])
+        order = np.lexsort((at, idx))
+        idx, at = idx[order], at[order]
+        keep = (idx[1:] == idx[:-1]) & (at[1:] > at[:-1])
+        p = idx[:-1][keep]
+        return ray[p], at[:-1][keep], at[1:][keep], cell[p]
+
+    def _breakpoint_cuts(self, ray, a, b, cell):
+        """Where the field crosses a transfer-function breakpoint inside a piece, as ``(piece, t)``:
         kinks in colour or extinction there would make quadrature converge erratically (and its
         error estimate unreliable), so pieces are cut at them.  Found on each piece's exact
         polynomial: sign changes on a 64-point grid, then bisection to float64 resolution."""
         breaks = self.model.breakpoints()
         if not len(breaks) or self.model.scalar.degree == 0:  # constant pieces cross nothing
             return None
-        coeffs = self._fit(ray, a, b)
+        coeffs = self._fit(ray, a, b, cell)
         grid = np.linspace(-1.0, 1.0, GRID_PER_PIECE + 1)
         values = self._horner(coeffs, np.broadcast_to(grid, (len(ray), len(grid))))
         lo, hi = values.min(axis=1), values.max(axis=1)
@@ -140,26 +154,28 @@ class ConvergedReference:
                 m = 0.5 * (x_lo + x_hi)
                 same = (self._horner(coeffs[piece], m) >= v) == up
                 x_lo, x_hi = np.where(same, x_lo, m), np.where(same, m, x_hi)
-            cut_ray.append(ray[piece])
+            cut_ray.append(piece)
             cut_t.append(a[piece] + 0.5 * (b[piece] - a[piece]) * (0.5 * (x_lo + x_hi) + 1.0))
         if not cut_ray:
             return None
         return np.concatenate(cut_ray), np.concatenate(cut_t)
 
-    def _points(self, ray, t):
-        """World points and ray directions at parameters ``t`` ``(N, k)`` along rays ``ray``."""
+    def _points(self, ray, t, cell):
+        """World points, ray directions and cells (None for a grid) at parameters ``t`` ``(N, k)``
+        along rays ``ray`` in pieces of cells ``cell``."""
         r = self.rays
         pts = r.origins[ray, None, :] + t[..., None] * r.directions[ray, None, :]
         dirs = np.broadcast_to(r.directions[ray, None, :], pts.shape)
-        return pts.reshape(-1, 3), dirs.reshape(-1, 3)
+        cells = np.repeat(cell, t.shape[1]) if self.by_cell else None
+        return pts.reshape(-1, 3), dirs.reshape(-1, 3), cells
 
     # --- emission-absorption -------------------------------------------------------------------
 
-    def _gauss(self, ray, a, b):
+    def _gauss(self, ray, a, b, cell):
         """Optical depth and emitted colour (attenuated within the piece) of pieces ``[a, b]``."""
         half = 0.5 * (b - a)
         t = a[:, None] + half[:, None] * (self.x[None, :] + 1.0)
-        colour, sigma = self.model.emission(*self._points(ray, t))
+        colour, sigma = self.model.emission(*self._points(ray, t, cell))
         n = len(self.x)
         sigma = sigma.reshape(-1, n)
         colour = colour.reshape(-1, n, 3)
@@ -169,16 +185,16 @@ class ConvergedReference:
         weight = half[:, None] * self.w[None, :] * sigma * np.exp(-tau_nodes)
         return tau, np.einsum("pn,pnc->pc", weight, colour)
 
-    def _estimate(self, ray, a, b, coarse_tau, coarse_col):
+    def _estimate(self, ray, a, b, cell, coarse_tau, coarse_col):
         """Pieces with the estimates of their halves (``lt, lc, rt, rc``), the refined estimate
         (halves composited: ``tau``, ``col``) and its error against the coarse one (``err``)."""
         m = 0.5 * (a + b)
-        lt, lc = self._gauss(ray, a, m)
-        rt, rc = self._gauss(ray, m, b)
+        lt, lc = self._gauss(ray, a, m, cell)
+        rt, rc = self._gauss(ray, m, b, cell)
         tau = lt + rt
         col = lc + np.exp(-lt)[:, None] * rc
         err = np.maximum(np.abs(col - coarse_col).max(axis=1), np.abs(tau - coarse_tau))
-        return {"ray": ray, "a": a, "b": b, "lt": lt, "lc": lc, "rt": rt, "rc": rc,
+        return {"ray": ray, "a": a, "b": b, "cell": cell, "lt": lt, "lc": lc, "rt": rt, "rc": rc,
                 "tau": tau, "col": col, "err": err}
 
     def _emission_absorption(self, rows):
@@ -187,11 +203,11 @@ class ConvergedReference:
         share of it.  (A piece holding a jump, say where a normal flips, then converges
         like its width instead of never meeting a width-proportional tolerance.)"""
         take = lambda p, idx: {k: v[idx] for k, v in p.items()}  # noqa: E731
-        ray, a, b = self._pieces(rows)
-        cuts = self._breakpoint_cuts(ray, a, b)
+        ray, a, b, cell = self._pieces(rows)
+        cuts = self._breakpoint_cuts(ray, a, b, cell)
         if cuts is not None:
-            ray, a, b = self._pieces(rows, cuts)
-        live = self._estimate(ray, a, b, *self._gauss(ray, a, b))
+            ray, a, b, cell = self._split(ray, a, b, cell, *cuts)
+        live = self._estimate(ray, a, b, cell, *self._gauss(ray, a, b, cell))
         done = []
         for step in range(MAX_ROUNDS + 1):
             slot = np.searchsorted(rows, live["ray"])
@@ -210,8 +226,8 @@ class ConvergedReference:
             check_bytes((len(live["ray"]) + len(p["ray"])) * BYTES_PER_PIECE * 2.0, "the converged reference's "
                         "pieces", "raise renderer.converged_tolerance or lower --size")
             m = 0.5 * (p["a"] + p["b"])
-            parts = [take(live, ~finished & ~split), self._estimate(p["ray"], p["a"], m, p["lt"], p["lc"]),
-                     self._estimate(p["ray"], m, p["b"], p["rt"], p["rc"])]
+            parts = [take(live, ~finished & ~split), self._estimate(p["ray"], p["a"], m, p["cell"], p["lt"], p["lc"]),
+                     self._estimate(p["ray"], m, p["b"], p["cell"], p["rt"], p["rc"])]
             live = {k: np.concatenate([q[k] for q in parts]) for k in live}
         ray, a, tau, col = (np.concatenate([d[k] for d in done]) for k in ("ray", "a", "tau", "col"))
         self.stats["pieces"] += len(ray)
@@ -228,23 +244,33 @@ class ConvergedReference:
     # --- average -------------------------------------------------------------------------------
 
     def _average(self, rows):
-        ray, a, b = self._pieces(rows)
+        ray, a, b, cell = self._pieces(rows)
         x, w = np.polynomial.legendre.leggauss(5)  # exact for the degree <= 9 pieces of every filter
         half = 0.5 * (b - a)
         t = a[:, None] + half[:, None] * (x[None, :] + 1.0)
-        pts, _ = self._points(ray, t)
-        s = self.model.scalar.sample(pts).reshape(-1, len(x))
+        pts, _, cells = self._points(ray, t, cell)
+        s = self.model.values(pts, cells).reshape(-1, len(x))
         integral = np.bincount(np.searchsorted(rows, ray), half * (s @ w), minlength=len(rows))
         length = self.rays.t1[rows] - self.rays.t0[rows]
-        return self._classified(integral / length)
+        return self._classified(integral / length, self._has_pieces(rows, ray))
 
-    def _classified(self, values):
-        colour, alpha = self.model.classify_value(values)
-        return np.concatenate([colour * alpha[:, None], alpha[:, None]], axis=1)
+    @staticmethod
+    def _has_pieces(rows, ray):
+        """Which of ``rows`` have a piece (all rays into a grid's box; a mesh's box holds gaps)."""
+        has = np.zeros(len(rows), bool)
+        has[np.searchsorted(rows, ray)] = True
+        return has
+
+    def _classified(self, values, has):
+        """Projected values classified once; transparent where a ray met no data (``has`` False)."""
+        out = np.zeros((len(values), 4))
+        colour, alpha = self.model.classify_value(values[has])
+        out[has] = np.concatenate([colour * alpha[:, None], alpha[:, None]], axis=1)
+        return out
 
     # --- exact extrema and first hits on the pieces' polynomials ------------------------------
 
-    def _fit(self, ray, a, b):
+    def _fit(self, ray, a, b, cell):
         """Monomial coefficients ``(N, D + 1)`` of the field along pieces ``[a, b]``, in the variable
         ``x`` in [-1, 1] across each (the field is a polynomial of degree D between knots, so D + 1
         samples determine it exactly)."""
@@ -252,15 +278,15 @@ class ConvergedReference:
         nodes = np.cos(np.pi * (np.arange(degree + 1) + 0.5) / (degree + 1))  # Chebyshev points
         half = 0.5 * (b - a)
         t = a[:, None] + half[:, None] * (nodes[None, :] + 1.0)
-        pts, _ = self._points(ray, t)
-        values = self.model.scalar.sample(pts).reshape(len(ray), degree + 1)
+        pts, _, cells = self._points(ray, t, cell)
+        values = self.model.values(pts, cells).reshape(len(ray), degree + 1)
         self.stats["evaluations"] += values.size
         return values @ np.linalg.inv(nodes[:, None] ** np.arange(degree + 1)[None, :]).T
 
     def _polynomials(self, rows):
-        """Pieces ``(ray, a, b)`` and their polynomials (see :meth:`_fit`)."""
-        ray, a, b = self._pieces(rows)
-        return ray, a, b, self._fit(ray, a, b)
+        """Pieces ``(ray, a, b, cell)`` and their polynomials (see :meth:`_fit`)."""
+        ray, a, b, cell = self._pieces(rows)
+        return ray, a, b, cell, self._fit(ray, a, b, cell)
 
     @staticmethod
     def _horner(coeffs, x):
@@ -272,7 +298,7 @@ class ConvergedReference:
     def _extremum(self, rows, sign):
         """Maximum of ``sign * field`` along each ray: a dense grid on each piece's polynomial,
         then golden-section search around the best grid point (both on the polynomial)."""
-        ray, a, b, coeffs = self._polynomials(rows)
+        ray, a, b, _, coeffs = self._polynomials(rows)
         grid = np.linspace(-1.0, 1.0, GRID_PER_PIECE + 1)
         values = sign * self._horner(coeffs, np.broadcast_to(grid, (len(ray), len(grid))))
         j = np.argmax(values, axis=1)
@@ -292,13 +318,13 @@ class ConvergedReference:
             best = np.maximum(best, fx)
         per_ray = np.full(len(rows), -np.inf)
         np.maximum.at(per_ray, np.searchsorted(rows, ray), best)
-        return self._classified(sign * per_ray)
+        return self._classified(sign * per_ray, self._has_pieces(rows, ray))
 
     def _first_hit(self, rows):
         """The first point with value >= iso: the first piece whose polynomial reaches iso on a
         dense grid, then bisection on that polynomial."""
         iso = self.scene.renderer.iso_value
-        ray, a, b, coeffs = self._polynomials(rows)
+        ray, a, b, cell, coeffs = self._polynomials(rows)
         grid = np.linspace(-1.0, 1.0, GRID_PER_PIECE + 1)
         above = self._horner(coeffs, np.broadcast_to(grid, (len(ray), len(grid)))) >= iso
         has = above.any(axis=1)
@@ -320,8 +346,8 @@ class ConvergedReference:
         out = np.zeros((len(rows), 4))
         colour, _ = self.model.classify_value(np.full(len(p), iso))
         if self.model.shading is not None:
-            pts, dirs = self._points(rows[hit], t[:, None])
-            colour = self.model.shade(colour, pts, dirs)
+            pts, dirs, cells = self._points(rows[hit], t[:, None], cell[p])
+            colour = self.model.shade(colour, pts, dirs, cells)
         out[hit, :3] = colour
         out[hit, 3] = 1.0
         return out

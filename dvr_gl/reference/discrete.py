@@ -27,7 +27,10 @@ Compositing modes:
   (maximum and minimum sample): the value is classified once, with the
   opacity of one ``unit_distance``.
 
-Rays that miss the volume are transparent black.
+Rays that miss the volume are transparent black.  A mesh's scalar is NaN outside its cells
+(:mod:`dvr_gl.fields.mesh`): samples there emit and absorb nothing, add nothing to an average
+(whose length is still the ray's in the box) and are no extremum; a ray with no sample inside
+the mesh is transparent.
 """
 
 from __future__ import annotations
@@ -223,9 +226,13 @@ class DiscreteReference:
         acc = np.zeros(n) if mode == "average" else np.full(n, -np.inf if mode == "mip" else np.inf)
         length = np.zeros(n)
         active = self.n_seg > 0
+        seen = np.zeros(n, bool)
         for rows, k, m in self._steps(active):
             grid = self.plan.grid(rows, k, m)
             s = self.model.scalar.sample(grid.points)
+            inside = ~np.isnan(s)
+            seen[rows] |= grid.scatter(inside, False).any(axis=1)
+            s = np.where(inside, s, {"average": 0.0, "mip": -np.inf, "minip": np.inf}[mode])
             if mode == "average":
                 acc[rows] += np.sum(grid.scatter(s) * grid.length, axis=1)
                 length[rows] += grid.length.sum(axis=1)
@@ -234,7 +241,7 @@ class DiscreteReference:
             else:
                 acc[rows] = np.minimum(acc[rows], grid.scatter(s, np.inf).min(axis=1))
             self.samples += int(grid.valid.sum())
-        has = self.n_seg > 0
+        has = (self.n_seg > 0) & seen
         value = np.where(has, acc, 0.0)
         if mode == "average":
             value = np.where(has, acc / np.where(length > 0, length, 1.0), 0.0)

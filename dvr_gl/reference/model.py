@@ -44,13 +44,23 @@ class OpticalModel:
         self.epsilon = gradient_epsilon(scene.field)
         self.gradient_reference = r.gradient_opacity_reference if r.gradient_opacity else None
 
-    def emission(self, points: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def values(self, points: np.ndarray, cells: np.ndarray | None = None) -> np.ndarray:
+        """The scalar at points; ``cells``: for a mesh, the cell holding each point where the caller
+        knows it (a ray's pieces), so that it is not located again."""
+        return self.scalar.sample(points) if cells is None else self.scalar.sample_cells(cells, points)
+
+    def gradients(self, points: np.ndarray, cells: np.ndarray | None = None) -> np.ndarray:
+        return self.scalar.gradient(points) if cells is None else self.scalar.gradient_cells(cells, points)
+
+    def emission(self, points: np.ndarray, directions: np.ndarray,
+                 cells: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """``(colour (N, 3), sigma (N,))`` at points: shaded, and extinction scaled by
-        ``min(1, |gradient| / reference)`` (gradient-magnitude opacity), if the scene asks."""
-        colour, sigma = self.classify(points)
+        ``min(1, |gradient| / reference)`` (gradient-magnitude opacity), if the scene asks.
+        ``cells``: as in :meth:`values`."""
+        colour, sigma = self.classify(points, None if cells is None else self.values(points, cells))
         if self.shading is None and self.gradient_reference is None:
             return colour, sigma
-        gradient = self.scalar.gradient(points)
+        gradient = self.gradients(points, cells)
         if self.gradient_reference is not None:
             sigma = sigma * np.minimum(1.0, np.linalg.norm(gradient, axis=1) / self.gradient_reference)
         if self.shading is not None:
@@ -77,8 +87,8 @@ class OpticalModel:
             premult = blinn_phong(mean, normal, directions, self.shading) * alpha[:, None]
         return premult, tau
 
-    def shade(self, colour, points, directions):
-        normal = normals_from_gradient(self.scalar.gradient(points), self.epsilon)
+    def shade(self, colour, points, directions, cells=None):
+        normal = normals_from_gradient(self.gradients(points, cells), self.epsilon)
         return blinn_phong(colour, normal, directions, self.shading)
 
     def breakpoints(self) -> np.ndarray:

@@ -143,7 +143,8 @@ def _registry() -> _Registry:
     return _Registry(_builtin_first(plugins), broken, _union(plugins))
 
 
-BUILTIN_ORDER = ("raycast", "slicing3d", "slicing2d", "shearwarp", "reference", "reference-converged")
+BUILTIN_ORDER = ("raycast", "slicing3d", "slicing2d", "shearwarp", "reference", "reference-converged",
+                 "projected-tetrahedra")
 
 
 def _builtin_first(plugins: dict) -> dict:
@@ -209,7 +210,9 @@ def setting(name: str) -> Setting:
 @functools.lru_cache(maxsize=1)
 def renderer_spec_class():
     """The ``[renderer]`` table as a dataclass: ``name`` and every registered setting."""
-    fields = [("name", str, dataclasses.field(default="raycast", metadata={"doc": "the renderer"}))]
+    fields = [("name", Optional[str], dataclasses.field(default=None, metadata={
+        "doc": "the renderer (default: the first that renders the data: `raycast` for grids, "
+               "`projected-tetrahedra` for meshes)"}))]
     for s in all_settings():
         default = (dataclasses.field(default_factory=s.default_factory, metadata=_meta(s)) if s.default_factory
                    else dataclasses.field(default=s.default, metadata=_meta(s)))
@@ -225,6 +228,17 @@ def _meta(s: Setting) -> dict:
     if s.aliases:
         meta["aliases"] = s.aliases
     return meta
+
+
+def default_for(kind: str) -> str:
+    """The renderer a scene of data ``kind`` gets when it names none: the first registered one made for
+    that kind (not one that renders any field, such as the slow CPU references), else the first that
+    renders it."""
+    made = renderers_with(lambda q: q.data_kinds is not None and kind in q.data_kinds)
+    anyone = renderers_with(lambda q: q.data_kinds is None)
+    if not made and not anyone:
+        raise SceneError(f"no renderer renders {kind} data")
+    return (made or anyone)[0]
 
 
 def renderers_with(predicate: Callable[[RendererPlugin], bool]) -> list[str]:
@@ -252,17 +266,18 @@ def check(scene, name: str | None = None):
         raise SceneError(f"{p.name} renders {', '.join(p.data_kinds)} data, not {kind}"
                          + (f"; use {_either(others)}" if others else ""))
     spec = scene.renderer
+    renders = lambda q: q.data_kinds is None or kind in q.data_kinds  # noqa: E731  (alternatives: for this data)
     for s in all_settings():
         if not s.must_support or not s.matters(spec):
             continue
         value = getattr(spec, s.name)
         own = p.declared(s.name)
         if own is None and s.used(value):
-            others = renderers_with(lambda q: _allows(q.declared(s.name), value))
+            others = renderers_with(lambda q: renders(q) and _allows(q.declared(s.name), value))
             raise SceneError(f"{p.name} does not support {_describe(s, value)}; turn it off"
                              + (f" or use {_either(others)}" if others else ""))
         if own is not None and own.choices and value not in own.choices:
-            others = renderers_with(lambda q: _allows(q.declared(s.name), value))
+            others = renderers_with(lambda q: renders(q) and _allows(q.declared(s.name), value))
             raise SceneError(f"{p.name} does not support renderer.{s.name} = {value!r} (it takes "
                              f"{_either(own.choices)})" + (f"; use {_either(others)}" if others else ""))
     if p.check is not None:

@@ -24,5 +24,6 @@ PLUGIN = RendererPlugin(
     data_kinds=None,
     reference=True,
     # Against the closed forms (tests/closed_forms.py), at converged_tolerance 1e-6: measured 5e-8.
-    tolerances={"box": 1e-6, "ramp": 1e-6, "sphere": 1e-6, "analytic sphere": 1e-6},
+    tolerances={"box": 1e-6, "ramp": 1e-6, "sphere": 1e-6, "analytic sphere": 1e-6, "mesh boxes": 1e-6,
+                "mesh ramp": 1e-6},
 )

@@ -1,0 +1,162 @@
+"""Unstructured grids: legacy VTK ``UNSTRUCTURED_GRID`` and VTK XML ``.vtu`` through meshio (the
+``mesh`` extra), and PLOT3D curvilinear grids (whole-file binary, big-endian) read directly.
+
+meshio reads every file in ``../shared/data/unstructured/`` correctly (ASCII and big-endian binary
+legacy files, the 5.1 layout with OFFSETS/CONNECTIVITY, zlib-compressed base64 ``.vtu``; checked
+in ``tests/test_mesh_io.py`` against the counts and ranges of the data's README), so there is no
+reader of our own for them.  It does not read PLOT3D; that format is a fixed binary layout.
+
+Every reader returns a :class:`~dvr_gl.fields.mesh.TetMesh`: cells split into tetrahedra
+(:mod:`dvr_gl.fields.mesh_cells`), one scalar array chosen by name (``volume.array``) or, by
+default, the first one-component array of finite values (point arrays first).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import VolumeError
+from ..fields.mesh import TetMesh
+from ..fields.mesh_cells import CORNERS, hexahedra_of_grid, tetrahedralize
+from ..sandbox import check_bytes, check_input_path
+from .common import require
+
+MESH_FORMATS = ("vtu", "vtk-mesh", "plot3d")
+PLOT3D_ARRAYS = ("density", "momentum_x", "momentum_y", "momentum_z", "energy", "momentum_magnitude")
+
+
+def is_legacy_unstructured(path: Path) -> bool:
+    """Whether a legacy ``.vtk`` file holds an ``UNSTRUCTURED_GRID`` (its DATASET line, within the header)."""
+    with open(path, "rb") as f:
+        head = f.read(1024)
+    return b"DATASET UNSTRUCTURED_GRID" in head.upper()
+
+
+def read_mesh(path: Path, array: str | None = None) -> TetMesh:
+    """A ``.vtu`` or legacy ``.vtk`` unstructured grid as a tetrahedral mesh."""
+    meshio = require("meshio", "meshio", "mesh")
+    path = Path(path)
+    check_input_path(path, "mesh file")
+    # meshio's memory is about 4x the file for binary data; ASCII parses to Python objects
+    check_bytes(path.stat().st_size * 8.0, f"{path.name}: reading the mesh", "use a smaller mesh")
+    said = io.StringIO()
+    try:
+        # meshio prints its complaints and, for some (an unknown cell type), exits: both caught here
+        with warnings.catch_warnings(), contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
+            warnings.simplefilter("ignore")
+            m = meshio.read(str(path), file_format="vtu" if path.suffix.lower() == ".vtu" else "vtk")
+    except (Exception, SystemExit) as exc:  # ReadError, ValueError, KeyError, sys.exit... on malformed files
+        reason = " ".join((str(exc) if not isinstance(exc, SystemExit) else said.getvalue()).split())[:160]
+        reason = reason or type(exc).__name__
+        raise VolumeError(f"{path}: not a readable VTK unstructured grid ({reason}); check the file") from None
+    blocks, skipped = [], {}
+    for i, block in enumerate(m.cells):
+        if block.type in CORNERS:
+            blocks.append((i, block.type, np.asarray(block.data)))
+        elif block.type in ("vertex", "line", "triangle", "quad", "polygon", "line3", "triangle6", "quad8"):
+            skipped[block.type] = skipped.get(block.type, 0) + len(block.data)
+        else:
+            raise VolumeError(f"{path}: cells of type {block.type!r} cannot be rendered; dvr-gl takes "
+                              f"{', '.join(CORNERS)} (surface cells are ignored)")
+    if not blocks:
+        raise VolumeError(f"{path}: no volume cells ({', '.join(f'{n} {t}' for t, n in skipped.items()) or 'no cells'})"
+                          "; a mesh needs tetrahedra, hexahedra, wedges or pyramids")
+    points = np.asarray(m.points, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] not in (2, 3):
+        raise VolumeError(f"{path}: points of shape {points.shape}; expected (N, 3)")
+    point_arrays = {k: np.asarray(v) for k, v in m.point_data.items()}
+    cell_arrays = {k: np.concatenate([np.asarray(v[i]) for i, _, _ in blocks])
+                   for k, v in m.cell_data.items() if all(i < len(v) for i, _, _ in blocks)}
+    name, association, values = choose_array(path, point_arrays, cell_arrays, array)
+    new_points, tets, parent, point_values = tetrahedralize(
+        points, [(t, c) for _, t, c in blocks], values if association == "point" else None)
+    cell_values = point_values if association == "point" else values[parent]
+    return TetMesh(new_points, tets, cell_values, association, name=path.name, array=name, source=str(path))
+
+
+def choose_array(path, point_arrays: dict, cell_arrays: dict, wanted: str | None):
+    """``(name, association, values)``: the array named ``wanted``, or the first one-component array
+    of finite values (point arrays, then cell arrays)."""
+    def usable(v):
+        return v.ndim == 1 or (v.ndim == 2 and v.shape[1] == 1)
+
+    listing = ", ".join([f"{k} (point)" for k in point_arrays] + [f"{k} (cell)" for k in cell_arrays]) or "none"
+    if wanted is not None:
+        for association, arrays in (("point", point_arrays), ("cell", cell_arrays)):
+            if wanted in arrays:
+                v = arrays[wanted]
+                if not usable(v):
+                    raise VolumeError(f"{path}: array {wanted!r} has {v.shape[1]} components; choose a "
+                                      f"one-component array (volume.array): {listing}")
+                v = v.reshape(-1).astype(np.float64)
+                if not np.isfinite(v).all():
+                    raise VolumeError(f"{path}: array {wanted!r} has {int((~np.isfinite(v)).sum())} NaN or Inf "
+                                      f"values; choose another array (volume.array): {listing}")
+                return wanted, association, v
+        raise VolumeError(f"{path}: no array named {wanted!r}; the file has: {listing}")
+    for association, arrays in (("point", point_arrays), ("cell", cell_arrays)):
+        for k, v in arrays.items():
+            if usable(v) and v.dtype.kind in "iuf" and np.isfinite(v).all():
+                return k, association, v.reshape(-1).astype(np.float64)
+    raise VolumeError(f"{path}: no one-component array of finite values to render (has: {listing}); "
+                      "add scalars to the file")
+
+
+# --- PLOT3D ------------------------------------------------------------------------------------
+
+def _dims(blob: bytes, path: Path) -> tuple[int, int, int]:
+    if len(blob) < 12:
+        raise VolumeError(f"{path}: too short for a PLOT3D header (ni, nj, nk); is this a PLOT3D file?")
+    dims = tuple(int(x) for x in np.frombuffer(blob[:12], ">i4"))
+    if min(dims) < 2 or np.prod(dims, dtype=np.int64) > 1 << 31:
+        raise VolumeError(f"{path}: PLOT3D dimensions {dims} are not a single whole-file big-endian grid "
+                          "(each 2 or more); multi-grid and Fortran-record files are not supported")
+    return dims
+
+
+def read_plot3d(xyz: Path, q: Path | None = None, array: str | None = None) -> TetMesh:
+    """A single-grid, whole-file, big-endian PLOT3D grid (``xyz``, optional IBLANK) and its solution
+    (``q``: density, momentum x/y/z, stagnation energy) as hexahedra split into tetrahedra.  ``q``
+    defaults to the grid's name with ``xyz`` replaced by ``q``.  Cells touching a point with IBLANK
+    0 (a hole) are left out.  ``array``: one of :data:`PLOT3D_ARRAYS` (default: density, or energy
+    where density is constant)."""
+    xyz = Path(xyz)
+    check_input_path(xyz, "PLOT3D grid file")
+    if q is None:
+        guess = xyz.with_name(xyz.name.replace("xyz", "q"))
+        if guess == xyz or not guess.exists():
+            raise VolumeError(f"{xyz}: no solution file; give it as volume.solution (a PLOT3D q file)")
+        q = guess
+    q = Path(q)
+    check_input_path(q, "PLOT3D solution file")
+    blob = xyz.read_bytes()
+    ni, nj, nk = _dims(blob, xyz)
+    n = ni * nj * nk
+    need = 12 + 12 * n
+    if len(blob) not in (need, need + 4 * n):
+        raise VolumeError(f"{xyz}: {len(blob)} bytes, but a {ni}x{nj}x{nk} grid needs {need} (or {need + 4 * n} "
+                          "with IBLANK); is it big-endian, whole-file, single-grid PLOT3D?")
+    coords = np.frombuffer(blob, ">f4", 3 * n, 12).astype(np.float64).reshape(3, n).T
+    iblank = np.frombuffer(blob, ">i4", n, need) if len(blob) > need else None
+    qblob = q.read_bytes()
+    if _dims(qblob, q) != (ni, nj, nk):
+        raise VolumeError(f"{q}: solution dimensions {_dims(qblob, q)} differ from the grid's {(ni, nj, nk)}")
+    if len(qblob) < 28 + 20 * n:
+        raise VolumeError(f"{q}: {len(qblob)} bytes, but a {ni}x{nj}x{nk} solution needs {28 + 20 * n}")
+    qv = np.frombuffer(qblob, ">f4", 5 * n, 28).astype(np.float64).reshape(5, n)
+    arrays = dict(zip(PLOT3D_ARRAYS[:5], qv))
+    arrays["momentum_magnitude"] = np.sqrt(qv[1] ** 2 + qv[2] ** 2 + qv[3] ** 2)
+    if array is None:
+        array = "density" if np.ptp(arrays["density"]) > 0 else "energy"
+    if array not in arrays:
+        raise VolumeError(f"{q}: no array {array!r}; PLOT3D solutions have {', '.join(PLOT3D_ARRAYS)}")
+    hexes = hexahedra_of_grid(ni, nj, nk)
+    if iblank is not None:
+        hexes = hexes[(iblank[hexes] != 0).all(axis=1)]
+    points, tets, _, values = tetrahedralize(coords, [("hexahedron", hexes)], arrays[array])
+    return TetMesh(points, tets, values, "point", name=xyz.name, array=array, source=str(xyz))

@@ -1,0 +1,209 @@
+"""Visibility orders of a tetrahedral mesh's cells for compositing (front to back here; drawn
+reversed, back to front, with the over operator).
+
+**exact** (default): an order that is right along the ray through every pixel centre, on convex
+and non-convex meshes alike.  Along such a ray, two consecutive cells either share a face or are
+separated by a gap (a concavity, a hole, another part of the mesh).
+
+* Across every shared face the cell on the eye's side of the face is in front (Williams' MPVO
+  relation, 1992): one comparison per interior face and view.
+* Across the gaps: the mesh's boundary faces are intersected with the pixels' rays; where a ray
+  leaves the mesh through a face of cell A and next enters it through a face of cell B, A is in
+  front of B (the rays' sampling of the boundary relations of Williams' XMPVO: exact for the
+  pixels drawn, which are the only ones the image has).
+
+A topological sort of these relations (Kahn's, level by level, each level in centroid order)
+orders every pixel's cells correctly.  A cycle (cells in front of each other, which happens in
+real meshes) stops the sort; it is broken by taking the remaining cell whose centroid is nearest
+the eye as if nothing were in front of it, and counted (``stats["cycles_broken"]``).
+
+**centroid**: cells by the distance of their centroid from the eye (as VTK's
+``vtkCellCenterDepthSort``): fast, and wrong where a large cell's centroid lies behind a small
+cell that it hides in part.
+"""
+
+from __future__ import annotations
+
+import functools
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...fields.mesh_rays import candidate_pairs
+
+ORDERS = ("exact", "centroid")
+PAIRS_PER_CHUNK = 1 << 21
+
+
+@dataclass
+class Adjacency:
+    """The mesh's faces, once per mesh: interior faces (the two cells, a vertex and the normal
+    pointing out of the first cell) and boundary faces (vertices, their cell)."""
+
+    pairs: np.ndarray          # (F, 2) cells sharing each interior face
+    face_point: np.ndarray     # (F, 3)
+    face_normal: np.ndarray    # (F, 3), out of pairs[:, 0]
+    boundary: np.ndarray       # (B, 3) vertex indices
+    boundary_cell: np.ndarray  # (B,)
+    non_manifold: int          # faces shared by more than two cells (their extra cells: boundary)
+    cell_centroids: np.ndarray  # (M, 3): which side of a boundary face is its cell
+
+
+def adjacency(points: np.ndarray, tets: np.ndarray) -> Adjacency:
+    faces = np.concatenate([np.sort(np.delete(tets, k, axis=1), axis=1) for k in range(4)])
+    cells = np.tile(np.arange(len(tets)), 4)
+    opposite = np.concatenate([tets[:, k] for k in range(4)])
+    order = np.lexsort((faces[:, 2], faces[:, 1], faces[:, 0]))
+    faces, cells, opposite = faces[order], cells[order], opposite[order]
+    same = np.all(faces[1:] == faces[:-1], axis=1)
+    starts = np.nonzero(np.r_[True, ~same])[0]
+    counts = np.diff(np.r_[starts, len(faces)])
+    first = starts[counts >= 2]
+    # a face shared by two cells: interior; by one: boundary; by more (a broken mesh): the first
+    # two pair up and the rest count as boundary faces
+    interior_a, interior_b = first, first + 1
+    lone = np.ones(len(faces), bool)
+    lone[interior_a] = lone[interior_b] = False
+    pa, pb, pc = (points[faces[interior_a, i]] for i in range(3))
+    normal = np.cross(pb - pa, pc - pa)
+    inward = np.einsum("ij,ij->i", normal, points[opposite[interior_a]] - pa) > 0
+    normal[inward] *= -1.0
+    return Adjacency(np.stack([cells[interior_a], cells[interior_b]], axis=1), pa, normal,
+                     faces[lone], cells[lone], int(np.maximum(counts - 2, 0).sum()),
+                     points[tets].mean(axis=1))
+
+
+def eye_of(camera):
+    """``(eye, None)`` for a perspective camera, ``(None, forward)`` for an orthographic one."""
+    f, _, _ = camera.basis()
+    return (np.asarray(camera.eye, float), None) if camera.projection == "perspective" else (None, f)
+
+
+def centroid_depth(centroids: np.ndarray, camera) -> np.ndarray:
+    eye, forward = eye_of(camera)
+    if eye is not None:
+        return np.linalg.norm(centroids - eye, axis=1)
+    return centroids @ forward
+
+
+def face_relations(adj: Adjacency, camera) -> tuple[np.ndarray, np.ndarray]:
+    """``(front, back)`` cells across every interior face not seen edge-on."""
+    eye, forward = eye_of(camera)
+    toward_eye = (eye[None, :] - adj.face_point) if eye is not None else -forward[None, :]
+    side = np.einsum("ij,ij->i", adj.face_normal, toward_eye)
+    a, b = adj.pairs[:, 0], adj.pairs[:, 1]
+    front = np.where(side > 0, b, a)  # the eye beyond a's face: b is on the eye's side
+    back = np.where(side > 0, a, b)
+    seen = side != 0
+    return front[seen], back[seen]
+
+
+def boundary_relations(points, adj: Adjacency, origins, directions, t_min) -> tuple[np.ndarray, np.ndarray]:
+    """``(front, back)`` cells across the gaps along the rays: a ray's exit through a boundary face
+    of one cell, then its next entry through a boundary face of another (``t_min``: where each ray
+    starts)."""
+    if not len(adj.boundary):
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    tri = points[adj.boundary]  # (B, 3, 3)
+    faces, rays = candidate_pairs(tri, origins, directions)
+    hits_ray, hits_t, hits_face = [], [], []
+    for i in range(0, len(faces), PAIRS_PER_CHUNK):
+        f, r = faces[i:i + PAIRS_PER_CHUNK], rays[i:i + PAIRS_PER_CHUNK]
+        t, hit = _moller_trumbore(tri[f], origins[r], directions[r])
+        hit &= t > t_min[r]
+        hits_ray.append(r[hit])
+        hits_t.append(t[hit])
+        hits_face.append(f[hit])
+    ray, t, face = (np.concatenate(x) for x in (hits_ray, hits_t, hits_face))
+    cell = adj.boundary_cell[face]
+    # leaving or entering: the face's normal out of its cell against the ray
+    v0, v1, v2 = (points[adj.boundary[face, i]] for i in range(3))
+    normal = np.cross(v1 - v0, v2 - v0)
+    centroid_side = np.einsum("ij,ij->i", normal, adj.cell_centroids[cell] - v0)
+    out_dot = np.einsum("ij,ij->i", normal, directions[ray]) * np.where(centroid_side > 0, -1.0, 1.0)
+    leaving = out_dot > 0
+    order = np.lexsort((~leaving, t, ray))  # at one t, a leaving face before an entering one
+    ray, cell, leaving = ray[order], cell[order], leaving[order]
+    pair = (ray[1:] == ray[:-1]) & leaving[:-1] & ~leaving[1:] & (cell[1:] != cell[:-1])
+    return cell[:-1][pair], cell[1:][pair]
+
+
+def _moller_trumbore(tri, o, d):
+    """Ray-triangle hits: ``t`` and whether the ray crosses the triangle (edges included)."""
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    p = np.cross(d, e2)
+    det = np.einsum("ij,ij->i", e1, p)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / det
+        s = o - tri[:, 0]
+        u = np.einsum("ij,ij->i", s, p) * inv
+        q = np.cross(s, e1)
+        v = np.einsum("ij,ij->i", d, q) * inv
+        t = np.einsum("ij,ij->i", e2, q) * inv
+    hit = (det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1) & np.isfinite(t)
+    return t, hit
+
+
+def topological(n: int, front: np.ndarray, back: np.ndarray, depth: np.ndarray) -> tuple[np.ndarray, int]:
+    """Cells ``0..n-1`` front to back respecting every ``front -> back`` relation (Kahn's algorithm,
+    a level at a time, each level by ``depth``), and the number of cycles broken."""
+    edges = np.unique(np.stack([front, back], axis=1), axis=0) if len(front) else np.zeros((0, 2), np.int64)
+    src, dst = edges[:, 0], edges[:, 1]
+    indegree = np.bincount(dst, minlength=n)
+    order_src = np.argsort(src, kind="stable")
+    dst_by_src = dst[order_src]
+    start = np.searchsorted(src[order_src], np.arange(n + 1))
+    done = np.zeros(n, bool)
+    out, broken = [], 0
+    frontier = np.nonzero(indegree == 0)[0]
+    remaining = n
+    while remaining:
+        if not len(frontier):  # a cycle: the nearest remaining cell goes first
+            left = np.nonzero(~done)[0]
+            frontier = left[[np.argmin(depth[left])]]
+            indegree[frontier] = 0
+            broken += 1
+        frontier = frontier[np.argsort(depth[frontier], kind="stable")]
+        out.append(frontier)
+        done[frontier] = True
+        remaining -= len(frontier)
+        count = start[frontier + 1] - start[frontier]
+        nxt = dst_by_src[np.repeat(start[frontier], count) + (np.arange(count.sum()) -
+                                                               np.repeat(np.cumsum(count) - count, count))]
+        if len(nxt):
+            np.subtract.at(indegree, nxt, 1)
+            cand = np.unique(nxt)
+            frontier = cand[(indegree[cand] == 0) & ~done[cand]]
+        else:
+            frontier = np.zeros(0, np.int64)
+    return np.concatenate(out) if out else np.zeros(0, np.int64), broken
+
+
+class VisibilityOrder:
+    """The orders of one mesh (its faces and centroids computed once)."""
+
+    def __init__(self, mesh):
+        self.mesh = mesh
+        self.centroids = mesh.points[mesh.tets].mean(axis=1)
+
+    @functools.cached_property
+    def adjacency(self) -> Adjacency:
+        return adjacency(self.mesh.points, self.mesh.tets)
+
+    def __call__(self, camera, width: int, height: int, kind: str = "exact") -> tuple[np.ndarray, dict]:
+        """Cells front to back and ``stats``: seconds, relations, cycles broken."""
+        start = time.perf_counter()
+        depth = centroid_depth(self.centroids, camera)
+        if kind == "centroid":
+            order = np.argsort(depth, kind="stable")
+            return order, {"order": "centroid", "order_seconds": time.perf_counter() - start}
+        adj = self.adjacency
+        f1, b1 = face_relations(adj, camera)
+        o, d = camera.pixel_rays(width, height)
+        t_min = camera.near_distance(d)
+        f2, b2 = boundary_relations(self.mesh.points, adj, o, d, t_min)
+        order, broken = topological(len(self.mesh.tets), np.concatenate([f1, f2]), np.concatenate([b1, b2]), depth)
+        return order, {"order": "exact", "order_seconds": time.perf_counter() - start,
+                       "face_relations": int(len(f1)), "boundary_relations": int(len(f2)),
+                       "cycles_broken": broken, "non_manifold_faces": adj.non_manifold}

@@ -1,0 +1,264 @@
+"""Projected tetrahedra in GL (see the package doc and ``docs/meshes.md``).
+
+The mesh goes to the GPU once (points relative to its centre, so float32 keeps their precision;
+cells; each cell's scalar as ``g . p + c``), as textures of 4096 texels a row; a frame uploads only
+the visibility order.  Emission-absorption blends the fragments' premultiplied colours with the
+over operator, back to front; MIP and MinIP blend by max and min, the average by addition, and
+the isosurface keeps the nearest hit by the depth test: those need no order.  The projections'
+values are classified on the host with the exact transfer function, as the converged reference
+does.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import moderngl
+import numpy as np
+
+from ... import limits
+from ...gl.context import create_context, make_current, release_context
+from ...gl.geometry import clip_planes, gl_matrix, projection_matrix, view_matrix
+from ...gl.shaders import create_program, release_programs
+from ...rays import RayBatch
+from ...reference.converged import collocation
+from ...transfer_function import segment_opacity
+from ..base import Renderer
+from .order import VisibilityOrder
+
+ROW = 4096  # texels a row of the mesh textures (mesh_fetch.glsl)
+# The footprint's dilation (pt.geom), pixels.  The rasterizer snaps vertices to a sub-pixel grid
+# (llvmpipe: 1/256 pixel), so a pixel centre just inside a silhouette can fall outside the drawn
+# footprint, and with it a piece whose length is a fraction of the cell's thickness: without a margin
+# the blunt fin was off by RMS 4e-5 to 8e-5 (2.5e-7 with one).  A twentieth of a pixel covers the
+# snapping at a fraction of the fragments a whole pixel adds (20-30 % more draw time).
+MARGIN_PIXELS = 0.05
+MODES = {"emission_absorption": "EMISSION", "mip": "MIP", "minip": "MINIP", "average": "AVERAGE",
+         "isosurface": "ISOSURFACE"}
+
+
+def _rows(array: np.ndarray, dtype) -> np.ndarray:
+    """``(n, 4)`` as ``(rows, ROW, 4)`` texels, zero-padded."""
+    rows = max(1, -(-len(array) // ROW))
+    out = np.zeros((rows * ROW, 4), dtype=dtype)
+    out[:len(array)] = array
+    return out.reshape(rows, ROW, 4)
+
+
+class MeshTextures:
+    """One mesh on the GPU."""
+
+    def __init__(self, ctx, mesh):
+        lo, hi = (np.asarray(b, float) for b in mesh.bounds)
+        self.centre = 0.5 * (lo + hi)
+        rec = mesh.reconstruct()
+        values = mesh.values if mesh.association == "point" else np.zeros(len(mesh.points))
+        points = np.concatenate([mesh.points - self.centre, values[:, None]], axis=1)
+        offset = rec.base - np.einsum("ij,ij->i", rec.gradients, rec.anchor - self.centre)
+        linear = np.concatenate([rec.gradients, offset[:, None]], axis=1)
+        self.textures = []
+        for name, data, dtype in (("u_points", points, "f4"), ("u_cells", mesh.tets, "u4"),
+                                  ("u_linear", linear, "f4")):
+            texels = _rows(data, np.float32 if dtype == "f4" else np.uint32)
+            tex = ctx.texture((ROW, texels.shape[0]), 4, texels.tobytes(), dtype=dtype)
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            self.textures.append((name, tex))
+        self.cells = len(mesh.tets)
+
+    def release(self):
+        for _, tex in self.textures:
+            tex.release()
+
+
+class ProjectedTetrahedraRenderer(Renderer):
+    name = "projected-tetrahedra"
+    description = "projected tetrahedra in GL for meshes, exact visibility order"
+
+    def __init__(self, ctx=None):
+        super().__init__()
+        self.ctx = ctx or create_context()
+        self._owns_context = ctx is None
+        self._mesh = None        # (mesh, MeshTextures, VisibilityOrder)
+        self._tf = None          # (transfer function, texture)
+        self._target = None      # (size, colour texture, depth texture, framebuffer)
+
+    # --- limits ---
+
+    def check_resources(self, scene):
+        super().check_resources(scene)
+        make_current(self.ctx)
+        gl = limits.gl_limits(self.ctx)
+        limits.check_image(scene, gl)
+        limits.check_image_memory(scene, "gpu")
+        mesh = scene.field
+        rows = -(-max(len(mesh.points), len(mesh.tets)) // ROW)
+        limits.check_texture("the mesh", (ROW, rows), gl, "use a smaller mesh")
+        limits.check_table("transfer_function.points", len(scene.transfer_function.points), gl, "one row")
+
+    # --- resources ---
+
+    def _mesh_resources(self, mesh):
+        if self._mesh is None or self._mesh[0] is not mesh:
+            if self._mesh is not None:
+                self._mesh[1].release()
+            self._mesh = (mesh, MeshTextures(self.ctx, mesh), VisibilityOrder(mesh))
+        return self._mesh[1], self._mesh[2]
+
+    def _tf_texture(self, tf):
+        if self._tf is None or self._tf[0] is not tf:
+            if self._tf is not None:
+                self._tf[1].release()
+            p = tf.points
+            texels = np.zeros((2, len(p), 4), np.float32)
+            texels[0, :, 0], texels[0, :, 1] = p[:, 0], p[:, 4]
+            texels[1, :, :3] = p[:, 1:4]
+            tex = self.ctx.texture((len(p), 2), 4, texels.tobytes(), dtype="f4")
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            self._tf = (tf, tex)
+        return self._tf[1]
+
+    def _framebuffer(self, width: int, height: int):
+        if self._target is None or self._target[0] != (width, height):
+            if self._target is not None:
+                for obj in self._target[1:]:
+                    obj.release()
+            colour = self.ctx.texture((width, height), 4, dtype="f4")
+            depth = self.ctx.depth_texture((width, height))
+            self._target = ((width, height), colour, depth, self.ctx.framebuffer([colour], depth))
+        return self._target[3]
+
+    # --- a frame ---
+
+    def draw(self, scene) -> np.ndarray:
+        make_current(self.ctx)
+        r, cam, img, mesh = scene.renderer, scene.camera, scene.image, scene.field
+        mode = r.compositing
+        start = time.perf_counter()
+        textures, orders = self._mesh_resources(mesh)
+        if mode == "emission_absorption":
+            order, stats = orders(cam, img.width, img.height, r.cell_order)
+            order = order[::-1]  # drawn back to front
+        else:
+            order, stats = np.arange(textures.cells), {"order": "none (blended)", "order_seconds": 0.0}
+        drawn = time.perf_counter()
+        defines = {MODES[mode]: True, "CAMERA_ORTHOGRAPHIC": cam.projection == "orthographic",
+                   "ALPHA_MODEL": scene.transfer_function.opacity_model == "alpha"}
+        program = create_program(self.ctx, "cells/pt.vert", "cells/pt.frag", defines, geometry="cells/pt.geom")
+        self._uniforms(program, scene, textures)
+        units = list(textures.textures)
+        if mode == "emission_absorption":
+            units.append(("u_tf", self._tf_texture(scene.transfer_function)))
+        for unit, (name, tex) in enumerate(units):
+            tex.use(location=unit)
+            if name in program:
+                program[name].value = unit
+        fbo = self._framebuffer(img.width, img.height)
+        fbo.use()
+        fbo.viewport = (0, 0, img.width, img.height)
+        clear = {"mip": (-3.0e38, 0.0), "minip": (3.0e38, 0.0)}.get(mode, (0.0, 0.0))
+        fbo.clear(clear[0], clear[1], 0.0, 0.0, depth=1.0)
+        self._blending(mode)
+        vbo = self.ctx.buffer(np.ascontiguousarray(order, dtype=np.uint32).tobytes())
+        vao = self.ctx.vertex_array(program, [(vbo, "1u", "in_cell")])
+        try:
+            vao.render(moderngl.POINTS, vertices=len(order))
+            raw = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32).reshape(img.height, img.width, 4)
+        finally:
+            vao.release()
+            vbo.release()
+            self._blending(None)
+        image = raw[::-1].astype(np.float64)
+        now = time.perf_counter()
+        self.stats = {**stats, "draw_seconds": now - drawn, "seconds": now - start, "cells": textures.cells,
+                      "cells_per_second": textures.cells / max(now - start, 1e-12)}
+        if mode == "emission_absorption":
+            return image.astype(np.float32)
+        return self._resolve(scene, image).astype(np.float32)
+
+    def _uniforms(self, program, scene, textures):
+        cam, img, r = scene.camera, scene.image, scene.renderer
+        lo, hi = scene.field.bounds
+        near, far = clip_planes(cam, lo, hi)
+        translate = np.eye(4)
+        translate[:3, 3] = textures.centre
+        vp = projection_matrix(cam, img.width / img.height, near, far) @ view_matrix(cam) @ translate
+        f, right, up = cam.basis()
+        x, w, s = collocation(4)
+        values = {"u_image_size": (img.width, img.height), "u_margin": MARGIN_PIXELS,
+                  "u_min_w": near if cam.projection == "perspective" else -3.0e38,
+                  "u_eye": tuple(np.asarray(cam.eye) - textures.centre), "u_forward": tuple(f),
+                  "u_right": tuple(right), "u_up": tuple(up),
+                  "u_half_extent": cam.half_extent(img.width / img.height), "u_near": cam.near,
+                  "u_iso_value": r.iso_value if r.iso_value is not None else 0.0,
+                  "u_depth_scale": 1.0 / self._far(scene),
+                  "u_tf_count": len(scene.transfer_function.points),
+                  "u_unit_distance": scene.transfer_function.unit_distance,
+                  "u_gauss_x": tuple(0.5 * (x + 1.0)), "u_gauss_w": tuple(0.5 * w)}
+        for name, value in values.items():
+            if name in program:
+                program[name].value = value
+        if "u_view_projection" in program:
+            program["u_view_projection"].write(gl_matrix(vp))
+        if "u_gauss_s" in program:
+            # S on [0, 1]: integral from 0 to x_i of l_j = half of that on [-1, 1]; column j, row i
+            program["u_gauss_s"].write(np.ascontiguousarray((0.5 * s).T, dtype=np.float32).tobytes())
+
+    @staticmethod
+    def _far(scene) -> float:
+        """The largest ray parameter inside the mesh's box (the isosurface's depth scale)."""
+        lo, hi = (np.asarray(b, float) for b in scene.field.bounds)
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        return float(np.linalg.norm(corners - np.asarray(scene.camera.eye), axis=1).max()) * 1.01 + 1e-30
+
+    def _blending(self, mode):
+        ctx = self.ctx
+        if mode is None:
+            ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
+            ctx.blend_equation = moderngl.FUNC_ADD
+            ctx.blend_func = moderngl.DEFAULT_BLENDING
+            return
+        if mode == "isosurface":
+            ctx.disable(moderngl.BLEND)
+            ctx.enable(moderngl.DEPTH_TEST)
+            ctx.depth_func = "<"
+            return
+        ctx.disable(moderngl.DEPTH_TEST)
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_equation = {"mip": moderngl.MAX, "minip": moderngl.MIN}.get(mode, moderngl.FUNC_ADD)
+        ctx.blend_func = (moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA) if mode == "emission_absorption" \
+            else (moderngl.ONE, moderngl.ONE)
+
+    @staticmethod
+    def _resolve(scene, image) -> np.ndarray:
+        """Classify a projection's blended value (``.r``) where a fragment came (``.g``), with the exact
+        transfer function and the opacity of one unit distance; the isosurface: its colour, opaque."""
+        mode, tf = scene.renderer.compositing, scene.transfer_function
+        value, flag = image[..., 0], image[..., 1]
+        covered = flag < 0 if mode == "minip" else flag > 0
+        if mode == "isosurface":
+            value = np.full(value.shape, scene.renderer.iso_value)
+        elif mode == "average":
+            rays = RayBatch.for_camera(scene.camera, scene.image.width, scene.image.height, scene.field.bounds)
+            length = (rays.t1 - rays.t0).reshape(value.shape)
+            value = np.where(length > 0, value / np.where(length > 0, length, 1.0), 0.0)
+        colour, sigma = tf.evaluate(value[covered])
+        alpha = 1.0 if mode == "isosurface" else segment_opacity(sigma, tf.unit_distance)
+        out = np.zeros(image.shape)
+        out[covered, :3] = colour * np.reshape(alpha, (-1, 1))
+        out[covered, 3] = alpha
+        return out
+
+    def close(self):
+        make_current(self.ctx)
+        if self._mesh is not None:
+            self._mesh[1].release()
+        if self._tf is not None:
+            self._tf[1].release()
+        if self._target is not None:
+            for obj in self._target[1:]:
+                obj.release()
+        self._mesh = self._tf = self._target = None
+        if self._owns_context:
+            release_programs(self.ctx)
+            release_context(self.ctx)

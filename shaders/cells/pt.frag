@@ -1,0 +1,67 @@
+#version 430
+// Projected tetrahedra: the fragment's own ray clipped against its cell's four face planes
+// (exact in perspective and orthographic, as dvr_gl/fields/mesh_rays.py in float64), the scalar
+// linear along the piece inside, and
+//   EMISSION: the emission-absorption integral of the exact transfer function along the piece
+//     (transfer_segment.glsl): premultiplied (C, 1 - exp(-tau)), composited by the over operator
+//     in visibility order;
+//   MIP, MINIP: the larger (smaller) end value, blended by max (min);
+//   AVERAGE: the integral of the value along the piece, blended by addition;
+//   ISOSURFACE: where the piece reaches the iso-value: its depth, for the depth test.
+// Projections keep a coverage flag in .g; the host classifies the blended value.
+#include "common/camera_ray.glsl"
+
+flat in vec4 g_plane0;
+flat in vec4 g_plane1;
+flat in vec4 g_plane2;
+flat in vec4 g_plane3;
+flat in vec4 g_side;
+flat in vec4 g_linear;
+
+uniform float u_iso_value;
+uniform float u_depth_scale;  // ISOSURFACE: 1 / the farthest ray parameter (depth in [0, 1])
+
+out vec4 frag;
+
+#ifdef EMISSION
+#include "cells/transfer_segment.glsl"
+#endif
+
+// Clip the ray against one face: inside is side * (n . p - h) >= 0 (see the geometry shader).
+void clip_face(vec4 plane, float side, vec3 o, vec3 d, inout float t_in, inout float t_out) {
+    float nd = dot(plane.xyz, d) * side;
+    float no = (dot(plane.xyz, o) - plane.w) * side;
+    if (nd > 0.0) t_in = max(t_in, -no / nd);
+    else if (nd < 0.0) t_out = min(t_out, -no / nd);
+    else if (no < 0.0 || (no == 0.0 && side < 0.0)) t_out = -3.0e38;  // parallel and outside
+}
+
+void main() {
+    vec3 o, d;
+    camera_ray(o, d);
+    float t_in = max(near_distance(d), 0.0);
+    float t_out = 3.0e38;
+    clip_face(g_plane0, g_side.x, o, d, t_in, t_out);
+    clip_face(g_plane1, g_side.y, o, d, t_in, t_out);
+    clip_face(g_plane2, g_side.z, o, d, t_in, t_out);
+    clip_face(g_plane3, g_side.w, o, d, t_in, t_out);
+    if (!(t_out > t_in)) discard;  // the ray misses the cell (the footprint is dilated)
+    float s_front = dot(g_linear.xyz, o + t_in * d) + g_linear.w;
+    float s_back = dot(g_linear.xyz, o + t_out * d) + g_linear.w;
+    float len = t_out - t_in;
+#if defined(EMISSION)
+    frag = transfer_segment(s_front, s_back, len);
+#elif defined(MIP)
+    frag = vec4(max(s_front, s_back), 1.0, 0.0, 0.0);
+#elif defined(MINIP)
+    frag = vec4(min(s_front, s_back), -1.0, 0.0, 0.0);
+#elif defined(AVERAGE)
+    frag = vec4(0.5 * len * (s_front + s_back), 1.0, 0.0, 0.0);
+#elif defined(ISOSURFACE)
+    if (max(s_front, s_back) < u_iso_value) discard;  // never reaches it
+    // the first point with value >= iso from the front: the front itself when it is already there
+    float t = s_front >= u_iso_value ? t_in : t_in + len * (u_iso_value - s_front) / (s_back - s_front);
+    gl_FragDepth = clamp(t * u_depth_scale, 0.0, 1.0);
+    frag = vec4(t, 1.0, 0.0, 0.0);  // the hit and the coverage flag
+#endif
+}
