@@ -148,3 +148,44 @@ def test_projections_match_the_mesh_reference(pt, converged, mode):
     # float32 values and planes against float64: measured RMS 6e-7 (MIP) to 3e-6 (average), the
     # isosurface exact (its colour is the iso-value's; a grazing ray could flip, none here)
     assert rms(image, truth) < 1e-5, rms(image, truth)
+
+
+def test_the_cli_and_the_viewer_take_a_mesh(tmp_path):
+    """``dvr render --volume mesh.vtu`` renders with projected-tetrahedra (the default for a mesh); the
+    viewer runs it under Xvfb and its benchmark line describes the mesh."""
+    import subprocess
+    import sys
+
+    from dvr_gl.image import read_image
+    from test_viewer_xvfb import xvfb_display
+
+    scene = mesh_scene(jittered_mesh((3, 3, 3)))
+    volume = scene.volume_source.path
+    out = tmp_path / "mesh.exr"
+    cli = [sys.executable, "-m", "dvr_gl.apps.cli"]
+    done = subprocess.run([*cli, "render", "--volume", volume, "--size", "32", "-o", str(out)], capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "projected-tetrahedra" in done.stdout and read_image(out)[..., 3].max() > 0.1
+    with xvfb_display() as display:
+        view = subprocess.run([*cli, "view", "--volume", volume, "--size", "48x48", "--no-gui", "--benchmark", "0.3"],
+                              capture_output=True, text=True, timeout=300, env={**__import__("os").environ,
+                                                                                "DISPLAY": display})
+    assert view.returncode == 0, view.stderr
+    assert "tetrahedra, projected-tetrahedra" in view.stdout
+
+
+def test_the_tradeoff_bench_sweeps_a_mesh_through_the_registry():
+    """``dvr bench tradeoff`` on a mesh scene: only the renderers of meshes are swept (their declared
+    families: the cell order), against the converged reference; the ray caster's tolerance check is
+    left out with a note."""
+    from dvr_gl.bench import tradeoff
+
+    scene = mesh_scene(jittered_mesh(), **{"image.width": 24, "image.height": 24})
+    rows, notes = tradeoff.run(scene, repeat=1)
+    assert {(r["renderer"], r["setting"]) for r in rows} == {("projected-tetrahedra", "centroid"),
+                                                             ("projected-tetrahedra", "exact")}
+    exact = next(r for r in rows if r["setting"] == "exact")
+    assert exact["rms"] < 1e-4 and exact["rms"] <= next(r for r in rows if r["setting"] == "centroid")["rms"]
+    checks, note = tradeoff.tolerance_check(scene, rows, None)
+    assert not checks and "renders grids, not mesh" in note

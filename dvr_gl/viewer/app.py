@@ -584,7 +584,9 @@ class OrbitBenchmark:
         moving = [f for f in frames[self.first:self.settle] if f["interactive"]]
         still = [f for f in frames[self.settle:] if f["block"] == 1 and f["distance_factor"] == 1]
         s = viewer.scene
-        lines = [f"dvr view benchmark: {s.volume.name} {'x'.join(map(str, s.volume.dims))}, {s.renderer.name}, "
+        size = ("x".join(map(str, s.field.dims)) if hasattr(s.field, "dims")
+                else f"{len(s.field.tets)} tetrahedra" if hasattr(s.field, "tets") else s.field.kind)
+        lines = [f"dvr view benchmark: {s.field.name} {size}, {s.renderer.name}, "
                  f"render area {s.image.width}x{s.image.height}, budget {viewer.options.budget_ms:g} ms"]
         if moving:
             ms = np.array([f["frame_ms"] for f in moving[1:] or moving])

@@ -47,7 +47,9 @@ class Adjacency:
     boundary: np.ndarray       # (B, 3) vertex indices
     boundary_cell: np.ndarray  # (B,)
     non_manifold: int          # faces shared by more than two cells (their extra cells: boundary)
-    cell_centroids: np.ndarray  # (M, 3): which side of a boundary face is its cell
+    boundary_corners: np.ndarray  # (B, 3, 3) the boundary faces' vertices
+    boundary_edges: np.ndarray    # (B, 2, 3) v1 - v0, v2 - v0 (Moller-Trumbore)
+    boundary_normal: np.ndarray   # (B, 3) out of its cell
 
 
 def adjacency(points: np.ndarray, tets: np.ndarray) -> Adjacency:
@@ -69,9 +71,14 @@ def adjacency(points: np.ndarray, tets: np.ndarray) -> Adjacency:
     normal = np.cross(pb - pa, pc - pa)
     inward = np.einsum("ij,ij->i", normal, points[opposite[interior_a]] - pa) > 0
     normal[inward] *= -1.0
-    return Adjacency(np.stack([cells[interior_a], cells[interior_b]], axis=1), pa, normal,
-                     faces[lone], cells[lone], int(np.maximum(counts - 2, 0).sum()),
-                     points[tets].mean(axis=1))
+    boundary, boundary_cell = faces[lone], cells[lone]
+    corners = points[boundary]
+    edges = np.stack([corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]], axis=1)
+    out = np.cross(edges[:, 0], edges[:, 1])
+    centroid = points[tets[boundary_cell]].mean(axis=1)
+    out[np.einsum("ij,ij->i", out, centroid - corners[:, 0]) > 0] *= -1.0
+    return Adjacency(np.stack([cells[interior_a], cells[interior_b]], axis=1), pa, normal, boundary, boundary_cell,
+                     int(np.maximum(counts - 2, 0).sum()), corners, edges, out)
 
 
 def eye_of(camera):
@@ -105,38 +112,33 @@ def boundary_relations(points, adj: Adjacency, origins, directions, t_min) -> tu
     starts)."""
     if not len(adj.boundary):
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    tri = points[adj.boundary]  # (B, 3, 3)
-    faces, rays = candidate_pairs(tri, origins, directions)
+    faces, rays = candidate_pairs(adj.boundary_corners, origins, directions)
     hits_ray, hits_t, hits_face = [], [], []
     for i in range(0, len(faces), PAIRS_PER_CHUNK):
         f, r = faces[i:i + PAIRS_PER_CHUNK], rays[i:i + PAIRS_PER_CHUNK]
-        t, hit = _moller_trumbore(tri[f], origins[r], directions[r])
+        t, hit = _moller_trumbore(adj.boundary_corners[f, 0], adj.boundary_edges[f], origins[r], directions[r])
         hit &= t > t_min[r]
         hits_ray.append(r[hit])
         hits_t.append(t[hit])
         hits_face.append(f[hit])
     ray, t, face = (np.concatenate(x) for x in (hits_ray, hits_t, hits_face))
     cell = adj.boundary_cell[face]
-    # leaving or entering: the face's normal out of its cell against the ray
-    v0, v1, v2 = (points[adj.boundary[face, i]] for i in range(3))
-    normal = np.cross(v1 - v0, v2 - v0)
-    centroid_side = np.einsum("ij,ij->i", normal, adj.cell_centroids[cell] - v0)
-    out_dot = np.einsum("ij,ij->i", normal, directions[ray]) * np.where(centroid_side > 0, -1.0, 1.0)
-    leaving = out_dot > 0
+    leaving = np.einsum("ij,ij->i", adj.boundary_normal[face], directions[ray]) > 0
     order = np.lexsort((~leaving, t, ray))  # at one t, a leaving face before an entering one
     ray, cell, leaving = ray[order], cell[order], leaving[order]
     pair = (ray[1:] == ray[:-1]) & leaving[:-1] & ~leaving[1:] & (cell[1:] != cell[:-1])
     return cell[:-1][pair], cell[1:][pair]
 
 
-def _moller_trumbore(tri, o, d):
-    """Ray-triangle hits: ``t`` and whether the ray crosses the triangle (edges included)."""
-    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+def _moller_trumbore(v0, edges, o, d):
+    """Ray-triangle hits (a vertex ``v0`` and its two edges): ``t`` and whether the ray crosses the
+    triangle (edges included)."""
+    e1, e2 = edges[:, 0], edges[:, 1]
     p = np.cross(d, e2)
     det = np.einsum("ij,ij->i", e1, p)
     with np.errstate(divide="ignore", invalid="ignore"):
         inv = 1.0 / det
-        s = o - tri[:, 0]
+        s = o - v0
         u = np.einsum("ij,ij->i", s, p) * inv
         q = np.cross(s, e1)
         v = np.einsum("ij,ij->i", d, q) * inv
@@ -148,8 +150,8 @@ def _moller_trumbore(tri, o, d):
 def topological(n: int, front: np.ndarray, back: np.ndarray, depth: np.ndarray) -> tuple[np.ndarray, int]:
     """Cells ``0..n-1`` front to back respecting every ``front -> back`` relation (Kahn's algorithm,
     a level at a time, each level by ``depth``), and the number of cycles broken."""
-    edges = np.unique(np.stack([front, back], axis=1), axis=0) if len(front) else np.zeros((0, 2), np.int64)
-    src, dst = edges[:, 0], edges[:, 1]
+    key = _distinct(front.astype(np.int64) * n + back)  # each relation once
+    src, dst = key // n, key % n
     indegree = np.bincount(dst, minlength=n)
     order_src = np.argsort(src, kind="stable")
     dst_by_src = dst[order_src]
@@ -173,11 +175,18 @@ def topological(n: int, front: np.ndarray, back: np.ndarray, depth: np.ndarray) 
                                                                np.repeat(np.cumsum(count) - count, count))]
         if len(nxt):
             np.subtract.at(indegree, nxt, 1)
-            cand = np.unique(nxt)
-            frontier = cand[(indegree[cand] == 0) & ~done[cand]]
+            ready = nxt[indegree[nxt] == 0]  # reached zero now (a node's repeats: once each)
+            frontier = _distinct(ready)
+            frontier = frontier[~done[frontier]]
         else:
             frontier = np.zeros(0, np.int64)
     return np.concatenate(out) if out else np.zeros(0, np.int64), broken
+
+
+def _distinct(values: np.ndarray) -> np.ndarray:
+    """Sorted distinct values (np.unique's hashing path costs several times a sort here)."""
+    values = np.sort(values)
+    return values[np.r_[True, values[1:] != values[:-1]]] if len(values) else values
 
 
 class VisibilityOrder:
