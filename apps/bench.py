@@ -12,6 +12,7 @@
                        50, 90 and 99 % transparent voxels, against the GPU ray caster
   dvr bench tradeoff   every renderer x accuracy setting: frame time against error (RMS, max, PSNR,
                        FLIP) versus the converged reference, the Pareto front; CSV, JSON and a plot
+  dvr bench cells      projected tetrahedra on the shared meshes, beside VTK's: time, cells/s, error
   dvr bench peers      dvr-gl against VTK, vispy and pygfx (from a separate benchmark environment) on
                        the same scenes: frame time, error against the converged reference, ratios
 """
@@ -125,6 +126,18 @@ def add_arguments(p):
     pe.add_argument("--pictures", metavar="DIR", help="write each scene's images side by side into DIR (PNG)")
     pe.add_argument("--plot", metavar="FILE", help="draw each peer against dvr-gl's error-time curve (PNG; "
                                                    "needs matplotlib)")
+    ce = sub.add_parser("cells", help="projected tetrahedra on the shared meshes: order and draw time, cells per "
+                                      "second, error against the mesh reference; VTK's projected tetrahedra beside "
+                                      "it when the peers' environment has VTK (docs/meshes.md)")
+    ce.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder (default ../shared/data)")
+    ce.add_argument("--meshes", metavar="A,B", help="only these (bluntfin, comb, post, jaw, notch, tetraMesh; "
+                                                   "default all)")
+    ce.add_argument("--size", type=int, default=512, help="square image size of the timed frames (default 512)")
+    ce.add_argument("--error-size", type=int, default=256,
+                    help="square image size of the error against reference-converged (default 256)")
+    ce.add_argument("--frames", type=count, default=3, help="timed frames per case, after one untimed (default 3)")
+    ce.add_argument("--peers-python", metavar="PYTHON",
+                    help="the peers environment's interpreter, for VTK (default .venv-peers/bin/python if it exists)")
     for parser in sub.choices.values():
         parser.add_argument("--markdown", metavar="FILE", help="also write the tables as Markdown to FILE (the "
                                                                "measured tables in docs/ are written this way)")
@@ -150,7 +163,7 @@ def run(args) -> int:
     args.report = Report()
     code = {"raycast": run_raycast, "accel": run_accel, "quality": run_quality,
             "slicing": run_slicing, "renderers": run_renderers, "shearwarp": run_shearwarp,
-            "tradeoff": run_tradeoff, "peers": run_peers}[args.benchmark](args)
+            "tradeoff": run_tradeoff, "peers": run_peers, "cells": run_cells}[args.benchmark](args)
     if args.markdown:
         write_text(Path(args.markdown), args.report.markdown(args.command_line), args.overwrite)
         print(f"wrote {args.markdown}")
@@ -377,6 +390,38 @@ def run_tradeoff(args) -> int:
     elif not args.no_plot:
         print("no plot: install the optional extra for plots (pip install 'dvr-gl[plot]')")
     print("wrote " + ", ".join(map(str, written)))
+    return 0
+
+
+def run_cells(args) -> int:
+    from pathlib import Path
+
+    from dvr_gl.bench import cells, peers
+    from dvr_gl.errors import DvrError
+
+    names = args.meshes.split(",") if args.meshes else list(cells.MESHES)
+    unknown = [x for x in names if x not in cells.MESHES]
+    if unknown:
+        raise DvrError(f"--meshes: unknown {', '.join(unknown)}; choose from {', '.join(cells.MESHES)}")
+    for flag, value in (("--size", args.size), ("--error-size", args.error_size)):
+        if not 8 <= value <= 4096:
+            raise DvrError(f"{flag} must be 8 to 4096 pixels, got {value}")
+    if not Path(args.data_dir).is_dir():
+        raise DvrError(f"--data-dir {args.data_dir}: no such folder (the shared datasets)")
+    if args.peers_python and not Path(args.peers_python).exists():
+        raise DvrError(f"--peers-python {args.peers_python}: no such interpreter")
+    python = args.peers_python or peers.default_peers_python()
+    args.report.text(f"dvr bench cells: the shared meshes, {args.size}x{args.size}, perspective 30 degrees, framed, "
+                     f"views azimuth/elevation {', '.join(f'{a:g}/{e:g}' for a, e in cells.VIEWS)}; median of "
+                     f"{args.frames} frames after one untimed (dvr-gl: order and draw of the median frame, every "
+                     f"frame sorted again); RMS against reference-converged at {args.error_size}x{args.error_size}")
+    rows, notes = cells.run(names, Path(args.data_dir), args.size, args.error_size, args.frames, python,
+                            progress=lambda r: print(f"{r['mesh']} {r['view']} {r['renderer']}: {r['ms']:.0f} ms, "
+                                                     f"RMS {r['rms']:.2e}", flush=True))
+    args.report.text()
+    args.report.table(rows, cells.COLUMNS)
+    for note in notes:
+        args.report.text(note)
     return 0
 
 

@@ -240,3 +240,23 @@ def test_degenerate_cells_bound_no_piece():
     t0, t1 = np.where(t1 > t0, t0, 0), np.where(t1 > t0, t1, 0)
     ray, a, b, _ = mesh.reconstruct().pieces(o, d, t0, t1)
     np.testing.assert_allclose(np.bincount(ray, b - a, minlength=len(o)), t1 - t0, atol=1e-12)
+
+
+def test_resampling_reproduces_linear_data_and_marks_the_outside():
+    """Grid points inside take the mesh's value (exact for a linear field); points in a gap take the
+    outside value, below the range, which the resampled scene's transfer function makes transparent."""
+    from dvr_gl.fields.mesh_resample import outside_value, resample
+
+    p1, t1_, _ = hex_mesh((2, 2, 2), size=(1.0, 1.0, 1.0))
+    p2 = p1 + np.array([2.0, 0.0, 0.0])
+    points = np.concatenate([p1, p2])
+    f = lambda p: 1.0 + 0.5 * p[:, 0] - 0.25 * p[:, 2]  # noqa: E731
+    mesh = TetMesh(points, np.concatenate([t1_, t1_ + len(p1)]), f(points))
+    grid = resample(mesh, 31)  # spacing 0.1 over x in [0, 3]
+    assert grid.dims == (31, 11, 11)
+    z, y, x = np.meshgrid(*(np.arange(n) * 0.1 for n in grid.dims[::-1]), indexing="ij")
+    inside = (x <= 1.0 + 1e-9) | (x >= 2.0 - 1e-9)
+    expected = f(np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)).reshape(x.shape)
+    np.testing.assert_allclose(grid.data[inside], expected[inside], atol=1e-6)  # float32
+    assert np.all(grid.data[~inside] == np.float32(outside_value(mesh)))
+    assert outside_value(mesh) < mesh.value_range[0]

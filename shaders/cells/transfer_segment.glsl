@@ -61,10 +61,37 @@ int tf_interval(float s) {
     return lo;
 }
 
+// One step of Gauss-Legendre collocation over [sa, sb] (length h) inside interval iv: the step's
+// colour (not yet attenuated by what lies in front) and its optical depth.
+vec4 gauss_step(Interval iv, float sa, float sb, float h) {
+    // written out node by node: llvmpipe keeps a dynamically indexed local array in memory, per lane
+    vec4 e0 = tf_in(iv, mix(sa, sb, u_gauss_x.x)), e1 = tf_in(iv, mix(sa, sb, u_gauss_x.y));
+    vec4 e2 = tf_in(iv, mix(sa, sb, u_gauss_x.z)), e3 = tf_in(iv, mix(sa, sb, u_gauss_x.w));
+    vec4 sig = vec4(e0.a, e1.a, e2.a, e3.a);
+    vec4 weight = h * u_gauss_w * sig * exp(-h * (u_gauss_s * sig));  // optical depth to each node
+    vec3 colour = weight.x * e0.rgb + weight.y * e1.rgb + weight.z * e2.rgb + weight.w * e3.rgb;
+    return vec4(colour, h * dot(u_gauss_w, sig));
+}
+
+vec4 premultiplied(vec3 colour, float tau) {
+    return vec4(colour, tau < 1e-4 ? tau * (1.0 - 0.5 * tau) : 1.0 - exp(-tau));
+}
+
 vec4 transfer_segment(float sf, float sb, float len) {
+    int k = tf_interval(sf);
+    // The common case, a piece inside one control interval holding an optical depth of at most one:
+    // one step, no loop (the same arithmetic as the loop below takes for it).
+    Interval first = tf_interval_at(k);
+    bool inside = (k < 0 || sb >= first.va) && (k >= u_tf_count - 1 || sb < first.vb);
+    if (inside) {
+        float sigma_max = max(tf_in(first, sf).a, tf_in(first, sb).a);
+        if (len * sigma_max <= 1.0) {
+            vec4 step = gauss_step(first, sf, sb, len);
+            return premultiplied(step.rgb, step.a);
+        }
+    }
     vec3 colour = vec3(0.0);
     float tau = 0.0;
-    int k = tf_interval(sf);
     int dir = sb > sf ? 1 : (sb < sf ? -1 : 0);
     float u = 0.0;
     for (int part = 0; part < MAX_PARTS && u < 1.0 && tau < 16.2; ++part) {
@@ -78,24 +105,14 @@ vec4 transfer_segment(float sf, float sb, float len) {
         int steps = clamp(int(ceil(part_len * sigma_max)), 1, MAX_STEPS_PER_PART);
         float h = part_len / float(steps);
         for (int j = 0; j < steps && tau < 16.2; ++j) {
-            vec4 sig;
-            vec3 c[4];
-            for (int i = 0; i < 4; ++i) {
-                float uu = u + (u1 - u) * (float(j) + u_gauss_x[i]) / float(steps);
-                vec4 e = tf_in(iv, mix(sf, sb, uu));
-                c[i] = e.rgb;
-                sig[i] = e.a;
-            }
-            vec4 tau_nodes = h * (u_gauss_s * sig);   // optical depth from the step's start to each node
-            float transmit = exp(-tau);
-            for (int i = 0; i < 4; ++i)
-                colour += transmit * h * u_gauss_w[i] * sig[i] * exp(-tau_nodes[i]) * c[i];
-            tau += h * dot(u_gauss_w, sig);
+            float ua = u + (u1 - u) * float(j) / float(steps), ub = u + (u1 - u) * float(j + 1) / float(steps);
+            vec4 step = gauss_step(iv, mix(sf, sb, ua), mix(sf, sb, ub), h);
+            colour += exp(-tau) * step.rgb;
+            tau += step.a;
         }
         u = u1;
         k += dir;
         if (dir == 0) break;
     }
-    float alpha = tau < 1e-4 ? tau * (1.0 - 0.5 * tau) : 1.0 - exp(-tau);
-    return vec4(colour, alpha);
+    return premultiplied(colour, tau);
 }

@@ -1,0 +1,148 @@
+"""``dvr bench cells``: projected tetrahedra on the shared meshes, against the float64 mesh reference
+and, where VTK is importable in the peers' environment, VTK's ``vtkProjectedTetrahedraMapper`` in
+the same run.
+
+For each mesh and view: dvr-gl with the exact and the centroid visibility order (frame time, its
+order and draw parts, cells per second, one process: they share the mesh's upload and adjacency,
+built by an untimed frame), then VTK in a fresh process (``peer_worker.py``, as ``dvr bench peers``
+runs its peers; VTK sorts its cells again every frame, as dvr-gl does); each one's RMS error
+against ``reference-converged`` at ``error_size``.  The transfer function is semi-transparent over
+the scalar's range, its control values at the scalar's quintiles (the FE stresses are skewed: an
+even spread leaves them invisible), alpha per a tenth of the mesh's diagonal.
+"""
+
+from __future__ import annotations
+
+import statistics
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from ..fields import diagonal
+
+MESHES = {  # name: (file under the data folder, scalar array or None for the reader's default)
+    "bluntfin": ("unstructured/bluntfin_tets.vtk", "density"),
+    "comb": ("unstructured/comb_tets.vtk", "density"),
+    "post": ("unstructured/post_tets.vtk", "q4_energy"),
+    "jaw": ("unstructured/kiefer_jaw_tet10.vtu", None),
+    "notch": ("unstructured/notch_stress.vtk", None),
+    "tetraMesh": ("unstructured/tetraMesh.vtk", None),
+}
+VIEWS = ((30.0, 20.0), (120.0, -10.0), (0.0, 90.0))  # azimuth, elevation
+COLOURS = ((0.27, 0.0, 0.33, 0.0), (0.23, 0.32, 0.55, 0.15), (0.13, 0.57, 0.55, 0.3), (0.37, 0.79, 0.38, 0.5),
+           (0.99, 0.91, 0.14, 0.8))
+COLUMNS = [("mesh", "mesh", ""), ("view", "view", ""), ("renderer", "renderer", ""), ("cells", "cells", ""),
+           ("order_ms", "order ms", ".0f"), ("draw_ms", "draw ms", ".0f"), ("ms", "frame ms", ".0f"),
+           ("mtets", "M cells/s", ".3f"), ("rms", "RMS", ".2e"), ("cycles", "cycles broken", "")]
+
+
+def transfer_function(values: np.ndarray) -> list[list[float]]:
+    """Control points at the scalar's quintiles (strictly increasing), colours of viridis, alpha 0..0.8."""
+    q = np.quantile(values, np.linspace(0.0, 1.0, len(COLOURS)))
+    span = max(float(q[-1] - q[0]), 1e-30)
+    for i in range(1, len(q)):  # repeated quantiles (a constant stretch): nudge apart
+        q[i] = max(q[i], q[i - 1] + 1e-6 * span)
+    return [[float(v), *c] for v, c in zip(q, COLOURS)]
+
+
+def scene_keys(path: Path, array: str | None, mesh) -> dict:
+    keys = {"volume.path": str(path), "transfer_function.points": transfer_function(mesh.values),
+            "transfer_function.unit_distance": diagonal(mesh) / 10.0, "renderer.converged_tolerance": 1e-5}
+    if array:
+        keys["volume.array"] = array
+    return keys
+
+
+def write_vtu(mesh, path: Path):
+    """The mesh's tetrahedra and scalar (``scalars``) as a ``.vtu`` for VTK."""
+    import meshio
+
+    data = ({"point_data": {"scalars": mesh.values}} if mesh.association == "point"
+            else {"cell_data": {"scalars": [mesh.values]}})
+    meshio.write(str(path), meshio.Mesh(mesh.points, [("tetra", mesh.tets)], **data))
+
+
+def _timed(renderer, scene, frames: int) -> dict:
+    renderer.render(scene)  # upload, programs, adjacency: untimed
+    stats = []
+    for _ in range(frames):
+        renderer.render(scene)
+        stats.append(dict(renderer.stats))
+    middle = sorted(stats, key=lambda s: s["seconds"])[len(stats) // 2]
+    return {"ms": 1e3 * statistics.median(s["seconds"] for s in stats), "order_ms": 1e3 * middle["order_seconds"],
+            "draw_ms": 1e3 * middle["draw_seconds"], "cycles": middle.get("cycles_broken", "")}
+
+
+def _rms(image, truth) -> float:
+    return float(np.sqrt(np.mean((np.asarray(image, np.float64) - truth) ** 2)))
+
+
+def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: int = 3, python: str | None = None,
+        views=VIEWS, progress=None, timeout: float = 1800.0):
+    """Rows (one per mesh, view and renderer) and notes."""
+    from ..renderers import create_renderer
+    from ..scene import load_scene
+    from . import peers
+
+    have, missing = peers.available(python, ["vtk-pt"])
+    notes = [f"vtk-pt: {why}" for why in missing.values()]
+    rows = []
+    work = tempfile.TemporaryDirectory(prefix="dvr-cells-")
+    pt = create_renderer("projected-tetrahedra")
+    reference = create_renderer("reference-converged")
+    try:
+        for name in names:
+            source, array = MESHES[name]
+            path = Path(data_dir) / source
+            if not path.exists():
+                notes.append(f"{name}: {path} not found (--data-dir), left out")
+                continue
+            mesh = load_scene(None, {"volume.path": str(path), **({"volume.array": array} if array else {})}).field
+            keys = scene_keys(path, array, mesh)
+            vtu = Path(work.name) / f"{name}.vtu"
+            if have:
+                write_vtu(mesh, vtu)
+            for az, el in views:
+                view = f"{az:g}/{el:g}"
+                at = {**keys, "camera.azimuth": az, "camera.elevation": el, "renderer.name": "projected-tetrahedra"}
+                scene = load_scene(None, {**at, "image.width": size, "image.height": size})
+                small = load_scene(None, {**at, "image.width": error_size, "image.height": error_size})
+                truth = reference.render(small.with_renderer(name="reference-converged")).astype(np.float64)
+                for order in ("exact", "centroid"):
+                    row = {"mesh": name, "view": view, "renderer": f"dvr-gl {order}", "cells": len(mesh.tets),
+                           **_timed(pt, scene.with_renderer(cell_order=order), frames)}
+                    row["mtets"] = row["cells"] / row["ms"] / 1e3
+                    row["rms"] = _rms(pt.render(small.with_renderer(cell_order=order)), truth)
+                    rows.append(row)
+                    if progress:
+                        progress(row)
+                if have:
+                    rows.append(_vtk_row(name, view, mesh, scene, vtu, python, size, error_size, frames, truth,
+                                         Path(work.name) / f"{name}-{az:g}-{el:g}", timeout, notes))
+                    if progress and rows[-1]:
+                        progress(rows[-1])
+        return [r for r in rows if r], notes
+    finally:
+        pt.close()
+        work.cleanup()
+
+
+def _vtk_row(name, view, mesh, scene, vtu, python, size, error_size, frames, truth, folder, timeout, notes):
+    from ..gl.geometry import clip_planes
+    from . import peers
+
+    cam = scene.camera
+    job_scene = {"mesh": str(vtu), "transfer_function": scene.transfer_function.points.tolist(),
+                 "unit_distance": scene.transfer_function.unit_distance,
+                 "camera": {"eye": list(cam.eye), "target": list(cam.target), "up": list(cam.up), "fov": cam.fov},
+                 "clipping_range": list(clip_planes(cam, *scene.field.bounds))}
+    res = peers.run_one({"renderer": "vtk-pt", "keys": {}}, job_scene, {}, python, size, frames, error_size,
+                        folder, timeout)
+    if "failed" in res or "unsupported" in res:
+        notes.append(f"{name} {view}: vtk-pt {res.get('failed') or res.get('unsupported')}")
+        return None
+    ms = 1e3 * statistics.median(res["seconds"])
+    return {"mesh": name, "view": view, "renderer": f"vtk-pt {res.get('version', '')}".strip(), "cells": len(mesh.tets),
+            "order_ms": None, "draw_ms": None, "ms": ms, "mtets": len(mesh.tets) / ms / 1e3,
+            "rms": _rms(res["error"], truth), "cycles": ""}
