@@ -33,6 +33,7 @@ import numpy as np
 from ...fields.mesh_rays import candidate_pairs
 
 ORDERS = ("exact", "centroid")
+EDGE_MARGIN = 1e-9  # barycentric slack of the boundary faces' ray hits
 PAIRS_PER_CHUNK = 1 << 21
 
 
@@ -126,8 +127,24 @@ def boundary_relations(points, adj: Adjacency, origins, directions, t_min) -> tu
     leaving = np.einsum("ij,ij->i", adj.boundary_normal[face], directions[ray]) > 0
     order = np.lexsort((~leaving, t, ray))  # at one t, a leaving face before an entering one
     ray, cell, leaving = ray[order], cell[order], leaving[order]
-    pair = (ray[1:] == ray[:-1]) & leaving[:-1] & ~leaving[1:] & (cell[1:] != cell[:-1])
-    return cell[:-1][pair], cell[1:][pair]
+    # Every exit in a gap is in front of the entry that ends the gap: a ray through an edge of the
+    # boundary leaves through two cells' faces at once (one of them may hold only a zero-length
+    # piece), and relating only the last exit would leave the other unordered against the entry.
+    start = np.r_[True, ray[1:] != ray[:-1]]
+    entries = np.cumsum(~leaving)
+    gap = entries - np.maximum.accumulate(np.where(start, entries - (~leaving), 0))  # entries so far, this ray
+    gap = np.where(leaving, gap, gap - 1)   # an exit's gap: entries before it; an entry ends gap (its count - 1)
+    key = ray.astype(np.int64) * (len(ray) + 1) + gap
+    exits, enters = np.nonzero(leaving)[0], np.nonzero(~leaving)[0]
+    ex_order = np.argsort(key[exits], kind="stable")
+    ex_key = key[exits][ex_order]
+    lo = np.searchsorted(ex_key, key[enters], "left")
+    hi = np.searchsorted(ex_key, key[enters], "right")
+    count = hi - lo
+    which_exit = exits[ex_order][np.repeat(lo, count) + np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)]
+    which_entry = np.repeat(enters, count)
+    keep = cell[which_exit] != cell[which_entry]
+    return cell[which_exit][keep], cell[which_entry][keep]
 
 
 def _moller_trumbore(v0, edges, o, d):
@@ -143,7 +160,10 @@ def _moller_trumbore(v0, edges, o, d):
         q = np.cross(s, e1)
         v = np.einsum("ij,ij->i", d, q) * inv
         t = np.einsum("ij,ij->i", e2, q) * inv
-    hit = (det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1) & np.isfinite(t)
+    # edges included with a margin: a ray through an edge of the boundary must hit both faces there
+    # (a miss would leave a cell unrelated across a gap; a second hit relates one more exit)
+    eps = EDGE_MARGIN
+    hit = (det != 0) & (u >= -eps) & (v >= -eps) & (u + v <= 1 + eps) & np.isfinite(t)
     return t, hit
 
 
