@@ -205,15 +205,18 @@ def test_dvr_bench_cells(tmp_path, monkeypatch, capsys):
     meshio.write(str(tmp_path / "unstructured" / "tiny.vtu"),
                  meshio.Mesh(mesh.points, [("tetra", mesh.tets)], point_data={"s": mesh.values}))
     monkeypatch.setattr(cells, "MESHES", {"tiny": ("unstructured/tiny.vtu", None)})
+    monkeypatch.setattr(cells, "RESAMPLE", 24)
     base = ["bench", "cells", "--data-dir", str(tmp_path), "--size", "32", "--error-size", "24", "--frames", "1"]
     assert main(base + ["--meshes", "nope"]) == 1
     assert "--meshes: unknown nope" in capsys.readouterr().err
     assert main(base + ["--peers-python", sys.executable]) == 0  # this interpreter has no VTK
     out = capsys.readouterr().out
     rows = [line.split() for line in out.splitlines() if line.startswith("tiny ") and ":" not in line]  # the table
-    assert [(r[1], r[2], r[3]) for r in rows] == [(v, "dvr-gl", o) for v in ("30/20", "120/-10", "0/90")
-                                                  for o in ("exact", "centroid")]
+    assert [(r[1], r[2], r[3]) for r in rows] == [(v, *w) for v in ("30/20", "120/-10", "0/90")
+                                                  for w in (("dvr-gl", "exact"), ("dvr-gl", "centroid"),
+                                                            ("raycast,", "resampled"))]
     assert all(float(r[-2]) < 1e-4 for r in rows if r[3] == "exact"), rows  # RMS against the reference
+    assert all(1e-4 < float(r[-1]) < 0.05 for r in rows if r[2] == "raycast,"), rows  # resampling: its own error (no cycles column)
     assert "vtk-pt: not installed" in out
 
 

@@ -4,7 +4,9 @@ the same run.
 
 For each mesh and view: dvr-gl with the exact and the centroid visibility order (frame time, its
 order and draw parts, cells per second, one process: they share the mesh's upload and adjacency,
-built by an untimed frame), then VTK in a fresh process (``peer_worker.py``, as ``dvr bench peers``
+built by an untimed frame), the ray caster on the mesh resampled onto a grid of
+:data:`RESAMPLE` points along its longest axis (its defaults; the resampling, once per mesh, not
+timed), then VTK in a fresh process (``peer_worker.py``, as ``dvr bench peers``
 runs its peers; VTK sorts its cells again every frame, as dvr-gl does); each one's RMS error
 against ``reference-converged`` at ``error_size``.  The transfer function is semi-transparent over
 the scalar's range, its control values at the scalar's quintiles (the FE stresses are skewed: an
@@ -30,6 +32,7 @@ MESHES = {  # name: (file under the data folder, scalar array or None for the re
     "tetraMesh": ("unstructured/tetraMesh.vtk", None),
 }
 VIEWS = ((30.0, 20.0), (120.0, -10.0), (0.0, 90.0))  # azimuth, elevation
+RESAMPLE = 128  # grid points along the longest axis for the resampled ray-casting rows
 COLOURS = ((0.27, 0.0, 0.33, 0.0), (0.23, 0.32, 0.55, 0.15), (0.13, 0.57, 0.55, 0.3), (0.37, 0.79, 0.38, 0.5),
            (0.99, 0.91, 0.14, 0.8))
 COLUMNS = [("mesh", "mesh", ""), ("view", "view", ""), ("renderer", "renderer", ""), ("cells", "cells", ""),
@@ -81,6 +84,7 @@ def _rms(image, truth) -> float:
 def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: int = 3, python: str | None = None,
         views=VIEWS, progress=None, timeout: float = 1800.0):
     """Rows (one per mesh, view and renderer) and notes."""
+    from ..fields.mesh_resample import resample, resampled_scene
     from ..renderers import create_renderer
     from ..scene import load_scene
     from . import peers
@@ -90,6 +94,7 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
     rows = []
     work = tempfile.TemporaryDirectory(prefix="dvr-cells-")
     pt = create_renderer("projected-tetrahedra")
+    raycast = create_renderer("raycast")
     reference = create_renderer("reference-converged")
     try:
         for name in names:
@@ -100,6 +105,7 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
                 continue
             mesh = load_scene(None, {"volume.path": str(path), **({"volume.array": array} if array else {})}).field
             keys = scene_keys(path, array, mesh)
+            grid = resample(mesh, RESAMPLE)
             vtu = Path(work.name) / f"{name}.vtu"
             if have:
                 write_vtu(mesh, vtu)
@@ -117,6 +123,19 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
                     rows.append(row)
                     if progress:
                         progress(row)
+                rs = resampled_scene(scene, RESAMPLE, grid, name="raycast")
+                raycast.render(rs)
+                seconds = []
+                for _ in range(frames):
+                    raycast.render(rs)
+                    seconds.append(raycast.stats["seconds"])
+                ms = 1e3 * statistics.median(seconds)
+                rows.append({"mesh": name, "view": view, "renderer": f"raycast, resampled {RESAMPLE}",
+                             "cells": len(mesh.tets), "order_ms": None, "draw_ms": None, "ms": ms,
+                             "mtets": len(mesh.tets) / ms / 1e3, "cycles": "",
+                             "rms": _rms(raycast.render(resampled_scene(small, RESAMPLE, grid, name="raycast")), truth)})
+                if progress:
+                    progress(rows[-1])
                 if have:
                     rows.append(_vtk_row(name, view, mesh, scene, vtu, python, size, error_size, frames, truth,
                                          Path(work.name) / f"{name}-{az:g}-{el:g}", timeout, notes))
@@ -125,6 +144,7 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
         return [r for r in rows if r], notes
     finally:
         pt.close()
+        raycast.close()
         work.cleanup()
 
 

@@ -43,14 +43,14 @@ def resample(mesh, samples: int) -> Volume:
                   origin=tuple(lo), name=f"{mesh.name} resampled {dims[0]}x{dims[1]}x{dims[2]}")
 
 
-def resampled_scene(scene, samples: int, **renderer_changes):
-    """``scene`` (of a mesh) with the mesh resampled, the transfer function extended by a transparent
-    point at :func:`outside_value`, the camera kept, and the renderer changed as asked (e.g.
-    ``name="raycast"``)."""
+def resampled_scene(scene, samples: int, volume: Volume | None = None, **renderer_changes):
+    """``scene`` (of a mesh) with the mesh resampled (or ``volume``, its resampling made before), the
+    transfer function extended by a transparent point at :func:`outside_value`, the camera kept, and
+    the renderer changed as asked (e.g. ``name="raycast"``)."""
     from ..transfer_function import TransferFunction
 
     mesh = scene.field
-    volume = resample(mesh, samples)
+    volume = resample(mesh, samples) if volume is None else volume
     tf = scene.transfer_function
     points = tf.points
     below = outside_value(mesh)
