@@ -138,6 +138,8 @@ def add_arguments(p):
     ce.add_argument("--frames", type=count, default=3, help="timed frames per case, after one untimed (default 3)")
     ce.add_argument("--peers-python", metavar="PYTHON",
                     help="the peers environment's interpreter, for VTK (default .venv-peers/bin/python if it exists)")
+    ce.add_argument("--pictures", metavar="DIR", help="write cells-MESH.png into DIR: the first view's reference, "
+                                                      "dvr-gl, resampled ray casting and VTK, above 5x their errors")
     for parser in sub.choices.values():
         parser.add_argument("--markdown", metavar="FILE", help="also write the tables as Markdown to FILE (the "
                                                                "measured tables in docs/ are written this way)")
@@ -411,12 +413,14 @@ def run_cells(args) -> int:
     if args.peers_python and not Path(args.peers_python).exists():
         raise DvrError(f"--peers-python {args.peers_python}: no such interpreter")
     python = args.peers_python or peers.default_peers_python()
+    if args.pictures and not Path(args.pictures).is_dir():
+        raise DvrError(f"{args.pictures}: no such folder for the pictures; create it first")
     args.report.text(f"dvr bench cells: the shared meshes, {args.size}x{args.size}, perspective 30 degrees, framed, "
                      f"views azimuth/elevation {', '.join(f'{a:g}/{e:g}' for a, e in cells.VIEWS)}; median of "
                      f"{args.frames} frames after one untimed (dvr-gl: order and draw of the median frame, every "
                      f"frame sorted again); RMS against reference-converged at {args.error_size}x{args.error_size}")
     rows, notes = cells.run(names, Path(args.data_dir), args.size, args.error_size, args.frames, python,
-                            progress=lambda r: print(f"{r['mesh']} {r['view']} {r['renderer']}: {r['ms']:.0f} ms, "
+                            pictures=Path(args.pictures) if args.pictures else None, progress=lambda r: print(f"{r['mesh']} {r['view']} {r['renderer']}: {r['ms']:.0f} ms, "
                                                      f"RMS {r['rms']:.2e}", flush=True))
     args.report.text()
     args.report.table(rows, cells.COLUMNS)

@@ -209,7 +209,9 @@ def test_dvr_bench_cells(tmp_path, monkeypatch, capsys):
     base = ["bench", "cells", "--data-dir", str(tmp_path), "--size", "32", "--error-size", "24", "--frames", "1"]
     assert main(base + ["--meshes", "nope"]) == 1
     assert "--meshes: unknown nope" in capsys.readouterr().err
-    assert main(base + ["--peers-python", sys.executable]) == 0  # this interpreter has no VTK
+    assert main(base + ["--pictures", str(tmp_path / "absent")]) == 1
+    assert "no such folder for the pictures" in capsys.readouterr().err
+    assert main(base + ["--peers-python", sys.executable, "--pictures", str(tmp_path)]) == 0  # no VTK there
     out = capsys.readouterr().out
     rows = [line.split() for line in out.splitlines() if line.startswith("tiny ") and ":" not in line]  # the table
     assert [(r[1], r[2], r[3]) for r in rows] == [(v, *w) for v in ("30/20", "120/-10", "0/90")
@@ -218,6 +220,10 @@ def test_dvr_bench_cells(tmp_path, monkeypatch, capsys):
     assert all(float(r[-2]) < 1e-4 for r in rows if r[3] == "exact"), rows  # RMS against the reference
     assert all(1e-4 < float(r[-1]) < 0.05 for r in rows if r[2] == "raycast,"), rows  # resampling: its own error (no cycles column)
     assert "vtk-pt: not installed" in out
+    from dvr_gl.image import read_image
+
+    sheet = read_image(tmp_path / "cells-tiny.png")  # reference, dvr-gl, resampled; and 5x their errors
+    assert sheet.shape[:2] == (48, 72)
 
 
 def test_a_resampled_mesh_renders_with_the_grid_renderers():

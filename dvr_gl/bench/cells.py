@@ -82,8 +82,10 @@ def _rms(image, truth) -> float:
 
 
 def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: int = 3, python: str | None = None,
-        views=VIEWS, progress=None, timeout: float = 1800.0):
-    """Rows (one per mesh, view and renderer) and notes."""
+        views=VIEWS, progress=None, timeout: float = 1800.0, pictures: Path | None = None):
+    """Rows (one per mesh, view and renderer) and notes.  ``pictures``: a folder for ``cells-MESH.png``
+    (the first view at the error size: the reference, dvr-gl exact, resampled ray casting and VTK
+    where measured, above 5x their differences from the reference)."""
     from ..fields.mesh_resample import resample, resampled_scene
     from ..renderers import create_renderer
     from ..scene import load_scene
@@ -115,11 +117,15 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
                 scene = load_scene(None, {**at, "image.width": size, "image.height": size})
                 small = load_scene(None, {**at, "image.width": error_size, "image.height": error_size})
                 truth = reference.render(small.with_renderer(name="reference-converged")).astype(np.float64)
+                tiles = [truth]
                 for order in ("exact", "centroid"):
                     row = {"mesh": name, "view": view, "renderer": f"dvr-gl {order}", "cells": len(mesh.tets),
                            **_timed(pt, scene.with_renderer(cell_order=order), frames)}
                     row["mtets"] = row["cells"] / row["ms"] / 1e3
-                    row["rms"] = _rms(pt.render(small.with_renderer(cell_order=order)), truth)
+                    image = pt.render(small.with_renderer(cell_order=order))
+                    row["rms"] = _rms(image, truth)
+                    if order == "exact":
+                        tiles.append(image)
                     rows.append(row)
                     if progress:
                         progress(row)
@@ -130,17 +136,22 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
                     raycast.render(rs)
                     seconds.append(raycast.stats["seconds"])
                 ms = 1e3 * statistics.median(seconds)
+                image = raycast.render(resampled_scene(small, RESAMPLE, grid, name="raycast"))
+                tiles.append(image)
                 rows.append({"mesh": name, "view": view, "renderer": f"raycast, resampled {RESAMPLE}",
                              "cells": len(mesh.tets), "order_ms": None, "draw_ms": None, "ms": ms,
-                             "mtets": len(mesh.tets) / ms / 1e3, "cycles": "",
-                             "rms": _rms(raycast.render(resampled_scene(small, RESAMPLE, grid, name="raycast")), truth)})
+                             "mtets": len(mesh.tets) / ms / 1e3, "cycles": "", "rms": _rms(image, truth)})
                 if progress:
                     progress(rows[-1])
                 if have:
                     rows.append(_vtk_row(name, view, mesh, scene, vtu, python, size, error_size, frames, truth,
                                          Path(work.name) / f"{name}-{az:g}-{el:g}", timeout, notes))
-                    if progress and rows[-1]:
-                        progress(rows[-1])
+                    if rows[-1]:
+                        tiles.append(rows[-1].pop("image"))
+                        if progress:
+                            progress(rows[-1])
+                if pictures is not None and (az, el) == tuple(views[0]):
+                    _picture(Path(pictures) / f"cells-{name}.png", tiles)
         return [r for r in rows if r], notes
     finally:
         pt.close()
@@ -165,4 +176,17 @@ def _vtk_row(name, view, mesh, scene, vtu, python, size, error_size, frames, tru
     ms = 1e3 * statistics.median(res["seconds"])
     return {"mesh": name, "view": view, "renderer": f"vtk-pt {res.get('version', '')}".strip(), "cells": len(mesh.tets),
             "order_ms": None, "draw_ms": None, "ms": ms, "mtets": len(mesh.tets) / ms / 1e3,
-            "rms": _rms(res["error"], truth), "cycles": ""}
+            "rms": _rms(res["error"], truth), "cycles": "", "image": res["error"]}
+
+
+def _picture(path: Path, tiles: list):
+    """The reference and each image in a row, above 5x their differences from it (over black)."""
+    from ..image import write_image
+
+    truth = np.asarray(tiles[0], np.float64)
+    top = np.concatenate([np.asarray(t, np.float64) for t in tiles], axis=1)
+    bottom = np.concatenate([0 * truth] + [np.minimum(5 * np.abs(np.asarray(t, np.float64) - truth), 1.0)
+                                           for t in tiles[1:]], axis=1)
+    sheet = np.concatenate([top, bottom], axis=0).astype(np.float32)
+    sheet[..., 3] = 1.0
+    write_image(path, sheet, overwrite=True)
