@@ -64,13 +64,18 @@ def _save(tmp_path, name, data):
     return str(path)
 
 
-def _scene(tmp_path, name, data, spacing, origin, points, mode, view, renderer, extra=None):
-    overrides = {"volume.path": _save(tmp_path, name, data), "volume.spacing": list(spacing),
-                 "volume.origin": list(origin), "transfer_function.points": points,
+def _load(data_keys, points, mode, view, renderer, extra=None):
+    """A closed form's scene: its data keys, extinction ``points``, the view, no early termination."""
+    overrides = {**data_keys, "transfer_function.points": points,
                  "transfer_function.opacity_model": "extinction", "image.width": WIDTH, "image.height": HEIGHT,
                  "renderer.name": renderer, "renderer.compositing": mode, "renderer.ert_threshold": 1.0,
                  "renderer.converged_tolerance": 1e-6, **VIEWS[view], **(extra or {})}
     return load_scene(None, overrides)
+
+
+def _scene(tmp_path, name, data, spacing, origin, points, mode, view, renderer, extra=None):
+    return _load({"volume.path": _save(tmp_path, name, data), "volume.spacing": list(spacing),
+                  "volume.origin": list(origin)}, points, mode, view, renderer, extra)
 
 
 def _rays(scene):
@@ -283,13 +288,9 @@ def _mesh_file(tmp_path, name, points, hexes, point_data=None, cell_data=None) -
 MESH_SAMPLE_DISTANCE = 0.02  # world: renderers that sample (the discrete reference) resolve the gap
 
 
-def _mesh_scene(tmp_path, name, path, points, mode, view, renderer, extra=None):
-    overrides = {"volume.path": path, "transfer_function.points": points,
-                 "renderer.sample_distance": MESH_SAMPLE_DISTANCE,
-                 "transfer_function.opacity_model": "extinction", "image.width": WIDTH, "image.height": HEIGHT,
-                 "renderer.name": renderer, "renderer.compositing": mode, "renderer.ert_threshold": 1.0,
-                 "renderer.converged_tolerance": 1e-6, **VIEWS[view], **(extra or {})}
-    return load_scene(None, overrides)
+def _mesh_scene(path, points, mode, view, renderer, extra=None):
+    return _load({"volume.path": path, "renderer.sample_distance": MESH_SAMPLE_DISTANCE}, points, mode, view,
+                 renderer, extra)
 
 
 def _mesh_boxes_scene(tmp_path, mode, view, renderer):
@@ -298,7 +299,7 @@ def _mesh_boxes_scene(tmp_path, mode, view, renderer):
     hexes = np.concatenate([blocks[0][1], blocks[1][1] + len(blocks[0][0])])
     path = _mesh_file(tmp_path, "mesh-boxes", points, hexes, cell_data={"value": np.full(len(hexes), BOX_VALUE)})
     tf = [[0.0, *COLOUR, BOX_SIGMA], [1.0, *COLOUR, BOX_SIGMA]]
-    return _mesh_scene(tmp_path, "mesh boxes", path, tf, mode, view, renderer, {"renderer.iso_value": BOX_ISO})
+    return _mesh_scene(path, tf, mode, view, renderer, {"renderer.iso_value": BOX_ISO})
 
 
 def _mesh_boxes_bounds(scene):
@@ -329,7 +330,7 @@ def _mesh_ramp_scene(tmp_path, mode, view, renderer):
     path = _mesh_file(tmp_path, "mesh-ramp", points, hexes, point_data={"x": points[:, 0]})
     top = MESH_RAMP_SIZE[0]
     tf = [[0.0, *COLOUR, _ramp_sigma(0.0)], [top, *COLOUR, _ramp_sigma(top)]]
-    return _mesh_scene(tmp_path, "mesh ramp", path, tf, mode, view, renderer, {"renderer.iso_value": RAMP_ISO})
+    return _mesh_scene(path, tf, mode, view, renderer, {"renderer.iso_value": RAMP_ISO})
 
 
 CLOSED_FORMS = {cf.name: cf for cf in (

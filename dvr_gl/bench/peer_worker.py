@@ -158,6 +158,46 @@ def _headless_egl():
         os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
 
+def _vtk_property(vtk, scene: dict):
+    """The scene's transfer function as a ``vtkVolumeProperty`` (linear colour, alpha per unit distance)."""
+    colour, opacity = vtk.vtkColorTransferFunction(), vtk.vtkPiecewiseFunction()
+    colour.SetColorSpaceToRGB()
+    for v, r, g, b, a in scene["transfer_function"]:
+        colour.AddRGBPoint(v, r, g, b)
+        opacity.AddPoint(v, a)
+    prop = vtk.vtkVolumeProperty()
+    prop.SetColor(colour)
+    prop.SetScalarOpacity(opacity)
+    prop.SetScalarOpacityUnitDistance(scene["unit_distance"])
+    return prop
+
+
+def _vtk_offscreen(vtk, mapper, prop, scene: dict, clipping_range, size):
+    """``(renderer, window, camera)``: the volume in an offscreen window with a transparent background and
+    the scene's camera."""
+    volume = vtk.vtkVolume()
+    volume.SetMapper(mapper)
+    volume.SetProperty(prop)
+    renderer = vtk.vtkRenderer()
+    renderer.AddVolume(volume)
+    renderer.SetBackground(0.0, 0.0, 0.0)
+    renderer.SetBackgroundAlpha(0.0)
+    window = vtk.vtkRenderWindow()
+    window.SetOffScreenRendering(True)
+    window.SetAlphaBitPlanes(True)
+    window.SetMultiSamples(0)
+    window.AddRenderer(renderer)
+    cam = renderer.GetActiveCamera()
+    c = scene["camera"]
+    cam.SetPosition(*c["eye"])
+    cam.SetFocalPoint(*c["target"])
+    cam.SetViewUp(*c["up"])
+    cam.SetViewAngle(c["fov"])
+    cam.SetClippingRange(*clipping_range)
+    window.SetSize(*size)
+    return renderer, window, cam
+
+
 class VtkPeer(Peer):
     """VTK's GPU ray caster (``vtkGPUVolumeRayCastMapper``) or its CPU one
     (``vtkFixedPointVolumeRayCastMapper``) in an offscreen EGL render window."""
@@ -180,15 +220,7 @@ class VtkPeer(Peer):
         image.SetOrigin(*scene["origin"])
         scalars = numpy_support.numpy_to_vtk(np.ascontiguousarray(data).ravel(), deep=True)
         image.GetPointData().SetScalars(scalars)
-        colour, opacity = vtk.vtkColorTransferFunction(), vtk.vtkPiecewiseFunction()
-        colour.SetColorSpaceToRGB()
-        for v, r, g, b, a in scene["transfer_function"]:
-            colour.AddRGBPoint(v, r, g, b)
-            opacity.AddPoint(v, a)
-        prop = vtk.vtkVolumeProperty()
-        prop.SetColor(colour)
-        prop.SetScalarOpacity(opacity)
-        prop.SetScalarOpacityUnitDistance(scene["unit_distance"])
+        prop = _vtk_property(vtk, scene)
         prop.SetInterpolationTypeToLinear()
         prop.ShadeOff()
         if self.gpu:
@@ -208,26 +240,8 @@ class VtkPeer(Peer):
             mapper.SetBlendModeToMaximumIntensity()
         else:
             mapper.SetBlendModeToComposite()
-        volume = vtk.vtkVolume()
-        volume.SetMapper(mapper)
-        volume.SetProperty(prop)
-        self.renderer = vtk.vtkRenderer()
-        self.renderer.AddVolume(volume)
-        self.renderer.SetBackground(0.0, 0.0, 0.0)
-        self.renderer.SetBackgroundAlpha(0.0)
-        self.window = vtk.vtkRenderWindow()
-        self.window.SetOffScreenRendering(True)
-        self.window.SetAlphaBitPlanes(True)
-        self.window.SetMultiSamples(0)
-        self.window.AddRenderer(self.renderer)
-        cam = self.renderer.GetActiveCamera()
-        c = scene["camera"]
-        cam.SetPosition(*c["eye"])
-        cam.SetFocalPoint(*c["target"])
-        cam.SetViewUp(*c["up"])
-        cam.SetViewAngle(c["fov"])
-        cam.SetClippingRange(*depth_range(scene))
-        self.window.SetSize(*self.size)
+        self.renderer, self.window, self.camera = _vtk_offscreen(vtk, mapper, prop, scene, depth_range(scene),
+                                                                 self.size)
         self.settings = {"mapper": mapper.GetClassName(), "sample_distance": mapper.GetSampleDistance(),
                          "image_sample_distance": mapper.GetImageSampleDistance(),
                          "auto_adjust_sample_distances": bool(mapper.GetAutoAdjustSampleDistances()),
@@ -274,38 +288,12 @@ class VtkTetraPeer(Peer):
         grid = reader.GetOutput()
         data = grid.GetPointData() if grid.GetPointData().HasArray("scalars") else grid.GetCellData()
         data.SetActiveScalars("scalars")
-        colour, opacity = vtk.vtkColorTransferFunction(), vtk.vtkPiecewiseFunction()
-        colour.SetColorSpaceToRGB()
-        for v, r, g, b, a in scene["transfer_function"]:
-            colour.AddRGBPoint(v, r, g, b)
-            opacity.AddPoint(v, a)
-        prop = vtk.vtkVolumeProperty()
-        prop.SetColor(colour)
-        prop.SetScalarOpacity(opacity)
-        prop.SetScalarOpacityUnitDistance(scene["unit_distance"])
+        prop = _vtk_property(vtk, scene)
         prop.ShadeOff()
         mapper = vtk.vtkProjectedTetrahedraMapper()
         mapper.SetInputData(grid)
-        volume = vtk.vtkVolume()
-        volume.SetMapper(mapper)
-        volume.SetProperty(prop)
-        self.renderer = vtk.vtkRenderer()
-        self.renderer.AddVolume(volume)
-        self.renderer.SetBackground(0.0, 0.0, 0.0)
-        self.renderer.SetBackgroundAlpha(0.0)
-        self.window = vtk.vtkRenderWindow()
-        self.window.SetOffScreenRendering(True)
-        self.window.SetAlphaBitPlanes(True)
-        self.window.SetMultiSamples(0)
-        self.window.AddRenderer(self.renderer)
-        cam = self.camera = self.renderer.GetActiveCamera()
-        c = scene["camera"]
-        cam.SetPosition(*c["eye"])
-        cam.SetFocalPoint(*c["target"])
-        cam.SetViewUp(*c["up"])
-        cam.SetViewAngle(c["fov"])
-        cam.SetClippingRange(*scene["clipping_range"])
-        self.window.SetSize(*self.size)
+        self.renderer, self.window, self.camera = _vtk_offscreen(vtk, mapper, prop, scene, scene["clipping_range"],
+                                                                 self.size)
         self.settings = {"mapper": mapper.GetClassName(), "cells": grid.GetNumberOfCells(),
                          "scalar_opacity_unit_distance": prop.GetScalarOpacityUnitDistance(),
                          "window": self.window.GetClassName()}

@@ -73,11 +73,9 @@ class TetMesh:
         self.degenerate = np.abs(volume6) / 6.0 <= DEGENERATE_VOLUME * longest ** 3
         keep = ~self.degenerate
         self.tets = tets[keep]  # the cells that bound volume (all later indices refer to these)
-        self.cell_ids = np.nonzero(keep)[0]  # their indices in the file's tetrahedra
         if not len(self.tets):
             raise VolumeError(f"{name}: all {len(tets)} tetrahedra have zero volume")
         self.values = values if association == "point" else values[keep]
-        self._all_values = values
         lo, hi = float(self.values.min()), float(self.values.max())
         self.value_range = (lo, hi)
         self.sample_spacing = float(np.median(edge_lengths(points, self.tets)))

@@ -21,13 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
-# VTK cell type ids (vtkCellType.h) and meshio's names for them
-VTK_TYPES = {10: "tetra", 11: "voxel", 12: "hexahedron", 13: "wedge", 14: "pyramid", 24: "tetra10"}
-SURFACE_TYPES = {1: "vertex", 2: "polyvertex", 3: "line", 4: "polyline", 5: "triangle", 6: "triangle_strip",
-                 7: "polygon", 8: "pixel", 9: "quad", 21: "line3", 22: "triangle6", 23: "quad8"}
+# the volume cells that are split (meshio's names for VTK's types) and their vertex counts
 CORNERS = {"tetra": 4, "voxel": 8, "hexahedron": 8, "wedge": 6, "pyramid": 5, "tetra10": 10}
-MESHIO_NAMES = {"tetra": "tetra", "tetra10": "tetra10", "hexahedron": "hexahedron", "voxel": "voxel",
-                "wedge": "wedge", "pyramid": "pyramid"}
 
 # faces, outward or not (orientation is fixed afterwards from signed volumes)
 HEX_QUADS = ((0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7))

@@ -26,7 +26,6 @@ from ..fields.mesh_cells import CORNERS, hexahedra_of_grid, tetrahedralize
 from ..sandbox import check_bytes, check_input_path
 from .common import require
 
-MESH_FORMATS = ("vtu", "vtk-mesh", "plot3d")
 PLOT3D_ARRAYS = ("density", "momentum_x", "momentum_y", "momentum_z", "energy", "momentum_magnitude")
 
 

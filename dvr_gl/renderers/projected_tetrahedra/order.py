@@ -107,7 +107,7 @@ def face_relations(adj: Adjacency, camera) -> tuple[np.ndarray, np.ndarray]:
     return front[seen], back[seen]
 
 
-def boundary_relations(points, adj: Adjacency, origins, directions, t_min) -> tuple[np.ndarray, np.ndarray]:
+def boundary_relations(adj: Adjacency, origins, directions, t_min) -> tuple[np.ndarray, np.ndarray]:
     """``(front, back)`` cells across the gaps along the rays: a ray's exit through a boundary face
     of one cell, then its next entry through a boundary face of another (``t_min``: where each ray
     starts)."""
@@ -231,7 +231,7 @@ class VisibilityOrder:
         f1, b1 = face_relations(adj, camera)
         o, d = camera.pixel_rays(width, height)
         t_min = camera.near_distance(d)
-        f2, b2 = boundary_relations(self.mesh.points, adj, o, d, t_min)
+        f2, b2 = boundary_relations(adj, o, d, t_min)
         order, broken = topological(len(self.mesh.tets), np.concatenate([f1, f2]), np.concatenate([b1, b2]), depth)
         return order, {"order": "exact", "order_seconds": time.perf_counter() - start,
                        "face_relations": int(len(f1)), "boundary_relations": int(len(f2)),
