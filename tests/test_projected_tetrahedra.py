@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dvr_gl.errors import SceneError
 from dvr_gl.fields.mesh import TetMesh
 from dvr_gl.fields.mesh_cells import hexahedra_of_grid, tetrahedralize
 from dvr_gl.renderers import create_renderer
@@ -84,17 +85,32 @@ def test_emission_absorption_matches_the_mesh_reference(pt, converged, view):
     assert pt.stats["cycles_broken"] == 0 and pt.stats["order"] == "exact"
 
 
-def test_camera_inside_the_mesh(pt, converged):
-    """The eye inside a cell: cells reaching behind the eye cover the whole image and clip their rays
-    at the eye; the picture is the reference's."""
+@pytest.mark.parametrize("lens", [{"camera.fov": 70.0},
+                                  {"camera.projection": "orthographic", "camera.view_height": 0.6}])
+def test_camera_inside_the_mesh(pt, converged, lens):
+    """The eye inside a cell: cells reaching behind the eye's plane cover the whole image and clip
+    their rays at the eye (perspective) or at the plane through it (orthographic); the picture is the
+    reference's."""
     mesh = jittered_mesh()
-    keys = {"camera.eye": [0.45, 0.35, 0.4], "camera.target": [1.0, 0.8, 0.9], "camera.up": [0, 0, 1],
-            "camera.fov": 70.0}
+    keys = {"camera.eye": [0.45, 0.35, 0.4], "camera.target": [1.0, 0.8, 0.9], "camera.up": [0, 0, 1], **lens}
     scene = mesh_scene(mesh, **{"renderer.name": "projected-tetrahedra", **keys})
     image = pt.render(scene)
     truth = converged.render(scene.with_renderer(name="reference-converged"))
     assert truth[..., 3].min() > 0.05, "every ray starts inside"
     assert rms(image, truth) < 1e-4, rms(image, truth)
+
+
+def test_too_many_transfer_function_points_are_refused(pt):
+    """The control points live in the fragment shader's uniforms: more than this GL holds is one line
+    naming the key, not a failed compile."""
+    mesh = jittered_mesh()
+    n = pt.max_tf_points() + 1
+    values = np.linspace(-1.0, 2.0, n)
+    points = [[float(v), 0.5, 0.5, 0.5, 0.3] for v in values]
+    scene = mesh_scene(mesh, **{"renderer.name": "projected-tetrahedra", "transfer_function.points": points})
+    with pytest.raises(SceneError, match=r"transfer_function.points: .* at most \d+"):
+        pt.render(scene)
+    assert pt.max_tf_points() >= 96  # what the 1024 fragment uniform components GL 4.3 guarantees hold
 
 
 def overlapping_cells():

@@ -10,13 +10,9 @@
 //   ISOSURFACE: where the piece reaches the iso-value: its depth, for the depth test.
 // Projections keep a coverage flag in .g; the host classifies the blended value.
 #include "common/camera_ray.glsl"
+#include "cells/mesh_fetch.glsl"
 
-flat in vec4 g_plane0;
-flat in vec4 g_plane1;
-flat in vec4 g_plane2;
-flat in vec4 g_plane3;
-flat in vec4 g_side;
-flat in vec4 g_linear;
+flat in uint g_cell;
 
 uniform float u_iso_value;
 uniform float u_depth_scale;  // ISOSURFACE: 1 / the farthest ray parameter (depth in [0, 1])
@@ -27,7 +23,9 @@ out vec4 frag;
 #include "cells/transfer_segment.glsl"
 #endif
 
-// Clip the ray against one face: inside is side * (n . p - h) >= 0 (see the geometry shader).
+// Clip the ray against one face: inside is side * (n . p - h) >= 0.  Face k's plane comes from its
+// vertices in the order of their global indices, in float64 on the host, so the two cells sharing
+// a face hold the same plane to the last bit (dvr_gl/fields/mesh_rays.py does the same).
 void clip_face(vec4 plane, float side, vec3 o, vec3 d, inout float t_in, inout float t_out) {
     float nd = dot(plane.xyz, d) * side;
     float no = (dot(plane.xyz, o) - plane.w) * side;
@@ -39,15 +37,17 @@ void clip_face(vec4 plane, float side, vec3 o, vec3 d, inout float t_in, inout f
 void main() {
     vec3 o, d;
     camera_ray(o, d);
+    vec4 plane0 = cell_texel(g_cell, 0u), plane1 = cell_texel(g_cell, 1u), plane2 = cell_texel(g_cell, 2u);
+    vec4 plane3 = cell_texel(g_cell, 3u), side = cell_texel(g_cell, 4u), linear = cell_texel(g_cell, 5u);
     float t_in = max(near_distance(d), 0.0);
     float t_out = 3.0e38;
-    clip_face(g_plane0, g_side.x, o, d, t_in, t_out);
-    clip_face(g_plane1, g_side.y, o, d, t_in, t_out);
-    clip_face(g_plane2, g_side.z, o, d, t_in, t_out);
-    clip_face(g_plane3, g_side.w, o, d, t_in, t_out);
-    if (!(t_out > t_in)) discard;  // the ray misses the cell (the footprint is dilated)
-    float s_front = dot(g_linear.xyz, o + t_in * d) + g_linear.w;
-    float s_back = dot(g_linear.xyz, o + t_out * d) + g_linear.w;
+    clip_face(plane0, side.x, o, d, t_in, t_out);
+    clip_face(plane1, side.y, o, d, t_in, t_out);
+    clip_face(plane2, side.z, o, d, t_in, t_out);
+    clip_face(plane3, side.w, o, d, t_in, t_out);
+    if (!(t_out > t_in)) discard;  // the ray misses the cell (the footprint is grown)
+    float s_front = dot(linear.xyz, o + t_in * d) + linear.w;
+    float s_back = dot(linear.xyz, o + t_out * d) + linear.w;
     float len = t_out - t_in;
 #if defined(EMISSION)
     frag = transfer_segment(s_front, s_back, len);

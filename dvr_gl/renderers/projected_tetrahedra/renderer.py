@@ -1,23 +1,25 @@
 """Projected tetrahedra in GL (see the package doc and ``docs/meshes.md``).
 
 The mesh goes to the GPU once (points relative to its centre, so float32 keeps their precision;
-cells; each cell's scalar as ``g . p + c``), as textures of 4096 texels a row; a frame uploads only
-the visibility order.  Emission-absorption blends the fragments' premultiplied colours with the
-over operator, back to front; MIP and MinIP blend by max and min, the average by addition, and
-the isosurface keeps the nearest hit by the depth test: those need no order.  The projections'
-values are classified on the host with the exact transfer function, as the converged reference
-does.
+cells; each cell's face planes and scalar as ``g . p + c``, computed in float64), as textures of
+4096 texels a row; a frame uploads only the visibility order (a texture: no vertex buffer; each
+cell's footprint is drawn by ``pt.geom``).
+Emission-absorption blends the fragments' premultiplied colours with the over operator, back to
+front; MIP and MinIP blend by max and min, the average by addition, and the isosurface keeps the
+nearest hit by the depth test: those need no order.  The projections' values are classified on
+the host with the exact transfer function, as the converged reference does.
 """
 
 from __future__ import annotations
 
-import math
 import time
 
 import moderngl
 import numpy as np
 
 from ... import limits
+from ...errors import SceneError
+from ...fields.mesh_rays import FacePlanes
 from ...gl.context import create_context, make_current, release_context
 from ...gl.geometry import clip_planes, gl_matrix, projection_matrix, view_matrix
 from ...gl.shaders import create_program, release_programs
@@ -28,22 +30,34 @@ from ..base import Renderer
 from .order import VisibilityOrder
 
 ROW = 4096  # texels a row of the mesh textures (mesh_fetch.glsl)
-# The footprint's dilation (pt.geom), pixels.  The rasterizer snaps vertices to a sub-pixel grid
-# (llvmpipe: 1/256 pixel), so a pixel centre just inside a silhouette can fall outside the drawn
-# footprint, and with it a piece whose length is a fraction of the cell's thickness: without a margin
-# the blunt fin was off by RMS 4e-5 to 8e-5 (2.5e-7 with one).  A twentieth of a pixel covers the
-# snapping at a fraction of the fragments a whole pixel adds (20-30 % more draw time).
+CELL_TEXELS = 6  # a cell's face planes, their sides and its scalar (mesh_fetch.glsl)
+# How far the footprint is grown (pt.geom), pixels.  The rasterizer snaps vertices to a sub-pixel grid
+# (llvmpipe: 1/256 pixel), so a pixel centre just inside a cell's silhouette can fall outside the
+# drawn footprint, and with it a piece of the cell (all of a thin cell seen edge on): without a
+# margin the blunt fin was off by RMS 4e-5 to 8e-5 (2.5e-7 with one).  A twentieth of a pixel covers
+# the snapping at a fraction of the fragments a whole pixel adds (20-30 % more draw time).
 MARGIN_PIXELS = 0.05
+COVER_ALL = np.uint32(1 << 31)  # an order entry's flag: the cell reaches behind the eye's plane (pt.vert)
 MODES = {"emission_absorption": "EMISSION", "mip": "MIP", "minip": "MINIP", "average": "AVERAGE",
          "isosurface": "ISOSURFACE"}
 
 
-def _rows(array: np.ndarray, dtype) -> np.ndarray:
-    """``(n, 4)`` as ``(rows, ROW, 4)`` texels, zero-padded."""
+def _rows(array: np.ndarray, dtype, components: int = 4) -> np.ndarray:
+    """``(n, components)`` as ``(rows, ROW, components)`` texels, zero-padded."""
     rows = max(1, -(-len(array) // ROW))
-    out = np.zeros((rows * ROW, 4), dtype=dtype)
-    out[:len(array)] = array
-    return out.reshape(rows, ROW, 4)
+    out = np.zeros((rows * ROW, components), dtype=dtype)
+    out[:len(array)] = array.reshape(len(array), components)
+    return out.reshape(rows, ROW, components)
+
+
+def cell_texels(points: np.ndarray, tets: np.ndarray, gradients: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """``(M * CELL_TEXELS, 4)``: each cell's face planes ``(n, h)`` (as :class:`FacePlanes`, so the cells
+    sharing a face hold the same plane), the side of each its inside lies on, and its scalar ``(g, c)``."""
+    planes = FacePlanes(points, tets)
+    out = np.zeros((len(tets), CELL_TEXELS, 4))
+    out[:, :4, :3], out[:, :4, 3], out[:, 4] = planes.normal, planes.offset, planes.side
+    out[:, 5, :3], out[:, 5, 3] = gradients, offsets
+    return out.reshape(-1, 4)
 
 
 class MeshTextures:
@@ -54,12 +68,11 @@ class MeshTextures:
         self.centre = 0.5 * (lo + hi)
         rec = mesh.reconstruct()
         values = mesh.values if mesh.association == "point" else np.zeros(len(mesh.points))
-        points = np.concatenate([mesh.points - self.centre, values[:, None]], axis=1)
+        points = mesh.points - self.centre
         offset = rec.base - np.einsum("ij,ij->i", rec.gradients, rec.anchor - self.centre)
-        linear = np.concatenate([rec.gradients, offset[:, None]], axis=1)
         self.textures = []
-        for name, data, dtype in (("u_points", points, "f4"), ("u_cells", mesh.tets, "u4"),
-                                  ("u_linear", linear, "f4")):
+        for name, data, dtype in (("u_points", np.concatenate([points, values[:, None]], axis=1), "f4"),
+                                  ("u_cells", mesh.tets, "u4"), ("u_cell_planes", cell_texels(points, mesh.tets, rec.gradients, offset), "f4")):
             texels = _rows(data, np.float32 if dtype == "f4" else np.uint32)
             tex = ctx.texture((ROW, texels.shape[0]), 4, texels.tobytes(), dtype=dtype)
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
@@ -80,7 +93,6 @@ class ProjectedTetrahedraRenderer(Renderer):
         self.ctx = ctx or create_context()
         self._owns_context = ctx is None
         self._mesh = None        # (mesh, MeshTextures, VisibilityOrder)
-        self._tf = None          # (transfer function, texture)
         self._target = None      # (size, colour texture, depth texture, framebuffer)
 
     # --- limits ---
@@ -92,9 +104,17 @@ class ProjectedTetrahedraRenderer(Renderer):
         limits.check_image(scene, gl)
         limits.check_image_memory(scene, "gpu")
         mesh = scene.field
-        rows = -(-max(len(mesh.points), len(mesh.tets)) // ROW)
+        rows = -(-max(len(mesh.points), CELL_TEXELS * len(mesh.tets)) // ROW)
         limits.check_texture("the mesh", (ROW, rows), gl, "use a smaller mesh")
-        limits.check_table("transfer_function.points", len(scene.transfer_function.points), gl, "one row")
+        points = len(scene.transfer_function.points)
+        if scene.renderer.compositing == "emission_absorption" and points > self.max_tf_points():
+            raise SceneError(f"transfer_function.points: {points} control points; projected-tetrahedra keeps them "
+                             f"in uniforms and this GL holds at most {self.max_tf_points()}: use fewer points")
+
+    def max_tf_points(self) -> int:
+        """Control points the fragment shader's uniforms hold: two vectors each, 64 kept for the rest."""
+        vectors = int(self.ctx.info["GL_MAX_FRAGMENT_UNIFORM_COMPONENTS"]) // 4
+        return max(vectors - 64, 0) // 2
 
     # --- resources ---
 
@@ -104,19 +124,6 @@ class ProjectedTetrahedraRenderer(Renderer):
                 self._mesh[1].release()
             self._mesh = (mesh, MeshTextures(self.ctx, mesh), VisibilityOrder(mesh))
         return self._mesh[1], self._mesh[2]
-
-    def _tf_texture(self, tf):
-        if self._tf is None or self._tf[0] is not tf:
-            if self._tf is not None:
-                self._tf[1].release()
-            p = tf.points
-            texels = np.zeros((2, len(p), 4), np.float32)
-            texels[0, :, 0], texels[0, :, 1] = p[:, 0], p[:, 4]
-            texels[1, :, :3] = p[:, 1:4]
-            tex = self.ctx.texture((len(p), 2), 4, texels.tobytes(), dtype="f4")
-            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
-            self._tf = (tf, tex)
-        return self._tf[1]
 
     def _framebuffer(self, width: int, height: int):
         if self._target is None or self._target[0] != (width, height):
@@ -142,14 +149,15 @@ class ProjectedTetrahedraRenderer(Renderer):
         else:
             order, stats = np.arange(textures.cells), {"order": "none (blended)", "order_seconds": 0.0}
         drawn = time.perf_counter()
-        defines = {MODES[mode]: True, "CAMERA_ORTHOGRAPHIC": cam.projection == "orthographic",
-                   "ALPHA_MODEL": scene.transfer_function.opacity_model == "alpha"}
+        tf = scene.transfer_function
+        defines = {MODES[mode]: True, "CAMERA_ORTHOGRAPHIC": cam.projection == "orthographic"}
+        if mode == "emission_absorption":
+            defines.update(ALPHA_MODEL=tf.opacity_model == "alpha", TF_COUNT=len(tf.points),
+                           TF_POW2=1 << len(tf.points).bit_length())
         program = create_program(self.ctx, "cells/pt.vert", "cells/pt.frag", defines, geometry="cells/pt.geom")
         self._uniforms(program, scene, textures)
-        units = list(textures.textures)
-        if mode == "emission_absorption":
-            units.append(("u_tf", self._tf_texture(scene.transfer_function)))
-        for unit, (name, tex) in enumerate(units):
+        slots = self._order_texture(self._flag_cover_all(order, scene))
+        for unit, (name, tex) in enumerate([*textures.textures, ("u_order", slots)]):
             tex.use(location=unit)
             if name in program:
                 program[name].value = unit
@@ -159,14 +167,13 @@ class ProjectedTetrahedraRenderer(Renderer):
         clear = {"mip": (-3.0e38, 0.0), "minip": (3.0e38, 0.0)}.get(mode, (0.0, 0.0))
         fbo.clear(clear[0], clear[1], 0.0, 0.0, depth=1.0)
         self._blending(mode)
-        vbo = self.ctx.buffer(np.ascontiguousarray(order, dtype=np.uint32).tobytes())
-        vao = self.ctx.vertex_array(program, [(vbo, "1u", "in_cell")])
+        vao = self.ctx.vertex_array(program, [])
         try:
             vao.render(moderngl.POINTS, vertices=len(order))
             raw = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32).reshape(img.height, img.width, 4)
         finally:
             vao.release()
-            vbo.release()
+            slots.release()
             self._blending(None)
         image = raw[::-1].astype(np.float64)
         now = time.perf_counter()
@@ -175,6 +182,30 @@ class ProjectedTetrahedraRenderer(Renderer):
         if mode == "emission_absorption":
             return image.astype(np.float32)
         return self._resolve(scene, image).astype(np.float32)
+
+    def _order_texture(self, order: np.ndarray):
+        texels = _rows(np.ascontiguousarray(order, dtype=np.uint32), np.uint32, components=1)
+        tex = self.ctx.texture((ROW, texels.shape[0]), 1, texels.tobytes(), dtype="u4")
+        tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return tex
+
+    @staticmethod
+    def _flag_cover_all(order: np.ndarray, scene) -> np.ndarray:
+        """The order with :data:`COVER_ALL` set on the cells with a vertex at or before the GL near plane:
+        clipping would cut away the faces the eye's rays enter them by (the camera inside the mesh, or
+        the near plane through it), so they cover the whole image and every fragment clips itself.
+        Nothing to flag (and nothing computed) when the mesh's box lies beyond the plane."""
+        cam, mesh = scene.camera, scene.field
+        lo, hi = (np.asarray(b, float) for b in mesh.bounds)
+        near, _ = clip_planes(cam, lo, hi)
+        forward, _, _ = cam.basis()
+        margin = near + 1e-6 * float(np.linalg.norm(hi - lo))  # float32 rounding at the plane
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        if ((corners - np.asarray(cam.eye)) @ forward).min() > margin:
+            return order
+        depth = (mesh.points - np.asarray(cam.eye)) @ forward
+        behind = depth[mesh.tets].min(axis=1) <= margin
+        return np.where(behind[order], order.astype(np.uint32) | COVER_ALL, order.astype(np.uint32))
 
     def _uniforms(self, program, scene, textures):
         cam, img, r = scene.camera, scene.image, scene.renderer
@@ -185,14 +216,11 @@ class ProjectedTetrahedraRenderer(Renderer):
         vp = projection_matrix(cam, img.width / img.height, near, far) @ view_matrix(cam) @ translate
         f, right, up = cam.basis()
         x, w, s = collocation(4)
-        values = {"u_image_size": (img.width, img.height), "u_margin": MARGIN_PIXELS,
-                  "u_min_w": near if cam.projection == "perspective" else -3.0e38,
-                  "u_eye": tuple(np.asarray(cam.eye) - textures.centre), "u_forward": tuple(f),
+        values = {"u_image_size": (img.width, img.height), "u_margin": MARGIN_PIXELS, "u_eye": tuple(np.asarray(cam.eye) - textures.centre), "u_forward": tuple(f),
                   "u_right": tuple(right), "u_up": tuple(up),
                   "u_half_extent": cam.half_extent(img.width / img.height), "u_near": cam.near,
                   "u_iso_value": r.iso_value if r.iso_value is not None else 0.0,
                   "u_depth_scale": 1.0 / self._far(scene),
-                  "u_tf_count": len(scene.transfer_function.points),
                   "u_unit_distance": scene.transfer_function.unit_distance,
                   "u_gauss_x": tuple(0.5 * (x + 1.0)), "u_gauss_w": tuple(0.5 * w)}
         for name, value in values.items():
@@ -203,6 +231,10 @@ class ProjectedTetrahedraRenderer(Renderer):
         if "u_gauss_s" in program:
             # S on [0, 1]: integral from 0 to x_i of l_j = half of that on [-1, 1]; column j, row i
             program["u_gauss_s"].write(np.ascontiguousarray((0.5 * s).T, dtype=np.float32).tobytes())
+        if "u_tf_value_opacity" in program:
+            p = scene.transfer_function.points
+            program["u_tf_value_opacity"].write(np.ascontiguousarray(p[:, [0, 4]], dtype=np.float32).tobytes())
+            program["u_tf_rgb"].write(np.ascontiguousarray(p[:, 1:4], dtype=np.float32).tobytes())
 
     @staticmethod
     def _far(scene) -> float:
@@ -253,12 +285,10 @@ class ProjectedTetrahedraRenderer(Renderer):
         make_current(self.ctx)
         if self._mesh is not None:
             self._mesh[1].release()
-        if self._tf is not None:
-            self._tf[1].release()
         if self._target is not None:
             for obj in self._target[1:]:
                 obj.release()
-        self._mesh = self._tf = self._target = None
+        self._mesh = self._target = None
         if self._owns_context:
             release_programs(self.ctx)
             release_context(self.ctx)
