@@ -159,17 +159,17 @@ class Camera:
         dirs = [f] + [f + sx * half_w * r + sy * half_h * u for sx in (-1, 1) for sy in (-1, 1)]
         return np.array([d / np.linalg.norm(d) for d in dirs])
 
-    def pixel_rays(self, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
-        """Origins and unit directions ``(H*W, 3)`` through every pixel centre, row 0 at the top.
+    def pixel_rays(self, width: int, height: int, pixels: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Origins and unit directions ``(H*W, 3)`` through every pixel centre, row 0 at the top (only
+        through ``pixels``, flat indices in that order, when given).
 
         Perspective rays start at the eye; orthographic rays start on the plane
         through the eye perpendicular to the view direction.
         """
         f, r, u = self.basis()
-        x = ((np.arange(width) + 0.5) / width) * 2.0 - 1.0
-        y = 1.0 - ((np.arange(height) + 0.5) / height) * 2.0
-        xx, yy = np.meshgrid(x, y)
-        xx, yy = xx.reshape(-1, 1), yy.reshape(-1, 1)
+        index = np.arange(width * height) if pixels is None else np.asarray(pixels)
+        xx = (((index % width) + 0.5) / width * 2.0 - 1.0).reshape(-1, 1)
+        yy = (1.0 - ((index // width) + 0.5) / height * 2.0).reshape(-1, 1)
         half_w, half_h = self.half_extent(width / height)
         eye = np.array(self.eye)
         if self.projection == "perspective":

@@ -140,6 +140,8 @@ def test_exact_order_where_the_centroid_order_fails(pt, converged):
     truth = converged.render(scene.with_renderer(name="reference-converged"))
     exact = pt.render(scene)
     assert np.abs(exact - truth).max() < 1e-5, np.abs(exact - truth).max()  # measured 7e-7
+    # only the rays crossing the boundary three times or more (A then B), and their neighbours, are cast
+    assert 0 < pt.stats["rays_cast"] < 24 * 24 // 2, pt.stats["rays_cast"]
     centroid = pt.render(scene.with_renderer(cell_order="centroid"))
     wrong = np.abs(centroid - truth).max(axis=2) > 0.01  # B over A: measured 0.039 on 19 pixels
     assert wrong.sum() >= 10, "the centroid order draws B over A where they overlap"

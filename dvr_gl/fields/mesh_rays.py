@@ -98,8 +98,9 @@ def candidate_pairs(corners, origins, directions):
     blo[straddles], bhi[straddles] = lo, hi
     seen = valid.any(axis=1) & np.all(bhi >= lo, axis=1) & np.all(blo <= hi, axis=1)
     idx = np.nonzero(seen)[0]
-    b0 = np.clip(((blo[idx] - lo) / cell).astype(np.int64), 0, g - 1)
-    b1 = np.clip(((bhi[idx] - lo) / cell).astype(np.int64), 0, g - 1)
+    with np.errstate(invalid="ignore"):  # rays on one point (extent 0): one bin, every cell in it
+        b0 = np.clip(np.nan_to_num((blo[idx] - lo) / cell).astype(np.int64), 0, g - 1)
+        b1 = np.clip(np.nan_to_num((bhi[idx] - lo) / cell).astype(np.int64), 0, g - 1)
     nx, ny = b1[:, 0] - b0[:, 0] + 1, b1[:, 1] - b0[:, 1] + 1
     # (cell, bin) pairs
     count = nx * ny

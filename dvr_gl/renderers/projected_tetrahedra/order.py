@@ -111,7 +111,7 @@ def boundary_relations(adj: Adjacency, origins, directions, t_min) -> tuple[np.n
     """``(front, back)`` cells across the gaps along the rays: a ray's exit through a boundary face
     of one cell, then its next entry through a boundary face of another (``t_min``: where each ray
     starts)."""
-    if not len(adj.boundary):
+    if not len(adj.boundary) or not len(origins):
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     faces, rays = candidate_pairs(adj.boundary_corners, origins, directions)
     hits_ray, hits_t, hits_face = [], [], []
@@ -220,8 +220,11 @@ class VisibilityOrder:
     def adjacency(self) -> Adjacency:
         return adjacency(self.mesh.points, self.mesh.tets)
 
-    def __call__(self, camera, width: int, height: int, kind: str = "exact") -> tuple[np.ndarray, dict]:
-        """Cells front to back and ``stats``: seconds, relations, cycles broken."""
+    def __call__(self, camera, width: int, height: int, kind: str = "exact",
+                 pixels: np.ndarray | None = None) -> tuple[np.ndarray, dict]:
+        """Cells front to back and ``stats``: seconds, relations, cycles broken, rays cast.  ``pixels``:
+        which pixels' rays (``(height * width,)`` booleans, row 0 at the top) may cross a gap and so
+        are cast against the boundary; all of them when ``None``."""
         start = time.perf_counter()
         depth = centroid_depth(self.centroids, camera)
         if kind == "centroid":
@@ -229,10 +232,10 @@ class VisibilityOrder:
             return order, {"order": "centroid", "order_seconds": time.perf_counter() - start}
         adj = self.adjacency
         f1, b1 = face_relations(adj, camera)
-        o, d = camera.pixel_rays(width, height)
+        o, d = camera.pixel_rays(width, height, None if pixels is None else np.nonzero(pixels)[0])
         t_min = camera.near_distance(d)
         f2, b2 = boundary_relations(adj, o, d, t_min)
         order, broken = topological(len(self.mesh.tets), np.concatenate([f1, f2]), np.concatenate([b1, b2]), depth)
         return order, {"order": "exact", "order_seconds": time.perf_counter() - start,
-                       "face_relations": int(len(f1)), "boundary_relations": int(len(f2)),
+                       "face_relations": int(len(f1)), "boundary_relations": int(len(f2)), "rays_cast": len(d),
                        "cycles_broken": broken, "non_manifold_faces": adj.non_manifold}

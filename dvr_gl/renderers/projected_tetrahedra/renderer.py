@@ -78,10 +78,21 @@ class MeshTextures:
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
             self.textures.append((name, tex))
         self.cells = len(mesh.tets)
+        self.ctx = ctx
+        self._boundary = None  # the boundary faces' vertices (a buffer), once asked for
+
+    def boundary(self, adjacency):
+        """A buffer of the mesh's boundary triangles (centre-relative float32 vertices) and their count."""
+        if self._boundary is None:
+            corners = (adjacency.boundary_corners - self.centre).astype(np.float32)
+            self._boundary = (self.ctx.buffer(corners.tobytes()) if len(corners) else None, len(corners))
+        return self._boundary
 
     def release(self):
         for _, tex in self.textures:
             tex.release()
+        if self._boundary is not None and self._boundary[0] is not None:
+            self._boundary[0].release()
 
 
 class ProjectedTetrahedraRenderer(Renderer):
@@ -144,8 +155,10 @@ class ProjectedTetrahedraRenderer(Renderer):
         start = time.perf_counter()
         textures, orders = self._mesh_resources(mesh)
         if mode == "emission_absorption":
-            order, stats = orders(cam, img.width, img.height, r.cell_order)
+            gaps = self._gap_pixels(scene, textures, orders) if r.cell_order == "exact" else None
+            order, stats = orders(cam, img.width, img.height, r.cell_order, pixels=gaps)
             order = order[::-1]  # drawn back to front
+            stats["order_seconds"] = time.perf_counter() - start  # with the boundary's count in GL
         else:
             order, stats = np.arange(textures.cells), {"order": "none (blended)", "order_seconds": 0.0}
         drawn = time.perf_counter()
@@ -183,6 +196,54 @@ class ProjectedTetrahedraRenderer(Renderer):
             return image.astype(np.float32)
         return self._resolve(scene, image).astype(np.float32)
 
+    def _gap_pixels(self, scene, textures, orders) -> np.ndarray | None:
+        """Which pixels' rays may leave the mesh and enter it again (the only rays the exact order
+        casts against the boundary): those crossing at least three boundary faces, counted by drawing
+        the boundary with additive blending, and their neighbours (the rasterizer's rounding at a
+        fold of the boundary may count a crossing less).  ``None`` (every ray) when the mesh reaches
+        the eye's plane, where rays start inside it and the plane would clip what they cross."""
+        cam, img = scene.camera, scene.image
+        if self._reaches_near_plane(scene):
+            return None
+        buffer, count = textures.boundary(orders.adjacency)
+        gaps = np.zeros((img.height, img.width), bool)
+        if buffer is None:
+            return gaps.reshape(-1)
+        program = create_program(self.ctx, "cells/boundary.vert", "cells/boundary.frag")
+        self._uniforms(program, scene, textures)
+        colour = self.ctx.texture((img.width, img.height), 1, dtype="f4")
+        fbo = self.ctx.framebuffer([colour])
+        vao = self.ctx.vertex_array(program, [(buffer, "3f", "in_position")])
+        try:
+            fbo.use()
+            fbo.viewport = (0, 0, img.width, img.height)
+            fbo.clear(0.0, 0.0, 0.0, 0.0)
+            self._blending("average")  # additive
+            vao.render(moderngl.TRIANGLES, vertices=3 * count)
+            crossings = np.frombuffer(fbo.read(components=1, dtype="f4"), np.float32).reshape(img.height, img.width)
+        finally:
+            self._blending(None)
+            vao.release()
+            fbo.release()
+            colour.release()
+        many = crossings[::-1] >= 3  # rows from the top, as Camera.pixel_rays
+        grown = many.copy()  # and the eight neighbours
+        grown[1:] |= many[:-1]
+        grown[:-1] |= many[1:]
+        grown[:, 1:] |= grown[:, :-1].copy()
+        grown[:, :-1] |= grown[:, 1:].copy()
+        return grown.reshape(-1)
+
+    @staticmethod
+    def _reaches_near_plane(scene) -> bool:
+        """Whether the mesh's box reaches the GL near plane (within float32 rounding)."""
+        cam = scene.camera
+        lo, hi = (np.asarray(b, float) for b in scene.field.bounds)
+        near, _ = clip_planes(cam, lo, hi)
+        forward, _, _ = cam.basis()
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        return ((corners - np.asarray(cam.eye)) @ forward).min() <= near + 1e-6 * float(np.linalg.norm(hi - lo))
+
     def _order_texture(self, order: np.ndarray):
         texels = _rows(np.ascontiguousarray(order, dtype=np.uint32), np.uint32, components=1)
         tex = self.ctx.texture((ROW, texels.shape[0]), 1, texels.tobytes(), dtype="u4")
@@ -196,13 +257,12 @@ class ProjectedTetrahedraRenderer(Renderer):
         the near plane through it), so they cover the whole image and every fragment clips itself.
         Nothing to flag (and nothing computed) when the mesh's box lies beyond the plane."""
         cam, mesh = scene.camera, scene.field
+        if not ProjectedTetrahedraRenderer._reaches_near_plane(scene):
+            return order
         lo, hi = (np.asarray(b, float) for b in mesh.bounds)
         near, _ = clip_planes(cam, lo, hi)
-        forward, _, _ = cam.basis()
         margin = near + 1e-6 * float(np.linalg.norm(hi - lo))  # float32 rounding at the plane
-        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-        if ((corners - np.asarray(cam.eye)) @ forward).min() > margin:
-            return order
+        forward, _, _ = cam.basis()
         depth = (mesh.points - np.asarray(cam.eye)) @ forward
         behind = depth[mesh.tets].min(axis=1) <= margin
         return np.where(behind[order], order.astype(np.uint32) | COVER_ALL, order.astype(np.uint32))
