@@ -11,11 +11,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dvr_gl.camera import Camera
 from dvr_gl.errors import SceneError
 from dvr_gl.fields.mesh import TetMesh
 from dvr_gl.fields.mesh_cells import hexahedra_of_grid, tetrahedralize
 from dvr_gl.renderers import create_renderer
-from dvr_gl.renderers.projected_tetrahedra.order import topological
+from dvr_gl.renderers.projected_tetrahedra.order import VisibilityOrder, topological
 from dvr_gl.scene import load_scene
 
 
@@ -145,6 +146,23 @@ def test_exact_order_where_the_centroid_order_fails(pt, converged):
     centroid = pt.render(scene.with_renderer(cell_order="centroid"))
     wrong = np.abs(centroid - truth).max(axis=2) > 0.01  # B over A: measured 0.039 on 19 pixels
     assert wrong.sum() >= 10, "the centroid order draws B over A where they overlap"
+
+
+def test_cells_touching_without_shared_points_are_ordered():
+    """Two cells meeting at a face with its points duplicated, not shared (a multi-block grid's block
+    interface, as in the oxygen post): no interior face relates them, and the boundary crossings at
+    the interface come from two triangles whose t's differ by rounding; here the second cell's face
+    is 1e-13 nearer the eye than the first's, so its entry comes a hair before the exit it meets.
+    The exit must still relate to it."""
+    a = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+    b = [[0.0, 0.0, 1e-13], [1.0, 0.0, 1e-13], [0.0, 1.0, 1e-13], [0.3, 0.3, -1.0]]
+    mesh = TetMesh(np.array(a + b), np.array([[0, 1, 2, 3], [4, 5, 6, 7]]), np.array([0.0, 1.0]),
+                   association="cell", name="touching")
+    camera = Camera(eye=(0.25, 0.25, 5.0), target=(0.25, 0.25, 0.0), up=(0.0, 1.0, 0.0), projection="orthographic",
+                    view_height=0.2)
+    order, stats = VisibilityOrder(mesh)(camera, 8, 8, "exact")
+    assert stats["boundary_relations"] >= 1
+    assert list(order) == [0, 1], "the upper cell (nearer the eye) first"
 
 
 def test_topological_order_respects_relations_and_breaks_cycles():
