@@ -41,6 +41,18 @@ vec2 outward(vec2 a, vec2 b) {  // the outward unit normal of edge a -> b of a c
     return len > 0.0 ? e / len : vec2(0.0);
 }
 
+// corner p with incoming and outgoing edge normals n_in, n_out: its points on the grown outline
+void grow(vec2 p, vec2 n_in, vec2 n_out, out vec2 a, out vec2 b) {
+    float c = dot(n_in, n_out);
+    if (c >= 0.0) {
+        a = p + u_margin * (n_in + n_out) / (1.0 + c);
+        b = a;
+    } else {
+        a = p + u_margin * n_in;
+        b = p + u_margin * n_out;
+    }
+}
+
 bool inside(vec2 p, vec2 a, vec2 b, vec2 c) {  // p in the triangle abc, either orientation
     float u = orient(a, b, p), v = orient(b, c, p), w = orient(c, a, p);
     return (u >= 0.0 && v >= 0.0 && w >= 0.0) || (u <= 0.0 && v <= 0.0 && w <= 0.0);
@@ -65,17 +77,19 @@ void main() {
         q2 = (c2.xy / c2.w * 0.5 + 0.5) * u_image_size;
         q3 = (c3.xy / c3.w * 0.5 + 0.5) * u_image_size;
     }
-    // the silhouette, counter-clockwise: hull[0 .. n - 1]
-    vec2 hull[4];
-    int n = 4;
-    if (inside(q3, q0, q1, q2)) { hull[0] = q0; hull[1] = q1; hull[2] = q2; n = 3; }
-    else if (inside(q2, q0, q1, q3)) { hull[0] = q0; hull[1] = q1; hull[2] = q3; n = 3; }
-    else if (inside(q1, q0, q2, q3)) { hull[0] = q0; hull[1] = q2; hull[2] = q3; n = 3; }
-    else if (inside(q0, q1, q2, q3)) { hull[0] = q1; hull[1] = q2; hull[2] = q3; n = 3; }
-    else if (orient(q0, q1, q2) * orient(q0, q1, q3) < 0.0) { hull[0] = q0; hull[1] = q2; hull[2] = q1; hull[3] = q3; }
-    else if (orient(q0, q2, q1) * orient(q0, q2, q3) < 0.0) { hull[0] = q0; hull[1] = q1; hull[2] = q2; hull[3] = q3; }
-    else { hull[0] = q0; hull[1] = q1; hull[2] = q3; hull[3] = q2; }
-    float area = orient(hull[0], hull[1], hull[2]) + (n == 4 ? orient(hull[0], hull[2], hull[3]) : 0.0);
+    // The silhouette, counter-clockwise: h0 h1 h2 (h3).  Named vectors, not a dynamically indexed
+    // array: llvmpipe runs several primitives per SIMD call, and a local array written at computed
+    // indices under divergent branches came out wrong (corners repeated: pixels covered three times).
+    vec2 h0 = q0, h1 = q1, h2 = q2, h3 = q3;
+    bool quad = true;
+    if (inside(q3, q0, q1, q2)) { quad = false; }
+    else if (inside(q2, q0, q1, q3)) { h2 = q3; quad = false; }
+    else if (inside(q1, q0, q2, q3)) { h1 = q2; h2 = q3; quad = false; }
+    else if (inside(q0, q1, q2, q3)) { h0 = q1; h1 = q2; h2 = q3; quad = false; }
+    else if (orient(q0, q1, q2) * orient(q0, q1, q3) < 0.0) { h1 = q2; h2 = q1; }  // diagonal q0 q1
+    else if (orient(q0, q2, q1) * orient(q0, q2, q3) >= 0.0) { h2 = q3; h3 = q2; } // diagonal q0 q3
+    if (!quad) h3 = h2;
+    float area = orient(h0, h1, h2) + (quad ? orient(h0, h2, h3) : 0.0);
     if (!(abs(area) > 0.0)) {  // flat: all four on a line (a cell seen edge on): its bounding box
         vec2 lo = min(min(q0, q1), min(q2, q3)) - u_margin;
         vec2 hi = max(max(q0, q1), max(q2, q3)) + u_margin;
@@ -84,22 +98,30 @@ void main() {
         return;
     }
     if (area < 0.0) {  // clockwise: reverse
-        vec2 t = hull[1]; hull[1] = hull[n - 1]; hull[n - 1] = t;
+        vec2 t = h1;
+        h1 = quad ? h3 : h2;
+        if (quad) h3 = t; else { h2 = t; h3 = t; }
     }
-    // bevelled: each corner becomes two points, one on each of its edges moved out
-    vec2 grown[8];
-    for (int i = 0; i < n; ++i) {
-        vec2 prev = hull[(i + n - 1) % n], cur = hull[i], next = hull[(i + 1) % n];
-        grown[2 * i] = cur + u_margin * outward(prev, cur);
-        grown[2 * i + 1] = cur + u_margin * outward(cur, next);
-    }
-    // a convex polygon as a strip: 0, 1, m-1, 2, m-2, ...
-    int m = 2 * n;
-    emit(grown[0]);
-    emit(grown[1]);
-    for (int i = 2, j = m - 1; i <= j; ++i, --j) {
-        emit(grown[j]);
-        if (i < j) emit(grown[i]);
+    // Grown: every edge moved out by the margin.  A corner of 90 degrees or more takes its mitre (at
+    // most 1.42 margins out), given twice; a sharper one is bevelled, one point on each moved edge
+    // (the mitre would reach far out of a sliver's tips).  Two bevel points at a nearly straight
+    // corner would be a hair apart, and the sliver triangles between them and the far side could
+    // turn over in the rasterizer's fixed point and cover a pixel again (seen: three times).
+    // Edge k runs from corner k to the next; the polygon goes out as a strip zig-zagging from both
+    // ends, all its triangles facing the eye (back faces are culled: a triangle turned over by
+    // rounding draws nothing).
+    vec2 n0 = outward(h0, h1), n1 = outward(h1, h2), n2 = outward(h2, quad ? h3 : h0), n3 = outward(h3, h0);
+    vec2 nl = quad ? n3 : n2;  // the edge into corner 0
+    vec2 a0, b0, a1, b1, a2, b2;
+    grow(h0, nl, n0, a0, b0);
+    grow(h1, n0, n1, a1, b1);
+    grow(h2, n1, n2, a2, b2);
+    if (quad) {
+        vec2 a3, b3;
+        grow(h3, n2, n3, a3, b3);
+        emit(a0); emit(b0); emit(b3); emit(a1); emit(a3); emit(b1); emit(b2); emit(a2);
+    } else {
+        emit(a0); emit(b0); emit(b2); emit(a1); emit(a2); emit(b1);
     }
     EndPrimitive();
 }

@@ -105,6 +105,7 @@ class ProjectedTetrahedraRenderer(Renderer):
         self._owns_context = ctx is None
         self._mesh = None        # (mesh, MeshTextures, VisibilityOrder)
         self._target = None      # (size, colour texture, depth texture, framebuffer)
+        self._count_fragments = False
 
     # --- limits ---
 
@@ -167,6 +168,8 @@ class ProjectedTetrahedraRenderer(Renderer):
         if mode == "emission_absorption":
             defines.update(ALPHA_MODEL=tf.opacity_model == "alpha", TF_COUNT=len(tf.points),
                            TF_POW2=1 << len(tf.points).bit_length())
+        if self._count_fragments:
+            defines = {"FRAGMENT_COUNT": True, "CAMERA_ORTHOGRAPHIC": defines["CAMERA_ORTHOGRAPHIC"]}
         program = create_program(self.ctx, "cells/pt.vert", "cells/pt.frag", defines, geometry="cells/pt.geom")
         self._uniforms(program, scene, textures)
         slots = self._order_texture(self._flag_cover_all(order, scene))
@@ -192,9 +195,18 @@ class ProjectedTetrahedraRenderer(Renderer):
         now = time.perf_counter()
         self.stats = {**stats, "draw_seconds": now - drawn, "seconds": now - start, "cells": textures.cells,
                       "cells_per_second": textures.cells / max(now - start, 1e-12)}
-        if mode == "emission_absorption":
+        if mode == "emission_absorption" or self._count_fragments:
             return image.astype(np.float32)
         return self._resolve(scene, image).astype(np.float32)
+
+    def fragment_counts(self, scene) -> np.ndarray:
+        """``(height, width)``: how many cells' fragments each pixel keeps (a ray's pieces found by the
+        fragments), added up, for tests of the footprint: one fragment per cell a ray crosses."""
+        self._count_fragments = True
+        try:
+            return self.render(scene.with_renderer(compositing="average"))[..., 0]
+        finally:
+            self._count_fragments = False
 
     def _gap_pixels(self, scene, textures, orders) -> np.ndarray | None:
         """Which pixels' rays may leave the mesh and enter it again (the only rays the exact order
@@ -219,6 +231,7 @@ class ProjectedTetrahedraRenderer(Renderer):
             fbo.viewport = (0, 0, img.width, img.height)
             fbo.clear(0.0, 0.0, 0.0, 0.0)
             self._blending("average")  # additive
+            self.ctx.disable(moderngl.CULL_FACE)  # both ways: every crossing counts
             vao.render(moderngl.TRIANGLES, vertices=3 * count)
             crossings = np.frombuffer(fbo.read(components=1, dtype="f4"), np.float32).reshape(img.height, img.width)
         finally:
@@ -306,10 +319,12 @@ class ProjectedTetrahedraRenderer(Renderer):
     def _blending(self, mode):
         ctx = self.ctx
         if mode is None:
-            ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
+            ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST | moderngl.CULL_FACE)
             ctx.blend_equation = moderngl.FUNC_ADD
             ctx.blend_func = moderngl.DEFAULT_BLENDING
             return
+        ctx.enable(moderngl.CULL_FACE)  # the footprints face the eye (pt.geom)
+        ctx.front_face, ctx.cull_face = "ccw", "back"
         if mode == "isosurface":
             ctx.disable(moderngl.BLEND)
             ctx.enable(moderngl.DEPTH_TEST)
