@@ -38,6 +38,7 @@ _SCENE_KEYS = {
     "volume": "volume.path", "format": "volume.format", "dims": "volume.dims", "dtype": "volume.dtype",
     "endian": "volume.endian", "header_bytes": "volume.header_bytes", "spacing": "volume.spacing",
     "nan_value": "volume.nan_value", "array": "volume.array", "solution": "volume.solution",
+    "resample": "volume.resample",
 }
 SETTING_DEST = "setting_"
 MAX_FRAMES = 10_000  # a renderer setting's flag stores into setting_<name>
@@ -94,6 +95,8 @@ def add_arguments(p: argparse.ArgumentParser):
     v.add_argument("--nan-value", type=float, help="replace NaN/Inf in the data by this value")
     v.add_argument("--array", metavar="NAME", help="meshes: the scalar array to render")
     v.add_argument("--solution", metavar="FILE", help="PLOT3D grids: the q (solution) file")
+    v.add_argument("--resample", type=int, metavar="N", help="meshes: resample onto a grid of N points along the "
+                                                             "longest axis, for the grid renderers")
 
 
 def add_setting_arguments(g):

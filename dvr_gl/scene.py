@@ -110,10 +110,15 @@ def _resolve_volume(spec: VolumeSpec, base_dir: Path):
     volume = load_field(path, spec.format, array=spec.array, solution=solution, dims=spec.dims, dtype=spec.dtype,
                         endian=spec.endian, header_bytes=spec.header_bytes, spacing=spec.spacing,
                         origin=spec.origin, nan_value=spec.nan_value)
+    if spec.resample is not None:
+        if not hasattr(volume, "resampled"):
+            raise SceneError(f"volume.resample applies to meshes; {path.name} is a {getattr(volume, 'kind', 'grid')}: "
+                             f"remove it")
+        volume = volume.resampled(spec.resample)
     return volume, dataclasses.replace(spec, path=str(path.resolve()))
 
 
-_FILE_KEYS = ("dims", "dtype", "spacing", "origin", "nan_value", "array", "solution")
+_FILE_KEYS = ("dims", "dtype", "spacing", "origin", "nan_value", "array", "solution", "resample")
 
 def _check_extent(field, spec: VolumeSpec):
     """Refuse a field whose voxels, box or position are out of :data:`WORLD_RANGE`, naming where the
@@ -144,11 +149,15 @@ def _resolve_transfer_function(spec: TransferFunctionSpec, field, demo: str | No
     if spec.preset is not None and spec.points is not None:
         raise SceneError("transfer_function: give preset or points, not both")
     if spec.points is not None:
-        return TransferFunction(spec.points, spec.unit_distance, spec.opacity_model)
-    name = spec.preset or _default_preset(VolumeSpec(demo=demo))
-    if spec.opacity_model != "alpha":
-        raise SceneError("transfer_function: presets are written in alpha; use opacity_model = 'alpha'")
-    return preset(name, field.value_range, spec.rescale_intercept, spec.unit_distance)
+        tf = TransferFunction(spec.points, spec.unit_distance, spec.opacity_model)
+    else:
+        name = spec.preset or _default_preset(VolumeSpec(demo=demo))
+        if spec.opacity_model != "alpha":
+            raise SceneError("transfer_function: presets are written in alpha; use opacity_model = 'alpha'")
+        tf = preset(name, field.value_range, spec.rescale_intercept, spec.unit_distance)
+    # a field with a value standing for "no material" (a mesh resampled onto a grid, outside its cells)
+    outside = getattr(field, "transparent_outside", None)
+    return tf if outside is None else outside(tf)
 
 
 def _default_preset(volume: VolumeSpec) -> str:

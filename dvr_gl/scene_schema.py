@@ -81,6 +81,8 @@ class VolumeSpec:
                                      "array of finite values)")
     solution: Optional[str] = doc(None, "PLOT3D grids: the q (solution) file (default: the grid's name with "
                                         "`xyz` replaced by `q`)")
+    resample: Optional[int] = checked(None, "meshes: resample onto a grid of this many points along the longest "
+                                            "axis (2 to 1024), for the grid renderers", at_least(2))
 
 
 @dataclass

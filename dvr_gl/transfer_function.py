@@ -125,6 +125,17 @@ class TransferFunction:
                     extra.append(v[i] + (ALPHA_MAX - a0) / (a1 - a0) * (v[i + 1] - v[i]))
         return np.unique(np.concatenate([v, np.array(extra)]))
 
+    def transparent_below(self, value: float, above: float) -> "TransferFunction":
+        """The same from ``above`` up, falling linearly to transparent at ``value`` (below ``above``) and
+        transparent below it: where data holds ``value`` there is no material (a mesh resampled onto a
+        grid, outside its cells; ``above``: the lowest value of the material)."""
+        if not value < above:
+            raise ValueError(f"transparent_below: {value} is not below {above}")
+        rgb, column = self.color([above])[0], self._interp([above], 4)[0]
+        kept = self.points[self.points[:, 0] > above]
+        points = np.concatenate([[[value, *rgb, 0.0], [above, *rgb, column]], kept])
+        return TransferFunction(points, self.unit_distance, self.opacity_model)
+
     def tabulate(self, size: int = 4096) -> "TransferFunctionLUT":
         """Sample colour and extinction at ``size`` evenly spaced values over the domain (a LUT)."""
         if int(size) < 2:

@@ -101,6 +101,13 @@ class TetMesh:
     def __repr__(self) -> str:
         return f"TetMesh({self.describe()})"
 
+    def resampled(self, samples: int):
+        """This mesh on a grid of ``samples`` points along its longest axis, for the grid renderers
+        (:func:`~dvr_gl.fields.mesh_resample.resample`; scene key ``volume.resample``)."""
+        from .mesh_resample import resample
+
+        return resample(self, samples)
+
     def reconstruct(self, filter: str = "linear") -> "MeshReconstruction":
         if filter != "linear":
             raise SceneError(f"{self.name}: a mesh is interpolated linearly in each tetrahedron; set "

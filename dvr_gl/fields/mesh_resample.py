@@ -11,6 +11,8 @@ mesh reference falls with the resolution (``dvr bench cells``, ``docs/meshes.md`
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..errors import SceneError
@@ -25,7 +27,21 @@ def outside_value(mesh) -> float:
     return lo - 1e-3 * max(hi - lo, abs(lo), 1e-30)
 
 
-def resample(mesh, samples: int) -> Volume:
+@dataclass(frozen=True, eq=False, repr=False)
+class ResampledMesh(Volume):
+    """A mesh on a grid: a :class:`Volume` whose points outside every cell hold ``outside_value``, below
+    the mesh's scalar range (its lowest value ``inside_value``); a scene makes its transfer function
+    transparent there (:meth:`~dvr_gl.transfer_function.TransferFunction.transparent_below`)."""
+
+    outside_value: float = float("-inf")
+    inside_value: float = float("-inf")
+
+    def transparent_outside(self, tf):
+        """``tf`` unchanged over the mesh's values, transparent at and below the outside value."""
+        return tf.transparent_below(self.outside_value, self.inside_value)
+
+
+def resample(mesh, samples: int) -> ResampledMesh:
     """The mesh on a node-centred grid over its box, ``samples`` points along the longest axis (the
     others in proportion, at least 2), as float32."""
     if not 2 <= samples <= MAX_SAMPLES:
@@ -38,28 +54,20 @@ def resample(mesh, samples: int) -> Volume:
     z, y, x = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
     points = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
     values = mesh.reconstruct().sample(points)
-    values = np.where(np.isnan(values), outside_value(mesh), values)
-    return Volume(values.reshape(dims[2], dims[1], dims[0]).astype(np.float32), spacing=(spacing,) * 3,
-                  origin=tuple(lo), name=f"{mesh.name} resampled {dims[0]}x{dims[1]}x{dims[2]}")
-
-
-def resampled_scene(scene, samples: int, volume: Volume | None = None, **renderer_changes):
-    """``scene`` (of a mesh) with the mesh resampled (or ``volume``, its resampling made before), the
-    transfer function extended by a transparent point at :func:`outside_value`, the camera kept, and
-    the renderer changed as asked (e.g. ``name="raycast"``)."""
-    from ..transfer_function import TransferFunction
-
-    mesh = scene.field
-    volume = resample(mesh, samples) if volume is None else volume
-    tf = scene.transfer_function
-    points = tf.points
     below = outside_value(mesh)
-    if below < points[0, 0]:
-        points = np.concatenate([[[below, *points[0, 1:4], 0.0]], points])
-    extended = TransferFunction(points, tf.unit_distance, tf.opacity_model)
-    spec = scene.spec
+    values = np.where(np.isnan(values), below, values)
+    return ResampledMesh(values.reshape(dims[2], dims[1], dims[0]).astype(np.float32), spacing=(spacing,) * 3,
+                         origin=tuple(lo), name=f"{mesh.name} resampled {dims[0]}x{dims[1]}x{dims[2]}",
+                         outside_value=float(np.float32(below)), inside_value=float(mesh.value_range[0]))
+
+
+def resampled_scene(scene, samples: int, volume: ResampledMesh | None = None, **renderer_changes):
+    """``scene`` (of a mesh) with the mesh resampled (or ``volume``, its resampling made before), the
+    transfer function made transparent at its outside value, the camera kept, and the renderer changed
+    as asked (e.g. ``name="raycast"``)."""
     from ..scene import resolve_scene
 
-    resolved = resolve_scene(spec, field=volume, volume_source=scene.volume_source, camera=scene.camera,
-                             transfer_function=extended)
+    volume = resample(scene.field, samples) if volume is None else volume
+    resolved = resolve_scene(scene.spec, field=volume, volume_source=scene.volume_source, camera=scene.camera,
+                             transfer_function=volume.transparent_outside(scene.transfer_function))
     return resolved.with_renderer(**renderer_changes) if renderer_changes else resolved
