@@ -9,9 +9,7 @@
 // to visit, each once.  The rasterizer snaps vertices to a sub-pixel grid, so a pixel centre just
 // inside the silhouette could fall outside it, and with it a piece of the cell (all of a thin cell
 // seen edge on): the silhouette is grown by u_margin pixels, every edge moved out by the margin
-// and the corners bevelled (a mitre would reach far out of a sharp corner, and a capped one would
-// move the edges of a sliver by less than the margin).  A fragment outside the cell finds no piece
-// and is discarded.  Cells seen edge on (all four on a line) draw their grown bounding box; a cell
+// (see main: mitres and bevels).  A fragment outside the cell finds no piece and is discarded.  Cells seen edge on (all four on a line) draw their grown bounding box; a cell
 // reaching behind the eye's plane (COVER_ALL) covers the whole image.
 layout(points) in;
 layout(triangle_strip, max_vertices = 8) out;

@@ -21,7 +21,7 @@ from ... import limits
 from ...errors import SceneError
 from ...fields.mesh_rays import FacePlanes
 from ...gl.context import create_context, make_current, release_context
-from ...gl.geometry import clip_planes, gl_matrix, projection_matrix, view_matrix
+from ...gl.geometry import box_corners, clip_planes, gl_matrix, projection_matrix, view_matrix
 from ...gl.shaders import create_program, release_programs
 from ...rays import RayBatch
 from ...reference.converged import collocation
@@ -248,14 +248,20 @@ class ProjectedTetrahedraRenderer(Renderer):
         return grown.reshape(-1)
 
     @staticmethod
-    def _reaches_near_plane(scene) -> bool:
-        """Whether the mesh's box reaches the GL near plane (within float32 rounding)."""
-        cam = scene.camera
+    def _near_plane(scene) -> tuple[float, np.ndarray]:
+        """The GL near plane's distance from the eye along the view axis, with a margin for float32
+        rounding there, and the view axis."""
         lo, hi = (np.asarray(b, float) for b in scene.field.bounds)
-        near, _ = clip_planes(cam, lo, hi)
-        forward, _, _ = cam.basis()
-        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-        return ((corners - np.asarray(cam.eye)) @ forward).min() <= near + 1e-6 * float(np.linalg.norm(hi - lo))
+        near, _ = clip_planes(scene.camera, lo, hi)
+        forward, _, _ = scene.camera.basis()
+        return near + 1e-6 * float(np.linalg.norm(hi - lo)), forward
+
+    @staticmethod
+    def _reaches_near_plane(scene) -> bool:
+        """Whether the mesh's box reaches the GL near plane."""
+        near, forward = ProjectedTetrahedraRenderer._near_plane(scene)
+        corners = box_corners(*scene.field.bounds)
+        return bool(((corners - np.asarray(scene.camera.eye)) @ forward).min() <= near)
 
     def _order_texture(self, order: np.ndarray):
         texels = _rows(np.ascontiguousarray(order, dtype=np.uint32), np.uint32, components=1)
@@ -265,19 +271,17 @@ class ProjectedTetrahedraRenderer(Renderer):
 
     @staticmethod
     def _flag_cover_all(order: np.ndarray, scene) -> np.ndarray:
-        """The order with :data:`COVER_ALL` set on the cells with a vertex at or before the GL near plane:
-        clipping would cut away the faces the eye's rays enter them by (the camera inside the mesh, or
-        the near plane through it), so they cover the whole image and every fragment clips itself.
-        Nothing to flag (and nothing computed) when the mesh's box lies beyond the plane."""
-        cam, mesh = scene.camera, scene.field
-        if not ProjectedTetrahedraRenderer._reaches_near_plane(scene):
+        """The order with :data:`COVER_ALL` set on the cells with a vertex at or behind the GL near plane
+        of a perspective camera (inside the mesh, or the plane through it): such a vertex has no
+        projection, so the cell covers the whole image and every fragment clips its own ray.  Nothing
+        to flag (and nothing computed) when the mesh's box lies beyond the plane; an orthographic
+        projection holds for every vertex."""
+        mesh = scene.field
+        if scene.camera.projection != "perspective" or not ProjectedTetrahedraRenderer._reaches_near_plane(scene):
             return order
-        lo, hi = (np.asarray(b, float) for b in mesh.bounds)
-        near, _ = clip_planes(cam, lo, hi)
-        margin = near + 1e-6 * float(np.linalg.norm(hi - lo))  # float32 rounding at the plane
-        forward, _, _ = cam.basis()
-        depth = (mesh.points - np.asarray(cam.eye)) @ forward
-        behind = depth[mesh.tets].min(axis=1) <= margin
+        near, forward = ProjectedTetrahedraRenderer._near_plane(scene)
+        depth = (mesh.points - np.asarray(scene.camera.eye)) @ forward
+        behind = depth[mesh.tets].min(axis=1) <= near
         return np.where(behind[order], order.astype(np.uint32) | COVER_ALL, order.astype(np.uint32))
 
     def _uniforms(self, program, scene, textures):
@@ -312,8 +316,7 @@ class ProjectedTetrahedraRenderer(Renderer):
     @staticmethod
     def _far(scene) -> float:
         """The largest ray parameter inside the mesh's box (the isosurface's depth scale)."""
-        lo, hi = (np.asarray(b, float) for b in scene.field.bounds)
-        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        corners = box_corners(*scene.field.bounds)
         return float(np.linalg.norm(corners - np.asarray(scene.camera.eye), axis=1).max()) * 1.01 + 1e-30
 
     def _blending(self, mode):
