@@ -30,12 +30,12 @@ const int MAX_STEPS = 8192;
 
 // Control interval k (k = -1: below the first value, k = TF_COUNT - 1: above the last; both
 // constant): its end values and their (r, g, b, opacity column).
-struct Interval { float va; float vb; vec4 pa; vec4 pb; };
+struct Interval { float va; float vb; vec4 pa; vec4 pb; float inv; };  // inv: 1 / (vb - va), 0 if empty
 
 Interval tf_interval_at(int k) {
     int a = clamp(k, 0, TF_COUNT - 1), b = clamp(k + 1, 0, TF_COUNT - 1);
     vec2 ra = u_tf_value_opacity[a], rb = u_tf_value_opacity[b];
-    return Interval(ra.x, rb.x, vec4(u_tf_rgb[a], ra.y), vec4(u_tf_rgb[b], rb.y));
+    return Interval(ra.x, rb.x, vec4(u_tf_rgb[a], ra.y), vec4(u_tf_rgb[b], rb.y), rb.x > ra.x ? 1.0 / (rb.x - ra.x) : 0.0);
 }
 
 // the control interval holding s: the largest k with value_k <= s (-1 below the first)
@@ -47,7 +47,7 @@ int tf_interval(float s) {
 }
 
 float interval_fraction(Interval iv, float s) {
-    return iv.vb > iv.va ? clamp((s - iv.va) / (iv.vb - iv.va), 0.0, 1.0) : 0.0;
+    return clamp((s - iv.va) * iv.inv, 0.0, 1.0);
 }
 
 // log(1 - alpha) of the `alpha` model's opacity column, without cancellation for small alpha
@@ -83,15 +83,11 @@ vec4 gauss_step(Interval iv, float sa, float sb, float h) {
     return vec4(colour, h * dot(u_gauss_w, sig));
 }
 
-vec4 premultiplied(vec3 colour, float tau) {
-    return vec4(colour, tau < 1e-4 ? tau * (1.0 - 0.5 * tau) : 1.0 - exp(-tau));
-}
-
 vec4 transfer_segment(float sf, float sb, float len) {
     int dir = sb > sf ? 1 : (sb < sf ? -1 : 0);
     int k = tf_interval(sf);
     vec3 colour = vec3(0.0);
-    float tau = 0.0;
+    float tau = 0.0, transmit = 1.0;
     float u = 0.0;  // where along the segment, 0 to 1
     for (int i = 0; i < MAX_STEPS && u < 1.0 && tau < 16.2; ++i) {
         Interval iv = tf_interval_at(k);
@@ -106,10 +102,11 @@ vec4 transfer_segment(float sf, float sb, float len) {
         float ub = steps == 1 ? u1 : u + (u1 - u) / float(steps);
         ub = ub > u ? ub : u1;  // a step too short to move u in float32: the rest of the part at once
         vec4 step = gauss_step(iv, mix(sf, sb, u), mix(sf, sb, ub), (ub - u) * len);
-        colour += exp(-tau) * step.rgb;
+        colour += transmit * step.rgb;
+        transmit *= exp(-step.a);
         tau += step.a;
         if (ub >= u1) k += dir;  // on into the next control interval
         u = ub;
     }
-    return premultiplied(colour, tau);
+    return vec4(colour, tau < 1e-4 ? tau * (1.0 - 0.5 * tau) : 1.0 - transmit);
 }
