@@ -173,6 +173,24 @@ def test_exact_order_where_the_centroid_order_fails(pt, converged):
     assert wrong.sum() >= 10, "the centroid order draws B over A where they overlap"
 
 
+def test_transparent_cells_are_not_drawn(pt, converged):
+    """Cells whose whole scalar range maps to zero opacity add nothing and are left out of the draw
+    (not of the order: its relations run through them); the picture is the reference's.  Here the
+    transfer function is transparent up to 0.9 and between 1.2 and 1.4 (a zero-opacity control point
+    inside a cell's range does not make it transparent: the ramps on either side do)."""
+    mesh = jittered_mesh()
+    tf = [[-1.0, 0.2, 0.3, 0.9, 0.0], [0.9, 0.2, 0.3, 0.9, 0.0], [1.0, 1.0, 0.5, 0.2, 0.6],
+          [1.2, 0.3, 0.9, 0.2, 0.0], [1.4, 0.3, 0.9, 0.2, 0.0], [2.0, 0.9, 0.2, 0.2, 0.5]]
+    scene = mesh_scene(mesh, **{"renderer.name": "projected-tetrahedra", "transfer_function.points": tf})
+    image = pt.render(scene)
+    truth = converged.render(scene.with_renderer(name="reference-converged"))
+    assert rms(image, truth) < 1e-4, rms(image, truth)
+    values = mesh.values[mesh.tets]
+    lo, hi = values.min(axis=1), values.max(axis=1)
+    transparent = (hi <= 0.9) | ((lo >= 1.2) & (hi <= 1.4))
+    assert transparent.sum() >= 10 and pt.stats["cells_drawn"] == len(mesh.tets) - transparent.sum()
+
+
 def test_cells_touching_without_shared_points_are_ordered():
     """Two cells meeting at a face with its points duplicated, not shared (a multi-block grid's block
     interface, as in the oxygen post): no interior face relates them, and the boundary crossings at

@@ -80,6 +80,23 @@ class MeshTextures:
         self.cells = len(mesh.tets)
         self.ctx = ctx
         self._boundary = None  # the boundary faces' vertices (a buffer), once asked for
+        values = mesh.values[mesh.tets] if mesh.association == "point" else mesh.values[:, None]
+        self.value_range = (values.min(axis=1), values.max(axis=1))  # each cell's scalar range
+        self._visible = None  # (transfer function, mask)
+
+    def visible(self, tf) -> np.ndarray:
+        """Which cells hold some opacity under ``tf`` (once per transfer function): the opacity column
+        is linear between control points and never negative, so it is zero over a cell's scalar range
+        exactly when it is zero at both ends and at every control value between them.  The others add
+        nothing (premultiplied (0, 0)) and are not drawn."""
+        if self._visible is None or self._visible[0] is not tf:
+            lo, hi = self.value_range
+            values, column = tf.points[:, 0], tf.points[:, 4]
+            nonzero = np.r_[0, np.cumsum(column > 0)]  # control points with opacity, up to each index
+            inner = nonzero[np.searchsorted(values, hi, "left")] - nonzero[np.searchsorted(values, lo, "right")]
+            ends = (np.interp(lo, values, column) > 0) | (np.interp(hi, values, column) > 0)
+            self._visible = (tf, ends | (inner > 0))
+        return self._visible[1]
 
     def boundary(self, adjacency):
         """A buffer of the mesh's boundary triangles (centre-relative float32 vertices) and their count."""
@@ -158,7 +175,8 @@ class ProjectedTetrahedraRenderer(Renderer):
         if mode == "emission_absorption":
             gaps = self._gap_pixels(scene, textures, orders) if r.cell_order == "exact" else None
             order, stats = orders(cam, img.width, img.height, r.cell_order, pixels=gaps)
-            order = order[::-1]  # drawn back to front
+            # transparent cells are ordered (the relations run through them) but not drawn
+            order = order[textures.visible(scene.transfer_function)[order]][::-1]  # drawn back to front
             stats["order_seconds"] = time.perf_counter() - start  # with the boundary's count in GL
         else:
             order, stats = np.arange(textures.cells), {"order": "none (blended)", "order_seconds": 0.0}
@@ -194,6 +212,7 @@ class ProjectedTetrahedraRenderer(Renderer):
         image = raw[::-1].astype(np.float64)
         now = time.perf_counter()
         self.stats = {**stats, "draw_seconds": now - drawn, "seconds": now - start, "cells": textures.cells,
+                      "cells_drawn": len(order),
                       "cells_per_second": textures.cells / max(now - start, 1e-12)}
         if mode == "emission_absorption" or self._count_fragments:
             return image.astype(np.float32)
