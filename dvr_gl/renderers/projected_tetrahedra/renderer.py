@@ -233,7 +233,7 @@ class ProjectedTetrahedraRenderer(Renderer):
         the boundary with additive blending, and their neighbours (the rasterizer's rounding at a
         fold of the boundary may count a crossing less).  ``None`` (every ray) when the mesh reaches
         the eye's plane, where rays start inside it and the plane would clip what they cross."""
-        cam, img = scene.camera, scene.image
+        img = scene.image
         if self._reaches_near_plane(scene):
             return None
         buffer, count = textures.boundary(orders.adjacency)
