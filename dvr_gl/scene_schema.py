@@ -82,7 +82,7 @@ class VolumeSpec:
     solution: Optional[str] = doc(None, "PLOT3D grids: the q (solution) file (default: the grid's name with "
                                         "`xyz` replaced by `q`)")
     resample: Optional[int] = checked(None, "meshes: resample onto a grid of this many points along the longest "
-                                            "axis (2 to 1024), for the grid renderers", at_least(2))
+                                            "axis (2 to 1024), for the grid renderers", between(2, 1024))
 
 
 @dataclass

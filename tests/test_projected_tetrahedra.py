@@ -343,6 +343,8 @@ def test_volume_resample_in_a_scene():
         load_scene(None, {"volume.path": str(_grid_file()), "volume.resample": 24})
     with pytest.raises(SceneError, match="volume.resample"):
         load_scene(None, {"volume.demo": "blobs", "volume.resample": 24})
+    with pytest.raises(SceneError, match=r"volume.resample must be in \[2, 1024\]"):
+        mesh_scene(jittered_mesh(), **{"volume.resample": 5000})
 
 
 def _grid_file() -> Path:
