@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .ragged import ranges, ranks
+
 INSIDE_TOLERANCE = 1e-10  # barycentric slack: points on a shared face belong to both cells
 QUERIES_PER_CHUNK = 1 << 16
 
@@ -28,7 +30,7 @@ class CellLocator:
         span = b1 - b0 + 1
         count = span.prod(axis=1)
         cell = np.repeat(np.arange(len(tets)), count)
-        local = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+        local = ranks(count)
         sx, sy = np.repeat(span[:, 0], count), np.repeat(span[:, 1], count)
         ix = np.repeat(b0[:, 0], count) + local % sx
         iy = np.repeat(b0[:, 1], count) + (local // sx) % sy
@@ -59,8 +61,7 @@ class CellLocator:
             key = self._key(self._bin(q[qi]))
             n = self.start[key + 1] - self.start[key]
             which = np.repeat(qi, n)
-            offs = np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)
-            cand = self.cells[np.repeat(self.start[key], n) + offs]
+            cand = self.cells[ranges(self.start[key], n)]
             lam = np.einsum("nij,nj->ni", self.inverse[cand], q[which] - self.anchor[cand])
             inside = (lam.min(axis=1) >= -INSIDE_TOLERANCE) & (lam.sum(axis=1) <= 1.0 + INSIDE_TOLERANCE)
             which, cand = which[inside][::-1], cand[inside][::-1]  # reversed: the first candidate wins

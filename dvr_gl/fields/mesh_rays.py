@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .ragged import ranges, ranks
+
 PAIRS_PER_CHUNK = 1 << 21  # (cell, ray) tests at a time: ~200 MB of temporaries
 
 
@@ -105,7 +107,7 @@ def candidate_pairs(corners, origins, directions):
     # (cell, bin) pairs
     count = nx * ny
     tet_of = np.repeat(idx, count)
-    local = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+    local = ranks(count)
     rep = lambda a: np.repeat(a, count)  # noqa: E731
     bx = rep(b0[:, 0]) + local % rep(nx)
     by = rep(b0[:, 1]) + local // rep(nx)
@@ -113,9 +115,7 @@ def candidate_pairs(corners, origins, directions):
     # (cell, ray) pairs
     n_rays = start[b + 1] - start[b]
     tet_of = np.repeat(tet_of, n_rays)
-    first = np.repeat(start[b], n_rays)
-    offs = np.arange(n_rays.sum()) - np.repeat(np.cumsum(n_rays) - n_rays, n_rays)
-    ray_of = order[first + offs]
+    ray_of = order[ranges(start[b], n_rays)]
     inside = np.all((ray_xy[ray_of] >= blo[tet_of]) & (ray_xy[ray_of] <= bhi[tet_of]), axis=1)
     return tet_of[inside], ray_of[inside]
 

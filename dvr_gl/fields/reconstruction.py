@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..model import FILTERS
+from .ragged import ranges
 
 TAPS = {"nearest": 1, "linear": 2, "cubic_bspline": 4, "catmull_rom": 4}
 # Degree of the field as a polynomial of the ray parameter between knots.
@@ -120,9 +121,7 @@ class SampledField:
             if count.sum() == 0:
                 continue
             ray = np.repeat(np.arange(len(d)), count)
-            first = np.repeat(lo, count)
-            offset = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
-            knot = first + offset
+            knot = ranges(lo, count)
             t = (knot - u0[ray]) / d[ray]
             inside = (t > t0[ray]) & (t < t1[ray])
             rays.append(ray[inside])

@@ -1,4 +1,4 @@
-// The mesh in textures, 4096 texels a row: u_points (x, y, z relative to the mesh centre, value),
+// The mesh in textures, 4096 texels a row: u_points (x, y, z relative to the mesh centre, 0),
 // u_cells (four point indices), u_cell_planes (six texels a cell: the planes of its faces 0 to 3
 // (n, h), the side of each plane its inside lies on, its scalar as g . p + c).
 uniform sampler2D u_points;

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...fields.mesh_rays import candidate_pairs
+from ...fields.ragged import ranges
 
 ORDERS = ("exact", "centroid")
 EDGE_MARGIN = 1e-9  # barycentric slack of the boundary faces' ray hits
@@ -53,6 +54,7 @@ class Adjacency:
     boundary_corners: np.ndarray  # (B, 3, 3) the boundary faces' vertices
     boundary_edges: np.ndarray    # (B, 2, 3) v1 - v0, v2 - v0 (Moller-Trumbore)
     boundary_normal: np.ndarray   # (B, 3) out of its cell
+    size: float                   # the boundary's largest extent along an axis
 
 
 def adjacency(points: np.ndarray, tets: np.ndarray) -> Adjacency:
@@ -81,7 +83,8 @@ def adjacency(points: np.ndarray, tets: np.ndarray) -> Adjacency:
     centroid = points[tets[boundary_cell]].mean(axis=1)
     out[np.einsum("ij,ij->i", out, centroid - corners[:, 0]) > 0] *= -1.0
     return Adjacency(np.stack([cells[interior_a], cells[interior_b]], axis=1), pa, normal, boundary, boundary_cell,
-                     int(np.maximum(counts - 2, 0).sum()), corners, edges, out)
+                     int(np.maximum(counts - 2, 0).sum()), corners, edges, out,
+                     float(np.ptp(corners.reshape(-1, 3), axis=0).max()) if len(corners) else 0.0)
 
 
 def eye_of(camera):
@@ -133,7 +136,7 @@ def boundary_relations(adj: Adjacency, origins, directions, t_min) -> tuple[np.n
     # without sharing vertices (a multi-block grid's duplicated points at a block interface: the
     # oxygen post) meet at coincident faces whose two triangles give t's a rounding apart, and an
     # entry sorted before the exit it meets would be related to the wrong exit.
-    touching = TOUCHING * float(np.ptp(adj.boundary_corners.reshape(-1, 3), axis=0).max())
+    touching = TOUCHING * adj.size
     order = np.lexsort((~leaving, t - touching * leaving, ray))
     ray, cell, leaving = ray[order], cell[order], leaving[order]
     # Every exit in a gap is in front of the entry that ends the gap: a ray through an edge of the
@@ -150,7 +153,7 @@ def boundary_relations(adj: Adjacency, origins, directions, t_min) -> tuple[np.n
     lo = np.searchsorted(ex_key, key[enters], "left")
     hi = np.searchsorted(ex_key, key[enters], "right")
     count = hi - lo
-    which_exit = exits[ex_order][np.repeat(lo, count) + np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)]
+    which_exit = exits[ex_order][ranges(lo, count)]
     which_entry = np.repeat(enters, count)
     keep = cell[which_exit] != cell[which_entry]
     return cell[which_exit][keep], cell[which_entry][keep]
@@ -200,8 +203,7 @@ def topological(n: int, front: np.ndarray, back: np.ndarray, depth: np.ndarray) 
         done[frontier] = True
         remaining -= len(frontier)
         count = start[frontier + 1] - start[frontier]
-        nxt = dst_by_src[np.repeat(start[frontier], count) + (np.arange(count.sum()) -
-                                                               np.repeat(np.cumsum(count) - count, count))]
+        nxt = dst_by_src[ranges(start[frontier], count)]
         if len(nxt):
             # each successor once, with how many of its relations this level settles (a sort, as
             # np.unique; np.subtract.at costs several times that)

@@ -67,12 +67,12 @@ class MeshTextures:
         lo, hi = (np.asarray(b, float) for b in mesh.bounds)
         self.centre = 0.5 * (lo + hi)
         rec = mesh.reconstruct()
-        values = mesh.values if mesh.association == "point" else np.zeros(len(mesh.points))
         points = mesh.points - self.centre
         offset = rec.base - np.einsum("ij,ij->i", rec.gradients, rec.anchor - self.centre)
+        planes = cell_texels(points, mesh.tets, rec.gradients, offset)
         self.textures = []
-        for name, data, dtype in (("u_points", np.concatenate([points, values[:, None]], axis=1), "f4"),
-                                  ("u_cells", mesh.tets, "u4"), ("u_cell_planes", cell_texels(points, mesh.tets, rec.gradients, offset), "f4")):
+        for name, data, dtype in (("u_points", np.c_[points, np.zeros(len(points))], "f4"),
+                                  ("u_cells", mesh.tets, "u4"), ("u_cell_planes", planes, "f4")):
             texels = _rows(data, np.float32 if dtype == "f4" else np.uint32)
             tex = ctx.texture((ROW, texels.shape[0]), 4, texels.tobytes(), dtype=dtype)
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
@@ -81,7 +81,7 @@ class MeshTextures:
         self.ctx = ctx
         self._boundary = None  # the boundary faces' vertices (a buffer), once asked for
         values = mesh.values[mesh.tets] if mesh.association == "point" else mesh.values[:, None]
-        self.value_range = (values.min(axis=1), values.max(axis=1))  # each cell's scalar range
+        self.cell_ranges = (values.min(axis=1), values.max(axis=1))  # each cell's scalar range
         self._visible = None  # (transfer function, mask)
 
     def visible(self, tf) -> np.ndarray:
@@ -90,7 +90,7 @@ class MeshTextures:
         exactly when it is zero at both ends and at every control value between them.  The others add
         nothing (premultiplied (0, 0)) and are not drawn."""
         if self._visible is None or self._visible[0] is not tf:
-            lo, hi = self.value_range
+            lo, hi = self.cell_ranges
             values, column = tf.points[:, 0], tf.points[:, 4]
             nonzero = np.r_[0, np.cumsum(column > 0)]  # control points with opacity, up to each index
             inner = nonzero[np.searchsorted(values, hi, "left")] - nonzero[np.searchsorted(values, lo, "right")]
@@ -122,6 +122,7 @@ class ProjectedTetrahedraRenderer(Renderer):
         self._owns_context = ctx is None
         self._mesh = None        # (mesh, MeshTextures, VisibilityOrder)
         self._target = None      # (size, colour texture, depth texture, framebuffer)
+        self._counts = None      # (size, texture, framebuffer): the boundary's crossing counts
         self._count_fragments = False
 
     # --- limits ---
@@ -153,6 +154,16 @@ class ProjectedTetrahedraRenderer(Renderer):
                 self._mesh[1].release()
             self._mesh = (mesh, MeshTextures(self.ctx, mesh), VisibilityOrder(mesh))
         return self._mesh[1], self._mesh[2]
+
+    def _count_target(self, width: int, height: int):
+        """A one-channel float framebuffer for the boundary's crossing counts, kept while the size holds."""
+        if self._counts is None or self._counts[0] != (width, height):
+            if self._counts is not None:
+                for obj in self._counts[1:]:
+                    obj.release()
+            counts = self.ctx.texture((width, height), 1, dtype="f4")
+            self._counts = ((width, height), counts, self.ctx.framebuffer([counts]))
+        return self._counts[2]
 
     def _framebuffer(self, width: int, height: int):
         if self._target is None or self._target[0] != (width, height):
@@ -242,8 +253,7 @@ class ProjectedTetrahedraRenderer(Renderer):
             return gaps.reshape(-1)
         program = create_program(self.ctx, "cells/boundary.vert", "cells/boundary.frag")
         self._uniforms(program, scene, textures)
-        colour = self.ctx.texture((img.width, img.height), 1, dtype="f4")
-        fbo = self.ctx.framebuffer([colour])
+        fbo = self._count_target(img.width, img.height)
         vao = self.ctx.vertex_array(program, [(buffer, "3f", "in_position")])
         try:
             fbo.use()
@@ -256,8 +266,6 @@ class ProjectedTetrahedraRenderer(Renderer):
         finally:
             self._blending(None)
             vao.release()
-            fbo.release()
-            colour.release()
         many = crossings[::-1] >= 3  # rows from the top, as Camera.pixel_rays
         grown = many.copy()  # and the eight neighbours
         grown[1:] |= many[:-1]
@@ -312,7 +320,8 @@ class ProjectedTetrahedraRenderer(Renderer):
         vp = projection_matrix(cam, img.width / img.height, near, far) @ view_matrix(cam) @ translate
         f, right, up = cam.basis()
         x, w, s = collocation(4)
-        values = {"u_image_size": (img.width, img.height), "u_margin": MARGIN_PIXELS, "u_eye": tuple(np.asarray(cam.eye) - textures.centre), "u_forward": tuple(f),
+        values = {"u_image_size": (img.width, img.height), "u_margin": MARGIN_PIXELS,
+                  "u_eye": tuple(np.asarray(cam.eye) - textures.centre), "u_forward": tuple(f),
                   "u_right": tuple(right), "u_up": tuple(up),
                   "u_half_extent": cam.half_extent(img.width / img.height), "u_near": cam.near,
                   "u_iso_value": r.iso_value if r.iso_value is not None else 0.0,
@@ -385,7 +394,10 @@ class ProjectedTetrahedraRenderer(Renderer):
         if self._target is not None:
             for obj in self._target[1:]:
                 obj.release()
-        self._mesh = self._target = None
+        if self._counts is not None:
+            for obj in self._counts[1:]:
+                obj.release()
+        self._mesh = self._target = self._counts = None
         if self._owns_context:
             release_programs(self.ctx)
             release_context(self.ctx)
