@@ -6,7 +6,7 @@
 //   classification:  post (default) | CLASSIFY_PRE [ASSOCIATED_COLORS] | CLASSIFY_PREINTEGRATED
 //   filters:         see common/volume_sample.glsl
 //   options:         SHADING (NUM_LIGHTS, TWO_SIDED), GRADIENT_TEXTURE, GRADIENT_OPACITY, JITTER,
-//                    EARLY_TERMINATION, ACCELERATE (NUM_LEVELS), COUNT_SAMPLES, CAMERA_ORTHOGRAPHIC,
+//                    EARLY_TERMINATION, ACCELERATE (NUM_LEVELS), RAY_BOUNDS, COUNT_SAMPLES, CAMERA_ORTHOGRAPHIC,
 //                    BRICKED (one pass per brick, see below)
 // Segments and samples follow the conventions exactly as dvr_gl.reference.discrete places them;
 // ACCELERATE jumps runs of segments whose samples cannot change the result (common/blocks.glsl)
@@ -105,6 +105,10 @@ bool owns_entry(vec3 p) {
     ivec3 below = ivec3(lessThan(g, u_core_hi)) | ivec3(u_core_closed);
     return all(bvec3(above & below));
 }
+#endif
+
+#ifdef RAY_BOUNDS
+uniform sampler2D u_ray_bounds;  // (first entry, -last exit) of the non-empty blocks, this pixel
 #endif
 
 layout(location = 0) out vec4 frag_color;
@@ -280,6 +284,14 @@ void main() {
     k_first = max(k_first, u_segment_window.x);
     k_last = min(k_last, u_segment_window.y);
 #endif
+#ifdef RAY_BOUNDS
+    // Only the segments from one before the ray's first entry into a non-empty block to one after
+    // its last exit (ray_bounds.frag); those left out lie in empty blocks and add exactly nothing.
+    // The margin of a segment covers the bounds' rounding; no faces crossed: +inf, -(-inf).
+    vec2 bounds = texelFetch(u_ray_bounds, ivec2(gl_FragCoord.xy), 0).xy;
+    k_first = max(k_first, int(clamp(floor((bounds.x - t0) / u_sample_distance) - 1.0, 0.0, float(n))));
+    k_last = min(k_last, int(clamp(ceil((-bounds.y - t0) / u_sample_distance) + 1.0, 0.0, float(n))));
+#endif
     if (hit && t1 > t0) {
 #ifdef JITTER
         offset = jitter_offset();
@@ -311,9 +323,10 @@ void main() {
             int m = segments_to_jump(k, block, run);
             lookups += 1.0;
             if (m > 0) {  // m segments in a skippable block: no samples
-#if defined(BRICKED) && defined(BACK_TO_FRONT)
-                m = min(m, k - k_first + 1);  // the next window's (the core's are clipped already)
-#elif defined(BRICKED)
+                // not past the pass's window or the ray bounds (the core's are clipped already)
+#ifdef BACK_TO_FRONT
+                m = min(m, k - k_first + 1);
+#else
                 m = min(m, k_last - k);
 #endif
                 done = mode_jump(block, m);

@@ -79,24 +79,40 @@ def _sparse_scene(tmp_path, n):
                                         "renderer.block_size": 4})
 
 
+def _shell_scene(tmp_path, n, sample_distance=None):
+    """An n^3 volume empty but for a random spherical shell (radius 0.43 n to 0.48 n): the ray bounds
+    leave out what lies outside the shell, block skipping what lies inside it."""
+    z, y, x = np.mgrid[:n, :n, :n] - (n - 1) / 2
+    r = np.sqrt(x * x + y * y + z * z)
+    values = np.random.default_rng(5).uniform(0.4, 1.0, r.shape)
+    data = np.where((r > 0.43 * n) & (r < 0.48 * n), values, 0.0).astype(np.float32)
+    extra = {"renderer.sample_distance": sample_distance} if sample_distance else {}
+    return array_scene(tmp_path, data, {"image.width": 32, "image.height": 32, "renderer.ert_threshold": 1.0,
+                                        "renderer.block_size": 4, **extra})
+
+
 def test_auto_skips_only_where_it_pays(gpu, tmp_path):
-    """auto: no skipping on a dense volume (estimate 0), skipping on a mostly empty one; the
-    estimate is within 0.1 of the fraction of samples skipping actually saves, and the images
-    are those of on and off exactly."""
+    """auto: neither ray bounds nor skipping on a dense volume (estimates 0).  On a mostly empty one,
+    the ray bounds alone (inside them there is little to skip), the image exactly off's (they leave
+    out exact zeros) and the estimate of the samples they leave out within 0.1 of the count.  Inside
+    a hollow shell sampled finely, both, the image on's, and the estimate of all samples saved
+    within 0.1 of the count."""
     dense = load_scene(None, DENSE)
     gpu.render(dense)
-    assert gpu.stats["skippable_estimate"] == 0.0 and not gpu.stats["accelerated"]
-    sparse = _sparse_scene(tmp_path, 48)
-    auto = gpu.render(sparse)
-    estimate = gpu.stats["skippable_estimate"]
-    assert gpu.stats["accelerated"] and estimate >= AUTO_MIN_SKIPPABLE
-    on = gpu.render(sparse.with_renderer(acceleration="on"))
-    on_samples = gpu.stats["samples_per_ray"]
-    off = gpu.render(sparse.with_renderer(acceleration="off"))
-    saved = 1.0 - on_samples / gpu.stats["samples_per_ray"]
-    assert abs(estimate - saved) <= 0.1, (estimate, saved)
-    np.testing.assert_array_equal(auto, on)
-    assert np.abs(on - off).max() <= 2e-6  # closed-form jumps: float32 rounding (test_acceleration)
+    assert gpu.stats["skippable_estimate"] == 0.0 and gpu.stats["outside_bounds_estimate"] == 0.0
+    assert not gpu.stats["accelerated"] and not gpu.stats["ray_bounds"]
+    for scene, in_loop in ((_sparse_scene(tmp_path, 48), False), (_shell_scene(tmp_path, 64, 0.25), True)):
+        off = gpu.render(scene.with_renderer(acceleration="off"))
+        off_samples = gpu.stats["samples"]
+        on = gpu.render(scene.with_renderer(acceleration="on"))
+        auto = gpu.render(scene)
+        stats = gpu.stats
+        assert stats["ray_bounds"] and stats["accelerated"] == in_loop, stats
+        outside, skippable = stats["outside_bounds_estimate"], stats["skippable_estimate"]
+        estimate = 1.0 - (1.0 - outside) * (1.0 - skippable) if in_loop else outside
+        assert abs(estimate - (1.0 - stats["samples"] / off_samples)) <= 0.1, (estimate, stats["samples"])
+        np.testing.assert_array_equal(auto, on if in_loop else off)
+        assert np.abs(on - off).max() <= 2e-6  # closed-form jumps: float32 rounding (test_acceleration)
 
 
 def test_auto_estimate_follows_the_state_of_mip(tmp_path):
@@ -143,32 +159,32 @@ def test_auto_decides_once_for_all_bricked_passes(gpu, tmp_path):
     gpu.render(dense.with_renderer(texture_budget_mb=1 / 16))
     assert gpu.stats["bricks"] >= 8 and gpu.stats["skippable_estimate"] == 0.0 and not gpu.stats["accelerated"]
     assert gpu.stats["jumps_per_ray"] == 0.0 and gpu.stats["lookups_per_ray"] == 0.0
-    sparse = _sparse_scene(tmp_path, 40)
-    one_pass = gpu.render(sparse)
+    shell = _shell_scene(tmp_path, 48, 0.25)
+    one_pass = gpu.render(shell)
     estimate = gpu.stats["skippable_estimate"]
-    auto = gpu.render(sparse.with_renderer(texture_budget_mb=1 / 16))
+    auto = gpu.render(shell.with_renderer(texture_budget_mb=1 / 16))
     assert gpu.stats["bricks"] >= 8 and gpu.stats["accelerated"] and gpu.stats["skippable_estimate"] == estimate
-    assert gpu.stats["jumps_per_ray"] > 1.0
-    on = gpu.render(sparse.with_renderer(texture_budget_mb=1 / 16, acceleration="on"))
+    assert gpu.stats["ray_bounds"] and gpu.stats["jumps_per_ray"] > 1.0
+    on = gpu.render(shell.with_renderer(texture_budget_mb=1 / 16, acceleration="on"))
     np.testing.assert_array_equal(auto, on)
     assert np.abs(auto - one_pass).max() <= 2e-6
 
 
 def test_auto_weighs_lookups_against_samples_saved(gpu, tmp_path):
-    """auto's cost model: the same sparse volume is skipped at fine sampling and not where a sample
-    falls every few blocks (a jump then saves about one sample and costs a lookup:
-    renderer.worth_skipping).  The estimate counts fewer lookups than the shader (here 2.7 against
-    5.6 a ray: rays along coarse block faces re-look up; on the benchmark volumes 0.7-1.4x of the
-    count), which the fitted LOOKUP_COST absorbs; it must still see that lookups are few."""
+    """auto's cost model: the same hollow shell is skipped inside at fine sampling and not where a
+    sample falls nearly every block (a jump then saves about one sample and costs a lookup:
+    renderer.worth_skipping).  The estimate counts fewer lookups than the shader (here 6.2 against
+    9.6 a ray within the ray bounds: rays along coarse block faces re-look up; on the benchmark
+    volumes 0.7-1.4x of the count), which the fitted LOOKUP_COST absorbs; it must still count some."""
     from dvr_gl.renderers.raycast.renderer import worth_skipping
 
-    sparse = _sparse_scene(tmp_path, 48)
-    gpu.render(sparse)
+    shell = _shell_scene(tmp_path, 48, 0.25)
+    gpu.render(shell)
     estimate = gpu._skippable[1]
     assert gpu.stats["accelerated"] and gpu.stats["lookups_estimate"] == estimate.lookups
-    gpu.render(sparse.with_renderer(acceleration="on"))
-    assert 1.0 < estimate.lookups < gpu.stats["lookups_per_ray"] < estimate.fraction * estimate.length / 0.5 / 10
-    coarse = sparse.with_renderer(sample_distance=12.0)  # 3 blocks of 4 voxels a sample
+    gpu.render(shell.with_renderer(acceleration="on"))
+    assert 1.0 < estimate.lookups < gpu.stats["lookups_per_ray"] < 2.0 * estimate.lookups
+    coarse = shell.with_renderer(sample_distance=3.0)  # 3/4 of a block a sample
     gpu.render(coarse)
     assert not gpu.stats["accelerated"] and gpu.stats["skippable_estimate"] == estimate.fraction
-    assert not worth_skipping(estimate, 12.0) and worth_skipping(estimate, sparse.renderer.sample_distance)
+    assert not worth_skipping(estimate, 3.0) and worth_skipping(estimate, shell.renderer.sample_distance)

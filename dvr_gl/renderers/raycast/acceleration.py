@@ -287,6 +287,7 @@ class SkipEstimate:
     lookups: float
     length: float
     mode: str = "emission"
+    outside: float = 0.0  # bounded: the fraction of all samples outside the ray bounds
 
 
 def skippable_fraction(level0: np.ndarray, mode: str, block_size: int, volume, camera, aspect: float = 1.0,
@@ -297,7 +298,8 @@ def skippable_fraction(level0: np.ndarray, mode: str, block_size: int, volume, c
 
 
 def skip_estimate(level0: np.ndarray, mode: str, block_size: int, volume, camera, aspect: float = 1.0,
-                  iso_value: float = 0.0, rays: int = 24, steps_per_block: int = 2) -> SkipEstimate:
+                  iso_value: float = 0.0, rays: int = 24, steps_per_block: int = 2,
+                  bounded: bool = False) -> SkipEstimate:
     """An estimate of the fraction of a frame's samples that block skipping saves and of the block
     lookups it costs, from the level-0 blocks alone, for ``RayCastRenderer.decide_skipping``
     (``renderer.acceleration = "auto"``).
@@ -311,7 +313,9 @@ def skip_estimate(level0: np.ndarray, mode: str, block_size: int, volume, camera
     Lookups: one per skippable block a ray enters, at the coarsest level whose block around the point
     is skippable (as the shader jumps), and one per run of points that are not skippable (a run in the shader ends at its dense neighbourhood's
     edge, at most ``2 * RUN_RADII[-1] - 1`` blocks on). Early termination is ignored: the estimate is
-    over the whole ray."""
+    over the whole ray.  ``bounded``: the rays start one step before their first non-empty block and
+    end one step after their last (emission-absorption's ray bounds, :mod:`.ray_bounds`), and
+    ``outside`` is the fraction of all points left out so."""
     nx = rays if aspect >= 1.0 else max(1, round(rays * aspect))
     ny = rays if aspect <= 1.0 else max(1, round(rays / aspect))
     origins, dirs = camera.pixel_rays(nx, ny)
@@ -342,6 +346,15 @@ def skip_estimate(level0: np.ndarray, mode: str, block_size: int, volume, camera
     for _ in range(1, level_count(volume.dims, block_size)):
         keys.append(_coarsen(keys[-1], op))
     values = [kl[b[..., 2] >> lv, b[..., 1] >> lv, b[..., 0] >> lv] for lv, kl in enumerate(keys)]
+    outside = 0.0
+    if bounded:
+        occupied = (level0[..., 3][b[..., 2], b[..., 1], b[..., 0]] != 0.0) & valid  # not empty
+        reached = occupied.any(axis=1)
+        first = np.where(reached, np.argmax(occupied, axis=1) - 1, count)
+        last = np.where(reached, k.size - np.argmax(occupied[:, ::-1], axis=1) + 1, 0)
+        inside = valid & (k[None, :] >= first[:, None]) & (k[None, :] < last[:, None])
+        outside = 1.0 - inside.sum() / max(valid.sum(), 1)
+        valid = inside
     if mode == "emission":
         skips = values
     elif mode == "isosurface":
@@ -384,8 +397,9 @@ def skip_estimate(level0: np.ndarray, mode: str, block_size: int, volume, camera
         radius = np.where(dense[..., i], float(r), radius)
     lookups = (skip & entered).sum() + (sampled / (radius * steps_per_block)).sum() + 0.5 * run_start.sum()
     rays_hit = len(t)
-    return SkipEstimate(float(skip.sum() / max(valid.sum(), 1)), float(lookups / rays_hit),
-                        float(np.sum(t1 - t0) / rays_hit), mode)
+    length = float(valid.sum() * step / rays_hit) if bounded else float(np.sum(t1 - t0) / rays_hit)
+    return SkipEstimate(float(skip.sum() / max(valid.sum(), 1)), float(lookups / rays_hit), length, mode,
+                        float(outside))
 
 
 def classes_with_runs(level0: np.ndarray) -> np.ndarray:

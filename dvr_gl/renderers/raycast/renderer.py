@@ -18,12 +18,15 @@ import moderngl
 import numpy as np
 
 from ... import limits
+from ... import rays as rays_mod
 from ...fields import diagonal
+from ...gl.geometry import gl_matrix, projection_matrix, view_matrix
 from ...gl.shaders import create_program
 from ..grid.bricking import plan_bricks, visibility_order
 from ..grid.gl_base import GLVolumeRenderer, GridView, _same, classification_features, now
 from ..grid.textures import upload_field
 from . import acceleration as accel
+from . import ray_bounds
 from .acceleration import level_count
 
 # A one-pass frame estimated to take longer than this (seconds, at limits.RATES) is drawn in bands of
@@ -44,7 +47,11 @@ AUTO_MIN_SKIPPABLE = 0.2
 # that jump wait for lanes that sample).
 LOOKUP_COST = {"emission": 4.0, "max": 8.0, "minip": 8.0, "isosurface": 8.0}
 # The defines of empty-space skipping (a frame without it, and the resolve pass, have none of them).
-SKIPPING_DEFINES = ("ACCELERATE", "NUM_LEVELS", "RUNS_IN_CLASSES")
+SKIPPING_DEFINES = ("ACCELERATE", "NUM_LEVELS", "RUNS_IN_CLASSES", "RAY_BOUNDS")
+# "auto" bounds the rays by the non-empty blocks (.ray_bounds) where the estimate puts at least this
+# fraction of a frame's samples outside them: drawing the faces costs a few milliseconds and no
+# sample (docs/acceleration.md, "Ray bounds").
+AUTO_MIN_OUTSIDE_BOUNDS = 0.05
 
 COMPOSITING = {"emission_absorption": "COMPOSITE_EMISSION", "isosurface": "COMPOSITE_ISOSURFACE",
                "average": "COMPOSITE_AVERAGE", "mip": "COMPOSITE_MIP", "minip": "COMPOSITE_MINIP"}
@@ -108,6 +115,37 @@ class BlockTextures(list):
     def release(self):
         for tex in self + ([self.runs] if self.runs else []):
             tex.release()
+
+
+class BoundsFaces:
+    """The non-empty blocks' faces (:func:`.ray_bounds.boundary_faces`) in a vertex buffer, with a
+    vertex array per program; ``count``: triangles' vertices."""
+
+    def __init__(self, ctx, occ: np.ndarray, rows: np.ndarray, block_size: int, volume):
+        self.ctx, self.count = ctx, len(rows)
+        self.buffer = ctx.buffer(rows.tobytes()) if self.count else None
+        self._arrays = {}
+        self._blocks = (occ, block_size, volume.dims, volume.spacing, volume.origin)
+        self._box = volume.box
+        self._planes = None  # (camera, depth range) of the last frame
+
+    def vertex_array(self, program):
+        if program not in self._arrays:
+            self._arrays[program] = self.ctx.vertex_array(program, [(self.buffer, "3f 2f", "in_position",
+                                                                     "in_plane")])
+        return self._arrays[program]
+
+    def depth_range(self, camera) -> tuple[float, float] | None:
+        """:func:`.ray_bounds.depth_range` for this camera (cached for the last one)."""
+        if self._planes is None or self._planes[0] is not camera:
+            self._planes = (camera, ray_bounds.depth_range(*self._blocks, camera, self._box))
+        return self._planes[1]
+
+    def release(self):
+        for array in self._arrays.values():
+            array.release()
+        if self.buffer is not None:
+            self.buffer.release()
 
 
 # llvmpipe stops a shader invocation's loops after 65535 iterations in all (gallivm's
@@ -233,7 +271,8 @@ class RayCastRenderer(GLVolumeRenderer):
         defines, blocks, estimate = self.decide_skipping(scene, defines, tables)
         windows = segment_windows(scene, "ACCELERATE" in defines)
         decided = {"skippable_estimate": estimate and estimate.fraction, "accelerated": "ACCELERATE" in defines,
-                   "lookups_estimate": estimate and estimate.lookups}
+                   "lookups_estimate": estimate and estimate.lookups, "ray_bounds": "RAY_BOUNDS" in defines,
+                   "outside_bounds_estimate": estimate and estimate.outside, "bounds_seconds": self.bounds_seconds}
         if len(views) > 1 or len(windows) > 1:
             if len(views) == 1:  # long rays: the whole volume as one brick, in passes over segment windows
                 views = [GridView((0, 0, 0), scene.volume.dims, whole_volume_brick(scene.volume))]
@@ -247,55 +286,108 @@ class RayCastRenderer(GLVolumeRenderer):
         self.bind(program, uniforms, textures)
         width, height = scene.image.width, scene.image.height
         (colour, *counts), fbo = self.target("main", width, height, (4, 4) if self.count_samples else (4,))
-        gpu_seconds = self._draw(program, fbo, width, height, self.bands(scene))
+        gpu_seconds = self.bounds_seconds + self._draw(program, fbo, width, height, self.bands(scene))
         image = self.read(fbo, width, height)
         self.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines, "bricks": 1,
                       **decided}
         if self.count_samples:
-            self.count_stats(self.read(fbo, width, height, 4, attachment=1))
+            self.count_stats(self.read(fbo, width, height, 4, attachment=1), scene)
         return image
 
     def decide_skipping(self, scene, defines, tables) -> tuple[dict, dict, accel.SkipEstimate | None]:
         """This frame's empty-space skipping, decided once for all its passes: the defines (without
-        ACCELERATE where it is off, or "auto" finds too little to skip), the block textures to bind
-        (the whole volume's, bricked or not) and the skippable estimate ("auto" only)."""
+        ACCELERATE where it is off, or "auto" finds too little to skip; with RAY_BOUNDS where the rays
+        are bounded by the non-empty blocks), the textures to bind (the block textures, the whole
+        volume's, bricked or not; the ray bounds) and the estimate ("auto" only)."""
+        self.bounds_seconds = 0.0  # drawing the ray bounds, part of the frame's GPU time
         if "ACCELERATE" not in defines:
             return defines, {}, None
         preint = tables["u_preint"].table if "u_preint" in tables else None
         blocks = self._block_textures(scene, defines, tables["u_lut"].lut, preint)
-        estimate = None
-        if acceleration_mode(scene.renderer.acceleration) == "auto":
-            estimate = self.skip_estimate(scene, blocks)
-            if not worth_skipping(estimate, scene.renderer.sample_distance):
-                return {k: v for k, v in defines.items() if k not in SKIPPING_DEFINES}, {}, estimate
-        textures = {f"u_blocks{level}": tex for level, tex in enumerate(blocks)}
+        faces = self._bounds_faces(scene, blocks) if "COMPOSITE_EMISSION" in defines else None
+        auto = acceleration_mode(scene.renderer.acceleration) == "auto"
+        estimate = self.skip_estimate(scene, blocks, faces is not None) if auto else None
+        textures = {}
+        planes = faces.depth_range(scene.camera) if faces is not None else None
+        if planes is not None and (not auto or estimate.outside >= AUTO_MIN_OUTSIDE_BOUNDS):
+            textures["u_ray_bounds"] = self.draw_ray_bounds(scene, faces, planes, defines)
+            defines = {**defines, "RAY_BOUNDS": True}
+        elif auto and faces is not None:  # unbounded: the in-loop estimate over whole rays
+            estimate = self.skip_estimate(scene, blocks, False)
+        if auto and not worth_skipping(estimate, scene.renderer.sample_distance):
+            kept = {k: v for k, v in defines.items() if k not in SKIPPING_DEFINES or k == "RAY_BOUNDS"}
+            return kept, textures, estimate
+        textures.update({f"u_blocks{level}": tex for level, tex in enumerate(blocks)})
         if blocks.runs is not None:
             textures["u_runs"] = blocks.runs
         return defines, textures, estimate
 
-    def count_stats(self, counts: np.ndarray):
+    def _bounds_faces(self, scene, blocks) -> "BoundsFaces | None":
+        """The faces of the non-empty blocks (cached with the blocks); None where no block is empty
+        (the bounds would be the box's)."""
+        vol, r = scene.volume, scene.renderer
+        occ = ray_bounds.occupied(blocks.level0)
+        if occ.all() or min(vol.dims) < 2:  # a flat box's faces are seen edge on
+            return None
+        return self._cached("ray bounds faces", (blocks,), lambda: BoundsFaces(
+            self.ctx, occ, ray_bounds.boundary_faces(occ, r.block_size, vol.dims, vol.spacing, vol.origin),
+            r.block_size, vol))
+
+    def draw_ray_bounds(self, scene, faces: "BoundsFaces", planes, defines) -> moderngl.Texture:
+        """This frame's ray bounds: the faces drawn into a two-channel float target, MIN-blended,
+        between the depths ``planes`` (:func:`.ray_bounds.depth_range`)."""
+        width, height = scene.image.width, scene.image.height
+        (bounds,), fbo = self.target("ray bounds", width, height, (2,))
+        fbo.use()
+        self.ctx.viewport = (0, 0, width, height)
+        fbo.clear(3.0e38, 3.0e38, 0.0, 0.0)
+        start = now()
+        if faces.count:
+            program = create_program(self.ctx, "raycast/ray_bounds.vert", "raycast/ray_bounds.frag",
+                                     {"CAMERA_ORTHOGRAPHIC": "CAMERA_ORTHOGRAPHIC" in defines})
+            self.bind(program, self.ray_uniforms(scene), {})
+            aspect = width / height
+            program["u_view_projection"].write(gl_matrix(projection_matrix(scene.camera, aspect, *planes)
+                                                         @ view_matrix(scene.camera)))
+            self.ctx.disable(self.ctx.DEPTH_TEST | self.ctx.CULL_FACE)
+            self.ctx.enable(self.ctx.BLEND)
+            self.ctx.blend_equation = moderngl.MIN
+            try:
+                faces.vertex_array(program).render(moderngl.TRIANGLES)
+            finally:
+                self.ctx.blend_equation = moderngl.FUNC_ADD
+                self.ctx.disable(self.ctx.BLEND)
+        self.ctx.finish()
+        self.bounds_seconds = now() - start
+        return bounds
+
+    def count_stats(self, counts: np.ndarray, scene):
         """COUNT_SAMPLES: the frame's counts (height, width, 4: samples, jumps, lookups, segments
-        jumped per pixel) into the stats, per ray hitting the volume; kept in :attr:`counts`."""
+        jumped per pixel) into the stats, per ray through the volume's box (ray bounds may leave such
+        a ray without a sample); kept in :attr:`counts`."""
         self.counts = counts
         c = counts.reshape(-1, 4).astype(np.float64)
         samples, jumps, lookups, jumped = c.T
-        hit = (samples + jumps) > 0
+        origins, directions = scene.camera.pixel_rays(scene.image.width, scene.image.height)
+        t0, t1 = rays_mod.intersect_box(origins, directions, *scene.volume.box)
+        hit = (t1 > np.maximum(t0, scene.camera.near_distance(directions))) | ((samples + jumps) > 0)
         self.stats["samples"] = int(samples.sum())
         self.stats["segments"] = int((samples + jumped).sum())  # sampled or jumped
         self.stats["samples_per_ray"] = float(samples[hit].mean()) if hit.any() else 0.0
         self.stats["jumps_per_ray"] = float(jumps[hit].mean()) if hit.any() else 0.0
         self.stats["lookups_per_ray"] = float(lookups[hit].mean()) if hit.any() else 0.0
 
-    def skip_estimate(self, scene, blocks) -> accel.SkipEstimate:
-        """:func:`.acceleration.skip_estimate` of this frame (cached per view and blocks)."""
+    def skip_estimate(self, scene, blocks, bounded: bool = False) -> accel.SkipEstimate:
+        """:func:`.acceleration.skip_estimate` of this frame (cached per view and blocks); ``bounded``:
+        over the ray bounds only."""
         r, img = scene.renderer, scene.image
         mode = "isosurface" if r.compositing == "isosurface" else blocks.mode
-        key = (blocks, scene.camera, img.width, img.height, r.iso_value)
+        key = (blocks, scene.camera, img.width, img.height, r.iso_value, bounded)
         last = getattr(self, "_skippable", None)  # host data only: not in the texture cache
         if last is None or not _same(last[0], key):
             self._skippable = (key, accel.skip_estimate(blocks.level0, mode, r.block_size, scene.volume,
                                                         scene.camera, img.width / img.height,
-                                                        iso_value=r.iso_value))
+                                                        iso_value=r.iso_value, bounded=bounded))
         return self._skippable[1]
 
     def bands(self, scene) -> int:
@@ -349,7 +441,7 @@ class RayCastRenderer(GLVolumeRenderer):
         if counting:  # the counts start at zero, whatever the state's initial value
             targets[0][0][1].write(np.zeros((height, width, 4), np.float32))
         common = {**self.ray_uniforms(scene), **self.optics_uniforms(scene, lut)}
-        gpu_seconds, current = 0.0, 0
+        gpu_seconds, current = self.bounds_seconds, 0
         to_global = -np.asarray(scene.volume.origin) / np.asarray(scene.volume.spacing)
         passes = [(b, w) for b in bricks for w in (windows if front_to_back else windows[::-1])]
         for done, (brick, window) in enumerate(passes):
@@ -377,5 +469,5 @@ class RayCastRenderer(GLVolumeRenderer):
         self.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines,
                       "bricks": len(bricks), "passes": len(passes), **decided}
         if counting:
-            self.count_stats(self.read(targets[current][1], width, height, 4, attachment=1))
+            self.count_stats(self.read(targets[current][1], width, height, 4, attachment=1), scene)
         return image

@@ -1,0 +1,92 @@
+"""Ray bounds: where each pixel's ray first enters and last leaves the blocks that are not empty.
+
+Empty-space skipping by bounding geometry (as Hadwiger et al. 2005 start their rays at the
+rasterized faces of active blocks): the faces between level-0 blocks that are empty under the
+transfer function (extinction zero for every value the filter can produce in them, the
+``(0, 0, 0, 0)`` class of :mod:`.acceleration`) and blocks that are not, and the faces of
+non-empty blocks on the volume's boundary, are drawn once per frame into a two-channel float
+target blended with MIN: ``(t, -t)`` of every face a pixel's ray crosses, so that the target
+holds the first entry into and the last exit from the non-empty blocks along that ray.  The ray
+caster then steps only the segments from one before the entry to one after the exit, on the same
+segment grid as without bounds: the segments it leaves out lie in empty blocks, which add exactly
+zero colour and optical depth, so the image is bit-identical, and the loop pays nothing per
+sample for it (the in-loop skipping of :mod:`.acceleration` pays a block lookup per jump).
+
+Units and conventions: block ``b`` of size ``B`` voxels covers voxel coordinates
+``[b B, (b + 1) B]`` clipped to the volume's ``[0, n - 1]`` (a sample at ``u`` belongs to block
+``floor(u / B)``); world position = origin + voxel coordinate * spacing; ``t`` is the ray parameter
+of ``shaders/common/camera_ray.glsl`` (world units along the unit direction), computed per fragment
+from the face's plane, not interpolated.  Emission-absorption only: an empty block changes no
+other mode's result by being left out only in special cases (MIP of a ramp starting at zero, ...).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+# A face's vertices per axis: the quad's corners as (u, v) offsets in the two other axes.
+_QUAD = np.array([(0, 0), (1, 0), (1, 1), (0, 0), (1, 1), (0, 1)])
+
+
+def occupied(level0: np.ndarray) -> np.ndarray:
+    """Level-0 blocks ``(nbz, nby, nbx)`` that are not empty: extinction not zero (constant or not)."""
+    return level0[..., 3] != 0.0
+
+
+def block_edges(dims_axis: int, blocks: int, block_size: int) -> np.ndarray:
+    """Voxel coordinates of the ``blocks + 1`` block boundaries along one axis, clipped to the volume."""
+    return np.minimum(np.arange(blocks + 1) * block_size, dims_axis - 1).astype(np.float64)
+
+
+def boundary_faces(occ: np.ndarray, block_size: int, dims, spacing, origin) -> np.ndarray:
+    """The faces of the non-empty blocks' union as triangles: ``(6 F, 5)`` float32 rows of world
+    position (x, y, z), the face's axis (0, 1, 2 for x, y, z) and its plane's world coordinate."""
+    spacing, origin = np.asarray(spacing, np.float64), np.asarray(origin, np.float64)
+    p = np.pad(occ, 1)  # (z, y, x); outside the volume: empty
+    edges = [block_edges(n, nb, block_size) for n, nb in zip(dims, occ.shape[::-1])]  # x, y, z
+    # per world axis: where occupancy changes across a block boundary, as (z, y, x) indices with
+    # the boundary's index (0 .. blocks) on that axis and block indices on the other two
+    changes = {0: p[1:-1, 1:-1, 1:] != p[1:-1, 1:-1, :-1],
+               1: p[1:-1, 1:, 1:-1] != p[1:-1, :-1, 1:-1],
+               2: p[1:, 1:-1, 1:-1] != p[:-1, 1:-1, 1:-1]}
+    out = []
+    for axis, change in changes.items():
+        z, y, x = np.nonzero(change)
+        index = (x, y, z)  # per world axis: boundary index on `axis`, block index on the others
+        u, v = (a for a in (0, 1, 2) if a != axis)
+        corners = np.empty((len(x), 6, 3))
+        corners[..., axis] = edges[axis][index[axis]][:, None]
+        for column, other in ((0, u), (1, v)):
+            low, high = edges[other][index[other]], edges[other][index[other] + 1]
+            corners[..., other] = np.where(_QUAD[None, :, column] == 0, low[:, None], high[:, None])
+        rows = np.empty((len(x), 6, 5))
+        rows[..., :3] = origin + corners * spacing
+        rows[..., 3] = axis
+        rows[..., 4] = origin[axis] + corners[..., axis] * spacing[axis]
+        out.append(rows.reshape(-1, 5))
+    return np.concatenate(out).astype(np.float32)
+
+
+def depth_range(occ: np.ndarray, block_size: int, dims, spacing, origin, camera, box) -> tuple[float, float] | None:
+    """Near and far depths (along the camera's forward axis) to draw the faces between: every
+    non-empty block lies between them, so no face is clipped.  None where a non-empty block reaches
+    the camera's near plane (the eye is in or next to one): a ray may start inside it with its entry
+    face behind the near plane, and the rays are not bounded."""
+    spacing, origin = np.asarray(spacing, np.float64), np.asarray(origin, np.float64)
+    forward, eye = camera.basis()[0], np.asarray(camera.eye, np.float64)
+    z, y, x = np.nonzero(occ)
+    edges = [block_edges(n, nb, block_size) for n, nb in zip(dims, occ.shape[::-1])]
+    lo = origin + np.stack([edges[0][x], edges[1][y], edges[2][z]], axis=1) * spacing
+    hi = origin + np.stack([edges[0][x + 1], edges[1][y + 1], edges[2][z + 1]], axis=1) * spacing
+    nearest = np.where(forward >= 0.0, lo, hi)  # per box, the corner forward points away from
+    least = float(((nearest - eye) @ forward).min()) if len(x) else np.inf
+    box_lo, box_hi = (np.asarray(b, np.float64) for b in box)
+    far = float((np.where(forward >= 0.0, box_hi, box_lo) - eye) @ forward)
+    # margins of a thousandth of the near distance and a millionth of the volume: the GL clips in float32
+    margin = 1e-3 * max(camera.near, 0.0) + 1e-6 * float(np.linalg.norm(box_hi - box_lo))
+    # a perspective projection squeezes depths nearer than ~1e-3 of the scene against the far plane
+    # (dvr_gl.gl.geometry.clip_planes): data that near the eye is not bounded either
+    if not least > max(camera.near + margin, 2e-3 * float(np.linalg.norm(box_hi - box_lo))):
+        return None
+    near = max(camera.near, 0.5 * least)  # a perspective projection needs near > 0
+    return near, max(far, near) * 1.01 + margin
