@@ -97,16 +97,23 @@ void main() {
     float t_prev = texelFetch(u_exit, ivec2(gl_FragCoord.xy), 0).r;
     if (c == 0u) { frag = acc; exit_t = vec4(3e38); return; }
     uint cell = c - 1u;
+    int came_from = -1;  // the cell the walk entered this one from: its face is not an exit
     vec3 o, d;
     camera_ray(o, d);
     for (int i = 0; i < 65536; ++i) {
         vec4 p0 = cell_texel(cell, 0u), p1 = cell_texel(cell, 1u), p2 = cell_texel(cell, 2u), p3 = cell_texel(cell, 3u);
         vec4 side = cell_texel(cell, 4u), lin = cell_texel(cell, 5u);
+        ivec4 across = texelFetch(u_neighbours, texel_of(cell), 0);
         vec4 nd = vec4(dot(p0.xyz, d), dot(p1.xyz, d), dot(p2.xyz, d), dot(p3.xyz, d)) * side;
         vec4 no = (vec4(dot(p0.xyz, o), dot(p1.xyz, o), dot(p2.xyz, o), dot(p3.xyz, o)) - vec4(p0.w, p1.w, p2.w, p3.w)) * side;
         vec4 t = -no / nd;
         vec4 t_in = mix(vec4(-3e38), t, greaterThan(nd, vec4(0.0)));
+        bvec4 leaves = bvec4(ivec4(lessThan(nd, vec4(0.0))) & ivec4(notEqual(across, ivec4(came_from))));
+#ifdef X_EXCLUDE
+        vec4 t_out = mix(vec4(3e38), t, leaves);
+#else
         vec4 t_out = mix(vec4(3e38), t, lessThan(nd, vec4(0.0)));
+#endif
         float a = max(max(max(t_in.x, t_in.y), max(t_in.z, t_in.w)), t_prev);
         float b = min(min(t_out.x, t_out.y), min(t_out.z, t_out.w));
         int k = b == t_out.x ? 0 : b == t_out.y ? 1 : b == t_out.z ? 2 : 3;
@@ -115,14 +122,18 @@ void main() {
             acc += (1.0 - acc.a) * transfer_segment(sf, sb, b - a);
         }
         t_prev = max(b, t_prev);
-        int next = texelFetch(u_neighbours, texel_of(cell), 0)[k];
+        int next = across[k];
         if (next < 0 || acc.a > 0.9999) break;
+        came_from = int(cell);
         cell = uint(next);
     }
     frag = acc;
     exit_t = vec4(acc.a > 0.9999 ? 3e38 : t_prev);
 }
 """
+
+
+VARIANT = []  # extra defines (experiments)
 
 
 def neighbours(tets: np.ndarray) -> np.ndarray:
@@ -141,6 +152,7 @@ def neighbours(tets: np.ndarray) -> np.ndarray:
 
 def walk_source(tf) -> str:
     defines = [f"#define TF_COUNT {len(tf.points)}", f"#define TF_POW2 {1 << len(tf.points).bit_length()}"]
+    defines += [f"#define {name}" for name in VARIANT]
     if tf.opacity_model == "alpha":
         defines.append("#define ALPHA_MODEL")
     parts = [(shader_dir() / p).read_text() for p in
@@ -227,8 +239,10 @@ def measure(name: str, data_dir: Path, size: int, passes: int) -> dict:
         pt.render(scene.with_renderer(cell_order="centroid"))
         draws.append(pt.stats["draw_seconds"])
     pt.close()
+    off = np.abs(image - exact).max(axis=2)
     return {"mesh": name, "walk_ms": walk_ms, "pt_ms": 1e3 * min(draws),
-            "rms": float(np.sqrt(np.mean((image - exact) ** 2)))}
+            "rms": float(np.sqrt(np.mean((image - exact) ** 2))), "off": int((off > 1e-2).sum()),
+            "worst": np.unravel_index(np.argmax(off), off.shape)}
 
 
 def main(argv=None):
@@ -237,14 +251,17 @@ def main(argv=None):
     parser.add_argument("--meshes", default="bluntfin,comb,post")
     parser.add_argument("--size", type=int, default=512)
     parser.add_argument("--passes", type=int, default=4, help="walks: the first entry and re-entries")
+    parser.add_argument("--variant", default="", help="extra defines of the walk, comma-separated")
     args = parser.parse_args(argv)
+    VARIANT[:] = [v for v in args.variant.split(",") if v]
     print("| mesh | walk ms | projected-tetrahedra draw ms | RMS walk vs PT |\n|---|---:|---:|---:|")
     for name in args.meshes.split(","):
         if not (args.data_dir / MESHES[name][0]).exists():
             print(f"{name}: not found under {args.data_dir} (--data-dir)", file=sys.stderr)
             continue
         row = measure(name, args.data_dir, args.size, args.passes)
-        print(f"| {row['mesh']} | {row['walk_ms']:.0f} | {row['pt_ms']:.0f} | {row['rms']:.1e} |", flush=True)
+        print(f"| {row['mesh']} | {row['walk_ms']:.0f} | {row['pt_ms']:.0f} | {row['rms']:.1e} | {row['off']} "
+              f"{row['worst']} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -108,6 +108,7 @@ def test_auto_skips_only_where_it_pays(gpu, tmp_path):
         auto = gpu.render(scene)
         stats = gpu.stats
         assert stats["ray_bounds"] and stats["accelerated"] == in_loop, stats
+        assert not in_loop or stats["skippable_estimate"] >= AUTO_MIN_SKIPPABLE
         outside, skippable = stats["outside_bounds_estimate"], stats["skippable_estimate"]
         estimate = 1.0 - (1.0 - outside) * (1.0 - skippable) if in_loop else outside
         assert abs(estimate - (1.0 - stats["samples"] / off_samples)) <= 0.1, (estimate, stats["samples"])

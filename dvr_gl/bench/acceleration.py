@@ -37,7 +37,7 @@ DATASETS = [
 CONFIGS = [  # label, overrides
     ("none", {"renderer.ert_threshold": 1.0, "renderer.acceleration": "off"}),
     ("early termination", {"renderer.ert_threshold": 0.99, "renderer.acceleration": "off"}),
-    ("empty-space skipping", {"renderer.ert_threshold": 1.0, "renderer.acceleration": "on"}),
+    ("empty-space skipping (bounds and blocks)", {"renderer.ert_threshold": 1.0, "renderer.acceleration": "on"}),
     ("both (default, auto)", {"renderer.ert_threshold": 0.99, "renderer.acceleration": "auto"}),
     ("both + homogeneity 0.3", {"renderer.ert_threshold": 0.99, "renderer.acceleration": "on",
                                 "renderer.homogeneity_tolerance": 0.3}),
@@ -103,7 +103,8 @@ def dense_scenes(volume_size: int = 256) -> list[tuple[str, dict]]:
     return out
 
 
-OVERHEAD_COLUMNS = [("dataset", "scene", ""), ("skippable", "skippable (estimate)", ".2f"),
+OVERHEAD_COLUMNS = [("dataset", "scene", ""), ("outside", "outside bounds (estimate)", ".2f"),
+                    ("skippable", "skippable (estimate)", ".2f"),
                     ("saved", "samples saved", ".2f"), ("off_ms", "off ms", ".1f"), ("on_ms", "on ms", ".1f"),
                     ("auto_ms", "auto ms", ".1f"), ("on_ratio", "on/off", ".2f"), ("on_worst", "worst", ".2f"),
                     ("auto_ratio", "auto/off", ".2f"), ("auto_worst", "worst", ".2f")]
@@ -112,8 +113,9 @@ OVERHEAD_COLUMNS = [("dataset", "scene", ""), ("skippable", "skippable (estimate
 def overhead(scenes: list[tuple[str, dict]], size: int = 512, views: int = 6, repeat: int = 2) -> list[dict]:
     """Acceleration on and auto against off, in one process: for each of ``views`` azimuths the three
     settings alternate (``repeat`` rounds, the fastest frame of each), and the ratios to off are
-    taken per view; the table gives their median and worst.  Also the auto estimate of the skippable
-    fraction and the samples skipping saves (counted by the shader), both as medians over the views."""
+    taken per view; the table gives their median and worst.  Also auto's estimates of the fraction
+    of samples outside the ray bounds and of the skippable fraction inside them, and the samples on
+    saves (counted by the shader), as medians over the views."""
     import statistics
 
     rows = []
@@ -124,7 +126,7 @@ def overhead(scenes: list[tuple[str, dict]], size: int = 512, views: int = 6, re
             volume = load_scene(None, base).volume
             ratios = {"on": [], "auto": []}
             ms = {"on": [], "off": [], "auto": []}
-            estimates, saved = [], []
+            estimates, outside, saved = [], [], []
             for view in range(views):
                 azimuth = 30.0 + 360.0 * view / views
                 scenes_ = {mode: load_scene(None, {**base, "camera.azimuth": azimuth,
@@ -137,6 +139,7 @@ def overhead(scenes: list[tuple[str, dict]], size: int = 512, views: int = 6, re
                     counted[mode] = renderer.stats
                 renderer.count_samples = False
                 estimates.append(counted["auto"]["skippable_estimate"] or 0.0)
+                outside.append(counted["auto"]["outside_bounds_estimate"] or 0.0)
                 saved.append(1.0 - counted["on"]["samples_per_ray"] / max(counted["off"]["samples_per_ray"], 1e-9))
                 best = {mode: float("inf") for mode in scenes_}
                 for _ in range(repeat):
@@ -147,7 +150,8 @@ def overhead(scenes: list[tuple[str, dict]], size: int = 512, views: int = 6, re
                     ms[mode].append(1e3 * best[mode])
                 for mode in ratios:
                     ratios[mode].append(best[mode] / best["off"])
-            rows.append({"dataset": name, "skippable": statistics.median(estimates),
+            rows.append({"dataset": name, "outside": statistics.median(outside),
+                         "skippable": statistics.median(estimates),
                          "saved": statistics.median(saved),
                          **{f"{m}_ms": statistics.median(v) for m, v in ms.items()},
                          **{f"{m}_ratio": statistics.median(v) for m, v in ratios.items()},
