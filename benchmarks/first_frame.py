@@ -32,7 +32,8 @@ t = time.perf_counter(); r.render(scene); first = time.perf_counter() - t
 later = []
 for _ in range(5):
     t = time.perf_counter(); r.render(scene); later.append(time.perf_counter() - t)
-print(json.dumps({"first": first, "later": sorted(later)[2], "accelerated": r.stats["accelerated"]}))
+print(json.dumps({"first": first, "later": sorted(later)[2], "accelerated": r.stats["accelerated"],
+                  "bounds": r.stats["ray_bounds"]}))
 '''
 
 
@@ -65,7 +66,7 @@ def main(argv=None) -> int:
     p.add_argument("--runs", type=int, default=3)
     p.add_argument("--cold", action="store_true", help="an empty Mesa shader cache for every run")
     args = p.parse_args(argv)
-    print("scene | first frame ms | later frame ms | first / later | skipping")
+    print("scene | first frame ms | later frame ms | first / later | ray bounds | block skipping")
     work = tempfile.TemporaryDirectory(prefix="dvr-first-frame-")
     for name, overrides in scenes(Path(args.data_dir), args.size, Path(work.name)):
         results = []
@@ -80,7 +81,8 @@ def main(argv=None) -> int:
         first = statistics.median(r["first"] for r in results)
         later = statistics.median(r["later"] for r in results)
         print(f"{name} | {1e3 * first:.0f} | {1e3 * later:.0f} | {first / later:.2f} | "
-              f"{'on' if results[0]['accelerated'] else 'off'}", flush=True)
+              f"{'on' if results[0]['bounds'] else 'off'} | {'on' if results[0]['accelerated'] else 'off'}",
+              flush=True)
     return 0
 
 

@@ -46,6 +46,12 @@ AUTO_MIN_SKIPPABLE = 0.2
 # more than 1.2x; MIP's lookups cost more (its runs end where the running maximum says, and lanes
 # that jump wait for lanes that sample).
 LOOKUP_COST = {"emission": 4.0, "max": 8.0, "minip": 8.0, "isosurface": 8.0}
+# Within the ray bounds (emission-absorption) a lookup is dearer than that: the blocks left to jump lie
+# behind material, where early termination (which the estimate ignores) ends most rays first. In
+# benchmarks/auto_skipping.py block skipping within the bounds was never faster than the bounds alone,
+# at break-even costs up to 11.5 (the bunny at 0.5 voxel; docs/measurements/auto-skipping.md): 16
+# keeps it for hollow material seen through, finely sampled.
+LOOKUP_COST_BOUNDED = 16.0
 # The defines of empty-space skipping (a frame without it, and the resolve pass, have none of them).
 SKIPPING_DEFINES = ("ACCELERATE", "NUM_LEVELS", "RUNS_IN_CLASSES", "RAY_BOUNDS")
 # "auto" bounds the rays by the non-empty blocks (.ray_bounds) where the estimate puts at least this
@@ -164,7 +170,8 @@ def worth_skipping(estimate, sample_distance: float) -> bool:
     """"auto"'s decision from a :class:`.acceleration.SkipEstimate` at this sample distance (world
     units): enough samples saved, and fewer samples plus lookups than samples without skipping."""
     samples = estimate.length / sample_distance  # per ray, without skipping
-    cost = (1.0 - estimate.fraction) * samples + LOOKUP_COST[estimate.mode] * estimate.lookups
+    lookup = LOOKUP_COST_BOUNDED if estimate.bounded else LOOKUP_COST[estimate.mode]
+    cost = (1.0 - estimate.fraction) * samples + lookup * estimate.lookups
     return estimate.fraction >= AUTO_MIN_SKIPPABLE and cost < samples
 
 
@@ -305,14 +312,15 @@ class RayCastRenderer(GLVolumeRenderer):
         preint = tables["u_preint"].table if "u_preint" in tables else None
         blocks = self._block_textures(scene, defines, tables["u_lut"].lut, preint)
         faces = self._bounds_faces(scene, blocks) if "COMPOSITE_EMISSION" in defines else None
-        auto = acceleration_mode(scene.renderer.acceleration) == "auto"
-        estimate = self.skip_estimate(scene, blocks, faces is not None) if auto else None
-        textures = {}
         planes = faces.depth_range(scene.camera) if faces is not None else None
-        if planes is not None and (not auto or estimate.outside >= AUTO_MIN_OUTSIDE_BOUNDS):
-            textures["u_ray_bounds"] = self.draw_ray_bounds(scene, faces, planes, defines)
-            defines = {**defines, "RAY_BOUNDS": True}
-        elif auto and faces is not None:  # unbounded: the in-loop estimate over whole rays
+        auto = acceleration_mode(scene.renderer.acceleration) == "auto"
+        estimate, textures = None, {}
+        if planes is not None:
+            estimate = self.skip_estimate(scene, blocks, True) if auto else None
+            if not auto or estimate.outside >= AUTO_MIN_OUTSIDE_BOUNDS:
+                textures["u_ray_bounds"] = self.draw_ray_bounds(scene, faces, planes, defines)
+                defines = {**defines, "RAY_BOUNDS": True}
+        if auto and "RAY_BOUNDS" not in defines:  # the in-loop estimate over whole rays
             estimate = self.skip_estimate(scene, blocks, False)
         if auto and not worth_skipping(estimate, scene.renderer.sample_distance):
             kept = {k: v for k, v in defines.items() if k not in SKIPPING_DEFINES or k == "RAY_BOUNDS"}
