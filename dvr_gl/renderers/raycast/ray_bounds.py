@@ -67,7 +67,8 @@ def boundary_faces(occ: np.ndarray, block_size: int, dims, spacing, origin) -> n
     return np.concatenate(out).astype(np.float32)
 
 
-def depth_range(occ: np.ndarray, block_size: int, dims, spacing, origin, camera, box) -> tuple[float, float] | None:
+def clip_depths(occ: np.ndarray, block_size: int, dims, spacing, origin, camera,
+                box) -> tuple[float, float] | None:
     """Near and far depths (along the camera's forward axis) to draw the faces between: every
     non-empty block lies between them, so no face is clipped.  None where a non-empty block reaches
     the camera's near plane (the eye is in or next to one): a ray may start inside it with its entry

@@ -141,10 +141,10 @@ class BoundsFaces:
                                                                      "in_plane")])
         return self._arrays[program]
 
-    def depth_range(self, camera) -> tuple[float, float] | None:
-        """:func:`.ray_bounds.depth_range` for this camera (cached for the last one)."""
+    def clip_depths(self, camera) -> tuple[float, float] | None:
+        """:func:`.ray_bounds.clip_depths` for this camera (cached for the last one)."""
         if self._planes is None or self._planes[0] is not camera:
-            self._planes = (camera, ray_bounds.depth_range(*self._blocks, camera, self._box))
+            self._planes = (camera, ray_bounds.clip_depths(*self._blocks, camera, self._box))
         return self._planes[1]
 
     def release(self):
@@ -312,7 +312,7 @@ class RayCastRenderer(GLVolumeRenderer):
         preint = tables["u_preint"].table if "u_preint" in tables else None
         blocks = self._block_textures(scene, defines, tables["u_lut"].lut, preint)
         faces = self._bounds_faces(scene, blocks) if "COMPOSITE_EMISSION" in defines else None
-        planes = faces.depth_range(scene.camera) if faces is not None else None
+        planes = faces.clip_depths(scene.camera) if faces is not None else None
         auto = acceleration_mode(scene.renderer.acceleration) == "auto"
         estimate, textures = None, {}
         if planes is not None:
@@ -343,7 +343,7 @@ class RayCastRenderer(GLVolumeRenderer):
 
     def draw_ray_bounds(self, scene, faces: "BoundsFaces", planes, defines) -> moderngl.Texture:
         """This frame's ray bounds: the faces drawn into a two-channel float target, MIN-blended,
-        between the depths ``planes`` (:func:`.ray_bounds.depth_range`)."""
+        between the depths ``planes`` (:func:`.ray_bounds.clip_depths`)."""
         width, height = scene.image.width, scene.image.height
         (bounds,), fbo = self.target("ray bounds", width, height, (2,))
         fbo.use()
