@@ -50,12 +50,12 @@ def scenes(data_dir: Path, size: int, work: Path) -> list[tuple[str, dict]]:
 @contextlib.contextmanager
 def bounds_only():
     """auto with the ray bounds wherever they apply and no block skipping in the loop."""
-    saved = raycast.AUTO_MIN_OUTSIDE_BOUNDS, raycast.worth_skipping
-    raycast.AUTO_MIN_OUTSIDE_BOUNDS, raycast.worth_skipping = 0.0, lambda estimate, sample_distance: False
+    saved = raycast.AUTO_BOUNDS_COST, raycast.worth_skipping
+    raycast.AUTO_BOUNDS_COST, raycast.worth_skipping = 0.0, lambda estimate, sample_distance: False
     try:
         yield
     finally:
-        raycast.AUTO_MIN_OUTSIDE_BOUNDS, raycast.worth_skipping = saved
+        raycast.AUTO_BOUNDS_COST, raycast.worth_skipping = saved
 
 
 def render_as(renderer, scene, name):

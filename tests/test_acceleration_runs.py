@@ -188,6 +188,7 @@ def test_auto_weighs_lookups_against_samples_saved(gpu, tmp_path):
     assert 1.0 < estimate.lookups < gpu.stats["lookups_per_ray"] < 2.0 * estimate.lookups
     coarse = shell.with_renderer(sample_distance=3.0)  # 3/4 of a block a sample
     gpu.render(coarse)
-    assert not gpu.stats["accelerated"] and gpu.stats["skippable_estimate"] == estimate.fraction
+    # nor the ray bounds there: they would leave out 2.7 samples a ray, less than they cost
+    assert not gpu.stats["accelerated"] and not gpu.stats["ray_bounds"]
     assert not worth_skipping(estimate, 3.0) and not worth_skipping(estimate, 0.25)
     assert worth_skipping(estimate, shell.renderer.sample_distance)

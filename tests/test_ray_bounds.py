@@ -23,7 +23,7 @@ def gpu():
 @pytest.fixture
 def bounds_only(monkeypatch):
     """auto draws the ray bounds whenever there are faces, and never skips blocks in the loop."""
-    monkeypatch.setattr(raycast, "AUTO_MIN_OUTSIDE_BOUNDS", 0.0)
+    monkeypatch.setattr(raycast, "AUTO_BOUNDS_COST", 0.0)
     monkeypatch.setattr(raycast, "worth_skipping", lambda estimate, sample_distance: False)
 
 

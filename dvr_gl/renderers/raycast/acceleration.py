@@ -289,6 +289,7 @@ class SkipEstimate:
     mode: str = "emission"
     outside: float = 0.0  # bounded: the fraction of all samples outside the ray bounds
     bounded: bool = False  # over the points within the ray bounds only
+    ray_length: float = 0.0  # the rays' mean length in the box (bounded or not), world units
 
 
 def skippable_fraction(level0: np.ndarray, mode: str, block_size: int, volume, camera, aspect: float = 1.0,
@@ -400,7 +401,7 @@ def skip_estimate(level0: np.ndarray, mode: str, block_size: int, volume, camera
     rays_hit = len(t)
     length = float(valid.sum() * step / rays_hit) if bounded else float(np.sum(t1 - t0) / rays_hit)
     return SkipEstimate(float(skip.sum() / max(valid.sum(), 1)), float(lookups / rays_hit), length, mode,
-                        float(outside), bounded)
+                        float(outside), bounded, float(np.sum(t1 - t0) / rays_hit))
 
 
 def classes_with_runs(level0: np.ndarray) -> np.ndarray:
