@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...gl.geometry import depth_range
+
 # A face's vertices per axis: the quad's corners as (u, v) offsets in the two other axes.
 _QUAD = np.array([(0, 0), (1, 0), (1, 1), (0, 0), (1, 1), (0, 1)])
 
@@ -82,7 +84,7 @@ def clip_depths(occ: np.ndarray, block_size: int, dims, spacing, origin, camera,
     nearest = np.where(forward >= 0.0, lo, hi)  # per box, the corner forward points away from
     least = float(((nearest - eye) @ forward).min()) if len(x) else np.inf
     box_lo, box_hi = (np.asarray(b, np.float64) for b in box)
-    far = float((np.where(forward >= 0.0, box_hi, box_lo) - eye) @ forward)
+    _, far = depth_range(camera, box_lo, box_hi)
     # margins of a thousandth of the near distance and a millionth of the volume: the GL clips in float32
     margin = 1e-3 * max(camera.near, 0.0) + 1e-6 * float(np.linalg.norm(box_hi - box_lo))
     # a perspective projection squeezes depths nearer than ~1e-3 of the scene against the far plane
