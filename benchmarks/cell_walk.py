@@ -55,8 +55,11 @@ reference's pieces):
 * the post's pixel: the ray grazes the outer boundary at a crease, leaving one face and re-entering
   the next 0.0015 further (both faces edge on, n.d = 2e-4 and -1e-4); the entering face's fragment
   is missing from the list (a sliver in screen space, or the sign of n.d in float32), so the walk
-  ends there.  Next: grow the entering faces' footprints as projected tetrahedra does, and take the
-  entering side from the cell's own planes.
+  ends there.  Tried: drawing the entering faces' edges as lines too (entries whose cell the ray
+  misses dropped): far worse (post 37 pixels off, blunt fin 105, twice the time), as an edge's line
+  also lists faces the ray does not enter by.  Next: grow the entering faces' footprints by a
+  fraction of a pixel as projected tetrahedra does, keeping an entry only where the ray crosses
+  the face itself (its barycentric coordinates, not the cell).
 
 Tried and dropped:
 never leaving a cell through the face it was entered by (a ray that only grazes a cell may have no
