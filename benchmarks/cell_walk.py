@@ -143,29 +143,17 @@ void main() {
     unused = vec4(0.0);
 }
 """
-WALK_VS = """#version 430
-void main() { gl_Position = vec4(gl_VertexID == 1 ? 3.0 : -1.0, gl_VertexID == 2 ? 3.0 : -1.0, 0.0, 1.0); }
-"""
-WALK_MAIN = """
-uniform usampler2D u_entry;
+WALK_STEPS = """
 uniform isampler2D u_neighbours;
-uniform sampler2D u_before;  // the colour so far (front to back)
-uniform sampler2D u_exit;    // where the ray last left the mesh
-layout(location = 0) out vec4 frag;
-layout(location = 1) out vec4 exit_t;
-void main() {
-    uint c = texelFetch(u_entry, ivec2(gl_FragCoord.xy), 0).r;
-    vec4 acc = texelFetch(u_before, ivec2(gl_FragCoord.xy), 0);
-    float t_prev = texelFetch(u_exit, ivec2(gl_FragCoord.xy), 0).r;
-    if (c == 0u) { frag = acc; exit_t = vec4(3e38); return; }
-    uint cell = c - 1u;
-    int stalls = 0;
-    vec3 o, d;
-    camera_ray(o, d);
+const int MAX_STALLS = 32;
+// From `cell`, entered at t_prev: clip the ray against the cell's planes, integrate the transfer
+// function along the piece inside and composite it front to back into acc, step into the neighbour
+// across the exit face; until the ray leaves the mesh (t_prev: where) or is opaque.
+void walk(uint cell, vec3 o, vec3 d, inout float t_prev, inout vec4 acc) {
+    int stalls = 0;  // steps in a row that did not advance along the ray
     for (int i = 0; i < 65536; ++i) {
         vec4 p0 = cell_texel(cell, 0u), p1 = cell_texel(cell, 1u), p2 = cell_texel(cell, 2u), p3 = cell_texel(cell, 3u);
         vec4 side = cell_texel(cell, 4u), lin = cell_texel(cell, 5u);
-        ivec4 across = texelFetch(u_neighbours, texel_of(cell), 0);
         vec4 nd = vec4(dot(p0.xyz, d), dot(p1.xyz, d), dot(p2.xyz, d), dot(p3.xyz, d)) * side;
         vec4 no = (vec4(dot(p0.xyz, o), dot(p1.xyz, o), dot(p2.xyz, o), dot(p3.xyz, o)) - vec4(p0.w, p1.w, p2.w, p3.w)) * side;
         vec4 t = -no / nd;
@@ -178,13 +166,35 @@ void main() {
             float sf = dot(lin.xyz, o + a * d) + lin.w, sb = dot(lin.xyz, o + b * d) + lin.w;
             acc += (1.0 - acc.a) * transfer_segment(sf, sb, b - a);
         }
-        stalls = b > t_prev ? 0 : stalls + 1;  // as in WALK_LISTS_MAIN
-        if (stalls > 32) break;
+        // Steps through cells the ray only touches (an edge, a vertex) do not advance; rounding can
+        // send such steps round in a cycle, which llvmpipe's loop cap (65535 iterations per SIMD
+        // group) then ends for the neighbouring pixels too: give the ray up (to the next entry).
+        stalls = b > t_prev ? 0 : stalls + 1;
+        if (stalls > MAX_STALLS) break;
         t_prev = max(b, t_prev);
-        int next = across[k];
+        int next = texelFetch(u_neighbours, texel_of(cell), 0)[k];
         if (next < 0 || acc.a > 0.9999) break;
         cell = uint(next);
     }
+}
+"""
+WALK_VS = """#version 430
+void main() { gl_Position = vec4(gl_VertexID == 1 ? 3.0 : -1.0, gl_VertexID == 2 ? 3.0 : -1.0, 0.0, 1.0); }
+"""
+WALK_MAIN = """
+uniform usampler2D u_entry;
+uniform sampler2D u_before;  // the colour so far (front to back)
+uniform sampler2D u_exit;    // where the ray last left the mesh
+layout(location = 0) out vec4 frag;
+layout(location = 1) out vec4 exit_t;
+void main() {
+    uint c = texelFetch(u_entry, ivec2(gl_FragCoord.xy), 0).r;
+    vec4 acc = texelFetch(u_before, ivec2(gl_FragCoord.xy), 0);
+    float t_prev = texelFetch(u_exit, ivec2(gl_FragCoord.xy), 0).r;
+    if (c == 0u) { frag = acc; exit_t = vec4(3e38); return; }
+    vec3 o, d;
+    camera_ray(o, d);
+    walk(c - 1u, o, d, t_prev, acc);
     frag = acc;
     exit_t = vec4(acc.a > 0.9999 ? 3e38 : t_prev);
 }
@@ -192,13 +202,11 @@ void main() {
 
 
 WALK_LISTS_MAIN = """
-uniform isampler2D u_neighbours;
 layout(std430, binding = 0) buffer Nodes { uvec4 nodes[]; };
 layout(r32ui, binding = 0) uniform readonly uimage2D u_heads;
 uniform float u_touching;
 layout(location = 0) out vec4 frag;
 const int MAX_ENTRIES = 64;
-const int MAX_STALLS = 32;
 void main() {
     float entry_t[MAX_ENTRIES];
     uint entry_cell[MAX_ENTRIES];
@@ -219,33 +227,7 @@ void main() {
     float t_prev = -3e38;
     for (int e = 0; e < count && acc.a <= 0.9999; ++e) {
         if (entry_t[e] <= t_prev - u_touching) continue;  // passed already
-        uint cell = entry_cell[e];
-        int stalls = 0;  // steps in a row that did not advance along the ray
-        for (int i = 0; i < 65536; ++i) {
-            vec4 p0 = cell_texel(cell, 0u), p1 = cell_texel(cell, 1u), p2 = cell_texel(cell, 2u), p3 = cell_texel(cell, 3u);
-            vec4 side = cell_texel(cell, 4u), lin = cell_texel(cell, 5u);
-            vec4 nd = vec4(dot(p0.xyz, d), dot(p1.xyz, d), dot(p2.xyz, d), dot(p3.xyz, d)) * side;
-            vec4 no = (vec4(dot(p0.xyz, o), dot(p1.xyz, o), dot(p2.xyz, o), dot(p3.xyz, o)) - vec4(p0.w, p1.w, p2.w, p3.w)) * side;
-            vec4 t = -no / nd;
-            vec4 t_in = mix(vec4(-3e38), t, greaterThan(nd, vec4(0.0)));
-            vec4 t_out = mix(vec4(3e38), t, lessThan(nd, vec4(0.0)));
-            float a = max(max(max(t_in.x, t_in.y), max(t_in.z, t_in.w)), t_prev);
-            float b = min(min(t_out.x, t_out.y), min(t_out.z, t_out.w));
-            int k = b == t_out.x ? 0 : b == t_out.y ? 1 : b == t_out.z ? 2 : 3;
-            if (b > a) {
-                float sf = dot(lin.xyz, o + a * d) + lin.w, sb = dot(lin.xyz, o + b * d) + lin.w;
-                acc += (1.0 - acc.a) * transfer_segment(sf, sb, b - a);
-            }
-            // Steps through cells the ray only touches (an edge, a vertex) do not advance; rounding can
-            // send such steps round in a cycle, which llvmpipe's loop cap (65535 iterations per SIMD
-            // group) then ends for the neighbouring pixels too: give the ray up to the next entry.
-            stalls = b > t_prev ? 0 : stalls + 1;
-            if (stalls > MAX_STALLS) break;
-            t_prev = max(b, t_prev);
-            int next = texelFetch(u_neighbours, texel_of(cell), 0)[k];
-            if (next < 0 || acc.a > 0.9999) break;
-            cell = uint(next);
-        }
+        walk(entry_cell[e], o, d, t_prev, acc);
     }
     frag = acc;
 }
@@ -272,7 +254,7 @@ def walk_source(tf, main=None) -> str:
         defines.append("#define ALPHA_MODEL")
     parts = [(shader_dir() / p).read_text() for p in
              ("common/camera_ray.glsl", "cells/mesh_fetch.glsl", "cells/transfer_segment.glsl")]
-    return "\n".join(["#version 430", *defines, *parts, main or WALK_MAIN])
+    return "\n".join(["#version 430", *defines, *parts, WALK_STEPS, main or WALK_MAIN])
 
 
 def entry_source(main=ENTRY_FS_MAIN) -> str:

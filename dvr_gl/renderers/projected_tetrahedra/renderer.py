@@ -121,8 +121,7 @@ class ProjectedTetrahedraRenderer(Renderer):
         self.ctx = ctx or create_context()
         self._owns_context = ctx is None
         self._mesh = None        # (mesh, MeshTextures, VisibilityOrder)
-        self._target = None      # (size, colour texture, depth texture, framebuffer)
-        self._counts = None      # (size, texture, framebuffer): the boundary's crossing counts
+        self._targets = {}       # name: (size, GL objects..., framebuffer last): see _sized
         self._count_fragments = False
 
     # --- limits ---
@@ -155,25 +154,29 @@ class ProjectedTetrahedraRenderer(Renderer):
             self._mesh = (mesh, MeshTextures(self.ctx, mesh), VisibilityOrder(mesh))
         return self._mesh[1], self._mesh[2]
 
-    def _count_target(self, width: int, height: int):
-        """A one-channel float framebuffer for the boundary's crossing counts, kept while the size holds."""
-        if self._counts is None or self._counts[0] != (width, height):
-            if self._counts is not None:
-                for obj in self._counts[1:]:
+    def _sized(self, name: str, width: int, height: int, make):
+        """The framebuffer of target ``name``, made by ``make(size)`` (GL objects, the framebuffer last)
+        and kept while the size holds."""
+        entry = self._targets.get(name)
+        if entry is None or entry[0] != (width, height):
+            if entry is not None:
+                for obj in entry[1:]:
                     obj.release()
-            counts = self.ctx.texture((width, height), 1, dtype="f4")
-            self._counts = ((width, height), counts, self.ctx.framebuffer([counts]))
-        return self._counts[2]
+            entry = self._targets[name] = ((width, height), *make((width, height)))
+        return entry[-1]
+
+    def _count_target(self, width: int, height: int):
+        """A one-channel float framebuffer for the boundary's crossing counts."""
+        def make(size):
+            counts = self.ctx.texture(size, 1, dtype="f4")
+            return counts, self.ctx.framebuffer([counts])
+        return self._sized("counts", width, height, make)
 
     def _framebuffer(self, width: int, height: int):
-        if self._target is None or self._target[0] != (width, height):
-            if self._target is not None:
-                for obj in self._target[1:]:
-                    obj.release()
-            colour = self.ctx.texture((width, height), 4, dtype="f4")
-            depth = self.ctx.depth_texture((width, height))
-            self._target = ((width, height), colour, depth, self.ctx.framebuffer([colour], depth))
-        return self._target[3]
+        def make(size):
+            colour, depth = self.ctx.texture(size, 4, dtype="f4"), self.ctx.depth_texture(size)
+            return colour, depth, self.ctx.framebuffer([colour], depth)
+        return self._sized("image", width, height, make)
 
     # --- a frame ---
 
@@ -391,13 +394,10 @@ class ProjectedTetrahedraRenderer(Renderer):
         make_current(self.ctx)
         if self._mesh is not None:
             self._mesh[1].release()
-        if self._target is not None:
-            for obj in self._target[1:]:
+        for entry in self._targets.values():
+            for obj in entry[1:]:
                 obj.release()
-        if self._counts is not None:
-            for obj in self._counts[1:]:
-                obj.release()
-        self._mesh = self._target = self._counts = None
+        self._mesh, self._targets = None, {}
         if self._owns_context:
             release_programs(self.ctx)
             release_context(self.ctx)

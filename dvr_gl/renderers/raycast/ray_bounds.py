@@ -69,20 +69,25 @@ def boundary_faces(occ: np.ndarray, block_size: int, dims, spacing, origin) -> n
     return np.concatenate(out).astype(np.float32)
 
 
-def clip_depths(occ: np.ndarray, block_size: int, dims, spacing, origin, camera,
-                box) -> tuple[float, float] | None:
-    """Near and far depths (along the camera's forward axis) to draw the faces between: every
-    non-empty block lies between them, so no face is clipped.  None where a non-empty block reaches
-    the camera's near plane (the eye is in or next to one): a ray may start inside it with its entry
-    face behind the near plane, and the rays are not bounded."""
+def block_boxes(occ: np.ndarray, block_size: int, dims, spacing, origin) -> tuple[np.ndarray, np.ndarray]:
+    """World boxes ``(lo, hi)``, each ``(K, 3)``, of the non-empty blocks."""
     spacing, origin = np.asarray(spacing, np.float64), np.asarray(origin, np.float64)
-    forward, eye = camera.basis()[0], np.asarray(camera.eye, np.float64)
     z, y, x = np.nonzero(occ)
     edges = [block_edges(n, nb, block_size) for n, nb in zip(dims, occ.shape[::-1])]
     lo = origin + np.stack([edges[0][x], edges[1][y], edges[2][z]], axis=1) * spacing
     hi = origin + np.stack([edges[0][x + 1], edges[1][y + 1], edges[2][z + 1]], axis=1) * spacing
+    return lo, hi
+
+
+def clip_depths(boxes: tuple[np.ndarray, np.ndarray], camera, box) -> tuple[float, float] | None:
+    """Near and far depths (along the camera's forward axis) to draw the faces between: every
+    non-empty block (``boxes``: :func:`block_boxes`) lies between them, so no face is clipped.  None
+    where a non-empty block reaches the camera's near plane (the eye is in or next to one): a ray may
+    start inside it with its entry face behind the near plane, and the rays are not bounded."""
+    lo, hi = boxes
+    forward, eye = camera.basis()[0], np.asarray(camera.eye, np.float64)
     nearest = np.where(forward >= 0.0, lo, hi)  # per box, the corner forward points away from
-    least = float(((nearest - eye) @ forward).min()) if len(x) else np.inf
+    least = float(((nearest - eye) @ forward).min()) if len(lo) else np.inf
     box_lo, box_hi = (np.asarray(b, np.float64) for b in box)
     _, far = depth_range(camera, box_lo, box_hi)
     # margins of a thousandth of the near distance and a millionth of the volume: the GL clips in float32

@@ -53,7 +53,8 @@ LOOKUP_COST = {"emission": 4.0, "max": 8.0, "minip": 8.0, "isosurface": 8.0}
 # keeps it for hollow material seen through, finely sampled.
 LOOKUP_COST_BOUNDED = 16.0
 # The defines of empty-space skipping (a frame without it, and the resolve pass, have none of them).
-SKIPPING_DEFINES = ("ACCELERATE", "NUM_LEVELS", "RUNS_IN_CLASSES", "RAY_BOUNDS")
+BLOCK_SKIPPING_DEFINES = ("ACCELERATE", "NUM_LEVELS", "RUNS_IN_CLASSES")  # the in-loop block skipping
+SKIPPING_DEFINES = BLOCK_SKIPPING_DEFINES + ("RAY_BOUNDS",)
 # "auto" bounds the rays by the non-empty blocks (.ray_bounds) where the estimate says they leave out
 # more samples per ray than drawing them costs, in samples per ray: 5-15 ms at 512x512 on llvmpipe,
 # about 5 samples a ray; measured, the bounds were 1.12x slower than none on the lobster at 8 voxels
@@ -133,7 +134,7 @@ class BoundsFaces:
         self.ctx, self.count = ctx, len(rows)
         self.buffer = ctx.buffer(rows.tobytes()) if self.count else None
         self._arrays = {}
-        self._blocks = (occ, block_size, volume.dims, volume.spacing, volume.origin)
+        self._boxes = ray_bounds.block_boxes(occ, block_size, volume.dims, volume.spacing, volume.origin)
         self._box = volume.box
         self._planes = None  # (camera, depth range) of the last frame
 
@@ -146,7 +147,7 @@ class BoundsFaces:
     def clip_depths(self, camera) -> tuple[float, float] | None:
         """:func:`.ray_bounds.clip_depths` for this camera (cached for the last one)."""
         if self._planes is None or self._planes[0] is not camera:
-            self._planes = (camera, ray_bounds.clip_depths(*self._blocks, camera, self._box))
+            self._planes = (camera, ray_bounds.clip_depths(self._boxes, camera, self._box))
         return self._planes[1]
 
     def release(self):
@@ -327,8 +328,7 @@ class RayCastRenderer(GLVolumeRenderer):
         if auto and "RAY_BOUNDS" not in defines:  # the in-loop estimate over whole rays
             estimate = self.skip_estimate(scene, blocks, False)
         if auto and not worth_skipping(estimate, scene.renderer.sample_distance):
-            kept = {k: v for k, v in defines.items() if k not in SKIPPING_DEFINES or k == "RAY_BOUNDS"}
-            return kept, textures, estimate
+            return {k: v for k, v in defines.items() if k not in BLOCK_SKIPPING_DEFINES}, textures, estimate
         textures.update({f"u_blocks{level}": tex for level, tex in enumerate(blocks)})
         if blocks.runs is not None:
             textures["u_runs"] = blocks.runs
