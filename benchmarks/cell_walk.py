@@ -88,7 +88,7 @@ from dvr_gl.bench.cells import MESHES, scene_keys
 from dvr_gl.gl.context import make_current
 from dvr_gl.gl.shaders import shader_dir
 from dvr_gl.renderers import create_renderer
-from dvr_gl.renderers.projected_tetrahedra.renderer import ROW, _rows
+from dvr_gl.renderers.mesh_gl import ROW, rows as _rows
 from dvr_gl.scene import load_scene
 
 ENTRY_VS = """#version 430

@@ -1,0 +1,253 @@
+"""What the GL renderers of tetrahedral meshes share (``projected-tetrahedra``, ``cell-raycast``):
+the mesh on the GPU, once, as textures of 4096 texels a row (points relative to the mesh's centre,
+so float32 keeps their precision; cells; each cell's four face planes, their sides and its scalar as
+``g . p + c``, computed in float64: ``shaders/cells/mesh_fetch.glsl``), the camera's and the exact
+transfer function's uniforms, the limits, and the host's classification of projections (MIP,
+MinIP, average, isosurface) with the exact transfer function, as the converged reference does.
+"""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from .. import limits
+from ..errors import SceneError
+from ..fields.mesh_rays import FacePlanes
+from ..gl.context import create_context, make_current, release_context
+from ..gl.geometry import box_corners, clip_planes, gl_matrix, projection_matrix, view_matrix
+from ..gl.shaders import release_programs
+from ..rays import RayBatch
+from ..reference.converged import collocation
+from ..transfer_function import segment_opacity
+from .base import Renderer
+
+ROW = 4096  # texels a row of the mesh textures (mesh_fetch.glsl)
+CELL_TEXELS = 6  # a cell's face planes, their sides and its scalar (mesh_fetch.glsl)
+# How far a footprint is grown (pt.geom), pixels.  The rasterizer snaps vertices to a sub-pixel grid
+# (llvmpipe: 1/256 pixel), so a pixel centre just inside a cell's silhouette can fall outside the
+# drawn footprint, and with it a piece of the cell (all of a thin cell seen edge on): without a
+# margin the blunt fin was off by RMS 4e-5 to 8e-5 (2.5e-7 with one).  A twentieth of a pixel covers
+# the snapping at a fraction of the fragments a whole pixel adds (20-30 % more draw time).
+MARGIN_PIXELS = 0.05
+MODES = {"emission_absorption": "EMISSION", "mip": "MIP", "minip": "MINIP", "average": "AVERAGE",
+         "isosurface": "ISOSURFACE"}
+
+
+def rows(array: np.ndarray, dtype, components: int = 4) -> np.ndarray:
+    """``(n, components)`` as ``(rows, ROW, components)`` texels, zero-padded."""
+    rows = max(1, -(-len(array) // ROW))
+    out = np.zeros((rows * ROW, components), dtype=dtype)
+    out[:len(array)] = array.reshape(len(array), components)
+    return out.reshape(rows, ROW, components)
+
+
+def cell_texels(points: np.ndarray, tets: np.ndarray, gradients: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """``(M * CELL_TEXELS, 4)``: each cell's face planes ``(n, h)`` (as :class:`FacePlanes`, so the cells
+    sharing a face hold the same plane), the side of each its inside lies on, and its scalar ``(g, c)``."""
+    planes = FacePlanes(points, tets)
+    out = np.zeros((len(tets), CELL_TEXELS, 4))
+    out[:, :4, :3], out[:, :4, 3], out[:, 4] = planes.normal, planes.offset, planes.side
+    out[:, 5, :3], out[:, 5, 3] = gradients, offsets
+    return out.reshape(-1, 4)
+
+
+class MeshTextures:
+    """One mesh on the GPU."""
+
+    def __init__(self, ctx, mesh):
+        lo, hi = (np.asarray(b, float) for b in mesh.bounds)
+        self.centre = 0.5 * (lo + hi)
+        rec = mesh.reconstruct()
+        points = mesh.points - self.centre
+        offset = rec.base - np.einsum("ij,ij->i", rec.gradients, rec.anchor - self.centre)
+        planes = cell_texels(points, mesh.tets, rec.gradients, offset)
+        self.textures = []
+        for name, data, dtype in (("u_points", np.c_[points, np.zeros(len(points))], "f4"),
+                                  ("u_cells", mesh.tets, "u4"), ("u_cell_planes", planes, "f4")):
+            texels = rows(data, np.float32 if dtype == "f4" else np.uint32)
+            tex = ctx.texture((ROW, texels.shape[0]), 4, texels.tobytes(), dtype=dtype)
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            self.textures.append((name, tex))
+        self.cells = len(mesh.tets)
+        self.ctx = ctx
+        self._boundary = None  # the boundary faces' vertices (a buffer), once asked for
+        values = mesh.values[mesh.tets] if mesh.association == "point" else mesh.values[:, None]
+        self.cell_ranges = (values.min(axis=1), values.max(axis=1))  # each cell's scalar range
+        self._visible = None  # (transfer function, mask)
+
+    def visible(self, tf) -> np.ndarray:
+        """Which cells hold some opacity under ``tf`` (once per transfer function): the opacity column
+        is linear between control points and never negative, so it is zero over a cell's scalar range
+        exactly when it is zero at both ends and at every control value between them.  The others add
+        nothing (premultiplied (0, 0)) and are not drawn."""
+        if self._visible is None or self._visible[0] is not tf:
+            lo, hi = self.cell_ranges
+            values, column = tf.points[:, 0], tf.points[:, 4]
+            nonzero = np.r_[0, np.cumsum(column > 0)]  # control points with opacity, up to each index
+            inner = nonzero[np.searchsorted(values, hi, "left")] - nonzero[np.searchsorted(values, lo, "right")]
+            ends = (np.interp(lo, values, column) > 0) | (np.interp(hi, values, column) > 0)
+            self._visible = (tf, ends | (inner > 0))
+        return self._visible[1]
+
+    def boundary(self, adjacency):
+        """A buffer of the mesh's boundary triangles (centre-relative float32 vertices) and their count."""
+        if self._boundary is None:
+            corners = (adjacency.boundary_corners - self.centre).astype(np.float32)
+            self._boundary = (self.ctx.buffer(corners.tobytes()) if len(corners) else None, len(corners))
+        return self._boundary
+
+    def release(self):
+        for _, tex in self.textures:
+            tex.release()
+        if self._boundary is not None and self._boundary[0] is not None:
+            self._boundary[0].release()
+
+
+
+class MeshRenderer(Renderer):
+    """A GL renderer of a tetrahedral mesh: the context, the mesh's textures (with what the renderer
+    builds beside them per mesh: :meth:`_mesh_extra`), targets kept per size, uniforms, limits."""
+
+    def __init__(self, ctx=None):
+        super().__init__()
+        self.ctx = ctx or create_context()
+        self._owns_context = ctx is None
+        self._mesh = None        # (mesh, MeshTextures, what _mesh_extra built)
+        self._targets = {}       # name: (size, GL objects..., framebuffer last): see _sized
+
+    # --- limits ---
+
+    def check_resources(self, scene):
+        super().check_resources(scene)
+        make_current(self.ctx)
+        gl = limits.gl_limits(self.ctx)
+        limits.check_image(scene, gl)
+        limits.check_image_memory(scene, "gpu")
+        mesh = scene.field
+        rows = -(-max(len(mesh.points), CELL_TEXELS * len(mesh.tets)) // ROW)
+        limits.check_texture("the mesh", (ROW, rows), gl, "use a smaller mesh")
+        points = len(scene.transfer_function.points)
+        if scene.renderer.compositing == "emission_absorption" and points > self.max_tf_points():
+            raise SceneError(f"transfer_function.points: {points} control points; projected-tetrahedra keeps them "
+                             f"in uniforms and this GL holds at most {self.max_tf_points()}: use fewer points")
+
+    def max_tf_points(self) -> int:
+        """Control points the fragment shader's uniforms hold: two vectors each, 64 kept for the rest."""
+        vectors = int(self.ctx.info["GL_MAX_FRAGMENT_UNIFORM_COMPONENTS"]) // 4
+        return max(vectors - 64, 0) // 2
+
+    # --- resources ---
+
+    def _mesh_resources(self, mesh):
+        """The mesh's textures and what :meth:`_mesh_extra` builds beside them, once per mesh."""
+        if self._mesh is None or self._mesh[0] is not mesh:
+            self._release_mesh()
+            textures = MeshTextures(self.ctx, mesh)
+            self._mesh = (mesh, textures, self._mesh_extra(mesh, textures))
+        return self._mesh[1], self._mesh[2]
+
+    def _mesh_extra(self, mesh, textures):
+        """What the renderer keeps per mesh beside its textures (released with them if it has ``release``)."""
+        return None
+
+    def _release_mesh(self):
+        if self._mesh is not None:
+            self._mesh[1].release()
+            if hasattr(self._mesh[2], "release"):
+                self._mesh[2].release()
+        self._mesh = None
+
+    def _sized(self, name: str, width: int, height: int, make):
+        """The framebuffer of target ``name``, made by ``make(size)`` (GL objects, the framebuffer last)
+        and kept while the size holds."""
+        entry = self._targets.get(name)
+        if entry is None or entry[0] != (width, height):
+            if entry is not None:
+                for obj in entry[1:]:
+                    obj.release()
+            entry = self._targets[name] = ((width, height), *make((width, height)))
+        return entry[-1]
+
+    @staticmethod
+    def _near_plane(scene) -> tuple[float, np.ndarray]:
+        """The GL near plane's distance from the eye along the view axis, with a margin for float32
+        rounding there, and the view axis."""
+        lo, hi = (np.asarray(b, float) for b in scene.field.bounds)
+        near, _ = clip_planes(scene.camera, lo, hi)
+        forward, _, _ = scene.camera.basis()
+        return near + 1e-6 * float(np.linalg.norm(hi - lo)), forward
+
+    @staticmethod
+    def _reaches_near_plane(scene) -> bool:
+        """Whether the mesh's box reaches the GL near plane."""
+        near, forward = MeshRenderer._near_plane(scene)
+        corners = box_corners(*scene.field.bounds)
+        return bool(((corners - np.asarray(scene.camera.eye)) @ forward).min() <= near)
+
+    def _uniforms(self, program, scene, textures):
+        cam, img, r = scene.camera, scene.image, scene.renderer
+        lo, hi = scene.field.bounds
+        near, far = clip_planes(cam, lo, hi)
+        translate = np.eye(4)
+        translate[:3, 3] = textures.centre
+        vp = projection_matrix(cam, img.width / img.height, near, far) @ view_matrix(cam) @ translate
+        f, right, up = cam.basis()
+        x, w, s = collocation(4)
+        values = {"u_image_size": (img.width, img.height), "u_margin": MARGIN_PIXELS,
+                  "u_eye": tuple(np.asarray(cam.eye) - textures.centre), "u_forward": tuple(f),
+                  "u_right": tuple(right), "u_up": tuple(up),
+                  "u_half_extent": cam.half_extent(img.width / img.height), "u_near": cam.near,
+                  "u_iso_value": r.iso_value if r.iso_value is not None else 0.0,
+                  "u_depth_scale": 1.0 / self._far(scene),
+                  "u_unit_distance": scene.transfer_function.unit_distance,
+                  "u_gauss_x": tuple(0.5 * (x + 1.0)), "u_gauss_w": tuple(0.5 * w)}
+        for name, value in values.items():
+            if name in program:
+                program[name].value = value
+        if "u_view_projection" in program:
+            program["u_view_projection"].write(gl_matrix(vp))
+        if "u_gauss_s" in program:
+            # S on [0, 1]: integral from 0 to x_i of l_j = half of that on [-1, 1]; column j, row i
+            program["u_gauss_s"].write(np.ascontiguousarray((0.5 * s).T, dtype=np.float32).tobytes())
+        if "u_tf_value_opacity" in program:
+            p = scene.transfer_function.points
+            program["u_tf_value_opacity"].write(np.ascontiguousarray(p[:, [0, 4]], dtype=np.float32).tobytes())
+            program["u_tf_rgb"].write(np.ascontiguousarray(p[:, 1:4], dtype=np.float32).tobytes())
+
+    @staticmethod
+    def _far(scene) -> float:
+        """The largest ray parameter inside the mesh's box (the isosurface's depth scale)."""
+        corners = box_corners(*scene.field.bounds)
+        return float(np.linalg.norm(corners - np.asarray(scene.camera.eye), axis=1).max()) * 1.01 + 1e-30
+
+    @staticmethod
+    def _resolve(scene, image) -> np.ndarray:
+        """Classify a projection's blended value (``.r``) where a fragment came (``.g``), with the exact
+        transfer function and the opacity of one unit distance; the isosurface: its colour, opaque."""
+        mode, tf = scene.renderer.compositing, scene.transfer_function
+        value, flag = image[..., 0], image[..., 1]
+        covered = flag < 0 if mode == "minip" else flag > 0
+        if mode == "isosurface":
+            value = np.full(value.shape, scene.renderer.iso_value)
+        elif mode == "average":
+            rays = RayBatch.for_camera(scene.camera, scene.image.width, scene.image.height, scene.field.bounds)
+            length = (rays.t1 - rays.t0).reshape(value.shape)
+            value = np.where(length > 0, value / np.where(length > 0, length, 1.0), 0.0)
+        colour, sigma = tf.evaluate(value[covered])
+        alpha = 1.0 if mode == "isosurface" else segment_opacity(sigma, tf.unit_distance)
+        out = np.zeros(image.shape)
+        out[covered, :3] = colour * np.reshape(alpha, (-1, 1))
+        out[covered, 3] = alpha
+        return out
+
+    def close(self):
+        make_current(self.ctx)
+        self._release_mesh()
+        for entry in self._targets.values():
+            for obj in entry[1:]:
+                obj.release()
+        self._targets = {}
+        if self._owns_context:
+            release_programs(self.ctx)
+            release_context(self.ctx)
