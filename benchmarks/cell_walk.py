@@ -1,6 +1,8 @@
 """A measurement for issue 16's open speed target: ray casting from cell to cell through a mesh in
 one fragment shader (Weiler et al. 2003's hardware-assisted ray casting, HARC), against
-``projected-tetrahedra``'s draw.  A prototype, not a renderer.
+``projected-tetrahedra``'s draw.  The prototype of the ``cell-raycast`` renderer
+(``dvr_gl/renderers/cell_raycast``: its lists, with the boundary's faces grown by a twentieth of a
+pixel, fixed the crease fault below); kept for the record of what was measured on the way.
 
     python benchmarks/cell_walk.py [--data-dir ../shared/data] [--meshes bluntfin,comb,post] [--size 512]
                                    [--passes 4 | --lists]
@@ -85,6 +87,7 @@ import moderngl
 import numpy as np
 
 from dvr_gl.bench.cells import MESHES, scene_keys
+from dvr_gl.fields.mesh_rays import face_neighbours
 from dvr_gl.gl.context import make_current
 from dvr_gl.gl.shaders import shader_dir
 from dvr_gl.renderers import create_renderer
@@ -234,20 +237,6 @@ void main() {
 """
 
 
-def neighbours(tets: np.ndarray) -> np.ndarray:
-    """``(M, 4)``: the cell across face k of each cell (face k leaves out vertex k), -1 on the boundary."""
-    n = len(tets)
-    faces = np.concatenate([np.sort(np.delete(tets, k, axis=1), axis=1) for k in range(4)])
-    owner, which = np.tile(np.arange(n), 4), np.repeat(np.arange(4), n)
-    order = np.lexsort((faces[:, 2], faces[:, 1], faces[:, 0]))
-    f, owner, which = faces[order], owner[order], which[order]
-    i = np.nonzero(np.all(f[1:] == f[:-1], axis=1))[0]
-    out = np.full((n, 4), -1, np.int32)
-    out[owner[i], which[i]] = owner[i + 1]
-    out[owner[i + 1], which[i + 1]] = owner[i]
-    return out
-
-
 def walk_source(tf, main=None) -> str:
     defines = [f"#define TF_COUNT {len(tf.points)}", f"#define TF_POW2 {1 << len(tf.points).bit_length()}"]
     if tf.opacity_model == "alpha":
@@ -272,7 +261,7 @@ def measure(name: str, data_dir: Path, size: int, passes: int, lists: bool = Fal
     ctx = pt.ctx
     make_current(ctx)
     textures, orders = pt._mesh[1], pt._mesh[2]
-    texels = _rows(neighbours(mesh.tets), np.int32)
+    texels = _rows(face_neighbours(mesh.tets), np.int32)
     nb = ctx.texture((ROW, texels.shape[0]), 4, texels.tobytes(), dtype="i4")
     nb.filter = (moderngl.NEAREST, moderngl.NEAREST)
     adj = orders.adjacency

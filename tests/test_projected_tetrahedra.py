@@ -264,14 +264,15 @@ def test_the_cli_and_the_viewer_take_a_mesh(tmp_path):
 
 def test_the_tradeoff_bench_sweeps_a_mesh_through_the_registry():
     """``dvr bench tradeoff`` on a mesh scene: only the renderers of meshes are swept (their declared
-    families: the cell order), against the converged reference; the ray caster's tolerance check is
+    families: the cell order, cell-raycast's early termination), against the converged reference; the ray caster's tolerance check is
     left out with a note."""
     from dvr_gl.bench import tradeoff
 
     scene = mesh_scene(jittered_mesh(), **{"image.width": 24, "image.height": 24})
     rows, notes = tradeoff.run(scene, repeat=1)
-    assert {(r["renderer"], r["setting"]) for r in rows} == {("projected-tetrahedra", "centroid"),
+    assert {(r["renderer"], r["setting"]) for r in rows} >= {("projected-tetrahedra", "centroid"),
                                                              ("projected-tetrahedra", "exact")}
+    assert {r["renderer"] for r in rows} == {"projected-tetrahedra", "cell-raycast"}
     exact = next(r for r in rows if r["setting"] == "exact")
     assert exact["rms"] < 1e-4 and exact["rms"] <= next(r for r in rows if r["setting"] == "centroid")["rms"]
     checks, note = tradeoff.tolerance_check(scene, rows, None)
@@ -302,14 +303,16 @@ def test_dvr_bench_cells(tmp_path, monkeypatch, capsys):
     rows = [line.split() for line in out.splitlines() if line.startswith("tiny ") and ":" not in line]  # the table
     assert [(r[1], r[2], r[3]) for r in rows] == [(v, *w) for v in ("30/20", "120/-10", "0/90")
                                                   for w in (("dvr-gl", "exact"), ("dvr-gl", "centroid"),
-                                                            ("raycast,", "resampled"))]
+                                                            ("dvr-gl", "cell-raycast"), ("raycast,", "resampled"))]
     assert all(float(r[-2]) < 1e-4 for r in rows if r[3] == "exact"), rows  # RMS against the reference
+    # cell-raycast at its defaults: early termination drops at most 1/255 where a ray gets that opaque
+    assert all(float(r[-1]) < 1e-3 for r in rows if r[3] == "cell-raycast"), rows  # (no cycles column)
     assert all(1e-4 < float(r[-1]) < 0.05 for r in rows if r[2] == "raycast,"), rows  # resampling: its own error (no cycles column)
     assert "vtk-pt: not installed" in out
     from dvr_gl.image import read_image
 
-    sheet = read_image(tmp_path / "cells-tiny.png")  # reference, dvr-gl, resampled; and 5x their errors
-    assert sheet.shape[:2] == (48, 72)
+    sheet = read_image(tmp_path / "cells-tiny.png")  # reference, dvr-gl, cell-raycast, resampled; 5x their errors
+    assert sheet.shape[:2] == (48, 96)
 
 
 def test_a_resampled_mesh_renders_with_the_grid_renderers():

@@ -2,9 +2,10 @@
 and, where VTK is importable in the peers' environment, VTK's ``vtkProjectedTetrahedraMapper`` in
 the same run.
 
-For each mesh and view: dvr-gl with the exact and the centroid visibility order (frame time, its
-order and draw parts, cells per second, one process: they share the mesh's upload and adjacency,
-built by an untimed frame), the ray caster on the mesh resampled onto a grid of
+For each mesh and view: dvr-gl's projected tetrahedra with the exact and the centroid visibility
+order (frame time, its order and draw parts, cells per second, one process: they share the mesh's
+upload and adjacency, built by an untimed frame), dvr-gl's ``cell-raycast`` (its defaults; no
+order), the ray caster on the mesh resampled onto a grid of
 :data:`RESAMPLE` points along its longest axis (its defaults; the resampling, once per mesh, not
 timed), then VTK in a fresh process (``peer_worker.py``, as ``dvr bench peers``
 runs its peers; VTK sorts its cells again every frame, as dvr-gl does); each one's RMS error
@@ -73,8 +74,9 @@ def _timed(renderer, scene, frames: int) -> dict:
         renderer.render(scene)
         stats.append(dict(renderer.stats))
     middle = sorted(stats, key=lambda s: s["seconds"])[len(stats) // 2]
-    return {"ms": 1e3 * statistics.median(s["seconds"] for s in stats), "order_ms": 1e3 * middle["order_seconds"],
-            "draw_ms": 1e3 * middle["draw_seconds"], "cycles": middle.get("cycles_broken", "")}
+    part = lambda key: 1e3 * middle[key] if key in middle else None  # noqa: E731
+    return {"ms": 1e3 * statistics.median(s["seconds"] for s in stats), "order_ms": part("order_seconds"),
+            "draw_ms": part("draw_seconds"), "cycles": middle.get("cycles_broken", "")}
 
 
 def _rms(image, truth) -> float:
@@ -84,7 +86,7 @@ def _rms(image, truth) -> float:
 def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: int = 3, python: str | None = None,
         views=VIEWS, progress=None, timeout: float = 1800.0, pictures: Path | None = None):
     """Rows (one per mesh, view and renderer) and notes.  ``pictures``: a folder for ``cells-MESH.png``
-    (the first view at the error size: the reference, dvr-gl exact, resampled ray casting and VTK
+    (the first view at the error size: the reference, dvr-gl exact, cell-raycast, resampled ray casting and VTK
     where measured, above 5x their differences from the reference)."""
     from ..fields.mesh_resample import resample, resampled_scene
     from ..renderers import create_renderer
@@ -96,6 +98,7 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
     rows = []
     work = tempfile.TemporaryDirectory(prefix="dvr-cells-")
     pt = create_renderer("projected-tetrahedra")
+    walk = create_renderer("cell-raycast", ctx=pt.ctx)
     raycast = create_renderer("raycast")
     reference = create_renderer("reference-converged")
     try:
@@ -129,6 +132,15 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
                     rows.append(row)
                     if progress:
                         progress(row)
+                row = {"mesh": name, "view": view, "renderer": "dvr-gl cell-raycast", "cells": len(mesh.tets),
+                       **_timed(walk, scene.with_renderer(name="cell-raycast"), frames)}
+                row["mtets"] = row["cells"] / row["ms"] / 1e3
+                image = walk.render(small.with_renderer(name="cell-raycast"))
+                row["rms"] = _rms(image, truth)
+                tiles.append(image)
+                rows.append(row)
+                if progress:
+                    progress(row)
                 rs = resampled_scene(scene, RESAMPLE, grid, name="raycast")
                 raycast.render(rs)
                 seconds = []
@@ -154,6 +166,7 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
                     _picture(Path(pictures) / f"cells-{name}.png", tiles)
         return [r for r in rows if r], notes
     finally:
+        walk.close()
         pt.close()
         raycast.close()
         work.cleanup()

@@ -43,6 +43,23 @@ class FacePlanes:
         self.normal, self.offset, self.side = normal, offset, side
 
 
+def face_neighbours(tets: np.ndarray) -> np.ndarray:
+    """``(M, 4)`` int32: the cell across face k of each cell (face k opposite vertex k, as
+    :class:`FacePlanes`), -1 where the face is on the boundary (or shared by more than two cells:
+    the first two pair up)."""
+    n = len(tets)
+    faces = np.concatenate([np.sort(np.delete(tets, k, axis=1), axis=1) for k in range(4)])
+    owner, which = np.tile(np.arange(n), 4), np.repeat(np.arange(4), n)
+    order = np.lexsort((faces[:, 2], faces[:, 1], faces[:, 0]))
+    f, owner, which = faces[order], owner[order], which[order]
+    same = np.all(f[1:] == f[:-1], axis=1)
+    i = np.nonzero(same & ~np.r_[False, same[:-1]])[0]  # the first two of each run of equal faces
+    out = np.full((n, 4), -1, np.int32)
+    out[owner[i], which[i]] = owner[i + 1]
+    out[owner[i + 1], which[i + 1]] = owner[i]
+    return out
+
+
 def _dot(a, b):
     """Row-wise dot product, always summed x + y + z in that order (bit-identical for equal input)."""
     return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]

@@ -19,7 +19,7 @@ from ..gl.geometry import box_corners, clip_planes, gl_matrix, projection_matrix
 from ..gl.shaders import release_programs
 from ..rays import RayBatch
 from ..reference.converged import collocation
-from ..transfer_function import segment_opacity
+from ..transfer_function import extinction_from_alpha, segment_opacity
 from .base import Renderer
 
 ROW = 4096  # texels a row of the mesh textures (mesh_fetch.glsl)
@@ -50,6 +50,18 @@ def cell_texels(points: np.ndarray, tets: np.ndarray, gradients: np.ndarray, off
     out[:, :4, :3], out[:, :4, 3], out[:, 4] = planes.normal, planes.offset, planes.side
     out[:, 5, :3], out[:, 5, 3] = gradients, offsets
     return out.reshape(-1, 4)
+
+
+def interval_sigma_max(tf) -> np.ndarray:
+    """``(TF_COUNT + 1,)``: the largest extinction inside each control interval of ``tf``, below the
+    first value and above the last included (transfer_segment.glsl sizes its steps by it): the
+    opacity column is linear inside an interval and the extinction grows with it, so it is the
+    larger end's."""
+    column = tf.points[:, 4]
+    ends = np.maximum(np.r_[column[0], column], np.r_[column, column[-1]])
+    if tf.opacity_model == "alpha":
+        return extinction_from_alpha(ends, tf.unit_distance)
+    return ends
 
 
 class MeshTextures:
@@ -210,10 +222,12 @@ class MeshRenderer(Renderer):
         if "u_gauss_s" in program:
             # S on [0, 1]: integral from 0 to x_i of l_j = half of that on [-1, 1]; column j, row i
             program["u_gauss_s"].write(np.ascontiguousarray((0.5 * s).T, dtype=np.float32).tobytes())
-        if "u_tf_value_opacity" in program:
-            p = scene.transfer_function.points
-            program["u_tf_value_opacity"].write(np.ascontiguousarray(p[:, [0, 4]], dtype=np.float32).tobytes())
-            program["u_tf_rgb"].write(np.ascontiguousarray(p[:, 1:4], dtype=np.float32).tobytes())
+        p = scene.transfer_function.points
+        if "u_tf_sigma_max" in program:
+            program["u_tf_sigma_max"].write(interval_sigma_max(scene.transfer_function).astype(np.float32).tobytes())
+        for name, columns in (("u_tf_value_opacity", [0, 4]), ("u_tf_rgb", [1, 2, 3])):
+            if name in program:  # (a shader may leave out the colours: WALK_STATS)
+                program[name].write(np.ascontiguousarray(p[:, columns], dtype=np.float32).tobytes())
 
     @staticmethod
     def _far(scene) -> float:

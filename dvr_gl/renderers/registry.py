@@ -144,7 +144,7 @@ def _registry() -> _Registry:
 
 
 BUILTIN_ORDER = ("raycast", "slicing3d", "slicing2d", "shearwarp", "reference", "reference-converged",
-                 "projected-tetrahedra")
+                 "projected-tetrahedra", "cell-raycast")
 
 
 def _builtin_first(plugins: dict) -> dict:

@@ -15,10 +15,10 @@ layout(points) in;
 layout(triangle_strip, max_vertices = 8) out;
 
 #include "cells/mesh_fetch.glsl"
+#include "cells/grow.glsl"
 
 uniform mat4 u_view_projection;  // centre-relative world -> clip
 uniform vec2 u_image_size;
-uniform float u_margin;          // pixels
 
 flat in uint v_entry[];
 flat out uint g_cell;
@@ -29,26 +29,6 @@ void emit(vec2 pixel) {
     g_cell = v_entry[0] & ~COVER_ALL;
     gl_Position = vec4(pixel / u_image_size * 2.0 - 1.0, 0.0, 1.0);
     EmitVertex();
-}
-
-float orient(vec2 a, vec2 b, vec2 c) { return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x); }
-
-vec2 outward(vec2 a, vec2 b) {  // the outward unit normal of edge a -> b of a counter-clockwise polygon
-    vec2 e = vec2(b.y - a.y, a.x - b.x);
-    float len = length(e);
-    return len > 0.0 ? e / len : vec2(0.0);
-}
-
-// corner p with incoming and outgoing edge normals n_in, n_out: its points on the grown outline
-void grow(vec2 p, vec2 n_in, vec2 n_out, out vec2 a, out vec2 b) {
-    float c = dot(n_in, n_out);
-    if (c >= 0.0) {
-        a = p + u_margin * (n_in + n_out) / (1.0 + c);
-        b = a;
-    } else {
-        a = p + u_margin * n_in;
-        b = p + u_margin * n_out;
-    }
 }
 
 bool inside(vec2 p, vec2 a, vec2 b, vec2 c) {  // p in the triangle abc, either orientation

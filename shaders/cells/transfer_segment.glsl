@@ -20,6 +20,7 @@
 
 uniform vec2 u_tf_value_opacity[TF_COUNT];  // control value, opacity column
 uniform vec3 u_tf_rgb[TF_COUNT];
+uniform float u_tf_sigma_max[TF_COUNT + 1];  // interval k's largest extinction at k + 1 (k = -1 first)
 uniform float u_unit_distance;
 uniform vec4 u_gauss_x;      // nodes on [0, 1]
 uniform vec4 u_gauss_w;      // weights on [0, 1]
@@ -94,11 +95,9 @@ vec4 transfer_segment(float sf, float sb, float len) {
         // where this control interval ends along the segment
         bool bounded = dir > 0 ? k + 1 <= TF_COUNT - 1 : (dir < 0 && k >= 0);
         float u1 = bounded ? clamp(((dir > 0 ? iv.vb : iv.va) - sf) / (sb - sf), u, 1.0) : 1.0;
-        // the column is linear inside an interval and the extinction grows with it: its largest
-        // value on [u, u1] is at an end
-        float column = max(mix(iv.pa.a, iv.pb.a, interval_fraction(iv, mix(sf, sb, u))),
-                           mix(iv.pa.a, iv.pb.a, interval_fraction(iv, mix(sf, sb, u1))));
-        int steps = clamp(int(ceil((u1 - u) * len * extinction(column))), 1, MAX_STEPS);
+        // steps of optical depth at most one, by the interval's largest extinction (at one of its
+        // ends: the column is linear inside it and the extinction grows with it), from the host
+        int steps = clamp(int(ceil((u1 - u) * len * u_tf_sigma_max[k + 1])), 1, MAX_STEPS);
         float ub = steps == 1 ? u1 : u + (u1 - u) / float(steps);
         ub = ub > u ? ub : u1;  // a step too short to move u in float32: the rest of the part at once
         vec4 step = gauss_step(iv, mix(sf, sb, u), mix(sf, sb, ub), (ub - u) * len);
