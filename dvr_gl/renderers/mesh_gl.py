@@ -24,6 +24,7 @@ from .base import Renderer
 
 ROW = 4096  # texels a row of the mesh textures (mesh_fetch.glsl)
 CELL_TEXELS = 6  # a cell's face planes, their sides and its scalar (mesh_fetch.glsl)
+FOLDED_TEXELS = 5  # the same with each plane's side folded into it (FOLDED_PLANES in mesh_fetch.glsl)
 # How far a footprint is grown (pt.geom), pixels.  The rasterizer snaps vertices to a sub-pixel grid
 # (llvmpipe: 1/256 pixel), so a pixel centre just inside a cell's silhouette can fall outside the
 # drawn footprint, and with it a piece of the cell (all of a thin cell seen edge on): without a
@@ -42,10 +43,20 @@ def rows(array: np.ndarray, dtype, components: int = 4) -> np.ndarray:
     return out.reshape(rows, ROW, components)
 
 
-def cell_texels(points: np.ndarray, tets: np.ndarray, gradients: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+def cell_texels(points: np.ndarray, tets: np.ndarray, gradients: np.ndarray, offsets: np.ndarray,
+                folded: bool = False) -> np.ndarray:
     """``(M * CELL_TEXELS, 4)``: each cell's face planes ``(n, h)`` (as :class:`FacePlanes`, so the cells
-    sharing a face hold the same plane), the side of each its inside lies on, and its scalar ``(g, c)``."""
+    sharing a face hold the same plane), the side of each its inside lies on, and its scalar ``(g, c)``.
+    ``folded``: ``(M * FOLDED_TEXELS, 4)``, each plane times its side (inside is ``n . p - h >= 0``;
+    negation is exact, so the cells sharing a face still hold the same numbers up to sign), then the
+    scalar."""
     planes = FacePlanes(points, tets)
+    if folded:
+        out = np.zeros((len(tets), FOLDED_TEXELS, 4))
+        out[:, :4, :3] = planes.normal * planes.side[..., None]
+        out[:, :4, 3] = planes.offset * planes.side
+        out[:, 4, :3], out[:, 4, 3] = gradients, offsets
+        return out.reshape(-1, 4)
     out = np.zeros((len(tets), CELL_TEXELS, 4))
     out[:, :4, :3], out[:, :4, 3], out[:, 4] = planes.normal, planes.offset, planes.side
     out[:, 5, :3], out[:, 5, 3] = gradients, offsets
@@ -65,18 +76,21 @@ def interval_sigma_max(tf) -> np.ndarray:
 
 
 class MeshTextures:
-    """One mesh on the GPU."""
+    """One mesh on the GPU.  ``folded``: only the cells' planes, folded (:func:`cell_texels`), for a
+    renderer that never looks at the points (cell-raycast)."""
 
-    def __init__(self, ctx, mesh):
+    def __init__(self, ctx, mesh, folded: bool = False):
         lo, hi = (np.asarray(b, float) for b in mesh.bounds)
         self.centre = 0.5 * (lo + hi)
         rec = mesh.reconstruct()
         points = mesh.points - self.centre
         offset = rec.base - np.einsum("ij,ij->i", rec.gradients, rec.anchor - self.centre)
-        planes = cell_texels(points, mesh.tets, rec.gradients, offset)
+        planes = cell_texels(points, mesh.tets, rec.gradients, offset, folded)
         self.textures = []
-        for name, data, dtype in (("u_points", np.c_[points, np.zeros(len(points))], "f4"),
-                                  ("u_cells", mesh.tets, "u4"), ("u_cell_planes", planes, "f4")):
+        uploads = [("u_cell_planes", planes, "f4")]
+        if not folded:
+            uploads[:0] = [("u_points", np.c_[points, np.zeros(len(points))], "f4"), ("u_cells", mesh.tets, "u4")]
+        for name, data, dtype in uploads:
             texels = rows(data, np.float32 if dtype == "f4" else np.uint32)
             tex = ctx.texture((ROW, texels.shape[0]), 4, texels.tobytes(), dtype=dtype)
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
@@ -121,6 +135,8 @@ class MeshRenderer(Renderer):
     """A GL renderer of a tetrahedral mesh: the context, the mesh's textures (with what the renderer
     builds beside them per mesh: :meth:`_mesh_extra`), targets kept per size, uniforms, limits."""
 
+    folded_planes = False  # the mesh's textures: the planes folded, no points (MeshTextures)
+
     def __init__(self, ctx=None):
         super().__init__()
         self.ctx = ctx or create_context()
@@ -137,7 +153,8 @@ class MeshRenderer(Renderer):
         limits.check_image(scene, gl)
         limits.check_image_memory(scene, "gpu")
         mesh = scene.field
-        rows = -(-max(len(mesh.points), CELL_TEXELS * len(mesh.tets)) // ROW)
+        texels = FOLDED_TEXELS if self.folded_planes else CELL_TEXELS
+        rows = -(-max(len(mesh.points), texels * len(mesh.tets)) // ROW)
         limits.check_texture("the mesh", (ROW, rows), gl, "use a smaller mesh")
         points = len(scene.transfer_function.points)
         if scene.renderer.compositing == "emission_absorption" and points > self.max_tf_points():
@@ -155,7 +172,7 @@ class MeshRenderer(Renderer):
         """The mesh's textures and what :meth:`_mesh_extra` builds beside them, once per mesh."""
         if self._mesh is None or self._mesh[0] is not mesh:
             self._release_mesh()
-            textures = MeshTextures(self.ctx, mesh)
+            textures = MeshTextures(self.ctx, mesh, self.folded_planes)
             self._mesh = (mesh, textures, self._mesh_extra(mesh, textures))
         return self._mesh[1], self._mesh[2]
 

@@ -6,7 +6,11 @@ uniform usampler2D u_cells;
 uniform sampler2D u_cell_planes;
 
 const uint ROW = 4096u;
+#ifdef FOLDED_PLANES
+const uint CELL_TEXELS = 5u;  // each plane times its side (inside: n . p - h >= 0), the scalar
+#else
 const uint CELL_TEXELS = 6u;
+#endif
 
 ivec2 texel_of(uint i) { return ivec2(int(i % ROW), int(i / ROW)); }
 vec4 mesh_point(uint i) { return texelFetch(u_points, texel_of(i), 0); }

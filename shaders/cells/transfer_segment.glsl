@@ -36,14 +36,21 @@ struct Interval { float va; float vb; vec4 pa; vec4 pb; float inv; };  // inv: 1
 Interval tf_interval_at(int k) {
     int a = clamp(k, 0, TF_COUNT - 1), b = clamp(k + 1, 0, TF_COUNT - 1);
     vec2 ra = u_tf_value_opacity[a], rb = u_tf_value_opacity[b];
-    return Interval(ra.x, rb.x, vec4(u_tf_rgb[a], ra.y), vec4(u_tf_rgb[b], rb.y), rb.x > ra.x ? 1.0 / (rb.x - ra.x) : 0.0);
+    vec3 ca = u_tf_rgb[a], cb = u_tf_rgb[b];
+    return Interval(ra.x, rb.x, vec4(ca, ra.y), vec4(cb, rb.y), rb.x > ra.x ? 1.0 / (rb.x - ra.x) : 0.0);
 }
 
 // the control interval holding s: the largest k with value_k <= s (-1 below the first)
 int tf_interval(float s) {
     int k = -1;
+#if TF_COUNT <= 16
+    // counted over every control value: constant indices, so uniform loads, not one gather per lane
+    // and step as the binary search needs (on the blunt fin with 5 points, 7 % of the frame)
+    for (int i = 0; i < TF_COUNT; ++i) k += int(u_tf_value_opacity[i].x <= s);
+#else
     for (int b = TF_POW2 / 2; b >= 1; b /= 2)
         if (k + b < TF_COUNT && u_tf_value_opacity[k + b].x <= s) k += b;
+#endif
     return k;
 }
 

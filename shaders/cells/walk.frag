@@ -68,10 +68,11 @@ void walk(uint cell, vec3 o, vec3 d, inout float t_prev) {
     walk_stats.y += 1.0;
     for (int i = 0; i < 65535; ++i) {
         walk_stats.x += 1.0;
+        // the planes with their sides folded in (FOLDED_PLANES): inside is n . p - h >= 0
         vec4 p0 = cell_texel(cell, 0u), p1 = cell_texel(cell, 1u), p2 = cell_texel(cell, 2u);
-        vec4 p3 = cell_texel(cell, 3u), side = cell_texel(cell, 4u), lin = cell_texel(cell, 5u);
-        vec4 nd = vec4(dot(p0.xyz, d), dot(p1.xyz, d), dot(p2.xyz, d), dot(p3.xyz, d)) * side;
-        vec4 no = (vec4(dot(p0.xyz, o), dot(p1.xyz, o), dot(p2.xyz, o), dot(p3.xyz, o)) - vec4(p0.w, p1.w, p2.w, p3.w)) * side;
+        vec4 p3 = cell_texel(cell, 3u), lin = cell_texel(cell, 4u);
+        vec4 nd = vec4(dot(p0.xyz, d), dot(p1.xyz, d), dot(p2.xyz, d), dot(p3.xyz, d));
+        vec4 no = vec4(dot(p0.xyz, o), dot(p1.xyz, o), dot(p2.xyz, o), dot(p3.xyz, o)) - vec4(p0.w, p1.w, p2.w, p3.w);
         vec4 t = -no / nd;  // inf or NaN where nd = 0: never selected below
         vec4 t_in = mix(vec4(-3.0e38), t, greaterThan(nd, vec4(0.0)));
         vec4 t_out = mix(vec4(3.0e38), t, lessThan(nd, vec4(0.0)));

@@ -55,6 +55,7 @@ class WalkMesh:
 class CellRaycastRenderer(MeshRenderer):
     name = "cell-raycast"
     description = "ray casting from cell to cell through meshes in GL, no visibility order"
+    folded_planes = True
 
     def __init__(self, ctx=None):
         super().__init__(ctx)
@@ -175,7 +176,7 @@ class CellRaycastRenderer(MeshRenderer):
         """The full-screen walk; the image, rows from the top."""
         cam, img, r, tf = scene.camera, scene.image, scene.renderer, scene.transfer_function
         mode = r.compositing
-        defines = {MODES[mode]: True, "CAMERA_ORTHOGRAPHIC": cam.projection == "orthographic",
+        defines = {MODES[mode]: True, "FOLDED_PLANES": True, "CAMERA_ORTHOGRAPHIC": cam.projection == "orthographic",
                    "START_CELLS": starts is not None, "WALK_STATS": self._walk_stats}
         if mode == "emission_absorption":
             defines.update(ALPHA_MODEL=tf.opacity_model == "alpha", TF_COUNT=len(tf.points),
