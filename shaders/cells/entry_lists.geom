@@ -10,6 +10,8 @@ layout(triangle_strip, max_vertices = 6) out;
 #include "cells/grow.glsl"
 
 uniform vec2 u_image_size;
+uniform vec3 u_eye;      // centre-relative
+uniform vec3 u_forward;
 
 flat in uint v_cell[];
 flat in vec3 v_normal[];
@@ -33,6 +35,16 @@ void emit(vec2 pixel) {
 }
 
 void main() {
+    // A face every ray leaves by (its plane faces away from the eye, or from the view direction)
+    // lists nothing: left out here, not fragment by fragment.  Faces within a rounding of edge on
+    // go on, for their fragments to decide.
+#ifdef CAMERA_ORTHOGRAPHIC
+    vec3 to_face = u_forward;
+#else
+    vec3 to_face = v_position[0] - u_eye;
+#endif
+    float facing = dot(v_normal[0], to_face);
+    if (facing > 1e-6 * length(v_normal[0]) * length(to_face)) return;
     vec4 c0 = gl_in[0].gl_Position, c1 = gl_in[1].gl_Position, c2 = gl_in[2].gl_Position;
     if (!(min(min(c0.w, c1.w), c2.w) > 0.0)) {
         face_out(); gl_Position = c0; EmitVertex();
