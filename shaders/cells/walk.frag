@@ -61,17 +61,14 @@ void piece(float sf, float sb, float a, float b) {
 #endif
 }
 
-// From `cell`, entered at t_entry, on from t_prev (the farthest point reached): pieces and steps into
-// the neighbour across the exit face, until the ray leaves the mesh (t_prev: where) or is done.
-void walk(uint cell, float t_entry, vec3 o, vec3 d, inout float t_prev) {
+// From `cell`, on from t_prev (the farthest point reached): pieces and steps into the neighbour
+// across the exit face, until the ray leaves the mesh (t_prev: where) or is done.
+void walk(uint cell, vec3 o, vec3 d, inout float t_prev) {
     int stalls = 0;  // steps in a row that did not advance along the ray
-    // Along a walk every piece starts where the last one ended (the cells share the face, and its
-    // plane to the last bit); a piece starting further on means the walk has left the ray: it came
-    // in by an entry the ray only touches (a boundary edge two entering faces share: the oxygen
-    // post seen along its axis), wandered through cells beside the ray and found the ray again
-    // further on, past cells it never walked.  Such a walk ends there; the ray's other entries
-    // (the right one at the same t) take over.
-    float reach = max(t_prev, t_entry) + u_touching;
+    // An entry whose cell the ray clearly misses is one the ray only touches (a boundary edge two
+    // entering faces share, rays along the oxygen post's axis): walking on from it wandered through
+    // cells beside the ray, found the ray again further on and skipped the cells between.  Such an
+    // entry is given up at once; the ray's other entry there (the face it does cross) takes over.
     walk_stats.y += 1.0;
     for (int i = 0; i < 65535; ++i) {
         walk_stats.x += 1.0;
@@ -87,16 +84,13 @@ void walk(uint cell, float t_entry, vec3 o, vec3 d, inout float t_prev) {
         float b = min(min(t_out.x, t_out.y), min(t_out.z, t_out.w));
         if (!(b < 3.0e38)) break;  // no face to leave by: a cell without extent
         int k = b == t_out.x ? 0 : b == t_out.y ? 1 : b == t_out.z ? 2 : 3;
+        if (i == 0 && a > b + u_touching) break;  // see above
         if (b > a) {
-            if (a > reach) break;  // not where the last piece ended: see above
             piece(dot(lin.xyz, o + a * d) + lin.w, dot(lin.xyz, o + b * d) + lin.w, a, b);
             if (done) break;
-            reach = b + u_touching;
         }
-        // Only a piece moves the ray on: where rounding sent the walk into a cell the ray passes
-        // beside (its entering faces all beyond its first leaving one), the stretch up to that
-        // leaving face lies in other cells, which the next steps find (the oxygen post seen along
-        // its axis lost 15 % of a pixel's opacity when such a step moved it on).
+        // Only a piece moves the ray on: a cell the ray passes beside (rounding at an edge sent the
+        // walk there) says nothing of the stretch up to its leaving face, which lies in other cells.
         bool advanced = b > a;
         stalls = advanced ? 0 : stalls + 1;
         if (stalls > MAX_STALLS) { walk_stats.z += 1.0; break; }
@@ -122,7 +116,7 @@ void main() {
     float t_prev = max(near_distance(d), 0.0);
 #ifdef START_CELLS
     uint start = texelFetch(u_start, ivec2(gl_FragCoord.xy), 0).r;
-    if (start != 0u) walk(start - 1u, t_prev, o, d, t_prev);
+    if (start != 0u) walk(start - 1u, o, d, t_prev);
 #endif
     uint head = imageLoad(u_heads, ivec2(gl_FragCoord.xy)).r;
     // the entries taken so far end at (cut_t, cut_node): (t, node) orders them, ties included
@@ -161,7 +155,7 @@ void main() {
             node = n.z;
         }
         for (int e = 0; e < count && !done; ++e)
-            if (entry_t[e] > t_prev - u_touching) walk(entry_cell[e], entry_t[e], o, d, t_prev);  // else passed already
+            if (entry_t[e] > t_prev - u_touching) walk(entry_cell[e], o, d, t_prev);  // else passed already
         if (count > 0) {
             cut_t = entry_t[count - 1];
             cut_node = entry_node[count - 1];
