@@ -206,3 +206,37 @@ def test_the_oxygen_post_along_its_axis():
         walker.close()
     assert drawn[..., 3].max() > 0.3
     assert np.abs(image - drawn).max() < 1e-4, np.unravel_index(np.abs(image - drawn).argmax(), image.shape)
+
+
+def test_the_cli_and_the_viewer_with_its_panel(tmp_path):
+    """``dvr render --renderer cell-raycast`` on a mesh file, and the viewer with its panel: the
+    transfer-function editor's histogram is of the mesh's values (it asked a grid's samples of the
+    mesh and ended in an internal error, with either mesh renderer)."""
+    import os
+    import subprocess
+    import sys
+
+    from dvr_gl.image import read_image
+    from test_viewer_xvfb import xvfb_display
+
+    volume = mesh_scene(jittered_mesh((3, 3, 3))).volume_source.path
+    out = tmp_path / "mesh.exr"
+    cli = [sys.executable, "-m", "dvr_gl.apps.cli"]
+    done = subprocess.run([*cli, "render", "--volume", volume, "--renderer", "cell-raycast", "--size", "32", "-o",
+                           str(out)], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "cell-raycast" in done.stdout and read_image(out)[..., 3].max() > 0.1
+    with xvfb_display() as display:
+        view = subprocess.run([*cli, "view", "--volume", volume, "--renderer", "cell-raycast", "--size", "48x48",
+                               "--benchmark", "0.3"], capture_output=True, text=True, timeout=300,
+                              env={**os.environ, "DISPLAY": display})
+    assert view.returncode == 0, view.stderr
+    assert "tetrahedra, cell-raycast" in view.stdout
+
+
+def test_a_histogram_of_a_mesh_s_values():
+    """The viewer's histogram takes a mesh's values (one axis) as well as a grid's samples."""
+    from dvr_gl.viewer.gui import histogram
+
+    heights = histogram(np.array([0.0, 0.1, 0.1, 0.9]), (0.0, 1.0), bins=10)
+    assert heights.shape == (10,) and heights[1] == 1.0 and heights[0] > 0 and heights[5] == 0

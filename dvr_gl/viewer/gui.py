@@ -41,9 +41,13 @@ def _col32(r, g, b, a=1.0) -> int:
 
 def histogram(data: np.ndarray, value_range: tuple[float, float], bins: int = HISTOGRAM_BINS) -> np.ndarray:
     """Heights in [0, 1] of the data's histogram over ``value_range``: log(1 + count), scaled to the
-    highest bin (a strided subset of at most about 2^24 voxels)."""
-    step = max(1, int(round((data.size / 2 ** 24) ** (1 / 3))))
-    counts, _ = np.histogram(data[::step, ::step, ::step], bins=bins, range=value_range)
+    highest bin (a strided subset of at most about 2^24 voxels; of a mesh's values, any shape)."""
+    if data.ndim == 3:
+        step = max(1, int(round((data.size / 2 ** 24) ** (1 / 3))))
+        data = data[::step, ::step, ::step]
+    else:
+        data = np.ravel(data)[::max(1, data.size // 2 ** 24)]
+    counts, _ = np.histogram(data, bins=bins, range=value_range)
     heights = np.log1p(counts.astype(np.float64))
     return heights / heights.max() if heights.max() > 0 else heights
 
@@ -279,7 +283,10 @@ class ViewerGui:
     def _heights_for(self, value_range) -> np.ndarray:
         key = (id(self.viewer.scene.field), value_range)
         if key != self._histogram_key:
-            self._histogram_key, self._heights = key, histogram(self.viewer.scene.field.samples, value_range)
+            field = self.viewer.scene.field
+            # a grid's samples, a mesh's values (point or cell): what the transfer function maps
+            values = field.samples if hasattr(field, "samples") else field.values
+            self._histogram_key, self._heights = key, histogram(values, value_range)
         return self._heights
 
     def _opacity_max(self) -> float:
