@@ -240,3 +240,17 @@ def test_a_histogram_of_a_mesh_s_values():
 
     heights = histogram(np.array([0.0, 0.1, 0.1, 0.9]), (0.0, 1.0), bins=10)
     assert heights.shape == (10,) and heights[1] == 1.0 and heights[0] > 0 and heights[5] == 0
+
+
+def test_more_entries_than_the_gl_holds_are_refused(monkeypatch):
+    """Rays entering the mesh more often in all than this GL's storage buffers hold list nodes (here
+    made 10): one line naming what to do, not a wrong image."""
+    r = create_renderer("cell-raycast")
+    try:
+        limit_bytes = int(r.ctx.info["GL_MAX_SHADER_STORAGE_BLOCK_SIZE"])
+        monkeypatch.setattr(walk_module, "NODE_BYTES", limit_bytes // 10)
+        scene = mesh_scene(jittered_mesh(), **{"renderer.name": "cell-raycast"})
+        with pytest.raises(SceneError, match=r"the rays enter the mesh \d+ times in all, more than the 10 list nodes"):
+            r.render(scene)
+    finally:
+        r.close()
