@@ -12,9 +12,10 @@ import pytest
 from dvr_gl.errors import SceneError
 from dvr_gl.fields.mesh import TetMesh
 from dvr_gl.fields.mesh_cells import hexahedra_of_grid, tetrahedralize
-from dvr_gl.fields.mesh_rays import face_neighbours
+from dvr_gl.fields.mesh_rays import boundary_faces, face_neighbours
 from dvr_gl.renderers import create_renderer
 from dvr_gl.renderers.cell_raycast import renderer as walk_module
+from dvr_gl.renderers.projected_tetrahedra.order import adjacency
 from conftest import SHARED_DATA
 from test_projected_tetrahedra import jittered_mesh, mesh_scene, rms
 
@@ -126,7 +127,7 @@ def test_rays_entering_many_times(walker, converged, monkeypatch, projection):
 
 def test_face_neighbours():
     """The cell across face k (opposite vertex k) of each cell, -1 on the boundary: two tetrahedra
-    sharing a face, and the neighbours symmetric on a real split."""
+    sharing a face, and the neighbours symmetric on a real split; the boundary faces from them."""
     tets = np.array([[0, 1, 2, 3], [4, 1, 2, 3]])
     assert face_neighbours(tets).tolist() == [[1, -1, -1, -1], [0, -1, -1, -1]]
     mesh = jittered_mesh()
@@ -136,6 +137,13 @@ def test_face_neighbours():
     assert np.all(np.any(back == cell[:, None], axis=1))
     # 3x2x2 hexahedra: boundary quads 2 (2x2) + 2 (3x2) + 2 (3x2), two triangles each
     assert (nb < 0).sum() == 2 * (2 * 4 + 2 * 6 + 2 * 6)
+    # the boundary from them: the visibility order's boundary faces, normals pointing out of their cells
+    cell, corners, normal = boundary_faces(mesh.points, mesh.tets, nb)
+    adj = adjacency(mesh.points, mesh.tets)
+    key = lambda c, pts: sorted(zip(c.tolist(), np.round(np.sort(pts.reshape(len(c), -1), axis=1), 9).tolist()))  # noqa: E731
+    assert key(cell, corners) == key(adj.boundary_cell, adj.boundary_corners)
+    centroid = mesh.points[mesh.tets[cell]].mean(axis=1)
+    assert np.all(np.einsum("ij,ij->i", normal, corners[:, 0] - centroid) > 0)
 
 
 def test_too_many_transfer_function_points_are_refused(walker):

@@ -60,6 +60,20 @@ def face_neighbours(tets: np.ndarray) -> np.ndarray:
     return out
 
 
+def boundary_faces(points: np.ndarray, tets: np.ndarray, neighbours: np.ndarray):
+    """The faces with no neighbour (``neighbours`` from :func:`face_neighbours`): their cells ``(B,)``,
+    corners ``(B, 3, 3)`` and normals ``(B, 3)`` pointing out of their cells (by the opposite
+    vertex; not unit length)."""
+    cell, k = np.nonzero(neighbours < 0)
+    keep = np.ones((len(cell), 4), bool)
+    keep[np.arange(len(cell)), k] = False
+    corners = points[tets[cell][keep].reshape(-1, 3)]
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    inward = np.einsum("ij,ij->i", normal, points[tets[cell, k]] - corners[:, 0]) > 0
+    normal[inward] *= -1.0
+    return cell, corners, normal
+
+
 def _dot(a, b):
     """Row-wise dot product, always summed x + y + z in that order (bit-identical for equal input)."""
     return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]

@@ -16,11 +16,10 @@ import moderngl
 import numpy as np
 
 from ...errors import SceneError
-from ...fields.mesh_rays import face_neighbours
+from ...fields.mesh_rays import boundary_faces, face_neighbours
 from ...gl.context import make_current
 from ...gl.shaders import create_program
 from ..mesh_gl import MODES, ROW, MeshRenderer, rows
-from ..projected_tetrahedra.order import adjacency
 
 NODE_BYTES = 16          # a list node: cell, t, next, padding (entry_lists.frag)
 # The node buffer's first size, nodes a pixel; it grows to what a frame needed (the blunt fin at
@@ -35,14 +34,17 @@ class WalkMesh:
     (a vertex buffer, three vertices a face)."""
 
     def __init__(self, ctx, mesh, textures):
-        texels = rows(face_neighbours(mesh.tets), np.int32)
+        neighbours = face_neighbours(mesh.tets)
+        texels = rows(neighbours, np.int32)
         self.neighbours = ctx.texture((ROW, texels.shape[0]), 4, texels.tobytes(), dtype="i4")
         self.neighbours.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        adj = adjacency(mesh.points, mesh.tets)
-        corners = (adj.boundary_corners - textures.centre).astype(np.float32).reshape(-1, 3)
-        cells = np.repeat(adj.boundary_cell.astype(np.uint32), 3)
-        normals = np.repeat(adj.boundary_normal.astype(np.float32), 3, axis=0)
-        self.faces = len(adj.boundary_cell)
+        # the boundary from the same pairing of faces (a face shared by more than two cells: the
+        # first two pair up, the others are boundary), not the visibility order's whole adjacency
+        boundary_cell, boundary_corners, boundary_normal = boundary_faces(mesh.points, mesh.tets, neighbours)
+        corners = (boundary_corners - textures.centre).astype(np.float32).reshape(-1, 3)
+        cells = np.repeat(boundary_cell.astype(np.uint32), 3)
+        normals = np.repeat(boundary_normal.astype(np.float32), 3, axis=0)
+        self.faces = len(boundary_cell)
         vertices = np.concatenate([corners.view(np.uint32), cells[:, None], normals.view(np.uint32)], axis=1)
         self.boundary = ctx.buffer(vertices.tobytes()) if self.faces else None
         lo, hi = (np.asarray(b, float) for b in mesh.bounds)
