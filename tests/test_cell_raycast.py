@@ -262,3 +262,23 @@ def test_more_entries_than_the_gl_holds_are_refused(monkeypatch):
             r.render(scene)
     finally:
         r.close()
+
+
+@pytest.mark.parametrize("name", ["cell-raycast", "projected-tetrahedra"])
+def test_many_control_points(converged, name):
+    """Past 16 control points the integral finds a value's control interval by binary search instead
+    of counting (transfer_segment.glsl): 40 points, both mesh renderers, against the reference
+    (measured RMS 1.3e-7; bound 1e-5: a wrong interval is far more)."""
+    values = np.linspace(-1.0, 2.0, 40)
+    points = [[float(v), 0.5 + 0.4 * np.sin(3 * v), 0.5, 0.5 - 0.4 * np.sin(2 * v), 0.3 + 0.25 * np.cos(5 * v)]
+              for v in values]
+    scene = mesh_scene(jittered_mesh(), **{"renderer.name": name, "transfer_function.points": points,
+                                           "camera.azimuth": 30.0, "camera.elevation": 20.0})
+    r = create_renderer(name)
+    try:
+        image = r.render(scene.with_renderer(ert_threshold=1.0) if name == "cell-raycast" else scene)
+    finally:
+        r.close()
+    truth = converged.render(scene.with_renderer(name="reference-converged"))
+    assert truth[..., 3].max() > 0.3
+    assert rms(image, truth) < 1e-5, rms(image, truth)
