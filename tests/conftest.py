@@ -29,6 +29,14 @@ def gl_context():
     ctx.release()
 
 
+@pytest.fixture(scope="module")
+def converged():
+    """The float64 judge, ``reference-converged`` (a CPU renderer: nothing to release)."""
+    from dvr_gl.renderers import create_renderer
+
+    return create_renderer("reference-converged")
+
+
 def small_scene(overrides: dict | None = None, **kw):
     """A small demo scene (32^3 Shepp-Logan, 32x32 image) with overrides by dotted key."""
     base = {"volume.demo": "shepp-logan", "volume.size": 32, "image.width": 32, "image.height": 32}

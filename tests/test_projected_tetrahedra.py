@@ -27,11 +27,6 @@ def pt():
     r.close()
 
 
-@pytest.fixture(scope="module")
-def converged():
-    return create_renderer("reference-converged")
-
-
 def jittered_mesh(n=(4, 3, 3), size=(1.0, 0.8, 0.9), seed=0):
     """A box of hexahedra (interior points moved) split into tetrahedra, with a smooth point scalar."""
     axes = [np.linspace(0.0, s, k) for s, k in zip(size, n)]
@@ -62,16 +57,20 @@ def mesh_scene(mesh, **keys):
     return load_scene(None, {**base, **keys})
 
 
+# perspective and orthographic, oblique and along an axis (faces seen edge on)
+REFERENCE_VIEWS = [
+    {"camera.azimuth": 30.0, "camera.elevation": 20.0},
+    {"camera.azimuth": 0.0, "camera.elevation": 0.0},
+    {"camera.projection": "orthographic", "camera.azimuth": 90.0, "camera.elevation": 0.0},
+    {"camera.projection": "orthographic", "camera.azimuth": -50.0, "camera.elevation": 35.0},
+]
+
+
 def rms(a, b):
     return float(np.sqrt(np.mean((np.asarray(a, float) - np.asarray(b, float)) ** 2)))
 
 
-@pytest.mark.parametrize("view", [
-    {"camera.azimuth": 30.0, "camera.elevation": 20.0},
-    {"camera.azimuth": 0.0, "camera.elevation": 0.0},             # along an axis: faces seen edge on
-    {"camera.projection": "orthographic", "camera.azimuth": 90.0, "camera.elevation": 0.0},
-    {"camera.projection": "orthographic", "camera.azimuth": -50.0, "camera.elevation": 35.0},
-])
+@pytest.mark.parametrize("view", REFERENCE_VIEWS)
 def test_emission_absorption_matches_the_mesh_reference(pt, converged, view):
     """Every fragment integrates the exact transfer function along its own piece: the band inside the
     cells is there, in perspective and orthographic, from oblique and axis-aligned views.  Measured

@@ -43,18 +43,26 @@ class FacePlanes:
         self.normal, self.offset, self.side = normal, offset, side
 
 
-def face_neighbours(tets: np.ndarray) -> np.ndarray:
-    """``(M, 4)`` int32: the cell across face k of each cell (face k opposite vertex k, as
-    :class:`FacePlanes`), -1 where the face is on the boundary (or shared by more than two cells:
-    the first two pair up)."""
+def paired_faces(tets: np.ndarray):
+    """Every cell's four faces (face k opposite vertex k) as vertex triples in global order, sorted:
+    ``faces (4M, 3)``, their ``owner`` cells and ``which`` face of the owner each is, and ``first``:
+    the indices where a face and the next are the same face of two cells (a face shared by more
+    than two cells, in a broken mesh: its first two pair up, the others stay unpaired)."""
     n = len(tets)
     faces = np.concatenate([np.sort(np.delete(tets, k, axis=1), axis=1) for k in range(4)])
     owner, which = np.tile(np.arange(n), 4), np.repeat(np.arange(4), n)
     order = np.lexsort((faces[:, 2], faces[:, 1], faces[:, 0]))
-    f, owner, which = faces[order], owner[order], which[order]
-    same = np.all(f[1:] == f[:-1], axis=1)
-    i = np.nonzero(same & ~np.r_[False, same[:-1]])[0]  # the first two of each run of equal faces
-    out = np.full((n, 4), -1, np.int32)
+    faces, owner, which = faces[order], owner[order], which[order]
+    same = np.all(faces[1:] == faces[:-1], axis=1)
+    first = np.nonzero(same & ~np.r_[False, same[:-1]])[0]  # the first two of each run of equal faces
+    return faces, owner, which, first
+
+
+def face_neighbours(tets: np.ndarray) -> np.ndarray:
+    """``(M, 4)`` int32: the cell across face k of each cell (face k opposite vertex k, as
+    :class:`FacePlanes`), -1 where the face is on the boundary (or unpaired: :func:`paired_faces`)."""
+    _, owner, which, i = paired_faces(tets)
+    out = np.full((len(tets), 4), -1, np.int32)
     out[owner[i], which[i]] = owner[i + 1]
     out[owner[i + 1], which[i + 1]] = owner[i]
     return out

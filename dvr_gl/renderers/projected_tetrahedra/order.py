@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...fields.mesh_rays import candidate_pairs
+from ...fields.mesh_rays import candidate_pairs, paired_faces
 from ...fields.ragged import ranges
 
 ORDERS = ("exact", "centroid")
@@ -58,18 +58,12 @@ class Adjacency:
 
 
 def adjacency(points: np.ndarray, tets: np.ndarray) -> Adjacency:
-    faces = np.concatenate([np.sort(np.delete(tets, k, axis=1), axis=1) for k in range(4)])
-    cells = np.tile(np.arange(len(tets)), 4)
-    opposite = np.concatenate([tets[:, k] for k in range(4)])
-    order = np.lexsort((faces[:, 2], faces[:, 1], faces[:, 0]))
-    faces, cells, opposite = faces[order], cells[order], opposite[order]
-    same = np.all(faces[1:] == faces[:-1], axis=1)
-    starts = np.nonzero(np.r_[True, ~same])[0]
-    counts = np.diff(np.r_[starts, len(faces)])
-    first = starts[counts >= 2]
+    faces, cells, which, first = paired_faces(tets)
+    opposite = tets[cells, which]
     # a face shared by two cells: interior; by one: boundary; by more (a broken mesh): the first
     # two pair up and the rest count as boundary faces
     interior_a, interior_b = first, first + 1
+    extra = int(np.all(faces[1:] == faces[:-1], axis=1).sum()) - len(first)  # cells past a pair's two
     lone = np.ones(len(faces), bool)
     lone[interior_a] = lone[interior_b] = False
     pa, pb, pc = (points[faces[interior_a, i]] for i in range(3))
@@ -83,7 +77,7 @@ def adjacency(points: np.ndarray, tets: np.ndarray) -> Adjacency:
     centroid = points[tets[boundary_cell]].mean(axis=1)
     out[np.einsum("ij,ij->i", out, centroid - corners[:, 0]) > 0] *= -1.0
     return Adjacency(np.stack([cells[interior_a], cells[interior_b]], axis=1), pa, normal, boundary, boundary_cell,
-                     int(np.maximum(counts - 2, 0).sum()), corners, edges, out,
+                     extra, corners, edges, out,
                      float(np.ptp(corners.reshape(-1, 3), axis=0).max()) if len(corners) else 0.0)
 
 
