@@ -1,6 +1,6 @@
 """Speed of the CPU references: a 128x128 image of a 64^3 volume (the Shepp-Logan demo).
 
-    python benchmarks/reference_speed.py [--size 128] [--volume 64] [--repeat 3]
+    python benchmarks/reference_speed.py [--size 128] [--volume 64] [--repeat 3] [--filter gaussian]
 
 Prints a table: renderer, compositing, filter, shading, seconds (median of the repeats)
 and volume samples (or field evaluations) per second.
@@ -19,11 +19,13 @@ CASES = [
     ("reference", "emission_absorption", "linear", False),
     ("reference", "emission_absorption", "linear", True),
     ("reference", "emission_absorption", "cubic_bspline", False),
+    ("reference", "emission_absorption", "gaussian", False),
     ("reference", "isosurface", "linear", True),
     ("reference", "average", "linear", False),
     ("reference", "mip", "linear", False),
     ("reference-converged", "emission_absorption", "linear", False),
     ("reference-converged", "emission_absorption", "linear", True),
+    ("reference-converged", "emission_absorption", "gaussian", False),
     ("reference-converged", "isosurface", "linear", True),
     ("reference-converged", "mip", "linear", False),
 ]
@@ -34,11 +36,14 @@ def main():
     p.add_argument("--size", type=int, default=128)
     p.add_argument("--volume", type=int, default=64)
     p.add_argument("--repeat", type=int, default=3)
+    p.add_argument("--filter", help="only the cases with this filter (e.g. gaussian)")
     args = p.parse_args()
     print(f"image {args.size}x{args.size}, Shepp-Logan {args.volume}^3, sample distance 0.5 voxel, "
           f"median of {args.repeat}")
     print(f"{'renderer':20s} {'compositing':20s} {'filter':14s} {'shading':7s} {'seconds':>8s} {'samples/s':>10s}")
     for name, mode, filt, shading in CASES:
+        if args.filter and filt != args.filter:
+            continue
         scene = load_scene(None, {"volume.demo": "shepp-logan", "volume.size": args.volume,
                                   "image.width": args.size, "image.height": args.size,
                                   "renderer.compositing": mode, "renderer.filter": filt,

@@ -11,7 +11,19 @@ from dataclasses import dataclass, field
 
 COMPOSITING_MODES = ("emission_absorption", "isosurface", "average", "mip", "minip")
 CLASSIFICATIONS = ("post", "pre", "preintegrated")
-FILTERS = ("nearest", "linear", "cubic_bspline", "catmull_rom")
+FILTERS = ("nearest", "linear", "cubic_bspline", "catmull_rom", "gaussian")
+#: The filters a texture unit helps with: splines on the voxel grid, evaluated from a few taps (the GPU
+#: grid renderers); ``gaussian`` is a splatting kernel (``dvr_gl/fields/reconstruction.py``).
+SPLINE_FILTERS = ("nearest", "linear", "cubic_bspline", "catmull_rom")
+#: Where the Gaussian is cut, in standard deviations: its value there is exp(-5^2 / 2) = 3.7e-6 of its
+#: peak and its mass beyond 1.5e-5, so the X-ray of one kernel (scaled to unit integral: its footprint
+#: gains that mass) is a 2D Gaussian within 2e-5 of its peak, below the 1e-4 the splatting tests ask; at
+#: 4.5 the mass beyond is 1.5e-4, and every tenth of a radius costs splats and taps.
+GAUSSIAN_RADIUS = 5.0
+#: The Gaussian's default standard deviation, voxels: about the smallest whose sum of kernels is flat to a
+#: tenth of an 8-bit step: within (1 + 2 exp(-2 pi^2 sigma^2))^3 - 1 = 3.8e-4 (0.6 leaves 4.9e-3, more
+#: than a step); a wider kernel blurs more.
+DEFAULT_KERNEL_WIDTH = 0.7
 ORDERS = ("front_to_back", "back_to_front")
 LIGHT_TYPES = ("headlight", "directional")
 

@@ -27,7 +27,8 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Optional
 
 from .errors import SceneError
-from .model import CLASSIFICATIONS, COMPOSITING_MODES, FILTERS, ORDERS, ShadingSpec
+from .model import (CLASSIFICATIONS, COMPOSITING_MODES, DEFAULT_KERNEL_WIDTH, FILTERS, GAUSSIAN_RADIUS, ORDERS,
+                    ShadingSpec)
 
 DEFAULT_SAMPLE_DISTANCE_VOXELS = 0.5
 
@@ -175,6 +176,16 @@ CLASSIFICATION = Setting("classification", str, "post", "post (interpolate, then
 ASSOCIATED_COLORS = Setting("associated_colors", bool, True, "pre-classification interpolates sigma*c (no colour "
                             "bleeding); false shows the artefact", group="model", flag=False)
 FILTER = Setting("filter", str, "linear", "reconstruction filter", choices=FILTERS, must_support=True, group="model")
+
+
+def _gaussian(spec) -> bool:
+    return spec.filter == "gaussian"
+
+
+KERNEL_WIDTH = Setting("kernel_width", float, DEFAULT_KERNEL_WIDTH, "the Gaussian filter's standard deviation "
+                       f"(truncated at {GAUSSIAN_RADIUS:g} of them; the field is the sum of the samples' "
+                       "kernels)", check=positive,
+                       units="voxels", must_support=True, group="model", applies=_gaussian)
 ISO_VALUE = Setting("iso_value", Optional[float], None, "isosurface value, data units (default: the middle of "
                     "the value range)", group="model")
 GRADIENT_OPACITY = Setting("gradient_opacity", bool, False, "scale extinction by min(1, |gradient| / reference) "
@@ -225,7 +236,7 @@ TEXTURE_BUDGET_MB = Setting("texture_budget_mb", float, 2048.0, "GPU texture mem
                             "rendered in bricks", check=positive, units="MB", group="gpu", flag=False)
 
 #: Every renderer reads these (narrowed where it supports fewer choices).
-MODEL_SETTINGS = (COMPOSITING, CLASSIFICATION, ASSOCIATED_COLORS, FILTER, ISO_VALUE, GRADIENT_OPACITY,
+MODEL_SETTINGS = (COMPOSITING, CLASSIFICATION, ASSOCIATED_COLORS, FILTER, KERNEL_WIDTH, ISO_VALUE, GRADIENT_OPACITY,
                   GRADIENT_OPACITY_REFERENCE, SHADING)
 
 

@@ -47,7 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import SceneError
-from .fields import diagonal
+from .fields import diagonal, reconstruct
 
 LINES = 192
 OVERSAMPLING = 8          # samples per voxel along the lines
@@ -113,7 +113,7 @@ def line_samples(scene, count: int = LINES, oversampling: int = OVERSAMPLING):
     points = start[:, None, :] + direction[:, None, :] * t[None, :, None]
     lo, hi = field.bounds
     inside = np.all((points >= lo) & (points <= hi), axis=-1)
-    s = field.reconstruct(scene.renderer.filter).sample(points.reshape(-1, 3)).reshape(inside.shape)
+    s = reconstruct(field, scene.renderer).sample(points.reshape(-1, 3)).reshape(inside.shape)
     sigma = np.where(inside, tf.extinction(s.ravel()).reshape(s.shape), 0.0)
     colour = tf.color(s.ravel()).reshape(*s.shape, 3)
     return s, np.concatenate([sigma[..., None], sigma[..., None] * colour], axis=-1), inside, step

@@ -9,7 +9,8 @@ are next) implements one protocol, :class:`Field`:
 * ``value_range``: the smallest and largest value (transfer-function presets, defaults);
 * ``sample_spacing``: the world length of "one voxel", the unit of sample distances
   given in voxels (a grid's smallest spacing);
-* ``reconstruct(filter)``: the continuous field under a reconstruction filter, a
+* ``reconstruct(filter, **parameters)``: the continuous field under a reconstruction filter
+  (parameters: the Gaussian's ``kernel_width``; :func:`reconstruct` passes a scene's), a
   :class:`Reconstruction`: values and gradients at world points, its polynomial
   degree between knots, and the ``knots`` along rays where it is not smooth (the
   converged reference cuts rays there);
@@ -66,6 +67,17 @@ class Field(Protocol):
     def reconstruct(self, filter: str = "linear") -> Reconstruction: ...
 
     def describe(self) -> str: ...
+
+
+def filter_parameters(spec) -> dict:
+    """The keyword arguments of ``reconstruct`` beyond the filter's name that renderer settings ``spec``
+    give: the Gaussian's width (only a field that offers the Gaussian takes it)."""
+    return {"kernel_width": spec.kernel_width} if spec.filter == "gaussian" else {}
+
+
+def reconstruct(field: Field, spec) -> Reconstruction:
+    """``field`` reconstructed as renderer settings ``spec`` ask: their filter, with its parameters."""
+    return field.reconstruct(spec.filter, **filter_parameters(spec))
 
 
 def gradient_epsilon(field: Field) -> float:

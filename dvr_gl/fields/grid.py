@@ -122,17 +122,18 @@ class Volume:
         """The sample values, ``data``."""
         return self.data
 
-    def reconstruct(self, filter: str = "linear"):
-        """The continuous field under a reconstruction filter (:mod:`.reconstruction`)."""
+    def reconstruct(self, filter: str = "linear", kernel_width: float | None = None):
+        """The continuous field under a reconstruction filter (:mod:`.reconstruction`); ``kernel_width``:
+        the Gaussian's standard deviation in voxels."""
         from .reconstruction import SampledField
 
-        return SampledField(self.data, self.spacing, self.origin, filter)
+        return SampledField(self.data, self.spacing, self.origin, filter, kernel_width)
 
-    def reconstruct_values(self, values: np.ndarray, filter: str = "linear"):
+    def reconstruct_values(self, values: np.ndarray, filter: str = "linear", kernel_width: float | None = None):
         """Other values at this grid's samples (``(nz, ny, nx[, C])``), reconstructed alike."""
         from .reconstruction import SampledField
 
-        return SampledField(values, self.spacing, self.origin, filter)
+        return SampledField(values, self.spacing, self.origin, filter, kernel_width)
 
     def world_to_index(self, points: np.ndarray) -> np.ndarray:
         """Continuous voxel coordinates ``(i, j, k)`` (x, y, z order) of world points ``(..., 3)``."""

@@ -33,13 +33,14 @@ class PostClassifier:
 
 
 class PreClassifier:
-    def __init__(self, field, tf, filter_kind: str, associated: bool = True):
-        """Classify the field's own samples, reconstruct the classified values as the field's."""
+    def __init__(self, field, tf, filter_kind: str, associated: bool = True, **parameters):
+        """Classify the field's own samples, reconstruct the classified values as the field's
+        (``parameters``: the filter's, as :func:`dvr_gl.fields.filter_parameters`)."""
         if not hasattr(field, "reconstruct_values"):
             raise SceneError(f"pre-classification classifies samples, and {field.kind} data has none; "
                              f"use classification post")
         classified = tf.classify_voxels(field.samples, associated)
-        self.field = field.reconstruct_values(classified, filter_kind)
+        self.field = field.reconstruct_values(classified, filter_kind, **parameters)
         self.associated = associated
 
     def __call__(self, points: np.ndarray, scalars: np.ndarray | None = None):

@@ -13,10 +13,12 @@ cut there first; then
   halves; pieces are bisected until each ray's summed error estimate (colour
   and optical depth, which bound the error of the composited pixel to first
   order) is at most ``tolerance``.
-* ``average``: Gauss-Legendre on each piece (exact: the pieces are polynomials).
+* ``average``: Gauss-Legendre on each piece (exact: the pieces are polynomials; for the Gaussian,
+  exact for the polynomial of its ``degree`` that stands for it).
 * ``isosurface``, ``mip``, ``minip``: the field along each piece is a
   polynomial of the filter's degree (3 for trilinear, 9 for the cubics, 0 for
-  nearest), fitted exactly from that many samples; its extremum (golden-section
+  nearest), fitted exactly from that many samples (the Gaussian is not a polynomial: its
+  interpolant of degree 9 stands for it, see :mod:`dvr_gl.fields.reconstruction`); its extremum (golden-section
   search) or first crossing of the iso-value (bisection) is found on a grid of
   64 points per piece and then to float64 resolution.  Only features narrower
   than 1/64 of a voxel along a ray could be missed.

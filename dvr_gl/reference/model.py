@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..fields import gradient_epsilon
+from ..fields import filter_parameters, gradient_epsilon, reconstruct
 from ..preintegration import preintegrate, shortened
 from ..transfer_function import TransferFunction
 from .classification import PostClassifier, PreClassifier
@@ -30,10 +30,11 @@ class OpticalModel:
     def __init__(self, scene, exact: bool = False, segment_length: float | None = None):
         r = scene.renderer
         self.tf: TransferFunction = scene.transfer_function
-        self.scalar = scene.field.reconstruct(r.filter)
+        self.scalar = reconstruct(scene.field, r)
         self.table = self.tf if exact else self.tf.tabulate(r.lut_size)
         if r.classification == "pre" and r.compositing == "emission_absorption":
-            self.classify = PreClassifier(scene.field, self.tf, r.filter, r.associated_colors)
+            self.classify = PreClassifier(scene.field, self.tf, r.filter, r.associated_colors,
+                                          **filter_parameters(r))
         else:
             self.classify = PostClassifier(self.scalar, self.table)
         self.preintegration = None

@@ -11,6 +11,7 @@ from __future__ import annotations
 from typing import Optional
 
 from ... import settings as s
+from ...model import SPLINE_FILTERS
 from ... import sweeps
 from ..registry import RendererPlugin
 
@@ -38,8 +39,8 @@ PLUGIN = RendererPlugin(
     description="GPU ray casting in a GLSL fragment loop",
     renderer="dvr_gl.renderers.raycast.renderer:RayCastRenderer",
     settings=(s.SAMPLE_DISTANCE, s.SAMPLE_DISTANCE_VOXELS, TOLERANCE, s.COMPOSITING, s.ORDER, s.CLASSIFICATION,
-              s.ASSOCIATED_COLORS, s.PREINTEGRATION, s.PREINTEGRATION_SIZE, s.FILTER, s.FILTERING, s.GRADIENT,
-              s.GRADIENT_OPACITY, s.GRADIENT_OPACITY_REFERENCE, s.ISO_VALUE, s.ISO_REFINEMENT, s.JITTER,
+              s.ASSOCIATED_COLORS, s.PREINTEGRATION, s.PREINTEGRATION_SIZE, s.FILTER.only(*SPLINE_FILTERS), s.FILTERING,
+              s.GRADIENT, s.GRADIENT_OPACITY, s.GRADIENT_OPACITY_REFERENCE, s.ISO_VALUE, s.ISO_REFINEMENT, s.JITTER,
               s.JITTER_SEED, s.ERT_THRESHOLD, s.LUT_SIZE, s.TEXTURE_BUDGET_MB, ACCELERATION, BLOCK_SIZE,
               HOMOGENEITY_TOLERANCE, s.SHADING),
     data_kinds=("grid",),

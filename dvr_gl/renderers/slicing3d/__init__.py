@@ -7,6 +7,7 @@ See ``docs/renderers/slicing.md``; the renderer is :class:`Slicing3DRenderer` in
 from __future__ import annotations
 
 from ... import settings as s
+from ...model import SPLINE_FILTERS
 from ... import sweeps
 from ..registry import RendererPlugin
 
@@ -15,8 +16,8 @@ PLUGIN = RendererPlugin(
     description="3D texture, view-aligned slices blended back to front (GPU)",
     renderer="dvr_gl.renderers.slicing3d.renderer:Slicing3DRenderer",
     settings=(s.SAMPLE_DISTANCE, s.SAMPLE_DISTANCE_VOXELS, s.COMPOSITING.only("emission_absorption"),
-              s.CLASSIFICATION, s.ASSOCIATED_COLORS, s.PREINTEGRATION, s.PREINTEGRATION_SIZE, s.FILTER,
-              s.FILTERING, s.GRADIENT, s.GRADIENT_OPACITY, s.GRADIENT_OPACITY_REFERENCE, s.LUT_SIZE,
+              s.CLASSIFICATION, s.ASSOCIATED_COLORS, s.PREINTEGRATION, s.PREINTEGRATION_SIZE,
+              s.FILTER.only(*SPLINE_FILTERS), s.FILTERING, s.GRADIENT, s.GRADIENT_OPACITY, s.GRADIENT_OPACITY_REFERENCE, s.LUT_SIZE,
               s.TEXTURE_BUDGET_MB, s.SHADING),
     data_kinds=("grid",),
     needs_gl=True,
