@@ -36,6 +36,7 @@ from typing import Callable
 import numpy as np
 
 from dvr_gl.fields import SphereField
+from dvr_gl.renderers import registry
 from dvr_gl.rays import RayBatch, intersect_box
 from dvr_gl.scene import load_scene
 
@@ -64,9 +65,16 @@ def _save(tmp_path, name, data):
     return str(path)
 
 
+def own_filter(renderer) -> dict:
+    """The filter a renderer is tested with: the scene's default where it takes it, else its first
+    (splatting takes its kernels only)."""
+    choices = registry.plugin(renderer).choices("filter")
+    return {} if "linear" in choices else {"renderer.filter": choices[0]}
+
+
 def _load(data_keys, points, mode, view, renderer, extra=None):
     """A closed form's scene: its data keys, extinction ``points``, the view, no early termination."""
-    overrides = {**data_keys, "transfer_function.points": points,
+    overrides = {**own_filter(renderer), **data_keys, "transfer_function.points": points,
                  "transfer_function.opacity_model": "extinction", "image.width": WIDTH, "image.height": HEIGHT,
                  "renderer.name": renderer, "renderer.compositing": mode, "renderer.ert_threshold": 1.0,
                  "renderer.converged_tolerance": 1e-6, **VIEWS[view], **(extra or {})}

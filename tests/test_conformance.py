@@ -22,7 +22,7 @@ import pytest
 from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.scene import load_scene
 
-from closed_forms import CLOSED_FORMS, VIEWS, error_outside
+from closed_forms import CLOSED_FORMS, VIEWS, error_outside, own_filter
 from conftest import assert_close
 
 PLUGINS = registry.plugins()
@@ -86,7 +86,7 @@ def test_against_its_oracle(renderers, name, mode, view):
     scene = load_scene(None, {"volume.demo": "shepp-logan", "volume.size": 16, "image.width": 20,
                               "image.height": 20, "renderer.name": name, "renderer.compositing": mode,
                               "transfer_function.points": [[0, 0.2, 0.4, 0.9, 0.05], [1, 1.0, 0.8, 0.3, 0.4]],
-                              "renderer.ert_threshold": 1.0, **VIEWS[view]})
+                              "renderer.ert_threshold": 1.0, **own_filter(name), **VIEWS[view]})
     image = renderers(name).render(scene)
     oracle = PLUGINS[name].oracle_image(scene)
     assert np.abs(oracle[..., 3]).max() > 1e-3, "the oracle sees the phantom"

@@ -21,17 +21,34 @@ from conftest import array_scene, assert_close
 WITH_ORACLE = [name for name, p in registry.plugins().items() if p.oracle is not None]
 
 
+def own_filter(name, scene):
+    """The scene with the renderer's own filter where it does not take the default (splatting takes its
+    kernels only; closed_forms.own_filter)."""
+    choices = registry.plugin(name).choices("filter")
+    return scene if scene.renderer.filter in choices else scene.with_renderer(filter=choices[0])
+
+
 def oracle(name, scene):
-    return registry.plugin(name).oracle_image(scene)
+    return registry.plugin(name).oracle_image(own_filter(name, scene))
 
 
 NO_ERT = {"renderer.ert_threshold": 1.0}
 
 
+class OwnFilter:
+    """A renderer that renders the tests' scenes with its own filter (:func:`own_filter`)."""
+
+    def __init__(self, renderer):
+        self.renderer, self.name = renderer, renderer.name
+
+    def render(self, scene):
+        return self.renderer.render(own_filter(self.name, scene))
+
+
 @pytest.fixture(scope="module", params=WITH_ORACLE)
 def renderer(request):
     r = create_renderer(request.param)
-    yield r
+    yield OwnFilter(r)
     r.close()
 
 
@@ -62,7 +79,11 @@ def test_transfer_function_narrower_than_one_data_step(tmp_path, renderer):
     reach it (post-classification), and every renderer finds it where its reference does.  The
     spike's opacity changes by 4 per data unit, so the float32 rounding of values near 100 (7.6e-6)
     moves a sample's opacity by up to 3e-5: measured max 4.8e-5 and mean 2.6e-6 for the GPU
-    renderers (shear-warp interpolates in float64: 7.7e-7), asserted max 1e-4, mean 5e-6."""
+    renderers (shear-warp interpolates in float64: 7.7e-7), asserted max 1e-4, mean 5e-6.  Splatting
+    sums where the others interpolate: a sheet adds some 50 kernels' shares of the value in float32
+    blending, whose rounding (4e-7 of the value 100 in a random walk, 4e-5 data units) the spike's
+    slope turns into up to 1.6e-4 of opacity a slab: measured max 2.9e-4 and mean 2.5e-5, asserted
+    5e-4 and 5e-5 (by design: splatting's precision scales with the value, not its gradient)."""
     rng = np.random.default_rng(1)
     data = rng.choice(np.array([100, 101], dtype=np.uint8), size=(6, 6, 6))
     tf = [[0, 1, 1, 1, 0], [100.2, 1, 0.5, 0.2, 0], [100.4, 1, 0.5, 0.2, 0.8], [100.6, 1, 0.5, 0.2, 0],
@@ -75,7 +96,8 @@ def test_transfer_function_narrower_than_one_data_step(tmp_path, renderer):
     reference = oracle(renderer.name, scene)
     assert reference[..., 3].max() > 0.3 and np.all(np.isfinite(image))
     error = np.abs(image - reference)
-    assert error.max() <= 1e-4 and error.mean() <= 5e-6
+    bound, mean = (5e-4, 5e-5) if renderer.name == "splatting" else (1e-4, 5e-6)
+    assert error.max() <= bound and error.mean() <= mean
 
 
 def test_total_opacity(tmp_path, renderer):
@@ -224,7 +246,7 @@ def test_camera_inside_the_volume(tmp_path, renderer):
                          "image.width": 12, "image.height": 12, "camera.eye": [0.2, 0.1, 0.3],
                          "camera.target": [5.0, 3.0, 1.0], "camera.fov": 70.0, **NO_ERT},
                         origin=(-3.5, -3.5, -3.5))
-    if registry.refusal(scene, renderer.name):  # shear-warp: one line naming the reason, before rendering
+    if registry.refusal(own_filter(renderer.name, scene), renderer.name):  # shear-warp, splatting: one line
         with pytest.raises(SceneError, match="inside"):
             renderer.render(scene)
         return

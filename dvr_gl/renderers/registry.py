@@ -144,7 +144,7 @@ def _registry() -> _Registry:
 
 
 BUILTIN_ORDER = ("raycast", "slicing3d", "slicing2d", "shearwarp", "reference", "reference-converged",
-                 "projected-tetrahedra", "cell-raycast")
+                 "projected-tetrahedra", "cell-raycast", "splatting")
 
 
 def _builtin_first(plugins: dict) -> dict:
@@ -266,22 +266,32 @@ def check(scene, name: str | None = None):
         raise SceneError(f"{p.name} renders {', '.join(p.data_kinds)} data, not {kind}"
                          + (f"; use {_either(others)}" if others else ""))
     spec = scene.renderer
-    renders = lambda q: q.data_kinds is None or kind in q.data_kinds  # noqa: E731  (alternatives: for this data)
+    # alternatives: renderers of this data that support every model setting the scene uses
+    renders = lambda q: (q.data_kinds is None or kind in q.data_kinds) and not _unsupported(q, spec)  # noqa: E731
+    problem = _unsupported(p, spec)
+    if problem is not None:
+        s, value, own = problem
+        others = renderers_with(renders)
+        if own is None:
+            raise SceneError(f"{p.name} does not support {_describe(s, value)}; turn it off"
+                             + (f" or use {_either(others)}" if others else ""))
+        raise SceneError(f"{p.name} does not support renderer.{s.name} = {value!r} (it takes "
+                         f"{_either(own.choices)})" + (f"; use {_either(others)}" if others else ""))
+    if p.check is not None:
+        _load(p.check)(scene)
+
+
+def _unsupported(p: RendererPlugin, spec):
+    """The first model setting the scene uses that renderer ``p`` does not support: ``(setting, value,
+    p's declaration or None)``; None if it supports them all."""
     for s in all_settings():
         if not s.must_support or not s.matters(spec):
             continue
         value = getattr(spec, s.name)
         own = p.declared(s.name)
-        if own is None and s.used(value):
-            others = renderers_with(lambda q: renders(q) and _allows(q.declared(s.name), value))
-            raise SceneError(f"{p.name} does not support {_describe(s, value)}; turn it off"
-                             + (f" or use {_either(others)}" if others else ""))
-        if own is not None and own.choices and value not in own.choices:
-            others = renderers_with(lambda q: renders(q) and _allows(q.declared(s.name), value))
-            raise SceneError(f"{p.name} does not support renderer.{s.name} = {value!r} (it takes "
-                             f"{_either(own.choices)})" + (f"; use {_either(others)}" if others else ""))
-    if p.check is not None:
-        _load(p.check)(scene)
+        if (own is None and s.used(value)) or (own is not None and own.choices and value not in own.choices):
+            return s, value, own
+    return None
 
 
 def _allows(s: Setting | None, value) -> bool:

@@ -6,11 +6,11 @@ Keys are named as GLFW names them (``glfw.KEY_<NAME>``); ``shift+`` marks a shif
 from __future__ import annotations
 
 # (key, action, description); Viewer.action (app.py) carries out the actions by name.  The keys 1 to 9
-# choose the registered renderers in the registry's order (renderer_keys); these are the rest.
+# and 0 choose the registered renderers in the registry's order (renderer_keys); these are the rest.
 SETTING_KEYS = (
     ("C", "next_compositing", "compositing: emission-absorption, isosurface, average, MIP, MinIP"),
     ("K", "next_classification", "classification: post, pre, pre-integrated"),
-    ("F", "next_filter", "filter: nearest, linear, cubic B-spline, Catmull-Rom"),
+    ("F", "next_filter", "filter: those of the renderer (nearest, linear, cubic B-spline, Catmull-Rom, Gaussian)"),
     ("L", "toggle_shading", "shading (lighting) on/off"),
     ("J", "toggle_jitter", "jitter on/off (idle: averages jittered passes)"),
     ("RIGHT_BRACKET", "finer", "finer sampling: sample distance or slice spacing / 1.5"),
@@ -28,11 +28,12 @@ SETTING_KEYS = (
 
 
 def renderer_keys() -> tuple:
-    """1 to 9: the registered renderers (a renderer installed from another package included)."""
+    """1 to 9, then 0: the first ten registered renderers (a renderer installed from another package
+    included)."""
     from ..renderers import registry
 
-    return tuple((str(i), f"renderer_{name}", f"renderer: {name} ({plugin.description})")
-                 for i, (name, plugin) in enumerate(list(registry.plugins().items())[:9], start=1))
+    return tuple((str(i % 10), f"renderer_{name}", f"renderer: {name} ({plugin.description})")
+                 for i, (name, plugin) in enumerate(list(registry.plugins().items())[:10], start=1))
 
 
 def key_table() -> tuple:

@@ -1,0 +1,216 @@
+"""The splatting renderer in GL (see the package doc and ``docs/renderers/splatting.md``).
+
+Per frame: the splats' centres are sorted along the view axis on the host and uploaded in that
+order, so that the splats of one slab are one contiguous range (one instanced draw), and
+``sheet_buffer = none`` draws them back to front in one draw.  A splat's fragment takes its
+pixel's ray into the kernel's voxel space and reads the footprint tables
+(``shaders/splatting/kernel.glsl``), integrating over the part of the ray inside the box and the
+slab.  Coordinates are relative to the box's centre (float32 keeps its precision there).
+"""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from ...gl.geometry import box_corners
+from ...gl.shaders import create_program
+from ...model import GAUSSIAN_RADIUS
+from ...rays import RayBatch
+from ...transfer_function import segment_opacity
+from ..grid.gl_base import GLVolumeRenderer, TableTexture
+from .footprint import GaussianFootprint
+from .splats import Splats, slabs, support_depth
+
+
+def kernel_radius(scene) -> float:
+    """The kernel's support, voxels."""
+    return GAUSSIAN_RADIUS * scene.renderer.kernel_width
+
+
+def pre_classified(scene) -> bool:
+    r = scene.renderer
+    return r.compositing == "emission_absorption" and r.classification == "pre"
+
+
+def slab_bounds(scene, eye, forward) -> np.ndarray:
+    """The image-aligned slabs' view depths over the box (from the near plane); ``eye`` in world
+    coordinates."""
+    lo, hi = scene.volume.box
+    depths = (box_corners(lo, hi) - eye) @ forward
+    width = scene.renderer.slab_width * scene.volume.sample_spacing
+    return slabs(max(float(depths.min()), scene.camera.near), float(depths.max()), width)
+
+
+class FootprintTextures:
+    """The Gaussian's footprint tables as one-row R32F textures (nearest; the shader interpolates)."""
+
+    def __init__(self, ctx):
+        tables = GaussianFootprint(GAUSSIAN_RADIUS)
+        self.textures = {}
+        for name, table in (("u_footprint", tables.footprint_table), ("u_cumulative", tables.cumulative_table)):
+            t = ctx.texture((len(table), 1), 1, table.astype(np.float32).tobytes(), dtype="f4")
+            t.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            t.repeat_x = t.repeat_y = False
+            self.textures[name] = t
+
+    def release(self):
+        for t in self.textures.values():
+            t.release()
+
+
+class SplattingRenderer(GLVolumeRenderer):
+    name = "splatting"
+
+    def draw(self, scene) -> np.ndarray:
+        self.activate()
+        r, vol, cam = scene.renderer, scene.volume, scene.camera
+        lo, hi = (np.asarray(b, float) for b in vol.box)
+        centre = 0.5 * (lo + hi)
+        pre = pre_classified(scene)
+        radius = kernel_radius(scene)
+        splats = self._cached("splats", (vol, radius, pre, scene.transfer_function if pre else None),
+                              lambda: Splats(vol, radius, centre, self._classified_voxels(scene) if pre else None))
+        forward, right, up = cam.basis()
+        eye = np.asarray(cam.eye, float) - centre
+        depth = splats.depths(eye, forward)
+        mode = r.compositing
+        if mode == "average":
+            order, schedule = np.arange(len(splats)), None
+        elif r.sheet_buffer == "none":
+            order, schedule = np.argsort(-depth, kind="stable"), None  # back to front
+        else:
+            order = np.argsort(depth, kind="stable")
+            bounds = slab_bounds(scene, np.asarray(cam.eye, float), forward)  # depths: from either frame
+            reach = support_depth(radius, vol.spacing, forward)
+            sorted_depth = depth[order]
+            first = np.searchsorted(sorted_depth, bounds[:-1] - reach, side="left")
+            last = np.searchsorted(sorted_depth, bounds[1:] + reach, side="right")
+            schedule = (bounds, first, last)
+        self.stats.update(splats=len(splats), splats_total=splats.total, culled=splats.total - len(splats))
+        if not len(splats):  # pre-classified, every voxel transparent
+            return np.zeros((scene.image.height, scene.image.width, 4), np.float32)
+        first_rows, optics_rows = splats.packed(order)
+        buffers = [self.ctx.buffer(first_rows)]
+        if optics_rows is not None:
+            buffers.append(self.ctx.buffer(optics_rows))
+        try:
+            return self._composite(scene, buffers, schedule, centre, eye, (forward, right, up))
+        finally:
+            for b in buffers:
+                b.release()
+
+    # --- passes ---
+
+    def _defines(self, scene, **extra) -> dict:
+        defines = {"CLASSIFY_PRE": pre_classified(scene), **extra}
+        if scene.camera.projection == "orthographic":
+            defines["CAMERA_ORTHOGRAPHIC"] = True
+        return {k: v for k, v in defines.items() if v}
+
+    def _uniforms(self, scene, centre, eye, basis) -> dict:
+        r, vol, img, cam = scene.renderer, scene.volume, scene.image, scene.camera
+        forward, right, up = basis
+        lo, hi = (np.asarray(b, float) - centre for b in vol.box)
+        return {"u_eye": tuple(eye), "u_forward": tuple(forward), "u_right": tuple(right), "u_up": tuple(up),
+                "u_half_extent": cam.half_extent(img.width / img.height), "u_image_size": (img.width, img.height),
+                "u_near": cam.near, "u_spacing": tuple(vol.spacing), "u_radius": kernel_radius(scene),
+                "u_sigma": r.kernel_width, "u_sigmas": GAUSSIAN_RADIUS, "u_box_lo": tuple(lo), "u_box_hi": tuple(hi)}
+
+    def _splat_program(self, scene, **extra):
+        return create_program(self.ctx, "splatting/splat.vert", "splatting/splat.frag", self._defines(scene, **extra))
+
+    def _splat_vao(self, program, buffers):
+        vao = self.ctx.vertex_array(program, [])
+        names = ["in_splat", "in_optics"]
+        for name, buf in zip(names, buffers):
+            if name in program:
+                vao.bind(program[name].location, "f", buf, "4f", divisor=1)
+        return vao
+
+    def _draw_splats(self, vao, program, buffers, first: int, count: int):
+        for name, buf in zip(("in_splat", "in_optics"), buffers):
+            if name in program:
+                vao.bind(program[name].location, "f", buf, "4f", offset=16 * first, divisor=1)
+        vao.render(moderngl.TRIANGLE_STRIP, vertices=4, instances=count)
+
+    def _composite(self, scene, buffers, schedule, centre, eye, basis) -> np.ndarray:
+        r, img = scene.renderer, scene.image
+        w, h = img.width, img.height
+        uniforms = self._uniforms(scene, centre, eye, basis)
+        tables = self._cached("footprint tables", (), lambda: FootprintTextures(self.ctx))
+        textures = dict(tables.textures)
+        ctx = self.ctx
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        count = buffers[0].size // 16
+        if schedule is None:
+            over = r.compositing == "emission_absorption"
+            program = self._splat_program(scene, SPLAT_OVER=over)
+            self.bind(program, uniforms, textures)
+            _, fbo = self.target("accumulation", w, h)
+            fbo.use()
+            fbo.clear(0.0, 0.0, 0.0, 0.0)
+            ctx.enable(moderngl.BLEND)
+            ctx.blend_func = (moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA) if over else (moderngl.ONE, moderngl.ONE)
+            vao = self._splat_vao(program, buffers)
+            if count:
+                self._draw_splats(vao, program, buffers, 0, count)
+            vao.release()
+            ctx.disable(moderngl.BLEND)
+            image = self.read(fbo, w, h).astype(np.float64)
+            self.stats["slabs"] = 0
+            return (image if over else self._average(scene, image)).astype(np.float32)
+        bounds, first, last = schedule
+        program = self._splat_program(scene, SLABS=True)
+        sheet_program = create_program(ctx, "fullscreen.vert", "splatting/sheet.frag", self._defines(scene, SLABS=True))
+        lut = self._cached("lut", (scene.transfer_function, r.lut_size),
+                           lambda: TableTexture(ctx, scene.transfer_function.tabulate(r.lut_size)))
+        sheet_uniforms = {**uniforms, **{k: v for k, v in self.optics_uniforms(scene, lut.lut).items()
+                                         if k.startswith("u_lut")}}
+        (sheet_texture,), sheet_fbo = self.target("sheet", w, h)
+        _, accumulation = self.target("accumulation", w, h)
+        accumulation.use()
+        accumulation.clear(0.0, 0.0, 0.0, 0.0)
+        vao = self._splat_vao(program, buffers)
+        quad = ctx.vertex_array(sheet_program, [])
+        pre = pre_classified(scene)
+        drawn = 0
+        try:
+            for k in range(len(bounds) - 1):
+                n = int(last[k] - first[k])
+                if n <= 0 and pre:
+                    continue  # nothing in this slab: transparent
+                slab = (float(bounds[k]), float(bounds[k + 1]))
+                sheet_fbo.use()
+                sheet_fbo.clear(0.0, 0.0, 0.0, 0.0)
+                ctx.enable(moderngl.BLEND)
+                ctx.blend_func = (moderngl.ONE, moderngl.ONE)
+                if n > 0:
+                    self.bind(program, {**uniforms, "u_slab": slab}, textures)
+                    self._draw_splats(vao, program, buffers, int(first[k]), n)
+                    drawn += n
+                accumulation.use()
+                ctx.blend_func = (moderngl.ONE_MINUS_DST_ALPHA, moderngl.ONE)  # under: front to back
+                self.bind(sheet_program, {**sheet_uniforms, "u_slab": slab},
+                          {"u_sheet": sheet_texture, "u_lut": lut.texture})
+                quad.render(moderngl.TRIANGLES, vertices=3)
+        finally:
+            ctx.disable(moderngl.BLEND)
+            vao.release()
+            quad.release()
+        self.stats.update(slabs=len(bounds) - 1, splats_drawn=drawn)
+        return self.read(accumulation, w, h)
+
+    def _average(self, scene, image) -> np.ndarray:
+        """The sum of the splats' integrals (``.r``) over each ray's chord in the box, classified with
+        the opacity of one unit distance (as the references' average)."""
+        tf = scene.transfer_function
+        rays = RayBatch.for_camera(scene.camera, scene.image.width, scene.image.height, scene.field.bounds)
+        length = (rays.t1 - rays.t0).reshape(image.shape[:2])
+        hit = length > 0
+        out = np.zeros(image.shape)
+        colour, sigma = tf.evaluate(image[..., 0][hit] / length[hit])
+        alpha = segment_opacity(sigma, tf.unit_distance)
+        out[hit, :3] = colour * alpha[:, None]
+        out[hit, 3] = alpha
+        return out

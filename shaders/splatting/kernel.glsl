@@ -1,0 +1,73 @@
+// A splat's kernel along this pixel's ray: the integral of the kernel over the part of the ray
+// inside the volume's box (and inside a slab: SLABS), in world units, from the footprint tables
+// (dvr_gl/renderers/splatting/footprint.py), read with float weights (texelFetch and mix).  Exact in both projections: the ray itself is taken
+// into the kernel's voxel space, where the kernel is a sphere, so no footprint is approximated
+// by an affine map.
+
+uniform sampler2D u_footprint;  // F(q), q = rho^2 / R^2 in [0, 1]: one row, sigma = 1
+uniform sampler2D u_cumulative; // Phi(x), the standard normal's share below x, x in [-u_sigmas, u_sigmas]
+uniform float u_sigmas;         // the support's radius in standard deviations
+uniform float u_sigma;          // the Gaussian's standard deviation, voxels
+uniform vec3 u_box_lo;          // the volume's box, relative to its centre
+uniform vec3 u_box_hi;
+#ifdef SLABS
+uniform vec2 u_slab;            // the slab's view depths (from the eye along the view axis)
+#endif
+
+float table_1d(sampler2D table, float x) {
+    int n = textureSize(table, 0).x;
+    float f = clamp(x, 0.0, 1.0) * float(n - 1);
+    int i = min(int(f), n - 2);
+    return mix(texelFetch(table, ivec2(i, 0), 0).r, texelFetch(table, ivec2(i + 1, 0), 0).r, f - float(i));
+}
+
+// Phi at x standard deviations (clamped to the table's [-u_sigmas, u_sigmas])
+float cumulative(float x) {
+    return table_1d(u_cumulative, x / (2.0 * u_sigmas) + 0.5);
+}
+
+// The part of this pixel's ray the splat integrates over: the box (from the near plane) and the slab.
+bool ray_extent(vec3 o, vec3 d, out float lo, out float hi) {
+    if (!intersect_box(o, d, u_box_lo, u_box_hi, lo, hi))
+        return false;
+    lo = max(lo, near_distance(d));
+#ifdef SLABS
+    float along = dot(d, u_forward);  // the ray's depth per unit length
+    lo = max(lo, u_slab.x / along);
+    hi = min(hi, u_slab.y / along);
+#endif
+    return hi > lo;
+}
+
+// The kernel centred at `centre` integrated along the ray over [lo, hi] (world units); 0 if the ray
+// misses its support.  spacing: world units per voxel; radius: the support, voxels.  The ray is
+// taken from its point at `lo`, near the kernel: measured from the ray's origin, far away, each
+// splat's limits would round differently (1e-6 of the distance), an error that scales with the
+// value splatted; from a point that every splat of the pixel shares, the rounding is common and
+// moves the interval as a whole, an error that scales with the field's gradient.
+float kernel_integral(vec3 o, vec3 d, vec3 centre, vec3 spacing, float radius, float lo, float hi) {
+    vec3 uo = (o + lo * d - centre) / spacing;
+    vec3 ud = d / spacing;
+    float a = dot(ud, ud);
+    float tc = -dot(uo, ud) / a;            // the ray's nearest approach to the centre, from lo
+    vec3 nearest = uo + tc * ud;
+    float r2 = radius * radius;
+    float q = dot(nearest, nearest) / r2;
+    if (q >= 1.0)
+        return 0.0;
+    float len = sqrt(a);                     // voxels per world unit along the ray
+    float half_chord = radius * sqrt(1.0 - q);  // voxels
+    float x0 = -tc * len;                    // the interval, voxels from the nearest approach
+    float x1 = (hi - lo - tc) * len;
+    if (x1 <= -half_chord || x0 >= half_chord)
+        return 0.0;
+    float share = 1.0;
+    if (x0 > -half_chord || x1 < half_chord) {
+        // the kernel along the line is a 1D Gaussian (of width u_sigma) cut to the chord
+        float c = half_chord / u_sigma;
+        float whole = cumulative(c) - cumulative(-c);
+        float part = cumulative(min(x1, half_chord) / u_sigma) - cumulative(max(x0, -half_chord) / u_sigma);
+        share = whole > 1e-6 ? part / whole : (min(x1, half_chord) - max(x0, -half_chord)) / (2.0 * half_chord);
+    }
+    return table_1d(u_footprint, q) / (u_sigma * u_sigma) / len * share;
+}
