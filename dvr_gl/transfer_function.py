@@ -113,6 +113,19 @@ class TransferFunction:
         """``(colour (..., 3), sigma (...))`` at data values, exactly (no table)."""
         return self.color(values), self.extinction(values)
 
+    def opaque_somewhere(self, lo, hi, margin: float = 0.0) -> np.ndarray:
+        """Whether the transfer function holds some opacity on each value range ``[lo - margin, hi +
+        margin]`` (arrays): the opacity column is linear between control points and never negative,
+        so it is zero over a range exactly when it is zero at both ends and at every control value
+        between them.  ``margin``: widens the ranges (a table's spacing, where a table classifies)."""
+        lo = np.asarray(lo, dtype=np.float64) - margin
+        hi = np.asarray(hi, dtype=np.float64) + margin
+        values, column = self.points[:, 0], self.points[:, 4]
+        nonzero = np.r_[0, np.cumsum(column > 0)]  # control points with opacity, up to each index
+        inner = nonzero[np.searchsorted(values, hi, "left")] - nonzero[np.searchsorted(values, lo, "right")]
+        ends = (np.interp(lo, values, column) > 0) | (np.interp(hi, values, column) > 0)
+        return ends | (inner > 0)
+
     def breakpoints(self) -> np.ndarray:
         """Data values where colour or extinction is not smooth: the control values and,
         in the alpha model, where alpha reaches ALPHA_MAX inside a segment (the clamp)."""

@@ -166,6 +166,26 @@ def test_transparent_voxels_are_not_splatted(splatting):
     assert_close(image, same_slabs(scene))
 
 
+@pytest.mark.parametrize("projection", ["orthographic", "perspective"])
+def test_post_classified_culling_keeps_the_image(tmp_path, splatting, projection):
+    """Post-classified, splats far from any sample whose neighbourhood can be opaque are left out, and
+    slab parts near none are transparent (splats.py): the image is the oracle's, which splats every
+    kernel (a ball of material in a box of air, most of it culled)."""
+    n = 40
+    z, y, x = np.mgrid[:n, :n, :n] - (n - 1) / 2.0
+    data = np.clip(1.0 - np.sqrt(x * x + y * y + z * z) / 6.0, 0.0, None).astype(np.float32)
+    scene = array_scene(tmp_path, data, {**GAUSSIAN, "image.width": 24, "image.height": 24,
+                                         "camera.projection": projection,
+                                         "transfer_function.points": [[0, 1, 1, 1, 0], [0.2, 1, 1, 1, 0],
+                                                                      [1, 1, 0.5, 0.2, 0.9]]})
+    image = splatting.render(scene)
+    stats = splatting.stats
+    assert stats["culled"] > 0.5 * stats["splats_total"]
+    oracle = same_slabs(scene)
+    assert oracle[..., 3].max() > 0.5
+    assert_close(image, oracle)
+
+
 @pytest.mark.parametrize("extra, words", [
     ({"renderer.sheet_buffer": "none"}, "classification = pre"),
     ({"renderer.classification": "pre", "renderer.associated_colors": False}, "associated_colors"),

@@ -103,17 +103,11 @@ class MeshTextures:
         self._visible = None  # (transfer function, mask)
 
     def visible(self, tf) -> np.ndarray:
-        """Which cells hold some opacity under ``tf`` (once per transfer function): the opacity column
-        is linear between control points and never negative, so it is zero over a cell's scalar range
-        exactly when it is zero at both ends and at every control value between them.  The others add
-        nothing (premultiplied (0, 0)) and are not drawn."""
+        """Which cells hold some opacity under ``tf`` over their scalar range (once per transfer function,
+        :meth:`~dvr_gl.transfer_function.TransferFunction.opaque_somewhere`).  The others add nothing
+        (premultiplied (0, 0)) and are not drawn."""
         if self._visible is None or self._visible[0] is not tf:
-            lo, hi = self.cell_ranges
-            values, column = tf.points[:, 0], tf.points[:, 4]
-            nonzero = np.r_[0, np.cumsum(column > 0)]  # control points with opacity, up to each index
-            inner = nonzero[np.searchsorted(values, hi, "left")] - nonzero[np.searchsorted(values, lo, "right")]
-            ends = (np.interp(lo, values, column) > 0) | (np.interp(hi, values, column) > 0)
-            self._visible = (tf, ends | (inner > 0))
+            self._visible = (tf, tf.opaque_somewhere(*self.cell_ranges))
         return self._visible[1]
 
     def boundary(self, adjacency):

@@ -45,12 +45,16 @@ bool ray_extent(vec3 o, vec3 d, out float lo, out float hi) {
 // splat's limits would round differently (1e-6 of the distance), an error that scales with the
 // value splatted; from a point that every splat of the pixel shares, the rounding is common and
 // moves the interval as a whole, an error that scales with the field's gradient.
-float kernel_integral(vec3 o, vec3 d, vec3 centre, vec3 spacing, float radius, float lo, float hi) {
+// closest2: the squared distance (voxels) from the centre to the interval's nearest point.
+float kernel_integral(vec3 o, vec3 d, vec3 centre, vec3 spacing, float radius, float lo, float hi,
+                      out float closest2) {
     vec3 uo = (o + lo * d - centre) / spacing;
     vec3 ud = d / spacing;
     float a = dot(ud, ud);
     float tc = -dot(uo, ud) / a;            // the ray's nearest approach to the centre, from lo
     vec3 nearest = uo + tc * ud;
+    vec3 closest = uo + clamp(tc, 0.0, hi - lo) * ud;
+    closest2 = dot(closest, closest);
     float r2 = radius * radius;
     float q = dot(nearest, nearest) / r2;
     if (q >= 1.0)

@@ -23,6 +23,8 @@ void main() {
     float alpha = opacity_of_depth(tau);
     vec3 colour = tau > 0.0 ? sheet.rgb / tau : vec3(0.0);
 #else
+    if (sheet.g <= 0.0)
+        discard;  // no point of this part is near a core sample: its field is transparent (culling)
     float extent = hi - lo;
     vec4 optics = transfer_function(sheet.r / extent);
     float alpha = opacity_of_depth(optics.a * extent);

@@ -1,7 +1,7 @@
 #version 430 core
 // One splat's share of this pixel.  Blended by the renderer:
-// * SLABS (a sheet buffer) and the average: added up (the kernel's integral times the value, or
-//   times the voxel's (sigma c, sigma) when pre-classified);
+// * SLABS (a sheet buffer) and the average: added up (the kernel's integral times the value, and
+//   the core splats' weight, or times the voxel's (sigma c, sigma) when pre-classified);
 // * SPLAT_OVER (sheet_buffer = none): the splat composited alone, back to front by the over
 //   operator: opacity 1 - exp(-sigma integral), the voxel's colour.
 #include "common/camera_ray.glsl"
@@ -15,6 +15,7 @@ flat in vec4 v_splat;
 #ifdef CLASSIFY_PRE
 flat in vec4 v_optics;
 #endif
+flat in float v_core;
 out vec4 frag;
 
 void main() {
@@ -23,7 +24,8 @@ void main() {
     float lo, hi;
     if (!ray_extent(o, d, lo, hi))
         discard;
-    float integral = kernel_integral(o, d, v_splat.xyz, u_spacing, u_radius, lo, hi);
+    float closest2;
+    float integral = kernel_integral(o, d, v_splat.xyz, u_spacing, u_radius, lo, hi, closest2);
     if (integral <= 0.0)
         discard;
 #if defined(SPLAT_OVER)
@@ -33,6 +35,8 @@ void main() {
 #elif defined(CLASSIFY_PRE)
     frag = v_optics * integral;
 #else
-    frag = vec4(v_splat.w * integral, 0.0, 0.0, 0.0);
+    // .g: counts the core samples that some point of this slab part is nearest to (within half a
+    // voxel's diagonal): a part with none is transparent (culling, dvr_gl/renderers/splatting/splats.py)
+    frag = vec4(v_splat.w * integral, closest2 <= 0.75 ? v_core : 0.0, 0.0, 0.0);
 #endif
 }

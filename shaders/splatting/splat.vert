@@ -7,6 +7,9 @@ in vec4 in_splat;   // centre (world, relative to the box centre) and the value 
 #ifdef CLASSIFY_PRE
 in vec4 in_optics;  // (sigma c, sigma) of the voxel: associated colour and extinction per world unit
 #endif
+#ifdef CULLING
+in float in_core;   // 1: a core splat (post-classified culling, dvr_gl/renderers/splatting/splats.py)
+#endif
 
 uniform vec3 u_eye;
 uniform vec3 u_forward;
@@ -17,11 +20,15 @@ uniform vec2 u_image_size;
 uniform float u_near;
 uniform vec3 u_spacing;
 uniform float u_radius;     // the kernel's support, voxels
+#ifdef SLABS
+uniform vec2 u_slab;        // the slab's view depths: only the part of the support inside it is drawn
+#endif
 
 flat out vec4 v_splat;
 #ifdef CLASSIFY_PRE
 flat out vec4 v_optics;
 #endif
+flat out float v_core;
 
 // The extremes of x / z over a sphere (centre x, z in view space, radius r, z > r): its tangents
 // through the eye (Mara and McGuire 2013, "2D polyhedral bounds of a clipped, perspective-projected
@@ -38,24 +45,49 @@ void main() {
 #ifdef CLASSIFY_PRE
     v_optics = in_optics;
 #endif
+#ifdef CULLING
+    v_core = in_core;
+#else
+    v_core = 1.0;
+#endif
     vec3 p = in_splat.xyz - u_eye;
+    float z = dot(p, u_forward);
+    vec2 xy = vec2(dot(p, u_right), dot(p, u_up));
+    float r = u_radius * max(max(u_spacing.x, u_spacing.y), u_spacing.z);  // the bounding sphere (world)
+    // the support's depths: all of it, or the part inside the slab (Mueller and Crawfis's kernel slice)
+    float za = z - r, zb = z + r, section = r;
+#ifdef SLABS
+    za = max(za, u_slab.x);
+    zb = min(zb, u_slab.y);
+    if (za >= zb) {
+        gl_Position = vec4(2.0, 2.0, 0.0, 1.0);  // misses the slab: a point off the image, no fragment
+        return;
+    }
+    float gap = max(max(u_slab.x - z, z - u_slab.y), 0.0);
+    section = sqrt(max(r * r - gap * gap, 0.0));   // the widest cross-section inside the slab
+#endif
     // a half pixel of margin: the rasterizer's rounding must not drop a pixel whose ray grazes the support
     vec2 margin = 1.0 / u_image_size;
 #ifdef CAMERA_ORTHOGRAPHIC
-    vec2 centre = vec2(dot(p, u_right), dot(p, u_up)) / u_half_extent;
-    // the ellipsoid's half-extent along a unit axis e: R |spacing * e|
-    vec2 half_size = u_radius * vec2(length(u_spacing * u_right), length(u_spacing * u_up)) / u_half_extent;
-    gl_Position = vec4(centre + corner * (half_size + margin), 0.0, 1.0);
+    // the ellipsoid's half-extent along a unit axis e: R |spacing * e|; no more than the section
+    vec2 half_size = min(u_radius * vec2(length(u_spacing * u_right), length(u_spacing * u_up)), vec2(section));
+    gl_Position = vec4(xy / u_half_extent + corner * (half_size / u_half_extent + margin), 0.0, 1.0);
 #else
-    float r = u_radius * max(max(u_spacing.x, u_spacing.y), u_spacing.z);  // the bounding sphere
-    float z = dot(p, u_forward);
-    if (z - r <= u_near) {
+    if (za <= u_near) {
         gl_Position = vec4(corner, 0.0, 1.0);  // reaches the eye's plane: the whole image
         return;
     }
-    vec2 bx = tangent_bounds(dot(p, u_right), z, r) / u_half_extent.x;
-    vec2 by = tangent_bounds(dot(p, u_up), z, r) / u_half_extent.y;
-    vec2 lo = vec2(bx.x, by.x) - margin, hi = vec2(bx.y, by.y) + margin;
+    // the cylinder of the section between za and zb (x / z is extreme at one of its end disks) and,
+    // where the whole sphere lies in front of the eye, its tangents: both bounds hold, the smaller is kept
+    vec2 lo = min((xy - section) / za, (xy - section) / zb);
+    vec2 hi = max((xy + section) / za, (xy + section) / zb);
+    if (z - r > u_near) {
+        vec2 bx = tangent_bounds(xy.x, z, r), by = tangent_bounds(xy.y, z, r);
+        lo = max(lo, vec2(bx.x, by.x));
+        hi = min(hi, vec2(bx.y, by.y));
+    }
+    lo = lo / u_half_extent - margin;
+    hi = hi / u_half_extent + margin;
     gl_Position = vec4(mix(lo, hi, corner * 0.5 + 0.5), 0.0, 1.0);
 #endif
 }

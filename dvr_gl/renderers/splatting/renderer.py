@@ -10,6 +10,8 @@ slab.  Coordinates are relative to the box's centre (float32 keeps its precision
 
 from __future__ import annotations
 
+import math
+
 import moderngl
 import numpy as np
 
@@ -20,7 +22,7 @@ from ...rays import RayBatch
 from ...transfer_function import segment_opacity
 from ..grid.gl_base import GLVolumeRenderer, TableTexture
 from .footprint import GaussianFootprint
-from .splats import Splats, slabs, support_depth
+from .splats import Splats, ghost_layers, post_visibility, slabs, support_depth
 
 
 def kernel_radius(scene) -> float:
@@ -31,6 +33,22 @@ def kernel_radius(scene) -> float:
 def pre_classified(scene) -> bool:
     r = scene.renderer
     return r.compositing == "emission_absorption" and r.classification == "pre"
+
+
+def culled_post(scene) -> bool:
+    """Post-classified emission-absorption in sheets: culled by regions (:func:`.splats.post_visibility`)."""
+    r = scene.renderer
+    return r.compositing == "emission_absorption" and r.classification == "post" and r.sheet_buffer != "none"
+
+
+def part_voxels(scene) -> float:
+    """The longest part of a ray in one slab, voxels of the smallest spacing: the slab's width over the
+    cosine of the widest ray's angle to the view axis (the image's corner in perspective)."""
+    cam, img = scene.camera, scene.image
+    if cam.projection == "orthographic":
+        return scene.renderer.slab_width
+    hx, hy = cam.half_extent(img.width / img.height)
+    return scene.renderer.slab_width * math.sqrt(1.0 + hx * hx + hy * hy)
 
 
 def slab_bounds(scene, eye, forward) -> np.ndarray:
@@ -69,8 +87,11 @@ class SplattingRenderer(GLVolumeRenderer):
         centre = 0.5 * (lo + hi)
         pre = pre_classified(scene)
         radius = kernel_radius(scene)
-        splats = self._cached("splats", (vol, radius, pre, scene.transfer_function if pre else None),
-                              lambda: Splats(vol, radius, centre, self._classified_voxels(scene) if pre else None))
+        culling = culled_post(scene)
+        splats = self._cached("splats", (vol, radius, pre, scene.transfer_function if pre or culling else None,
+                                         culling and (r.lut_size, part_voxels(scene))),
+                              lambda: Splats(vol, radius, centre, self._classified_voxels(scene) if pre else None,
+                                             self._visibility(scene) if culling else None))
         forward, right, up = cam.basis()
         eye = np.asarray(cam.eye, float) - centre
         depth = splats.depths(eye, forward)
@@ -100,10 +121,16 @@ class SplattingRenderer(GLVolumeRenderer):
             for b in buffers:
                 b.release()
 
+    def _visibility(self, scene):
+        r, tf = scene.renderer, scene.transfer_function
+        lo, hi = tf.tabulate(2).domain
+        return post_visibility(scene.volume, tf, kernel_radius(scene), r.kernel_width, (hi - lo) / (r.lut_size - 1),
+                               ghost_layers(kernel_radius(scene)), part_voxels(scene))
+
     # --- passes ---
 
     def _defines(self, scene, **extra) -> dict:
-        defines = {"CLASSIFY_PRE": pre_classified(scene), **extra}
+        defines = {"CLASSIFY_PRE": pre_classified(scene), "CULLING": culled_post(scene), **extra}
         if scene.camera.projection == "orthographic":
             defines["CAMERA_ORTHOGRAPHIC"] = True
         return {k: v for k, v in defines.items() if v}
@@ -122,16 +149,22 @@ class SplattingRenderer(GLVolumeRenderer):
 
     def _splat_vao(self, program, buffers):
         vao = self.ctx.vertex_array(program, [])
-        names = ["in_splat", "in_optics"]
-        for name, buf in zip(names, buffers):
-            if name in program:
-                vao.bind(program[name].location, "f", buf, "4f", divisor=1)
+        self._bind_splats(vao, program, buffers, 0)
         return vao
 
+    @staticmethod
+    def _bind_splats(vao, program, buffers, first: int):
+        """The instance attributes from splat ``first`` on: centre and value, and (sigma c, sigma) or the
+        core flag."""
+        second = "in_optics" if "in_optics" in program else "in_core"
+        for name, buf, fmt in (("in_splat", buffers[0], 4), (second, buffers[1] if len(buffers) > 1 else None, None)):
+            if buf is None or name not in program:
+                continue
+            width = fmt or (4 if name == "in_optics" else 1)
+            vao.bind(program[name].location, "f", buf, f"{width}f", offset=4 * width * first, divisor=1)
+
     def _draw_splats(self, vao, program, buffers, first: int, count: int):
-        for name, buf in zip(("in_splat", "in_optics"), buffers):
-            if name in program:
-                vao.bind(program[name].location, "f", buf, "4f", offset=16 * first, divisor=1)
+        self._bind_splats(vao, program, buffers, first)
         vao.render(moderngl.TRIANGLE_STRIP, vertices=4, instances=count)
 
     def _composite(self, scene, buffers, schedule, centre, eye, basis) -> np.ndarray:

@@ -7,8 +7,17 @@ splats are the samples and, around them, ``ghost`` layers of copies of the borde
 ray inside the box: the same field, clipped where every renderer clips.
 
 Pre-classified, a splat whose voxel is transparent (``sigma = 0``) adds nothing and is left
-out.  Post-classified every splat counts: a transparent voxel's value still moves the field
-around it.
+out.  Post-classified a transparent voxel's value still moves the field around it, so culling
+works on regions (:func:`post_visibility`): a sample is *core* where the field within a voxel of
+it can take a value the transfer function makes opaque (its range there is bounded by the samples
+within the kernel's reach, widened by the kernels' ripple and the table's spacing); a splat is
+kept within ``R + L + 1`` voxels of a core sample (``L``: the longest part of a ray in a slab).
+The sheet buffer also counts the core samples that a slab part passes within half a voxel's
+diagonal (``sqrt 3 / 2``) of; a part with none is transparent: each of its points lies that close
+to its nearest sample, which is not core, so its true field is transparent there.  A part with one
+comes within ``sqrt 3 / 2`` of a core sample, so every splat that reaches any of its points lies
+within ``R + L + 1`` of it and is kept: the part's mean is exact, and the image is the one without
+culling.
 """
 
 from __future__ import annotations
@@ -33,10 +42,13 @@ class Splats:
     """The splats of ``volume`` (float32, world positions relative to ``centre``).
 
     ``values``: the value splatted, ``(n,)``; ``optics``: ``(n, 4)`` (sigma c, sigma) when
-    pre-classified (then transparent voxels are left out), else None.
+    pre-classified (then transparent voxels are left out), else None; ``visibility``: post-classified,
+    the lattice's ``(keep, core)`` masks from :func:`post_visibility` (``core``: float32 flags of the
+    kept splats), else every splat is kept.
     """
 
-    def __init__(self, volume, radius: float, centre: np.ndarray, optics_of_voxels: np.ndarray | None = None):
+    def __init__(self, volume, radius: float, centre: np.ndarray, optics_of_voxels: np.ndarray | None = None,
+                 visibility: tuple[np.ndarray, np.ndarray] | None = None):
         g = ghost_layers(radius)
         nx, ny, nz = volume.dims
         check_bytes((nx + 2 * g) * (ny + 2 * g) * (nz + 2 * g) * (BYTES_PER_SPLAT[optics_of_voxels is not None] + 24),
@@ -45,7 +57,10 @@ class Splats:
         axes = [np.arange(-g, n + g) for n in (nx, ny, nz)]
         clamped = [np.clip(a, 0, n - 1) for a, n in zip(axes, (nx, ny, nz))]
         iz, iy, ix = np.meshgrid(clamped[2], clamped[1], clamped[0], indexing="ij")
-        keep = None
+        keep, self.core = None, None
+        if visibility is not None:
+            keep = visibility[0].ravel()
+            self.core = np.ascontiguousarray(visibility[1].ravel()[keep], dtype=np.float32)
         if optics_of_voxels is not None:
             optics = optics_of_voxels[iz, iy, ix].reshape(-1, 4)
             keep = optics[:, 3] > 0
@@ -70,12 +85,14 @@ class Splats:
         return (self.positions - eye) @ forward
 
     def packed(self, order: np.ndarray) -> tuple[bytes, bytes | None]:
-        """The splats in ``order``: ``(centre, value)`` rows and ``(sigma c, sigma)`` rows, float32."""
+        """The splats in ``order``: ``(centre, value)`` rows, and ``(sigma c, sigma)`` rows (pre-classified)
+        or core flags (post-classified with culling), float32."""
         first = np.empty((len(order), 4), np.float32)
         first[:, :3] = self.positions[order]
         first[:, 3] = self.values[order]
-        second = self.optics[order].tobytes() if self.optics is not None else None
-        return first.tobytes(), second
+        if self.optics is not None:
+            return first.tobytes(), self.optics[order].tobytes()
+        return first.tobytes(), self.core[order].tobytes() if self.core is not None else None
 
 
 def support_depth(radius: float, spacing, forward) -> float:
@@ -89,3 +106,38 @@ def slabs(depth_lo: float, depth_hi: float, width: float) -> np.ndarray:
     ``depth_hi``: image-aligned sheets, fixed to the volume's nearest depth."""
     count = max(int(math.ceil((depth_hi - depth_lo) / width - 1e-9)), 1)
     return depth_lo + width * np.arange(count + 1)
+
+
+def _window(array: np.ndarray, half: int, reduce) -> np.ndarray:
+    """``reduce`` (np.minimum or np.maximum) over cubes of half-width ``half`` around every element, the
+    array's border repeated beyond it (the clamped lattice)."""
+    out = array
+    for axis in range(3):
+        padded = np.pad(out, [(half, half) if a == axis else (0, 0) for a in range(3)], mode="edge")
+        n = out.shape[axis]
+        acc = np.take(padded, range(0, n), axis=axis)
+        for k in range(1, 2 * half + 1):
+            acc = reduce(acc, np.take(padded, range(k, k + n), axis=axis))
+        out = acc
+    return out
+
+
+def ripple(sigma: float) -> float:
+    """How far the Gaussians' sum may stray from one (the lattice's ripple, and a margin for the
+    truncation's): the field lies within this share of its samples' range."""
+    return (1.0 + 2.0 * math.exp(-2.0 * math.pi ** 2 * sigma ** 2)) ** 3 - 1.0 + 1e-4
+
+
+def post_visibility(volume, tf, radius: float, sigma: float, table_spacing: float, ghost: int,
+                    part_voxels: float) -> tuple[np.ndarray, np.ndarray]:
+    """Post-classified culling (module doc): the ``(keep, core)`` masks of the lattice with ``ghost``
+    layers.  ``table_spacing``: the transfer-function table's spacing in data units (between its nodes
+    the table may be opaque where the function is not); ``part_voxels``: the longest part of a ray in a
+    slab, voxels."""
+    lattice = np.pad(volume.data, ghost, mode="edge").astype(np.float64)
+    near = int(math.ceil(radius)) + 1  # every tap of any point within a voxel of a sample
+    lo, hi = _window(lattice, near, np.minimum), _window(lattice, near, np.maximum)
+    widen = ripple(sigma) * np.maximum(np.abs(lo), np.abs(hi))
+    core = tf.opaque_somewhere(lo - widen, hi + widen, margin=table_spacing)
+    keep = _window(core, int(math.ceil(radius + part_voxels + 1.0)), np.maximum)
+    return keep, core
