@@ -10,6 +10,9 @@ that are composited front to back.
   slab to that slab's sheet; post-classified, the sheet's mean value over the slab is classified
   per pixel (Mueller, Moeller and Crawfis 1999); pre-classified, the sheet holds the slab's optical
   depth and colour.
+* ``axis_aligned`` (Westover 1990): a sheet per voxel plane across the axis that faces the view most
+  squarely; each kernel adds its whole footprint to its own plane's sheet; the colour jumps where
+  that axis changes (45 degrees).
 * ``none``: every splat composited alone, back to front (pre-classified only): the baseline that
   shows the error where splats overlap.
 
@@ -24,10 +27,11 @@ from ... import sweeps
 from ...errors import SceneError
 from ..registry import RendererPlugin
 
-SHEET_BUFFERS = ("image_aligned", "none")
+SHEET_BUFFERS = ("image_aligned", "axis_aligned", "none")
 
 SHEET_BUFFER = s.Setting("sheet_buffer", str, "image_aligned", "how splats are composited: image_aligned (slabs "
-                         "parallel to the image, Mueller and Crawfis) or none (each splat alone, back to front; "
+                         "parallel to the image, Mueller and Crawfis), axis_aligned (a sheet per voxel plane "
+                         "facing the view most squarely, Westover) or none (each splat alone, back to front; "
                          "pre-classified only)", choices=SHEET_BUFFERS, group="splatting")
 SLAB_WIDTH = s.Setting("slab_width", float, 1.0, "depth of an image-aligned sheet buffer's slab", check=s.positive,
                        units="voxels", group="splatting")

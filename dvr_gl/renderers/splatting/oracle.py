@@ -9,6 +9,11 @@ What the renderer computes, from the model's side:
   the part is classified through the transfer-function table and the part is one segment of that
   length; pre-classified, the part's optical depth and colour are its integrals; composited
   front to back.
+* axis-aligned sheets (Westover): per voxel plane across the stack axis (border copies merged into
+  the border planes), the sum of its kernels' closed-form integrals along the ray in the box;
+  post-classified, that sum over the ray's length per plane is the value classified, and the
+  segment is the ray's part within half a spacing of the plane in the box; pre-classified, the
+  sums are the plane's optical depth and emission; planes in order of their distance from the eye.
 * ``sheet_buffer = none``: every splat alone, back to front in the renderer's order (view depth
   of the centre), its integral along the ray in the box from the kernel's closed-form footprint
   (:class:`~dvr_gl.fields.reconstruction.GaussianKernel`: a 2D Gaussian times the share of the
@@ -45,6 +50,8 @@ def reference(scene) -> np.ndarray:
         out = _average(scene, rays)
     elif r.sheet_buffer == "none":
         out = _splats_alone(scene, rays)
+    elif r.sheet_buffer == "axis_aligned":
+        out = _axis_sheets(scene, rays)
     else:
         out = _sheets(scene, rays)
     return out.reshape(img.height, img.width, 4)
@@ -170,4 +177,54 @@ def _splats_alone(scene, rays) -> np.ndarray:
         transmittance *= np.exp(-tau.sum(axis=0))
     out[rows, :3] = colour_sum
     out[rows, 3] = 1.0 - transmittance
+    return out
+
+
+def _axis_sheets(scene, rays) -> np.ndarray:
+    from .renderer import axis_order, sheet_axis_planes
+    from ...reference.plans import stack_axis
+
+    vol, cam, r, tf = scene.volume, scene.camera, scene.renderer, scene.transfer_function
+    pre = pre_classified(scene)
+    splats = Splats(vol, kernel_radius(scene), np.zeros(3), tf.classify_voxels(vol.data, True) if pre else None)
+    axis = stack_axis(cam)
+    planes = sheet_axis_planes(scene, splats.index[:, axis])
+    kernel = GaussianKernel(r.kernel_width)
+    rows = np.nonzero(rays.t1 > rays.t0)[0]
+    h = vol.spacing[axis]
+    o, d = rays.origins[rows, axis], rays.directions[rows, axis]
+    per_plane = h / np.maximum(np.abs(d), 1e-6)
+    table = None if pre else tf.tabulate(r.lut_size)
+    out = np.zeros((len(rays), 4))
+    transmittance = np.ones(len(rows))
+    unique = np.unique(planes)
+    for k in unique[np.lexsort((unique, axis_order(scene, unique)))]:
+        idx = np.nonzero(planes == k)[0]
+        position = vol.origin[axis] + k * h
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ta, tb = (position - 0.5 * h - o) / d, (position + 0.5 * h - o) / d
+        lo = np.maximum(rays.t0[rows], np.minimum(ta, tb))
+        hi = np.minimum(rays.t1[rows], np.maximum(ta, tb))
+        extent = np.where(hi > lo, hi - lo, 0.0)
+        sheet = np.zeros((len(rows), 4))
+        for i in range(0, len(idx), max(1, CHUNK * 50 // max(len(rows), 1))):
+            part = idx[i:i + max(1, CHUNK * 50 // max(len(rows), 1))]
+            integral = kernel_integrals(kernel, vol.spacing, splats.positions[part], rays, rows)   # (S, R)
+            if pre:
+                sheet += integral.T @ splats.optics[part].astype(np.float64)
+            else:
+                sheet[:, 0] += integral.T @ splats.values[part]
+        hit = extent > 0
+        if pre:
+            tau = sheet[:, 3]
+            alpha = -np.expm1(-tau)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                colour = np.where(tau[:, None] > 0, sheet[:, :3] / tau[:, None], 0.0)
+        else:
+            colour, sigma = table.lookup(sheet[:, 0] / per_plane)
+            alpha = segment_opacity(sigma, extent)
+        alpha = np.where(hit, alpha, 0.0)
+        out[rows, :3] += transmittance[:, None] * colour * alpha[:, None]
+        out[rows, 3] += transmittance * alpha
+        transmittance *= 1.0 - alpha
     return out

@@ -20,6 +20,7 @@ from ...gl.shaders import create_program
 from ...model import GAUSSIAN_RADIUS
 from ...rays import RayBatch
 from ...transfer_function import segment_opacity
+from ...reference.plans import stack_axis
 from ..grid.gl_base import GLVolumeRenderer, TableTexture
 from .footprint import GaussianFootprint
 from .splats import Splats, ghost_layers, post_visibility, slabs, support_depth
@@ -36,9 +37,11 @@ def pre_classified(scene) -> bool:
 
 
 def culled_post(scene) -> bool:
-    """Post-classified emission-absorption in sheets: culled by regions (:func:`.splats.post_visibility`)."""
+    """Post-classified emission-absorption in image-aligned sheets: culled by regions
+    (:func:`.splats.post_visibility`, whose bound holds for a slab's part of a ray; an axis-aligned
+    sheet's kernels reach the whole ray)."""
     r = scene.renderer
-    return r.compositing == "emission_absorption" and r.classification == "post" and r.sheet_buffer != "none"
+    return r.compositing == "emission_absorption" and r.classification == "post" and r.sheet_buffer == "image_aligned"
 
 
 def part_voxels(scene) -> float:
@@ -49,6 +52,35 @@ def part_voxels(scene) -> float:
         return scene.renderer.slab_width
     hx, hy = cam.half_extent(img.width / img.height)
     return scene.renderer.slab_width * math.sqrt(1.0 + hx * hx + hy * hy)
+
+
+def sheet_axis_planes(scene, index_along: np.ndarray) -> np.ndarray:
+    """Westover's sheets: each splat's voxel plane across the stack axis, ghosts merged into the border
+    planes (their kernels reach into the box from there)."""
+    return np.clip(index_along, 0, scene.volume.dims[stack_axis(scene.camera)] - 1)
+
+
+def axis_order(scene, planes: np.ndarray) -> np.ndarray:
+    """The planes' compositing order: by their distance from the eye along the axis (each pixel
+    composites only the planes in front of it, so an eye among the planes is served too)."""
+    vol, axis = scene.volume, stack_axis(scene.camera)
+    position = vol.origin[axis] + planes * vol.spacing[axis]
+    return np.abs(position - scene.camera.eye[axis])
+
+
+def axis_schedule(scene, splats, centre):
+    """Splats sorted by sheet (front first) and one ``(uniforms, first, last)`` per sheet."""
+    vol, axis = scene.volume, stack_axis(scene.camera)
+    planes = sheet_axis_planes(scene, splats.index[:, axis])
+    key = axis_order(scene, planes)
+    order = np.lexsort((planes, key))
+    sorted_planes = planes[order]
+    starts = np.r_[0, np.nonzero(np.diff(sorted_planes))[0] + 1, len(order)]
+    schedule = []
+    for a, b in zip(starts[:-1], starts[1:]):
+        position = vol.origin[axis] + sorted_planes[a] * vol.spacing[axis] - centre[axis]
+        schedule.append(({"u_axis": axis, "u_plane": float(position)}, int(a), int(b)))
+    return order, schedule
 
 
 def slab_bounds(scene, eye, forward) -> np.ndarray:
@@ -100,6 +132,8 @@ class SplattingRenderer(GLVolumeRenderer):
             order, schedule = np.arange(len(splats)), None
         elif r.sheet_buffer == "none":
             order, schedule = np.argsort(-depth, kind="stable"), None  # back to front
+        elif r.sheet_buffer == "axis_aligned":
+            order, schedule = axis_schedule(scene, splats, centre)
         else:
             order = np.argsort(depth, kind="stable")
             bounds = slab_bounds(scene, np.asarray(cam.eye, float), forward)  # depths: from either frame
@@ -107,7 +141,8 @@ class SplattingRenderer(GLVolumeRenderer):
             sorted_depth = depth[order]
             first = np.searchsorted(sorted_depth, bounds[:-1] - reach, side="left")
             last = np.searchsorted(sorted_depth, bounds[1:] + reach, side="right")
-            schedule = (bounds, first, last)
+            schedule = [({"u_slab": (float(bounds[k]), float(bounds[k + 1]))}, int(first[k]), int(last[k]))
+                        for k in range(len(bounds) - 1)]
         self.stats.update(splats=len(splats), splats_total=splats.total, culled=splats.total - len(splats))
         if not len(splats):  # pre-classified, every voxel transparent
             return np.zeros((scene.image.height, scene.image.width, 4), np.float32)
@@ -191,11 +226,12 @@ class SplattingRenderer(GLVolumeRenderer):
             vao.release()
             ctx.disable(moderngl.BLEND)
             image = self.read(fbo, w, h).astype(np.float64)
-            self.stats["slabs"] = 0
+            self.stats["sheets"] = 0
             return (image if over else self._average(scene, image)).astype(np.float32)
-        bounds, first, last = schedule
-        program = self._splat_program(scene, SLABS=True)
-        sheet_program = create_program(ctx, "fullscreen.vert", "splatting/sheet.frag", self._defines(scene, SLABS=True))
+        sheets_kind = "SLABS" if r.sheet_buffer == "image_aligned" else "AXIS_SHEETS"
+        program = self._splat_program(scene, SLABS=sheets_kind == "SLABS")
+        sheet_program = create_program(ctx, "fullscreen.vert", "splatting/sheet.frag",
+                                       self._defines(scene, **{sheets_kind: True}))
         lut = self._cached("lut", (scene.transfer_function, r.lut_size),
                            lambda: TableTexture(ctx, scene.transfer_function.tabulate(r.lut_size)))
         sheet_uniforms = {**uniforms, **{k: v for k, v in self.optics_uniforms(scene, lut.lut).items()
@@ -209,29 +245,27 @@ class SplattingRenderer(GLVolumeRenderer):
         pre = pre_classified(scene)
         drawn = 0
         try:
-            for k in range(len(bounds) - 1):
-                n = int(last[k] - first[k])
+            for sheet, first, last in schedule:
+                n = last - first
                 if n <= 0 and pre:
-                    continue  # nothing in this slab: transparent
-                slab = (float(bounds[k]), float(bounds[k + 1]))
+                    continue  # nothing in this sheet: transparent
                 sheet_fbo.use()
                 sheet_fbo.clear(0.0, 0.0, 0.0, 0.0)
                 ctx.enable(moderngl.BLEND)
                 ctx.blend_func = (moderngl.ONE, moderngl.ONE)
                 if n > 0:
-                    self.bind(program, {**uniforms, "u_slab": slab}, textures)
-                    self._draw_splats(vao, program, buffers, int(first[k]), n)
+                    self.bind(program, {**uniforms, **sheet}, textures)
+                    self._draw_splats(vao, program, buffers, first, n)
                     drawn += n
                 accumulation.use()
                 ctx.blend_func = (moderngl.ONE_MINUS_DST_ALPHA, moderngl.ONE)  # under: front to back
-                self.bind(sheet_program, {**sheet_uniforms, "u_slab": slab},
-                          {"u_sheet": sheet_texture, "u_lut": lut.texture})
+                self.bind(sheet_program, {**sheet_uniforms, **sheet}, {"u_sheet": sheet_texture, "u_lut": lut.texture})
                 quad.render(moderngl.TRIANGLES, vertices=3)
         finally:
             ctx.disable(moderngl.BLEND)
             vao.release()
             quad.release()
-        self.stats.update(slabs=len(bounds) - 1, splats_drawn=drawn)
+        self.stats.update(sheets=len(schedule), splats_drawn=drawn)
         return self.read(accumulation, w, h)
 
     def _average(self, scene, image) -> np.ndarray:

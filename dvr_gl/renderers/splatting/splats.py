@@ -72,6 +72,7 @@ class Splats:
         values = volume.data[iz, iy, ix].ravel()
         if keep is not None:
             index, values = index[keep], values[keep]
+        self.index = index  # (n, 3) lattice indices (x, y, z), ghosts beyond 0 .. n - 1
         world = np.asarray(volume.origin) + index * np.asarray(volume.spacing)
         self.positions = world - centre  # float64 until uploaded
         self.values = values.astype(np.float64)
