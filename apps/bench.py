@@ -13,6 +13,9 @@
   dvr bench tradeoff   every renderer x accuracy setting: frame time against error (RMS, max, PSNR,
                        FLIP) versus the converged reference, the Pareto front; CSV, JSON and a plot
   dvr bench cells      projected tetrahedra on the shared meshes, beside VTK's: time, cells/s, error
+  dvr bench splatting  splatting's sheet buffers and classifications: frame time, splats, error against
+                       the same kernel's converged reference, the ray caster at equal error; the
+                       45-degree study
   dvr bench peers      dvr-gl against VTK, vispy and pygfx (from a separate benchmark environment) on
                        the same scenes: frame time, error against the converged reference, ratios
 """
@@ -140,6 +143,18 @@ def add_arguments(p):
                     help="the peers environment's interpreter, for VTK (default .venv-peers/bin/python if it exists)")
     ce.add_argument("--pictures", metavar="DIR", help="write cells-MESH.png into DIR: the first view's reference, "
                                                       "dvr-gl, resampled ray casting and VTK, above 5x their errors")
+    sp = sub.add_parser("splatting", help="splatting's schemes: frame time, splats drawn and culled, error against "
+                                          "its oracle and the same kernel's converged reference, the ray caster at "
+                                          "equal error; the 45-degree study (docs/renderers/splatting.md)")
+    sp.add_argument("--volume-size", type=int, default=64, help="phantom samples per axis (default 64)")
+    sp.add_argument("--size", type=int, default=128, help="square image size (default 128)")
+    sp.add_argument("--repeat", type=count, default=3, help="timed frames per case, after a warm-up (default 3)")
+    sp.add_argument("--shared", action="store_true", help="the regular datasets in --data-dir instead of the "
+                                                          "phantom (long: a converged reference each)")
+    sp.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder (default ../shared/data)")
+    sp.add_argument("--only", metavar="TEXT", help="with --shared: only datasets whose name contains TEXT")
+    sp.add_argument("--study-size", type=int, default=48, help="square image size of the 45-degree study "
+                                                              "(default 48; 0 leaves it out)")
     for parser in sub.choices.values():
         parser.add_argument("--markdown", metavar="FILE", help="also write the tables as Markdown to FILE (the "
                                                                "measured tables in docs/ are written this way)")
@@ -165,7 +180,8 @@ def run(args) -> int:
     args.report = Report()
     code = {"raycast": run_raycast, "accel": run_accel, "quality": run_quality,
             "slicing": run_slicing, "renderers": run_renderers, "shearwarp": run_shearwarp,
-            "tradeoff": run_tradeoff, "peers": run_peers, "cells": run_cells}[args.benchmark](args)
+            "tradeoff": run_tradeoff, "peers": run_peers, "cells": run_cells,
+            "splatting": run_splatting}[args.benchmark](args)
     if args.markdown:
         write_text(Path(args.markdown), args.report.markdown(args.command_line), args.overwrite)
         print(f"wrote {args.markdown}")
@@ -426,6 +442,43 @@ def run_cells(args) -> int:
     args.report.table(rows, cells.COLUMNS)
     for note in notes:
         args.report.text(note)
+    return 0
+
+
+def run_splatting(args) -> int:
+    from pathlib import Path
+
+    from dvr_gl.bench import splatting
+    from dvr_gl.errors import DvrError
+
+    for flag, value, low in (("--size", args.size, 8), ("--volume-size", args.volume_size, 2),
+                             ("--study-size", args.study_size, 0)):
+        if not low <= value <= 4096:
+            raise DvrError(f"{flag} must be {low} to 4096, got {value}")
+    demo = {"volume.demo": "shepp-logan", "volume.size": args.volume_size}
+    notes = []
+    if args.shared:
+        if not Path(args.data_dir).is_dir():
+            raise DvrError(f"--data-dir {args.data_dir}: no such folder (the shared datasets)")
+        scenes, notes = splatting.shared_scenes(Path(args.data_dir), args.only)
+        if not scenes:
+            raise DvrError(f"--only {args.only}: no shared dataset matches")
+    else:
+        scenes = [(f"Shepp-Logan {args.volume_size}^3", demo)]
+    args.report.text(f"dvr bench splatting: {args.size}x{args.size}, the Gaussian of width 0.7, default camera and "
+                     f"transfer function, no shading; median of {args.repeat} frames after a warm-up; RMS against "
+                     f"reference-converged of the same kernel and classification (tolerance 1e-4)")
+    rows = splatting.run(scenes, args.size, args.repeat, progress=lambda r: print(
+        f"{r['dataset']} {r['scheme']} {r['classification']}: {r['ms']:.0f} ms, RMS {r['rms']:.2e}", flush=True))
+    args.report.text()
+    args.report.table(rows, splatting.COLUMNS)
+    for note in notes:
+        args.report.text(note)
+    if args.study_size:
+        args.report.text(f"\nthe 45-degree study: Shepp-Logan {args.volume_size}^3 at {args.study_size}x"
+                         f"{args.study_size}, elevation 0, post-classified; the largest change of each image between "
+                         f"azimuth - {splatting.STUDY_STEP:g} and + {splatting.STUDY_STEP:g} degrees")
+        args.report.table(splatting.study(demo, args.study_size), splatting.STUDY_COLUMNS)
     return 0
 
 

@@ -31,10 +31,11 @@ import math
 import numpy as np
 
 from ...fields import reconstruct
+from ...fields.ragged import ranges
 from ...fields.reconstruction import GaussianKernel, _erf
 from ...rays import RayBatch
 from ...transfer_function import segment_opacity
-from .renderer import kernel_radius, pre_classified, slab_bounds
+from .sheets import kernel_radius, pre_classified, slab_bounds
 from .splats import Splats
 
 NODES = 8            # Gauss-Legendre nodes per piece
@@ -124,97 +125,148 @@ def _average(scene, rays) -> np.ndarray:
     return out
 
 
-def kernel_integrals(kernel: GaussianKernel, spacing, centres, rays, rows) -> np.ndarray:
-    """Each kernel's integral ``(splats, rays)`` along rays ``rows`` over their part in the box (world
-    units), in closed form: the footprint at the ray's nearest approach times the share of the chord."""
+def pair_integrals(kernel: GaussianKernel, spacing, centres, origins, directions, t0, t1) -> np.ndarray:
+    """Each kernel's integral along its ray over ``[t0, t1]`` (world units), for pairs of kernels
+    (``centres`` ``(N, 3)``) and rays (``origins``, ``directions`` ``(N, 3)``), in closed form: the
+    footprint at the ray's nearest approach times the share of the chord, by ``erf``."""
     inv = 1.0 / np.asarray(spacing, float)
-    ud = rays.directions[rows] * inv                        # (R, 3) voxels per world unit
+    ud = directions * inv                                  # voxels per world unit
     a = (ud * ud).sum(axis=1)
-    uo = (rays.origins[rows][None, :, :] - centres[:, None, :]) * inv  # (S, R, 3)
-    tc = -(uo * ud[None]).sum(axis=2) / a[None]
-    nearest = uo + tc[..., None] * ud[None]
-    rho2 = (nearest * nearest).sum(axis=2)
+    uo = (origins - centres) * inv
+    tc = -(uo * ud).sum(axis=1) / a
+    nearest = uo + tc[:, None] * ud
+    rho2 = (nearest * nearest).sum(axis=1)
     r2 = kernel.radius ** 2
     inside = rho2 < r2
-    half = np.sqrt(np.maximum(r2 - rho2, 0.0)) / np.sqrt(a)[None]   # the chord's half-length, world units
-    lo = np.maximum(tc - half, rays.t0[rows][None])
-    hi = np.minimum(tc + half, rays.t1[rows][None])
-    # the share of the Gaussian between lo and hi along the chord, by erf (sigma in world units along it)
-    scale = np.sqrt(a)[None] / (kernel.sigma * math.sqrt(2.0))
-    with np.errstate(invalid="ignore"):
-        share = 0.5 * (_erf((hi - tc) * scale) - _erf((lo - tc) * scale))
-        whole = _erf(half * scale)
-    full = kernel.footprint(np.where(inside, rho2, r2)) / np.sqrt(a)[None]
+    half = np.sqrt(np.maximum(r2 - rho2, 0.0)) / np.sqrt(a)  # the chord's half-length, world units
+    lo = np.maximum(tc - half, t0)
+    hi = np.minimum(tc + half, t1)
+    live = inside & (hi > lo)
+    out = np.zeros(len(a))
+    if not live.any():
+        return out
+    a, tc, half, lo, hi, rho2 = (x[live] for x in (a, tc, half, lo, hi, rho2))
+    scale = np.sqrt(a) / (kernel.sigma * math.sqrt(2.0))   # sigma in world units along the ray
+    share = 0.5 * (_erf((hi - tc) * scale) - _erf((lo - tc) * scale))
+    whole = _erf(half * scale)
+    full = kernel.footprint(rho2) / np.sqrt(a)
     with np.errstate(invalid="ignore", divide="ignore"):
-        value = np.where(whole > 0, full * share / whole, 0.0)
-    return np.where(inside & (hi > lo), value, 0.0)
+        out[live] = np.where(whole > 0, full * share / whole, 0.0)
+    return out
+
+
+def _pairs(scene, positions: np.ndarray, radius_world: float):
+    """``(splat, pixel)`` pairs whose pixel rectangle holds the splat's bounding sphere's projection
+    (every pixel in perspective where the sphere reaches the eye's plane)."""
+    cam, img = scene.camera, scene.image
+    w, h = img.width, img.height
+    forward, right, up = cam.basis()
+    p = positions - np.asarray(cam.eye, float)
+    x, y, z = p @ right, p @ up, p @ forward
+    hx, hy = cam.half_extent(w / h)
+    r = radius_world
+    if cam.projection == "orthographic":
+        nx0, nx1, ny0, ny1 = (x - r) / hx, (x + r) / hx, (y - r) / hy, (y + r) / hy
+    else:
+        front = z - r > cam.near
+        zz = np.where(front, z, 2.0 * r + 1.0)
+        def bounds(c):
+            root = np.sqrt(np.maximum(c * c + zz * zz - r * r, 0.0))
+            den = zz * zz - r * r
+            return (c * zz - r * root) / den, (c * zz + r * root) / den
+        (bx0, bx1), (by0, by1) = bounds(x), bounds(y)
+        nx0, nx1 = np.where(front, bx0 / hx, -2.0), np.where(front, bx1 / hx, 2.0)
+        ny0, ny1 = np.where(front, by0 / hy, -2.0), np.where(front, by1 / hy, 2.0)
+    # pixel column i has ndc x (i + 0.5) / w * 2 - 1; row j (from the top) ndc y 1 - 2 (j + 0.5) / h
+    i0 = np.clip(np.ceil((nx0 + 1.0) * 0.5 * w - 0.5 - 1e-9), 0, w).astype(np.int64)
+    i1 = np.clip(np.floor((nx1 + 1.0) * 0.5 * w - 0.5 + 1e-9), -1, w - 1).astype(np.int64)
+    j0 = np.clip(np.ceil((1.0 - ny1) * 0.5 * h - 0.5 - 1e-9), 0, h).astype(np.int64)
+    j1 = np.clip(np.floor((1.0 - ny0) * 0.5 * h - 0.5 + 1e-9), -1, h - 1).astype(np.int64)
+    cols, rows = np.maximum(i1 - i0 + 1, 0), np.maximum(j1 - j0 + 1, 0)
+    count = cols * rows
+    splat = np.repeat(np.arange(len(positions)), count)
+    k = ranges(np.zeros(len(count), np.int64), count)
+    c = cols[splat]
+    pixel = (j0[splat] + k // np.maximum(c, 1)) * w + i0[splat] + k % np.maximum(c, 1)
+    return splat, pixel
+
+
+def _all_pair_integrals(scene, rays, splats, idx, kernel):
+    """``(splat, pixel, integral)`` for the splats ``idx`` and the pixels their kernels may reach."""
+    vol = scene.volume
+    s_local, pixel = _pairs(scene, splats.positions[idx], kernel.radius * max(vol.spacing))
+    integral = np.zeros(len(pixel))
+    for i in range(0, len(pixel), CHUNK * 10):
+        sl = slice(i, i + CHUNK * 10)
+        pix = pixel[sl]
+        integral[sl] = pair_integrals(kernel, vol.spacing, splats.positions[idx[s_local[sl]]], rays.origins[pix],
+                                      rays.directions[pix], rays.t0[pix], rays.t1[pix])
+    keep = integral > 0
+    return idx[s_local[keep]], pixel[keep], integral[keep]
 
 
 def _splats_alone(scene, rays) -> np.ndarray:
     """Back to front, each splat over what lies behind it: front to back here, the same sum."""
     vol, cam, r = scene.volume, scene.camera, scene.renderer
-    lo, hi = (np.asarray(b, float) for b in vol.box)
     splats = Splats(vol, kernel_radius(scene), np.zeros(3), scene.transfer_function.classify_voxels(vol.data, True))
     forward, _, _ = cam.basis()
     depth = splats.depths(np.asarray(cam.eye, float), forward)
-    front_to_back = np.argsort(-depth, kind="stable")[::-1]
+    rank = np.empty(len(splats), np.int64)
+    rank[np.argsort(-depth, kind="stable")[::-1]] = np.arange(len(splats))  # 0: the front splat
     kernel = GaussianKernel(r.kernel_width)
-    rows = np.nonzero(rays.t1 > rays.t0)[0]
+    splat, pixel, integral = _all_pair_integrals(scene, rays, splats, np.arange(len(splats)), kernel)
+    order = np.lexsort((rank[splat], pixel))
+    splat, pixel, integral = splat[order], pixel[order], integral[order]
+    optics = splats.optics[splat].astype(np.float64)
+    tau = optics[:, 3] * integral
+    alpha = -np.expm1(-tau)
+    colour = optics[:, :3] / optics[:, 3:4]
+    total = np.cumsum(tau)
+    start = np.r_[0, np.nonzero(np.diff(pixel))[0] + 1]
+    first = np.repeat(start, np.diff(np.r_[start, len(pixel)]))
+    before = total - tau - (total[first] - tau[first])     # optical depth of the splats in front
     out = np.zeros((len(rays), 4))
-    transmittance = np.ones(len(rows))
-    colour_sum = np.zeros((len(rows), 3))
-    step = max(1, CHUNK * 50 // max(len(rows), 1))
-    for i in range(0, len(front_to_back), step):
-        idx = front_to_back[i:i + step]
-        integral = kernel_integrals(kernel, vol.spacing, splats.positions[idx], rays, rows)   # (S, R)
-        optics = splats.optics[idx].astype(np.float64)
-        sigma = optics[:, 3]
-        tau = sigma[:, None] * integral
-        alpha = -np.expm1(-tau)
-        colour = optics[:, :3] / sigma[:, None]
-        before = np.exp(-(np.cumsum(tau, axis=0) - tau))     # transmittance in front of each splat
-        colour_sum += transmittance[:, None] * np.einsum("sr,sr,sc->rc", before, alpha, colour)
-        transmittance *= np.exp(-tau.sum(axis=0))
-    out[rows, :3] = colour_sum
-    out[rows, 3] = 1.0 - transmittance
+    weight = np.exp(-before) * alpha
+    for c in range(3):
+        out[:, c] = np.bincount(pixel, weight * colour[:, c], minlength=len(rays))
+    out[:, 3] = 1.0 - np.exp(-np.bincount(pixel, tau, minlength=len(rays)))
     return out
 
 
 def _axis_sheets(scene, rays) -> np.ndarray:
-    from .renderer import axis_order, sheet_axis_planes
     from ...reference.plans import stack_axis
+    from .sheets import axis_order, sheet_axis_planes
 
     vol, cam, r, tf = scene.volume, scene.camera, scene.renderer, scene.transfer_function
     pre = pre_classified(scene)
     splats = Splats(vol, kernel_radius(scene), np.zeros(3), tf.classify_voxels(vol.data, True) if pre else None)
     axis = stack_axis(cam)
     planes = sheet_axis_planes(scene, splats.index[:, axis])
+    unique = np.unique(planes)
+    ordered = unique[np.lexsort((unique, axis_order(scene, unique)))]
+    slot = np.empty(unique.max() + 1, np.int64)
+    slot[ordered] = np.arange(len(ordered))                  # the planes' compositing order
     kernel = GaussianKernel(r.kernel_width)
-    rows = np.nonzero(rays.t1 > rays.t0)[0]
+    splat, pixel, integral = _all_pair_integrals(scene, rays, splats, np.arange(len(splats)), kernel)
+    key = slot[planes[splat]] * len(rays) + pixel
+    size = len(ordered) * len(rays)
+    values = splats.optics[splat].astype(np.float64) if pre else splats.values[splat][:, None]
+    sheets = np.stack([np.bincount(key, integral * values[:, c], minlength=size) for c in range(values.shape[1])],
+                      axis=1).reshape(len(ordered), len(rays), -1)
     h = vol.spacing[axis]
-    o, d = rays.origins[rows, axis], rays.directions[rows, axis]
+    o, d = rays.origins[:, axis], rays.directions[:, axis]
     per_plane = h / np.maximum(np.abs(d), 1e-6)
     table = None if pre else tf.tabulate(r.lut_size)
     out = np.zeros((len(rays), 4))
-    transmittance = np.ones(len(rows))
-    unique = np.unique(planes)
-    for k in unique[np.lexsort((unique, axis_order(scene, unique)))]:
-        idx = np.nonzero(planes == k)[0]
+    transmittance = np.ones(len(rays))
+    for n, k in enumerate(ordered):
         position = vol.origin[axis] + k * h
         with np.errstate(divide="ignore", invalid="ignore"):
             ta, tb = (position - 0.5 * h - o) / d, (position + 0.5 * h - o) / d
-        lo = np.maximum(rays.t0[rows], np.minimum(ta, tb))
-        hi = np.minimum(rays.t1[rows], np.maximum(ta, tb))
+        lo = np.maximum(rays.t0, np.minimum(ta, tb))
+        hi = np.minimum(rays.t1, np.maximum(ta, tb))
         extent = np.where(hi > lo, hi - lo, 0.0)
-        sheet = np.zeros((len(rows), 4))
-        for i in range(0, len(idx), max(1, CHUNK * 50 // max(len(rows), 1))):
-            part = idx[i:i + max(1, CHUNK * 50 // max(len(rows), 1))]
-            integral = kernel_integrals(kernel, vol.spacing, splats.positions[part], rays, rows)   # (S, R)
-            if pre:
-                sheet += integral.T @ splats.optics[part].astype(np.float64)
-            else:
-                sheet[:, 0] += integral.T @ splats.values[part]
-        hit = extent > 0
+        sheet = sheets[n]
         if pre:
             tau = sheet[:, 3]
             alpha = -np.expm1(-tau)
@@ -223,8 +275,8 @@ def _axis_sheets(scene, rays) -> np.ndarray:
         else:
             colour, sigma = table.lookup(sheet[:, 0] / per_plane)
             alpha = segment_opacity(sigma, extent)
-        alpha = np.where(hit, alpha, 0.0)
-        out[rows, :3] += transmittance[:, None] * colour * alpha[:, None]
-        out[rows, 3] += transmittance * alpha
+        alpha = np.where(extent > 0, alpha, 0.0)
+        out[:, :3] += transmittance[:, None] * colour * alpha[:, None]
+        out[:, 3] += transmittance * alpha
         transmittance *= 1.0 - alpha
     return out

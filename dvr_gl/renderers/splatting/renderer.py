@@ -10,86 +10,17 @@ slab.  Coordinates are relative to the box's centre (float32 keeps its precision
 
 from __future__ import annotations
 
-import math
-
 import moderngl
 import numpy as np
 
-from ...gl.geometry import box_corners
 from ...gl.shaders import create_program
 from ...model import GAUSSIAN_RADIUS
 from ...rays import RayBatch
 from ...transfer_function import segment_opacity
-from ...reference.plans import stack_axis
 from ..grid.gl_base import GLVolumeRenderer, TableTexture
 from .footprint import GaussianFootprint
-from .splats import Splats, ghost_layers, post_visibility, slabs, support_depth
-
-
-def kernel_radius(scene) -> float:
-    """The kernel's support, voxels."""
-    return GAUSSIAN_RADIUS * scene.renderer.kernel_width
-
-
-def pre_classified(scene) -> bool:
-    r = scene.renderer
-    return r.compositing == "emission_absorption" and r.classification == "pre"
-
-
-def culled_post(scene) -> bool:
-    """Post-classified emission-absorption in image-aligned sheets: culled by regions
-    (:func:`.splats.post_visibility`, whose bound holds for a slab's part of a ray; an axis-aligned
-    sheet's kernels reach the whole ray)."""
-    r = scene.renderer
-    return r.compositing == "emission_absorption" and r.classification == "post" and r.sheet_buffer == "image_aligned"
-
-
-def part_voxels(scene) -> float:
-    """The longest part of a ray in one slab, voxels of the smallest spacing: the slab's width over the
-    cosine of the widest ray's angle to the view axis (the image's corner in perspective)."""
-    cam, img = scene.camera, scene.image
-    if cam.projection == "orthographic":
-        return scene.renderer.slab_width
-    hx, hy = cam.half_extent(img.width / img.height)
-    return scene.renderer.slab_width * math.sqrt(1.0 + hx * hx + hy * hy)
-
-
-def sheet_axis_planes(scene, index_along: np.ndarray) -> np.ndarray:
-    """Westover's sheets: each splat's voxel plane across the stack axis, ghosts merged into the border
-    planes (their kernels reach into the box from there)."""
-    return np.clip(index_along, 0, scene.volume.dims[stack_axis(scene.camera)] - 1)
-
-
-def axis_order(scene, planes: np.ndarray) -> np.ndarray:
-    """The planes' compositing order: by their distance from the eye along the axis (each pixel
-    composites only the planes in front of it, so an eye among the planes is served too)."""
-    vol, axis = scene.volume, stack_axis(scene.camera)
-    position = vol.origin[axis] + planes * vol.spacing[axis]
-    return np.abs(position - scene.camera.eye[axis])
-
-
-def axis_schedule(scene, splats, centre):
-    """Splats sorted by sheet (front first) and one ``(uniforms, first, last)`` per sheet."""
-    vol, axis = scene.volume, stack_axis(scene.camera)
-    planes = sheet_axis_planes(scene, splats.index[:, axis])
-    key = axis_order(scene, planes)
-    order = np.lexsort((planes, key))
-    sorted_planes = planes[order]
-    starts = np.r_[0, np.nonzero(np.diff(sorted_planes))[0] + 1, len(order)]
-    schedule = []
-    for a, b in zip(starts[:-1], starts[1:]):
-        position = vol.origin[axis] + sorted_planes[a] * vol.spacing[axis] - centre[axis]
-        schedule.append(({"u_axis": axis, "u_plane": float(position)}, int(a), int(b)))
-    return order, schedule
-
-
-def slab_bounds(scene, eye, forward) -> np.ndarray:
-    """The image-aligned slabs' view depths over the box (from the near plane); ``eye`` in world
-    coordinates."""
-    lo, hi = scene.volume.box
-    depths = (box_corners(lo, hi) - eye) @ forward
-    width = scene.renderer.slab_width * scene.volume.sample_spacing
-    return slabs(max(float(depths.min()), scene.camera.near), float(depths.max()), width)
+from .sheets import axis_schedule, culled_post, kernel_radius, part_voxels, pre_classified, slab_schedule
+from .splats import Splats, ghost_layers, post_visibility
 
 
 class FootprintTextures:
@@ -135,14 +66,7 @@ class SplattingRenderer(GLVolumeRenderer):
         elif r.sheet_buffer == "axis_aligned":
             order, schedule = axis_schedule(scene, splats, centre)
         else:
-            order = np.argsort(depth, kind="stable")
-            bounds = slab_bounds(scene, np.asarray(cam.eye, float), forward)  # depths: from either frame
-            reach = support_depth(radius, vol.spacing, forward)
-            sorted_depth = depth[order]
-            first = np.searchsorted(sorted_depth, bounds[:-1] - reach, side="left")
-            last = np.searchsorted(sorted_depth, bounds[1:] + reach, side="right")
-            schedule = [({"u_slab": (float(bounds[k]), float(bounds[k + 1]))}, int(first[k]), int(last[k]))
-                        for k in range(len(bounds) - 1)]
+            order, schedule = slab_schedule(scene, depth)
         self.stats.update(splats=len(splats), splats_total=splats.total, culled=splats.total - len(splats))
         if not len(splats):  # pre-classified, every voxel transparent
             return np.zeros((scene.image.height, scene.image.width, 4), np.float32)

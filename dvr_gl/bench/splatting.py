@@ -1,0 +1,125 @@
+"""``dvr bench splatting``: the splatting renderer's schemes on the demo or the shared datasets.
+
+Per dataset and scheme (sheet buffer and classification): the frame time (median after a
+warm-up), the splats drawn (instances over all sheets), culled and the sheets; the error against
+its same-slabs reference (the oracle: float32 and the tables) and the RMS against the converged
+reference of the same kernel and classification (what the scheme's discretization costs); and
+beside them the ray caster (trilinear, against its own converged reference) at the largest sample
+distance that is at least as accurate as image-aligned sheets post-classified.  Then the
+45-degree study: the largest change of each image between azimuth 45 - 0.01 and 45 + 0.01 (where
+axis-aligned sheets switch axes) and 30 +- 0.01 (no switch), beside the converged image's own.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..image import compare_images
+from ..reference.converged import ConvergedReference
+from ..renderers import create_renderer, registry
+from ..renderers.splatting.oracle import reference as same_slabs
+from ..scene import load_scene
+from . import median_seconds
+
+HU = {"transfer_function.preset": "ct-bone", "transfer_function.rescale_intercept": -1024.0}
+DATASETS = [  # name, file under the data folder, scene overrides
+    ("bucky", "regular/bucky.nhdr", {}), ("nucleon", "regular/nucleon.nhdr", {}),
+    ("neghip", "regular/neghip.nhdr", {}), ("ironProt", "regular/ironProt.nhdr", {}),
+    ("headsq", "regular/headsq_quarter.nhdr", HU), ("hydrogen", "regular/hydrogen_atom.nhdr", {}),
+    ("brainsmall", "regular/brainsmall.nhdr", {}), ("lobster", "regular/lobster.nhdr", {}),
+    ("CThead", "regular/cthead.nhdr", {**HU, "camera.up": [0, 0, -1]}),
+    ("MNI152", "regular/MNI152_2009_template.nii.gz", {}),
+]
+SCHEMES = [("image_aligned", "post"), ("image_aligned", "pre"), ("axis_aligned", "post"), ("none", "pre")]
+RAYCAST_DISTANCES = (4.0, 2.0, 1.0, 0.5, 0.25, 0.125)
+STUDY_ANGLES = (30.0, 45.0)
+STUDY_STEP = 0.01
+COLUMNS = [("dataset", "dataset", ""), ("scheme", "sheet buffer", ""), ("classification", "classification", ""),
+           ("ms", "frame ms", ".0f"), ("drawn", "splats drawn", ",d"), ("culled", "culled", ",d"),
+           ("sheets", "sheets", "d"), ("oracle", "max vs oracle", ".1e"), ("rms", "RMS vs converged", ".2e"),
+           ("raycast", "raycast at equal RMS", "")]
+STUDY_COLUMNS = [("angle", "azimuth", "g"), ("image_aligned", "image-aligned change", ".2e"),
+                 ("axis_aligned", "axis-aligned change", ".2e"), ("converged", "converged change", ".2e")]
+
+
+def base_overrides(size: int) -> dict:
+    return {"renderer.name": "splatting", "renderer.filter": "gaussian", "renderer.shading.enabled": False,
+            "image.width": size, "image.height": size}
+
+
+def run(scenes, size: int = 128, repeat: int = 3, progress=None):
+    """Rows of the schemes' table for ``scenes`` (``(name, overrides)``)."""
+    rows = []
+    splatting, raycast = create_renderer("splatting"), create_renderer("raycast")
+    try:
+        for name, overrides in scenes:
+            base = load_scene(None, {**base_overrides(size), **overrides})
+            volume = base.volume
+            truth = {}
+            for scheme, classification in SCHEMES:
+                scene = base.with_renderer(sheet_buffer=scheme, classification=classification)
+                if classification not in truth:
+                    truth[classification] = ConvergedReference(scene.with_renderer(converged_tolerance=1e-4)).render()
+                ms = 1e3 * median_seconds(splatting, scene, repeat)
+                image = splatting.render(scene)
+                stats = splatting.stats
+                row = {"dataset": name, "scheme": scheme, "classification": classification, "ms": ms,
+                       "drawn": stats.get("splats_drawn", stats["splats"]), "culled": stats["culled"],
+                       "sheets": stats.get("sheets", 0), "oracle": float(np.abs(image - same_slabs(scene)).max()),
+                       "rms": compare_images(image, truth[classification])["rms"]}
+                if (scheme, classification) == ("image_aligned", "post"):
+                    row["raycast"] = _raycast_at(raycast, base.replace(volume=volume), row["rms"], repeat)
+                rows.append(row)
+                if progress:
+                    progress(row)
+    finally:
+        splatting.close()
+        raycast.close()
+    return rows
+
+
+def _raycast_at(raycast, scene, rms: float, repeat: int) -> str:
+    """The ray caster's frame time at the largest sample distance whose RMS against its own (trilinear)
+    converged reference is at most ``rms``."""
+    linear = scene.with_renderer(name="raycast", filter="linear")
+    truth = ConvergedReference(linear.with_renderer(converged_tolerance=1e-4)).render()
+    for d in RAYCAST_DISTANCES:
+        case = linear.with_renderer(sample_distance_voxels=d)
+        if registry.refusal(case, "raycast"):
+            return "-"
+        if compare_images(raycast.render(case), truth)["rms"] <= rms:
+            return f"{1e3 * median_seconds(raycast, case, repeat):.0f} ms at {d:g} voxel"
+    return f"not reached at {RAYCAST_DISTANCES[-1]:g} voxel"
+
+
+def study(overrides: dict, size: int = 48):
+    """Rows of the 45-degree study (elevation 0, post-classified)."""
+    base = {**base_overrides(size), **overrides, "camera.elevation": 0.0, "renderer.converged_tolerance": 1e-5}
+    rows = []
+    with create_renderer("splatting") as splatting:
+        for angle in STUDY_ANGLES:
+            views = [{"camera.azimuth": angle + s} for s in (-STUDY_STEP, STUDY_STEP)]
+            row = {"angle": angle}
+            for scheme in ("image_aligned", "axis_aligned"):
+                a, b = (splatting.render(load_scene(None, {**base, **v, "renderer.sheet_buffer": scheme}))
+                        for v in views)
+                row[scheme] = float(np.abs(a - b).max())
+            a, b = (ConvergedReference(load_scene(None, {**base, **v})).render_float64() for v in views)
+            row["converged"] = float(np.abs(a - b).max())
+            rows.append(row)
+    return rows
+
+
+def shared_scenes(data_dir: Path, only: str | None = None):
+    """The shared datasets found (``(name, overrides)``) and notes on those left out."""
+    scenes, notes = [], []
+    for name, path, overrides in DATASETS:
+        if only and only not in name:
+            continue
+        if not (data_dir / path).exists():
+            notes.append(f"{name}: {data_dir / path} not found, left out")
+            continue
+        scenes.append((name, {"volume.path": str(data_dir / path), **overrides}))
+    return scenes, notes
