@@ -9,7 +9,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-COMPOSITING_MODES = ("emission_absorption", "isosurface", "average", "mip", "minip")
+COMPOSITING_MODES = ("emission_absorption", "isosurface", "average", "mip", "minip", "xray")
+#: ``xray``: a radiograph of the classified extinction, absorption only: alpha ``1 - exp(-tau)`` with
+#: ``tau`` the optical depth along the ray, premultiplied colour alpha times the extinction-weighted mean
+#: colour (the line integral of ``sigma c`` over that of ``sigma``); classified post or pre.
 CLASSIFICATIONS = ("post", "pre", "preintegrated")
 FILTERS = ("nearest", "linear", "cubic_bspline", "catmull_rom", "gaussian")
 #: The filters a texture unit helps with: splines on the voxel grid, evaluated from a few taps (the GPU

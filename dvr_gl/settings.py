@@ -158,10 +158,20 @@ def _check_shading(sh: ShadingSpec) -> None:
 # --- the model: what the picture should be ---------------------------------------------------
 
 COMPOSITING = Setting("compositing", str, "emission_absorption", "compositing mode: emission-absorption, "
-                      "the isosurface's first hit, average (X-ray), maximum or minimum intensity projection",
+                      "the isosurface's first hit, average (the mean value along the ray), maximum or minimum "
+                      "intensity projection, or xray (a radiograph of the classified extinction)",
                       choices=COMPOSITING_MODES, must_support=True, group="model")
+#: The modes of the renderers that do not render the X-ray yet (issue 18 brings it to the ray caster).
+COMPOSITING_BEFORE_XRAY = tuple(m for m in COMPOSITING_MODES if m != "xray")
+
+
 def _emission(spec) -> bool:
     return spec.compositing == "emission_absorption"
+
+
+def _classified_along(spec) -> bool:
+    """Classification matters where each point is classified: emission-absorption and the X-ray."""
+    return spec.compositing in ("emission_absorption", "xray")
 
 
 def _lit(spec) -> bool:
@@ -172,7 +182,7 @@ def _lit(spec) -> bool:
 CLASSIFICATION = Setting("classification", str, "post", "post (interpolate, then apply the transfer function), "
                          "pre (classify voxels, interpolate them) or preintegrated (each segment from a table "
                          "by its two end values)", choices=CLASSIFICATIONS, must_support=True, group="model",
-                         applies=_emission)
+                         applies=_classified_along)
 ASSOCIATED_COLORS = Setting("associated_colors", bool, True, "pre-classification interpolates sigma*c (no colour "
                             "bleeding); false shows the artefact", group="model", flag=False)
 FILTER = Setting("filter", str, "linear", "reconstruction filter", choices=FILTERS, must_support=True, group="model")
@@ -262,6 +272,9 @@ def resolve_renderer(spec, field, settings):
     d = resolve_sample_distance(spec, field)
     if not d > 0:
         raise SceneError(f"renderer.sample_distance must be positive, got {d}")
+    if spec.classification == "preintegrated" and spec.compositing == "xray":
+        raise SceneError("renderer.classification = preintegrated does not apply to xray (its tables attenuate "
+                         "within a segment); use post or pre")
     if spec.classification == "preintegrated" and spec.jitter:
         raise SceneError("renderer.jitter does not apply to pre-integrated classification (which needs no "
                          "jitter against wood-grain); turn one of them off")

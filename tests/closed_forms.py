@@ -131,7 +131,7 @@ def _box_bounds(scene):
     _, _, t0, t1 = _rays(scene)
     length = t1 - t0
     hit = length > 0
-    if mode == "emission_absorption":
+    if mode in ("emission_absorption", "xray"):  # one colour: the radiograph is Beer-Lambert too
         rgba = _rgba(COLOUR, -np.expm1(-BOX_SIGMA * length))
     elif mode == "isosurface":
         rgba = _rgba(COLOUR, hit.astype(float))
@@ -167,7 +167,7 @@ def _ramp_bounds(scene):
     hit = t1 > t0
     x_in, x_out = o[:, 0] + t0 * d[:, 0], o[:, 0] + t1 * d[:, 0]
     compared = _margin_mask(scene, 0.05)
-    if mode == "emission_absorption":
+    if mode in ("emission_absorption", "xray"):  # one colour: the radiograph is Beer-Lambert too
         rgba = _rgba(COLOUR, -np.expm1(-(t1 - t0) * (_ramp_sigma(x_in) + _ramp_sigma(x_out)) / 2))
     elif mode == "isosurface":
         reached = np.maximum(x_in, x_out)
@@ -216,7 +216,7 @@ def _sphere_bounds(scene):
     b2, s = _chord_geometry(o, d)
     bias = 3.0 * SPHERE_H ** 2 / 4.0            # trilinear interpolation of the quadratic: 0 <= e <= bias
     compared = _margin_mask(scene, 0.05)
-    if mode == "emission_absorption":
+    if mode in ("emission_absorption", "xray"):  # one colour: the radiograph is Beer-Lambert too
         def alpha(r2):
             return -np.expm1(-SPHERE_K * 4.0 / 3.0 * np.maximum(r2 - b2, 0.0) ** 1.5)
         lo, hi = _rgba(COLOUR, alpha(SPHERE_R ** 2 - bias)), _rgba(COLOUR, alpha(SPHERE_R ** 2))
@@ -260,7 +260,7 @@ def _analytic_bounds(scene):
     return image, image, _image(edge, scene)[..., 0]
 
 
-ALL_MODES = ("emission_absorption", "isosurface", "average", "mip", "minip")
+ALL_MODES = ("emission_absorption", "isosurface", "average", "mip", "minip", "xray")
 # --- meshes ------------------------------------------------------------------------------------
 
 MESH_BOXES = (((0.0, 0.0, 0.0), (1.0, 1.2, 1.4)), ((1.6, 0.0, 0.0), (2.6, 1.2, 1.4)))
@@ -322,7 +322,7 @@ def _mesh_boxes_bounds(scene):
         b0, b1 = intersect_box(o, d, np.array(lo) - 0.05, np.array(hi) + 0.05)
         compared &= _image((a1 > a0) | ~(b1 > b0), scene)[..., 0]
     hit = length > 0
-    if mode == "emission_absorption":
+    if mode in ("emission_absorption", "xray"):  # one colour: the radiograph is Beer-Lambert too
         rgba = _rgba(COLOUR, -np.expm1(-BOX_SIGMA * length))
     elif mode == "isosurface":
         rgba = _rgba(COLOUR, hit.astype(float))

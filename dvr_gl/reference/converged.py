@@ -13,6 +13,9 @@ cut there first; then
   halves; pieces are bisected until each ray's summed error estimate (colour
   and optical depth, which bound the error of the composited pixel to first
   order) is at most ``tolerance``.
+* ``xray``: as emission-absorption, with nothing attenuated: each piece's optical depth and
+  emission ``sigma c`` are integrated alike and summed along the ray (alpha ``1 - exp(-tau)``,
+  colour alpha times their ratio).
 * ``average``: Gauss-Legendre on each piece (exact: the pieces are polynomials; for the Gaussian,
   exact for the polynomial of its ``degree`` that stands for it).
 * ``isosurface``, ``mip``, ``minip``: the field along each piece is a
@@ -33,6 +36,7 @@ import numpy as np
 
 from ..rays import RayBatch
 from ..sandbox import check_bytes
+from .discrete import xray_rgba
 from .model import OpticalModel
 
 RAYS_PER_BATCH = 2048
@@ -78,6 +82,8 @@ class ConvergedReference:
         self.by_cell = hasattr(self.model.scalar, "pieces")  # a mesh: pieces know their cells
         self.x, self.w, self.S = collocation(nodes)
         self.stats = {"pieces": 0, "evaluations": 0, "converged": True}
+        # emission-absorption attenuates within and between pieces; the X-ray only sums
+        self.attenuate = scene.renderer.compositing != "xray"
         self.progress = None  # progress(done, total) per batch of rays
 
     def render(self) -> np.ndarray:
@@ -89,7 +95,8 @@ class ConvergedReference:
         mode = self.scene.renderer.compositing
         hit = np.nonzero(self.rays.t1 > self.rays.t0)[0]
         rgba = np.zeros((len(self.rays), 4))
-        method = {"emission_absorption": self._emission_absorption, "average": self._average,
+        method = {"emission_absorption": self._emission_absorption, "xray": self._emission_absorption,
+                  "average": self._average,
                   "isosurface": self._first_hit, "mip": lambda rows: self._extremum(rows, 1.0),
                   "minip": lambda rows: self._extremum(rows, -1.0)}[mode]
         for i in range(0, len(hit), RAYS_PER_BATCH):
@@ -184,7 +191,7 @@ class ConvergedReference:
         self.stats["evaluations"] += sigma.size
         tau_nodes = half[:, None] * (sigma @ self.S.T)
         tau = half * (sigma @ self.w)
-        weight = half[:, None] * self.w[None, :] * sigma * np.exp(-tau_nodes)
+        weight = half[:, None] * self.w[None, :] * sigma * (np.exp(-tau_nodes) if self.attenuate else 1.0)
         return tau, np.einsum("pn,pnc->pc", weight, colour)
 
     def _estimate(self, ray, a, b, cell, coarse_tau, coarse_col):
@@ -194,7 +201,7 @@ class ConvergedReference:
         lt, lc = self._gauss(ray, a, m, cell)
         rt, rc = self._gauss(ray, m, b, cell)
         tau = lt + rt
-        col = lc + np.exp(-lt)[:, None] * rc
+        col = lc + (np.exp(-lt)[:, None] if self.attenuate else 1.0) * rc
         err = np.maximum(np.abs(col - coarse_col).max(axis=1), np.abs(tau - coarse_tau))
         return {"ray": ray, "a": a, "b": b, "cell": cell, "lt": lt, "lc": lc, "rt": rt, "rc": rc,
                 "tau": tau, "col": col, "err": err}
@@ -235,10 +242,13 @@ class ConvergedReference:
         self.stats["pieces"] += len(ray)
         order = np.lexsort((a, ray))
         uniq, (tau_g, col_g) = _pad_rows(ray[order], tau[order], col[order])
-        tau_before = np.cumsum(tau_g, axis=1) - tau_g
-        colour = np.sum(np.exp(-tau_before)[..., None] * col_g, axis=1)
         out = np.zeros((len(rows), 4))
         slot = np.searchsorted(rows, uniq)
+        if not self.attenuate:  # the X-ray: sums
+            out[slot] = xray_rgba(col_g.sum(axis=1), tau_g.sum(axis=1))
+            return out
+        tau_before = np.cumsum(tau_g, axis=1) - tau_g
+        colour = np.sum(np.exp(-tau_before)[..., None] * col_g, axis=1)
         out[slot, :3] = colour
         out[slot, 3] = -np.expm1(-tau_g.sum(axis=1))
         return out

@@ -23,6 +23,9 @@ Compositing modes:
 * ``isosurface``: the first point with value >= iso among ``t0`` and the
   samples; bisection between the bracketing positions, then one linear
   interpolation; colour from the transfer function at iso, shaded, opaque.
+* ``xray``: each segment's optical depth ``sigma l`` and emission ``sigma c l`` summed, with no
+  attenuation between segments: alpha ``1 - exp(-tau)``, colour alpha times the sum of ``sigma c l``
+  over ``tau``.
 * ``average`` (length-weighted mean of the samples), ``mip`` and ``minip``
   (maximum and minimum sample): the value is classified once, with the
   opacity of one ``unit_distance``.
@@ -112,6 +115,8 @@ class DiscreteReference:
             rgba = self._back_to_front() if r.order == "back_to_front" else self._front_to_back()
         elif mode == "isosurface":
             rgba = self._isosurface()
+        elif mode == "xray":
+            rgba = self._xray()
         else:
             rgba = self._projection(mode)
         rows, cols = shape or (self.scene.image.height, self.scene.image.width)
@@ -146,6 +151,21 @@ class DiscreteReference:
             active[rows] &= -np.expm1(-tau_acc[rows]) < threshold
             self.samples += int(include.sum())
         return np.concatenate([colour, -np.expm1(-tau_acc)[:, None]], axis=1)
+
+    def _xray(self) -> np.ndarray:
+        """Absorption only: the segments' optical depths and ``sigma c`` lengths summed (no attenuation
+        between them); alpha ``1 - exp(-tau)``, colour alpha times the extinction-weighted mean."""
+        n = len(self.rays)
+        emitted = np.zeros((n, 3))
+        tau_acc = np.zeros(n)
+        for rows, k, m in self._steps(self.n_seg > 0):
+            grid = self.plan.grid(rows, k, m)
+            colour, sigma = self.model.emission(grid.points, grid.dirs)
+            tau = sigma * grid.length[grid.valid]
+            emitted[rows] += np.sum(grid.scatter(colour * tau[:, None]), axis=1)
+            tau_acc[rows] += np.sum(grid.scatter(tau), axis=1)
+            self.samples += int(grid.valid.sum())
+        return xray_rgba(emitted, tau_acc)
 
     def _back_to_front(self) -> np.ndarray:
         n = len(self.rays)
@@ -250,6 +270,15 @@ class DiscreteReference:
         rgba[has, :3] = colour * alpha[:, None]
         rgba[has, 3] = alpha
         return rgba
+
+
+def xray_rgba(emitted: np.ndarray, tau: np.ndarray) -> np.ndarray:
+    """Premultiplied RGBA of a radiograph: ``emitted`` the integral of ``sigma c`` ``(N, 3)``, ``tau``
+    that of ``sigma``: alpha ``1 - exp(-tau)``, colour alpha times ``emitted / tau``."""
+    alpha = -np.expm1(-tau)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        colour = np.where(tau[:, None] > 0, emitted / tau[:, None], 0.0)
+    return np.concatenate([colour * alpha[:, None], alpha[:, None]], axis=1)
 
 
 def same_discretization(scene) -> np.ndarray:

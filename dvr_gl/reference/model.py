@@ -32,7 +32,8 @@ class OpticalModel:
         self.tf: TransferFunction = scene.transfer_function
         self.scalar = reconstruct(scene.field, r)
         self.table = self.tf if exact else self.tf.tabulate(r.lut_size)
-        if r.classification == "pre" and r.compositing == "emission_absorption":
+        along = r.compositing in ("emission_absorption", "xray")  # classified at every point of the ray
+        if r.classification == "pre" and along:
             self.classify = PreClassifier(scene.field, self.tf, r.filter, r.associated_colors,
                                           **filter_parameters(r))
         else:
@@ -41,9 +42,10 @@ class OpticalModel:
         if r.classification == "preintegrated" and r.compositing == "emission_absorption" and not exact:
             self.preintegration = preintegrate(self.tf, segment_length or r.sample_distance,
                                                r.preintegration_size, r.preintegration, r.lut_size)
-        self.shading = r.shading if r.shading.enabled else None
+        xray = r.compositing == "xray"  # absorption only: no shading, no gradient opacity
+        self.shading = r.shading if r.shading.enabled and not xray else None
         self.epsilon = gradient_epsilon(scene.field)
-        self.gradient_reference = r.gradient_opacity_reference if r.gradient_opacity else None
+        self.gradient_reference = r.gradient_opacity_reference if r.gradient_opacity and not xray else None
 
     def values(self, points: np.ndarray, cells: np.ndarray | None = None) -> np.ndarray:
         """The scalar at points; ``cells``: for a mesh, the cell holding each point where the caller

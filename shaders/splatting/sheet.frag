@@ -1,7 +1,8 @@
 #version 430 core
 // A sheet buffer composited under what lies in front of it (front to back; blending
 // ONE_MINUS_DST_ALPHA, ONE).  The sheet holds, per pixel, its kernels' integrals along the ray:
-// post-classified, of the scalar (.r); pre-classified, of (sigma c, sigma).
+// post-classified, of the scalar (.r); pre-classified, of (sigma c, sigma).  XRAY (post-classified):
+// the part's optical depth and emission (sigma c l, sigma l), added up (blending ONE, ONE).
 // * SLABS (image-aligned): the integrals over the pixel's part of the slab inside the box; the
 //   scalar's mean over the part is classified, the part is one segment of its length;
 //   pre-classified, the part's optical depth and colour.
@@ -53,6 +54,11 @@ void main() {
         discard;  // no point of this part is near a core sample: its field is transparent (culling)
 #endif
     vec4 optics = transfer_function(sheet.r / per_plane);
+#ifdef XRAY
+    float tau = optics.a * extent;  // the X-ray sums the parts' optical depth and emission
+    frag = vec4(optics.rgb * tau, tau);
+    return;
+#endif
     float alpha = opacity_of_depth(optics.a * extent);
     vec3 colour = optics.rgb;
 #endif

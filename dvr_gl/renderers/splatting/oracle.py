@@ -34,6 +34,7 @@ from ...fields import reconstruct
 from ...fields.ragged import ranges
 from ...fields.reconstruction import GaussianKernel, _erf
 from ...rays import RayBatch
+from ...reference.discrete import xray_rgba
 from ...transfer_function import segment_opacity
 from .sheets import kernel_radius, pre_classified, slab_bounds
 from .splats import Splats
@@ -49,6 +50,8 @@ def reference(scene) -> np.ndarray:
     rays = RayBatch.for_camera(scene.camera, img.width, img.height, scene.volume.box)
     if r.compositing == "average":
         out = _average(scene, rays)
+    elif r.compositing == "xray" and pre_classified(scene):
+        out = _xray_pre(scene, rays)
     elif r.sheet_buffer == "none":
         out = _splats_alone(scene, rays)
     elif r.sheet_buffer == "axis_aligned":
@@ -88,6 +91,8 @@ def _sheets(scene, rays) -> np.ndarray:
         field = reconstruct(vol, r)
         table = tf.tabulate(r.lut_size)
     along = rays.directions @ forward  # ray length per unit of depth: 1 / along
+    xray = r.compositing == "xray"
+    sums = np.zeros((len(rays), 4))
     out = np.zeros((len(rays), 4))
     transmittance = np.ones(len(rays))
     for k in range(len(bounds) - 1):  # front to back
@@ -105,10 +110,25 @@ def _sheets(scene, rays) -> np.ndarray:
             else:
                 extent = b[rows] - a[rows]
                 colour, sigma = table.lookup(integral[:, 0] / extent)
+                if xray:  # sums of the parts' optical depth and emission
+                    sums[rows, :3] += colour * (sigma * extent)[:, None]
+                    sums[rows, 3] += sigma * extent
+                    continue
                 alpha = segment_opacity(sigma, extent)
             out[rows, :3] += transmittance[rows, None] * colour * alpha[:, None]
             out[rows, 3] += transmittance[rows] * alpha
             transmittance[rows] *= 1.0 - alpha
+    return xray_rgba(sums[:, :3], sums[:, 3]) if xray else out
+
+
+def _xray_pre(scene, rays) -> np.ndarray:
+    """The radiograph of the pre-classified field: its integrals of ``(sigma c, sigma)`` over the chord."""
+    vol, tf, r = scene.volume, scene.transfer_function, scene.renderer
+    field = vol.reconstruct_values(tf.classify_voxels(vol.data, True), "gaussian", kernel_width=r.kernel_width)
+    out = np.zeros((len(rays), 4))
+    hit = np.nonzero(rays.t1 > rays.t0)[0]
+    integral = _integrals(field, rays, hit, rays.t0[hit], rays.t1[hit], vol.sample_spacing)
+    out[hit] = xray_rgba(integral[:, :3], integral[:, 3])
     return out
 
 
@@ -257,6 +277,8 @@ def _axis_sheets(scene, rays) -> np.ndarray:
     o, d = rays.origins[:, axis], rays.directions[:, axis]
     per_plane = h / np.maximum(np.abs(d), 1e-6)
     table = None if pre else tf.tabulate(r.lut_size)
+    xray = r.compositing == "xray"
+    sums = np.zeros((len(rays), 4))
     out = np.zeros((len(rays), 4))
     transmittance = np.ones(len(rays))
     for n, k in enumerate(ordered):
@@ -274,9 +296,14 @@ def _axis_sheets(scene, rays) -> np.ndarray:
                 colour = np.where(tau[:, None] > 0, sheet[:, :3] / tau[:, None], 0.0)
         else:
             colour, sigma = table.lookup(sheet[:, 0] / per_plane)
+            if xray:
+                tau = np.where(extent > 0, sigma * extent, 0.0)
+                sums[:, :3] += colour * tau[:, None]
+                sums[:, 3] += tau
+                continue
             alpha = segment_opacity(sigma, extent)
         alpha = np.where(extent > 0, alpha, 0.0)
         out[:, :3] += transmittance[:, None] * colour * alpha[:, None]
         out[:, 3] += transmittance * alpha
         transmittance *= 1.0 - alpha
-    return out
+    return xray_rgba(sums[:, :3], sums[:, 3]) if xray else out

@@ -16,6 +16,7 @@ import numpy as np
 from ...gl.shaders import create_program
 from ...model import GAUSSIAN_RADIUS
 from ...rays import RayBatch
+from ...reference.discrete import xray_rgba
 from ...transfer_function import segment_opacity
 from ..grid.gl_base import GLVolumeRenderer, TableTexture
 from .footprint import GaussianFootprint
@@ -59,7 +60,7 @@ class SplattingRenderer(GLVolumeRenderer):
         eye = np.asarray(cam.eye, float) - centre
         depth = splats.depths(eye, forward)
         mode = r.compositing
-        if mode == "average":
+        if mode == "average" or (mode == "xray" and pre):  # sums: one pass, in any order
             order, schedule = np.arange(len(splats)), None
         elif r.sheet_buffer == "none":
             order, schedule = np.argsort(-depth, kind="stable"), None  # back to front
@@ -151,11 +152,16 @@ class SplattingRenderer(GLVolumeRenderer):
             ctx.disable(moderngl.BLEND)
             image = self.read(fbo, w, h).astype(np.float64)
             self.stats["sheets"] = 0
-            return (image if over else self._average(scene, image)).astype(np.float32)
+            if r.compositing == "xray":
+                image = xray_rgba(image[..., :3].reshape(-1, 3), image[..., 3].ravel()).reshape(image.shape)
+            elif not over:
+                image = self._average(scene, image)
+            return image.astype(np.float32)
         sheets_kind = "SLABS" if r.sheet_buffer == "image_aligned" else "AXIS_SHEETS"
         program = self._splat_program(scene, SLABS=sheets_kind == "SLABS")
+        xray = r.compositing == "xray"
         sheet_program = create_program(ctx, "fullscreen.vert", "splatting/sheet.frag",
-                                       self._defines(scene, **{sheets_kind: True}))
+                                       self._defines(scene, **{sheets_kind: True, "XRAY": xray}))
         lut = self._cached("lut", (scene.transfer_function, r.lut_size),
                            lambda: TableTexture(ctx, scene.transfer_function.tabulate(r.lut_size)))
         sheet_uniforms = {**uniforms, **{k: v for k, v in self.optics_uniforms(scene, lut.lut).items()
@@ -182,7 +188,8 @@ class SplattingRenderer(GLVolumeRenderer):
                     self._draw_splats(vao, program, buffers, first, n)
                     drawn += n
                 accumulation.use()
-                ctx.blend_func = (moderngl.ONE_MINUS_DST_ALPHA, moderngl.ONE)  # under: front to back
+                # under, front to back; the X-ray adds its sheets' optical depth and emission
+                ctx.blend_func = (moderngl.ONE, moderngl.ONE) if xray else (moderngl.ONE_MINUS_DST_ALPHA, moderngl.ONE)
                 self.bind(sheet_program, {**sheet_uniforms, **sheet}, {"u_sheet": sheet_texture, "u_lut": lut.texture})
                 quad.render(moderngl.TRIANGLES, vertices=3)
         finally:
@@ -190,7 +197,11 @@ class SplattingRenderer(GLVolumeRenderer):
             vao.release()
             quad.release()
         self.stats.update(sheets=len(schedule), splats_drawn=drawn)
-        return self.read(accumulation, w, h)
+        image = self.read(accumulation, w, h)
+        if xray:
+            image = xray_rgba(image[..., :3].reshape(-1, 3).astype(np.float64),
+                              image[..., 3].ravel().astype(np.float64)).reshape(image.shape).astype(np.float32)
+        return image
 
     def _average(self, scene, image) -> np.ndarray:
         """The sum of the splats' integrals (``.r``) over each ray's chord in the box, classified with

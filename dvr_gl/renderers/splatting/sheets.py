@@ -25,15 +25,16 @@ def kernel_radius(scene) -> float:
 
 def pre_classified(scene) -> bool:
     r = scene.renderer
-    return r.compositing == "emission_absorption" and r.classification == "pre"
+    return r.compositing in ("emission_absorption", "xray") and r.classification == "pre"
 
 
 def culled_post(scene) -> bool:
-    """Post-classified emission-absorption in image-aligned sheets: culled by regions
+    """Post-classified emission-absorption or X-ray in image-aligned sheets: culled by regions
     (:func:`.splats.post_visibility`, whose bound holds for a slab's part of a ray; an axis-aligned
     sheet's kernels reach the whole ray)."""
     r = scene.renderer
-    return r.compositing == "emission_absorption" and r.classification == "post" and r.sheet_buffer == "image_aligned"
+    return (r.compositing in ("emission_absorption", "xray") and r.classification == "post"
+            and r.sheet_buffer == "image_aligned")
 
 
 def part_voxels(scene) -> float:
