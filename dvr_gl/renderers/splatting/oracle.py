@@ -102,11 +102,8 @@ def _sheets(scene, rays) -> np.ndarray:
         for i in range(0, len(ray), CHUNK):
             rows = ray[i:i + CHUNK]
             integral = _integrals(field, rays, rows, a[rows], b[rows], vol.sample_spacing)
-            if pre:
-                tau = integral[:, 3]
-                alpha = -np.expm1(-tau)
-                with np.errstate(invalid="ignore", divide="ignore"):
-                    colour = np.where(tau[:, None] > 0, integral[:, :3] / tau[:, None], 0.0)
+            if pre:  # the part's optical depth and emission: its colour and opacity as the X-ray's
+                premult = xray_rgba(integral[:, :3], integral[:, 3])
             else:
                 extent = b[rows] - a[rows]
                 colour, sigma = table.lookup(integral[:, 0] / extent)
@@ -115,9 +112,9 @@ def _sheets(scene, rays) -> np.ndarray:
                     sums[rows, 3] += sigma * extent
                     continue
                 alpha = segment_opacity(sigma, extent)
-            out[rows, :3] += transmittance[rows, None] * colour * alpha[:, None]
-            out[rows, 3] += transmittance[rows] * alpha
-            transmittance[rows] *= 1.0 - alpha
+                premult = np.concatenate([colour * alpha[:, None], alpha[:, None]], axis=1)
+            out[rows] += transmittance[rows, None] * premult
+            transmittance[rows] *= 1.0 - premult[:, 3]
     return xray_rgba(sums[:, :3], sums[:, 3]) if xray else out
 
 
@@ -289,11 +286,8 @@ def _axis_sheets(scene, rays) -> np.ndarray:
         hi = np.minimum(rays.t1, np.maximum(ta, tb))
         extent = np.where(hi > lo, hi - lo, 0.0)
         sheet = sheets[n]
-        if pre:
-            tau = sheet[:, 3]
-            alpha = -np.expm1(-tau)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                colour = np.where(tau[:, None] > 0, sheet[:, :3] / tau[:, None], 0.0)
+        if pre:  # the plane's optical depth and emission
+            premult = xray_rgba(sheet[:, :3], sheet[:, 3])
         else:
             colour, sigma = table.lookup(sheet[:, 0] / per_plane)
             if xray:
@@ -302,8 +296,8 @@ def _axis_sheets(scene, rays) -> np.ndarray:
                 sums[:, 3] += tau
                 continue
             alpha = segment_opacity(sigma, extent)
-        alpha = np.where(extent > 0, alpha, 0.0)
-        out[:, :3] += transmittance[:, None] * colour * alpha[:, None]
-        out[:, 3] += transmittance * alpha
-        transmittance *= 1.0 - alpha
+            premult = np.concatenate([colour * alpha[:, None], alpha[:, None]], axis=1)
+        premult = np.where(extent[:, None] > 0, premult, 0.0)
+        out += transmittance[:, None] * premult
+        transmittance *= 1.0 - premult[:, 3]
     return xray_rgba(sums[:, :3], sums[:, 3]) if xray else out
