@@ -24,6 +24,32 @@ void main() {
     float lo, hi;
     if (!ray_extent(o, d, lo, hi))
         discard;
+#if defined(FOOTPRINT_EWA) && !defined(CAMERA_ORTHOGRAPHIC)
+    // EWA (Zwicker et al. 2001): the perspective map linearized at the kernel's centre.  The pixel's
+    // screen offset from the centre's image goes through the inverse of that map's Jacobian into the
+    // plane across the central ray, and the kernel is integrated along the parallel to the central
+    // ray through that point (ray space); its parameters match the pixel ray's there.  A kernel at or
+    // behind the eye has no such map: its pixels keep their own rays.
+    vec3 p = v_splat.xyz - u_eye;
+    float cz = dot(p, u_forward);
+    vec3 central = normalize(p);
+    if (cz > u_near && dot(d, central) > 0.1) {
+        float cx = dot(p, u_right), cy = dot(p, u_up);
+        vec3 e1 = normalize(cross(central, abs(dot(central, u_up)) < 0.9 ? u_up : u_right));
+        vec3 e2 = cross(central, e1);
+        // d(screen) / d(offset along e): ((e.right) z - x (e.forward)) / z^2 per half extent
+        vec2 j1 = vec2((dot(e1, u_right) * cz - cx * dot(e1, u_forward)) / u_half_extent.x,
+                       (dot(e1, u_up) * cz - cy * dot(e1, u_forward)) / u_half_extent.y) / (cz * cz);
+        vec2 j2 = vec2((dot(e2, u_right) * cz - cx * dot(e2, u_forward)) / u_half_extent.x,
+                       (dot(e2, u_up) * cz - cy * dot(e2, u_forward)) / u_half_extent.y) / (cz * cz);
+        vec2 offset = (gl_FragCoord.xy / u_image_size * 2.0 - 1.0) - vec2(cx / u_half_extent.x, cy / u_half_extent.y) / cz;
+        vec2 ab = inverse(mat2(j1, j2)) * offset;
+        vec3 q = v_splat.xyz + ab.x * e1 + ab.y * e2;
+        float at = dot(q - o, d);
+        o = q - at * central;
+        d = central;
+    }
+#endif
     float closest2;
     float integral = kernel_integral(o, d, v_splat.xyz, u_spacing, u_radius, lo, hi, closest2);
     if (integral <= 0.0)

@@ -33,6 +33,11 @@ SHEET_BUFFER = s.Setting("sheet_buffer", str, "image_aligned", "how splats are c
                          "parallel to the image, Mueller and Crawfis), axis_aligned (a sheet per voxel plane "
                          "facing the view most squarely, Westover) or none (each splat alone, back to front; "
                          "pre-classified only)", choices=SHEET_BUFFERS, group="splatting")
+FOOTPRINTS = ("exact", "ewa")
+FOOTPRINT = s.Setting("footprint", str, "exact", "how a kernel's footprint is found in perspective: exact (each "
+                      "pixel's own ray through the kernel) or ewa (Zwicker et al.'s affine approximation at the "
+                      "kernel's centre: every ray near it taken as parallel to the central one; to measure its "
+                      "error)", choices=FOOTPRINTS, group="splatting")
 SLAB_WIDTH = s.Setting("slab_width", float, 1.0, "depth of an image-aligned sheet buffer's slab", check=s.positive,
                        units="voxels", group="splatting")
 
@@ -53,7 +58,8 @@ PLUGIN = RendererPlugin(
     description="splatting: each sample's kernel integrated into footprints, sheet buffers in GL",
     renderer="dvr_gl.renderers.splatting.renderer:SplattingRenderer",
     settings=(s.COMPOSITING.only("emission_absorption", "average", "xray"), s.CLASSIFICATION.only("post", "pre"),
-              s.ASSOCIATED_COLORS, s.FILTER.only("gaussian"), s.KERNEL_WIDTH, SHEET_BUFFER, SLAB_WIDTH, s.LUT_SIZE),
+              s.ASSOCIATED_COLORS, s.FILTER.only("gaussian"), s.KERNEL_WIDTH, SHEET_BUFFER, SLAB_WIDTH, FOOTPRINT,
+              s.LUT_SIZE),
     data_kinds=("grid",),
     needs_gl=True,
     check=check,

@@ -21,7 +21,8 @@ What the renderer computes, from the model's side:
 * the average: the field's integral over the chord, divided by the chord, classified exactly.
 
 Its difference from the renderer is float32 and the footprint tables' interpolation, bounded in
-``tests/test_splatting.py``.
+``tests/test_splatting.py``.  It always takes each pixel's own ray (``renderer.footprint =
+"exact"``): EWA's affine footprints differ from it by design, by the amounts measured there.
 """
 
 from __future__ import annotations

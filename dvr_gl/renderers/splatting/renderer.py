@@ -90,7 +90,8 @@ class SplattingRenderer(GLVolumeRenderer):
     # --- passes ---
 
     def _defines(self, scene, **extra) -> dict:
-        defines = {"CLASSIFY_PRE": pre_classified(scene), "CULLING": culled_post(scene), **extra}
+        defines = {"CLASSIFY_PRE": pre_classified(scene), "CULLING": culled_post(scene),
+                   "FOOTPRINT_EWA": scene.renderer.footprint == "ewa", **extra}
         if scene.camera.projection == "orthographic":
             defines["CAMERA_ORTHOGRAPHIC"] = True
         return {k: v for k, v in defines.items() if v}
