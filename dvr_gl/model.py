@@ -13,6 +13,8 @@ COMPOSITING_MODES = ("emission_absorption", "isosurface", "average", "mip", "min
 #: ``xray``: a radiograph of the classified extinction, absorption only: alpha ``1 - exp(-tau)`` with
 #: ``tau`` the optical depth along the ray, premultiplied colour alpha times the extinction-weighted mean
 #: colour (the line integral of ``sigma c`` over that of ``sigma``); classified post or pre.
+#: The modes that classify every point along the ray (where classification, post or pre, matters).
+CLASSIFIED_ALONG_RAY = ("emission_absorption", "xray")
 CLASSIFICATIONS = ("post", "pre", "preintegrated")
 FILTERS = ("nearest", "linear", "cubic_bspline", "catmull_rom", "gaussian")
 #: The filters a texture unit helps with: splines on the voxel grid, evaluated from a few taps (the GPU

@@ -99,3 +99,10 @@ class RayBatch:
     def points(self, rows: np.ndarray, t: np.ndarray) -> np.ndarray:
         """World points at parameters ``t`` (``(len(rows), m)``) along rays ``rows``, as ``(-1, 3)``."""
         return (self.origins[rows, None, :] + t[..., None] * self.directions[rows, None, :]).reshape(-1, 3)
+
+
+def chord_lengths(scene) -> np.ndarray:
+    """``(H, W)``: each pixel's ray's length inside the field's box (from the near plane; 0 for a miss),
+    the length an average divides by."""
+    rays = RayBatch.for_camera(scene.camera, scene.image.width, scene.image.height, scene.field.bounds)
+    return (rays.t1 - rays.t0).reshape(scene.image.height, scene.image.width)

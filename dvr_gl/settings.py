@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Optional
 
 from .errors import SceneError
-from .model import (CLASSIFICATIONS, COMPOSITING_MODES, DEFAULT_KERNEL_WIDTH, FILTERS, GAUSSIAN_RADIUS, ORDERS,
+from .model import (CLASSIFICATIONS, CLASSIFIED_ALONG_RAY, COMPOSITING_MODES, DEFAULT_KERNEL_WIDTH, FILTERS, GAUSSIAN_RADIUS, ORDERS,
                     ShadingSpec)
 
 DEFAULT_SAMPLE_DISTANCE_VOXELS = 0.5
@@ -171,7 +171,7 @@ def _emission(spec) -> bool:
 
 def _classified_along(spec) -> bool:
     """Classification matters where each point is classified: emission-absorption and the X-ray."""
-    return spec.compositing in ("emission_absorption", "xray")
+    return spec.compositing in CLASSIFIED_ALONG_RAY
 
 
 def _lit(spec) -> bool:

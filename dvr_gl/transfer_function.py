@@ -40,6 +40,23 @@ def segment_opacity(sigma, length):
     return -np.expm1(-np.asarray(sigma) * np.asarray(length))
 
 
+def xray_rgba(emitted: np.ndarray, tau: np.ndarray) -> np.ndarray:
+    """Premultiplied RGBA ``(N, 4)`` of a radiograph: ``emitted`` the integral of ``sigma c`` ``(N, 3)``,
+    ``tau`` that of ``sigma``: alpha ``1 - exp(-tau)``, colour alpha times ``emitted / tau``."""
+    alpha = -np.expm1(-tau)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        colour = np.where(tau[:, None] > 0, emitted / tau[:, None], 0.0)
+    return np.concatenate([colour * alpha[:, None], alpha[:, None]], axis=1)
+
+
+def projected_rgba(tf: "TransferFunction", values: np.ndarray) -> np.ndarray:
+    """Premultiplied RGBA ``(N, 4)`` of projected values (average, MIP, MinIP): each classified once,
+    exactly, with the opacity of one ``unit_distance`` (conventions)."""
+    colour, sigma = tf.evaluate(values)
+    alpha = segment_opacity(sigma, tf.unit_distance)
+    return np.concatenate([colour * alpha[:, None], alpha[:, None]], axis=1)
+
+
 @dataclass(frozen=True, eq=False, repr=False)
 class TransferFunction:
     """Piecewise-linear transfer function (see module doc).

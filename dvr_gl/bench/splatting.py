@@ -56,7 +56,6 @@ def run(scenes, size: int = 128, repeat: int = 3, progress=None):
     try:
         for name, overrides in scenes:
             base = load_scene(None, {**base_overrides(size), **overrides})
-            volume = base.volume
             truth = {}
             for scheme, classification in SCHEMES:
                 scene = base.with_renderer(sheet_buffer=scheme, classification=classification)
@@ -70,7 +69,7 @@ def run(scenes, size: int = 128, repeat: int = 3, progress=None):
                        "sheets": stats.get("sheets", 0), "oracle": float(np.abs(image - same_slabs(scene)).max()),
                        "rms": compare_images(image, truth[classification])["rms"]}
                 if (scheme, classification) == ("image_aligned", "post"):
-                    row["raycast"] = _raycast_at(raycast, base.replace(volume=volume), row["rms"], repeat)
+                    row["raycast"] = _raycast_at(raycast, base, row["rms"], repeat)
                 rows.append(row)
                 if progress:
                     progress(row)

@@ -41,7 +41,6 @@ import numpy as np
 from ..model import DEFAULT_KERNEL_WIDTH, FILTERS, GAUSSIAN_RADIUS
 from .ragged import ranges
 
-TAPS = {"nearest": 1, "linear": 2, "cubic_bspline": 4, "catmull_rom": 4}
 #: The degree of the polynomial the converged reference fits to a Gaussian field's piece (at most a
 #: voxel long) for the exact extremum, first hit and breakpoints, as for the cubics: measured on random
 #: data and rays, the interpolant is off by at most 1.5e-5 of the value range at sigma 0.7 (2.7e-5 at

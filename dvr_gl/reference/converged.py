@@ -36,7 +36,7 @@ import numpy as np
 
 from ..rays import RayBatch
 from ..sandbox import check_bytes
-from .discrete import xray_rgba
+from ..transfer_function import xray_rgba
 from .model import OpticalModel
 
 RAYS_PER_BATCH = 2048

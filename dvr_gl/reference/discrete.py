@@ -41,6 +41,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..rays import RayBatch
+from ..transfer_function import xray_rgba
 from .model import OpticalModel
 from .plans import RaySegments, SegmentGrid
 
@@ -270,15 +271,6 @@ class DiscreteReference:
         rgba[has, :3] = colour * alpha[:, None]
         rgba[has, 3] = alpha
         return rgba
-
-
-def xray_rgba(emitted: np.ndarray, tau: np.ndarray) -> np.ndarray:
-    """Premultiplied RGBA of a radiograph: ``emitted`` the integral of ``sigma c`` ``(N, 3)``, ``tau``
-    that of ``sigma``: alpha ``1 - exp(-tau)``, colour alpha times ``emitted / tau``."""
-    alpha = -np.expm1(-tau)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        colour = np.where(tau[:, None] > 0, emitted / tau[:, None], 0.0)
-    return np.concatenate([colour * alpha[:, None], alpha[:, None]], axis=1)
 
 
 def same_discretization(scene) -> np.ndarray:

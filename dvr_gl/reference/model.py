@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..fields import filter_parameters, gradient_epsilon, reconstruct
+from ..model import CLASSIFIED_ALONG_RAY
 from ..preintegration import preintegrate, shortened
 from ..transfer_function import TransferFunction
 from .classification import PostClassifier, PreClassifier
@@ -32,8 +33,7 @@ class OpticalModel:
         self.tf: TransferFunction = scene.transfer_function
         self.scalar = reconstruct(scene.field, r)
         self.table = self.tf if exact else self.tf.tabulate(r.lut_size)
-        along = r.compositing in ("emission_absorption", "xray")  # classified at every point of the ray
-        if r.classification == "pre" and along:
+        if r.classification == "pre" and r.compositing in CLASSIFIED_ALONG_RAY:
             self.classify = PreClassifier(scene.field, self.tf, r.filter, r.associated_colors,
                                           **filter_parameters(r))
         else:

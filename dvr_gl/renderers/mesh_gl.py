@@ -17,7 +17,7 @@ from ..fields.mesh_rays import FacePlanes
 from ..gl.context import create_context, make_current, release_context
 from ..gl.geometry import box_corners, clip_planes, gl_matrix, projection_matrix, view_matrix
 from ..gl.shaders import release_programs
-from ..rays import RayBatch
+from ..rays import chord_lengths
 from ..reference.converged import collocation
 from ..transfer_function import extinction_from_alpha, segment_opacity
 from .base import Renderer
@@ -256,8 +256,7 @@ class MeshRenderer(Renderer):
         if mode == "isosurface":
             value = np.full(value.shape, scene.renderer.iso_value)
         elif mode == "average":
-            rays = RayBatch.for_camera(scene.camera, scene.image.width, scene.image.height, scene.field.bounds)
-            length = (rays.t1 - rays.t0).reshape(value.shape)
+            length = chord_lengths(scene)
             value = np.where(length > 0, value / np.where(length > 0, length, 1.0), 0.0)
         colour, sigma = tf.evaluate(value[covered])
         alpha = 1.0 if mode == "isosurface" else segment_opacity(sigma, tf.unit_distance)

@@ -25,6 +25,7 @@ from __future__ import annotations
 from ... import settings as s
 from ... import sweeps
 from ...errors import SceneError
+from ...model import CLASSIFIED_ALONG_RAY
 from ..registry import RendererPlugin
 
 SHEET_BUFFERS = ("image_aligned", "axis_aligned", "none")
@@ -46,7 +47,7 @@ def check(scene):
     """What the settings do not say: ``none`` composites each splat's own colour, so the colour must
     be the voxel's (pre-classification, associated)."""
     r = scene.renderer
-    if r.compositing in ("emission_absorption", "xray") and r.sheet_buffer == "none" and r.classification != "pre":
+    if r.compositing in CLASSIFIED_ALONG_RAY and r.sheet_buffer == "none" and r.classification != "pre":
         raise SceneError("splatting with renderer.sheet_buffer = none composites each splat's own colour: set "
                          "renderer.classification = pre, or use sheet_buffer image_aligned")
     if r.classification == "pre" and not r.associated_colors:

@@ -32,11 +32,10 @@ import math
 import numpy as np
 
 from ...fields import reconstruct
-from ...fields.ragged import ranges
+from ...fields.ragged import ranges, ranks
 from ...fields.reconstruction import GaussianKernel, _erf
 from ...rays import RayBatch
-from ...reference.discrete import xray_rgba
-from ...transfer_function import segment_opacity
+from ...transfer_function import projected_rgba, segment_opacity, xray_rgba
 from .sheets import kernel_radius, pre_classified, slab_bounds
 from .splats import Splats
 
@@ -67,7 +66,7 @@ def _integrals(field, rays, ray, a, b, spacing) -> np.ndarray:
     x, w = np.polynomial.legendre.leggauss(NODES)
     pieces = np.maximum(np.ceil((b - a) / (PIECE_VOXELS * spacing)), 1).astype(np.int64)
     owner = np.repeat(np.arange(len(a)), pieces)
-    k = np.arange(len(owner)) - np.repeat(np.cumsum(pieces) - pieces, pieces)
+    k = ranks(pieces)
     step = ((b - a) / pieces)[owner]
     lo = a[owner] + k * step
     t = lo[:, None] + 0.5 * step[:, None] * (x[None, :] + 1.0)
@@ -87,7 +86,7 @@ def _sheets(scene, rays) -> np.ndarray:
     bounds = slab_bounds(scene, eye, forward)
     pre = pre_classified(scene)
     if pre:
-        field = vol.reconstruct_values(tf.classify_voxels(vol.data, True), "gaussian", kernel_width=r.kernel_width)
+        field = _classified_field(scene)
     else:
         field = reconstruct(vol, r)
         table = tf.tabulate(r.lut_size)
@@ -119,10 +118,16 @@ def _sheets(scene, rays) -> np.ndarray:
     return xray_rgba(sums[:, :3], sums[:, 3]) if xray else out
 
 
+def _classified_field(scene):
+    """The voxels classified (``(sigma c, sigma)``, associated) and reconstructed by the Gaussian."""
+    vol, tf, r = scene.volume, scene.transfer_function, scene.renderer
+    return vol.reconstruct_values(tf.classify_voxels(vol.data, True), "gaussian", kernel_width=r.kernel_width)
+
+
 def _xray_pre(scene, rays) -> np.ndarray:
     """The radiograph of the pre-classified field: its integrals of ``(sigma c, sigma)`` over the chord."""
-    vol, tf, r = scene.volume, scene.transfer_function, scene.renderer
-    field = vol.reconstruct_values(tf.classify_voxels(vol.data, True), "gaussian", kernel_width=r.kernel_width)
+    vol = scene.volume
+    field = _classified_field(scene)
     out = np.zeros((len(rays), 4))
     hit = np.nonzero(rays.t1 > rays.t0)[0]
     integral = _integrals(field, rays, hit, rays.t0[hit], rays.t1[hit], vol.sample_spacing)
@@ -131,15 +136,11 @@ def _xray_pre(scene, rays) -> np.ndarray:
 
 
 def _average(scene, rays) -> np.ndarray:
-    r, tf, vol = scene.renderer, scene.transfer_function, scene.volume
-    field = reconstruct(vol, r)
+    vol = scene.volume
     out = np.zeros((len(rays), 4))
     hit = np.nonzero(rays.t1 > rays.t0)[0]
-    integral = _integrals(field, rays, hit, rays.t0[hit], rays.t1[hit], vol.sample_spacing)[:, 0]
-    colour, sigma = tf.evaluate(integral / (rays.t1[hit] - rays.t0[hit]))
-    alpha = segment_opacity(sigma, tf.unit_distance)
-    out[hit, :3] = colour * alpha[:, None]
-    out[hit, 3] = alpha
+    integral = _integrals(reconstruct(vol, scene.renderer), rays, hit, rays.t0[hit], rays.t1[hit], vol.sample_spacing)
+    out[hit] = projected_rgba(scene.transfer_function, integral[:, 0] / (rays.t1[hit] - rays.t0[hit]))
     return out
 
 

@@ -15,9 +15,8 @@ import numpy as np
 
 from ...gl.shaders import create_program
 from ...model import GAUSSIAN_RADIUS
-from ...rays import RayBatch
-from ...reference.discrete import xray_rgba
-from ...transfer_function import segment_opacity
+from ...rays import chord_lengths
+from ...transfer_function import projected_rgba, xray_rgba
 from ..grid.gl_base import GLVolumeRenderer, TableTexture
 from .footprint import GaussianFootprint
 from .sheets import axis_schedule, culled_post, kernel_radius, part_voxels, pre_classified, slab_schedule
@@ -58,16 +57,15 @@ class SplattingRenderer(GLVolumeRenderer):
                                              self._visibility(scene) if culling else None))
         forward, right, up = cam.basis()
         eye = np.asarray(cam.eye, float) - centre
-        depth = splats.depths(eye, forward)
         mode = r.compositing
         if mode == "average" or (mode == "xray" and pre):  # sums: one pass, in any order
             order, schedule = np.arange(len(splats)), None
         elif r.sheet_buffer == "none":
-            order, schedule = np.argsort(-depth, kind="stable"), None  # back to front
+            order, schedule = np.argsort(-splats.depths(eye, forward), kind="stable"), None  # back to front
         elif r.sheet_buffer == "axis_aligned":
             order, schedule = axis_schedule(scene, splats, centre)
         else:
-            order, schedule = slab_schedule(scene, depth)
+            order, schedule = slab_schedule(scene, splats.depths(eye, forward))
         self.stats.update(splats=len(splats), splats_total=splats.total, culled=splats.total - len(splats))
         if not len(splats):  # pre-classified, every voxel transparent
             return np.zeros((scene.image.height, scene.image.width, 4), np.float32)
@@ -83,9 +81,13 @@ class SplattingRenderer(GLVolumeRenderer):
 
     def _visibility(self, scene):
         r, tf = scene.renderer, scene.transfer_function
-        lo, hi = tf.tabulate(2).domain
+        lo, hi = self._lut(scene).lut.domain
         return post_visibility(scene.volume, tf, kernel_radius(scene), r.kernel_width, (hi - lo) / (r.lut_size - 1),
                                ghost_layers(kernel_radius(scene)), part_voxels(scene))
+
+    def _lut(self, scene) -> TableTexture:
+        r, tf = scene.renderer, scene.transfer_function
+        return self._cached("lut", (tf, r.lut_size), lambda: TableTexture(self.ctx, tf.tabulate(r.lut_size)))
 
     # --- passes ---
 
@@ -117,12 +119,10 @@ class SplattingRenderer(GLVolumeRenderer):
     def _bind_splats(vao, program, buffers, first: int):
         """The instance attributes from splat ``first`` on: centre and value, and (sigma c, sigma) or the
         core flag."""
-        second = "in_optics" if "in_optics" in program else "in_core"
-        for name, buf, fmt in (("in_splat", buffers[0], 4), (second, buffers[1] if len(buffers) > 1 else None, None)):
-            if buf is None or name not in program:
-                continue
-            width = fmt or (4 if name == "in_optics" else 1)
-            vao.bind(program[name].location, "f", buf, f"{width}f", offset=4 * width * first, divisor=1)
+        attributes = [("in_splat", 4), ("in_optics", 4) if "in_optics" in program else ("in_core", 1)]
+        for (name, width), buf in zip(attributes, buffers):
+            if name in program:
+                vao.bind(program[name].location, "f", buf, f"{width}f", offset=4 * width * first, divisor=1)
 
     def _draw_splats(self, vao, program, buffers, first: int, count: int):
         self._bind_splats(vao, program, buffers, first)
@@ -154,7 +154,7 @@ class SplattingRenderer(GLVolumeRenderer):
             image = self.read(fbo, w, h).astype(np.float64)
             self.stats["sheets"] = 0
             if r.compositing == "xray":
-                image = xray_rgba(image[..., :3].reshape(-1, 3), image[..., 3].ravel()).reshape(image.shape)
+                image = _radiograph(image)
             elif not over:
                 image = self._average(scene, image)
             return image.astype(np.float32)
@@ -163,8 +163,7 @@ class SplattingRenderer(GLVolumeRenderer):
         xray = r.compositing == "xray"
         sheet_program = create_program(ctx, "fullscreen.vert", "splatting/sheet.frag",
                                        self._defines(scene, **{sheets_kind: True, "XRAY": xray}))
-        lut = self._cached("lut", (scene.transfer_function, r.lut_size),
-                           lambda: TableTexture(ctx, scene.transfer_function.tabulate(r.lut_size)))
+        lut = self._lut(scene)
         sheet_uniforms = {**uniforms, **{k: v for k, v in self.optics_uniforms(scene, lut.lut).items()
                                          if k.startswith("u_lut")}}
         (sheet_texture,), sheet_fbo = self.target("sheet", w, h)
@@ -199,21 +198,20 @@ class SplattingRenderer(GLVolumeRenderer):
             quad.release()
         self.stats.update(sheets=len(schedule), splats_drawn=drawn)
         image = self.read(accumulation, w, h)
-        if xray:
-            image = xray_rgba(image[..., :3].reshape(-1, 3).astype(np.float64),
-                              image[..., 3].ravel().astype(np.float64)).reshape(image.shape).astype(np.float32)
-        return image
+        return _radiograph(image).astype(np.float32) if xray else image
 
-    def _average(self, scene, image) -> np.ndarray:
-        """The sum of the splats' integrals (``.r``) over each ray's chord in the box, classified with
-        the opacity of one unit distance (as the references' average)."""
-        tf = scene.transfer_function
-        rays = RayBatch.for_camera(scene.camera, scene.image.width, scene.image.height, scene.field.bounds)
-        length = (rays.t1 - rays.t0).reshape(image.shape[:2])
+    @staticmethod
+    def _average(scene, image) -> np.ndarray:
+        """The sum of the splats' integrals (``.r``) over each ray's chord in the box, classified as the
+        references classify an average."""
+        length = chord_lengths(scene)
         hit = length > 0
         out = np.zeros(image.shape)
-        colour, sigma = tf.evaluate(image[..., 0][hit] / length[hit])
-        alpha = segment_opacity(sigma, tf.unit_distance)
-        out[hit, :3] = colour * alpha[:, None]
-        out[hit, 3] = alpha
+        out[hit] = projected_rgba(scene.transfer_function, image[..., 0][hit] / length[hit])
         return out
+
+
+def _radiograph(image: np.ndarray) -> np.ndarray:
+    """The X-ray's image from its sums ``(sigma c, sigma)`` per pixel (float64)."""
+    sums = image.reshape(-1, 4).astype(np.float64)
+    return xray_rgba(sums[:, :3], sums[:, 3]).reshape(image.shape)

@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from ...gl.geometry import box_corners
-from ...model import GAUSSIAN_RADIUS
+from ...model import CLASSIFIED_ALONG_RAY, GAUSSIAN_RADIUS
 from ...reference.plans import stack_axis
 from .splats import slabs, support_depth
 
@@ -25,7 +25,7 @@ def kernel_radius(scene) -> float:
 
 def pre_classified(scene) -> bool:
     r = scene.renderer
-    return r.compositing in ("emission_absorption", "xray") and r.classification == "pre"
+    return r.compositing in CLASSIFIED_ALONG_RAY and r.classification == "pre"
 
 
 def culled_post(scene) -> bool:
@@ -33,8 +33,7 @@ def culled_post(scene) -> bool:
     (:func:`.splats.post_visibility`, whose bound holds for a slab's part of a ray; an axis-aligned
     sheet's kernels reach the whole ray)."""
     r = scene.renderer
-    return (r.compositing in ("emission_absorption", "xray") and r.classification == "post"
-            and r.sheet_buffer == "image_aligned")
+    return r.compositing in CLASSIFIED_ALONG_RAY and r.classification == "post" and r.sheet_buffer == "image_aligned"
 
 
 def part_voxels(scene) -> float:

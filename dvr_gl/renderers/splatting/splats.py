@@ -38,6 +38,11 @@ def ghost_layers(radius: float) -> int:
     return int(math.ceil(radius))
 
 
+def lattice(values: np.ndarray, ghost: int) -> np.ndarray:
+    """The grid's samples (``(nz, ny, nx[, C])``) with ``ghost`` layers of copies of its border around them."""
+    return np.pad(values, [(ghost, ghost)] * 3 + [(0, 0)] * (values.ndim - 3), mode="edge")
+
+
 class Splats:
     """The splats of ``volume`` (float32, world positions relative to ``centre``).
 
@@ -50,33 +55,27 @@ class Splats:
     def __init__(self, volume, radius: float, centre: np.ndarray, optics_of_voxels: np.ndarray | None = None,
                  visibility: tuple[np.ndarray, np.ndarray] | None = None):
         g = ghost_layers(radius)
-        nx, ny, nz = volume.dims
-        check_bytes((nx + 2 * g) * (ny + 2 * g) * (nz + 2 * g) * (BYTES_PER_SPLAT[optics_of_voxels is not None] + 24),
-                    "the splats", "use a smaller volume")
-        # lattice indices from -g to n - 1 + g per axis; the clamped index is the sample copied
-        axes = [np.arange(-g, n + g) for n in (nx, ny, nz)]
-        clamped = [np.clip(a, 0, n - 1) for a, n in zip(axes, (nx, ny, nz))]
-        iz, iy, ix = np.meshgrid(clamped[2], clamped[1], clamped[0], indexing="ij")
-        keep, self.core = None, None
+        shape = tuple(n + 2 * g for n in volume.data.shape)
+        self.total = shape[0] * shape[1] * shape[2]
+        check_bytes(self.total * (BYTES_PER_SPLAT[optics_of_voxels is not None] + 24), "the splats",
+                    "use a smaller volume")
+        keep, self.core, self.optics = None, None, None
         if visibility is not None:
             keep = visibility[0].ravel()
             self.core = np.ascontiguousarray(visibility[1].ravel()[keep], dtype=np.float32)
         if optics_of_voxels is not None:
-            optics = optics_of_voxels[iz, iy, ix].reshape(-1, 4)
+            optics = lattice(optics_of_voxels, g).reshape(-1, 4)
             keep = optics[:, 3] > 0
             self.optics = np.ascontiguousarray(optics[keep], dtype=np.float32)
-        else:
-            self.optics = None
-        gz, gy, gx = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
-        index = np.stack([gx.ravel(), gy.ravel(), gz.ravel()], axis=1)
-        values = volume.data[iz, iy, ix].ravel()
+        gz, gy, gx = np.indices(shape).reshape(3, -1) - g
+        index = np.stack([gx, gy, gz], axis=1)
+        values = lattice(volume.data, g).ravel()
         if keep is not None:
             index, values = index[keep], values[keep]
         self.index = index  # (n, 3) lattice indices (x, y, z), ghosts beyond 0 .. n - 1
         world = np.asarray(volume.origin) + index * np.asarray(volume.spacing)
         self.positions = world - centre  # float64 until uploaded
         self.values = values.astype(np.float64)
-        self.total = (nx + 2 * g) * (ny + 2 * g) * (nz + 2 * g)
 
     def __len__(self) -> int:
         return len(self.values)
@@ -135,9 +134,9 @@ def post_visibility(volume, tf, radius: float, sigma: float, table_spacing: floa
     layers.  ``table_spacing``: the transfer-function table's spacing in data units (between its nodes
     the table may be opaque where the function is not); ``part_voxels``: the longest part of a ray in a
     slab, voxels."""
-    lattice = np.pad(volume.data, ghost, mode="edge").astype(np.float64)
+    samples = lattice(volume.data, ghost).astype(np.float64)
     near = int(math.ceil(radius)) + 1  # every tap of any point within a voxel of a sample
-    lo, hi = _window(lattice, near, np.minimum), _window(lattice, near, np.maximum)
+    lo, hi = _window(samples, near, np.minimum), _window(samples, near, np.maximum)
     widen = ripple(sigma) * np.maximum(np.abs(lo), np.abs(hi))
     core = tf.opaque_somewhere(lo - widen, hi + widen, margin=table_spacing)
     keep = _window(core, int(math.ceil(radius + part_voxels + 1.0)), np.maximum)
