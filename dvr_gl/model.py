@@ -16,9 +16,10 @@ COMPOSITING_MODES = ("emission_absorption", "isosurface", "average", "mip", "min
 #: The modes that classify every point along the ray (where classification, post or pre, matters).
 CLASSIFIED_ALONG_RAY = ("emission_absorption", "xray")
 CLASSIFICATIONS = ("post", "pre", "preintegrated")
-FILTERS = ("nearest", "linear", "cubic_bspline", "catmull_rom", "gaussian")
+FILTERS = ("nearest", "linear", "cubic_bspline", "catmull_rom", "gaussian", "m4")
 #: The filters a texture unit helps with: splines on the voxel grid, evaluated from a few taps (the GPU
-#: grid renderers); ``gaussian`` is a splatting kernel (``dvr_gl/fields/reconstruction.py``).
+#: grid renderers); ``gaussian`` is a splatting kernel (``dvr_gl/fields/reconstruction.py``); ``m4``, the SPH
+#: cubic spline, is the kernel of particle sets (``dvr_gl/fields/particles.py``), their only filter.
 SPLINE_FILTERS = ("nearest", "linear", "cubic_bspline", "catmull_rom")
 #: Where the Gaussian is cut, in standard deviations: its value there is exp(-5^2 / 2) = 3.7e-6 of its
 #: peak and its mass beyond 1.5e-5, so the X-ray of one kernel (scaled to unit integral: its footprint

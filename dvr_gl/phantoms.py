@@ -110,7 +110,11 @@ def blobs(n: int = 64) -> np.ndarray:
     return (out / out.max()).astype(np.float32)
 
 
-DEMOS = {"shepp-logan": shepp_logan, "marschner-lobb": marschner_lobb, "blobs": blobs}
+DEMOS = {"shepp-logan": shepp_logan, "marschner-lobb": marschner_lobb, "blobs": blobs, "plummer": None}
+#: The particle demo: a Plummer sphere of ``(size / 2)^3`` SPH particles of unit mass (scale radius ``size / 8``,
+#: cut at four of them, so it spans about the box of a ``size^3`` grid demo; density 16 at the centre, 0.013 at
+#: the cut, whatever the size); :func:`dvr_gl.fields.particles.plummer_sphere`.
+PARTICLE_DEMOS = ("plummer",)
 
 
 def demo_scene(name: str) -> dict:
@@ -121,6 +125,9 @@ def demo_scene(name: str) -> dict:
     elif name == "marschner-lobb":
         size, points = 64, [[0.0, 0.1, 0.2, 0.8, 0.0], [0.45, 0.1, 0.4, 0.9, 0.0], [0.5, 0.9, 0.7, 0.3, 0.6],
                              [0.55, 0.9, 0.3, 0.1, 0.0], [1.0, 0.9, 0.3, 0.1, 0.0]]
+    elif name == "plummer":  # densities from 0.013 (the cut) to 16 (the centre): most of the range is faint
+        size, points = 48, [[0.0, 0.0, 0.0, 0.0, 0.0], [0.05, 0.15, 0.25, 0.8, 0.01], [0.5, 0.9, 0.45, 0.15, 0.05],
+                            [4.0, 1.0, 0.85, 0.4, 0.2], [16.0, 1.0, 1.0, 1.0, 0.5]]
     else:
         size, points = 96, None
     scene = {
@@ -140,5 +147,10 @@ def demo_volume(name: str, size: int = 64) -> Volume:
         raise SceneError(f"unknown demo volume {name!r}; choose one of {', '.join(DEMOS)}")
     check_bytes(count(size) ** 3 * BYTES_PER_VOXEL, f"the demo volume (volume.size = {size}: {size}^3 voxels)",
                 "lower volume.size")
+    if name == "plummer":
+        from .fields.particles import plummer_sphere
+
+        n = max(size // 2, 1) ** 3
+        return plummer_sphere(n, scale=size / 8.0, total_mass=float(n))
     half = (size - 1) / 2.0
     return Volume(DEMOS[name](size), spacing=(1.0, 1.0, 1.0), origin=(-half, -half, -half), name=name)

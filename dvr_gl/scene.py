@@ -201,6 +201,9 @@ def resolve_renderer(spec, field):
 
     if spec.name is None:
         spec = dataclasses.replace(spec, name=registry.default_for(getattr(field, "kind", "grid")))
+    if getattr(field, "kind", None) == "particles" and spec.filter == "linear":
+        # the default filter stands for the data's own reconstruction: a particle set's is its SPH kernel
+        spec = dataclasses.replace(spec, filter="m4")
     registry.plugin(spec.name)
     return resolve_settings(spec, field, registry.all_settings())
 

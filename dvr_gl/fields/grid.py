@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import VolumeError
+from ..errors import SceneError, VolumeError
 
 SCALAR_TYPES = (np.dtype(np.uint8), np.dtype(np.uint16), np.dtype(np.int16), np.dtype(np.float32))
 
@@ -127,12 +127,14 @@ class Volume:
         the Gaussian's standard deviation in voxels."""
         from .reconstruction import SampledField
 
+        _check_grid_filter(filter)
         return SampledField(self.data, self.spacing, self.origin, filter, kernel_width)
 
     def reconstruct_values(self, values: np.ndarray, filter: str = "linear", kernel_width: float | None = None):
         """Other values at this grid's samples (``(nz, ny, nx[, C])``), reconstructed alike."""
         from .reconstruction import SampledField
 
+        _check_grid_filter(filter)
         return SampledField(values, self.spacing, self.origin, filter, kernel_width)
 
     def world_to_index(self, points: np.ndarray) -> np.ndarray:
@@ -171,3 +173,9 @@ def replace_non_finite(data: np.ndarray, value: float) -> np.ndarray:
     out = np.array(data, copy=True)
     out[~np.isfinite(out)] = value
     return out
+
+
+def _check_grid_filter(filter: str):
+    if filter == "m4":
+        raise SceneError("renderer.filter = m4 is the SPH kernel of particle sets; a regular grid takes nearest, "
+                         "linear, cubic_bspline, catmull_rom or gaussian")

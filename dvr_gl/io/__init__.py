@@ -13,10 +13,14 @@ tiff       ``.tif`` pages, a folder, a glob       OpenImageIO
 vtk        ``.vtk`` UNSTRUCTURED_GRID (a mesh)    meshio (extra ``mesh``)
 vtu        ``.vtu`` (a mesh)                      meshio (extra ``mesh``)
 plot3d     ``.xyz`` grid + ``q`` solution (mesh)   built-in reader
+csv        ``.csv`` SPH particle table            built-in reader (csv module)
+npz        ``.npz`` SPH particle arrays           numpy
+hdf5       ``.h5``, ``.hdf5`` GADGET/SWIFT        h5py (extra ``particles``)
 =========  ====================================  ==========================
 
 :func:`load_field` reads any of them (a grid as a :class:`Volume`, a mesh as a
-:class:`~dvr_gl.fields.mesh.TetMesh`: :mod:`.mesh`); :func:`load_volume` only grids.
+:class:`~dvr_gl.fields.mesh.TetMesh`: :mod:`.mesh`; particles as a
+:class:`~dvr_gl.fields.particles.ParticleSet`: :mod:`.particles`); :func:`load_volume` only grids.
 
 Readers are strict: a malformed header or data file is one :class:`VolumeError` naming
 the file, the field as the format writes it and what is valid.  They are bounded:
@@ -40,13 +44,14 @@ from ..sandbox import check_input_path
 from .common import RawArray, check_spacing
 from .compression import exists_or_split
 
-FORMATS = ("raw", "nrrd", "nifti", "metaimage", "vtk", "npy", "tiff", "vtu", "plot3d")
+FORMATS = ("raw", "nrrd", "nifti", "metaimage", "vtk", "npy", "tiff", "vtu", "plot3d", "csv", "npz", "hdf5")
+PARTICLE_FORMATS = ("csv", "npz", "hdf5")
 GRID_FORMATS = FORMATS[:7]
 
 _SUFFIXES = {
     ".nrrd": "nrrd", ".nhdr": "nrrd", ".nii": "nifti", ".nii.gz": "nifti", ".mhd": "metaimage",
     ".mha": "metaimage", ".vtk": "vtk", ".npy": "npy", ".tif": "tiff", ".tiff": "tiff",
-    ".vtu": "vtu", ".xyz": "plot3d",
+    ".vtu": "vtu", ".xyz": "plot3d", ".csv": "csv", ".npz": "npz", ".h5": "hdf5", ".hdf5": "hdf5",
     ".raw": "raw", ".raw.gz": "raw", ".raw.bz2": "raw", ".bin": "raw", ".dat": "raw", ".den": "raw",
 }
 
@@ -72,8 +77,9 @@ _READERS = {
 
 
 def _read(path: Path, fmt: str, raw_options: dict) -> RawArray:
-    if fmt in ("vtu", "plot3d"):
-        raise VolumeError(f"{path}: a {fmt} file is a mesh, not a regular grid; read it with load_field")
+    if fmt in ("vtu", "plot3d") or fmt in PARTICLE_FORMATS:
+        kind = "a mesh" if fmt in ("vtu", "plot3d") else "SPH particles"
+        raise VolumeError(f"{path}: a {fmt} file holds {kind}, not a regular grid; read it with load_field")
     if fmt not in _READERS:
         raise VolumeError(f"{path}: unknown format {fmt!r}; use one of {', '.join(FORMATS)} or auto")
     module, function = _READERS[fmt]
@@ -95,6 +101,8 @@ def load_field(path, format: str = "auto", *, array: str | None = None, solution
         fmt = detect_format(path) if format == "auto" else format
     except VolumeError:  # no known suffix: the grid reader's checks (the sandbox's first) say what is wrong
         return load_volume(path, format, **grid_options)
+    if fmt in PARTICLE_FORMATS:
+        return _load_particles(path, fmt, array, solution, grid_options)
     if fmt == "vtk" and os.path.lexists(path):
         check_input_path(path, "volume file")  # before its header is read: a FIFO, a path outside the roots
     is_mesh = fmt in ("vtu", "plot3d") or (fmt == "vtk" and path.is_file() and mesh.is_legacy_unstructured(path))
@@ -118,6 +126,21 @@ def load_field(path, format: str = "auto", *, array: str | None = None, solution
             return mesh.read_plot3d(path, None if solution is None else Path(os.path.expanduser(str(solution))),
                                     array)
         return mesh.read_mesh(path, array)
+
+
+def _load_particles(path: Path, fmt: str, array, solution, grid_options):
+    from .particles import read_particles
+
+    if not os.path.lexists(path):
+        raise VolumeError(f"{path}: file not found")
+    given = [k for k, v in grid_options.items() if v is not None and k not in ("endian", "header_bytes")]
+    if given or solution is not None:
+        key = given[0] if given else "solution"
+        raise VolumeError(f"{path}: volume.{key} does not apply to SPH particles (their positions are their "
+                          "geometry): remove it")
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore")
+        return read_particles(path, fmt, array)
 
 
 def load_volume(path, format: str = "auto", *, dims=None, dtype=None, endian: str = "little",

@@ -49,7 +49,7 @@ void main() {
     float alpha = opacity_of_depth(tau);
     vec3 colour = tau > 0.0 ? sheet.rgb / tau : vec3(0.0);
 #else
-#ifdef SLABS
+#if defined(SLABS) && defined(CULLING)
     if (sheet.g <= 0.0)
         discard;  // no point of this part is near a core sample: its field is transparent (culling)
 #endif

@@ -7,6 +7,10 @@
 #include "common/camera_ray.glsl"
 #include "common/optics.glsl"
 #include "splatting/kernel.glsl"
+#ifdef PARTICLES
+#include "splatting/m4.glsl"
+flat in vec4 v_particle;  // h, weight m / rho, sub-pixel (splat.vert)
+#endif
 
 uniform vec3 u_spacing;
 uniform float u_radius;
@@ -22,8 +26,16 @@ void main() {
     vec3 o, d;
     camera_ray(o, d);
     float lo, hi;
+#ifdef PARTICLES
+    // a particle smaller than a pixel is averaged over the pixel's square, whether or not the pixel's
+    // centre ray meets its support (it lies in front of the near plane, inside the field's box)
+    bool subpixel = v_particle.z > 0.5;
+    if (!subpixel && !ray_extent(o, d, lo, hi))
+        discard;
+#else
     if (!ray_extent(o, d, lo, hi))
         discard;
+#endif
 #if defined(FOOTPRINT_EWA) && !defined(CAMERA_ORTHOGRAPHIC)
     // EWA (Zwicker et al. 2001): the perspective map linearized at the kernel's centre.  The pixel's
     // screen offset from the centre's image goes through the inverse of that map's Jacobian into the
@@ -50,8 +62,32 @@ void main() {
         d = central;
     }
 #endif
-    float closest2;
+    float closest2 = 0.0;
+#ifdef PARTICLES
+    float integral;
+    if (subpixel) {
+        vec3 p = v_splat.xyz - u_eye;
+        float z = dot(p, u_forward);
+        vec2 ndc_per_world = 1.0 / u_half_extent;
+#ifndef CAMERA_ORTHOGRAPHIC
+        ndc_per_world /= z;
+#endif
+        // per unit of the ray's length: the pixel's mean column along the view axis over the cosine of
+        // the angle of the ray through the particle to it (1 in orthographic views)
+        integral = m4_pixel_average(v_splat.xyz, v_particle.x, ndc_per_world) / length(d);
+#ifndef CAMERA_ORTHOGRAPHIC
+        integral *= length(p) / z;
+#endif
+#ifdef SLABS
+        integral *= m4_slab_share(z, v_particle.x, u_slab.x, u_slab.y);
+#endif
+    } else {
+        integral = m4_integral(o, d, v_splat.xyz, v_particle.x, lo, hi);
+    }
+    integral *= v_particle.y;  // m / rho
+#else
     float integral = kernel_integral(o, d, v_splat.xyz, u_spacing, u_radius, lo, hi, closest2);
+#endif
     if (integral <= 0.0)
         discard;
 #if defined(SPLAT_OVER)

@@ -10,6 +10,10 @@ in vec4 in_optics;  // (sigma c, sigma) of the voxel: associated colour and exti
 #ifdef CULLING
 in float in_core;   // 1: a core splat (post-classified culling, dvr_gl/renderers/splatting/splats.py)
 #endif
+#ifdef PARTICLES
+in vec2 in_particle;  // an SPH particle's smoothing length h (world; support 2h) and weight m / rho
+flat out vec4 v_particle;  // h, weight, 1 if smaller than a pixel (footprint averaged over pixels), 0
+#endif
 
 uniform vec3 u_eye;
 uniform vec3 u_forward;
@@ -53,7 +57,28 @@ void main() {
     vec3 p = in_splat.xyz - u_eye;
     float z = dot(p, u_forward);
     vec2 xy = vec2(dot(p, u_right), dot(p, u_up));
+#ifdef PARTICLES
+    float r = 2.0 * in_particle.x;  // the support: a sphere
+    v_particle = vec4(in_particle, 0.0, 0.0);
+    // smaller than a pixel (support radius at its depth under SUBPIXEL_RADIUS pixels): its footprint is
+    // averaged over the pixels it covers, whose squares the quad must reach (half a pixel more)
+    float pixel_world = 2.0 * u_half_extent.y / u_image_size.y;
+#ifndef CAMERA_ORTHOGRAPHIC
+    pixel_world *= max(z, 0.0);
+#endif
+    if (z - r > u_near && r < SUBPIXEL_RADIUS * pixel_world) {
+        v_particle.z = 1.0;
+        vec2 ndc = xy / u_half_extent;
+#ifndef CAMERA_ORTHOGRAPHIC
+        ndc /= z;
+#endif
+        vec2 half_ndc = r / pixel_world * 2.0 / u_image_size + 2.0 / u_image_size;
+        gl_Position = vec4(ndc + corner * half_ndc, 0.0, 1.0);
+        return;
+    }
+#else
     float r = u_radius * max(max(u_spacing.x, u_spacing.y), u_spacing.z);  // the bounding sphere (world)
+#endif
     // the support's depths: all of it, or the part inside the slab (Mueller and Crawfis's kernel slice)
     float za = z - r, zb = z + r, section = r;
 #ifdef SLABS
@@ -70,7 +95,11 @@ void main() {
     vec2 margin = 1.0 / u_image_size;
 #ifdef CAMERA_ORTHOGRAPHIC
     // the ellipsoid's half-extent along a unit axis e: R |spacing * e|; no more than the section
+#ifdef PARTICLES
+    vec2 half_size = vec2(section);
+#else
     vec2 half_size = min(u_radius * vec2(length(u_spacing * u_right), length(u_spacing * u_up)), vec2(section));
+#endif
     gl_Position = vec4(xy / u_half_extent + corner * (half_size / u_half_extent + margin), 0.0, 1.0);
 #else
     if (za <= u_near) {

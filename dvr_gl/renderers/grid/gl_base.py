@@ -227,12 +227,12 @@ class GLVolumeRenderer(Renderer):
     @staticmethod
     def optics_uniforms(scene, lut) -> dict:
         """Transfer function, shading and lights (shared by every renderer's classify())."""
-        r, vol, tf = scene.renderer, scene.volume, scene.transfer_function
+        r, field, tf = scene.renderer, scene.field, scene.transfer_function
         lut_lo, lut_hi = lut.domain
         u = {"u_unit_distance": tf.unit_distance, "u_gradient_reference": r.gradient_opacity_reference,
              "u_lut_size": r.lut_size, "u_lut_lo": lut_lo, "u_lut_scale": (r.lut_size - 1) / (lut_hi - lut_lo),
              "u_ambient": r.shading.ambient, "u_diffuse": r.shading.diffuse, "u_specular": r.shading.specular,
-             "u_shininess": r.shading.shininess, "u_gradient_epsilon": gradient_epsilon(vol)}
+             "u_shininess": r.shading.shininess, "u_gradient_epsilon": gradient_epsilon(field)}
         lights = r.shading.lights
         if lights:
             u["u_light_dir"] = [(0.0, 0.0, 0.0, 1.0) if light.type == "headlight" else

@@ -47,6 +47,14 @@ def check(scene):
     """What the settings do not say: ``none`` composites each splat's own colour, so the colour must
     be the voxel's (pre-classification, associated)."""
     r = scene.renderer
+    grid = scene.field.kind == "grid"
+    kernel = "gaussian" if grid else "m4"
+    if r.filter != kernel:
+        raise SceneError(f"splatting splats a {'grid with the gaussian' if grid else 'particle set with its m4'} "
+                         f"kernel; set renderer.filter = {kernel} (got {r.filter})")
+    if not grid and r.sheet_buffer == "axis_aligned":
+        raise SceneError("renderer.sheet_buffer = axis_aligned stacks a grid's voxel planes; SPH particles have none: "
+                         "use image_aligned or none")
     if r.compositing in CLASSIFIED_ALONG_RAY and r.sheet_buffer == "none" and r.classification != "pre":
         raise SceneError("splatting with renderer.sheet_buffer = none composites each splat's own colour: set "
                          "renderer.classification = pre, or use sheet_buffer image_aligned")
@@ -59,9 +67,9 @@ PLUGIN = RendererPlugin(
     description="splatting: each sample's kernel integrated into footprints, sheet buffers in GL",
     renderer="dvr_gl.renderers.splatting.renderer:SplattingRenderer",
     settings=(s.COMPOSITING.only("emission_absorption", "average", "xray"), s.CLASSIFICATION.only("post", "pre"),
-              s.ASSOCIATED_COLORS, s.FILTER.only("gaussian"), s.KERNEL_WIDTH, SHEET_BUFFER, SLAB_WIDTH, FOOTPRINT,
+              s.ASSOCIATED_COLORS, s.FILTER.only("gaussian", "m4"), s.KERNEL_WIDTH, SHEET_BUFFER, SLAB_WIDTH, FOOTPRINT,
               s.LUT_SIZE),
-    data_kinds=("grid",),
+    data_kinds=("grid", "particles"),
     needs_gl=True,
     check=check,
     oracle="dvr_gl.renderers.splatting.oracle:reference",

@@ -50,3 +50,54 @@ class GaussianFootprint:
     def cumulative(x) -> np.ndarray:
         """``Phi(x)``, the standard normal's share below ``x`` (standard deviations)."""
         return 0.5 * (1.0 + _erf(np.asarray(x, dtype=np.float64) / math.sqrt(2.0)))
+
+
+#: The M4 tables' sizes: the footprint and the slab mass in one row each (as the Gaussian's); the
+#: chord shares (rows: q, columns: the point along the chord) and the sub-pixel box integrals (a
+#: quadrant's share of the footprint) in 2D, interpolated bilinearly; measured in tests/test_particles.py.
+M4_CHORD_SIZE = (256, 1024)
+M4_BOX_SIZE = 513
+_BOX_FINE = 4  # the box table is summed on a grid this much finer, cell by cell, then subsampled
+
+
+class M4Footprint:
+    """The tables of the SPH cubic spline (:mod:`dvr_gl.fields.sph`), in units of its support ``R = 2h``:
+
+    * ``footprint_table``: ``f(q) = h^2 F``, the line integral at ``q = rho^2 / R^2`` in [0, 1];
+    * ``chord_table`` ``(rows, columns)``: the share of a line's integral below the point ``xi`` of its
+      chord (``xi`` in [-1, 1] across the chord ``[-c, c]``, ``c = R sqrt(1 - q)``), rows over ``q``;
+    * ``box_table`` ``(n, n)``: ``G(X, Y)``, the footprint's share over ``(-1, X) x (-1, Y)`` (``X, Y`` in
+      [-1, 1], units of ``R``): a pixel's integral of a sub-pixel particle's footprint is
+      ``G(x1, y1) - G(x0, y1) - G(x1, y0) + G(x0, y0)``, and the sum over the pixels a particle
+      covers telescopes to ``G(1, 1) = 1``: its integral is kept exactly;
+    * ``slab_table``: the kernel's mass below the plane ``Z`` (units of ``R``, in [-1, 1]).
+    """
+
+    def __init__(self, size: int = TABLE_SIZE):
+        from ...fields import sph
+
+        q = np.linspace(0.0, 1.0, size)
+        self.footprint_table = sph.footprint(sph.SUPPORT * np.sqrt(q))
+        self.slab_table = sph.slab_mass(sph.SUPPORT * np.linspace(-1.0, 1.0, size))
+        rows, columns = M4_CHORD_SIZE
+        qr = np.linspace(0.0, 1.0, rows)
+        b = sph.SUPPORT * np.sqrt(qr)[:, None]
+        c = np.sqrt(np.maximum(sph.SUPPORT ** 2 - b * b, 0.0))
+        xi = np.linspace(-1.0, 1.0, columns)[None, :]
+        whole = sph.line_integral(b[:, 0])[:, None]
+        part = sph.line_integral(np.broadcast_to(b, (rows, columns)), -c, xi * c)
+        # at q = 1 the chord closes: there w(r) ~ (2 - r)^3 ~ (c^2 - x^2)^3, whose cumulative is the limit row
+        limit = (xi - xi ** 3 + 0.6 * xi ** 5 - xi ** 7 / 7.0 + 16.0 / 35.0) / (32.0 / 35.0)
+        self.chord_table = np.where(whole > 0, part / np.where(whole > 0, whole, 1.0), limit)
+        self.box_table = self._box(q, self.footprint_table)
+
+    @staticmethod
+    def _box(q, table) -> np.ndarray:
+        n = (M4_BOX_SIZE - 1) * _BOX_FINE
+        centres = -1.0 + (np.arange(n) + 0.5) * (2.0 / n)
+        r2 = centres[:, None] ** 2 + centres[None, :] ** 2
+        cells = np.where(r2 < 1.0, np.interp(r2, q, table), 0.0)
+        g = np.zeros((n + 1, n + 1))
+        g[1:, 1:] = np.cumsum(np.cumsum(cells, axis=0), axis=1)
+        g /= g[-1, -1]  # the midpoint rule's O(cell^2) error in the total, removed: G(1, 1) = 1 exactly
+        return g[::_BOX_FINE, ::_BOX_FINE]  # [y, x] order is [x, y] too: the footprint is symmetric

@@ -31,12 +31,14 @@ import math
 
 import numpy as np
 
-from ...fields import reconstruct
+from ...fields import filter_parameters, reconstruct, sph
+from ...fields.particles import SPHInterpolant
 from ...fields.ragged import ranges, ranks
 from ...fields.reconstruction import GaussianKernel, _erf
 from ...rays import RayBatch
 from ...transfer_function import projected_rgba, segment_opacity, xray_rgba
 from .sheets import kernel_radius, pre_classified, slab_bounds
+from .particles import ParticleSplats
 from .splats import Splats
 
 NODES = 8            # Gauss-Legendre nodes per piece
@@ -47,7 +49,7 @@ CHUNK = 20000        # (ray, part) pairs or splats per batch
 def reference(scene) -> np.ndarray:
     """The image ``(H, W, 4)`` float64 that ``splatting`` must match (see the module doc)."""
     r, img = scene.renderer, scene.image
-    rays = RayBatch.for_camera(scene.camera, img.width, img.height, scene.volume.box)
+    rays = RayBatch.for_camera(scene.camera, img.width, img.height, scene.field.bounds)
     if r.compositing == "average":
         out = _average(scene, rays)
     elif r.compositing == "xray" and pre_classified(scene):
@@ -61,14 +63,29 @@ def reference(scene) -> np.ndarray:
     return out.reshape(img.height, img.width, 4)
 
 
-def _integrals(field, rays, ray, a, b, spacing) -> np.ndarray:
-    """Integrals of ``field`` along rays ``ray`` over ``[a, b]`` ``(N,)`` or ``(N, C)``."""
-    x, w = np.polynomial.legendre.leggauss(NODES)
+def _pieces(field, rays, ray, a, b, spacing):
+    """``(owner, lo, step)``: ``[a, b]`` of each ray cut into pieces of at most ``PIECE_VOXELS`` voxels,
+    and for particles also at the knots of their kernels (where the kernels' pieces meet)."""
     pieces = np.maximum(np.ceil((b - a) / (PIECE_VOXELS * spacing)), 1).astype(np.int64)
     owner = np.repeat(np.arange(len(a)), pieces)
     k = ranks(pieces)
     step = ((b - a) / pieces)[owner]
     lo = a[owner] + k * step
+    if not isinstance(field, SPHInterpolant):
+        return owner, lo, step
+    k_ray, k_t = field.knots(rays.origins[ray], rays.directions[ray], a, b)
+    owner = np.concatenate([owner, k_ray, np.arange(len(a))])
+    cut = np.concatenate([lo, k_t, b])
+    order = np.lexsort((cut, owner))
+    owner, cut = owner[order], cut[order]
+    same = owner[1:] == owner[:-1]
+    return owner[:-1][same], cut[:-1][same], (cut[1:] - cut[:-1])[same]
+
+
+def _integrals(field, rays, ray, a, b, spacing) -> np.ndarray:
+    """Integrals of ``field`` along rays ``ray`` over ``[a, b]`` ``(N,)`` or ``(N, C)``."""
+    x, w = np.polynomial.legendre.leggauss(NODES)
+    owner, lo, step = _pieces(field, rays, ray, a, b, spacing)
     t = lo[:, None] + 0.5 * step[:, None] * (x[None, :] + 1.0)
     points = rays.origins[ray[owner], None, :] + t[..., None] * rays.directions[ray[owner], None, :]
     values = field.sample(points.reshape(-1, 3))
@@ -80,7 +97,7 @@ def _integrals(field, rays, ray, a, b, spacing) -> np.ndarray:
 
 
 def _sheets(scene, rays) -> np.ndarray:
-    r, tf, vol, cam = scene.renderer, scene.transfer_function, scene.volume, scene.camera
+    r, tf, vol, cam = scene.renderer, scene.transfer_function, scene.field, scene.camera
     forward, _, _ = cam.basis()
     eye = np.asarray(cam.eye, float)
     bounds = slab_bounds(scene, eye, forward)
@@ -119,14 +136,16 @@ def _sheets(scene, rays) -> np.ndarray:
 
 
 def _classified_field(scene):
-    """The voxels classified (``(sigma c, sigma)``, associated) and reconstructed by the Gaussian."""
-    vol, tf, r = scene.volume, scene.transfer_function, scene.renderer
-    return vol.reconstruct_values(tf.classify_voxels(vol.data, True), "gaussian", kernel_width=r.kernel_width)
+    """The voxels (or particles) classified (``(sigma c, sigma)``, associated) and reconstructed by the
+    kernel."""
+    field, tf = scene.field, scene.transfer_function
+    return field.reconstruct_values(tf.classify_voxels(field.samples, True), scene.renderer.filter,
+                                    **filter_parameters(scene.renderer))
 
 
 def _xray_pre(scene, rays) -> np.ndarray:
     """The radiograph of the pre-classified field: its integrals of ``(sigma c, sigma)`` over the chord."""
-    vol = scene.volume
+    vol = scene.field
     field = _classified_field(scene)
     out = np.zeros((len(rays), 4))
     hit = np.nonzero(rays.t1 > rays.t0)[0]
@@ -136,7 +155,7 @@ def _xray_pre(scene, rays) -> np.ndarray:
 
 
 def _average(scene, rays) -> np.ndarray:
-    vol = scene.volume
+    vol = scene.field
     out = np.zeros((len(rays), 4))
     hit = np.nonzero(rays.t1 > rays.t0)[0]
     integral = _integrals(reconstruct(vol, scene.renderer), rays, hit, rays.t0[hit], rays.t1[hit], vol.sample_spacing)
@@ -224,16 +243,39 @@ def _all_pair_integrals(scene, rays, splats, idx, kernel):
     return idx[s_local[keep]], pixel[keep], integral[keep]
 
 
+def _particle_pairs(scene, rays, splats):
+    """``(splat, pixel, integral)`` of particle splats: each particle's kernel along the pixel's ray over
+    its part in the field's box (:func:`dvr_gl.fields.sph.line_integral`)."""
+    s_local, pixel = _pairs(scene, splats.positions, sph.SUPPORT * splats.h)
+    c, h = splats.positions[s_local], splats.h[s_local]
+    o, d, t0, t1 = rays.origins[pixel], rays.directions[pixel], rays.t0[pixel], rays.t1[pixel]
+    a = (d * d).sum(axis=1)
+    tc = ((c - o) * d).sum(axis=1) / a
+    length = np.sqrt(a)
+    rho = np.linalg.norm(o + tc[:, None] * d - c, axis=1)
+    z0, z1 = (t0 - tc) * length / h, (t1 - tc) * length / h  # smoothing lengths from the nearest approach
+    integral = sph.line_integral(rho / h, z0, z1) / (math.pi * h * h) / length * splats.weights[s_local]
+    keep = integral > 0
+    return s_local[keep], pixel[keep], integral[keep]
+
+
 def _splats_alone(scene, rays) -> np.ndarray:
     """Back to front, each splat over what lies behind it: front to back here, the same sum."""
-    vol, cam, r = scene.volume, scene.camera, scene.renderer
-    splats = Splats(vol, kernel_radius(scene), np.zeros(3), scene.transfer_function.classify_voxels(vol.data, True))
+    field, cam, r, tf = scene.field, scene.camera, scene.renderer, scene.transfer_function
+    grid = field.kind == "grid"
+    if grid:
+        splats = Splats(field, kernel_radius(scene), np.zeros(3), tf.classify_voxels(field.data, True))
+    else:
+        splats = ParticleSplats(field, np.zeros(3), tf.classify_voxels(field.samples, True))
     forward, _, _ = cam.basis()
     depth = splats.depths(np.asarray(cam.eye, float), forward)
     rank = np.empty(len(splats), np.int64)
     rank[np.argsort(-depth, kind="stable")[::-1]] = np.arange(len(splats))  # 0: the front splat
-    kernel = GaussianKernel(r.kernel_width)
-    splat, pixel, integral = _all_pair_integrals(scene, rays, splats, np.arange(len(splats)), kernel)
+    if grid:
+        kernel = GaussianKernel(r.kernel_width)
+        splat, pixel, integral = _all_pair_integrals(scene, rays, splats, np.arange(len(splats)), kernel)
+    else:
+        splat, pixel, integral = _particle_pairs(scene, rays, splats)
     order = np.lexsort((rank[splat], pixel))
     splat, pixel, integral = splat[order], pixel[order], integral[order]
     optics = splats.optics[splat].astype(np.float64)

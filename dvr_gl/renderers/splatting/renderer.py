@@ -10,6 +10,8 @@ slab.  Coordinates are relative to the box's centre (float32 keeps its precision
 
 from __future__ import annotations
 
+import functools
+
 import moderngl
 import numpy as np
 
@@ -18,19 +20,43 @@ from ...model import GAUSSIAN_RADIUS
 from ...rays import chord_lengths
 from ...transfer_function import projected_rgba, xray_rgba
 from ..grid.gl_base import GLVolumeRenderer, TableTexture
-from .footprint import GaussianFootprint
-from .sheets import axis_schedule, culled_post, kernel_radius, part_voxels, pre_classified, slab_schedule
+from .footprint import GaussianFootprint, M4Footprint
+from .particles import ParticleSplats
+from .sheets import axis_schedule, culled_post, is_grid, kernel_radius, part_voxels, pre_classified, slab_schedule
 from .splats import Splats, ghost_layers, post_visibility
 
 
-class FootprintTextures:
-    """The Gaussian's footprint tables as one-row R32F textures (nearest; the shader interpolates)."""
+#: A particle whose support's radius is under this many pixels has its footprint averaged over the pixels
+#: it covers (shaders/splatting/m4.glsl): sampled at pixel centres, a footprint's sum over the pixels errs
+#: from its integral by up to 90 % at 1 pixel, 6 % at 1.5, 5.5e-4 at 2 and 1e-3 at 3 (measured over random
+#: offsets, docs/renderers/splatting.md), so from 2 on the pixels' own rays serve.
+SUBPIXEL_RADIUS = 2.0
 
-    def __init__(self, ctx):
-        tables = GaussianFootprint(GAUSSIAN_RADIUS)
+
+@functools.lru_cache(maxsize=1)
+def m4_tables() -> M4Footprint:
+    """The M4 tables (float64, about 3 s to integrate): once per process."""
+    return M4Footprint()
+
+
+class FootprintTextures:
+    """The kernel's footprint tables as R32F textures (nearest; the shader interpolates): the Gaussian's
+    for a grid, the cubic spline's for particles."""
+
+    def __init__(self, ctx, particles: bool = False):
+        if particles:
+            m4 = m4_tables()
+            tables = (("u_m4_footprint", m4.footprint_table[None, :]),
+                      ("u_m4_chord", m4.chord_table), ("u_m4_box", m4.box_table.T),
+                      ("u_m4_slab", m4.slab_table[None, :]))
+        else:
+            gaussian = GaussianFootprint(GAUSSIAN_RADIUS)
+            tables = (("u_footprint", gaussian.footprint_table[None, :]),
+                      ("u_cumulative", gaussian.cumulative_table[None, :]))
         self.textures = {}
-        for name, table in (("u_footprint", tables.footprint_table), ("u_cumulative", tables.cumulative_table)):
-            t = ctx.texture((len(table), 1), 1, table.astype(np.float32).tobytes(), dtype="f4")
+        for name, table in tables:
+            t = ctx.texture((table.shape[1], table.shape[0]), 1, np.ascontiguousarray(table, np.float32).tobytes(),
+                            dtype="f4")
             t.filter = (moderngl.NEAREST, moderngl.NEAREST)
             t.repeat_x = t.repeat_y = False
             self.textures[name] = t
@@ -45,16 +71,21 @@ class SplattingRenderer(GLVolumeRenderer):
 
     def draw(self, scene) -> np.ndarray:
         self.activate()
-        r, vol, cam = scene.renderer, scene.volume, scene.camera
-        lo, hi = (np.asarray(b, float) for b in vol.box)
+        r, field, cam = scene.renderer, scene.field, scene.camera
+        lo, hi = (np.asarray(b, float) for b in field.bounds)
         centre = 0.5 * (lo + hi)
         pre = pre_classified(scene)
-        radius = kernel_radius(scene)
-        culling = culled_post(scene)
-        splats = self._cached("splats", (vol, radius, pre, scene.transfer_function if pre or culling else None,
-                                         culling and (r.lut_size, part_voxels(scene))),
-                              lambda: Splats(vol, radius, centre, self._classified_voxels(scene) if pre else None,
-                                             self._visibility(scene) if culling else None))
+        if is_grid(scene):
+            radius = kernel_radius(scene)
+            culling = culled_post(scene)
+            splats = self._cached("splats", (field, radius, pre, scene.transfer_function if pre or culling else None,
+                                             culling and (r.lut_size, part_voxels(scene))),
+                                  lambda: Splats(field, radius, centre, self._classified_voxels(scene) if pre else None,
+                                                 self._visibility(scene) if culling else None))
+        else:
+            splats = self._cached("splats", (field, pre, scene.transfer_function if pre else None),
+                                  lambda: ParticleSplats(field, centre, scene.transfer_function.classify_voxels(
+                                      field.samples, True) if pre else None))
         forward, right, up = cam.basis()
         eye = np.asarray(cam.eye, float) - centre
         mode = r.compositing
@@ -65,18 +96,16 @@ class SplattingRenderer(GLVolumeRenderer):
         elif r.sheet_buffer == "axis_aligned":
             order, schedule = axis_schedule(scene, splats, centre)
         else:
-            order, schedule = slab_schedule(scene, splats.depths(eye, forward))
+            reach = None if is_grid(scene) else splats.reach
+            order, schedule = slab_schedule(scene, splats.depths(eye, forward), reach)
         self.stats.update(splats=len(splats), splats_total=splats.total, culled=splats.total - len(splats))
         if not len(splats):  # pre-classified, every voxel transparent
             return np.zeros((scene.image.height, scene.image.width, 4), np.float32)
-        first_rows, optics_rows = splats.packed(order)
-        buffers = [self.ctx.buffer(first_rows)]
-        if optics_rows is not None:
-            buffers.append(self.ctx.buffer(optics_rows))
+        buffers = [(name, width, self.ctx.buffer(rows)) for name, width, rows in splats.attributes(order)]
         try:
             return self._composite(scene, buffers, schedule, centre, eye, (forward, right, up))
         finally:
-            for b in buffers:
+            for _, _, b in buffers:
                 b.release()
 
     def _visibility(self, scene):
@@ -94,18 +123,23 @@ class SplattingRenderer(GLVolumeRenderer):
     def _defines(self, scene, **extra) -> dict:
         defines = {"CLASSIFY_PRE": pre_classified(scene), "CULLING": culled_post(scene),
                    "FOOTPRINT_EWA": scene.renderer.footprint == "ewa", **extra}
+        if not is_grid(scene):
+            defines.update(PARTICLES=True, SUBPIXEL_RADIUS=f"{SUBPIXEL_RADIUS:.1f}")
         if scene.camera.projection == "orthographic":
             defines["CAMERA_ORTHOGRAPHIC"] = True
         return {k: v for k, v in defines.items() if v}
 
     def _uniforms(self, scene, centre, eye, basis) -> dict:
-        r, vol, img, cam = scene.renderer, scene.volume, scene.image, scene.camera
+        r, field, img, cam = scene.renderer, scene.field, scene.image, scene.camera
         forward, right, up = basis
-        lo, hi = (np.asarray(b, float) - centre for b in vol.box)
-        return {"u_eye": tuple(eye), "u_forward": tuple(forward), "u_right": tuple(right), "u_up": tuple(up),
-                "u_half_extent": cam.half_extent(img.width / img.height), "u_image_size": (img.width, img.height),
-                "u_near": cam.near, "u_spacing": tuple(vol.spacing), "u_radius": kernel_radius(scene),
-                "u_sigma": r.kernel_width, "u_sigmas": GAUSSIAN_RADIUS, "u_box_lo": tuple(lo), "u_box_hi": tuple(hi)}
+        lo, hi = (np.asarray(b, float) - centre for b in field.bounds)
+        u = {"u_eye": tuple(eye), "u_forward": tuple(forward), "u_right": tuple(right), "u_up": tuple(up),
+             "u_half_extent": cam.half_extent(img.width / img.height), "u_image_size": (img.width, img.height),
+             "u_near": cam.near, "u_box_lo": tuple(lo), "u_box_hi": tuple(hi)}
+        if is_grid(scene):
+            u.update(u_spacing=tuple(field.spacing), u_radius=kernel_radius(scene), u_sigma=r.kernel_width,
+                     u_sigmas=GAUSSIAN_RADIUS)
+        return u
 
     def _splat_program(self, scene, **extra):
         return create_program(self.ctx, "splatting/splat.vert", "splatting/splat.frag", self._defines(scene, **extra))
@@ -117,10 +151,8 @@ class SplattingRenderer(GLVolumeRenderer):
 
     @staticmethod
     def _bind_splats(vao, program, buffers, first: int):
-        """The instance attributes from splat ``first`` on: centre and value, and (sigma c, sigma) or the
-        core flag."""
-        attributes = [("in_splat", 4), ("in_optics", 4) if "in_optics" in program else ("in_core", 1)]
-        for (name, width), buf in zip(attributes, buffers):
+        """The instance attributes (``(name, floats, buffer)``) from splat ``first`` on."""
+        for name, width, buf in buffers:
             if name in program:
                 vao.bind(program[name].location, "f", buf, f"{width}f", offset=4 * width * first, divisor=1)
 
@@ -132,11 +164,12 @@ class SplattingRenderer(GLVolumeRenderer):
         r, img = scene.renderer, scene.image
         w, h = img.width, img.height
         uniforms = self._uniforms(scene, centre, eye, basis)
-        tables = self._cached("footprint tables", (), lambda: FootprintTextures(self.ctx))
+        particles = not is_grid(scene)
+        tables = self._cached("footprint tables", (particles,), lambda: FootprintTextures(self.ctx, particles))
         textures = dict(tables.textures)
         ctx = self.ctx
         ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
-        count = buffers[0].size // 16
+        count = buffers[0][2].size // 16
         if schedule is None:
             over = r.compositing == "emission_absorption"
             program = self._splat_program(scene, SPLAT_OVER=over)

@@ -33,7 +33,13 @@ def culled_post(scene) -> bool:
     (:func:`.splats.post_visibility`, whose bound holds for a slab's part of a ray; an axis-aligned
     sheet's kernels reach the whole ray)."""
     r = scene.renderer
-    return r.compositing in CLASSIFIED_ALONG_RAY and r.classification == "post" and r.sheet_buffer == "image_aligned"
+    return (r.compositing in CLASSIFIED_ALONG_RAY and r.classification == "post" and r.sheet_buffer == "image_aligned"
+            and is_grid(scene))
+
+
+def is_grid(scene) -> bool:
+    """Whether the scene's splats are a grid's samples (else SPH particles)."""
+    return scene.field.kind == "grid"
 
 
 def part_voxels(scene) -> float:
@@ -78,20 +84,22 @@ def axis_schedule(scene, splats, centre):
 def slab_bounds(scene, eye, forward) -> np.ndarray:
     """The image-aligned slabs' view depths over the box (from the near plane); ``eye`` in world
     coordinates."""
-    lo, hi = scene.volume.box
+    lo, hi = scene.field.bounds
     depths = (box_corners(lo, hi) - eye) @ forward
-    width = scene.renderer.slab_width * scene.volume.sample_spacing
+    width = scene.renderer.slab_width * scene.field.sample_spacing
     return slabs(max(float(depths.min()), scene.camera.near), float(depths.max()), width)
 
 
-def slab_schedule(scene, depth: np.ndarray):
+def slab_schedule(scene, depth: np.ndarray, reach: float | None = None):
     """Image-aligned slabs: the splats by view depth of their centres (``depth``), each slab with the
-    range whose kernels reach into it."""
-    vol, cam = scene.volume, scene.camera
+    range whose kernels reach into it (``reach``: the farthest a kernel reaches along the view, world
+    units; by default the grid kernel's)."""
+    cam = scene.camera
     forward = cam.basis()[0]
     order = np.argsort(depth, kind="stable")
     bounds = slab_bounds(scene, np.asarray(cam.eye, float), forward)  # depths: the same from any origin
-    reach = support_depth(kernel_radius(scene), vol.spacing, forward)
+    if reach is None:
+        reach = support_depth(kernel_radius(scene), scene.volume.spacing, forward)
     sorted_depth = depth[order]
     first = np.searchsorted(sorted_depth, bounds[:-1] - reach, side="left")
     last = np.searchsorted(sorted_depth, bounds[1:] + reach, side="right")

@@ -84,15 +84,18 @@ class Splats:
         """View depth of each splat's centre (distance from the eye along the view axis)."""
         return (self.positions - eye) @ forward
 
-    def packed(self, order: np.ndarray) -> tuple[bytes, bytes | None]:
-        """The splats in ``order``: ``(centre, value)`` rows, and ``(sigma c, sigma)`` rows (pre-classified)
-        or core flags (post-classified with culling), float32."""
+    def attributes(self, order: np.ndarray) -> list[tuple[str, int, bytes]]:
+        """The instance attributes of the splats in ``order`` (name, floats, bytes; float32): ``(centre,
+        value)``, and ``(sigma c, sigma)`` (pre-classified) or core flags (post-classified with culling)."""
         first = np.empty((len(order), 4), np.float32)
         first[:, :3] = self.positions[order]
         first[:, 3] = self.values[order]
+        out = [("in_splat", 4, first.tobytes())]
         if self.optics is not None:
-            return first.tobytes(), self.optics[order].tobytes()
-        return first.tobytes(), self.core[order].tobytes() if self.core is not None else None
+            out.append(("in_optics", 4, self.optics[order].tobytes()))
+        elif self.core is not None:
+            out.append(("in_core", 1, self.core[order].tobytes()))
+        return out
 
 
 def support_depth(radius: float, spacing, forward) -> float:

@@ -1,0 +1,280 @@
+"""SPH particles as a field (data kind ``"particles"``): :class:`ParticleSet`.
+
+Each particle ``j`` has a position ``x_j``, a smoothing length ``h_j`` (support ``2 h_j``), a mass
+``m_j``, a density ``rho_j`` and a quantity ``A_j``; the field is the SPH interpolant
+
+    A(x) = sum_j (m_j / rho_j) A_j W(|x - x_j|, h_j)
+
+with the M4 cubic spline ``W`` (:mod:`.sph`; the scatter form: each particle's own ``h``), zero
+beyond every support.  Without a quantity the field is the density itself (``A_j = rho_j``: ``sum_j
+m_j W``), whose X-ray is the column density.
+
+* ``bounds``: the box of the supports; ``sample_spacing`` ("one voxel"): the median ``h``;
+* ``value_range``: zero (outside every support) to the interpolant's largest value at the
+  particles (where it peaks for smooth data; an interpolant may exceed it slightly between them);
+* the reconstruction's ``knots`` along a ray are, for each particle whose support it meets, its
+  nearest approach and where it crosses ``r = h`` and ``r = 2h`` (the kernel's pieces): between knots
+  the field is smooth, and the converged reference fits the polynomial of :data:`SPH_DEGREE` to a
+  piece as for the Gaussian;
+* ``samples`` and ``reconstruct_values``: the quantities at the particles and other values at them
+  interpolated alike (pre-classification classifies the particles).
+
+Points are sampled through a uniform grid of cells (:class:`CellIndex`), each listing the particles
+whose support reaches into it; the knots of a batch of rays come from every particle whose support
+the ray meets, found by the distance of its centre to the line (chunks of rays by particles).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+
+from ..errors import SceneError, VolumeError
+from ..sandbox import check_bytes
+from . import sph
+from .ragged import ranges, ranks
+
+#: The degree of the polynomial the converged reference fits to a piece between knots (as
+#: :data:`~dvr_gl.fields.reconstruction.GAUSSIAN_DEGREE`): the kernel is a polynomial in ``r``, not in
+#: the ray parameter, but smooth between the knots.
+SPH_DEGREE = 9
+FILTER = "m4"
+CELLS_PER_AXIS = 96      # the index's grid, at most, along the box's longest axis
+POINTS_PER_BATCH = 8192  # points sampled at once (their pairs with the particles in their cells)
+PAIRS_PER_CHUNK = 4_000_000  # (ray, particle) pairs tested at once for knots
+
+
+class ParticleSet:
+    """SPH particles with a quantity; a :class:`~dvr_gl.fields.Field` of kind ``"particles"``."""
+
+    kind = "particles"
+
+    def __init__(self, positions, smoothing_lengths, masses, densities, values=None, name: str = "particles",
+                 array: str = "density", source: str = ""):
+        self.name, self.array, self.source = name, array, source
+        positions = np.asarray(positions, dtype=np.float64)
+        if positions.ndim != 2 or positions.shape[1] != 3 or not len(positions):
+            raise VolumeError(f"{name}: expected positions (N, 3) of at least one particle, got shape "
+                              f"{positions.shape}")
+        n = len(positions)
+        columns = {"smoothing lengths": smoothing_lengths, "masses": masses, "densities": densities}
+        if values is not None:
+            columns[f"quantity {array!r}"] = values
+        arrays = {}
+        for label, column in columns.items():
+            column = np.asarray(column, dtype=np.float64)
+            if column.ndim == 0:
+                column = np.full(n, float(column))
+            column = column.reshape(-1)
+            if len(column) != n:
+                raise VolumeError(f"{name}: {len(column)} {label} for {n} particles")
+            arrays[label] = column
+        for label, column in (("positions", positions), *arrays.items()):
+            bad = int((~np.isfinite(column)).sum())
+            if bad:
+                raise VolumeError(f"{name}: {bad} {label} are NaN or Inf; fix the file or choose another array "
+                                  "(volume.array)")
+        h, m, rho = arrays["smoothing lengths"], arrays["masses"], arrays["densities"]
+        if not (h > 0).all():
+            raise VolumeError(f"{name}: {int((h <= 0).sum())} particles have a smoothing length <= 0; every "
+                              "particle needs a positive one")
+        if not (m >= 0).all():
+            raise VolumeError(f"{name}: {int((m < 0).sum())} particles have a negative mass")
+        if not (rho > 0).all():
+            raise VolumeError(f"{name}: {int((rho <= 0).sum())} particles have a density <= 0 (m / rho is "
+                              "each particle's volume)")
+        self.positions, self.smoothing_lengths, self.masses, self.densities = positions, h, m, rho
+        self.values = arrays.get(f"quantity {array!r}", rho)
+        self.weights = m / rho  # each particle's volume
+        reach = sph.SUPPORT * h[:, None]
+        self._bounds = ((positions - reach).min(axis=0), (positions + reach).max(axis=0))
+        self.sample_spacing = float(np.median(h))
+
+    def __len__(self) -> int:
+        return len(self.positions)
+
+    @property
+    def bounds(self):
+        """The box of the particles' supports (world units)."""
+        return self._bounds
+
+    @functools.cached_property
+    def value_range(self) -> tuple[float, float]:
+        at = self._reconstruction.sample(self.positions)
+        return (min(0.0, float(at.min())), max(0.0, float(at.max())))
+
+    @property
+    def samples(self) -> np.ndarray:
+        """The quantity at the particles (pre-classification classifies these)."""
+        return self.values
+
+    def describe(self) -> str:
+        lo, hi = self.value_range
+        h = self.smoothing_lengths
+        return (f"{self.name}: {len(self)} SPH particles, h {h.min():.3g}..{h.max():.3g} (median "
+                f"{self.sample_spacing:.3g}), {self.array} interpolated {lo:g}..{hi:g}")
+
+    def __repr__(self) -> str:
+        return f"ParticleSet({self.describe()})"
+
+    def reconstruct(self, filter: str = FILTER, kernel_width=None) -> "SPHInterpolant":
+        if filter != FILTER:
+            raise SceneError(f"{self.name}: SPH particles are interpolated with their cubic-spline kernel; set "
+                             f"renderer.filter = \"{FILTER}\" (got {filter!r})")
+        return self._reconstruction
+
+    def reconstruct_values(self, values: np.ndarray, filter: str = FILTER, **_) -> "SPHInterpolant":
+        """Other values at the particles ``(N,)`` or ``(N, C)`` interpolated as the quantity is."""
+        self.reconstruct(filter)
+        return SPHInterpolant(self, np.asarray(values, dtype=np.float64))
+
+    @functools.cached_property
+    def _reconstruction(self) -> "SPHInterpolant":
+        return SPHInterpolant(self, self.values)
+
+    @functools.cached_property
+    def index(self) -> "CellIndex":
+        return CellIndex(self.positions, sph.SUPPORT * self.smoothing_lengths, self.bounds)
+
+
+class CellIndex:
+    """A uniform grid of cells over ``bounds``, each listing the particles whose support (a sphere of
+    ``radius``) reaches into the cell's box (CSR: ``start``, ``members``)."""
+
+    def __init__(self, centres: np.ndarray, radius: np.ndarray, bounds):
+        lo, hi = (np.asarray(b, dtype=np.float64) for b in bounds)
+        extent = np.maximum(hi - lo, 1e-300)
+        # cells about a support across (the median's), at most CELLS_PER_AXIS along the longest axis
+        size = max(float(np.median(radius)) * 2.0, float(extent.max()) / CELLS_PER_AXIS)
+        self.lo, self.size = lo, size
+        self.shape = np.maximum(np.ceil(extent / size).astype(np.int64), 1)
+        first = self._cell(centres - radius[:, None])
+        last = self._cell(centres + radius[:, None])
+        span = last - first + 1
+        count = span.prod(axis=1)
+        check_bytes(int(count.sum()) * 16, "the particles' cell index", "use fewer particles")
+        owner = np.repeat(np.arange(len(centres)), count)
+        k = ranks(count)  # each cell's rank inside its particle's block
+        sx, sy = span[owner, 0], span[owner, 1]
+        cx = first[owner, 0] + k % sx
+        cy = first[owner, 1] + (k // sx) % sy
+        cz = first[owner, 2] + k // (sx * sy)
+        cell = (cz * self.shape[1] + cy) * self.shape[0] + cx
+        order = np.argsort(cell, kind="stable")
+        self.members = owner[order]
+        self.start = np.searchsorted(cell[order], np.arange(int(self.shape.prod()) + 1))
+
+    def _cell(self, points: np.ndarray) -> np.ndarray:
+        i = np.floor((points - self.lo) / self.size).astype(np.int64)
+        return np.clip(i, 0, self.shape - 1)
+
+    def pairs(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(point, particle)``: each point with every particle listed in its cell (points outside the
+        grid have none)."""
+        u = (points - self.lo) / self.size
+        inside = ((u >= 0) & (u < self.shape)).all(axis=1)
+        i = np.clip(np.floor(u).astype(np.int64), 0, self.shape - 1)
+        cell = (i[:, 2] * self.shape[1] + i[:, 1]) * self.shape[0] + i[:, 0]
+        count = np.where(inside, self.start[cell + 1] - self.start[cell], 0)
+        point = np.repeat(np.arange(len(points)), count)
+        slot = ranges(self.start[cell].astype(np.float64), count).astype(np.int64)
+        return point, self.members[slot]
+
+
+class SPHInterpolant:
+    """The interpolant of ``values`` (``(N,)`` or ``(N, C)``) at the particles of ``particles``."""
+
+    degree = SPH_DEGREE
+
+    def __init__(self, particles: ParticleSet, values: np.ndarray):
+        self.particles = particles
+        self.channels = values.shape[1] if values.ndim == 2 else 0
+        self.carried = (particles.weights[:, None] * values.reshape(len(particles), -1))  # (m / rho) A
+
+    def _sum(self, points: np.ndarray, gradient: bool = False) -> np.ndarray:
+        p = self.particles
+        points = np.asarray(points, dtype=np.float64)
+        width = 3 if gradient else self.carried.shape[1]
+        out = np.zeros((len(points), width))
+        for i in range(0, len(points), POINTS_PER_BATCH):
+            batch = points[i:i + POINTS_PER_BATCH]
+            point, j = p.index.pairs(batch)
+            d = batch[point] - p.positions[j]
+            r2 = np.einsum("ni,ni->n", d, d)
+            h = p.smoothing_lengths[j]
+            if gradient:  # grad W = w'(q) / (pi h^4) d / r
+                r = np.sqrt(r2)
+                scale = sph.dw(r / h) / (math.pi * h ** 4) / np.where(r > 0, r, 1.0) * self.carried[j, 0]
+                for axis in range(3):
+                    out[i:i + len(batch), axis] = np.bincount(point, scale * d[:, axis], minlength=len(batch))
+            else:
+                wk = sph.kernel(r2, h)
+                for c in range(width):
+                    out[i:i + len(batch), c] = np.bincount(point, wk * self.carried[j, c], minlength=len(batch))
+        return out
+
+    def sample(self, points: np.ndarray) -> np.ndarray:
+        out = self._sum(points)
+        return out if self.channels else out[:, 0]
+
+    def gradient(self, points: np.ndarray) -> np.ndarray:
+        """The interpolant's exact gradient (the kernel's), value units per world unit."""
+        return self._sum(points, gradient=True)
+
+    def knots(self, origins, directions, t0, t1):
+        """``(ray, t)``: for each particle whose support a ray meets, its nearest approach and the
+        crossings of ``r = h`` and ``r = 2h``, inside ``(t0, t1)``."""
+        p = self.particles
+        origins, directions = np.asarray(origins, np.float64), np.asarray(directions, np.float64)
+        a = np.einsum("ni,ni->n", directions, directions)
+        step = max(1, PAIRS_PER_CHUNK // max(len(origins), 1))
+        rays, ts = [], []
+        for s in range(0, len(p), step):
+            c = p.positions[s:s + step]
+            h = p.smoothing_lengths[s:s + step]
+            rel = c[None, :, :] - origins[:, None, :]                       # (R, P, 3)
+            tc = np.einsum("rpi,ri->rp", rel, directions) / a[:, None]      # nearest approach
+            rho2 = np.einsum("rpi,rpi->rp", rel, rel) - tc * tc * a[:, None]
+            ray, j = np.nonzero(rho2 < (sph.SUPPORT * h[None, :]) ** 2)
+            if not len(ray):
+                continue
+            near, r2 = tc[ray, j], rho2[ray, j]
+            found = [near]
+            for radius in (h[j], sph.SUPPORT * h[j]):
+                half = np.sqrt(np.maximum(radius ** 2 - r2, 0.0) / a[ray])
+                crosses = r2 < radius ** 2
+                found += [np.where(crosses, near - half, np.nan), np.where(crosses, near + half, np.nan)]
+            t = np.concatenate(found)
+            owner = np.tile(ray, len(found))
+            keep = (t > t0[owner]) & (t < t1[owner])
+            rays.append(owner[keep])
+            ts.append(t[keep])
+        if not rays:
+            return np.zeros(0, np.int64), np.zeros(0)
+        return np.concatenate(rays), np.concatenate(ts)
+
+
+def plummer_sphere(count: int, scale: float = 1.0, cut: float = 4.0, seed: int = 0, eta: float = 1.2,
+                   total_mass: float = 1.0, name: str = "plummer") -> ParticleSet:
+    """A Plummer sphere of ``count`` equal-mass particles (``total_mass`` within the cut, scale radius ``scale``), cut at
+    ``cut`` scale radii, drawn with ``seed``: density ``rho(r) = 3 M / (4 pi a^3) (1 + r^2 / a^2)^(-5/2)``,
+    radii by inverting the enclosed mass ``M(r) = r^3 / (r^2 + a^2)^(3/2)``; each particle's density is the
+    exact one at its radius and its smoothing length ``eta (m / rho)^(1/3)`` (about 58 neighbours in its
+    support at ``eta = 1.2``, as SPH codes choose)."""
+    if count < 1:
+        raise SceneError(f"a Plummer sphere needs at least one particle, got {count}")
+    rng = np.random.default_rng(seed)
+    inside = cut ** 3 / (cut ** 2 + 1.0) ** 1.5  # the mass fraction within the cut
+    u = rng.uniform(0.0, inside, count)
+    u = np.maximum(u, 1e-300)
+    r = scale / np.sqrt(u ** (-2.0 / 3.0) - 1.0)
+    direction = rng.normal(size=(count, 3))
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    positions = direction * r[:, None]
+    mass = np.full(count, total_mass / count)
+    # the density of the uncut sphere whose cut holds total_mass
+    density = 3.0 * total_mass / inside / (4.0 * math.pi * scale ** 3) * (1.0 + (r / scale) ** 2) ** -2.5
+    h = eta * (mass / density) ** (1.0 / 3.0)
+    return ParticleSet(positions, h, mass, density, name=name, source="generated")

@@ -1,0 +1,53 @@
+"""The splats of an SPH particle set (:class:`~dvr_gl.fields.particles.ParticleSet`), on the host: one per
+particle, its own kernel (the cubic spline of its smoothing length) and weight ``m / rho``.
+
+Post-classified each splat carries the particle's quantity; pre-classified its ``(sigma c, sigma)``
+(the quantity classified), and particles the transfer function makes transparent are left out.  No
+region culling: a transparent particle still moves the interpolant around it, and particles are no
+lattice to bound that on.  Sorted by the view depth of their centres, a slab's splats are those
+within the largest support of it (:func:`particle_slab_reach`); the vertex shader drops the rest.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...fields import sph
+from ...sandbox import check_bytes
+
+
+class ParticleSplats:
+    """Splats of ``particles``, world positions relative to ``centre`` (float64 until uploaded)."""
+
+    def __init__(self, particles, centre: np.ndarray, optics: np.ndarray | None = None):
+        self.total = len(particles)
+        check_bytes(self.total * (24 + 40 + (32 if optics is not None else 0)), "the particle splats",
+                    "use fewer particles")
+        keep = slice(None) if optics is None else optics[:, 3] > 0
+        self.positions = particles.positions[keep] - centre
+        self.values = particles.values[keep]
+        self.h = particles.smoothing_lengths[keep]
+        self.weights = particles.weights[keep]
+        self.optics = None if optics is None else np.ascontiguousarray(optics[keep], dtype=np.float32)
+
+    def __len__(self) -> int:
+        return len(self.values)
+
+    def depths(self, eye, forward) -> np.ndarray:
+        return (self.positions - eye) @ forward
+
+    def attributes(self, order: np.ndarray) -> list[tuple[str, int, bytes]]:
+        """The instance attributes in ``order``: (name, floats, bytes)."""
+        first = np.empty((len(order), 4), np.float32)
+        first[:, :3] = self.positions[order]
+        first[:, 3] = self.values[order]
+        particle = np.stack([self.h[order], self.weights[order]], axis=1).astype(np.float32)
+        out = [("in_splat", 4, first.tobytes()), ("in_particle", 2, particle.tobytes())]
+        if self.optics is not None:
+            out.append(("in_optics", 4, self.optics[order].tobytes()))
+        return out
+
+    @property
+    def reach(self) -> float:
+        """How far the widest support reaches from its centre (world units)."""
+        return float(sph.SUPPORT * self.h.max()) if len(self) else 0.0
