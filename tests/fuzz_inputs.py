@@ -5,7 +5,8 @@ Shared by ``tests/test_fuzz_readers.py`` (hypothesis draws the ``random.Random``
 number of examples in CI) and ``benchmarks/fuzz_readers.py`` (a long seeded run with a table).
 
 The property: reading a mutated file either raises a :class:`DvrError` (a user error, one line)
-or returns a valid :class:`Volume` (3D, finite samples, finite positive spacing), printing
+or returns a valid :class:`Volume` (3D, finite samples, finite positive spacing) or particle set
+(finite positions and values, positive smoothing lengths and densities), printing
 nothing, within
 :data:`TIMEOUT` seconds and :data:`BUDGET` bytes of the sandbox's memory budget.
 """
@@ -27,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from dvr_gl.errors import DvrError
-from dvr_gl.io import load_volume
+from dvr_gl.io import PARTICLE_FORMATS, load_field, load_volume
 from dvr_gl.sandbox import Sandbox, active
 
 TIMEOUT = 5.0  # seconds per example: each reads at most a few KB, so this is a hang, not a slow machine
@@ -85,6 +86,33 @@ def _npy() -> bytes:
     return buf.getvalue()
 
 
+def _particle_csv() -> bytes:
+    rows = ["x,y,z,h,m,rho,u", "0,0,0,1,1,2,5", "1.5,0,0,0.5,2,1,6", "0,-1,2,1.25,1,0.5,7"]
+    return ("\n".join(rows) + "\n").encode()
+
+
+def _particle_npz() -> bytes:
+    buf = io.BytesIO()
+    np.savez(buf, positions=np.array([[0.0, 0, 0], [1.5, 0, 0], [0, -1, 2]]), h=np.array([1.0, 0.5, 1.25]),
+             m=np.array([1.0, 2, 1]), rho=np.array([2.0, 1, 0.5]))
+    return buf.getvalue()
+
+
+def _particle_hdf5() -> bytes:
+    try:
+        import h5py
+    except ImportError:
+        return b""
+    buf = io.BytesIO()
+    with h5py.File(buf, "w") as f:
+        gas = f.create_group("PartType0")
+        gas["Coordinates"] = np.array([[0.0, 0, 0], [1.5, 0, 0], [0, -1, 2]])
+        gas["SmoothingLength"] = np.array([2.0, 1.0, 2.5])
+        gas["Masses"] = np.array([1.0, 2, 1], np.float32)
+        gas["Density"] = np.array([2.0, 1, 0.5], np.float32)
+    return buf.getvalue()
+
+
 def seeds() -> list[Seed]:
     """One small valid file set per reader and encoding (4x3x2 int16 samples)."""
     be, le = DATA.astype(">i2").tobytes(), DATA.astype("<i2").tobytes()
@@ -115,6 +143,9 @@ def seeds() -> list[Seed]:
         Seed("nifti", {"v.nii": _nifti(False)}, "v.nii"),
         Seed("nifti", {"v.nii.gz": _nifti(True)}, "v.nii.gz"),
         Seed("tiff", {"s.tif": _tiff()}, "s.tif"),
+        Seed("csv", {"p.csv": _particle_csv()}, "p.csv", text=("p.csv",)),
+        Seed("npz", {"p.npz": _particle_npz()}, "p.npz"),
+        *([Seed("hdf5", {"p.hdf5": _particle_hdf5()}, "p.hdf5")] if _particle_hdf5() else []),
     ]
 
 
@@ -239,13 +270,17 @@ def check_reader(path: Path, seed: Seed) -> str:
     try:
         with active(Sandbox(max_bytes=BUDGET)), time_limit(TIMEOUT), \
                 contextlib.redirect_stderr(printed), contextlib.redirect_stdout(printed):
-            volume = load_volume(path, **seed.options)
+            volume = (load_field if seed.reader in PARTICLE_FORMATS else load_volume)(path, **seed.options)
     except DvrError as exc:
         message = str(exc)
         assert message and "\n" not in message
         return "user error"
     finally:  # a library's log line or warning would reach the user's terminal
         assert not printed.getvalue(), f"printed {printed.getvalue()[:200]!r}"
+    if volume.kind == "particles":
+        assert len(volume) > 0 and np.isfinite(volume.positions).all() and np.isfinite(volume.values).all()
+        assert (volume.smoothing_lengths > 0).all() and (volume.densities > 0).all()
+        return "volume"
     data = volume.data
     assert data.ndim == 3 and data.size > 0
     assert data.dtype.kind != "f" or np.isfinite(data).all()

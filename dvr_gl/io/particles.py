@@ -20,11 +20,12 @@ taken in the file's units, unconverted.
 from __future__ import annotations
 
 import csv
+import zipfile
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import VolumeError
+from ..errors import DvrError, VolumeError
 from ..fields import sph
 from ..fields.particles import ParticleSet
 from ..sandbox import check_bytes, check_input_path
@@ -115,12 +116,15 @@ def _read_csv(path: Path, array: str | None) -> ParticleSet:
 
 def _read_npz(path: Path, array: str | None) -> ParticleSet:
     try:
+        with zipfile.ZipFile(path) as archive:  # the members' sizes, before numpy inflates any
+            check_bytes(sum(i.file_size for i in archive.infolist()) * 2.0, f"{path.name}: its arrays",
+                        "use fewer particles")
         with np.load(path, allow_pickle=False) as z:
             columns = {k.lower(): np.asarray(z[k]) for k in z.files}
-    except ValueError as exc:  # pickled objects, a malformed member
-        raise VolumeError(f"{path}: not a readable .npz of numeric arrays ({exc})") from None
-    except (OSError, EOFError) as exc:
-        raise VolumeError(f"{path}: not a readable .npz archive ({exc})") from None
+    except DvrError:
+        raise
+    except Exception as exc:  # zipfile, zlib and numpy's own errors on a damaged archive or member
+        raise VolumeError(f"{path}: not a readable .npz of numeric arrays ({_reason(exc)})") from None
     for name, column in columns.items():
         if column.dtype.kind not in "iuf":
             raise VolumeError(f"{path}: array {name!r} holds {column.dtype}, not numbers")
@@ -130,54 +134,65 @@ def _read_npz(path: Path, array: str | None) -> ParticleSet:
 def _read_hdf5(path: Path, array: str | None) -> ParticleSet:
     h5py = require("h5py", "h5py", "particles")
     try:
-        f = h5py.File(path, "r")
-    except OSError as exc:
-        raise VolumeError(f"{path}: not a readable HDF5 file ({exc})") from None
-    with f:
-        if "PartType0" not in f:
-            raise VolumeError(f"{path}: no PartType0 group; dvr-gl reads the gas particles of GADGET/SWIFT "
-                              f"snapshots (groups here: {', '.join(f.keys()) or 'none'})")
-        gas = f["PartType0"]
+        with h5py.File(path, "r") as f:
+            return _snapshot(path, f, array)
+    except DvrError:
+        raise
+    except Exception as exc:  # HDF5's errors on a damaged file: OSError, RuntimeError, KeyError, ...
+        raise VolumeError(f"{path}: not a readable HDF5 snapshot ({_reason(exc)})") from None
 
-        def dataset(name):
-            try:
-                return np.asarray(gas[name][()], dtype=np.float64)
-            except (TypeError, ValueError) as exc:
-                raise VolumeError(f"{path}: PartType0/{name} is not numeric ({exc})") from None
 
-        if "Coordinates" not in gas:
-            raise VolumeError(f"{path}: no PartType0/Coordinates")
-        positions = dataset("Coordinates")
-        if "SmoothingLengths" in gas:  # SWIFT: Dehnen and Aly's h
-            kernel = _swift_kernel(f)
-            if kernel is not None and "cubic" not in kernel.lower():
-                raise VolumeError(f"{path}: made with the {kernel} kernel; dvr-gl interpolates SPH particles with "
-                                  "the cubic spline (M4) only")
-            h = dataset("SmoothingLengths") * sph.SWIFT_CUBIC_GAMMA / sph.SUPPORT
-        elif "SmoothingLength" in gas:  # GADGET: the support radius
-            h = dataset("SmoothingLength") / sph.SUPPORT
-        else:
-            raise VolumeError(f"{path}: no PartType0/SmoothingLength (GADGET) or SmoothingLengths (SWIFT)")
-        if "Masses" in gas:
-            m = dataset("Masses")
-        else:
-            table = f["Header"].attrs.get("MassTable") if "Header" in f else None
-            if table is None or not len(table) or not float(table[0]) > 0:
-                raise VolumeError(f"{path}: no PartType0/Masses and no gas mass in Header/MassTable")
-            m = float(table[0])
-        rho_name = next((n for n in ("Densities", "Density") if n in gas), None)
-        rho = dataset(rho_name) if rho_name else None
-        values, label = None, "density"
-        if array is not None:
-            if array not in gas:
-                raise VolumeError(f"{path}: no dataset PartType0/{array} (volume.array); it has "
-                                  f"{', '.join(gas.keys())}")
-            label = array
-            if array != rho_name:
-                values = dataset(array)
-                if values.ndim != 1:
-                    raise VolumeError(f"{path}: PartType0/{array} has shape {values.shape}; choose a dataset of "
-                                      "one number per particle")
+def _reason(exc: Exception) -> str:
+    return " ".join(str(exc).split())[:120] or type(exc).__name__
+
+
+def _snapshot(path: Path, f, array: str | None) -> ParticleSet:
+    if "PartType0" not in f:
+        raise VolumeError(f"{path}: no PartType0 group; dvr-gl reads the gas particles of GADGET/SWIFT "
+                          f"snapshots (groups here: {', '.join(f.keys()) or 'none'})")
+    gas = f["PartType0"]
+
+    def dataset(name):
+        item = gas[name]
+        if not hasattr(item, "dtype") or item.dtype.kind not in "iuf":
+            raise VolumeError(f"{path}: PartType0/{name} is not a numeric dataset")
+        check_bytes(float(np.prod(item.shape, dtype=np.float64)) * 8.0, f"{path.name}: PartType0/{name}",
+                    "use fewer particles")
+        return np.asarray(item[()], dtype=np.float64)
+
+    if "Coordinates" not in gas:
+        raise VolumeError(f"{path}: no PartType0/Coordinates")
+    positions = dataset("Coordinates")
+    if "SmoothingLengths" in gas:  # SWIFT: Dehnen and Aly's h
+        kernel = _swift_kernel(f)
+        if kernel is not None and "cubic" not in kernel.lower():
+            raise VolumeError(f"{path}: made with the {kernel} kernel; dvr-gl interpolates SPH particles with "
+                              "the cubic spline (M4) only")
+        h = dataset("SmoothingLengths") * sph.SWIFT_CUBIC_GAMMA / sph.SUPPORT
+    elif "SmoothingLength" in gas:  # GADGET: the support radius
+        h = dataset("SmoothingLength") / sph.SUPPORT
+    else:
+        raise VolumeError(f"{path}: no PartType0/SmoothingLength (GADGET) or SmoothingLengths (SWIFT)")
+    if "Masses" in gas:
+        m = dataset("Masses")
+    else:
+        table = f["Header"].attrs.get("MassTable") if "Header" in f else None
+        if table is None or not len(table) or not float(table[0]) > 0:
+            raise VolumeError(f"{path}: no PartType0/Masses and no gas mass in Header/MassTable")
+        m = float(table[0])
+    rho_name = next((n for n in ("Densities", "Density") if n in gas), None)
+    rho = dataset(rho_name) if rho_name else None
+    values, label = None, "density"
+    if array is not None:
+        if array not in gas:
+            raise VolumeError(f"{path}: no dataset PartType0/{array} (volume.array); it has "
+                              f"{', '.join(gas.keys())}")
+        label = array
+        if array != rho_name:
+            values = dataset(array)
+            if values.ndim != 1:
+                raise VolumeError(f"{path}: PartType0/{array} has shape {values.shape}; choose a dataset of "
+                                  "one number per particle")
     if positions.ndim != 2 or positions.shape[1:] != (3,):
         raise VolumeError(f"{path}: PartType0/Coordinates has shape {positions.shape}, expected (N, 3)")
     return _particles(path, positions, h, m, rho, values, label)
