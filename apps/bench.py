@@ -147,6 +147,8 @@ def add_arguments(p):
                                           "its oracle and the same kernel's converged reference, the ray caster at "
                                           "equal error; the 45-degree study (docs/renderers/splatting.md)")
     sp.add_argument("--volume-size", type=int, default=64, help="phantom samples per axis (default 64)")
+    sp.add_argument("--particles", type=int, default=4096, help="also an SPH set: a Plummer sphere of about this "
+                    "many particles (default 4096; 0: none)")
     sp.add_argument("--size", type=int, default=128, help="square image size (default 128)")
     sp.add_argument("--repeat", type=count, default=3, help="timed frames per case, after a warm-up (default 3)")
     sp.add_argument("--shared", action="store_true", help="the regular datasets in --data-dir instead of the "
@@ -451,10 +453,10 @@ def run_splatting(args) -> int:
     from dvr_gl.bench import splatting
     from dvr_gl.errors import DvrError
 
-    for flag, value, low in (("--size", args.size, 8), ("--volume-size", args.volume_size, 2),
-                             ("--study-size", args.study_size, 0)):
-        if not low <= value <= 4096:
-            raise DvrError(f"{flag} must be {low} to 4096, got {value}")
+    for flag, value, low, high in (("--size", args.size, 8, 4096), ("--volume-size", args.volume_size, 2, 4096),
+                                   ("--study-size", args.study_size, 0, 4096), ("--particles", args.particles, 0, 10 ** 7)):
+        if not low <= value <= high:
+            raise DvrError(f"{flag} must be {low} to {high}, got {value}")
     demo = {"volume.demo": "shepp-logan", "volume.size": args.volume_size}
     notes = []
     if args.shared:
@@ -465,7 +467,10 @@ def run_splatting(args) -> int:
             raise DvrError(f"--only {args.only}: no shared dataset matches")
     else:
         scenes = [(f"Shepp-Logan {args.volume_size}^3", demo)]
-    args.report.text(f"dvr bench splatting: {args.size}x{args.size}, the Gaussian of width 0.7, default camera and "
+    if args.particles:
+        scenes.append(splatting.plummer_scene(args.particles))
+    args.report.text(f"dvr bench splatting: {args.size}x{args.size}, the Gaussian of width 0.7 (particles: their "
+                     f"cubic spline), default camera and "
                      f"transfer function, no shading; median of {args.repeat} frames after a warm-up; RMS against "
                      f"reference-converged of the same kernel and classification (tolerance 1e-4)")
     rows = splatting.run(scenes, args.size, args.repeat, progress=lambda r: print(

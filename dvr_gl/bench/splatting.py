@@ -1,6 +1,7 @@
 """``dvr bench splatting``: the splatting renderer's schemes on the demo or the shared datasets.
 
-Per dataset and scheme (sheet buffer and classification): the frame time (median after a
+Per dataset (and an SPH particle set: a Plummer sphere, its own cubic-spline kernels, no axis-aligned
+sheets and no ray caster beside it) and scheme (sheet buffer and classification): the frame time (median after a
 warm-up), the splats drawn (instances over all sheets), culled and the sheets; the error against
 its same-slabs reference (the oracle: float32 and the tables) and the RMS against the converged
 reference of the same kernel and classification (what the scheme's discretization costs); and
@@ -56,8 +57,13 @@ def run(scenes, size: int = 128, repeat: int = 3, progress=None):
     try:
         for name, overrides in scenes:
             base = load_scene(None, {**base_overrides(size), **overrides})
+            particles = base.field.kind == "particles"
+            if particles:  # their own kernel; no voxel planes to stack, no ray caster to compare with
+                base = base.with_renderer(filter="m4")
             truth = {}
             for scheme, classification in SCHEMES:
+                if particles and scheme == "axis_aligned":
+                    continue
                 scene = base.with_renderer(sheet_buffer=scheme, classification=classification)
                 if classification not in truth:
                     truth[classification] = ConvergedReference(scene.with_renderer(converged_tolerance=1e-4)).render()
@@ -69,7 +75,7 @@ def run(scenes, size: int = 128, repeat: int = 3, progress=None):
                        "sheets": stats.get("sheets", 0), "oracle": float(np.abs(image - same_slabs(scene)).max()),
                        "rms": compare_images(image, truth[classification])["rms"]}
                 if (scheme, classification) == ("image_aligned", "post"):
-                    row["raycast"] = _raycast_at(raycast, base, row["rms"], repeat)
+                    row["raycast"] = "-" if particles else _raycast_at(raycast, base, row["rms"], repeat)
                 rows.append(row)
                 if progress:
                     progress(row)
@@ -109,6 +115,16 @@ def study(overrides: dict, size: int = 48):
             row["converged"] = float(np.abs(a - b).max())
             rows.append(row)
     return rows
+
+
+def plummer_scene(particles: int) -> tuple[str, dict]:
+    """The Plummer demo of about ``particles`` particles, with its transfer function."""
+    from ..phantoms import demo_scene
+
+    size = max(2, 2 * round(particles ** (1.0 / 3.0)))
+    demo = demo_scene("plummer")
+    return (f"Plummer, {(size // 2) ** 3} SPH particles", {"volume.demo": "plummer", "volume.size": size,
+                                                            "transfer_function.points": demo["transfer_function"]["points"]})
 
 
 def shared_scenes(data_dir: Path, only: str | None = None):

@@ -20,6 +20,7 @@ SWIFT's ``SmoothingLengths`` is Dehnen and Aly's ``h``, whose support is ``gamma
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -131,3 +132,34 @@ def _rule(a: float, b: float, size: int):
     nodes = (edges[:-1, None] + half[:, None] * (x + 1.0)).ravel()
     weights = (half[:, None] * wt).ravel()
     return nodes, weights
+
+
+_FINE_Q = np.linspace(0.0, 1.0, 200001)
+
+
+@functools.lru_cache(maxsize=1)
+def _fine_footprint() -> np.ndarray:
+    return footprint(SUPPORT * np.sqrt(_FINE_Q))
+
+
+def quadrant(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """The footprint's share over ``(-2, x) x (-2, y)`` (smoothing lengths; 0 below, 1 at ``(2, 2)``), by a
+    48 x 48 Gauss-Legendre rule on the rectangle, the footprint from a 200001-entry table in ``q``
+    (linear, 1e-10 of its peak): the float64 judge of a particle smaller than a pixel, whose pixel holds
+    ``quadrant(x1, y1) - quadrant(x0, y1) - quadrant(x1, y0) + quadrant(x0, y0)`` of it.  Measured
+    within 2e-7 of :func:`box_integral`, and its whole 2.3e-8 off one (``tests/test_particles.py``)."""
+    x = np.clip(np.asarray(x, dtype=np.float64), -SUPPORT, SUPPORT)
+    y = np.clip(np.asarray(y, dtype=np.float64), -SUPPORT, SUPPORT)
+    x, y = np.broadcast_arrays(x, y)
+    table = _fine_footprint()
+    out = np.zeros(x.shape)
+    flat_x, flat_y, flat = x.ravel(), y.ravel(), out.reshape(-1)
+    for i in range(0, len(flat_x), 512):
+        xs = -SUPPORT + 0.5 * (flat_x[i:i + 512, None] + SUPPORT) * (_NODES + 1.0)  # (n, 48)
+        ys = -SUPPORT + 0.5 * (flat_y[i:i + 512, None] + SUPPORT) * (_NODES + 1.0)
+        q = (xs[:, :, None] ** 2 + ys[:, None, :] ** 2) / SUPPORT ** 2
+        f = np.where(q < 1.0, np.interp(q, _FINE_Q, table), 0.0)
+        wx = 0.5 * (flat_x[i:i + 512, None] + SUPPORT) * _WEIGHTS
+        wy = 0.5 * (flat_y[i:i + 512, None] + SUPPORT) * _WEIGHTS
+        flat[i:i + 512] = np.einsum("na,nab,nb->n", wx, f, wy)
+    return out

@@ -32,13 +32,13 @@ import math
 import numpy as np
 
 from ...fields import filter_parameters, reconstruct, sph
-from ...fields.particles import SPHInterpolant
+from ...fields.particles import ParticleSet, SPHInterpolant
 from ...fields.ragged import ranges, ranks
 from ...fields.reconstruction import GaussianKernel, _erf
 from ...rays import RayBatch
 from ...transfer_function import projected_rgba, segment_opacity, xray_rgba
 from .sheets import kernel_radius, pre_classified, slab_bounds
-from .particles import ParticleSplats
+from .particles import SUBPIXEL_RADIUS, ParticleSplats
 from .splats import Splats
 
 NODES = 8            # Gauss-Legendre nodes per piece
@@ -50,16 +50,17 @@ def reference(scene) -> np.ndarray:
     """The image ``(H, W, 4)`` float64 that ``splatting`` must match (see the module doc)."""
     r, img = scene.renderer, scene.image
     rays = RayBatch.for_camera(scene.camera, img.width, img.height, scene.field.bounds)
+    sub = SubPixel(scene, rays) if scene.field.kind == "particles" else None
     if r.compositing == "average":
-        out = _average(scene, rays)
+        out = _average(scene, rays, sub)
     elif r.compositing == "xray" and pre_classified(scene):
-        out = _xray_pre(scene, rays)
+        out = _xray_pre(scene, rays, sub)
     elif r.sheet_buffer == "none":
         out = _splats_alone(scene, rays)
     elif r.sheet_buffer == "axis_aligned":
         out = _axis_sheets(scene, rays)
     else:
-        out = _sheets(scene, rays)
+        out = _sheets(scene, rays, sub)
     return out.reshape(img.height, img.width, 4)
 
 
@@ -96,17 +97,18 @@ def _integrals(field, rays, ray, a, b, spacing) -> np.ndarray:
     return total
 
 
-def _sheets(scene, rays) -> np.ndarray:
+def _sheets(scene, rays, sub=None) -> np.ndarray:
     r, tf, vol, cam = scene.renderer, scene.transfer_function, scene.field, scene.camera
     forward, _, _ = cam.basis()
     eye = np.asarray(cam.eye, float)
     bounds = slab_bounds(scene, eye, forward)
     pre = pre_classified(scene)
     if pre:
-        field = _classified_field(scene)
+        field = _classified_field(scene, sub)
     else:
-        field = reconstruct(vol, r)
+        field = _field(scene, sub)
         table = tf.tabulate(r.lut_size)
+    carried = None if sub is None else sub.carried(scene, pre)
     along = rays.directions @ forward  # ray length per unit of depth: 1 / along
     xray = r.compositing == "xray"
     sums = np.zeros((len(rays), 4))
@@ -116,9 +118,12 @@ def _sheets(scene, rays) -> np.ndarray:
         a = np.maximum(rays.t0, bounds[k] / along)
         b = np.minimum(rays.t1, bounds[k + 1] / along)
         ray = np.nonzero(b > a)[0]
+        extra = None if sub is None else sub.sums(carried, len(rays), (bounds[k], bounds[k + 1]))
         for i in range(0, len(ray), CHUNK):
             rows = ray[i:i + CHUNK]
             integral = _integrals(field, rays, rows, a[rows], b[rows], vol.sample_spacing)
+            if extra is not None:
+                integral = integral.reshape(len(rows), -1) + extra[rows]
             if pre:  # the part's optical depth and emission: its colour and opacity as the X-ray's
                 premult = xray_rgba(integral[:, :3], integral[:, 3])
             else:
@@ -135,30 +140,123 @@ def _sheets(scene, rays) -> np.ndarray:
     return xray_rgba(sums[:, :3], sums[:, 3]) if xray else out
 
 
-def _classified_field(scene):
-    """The voxels (or particles) classified (``(sigma c, sigma)``, associated) and reconstructed by the
-    kernel."""
-    field, tf = scene.field, scene.transfer_function
+def _field(scene, sub=None):
+    """The scalar field the rays integrate: the scene's, or (particles) its particles' but those smaller
+    than a pixel (:class:`SubPixel`)."""
+    return reconstruct(scene.field if sub is None else sub.regular, scene.renderer)
+
+
+def _classified_field(scene, sub=None):
+    """The voxels (or particles but those smaller than a pixel) classified (``(sigma c, sigma)``, associated)
+    and reconstructed by the kernel."""
+    field, tf = scene.field if sub is None else sub.regular, scene.transfer_function
     return field.reconstruct_values(tf.classify_voxels(field.samples, True), scene.renderer.filter,
                                     **filter_parameters(scene.renderer))
 
 
-def _xray_pre(scene, rays) -> np.ndarray:
+class SubPixel:
+    """Particles whose support's radius is under ``SUBPIXEL_RADIUS`` pixels at their depth (in front of
+    the near plane), as the renderer splats them: the footprint's mean over each pixel's square at the
+    particle's depth (:func:`dvr_gl.fields.sph.quadrant`, float64), over the cosine of the angle of the
+    ray through the particle to the view axis; in a slab, times the particle's mass between the slab's
+    planes (:func:`dvr_gl.fields.sph.slab_mass`).  ``regular``: the other particles (these with no mass)."""
+
+    def __init__(self, scene, rays):
+        p = scene.field
+        self.mask = subpixel_mask(scene, p.positions, p.smoothing_lengths)
+        self.regular = ParticleSet(p.positions, p.smoothing_lengths, np.where(self.mask, 0.0, p.masses),
+                                   p.densities, p.values, name=p.name, array=p.array)
+        index = np.nonzero(self.mask)[0]
+        j, self.pixel, self.base = subpixel_pairs(scene, rays, p.positions[index], p.smoothing_lengths[index],
+                                                  p.weights[index])
+        self.index = index[j]
+        forward = scene.camera.basis()[0]
+        self.depth = (p.positions[self.index] - np.asarray(scene.camera.eye, float)) @ forward
+        self.h = p.smoothing_lengths[self.index]
+
+    def carried(self, scene, pre: bool) -> np.ndarray:
+        """What each particle carries ``(N, C)``: its quantity, or classified ``(sigma c, sigma)``."""
+        p = scene.field
+        return scene.transfer_function.classify_voxels(p.values, True) if pre else p.values[:, None]
+
+    def sums(self, carried: np.ndarray, rays: int, slab=None) -> np.ndarray:
+        """``(rays, C)``: the particles' integrals along each pixel's ray (in the slab between view depths
+        ``slab``)."""
+        weight = self.base
+        if slab is not None:
+            weight = weight * (sph.slab_mass((slab[1] - self.depth) / self.h)
+                               - sph.slab_mass((slab[0] - self.depth) / self.h))
+        values = carried[self.index]
+        return np.stack([np.bincount(self.pixel, weight * values[:, c], minlength=rays)
+                         for c in range(values.shape[1])], axis=1)
+
+
+def subpixel_mask(scene, positions: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """The renderer's test (``splat.vert``): the support ``2h`` under ``SUBPIXEL_RADIUS`` pixels at the
+    particle's depth, and in front of the near plane."""
+    cam, img = scene.camera, scene.image
+    hx, hy = cam.half_extent(img.width / img.height)
+    r = sph.SUPPORT * h
+    z = (positions - np.asarray(cam.eye, float)) @ cam.basis()[0]
+    pixel = 2.0 * hy / img.height * (1.0 if cam.projection == "orthographic" else np.maximum(z, 0.0))
+    return (z - r > cam.near) & (r < SUBPIXEL_RADIUS * pixel)
+
+
+def subpixel_pairs(scene, rays, positions, h, weights):
+    """``(particle, pixel, integral)`` for particles smaller than a pixel: each pixel whose square (at the
+    particle's depth) meets the support's square, and the particle's weight times its footprint's mean
+    over that square, per unit of the pixel ray's length along the ray through the particle."""
+    cam, img = scene.camera, scene.image
+    w, hgt = img.width, img.height
+    forward, right, up = cam.basis()
+    hx, hy = cam.half_extent(w / hgt)
+    rel = positions - np.asarray(cam.eye, float)
+    z = rel @ forward
+    scale = np.ones(len(z)) if cam.projection == "orthographic" else z
+    npw = np.stack([1.0 / (hx * scale), 1.0 / (hy * scale)], axis=1)        # NDC per world unit
+    centre = np.stack([rel @ right, rel @ up], axis=1) * npw                  # NDC
+    reach = (sph.SUPPORT * h)[:, None] * npw
+    size = np.array([w, hgt])
+    first = np.clip(np.floor((centre - reach + 1.0) * 0.5 * size), 0, size - 1).astype(np.int64)
+    last = np.clip(np.floor((centre + reach + 1.0) * 0.5 * size), 0, size - 1).astype(np.int64)
+    span = last - first + 1
+    count = span[:, 0] * span[:, 1]
+    j = np.repeat(np.arange(len(positions)), count)
+    k = ranks(count)
+    col = first[j, 0] + k % span[j, 0]
+    row_up = first[j, 1] + k // span[j, 0]                                     # from the bottom
+    edges = [np.stack([col + a, row_up + b], axis=1) / size * 2.0 - 1.0 for a, b in ((0, 0), (1, 1))]
+    lo, hi = ((e - centre[j]) / npw[j] / h[j, None] for e in edges)          # smoothing lengths
+    share = (sph.quadrant(hi[:, 0], hi[:, 1]) - sph.quadrant(lo[:, 0], hi[:, 1])
+             - sph.quadrant(hi[:, 0], lo[:, 1]) + sph.quadrant(lo[:, 0], lo[:, 1]))
+    area = np.prod((edges[1] - edges[0]) / npw[j], axis=1)
+    secant = 1.0 if cam.projection == "orthographic" else np.linalg.norm(rel[j], axis=1) / z[j]
+    pixel = (hgt - 1 - row_up) * w + col
+    base = weights[j] * share / area * secant
+    keep = base != 0
+    return j[keep], pixel[keep], base[keep]
+
+
+def _xray_pre(scene, rays, sub=None) -> np.ndarray:
     """The radiograph of the pre-classified field: its integrals of ``(sigma c, sigma)`` over the chord."""
     vol = scene.field
-    field = _classified_field(scene)
+    field = _classified_field(scene, sub)
     out = np.zeros((len(rays), 4))
     hit = np.nonzero(rays.t1 > rays.t0)[0]
     integral = _integrals(field, rays, hit, rays.t0[hit], rays.t1[hit], vol.sample_spacing)
+    if sub is not None:
+        integral = integral + sub.sums(sub.carried(scene, True), len(rays))[hit]
     out[hit] = xray_rgba(integral[:, :3], integral[:, 3])
     return out
 
 
-def _average(scene, rays) -> np.ndarray:
+def _average(scene, rays, sub=None) -> np.ndarray:
     vol = scene.field
     out = np.zeros((len(rays), 4))
     hit = np.nonzero(rays.t1 > rays.t0)[0]
-    integral = _integrals(reconstruct(vol, scene.renderer), rays, hit, rays.t0[hit], rays.t1[hit], vol.sample_spacing)
+    integral = _integrals(_field(scene, sub), rays, hit, rays.t0[hit], rays.t1[hit], vol.sample_spacing)
+    if sub is not None:
+        integral = integral.reshape(len(hit), -1) + sub.sums(sub.carried(scene, False), len(rays))[hit]
     out[hit] = projected_rgba(scene.transfer_function, integral[:, 0] / (rays.t1[hit] - rays.t0[hit]))
     return out
 
@@ -243,10 +341,12 @@ def _all_pair_integrals(scene, rays, splats, idx, kernel):
     return idx[s_local[keep]], pixel[keep], integral[keep]
 
 
-def _particle_pairs(scene, rays, splats):
-    """``(splat, pixel, integral)`` of particle splats: each particle's kernel along the pixel's ray over
-    its part in the field's box (:func:`dvr_gl.fields.sph.line_integral`)."""
-    s_local, pixel = _pairs(scene, splats.positions, sph.SUPPORT * splats.h)
+def _particle_pairs(scene, rays, splats, which):
+    """``(splat, pixel, integral)`` of the particle splats ``which`` (a mask): each particle's kernel along
+    the pixel's ray over its part in the field's box (:func:`dvr_gl.fields.sph.line_integral`)."""
+    chosen = np.nonzero(which)[0]
+    s_local, pixel = _pairs(scene, splats.positions[chosen], sph.SUPPORT * splats.h[chosen])
+    s_local = chosen[s_local]
     c, h = splats.positions[s_local], splats.h[s_local]
     o, d, t0, t1 = rays.origins[pixel], rays.directions[pixel], rays.t0[pixel], rays.t1[pixel]
     a = (d * d).sum(axis=1)
@@ -275,7 +375,13 @@ def _splats_alone(scene, rays) -> np.ndarray:
         kernel = GaussianKernel(r.kernel_width)
         splat, pixel, integral = _all_pair_integrals(scene, rays, splats, np.arange(len(splats)), kernel)
     else:
-        splat, pixel, integral = _particle_pairs(scene, rays, splats)
+        small = subpixel_mask(scene, splats.positions, splats.h)
+        splat, pixel, integral = _particle_pairs(scene, rays, splats, ~small)
+        index = np.nonzero(small)[0]
+        j, sub_pixel, base = subpixel_pairs(scene, rays, splats.positions[index], splats.h[index],
+                                            splats.weights[index])
+        splat, pixel, integral = (np.concatenate(x) for x in ((splat, index[j]), (pixel, sub_pixel),
+                                                                (integral, base)))
     order = np.lexsort((rank[splat], pixel))
     splat, pixel, integral = splat[order], pixel[order], integral[order]
     optics = splats.optics[splat].astype(np.float64)

@@ -21,16 +21,11 @@ from ...rays import chord_lengths
 from ...transfer_function import projected_rgba, xray_rgba
 from ..grid.gl_base import GLVolumeRenderer, TableTexture
 from .footprint import GaussianFootprint, M4Footprint
-from .particles import ParticleSplats
+from .particles import SUBPIXEL_RADIUS, ParticleSplats
 from .sheets import axis_schedule, culled_post, is_grid, kernel_radius, part_voxels, pre_classified, slab_schedule
 from .splats import Splats, ghost_layers, post_visibility
 
 
-#: A particle whose support's radius is under this many pixels has its footprint averaged over the pixels
-#: it covers (shaders/splatting/m4.glsl): sampled at pixel centres, a footprint's sum over the pixels errs
-#: from its integral by up to 90 % at 1 pixel, 6 % at 1.5, 5.5e-4 at 2 and 1e-3 at 3 (measured over random
-#: offsets, docs/renderers/splatting.md), so from 2 on the pixels' own rays serve.
-SUBPIXEL_RADIUS = 2.0
 
 
 @functools.lru_cache(maxsize=1)
