@@ -102,7 +102,7 @@ def add_arguments(p):
     sl = sub.add_parser("slicing", help="slicing2d against slicing3d across azimuths: error, stack-switch jump, "
                                         "pictures")
     sl.add_argument("--volume", metavar="FILE", help="a volume file (default: the Shepp-Logan phantom)")
-    sl.add_argument("--volume-size", type=int, default=64, help="phantom samples per axis (default 64)")
+    sl.add_argument("--volume-size", type=int, default=64, help="phantom samples per axis (default 64; 0: no phantom)")
     sl.add_argument("--size", type=int, default=128, help="square image size (default 128)")
     sl.add_argument("--pictures", metavar="DIR", help="write slicing_sweep.png and slicing_jump.png into DIR")
     sl.add_argument("--overwrite", action="store_true", help="replace pictures that exist")
@@ -146,7 +146,7 @@ def add_arguments(p):
     sp = sub.add_parser("splatting", help="splatting's schemes: frame time, splats drawn and culled, error against "
                                           "its oracle and the same kernel's converged reference, the ray caster at "
                                           "equal error; the 45-degree study (docs/renderers/splatting.md)")
-    sp.add_argument("--volume-size", type=int, default=64, help="phantom samples per axis (default 64)")
+    sp.add_argument("--volume-size", type=int, default=64, help="phantom samples per axis (default 64; 0: no phantom)")
     sp.add_argument("--particles", type=int, default=4096, help="also an SPH set: a Plummer sphere of about this "
                     "many particles (default 4096; 0: none)")
     sp.add_argument("--size", type=int, default=128, help="square image size (default 128)")
@@ -453,7 +453,7 @@ def run_splatting(args) -> int:
     from dvr_gl.bench import splatting
     from dvr_gl.errors import DvrError
 
-    for flag, value, low, high in (("--size", args.size, 8, 4096), ("--volume-size", args.volume_size, 2, 4096),
+    for flag, value, low, high in (("--size", args.size, 8, 4096), ("--volume-size", args.volume_size, 0, 4096),
                                    ("--study-size", args.study_size, 0, 4096), ("--particles", args.particles, 0, 10 ** 7)):
         if not low <= value <= high:
             raise DvrError(f"{flag} must be {low} to {high}, got {value}")
@@ -465,10 +465,16 @@ def run_splatting(args) -> int:
         scenes, notes = splatting.shared_scenes(Path(args.data_dir), args.only)
         if not scenes:
             raise DvrError(f"--only {args.only}: no shared dataset matches")
-    else:
+    elif args.volume_size:
         scenes = [(f"Shepp-Logan {args.volume_size}^3", demo)]
+    else:
+        scenes = []
+    if args.volume_size == 1:
+        raise DvrError("--volume-size must be 0 (no phantom) or 2 to 4096, got 1")
     if args.particles:
         scenes.append(splatting.plummer_scene(args.particles))
+    if not scenes:
+        raise DvrError("nothing to measure: --volume-size 0 and --particles 0")
     args.report.text(f"dvr bench splatting: {args.size}x{args.size}, the Gaussian of width 0.7 (particles: their "
                      f"cubic spline), default camera and "
                      f"transfer function, no shading; median of {args.repeat} frames after a warm-up; RMS against "
@@ -479,7 +485,7 @@ def run_splatting(args) -> int:
     args.report.table(rows, splatting.COLUMNS)
     for note in notes:
         args.report.text(note)
-    if args.study_size:
+    if args.study_size and args.volume_size:
         args.report.text(f"\nthe 45-degree study: Shepp-Logan {args.volume_size}^3 at {args.study_size}x"
                          f"{args.study_size}, elevation 0, post-classified; the largest change of each image between "
                          f"azimuth - {splatting.STUDY_STEP:g} and + {splatting.STUDY_STEP:g} degrees")

@@ -116,16 +116,16 @@ def test_the_interpolant_is_the_sum_of_kernels_and_its_gradient_is_exact():
     assert p.value_range[0] == 0.0 and p.value_range[1] == pytest.approx(rec.sample(p.positions).max())
 
 
-def test_knots_are_where_rays_meet_each_kernels_pieces():
-    """One particle at the origin (h = 1): a ray at distance 0.5 has its nearest approach and the crossings
-    of r = 1 and r = 2; one at 1.5 meets only r = 2; one at 2.5 none."""
+def test_knots_are_where_rays_enter_and_leave_each_support():
+    """One particle at the origin (h = 1, support 2): rays at distance 0.5 and 1.5 enter and leave its
+    support; one at 2.5 misses it."""
     p = ParticleSet([[0.0, 0.0, 0.0]], 1.0, 1.0, 1.0)
     o = np.array([[0.5, 0.0, -10.0], [1.5, 0.0, -10.0], [2.5, 0.0, -10.0]])
     d = np.tile([0.0, 0.0, 1.0], (3, 1))
     ray, t = p.reconstruct().knots(o, d, np.zeros(3), np.full(3, 20.0))
-    assert np.bincount(ray, minlength=3).tolist() == [5, 3, 0]
-    assert sorted(t[ray == 0]) == pytest.approx([10 - math.sqrt(3.75), 10 - math.sqrt(0.75), 10,
-                                                 10 + math.sqrt(0.75), 10 + math.sqrt(3.75)])
+    assert np.bincount(ray, minlength=3).tolist() == [2, 2, 0]
+    assert sorted(t[ray == 0]) == pytest.approx([10 - math.sqrt(3.75), 10 + math.sqrt(3.75)])
+    assert sorted(t[ray == 1]) == pytest.approx([10 - math.sqrt(1.75), 10 + math.sqrt(1.75)])
 
 
 @pytest.mark.parametrize("bad, message", [

@@ -254,3 +254,21 @@ def test_ewa_footprints_err_where_the_exact_ones_do_not(tmp_path, splatting):
         exact = _one_kernel_xray(tmp_path, splatting, 20.0, angle, "exact")
         ewa = _one_kernel_xray(tmp_path, splatting, 20.0, angle, "ewa")
         assert exact < 1e-4 and 1e-3 < ewa < 3e-2, (angle, exact, ewa)
+
+
+@pytest.mark.parametrize("classification", ["post", "pre"])
+def test_early_termination_skips_splats_behind_opaque_pixels(splatting, classification):
+    """With renderer.ert_threshold below 1, splats whose screen rectangle is opaque already are left out
+    and fragments on opaque pixels discarded: the image moves by at most 1 - threshold (measured
+    3.92e-3 at the default 1 - 1/255, the bound itself: pixels that end just past it) and splats are
+    skipped (here 5.6 % post-classified and 9.2 % pre-classified; the 48^3 phantom at 192x192: 16 % and 31 %,
+    11 % and 32 % less time)."""
+    base = {**GAUSSIAN, **OPAQUE_TF, "volume.size": 32, "image.width": 48, "image.height": 48,
+            "renderer.classification": classification}
+    exact = splatting.render(small_scene(base))
+    assert splatting.stats["skipped"] == 0
+    threshold = 1.0 - 1.0 / 255.0
+    image = splatting.render(small_scene({**base, "renderer.ert_threshold": threshold}))
+    assert splatting.stats["skipped"] > 0.04 * splatting.stats["splats_drawn"]
+    assert exact[..., 3].max() > threshold
+    assert np.abs(image - exact).max() <= (1.0 - threshold) + 1e-6

@@ -12,10 +12,12 @@ m_j W``), whose X-ray is the column density.
 * ``bounds``: the box of the supports; ``sample_spacing`` ("one voxel"): the median ``h``;
 * ``value_range``: zero (outside every support) to the interpolant's largest value at the
   particles (where it peaks for smooth data; an interpolant may exceed it slightly between them);
-* the reconstruction's ``knots`` along a ray are, for each particle whose support it meets, its
-  nearest approach and where it crosses ``r = h`` and ``r = 2h`` (the kernel's pieces): between knots
-  the field is smooth, and the converged reference fits the polynomial of :data:`SPH_DEGREE` to a
-  piece as for the Gaussian;
+* the reconstruction's ``knots`` along a ray are where it enters and leaves each particle's support
+  (where the kernel's third derivative jumps from zero, and where a small particle could fall between
+  samples): between knots the field is smooth (the kernel is C2 at ``r = h``), and the converged
+  reference fits the polynomial of :data:`SPH_DEGREE` to a piece as for the Gaussian.  Cutting also at
+  ``r = h`` and at the nearest approach doubled the converged reference's time (the Plummer demo of
+  4096 particles at 32x32: 14.8 s against 7.4 s) for the same image (to 4e-9);
 * ``samples`` and ``reconstruct_values``: the quantities at the particles and other values at them
   interpolated alike (pre-classification classifies the particles).
 
@@ -41,7 +43,7 @@ from .ragged import ranges, ranks
 #: the ray parameter, but smooth between the knots.
 SPH_DEGREE = 9
 FILTER = "m4"
-CELLS_PER_AXIS = 96      # the index's grid, at most, along the box's longest axis
+CELLS_PER_AXIS = 128     # the index's grid, at most, along the box's longest axis
 POINTS_PER_BATCH = 8192  # points sampled at once (their pairs with the particles in their cells)
 PAIRS_PER_CHUNK = 4_000_000  # (ray, particle) pairs tested at once for knots
 
@@ -146,8 +148,10 @@ class CellIndex:
     def __init__(self, centres: np.ndarray, radius: np.ndarray, bounds):
         lo, hi = (np.asarray(b, dtype=np.float64) for b in bounds)
         extent = np.maximum(hi - lo, 1e-300)
-        # cells about a support across (the median's), at most CELLS_PER_AXIS along the longest axis
-        size = max(float(np.median(radius)) * 2.0, float(extent.max()) / CELLS_PER_AXIS)
+        # cells half the median support's radius wide (at most CELLS_PER_AXIS along the longest axis): a point
+        # then meets about (1 + 1/2)^3 = 3.4 times the particles whose support holds it, where cells a support
+        # across (twice the radius) would give 27 times (measured: the converged reference 4x faster)
+        size = max(float(np.median(radius)) * 0.5, float(extent.max()) / CELLS_PER_AXIS)
         self.lo, self.size = lo, size
         self.shape = np.maximum(np.ceil(extent / size).astype(np.int64), 1)
         first = self._cell(centres - radius[:, None])
@@ -224,8 +228,7 @@ class SPHInterpolant:
         return self._sum(points, gradient=True)
 
     def knots(self, origins, directions, t0, t1):
-        """``(ray, t)``: for each particle whose support a ray meets, its nearest approach and the
-        crossings of ``r = h`` and ``r = 2h``, inside ``(t0, t1)``."""
+        """``(ray, t)``: where a ray enters and leaves each particle's support, inside ``(t0, t1)``."""
         p = self.particles
         origins, directions = np.asarray(origins, np.float64), np.asarray(directions, np.float64)
         a = np.einsum("ni,ni->n", directions, directions)
@@ -241,13 +244,9 @@ class SPHInterpolant:
             if not len(ray):
                 continue
             near, r2 = tc[ray, j], rho2[ray, j]
-            found = [near]
-            for radius in (h[j], sph.SUPPORT * h[j]):
-                half = np.sqrt(np.maximum(radius ** 2 - r2, 0.0) / a[ray])
-                crosses = r2 < radius ** 2
-                found += [np.where(crosses, near - half, np.nan), np.where(crosses, near + half, np.nan)]
-            t = np.concatenate(found)
-            owner = np.tile(ray, len(found))
+            half = np.sqrt(np.maximum((sph.SUPPORT * h[j]) ** 2 - r2, 0.0) / a[ray])
+            t = np.concatenate([near - half, near + half])
+            owner = np.concatenate([ray, ray])
             keep = (t > t0[owner]) & (t < t1[owner])
             rays.append(owner[keep])
             ts.append(t[keep])

@@ -22,7 +22,16 @@ flat in vec4 v_optics;
 flat in float v_core;
 out vec4 frag;
 
+#ifdef ERT
+uniform sampler2D u_accumulated;  // the sheets composited so far (front to back)
+uniform float u_ert;
+#endif
+
 void main() {
+#ifdef ERT
+    if (texelFetch(u_accumulated, ivec2(gl_FragCoord.xy), 0).a >= u_ert)
+        discard;  // this pixel is opaque already: early termination (renderer.py, Occlusion)
+#endif
     vec3 o, d;
     camera_ray(o, d);
     float lo, hi;

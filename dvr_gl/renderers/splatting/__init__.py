@@ -68,7 +68,7 @@ PLUGIN = RendererPlugin(
     renderer="dvr_gl.renderers.splatting.renderer:SplattingRenderer",
     settings=(s.COMPOSITING.only("emission_absorption", "average", "xray"), s.CLASSIFICATION.only("post", "pre"),
               s.ASSOCIATED_COLORS, s.FILTER.only("gaussian", "m4"), s.KERNEL_WIDTH, SHEET_BUFFER, SLAB_WIDTH, FOOTPRINT,
-              s.LUT_SIZE),
+              s.ERT_THRESHOLD, s.LUT_SIZE),
     data_kinds=("grid", "particles"),
     needs_gl=True,
     check=check,

@@ -33,11 +33,11 @@ import numpy as np
 
 from ...fields import filter_parameters, reconstruct, sph
 from ...fields.particles import ParticleSet, SPHInterpolant
-from ...fields.ragged import ranges, ranks
+from ...fields.ragged import ranks
 from ...fields.reconstruction import GaussianKernel, _erf
 from ...rays import RayBatch
 from ...transfer_function import projected_rgba, segment_opacity, xray_rgba
-from .sheets import kernel_radius, pre_classified, slab_bounds
+from .sheets import kernel_radius, pixel_rectangles, pre_classified, slab_bounds
 from .particles import SUBPIXEL_RADIUS, ParticleSplats
 from .splats import Splats
 
@@ -291,37 +291,15 @@ def pair_integrals(kernel: GaussianKernel, spacing, centres, origins, directions
     return out
 
 
-def _pairs(scene, positions: np.ndarray, radius_world: float):
-    """``(splat, pixel)`` pairs whose pixel rectangle holds the splat's bounding sphere's projection
-    (every pixel in perspective where the sphere reaches the eye's plane)."""
-    cam, img = scene.camera, scene.image
-    w, h = img.width, img.height
-    forward, right, up = cam.basis()
-    p = positions - np.asarray(cam.eye, float)
-    x, y, z = p @ right, p @ up, p @ forward
-    hx, hy = cam.half_extent(w / h)
-    r = radius_world
-    if cam.projection == "orthographic":
-        nx0, nx1, ny0, ny1 = (x - r) / hx, (x + r) / hx, (y - r) / hy, (y + r) / hy
-    else:
-        front = z - r > cam.near
-        zz = np.where(front, z, 2.0 * r + 1.0)
-        def bounds(c):
-            root = np.sqrt(np.maximum(c * c + zz * zz - r * r, 0.0))
-            den = zz * zz - r * r
-            return (c * zz - r * root) / den, (c * zz + r * root) / den
-        (bx0, bx1), (by0, by1) = bounds(x), bounds(y)
-        nx0, nx1 = np.where(front, bx0 / hx, -2.0), np.where(front, bx1 / hx, 2.0)
-        ny0, ny1 = np.where(front, by0 / hy, -2.0), np.where(front, by1 / hy, 2.0)
-    # pixel column i has ndc x (i + 0.5) / w * 2 - 1; row j (from the top) ndc y 1 - 2 (j + 0.5) / h
-    i0 = np.clip(np.ceil((nx0 + 1.0) * 0.5 * w - 0.5 - 1e-9), 0, w).astype(np.int64)
-    i1 = np.clip(np.floor((nx1 + 1.0) * 0.5 * w - 0.5 + 1e-9), -1, w - 1).astype(np.int64)
-    j0 = np.clip(np.ceil((1.0 - ny1) * 0.5 * h - 0.5 - 1e-9), 0, h).astype(np.int64)
-    j1 = np.clip(np.floor((1.0 - ny0) * 0.5 * h - 0.5 + 1e-9), -1, h - 1).astype(np.int64)
+def _pairs(scene, positions: np.ndarray, radius_world):
+    """``(splat, pixel)`` pairs whose pixel centre lies in the screen rectangle of the splat's bounding
+    sphere (:func:`.sheets.pixel_rectangles`)."""
+    w = scene.image.width
+    i0, i1, j0, j1 = pixel_rectangles(scene, positions, radius_world)
     cols, rows = np.maximum(i1 - i0 + 1, 0), np.maximum(j1 - j0 + 1, 0)
     count = cols * rows
     splat = np.repeat(np.arange(len(positions)), count)
-    k = ranges(np.zeros(len(count), np.int64), count)
+    k = ranks(count)
     c = cols[splat]
     pixel = (j0[splat] + k // np.maximum(c, 1)) * w + i0[splat] + k % np.maximum(c, 1)
     return splat, pixel

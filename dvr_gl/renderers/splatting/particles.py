@@ -42,16 +42,20 @@ class ParticleSplats:
     def depths(self, eye, forward) -> np.ndarray:
         return (self.positions - eye) @ forward
 
-    def attributes(self, order: np.ndarray) -> list[tuple[str, int, bytes]]:
-        """The instance attributes in ``order``: (name, floats, bytes)."""
+    def attributes(self, order: np.ndarray) -> list[tuple[str, int, np.ndarray]]:
+        """The instance attributes in ``order``: (name, floats, float32 rows)."""
         first = np.empty((len(order), 4), np.float32)
         first[:, :3] = self.positions[order]
         first[:, 3] = self.values[order]
         particle = np.stack([self.h[order], self.weights[order]], axis=1).astype(np.float32)
-        out = [("in_splat", 4, first.tobytes()), ("in_particle", 2, particle.tobytes())]
+        out = [("in_splat", 4, first), ("in_particle", 2, particle)]
         if self.optics is not None:
-            out.append(("in_optics", 4, self.optics[order].tobytes()))
+            out.append(("in_optics", 4, self.optics[order]))
         return out
+
+    def bounding_radii(self) -> np.ndarray:
+        """Each splat's bounding sphere (world units): its support."""
+        return sph.SUPPORT * self.h
 
     @property
     def reach(self) -> float:

@@ -61,6 +61,55 @@ class FootprintTextures:
             t.release()
 
 
+class Occlusion:
+    """Early termination for sheets composited front to back (Mueller et al.'s occlusion test): before a
+    sheet's splats are drawn, those whose screen rectangle (of the bounding sphere, a pixel wider on
+    each side) holds no pixel still below ``renderer.ert_threshold`` of accumulated opacity are left
+    out, found from a summed-area table of the open pixels; the fragments of the others that land on
+    an opaque pixel are discarded (``splat.frag``).  What is dropped reaches only opaque pixels, whose
+    remaining transmittance is at most ``1 - threshold``: as the ray caster's early termination."""
+
+    def __init__(self, scene, positions: np.ndarray, radii, attributes):
+        from .sheets import pixel_rectangles
+
+        self.threshold = scene.renderer.ert_threshold
+        i0, i1, j0, j1 = pixel_rectangles(scene, positions, radii)
+        w, h = scene.image.width, scene.image.height
+        self.rect = (np.clip(i0 - 1, 0, w), np.clip(i1 + 2, 0, w), np.clip(j0 - 1, 0, h), np.clip(j1 + 2, 0, h))
+        self.attributes = attributes
+        self.scratch = None
+
+    def visible(self, alpha: np.ndarray, first: int, last: int) -> np.ndarray | None:
+        """The splats of ``first .. last`` (in upload order) whose rectangle holds an open pixel; None if no
+        pixel is open."""
+        open_ = alpha < self.threshold
+        if not open_.any():
+            return None
+        if open_.all():
+            return np.arange(first, last)
+        table = np.zeros((open_.shape[0] + 1, open_.shape[1] + 1), np.int64)
+        table[1:, 1:] = np.cumsum(np.cumsum(open_, axis=0), axis=1)
+        c0, c1, r0, r1 = (x[first:last] for x in self.rect)  # half-open: columns c0 .. c1 - 1
+        count = table[r1, c1] - table[r0, c1] - table[r1, c0] + table[r0, c0]
+        return first + np.nonzero(count > 0)[0]
+
+    def subset(self, ctx, program, keep: np.ndarray):
+        """A vertex array over only the splats ``keep`` (``(vao, buffers, 0, n)``)."""
+        self.release()
+        self.scratch = [(name, width, ctx.buffer(np.ascontiguousarray(rows[keep]).tobytes()))
+                        for name, width, rows in self.attributes]
+        vao = ctx.vertex_array(program, [])
+        self.scratch_vao = vao
+        return vao, self.scratch, 0, len(keep)
+
+    def release(self):
+        if self.scratch:
+            for _, _, b in self.scratch:
+                b.release()
+            self.scratch_vao.release()
+        self.scratch = None
+
+
 class SplattingRenderer(GLVolumeRenderer):
     name = "splatting"
 
@@ -96,9 +145,13 @@ class SplattingRenderer(GLVolumeRenderer):
         self.stats.update(splats=len(splats), splats_total=splats.total, culled=splats.total - len(splats))
         if not len(splats):  # pre-classified, every voxel transparent
             return np.zeros((scene.image.height, scene.image.width, 4), np.float32)
-        buffers = [(name, width, self.ctx.buffer(rows)) for name, width, rows in splats.attributes(order)]
+        attributes = splats.attributes(order)
+        buffers = [(name, width, self.ctx.buffer(rows.tobytes())) for name, width, rows in attributes]
+        occlusion = None
+        if schedule is not None and mode == "emission_absorption" and r.ert_threshold < 1.0:
+            occlusion = Occlusion(scene, splats.positions[order] + centre, splats.bounding_radii(), attributes)
         try:
-            return self._composite(scene, buffers, schedule, centre, eye, (forward, right, up))
+            return self._composite(scene, buffers, schedule, centre, eye, (forward, right, up), occlusion)
         finally:
             for _, _, b in buffers:
                 b.release()
@@ -155,7 +208,7 @@ class SplattingRenderer(GLVolumeRenderer):
         self._bind_splats(vao, program, buffers, first)
         vao.render(moderngl.TRIANGLE_STRIP, vertices=4, instances=count)
 
-    def _composite(self, scene, buffers, schedule, centre, eye, basis) -> np.ndarray:
+    def _composite(self, scene, buffers, schedule, centre, eye, basis, occlusion=None) -> np.ndarray:
         r, img = scene.renderer, scene.image
         w, h = img.width, img.height
         uniforms = self._uniforms(scene, centre, eye, basis)
@@ -187,7 +240,7 @@ class SplattingRenderer(GLVolumeRenderer):
                 image = self._average(scene, image)
             return image.astype(np.float32)
         sheets_kind = "SLABS" if r.sheet_buffer == "image_aligned" else "AXIS_SHEETS"
-        program = self._splat_program(scene, SLABS=sheets_kind == "SLABS")
+        program = self._splat_program(scene, SLABS=sheets_kind == "SLABS", ERT=occlusion is not None)
         xray = r.compositing == "xray"
         sheet_program = create_program(ctx, "fullscreen.vert", "splatting/sheet.frag",
                                        self._defines(scene, **{sheets_kind: True, "XRAY": xray}))
@@ -195,25 +248,38 @@ class SplattingRenderer(GLVolumeRenderer):
         sheet_uniforms = {**uniforms, **{k: v for k, v in self.optics_uniforms(scene, lut.lut).items()
                                          if k.startswith("u_lut")}}
         (sheet_texture,), sheet_fbo = self.target("sheet", w, h)
-        _, accumulation = self.target("accumulation", w, h)
+        (accumulated,), accumulation = self.target("accumulation", w, h)
         accumulation.use()
         accumulation.clear(0.0, 0.0, 0.0, 0.0)
         vao = self._splat_vao(program, buffers)
         quad = ctx.vertex_array(sheet_program, [])
         pre = pre_classified(scene)
-        drawn = 0
+        drawn = skipped = 0
+        if occlusion is not None:
+            textures = {**textures, "u_accumulated": accumulated}
+            uniforms = {**uniforms, "u_ert": r.ert_threshold}
         try:
-            for sheet, first, last in schedule:
+            for index, (sheet, first, last) in enumerate(schedule):
                 n = last - first
                 if n <= 0 and pre:
                     continue  # nothing in this sheet: transparent
+                draw = (vao, buffers, first, n)
+                if occlusion is not None and n > 0:
+                    keep = occlusion.visible(self.read(accumulation, w, h)[..., 3], first, last)
+                    if keep is None:  # every pixel opaque: nothing behind counts
+                        skipped += sum(max(b - a, 0) for _, a, b in schedule[index:])
+                        break
+                    skipped += n - len(keep)
+                    if 0 < len(keep) < n:
+                        draw = occlusion.subset(ctx, program, keep)
+                    n = len(keep)
                 sheet_fbo.use()
                 sheet_fbo.clear(0.0, 0.0, 0.0, 0.0)
                 ctx.enable(moderngl.BLEND)
                 ctx.blend_func = (moderngl.ONE, moderngl.ONE)
                 if n > 0:
                     self.bind(program, {**uniforms, **sheet}, textures)
-                    self._draw_splats(vao, program, buffers, first, n)
+                    self._draw_splats(draw[0], program, draw[1], draw[2], n)
                     drawn += n
                 accumulation.use()
                 # under, front to back; the X-ray adds its sheets' optical depth and emission
@@ -224,7 +290,9 @@ class SplattingRenderer(GLVolumeRenderer):
             ctx.disable(moderngl.BLEND)
             vao.release()
             quad.release()
-        self.stats.update(sheets=len(schedule), splats_drawn=drawn)
+            if occlusion is not None:
+                occlusion.release()
+        self.stats.update(sheets=len(schedule), splats_drawn=drawn, skipped=skipped)
         image = self.read(accumulation, w, h)
         return _radiograph(image).astype(np.float32) if xray else image
 

@@ -105,3 +105,37 @@ def slab_schedule(scene, depth: np.ndarray, reach: float | None = None):
     last = np.searchsorted(sorted_depth, bounds[1:] + reach, side="right")
     return order, [({"u_slab": (float(bounds[k]), float(bounds[k + 1]))}, int(first[k]), int(last[k]))
                    for k in range(len(bounds) - 1)]
+
+
+def pixel_rectangles(scene, positions: np.ndarray, radius_world) -> tuple[np.ndarray, ...]:
+    """``(i0, i1, j0, j1)``: the columns and rows (from the top, inclusive; empty where ``i1 < i0``) of the
+    pixels whose centres lie in the screen rectangle of each bounding sphere (world ``positions``,
+    ``radius_world`` a number or one per sphere): its tangents through the eye in perspective, every
+    pixel where the sphere reaches the eye's plane."""
+    cam, img = scene.camera, scene.image
+    w, h = img.width, img.height
+    forward, right, up = cam.basis()
+    p = positions - np.asarray(cam.eye, float)
+    x, y, z = p @ right, p @ up, p @ forward
+    hx, hy = cam.half_extent(w / h)
+    r = radius_world
+    if cam.projection == "orthographic":
+        nx0, nx1, ny0, ny1 = (x - r) / hx, (x + r) / hx, (y - r) / hy, (y + r) / hy
+    else:
+        front = z - r > cam.near
+        zz = np.where(front, z, 2.0 * r + 1.0)
+
+        def bounds(c):
+            root = np.sqrt(np.maximum(c * c + zz * zz - r * r, 0.0))
+            den = zz * zz - r * r
+            return (c * zz - r * root) / den, (c * zz + r * root) / den
+
+        (bx0, bx1), (by0, by1) = bounds(x), bounds(y)
+        nx0, nx1 = np.where(front, bx0 / hx, -2.0), np.where(front, bx1 / hx, 2.0)
+        ny0, ny1 = np.where(front, by0 / hy, -2.0), np.where(front, by1 / hy, 2.0)
+    # pixel column i has ndc x (i + 0.5) / w * 2 - 1; row j (from the top) ndc y 1 - 2 (j + 0.5) / h
+    i0 = np.clip(np.ceil((nx0 + 1.0) * 0.5 * w - 0.5 - 1e-9), 0, w).astype(np.int64)
+    i1 = np.clip(np.floor((nx1 + 1.0) * 0.5 * w - 0.5 + 1e-9), -1, w - 1).astype(np.int64)
+    j0 = np.clip(np.ceil((1.0 - ny1) * 0.5 * h - 0.5 - 1e-9), 0, h).astype(np.int64)
+    j1 = np.clip(np.floor((1.0 - ny0) * 0.5 * h - 0.5 + 1e-9), -1, h - 1).astype(np.int64)
+    return i0, i1, j0, j1

@@ -73,6 +73,7 @@ class Splats:
         if keep is not None:
             index, values = index[keep], values[keep]
         self.index = index  # (n, 3) lattice indices (x, y, z), ghosts beyond 0 .. n - 1
+        self.radius, self.spacing = radius, volume.spacing
         world = np.asarray(volume.origin) + index * np.asarray(volume.spacing)
         self.positions = world - centre  # float64 until uploaded
         self.values = values.astype(np.float64)
@@ -80,21 +81,25 @@ class Splats:
     def __len__(self) -> int:
         return len(self.values)
 
+    def bounding_radii(self) -> float:
+        """The splats' bounding sphere (world units): the kernel's support along the longest spacing."""
+        return self.radius * float(np.max(self.spacing))
+
     def depths(self, eye, forward) -> np.ndarray:
         """View depth of each splat's centre (distance from the eye along the view axis)."""
         return (self.positions - eye) @ forward
 
-    def attributes(self, order: np.ndarray) -> list[tuple[str, int, bytes]]:
-        """The instance attributes of the splats in ``order`` (name, floats, bytes; float32): ``(centre,
+    def attributes(self, order: np.ndarray) -> list[tuple[str, int, np.ndarray]]:
+        """The instance attributes of the splats in ``order`` (name, floats, rows; float32): ``(centre,
         value)``, and ``(sigma c, sigma)`` (pre-classified) or core flags (post-classified with culling)."""
         first = np.empty((len(order), 4), np.float32)
         first[:, :3] = self.positions[order]
         first[:, 3] = self.values[order]
-        out = [("in_splat", 4, first.tobytes())]
+        out = [("in_splat", 4, first)]
         if self.optics is not None:
-            out.append(("in_optics", 4, self.optics[order].tobytes()))
+            out.append(("in_optics", 4, self.optics[order]))
         elif self.core is not None:
-            out.append(("in_core", 1, self.core[order].tobytes()))
+            out.append(("in_core", 1, self.core[order][:, None]))
         return out
 
 
