@@ -13,12 +13,12 @@ __version__ = "0.1.0"
 from .api import Image, render, scene_of  # noqa: E402
 from .camera import Camera  # noqa: E402
 from .errors import DvrError, SceneError, VolumeError  # noqa: E402
-from .fields import Field, SphereField, Volume  # noqa: E402
-from .io import load_volume  # noqa: E402
+from .fields import Field, ParticleSet, SphereField, Volume  # noqa: E402
+from .io import load_field, load_volume  # noqa: E402
 from .renderers import create_renderer, registry  # noqa: E402
 from .scene import Scene, load_scene  # noqa: E402
 from .transfer_function import PRESETS, TransferFunction, preset  # noqa: E402
 
-__all__ = ["Camera", "DvrError", "Field", "Image", "PRESETS", "Scene", "SceneError", "SphereField", "TransferFunction",
-           "Volume", "VolumeError", "create_renderer", "load_scene", "load_volume", "preset", "registry", "render",
-           "scene_of", "__version__"]
+__all__ = ["Camera", "DvrError", "Field", "Image", "PRESETS", "ParticleSet", "Scene", "SceneError", "SphereField",
+           "TransferFunction", "Volume", "VolumeError", "create_renderer", "load_field", "load_scene", "load_volume",
+           "preset", "registry", "render", "scene_of", "__version__"]

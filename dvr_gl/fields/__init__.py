@@ -1,7 +1,7 @@
 """Fields: what renderers and references sample.
 
-Every kind of data (today the regular grid; tetrahedral meshes and particle sets
-are next) implements one protocol, :class:`Field`:
+Every kind of data (the regular grid, the tetrahedral mesh, SPH particles, analytic fields)
+implements one protocol, :class:`Field`:
 
 * ``kind``: the data kind renderers declare they render (``"grid"``, ``"analytic"``, ...);
 * ``bounds``: the world-space box ``(lo, hi)`` holding the field (camera framing, ray
@@ -30,6 +30,7 @@ import numpy as np
 
 from .analytic import SphereField
 from .grid import Volume
+from .particles import ParticleSet
 
 
 @runtime_checkable
@@ -94,4 +95,4 @@ def diagonal(field: Field) -> float:
     return float(np.linalg.norm(np.asarray(hi) - np.asarray(lo)))
 
 
-__all__ = ["Field", "Reconstruction", "Volume", "SphereField", "gradient_epsilon", "diagonal"]
+__all__ = ["Field", "Reconstruction", "Volume", "SphereField", "ParticleSet", "gradient_epsilon", "diagonal"]

@@ -7,6 +7,9 @@
 #include "common/camera_ray.glsl"
 #include "common/optics.glsl"
 #include "splatting/kernel.glsl"
+#ifdef KERNEL_BSPLINE
+#include "splatting/bspline.glsl"
+#endif
 #ifdef PARTICLES
 #include "splatting/m4.glsl"
 flat in vec4 v_particle;  // h, weight m / rho, sub-pixel (splat.vert)
@@ -94,6 +97,13 @@ void main() {
         integral = m4_integral(o, d, v_splat.xyz, v_particle.x, lo, hi);
     }
     integral *= v_particle.y;  // m / rho
+#elif defined(KERNEL_BSPLINE)
+    float integral = bspline_integral(o, d, v_splat.xyz, u_spacing, lo, hi);
+    {   // the part's nearest point to the sample, voxels (culling's core test, below)
+        vec3 uo = (o + lo * d - v_splat.xyz) / u_spacing, ud = d / u_spacing;
+        vec3 closest = uo + clamp(-dot(uo, ud) / dot(ud, ud), 0.0, hi - lo) * ud;
+        closest2 = dot(closest, closest);
+    }
 #else
     float integral = kernel_integral(o, d, v_splat.xyz, u_spacing, u_radius, lo, hi, closest2);
 #endif

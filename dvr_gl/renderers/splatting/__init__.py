@@ -29,6 +29,9 @@ from ...model import CLASSIFIED_ALONG_RAY
 from ..registry import RendererPlugin
 
 SHEET_BUFFERS = ("image_aligned", "axis_aligned", "none")
+#: The kernels splatting splats a grid with: the Gaussian (tables) and the tensor cubic B-spline (exact
+#: piecewise quadrature, shaders/splatting/bspline.glsl).
+GRID_KERNELS = ("gaussian", "cubic_bspline")
 
 SHEET_BUFFER = s.Setting("sheet_buffer", str, "image_aligned", "how splats are composited: image_aligned (slabs "
                          "parallel to the image, Mueller and Crawfis), axis_aligned (a sheet per voxel plane "
@@ -48,10 +51,10 @@ def check(scene):
     be the voxel's (pre-classification, associated)."""
     r = scene.renderer
     grid = scene.field.kind == "grid"
-    kernel = "gaussian" if grid else "m4"
-    if r.filter != kernel:
-        raise SceneError(f"splatting splats a {'grid with the gaussian' if grid else 'particle set with its m4'} "
-                         f"kernel; set renderer.filter = {kernel} (got {r.filter})")
+    kernels = GRID_KERNELS if grid else ("m4",)
+    if r.filter not in kernels:
+        raise SceneError(f"splatting splats a {'grid with the gaussian or cubic_bspline' if grid else 'particle set with its m4'} "
+                         f"kernel; set renderer.filter = {kernels[0]} (got {r.filter})")
     if not grid and r.sheet_buffer == "axis_aligned":
         raise SceneError("renderer.sheet_buffer = axis_aligned stacks a grid's voxel planes; SPH particles have none: "
                          "use image_aligned or none")
@@ -67,7 +70,7 @@ PLUGIN = RendererPlugin(
     description="splatting: each sample's kernel integrated into footprints, sheet buffers in GL",
     renderer="dvr_gl.renderers.splatting.renderer:SplattingRenderer",
     settings=(s.COMPOSITING.only("emission_absorption", "average", "xray"), s.CLASSIFICATION.only("post", "pre"),
-              s.ASSOCIATED_COLORS, s.FILTER.only("gaussian", "m4"), s.KERNEL_WIDTH, SHEET_BUFFER, SLAB_WIDTH, FOOTPRINT,
+              s.ASSOCIATED_COLORS, s.FILTER.only("gaussian", "cubic_bspline", "m4"), s.KERNEL_WIDTH, SHEET_BUFFER, SLAB_WIDTH, FOOTPRINT,
               s.ERT_THRESHOLD, s.LUT_SIZE),
     data_kinds=("grid", "particles"),
     needs_gl=True,

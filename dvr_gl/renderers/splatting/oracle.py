@@ -72,8 +72,9 @@ def _pieces(field, rays, ray, a, b, spacing):
     k = ranks(pieces)
     step = ((b - a) / pieces)[owner]
     lo = a[owner] + k * step
-    if not isinstance(field, SPHInterpolant):
+    if not isinstance(field, SPHInterpolant) and getattr(field, "kind", None) != "cubic_bspline":
         return owner, lo, step
+    # particles: the supports' ends; the cubic B-spline: the voxel planes, between which it is a polynomial
     k_ray, k_t = field.knots(rays.origins[ray], rays.directions[ray], a, b)
     owner = np.concatenate([owner, k_ray, np.arange(len(a))])
     cut = np.concatenate([lo, k_t, b])
@@ -305,16 +306,53 @@ def _pairs(scene, positions: np.ndarray, radius_world):
     return splat, pixel
 
 
+def bspline_pair_integrals(spacing, centres, origins, directions, t0, t1) -> np.ndarray:
+    """Each cubic B-spline kernel's integral along its ray over ``[t0, t1]``, for pairs as
+    :func:`pair_integrals`: exact, by 5-point Gauss-Legendre on the pieces between the places where a
+    coordinate crosses a whole voxel (the kernel is a polynomial of degree 9 there)."""
+    inv = 1.0 / np.asarray(spacing, float)
+    ud = directions * inv
+    uo = (origins - centres) * inv
+    moving = np.abs(ud) > 1e-12
+    safe = np.where(moving, ud, 1.0)
+    ta, tb = (-2.0 - uo) / safe, (2.0 - uo) / safe
+    inside = np.where(moving, True, np.abs(uo) < 2.0).all(axis=1)
+    enter = np.maximum(np.where(moving, np.minimum(ta, tb), -np.inf).max(axis=1), t0)
+    leave = np.minimum(np.where(moving, np.maximum(ta, tb), np.inf).min(axis=1), t1)
+    live = inside & (leave > enter)
+    cuts = [enter, leave]
+    for k in (-1.0, 0.0, 1.0):
+        t = (k - uo) / safe
+        for axis in range(3):
+            cuts.append(np.where(moving[:, axis], np.clip(t[:, axis], enter, leave), enter))
+    cuts = np.sort(np.stack(cuts, axis=1), axis=1)            # (N, 11)
+    x, w = np.polynomial.legendre.leggauss(5)
+    half = 0.5 * np.diff(cuts, axis=1)                        # (N, 10)
+    mid = 0.5 * (cuts[:, 1:] + cuts[:, :-1])
+    t = mid[..., None] + half[..., None] * x                  # (N, 10, 5)
+    u = uo[:, None, None, :] + t[..., None] * ud[:, None, None, :]
+    value = np.prod(_bspline(u), axis=-1)
+    return np.where(live, np.einsum("npq,q,np->n", value, w, half), 0.0)
+
+
+def _bspline(u: np.ndarray) -> np.ndarray:
+    a = np.abs(u)
+    return np.where(a < 1.0, 2.0 / 3.0 - a * a + 0.5 * a ** 3, np.where(a < 2.0, (2.0 - np.minimum(a, 2.0)) ** 3 / 6.0,
+                                                                          0.0))
+
+
 def _all_pair_integrals(scene, rays, splats, idx, kernel):
-    """``(splat, pixel, integral)`` for the splats ``idx`` and the pixels their kernels may reach."""
+    """``(splat, pixel, integral)`` for the splats ``idx`` and the pixels their kernels may reach
+    (``kernel``: a :class:`GaussianKernel`, or None for the cubic B-spline)."""
     vol = scene.volume
-    s_local, pixel = _pairs(scene, splats.positions[idx], kernel.radius * max(vol.spacing))
+    s_local, pixel = _pairs(scene, splats.positions[idx], kernel_radius(scene) * max(vol.spacing))
     integral = np.zeros(len(pixel))
     for i in range(0, len(pixel), CHUNK * 10):
         sl = slice(i, i + CHUNK * 10)
         pix = pixel[sl]
-        integral[sl] = pair_integrals(kernel, vol.spacing, splats.positions[idx[s_local[sl]]], rays.origins[pix],
-                                      rays.directions[pix], rays.t0[pix], rays.t1[pix])
+        args = (vol.spacing, splats.positions[idx[s_local[sl]]], rays.origins[pix], rays.directions[pix],
+                rays.t0[pix], rays.t1[pix])
+        integral[sl] = pair_integrals(kernel, *args) if kernel is not None else bspline_pair_integrals(*args)
     keep = integral > 0
     return idx[s_local[keep]], pixel[keep], integral[keep]
 
@@ -350,7 +388,7 @@ def _splats_alone(scene, rays) -> np.ndarray:
     rank = np.empty(len(splats), np.int64)
     rank[np.argsort(-depth, kind="stable")[::-1]] = np.arange(len(splats))  # 0: the front splat
     if grid:
-        kernel = GaussianKernel(r.kernel_width)
+        kernel = GaussianKernel(r.kernel_width) if r.filter == "gaussian" else None
         splat, pixel, integral = _all_pair_integrals(scene, rays, splats, np.arange(len(splats)), kernel)
     else:
         small = subpixel_mask(scene, splats.positions, splats.h)
@@ -391,7 +429,7 @@ def _axis_sheets(scene, rays) -> np.ndarray:
     ordered = unique[np.lexsort((unique, axis_order(scene, unique)))]
     slot = np.empty(unique.max() + 1, np.int64)
     slot[ordered] = np.arange(len(ordered))                  # the planes' compositing order
-    kernel = GaussianKernel(r.kernel_width)
+    kernel = GaussianKernel(r.kernel_width) if r.filter == "gaussian" else None
     splat, pixel, integral = _all_pair_integrals(scene, rays, splats, np.arange(len(splats)), kernel)
     key = slot[planes[splat]] * len(rays) + pixel
     size = len(ordered) * len(rays)

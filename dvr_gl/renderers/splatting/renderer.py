@@ -22,7 +22,8 @@ from ...transfer_function import projected_rgba, xray_rgba
 from ..grid.gl_base import GLVolumeRenderer, TableTexture
 from .footprint import GaussianFootprint, M4Footprint
 from .particles import SUBPIXEL_RADIUS, ParticleSplats
-from .sheets import axis_schedule, culled_post, is_grid, kernel_radius, part_voxels, pre_classified, slab_schedule
+from .sheets import (axis_schedule, culled_post, is_grid, kernel_radius, kernel_sigma, part_voxels, pre_classified,
+                     slab_schedule)
 from .splats import Splats, ghost_layers, post_visibility
 
 
@@ -159,7 +160,7 @@ class SplattingRenderer(GLVolumeRenderer):
     def _visibility(self, scene):
         r, tf = scene.renderer, scene.transfer_function
         lo, hi = self._lut(scene).lut.domain
-        return post_visibility(scene.volume, tf, kernel_radius(scene), r.kernel_width, (hi - lo) / (r.lut_size - 1),
+        return post_visibility(scene.volume, tf, kernel_radius(scene), kernel_sigma(scene), (hi - lo) / (r.lut_size - 1),
                                ghost_layers(kernel_radius(scene)), part_voxels(scene))
 
     def _lut(self, scene) -> TableTexture:
@@ -173,6 +174,8 @@ class SplattingRenderer(GLVolumeRenderer):
                    "FOOTPRINT_EWA": scene.renderer.footprint == "ewa", **extra}
         if not is_grid(scene):
             defines.update(PARTICLES=True, SUBPIXEL_RADIUS=f"{SUBPIXEL_RADIUS:.1f}")
+        elif scene.renderer.filter == "cubic_bspline":
+            defines["KERNEL_BSPLINE"] = True
         if scene.camera.projection == "orthographic":
             defines["CAMERA_ORTHOGRAPHIC"] = True
         return {k: v for k, v in defines.items() if v}

@@ -18,9 +18,21 @@ from ...reference.plans import stack_axis
 from .splats import slabs, support_depth
 
 
+#: The cubic B-spline's support is a cube of four voxels: its bounding sphere's radius, voxels.
+BSPLINE_RADIUS = 2.0 * math.sqrt(3.0)
+
+
 def kernel_radius(scene) -> float:
-    """The kernel's support, voxels."""
+    """The grid kernel's support (its bounding sphere), voxels: the Gaussian's truncation radius, the cubic
+    B-spline's cube's corner."""
+    if scene.renderer.filter == "cubic_bspline":
+        return BSPLINE_RADIUS
     return GAUSSIAN_RADIUS * scene.renderer.kernel_width
+
+
+def kernel_sigma(scene) -> float | None:
+    """The Gaussian's standard deviation, voxels; None for the cubic B-spline."""
+    return scene.renderer.kernel_width if scene.renderer.filter == "gaussian" else None
 
 
 def pre_classified(scene) -> bool:

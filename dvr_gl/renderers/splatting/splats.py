@@ -130,13 +130,18 @@ def _window(array: np.ndarray, half: int, reduce) -> np.ndarray:
     return out
 
 
-def ripple(sigma: float) -> float:
-    """How far the Gaussians' sum may stray from one (the lattice's ripple, and a margin for the
-    truncation's): the field lies within this share of its samples' range."""
-    return (1.0 + 2.0 * math.exp(-2.0 * math.pi ** 2 * sigma ** 2)) ** 3 - 1.0 + 1e-4
+def ripple(sigma: float | None) -> float:
+    """How far the kernels' sum may stray from one, as a share of the samples' range the field lies
+    within: the Gaussians' lattice ripple (``sigma``) and a margin for the truncation's; the cubic
+    B-spline (``None``) is a partition of unity of non-negative weights, so its field lies within its
+    taps' range: the margin only, for float32."""
+    margin = 1e-4
+    if sigma is None:
+        return margin
+    return (1.0 + 2.0 * math.exp(-2.0 * math.pi ** 2 * sigma ** 2)) ** 3 - 1.0 + margin
 
 
-def post_visibility(volume, tf, radius: float, sigma: float, table_spacing: float, ghost: int,
+def post_visibility(volume, tf, radius: float, sigma: float | None, table_spacing: float, ghost: int,
                     part_voxels: float) -> tuple[np.ndarray, np.ndarray]:
     """Post-classified culling (module doc): the ``(keep, core)`` masks of the lattice with ``ghost``
     layers.  ``table_spacing``: the transfer-function table's spacing in data units (between its nodes
