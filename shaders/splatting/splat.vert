@@ -81,6 +81,11 @@ void main() {
 #endif
     // the support's depths: all of it, or the part inside the slab (Mueller and Crawfis's kernel slice)
     float za = z - r, zb = z + r, section = r;
+#ifdef KERNEL_BSPLINE
+    float reach_z = 2.0 * dot(abs(u_spacing * u_forward), vec3(1.0));  // the cube's depth half-extent
+    za = z - reach_z;
+    zb = z + reach_z;
+#endif
 #ifdef SLABS
     za = max(za, u_slab.x);
     zb = min(zb, u_slab.y);
@@ -97,6 +102,10 @@ void main() {
     // the ellipsoid's half-extent along a unit axis e: R |spacing * e|; no more than the section
 #ifdef PARTICLES
     vec2 half_size = vec2(section);
+#elif defined(KERNEL_BSPLINE)
+    // the cube of four voxels' half-extent along a unit axis e: 2 sum |spacing_i e_i|
+    vec2 half_size = min(2.0 * vec2(dot(abs(u_spacing * u_right), vec3(1.0)), dot(abs(u_spacing * u_up), vec3(1.0))),
+                         vec2(section));
 #else
     vec2 half_size = min(u_radius * vec2(length(u_spacing * u_right), length(u_spacing * u_up)), vec2(section));
 #endif

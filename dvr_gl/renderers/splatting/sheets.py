@@ -30,6 +30,15 @@ def kernel_radius(scene) -> float:
     return GAUSSIAN_RADIUS * scene.renderer.kernel_width
 
 
+def kernel_depth_reach(scene, forward) -> float:
+    """How far a grid kernel reaches along the view axis ``forward`` (world units): the Gaussian's ellipsoid's
+    half-extent, the B-spline's cube's (``2 sum |spacing_i forward_i|``)."""
+    spacing = np.asarray(scene.volume.spacing, float)
+    if scene.renderer.filter == "cubic_bspline":
+        return float(2.0 * np.abs(spacing * np.asarray(forward)).sum())
+    return support_depth(kernel_radius(scene), spacing, forward)
+
+
 def kernel_sigma(scene) -> float | None:
     """The Gaussian's standard deviation, voxels; None for the cubic B-spline."""
     return scene.renderer.kernel_width if scene.renderer.filter == "gaussian" else None
@@ -111,7 +120,7 @@ def slab_schedule(scene, depth: np.ndarray, reach: float | None = None):
     order = np.argsort(depth, kind="stable")
     bounds = slab_bounds(scene, np.asarray(cam.eye, float), forward)  # depths: the same from any origin
     if reach is None:
-        reach = support_depth(kernel_radius(scene), scene.volume.spacing, forward)
+        reach = kernel_depth_reach(scene, forward)
     sorted_depth = depth[order]
     first = np.searchsorted(sorted_depth, bounds[:-1] - reach, side="left")
     last = np.searchsorted(sorted_depth, bounds[1:] + reach, side="right")
