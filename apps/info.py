@@ -13,7 +13,8 @@ from dvr_gl.renderers import registry
 
 HELP = "show versions, volume readers, renderers and the OpenGL context"
 
-READERS = [("NRRD", "nrrd", "pynrrd", "nrrd"), ("NIfTI", "nibabel", "nibabel", "nifti")]
+READERS = [("NRRD", "nrrd", "pynrrd", "nrrd"), ("NIfTI", "nibabel", "nibabel", "nifti"),
+           ("meshes", "meshio", "meshio", "mesh"), ("HDF5 SPH", "h5py", "h5py", "particles")]
 
 
 def add_arguments(p):
@@ -48,7 +49,8 @@ def run(args) -> int:
     print(f"dvr-gl {__version__}, Python {platform.python_version()}")
     for module in ("numpy", "moderngl", "OpenImageIO", "glfw"):
         print(f"  {module:12s} {_version(module) or 'missing'}")
-    print("volume readers: raw, npy, MetaImage, VTK structured points, TIFF stacks (OpenImageIO) built in;")
+    print("volume readers: raw, npy, MetaImage, VTK structured points, TIFF stacks (OpenImageIO), PLOT3D, SPH "
+          "particle tables (CSV, npz) built in;")
     for fmt, module, package, extra in READERS:
         v = _version(module)
         print(f"  {fmt:10s} {(package + ' ' + v) if v else f'not available: pip install dvr-gl[{extra}]'}")

@@ -2,10 +2,10 @@
 
     python benchmarks/splatting_pictures.py [--size 192] [--out docs/images]
 
-Row 1, the 64^3 Shepp-Logan phantom under an opaque transfer function (azimuth 40, elevation 20,
-perspective, no shading): image-aligned sheets post-classified, pre-classified, axis-aligned sheets,
-every splat alone (``none``, pre-classified), and the converged reference of the same Gaussian,
-post-classified.  Row 2, the Plummer demo of 13,824 SPH particles splatted (image-aligned,
+Row 1, the 64^3 Shepp-Logan phantom under its preset (azimuth 40, elevation 20, perspective, no
+shading): image-aligned sheets post-classified, pre-classified, axis-aligned sheets, every splat
+alone (``none``, pre-classified), and the converged reference of the same Gaussian,
+post-classified.  Row 2, a Plummer sphere of 4096 SPH particles splatted (image-aligned,
 post-classified), its X-ray (pre-classified), and the converged reference of the same interpolant.
 Each picture over black, side by side; the timings printed are one frame each on this machine.
 """
@@ -27,14 +27,14 @@ from dvr_gl.reference.converged import ConvergedReference  # noqa: E402
 from dvr_gl.renderers import create_renderer  # noqa: E402
 from dvr_gl.scene import load_scene  # noqa: E402
 
-OPAQUE = [[0.0, 0.2, 0.4, 0.9, 0.0], [0.15, 0.3, 0.5, 0.9, 0.05], [0.3, 1.0, 0.8, 0.3, 0.4], [1.0, 1.0, 1.0, 1.0, 0.9]]
 SCHEMES = [("image_aligned", "post"), ("image_aligned", "pre"), ("axis_aligned", "post"), ("none", "pre")]
 
 
 def grid_row(size: int) -> list[np.ndarray]:
     base = {"volume.demo": "shepp-logan", "volume.size": 64, "image.width": size, "image.height": size,
-            "camera.azimuth": 40.0, "camera.elevation": 20.0, "renderer.shading.enabled": False,
-            "transfer_function.points": OPAQUE, "renderer.name": "splatting", "renderer.filter": "gaussian"}
+            "camera.azimuth": 40.0, "camera.elevation": 20.0, "camera.distance": 105.0,
+            "renderer.shading.enabled": False, "transfer_function.preset": "shepp-logan", "renderer.name": "splatting",
+            "renderer.filter": "gaussian"}
     pictures = []
     with create_renderer("splatting") as splatting:
         for scheme, classification in SCHEMES:
@@ -50,7 +50,8 @@ def grid_row(size: int) -> list[np.ndarray]:
 
 def particle_row(size: int) -> list[np.ndarray]:
     demo = demo_scene("plummer")
-    base = {"volume.demo": "plummer", "volume.size": demo["volume"]["size"], "image.width": size, "image.height": size,
+    base = {"volume.demo": "plummer", "volume.size": 32, "image.width": size, "image.height": size,
+            "camera.distance": 60.0,
             "renderer.shading.enabled": False, "transfer_function.points": demo["transfer_function"]["points"]}
     pictures = []
     with create_renderer("splatting") as splatting:

@@ -138,6 +138,8 @@ def demo_scene(name: str) -> dict:
     }
     if points:
         scene["transfer_function"] = {"points": points}
+    if name in PARTICLE_DEMOS:  # splatting, the particles' renderer, does not shade (yet)
+        scene["renderer"] = {"shading": {"enabled": False}}
     return scene
 
 
