@@ -36,7 +36,7 @@ import numpy as np
 from ..errors import SceneError, VolumeError
 from ..sandbox import check_bytes
 from . import sph
-from .ragged import ranges, ranks
+from .ragged import joined_knots, ranges, ranks
 
 #: The degree of the polynomial the converged reference fits to a piece between knots (as
 #: :data:`~dvr_gl.fields.reconstruction.GAUSSIAN_DEGREE`): the kernel is a polynomial in ``r``, not in
@@ -250,9 +250,7 @@ class SPHInterpolant:
             keep = (t > t0[owner]) & (t < t1[owner])
             rays.append(owner[keep])
             ts.append(t[keep])
-        if not rays:
-            return np.zeros(0, np.int64), np.zeros(0)
-        return np.concatenate(rays), np.concatenate(ts)
+        return joined_knots(rays, ts)
 
 
 def plummer_sphere(count: int, scale: float = 1.0, cut: float = 4.0, seed: int = 0, eta: float = 1.2,

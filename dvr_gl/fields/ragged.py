@@ -12,6 +12,13 @@ def ranks(counts) -> np.ndarray:
     return np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
 
 
+def joined_knots(rays: list, ts: list) -> tuple[np.ndarray, np.ndarray]:
+    """``(ray, t)`` lists of arrays, gathered batch by batch, as two arrays (empty ones if none)."""
+    if not rays:
+        return np.zeros(0, np.int64), np.zeros(0)
+    return np.concatenate(rays), np.concatenate(ts)
+
+
 def ranges(starts, counts) -> np.ndarray:
     """The indices ``starts[i] .. starts[i] + counts[i] - 1`` of every group, concatenated."""
     return np.repeat(starts, counts) + ranks(counts)

@@ -39,7 +39,7 @@ import math
 import numpy as np
 
 from ..model import DEFAULT_KERNEL_WIDTH, FILTERS, GAUSSIAN_RADIUS
-from .ragged import ranges
+from .ragged import joined_knots, ranges
 
 #: The degree of the polynomial the converged reference fits to a Gaussian field's piece (at most a
 #: voxel long) for the exact extremum, first hit and breakpoints, as for the cubics: measured on random
@@ -222,6 +222,4 @@ class SampledField:
             inside = (t > t0[ray]) & (t < t1[ray])
             rays.append(ray[inside])
             ts.append(t[inside])
-        if not rays:
-            return np.zeros(0, np.int64), np.zeros(0)
-        return np.concatenate(rays), np.concatenate(ts)
+        return joined_knots(rays, ts)
