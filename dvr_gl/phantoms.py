@@ -138,7 +138,7 @@ def demo_scene(name: str) -> dict:
     }
     if points:
         scene["transfer_function"] = {"points": points}
-    if name in PARTICLE_DEMOS:  # splatting, the particles' renderer, does not shade (yet)
+    if name in PARTICLE_DEMOS:  # a glowing cloud, no surfaces: unshaded
         scene["renderer"] = {"shading": {"enabled": False}}
     return scene
 

@@ -10,9 +10,10 @@ uniform vec2 u_half_extent;
 uniform vec2 u_image_size;
 uniform float u_near;
 
-void camera_ray(out vec3 origin, out vec3 dir) {
+// The ray through the pixel whose centre is at window coordinates `frag` (as gl_FragCoord.xy).
+void camera_ray_at(vec2 frag, out vec3 origin, out vec3 dir) {
     // gl_FragCoord.y counts from the bottom: ndc.y = 1 - 2 (row + 0.5) / H for row from the top
-    vec2 ndc = gl_FragCoord.xy / u_image_size * 2.0 - 1.0;
+    vec2 ndc = frag / u_image_size * 2.0 - 1.0;
 #ifdef CAMERA_ORTHOGRAPHIC
     origin = u_eye + ndc.x * u_half_extent.x * u_right + ndc.y * u_half_extent.y * u_up;
     dir = u_forward;
@@ -20,6 +21,10 @@ void camera_ray(out vec3 origin, out vec3 dir) {
     origin = u_eye;
     dir = normalize(u_forward + ndc.x * u_half_extent.x * u_right + ndc.y * u_half_extent.y * u_up);
 #endif
+}
+
+void camera_ray(out vec3 origin, out vec3 dir) {
+    camera_ray_at(gl_FragCoord.xy, origin, dir);
 }
 
 float near_distance(vec3 dir) {

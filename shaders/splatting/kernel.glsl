@@ -26,17 +26,27 @@ float cumulative(float x) {
     return table_1d(u_cumulative, x / (2.0 * u_sigmas) + 0.5);
 }
 
-// The part of this pixel's ray the splat integrates over: the box (from the near plane) and the slab.
-bool ray_extent(vec3 o, vec3 d, out float lo, out float hi) {
+// The part of a ray inside the box (from the near plane) and between the view depths `slab`.
+bool ray_part(vec3 o, vec3 d, vec2 slab, out float lo, out float hi) {
     if (!intersect_box(o, d, u_box_lo, u_box_hi, lo, hi))
         return false;
     lo = max(lo, near_distance(d));
-#ifdef SLABS
     float along = dot(d, u_forward);  // the ray's depth per unit length
-    lo = max(lo, u_slab.x / along);
-    hi = min(hi, u_slab.y / along);
-#endif
+    lo = max(lo, slab.x / along);
+    hi = min(hi, slab.y / along);
     return hi > lo;
+}
+
+// The part of this pixel's ray the splat integrates over: the box (from the near plane) and the slab.
+bool ray_extent(vec3 o, vec3 d, out float lo, out float hi) {
+#ifdef SLABS
+    return ray_part(o, d, u_slab, lo, hi);
+#else
+    if (!intersect_box(o, d, u_box_lo, u_box_hi, lo, hi))
+        return false;
+    lo = max(lo, near_distance(d));
+    return hi > lo;
+#endif
 }
 
 // The kernel centred at `centre` integrated along the ray over [lo, hi] (world units); 0 if the ray

@@ -13,8 +13,40 @@
 #include "common/optics.glsl"
 #include "common/transfer_function.glsl"
 #include "splatting/kernel.glsl"
+#include "common/shading.glsl"
 
 uniform sampler2D u_sheet;
+#if defined(SHADING) && defined(SLABS) && !defined(CLASSIFY_PRE)
+// Shading, post-classified (Mueller, Moeller and Crawfis 1999): the gradient of the slab means in
+// screen space, across from the neighbouring pixels' means at the pixel's size at the slab's middle
+// depth, along the view from the slabs in front and behind (this sheet is composited one slab late);
+// a mean is 0 where a part is empty and neighbours beyond the image repeat the edge.
+uniform sampler2D u_sheet_prev;
+uniform sampler2D u_sheet_next;
+
+float slab_mean(sampler2D sheet, vec2 frag, vec2 slab) {
+    frag = clamp(frag, vec2(0.5), u_image_size - 0.5);
+    vec3 o, d;
+    camera_ray_at(frag, o, d);
+    float lo, hi;
+    if (!ray_part(o, d, slab, lo, hi))
+        return 0.0;
+    return texelFetch(sheet, ivec2(frag), 0).r / (hi - lo);
+}
+
+vec3 slab_gradient() {
+    vec2 f = gl_FragCoord.xy;
+    float w = u_slab.y - u_slab.x;
+    float pixel = 2.0 * u_half_extent.x / u_image_size.x;  // world units across a pixel at the slab's middle
+#ifndef CAMERA_ORTHOGRAPHIC
+    pixel *= 0.5 * (u_slab.x + u_slab.y);
+#endif
+    float gx = (slab_mean(u_sheet, f + vec2(1.0, 0.0), u_slab) - slab_mean(u_sheet, f - vec2(1.0, 0.0), u_slab)) / (2.0 * pixel);
+    float gy = (slab_mean(u_sheet, f + vec2(0.0, 1.0), u_slab) - slab_mean(u_sheet, f - vec2(0.0, 1.0), u_slab)) / (2.0 * pixel);
+    float gz = (slab_mean(u_sheet_next, f, u_slab + w) - slab_mean(u_sheet_prev, f, u_slab - w)) / (2.0 * w);
+    return gx * u_right + gy * u_up + gz * u_forward;
+}
+#endif
 #ifdef AXIS_SHEETS
 uniform vec3 u_spacing;
 uniform int u_axis;
@@ -61,6 +93,9 @@ void main() {
 #endif
     float alpha = opacity_of_depth(optics.a * extent);
     vec3 colour = optics.rgb;
+#if defined(SHADING) && defined(SLABS)
+    colour = blinn_phong(colour, slab_gradient(), normalize(d));
+#endif
 #endif
     frag = vec4(colour * alpha, alpha);
 }

@@ -58,6 +58,10 @@ def check(scene):
     if not grid and r.sheet_buffer == "axis_aligned":
         raise SceneError("renderer.sheet_buffer = axis_aligned stacks a grid's voxel planes; SPH particles have none: "
                          "use image_aligned or none")
+    if r.shading.enabled and r.shading.lights and not (r.sheet_buffer == "image_aligned" and r.classification == "post"
+                                                      and r.compositing == "emission_absorption"):
+        raise SceneError("splatting shades post-classified image-aligned sheets of emission-absorption (gradients "
+                         "of the slab means in screen space); turn shading off or use those settings")
     if r.compositing in CLASSIFIED_ALONG_RAY and r.sheet_buffer == "none" and r.classification != "pre":
         raise SceneError("splatting with renderer.sheet_buffer = none composites each splat's own colour: set "
                          "renderer.classification = pre, or use sheet_buffer image_aligned")
@@ -71,7 +75,7 @@ PLUGIN = RendererPlugin(
     renderer="dvr_gl.renderers.splatting.renderer:SplattingRenderer",
     settings=(s.COMPOSITING.only("emission_absorption", "average", "xray"), s.CLASSIFICATION.only("post", "pre"),
               s.ASSOCIATED_COLORS, s.FILTER.only("gaussian", "cubic_bspline", "m4"), s.KERNEL_WIDTH, SHEET_BUFFER, SLAB_WIDTH, FOOTPRINT,
-              s.ERT_THRESHOLD, s.LUT_SIZE),
+              s.ERT_THRESHOLD, s.LUT_SIZE, s.SHADING),
     data_kinds=("grid", "particles"),
     needs_gl=True,
     check=check,

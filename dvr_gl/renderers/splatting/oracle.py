@@ -31,13 +31,14 @@ import math
 
 import numpy as np
 
-from ...fields import filter_parameters, reconstruct, sph
+from ...fields import filter_parameters, gradient_epsilon, reconstruct, sph
 from ...fields.particles import ParticleSet, SPHInterpolant
 from ...fields.ragged import ranks
 from ...fields.reconstruction import GaussianKernel, _erf
 from ...rays import RayBatch
+from ...reference.shading import blinn_phong, normals_from_gradient
 from ...transfer_function import projected_rgba, segment_opacity, xray_rgba
-from .sheets import kernel_radius, pixel_rectangles, pre_classified, slab_bounds
+from .sheets import kernel_radius, pixel_rectangles, pre_classified, shaded_sheets, slab_bounds
 from .particles import SUBPIXEL_RADIUS, ParticleSplats
 from .splats import Splats
 
@@ -111,6 +112,8 @@ def _sheets(scene, rays, sub=None) -> np.ndarray:
         table = tf.tabulate(r.lut_size)
     carried = None if sub is None else sub.carried(scene, pre)
     along = rays.directions @ forward  # ray length per unit of depth: 1 / along
+    if shaded_sheets(scene):
+        return _shaded_sheets(scene, rays, field, table, bounds, along, sub)
     xray = r.compositing == "xray"
     sums = np.zeros((len(rays), 4))
     out = np.zeros((len(rays), 4))
@@ -139,6 +142,54 @@ def _sheets(scene, rays, sub=None) -> np.ndarray:
             out[rows] += transmittance[rows, None] * premult
             transmittance[rows] *= 1.0 - premult[:, 3]
     return xray_rgba(sums[:, :3], sums[:, 3]) if xray else out
+
+
+def _shaded_sheets(scene, rays, field, table, bounds, along, sub) -> np.ndarray:
+    """Post-classified slabs shaded by the gradient of the slab means in screen space: across, from the
+    neighbouring pixels' means (the edge repeated beyond the image) at the pixel's size at the slab's
+    middle depth; along the view, from the slabs in front and behind (zero beyond the first and the
+    last); a mean is zero where a part is empty."""
+    r, cam, img = scene.renderer, scene.camera, scene.image
+    w, h = img.width, img.height
+    forward, right, up = cam.basis()
+    count = len(bounds) - 1
+    means = np.zeros((count + 2, len(rays)))  # with an empty slab before the first and after the last
+    extents = np.zeros((count, len(rays)))
+    carried = None if sub is None else sub.carried(scene, False)
+    for k in range(count):
+        a = np.maximum(rays.t0, bounds[k] / along)
+        b = np.minimum(rays.t1, bounds[k + 1] / along)
+        ray = np.nonzero(b > a)[0]
+        extra = None if sub is None else sub.sums(carried, len(rays), (bounds[k], bounds[k + 1]))
+        for i in range(0, len(ray), CHUNK):
+            rows = ray[i:i + CHUNK]
+            integral = _integrals(field, rays, rows, a[rows], b[rows], scene.field.sample_spacing).reshape(len(rows), -1)
+            if extra is not None:
+                integral = integral + extra[rows]
+            extents[k, rows] = b[rows] - a[rows]
+            means[k + 1, rows] = integral[:, 0] / extents[k, rows]
+    hx, _ = cam.half_extent(w / h)
+    width = bounds[1] - bounds[0]
+    col = np.arange(len(rays)) % w
+    row = np.arange(len(rays)) // w
+    def at(k, dr, dc):  # the means of slab k at the pixels dr rows down and dc columns right, clamped
+        return means[k + 1][np.clip(row + dr, 0, h - 1) * w + np.clip(col + dc, 0, w - 1)]
+    epsilon = gradient_epsilon(scene.field)
+    out = np.zeros((len(rays), 4))
+    transmittance = np.ones(len(rays))
+    for k in range(count):
+        pixel = 2.0 * hx / w * (1.0 if cam.projection == "orthographic" else 0.5 * (bounds[k] + bounds[k + 1]))
+        gx = (at(k, 0, 1) - at(k, 0, -1)) / (2.0 * pixel)
+        gy = (at(k, -1, 0) - at(k, 1, 0)) / (2.0 * pixel)  # rows run down, up runs up
+        gz = (means[k + 2] - means[k]) / (2.0 * width)
+        gradient = gx[:, None] * right + gy[:, None] * up + gz[:, None] * forward
+        colour, sigma = table.lookup(means[k + 1])
+        colour = blinn_phong(colour, normals_from_gradient(gradient, epsilon), rays.directions, r.shading)
+        alpha = np.where(extents[k] > 0, segment_opacity(sigma, extents[k]), 0.0)
+        out[:, :3] += (transmittance * alpha)[:, None] * colour
+        out[:, 3] += transmittance * alpha
+        transmittance *= 1.0 - alpha
+    return out
 
 
 def _field(scene, sub=None):

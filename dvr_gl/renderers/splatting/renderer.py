@@ -19,11 +19,11 @@ from ...gl.shaders import create_program
 from ...model import GAUSSIAN_RADIUS
 from ...rays import chord_lengths
 from ...transfer_function import projected_rgba, xray_rgba
-from ..grid.gl_base import GLVolumeRenderer, TableTexture
+from ..grid.gl_base import GLVolumeRenderer, TableTexture, shading_defines
 from .footprint import GaussianFootprint, M4Footprint
 from .particles import SUBPIXEL_RADIUS, ParticleSplats
 from .sheets import (axis_schedule, culled_post, is_grid, kernel_radius, kernel_sigma, part_voxels, pre_classified,
-                     slab_schedule)
+                     shaded_sheets, slab_schedule)
 from .splats import Splats, ghost_layers, post_visibility
 
 
@@ -149,7 +149,7 @@ class SplattingRenderer(GLVolumeRenderer):
         attributes = splats.attributes(order)
         buffers = [(name, width, self.ctx.buffer(rows.tobytes())) for name, width, rows in attributes]
         occlusion = None
-        if schedule is not None and mode == "emission_absorption" and r.ert_threshold < 1.0:
+        if schedule is not None and mode == "emission_absorption" and r.ert_threshold < 1.0 and not shaded_sheets(scene):
             occlusion = Occlusion(scene, splats.positions[order] + centre, splats.bounding_radii(), attributes)
         try:
             return self._composite(scene, buffers, schedule, centre, eye, (forward, right, up), occlusion)
@@ -245,12 +245,21 @@ class SplattingRenderer(GLVolumeRenderer):
         sheets_kind = "SLABS" if r.sheet_buffer == "image_aligned" else "AXIS_SHEETS"
         program = self._splat_program(scene, SLABS=sheets_kind == "SLABS", ERT=occlusion is not None)
         xray = r.compositing == "xray"
-        sheet_program = create_program(ctx, "fullscreen.vert", "splatting/sheet.frag",
-                                       self._defines(scene, **{sheets_kind: True, "XRAY": xray}))
+        shaded = shaded_sheets(scene)
+        sheet_defines = self._defines(scene, **{sheets_kind: True, "XRAY": xray})
+        if shaded:
+            shading_defines(scene, sheet_defines)
+        sheet_program = create_program(ctx, "fullscreen.vert", "splatting/sheet.frag", sheet_defines)
         lut = self._lut(scene)
         sheet_uniforms = {**uniforms, **{k: v for k, v in self.optics_uniforms(scene, lut.lut).items()
-                                         if k.startswith("u_lut")}}
-        (sheet_texture,), sheet_fbo = self.target("sheet", w, h)
+                                         if shaded or k.startswith("u_lut")}}
+        # shaded, a sheet is composited once the one behind it is drawn (its gradient along the view): a ring
+        # of three sheets, and a cleared one standing for the slabs beyond the first and the last
+        ring = [self.target(f"sheet {i}" if shaded else "sheet", w, h) for i in range(3 if shaded else 1)]
+        if shaded:
+            (empty,), empty_fbo = self.target("sheet empty", w, h)
+            empty_fbo.use()
+            empty_fbo.clear(0.0, 0.0, 0.0, 0.0)
         (accumulated,), accumulation = self.target("accumulation", w, h)
         accumulation.use()
         accumulation.clear(0.0, 0.0, 0.0, 0.0)
@@ -261,6 +270,19 @@ class SplattingRenderer(GLVolumeRenderer):
         if occlusion is not None:
             textures = {**textures, "u_accumulated": accumulated}
             uniforms = {**uniforms, "u_ert": r.ert_threshold}
+        def composite(index: int):
+            """Sheet ``index`` under what lies in front of it."""
+            accumulation.use()
+            ctx.enable(moderngl.BLEND)
+            # under, front to back; the X-ray adds its sheets' optical depth and emission
+            ctx.blend_func = (moderngl.ONE, moderngl.ONE) if xray else (moderngl.ONE_MINUS_DST_ALPHA, moderngl.ONE)
+            sheets = {"u_sheet": ring[index % len(ring)][0][0]}
+            if shaded:
+                sheets.update(u_sheet_prev=ring[(index - 1) % 3][0][0] if index > 0 else empty,
+                              u_sheet_next=ring[(index + 1) % 3][0][0] if index + 1 < len(schedule) else empty)
+            self.bind(sheet_program, {**sheet_uniforms, **schedule[index][0]}, {**sheets, "u_lut": lut.texture})
+            quad.render(moderngl.TRIANGLES, vertices=3)
+
         try:
             for index, (sheet, first, last) in enumerate(schedule):
                 n = last - first
@@ -276,6 +298,7 @@ class SplattingRenderer(GLVolumeRenderer):
                     if 0 < len(keep) < n:
                         draw = occlusion.subset(ctx, program, keep)
                     n = len(keep)
+                sheet_fbo = ring[index % len(ring)][1]
                 sheet_fbo.use()
                 sheet_fbo.clear(0.0, 0.0, 0.0, 0.0)
                 ctx.enable(moderngl.BLEND)
@@ -284,11 +307,12 @@ class SplattingRenderer(GLVolumeRenderer):
                     self.bind(program, {**uniforms, **sheet}, textures)
                     self._draw_splats(draw[0], program, draw[1], draw[2], n)
                     drawn += n
-                accumulation.use()
-                # under, front to back; the X-ray adds its sheets' optical depth and emission
-                ctx.blend_func = (moderngl.ONE, moderngl.ONE) if xray else (moderngl.ONE_MINUS_DST_ALPHA, moderngl.ONE)
-                self.bind(sheet_program, {**sheet_uniforms, **sheet}, {"u_sheet": sheet_texture, "u_lut": lut.texture})
-                quad.render(moderngl.TRIANGLES, vertices=3)
+                if not shaded:
+                    composite(index)
+                elif index > 0:
+                    composite(index - 1)
+            if shaded and schedule:
+                composite(len(schedule) - 1)
         finally:
             ctx.disable(moderngl.BLEND)
             vao.release()

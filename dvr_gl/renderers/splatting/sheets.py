@@ -55,7 +55,16 @@ def culled_post(scene) -> bool:
     sheet's kernels reach the whole ray)."""
     r = scene.renderer
     return (r.compositing in CLASSIFIED_ALONG_RAY and r.classification == "post" and r.sheet_buffer == "image_aligned"
-            and is_grid(scene))
+            and is_grid(scene) and not shaded_sheets(scene))
+
+
+def shaded_sheets(scene) -> bool:
+    """Whether the sheets are shaded (post-classified image-aligned emission-absorption with shading on):
+    then nothing is culled and nothing terminated early, since a pixel's gradient reads its neighbours'
+    and the next sheet's values, which must not be left out."""
+    r = scene.renderer
+    return bool(r.shading.enabled and r.shading.lights and r.sheet_buffer == "image_aligned"
+                and r.classification == "post" and r.compositing == "emission_absorption")
 
 
 def is_grid(scene) -> bool:
