@@ -23,12 +23,69 @@ flat in vec4 v_splat;
 flat in vec4 v_optics;
 #endif
 flat in float v_core;
+#ifdef SLAB_GROUP
+// several slabs at once (renderer.py): the group's slab boundaries (view depths) and a sheet each
+uniform float u_group[SLAB_GROUP + 1];
+out vec4 frags[SLAB_GROUP];
+#else
 out vec4 frag;
+#endif
 
 #ifdef ERT
 uniform sampler2D u_accumulated;  // the sheets composited so far (front to back)
 uniform float u_ert;
 #endif
+
+// This splat's share of the ray (o, d) over its part [lo, hi] (slab: the part's slab's view depths, for
+// a particle smaller than a pixel, whose share of a slab is its mass between the slab's planes).
+vec4 contribution(vec3 o, vec3 d, float lo, float hi, vec2 slab, bool subpixel) {
+    float closest2 = 0.0;
+#ifdef PARTICLES
+    float integral;
+    if (subpixel) {
+        vec3 p = v_splat.xyz - u_eye;
+        float z = dot(p, u_forward);
+        vec2 ndc_per_world = 1.0 / u_half_extent;
+#ifndef CAMERA_ORTHOGRAPHIC
+        ndc_per_world /= z;
+#endif
+        // per unit of the ray's length: the pixel's mean column along the view axis over the cosine of
+        // the angle of the ray through the particle to it (1 in orthographic views)
+        integral = m4_pixel_average(v_splat.xyz, v_particle.x, ndc_per_world) / length(d);
+#ifndef CAMERA_ORTHOGRAPHIC
+        integral *= length(p) / z;
+#endif
+#ifdef SLABS
+        integral *= m4_slab_share(z, v_particle.x, slab.x, slab.y);
+#endif
+    } else {
+        integral = m4_integral(o, d, v_splat.xyz, v_particle.x, lo, hi);
+    }
+    integral *= v_particle.y;  // m / rho
+#elif defined(KERNEL_BSPLINE)
+    float integral = bspline_integral(o, d, v_splat.xyz, u_spacing, lo, hi);
+    {   // the part's nearest point to the sample, voxels (culling's core test, below)
+        vec3 uo = (o + lo * d - v_splat.xyz) / u_spacing, ud = d / u_spacing;
+        vec3 closest = uo + clamp(-dot(uo, ud) / dot(ud, ud), 0.0, hi - lo) * ud;
+        closest2 = dot(closest, closest);
+    }
+#else
+    float integral = kernel_integral(o, d, v_splat.xyz, u_spacing, u_radius, lo, hi, closest2);
+#endif
+    if (integral <= 0.0)
+        return vec4(0.0);
+#if defined(SPLAT_OVER)
+    float alpha = opacity_of_depth(v_optics.a * integral);
+    vec3 colour = v_optics.a > 0.0 ? v_optics.rgb / v_optics.a : vec3(0.0);
+    return vec4(colour * alpha, alpha);
+#elif defined(CLASSIFY_PRE)
+    return v_optics * integral;
+#else
+    // .g: counts the core samples that some point of this slab part is nearest to (within half a
+    // voxel's diagonal): a part with none is transparent (culling, dvr_gl/renderers/splatting/splats.py)
+    return vec4(v_splat.w * integral, closest2 <= 0.75 ? v_core : 0.0, 0.0, 0.0);
+#endif
+}
 
 void main() {
 #ifdef ERT
@@ -38,6 +95,7 @@ void main() {
     vec3 o, d;
     camera_ray(o, d);
     float lo, hi;
+    float along = dot(d, u_forward);  // the pixel ray's depth per unit length (before EWA's ray)
 #ifdef PARTICLES
     // a particle smaller than a pixel is averaged over the pixel's square, whether or not the pixel's
     // centre ray meets its support (it lies in front of the near plane, inside the field's box)
@@ -45,6 +103,7 @@ void main() {
     if (!subpixel && !ray_extent(o, d, lo, hi))
         discard;
 #else
+    bool subpixel = false;
     if (!ray_extent(o, d, lo, hi))
         discard;
 #endif
@@ -74,50 +133,20 @@ void main() {
         d = central;
     }
 #endif
-    float closest2 = 0.0;
-#ifdef PARTICLES
-    float integral;
-    if (subpixel) {
-        vec3 p = v_splat.xyz - u_eye;
-        float z = dot(p, u_forward);
-        vec2 ndc_per_world = 1.0 / u_half_extent;
-#ifndef CAMERA_ORTHOGRAPHIC
-        ndc_per_world /= z;
-#endif
-        // per unit of the ray's length: the pixel's mean column along the view axis over the cosine of
-        // the angle of the ray through the particle to it (1 in orthographic views)
-        integral = m4_pixel_average(v_splat.xyz, v_particle.x, ndc_per_world) / length(d);
-#ifndef CAMERA_ORTHOGRAPHIC
-        integral *= length(p) / z;
-#endif
+#ifdef SLAB_GROUP
+    for (int s = 0; s < SLAB_GROUP; ++s) {
+        float a = max(lo, u_group[s] / along), b = min(hi, u_group[s + 1] / along);
+        frags[s] = (subpixel || b > a) ? contribution(o, d, a, b, vec2(u_group[s], u_group[s + 1]), subpixel)
+                                       : vec4(0.0);
+    }
+#else
 #ifdef SLABS
-        integral *= m4_slab_share(z, v_particle.x, u_slab.x, u_slab.y);
-#endif
-    } else {
-        integral = m4_integral(o, d, v_splat.xyz, v_particle.x, lo, hi);
-    }
-    integral *= v_particle.y;  // m / rho
-#elif defined(KERNEL_BSPLINE)
-    float integral = bspline_integral(o, d, v_splat.xyz, u_spacing, lo, hi);
-    {   // the part's nearest point to the sample, voxels (culling's core test, below)
-        vec3 uo = (o + lo * d - v_splat.xyz) / u_spacing, ud = d / u_spacing;
-        vec3 closest = uo + clamp(-dot(uo, ud) / dot(ud, ud), 0.0, hi - lo) * ud;
-        closest2 = dot(closest, closest);
-    }
+    vec4 share = contribution(o, d, lo, hi, u_slab, subpixel);
 #else
-    float integral = kernel_integral(o, d, v_splat.xyz, u_spacing, u_radius, lo, hi, closest2);
+    vec4 share = contribution(o, d, lo, hi, vec2(0.0), subpixel);
 #endif
-    if (integral <= 0.0)
+    if (all(equal(share, vec4(0.0))))
         discard;
-#if defined(SPLAT_OVER)
-    float alpha = opacity_of_depth(v_optics.a * integral);
-    vec3 colour = v_optics.a > 0.0 ? v_optics.rgb / v_optics.a : vec3(0.0);
-    frag = vec4(colour * alpha, alpha);
-#elif defined(CLASSIFY_PRE)
-    frag = v_optics * integral;
-#else
-    // .g: counts the core samples that some point of this slab part is nearest to (within half a
-    // voxel's diagonal): a part with none is transparent (culling, dvr_gl/renderers/splatting/splats.py)
-    frag = vec4(v_splat.w * integral, closest2 <= 0.75 ? v_core : 0.0, 0.0, 0.0);
+    frag = share;
 #endif
 }

@@ -42,6 +42,9 @@ FOOTPRINT = s.Setting("footprint", str, "exact", "how a kernel's footprint is fo
                       "pixel's own ray through the kernel) or ewa (Zwicker et al.'s affine approximation at the "
                       "kernel's centre: every ray near it taken as parallel to the central one; to measure its "
                       "error)", choices=FOOTPRINTS, group="splatting")
+SLABS_PER_DRAW = s.Setting("slabs_per_draw", int, 1, "image-aligned slabs drawn at once, a render target each: "
+                           "each splat drawn once per group of slabs instead of once per slab (on software GL "
+                           "1 is fastest, docs/renderers/splatting.md)", check=s.between(1, 8), group="splatting")
 SLAB_WIDTH = s.Setting("slab_width", float, 1.0, "depth of an image-aligned sheet buffer's slab", check=s.positive,
                        units="voxels", group="splatting")
 
@@ -74,7 +77,7 @@ PLUGIN = RendererPlugin(
     description="splatting: each sample's kernel integrated into footprints, sheet buffers in GL",
     renderer="dvr_gl.renderers.splatting.renderer:SplattingRenderer",
     settings=(s.COMPOSITING.only("emission_absorption", "average", "xray"), s.CLASSIFICATION.only("post", "pre"),
-              s.ASSOCIATED_COLORS, s.FILTER.only("gaussian", "cubic_bspline", "m4"), s.KERNEL_WIDTH, SHEET_BUFFER, SLAB_WIDTH, FOOTPRINT,
+              s.ASSOCIATED_COLORS, s.FILTER.only("gaussian", "cubic_bspline", "m4"), s.KERNEL_WIDTH, SHEET_BUFFER, SLAB_WIDTH, SLABS_PER_DRAW, FOOTPRINT,
               s.ERT_THRESHOLD, s.LUT_SIZE, s.SHADING),
     data_kinds=("grid", "particles"),
     needs_gl=True,

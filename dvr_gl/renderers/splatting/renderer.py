@@ -243,7 +243,11 @@ class SplattingRenderer(GLVolumeRenderer):
                 image = self._average(scene, image)
             return image.astype(np.float32)
         sheets_kind = "SLABS" if r.sheet_buffer == "image_aligned" else "AXIS_SHEETS"
-        program = self._splat_program(scene, SLABS=sheets_kind == "SLABS", ERT=occlusion is not None)
+        # renderer.slabs_per_draw: a group of slabs drawn at once, a target each (GL guarantees 8 draw buffers);
+        # shaded sheets are drawn one by one (each waits for the one behind it)
+        grouped = sheets_kind == "SLABS" and not shaded_sheets(scene) and r.slabs_per_draw > 1
+        program = self._splat_program(scene, SLABS=sheets_kind == "SLABS", ERT=occlusion is not None,
+                                      SLAB_GROUP=r.slabs_per_draw if grouped else 0)
         xray = r.compositing == "xray"
         shaded = shaded_sheets(scene)
         sheet_defines = self._defines(scene, **{sheets_kind: True, "XRAY": xray})
@@ -267,16 +271,17 @@ class SplattingRenderer(GLVolumeRenderer):
         quad = ctx.vertex_array(sheet_program, [])
         pre = pre_classified(scene)
         drawn = skipped = 0
+        sheet_count = len(schedule)
         if occlusion is not None:
             textures = {**textures, "u_accumulated": accumulated}
             uniforms = {**uniforms, "u_ert": r.ert_threshold}
-        def composite(index: int):
-            """Sheet ``index`` under what lies in front of it."""
+        def composite(index: int, texture=None):
+            """Sheet ``index`` (in ``texture``, or the ring's) under what lies in front of it."""
             accumulation.use()
             ctx.enable(moderngl.BLEND)
             # under, front to back; the X-ray adds its sheets' optical depth and emission
             ctx.blend_func = (moderngl.ONE, moderngl.ONE) if xray else (moderngl.ONE_MINUS_DST_ALPHA, moderngl.ONE)
-            sheets = {"u_sheet": ring[index % len(ring)][0][0]}
+            sheets = {"u_sheet": texture or ring[index % len(ring)][0][0]}
             if shaded:
                 sheets.update(u_sheet_prev=ring[(index - 1) % 3][0][0] if index > 0 else empty,
                               u_sheet_next=ring[(index + 1) % 3][0][0] if index + 1 < len(schedule) else empty)
@@ -284,6 +289,10 @@ class SplattingRenderer(GLVolumeRenderer):
             quad.render(moderngl.TRIANGLES, vertices=3)
 
         try:
+            if grouped:
+                drawn, skipped = self._grouped(scene, schedule, program, vao, buffers, uniforms, textures, occlusion,
+                                               accumulation, composite)
+                schedule = []  # drawn
             for index, (sheet, first, last) in enumerate(schedule):
                 n = last - first
                 if n <= 0 and pre:
@@ -319,9 +328,48 @@ class SplattingRenderer(GLVolumeRenderer):
             quad.release()
             if occlusion is not None:
                 occlusion.release()
-        self.stats.update(sheets=len(schedule), splats_drawn=drawn, skipped=skipped)
+        self.stats.update(sheets=sheet_count, splats_drawn=drawn, skipped=skipped)
         image = self.read(accumulation, w, h)
         return _radiograph(image).astype(np.float32) if xray else image
+
+    def _grouped(self, scene, schedule, program, vao, buffers, uniforms, textures, occlusion, accumulation, composite):
+        """Image-aligned slabs ``renderer.slabs_per_draw`` at a time: each splat of the group drawn once,
+        its fragment writing its part of every slab to that slab's sheet (one target each), then the
+        sheets composited in order.  Returns (instances drawn, skipped)."""
+        ctx, w, h = self.ctx, scene.image.width, scene.image.height
+        group_size = scene.renderer.slabs_per_draw
+        sheet_textures, group_fbo = self.target("sheet group", w, h, components=(4,) * group_size)
+        pre = pre_classified(scene)
+        drawn = skipped = 0
+        for start in range(0, len(schedule), group_size):
+            group = schedule[start:start + group_size]
+            first, last = group[0][1], max(b for _, _, b in group)
+            bounds = [group[0][0]["u_slab"][0]] + [sheet["u_slab"][1] for sheet, _, _ in group]
+            bounds += [bounds[-1]] * (group_size + 1 - len(bounds))  # a short last group: empty slabs
+            n = last - first
+            if n <= 0 and pre:
+                continue  # nothing in these sheets: transparent
+            draw = (vao, buffers, first, n)
+            if occlusion is not None and n > 0:
+                keep = occlusion.visible(self.read(accumulation, w, h)[..., 3], first, last)
+                if keep is None:  # every pixel opaque: nothing behind counts
+                    skipped += sum(max(b - a, 0) for _, a, b in schedule[start:])
+                    break
+                skipped += n - len(keep)
+                if 0 < len(keep) < n:
+                    draw = occlusion.subset(ctx, program, keep)
+                n = len(keep)
+            group_fbo.use()
+            group_fbo.clear(0.0, 0.0, 0.0, 0.0)
+            ctx.enable(moderngl.BLEND)
+            ctx.blend_func = (moderngl.ONE, moderngl.ONE)
+            if n > 0:
+                self.bind(program, {**uniforms, "u_slab": (bounds[0], bounds[-1]), "u_group": bounds}, textures)
+                self._draw_splats(draw[0], program, draw[1], draw[2], n)
+                drawn += n
+            for offset in range(len(group)):
+                composite(start + offset, sheet_textures[offset])
+        return drawn, skipped
 
     @staticmethod
     def _average(scene, image) -> np.ndarray:
