@@ -100,7 +100,7 @@ def _integrals(field, rays, ray, a, b, spacing) -> np.ndarray:
 
 
 def _sheets(scene, rays, sub=None) -> np.ndarray:
-    r, tf, vol, cam = scene.renderer, scene.transfer_function, scene.field, scene.camera
+    r, tf, cam = scene.renderer, scene.transfer_function, scene.camera
     forward, _, _ = cam.basis()
     eye = np.asarray(cam.eye, float)
     bounds = slab_bounds(scene, eye, forward)
@@ -118,30 +118,37 @@ def _sheets(scene, rays, sub=None) -> np.ndarray:
     sums = np.zeros((len(rays), 4))
     out = np.zeros((len(rays), 4))
     transmittance = np.ones(len(rays))
-    for k in range(len(bounds) - 1):  # front to back
+    for k, rows, extent, integral in _slab_parts(scene, rays, field, bounds, along, sub, carried):  # front to back
+        if pre:  # the part's optical depth and emission: its colour and opacity as the X-ray's
+            premult = xray_rgba(integral[:, :3], integral[:, 3])
+        else:
+            colour, sigma = table.lookup(integral[:, 0] / extent)
+            if xray:  # sums of the parts' optical depth and emission
+                sums[rows, :3] += colour * (sigma * extent)[:, None]
+                sums[rows, 3] += sigma * extent
+                continue
+            alpha = segment_opacity(sigma, extent)
+            premult = np.concatenate([colour * alpha[:, None], alpha[:, None]], axis=1)
+        out[rows] += transmittance[rows, None] * premult
+        transmittance[rows] *= 1.0 - premult[:, 3]
+    return xray_rgba(sums[:, :3], sums[:, 3]) if xray else out
+
+
+def _slab_parts(scene, rays, field, bounds, along, sub, carried):
+    """``(slab, rays, extents, integrals (N, C))`` for each slab front to back, in chunks of rays whose part
+    of the slab is not empty: the field's integral over each part, and particles smaller than a pixel
+    (``sub``, carrying ``carried``)."""
+    for k in range(len(bounds) - 1):
         a = np.maximum(rays.t0, bounds[k] / along)
         b = np.minimum(rays.t1, bounds[k + 1] / along)
         ray = np.nonzero(b > a)[0]
         extra = None if sub is None else sub.sums(carried, len(rays), (bounds[k], bounds[k + 1]))
         for i in range(0, len(ray), CHUNK):
             rows = ray[i:i + CHUNK]
-            integral = _integrals(field, rays, rows, a[rows], b[rows], vol.sample_spacing)
+            integral = _integrals(field, rays, rows, a[rows], b[rows], scene.field.sample_spacing).reshape(len(rows), -1)
             if extra is not None:
-                integral = integral.reshape(len(rows), -1) + extra[rows]
-            if pre:  # the part's optical depth and emission: its colour and opacity as the X-ray's
-                premult = xray_rgba(integral[:, :3], integral[:, 3])
-            else:
-                extent = b[rows] - a[rows]
-                colour, sigma = table.lookup(integral[:, 0] / extent)
-                if xray:  # sums of the parts' optical depth and emission
-                    sums[rows, :3] += colour * (sigma * extent)[:, None]
-                    sums[rows, 3] += sigma * extent
-                    continue
-                alpha = segment_opacity(sigma, extent)
-                premult = np.concatenate([colour * alpha[:, None], alpha[:, None]], axis=1)
-            out[rows] += transmittance[rows, None] * premult
-            transmittance[rows] *= 1.0 - premult[:, 3]
-    return xray_rgba(sums[:, :3], sums[:, 3]) if xray else out
+                integral = integral + extra[rows]
+            yield k, rows, b[rows] - a[rows], integral
 
 
 def _shaded_sheets(scene, rays, field, table, bounds, along, sub) -> np.ndarray:
@@ -156,18 +163,9 @@ def _shaded_sheets(scene, rays, field, table, bounds, along, sub) -> np.ndarray:
     means = np.zeros((count + 2, len(rays)))  # with an empty slab before the first and after the last
     extents = np.zeros((count, len(rays)))
     carried = None if sub is None else sub.carried(scene, False)
-    for k in range(count):
-        a = np.maximum(rays.t0, bounds[k] / along)
-        b = np.minimum(rays.t1, bounds[k + 1] / along)
-        ray = np.nonzero(b > a)[0]
-        extra = None if sub is None else sub.sums(carried, len(rays), (bounds[k], bounds[k + 1]))
-        for i in range(0, len(ray), CHUNK):
-            rows = ray[i:i + CHUNK]
-            integral = _integrals(field, rays, rows, a[rows], b[rows], scene.field.sample_spacing).reshape(len(rows), -1)
-            if extra is not None:
-                integral = integral + extra[rows]
-            extents[k, rows] = b[rows] - a[rows]
-            means[k + 1, rows] = integral[:, 0] / extents[k, rows]
+    for k, rows, extent, integral in _slab_parts(scene, rays, field, bounds, along, sub, carried):
+        extents[k, rows] = extent
+        means[k + 1, rows] = integral[:, 0] / extent
     hx, _ = cam.half_extent(w / h)
     width = bounds[1] - bounds[0]
     col = np.arange(len(rays)) % w

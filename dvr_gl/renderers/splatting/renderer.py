@@ -297,25 +297,12 @@ class SplattingRenderer(GLVolumeRenderer):
                 n = last - first
                 if n <= 0 and pre:
                     continue  # nothing in this sheet: transparent
-                draw = (vao, buffers, first, n)
-                if occlusion is not None and n > 0:
-                    keep = occlusion.visible(self.read(accumulation, w, h)[..., 3], first, last)
-                    if keep is None:  # every pixel opaque: nothing behind counts
-                        skipped += sum(max(b - a, 0) for _, a, b in schedule[index:])
-                        break
-                    skipped += n - len(keep)
-                    if 0 < len(keep) < n:
-                        draw = occlusion.subset(ctx, program, keep)
-                    n = len(keep)
-                sheet_fbo = ring[index % len(ring)][1]
-                sheet_fbo.use()
-                sheet_fbo.clear(0.0, 0.0, 0.0, 0.0)
-                ctx.enable(moderngl.BLEND)
-                ctx.blend_func = (moderngl.ONE, moderngl.ONE)
-                if n > 0:
-                    self.bind(program, {**uniforms, **sheet}, textures)
-                    self._draw_splats(draw[0], program, draw[1], draw[2], n)
-                    drawn += n
+                draw = self._unoccluded(occlusion, accumulation, program, vao, buffers, first, n)
+                if draw is None:  # every pixel opaque: nothing behind counts
+                    skipped += sum(max(b - a, 0) for _, a, b in schedule[index:])
+                    break
+                skipped += n - draw[3]
+                drawn += self._fill(ring[index % len(ring)][1], program, {**uniforms, **sheet}, textures, draw)
                 if not shaded:
                     composite(index)
                 elif index > 0:
@@ -336,7 +323,7 @@ class SplattingRenderer(GLVolumeRenderer):
         """Image-aligned slabs ``renderer.slabs_per_draw`` at a time: each splat of the group drawn once,
         its fragment writing its part of every slab to that slab's sheet (one target each), then the
         sheets composited in order.  Returns (instances drawn, skipped)."""
-        ctx, w, h = self.ctx, scene.image.width, scene.image.height
+        w, h = scene.image.width, scene.image.height
         group_size = scene.renderer.slabs_per_draw
         sheet_textures, group_fbo = self.target("sheet group", w, h, components=(4,) * group_size)
         pre = pre_classified(scene)
@@ -349,27 +336,42 @@ class SplattingRenderer(GLVolumeRenderer):
             n = last - first
             if n <= 0 and pre:
                 continue  # nothing in these sheets: transparent
-            draw = (vao, buffers, first, n)
-            if occlusion is not None and n > 0:
-                keep = occlusion.visible(self.read(accumulation, w, h)[..., 3], first, last)
-                if keep is None:  # every pixel opaque: nothing behind counts
-                    skipped += sum(max(b - a, 0) for _, a, b in schedule[start:])
-                    break
-                skipped += n - len(keep)
-                if 0 < len(keep) < n:
-                    draw = occlusion.subset(ctx, program, keep)
-                n = len(keep)
-            group_fbo.use()
-            group_fbo.clear(0.0, 0.0, 0.0, 0.0)
-            ctx.enable(moderngl.BLEND)
-            ctx.blend_func = (moderngl.ONE, moderngl.ONE)
-            if n > 0:
-                self.bind(program, {**uniforms, "u_slab": (bounds[0], bounds[-1]), "u_group": bounds}, textures)
-                self._draw_splats(draw[0], program, draw[1], draw[2], n)
-                drawn += n
+            draw = self._unoccluded(occlusion, accumulation, program, vao, buffers, first, n)
+            if draw is None:  # every pixel opaque: nothing behind counts
+                skipped += sum(max(b - a, 0) for _, a, b in schedule[start:])
+                break
+            skipped += n - draw[3]
+            drawn += self._fill(group_fbo, program, {**uniforms, "u_slab": (bounds[0], bounds[-1]), "u_group": bounds},
+                                textures, draw)
             for offset in range(len(group)):
                 composite(start + offset, sheet_textures[offset])
         return drawn, skipped
+
+    def _unoccluded(self, occlusion, accumulation, program, vao, buffers, first: int, n: int):
+        """What to draw of the ``n`` splats from ``first``: ``(vao, buffers, first, count)``, without those
+        behind opaque pixels (early termination); None if every pixel is opaque."""
+        if occlusion is None or n <= 0:
+            return vao, buffers, first, max(n, 0)
+        w, h = accumulation.size
+        keep = occlusion.visible(self.read(accumulation, w, h)[..., 3], first, first + n)
+        if keep is None:
+            return None
+        if 0 < len(keep) < n:
+            return occlusion.subset(self.ctx, program, keep)
+        return vao, buffers, first, len(keep)
+
+    def _fill(self, fbo, program, uniforms, textures, draw) -> int:
+        """Clear the sheet target ``fbo`` and add ``draw``'s splats to it; the instances drawn."""
+        ctx = self.ctx
+        fbo.use()
+        fbo.clear(0.0, 0.0, 0.0, 0.0)
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_func = (moderngl.ONE, moderngl.ONE)
+        vao, buffers, first, count = draw
+        if count > 0:
+            self.bind(program, uniforms, textures)
+            self._draw_splats(vao, program, buffers, first, count)
+        return count
 
     @staticmethod
     def _average(scene, image) -> np.ndarray:
