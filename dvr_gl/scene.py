@@ -31,7 +31,7 @@ from .io import load_field
 from .sandbox import check_bytes, check_input_path
 from .scene_schema import (CameraSpec, ImageSpec, SceneSpec, TransferFunctionSpec, VolumeSpec, parse_table,
                            renderer_spec_class, spec_to_dict)
-from .settings import WORLD_RANGE, resolve_renderer as resolve_settings
+from .settings import FILTER, WORLD_RANGE, resolve_renderer as resolve_settings
 from .toml_writer import dumps
 from .transfer_function import PRESETS, TransferFunction, preset
 
@@ -201,9 +201,10 @@ def resolve_renderer(spec, field):
 
     if spec.name is None:
         spec = dataclasses.replace(spec, name=registry.default_for(getattr(field, "kind", "grid")))
-    if getattr(field, "kind", None) == "particles" and spec.filter == "linear":
-        # the default filter stands for the data's own reconstruction: a particle set's is its SPH kernel
-        spec = dataclasses.replace(spec, filter="m4")
+    own = getattr(field, "default_filter", None)
+    if own is not None and spec.filter == FILTER.default:
+        # the default filter stands for the data's own reconstruction (a particle set's: its SPH kernel)
+        spec = dataclasses.replace(spec, filter=own)
     registry.plugin(spec.name)
     return resolve_settings(spec, field, registry.all_settings())
 

@@ -14,6 +14,8 @@ implements one protocol, :class:`Field`:
   :class:`Reconstruction`: values and gradients at world points, its polynomial
   degree between knots, and the ``knots`` along rays where it is not smooth (the
   converged reference cuts rays there);
+* ``default_filter`` (optional): the filter a scene that leaves ``renderer.filter`` at its default
+  (``linear``) gets, where the data has a reconstruction of its own (particles: ``m4``);
 * ``samples`` and ``reconstruct_values(values, filter)`` (optional): the field's own
   sample values, and other values at the same samples reconstructed alike
   (pre-classification classifies the samples and reconstructs the result).

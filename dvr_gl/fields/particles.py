@@ -52,6 +52,7 @@ class ParticleSet:
     """SPH particles with a quantity; a :class:`~dvr_gl.fields.Field` of kind ``"particles"``."""
 
     kind = "particles"
+    default_filter = FILTER  # what a scene's default filter (linear) stands for here: the SPH kernel
 
     def __init__(self, positions, smoothing_lengths, masses, densities, values=None, name: str = "particles",
                  array: str = "density", source: str = ""):

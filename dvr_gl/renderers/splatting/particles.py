@@ -60,4 +60,4 @@ class ParticleSplats:
     @property
     def reach(self) -> float:
         """How far the widest support reaches from its centre (world units)."""
-        return float(sph.SUPPORT * self.h.max()) if len(self) else 0.0
+        return float(self.bounding_radii().max()) if len(self) else 0.0

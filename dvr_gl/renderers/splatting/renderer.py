@@ -22,11 +22,9 @@ from ...transfer_function import projected_rgba, xray_rgba
 from ..grid.gl_base import GLVolumeRenderer, TableTexture, shading_defines
 from .footprint import GaussianFootprint, M4Footprint
 from .particles import SUBPIXEL_RADIUS, ParticleSplats
-from .sheets import (axis_schedule, culled_post, is_grid, kernel_radius, kernel_sigma, part_voxels, pre_classified,
-                     shaded_sheets, slab_schedule)
+from .sheets import (axis_schedule, culled_post, is_grid, kernel_radius, kernel_sigma, part_voxels, pixel_rectangles,
+                     pre_classified, shaded_sheets, slab_schedule)
 from .splats import Splats, ghost_layers, post_visibility
-
-
 
 
 @functools.lru_cache(maxsize=1)
@@ -71,8 +69,6 @@ class Occlusion:
     remaining transmittance is at most ``1 - threshold``: as the ray caster's early termination."""
 
     def __init__(self, scene, positions: np.ndarray, radii, attributes):
-        from .sheets import pixel_rectangles
-
         self.threshold = scene.renderer.ert_threshold
         i0, i1, j0, j1 = pixel_rectangles(scene, positions, radii)
         w, h = scene.image.width, scene.image.height
@@ -275,6 +271,7 @@ class SplattingRenderer(GLVolumeRenderer):
         if occlusion is not None:
             textures = {**textures, "u_accumulated": accumulated}
             uniforms = {**uniforms, "u_ert": r.ert_threshold}
+
         def composite(index: int, texture=None):
             """Sheet ``index`` (in ``texture``, or the ring's) under what lies in front of it."""
             accumulation.use()
@@ -288,25 +285,34 @@ class SplattingRenderer(GLVolumeRenderer):
             self.bind(sheet_program, {**sheet_uniforms, **schedule[index][0]}, {**sheets, "u_lut": lut.texture})
             quad.render(moderngl.TRIANGLES, vertices=3)
 
+        size = r.slabs_per_draw if grouped else 1  # slabs drawn at once
+        if grouped:
+            group_textures, group_fbo = self.target("sheet group", w, h, components=(4,) * size)
         try:
-            if grouped:
-                drawn, skipped = self._grouped(scene, schedule, program, vao, buffers, uniforms, textures, occlusion,
-                                               accumulation, composite)
-                schedule = []  # drawn
-            for index, (sheet, first, last) in enumerate(schedule):
+            for start in range(0, len(schedule), size):
+                group = schedule[start:start + size]
+                first, last = group[0][1], max(b for _, _, b in group)
                 n = last - first
                 if n <= 0 and pre:
-                    continue  # nothing in this sheet: transparent
+                    continue  # nothing in these sheets: transparent
                 draw = self._unoccluded(occlusion, accumulation, program, vao, buffers, first, n)
                 if draw is None:  # every pixel opaque: nothing behind counts
-                    skipped += sum(max(b - a, 0) for _, a, b in schedule[index:])
+                    skipped += sum(max(b - a, 0) for _, a, b in schedule[start:])
                     break
                 skipped += n - draw[3]
-                drawn += self._fill(ring[index % len(ring)][1], program, {**uniforms, **sheet}, textures, draw)
+                if grouped:  # each splat's part of every slab of the group, a target each
+                    bounds = [group[0][0]["u_slab"][0]] + [sheet["u_slab"][1] for sheet, _, _ in group]
+                    bounds += [bounds[-1]] * (size + 1 - len(bounds))  # a short last group: empty slabs
+                    drawn += self._fill(group_fbo, program, {**uniforms, "u_slab": (bounds[0], bounds[-1]),
+                                                             "u_group": bounds}, textures, draw)
+                    for offset in range(len(group)):
+                        composite(start + offset, group_textures[offset])
+                    continue
+                drawn += self._fill(ring[start % len(ring)][1], program, {**uniforms, **group[0][0]}, textures, draw)
                 if not shaded:
-                    composite(index)
-                elif index > 0:
-                    composite(index - 1)
+                    composite(start)
+                elif start > 0:
+                    composite(start - 1)
             if shaded and schedule:
                 composite(len(schedule) - 1)
         finally:
@@ -318,34 +324,6 @@ class SplattingRenderer(GLVolumeRenderer):
         self.stats.update(sheets=sheet_count, splats_drawn=drawn, skipped=skipped)
         image = self.read(accumulation, w, h)
         return _radiograph(image).astype(np.float32) if xray else image
-
-    def _grouped(self, scene, schedule, program, vao, buffers, uniforms, textures, occlusion, accumulation, composite):
-        """Image-aligned slabs ``renderer.slabs_per_draw`` at a time: each splat of the group drawn once,
-        its fragment writing its part of every slab to that slab's sheet (one target each), then the
-        sheets composited in order.  Returns (instances drawn, skipped)."""
-        w, h = scene.image.width, scene.image.height
-        group_size = scene.renderer.slabs_per_draw
-        sheet_textures, group_fbo = self.target("sheet group", w, h, components=(4,) * group_size)
-        pre = pre_classified(scene)
-        drawn = skipped = 0
-        for start in range(0, len(schedule), group_size):
-            group = schedule[start:start + group_size]
-            first, last = group[0][1], max(b for _, _, b in group)
-            bounds = [group[0][0]["u_slab"][0]] + [sheet["u_slab"][1] for sheet, _, _ in group]
-            bounds += [bounds[-1]] * (group_size + 1 - len(bounds))  # a short last group: empty slabs
-            n = last - first
-            if n <= 0 and pre:
-                continue  # nothing in these sheets: transparent
-            draw = self._unoccluded(occlusion, accumulation, program, vao, buffers, first, n)
-            if draw is None:  # every pixel opaque: nothing behind counts
-                skipped += sum(max(b - a, 0) for _, a, b in schedule[start:])
-                break
-            skipped += n - draw[3]
-            drawn += self._fill(group_fbo, program, {**uniforms, "u_slab": (bounds[0], bounds[-1]), "u_group": bounds},
-                                textures, draw)
-            for offset in range(len(group)):
-                composite(start + offset, sheet_textures[offset])
-        return drawn, skipped
 
     def _unoccluded(self, occlusion, accumulation, program, vao, buffers, first: int, n: int):
         """What to draw of the ``n`` splats from ``first``: ``(vao, buffers, first, count)``, without those
