@@ -13,6 +13,12 @@ uniform vec3 u_box_hi;
 #ifdef SLABS
 uniform vec2 u_slab;            // the slab's view depths (from the eye along the view axis)
 #endif
+#ifdef LOW_PASS
+// EWA's screen low-pass (dvr_gl/renderers/splatting/low_pass.py), per splat from splat.vert: the widened
+// kernel's metric G in voxel units (|u|^2 becomes u.G u) and sqrt(det G), its density's factor
+flat in mat3 v_metric;
+flat in float v_metric_root;
+#endif
 
 float table_1d(sampler2D table, float x) {
     int n = textureSize(table, 0).x;
@@ -60,16 +66,26 @@ float kernel_integral(vec3 o, vec3 d, vec3 centre, vec3 spacing, float radius, f
                       out float closest2) {
     vec3 uo = (o + lo * d - centre) / spacing;
     vec3 ud = d / spacing;
-    float a = dot(ud, ud);
-    float tc = -dot(uo, ud) / a;            // the ray's nearest approach to the centre, from lo
+#ifdef LOW_PASS
+    vec3 gd = v_metric * ud;                // distances in the widened kernel's metric
+    float tv = -dot(uo, ud) / dot(ud, ud);  // the nearest approach in voxels (culling's test)
+    vec3 closest = uo + clamp(tv, 0.0, hi - lo) * ud;
+#else
+    vec3 gd = ud;
+#endif
+    float a = dot(ud, gd);
+    float tc = -dot(uo, gd) / a;            // the ray's nearest approach to the centre, from lo
     vec3 nearest = uo + tc * ud;
+#ifdef LOW_PASS
+    float q = dot(nearest, v_metric * nearest) / (radius * radius);
+#else
     vec3 closest = uo + clamp(tc, 0.0, hi - lo) * ud;
+    float q = dot(nearest, nearest) / (radius * radius);
+#endif
     closest2 = dot(closest, closest);
-    float r2 = radius * radius;
-    float q = dot(nearest, nearest) / r2;
     if (q >= 1.0)
         return 0.0;
-    float len = sqrt(a);                     // voxels per world unit along the ray
+    float len = sqrt(a);                     // voxels (of the metric) per world unit along the ray
     float half_chord = radius * sqrt(1.0 - q);  // voxels
     float x0 = -tc * len;                    // the interval, voxels from the nearest approach
     float x1 = (hi - lo - tc) * len;
@@ -83,5 +99,9 @@ float kernel_integral(vec3 o, vec3 d, vec3 centre, vec3 spacing, float radius, f
         float part = cumulative(min(x1, half_chord) / u_sigma) - cumulative(max(x0, -half_chord) / u_sigma);
         share = whole > 1e-6 ? part / whole : (min(x1, half_chord) - max(x0, -half_chord)) / (2.0 * half_chord);
     }
-    return table_1d(u_footprint, q) / (u_sigma * u_sigma) / len * share;
+    float footprint = table_1d(u_footprint, q) / (u_sigma * u_sigma) / len * share;
+#ifdef LOW_PASS
+    footprint *= v_metric_root;
+#endif
+    return footprint;
 }

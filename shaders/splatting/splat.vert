@@ -27,6 +27,14 @@ uniform float u_radius;     // the kernel's support, voxels
 #ifdef SLABS
 uniform vec2 u_slab;        // the slab's view depths: only the part of the support inside it is drawn
 #endif
+#ifdef LOW_PASS
+// EWA's screen low-pass (dvr_gl/renderers/splatting/low_pass.py): the screen Gaussian (u_low_pass pixels)
+// at the kernel's depth, added to the kernel's covariance across the view
+uniform float u_low_pass;
+uniform float u_sigma;      // the Gaussian's standard deviation, voxels
+flat out mat3 v_metric;     // G = sigma^2 C^-1 (voxel units) and sqrt(det G)
+flat out float v_metric_root;
+#endif
 
 flat out vec4 v_splat;
 #ifdef CLASSIFY_PRE
@@ -78,6 +86,20 @@ void main() {
     }
 #else
     float r = u_radius * max(max(u_spacing.x, u_spacing.y), u_spacing.z);  // the bounding sphere (world)
+#ifdef LOW_PASS
+    float pixel_world = 2.0 * u_half_extent.y / u_image_size.y;
+#ifndef CAMERA_ORTHOGRAPHIC
+    pixel_world *= max(z, 0.0);
+#endif
+    float s = u_low_pass * pixel_world;  // the screen Gaussian at the kernel's depth, world units
+    vec3 a = u_right / u_spacing, b = u_up / u_spacing;
+    float sigma2 = u_sigma * u_sigma;
+    v_metric = sigma2 * inverse(mat3(sigma2) + s * s * (outerProduct(a, a) + outerProduct(b, b)));
+    v_metric_root = sqrt(determinant(v_metric));
+    // the world covariance grows by s^2 across the view: the support's extents across it grow by s in
+    // units of sigma (widen2: its square); its depths stay
+    float widen2 = s * s / sigma2;
+#endif
 #endif
     // the support's depths: all of it, or the part inside the slab (Mueller and Crawfis's kernel slice)
     float za = z - r, zb = z + r, section = r;
@@ -96,6 +118,13 @@ void main() {
     float gap = max(max(u_slab.x - z, z - u_slab.y), 0.0);
     section = sqrt(max(r * r - gap * gap, 0.0));   // the widest cross-section inside the slab
 #endif
+#ifdef LOW_PASS
+    // the widened support lies within the Minkowski sum of the kernel's and a disk of u_radius sqrt(widen2)
+    // across the view (support functions of a sum of covariances: sqrt(x + y) <= sqrt x + sqrt y)
+    float disk = u_radius * sqrt(widen2);
+    section += disk;
+    r = sqrt(r * r + disk * disk);  // its bounding sphere: the covariance is at most r^2 + disk^2 in any direction
+#endif
     // a half pixel of margin: the rasterizer's rounding must not drop a pixel whose ray grazes the support
     vec2 margin = 1.0 / u_image_size;
 #ifdef CAMERA_ORTHOGRAPHIC
@@ -106,6 +135,9 @@ void main() {
     // the cube of four voxels' half-extent along a unit axis e: 2 sum |spacing_i e_i|
     vec2 half_size = min(2.0 * vec2(dot(abs(u_spacing * u_right), vec3(1.0)), dot(abs(u_spacing * u_up), vec3(1.0))),
                          vec2(section));
+#elif defined(LOW_PASS)
+    vec2 half_size = min(u_radius * sqrt(vec2(dot(u_spacing * u_right, u_spacing * u_right),
+                                              dot(u_spacing * u_up, u_spacing * u_up)) + widen2), vec2(section));
 #else
     vec2 half_size = min(u_radius * vec2(length(u_spacing * u_right), length(u_spacing * u_up)), vec2(section));
 #endif

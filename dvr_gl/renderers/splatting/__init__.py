@@ -27,6 +27,7 @@ from ... import sweeps
 from ...errors import SceneError
 from ...model import CLASSIFIED_ALONG_RAY
 from ..registry import RendererPlugin
+from .low_pass import SCREEN_LOW_PASS
 
 SHEET_BUFFERS = ("image_aligned", "axis_aligned", "none")
 #: The kernels splatting splats a grid with: the Gaussian (tables) and the tensor cubic B-spline (exact
@@ -58,6 +59,10 @@ def check(scene):
     if r.filter not in kernels:
         raise SceneError(f"splatting splats a {'grid with the gaussian or cubic_bspline' if grid else 'particle set with its m4'} "
                          f"kernel; set renderer.filter = {kernels[0]} (got {r.filter})")
+    if r.screen_low_pass > 0 and r.filter != "gaussian":
+        raise SceneError("renderer.screen_low_pass widens Gaussian footprints (EWA); set renderer.filter = gaussian, or "
+                         "screen_low_pass = 0" + ("" if grid else " (particles smaller than a pixel are averaged over "
+                                                                 "its square already)"))
     if not grid and r.sheet_buffer == "axis_aligned":
         raise SceneError("renderer.sheet_buffer = axis_aligned stacks a grid's voxel planes; SPH particles have none: "
                          "use image_aligned or none")
@@ -77,7 +82,7 @@ PLUGIN = RendererPlugin(
     description="splatting: each sample's kernel integrated into footprints, sheet buffers in GL",
     renderer="dvr_gl.renderers.splatting.renderer:SplattingRenderer",
     settings=(s.COMPOSITING.only("emission_absorption", "average", "xray"), s.CLASSIFICATION.only("post", "pre"),
-              s.ASSOCIATED_COLORS, s.FILTER.only("gaussian", "cubic_bspline", "m4"), s.KERNEL_WIDTH, SHEET_BUFFER, SLAB_WIDTH, SLABS_PER_DRAW, FOOTPRINT,
+              s.ASSOCIATED_COLORS, s.FILTER.only("gaussian", "cubic_bspline", "m4"), s.KERNEL_WIDTH, SHEET_BUFFER, SLAB_WIDTH, SLABS_PER_DRAW, FOOTPRINT, SCREEN_LOW_PASS,
               s.ERT_THRESHOLD, s.LUT_SIZE, s.SHADING),
     data_kinds=("grid", "particles"),
     needs_gl=True,

@@ -20,6 +20,10 @@ What the renderer computes, from the model's side:
   chord, by ``erf``).
 * the average: the field's integral over the chord, divided by the chord, classified exactly.
 
+* kernels widened by the screen low-pass (``renderer.screen_low_pass``, :mod:`.low_pass`): no field of
+  one kernel, since each kernel's width follows its depth, so every integral above is the sum of the
+  widened kernels' closed forms (:func:`pair_integrals` with their metric) over the same parts.
+
 Its difference from the renderer is float32 and the footprint tables' interpolation, bounded in
 ``tests/test_splatting.py``.  It always takes each pixel's own ray (``renderer.footprint =
 "exact"``): EWA's affine footprints differ from it by design, by the amounts measured there.
@@ -38,7 +42,8 @@ from ...fields.reconstruction import GaussianKernel, _erf
 from ...rays import RayBatch
 from ...reference.shading import blinn_phong, normals_from_gradient
 from ...transfer_function import projected_rgba, segment_opacity, xray_rgba
-from .sheets import kernel_radius, pixel_rectangles, pre_classified, shaded_sheets, slab_bounds
+from . import low_pass
+from .sheets import kernel_reach, pixel_rectangles, pre_classified, shaded_sheets, slab_bounds
 from .particles import SUBPIXEL_RADIUS, ParticleSplats
 from .splats import Splats
 
@@ -137,7 +142,10 @@ def _sheets(scene, rays, sub=None) -> np.ndarray:
 def _slab_parts(scene, rays, field, bounds, along, sub, carried):
     """``(slab, rays, extents, integrals (N, C))`` for each slab front to back, in chunks of rays whose part
     of the slab is not empty: the field's integral over each part, and particles smaller than a pixel
-    (``sub``, carrying ``carried``)."""
+    (``sub``, carrying ``carried``); kernels widened by the screen low-pass: :func:`_widened_slab_parts`."""
+    if scene.field.kind == "grid" and low_pass.enabled(scene):
+        yield from _widened_slab_parts(scene, rays, bounds, along)
+        return
     for k in range(len(bounds) - 1):
         a = np.maximum(rays.t0, bounds[k] / along)
         b = np.minimum(rays.t1, bounds[k + 1] / along)
@@ -149,6 +157,46 @@ def _slab_parts(scene, rays, field, bounds, along, sub, carried):
             if extra is not None:
                 integral = integral + extra[rows]
             yield k, rows, b[rows] - a[rows], integral
+
+
+class _WidenedKernels:
+    """The grid's splats with kernels widened by the screen low-pass (:mod:`.low_pass`): no field of one
+    kernel, since each kernel's width follows its depth, so its integrals are sums over the kernels of
+    their closed forms (:func:`pair_integrals`) along each ray."""
+
+    def __init__(self, scene):
+        vol, tf = scene.volume, scene.transfer_function
+        self.scene = scene
+        pre = pre_classified(scene)
+        self.splats = Splats(vol, kernel_reach(scene), np.zeros(3), tf.classify_voxels(vol.data, True) if pre else None)
+        self.values = self.splats.optics.astype(np.float64) if pre else self.splats.values[:, None]
+        self.kernel = GaussianKernel(scene.renderer.kernel_width)
+        self.metric = low_pass.metric(scene, self.splats.positions)
+
+    def integrals(self, rays, t0, t1, idx=None) -> np.ndarray:
+        """``(rays, C)``: the kernels' (``idx``, default all) integrals along each ray over ``[t0, t1]``."""
+        idx = np.arange(len(self.splats)) if idx is None else idx
+        splat, pixel, integral = _all_pair_integrals(self.scene, rays, self.splats, idx, self.kernel, t0, t1, self.metric)
+        return np.stack([np.bincount(pixel, integral * self.values[splat, c], minlength=len(rays))
+                         for c in range(self.values.shape[1])], axis=1)
+
+
+def _widened_slab_parts(scene, rays, bounds, along):
+    """As :func:`_slab_parts`, of kernels widened by the screen low-pass: per slab, the kernels that reach
+    into it (their depth reach is the kernel's, :mod:`.low_pass`)."""
+    from .sheets import kernel_depth_reach
+
+    kernels = _WidenedKernels(scene)
+    forward = scene.camera.basis()[0]
+    depth = kernels.splats.depths(np.asarray(scene.camera.eye, float), forward)
+    reach = kernel_depth_reach(scene, forward)
+    for k in range(len(bounds) - 1):
+        a = np.maximum(rays.t0, bounds[k] / along)
+        b = np.minimum(rays.t1, bounds[k + 1] / along)
+        rows = np.nonzero(b > a)[0]
+        idx = np.nonzero((depth + reach >= bounds[k]) & (depth - reach <= bounds[k + 1]))[0]
+        if len(rows) and len(idx):
+            yield k, rows, (b - a)[rows], kernels.integrals(rays, a, b, idx)[rows]
 
 
 def _shaded_sheets(scene, rays, field, table, bounds, along, sub) -> np.ndarray:
@@ -289,39 +337,48 @@ def subpixel_pairs(scene, rays, positions, h, weights):
 
 def _xray_pre(scene, rays, sub=None) -> np.ndarray:
     """The radiograph of the pre-classified field: its integrals of ``(sigma c, sigma)`` over the chord."""
-    vol = scene.field
-    field = _classified_field(scene, sub)
     out = np.zeros((len(rays), 4))
     hit = np.nonzero(rays.t1 > rays.t0)[0]
-    integral = _integrals(field, rays, hit, rays.t0[hit], rays.t1[hit], vol.sample_spacing)
+    integral = _chord_integrals(scene, rays, hit, _classified_field, sub)
     if sub is not None:
         integral = integral + sub.sums(sub.carried(scene, True), len(rays))[hit]
     out[hit] = xray_rgba(integral[:, :3], integral[:, 3])
     return out
 
 
+def _chord_integrals(scene, rays, hit, field_of, sub=None) -> np.ndarray:
+    """The integrals over the rays ``hit``'s chords of the field ``field_of(scene, sub)`` (the scalar or
+    the classified voxels), or of the kernels widened by the screen low-pass."""
+    if scene.field.kind == "grid" and low_pass.enabled(scene):
+        return _WidenedKernels(scene).integrals(rays, rays.t0, rays.t1)[hit]
+    return _integrals(field_of(scene, sub), rays, hit, rays.t0[hit], rays.t1[hit], scene.field.sample_spacing)
+
+
 def _average(scene, rays, sub=None) -> np.ndarray:
-    vol = scene.field
     out = np.zeros((len(rays), 4))
     hit = np.nonzero(rays.t1 > rays.t0)[0]
-    integral = _integrals(_field(scene, sub), rays, hit, rays.t0[hit], rays.t1[hit], vol.sample_spacing)
+    integral = _chord_integrals(scene, rays, hit, _field, sub)
     if sub is not None:
         integral = integral.reshape(len(hit), -1) + sub.sums(sub.carried(scene, False), len(rays))[hit]
     out[hit] = projected_rgba(scene.transfer_function, integral[:, 0] / (rays.t1[hit] - rays.t0[hit]))
     return out
 
 
-def pair_integrals(kernel: GaussianKernel, spacing, centres, origins, directions, t0, t1) -> np.ndarray:
+def pair_integrals(kernel: GaussianKernel, spacing, centres, origins, directions, t0, t1, metric=None) -> np.ndarray:
     """Each kernel's integral along its ray over ``[t0, t1]`` (world units), for pairs of kernels
     (``centres`` ``(N, 3)``) and rays (``origins``, ``directions`` ``(N, 3)``), in closed form: the
-    footprint at the ray's nearest approach times the share of the chord, by ``erf``."""
+    footprint at the ray's nearest approach times the share of the chord, by ``erf``.  ``metric``: the
+    kernels widened by the screen low-pass, ``(G (N, 3, 3), sqrt(det G) (N,))`` (:func:`.low_pass.metric`):
+    distances in voxels measured by ``G``, the density times ``sqrt(det G)``."""
     inv = 1.0 / np.asarray(spacing, float)
     ud = directions * inv                                  # voxels per world unit
-    a = (ud * ud).sum(axis=1)
     uo = (origins - centres) * inv
-    tc = -(uo * ud).sum(axis=1) / a
+    g = (lambda v: v) if metric is None else (lambda v: np.einsum("nij,nj->ni", metric[0], v))
+    gd = g(ud)
+    a = (ud * gd).sum(axis=1)
+    tc = -(uo * gd).sum(axis=1) / a
     nearest = uo + tc[:, None] * ud
-    rho2 = (nearest * nearest).sum(axis=1)
+    rho2 = (nearest * g(nearest)).sum(axis=1)
     r2 = kernel.radius ** 2
     inside = rho2 < r2
     half = np.sqrt(np.maximum(r2 - rho2, 0.0)) / np.sqrt(a)  # the chord's half-length, world units
@@ -336,6 +393,8 @@ def pair_integrals(kernel: GaussianKernel, spacing, centres, origins, directions
     share = 0.5 * (_erf((hi - tc) * scale) - _erf((lo - tc) * scale))
     whole = _erf(half * scale)
     full = kernel.footprint(rho2) / np.sqrt(a)
+    if metric is not None:
+        full = full * metric[1][live]
     with np.errstate(invalid="ignore", divide="ignore"):
         out[live] = np.where(whole > 0, full * share / whole, 0.0)
     return out
@@ -390,18 +449,27 @@ def _bspline(u: np.ndarray) -> np.ndarray:
                                                                           0.0))
 
 
-def _all_pair_integrals(scene, rays, splats, idx, kernel):
+def _all_pair_integrals(scene, rays, splats, idx, kernel, t0=None, t1=None, metric=None):
     """``(splat, pixel, integral)`` for the splats ``idx`` and the pixels their kernels may reach
-    (``kernel``: a :class:`GaussianKernel`, or None for the cubic B-spline)."""
+    (``kernel``: a :class:`GaussianKernel`, or None for the cubic B-spline), over each ray's part in the
+    box or ``[t0, t1]`` (per pixel); Gaussians widened by the screen low-pass through ``metric`` (every
+    splat's, :func:`.low_pass.metric`; found here if not given)."""
     vol = scene.volume
-    s_local, pixel = _pairs(scene, splats.positions[idx], kernel_radius(scene) * max(vol.spacing))
+    t0 = rays.t0 if t0 is None else t0
+    t1 = rays.t1 if t1 is None else t1
+    s_local, pixel = _pairs(scene, splats.positions[idx], splats.bounding_radii())
+    if metric is None and kernel is not None and low_pass.enabled(scene):
+        metric = low_pass.metric(scene, splats.positions)
     integral = np.zeros(len(pixel))
     for i in range(0, len(pixel), CHUNK * 10):
         sl = slice(i, i + CHUNK * 10)
-        pix = pixel[sl]
-        args = (vol.spacing, splats.positions[idx[s_local[sl]]], rays.origins[pix], rays.directions[pix],
-                rays.t0[pix], rays.t1[pix])
-        integral[sl] = pair_integrals(kernel, *args) if kernel is not None else bspline_pair_integrals(*args)
+        pix, which = pixel[sl], idx[s_local[sl]]
+        args = (vol.spacing, splats.positions[which], rays.origins[pix], rays.directions[pix], t0[pix], t1[pix])
+        if kernel is None:
+            integral[sl] = bspline_pair_integrals(*args)
+        else:
+            integral[sl] = pair_integrals(kernel, *args, metric=None if metric is None else
+                                          (metric[0][which], metric[1][which]))
     keep = integral > 0
     return idx[s_local[keep]], pixel[keep], integral[keep]
 
@@ -429,7 +497,7 @@ def _splats_alone(scene, rays) -> np.ndarray:
     field, cam, r, tf = scene.field, scene.camera, scene.renderer, scene.transfer_function
     grid = field.kind == "grid"
     if grid:
-        splats = Splats(field, kernel_radius(scene), np.zeros(3), tf.classify_voxels(field.data, True))
+        splats = Splats(field, kernel_reach(scene), np.zeros(3), tf.classify_voxels(field.data, True))
     else:
         splats = ParticleSplats(field, np.zeros(3), tf.classify_voxels(field.samples, True))
     forward, _, _ = cam.basis()
@@ -471,7 +539,7 @@ def _axis_sheets(scene, rays) -> np.ndarray:
 
     vol, cam, r, tf = scene.volume, scene.camera, scene.renderer, scene.transfer_function
     pre = pre_classified(scene)
-    splats = Splats(vol, kernel_radius(scene), np.zeros(3), tf.classify_voxels(vol.data, True) if pre else None)
+    splats = Splats(vol, kernel_reach(scene), np.zeros(3), tf.classify_voxels(vol.data, True) if pre else None)
     axis = stack_axis(cam)
     planes = sheet_axis_planes(scene, splats.index[:, axis])
     unique = np.unique(planes)

@@ -22,7 +22,8 @@ from ...transfer_function import projected_rgba, xray_rgba
 from ..grid.gl_base import GLVolumeRenderer, TableTexture, shading_defines
 from .footprint import GaussianFootprint, M4Footprint
 from .particles import SUBPIXEL_RADIUS, ParticleSplats
-from .sheets import (axis_schedule, culled_post, is_grid, kernel_radius, kernel_sigma, part_voxels, pixel_rectangles,
+from . import low_pass
+from .sheets import (axis_schedule, culled_post, is_grid, kernel_radius, kernel_reach, kernel_sigma, part_voxels, pixel_rectangles,
                      pre_classified, shaded_sheets, slab_schedule)
 from .splats import Splats, ghost_layers, post_visibility
 
@@ -117,7 +118,7 @@ class SplattingRenderer(GLVolumeRenderer):
         centre = 0.5 * (lo + hi)
         pre = pre_classified(scene)
         if is_grid(scene):
-            radius = kernel_radius(scene)
+            radius = kernel_reach(scene)
             culling = culled_post(scene)
             splats = self._cached("splats", (field, radius, pre, scene.transfer_function if pre or culling else None,
                                              culling and (r.lut_size, part_voxels(scene))),
@@ -156,8 +157,9 @@ class SplattingRenderer(GLVolumeRenderer):
     def _visibility(self, scene):
         r, tf = scene.renderer, scene.transfer_function
         lo, hi = self._lut(scene).lut.domain
-        return post_visibility(scene.volume, tf, kernel_radius(scene), kernel_sigma(scene), (hi - lo) / (r.lut_size - 1),
-                               ghost_layers(kernel_radius(scene)), part_voxels(scene))
+        radius = kernel_reach(scene)
+        return post_visibility(scene.volume, tf, radius, kernel_sigma(scene), (hi - lo) / (r.lut_size - 1),
+                               ghost_layers(radius), part_voxels(scene))
 
     def _lut(self, scene) -> TableTexture:
         r, tf = scene.renderer, scene.transfer_function
@@ -185,11 +187,14 @@ class SplattingRenderer(GLVolumeRenderer):
              "u_near": cam.near, "u_box_lo": tuple(lo), "u_box_hi": tuple(hi)}
         if is_grid(scene):
             u.update(u_spacing=tuple(field.spacing), u_radius=kernel_radius(scene), u_sigma=r.kernel_width,
-                     u_sigmas=GAUSSIAN_RADIUS)
+                     u_sigmas=GAUSSIAN_RADIUS, u_low_pass=r.screen_low_pass)
         return u
 
     def _splat_program(self, scene, **extra):
-        return create_program(self.ctx, "splatting/splat.vert", "splatting/splat.frag", self._defines(scene, **extra))
+        # the low-pass widens the splats' kernels only (the sheets read what they summed)
+        low = is_grid(scene) and scene.renderer.filter == "gaussian" and low_pass.enabled(scene)
+        return create_program(self.ctx, "splatting/splat.vert", "splatting/splat.frag",
+                              self._defines(scene, LOW_PASS=low, **extra))
 
     def _splat_vao(self, program, buffers):
         vao = self.ctx.vertex_array(program, [])

@@ -15,6 +15,7 @@ import numpy as np
 from ...gl.geometry import box_corners
 from ...model import CLASSIFIED_ALONG_RAY, GAUSSIAN_RADIUS
 from ...reference.plans import stack_axis
+from . import low_pass
 from .splats import slabs, support_depth
 
 
@@ -28,6 +29,14 @@ def kernel_radius(scene) -> float:
     if scene.renderer.filter == "cubic_bspline":
         return BSPLINE_RADIUS
     return GAUSSIAN_RADIUS * scene.renderer.kernel_width
+
+
+def kernel_reach(scene) -> float:
+    """How far a grid kernel reaches, voxels: its support, widened by the screen low-pass
+    (:func:`.low_pass.reach_voxels`): the ghost layers, the culling's bounds and the splats' bounding spheres."""
+    if scene.renderer.filter == "gaussian" and low_pass.enabled(scene):
+        return low_pass.reach_voxels(scene)
+    return kernel_radius(scene)
 
 
 def kernel_depth_reach(scene, forward) -> float:
