@@ -394,11 +394,13 @@ def run_tradeoff(args) -> int:
             args.report.table(checks, tradeoff.TOLERANCE_COLUMNS)
         else:
             args.report.text(note)
-        if rows[0]["flip"] is None:
+        if rows and rows[0]["flip"] is None:
             args.report.text("FLIP: not measured (install the optional extra: pip install 'dvr-gl[perceptual]')")
         args.report.text()
         meta["scenes"][name] = {"notes": notes, "tolerance": checks, "scene": scene.to_dict()}
         all_rows += rows
+    if not all_rows:
+        raise DvrError("no renderer measured these scenes (the notes above say why); nothing written")
     write_text(outputs["csv"], tradeoff.csv_text(all_rows), args.overwrite)
     write_text(outputs["json"], tradeoff.json_text(all_rows, meta), args.overwrite)
     written = [outputs["csv"], outputs["json"]]

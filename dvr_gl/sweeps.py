@@ -14,12 +14,17 @@ DISTANCES = (4.0, 2.0, 1.0, 0.5, 0.25, 0.125)   # sample distances, voxels
 
 @dataclass(frozen=True)
 class Family:
-    """One curve: the renderer setting ``key`` takes ``values`` with ``fixed`` set (dotted scene keys)."""
+    """One curve: the renderer setting ``key`` takes ``values`` with ``fixed`` set (dotted scene keys), for
+    fields of ``data_kinds`` (None: any the renderer renders)."""
 
     label: str
     key: str
     values: tuple
     fixed: tuple = ()   # ((dotted key, value), ...)
+    data_kinds: tuple | None = None
+
+    def applies_to(self, kind: str | None) -> bool:
+        return kind is None or self.data_kinds is None or kind in self.data_kinds
 
 
 POST = Family("post, linear", "renderer.sample_distance_voxels", DISTANCES)

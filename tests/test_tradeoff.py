@@ -96,3 +96,34 @@ def test_cli_bad_input_is_one_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "no sweep for splat" in err and len(err.strip().splitlines()) == 1
     assert not list(tmp_path.iterdir())
+
+
+def test_particles_sweep_the_families_made_for_them(tmp_path, capsys):
+    """A particle set: only the renderers and families that take particles (splatting's slab width with
+    the particles' own kernel, m4), and the ray caster's --tolerance is said not to apply."""
+    assert {name: [f.fixed for f in fams] for name, fams in tradeoff.sweeps(kind="particles").items()} == {
+        "splatting": [(("renderer.filter", "m4"),)]}
+    assert all(f.fixed != (("renderer.filter", "m4"),) for f in tradeoff.sweeps(kind="grid")["splatting"])
+    prefix = tmp_path / "sph"
+    args = ["bench", "tradeoff", "--demo", "plummer", "--volume-size", "8", "--size", "16", "--repeat", "1",
+            "--no-plot", "--output", str(prefix)]
+    assert main(args) == 0
+    with open(f"{prefix}.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [(r["renderer"], r["setting"]) for r in rows] == [("splatting", w) for w in ("2", "1", "0.5", "0.25")]
+    assert all(np.isfinite(float(r["rms"])) for r in rows)
+    assert "--tolerance not checked" in capsys.readouterr().out
+
+
+def test_nothing_measured_is_an_error_and_writes_nothing(tmp_path, capsys):
+    """Every renderer asked for refuses the scene (the ray caster renders no particles): one line, exit 1,
+    no files."""
+    prefix = tmp_path / "none"
+    args = ["bench", "tradeoff", "--demo", "plummer", "--volume-size", "8", "--size", "16", "--repeat", "1",
+            "--renderers", "raycast", "--no-plot", "--output", str(prefix)]
+    assert main(args) == 1
+    captured = capsys.readouterr()
+    err = captured.err.strip()
+    assert "no renderer measured" in err and "\n" not in err
+    assert "no sweep for particles data: raycast" in captured.out
+    assert not list(tmp_path.iterdir())

@@ -32,9 +32,10 @@ def sweeps(renderers=None, kind: str | None = None) -> dict:
     """renderer -> its trade-off families (:mod:`dvr_gl.sweeps`), as its plugin declares them: every
     registered renderer with a sweep (``renderers``: only these; ``kind``: only those rendering that
     kind of data)."""
-    return {name: p.sweeps for name, p in registry.plugins().items()
-            if p.sweeps and (not renderers or name in renderers)
-            and (kind is None or p.data_kinds is None or kind in p.data_kinds)}
+    out = {name: tuple(f for f in p.sweeps if f.applies_to(kind)) for name, p in registry.plugins().items()
+           if p.sweeps and (not renderers or name in renderers)
+           and (kind is None or p.data_kinds is None or kind in p.data_kinds)}
+    return {name: families for name, families in out.items() if families}
 
 
 COLUMNS = [("renderer", "renderer", ""), ("family", "setting family", ""), ("setting", "setting", ""),
@@ -102,7 +103,10 @@ def run(scene, repeat: int = 5, renderers=None, truth=None, progress=None, scene
         for r in open_renderers.values():
             r.close()
     mark_pareto(rows)
-    return rows, _refusal_notes(refused, rows)
+    kind = getattr(scene.field, "kind", None)
+    other = [name for name in sweeps(renderers) if name not in sweeps(renderers, kind)]
+    skipped = [f"no sweep for {kind} data: {', '.join(other)}"] if other else []
+    return rows, skipped + _refusal_notes(refused, rows)
 
 
 def _refusal_notes(refused: dict, rows: list[dict]) -> list[str]:

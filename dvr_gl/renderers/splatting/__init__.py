@@ -88,8 +88,11 @@ PLUGIN = RendererPlugin(
     needs_gl=True,
     check=check,
     oracle="dvr_gl.renderers.splatting.oracle:reference",
+    # the slab width, with each kind's kernel (a grid's default filter, linear, is not splatted)
     sweeps=(sweeps.Family("slab width", "renderer.slab_width", (2.0, 1.0, 0.5, 0.25),
-                          (("renderer.filter", "gaussian"),)),),
+                          (("renderer.filter", "gaussian"),), data_kinds=("grid",)),
+            sweeps.Family("slab width", "renderer.slab_width", (2.0, 1.0, 0.5, 0.25),
+                          (("renderer.filter", "m4"),), data_kinds=("particles",))),
     # Against the closed forms (tests/closed_forms.py), with the Gaussian, which is not the trilinear filter
     # their bounds assume: the box is constant to the float32 tables (measured 1.3e-6); the ramp bends
     # within the kernel's reach of its x faces, where the clamped taps repeat the border samples (its grids
