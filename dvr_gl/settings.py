@@ -161,7 +161,7 @@ COMPOSITING = Setting("compositing", str, "emission_absorption", "compositing mo
                       "the isosurface's first hit, average (the mean value along the ray), maximum or minimum "
                       "intensity projection, or xray (a radiograph of the classified extinction)",
                       choices=COMPOSITING_MODES, must_support=True, group="model")
-#: The modes of the renderers that do not render the X-ray yet (issue 18 brings it to the ray caster).
+#: The modes of the renderers that do not render the X-ray (the cell projectors).
 COMPOSITING_BEFORE_XRAY = tuple(m for m in COMPOSITING_MODES if m != "xray")
 
 

@@ -1,7 +1,10 @@
     // From the compositing state to the image: emission keeps (colour, optical depth) and needs its
     // opacity; back to front and the isosurface hold the image already; projections classify their
     // value (an empty ray keeps its initial state and stays transparent).
-#if defined(COMPOSITE_EMISSION) && !defined(BACK_TO_FRONT)
+#if defined(COMPOSITE_EMISSION) && defined(XRAY)
+    float alpha = opacity_of_depth(state.a);
+    frag_color = vec4(state.a > 0.0 ? state.rgb / state.a * alpha : vec3(0.0), alpha);
+#elif defined(COMPOSITE_EMISSION) && !defined(BACK_TO_FRONT)
     frag_color = vec4(state.rgb, opacity_of_depth(state.a));
 #elif defined(COMPOSITE_EMISSION) || defined(COMPOSITE_ISOSURFACE)
     frag_color = state;

@@ -1,5 +1,7 @@
 // Emission-absorption, front to back (raycast.frag's mode parts; the interface is described there).
 // State: (colour reaching the eye, optical depth), the opacity taken in the resolve.
+// XRAY (the radiograph): nothing attenuated: the state is the sums of sigma c l and sigma l, and the
+// resolve gives alpha 1 - exp(-tau) and colour alpha times their ratio (dvr_gl.transfer_function.xray_rgba).
 
 vec3 colour;   // the light of the samples so far that reaches the eye
 float depth;   // their optical depth: the transmittance to the next sample is exp(-depth)
@@ -42,7 +44,11 @@ bool mode_sample(int k, float start, float len, float t, vec3 p) {
 #else
     vec4 cs = classify(p, d);
     float tau = cs.a * len;
+#ifdef XRAY
+    colour += tau * cs.rgb;
+#else
     colour += exp(-depth) * opacity_of_depth(tau) * cs.rgb;
+#endif
     depth += tau;
 #endif
     return terminated();
@@ -79,7 +85,11 @@ bool mode_jump(vec4 block, inout int m) {
 #ifdef EARLY_TERMINATION
     if (tau > 0.0) count = min(count, ceil((u_ert_depth - depth) / tau));
 #endif
+#ifdef XRAY
+    colour += tau * count * block.rgb;
+#else
     colour += exp(-depth) * opacity_of_depth(tau * count) * block.rgb;
+#endif
     depth += tau * count;
     m = int(count);
     return terminated();

@@ -63,16 +63,22 @@ SKIPPING_DEFINES = BLOCK_SKIPPING_DEFINES + ("RAY_BOUNDS",)
 AUTO_BOUNDS_COST = 8.0
 
 COMPOSITING = {"emission_absorption": "COMPOSITE_EMISSION", "isosurface": "COMPOSITE_ISOSURFACE",
-               "average": "COMPOSITE_AVERAGE", "mip": "COMPOSITE_MIP", "minip": "COMPOSITE_MINIP"}
+               "average": "COMPOSITE_AVERAGE", "mip": "COMPOSITE_MIP", "minip": "COMPOSITE_MINIP",
+               "xray": "COMPOSITE_EMISSION"}  # the X-ray: emission's sums unattenuated (XRAY)
 
 
 def shader_features(scene, count_samples: bool = False, bricked: bool = False) -> dict:
     """The defines for exactly the features this scene uses (computed once per frame; the bricked
     passes' program is :func:`bricked_features` of the same)."""
     r = scene.renderer
-    emission = r.compositing == "emission_absorption"
+    xray = r.compositing == "xray"
+    emission = r.compositing == "emission_absorption" or xray
     defines = classification_features(scene)
     defines[COMPOSITING[r.compositing]] = True
+    if xray:  # absorption only: no shading, no gradient opacity (dvr_gl.reference.model), nothing terminates
+        for key in ("SHADING", "NUM_LIGHTS", "TWO_SIDED", "GRADIENT_TEXTURE", "GRADIENT_OPACITY"):
+            defines.pop(key, None)
+        defines["XRAY"] = True
     if not emission:  # classification, gradient opacity: emission-absorption only
         for key in ("CLASSIFY_PRE", "CLASSIFY_PREINTEGRATED", "ASSOCIATED_COLORS", "GRADIENT_OPACITY"):
             defines.pop(key, None)
@@ -81,7 +87,7 @@ def shader_features(scene, count_samples: bool = False, bricked: bool = False) -
                 defines.pop(key, None)
         elif "SHADING" not in defines:
             defines.pop("GRADIENT_TEXTURE", None)
-    if emission:
+    if emission and not xray:  # the X-ray's sums take every segment, in any order
         defines["BACK_TO_FRONT"] = r.order == "back_to_front"
         defines["EARLY_TERMINATION"] = r.order == "front_to_back" and r.ert_threshold < 1.0
     defines["JITTER"] = r.jitter
