@@ -65,16 +65,21 @@ def _save(tmp_path, name, data):
     return str(path)
 
 
-def own_filter(renderer) -> dict:
-    """The filter a renderer is tested with: the scene's default where it takes it, else its first
-    (splatting takes its kernels only)."""
-    choices = registry.plugin(renderer).choices("filter")
-    return {} if "linear" in choices else {"renderer.filter": choices[0]}
+def own_filter(renderer, mode: str = "emission_absorption") -> dict:
+    """The filter (and classification) a renderer is tested with: the scene's defaults where it takes
+    them, else its first (splatting takes its kernels only; Fourier rendering's X-ray classifies voxels)."""
+    p = registry.plugin(renderer)
+    choices = p.choices("filter")
+    out = {} if "linear" in choices else {"renderer.filter": choices[0]}
+    classifications = p.choices("classification")
+    if mode in ("emission_absorption", "xray") and classifications and "post" not in classifications:
+        out["renderer.classification"] = classifications[0]
+    return out
 
 
 def _load(data_keys, points, mode, view, renderer, extra=None):
     """A closed form's scene: its data keys, extinction ``points``, the view, no early termination."""
-    overrides = {**own_filter(renderer), **data_keys, "transfer_function.points": points,
+    overrides = {**own_filter(renderer, mode), **data_keys, "transfer_function.points": points,
                  "transfer_function.opacity_model": "extinction", "image.width": WIDTH, "image.height": HEIGHT,
                  "renderer.name": renderer, "renderer.compositing": mode, "renderer.ert_threshold": 1.0,
                  "renderer.converged_tolerance": 1e-6, **VIEWS[view], **(extra or {})}

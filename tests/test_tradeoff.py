@@ -54,7 +54,8 @@ def test_sweep_measures_every_renderer():
     at least 10x), and a renderer's refusals become notes, not rows."""
     scene = load_scene(None, SMALL)
     rows, notes = tradeoff.run(scene, repeat=1)
-    assert {r["renderer"] for r in rows} == set(tradeoff.sweeps(kind="grid"))  # those that render a grid
+    # those that render a grid in perspective
+    assert {r["renderer"] for r in rows} == set(tradeoff.sweeps(kind="grid", projection="perspective"))
     for r in rows:
         assert np.isfinite(r["rms"]) and r["ms"] > 0 and r["max"] >= r["rms"] >= 0
         assert r["flip"] is None or 0.0 <= r["flip"] <= 1.0
@@ -125,5 +126,5 @@ def test_nothing_measured_is_an_error_and_writes_nothing(tmp_path, capsys):
     captured = capsys.readouterr()
     err = captured.err.strip()
     assert "no renderer measured" in err and "\n" not in err
-    assert "no sweep for particles data: raycast" in captured.out
+    assert "no sweep for particles data in perspective views: raycast" in captured.out
     assert not list(tmp_path.iterdir())

@@ -28,13 +28,14 @@ from ..renderers import create_renderer, registry
 from ..transfer_function import linear_to_srgb
 from . import acceleration, median_seconds
 
-def sweeps(renderers=None, kind: str | None = None) -> dict:
+def sweeps(renderers=None, kind: str | None = None, projection: str | None = None) -> dict:
     """renderer -> its trade-off families (:mod:`dvr_gl.sweeps`), as its plugin declares them: every
-    registered renderer with a sweep (``renderers``: only these; ``kind``: only those rendering that
-    kind of data)."""
+    registered renderer with a sweep (``renderers``: only these; ``kind``, ``projection``: only those
+    rendering that kind of data in that projection)."""
     out = {name: tuple(f for f in p.sweeps if f.applies_to(kind)) for name, p in registry.plugins().items()
            if p.sweeps and (not renderers or name in renderers)
-           and (kind is None or p.data_kinds is None or kind in p.data_kinds)}
+           and (kind is None or p.data_kinds is None or kind in p.data_kinds)
+           and (projection is None or projection in p.projections)}
     return {name: families for name, families in out.items() if families}
 
 
@@ -61,9 +62,9 @@ def converged_truth(scene, tolerance: float = 1e-4) -> np.ndarray:
     return ConvergedReference(truth_scene).render_float64().astype(np.float32)
 
 
-def cases(renderers=None, kind: str | None = None):
+def cases(renderers=None, kind: str | None = None, projection: str | None = None):
     """(renderer, family, value) for every setting to measure."""
-    for name, families in sweeps(renderers, kind).items():
+    for name, families in sweeps(renderers, kind, projection).items():
         for family in families:
             for value in family.values:
                 yield name, family, value
@@ -83,7 +84,7 @@ def run(scene, repeat: int = 5, renderers=None, truth=None, progress=None, scene
     truth = converged_truth(scene) if truth is None else truth
     rows, refused, open_renderers = [], {}, {}
     try:
-        for name, family, value in cases(renderers, getattr(scene.field, "kind", None)):
+        for name, family, value in cases(renderers, getattr(scene.field, "kind", None), scene.camera.projection):
             case = variant(scene, name, family, value)
             renderer = open_renderers.get(name) or open_renderers.setdefault(name, create_renderer(name))
             try:
@@ -103,9 +104,9 @@ def run(scene, repeat: int = 5, renderers=None, truth=None, progress=None, scene
         for r in open_renderers.values():
             r.close()
     mark_pareto(rows)
-    kind = getattr(scene.field, "kind", None)
-    other = [name for name in sweeps(renderers) if name not in sweeps(renderers, kind)]
-    skipped = [f"no sweep for {kind} data: {', '.join(other)}"] if other else []
+    kind, projection = getattr(scene.field, "kind", None), scene.camera.projection
+    other = [name for name in sweeps(renderers) if name not in sweeps(renderers, kind, projection)]
+    skipped = [f"no sweep for {kind} data in {projection} views: {', '.join(other)}"] if other else []
     return rows, skipped + _refusal_notes(refused, rows)
 
 

@@ -53,6 +53,7 @@ class RendererPlugin:
         ``"sphere"``, ``"analytic sphere"``) or per closed form and mode (``("ramp", "mip")``), at
         the tests' resolution (``tests/test_conformance.py``, ``tests/closed_forms.py``).
     reference: a CPU float64 reference (a judge: no oracle, slow).
+    projections: the camera projections it renders (Fourier rendering: parallel projections only).
     """
 
     name: str
@@ -68,6 +69,7 @@ class RendererPlugin:
     sweeps: tuple = ()
     tolerances: Any = None
     reference: bool = False
+    projections: tuple[str, ...] = ("perspective", "orthographic")
 
     def declared(self, name: str) -> Optional[Setting]:
         return next((s for s in self.settings if s.name == name), None)
@@ -265,6 +267,10 @@ def check(scene, name: str | None = None):
         others = renderers_with(lambda q: q.data_kinds is None or kind in q.data_kinds)
         raise SceneError(f"{p.name} renders {', '.join(p.data_kinds)} data, not {kind}"
                          + (f"; use {_either(others)}" if others else ""))
+    projection = scene.camera.projection
+    if projection not in p.projections:
+        raise SceneError(f"{p.name} renders {_either(p.projections)} views, not {projection}: set "
+                         f"camera.projection = {p.projections[0]}")
     spec = scene.renderer
     # alternatives: renderers of this data that support every model setting the scene uses
     renders = lambda q: (q.data_kinds is None or kind in q.data_kinds) and not _unsupported(q, spec)  # noqa: E731

@@ -1,0 +1,174 @@
+"""From a slice of the spectrum to the image: the frame, the filter, the phase and the inverse transform.
+
+The orthographic image's pixel ``(i, j)`` (row ``j`` from the top) is the line through ``X_00 + i p R + j p
+D`` along the view (``R`` right, ``D`` down, ``p`` the pixel's width, ``X_00`` the top-left pixel's centre on
+the eye's plane).  The projection ``P`` of the field along the view has the 2D transform ``F(u R + v D)``
+(the projection-slice theorem), so
+
+    P(X_ij) = sum_kl F(w_kl) exp(2 pi i w_kl.X_00) exp(2 pi i (k i / W' + l j / H')) du dv
+
+over the frequencies ``w_kl = u_k R + v_l D``, ``u_k = k / (W' p)`` (numpy's ``fftfreq``): an inverse 2D DFT of
+``W' x H'`` samples.  Its period ``W' p`` (``H' p``) spans the image and the field's projected support, so
+no copy of the projection wraps into the image; the frequencies stop at the pixels' Nyquist limit, so
+where pixels are wider than voxels the image is the projection low-passed to them (the references
+sample pixel centres: the difference is measured in ``docs/renderers/fourier.md``).
+
+``F(w) = exp(-2 pi i w.x_c) S(w M h) Phi(w)`` (:mod:`.spectrum`): the renderer interpolates ``S`` at the
+slice's grid positions ``g = w M h`` in GL, the oracle in numpy; the rest is here, in float64.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ...gl.geometry import box_corners
+from ...rays import RayBatch
+from ...transfer_function import projected_rgba, xray_rgba
+from ...model import GAUSSIAN_RADIUS
+from .spectrum import padded_length
+
+
+def filter_transform(scene, w: np.ndarray) -> np.ndarray:
+    """``Phi(w)``: the reconstruction filter's transform at world frequencies ``w`` ``(..., 3)`` (cycles
+    per world unit), times the voxel's volume: the tent's ``sinc^2``, the cubic B-spline's ``sinc^4``, the
+    Gaussian's ``exp(-2 pi^2 sigma^2 |w h|^2)`` per axis."""
+    r, h = scene.renderer, np.asarray(scene.volume.spacing, float)
+    wh = w * h
+    if r.filter == "gaussian":
+        phi = np.exp(-2.0 * math.pi ** 2 * r.kernel_width ** 2 * (wh * wh).sum(axis=-1))
+    else:
+        power = {"linear": 2, "cubic_bspline": 4}[r.filter]
+        phi = np.prod(np.sinc(wh) ** power, axis=-1)
+    return phi * float(np.prod(h))
+
+
+class Frame:
+    """The slice's frequency grid for ``scene`` (orthographic): ``size`` ``(W', H')``, ``pixel`` the pixel's
+    width, ``right``/``down`` the image's axes, ``origin`` ``X_00``, and ``w`` ``(H', W', 3)`` the frequencies."""
+
+    #: Voxels of margin around the box's projection: the filters' reach (the Gaussian's 5 sigma at the
+    #: default width is 3.5) and the band-limited interpolant's ringing, which falls off with distance
+    MARGIN_VOXELS = 8.0
+
+    def __init__(self, scene):
+        cam, img = scene.camera, scene.image
+        w, h = img.width, img.height
+        forward, right, up = (np.asarray(v, float) for v in cam.basis())
+        hx, hy = cam.half_extent(w / h)
+        self.pixel = 2.0 * hy / h
+        self.spacing = np.asarray(scene.volume.spacing, float)
+        self.right, self.down = right, -up
+        eye = np.asarray(cam.eye, float)
+        self.origin = eye + (-hx + 0.5 * self.pixel) * right + (hy - 0.5 * self.pixel) * up
+        lo, hi = scene.volume.bounds
+        corners = box_corners(lo, hi) - self.origin
+        margin = self.MARGIN_VOXELS * float(np.max(scene.volume.spacing))
+        sizes = []
+        for axis, count in ((self.right, w), (self.down, h)):
+            along = corners @ axis
+            first = min(0.0, float(along.min()) - margin)
+            last = max((count - 1) * self.pixel, float(along.max()) + margin)
+            sizes.append(padded_length(int(math.ceil((last - first) / self.pixel)) + 1, 1.0))
+        self.size = tuple(sizes)
+        u = np.fft.fftfreq(self.size[0], self.pixel)
+        v = np.fft.fftfreq(self.size[1], self.pixel)
+        self.u, self.v = u, v
+        self.w = u[None, :, None] * self.right + v[:, None, None] * self.down
+
+    def grid_positions(self, spectrum) -> np.ndarray:
+        """``g = w M h``: where the slice samples the spectrum, in its index units ``(H', W', 3)`` (x, y, z)."""
+        return self.w * (np.asarray(spectrum.dims, float) * self.spacing)
+
+
+def channels(scene) -> tuple[np.ndarray, np.ndarray, int]:
+    """What is transformed ``(nz, ny, nx, C)`` with its ghost layers (:func:`with_ghosts`), the constants
+    taken out ``(C,)`` and the ghost layers' count: the average's scalar, or the X-ray's classified voxels
+    ``(sigma c, sigma)`` (associated); each less the mean of its border samples (a constant's line
+    integral is that constant times the chord, added back exactly)."""
+    data = np.asarray(scene.volume.data, dtype=np.float64)
+    if scene.renderer.compositing == "xray":
+        values = scene.transfer_function.classify_voxels(data, True).astype(np.float64)
+    else:
+        values = data[..., None]
+    faces = [values[0], values[-1], values[:, 0], values[:, -1], values[:, :, 0], values[:, :, -1]]
+    offsets = np.mean(np.concatenate([f.reshape(-1, values.shape[-1]) for f in faces]), axis=0)
+    ghosted, border = with_ghosts(scene, values - offsets)
+    return ghosted, offsets, border
+
+
+def _profile(scene):
+    """The filter's 1D profile along an axis (voxels) and its reach."""
+    r = scene.renderer
+    if r.filter == "gaussian":
+        sigma = r.kernel_width
+        return (lambda x: np.exp(-0.5 * (x / sigma) ** 2) / (sigma * math.sqrt(2.0 * math.pi))), GAUSSIAN_RADIUS * sigma
+    if r.filter == "cubic_bspline":
+        def bspline(x):
+            a = np.abs(x)
+            return np.where(a < 1, 2.0 / 3.0 - a * a + 0.5 * a ** 3, np.where(a < 2, (2.0 - np.minimum(a, 2.0)) ** 3 / 6.0, 0.0))
+        return bspline, 2.0
+    return (lambda x: np.maximum(1.0 - np.abs(x), 0.0)), 1.0
+
+
+def with_ghosts(scene, values: np.ndarray) -> tuple[np.ndarray, int]:
+    """``values`` ``(nz, ny, nx, C)`` with ghost layers on every face, and their count.  The references clip
+    the rays at the box (the first and last samples' planes) and clamp the taps beyond it; Fourier
+    rendering integrates whole lines.  So, per axis: the layers the filter reaches into the box from
+    (``ceil(reach) - 1``) repeat the border sample, as the clamped taps do, and the next layer cancels
+    what the field puts beyond the face along the axis: ``c = -sum_n u_n S(n) / S(R + 1)``, ``S(n)`` the
+    share of a sample's profile beyond the face.  Exact for rays across the face, to first order for
+    oblique ones (``docs/renderers/fourier.md``)."""
+    profile, reach = _profile(scene)
+    clamped = max(int(math.ceil(reach)) - 1, 0)
+    x = np.linspace(0.0, reach + clamped + 2.0, 40001)
+
+    def beyond(n):  # S(n): the profile of a sample at n (face at 0, outward positive) beyond the face
+        return float(np.trapezoid(profile(x - n), x))
+
+    reach_in = int(math.ceil(reach))
+    shares = np.array([beyond(n) for n in range(-reach_in, clamped + 1)])  # inside samples that spill, clamped ones
+    last = beyond(clamped + 1)
+    out = values
+    for axis in range(3):
+        n = out.shape[axis]
+        faces = []
+        for side in (0, -1):
+            take = lambda i: np.take(out, [i], axis=axis)  # noqa: E731
+            edge = take(0 if side == 0 else n - 1)
+            # the inside samples within reach of the face, nearest last (n = -reach_in .. 0), then the clamped
+            inside = [take(min(reach_in - k, n - 1) if side == 0 else max(n - 1 - reach_in + k, 0))
+                      for k in range(reach_in + 1)]
+            spill = sum(s * u for s, u in zip(shares, inside + [edge] * clamped))
+            layers = [edge] * clamped + [-spill / last]
+            faces.append(layers)
+        before = faces[0][::-1]
+        out = np.concatenate(before + [out] + faces[1], axis=axis)
+    return out, clamped + 1
+
+
+def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets) -> np.ndarray:
+    """The image ``(H, W, 4)`` float64 from the interpolated spectra ``slices`` (``(H', W')`` complex, one per
+    channel): the filter, the phase, the inverse transform, the constants taken out before the transform
+    (``offsets``, :func:`channels`) added back per chord, and the compositing mode's classification."""
+    img = scene.image
+    w, h = img.width, img.height
+    phi = filter_transform(scene, frame.w)
+    shift = frame.origin - spectrum.centre(scene.volume)
+    # exp(2 pi i w.(X_00 - x_c)), separable in u and v (float64: the phase reaches thousands of turns)
+    phase = (np.exp(2j * math.pi * frame.v * (shift @ frame.down))[:, None]
+             * np.exp(2j * math.pi * frame.u * (shift @ frame.right))[None, :])
+    scale = phi * phase / (frame.pixel * frame.pixel)  # du dv W' H' = 1 / p^2
+    rays = RayBatch.for_camera(scene.camera, w, h, scene.volume.bounds)
+    chord = np.maximum(rays.t1 - rays.t0, 0.0).reshape(h, w)
+    sums = [np.fft.ifft2(s * scale).real[:h, :w] + c * chord for s, c in zip(slices, offsets)]
+    out = np.zeros((h, w, 4))
+    hit = chord > 0
+    if scene.renderer.compositing == "average":
+        out[hit] = projected_rgba(scene.transfer_function, sums[0][hit] / chord[hit])
+    else:  # the X-ray of the classified voxels: (sigma c, sigma) integrated; the band limit rings (Gibbs)
+        # where the data jumps, which can take an integral of non-negative voxels below zero: clamped
+        emitted = np.stack([np.maximum(sums[c][hit], 0.0) for c in range(3)], axis=1)
+        out[hit] = xray_rgba(emitted, np.maximum(sums[3][hit], 0.0))
+    return out

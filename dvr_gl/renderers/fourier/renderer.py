@@ -1,0 +1,109 @@
+"""The Fourier renderer in GL (see the package doc and ``docs/renderers/fourier.md``).
+
+Once per volume, transfer function (the X-ray's classified voxels) and settings: the spectra, uploaded
+as float32 3D textures, two complex channels a texture (:mod:`.spectrum`).  Per view: the central slice
+drawn as one full-screen pass over the slice's frequency grid (``shaders/fourier/slice.frag``), read
+back, and turned into the image on the host (:func:`.projection.finish`: the filter, the phase, the
+inverse 2D transform, the compositing mode's classification).
+"""
+
+from __future__ import annotations
+
+import time
+
+import moderngl
+import numpy as np
+
+from ...errors import SceneError
+from ...gl.shaders import create_program
+from ... import limits
+from ...sandbox import check_bytes
+from ..grid.gl_base import GLVolumeRenderer
+from .projection import Frame, channels, finish
+from .spectrum import Spectrum
+
+
+class SpectrumTextures:
+    """The spectra as RGBA32F 3D textures ``(Mx / 2 + 1, My, Mz)``, two complex channels each."""
+
+    def __init__(self, ctx, spectrum: Spectrum):
+        self.spectrum = spectrum
+        self.textures = []
+        halves = spectrum.spectra
+        for i in range(0, len(halves), 2):
+            pair = halves[i:i + 2] + [np.zeros_like(halves[0])] * (2 - len(halves[i:i + 2]))
+            texels = np.empty(pair[0].shape + (4,), np.float32)
+            for j, half in enumerate(pair):
+                texels[..., 2 * j] = half.real
+                texels[..., 2 * j + 1] = half.imag
+            mz, my, mxh = pair[0].shape
+            tex = ctx.texture3d((mxh, my, mz), 4, np.ascontiguousarray(texels).tobytes(), dtype="f4")
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            self.textures.append(tex)
+
+    def release(self):
+        for t in self.textures:
+            t.release()
+
+
+class FourierRenderer(GLVolumeRenderer):
+    name = "fourier"
+
+    def check_tables(self, scene, gl):
+        """The spectrum's textures and the slice's target against the GL limits (before any transform)."""
+        from .spectrum import padded_length
+
+        r = scene.renderer
+        dims = [padded_length(n + 10, r.padding) for n in scene.volume.dims]  # with the ghost layers
+        side = max(dims[0] // 2 + 1, dims[1], dims[2])
+        if side > gl.texture_3d_size:
+            raise SceneError(f"fourier's spectrum needs a {side}-texel 3D texture, over this GL's {gl.texture_3d_size}: "
+                             "use a smaller renderer.padding or volume")
+        limits.check_texture("fourier's slice", Frame(scene).size, gl,
+                             "frame the volume in the image (camera.view_height) or use a smaller image")
+        count = 4 if r.compositing == "xray" else 1
+        # the float64 spectra on the host and their float32 textures
+        check_bytes(count * 24 * (dims[0] // 2 + 1) * dims[1] * dims[2], "fourier's spectra",
+                    "use a smaller renderer.padding or volume")
+
+    def draw(self, scene) -> np.ndarray:
+        self.activate()
+        r = scene.renderer
+        xray = r.compositing == "xray"
+        key = (scene.volume, r.compositing, scene.transfer_function if xray else None)
+        key = (*key, r.filter, r.kernel_width)
+        data, offsets, border = self._cached("channels", key, lambda: channels(scene))
+        fresh = []
+        spectrum = self._cached("spectrum", (data, r.slice_interpolation, r.padding),
+                                lambda: fresh.append(1) or Spectrum(data, r.slice_interpolation, r.padding, border))
+        textures = self._cached("spectrum textures", (spectrum,), lambda: SpectrumTextures(self.ctx, spectrum))
+        start = time.perf_counter()
+        frame = Frame(scene)
+        wf, hf = frame.size
+        defines = {"TRILINEAR": r.slice_interpolation == "trilinear", "CHANNELS_2": len(textures.textures) > 1}
+        program = create_program(self.ctx, "fullscreen.vert", "fourier/slice.frag",
+                                 {k: v for k, v in defines.items() if v})
+        attachments = (4,) * len(textures.textures)
+        _, fbo = self.target("slice", wf, hf, attachments)
+        fbo.use()
+        samplers = {"u_spectrum": textures.textures[0]}
+        if len(textures.textures) > 1:
+            samplers["u_spectrum2"] = textures.textures[1]
+        self.bind(program, {"u_dims": spectrum.dims, "u_size": frame.size,
+                            "u_frequency_step": (1.0 / (wf * frame.pixel), 1.0 / (hf * frame.pixel)),
+                            "u_right": tuple(frame.right), "u_down": tuple(frame.down),
+                            "u_grid_scale": tuple(np.asarray(spectrum.dims) * frame.spacing)}, samplers)
+        quad = self.ctx.vertex_array(program, [])
+        quad.render(moderngl.TRIANGLES, vertices=3)
+        quad.release()
+        slices = []
+        for i in range(len(attachments)):
+            raw = np.frombuffer(fbo.read(components=4, dtype="f4", attachment=i), np.float32).reshape(hf, wf, 4)
+            slices += [raw[..., 0] + 1j * raw[..., 1], raw[..., 2] + 1j * raw[..., 3]]
+        drawn = time.perf_counter()
+        image = finish(scene, frame, spectrum, slices[:len(spectrum.spectra)], offsets)
+        end = time.perf_counter()
+        self.stats.update(preprocess_seconds=spectrum.seconds if fresh else 0.0, spectrum_bytes=spectrum.bytes,
+                          spectrum_dims=spectrum.dims, fft=spectrum.library, slice_size=frame.size,
+                          slice_seconds=drawn - start, inverse_seconds=end - drawn, view_seconds=end - start)
+        return image.astype(np.float32)

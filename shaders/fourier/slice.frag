@@ -1,0 +1,87 @@
+#version 330 core
+// One sample of the central slice of a half spectrum (dvr_gl/renderers/fourier/spectrum.py): this
+// fragment's frequency (numpy's fftfreq order: fragment x is k, y is l) taken to the spectrum's index
+// units, the spectrum interpolated there with float weights (TRILINEAR, or the prefiltered cubic
+// B-spline), periodic, the half not stored read as the conjugate of its mirror.  Two complex channels
+// a texture (.rg, .ba); CHANNELS_2: a second texture for the X-ray's (sigma c, sigma).
+
+uniform sampler3D u_spectrum;     // (Mx / 2 + 1, My, Mz): re, im of two channels
+#ifdef CHANNELS_2
+uniform sampler3D u_spectrum2;
+layout(location = 1) out vec4 frag2;
+#endif
+uniform ivec3 u_dims;             // M per axis
+uniform ivec2 u_size;             // the slice's samples (W', H')
+uniform vec2 u_frequency_step;    // 1 / (W' p), 1 / (H' p): cycles per world unit
+uniform vec3 u_right;             // the image's axes (world)
+uniform vec3 u_down;
+uniform vec3 u_grid_scale;        // M h: spectrum index units per cycle per world unit
+layout(location = 0) out vec4 frag;
+
+// k mod M in [0, M): GLSL leaves % of negative operands undefined, so k is made positive first (the
+// slice's indices stay within 1024 periods of zero: a pixel would have to be 500 times finer than a voxel)
+ivec3 wrap(ivec3 k) {
+    return (k + 1024 * u_dims) % u_dims;
+}
+
+// The spectrum at integer index k (any), both textures (frag: .rg .ba, frag2: .rg .ba).
+void fetch(ivec3 k, out vec4 a, out vec4 b) {
+    ivec3 m = wrap(k);
+    bool mirrored = m.x > u_dims.x / 2;
+    if (mirrored)
+        m = wrap(-m);
+    vec4 conj = mirrored ? vec4(1.0, -1.0, 1.0, -1.0) : vec4(1.0);
+    a = texelFetch(u_spectrum, m, 0) * conj;
+#ifdef CHANNELS_2
+    b = texelFetch(u_spectrum2, m, 0) * conj;
+#else
+    b = vec4(0.0);
+#endif
+}
+
+#ifdef TRILINEAR
+const int TAPS = 2;
+const int FIRST = 0;
+void weights(float f, out float w[4]) {
+    w[0] = 1.0 - f; w[1] = f; w[2] = 0.0; w[3] = 0.0;
+}
+#else
+const int TAPS = 4;
+const int FIRST = -1;
+void weights(float f, out float w[4]) {
+    float f2 = f * f, f3 = f2 * f;
+    w[0] = (1.0 - f) * (1.0 - f) * (1.0 - f) / 6.0;
+    w[1] = (3.0 * f3 - 6.0 * f2 + 4.0) / 6.0;
+    w[2] = (-3.0 * f3 + 3.0 * f2 + 3.0 * f + 1.0) / 6.0;
+    w[3] = f3 / 6.0;
+}
+#endif
+
+void main() {
+    ivec2 kl = ivec2(gl_FragCoord.xy);
+    vec2 index = vec2(kl.x < u_size.x / 2 ? kl.x : kl.x - u_size.x, kl.y < u_size.y / 2 ? kl.y : kl.y - u_size.y);
+    vec2 uv = index * u_frequency_step;
+    vec3 g = (uv.x * u_right + uv.y * u_down) * u_grid_scale;
+    vec3 base = floor(g);
+    vec3 f = g - base;
+    ivec3 b = ivec3(base);
+    float wx[4], wy[4], wz[4];
+    weights(f.x, wx);
+    weights(f.y, wy);
+    weights(f.z, wz);
+    vec4 sum = vec4(0.0), sum2 = vec4(0.0);
+    for (int z = 0; z < TAPS; ++z)
+        for (int y = 0; y < TAPS; ++y) {
+            float wzy = wz[z] * wy[y];
+            for (int x = 0; x < TAPS; ++x) {
+                vec4 a, c;
+                fetch(b + ivec3(x + FIRST, y + FIRST, z + FIRST), a, c);
+                sum += wzy * wx[x] * a;
+                sum2 += wzy * wx[x] * c;
+            }
+        }
+    frag = sum;
+#ifdef CHANNELS_2
+    frag2 = sum2;
+#endif
+}

@@ -1,0 +1,173 @@
+"""Fourier volume rendering: the GL slice against its same-slices reference, the model against the
+closed-form projection of Gaussian blobs and the converged reference, the pre-multiplication's
+direction, padding, caching and refusals."""
+
+import math
+
+import numpy as np
+import pytest
+
+from dvr_gl.reference.converged import ConvergedReference
+from dvr_gl.renderers import registry
+from dvr_gl.renderers.fourier import spectrum as spectrum_module
+from dvr_gl.renderers.fourier.oracle import reference as same_slices
+from dvr_gl.renderers.fourier.renderer import FourierRenderer
+from dvr_gl.rays import intersect_box
+
+from conftest import array_scene, assert_close, small_scene
+
+ORTHO = {"renderer.name": "fourier", "camera.projection": "orthographic", "camera.azimuth": 31.0,
+         "camera.elevation": 22.0}
+K = 0.05  # extinction per unit value: the average and the X-ray invert to the line integral
+
+
+@pytest.fixture(scope="module")
+def fourier(gl_context):
+    r = FourierRenderer(ctx=gl_context)
+    yield r
+    r.close()
+
+
+def blob(n=32, sigma_fraction=0.1):
+    """A Gaussian blob off the centre (peak 1, standard deviation n / 10 voxels) and its centre (x, y, z)."""
+    centre = (n - 1) / 2.0 + np.array([2.1, -1.3, 0.7]) * n / 64
+    z, y, x = np.mgrid[:n, :n, :n]
+    s = sigma_fraction * n
+    data = np.exp(-((x - centre[0]) ** 2 + (y - centre[1]) ** 2 + (z - centre[2]) ** 2) / (2 * s * s))
+    return data.astype(np.float32), centre, s
+
+
+def blob_scene(tmp_path, data, extra=None, size=48):
+    return array_scene(tmp_path, data, {**ORTHO, "renderer.compositing": "average",
+                                        "transfer_function.points": [[0, 1, 1, 1, 0], [1, 1, 1, 1, K]],
+                                        "transfer_function.opacity_model": "extinction",
+                                        "image.width": size, "image.height": size, **(extra or {})})
+
+
+def line_integrals(scene, image):
+    """The average's line integrals back from the image (extinction K per unit value, unit distance 1)."""
+    o, d = scene.camera.pixel_rays(scene.image.width, scene.image.height)
+    t0, t1 = intersect_box(o, d, *scene.field.bounds)
+    return -np.log1p(-image[..., 3].astype(np.float64).ravel()) / K * np.maximum(t1 - t0, 0.0), o, d
+
+
+CASES = [{}, {"renderer.slice_interpolation": "trilinear"}, {"renderer.filter": "gaussian"},
+         {"renderer.compositing": "xray"}, {"renderer.compositing": "xray", "renderer.slice_interpolation": "trilinear"},
+         {"renderer.padding": 1.3, "camera.view_height": 9.0}, {"camera.target": [3.0, -2.0, 1.0], "image.width": 30}]
+
+
+@pytest.mark.parametrize("extra", CASES, ids=lambda e: "-".join(f"{k.split('.')[-1]}={v}" for k, v in e.items())
+                         or "default")
+def test_against_its_same_slices_reference(fourier, extra):
+    """The GL slice (float32 texture and weights) against the same interpolation in float64 numpy, then
+    the same host steps: measured at most 3e-8 (asserted: the float32 assertion of every GPU renderer)."""
+    scene = small_scene({**ORTHO, "renderer.compositing": "average", "renderer.classification": "pre",
+                         "volume.size": 14, "image.width": 20, "image.height": 20, "renderer.shading.enabled": False,
+                         **extra})
+    image = fourier.render(scene)
+    oracle = same_slices(scene)
+    assert oracle[..., 3].max() > 1e-3
+    assert_close(image, oracle)
+
+
+def test_anisotropic_spacing_off_centre_box(tmp_path, fourier):
+    rng = np.random.default_rng(3)
+    scene = array_scene(tmp_path, rng.random((7, 9, 8)).astype(np.float32),
+                        {**ORTHO, "renderer.compositing": "xray", "renderer.classification": "pre",
+                         "image.width": 20, "image.height": 18}, spacing=(0.5, 0.8, 1.3), origin=(40.0, -7.0, 3.0))
+    assert_close(fourier.render(scene), same_slices(scene))
+
+
+@pytest.mark.parametrize("interpolation, bound", [("cubic_bspline", 1e-4), ("trilinear", 1e-2)])
+def test_gaussian_blob_against_its_closed_form_projection(tmp_path, fourier, interpolation, bound):
+    """With the Gaussian filter the field of a sampled Gaussian blob is the blob widened by the kernel
+    (variance sigma^2 + 0.7^2, to the lattice's ripple), whose projection is a 2D Gaussian: the error
+    over the peak, padding 2, measured 2.7e-5 with the cubic B-spline slice (asserted 1e-4; the issue
+    asks 1e-3) and 2.8e-3 trilinear (asserted 1e-2)."""
+    data, centre, s = blob()
+    scene = blob_scene(tmp_path, data, {"renderer.filter": "gaussian", "renderer.slice_interpolation": interpolation})
+    p, o, d = line_integrals(scene, fourier.render(scene))
+    along = ((centre - o) * d).sum(axis=1)
+    rho2 = ((o + along[:, None] * d - centre) ** 2).sum(axis=1)
+    var = s * s + 0.7 ** 2
+    exact = (s / math.sqrt(var)) ** 3 * math.sqrt(2 * math.pi * var) * np.exp(-rho2 / (2 * var))
+    assert np.abs(p - exact).max() < bound * exact.max()
+
+
+@pytest.mark.parametrize("compositing", ["average", "xray"])
+def test_blob_against_the_converged_reference(tmp_path, fourier, compositing):
+    """The default (trilinear field, cubic B-spline slice) against reference-converged of the same field:
+    measured at most 4.6e-4 and RMS 1.3e-5 (average, alpha up to 0.44), 4.4e-4 and 5.8e-5 (X-ray,
+    pre-classified, alpha up to 1): the trilinear field's projection has kinks whose frequencies above
+    the pixels' Nyquist limit the references alias (point samples) and Fourier rendering drops.
+    Asserted 1e-3 and RMS 1e-4 (the issue asks RMS 1e-3 of the image's maximum)."""
+    data, _, _ = blob()
+    scene = blob_scene(tmp_path, data, {"renderer.compositing": compositing, "renderer.classification": "pre",
+                                        "renderer.converged_tolerance": 1e-6,
+                                        "transfer_function.points": [[0, 1, 0.5, 0.2, 0], [1, 0.2, 0.5, 1, 3.0]]},
+                       size=32)
+    image = fourier.render(scene).astype(np.float64)
+    converged = ConvergedReference(scene).render_float64()
+    assert converged[..., 3].max() > 0.2
+    error = np.abs(image - converged)
+    assert error.max() < 1e-3 and np.sqrt(np.mean(error ** 2)) < 1e-4
+
+
+def test_premultiplication_divides_by_the_kernels_transform(tmp_path, monkeypatch):
+    """Dividing the volume by the slice kernel's transform corrects its roll-off; multiplying by it (the
+    sign slip) doubles it: against the blob's closed form, trilinear, measured 2.8e-3 against 1.6e-2."""
+    data, centre, s = blob()
+    scene = blob_scene(tmp_path, data, {"renderer.filter": "gaussian", "renderer.slice_interpolation": "trilinear"})
+    var = s * s + 0.7 ** 2
+    p, o, d = line_integrals(scene, same_slices(scene))
+    along = ((centre - o) * d).sum(axis=1)
+    rho2 = ((o + along[:, None] * d - centre) ** 2).sum(axis=1)
+    exact = (s / math.sqrt(var)) ** 3 * math.sqrt(2 * math.pi * var) * np.exp(-rho2 / (2 * var))
+    right = np.abs(p - exact).max() / exact.max()
+    original = spectrum_module.kernel_transform
+    # the sign slip: the volume multiplied by k (1 / (1 / k)) instead of divided
+    monkeypatch.setattr(spectrum_module, "kernel_transform", lambda kind, xi: 1.0 / original(kind, xi))
+    p, _, _ = line_integrals(scene, same_slices(scene))
+    slipped = np.abs(p - exact).max() / exact.max()
+    assert right < 1e-2 and slipped > 5 * right, (right, slipped)
+
+
+def test_padding_reduces_ghosting(tmp_path):
+    """The replicas of the volume that interpolating the spectrum lets in fall with the padding: the
+    trilinear slice's error against the blob's closed form at padding 1.25, 2 and 3 (measured 4.0e-3,
+    2.8e-3, 1.0e-3)."""
+    data, centre, s = blob()
+    var = s * s + 0.7 ** 2
+    errors = []
+    for padding in (1.25, 2.0, 3.0):
+        scene = blob_scene(tmp_path, data, {"renderer.filter": "gaussian", "renderer.slice_interpolation": "trilinear",
+                                            "renderer.padding": padding})
+        p, o, d = line_integrals(scene, same_slices(scene))
+        along = ((centre - o) * d).sum(axis=1)
+        rho2 = ((o + along[:, None] * d - centre) ** 2).sum(axis=1)
+        exact = (s / math.sqrt(var)) ** 3 * math.sqrt(2 * math.pi * var) * np.exp(-rho2 / (2 * var))
+        errors.append(np.abs(p - exact).max() / exact.max())
+    assert errors[0] > errors[1] > errors[2], errors
+
+
+def test_spectrum_is_made_once_per_volume_and_settings(fourier):
+    scene = small_scene({**ORTHO, "renderer.compositing": "average", "volume.size": 12, "image.width": 16,
+                         "image.height": 16})
+    fourier.render(scene)
+    assert fourier.stats["preprocess_seconds"] > 0 and fourier.stats["fft"] in ("scipy.fft", "numpy.fft")
+    fourier.render(scene)  # another frame of the same volume and settings
+    assert fourier.stats["preprocess_seconds"] == 0.0
+    fourier.render(scene.with_renderer(padding=3.0))
+    assert fourier.stats["preprocess_seconds"] > 0
+
+
+@pytest.mark.parametrize("extra, words", [
+    ({"camera.projection": "perspective"}, "orthographic"),
+    ({"renderer.compositing": "xray", "renderer.classification": "post"}, "pre"),
+    ({"renderer.compositing": "emission_absorption"}, "average"),
+    ({"camera.distance": 1.0}, "camera.distance"),
+])
+def test_refusals_in_one_line(extra, words):
+    scene = small_scene({**ORTHO, "renderer.compositing": "average", **extra})
+    reason = registry.refusal(scene, "fourier")
+    assert reason is not None and words in reason and "\n" not in reason, reason
