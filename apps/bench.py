@@ -13,6 +13,7 @@
   dvr bench tradeoff   every renderer x accuracy setting: frame time against error (RMS, max, PSNR,
                        FLIP) versus the converged reference, the Pareto front; CSV, JSON and a plot
   dvr bench cells      projected tetrahedra on the shared meshes, beside VTK's: time, cells/s, error
+  dvr bench fourier    Fourier volume rendering against the ray caster: pre-processing, time per view, error
   dvr bench splatting  splatting's sheet buffers and classifications: frame time, splats, error against
                        the same kernel's converged reference, the ray caster at equal error; the
                        45-degree study
@@ -157,6 +158,15 @@ def add_arguments(p):
     sp.add_argument("--only", metavar="TEXT", help="with --shared: only datasets whose name contains TEXT")
     sp.add_argument("--study-size", type=int, default=48, help="square image size of the 45-degree study "
                                                               "(default 48; 0 leaves it out)")
+    fo = sub.add_parser("fourier", help="Fourier volume rendering against the ray caster: pre-processing and time "
+                                         "per view against N, error against reference-converged, the ray caster at "
+                                         "equal error (docs/renderers/fourier.md)")
+    fo.add_argument("--sizes", default="64,128,256", metavar="N,N", help="volume sizes, the blobs demo N^3 "
+                                                                          "(default 64,128,256)")
+    fo.add_argument("--size", type=int, default=512, help="square image size of the timings (default 512)")
+    fo.add_argument("--error-size", type=int, default=128, help="square image size of the errors against "
+                                                                "reference-converged (default 128)")
+    fo.add_argument("--repeat", type=count, default=3, help="timed frames per case, after a warm-up (default 3)")
     for parser in sub.choices.values():
         parser.add_argument("--markdown", metavar="FILE", help="also write the tables as Markdown to FILE (the "
                                                                "measured tables in docs/ are written this way)")
@@ -183,7 +193,7 @@ def run(args) -> int:
     code = {"raycast": run_raycast, "accel": run_accel, "quality": run_quality,
             "slicing": run_slicing, "renderers": run_renderers, "shearwarp": run_shearwarp,
             "tradeoff": run_tradeoff, "peers": run_peers, "cells": run_cells,
-            "splatting": run_splatting}[args.benchmark](args)
+            "splatting": run_splatting, "fourier": run_fourier}[args.benchmark](args)
     if args.markdown:
         write_text(Path(args.markdown), args.report.markdown(args.command_line), args.overwrite)
         print(f"wrote {args.markdown}")
@@ -492,6 +502,28 @@ def run_splatting(args) -> int:
                          f"{args.study_size}, elevation 0, post-classified; the largest change of each image between "
                          f"azimuth - {splatting.STUDY_STEP:g} and + {splatting.STUDY_STEP:g} degrees")
         args.report.table(splatting.study(demo, args.study_size), splatting.STUDY_COLUMNS)
+    return 0
+
+
+def run_fourier(args) -> int:
+    from dvr_gl.bench import fourier
+    from dvr_gl.errors import DvrError
+
+    try:
+        sizes = [int(s) for s in args.sizes.split(",")]
+    except ValueError:
+        raise DvrError(f"--sizes: a comma-separated list of volume sizes, got {args.sizes!r}") from None
+    for flag, values, low, high in (("--sizes", sizes, 4, 1024), ("--size", [args.size], 8, 4096),
+                                    ("--error-size", [args.error_size], 8, 4096)):
+        if not all(low <= v <= high for v in values):
+            raise DvrError(f"{flag} must be {low} to {high}, got {', '.join(map(str, values))}")
+    args.report.text(f"dvr bench fourier: the blobs demo N^3, orthographic, the average and the pre-classified X-ray; "
+                     f"times at {args.size}x{args.size} (median of {args.repeat} after a warm-up), RMS against "
+                     f"reference-converged at {args.error_size}x{args.error_size} (tolerance 1e-4)")
+    rows = fourier.run(sizes, args.size, args.error_size, args.repeat, progress=lambda r: print(
+        f"{r['n']}^3 {r['mode']}: {r['view_ms']:.1f} ms a view, the ray caster {r['raycast_ms']:.1f} ms", flush=True))
+    args.report.text()
+    args.report.table(rows, fourier.COLUMNS)
     return 0
 
 

@@ -156,3 +156,18 @@ def test_bench_splatting_prints_the_schemes_and_the_study(tmp_path, capsys):
     assert "| dataset |" in md.read_text()
     assert main(["bench", "splatting", "--shared", "--data-dir", str(tmp_path / "absent")]) == 1
     assert "no such folder" in capsys.readouterr().err
+
+
+def test_bench_fourier_prints_times_and_errors(tmp_path, capsys):
+    md = tmp_path / "fourier.md"
+    assert main(["bench", "fourier", "--sizes", "16", "--size", "24", "--error-size", "16", "--repeat", "1",
+                 "--markdown", str(md)]) == 0
+    out = capsys.readouterr().out
+    rows = [line.split() for line in out.splitlines() if line.startswith("16 ")]
+    assert [r[1] for r in rows] == ["average", "xray"]
+    for r in rows:
+        assert float(r[2]) >= 0 and float(r[5]) > 0 and float(r[6]) > 0   # pre-processing, ms per view, ray caster
+        assert 0 < float(r[8]) < 1e-2                                      # RMS against the converged reference
+    assert "| N |" in md.read_text()
+    assert main(["bench", "fourier", "--sizes", "16,x"]) == 1
+    assert "--sizes" in capsys.readouterr().err

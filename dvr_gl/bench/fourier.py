@@ -1,0 +1,77 @@
+"""``dvr bench fourier``: Fourier volume rendering against the ray caster, per view and per volume.
+
+Per volume size ``N`` (the blobs demo, ``N^3``: dense, every value positive) and mode (the average and the
+pre-classified X-ray), orthographic: the pre-processing (the channels, ghost layers, pre-multiplication,
+padding and the 3D transform, once) and its spectrum's size; the time per view (the slice in GL, the
+inverse 2D transform and the classification on the host: median after a warm-up) at the image size;
+the ray caster at its defaults at the same size; and at a smaller image, the RMS of both against
+reference-converged, and the ray caster's time at the largest sample distance as accurate as Fourier
+rendering.
+"""
+
+from __future__ import annotations
+
+import statistics
+
+from ..image import compare_images
+from ..reference.converged import ConvergedReference
+from ..renderers import create_renderer
+from ..scene import load_scene
+from . import median_seconds
+
+DISTANCES = (2.0, 1.0, 0.5, 0.25, 0.125)
+COLUMNS = [("n", "N", "d"), ("mode", "mode", ""), ("pre_s", "pre-processing s", ".2f"),
+           ("spectrum_mb", "spectrum MB", ".0f"), ("fft", "transform", ""), ("view_ms", "fourier ms/view", ".1f"),
+           ("raycast_ms", "raycast ms (defaults)", ".1f"), ("speedup", "speed-up", ".1f"),
+           ("rms", "fourier RMS", ".2e"), ("raycast_rms", "raycast RMS (defaults)", ".2e"),
+           ("equal", "raycast at fourier's RMS", "")]
+
+
+def scene_for(n: int, mode: str, size: int):
+    return load_scene(None, {"volume.demo": "blobs", "volume.size": n, "renderer.name": "fourier",
+                             "renderer.compositing": mode, "renderer.classification": "pre",
+                             "renderer.shading.enabled": False, "camera.projection": "orthographic",
+                             "image.width": size, "image.height": size})
+
+
+def run(sizes, size: int = 512, error_size: int = 128, repeat: int = 3, progress=None) -> list[dict]:
+    rows = []
+    fourier, raycast = create_renderer("fourier"), create_renderer("raycast")
+    try:
+        for n in sizes:
+            for mode in ("average", "xray"):
+                scene = scene_for(n, mode, size)
+                fourier.render(scene)  # pre-processing
+                row = {"n": n, "mode": mode, "pre_s": fourier.stats["preprocess_seconds"],
+                       "spectrum_mb": fourier.stats["spectrum_bytes"] / 2 ** 20, "fft": fourier.stats["fft"]}
+                fourier.render(scene)  # a warm-up view (the program, the targets)
+                views = []
+                for _ in range(repeat):
+                    fourier.render(scene)
+                    views.append(fourier.stats["view_seconds"])
+                row["view_ms"] = 1e3 * statistics.median(views)
+                ray = scene.with_renderer(name="raycast")
+                row["raycast_ms"] = 1e3 * median_seconds(raycast, ray, repeat)
+                row["speedup"] = row["raycast_ms"] / row["view_ms"]
+                small = scene_for(n, mode, error_size)
+                truth = ConvergedReference(small.with_renderer(converged_tolerance=1e-4)).render()
+                row["rms"] = compare_images(fourier.render(small), truth)["rms"]
+                row["raycast_rms"] = compare_images(raycast.render(small.with_renderer(name="raycast")), truth)["rms"]
+                row["equal"] = _raycast_at(raycast, ray, small.with_renderer(name="raycast"), truth, row["rms"], repeat)
+                rows.append(row)
+                if progress:
+                    progress(row)
+    finally:
+        fourier.close()
+        raycast.close()
+    return rows
+
+
+def _raycast_at(raycast, timed, small, truth, rms: float, repeat: int) -> str:
+    """The ray caster's time (at the timed image size) at the largest sample distance whose RMS (at the
+    small size) is at most ``rms``."""
+    for d in DISTANCES:
+        if compare_images(raycast.render(small.with_renderer(sample_distance_voxels=d)), truth)["rms"] <= rms:
+            ms = 1e3 * median_seconds(raycast, timed.with_renderer(sample_distance_voxels=d), repeat)
+            return f"{ms:.0f} ms at {d:g} voxel"
+    return f"not reached at {DISTANCES[-1]:g} voxel"
