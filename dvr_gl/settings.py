@@ -201,6 +201,15 @@ ISO_VALUE = Setting("iso_value", Optional[float], None, "isosurface value, data 
 GRADIENT_OPACITY = Setting("gradient_opacity", bool, False, "scale extinction by min(1, |gradient| / reference) "
                            "(emission-absorption)", must_support=True, group="model", flag=False,
                            applies=_emission)
+def _line_integral(spec) -> bool:
+    """Depth cueing weights what the line-integral modes add up: the average and the X-ray."""
+    return spec.compositing in ("average", "xray")
+
+
+DEPTH_CUE = Setting("depth_cue", float, 1.0, "linear depth cueing of the average and the X-ray (Totsuka and Levoy): "
+                    "the weight of the scalar (average) or the emission (X-ray) at the volume's farthest depth, "
+                    "1 at its nearest, linear in between (1: none)", check=between(0.0, 1.0), must_support=True,
+                    group="model", applies=_line_integral)
 GRADIENT_OPACITY_REFERENCE = Setting("gradient_opacity_reference", Optional[float], None,
                                      "gradient magnitude giving full opacity (default: 0.1 value range per voxel)",
                                      check=positive, group="model", flag=False)
@@ -247,7 +256,7 @@ TEXTURE_BUDGET_MB = Setting("texture_budget_mb", float, 2048.0, "GPU texture mem
 
 #: Every renderer reads these (narrowed where it supports fewer choices).
 MODEL_SETTINGS = (COMPOSITING, CLASSIFICATION, ASSOCIATED_COLORS, FILTER, KERNEL_WIDTH, ISO_VALUE, GRADIENT_OPACITY,
-                  GRADIENT_OPACITY_REFERENCE, SHADING)
+                  GRADIENT_OPACITY_REFERENCE, SHADING, DEPTH_CUE)
 
 
 # --- resolution ------------------------------------------------------------------------------

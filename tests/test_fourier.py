@@ -53,7 +53,10 @@ def line_integrals(scene, image):
 
 CASES = [{}, {"renderer.slice_interpolation": "trilinear"}, {"renderer.filter": "gaussian"},
          {"renderer.compositing": "xray"}, {"renderer.compositing": "xray", "renderer.slice_interpolation": "trilinear"},
-         {"renderer.padding": 1.3, "camera.view_height": 9.0}, {"camera.target": [3.0, -2.0, 1.0], "image.width": 30}]
+         {"renderer.padding": 1.3, "camera.view_height": 9.0}, {"camera.target": [3.0, -2.0, 1.0], "image.width": 30},
+         {"renderer.depth_cue": 0.2, "transfer_function.points": [[0, 1, 0.5, 0.2, 0], [0.3, 0.2, 0.5, 1, 3.0]],
+          "transfer_function.opacity_model": "extinction"},
+         {"renderer.depth_cue": 0.2, "renderer.compositing": "xray", "renderer.slice_interpolation": "trilinear"}]
 
 
 @pytest.mark.parametrize("extra", CASES, ids=lambda e: "-".join(f"{k.split('.')[-1]}={v}" for k, v in e.items())
@@ -111,6 +114,25 @@ def test_blob_against_the_converged_reference(tmp_path, fourier, compositing):
     assert converged[..., 3].max() > 0.2
     error = np.abs(image - converged)
     assert error.max() < 1e-3 and np.sqrt(np.mean(error ** 2)) < 1e-4
+
+
+@pytest.mark.parametrize("compositing", ["average", "xray"])
+def test_depth_cue_against_the_converged_reference(tmp_path, fourier, compositing):
+    """Linear depth cueing (Totsuka and Levoy): the projection of the depth-weighted field from the slice
+    of the spectrum's derivative along the view (the kernel's derivative weights), against
+    reference-converged integrating the same weight: at depth_cue 0.3 the image changes by 0.12
+    (average) and 0.30 (X-ray), and the two agree to 9.6e-4 and 3.8e-4 (measured; as without the cue,
+    4.5e-4); asserted 2e-3."""
+    data, _, _ = blob()
+    scene = blob_scene(tmp_path, data, {"renderer.compositing": compositing, "renderer.classification": "pre",
+                                        "renderer.depth_cue": 0.3, "renderer.converged_tolerance": 1e-6,
+                                        "transfer_function.points": [[0, 1, 0.5, 0.2, 0], [1, 0.2, 0.5, 1, 3.0]]},
+                       size=32)
+    image = fourier.render(scene).astype(np.float64)
+    converged = ConvergedReference(scene).render_float64()
+    plain = ConvergedReference(scene.with_renderer(depth_cue=1.0)).render_float64()
+    assert np.abs(converged - plain).max() > 0.1
+    assert np.abs(image - converged).max() < 2e-3
 
 
 def test_premultiplication_divides_by_the_kernels_transform(tmp_path, monkeypatch):

@@ -257,11 +257,15 @@ class ConvergedReference:
 
     def _average(self, rows):
         ray, a, b, cell = self._pieces(rows)
-        x, w = np.polynomial.legendre.leggauss(5)  # exact for the degree <= 9 pieces of every filter
+        # exact for the degree <= 9 pieces of every filter, and 10 with the depth cue's linear weight
+        x, w = np.polynomial.legendre.leggauss(6)
         half = 0.5 * (b - a)
         t = a[:, None] + half[:, None] * (x[None, :] + 1.0)
         pts, _, cells = self._points(ray, t, cell)
-        s = self.model.values(pts, cells).reshape(-1, len(x))
+        s = self.model.values(pts, cells)
+        if self.model.depth_cue is not None:
+            s = s * self.model.depth_cue(pts)
+        s = s.reshape(-1, len(x))
         integral = np.bincount(np.searchsorted(rows, ray), half * (s @ w), minlength=len(rows))
         length = self.rays.t1[rows] - self.rays.t0[rows]
         return self._classified(integral / length, self._has_pieces(rows, ray))

@@ -16,6 +16,23 @@ from .classification import PostClassifier, PreClassifier
 from .shading import blinn_phong, normals_from_gradient
 
 
+def depth_cue(scene):
+    """The depth cue's weight at world points (``renderer.depth_cue``, conventions): 1 at the box's nearest
+    view depth (from the near plane on), ``depth_cue`` at its farthest, linear in the depth between."""
+    from ..gl.geometry import box_corners
+
+    cam, cue = scene.camera, scene.renderer.depth_cue
+    forward = np.asarray(cam.basis()[0], float)
+    eye = np.asarray(cam.eye, float)
+    depths = (box_corners(*scene.field.bounds) - eye) @ forward
+    near, far = max(float(depths.min()), cam.near), float(depths.max())
+    span = max(far - near, 1e-300)
+
+    def weight(points: np.ndarray) -> np.ndarray:
+        return 1.0 - (1.0 - cue) * np.clip(((points - eye) @ forward - near) / span, 0.0, 1.0)
+    return weight
+
+
 class OpticalModel:
     """Colour (shaded, non-associated) and extinction at world points.
 
@@ -46,6 +63,7 @@ class OpticalModel:
         self.shading = r.shading if r.shading.enabled and not xray else None
         self.epsilon = gradient_epsilon(scene.field)
         self.gradient_reference = r.gradient_opacity_reference if r.gradient_opacity and not xray else None
+        self.depth_cue = depth_cue(scene) if r.compositing in ("average", "xray") and r.depth_cue < 1.0 else None
 
     def values(self, points: np.ndarray, cells: np.ndarray | None = None) -> np.ndarray:
         """The scalar at points; ``cells``: for a mesh, the cell holding each point where the caller
@@ -61,6 +79,8 @@ class OpticalModel:
         ``min(1, |gradient| / reference)`` (gradient-magnitude opacity), if the scene asks.
         ``cells``: as in :meth:`values`."""
         colour, sigma = self.classify(points, None if cells is None else self.values(points, cells))
+        if self.depth_cue is not None:  # the X-ray's emission, weighted by depth
+            colour = colour * self.depth_cue(points)[:, None]
         if self.shading is None and self.gradient_reference is None:
             return colour, sigma
         gradient = self.gradients(points, cells)

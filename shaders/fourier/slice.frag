@@ -4,11 +4,25 @@
 // units, the spectrum interpolated there with float weights (TRILINEAR, or the prefiltered cubic
 // B-spline), periodic, the half not stored read as the conjugate of its mirror.  Two complex channels
 // a texture (.rg, .ba); CHANNELS_2: a second texture for the X-ray's (sigma c, sigma).
+// DEPTH_CUE: also the interpolant's derivative along u_depth_dir (the kernel's derivative weights), for
+// the depth cue's moment (dvr_gl/renderers/fourier/projection.py, finish).
+// Outputs: the values of the first texture's channels, then the second's (CHANNELS_2), then the
+// derivatives in the same order (DEPTH_CUE).
 
 uniform sampler3D u_spectrum;     // (Mx / 2 + 1, My, Mz): re, im of two channels
 #ifdef CHANNELS_2
 uniform sampler3D u_spectrum2;
-layout(location = 1) out vec4 frag2;
+#endif
+#ifdef DEPTH_CUE
+uniform vec3 u_depth_dir;         // f M h: the view axis in index units per world frequency
+#endif
+layout(location = 0) out vec4 frag0;
+#if defined(CHANNELS_2) || defined(DEPTH_CUE)
+layout(location = 1) out vec4 frag1;
+#endif
+#if defined(CHANNELS_2) && defined(DEPTH_CUE)
+layout(location = 2) out vec4 frag2;
+layout(location = 3) out vec4 frag3;
 #endif
 uniform ivec3 u_dims;             // M per axis
 uniform ivec2 u_size;             // the slice's samples (W', H')
@@ -16,7 +30,6 @@ uniform vec2 u_frequency_step;    // 1 / (W' p), 1 / (H' p): cycles per world un
 uniform vec3 u_right;             // the image's axes (world)
 uniform vec3 u_down;
 uniform vec3 u_grid_scale;        // M h: spectrum index units per cycle per world unit
-layout(location = 0) out vec4 frag;
 
 // k mod M in [0, M): GLSL leaves % of negative operands undefined, so k is made positive first (the
 // slice's indices stay within 1024 periods of zero: a pixel would have to be 500 times finer than a voxel)
@@ -42,18 +55,23 @@ void fetch(ivec3 k, out vec4 a, out vec4 b) {
 #ifdef TRILINEAR
 const int TAPS = 2;
 const int FIRST = 0;
-void weights(float f, out float w[4]) {
+void weights(float f, out float w[4], out float dw[4]) {
     w[0] = 1.0 - f; w[1] = f; w[2] = 0.0; w[3] = 0.0;
+    dw[0] = -1.0; dw[1] = 1.0; dw[2] = 0.0; dw[3] = 0.0;
 }
 #else
 const int TAPS = 4;
 const int FIRST = -1;
-void weights(float f, out float w[4]) {
+void weights(float f, out float w[4], out float dw[4]) {
     float f2 = f * f, f3 = f2 * f;
     w[0] = (1.0 - f) * (1.0 - f) * (1.0 - f) / 6.0;
     w[1] = (3.0 * f3 - 6.0 * f2 + 4.0) / 6.0;
     w[2] = (-3.0 * f3 + 3.0 * f2 + 3.0 * f + 1.0) / 6.0;
     w[3] = f3 / 6.0;
+    dw[0] = -(1.0 - f) * (1.0 - f) / 2.0;
+    dw[1] = (3.0 * f2 - 4.0 * f) / 2.0;
+    dw[2] = (-3.0 * f2 + 2.0 * f + 1.0) / 2.0;
+    dw[3] = f2 / 2.0;
 }
 #endif
 
@@ -65,11 +83,11 @@ void main() {
     vec3 base = floor(g);
     vec3 f = g - base;
     ivec3 b = ivec3(base);
-    float wx[4], wy[4], wz[4];
-    weights(f.x, wx);
-    weights(f.y, wy);
-    weights(f.z, wz);
-    vec4 sum = vec4(0.0), sum2 = vec4(0.0);
+    float wx[4], wy[4], wz[4], dx[4], dy[4], dz[4];
+    weights(f.x, wx, dx);
+    weights(f.y, wy, dy);
+    weights(f.z, wz, dz);
+    vec4 sum = vec4(0.0), sum2 = vec4(0.0), slope = vec4(0.0), slope2 = vec4(0.0);
     for (int z = 0; z < TAPS; ++z)
         for (int y = 0; y < TAPS; ++y) {
             float wzy = wz[z] * wy[y];
@@ -78,10 +96,22 @@ void main() {
                 fetch(b + ivec3(x + FIRST, y + FIRST, z + FIRST), a, c);
                 sum += wzy * wx[x] * a;
                 sum2 += wzy * wx[x] * c;
+#ifdef DEPTH_CUE
+                float dw = u_depth_dir.x * dx[x] * wy[y] * wz[z] + u_depth_dir.y * wx[x] * dy[y] * wz[z]
+                           + u_depth_dir.z * wx[x] * wy[y] * dz[z];
+                slope += dw * a;
+                slope2 += dw * c;
+#endif
             }
         }
-    frag = sum;
-#ifdef CHANNELS_2
-    frag2 = sum2;
+    frag0 = sum;
+#if defined(CHANNELS_2) && defined(DEPTH_CUE)
+    frag1 = sum2;
+    frag2 = slope;
+    frag3 = slope2;
+#elif defined(CHANNELS_2)
+    frag1 = sum2;
+#elif defined(DEPTH_CUE)
+    frag1 = slope;
 #endif
 }

@@ -8,26 +8,39 @@ from __future__ import annotations
 
 import numpy as np
 
-from .projection import Frame, channels, finish
+from .projection import Frame, channels, finish, weighted
 from .spectrum import Spectrum
 
 
-def bspline_weights(f: np.ndarray) -> list[np.ndarray]:
-    """The cubic B-spline's weights of the taps ``-1 .. 2`` around ``floor(g)`` at fractions ``f``."""
+def bspline_weights(f: np.ndarray, derivative: bool = False) -> list[np.ndarray]:
+    """The cubic B-spline's weights of the taps ``-1 .. 2`` around ``floor(g)`` at fractions ``f`` (or
+    their derivatives in ``f``)."""
+    if derivative:
+        return [-(1.0 - f) ** 2 / 2.0, (3.0 * f ** 2 - 4.0 * f) / 2.0, (-3.0 * f ** 2 + 2.0 * f + 1.0) / 2.0,
+                f ** 2 / 2.0]
     return [(1.0 - f) ** 3 / 6.0, (3.0 * f ** 3 - 6.0 * f ** 2 + 4.0) / 6.0,
             (-3.0 * f ** 3 + 3.0 * f ** 2 + 3.0 * f + 1.0) / 6.0, f ** 3 / 6.0]
 
 
-def interpolate(half: np.ndarray, dims, g: np.ndarray, interpolation: str) -> np.ndarray:
+def _weights(interpolation: str, f: np.ndarray, derivative: bool = False):
+    if interpolation == "trilinear":
+        return [-np.ones_like(f), np.ones_like(f)] if derivative else [1.0 - f, f]
+    return bspline_weights(f, derivative)
+
+
+def interpolate(half: np.ndarray, dims, g: np.ndarray, interpolation: str, direction=None) -> np.ndarray:
     """``S`` at grid positions ``g`` ``(..., 3)`` (x, y, z) from the half spectrum ``half`` ``(Mz, My, Mx // 2
-    + 1)``: periodic, and ``S(-k)`` the conjugate of ``S(k)`` for the half not stored."""
+    + 1)``: periodic, and ``S(-k)`` the conjugate of ``S(k)`` for the half not stored; with ``direction``
+    (index units), the interpolant's derivative along it instead."""
     m = np.asarray(dims)
     base = np.floor(g).astype(np.int64)
     f = g - base
-    if interpolation == "trilinear":
-        offsets, weights = (0, 1), [[1.0 - f[..., a], f[..., a]] for a in range(3)]
-    else:
-        offsets, weights = (-1, 0, 1, 2), [bspline_weights(f[..., a]) for a in range(3)]
+    offsets = (0, 1) if interpolation == "trilinear" else (-1, 0, 1, 2)
+    plain = [_weights(interpolation, f[..., a]) for a in range(3)]
+    if direction is None:
+        weights = plain
+    else:  # the derivative along `direction` of the tensor product: one factor differentiated at a time
+        slopes = [_weights(interpolation, f[..., a], True) for a in range(3)]
     out = np.zeros(g.shape[:-1], complex)
     for iz, oz in enumerate(offsets):
         for iy, oy in enumerate(offsets):
@@ -37,7 +50,12 @@ def interpolate(half: np.ndarray, dims, g: np.ndarray, interpolation: str) -> np
                 k = np.where(mirrored[..., None], np.mod(-k, m), k)
                 value = half[k[..., 2], k[..., 1], k[..., 0]]
                 value = np.where(mirrored, np.conj(value), value)
-                out += weights[2][iz] * weights[1][iy] * weights[0][ix] * value
+                if direction is None:
+                    out += weights[2][iz] * weights[1][iy] * weights[0][ix] * value
+                else:
+                    wx, wy, wz = plain[0][ix], plain[1][iy], plain[2][iz]
+                    out += (direction[0] * slopes[0][ix] * wy * wz + direction[1] * wx * slopes[1][iy] * wz
+                            + direction[2] * wx * wy * slopes[2][iz]) * value
     return out
 
 
@@ -49,4 +67,9 @@ def reference(scene) -> np.ndarray:
     frame = Frame(scene)
     g = frame.grid_positions(spectrum)
     slices = [interpolate(s, spectrum.dims, g, r.slice_interpolation) for s in spectrum.spectra]
-    return finish(scene, frame, spectrum, slices, offsets)
+    derivatives = None
+    if r.depth_cue < 1.0:
+        direction = frame.depth_direction(spectrum)
+        derivatives = [interpolate(spectrum.spectra[c], spectrum.dims, g, r.slice_interpolation, direction)
+                       for c in weighted(scene)]
+    return finish(scene, frame, spectrum, slices, offsets, derivatives)

@@ -59,7 +59,7 @@ class Frame:
         hx, hy = cam.half_extent(w / h)
         self.pixel = 2.0 * hy / h
         self.spacing = np.asarray(scene.volume.spacing, float)
-        self.right, self.down = right, -up
+        self.right, self.down, self.forward = right, -up, forward
         eye = np.asarray(cam.eye, float)
         self.origin = eye + (-hx + 0.5 * self.pixel) * right + (hy - 0.5 * self.pixel) * up
         lo, hi = scene.volume.bounds
@@ -76,6 +76,11 @@ class Frame:
         v = np.fft.fftfreq(self.size[1], self.pixel)
         self.u, self.v = u, v
         self.w = u[None, :, None] * self.right + v[:, None, None] * self.down
+
+    def depth_direction(self, spectrum) -> np.ndarray:
+        """The view axis in the spectrum's index units per world frequency (``f M h``, x, y, z): the
+        direction the depth cue differentiates along."""
+        return self.forward * np.asarray(spectrum.dims, float) * self.spacing
 
     def grid_positions(self, spectrum) -> np.ndarray:
         """``g = w M h``: where the slice samples the spectrum, in its index units ``(H', W', 3)`` (x, y, z)."""
@@ -158,27 +163,82 @@ def with_ghosts(scene, values: np.ndarray, moments: int = MOMENTS) -> tuple[np.n
     return out, clamped + moments
 
 
-def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets) -> np.ndarray:
+def filter_derivative(scene, w: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """``direction . grad Phi(w)``: the filter's transform differentiated along ``direction`` (world)."""
+    r, h = scene.renderer, np.asarray(scene.volume.spacing, float)
+    wh = w * h
+    phi = filter_transform(scene, w)
+    if r.filter == "gaussian":
+        return phi * (-4.0 * math.pi ** 2 * r.kernel_width ** 2) * (wh * h * direction).sum(axis=-1)
+    power = {"linear": 2, "cubic_bspline": 4}[r.filter]
+    s = np.sinc(wh)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ds = np.where(np.abs(wh) > 1e-8, (np.cos(math.pi * wh) - s) / np.where(wh == 0, 1.0, wh), 0.0)
+    out = np.zeros(w.shape[:-1])
+    for a in range(3):
+        others = np.prod([s[..., b] ** power for b in range(3) if b != a], axis=0)
+        out += direction[a] * h[a] * power * s[..., a] ** (power - 1) * ds[..., a] * others
+    return out * float(np.prod(h))
+
+
+def weighted(scene) -> tuple[int, ...]:
+    """The channels the depth cue weights: the average's scalar, the X-ray's emission (not its extinction)."""
+    return (0,) if scene.renderer.compositing == "average" else (0, 1, 2)
+
+
+def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, derivatives=None) -> np.ndarray:
     """The image ``(H, W, 4)`` float64 from the interpolated spectra ``slices`` (``(H', W')`` complex, one per
     channel): the filter, the phase, the inverse transform, the constants taken out before the transform
-    (``offsets``, :func:`channels`) added back per chord, and the compositing mode's classification."""
-    img = scene.image
+    (``offsets``, :func:`channels`) added back per chord, and the compositing mode's classification.
+
+    Depth cueing (``renderer.depth_cue``, conventions: a weight ``a + b z`` linear in the view depth ``z``):
+    the projection of ``((x - x_c).f) g`` has the transform ``(i / 2 pi) f.grad H`` on the slice (``H = S
+    Phi``, Totsuka and Levoy), so ``derivatives`` holds the spectrum interpolated and differentiated along
+    ``f M h`` (the kernel's derivative) for the :func:`weighted` channels."""
+    img, r = scene.image, scene.renderer
     w, h = img.width, img.height
     phi = filter_transform(scene, frame.w)
-    shift = frame.origin - spectrum.centre(scene.volume)
+    centre = spectrum.centre(scene.volume)
+    shift = frame.origin - centre
     # exp(2 pi i w.(X_00 - x_c)), separable in u and v (float64: the phase reaches thousands of turns)
     phase = (np.exp(2j * math.pi * frame.v * (shift @ frame.down))[:, None]
              * np.exp(2j * math.pi * frame.u * (shift @ frame.right))[None, :])
-    scale = phi * phase / (frame.pixel * frame.pixel)  # du dv W' H' = 1 / p^2
+    scale = phase / (frame.pixel * frame.pixel)  # du dv W' H' = 1 / p^2
     rays = RayBatch.for_camera(scene.camera, w, h, scene.volume.bounds)
     chord = np.maximum(rays.t1 - rays.t0, 0.0).reshape(h, w)
-    sums = [np.fft.ifft2(s * scale).real[:h, :w] + c * chord for s, c in zip(slices, offsets)]
+    sums = [np.fft.ifft2(s * phi * scale).real[:h, :w] + c * chord for s, c in zip(slices, offsets)]
+    if derivatives is not None:
+        from ...reference.model import depth_cue
+
+        forward = np.asarray(scene.camera.basis()[0], float)
+        eye = np.asarray(scene.camera.eye, float)
+        a, b = _line(scene, depth_cue(scene), forward, eye)
+        z_c = float((centre - eye) @ forward)
+        mid = (rays.origins + 0.5 * (rays.t0 + rays.t1)[:, None] * rays.directions).reshape(h, w, 3)
+        chord_weight = a + b * ((mid - eye) @ forward)           # the mean weight over each chord: w is linear
+        dphi = filter_derivative(scene, frame.w, forward)
+        for k, c in enumerate(weighted(scene)):
+            s, d = slices[c], derivatives[k]
+            moment = np.fft.ifft2((1j / (2.0 * math.pi)) * (phi * d + s * dphi) * scale).real[:h, :w]
+            plain = sums[c] - offsets[c] * chord
+            sums[c] = (a + b * z_c) * plain + b * moment + offsets[c] * chord * chord_weight
     out = np.zeros((h, w, 4))
     hit = chord > 0
-    if scene.renderer.compositing == "average":
+    if r.compositing == "average":
         out[hit] = projected_rgba(scene.transfer_function, sums[0][hit] / chord[hit])
     else:  # the X-ray of the classified voxels: (sigma c, sigma) integrated; the band limit rings (Gibbs)
         # where the data jumps, which can take an integral of non-negative voxels below zero: clamped
         emitted = np.stack([np.maximum(sums[c][hit], 0.0) for c in range(3)], axis=1)
         out[hit] = xray_rgba(emitted, np.maximum(sums[3][hit], 0.0))
     return out
+
+
+def _line(scene, cue, forward, eye) -> tuple[float, float]:
+    """``(a, b)`` of the depth cue's weight ``a + b z`` between the box's nearest and farthest depths."""
+    from ...gl.geometry import box_corners
+
+    depths = (box_corners(*scene.volume.bounds) - eye) @ forward
+    near, far = max(float(depths.min()), scene.camera.near), float(depths.max())
+    w_near, w_far = cue((eye + near * forward)[None, :])[0], cue((eye + far * forward)[None, :])[0]
+    b = (w_far - w_near) / max(far - near, 1e-300)
+    return float(w_near - b * near), float(b)

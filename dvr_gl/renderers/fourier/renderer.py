@@ -19,7 +19,7 @@ from ...gl.shaders import create_program
 from ... import limits
 from ...sandbox import check_bytes
 from ..grid.gl_base import GLVolumeRenderer
-from .projection import Frame, channels, finish
+from .projection import Frame, channels, finish, weighted
 from .spectrum import Spectrum
 
 
@@ -80,10 +80,12 @@ class FourierRenderer(GLVolumeRenderer):
         start = time.perf_counter()
         frame = Frame(scene)
         wf, hf = frame.size
-        defines = {"TRILINEAR": r.slice_interpolation == "trilinear", "CHANNELS_2": len(textures.textures) > 1}
+        cued = r.depth_cue < 1.0
+        defines = {"TRILINEAR": r.slice_interpolation == "trilinear", "CHANNELS_2": len(textures.textures) > 1,
+                   "DEPTH_CUE": cued}
         program = create_program(self.ctx, "fullscreen.vert", "fourier/slice.frag",
                                  {k: v for k, v in defines.items() if v})
-        attachments = (4,) * len(textures.textures)
+        attachments = (4,) * (len(textures.textures) * (2 if cued else 1))
         _, fbo = self.target("slice", wf, hf, attachments)
         fbo.use()
         samplers = {"u_spectrum": textures.textures[0]}
@@ -92,16 +94,20 @@ class FourierRenderer(GLVolumeRenderer):
         self.bind(program, {"u_dims": spectrum.dims, "u_size": frame.size,
                             "u_frequency_step": (1.0 / (wf * frame.pixel), 1.0 / (hf * frame.pixel)),
                             "u_right": tuple(frame.right), "u_down": tuple(frame.down),
-                            "u_grid_scale": tuple(np.asarray(spectrum.dims) * frame.spacing)}, samplers)
+                            "u_grid_scale": tuple(np.asarray(spectrum.dims) * frame.spacing),
+                            **({"u_depth_dir": tuple(frame.depth_direction(spectrum))} if cued else {})}, samplers)
         quad = self.ctx.vertex_array(program, [])
         quad.render(moderngl.TRIANGLES, vertices=3)
         quad.release()
-        slices = []
+        read = []
         for i in range(len(attachments)):
             raw = np.frombuffer(fbo.read(components=4, dtype="f4", attachment=i), np.float32).reshape(hf, wf, 4)
-            slices += [raw[..., 0] + 1j * raw[..., 1], raw[..., 2] + 1j * raw[..., 3]]
+            read += [raw[..., 0] + 1j * raw[..., 1], raw[..., 2] + 1j * raw[..., 3]]
+        count = 2 * len(textures.textures)  # the values (padded to pairs), then the derivatives
+        slices = read[:len(spectrum.spectra)]
+        derivatives = [read[count + c] for c in weighted(scene)] if cued else None
         drawn = time.perf_counter()
-        image = finish(scene, frame, spectrum, slices[:len(spectrum.spectra)], offsets)
+        image = finish(scene, frame, spectrum, slices, offsets, derivatives)
         end = time.perf_counter()
         self.stats.update(preprocess_seconds=spectrum.seconds if fresh else 0.0, spectrum_bytes=spectrum.bytes,
                           spectrum_dims=spectrum.dims, fft=spectrum.library, slice_size=frame.size,
