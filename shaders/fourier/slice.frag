@@ -1,7 +1,7 @@
 #version 330 core
 // One sample of the central slice of a half spectrum (dvr_gl/renderers/fourier/spectrum.py): this
 // fragment's frequency (numpy's fftfreq order: fragment x is k, y is l) taken to the spectrum's index
-// units, the spectrum interpolated there with float weights (TRILINEAR, or the prefiltered cubic
+// units, the spectrum interpolated there with float weights (TRILINEAR, WINDOWED_SINC, or the cubic
 // B-spline), periodic, the half not stored read as the conjugate of its mirror.  Two complex channels
 // a texture (.rg, .ba); CHANNELS_2: a second texture for the X-ray's (sigma c, sigma).
 // DEPTH_CUE: also the interpolant's derivative along u_depth_dir (the kernel's derivative weights), for
@@ -58,6 +58,47 @@ const int FIRST = 0;
 void weights(float f, out float w[4], out float dw[4]) {
     w[0] = 1.0 - f; w[1] = f; w[2] = 0.0; w[3] = 0.0;
     dw[0] = -1.0; dw[1] = 1.0; dw[2] = 0.0; dw[3] = 0.0;
+}
+#elif defined(WINDOWED_SINC)
+// sinc(x) under a Kaiser window of half-width 2 (dvr_gl/renderers/fourier/spectrum.py, windowed_sinc)
+const int TAPS = 4;
+const int FIRST = -1;
+uniform float u_kaiser_beta;
+const float PI = 3.14159265358979;
+
+// I0 and I1 by their power series (z <= beta: 20 terms reach float32)
+void bessel(float z, out float i0, out float i1) {
+    float q = 0.25 * z * z, t0 = 1.0, t1 = 0.5 * z;
+    i0 = t0;
+    i1 = t1;
+    for (int k = 1; k < 20; ++k) {
+        t0 *= q / float(k * k);
+        t1 *= q / float(k * (k + 1));
+        i0 += t0;
+        i1 += t1;
+    }
+}
+
+void kernel_at(float x, out float k, out float dk) {
+    k = 0.0;
+    dk = 0.0;
+    if (abs(x) >= 2.0)
+        return;
+    float u = x / 2.0, root = sqrt(max(1.0 - u * u, 0.0));
+    float i0, i1, n0, n1;
+    bessel(u_kaiser_beta * root, i0, i1);
+    bessel(u_kaiser_beta, n0, n1);
+    float window = i0 / n0;
+    float s = abs(x) > 1e-6 ? sin(PI * x) / (PI * x) : 1.0;
+    float ds = abs(x) > 1e-6 ? (cos(PI * x) - s) / x : 0.0;
+    float dwindow = root > 1e-6 ? i1 * u_kaiser_beta * (-u / root) / 2.0 / n0 : 0.0;
+    k = s * window;
+    dk = ds * window + s * dwindow;
+}
+
+void weights(float f, out float w[4], out float dw[4]) {
+    for (int o = 0; o < 4; ++o)
+        kernel_at(f - float(o + FIRST), w[o], dw[o]);
 }
 #else
 const int TAPS = 4;

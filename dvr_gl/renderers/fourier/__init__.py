@@ -16,8 +16,9 @@ from ..registry import RendererPlugin
 from .spectrum import INTERPOLATIONS
 
 SLICE_INTERPOLATION = s.Setting("slice_interpolation", str, "cubic_bspline", "how the central slice is "
-                                "interpolated from the spectrum's samples: trilinear, or cubic_bspline (prefiltered; "
-                                "the volume pre-multiplied by each kernel's transform)", choices=INTERPOLATIONS,
+                                "interpolated from the spectrum's samples: trilinear, cubic_bspline, or windowed_sinc "
+                                "(sinc under a Kaiser window, four taps a side); the volume is pre-multiplied by the "
+                                "reciprocal of each kernel's transform", choices=INTERPOLATIONS,
                                 group="fourier")
 PADDING = s.Setting("padding", float, 2.0, "zero padding of the volume before its transform, a factor per axis "
                     "(ghosting of the replicas falls with it)", check=s.between(1.0, 8.0), group="fourier")

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from .projection import Frame, channels, finish, weighted
-from .spectrum import Spectrum
+from .spectrum import Spectrum, windowed_sinc
 
 
 def bspline_weights(f: np.ndarray, derivative: bool = False) -> list[np.ndarray]:
@@ -25,6 +25,8 @@ def bspline_weights(f: np.ndarray, derivative: bool = False) -> list[np.ndarray]
 def _weights(interpolation: str, f: np.ndarray, derivative: bool = False):
     if interpolation == "trilinear":
         return [-np.ones_like(f), np.ones_like(f)] if derivative else [1.0 - f, f]
+    if interpolation == "windowed_sinc":  # the tap at offset o lies f - o away
+        return [windowed_sinc(f - o, derivative) for o in (-1, 0, 1, 2)]
     return bspline_weights(f, derivative)
 
 

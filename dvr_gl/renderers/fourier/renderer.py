@@ -20,7 +20,7 @@ from ... import limits
 from ...sandbox import check_bytes
 from ..grid.gl_base import GLVolumeRenderer
 from .projection import Frame, channels, finish, weighted
-from .spectrum import Spectrum
+from .spectrum import KAISER_BETA, Spectrum
 
 
 class SpectrumTextures:
@@ -82,7 +82,7 @@ class FourierRenderer(GLVolumeRenderer):
         wf, hf = frame.size
         cued = r.depth_cue < 1.0
         defines = {"TRILINEAR": r.slice_interpolation == "trilinear", "CHANNELS_2": len(textures.textures) > 1,
-                   "DEPTH_CUE": cued}
+                   "WINDOWED_SINC": r.slice_interpolation == "windowed_sinc", "DEPTH_CUE": cued}
         program = create_program(self.ctx, "fullscreen.vert", "fourier/slice.frag",
                                  {k: v for k, v in defines.items() if v})
         attachments = (4,) * (len(textures.textures) * (2 if cued else 1))
@@ -94,7 +94,7 @@ class FourierRenderer(GLVolumeRenderer):
         self.bind(program, {"u_dims": spectrum.dims, "u_size": frame.size,
                             "u_frequency_step": (1.0 / (wf * frame.pixel), 1.0 / (hf * frame.pixel)),
                             "u_right": tuple(frame.right), "u_down": tuple(frame.down),
-                            "u_grid_scale": tuple(np.asarray(spectrum.dims) * frame.spacing),
+                            "u_grid_scale": tuple(np.asarray(spectrum.dims) * frame.spacing), "u_kaiser_beta": KAISER_BETA,
                             **({"u_depth_dir": tuple(frame.depth_direction(spectrum))} if cued else {})}, samplers)
         quad = self.ctx.vertex_array(program, [])
         quad.render(moderngl.TRIANGLES, vertices=3)
