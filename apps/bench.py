@@ -167,6 +167,10 @@ def add_arguments(p):
     fo.add_argument("--error-size", type=int, default=128, help="square image size of the errors against "
                                                                 "reference-converged (default 128)")
     fo.add_argument("--repeat", type=count, default=3, help="timed frames per case, after a warm-up (default 3)")
+    fo.add_argument("--shared", action="store_true", help="the accuracy study instead: every regular dataset in "
+                                                          "--data-dir at --error-size, against reference-converged")
+    fo.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder (default ../shared/data)")
+    fo.add_argument("--only", metavar="TEXT", help="with --shared: only datasets whose name contains TEXT")
     for parser in sub.choices.values():
         parser.add_argument("--markdown", metavar="FILE", help="also write the tables as Markdown to FILE (the "
                                                                "measured tables in docs/ are written this way)")
@@ -517,6 +521,26 @@ def run_fourier(args) -> int:
                                     ("--error-size", [args.error_size], 8, 4096)):
         if not all(low <= v <= high for v in values):
             raise DvrError(f"{flag} must be {low} to {high}, got {', '.join(map(str, values))}")
+    if args.shared:
+        from pathlib import Path
+
+        from dvr_gl.bench.splatting import shared_scenes
+
+        if not Path(args.data_dir).is_dir():
+            raise DvrError(f"--data-dir {args.data_dir}: no such folder (the shared datasets)")
+        scenes, notes = shared_scenes(Path(args.data_dir), args.only)
+        if not scenes:
+            raise DvrError(f"--only {args.only}: no shared dataset matches")
+        args.report.text(f"dvr bench fourier --shared: each regular dataset at {args.error_size}x{args.error_size}, "
+                         f"orthographic, default camera and transfer function, the defaults (trilinear field, cubic "
+                         f"B-spline slice, padding 2), against reference-converged (tolerance 1e-4)")
+        rows = fourier.shared(scenes, args.error_size, progress=lambda r: print(
+            f"{r['dataset']} {r['mode']}: RMS / max {r['rms_rel']:.2e}", flush=True))
+        args.report.text()
+        args.report.table(rows, fourier.SHARED_COLUMNS)
+        for note in notes:
+            args.report.text(note)
+        return 0
     args.report.text(f"dvr bench fourier: the blobs demo N^3, orthographic, the average and the pre-classified X-ray; "
                      f"times at {args.size}x{args.size} (median of {args.repeat} after a warm-up), RMS against "
                      f"reference-converged at {args.error_size}x{args.error_size} (tolerance 1e-4)")

@@ -67,6 +67,46 @@ def run(sizes, size: int = 512, error_size: int = 128, repeat: int = 3, progress
     return rows
 
 
+SHARED_COLUMNS = [("dataset", "dataset", ""), ("mode", "mode", ""), ("pre_s", "pre-processing s", ".2f"),
+                  ("view_ms", "ms/view", ".1f"), ("rms_rel", "RMS / image max", ".2e"), ("max", "max", ".2e"),
+                  ("silhouette", "max off the silhouette", ".2e")]
+
+
+def shared(scenes, size: int = 128, progress=None) -> list[dict]:
+    """The accuracy study: each shared dataset (``(name, overrides)``) in both modes at its defaults
+    (the trilinear field, the cubic B-spline slice, padding 2), against reference-converged of the same
+    scene: RMS over the image's maximum, the largest error, and the largest error two pixels or more
+    inside the box's silhouette (where the average divides by short chords)."""
+    import numpy as np
+
+    from ..rays import RayBatch
+
+    rows = []
+    with create_renderer("fourier") as fourier:
+        for name, overrides in scenes:
+            for mode in ("average", "xray"):
+                scene = load_scene(None, {**overrides, "renderer.name": "fourier", "renderer.compositing": mode,
+                                          "renderer.classification": "pre", "renderer.shading.enabled": False,
+                                          "camera.projection": "orthographic", "image.width": size,
+                                          "image.height": size})
+                image = fourier.render(scene).astype(np.float64)
+                pre = fourier.stats["preprocess_seconds"]
+                fourier.render(scene)
+                truth = ConvergedReference(scene.with_renderer(converged_tolerance=1e-4)).render_float64()
+                error = np.abs(image - truth)
+                rays = RayBatch.for_camera(scene.camera, size, size, scene.volume.bounds)
+                inside = (rays.t1 > rays.t0).reshape(size, size)
+                for axis in (0, 1):  # two pixels in from the silhouette
+                    for step in (1, 2):
+                        inside &= np.roll(inside, step, axis) & np.roll(inside, -step, axis)
+                rows.append({"dataset": name, "mode": mode, "pre_s": pre, "view_ms": 1e3 * fourier.stats["view_seconds"],
+                             "rms_rel": float(np.sqrt(np.mean(error ** 2)) / max(truth.max(), 1e-300)),
+                             "max": float(error.max()), "silhouette": float(error[inside].max()) if inside.any() else 0.0})
+                if progress:
+                    progress(rows[-1])
+    return rows
+
+
 def _raycast_at(raycast, timed, small, truth, rms: float, repeat: int) -> str:
     """The ray caster's time (at the timed image size) at the largest sample distance whose RMS (at the
     small size) is at most ``rms``."""
