@@ -144,10 +144,11 @@ def test_bench_splatting_prints_the_schemes_and_the_study(tmp_path, capsys):
     table, study = out.split("the 45-degree study")
     rows = [line.split() for line in table.splitlines() if line.startswith("Shepp-Logan") and ":" not in line]
     assert [(r[2], r[3]) for r in rows] == [("image_aligned", "post"), ("image_aligned", "pre"),
-                                            ("axis_aligned", "post"), ("none", "pre")]
+                                            ("axis_aligned", "post"), ("none", "pre"), ("image_aligned", "post-shaded")]
     assert all(float(r[9]) < 1e-4 for r in rows)          # against its oracle: float32
     particles = [line.split() for line in table.splitlines() if line.startswith("Plummer,") and ":" not in line]
-    assert [(r[4], r[5]) for r in particles] == [("image_aligned", "post"), ("image_aligned", "pre"), ("none", "pre")]
+    assert [(r[4], r[5]) for r in particles] == [("image_aligned", "post"), ("image_aligned", "pre"), ("none", "pre"),
+                                                 ("image_aligned", "post-shaded")]
     assert all(float(r[11]) < 1e-4 for r in particles)
     changes = {line.split()[0]: [float(x) for x in line.split()[1:]] for line in study.splitlines()
                if line.startswith(("30 ", "45 "))}

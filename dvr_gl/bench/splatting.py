@@ -1,7 +1,8 @@
 """``dvr bench splatting``: the splatting renderer's schemes on the demo or the shared datasets.
 
 Per dataset (and an SPH particle set: a Plummer sphere, its own cubic-spline kernels, no axis-aligned
-sheets and no ray caster beside it) and scheme (sheet buffer and classification): the frame time (median after a
+sheets and no ray caster beside it) and scheme (sheet buffer and classification, and image-aligned post-classified
+sheets shaded by the scene's lights): the frame time (median after a
 warm-up), the splats drawn (instances over all sheets), culled, skipped behind opaque pixels (early
 termination) and the sheets; the error against
 its same-slabs reference (the oracle: float32 and the tables) and the RMS against the converged
@@ -14,6 +15,7 @@ axis-aligned sheets switch axes) and 30 +- 0.01 (no switch), beside the converge
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +36,8 @@ DATASETS = [  # name, file under the data folder, scene overrides
     ("CThead", "regular/cthead.nhdr", {**HU, "camera.up": [0, 0, -1]}),
     ("MNI152", "regular/MNI152_2009_template.nii.gz", {}),
 ]
-SCHEMES = [("image_aligned", "post"), ("image_aligned", "pre"), ("axis_aligned", "post"), ("none", "pre")]
+SCHEMES = [("image_aligned", "post"), ("image_aligned", "pre"), ("axis_aligned", "post"), ("none", "pre"),
+           ("image_aligned", "post-shaded")]  # shaded: the default lights, screen-space gradients of the slab means
 RAYCAST_DISTANCES = (4.0, 2.0, 1.0, 0.5, 0.25, 0.125)
 STUDY_ANGLES = (30.0, 45.0)
 STUDY_STEP = 0.01
@@ -63,21 +66,24 @@ def run(scenes, size: int = 128, repeat: int = 3, progress=None):
             if particles:  # their own kernel; no voxel planes to stack, no ray caster to compare with
                 base = base.with_renderer(filter="m4")
             truth = {}
-            for scheme, classification in SCHEMES:
+            for scheme, label in SCHEMES:
                 if particles and scheme == "axis_aligned":
                     continue
+                classification = label.split("-")[0]
                 scene = base.with_renderer(sheet_buffer=scheme, classification=classification)
-                if classification not in truth:
-                    truth[classification] = ConvergedReference(scene.with_renderer(converged_tolerance=1e-4)).render()
+                if label.endswith("shaded"):
+                    scene = scene.with_renderer(shading=dataclasses.replace(scene.renderer.shading, enabled=True))
+                if label not in truth:
+                    truth[label] = ConvergedReference(scene.with_renderer(converged_tolerance=1e-4)).render()
                 ms = 1e3 * median_seconds(splatting, scene, repeat)
                 image = splatting.render(scene)
                 stats = splatting.stats
-                row = {"dataset": name, "scheme": scheme, "classification": classification, "ms": ms,
+                row = {"dataset": name, "scheme": scheme, "classification": label, "ms": ms,
                        "drawn": stats.get("splats_drawn", stats["splats"]), "culled": stats["culled"],
                        "skipped": stats.get("skipped", 0), "sheets": stats.get("sheets", 0),
                        "oracle": float(np.abs(_unterminated(splatting, scene) - same_slabs(scene)).max()),
-                       "rms": compare_images(image, truth[classification])["rms"]}
-                if (scheme, classification) == ("image_aligned", "post"):
+                       "rms": compare_images(image, truth[label])["rms"]}
+                if (scheme, label) == ("image_aligned", "post"):
                     row["raycast"] = "-" if particles else _raycast_at(raycast, base, row["rms"], repeat)
                 rows.append(row)
                 if progress:
