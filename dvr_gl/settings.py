@@ -210,6 +210,11 @@ DEPTH_CUE = Setting("depth_cue", float, 1.0, "linear depth cueing of the average
                     "the weight of the scalar (average) or the emission (X-ray) at the volume's farthest depth, "
                     "1 at its nearest, linear in between (1: none)", check=between(0.0, 1.0), must_support=True,
                     group="model", applies=_line_integral)
+HEMISPHERICAL_SHADING = Setting("hemispherical_shading", bool, False, "Totsuka and Levoy's shading of the "
+                                "average and the X-ray: ambient times the value (X-ray: the emission) plus diffuse "
+                                "times a voxel times (|gradient| + gradient . light) / 2, the coefficients and the "
+                                "light from [renderer.shading] (its first light)", must_support=True, group="model",
+                                flag=False, applies=_line_integral)
 GRADIENT_OPACITY_REFERENCE = Setting("gradient_opacity_reference", Optional[float], None,
                                      "gradient magnitude giving full opacity (default: 0.1 value range per voxel)",
                                      check=positive, group="model", flag=False)
@@ -256,7 +261,7 @@ TEXTURE_BUDGET_MB = Setting("texture_budget_mb", float, 2048.0, "GPU texture mem
 
 #: Every renderer reads these (narrowed where it supports fewer choices).
 MODEL_SETTINGS = (COMPOSITING, CLASSIFICATION, ASSOCIATED_COLORS, FILTER, KERNEL_WIDTH, ISO_VALUE, GRADIENT_OPACITY,
-                  GRADIENT_OPACITY_REFERENCE, SHADING, DEPTH_CUE)
+                  GRADIENT_OPACITY_REFERENCE, SHADING, DEPTH_CUE, HEMISPHERICAL_SHADING)
 
 
 # --- resolution ------------------------------------------------------------------------------

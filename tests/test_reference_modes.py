@@ -230,3 +230,24 @@ def test_depth_cue_weights_by_depth(tmp_path, compositing):
         tau = sigma * (t1 - t0)
         expected = xray_rgba(np.array([0.9, 0.5, 0.2]) * (tau * mean_weight)[:, None], tau)
     np.testing.assert_allclose(image, expected, atol=1e-9)
+
+
+def test_hemispherical_shading_of_a_constant_is_its_ambient_part(tmp_path):
+    """renderer.hemispherical_shading: ambient E + diffuse h (G + grad E . L) / 2; a constant volume has no
+    gradient (central differences, the border repeated), so the average is ambient times the value:
+    reference-converged to 1e-9.  Meshes have no samples to take gradient magnitudes of: one line."""
+    from dvr_gl.transfer_function import projected_rgba
+
+    value, ambient = 0.6, 0.35
+    scene = array_scene(tmp_path, np.full((5, 6, 7), value, np.float32),
+                        {"renderer.compositing": "average", "renderer.hemispherical_shading": True,
+                         "renderer.shading.ambient": ambient, "renderer.shading.diffuse": 0.9,
+                         "image.width": 8, "image.height": 8, "renderer.converged_tolerance": 1e-10})
+    image = ConvergedReference(scene).render_float64().reshape(-1, 4)
+    o, d = scene.camera.pixel_rays(8, 8)
+    from dvr_gl.rays import intersect_box
+    t0, t1 = intersect_box(o, d, *scene.field.bounds)
+    hit = t1 > t0
+    expected = np.zeros((64, 4))
+    expected[hit] = projected_rgba(scene.transfer_function, np.full(hit.sum(), ambient * value))
+    np.testing.assert_allclose(image, expected, atol=1e-9)

@@ -184,14 +184,20 @@ class ConvergedReference:
         """Optical depth and emitted colour (attenuated within the piece) of pieces ``[a, b]``."""
         half = 0.5 * (b - a)
         t = a[:, None] + half[:, None] * (self.x[None, :] + 1.0)
-        colour, sigma = self.model.emission(*self._points(ray, t, cell))
         n = len(self.x)
+        if not self.attenuate:  # the X-ray: the emission sigma c (shaded, depth-cued) and sigma, summed
+            emitted, sigma = self.model.xray_emission(*self._points(ray, t, cell))
+            sigma = sigma.reshape(-1, n)
+            self.stats["evaluations"] += sigma.size
+            weight = half[:, None] * self.w[None, :]
+            return half * (sigma @ self.w), np.einsum("pn,pnc->pc", weight, emitted.reshape(-1, n, 3))
+        colour, sigma = self.model.emission(*self._points(ray, t, cell))
         sigma = sigma.reshape(-1, n)
         colour = colour.reshape(-1, n, 3)
         self.stats["evaluations"] += sigma.size
         tau_nodes = half[:, None] * (sigma @ self.S.T)
         tau = half * (sigma @ self.w)
-        weight = half[:, None] * self.w[None, :] * sigma * (np.exp(-tau_nodes) if self.attenuate else 1.0)
+        weight = half[:, None] * self.w[None, :] * sigma * np.exp(-tau_nodes)
         return tau, np.einsum("pn,pnc->pc", weight, colour)
 
     def _estimate(self, ray, a, b, cell, coarse_tau, coarse_col):
@@ -262,10 +268,7 @@ class ConvergedReference:
         half = 0.5 * (b - a)
         t = a[:, None] + half[:, None] * (x[None, :] + 1.0)
         pts, _, cells = self._points(ray, t, cell)
-        s = self.model.values(pts, cells)
-        if self.model.depth_cue is not None:
-            s = s * self.model.depth_cue(pts)
-        s = s.reshape(-1, len(x))
+        s = self.model.projected_values(pts, cells).reshape(-1, len(x))
         integral = np.bincount(np.searchsorted(rows, ray), half * (s @ w), minlength=len(rows))
         length = self.rays.t1[rows] - self.rays.t0[rows]
         return self._classified(integral / length, self._has_pieces(rows, ray))

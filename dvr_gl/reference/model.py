@@ -33,6 +33,60 @@ def depth_cue(scene):
     return weight
 
 
+def toward_light(scene) -> np.ndarray:
+    """The unit vector toward the first light of ``[renderer.shading]`` (a headlight: toward the eye)."""
+    light = scene.renderer.shading.lights[0] if scene.renderer.shading.lights else None
+    if light is None or light.type == "headlight":
+        return -np.asarray(scene.camera.basis()[0], float)
+    d = -np.asarray(light.direction, float)
+    return d / np.linalg.norm(d)
+
+
+def gradient_magnitudes(samples: np.ndarray, spacing) -> np.ndarray:
+    """``|grad|`` at the samples ``(nz, ny, nx[, C])`` by central differences one sample apart along each
+    axis, the border samples repeated beyond the grid (as the clamped taps)."""
+    out = np.zeros(samples.shape)
+    for axis, h in zip((2, 1, 0), spacing):  # x, y, z: numpy axes 2, 1, 0
+        n = samples.shape[axis]
+        up = np.take(samples, np.minimum(np.arange(n) + 1, n - 1), axis=axis)
+        down = np.take(samples, np.maximum(np.arange(n) - 1, 0), axis=axis)
+        out += ((up - down) / (2.0 * h)) ** 2
+    return np.sqrt(out)
+
+
+class HemisphericalShading:
+    """Totsuka and Levoy's shading of what a line integral adds up (``renderer.hemispherical_shading``):
+    ``ambient E + diffuse h (G + grad E . L) / 2``, ``E`` the reconstructed field (the average's scalar,
+    the X-ray's emission ``sigma c``), ``G`` the samples' gradient magnitudes (central differences)
+    reconstructed by the same filter, ``grad`` the central differences of the reconstructed field one
+    sample apart along each axis (as :meth:`SampledField.gradient`), ``L`` toward the light, ``h`` the
+    smallest spacing (so the terms keep the value's units): linear in the samples, so that Fourier
+    rendering can take it into the frequency domain."""
+
+    def __init__(self, scene, field, samples: np.ndarray):
+        from ..fields.reconstruction import SampledField
+
+        r, vol = scene.renderer, scene.field
+        self.ambient, self.diffuse = r.shading.ambient, r.shading.diffuse
+        self.light = toward_light(scene)
+        self.spacing = np.asarray(vol.spacing, float)
+        self.h = float(self.spacing.min())
+        self.field = field  # E: a field of C channels (sample -> (N, C))
+        magnitudes = gradient_magnitudes(samples, vol.spacing)
+        self.magnitude = SampledField(magnitudes, vol.spacing, vol.origin, r.filter, r.kernel_width)
+
+    def __call__(self, points: np.ndarray) -> np.ndarray:
+        e = self.field(points)
+        slope = np.zeros_like(e)
+        for a in range(3):
+            if self.light[a] != 0.0:
+                step = np.zeros(3)
+                step[a] = self.spacing[a]
+                slope += self.light[a] * (self.field(points + step) - self.field(points - step)) / (2.0 * step[a])
+        g = self.magnitude.sample(points).reshape(e.shape)
+        return self.ambient * e + self.diffuse * self.h * 0.5 * (g + slope)
+
+
 class OpticalModel:
     """Colour (shaded, non-associated) and extinction at world points.
 
@@ -64,6 +118,38 @@ class OpticalModel:
         self.epsilon = gradient_epsilon(scene.field)
         self.gradient_reference = r.gradient_opacity_reference if r.gradient_opacity and not xray else None
         self.depth_cue = depth_cue(scene) if r.compositing in ("average", "xray") and r.depth_cue < 1.0 else None
+        self.hemispherical = None
+        if r.compositing in ("average", "xray") and r.hemispherical_shading:
+            if scene.field.kind != "grid":
+                from ..errors import SceneError
+
+                raise SceneError("renderer.hemispherical_shading shades with the gradient magnitudes of a grid's "
+                                 f"samples; {scene.field.kind} data has no grid: turn it off")
+            if r.compositing == "average":
+                self.hemispherical = HemisphericalShading(scene, lambda p: self.scalar.sample(p)[:, None],
+                                                          np.asarray(scene.field.data, np.float64))
+            else:  # the emission sigma c of the pre-classified voxels (associated), or post-classified points
+                voxels = self.tf.classify_voxels(scene.field.samples, True)[..., :3]
+                self.hemispherical = HemisphericalShading(scene, self._emitted, voxels)
+
+    def _emitted(self, points: np.ndarray) -> np.ndarray:
+        """``sigma c`` at points (unshaded)."""
+        colour, sigma = self.classify(points, None)
+        return colour * sigma[:, None]
+
+    def xray_emission(self, points: np.ndarray, directions: np.ndarray, cells=None):
+        """``(emitted sigma c (N, 3), sigma (N,))`` of the X-ray at points: hemispherically shaded and
+        depth-cued if the scene asks."""
+        colour, sigma = self.classify(points, None if cells is None else self.values(points, cells))
+        emitted = colour * sigma[:, None] if self.hemispherical is None else self.hemispherical(points)
+        if self.depth_cue is not None:
+            emitted = emitted * self.depth_cue(points)[:, None]
+        return emitted, sigma
+
+    def projected_values(self, points: np.ndarray, cells=None) -> np.ndarray:
+        """What the average adds up at points: the scalar, hemispherically shaded and depth-cued if asked."""
+        s = self.values(points, cells) if self.hemispherical is None else self.hemispherical(points)[:, 0]
+        return s if self.depth_cue is None else s * self.depth_cue(points)
 
     def values(self, points: np.ndarray, cells: np.ndarray | None = None) -> np.ndarray:
         """The scalar at points; ``cells``: for a mesh, the cell holding each point where the caller
@@ -79,8 +165,6 @@ class OpticalModel:
         ``min(1, |gradient| / reference)`` (gradient-magnitude opacity), if the scene asks.
         ``cells``: as in :meth:`values`."""
         colour, sigma = self.classify(points, None if cells is None else self.values(points, cells))
-        if self.depth_cue is not None:  # the X-ray's emission, weighted by depth
-            colour = colour * self.depth_cue(points)[:, None]
         if self.shading is None and self.gradient_reference is None:
             return colour, sigma
         gradient = self.gradients(points, cells)

@@ -1,29 +1,21 @@
-#version 330 core
-// One sample of the central slice of a half spectrum (dvr_gl/renderers/fourier/spectrum.py): this
+#version 430 core
+// One sample of the central slice of the half spectra (dvr_gl/renderers/fourier/spectrum.py): this
 // fragment's frequency (numpy's fftfreq order: fragment x is k, y is l) taken to the spectrum's index
-// units, the spectrum interpolated there with float weights (TRILINEAR, WINDOWED_SINC, or the cubic
-// B-spline), periodic, the half not stored read as the conjugate of its mirror.  Two complex channels
-// a texture (.rg, .ba); CHANNELS_2: a second texture for the X-ray's (sigma c, sigma).
-// DEPTH_CUE: also the interpolant's derivative along u_depth_dir (the kernel's derivative weights), for
-// the depth cue's moment (dvr_gl/renderers/fourier/projection.py, finish).
-// Outputs: the values of the first texture's channels, then the second's (CHANNELS_2), then the
-// derivatives in the same order (DEPTH_CUE).
+// units, the spectra interpolated there with float weights (TRILINEAR, WINDOWED_SINC, or the cubic
+// B-spline), periodic, the half not stored read as the conjugate of its mirror.  TEXTURES textures of
+// two complex channels each (.rg, .ba).  DEPTH_CUE: also the interpolant's derivative along
+// u_depth_dir (the kernel's derivative weights), for the depth cue's moment
+// (dvr_gl/renderers/fourier/projection.py, finish).  Outputs: the values of each texture's channels,
+// then (DEPTH_CUE) their derivatives in the same order.
 
-uniform sampler3D u_spectrum;     // (Mx / 2 + 1, My, Mz): re, im of two channels
-#ifdef CHANNELS_2
-uniform sampler3D u_spectrum2;
-#endif
+uniform sampler3D u_spectra[TEXTURES];  // (Mx / 2 + 1, My, Mz): re, im of two channels
 #ifdef DEPTH_CUE
 uniform vec3 u_depth_dir;         // f M h: the view axis in index units per world frequency
+#define OUTPUTS (2 * TEXTURES)
+#else
+#define OUTPUTS TEXTURES
 #endif
-layout(location = 0) out vec4 frag0;
-#if defined(CHANNELS_2) || defined(DEPTH_CUE)
-layout(location = 1) out vec4 frag1;
-#endif
-#if defined(CHANNELS_2) && defined(DEPTH_CUE)
-layout(location = 2) out vec4 frag2;
-layout(location = 3) out vec4 frag3;
-#endif
+layout(location = 0) out vec4 frags[OUTPUTS];
 uniform ivec3 u_dims;             // M per axis
 uniform ivec2 u_size;             // the slice's samples (W', H')
 uniform vec2 u_frequency_step;    // 1 / (W' p), 1 / (H' p): cycles per world unit
@@ -37,19 +29,12 @@ ivec3 wrap(ivec3 k) {
     return (k + 1024 * u_dims) % u_dims;
 }
 
-// The spectrum at integer index k (any), both textures (frag: .rg .ba, frag2: .rg .ba).
-void fetch(ivec3 k, out vec4 a, out vec4 b) {
+// Where the spectrum at integer index k (any) is stored, and the conjugation that reads it.
+ivec3 stored(ivec3 k, out vec4 conj) {
     ivec3 m = wrap(k);
     bool mirrored = m.x > u_dims.x / 2;
-    if (mirrored)
-        m = wrap(-m);
-    vec4 conj = mirrored ? vec4(1.0, -1.0, 1.0, -1.0) : vec4(1.0);
-    a = texelFetch(u_spectrum, m, 0) * conj;
-#ifdef CHANNELS_2
-    b = texelFetch(u_spectrum2, m, 0) * conj;
-#else
-    b = vec4(0.0);
-#endif
+    conj = mirrored ? vec4(1.0, -1.0, 1.0, -1.0) : vec4(1.0);
+    return mirrored ? wrap(-m) : m;
 }
 
 #ifdef TRILINEAR
@@ -128,31 +113,33 @@ void main() {
     weights(f.x, wx, dx);
     weights(f.y, wy, dy);
     weights(f.z, wz, dz);
-    vec4 sum = vec4(0.0), sum2 = vec4(0.0), slope = vec4(0.0), slope2 = vec4(0.0);
+    vec4 sums[TEXTURES], slopes[TEXTURES];
+    for (int t = 0; t < TEXTURES; ++t) {
+        sums[t] = vec4(0.0);
+        slopes[t] = vec4(0.0);
+    }
     for (int z = 0; z < TAPS; ++z)
-        for (int y = 0; y < TAPS; ++y) {
-            float wzy = wz[z] * wy[y];
+        for (int y = 0; y < TAPS; ++y)
             for (int x = 0; x < TAPS; ++x) {
-                vec4 a, c;
-                fetch(b + ivec3(x + FIRST, y + FIRST, z + FIRST), a, c);
-                sum += wzy * wx[x] * a;
-                sum2 += wzy * wx[x] * c;
+                vec4 conj;
+                ivec3 m = stored(b + ivec3(x + FIRST, y + FIRST, z + FIRST), conj);
+                float w = wz[z] * wy[y] * wx[x];
 #ifdef DEPTH_CUE
                 float dw = u_depth_dir.x * dx[x] * wy[y] * wz[z] + u_depth_dir.y * wx[x] * dy[y] * wz[z]
                            + u_depth_dir.z * wx[x] * wy[y] * dz[z];
-                slope += dw * a;
-                slope2 += dw * c;
 #endif
+                for (int t = 0; t < TEXTURES; ++t) {
+                    vec4 value = texelFetch(u_spectra[t], m, 0) * conj;
+                    sums[t] += w * value;
+#ifdef DEPTH_CUE
+                    slopes[t] += dw * value;
+#endif
+                }
             }
-        }
-    frag0 = sum;
-#if defined(CHANNELS_2) && defined(DEPTH_CUE)
-    frag1 = sum2;
-    frag2 = slope;
-    frag3 = slope2;
-#elif defined(CHANNELS_2)
-    frag1 = sum2;
-#elif defined(DEPTH_CUE)
-    frag1 = slope;
+    for (int t = 0; t < TEXTURES; ++t) {
+        frags[t] = sums[t];
+#ifdef DEPTH_CUE
+        frags[TEXTURES + t] = slopes[t];
 #endif
+    }
 }

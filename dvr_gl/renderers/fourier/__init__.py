@@ -39,7 +39,8 @@ PLUGIN = RendererPlugin(
     description="Fourier volume rendering: projections from central slices of the volume's spectrum",
     renderer="dvr_gl.renderers.fourier.renderer:FourierRenderer",
     settings=(s.COMPOSITING.only("average", "xray"), s.CLASSIFICATION.only("pre"),  # the X-ray transforms classified voxels
-              s.FILTER.only("linear", "cubic_bspline", "gaussian"), s.KERNEL_WIDTH, s.DEPTH_CUE, SLICE_INTERPOLATION, PADDING),
+              s.FILTER.only("linear", "cubic_bspline", "gaussian"), s.KERNEL_WIDTH, s.DEPTH_CUE, s.HEMISPHERICAL_SHADING,
+              SLICE_INTERPOLATION, PADDING),
     needs_gl=True,
     projections=("orthographic",),  # the projection-slice theorem: parallel projections
     check=check,

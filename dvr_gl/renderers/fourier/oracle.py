@@ -72,6 +72,6 @@ def reference(scene) -> np.ndarray:
     derivatives = None
     if r.depth_cue < 1.0:
         direction = frame.depth_direction(spectrum)
-        derivatives = [interpolate(spectrum.spectra[c], spectrum.dims, g, r.slice_interpolation, direction)
-                       for c in weighted(scene)]
+        derivatives = {c: interpolate(spectrum.spectra[c], spectrum.dims, g, r.slice_interpolation, direction)
+                       for c in weighted(scene)}
     return finish(scene, frame, spectrum, slices, offsets, derivatives)

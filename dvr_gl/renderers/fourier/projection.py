@@ -27,6 +27,7 @@ from ...gl.geometry import box_corners
 from ...rays import RayBatch
 from ...transfer_function import projected_rgba, xray_rgba
 from ...model import GAUSSIAN_RADIUS
+from ...reference.model import gradient_magnitudes
 from .spectrum import padded_length
 
 
@@ -90,13 +91,17 @@ class Frame:
 def channels(scene) -> tuple[np.ndarray, np.ndarray, int]:
     """What is transformed ``(nz, ny, nx, C)`` with its ghost layers (:func:`with_ghosts`), the constants
     taken out ``(C,)`` and the ghost layers' count: the average's scalar, or the X-ray's classified voxels
-    ``(sigma c, sigma)`` (associated); each less the mean of its border samples (a constant's line
-    integral is that constant times the chord, added back exactly)."""
+    ``(sigma c, sigma)`` (associated), then with hemispherical shading the gradient magnitudes of the
+    :func:`shaded_channels`; each less the mean of its border samples (a constant's line integral is
+    that constant times the chord, added back exactly)."""
     data = np.asarray(scene.volume.data, dtype=np.float64)
     if scene.renderer.compositing == "xray":
         values = scene.transfer_function.classify_voxels(data, True).astype(np.float64)
     else:
         values = data[..., None]
+    if scene.renderer.hemispherical_shading:  # the shaded channels' gradient magnitudes, transformed too
+        shaded = values[..., list(shaded_channels(scene))]
+        values = np.concatenate([values, gradient_magnitudes(shaded, scene.volume.spacing)], axis=-1)
     faces = [values[0], values[-1], values[:, 0], values[:, -1], values[:, :, 0], values[:, :, -1]]
     offsets = np.mean(np.concatenate([f.reshape(-1, values.shape[-1]) for f in faces]), axis=0)
     ghosted, border = with_ghosts(scene, values - offsets)
@@ -181,9 +186,20 @@ def filter_derivative(scene, w: np.ndarray, direction: np.ndarray) -> np.ndarray
     return out * float(np.prod(h))
 
 
-def weighted(scene) -> tuple[int, ...]:
-    """The channels the depth cue weights: the average's scalar, the X-ray's emission (not its extinction)."""
+def shaded_channels(scene) -> tuple[int, ...]:
+    """What the model shades and weights by depth: the average's scalar, the X-ray's emission (not its
+    extinction)."""
     return (0,) if scene.renderer.compositing == "average" else (0, 1, 2)
+
+
+def weighted(scene) -> tuple[int, ...]:
+    """The channels the depth cue weights: the shaded ones, and with hemispherical shading their gradient
+    magnitudes (after the transformed channels: 1 for the average, 4 .. 6 for the X-ray)."""
+    shaded = shaded_channels(scene)
+    if not scene.renderer.hemispherical_shading:
+        return shaded
+    first = 1 if scene.renderer.compositing == "average" else 4
+    return shaded + tuple(first + k for k in range(len(shaded)))
 
 
 def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, derivatives=None) -> np.ndarray:
@@ -193,8 +209,13 @@ def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, der
 
     Depth cueing (``renderer.depth_cue``, conventions: a weight ``a + b z`` linear in the view depth ``z``):
     the projection of ``((x - x_c).f) g`` has the transform ``(i / 2 pi) f.grad H`` on the slice (``H = S
-    Phi``, Totsuka and Levoy), so ``derivatives`` holds the spectrum interpolated and differentiated along
-    ``f M h`` (the kernel's derivative) for the :func:`weighted` channels."""
+    Phi``, Totsuka and Levoy), so ``derivatives`` (channel -> slice) holds the spectrum interpolated and
+    differentiated along ``f M h`` (the kernel's derivative) for the :func:`weighted` channels.
+
+    Hemispherical shading (``renderer.hemispherical_shading``,
+    :class:`dvr_gl.reference.model.HemisphericalShading`): ``ambient E + diffuse h (G + grad E . L) / 2``;
+    the central differences along the axes are the multiplier ``i sum_a L_a sin(2 pi w_a h_a) / h_a`` on
+    the slice, and ``G`` a transformed channel."""
     img, r = scene.image, scene.renderer
     w, h = img.width, img.height
     phi = filter_transform(scene, frame.w)
@@ -206,30 +227,58 @@ def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, der
     scale = phase / (frame.pixel * frame.pixel)  # du dv W' H' = 1 / p^2
     rays = RayBatch.for_camera(scene.camera, w, h, scene.volume.bounds)
     chord = np.maximum(rays.t1 - rays.t0, 0.0).reshape(h, w)
-    sums = [np.fft.ifft2(s * phi * scale).real[:h, :w] + c * chord for s, c in zip(slices, offsets)]
-    if derivatives is not None:
+    cued = derivatives is not None
+    if cued:
         from ...reference.model import depth_cue
 
-        forward = np.asarray(scene.camera.basis()[0], float)
+        forward = frame.forward
         eye = np.asarray(scene.camera.eye, float)
         a, b = _line(scene, depth_cue(scene), forward, eye)
         z_c = float((centre - eye) @ forward)
         mid = (rays.origins + 0.5 * (rays.t0 + rays.t1)[:, None] * rays.directions).reshape(h, w, 3)
-        chord_weight = a + b * ((mid - eye) @ forward)           # the mean weight over each chord: w is linear
+        chord_weight = a + b * ((mid - eye) @ forward)  # the mean weight over each chord: w is linear
         dphi = filter_derivative(scene, frame.w, forward)
-        for k, c in enumerate(weighted(scene)):
-            s, d = slices[c], derivatives[k]
-            moment = np.fft.ifft2((1j / (2.0 * math.pi)) * (phi * d + s * dphi) * scale).real[:h, :w]
-            plain = sums[c] - offsets[c] * chord
-            sums[c] = (a + b * z_c) * plain + b * moment + offsets[c] * chord * chord_weight
+
+    def project(spectral):
+        return np.fft.ifft2(spectral * scale).real[:h, :w]
+
+    def integral(c, slope=None, weight=cued):
+        """The line integral of channel ``c`` (depth-weighted if ``weight``), or of its central differences
+        along ``slope`` (toward the light; a constant has none)."""
+        s = slices[c]
+        k, dk, constant = 1.0, 0.0, offsets[c] * chord
+        if slope is not None:
+            spacing = np.asarray(scene.volume.spacing, float)
+            k = 1j * np.sum(slope * np.sin(2.0 * math.pi * frame.w * spacing) / spacing, axis=-1)
+            dk = 1j * np.sum(slope * 2.0 * math.pi * frame.forward * np.cos(2.0 * math.pi * frame.w * spacing), axis=-1)
+            constant = 0.0
+        plain = project(k * s * phi)
+        if not weight:
+            return plain + constant
+        d = derivatives[c]
+        moment = project((1j / (2.0 * math.pi)) * (k * (phi * d + s * dphi) + dk * s * phi))
+        return (a + b * z_c) * plain + b * moment + constant * chord_weight
+
+    shaded = shaded_channels(scene)
+    if r.hemispherical_shading:
+        from ...reference.model import toward_light
+
+        light, sh = toward_light(scene), r.shading
+        voxel = float(np.min(scene.volume.spacing))
+        first = 1 if r.compositing == "average" else 4
+        sums = {c: sh.ambient * integral(c) + sh.diffuse * voxel * 0.5 * (integral(first + k) + integral(c, light))
+                for k, c in enumerate(shaded)}
+    else:
+        sums = {c: integral(c) for c in shaded}
     out = np.zeros((h, w, 4))
     hit = chord > 0
     if r.compositing == "average":
         out[hit] = projected_rgba(scene.transfer_function, sums[0][hit] / chord[hit])
     else:  # the X-ray of the classified voxels: (sigma c, sigma) integrated; the band limit rings (Gibbs)
         # where the data jumps, which can take an integral of non-negative voxels below zero: clamped
+        tau = integral(3, weight=False)
         emitted = np.stack([np.maximum(sums[c][hit], 0.0) for c in range(3)], axis=1)
-        out[hit] = xray_rgba(emitted, np.maximum(sums[3][hit], 0.0))
+        out[hit] = xray_rgba(emitted, np.maximum(tau[hit], 0.0))
     return out
 
 

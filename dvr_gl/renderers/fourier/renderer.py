@@ -61,7 +61,7 @@ class FourierRenderer(GLVolumeRenderer):
                              "use a smaller renderer.padding or volume")
         limits.check_texture("fourier's slice", Frame(scene).size, gl,
                              "frame the volume in the image (camera.view_height) or use a smaller image")
-        count = 4 if r.compositing == "xray" else 1
+        count = (4 if r.compositing == "xray" else 1) + (3 if r.compositing == "xray" else 1) * r.hemispherical_shading
         # the float64 spectra on the host and their float32 textures
         check_bytes(count * 24 * (dims[0] // 2 + 1) * dims[1] * dims[2], "fourier's spectra",
                     "use a smaller renderer.padding or volume")
@@ -71,7 +71,7 @@ class FourierRenderer(GLVolumeRenderer):
         r = scene.renderer
         xray = r.compositing == "xray"
         key = (scene.volume, r.compositing, scene.transfer_function if xray else None)
-        key = (*key, r.filter, r.kernel_width)
+        key = (*key, r.filter, r.kernel_width, r.hemispherical_shading)
         data, offsets, border = self._cached("channels", key, lambda: channels(scene))
         fresh = []
         spectrum = self._cached("spectrum", (data, r.slice_interpolation, r.padding),
@@ -81,21 +81,22 @@ class FourierRenderer(GLVolumeRenderer):
         frame = Frame(scene)
         wf, hf = frame.size
         cued = r.depth_cue < 1.0
-        defines = {"TRILINEAR": r.slice_interpolation == "trilinear", "CHANNELS_2": len(textures.textures) > 1,
+        count = len(textures.textures)
+        defines = {"TRILINEAR": r.slice_interpolation == "trilinear", "TEXTURES": str(count),
                    "WINDOWED_SINC": r.slice_interpolation == "windowed_sinc", "DEPTH_CUE": cued}
         program = create_program(self.ctx, "fullscreen.vert", "fourier/slice.frag",
                                  {k: v for k, v in defines.items() if v})
-        attachments = (4,) * (len(textures.textures) * (2 if cued else 1))
+        attachments = (4,) * (count * (2 if cued else 1))
         _, fbo = self.target("slice", wf, hf, attachments)
         fbo.use()
-        samplers = {"u_spectrum": textures.textures[0]}
-        if len(textures.textures) > 1:
-            samplers["u_spectrum2"] = textures.textures[1]
+        for unit, tex in enumerate(textures.textures):
+            tex.use(location=unit)
+        program["u_spectra"].value = list(range(count)) if count > 1 else 0  # a one-element array reads as one
         self.bind(program, {"u_dims": spectrum.dims, "u_size": frame.size,
                             "u_frequency_step": (1.0 / (wf * frame.pixel), 1.0 / (hf * frame.pixel)),
                             "u_right": tuple(frame.right), "u_down": tuple(frame.down),
                             "u_grid_scale": tuple(np.asarray(spectrum.dims) * frame.spacing), "u_kaiser_beta": KAISER_BETA,
-                            **({"u_depth_dir": tuple(frame.depth_direction(spectrum))} if cued else {})}, samplers)
+                            **({"u_depth_dir": tuple(frame.depth_direction(spectrum))} if cued else {})}, {})
         quad = self.ctx.vertex_array(program, [])
         quad.render(moderngl.TRIANGLES, vertices=3)
         quad.release()
@@ -103,9 +104,9 @@ class FourierRenderer(GLVolumeRenderer):
         for i in range(len(attachments)):
             raw = np.frombuffer(fbo.read(components=4, dtype="f4", attachment=i), np.float32).reshape(hf, wf, 4)
             read += [raw[..., 0] + 1j * raw[..., 1], raw[..., 2] + 1j * raw[..., 3]]
-        count = 2 * len(textures.textures)  # the values (padded to pairs), then the derivatives
+        # the values (two channels a texture, the last pair padded), then their derivatives
         slices = read[:len(spectrum.spectra)]
-        derivatives = [read[count + c] for c in weighted(scene)] if cued else None
+        derivatives = {c: read[2 * count + c] for c in weighted(scene)} if cued else None
         drawn = time.perf_counter()
         image = finish(scene, frame, spectrum, slices, offsets, derivatives)
         end = time.perf_counter()
