@@ -463,9 +463,23 @@ def run_cells(args) -> int:
     return 0
 
 
-def run_splatting(args) -> int:
+def _shared_regular_scenes(args):
+    """The regular shared datasets in ``--data-dir`` (``--only``), as the splatting bench lists them, with
+    notes on those left out; one line if the folder or the choice is empty."""
     from pathlib import Path
 
+    from dvr_gl.bench.splatting import shared_scenes
+    from dvr_gl.errors import DvrError
+
+    if not Path(args.data_dir).is_dir():
+        raise DvrError(f"--data-dir {args.data_dir}: no such folder (the shared datasets)")
+    scenes, notes = shared_scenes(Path(args.data_dir), args.only)
+    if not scenes:
+        raise DvrError(f"--only {args.only}: no shared dataset matches")
+    return scenes, notes
+
+
+def run_splatting(args) -> int:
     from dvr_gl.bench import splatting
     from dvr_gl.errors import DvrError
 
@@ -476,11 +490,7 @@ def run_splatting(args) -> int:
     demo = {"volume.demo": "shepp-logan", "volume.size": args.volume_size}
     notes = []
     if args.shared:
-        if not Path(args.data_dir).is_dir():
-            raise DvrError(f"--data-dir {args.data_dir}: no such folder (the shared datasets)")
-        scenes, notes = splatting.shared_scenes(Path(args.data_dir), args.only)
-        if not scenes:
-            raise DvrError(f"--only {args.only}: no shared dataset matches")
+        scenes, notes = _shared_regular_scenes(args)
     elif args.volume_size:
         scenes = [(f"Shepp-Logan {args.volume_size}^3", demo)]
     else:
@@ -522,15 +532,7 @@ def run_fourier(args) -> int:
         if not all(low <= v <= high for v in values):
             raise DvrError(f"{flag} must be {low} to {high}, got {', '.join(map(str, values))}")
     if args.shared:
-        from pathlib import Path
-
-        from dvr_gl.bench.splatting import shared_scenes
-
-        if not Path(args.data_dir).is_dir():
-            raise DvrError(f"--data-dir {args.data_dir}: no such folder (the shared datasets)")
-        scenes, notes = shared_scenes(Path(args.data_dir), args.only)
-        if not scenes:
-            raise DvrError(f"--only {args.only}: no shared dataset matches")
+        scenes, notes = _shared_regular_scenes(args)
         args.report.text(f"dvr bench fourier --shared: each regular dataset at {args.error_size}x{args.error_size}, "
                          f"orthographic, default camera and transfer function, the defaults (trilinear field, cubic "
                          f"B-spline slice, padding 2), against reference-converged (tolerance 1e-4)")

@@ -19,6 +19,7 @@ slice's grid positions ``g = w M h`` in GL, the oracle in numpy; the rest is her
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -73,10 +74,13 @@ class Frame:
             last = max((count - 1) * self.pixel, float(along.max()) + margin)
             sizes.append(padded_length(int(math.ceil((last - first) / self.pixel)) + 1, 1.0))
         self.size = tuple(sizes)
-        u = np.fft.fftfreq(self.size[0], self.pixel)
-        v = np.fft.fftfreq(self.size[1], self.pixel)
-        self.u, self.v = u, v
-        self.w = u[None, :, None] * self.right + v[:, None, None] * self.down
+        self.u = np.fft.fftfreq(self.size[0], self.pixel)
+        self.v = np.fft.fftfreq(self.size[1], self.pixel)
+
+    @functools.cached_property
+    def w(self) -> np.ndarray:
+        """The slice's world frequencies ``(H', W', 3)`` (made when first asked: the limits need only the size)."""
+        return self.u[None, :, None] * self.right + self.v[:, None, None] * self.down
 
     def depth_direction(self, spectrum) -> np.ndarray:
         """The view axis in the spectrum's index units per world frequency (``f M h``, x, y, z): the
