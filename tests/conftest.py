@@ -21,12 +21,22 @@ def shared_data() -> Path:
 
 
 @pytest.fixture(scope="session")
-def gl_context():
+def shared_gl_context():
     from dvr_gl.gl.context import create_context
 
     ctx = create_context()
     yield ctx
     ctx.release()
+
+
+@pytest.fixture
+def gl_context(shared_gl_context):
+    """The session's context, made current for each test: a renderer released by an earlier test
+    (``release_context``) leaves no context current on the thread, and GL calls then fail
+    ("cannot create program")."""
+    from dvr_gl.gl.context import make_current
+
+    return make_current(shared_gl_context)
 
 
 @pytest.fixture(scope="module")

@@ -22,8 +22,8 @@ K = 0.05  # extinction per unit value: the average and the X-ray invert to the l
 
 
 @pytest.fixture(scope="module")
-def fourier(gl_context):
-    r = FourierRenderer(ctx=gl_context)
+def fourier(shared_gl_context):
+    r = FourierRenderer(ctx=shared_gl_context)
     yield r
     r.close()
 

@@ -26,8 +26,8 @@ GL_RENDERERS = ("raycast", "slicing3d", "slicing2d")
 
 
 @pytest.fixture(scope="module")
-def renderers(gl_context):
-    made = {name: create_renderer(name, ctx=gl_context) for name in (*GL_RENDERERS, "shearwarp")}
+def renderers(shared_gl_context):
+    made = {name: create_renderer(name, ctx=shared_gl_context) for name in (*GL_RENDERERS, "shearwarp")}
     yield made
     for r in made.values():
         r.close()

@@ -31,8 +31,8 @@ PLUMMER = {"volume.demo": "plummer", "volume.size": 12, "renderer.name": "splatt
 
 
 @pytest.fixture(scope="module")
-def splatting(gl_context):
-    r = SplattingRenderer(ctx=gl_context)
+def splatting(shared_gl_context):
+    r = SplattingRenderer(ctx=shared_gl_context)
     yield r
     r.close()
 

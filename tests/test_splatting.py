@@ -22,8 +22,8 @@ OPAQUE_TF = {"transfer_function.points": [[0, 0.2, 0.4, 0.9, 0.0], [0.3, 1.0, 0.
 
 
 @pytest.fixture(scope="module")
-def splatting(gl_context):
-    r = SplattingRenderer(ctx=gl_context)
+def splatting(shared_gl_context):
+    r = SplattingRenderer(ctx=shared_gl_context)
     yield r
     r.close()
 

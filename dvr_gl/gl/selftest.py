@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .context import make_current
 from .shaders import create_program
 
 VALUE = 0.123456789  # needs float32: an 8-bit target would round it to 31/255
@@ -13,6 +14,7 @@ VALUE = 0.123456789  # needs float32: an 8-bit target would round it to 31/255
 
 def render_selftest(ctx, width: int = 7, height: int = 5) -> np.ndarray:
     """Render the self-test pattern; rows returned top first, as images are stored."""
+    make_current(ctx)  # another context may have been made current, or released, since
     program = create_program(ctx, "fullscreen.vert", "selftest.frag", {"SELFTEST_VALUE": repr(VALUE)})
     target = ctx.texture((width, height), 4, dtype="f4")
     fbo = ctx.framebuffer(color_attachments=[target])
