@@ -5,12 +5,11 @@ import bz2
 import gzip
 import os
 import struct
-import time
 
 import numpy as np
 import pytest
 
-from dvr_gl.errors import DvrError, VolumeError
+from dvr_gl.errors import VolumeError
 from dvr_gl.io import detect_format, load_volume
 from dvr_gl.sandbox import Sandbox, SandboxError, active
 

@@ -30,7 +30,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import DvrError
 from ..image import compare_images
 
 # --- the scenes (issue 15): two phantoms, 256^3 uint8, composite and MIP; CThead with a bone TF ---
