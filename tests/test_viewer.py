@@ -250,13 +250,13 @@ def test_hud_lines_and_nominal_samples():
 
 
 def test_every_key_has_an_action_and_help():
-    """Keys 1 to 6 choose the registered renderers, from the registry."""
+    """Keys 1 to 9, then 0, choose the first ten registered renderers, from the registry."""
     table = key_table()
     names = {k for k, _, _ in table}
     assert {"S", "R", "P", "F1", "1"} <= names
     from dvr_gl.renderers import registry
     chosen = [action.removeprefix("renderer_") for _, action, _ in table if action.startswith("renderer_")]
-    assert chosen == registry.names()[:9]
+    assert chosen == registry.names()[:10]
     assert any("screenshot" in line for line in help_lines())
 
 
