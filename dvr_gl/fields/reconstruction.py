@@ -223,3 +223,18 @@ class SampledField:
             rays.append(ray[inside])
             ts.append(t[inside])
         return joined_knots(rays, ts)
+
+
+def smooth_pieces(field: SampledField, origins, directions, t0, t1):
+    """The pieces ``(ray, a, b)`` of rays ``origins + t directions`` over ``[t0, t1]`` between the filter's
+    knots (:meth:`SampledField.knots`; the field is a polynomial on each), sorted along each ray; ``ray``
+    indexes the rays given.  Rays with ``t1 <= t0`` have none."""
+    count = len(t0)
+    k_ray, k_t = field.knots(origins, directions, t0, t1)
+    local = np.concatenate([np.arange(count), np.arange(count), k_ray])
+    t = np.concatenate([t0, t1, k_t])
+    order = np.lexsort((t, local))
+    local, t = local[order], t[order]
+    keep = (local[1:] == local[:-1]) & (t[1:] > t[:-1])
+    return local[:-1][keep], t[:-1][keep], t[1:][keep]
+

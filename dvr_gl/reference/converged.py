@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..fields.reconstruction import smooth_pieces
 from ..rays import RayBatch
 from ..sandbox import check_bytes
 from ..transfer_function import xray_rgba
@@ -116,15 +117,8 @@ class ConvergedReference:
         if self.by_cell:
             ray, a, b, cell = self.model.scalar.pieces(r.origins[rows], r.directions[rows], r.t0[rows], r.t1[rows])
             return rows[ray], a, b, cell
-        k_ray, k_t = self.model.scalar.knots(r.origins[rows], r.directions[rows], r.t0[rows], r.t1[rows])
-        local = np.concatenate([np.arange(len(rows)), np.arange(len(rows)), k_ray])
-        t = np.concatenate([r.t0[rows], r.t1[rows], k_t])
-        order = np.lexsort((t, local))
-        local, t = local[order], t[order]
-        same = local[1:] == local[:-1]
-        keep = same & (t[1:] > t[:-1])
-        ray = rows[local[:-1][keep]]
-        return ray, t[:-1][keep], t[1:][keep], np.zeros(len(ray), np.int64)
+        local, a, b = smooth_pieces(self.model.scalar, r.origins[rows], r.directions[rows], r.t0[rows], r.t1[rows])
+        return rows[local], a, b, np.zeros(len(local), np.int64)
 
     @staticmethod
     def _split(ray, a, b, cell, piece, t):

@@ -22,6 +22,12 @@ SLICE_INTERPOLATION = s.Setting("slice_interpolation", str, "cubic_bspline", "ho
                                 group="fourier")
 PADDING = s.Setting("padding", float, 2.0, "zero padding of the volume before its transform, a factor per axis "
                     "(ghosting of the replicas falls with it)", check=s.between(1.0, 8.0), group="fourier")
+SLICE_BANDWIDTH = s.Setting("slice_bandwidth", float, 1.0, "how far the central slice's frequencies reach, in "
+                            "multiples of the voxels' Nyquist limit (always at least the pixels'): where pixels are "
+                            "wider than voxels the slice is computed on a finer grid and the image is its every K-th "
+                            "sample, so the frequencies above the pixels' limit alias into the image as they do in "
+                            "point samples (0: the pixels' limit only, the cheapest)", check=s.between(0.0, 8.0),
+                            group="fourier")
 
 
 def check(scene):
@@ -40,7 +46,7 @@ PLUGIN = RendererPlugin(
     renderer="dvr_gl.renderers.fourier.renderer:FourierRenderer",
     settings=(s.COMPOSITING.only("average", "xray"), s.CLASSIFICATION.only("pre"),  # the X-ray transforms classified voxels
               s.FILTER.only("linear", "cubic_bspline", "gaussian"), s.KERNEL_WIDTH, s.DEPTH_CUE, s.HEMISPHERICAL_SHADING,
-              SLICE_INTERPOLATION, PADDING),
+              SLICE_INTERPOLATION, PADDING, SLICE_BANDWIDTH),
     needs_gl=True,
     projections=("orthographic",),  # the projection-slice theorem: parallel projections
     check=check,
@@ -50,5 +56,7 @@ PLUGIN = RendererPlugin(
     # 6-9 voxels: whole lines of the ghosted field against clipped chords, the ghost layers cancelling the
     # spill across the faces to first order only (measured 0.117 average, 0.186 X-ray; docs/renderers/fourier.md).
     tolerances={"box": 1e-6, ("ramp", "average"): 0.15, ("ramp", "xray"): 0.2},
-    sweeps=(sweeps.Family("padding", "renderer.padding", (1.25, 1.5, 2.0, 3.0), (("renderer.compositing", "average"),)),),
+    sweeps=(sweeps.Family("padding", "renderer.padding", (1.25, 1.5, 2.0, 3.0), (("renderer.compositing", "average"),)),
+            sweeps.Family("slice bandwidth", "renderer.slice_bandwidth", (0.0, 1.0, 2.0, 4.0),
+                          (("renderer.compositing", "xray"),))),
 )

@@ -9,9 +9,11 @@ the eye's plane).  The projection ``P`` of the field along the view has the 2D t
 
 over the frequencies ``w_kl = u_k R + v_l D``, ``u_k = k / (W' p)`` (numpy's ``fftfreq``): an inverse 2D DFT of
 ``W' x H'`` samples.  Its period ``W' p`` (``H' p``) spans the image and the field's projected support, so
-no copy of the projection wraps into the image; the frequencies stop at the pixels' Nyquist limit, so
-where pixels are wider than voxels the image is the projection low-passed to them (the references
-sample pixel centres: the difference is measured in ``docs/renderers/fourier.md``).
+no copy of the projection wraps into the image.  The frequencies stop at the grid's Nyquist limit
+``1 / 2p``; the references point-sample the projection, whose frequencies go on (the filter's transform
+decays, the voxels' spectrum is periodic), so where pixels are wider than voxels the grid is ``K`` times
+finer than the pixels (:func:`oversampling`) and the image is every ``K``-th sample: the frequencies
+between the pixels' limit and the grid's alias into it as they do into point samples.
 
 ``F(w) = exp(-2 pi i w.x_c) S(w M h) Phi(w)`` (:mod:`.spectrum`): the renderer interpolates ``S`` at the
 slice's grid positions ``g = w M h`` in GL, the oracle in numpy; the rest is here, in float64.
@@ -46,9 +48,21 @@ def filter_transform(scene, w: np.ndarray) -> np.ndarray:
     return phi * float(np.prod(h))
 
 
+def oversampling(scene) -> int:
+    """``K``: the slice's grid is ``K`` times finer than the pixels, so that its frequencies reach
+    ``renderer.slice_bandwidth`` times the voxels' Nyquist limit (the pixels' ``1 / 2p``, the voxels'
+    ``1 / 2h`` along their finest axis)."""
+    cam, img = scene.camera, scene.image
+    pixel = 2.0 * cam.half_extent(img.width / img.height)[1] / img.height
+    ratio = scene.renderer.slice_bandwidth * pixel / float(np.min(scene.volume.spacing))
+    return max(1, int(math.ceil(ratio - 1e-9)))
+
+
 class Frame:
-    """The slice's frequency grid for ``scene`` (orthographic): ``size`` ``(W', H')``, ``pixel`` the pixel's
-    width, ``right``/``down`` the image's axes, ``origin`` ``X_00``, and ``w`` ``(H', W', 3)`` the frequencies."""
+    """The slice's frequency grid for ``scene`` (orthographic): ``size`` ``(W', H')``, ``oversampling`` ``K``,
+    ``pixel`` the grid's spacing (the image pixel's width over ``K``), ``right``/``down`` the image's axes,
+    ``origin`` ``X_00``, and ``w`` ``(H', W', 3)`` the frequencies.  The image is the inverse transform's
+    every ``K``-th sample from ``X_00``."""
 
     #: Voxels of margin around the box's projection: the filters' reach (the Gaussian's 5 sigma at the
     #: default width is 3.5) and the band-limited interpolant's ringing, which falls off with distance
@@ -59,11 +73,13 @@ class Frame:
         w, h = img.width, img.height
         forward, right, up = (np.asarray(v, float) for v in cam.basis())
         hx, hy = cam.half_extent(w / h)
-        self.pixel = 2.0 * hy / h
+        self.oversampling = oversampling(scene)
+        self.image_pixel = 2.0 * hy / h
+        self.pixel = self.image_pixel / self.oversampling
         self.spacing = np.asarray(scene.volume.spacing, float)
         self.right, self.down, self.forward = right, -up, forward
         eye = np.asarray(cam.eye, float)
-        self.origin = eye + (-hx + 0.5 * self.pixel) * right + (hy - 0.5 * self.pixel) * up
+        self.origin = eye + (-hx + 0.5 * self.image_pixel) * right + (hy - 0.5 * self.image_pixel) * up
         lo, hi = scene.volume.bounds
         corners = box_corners(lo, hi) - self.origin
         margin = self.MARGIN_VOXELS * float(np.max(scene.volume.spacing))
@@ -71,7 +87,7 @@ class Frame:
         for axis, count in ((self.right, w), (self.down, h)):
             along = corners @ axis
             first = min(0.0, float(along.min()) - margin)
-            last = max((count - 1) * self.pixel, float(along.max()) + margin)
+            last = max((count - 1) * self.image_pixel, float(along.max()) + margin)
             sizes.append(padded_length(int(math.ceil((last - first) / self.pixel)) + 1, 1.0))
         self.size = tuple(sizes)
         self.u = np.fft.fftfreq(self.size[0], self.pixel)
@@ -244,7 +260,8 @@ def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, der
         dphi = filter_derivative(scene, frame.w, forward)
 
     def project(spectral):
-        return np.fft.ifft2(spectral * scale).real[:h, :w]
+        k = frame.oversampling
+        return np.fft.ifft2(spectral * scale).real[:(h - 1) * k + 1:k, :(w - 1) * k + 1:k]
 
     def integral(c, slope=None, weight=cued):
         """The line integral of channel ``c`` (depth-weighted if ``weight``), or of its central differences
@@ -277,6 +294,9 @@ def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, der
     out = np.zeros((h, w, 4))
     hit = chord > 0
     if r.compositing == "average":
+        short = hit & (chord < SHORT_CHORD_VOXELS * float(np.min(scene.volume.spacing)))
+        if short.any():
+            sums[0][short] = direct_integrals(scene, rays, np.flatnonzero(short))
         out[hit] = projected_rgba(scene.transfer_function, sums[0][hit] / chord[hit])
     else:  # the X-ray of the classified voxels: (sigma c, sigma) integrated; the band limit rings (Gibbs)
         # where the data jumps, which can take an integral of non-negative voxels below zero: clamped
@@ -284,6 +304,31 @@ def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, der
         emitted = np.stack([np.maximum(sums[c][hit], 0.0) for c in range(3)], axis=1)
         out[hit] = xray_rgba(emitted, np.maximum(tau[hit], 0.0))
     return out
+
+
+#: The average of a chord shorter than this many voxels (of the finest spacing) is integrated in the
+#: spatial domain: the band-limited line integral's error, of the order of the data's finest features
+#: times a voxel, is divided by the chord, which goes to zero at the box's silhouette.
+SHORT_CHORD_VOXELS = 4.0
+
+
+def direct_integrals(scene, rays: RayBatch, rows: np.ndarray) -> np.ndarray:
+    """The average's line integrals over the chords of ``rows`` in the spatial domain: the field's pieces
+    between the filter's knots, each by 6-point Gauss-Legendre (exact for the polynomial pieces of the
+    tent and the cubic B-spline, and with the depth cue's linear weight), of what the model adds up
+    (:meth:`OpticalModel.projected_values`: shaded and depth-cued if asked)."""
+    from ...fields.reconstruction import smooth_pieces
+    from ...reference.model import OpticalModel
+
+    model = OpticalModel(scene, exact=True)
+    o, d = rays.origins[rows], rays.directions[rows]
+    ray, a, b = smooth_pieces(model.scalar, o, d, rays.t0[rows], rays.t1[rows])
+    x, weights = np.polynomial.legendre.leggauss(6)
+    half = 0.5 * (b - a)
+    t = a[:, None] + half[:, None] * (x[None, :] + 1.0)
+    points = (o[ray][:, None, :] + t[..., None] * d[ray][:, None, :]).reshape(-1, 3)
+    values = model.projected_values(points).reshape(len(ray), len(x))
+    return np.bincount(ray, half * (values @ weights), minlength=len(rows))
 
 
 def _line(scene, cue, forward, eye) -> tuple[float, float]:

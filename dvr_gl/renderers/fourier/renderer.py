@@ -60,7 +60,7 @@ class FourierRenderer(GLVolumeRenderer):
             raise SceneError(f"fourier's spectrum needs a {side}-texel 3D texture, over this GL's {gl.texture_3d_size}: "
                              "use a smaller renderer.padding or volume")
         limits.check_texture("fourier's slice", Frame(scene).size, gl,
-                             "frame the volume in the image (camera.view_height) or use a smaller image")
+                             "frame the volume in the image (camera.view_height), or use a smaller image or renderer.slice_bandwidth")
         count = (4 if r.compositing == "xray" else 1) + (3 if r.compositing == "xray" else 1) * r.hemispherical_shading
         # the float64 spectra on the host and their float32 textures
         check_bytes(count * 24 * (dims[0] // 2 + 1) * dims[1] * dims[2], "fourier's spectra",
