@@ -53,9 +53,10 @@ PLUGIN = RendererPlugin(
     oracle="dvr_gl.renderers.fourier.oracle:reference",
     # Against the closed forms (tests/closed_forms.py): the box is exact (the border's constant is taken out
     # and added back per chord: measured 3e-8).  The ramp's borders differ by its whole range and its grid is
-    # 6-9 voxels: whole lines of the ghosted field against clipped chords, the ghost layers cancelling the
-    # spill across the faces to first order only (measured 0.117 average, 0.186 X-ray; docs/renderers/fourier.md).
-    tolerances={"box": 1e-6, ("ramp", "average"): 0.15, ("ramp", "xray"): 0.2},
+    # 6-9 voxels: the box's clip is exact (the shell pass), what is left is the band limit at the ramp's
+    # kinks (measured 4.6e-4 average, 1.6e-3 X-ray; 0.117 and 0.186 with the first-order ghost layer that
+    # the Gaussian filter and hemispherical shading still use; docs/renderers/fourier.md).
+    tolerances={"box": 1e-6, ("ramp", "average"): 1e-3, ("ramp", "xray"): 4e-3},
     sweeps=(sweeps.Family("padding", "renderer.padding", (1.25, 1.5, 2.0, 3.0), (("renderer.compositing", "average"),)),
             sweeps.Family("slice bandwidth", "renderer.slice_bandwidth", (0.0, 1.0, 2.0, 4.0),
                           (("renderer.compositing", "xray"),))),

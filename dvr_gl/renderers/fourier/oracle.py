@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .projection import Frame, channels, finish, weighted
+from .projection import Frame, channels, clips_exactly, finish, shell_integrals, weighted
 from .spectrum import Spectrum, windowed_sinc
 
 
@@ -74,4 +74,5 @@ def reference(scene) -> np.ndarray:
         direction = frame.depth_direction(spectrum)
         derivatives = {c: interpolate(spectrum.spectra[c], spectrum.dims, g, r.slice_interpolation, direction)
                        for c in weighted(scene)}
-    return finish(scene, frame, spectrum, slices, offsets, derivatives)
+    shell = shell_integrals(scene, data, border) if clips_exactly(scene) else None
+    return finish(scene, frame, spectrum, slices, offsets, derivatives, shell)

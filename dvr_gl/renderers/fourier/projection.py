@@ -124,7 +124,7 @@ def channels(scene) -> tuple[np.ndarray, np.ndarray, int]:
         values = np.concatenate([values, gradient_magnitudes(shaded, scene.volume.spacing)], axis=-1)
     faces = [values[0], values[-1], values[:, 0], values[:, -1], values[:, :, 0], values[:, :, -1]]
     offsets = np.mean(np.concatenate([f.reshape(-1, values.shape[-1]) for f in faces]), axis=0)
-    ghosted, border = with_ghosts(scene, values - offsets)
+    ghosted, border = with_ghosts(scene, values - offsets, 0 if clips_exactly(scene) else MOMENTS)
     return ghosted, offsets, border
 
 
@@ -149,7 +149,7 @@ def _profile(scene):
 MOMENTS = 1
 
 
-def with_ghosts(scene, values: np.ndarray, moments: int = MOMENTS) -> tuple[np.ndarray, int]:
+def with_ghosts(scene, values: np.ndarray, moments: int | None = None) -> tuple[np.ndarray, int]:
     """``values`` ``(nz, ny, nx, C)`` with ghost layers on every face, and their count.  The references clip
     the rays at the box (the first and last samples' planes) and clamp the taps beyond it; Fourier
     rendering integrates whole lines.  So, per axis: the layers the filter reaches into the box from
@@ -159,6 +159,7 @@ def with_ghosts(scene, values: np.ndarray, moments: int = MOMENTS) -> tuple[np.n
     beyond the face): with one, its integral.  Along the normal the spill is then zero; an oblique ray
     through the layers meets the field's variation along the face times the profile's first moment, an
     error of first order in the obliquity (``docs/renderers/fourier.md``)."""
+    moments = MOMENTS if moments is None else moments
     profile, reach = _profile(scene)
     clamped = max(int(math.ceil(reach)) - 1, 0)
     x = np.linspace(0.0, reach + clamped + moments + 2.0, 40001)
@@ -170,7 +171,7 @@ def with_ghosts(scene, values: np.ndarray, moments: int = MOMENTS) -> tuple[np.n
     spilling = range(-reach_in, clamped + 1)  # the inside samples within reach of the face, then the clamped
     shares = np.array([[beyond(n, m) for n in spilling] for m in range(moments)])         # (moments, samples)
     solve = np.linalg.inv(np.array([[beyond(clamped + j, m) for j in range(1, moments + 1)]
-                                    for m in range(moments)]))                          # (layers, moments)
+                                    for m in range(moments)]).reshape(moments, moments))  # (layers, moments)
     out = values
     for axis in range(3):
         n = out.shape[axis]
@@ -222,7 +223,7 @@ def weighted(scene) -> tuple[int, ...]:
     return shaded + tuple(first + k for k in range(len(shaded)))
 
 
-def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, derivatives=None) -> np.ndarray:
+def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, derivatives=None, shell=None) -> np.ndarray:
     """The image ``(H, W, 4)`` float64 from the interpolated spectra ``slices`` (``(H', W')`` complex, one per
     channel): the filter, the phase, the inverse transform, the constants taken out before the transform
     (``offsets``, :func:`channels`) added back per chord, and the compositing mode's classification.
@@ -235,7 +236,10 @@ def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, der
     Hemispherical shading (``renderer.hemispherical_shading``,
     :class:`dvr_gl.reference.model.HemisphericalShading`): ``ambient E + diffuse h (G + grad E . L) / 2``;
     the central differences along the axes are the multiplier ``i sum_a L_a sin(2 pi w_a h_a) / h_a`` on
-    the slice, and ``G`` a transformed channel."""
+    the slice, and ``G`` a transformed channel.
+
+    ``shell`` ``(H, W, C)``: the whole lines' integrals beyond the box (:func:`shell_integrals`, weighted as
+    the channels are), taken off when the channels have no compensating ghost layer (:func:`clips_exactly`)."""
     img, r = scene.image, scene.renderer
     w, h = img.width, img.height
     phi = filter_transform(scene, frame.w)
@@ -249,11 +253,9 @@ def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, der
     chord = np.maximum(rays.t1 - rays.t0, 0.0).reshape(h, w)
     cued = derivatives is not None
     if cued:
-        from ...reference.model import depth_cue
-
         forward = frame.forward
         eye = np.asarray(scene.camera.eye, float)
-        a, b = _line(scene, depth_cue(scene), forward, eye)
+        a, b = cue_line(scene)
         z_c = float((centre - eye) @ forward)
         mid = (rays.origins + 0.5 * (rays.t0 + rays.t1)[:, None] * rays.directions).reshape(h, w, 3)
         chord_weight = a + b * ((mid - eye) @ forward)  # the mean weight over each chord: w is linear
@@ -273,12 +275,13 @@ def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, der
             k = 1j * np.sum(slope * np.sin(2.0 * math.pi * frame.w * spacing) / spacing, axis=-1)
             dk = 1j * np.sum(slope * 2.0 * math.pi * frame.forward * np.cos(2.0 * math.pi * frame.w * spacing), axis=-1)
             constant = 0.0
+        outside = 0.0 if shell is None else shell[..., c]  # the whole lines' parts beyond the box (exact clip)
         plain = project(k * s * phi)
         if not weight:
-            return plain + constant
+            return plain + constant - outside
         d = derivatives[c]
         moment = project((1j / (2.0 * math.pi)) * (k * (phi * d + s * dphi) + dk * s * phi))
-        return (a + b * z_c) * plain + b * moment + constant * chord_weight
+        return (a + b * z_c) * plain + b * moment + constant * chord_weight - outside
 
     shaded = shaded_channels(scene)
     if r.hemispherical_shading:
@@ -306,6 +309,75 @@ def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, der
     return out
 
 
+#: Gauss-Legendre points per piece of the shell pass: exact for the field's degree along a ray between
+#: voxel planes (3 for the trilinear field, 9 for the cubic B-spline) times the depth cue's linear weight.
+SHELL_NODES = {"linear": 3, "cubic_bspline": 6}
+
+
+def clips_exactly(scene) -> bool:
+    """Whether the box's clip is exact: the channels get the clamped ghost layers only, and the whole
+    lines' integrals beyond the box (:func:`shell_integrals`, the GL shell pass) are taken off.  For the
+    piecewise-polynomial filters without hemispherical shading (whose central differences reach a voxel
+    further); the Gaussian and the shaded channels keep the compensating ghost layer (:func:`with_ghosts`)."""
+    return scene.renderer.filter in SHELL_NODES and not scene.renderer.hemispherical_shading
+
+
+class Shell:
+    """Where the ghosted field lives: its samples zero-padded by ``pad`` (each tap of a point within the
+    field's reach stays in the array), the padded array's first sample at world ``origin``, and the box
+    ``outer`` beyond which the ghosted field is zero (the volume's box grown by the ghost layers and the
+    filter's reach along each axis)."""
+
+    def __init__(self, scene, border: int):
+        _, reach = _profile(scene)
+        self.pad = int(math.ceil(reach)) + 1
+        h = np.asarray(scene.volume.spacing, float)
+        lo, hi = (np.asarray(v, float) for v in scene.volume.bounds)
+        self.origin = lo - (border + self.pad) * h
+        self.outer = (lo - (border + reach) * h, hi + (border + reach) * h)
+        self.nodes = SHELL_NODES[scene.renderer.filter]
+
+    def padded(self, ghosted: np.ndarray) -> np.ndarray:
+        return np.pad(ghosted, [(self.pad, self.pad)] * 3 + [(0, 0)])
+
+
+def shell_integrals(scene, ghosted: np.ndarray, border: int) -> np.ndarray:
+    """``(H, W, C)``: each pixel's whole line's integral of the ghosted channels outside the volume's box,
+    the :func:`weighted` channels times the depth cue's ``a + b z``; in float64 (the GL shell pass,
+    ``shaders/fourier/shell.frag``, computes the same).  The field's pieces between the voxel planes
+    (:func:`smooth_pieces`), each by Gauss-Legendre (:data:`SHELL_NODES`)."""
+    from ...fields.reconstruction import SampledField, smooth_pieces
+    from ...rays import intersect_box
+
+    img, shell = scene.image, Shell(scene, border)
+    field = SampledField(shell.padded(ghosted), scene.volume.spacing, shell.origin, scene.renderer.filter)
+    rays = RayBatch.for_camera(scene.camera, img.width, img.height, scene.volume.bounds)
+    n = len(rays.t0)
+    outer0, outer1 = intersect_box(rays.origins, rays.directions, *shell.outer)
+    through = outer1 > outer0  # a ray along an axis beside the shell has infinite parameters: none
+    outer0, outer1 = np.where(through, outer0, 0.0), np.where(through, outer1, 0.0)
+    hit = rays.t1 > rays.t0
+    # before the box and after it; a ray that misses the box: its whole stretch through the shell, once
+    a = np.concatenate([outer0, np.where(hit, rays.t1, outer1)])
+    b = np.concatenate([np.where(hit, rays.t0, outer1), np.where(hit, outer1, outer0)])
+    owner = np.concatenate([np.arange(n), np.arange(n)])
+    o, d = rays.origins[owner], rays.directions[owner]
+    ray, pa, pb = smooth_pieces(field, o, d, a, np.maximum(a, b))
+    x, w = np.polynomial.legendre.leggauss(shell.nodes)
+    half = 0.5 * (pb - pa)
+    t = pa[:, None] + half[:, None] * (x[None, :] + 1.0)
+    points = o[ray][:, None, :] + t[..., None] * d[ray][:, None, :]
+    values = field.sample(points.reshape(-1, 3)).reshape(len(ray), len(x), -1)
+    cue_a, cue_b = cue_line(scene)
+    forward, eye = np.asarray(scene.camera.basis()[0], float), np.asarray(scene.camera.eye, float)
+    weight = np.ones_like(values)
+    weight[..., list(weighted(scene))] = (cue_a + cue_b * ((points - eye) @ forward))[..., None]
+    per_piece = np.einsum("pnc,pnc,n->pc", values, weight, w) * half[:, None]
+    out = np.zeros((n, values.shape[-1]))
+    np.add.at(out, owner[ray], per_piece)
+    return out.reshape(img.height, img.width, -1)
+
+
 #: The average of a chord shorter than this many voxels (of the finest spacing) is integrated in the
 #: spatial domain: the band-limited line integral's error, of the order of the data's finest features
 #: times a voxel, is divided by the chord, which goes to zero at the box's silhouette.
@@ -331,10 +403,16 @@ def direct_integrals(scene, rays: RayBatch, rows: np.ndarray) -> np.ndarray:
     return np.bincount(ray, half * (values @ weights), minlength=len(rows))
 
 
-def _line(scene, cue, forward, eye) -> tuple[float, float]:
-    """``(a, b)`` of the depth cue's weight ``a + b z`` between the box's nearest and farthest depths."""
+def cue_line(scene) -> tuple[float, float]:
+    """``(a, b)`` of the depth cue's weight ``a + b z`` (``z`` the view depth from the eye) between the box's
+    nearest and farthest depths; ``(1, 0)`` without a cue."""
     from ...gl.geometry import box_corners
+    from ...reference.model import depth_cue
 
+    if scene.renderer.depth_cue >= 1.0:
+        return 1.0, 0.0
+    cue = depth_cue(scene)
+    forward, eye = np.asarray(scene.camera.basis()[0], float), np.asarray(scene.camera.eye, float)
     depths = (box_corners(*scene.volume.bounds) - eye) @ forward
     near, far = max(float(depths.min()), scene.camera.near), float(depths.max())
     w_near, w_far = cue((eye + near * forward)[None, :])[0], cue((eye + far * forward)[None, :])[0]

@@ -19,7 +19,7 @@ from ...gl.shaders import create_program
 from ... import limits
 from ...sandbox import check_bytes
 from ..grid.gl_base import GLVolumeRenderer
-from .projection import Frame, channels, finish, weighted
+from .projection import Frame, Shell, channels, clips_exactly, finish, weighted
 from .spectrum import KAISER_BETA, Spectrum
 
 
@@ -46,6 +46,23 @@ class SpectrumTextures:
             t.release()
 
 
+class ShellTexture:
+    """The ghosted channels (at most four) zero-padded (:class:`.projection.Shell`), an RGBA32F 3D texture
+    sampled texel by texel by the shell pass."""
+
+    def __init__(self, ctx, scene, ghosted: np.ndarray, border: int):
+        self.shell = Shell(scene, border)
+        padded = self.shell.padded(ghosted)
+        texels = np.zeros(padded.shape[:3] + (4,), np.float32)
+        texels[..., :padded.shape[-1]] = padded
+        self.dims = padded.shape[2::-1][:3]  # (x, y, z)
+        self.texture = ctx.texture3d(self.dims, 4, texels.tobytes(), dtype="f4")
+        self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+
+    def release(self):
+        self.texture.release()
+
+
 class FourierRenderer(GLVolumeRenderer):
     name = "fourier"
 
@@ -62,8 +79,9 @@ class FourierRenderer(GLVolumeRenderer):
         limits.check_texture("fourier's slice", Frame(scene).size, gl,
                              "frame the volume in the image (camera.view_height), or use a smaller image or renderer.slice_bandwidth")
         count = (4 if r.compositing == "xray" else 1) + (3 if r.compositing == "xray" else 1) * r.hemispherical_shading
-        # the float64 spectra on the host and their float32 textures
-        check_bytes(count * 24 * (dims[0] // 2 + 1) * dims[1] * dims[2], "fourier's spectra",
+        # the float64 spectra on the host and their float32 textures, and the shell pass's float32 channels
+        shell = 16 * int(np.prod([n + 10 for n in scene.volume.dims])) if clips_exactly(scene) else 0
+        check_bytes(count * 24 * (dims[0] // 2 + 1) * dims[1] * dims[2] + shell, "fourier's spectra",
                     "use a smaller renderer.padding or volume")
 
     def draw(self, scene) -> np.ndarray:
@@ -107,10 +125,46 @@ class FourierRenderer(GLVolumeRenderer):
         # the values (two channels a texture, the last pair padded), then their derivatives
         slices = read[:len(spectrum.spectra)]
         derivatives = {c: read[2 * count + c] for c in weighted(scene)} if cued else None
+        shell = self._shell(scene, frame, data, border) if clips_exactly(scene) else None
         drawn = time.perf_counter()
-        image = finish(scene, frame, spectrum, slices, offsets, derivatives)
+        image = finish(scene, frame, spectrum, slices, offsets, derivatives, shell)
         end = time.perf_counter()
         self.stats.update(preprocess_seconds=spectrum.seconds if fresh else 0.0, spectrum_bytes=spectrum.bytes,
                           spectrum_dims=spectrum.dims, fft=spectrum.library, slice_size=frame.size,
                           slice_seconds=drawn - start, inverse_seconds=end - drawn, view_seconds=end - start)
         return image.astype(np.float32)
+
+    def _shell(self, scene, frame, data, border) -> np.ndarray:
+        """The shell pass (``shaders/fourier/shell.frag``): ``(H, W, C)`` whole-line integrals beyond the box."""
+        from .projection import cue_line
+
+        r, img = scene.renderer, scene.image
+        texture = self._cached("shell texture", (data,), lambda: ShellTexture(self.ctx, scene, data, border))
+        shell = texture.shell
+        defines = {"NODES": str(shell.nodes), "CUBIC_BSPLINE": r.filter == "cubic_bspline"}
+        program = create_program(self.ctx, "fullscreen.vert", "fourier/shell.frag", {k: v for k, v in defines.items() if v})
+        _, fbo = self.target("shell", img.width, img.height)
+        fbo.use()
+        nodes, weights = np.polynomial.legendre.leggauss(shell.nodes)
+        lo, hi = (np.asarray(v, float) for v in scene.volume.bounds)
+        spacing = np.asarray(scene.volume.spacing, float)
+        cued = np.zeros(4)
+        cued[list(weighted(scene))] = 1.0
+        # the longest stretch through the shell crosses at most its extent's voxel planes per axis, and one more
+        extent = (shell.outer[1] - shell.outer[0]) / spacing
+        self.bind(program, {"u_texels": texture.dims, "u_origin": tuple(shell.origin), "u_spacing": tuple(spacing),
+                            "u_box_lo": tuple(lo), "u_box_hi": tuple(hi), "u_outer_lo": tuple(shell.outer[0]),
+                            "u_outer_hi": tuple(shell.outer[1]), "u_corner": tuple(frame.origin),
+                            "u_right": tuple(frame.right), "u_down": tuple(frame.down), "u_forward": tuple(frame.forward),
+                            "u_eye": tuple(np.asarray(scene.camera.eye, float)), "u_pixel": frame.image_pixel,
+                            "u_cue": cue_line(scene), "u_weighted": tuple(cued), "u_nodes": list(nodes),
+                            "u_node_weights": list(weights), "u_max_pieces": int(np.ceil(extent).sum()) + 4},
+                  {"u_field": texture.texture})
+        quad = self.ctx.vertex_array(program, [])
+        quad.render(moderngl.TRIANGLES, vertices=3)
+        quad.release()
+        channels = data.shape[-1]
+        # fragment row j is the image's row j from the top: read back as stored, not flipped
+        raw = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32).reshape(img.height, img.width, 4)
+        return raw[..., :channels].astype(np.float64)
+
