@@ -1,7 +1,7 @@
 #version 430 core
 // One sample of the central slice of the half spectra (dvr_gl/renderers/fourier/spectrum.py): this
 // fragment's frequency (numpy's fftfreq order: fragment x is k, y is l) taken to the spectrum's index
-// units, the spectra interpolated there with float weights (TRILINEAR, WINDOWED_SINC, or the cubic
+// units, the spectra interpolated there with float weights (TRILINEAR, WINDOWED_SINC, KAISER_BESSEL, or the cubic
 // B-spline), periodic, the half not stored read as the conjugate of its mirror.  TEXTURES textures of
 // two complex channels each (.rg, .ba).  DEPTH_CUE: also the interpolant's derivative along
 // u_depth_dir (the kernel's derivative weights), for the depth cue's moment
@@ -44,8 +44,9 @@ void weights(float f, out float w[4], out float dw[4]) {
     w[0] = 1.0 - f; w[1] = f; w[2] = 0.0; w[3] = 0.0;
     dw[0] = -1.0; dw[1] = 1.0; dw[2] = 0.0; dw[3] = 0.0;
 }
-#elif defined(WINDOWED_SINC)
-// sinc(x) under a Kaiser window of half-width 2 (dvr_gl/renderers/fourier/spectrum.py, windowed_sinc)
+#elif defined(WINDOWED_SINC) || defined(KAISER_BESSEL)
+// sinc(x) under a Kaiser window of half-width 2 (dvr_gl/renderers/fourier/spectrum.py, windowed_sinc), or
+// KAISER_BESSEL: the window alone (kaiser_window, its shape from the padding)
 const int TAPS = 4;
 const int FIRST = -1;
 uniform float u_kaiser_beta;
@@ -74,8 +75,12 @@ void kernel_at(float x, out float k, out float dk) {
     bessel(u_kaiser_beta * root, i0, i1);
     bessel(u_kaiser_beta, n0, n1);
     float window = i0 / n0;
+#ifdef KAISER_BESSEL
+    float s = 1.0, ds = 0.0;
+#else
     float s = abs(x) > 1e-6 ? sin(PI * x) / (PI * x) : 1.0;
     float ds = abs(x) > 1e-6 ? (cos(PI * x) - s) / x : 0.0;
+#endif
     float dwindow = root > 1e-6 ? i1 * u_kaiser_beta * (-u / root) / 2.0 / n0 : 0.0;
     k = s * window;
     dk = ds * window + s * dwindow;

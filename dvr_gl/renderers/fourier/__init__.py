@@ -15,11 +15,12 @@ from ...gl.geometry import box_corners
 from ..registry import RendererPlugin
 from .spectrum import INTERPOLATIONS
 
-SLICE_INTERPOLATION = s.Setting("slice_interpolation", str, "cubic_bspline", "how the central slice is "
-                                "interpolated from the spectrum's samples: trilinear, cubic_bspline, or windowed_sinc "
-                                "(sinc under a Kaiser window, four taps a side); the volume is pre-multiplied by the "
-                                "reciprocal of each kernel's transform", choices=INTERPOLATIONS,
-                                group="fourier")
+SLICE_INTERPOLATION = s.Setting("slice_interpolation", str, "kaiser_bessel", "how the central slice is "
+                                "interpolated from the spectrum's samples: trilinear, cubic_bspline, windowed_sinc "
+                                "(sinc under a Kaiser window) or kaiser_bessel (the Kaiser-Bessel gridding kernel, "
+                                "its shape from the padding: the smallest replicas), four taps a side but trilinear's "
+                                "two; the volume is pre-multiplied by the reciprocal of each kernel's transform",
+                                choices=INTERPOLATIONS, group="fourier")
 PADDING = s.Setting("padding", float, 2.0, "zero padding of the volume before its transform, a factor per axis "
                     "(ghosting of the replicas falls with it)", check=s.between(1.0, 8.0), group="fourier")
 SLICE_BANDWIDTH = s.Setting("slice_bandwidth", float, 1.0, "how far the central slice's frequencies reach, in "
@@ -54,7 +55,7 @@ PLUGIN = RendererPlugin(
     # Against the closed forms (tests/closed_forms.py): the box is exact (the border's constant is taken out
     # and added back per chord: measured 3e-8).  The ramp's borders differ by its whole range and its grid is
     # 6-9 voxels: the box's clip is exact (the shell pass), what is left is the band limit at the ramp's
-    # kinks (measured 4.6e-4 average, 1.6e-3 X-ray; 0.117 and 0.186 with the first-order ghost layer that
+    # kinks (measured 4.9e-4 average, 1.6e-3 X-ray; 0.117 and 0.186 with the first-order ghost layer that
     # the Gaussian filter and hemispherical shading still use; docs/renderers/fourier.md).
     tolerances={"box": 1e-6, ("ramp", "average"): 1e-3, ("ramp", "xray"): 4e-3},
     sweeps=(sweeps.Family("padding", "renderer.padding", (1.25, 1.5, 2.0, 3.0), (("renderer.compositing", "average"),)),

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from .projection import Frame, channels, clips_exactly, finish, shell_integrals, weighted
-from .spectrum import Spectrum, windowed_sinc
+from .spectrum import Spectrum, kernel
 
 
 def bspline_weights(f: np.ndarray, derivative: bool = False) -> list[np.ndarray]:
@@ -22,15 +22,17 @@ def bspline_weights(f: np.ndarray, derivative: bool = False) -> list[np.ndarray]
             (-3.0 * f ** 3 + 3.0 * f ** 2 + 3.0 * f + 1.0) / 6.0, f ** 3 / 6.0]
 
 
-def _weights(interpolation: str, f: np.ndarray, derivative: bool = False):
+def _weights(interpolation: str, f: np.ndarray, derivative: bool = False, padding: float = 2.0):
     if interpolation == "trilinear":
         return [-np.ones_like(f), np.ones_like(f)] if derivative else [1.0 - f, f]
-    if interpolation == "windowed_sinc":  # the tap at offset o lies f - o away
-        return [windowed_sinc(f - o, derivative) for o in (-1, 0, 1, 2)]
+    if interpolation in ("windowed_sinc", "kaiser_bessel"):  # the tap at offset o lies f - o away
+        k = kernel(interpolation, padding)
+        return [k(f - o, derivative) for o in (-1, 0, 1, 2)]
     return bspline_weights(f, derivative)
 
 
-def interpolate(half: np.ndarray, dims, g: np.ndarray, interpolation: str, direction=None) -> np.ndarray:
+def interpolate(half: np.ndarray, dims, g: np.ndarray, interpolation: str, direction=None,
+                padding: float = 2.0) -> np.ndarray:
     """``S`` at grid positions ``g`` ``(..., 3)`` (x, y, z) from the half spectrum ``half`` ``(Mz, My, Mx // 2
     + 1)``: periodic, and ``S(-k)`` the conjugate of ``S(k)`` for the half not stored; with ``direction``
     (index units), the interpolant's derivative along it instead."""
@@ -38,11 +40,11 @@ def interpolate(half: np.ndarray, dims, g: np.ndarray, interpolation: str, direc
     base = np.floor(g).astype(np.int64)
     f = g - base
     offsets = (0, 1) if interpolation == "trilinear" else (-1, 0, 1, 2)
-    plain = [_weights(interpolation, f[..., a]) for a in range(3)]
+    plain = [_weights(interpolation, f[..., a], padding=padding) for a in range(3)]
     if direction is None:
         weights = plain
     else:  # the derivative along `direction` of the tensor product: one factor differentiated at a time
-        slopes = [_weights(interpolation, f[..., a], True) for a in range(3)]
+        slopes = [_weights(interpolation, f[..., a], True, padding) for a in range(3)]
     out = np.zeros(g.shape[:-1], complex)
     for iz, oz in enumerate(offsets):
         for iy, oy in enumerate(offsets):
@@ -68,11 +70,11 @@ def reference(scene) -> np.ndarray:
     spectrum = Spectrum(data, r.slice_interpolation, r.padding, border)
     frame = Frame(scene)
     g = frame.grid_positions(spectrum)
-    slices = [interpolate(s, spectrum.dims, g, r.slice_interpolation) for s in spectrum.spectra]
+    slices = [interpolate(s, spectrum.dims, g, r.slice_interpolation, padding=r.padding) for s in spectrum.spectra]
     derivatives = None
     if r.depth_cue < 1.0:
         direction = frame.depth_direction(spectrum)
-        derivatives = {c: interpolate(spectrum.spectra[c], spectrum.dims, g, r.slice_interpolation, direction)
+        derivatives = {c: interpolate(spectrum.spectra[c], spectrum.dims, g, r.slice_interpolation, direction, r.padding)
                        for c in weighted(scene)}
     shell = shell_integrals(scene, data, border) if clips_exactly(scene) else None
     return finish(scene, frame, spectrum, slices, offsets, derivatives, shell)

@@ -20,7 +20,7 @@ from ... import limits
 from ...sandbox import check_bytes
 from ..grid.gl_base import GLVolumeRenderer
 from .projection import Frame, Shell, channels, clips_exactly, finish, weighted
-from .spectrum import KAISER_BETA, Spectrum
+from .spectrum import KAISER_BETA, Spectrum, kaiser_bessel_beta
 
 
 class SpectrumTextures:
@@ -101,7 +101,8 @@ class FourierRenderer(GLVolumeRenderer):
         cued = r.depth_cue < 1.0
         count = len(textures.textures)
         defines = {"TRILINEAR": r.slice_interpolation == "trilinear", "TEXTURES": str(count),
-                   "WINDOWED_SINC": r.slice_interpolation == "windowed_sinc", "DEPTH_CUE": cued}
+                   "WINDOWED_SINC": r.slice_interpolation == "windowed_sinc",
+                   "KAISER_BESSEL": r.slice_interpolation == "kaiser_bessel", "DEPTH_CUE": cued}
         program = create_program(self.ctx, "fullscreen.vert", "fourier/slice.frag",
                                  {k: v for k, v in defines.items() if v})
         attachments = (4,) * (count * (2 if cued else 1))
@@ -113,7 +114,7 @@ class FourierRenderer(GLVolumeRenderer):
         self.bind(program, {"u_dims": spectrum.dims, "u_size": frame.size,
                             "u_frequency_step": (1.0 / (wf * frame.pixel), 1.0 / (hf * frame.pixel)),
                             "u_right": tuple(frame.right), "u_down": tuple(frame.down),
-                            "u_grid_scale": tuple(np.asarray(spectrum.dims) * frame.spacing), "u_kaiser_beta": KAISER_BETA,
+                            "u_grid_scale": tuple(np.asarray(spectrum.dims) * frame.spacing), "u_kaiser_beta": KAISER_BETA if r.slice_interpolation == "windowed_sinc" else kaiser_bessel_beta(r.padding),
                             **({"u_depth_dir": tuple(frame.depth_direction(spectrum))} if cued else {})}, {})
         quad = self.ctx.vertex_array(program, [])
         quad.render(moderngl.TRIANGLES, vertices=3)

@@ -30,36 +30,61 @@ import math
 import numpy as np
 
 #: The slice interpolation kernels (``renderer.slice_interpolation``).
-INTERPOLATIONS = ("trilinear", "cubic_bspline", "windowed_sinc")
+INTERPOLATIONS = ("trilinear", "cubic_bspline", "windowed_sinc", "kaiser_bessel")
 #: The windowed sinc: ``sinc(x)`` under a Kaiser window of half-width 2 (the cubic's four taps a side)
-#: and shape ``KAISER_BETA`` (the window's side lobes against its main lobe's width).
+#: and shape ``KAISER_BETA`` (the window's side lobes against its main lobe's width).  The Kaiser-Bessel
+#: kernel is the window alone, of the shape :func:`kaiser_bessel_beta` gives for the padding.
 WINDOW_HALF_WIDTH = 2.0
 KAISER_BETA = 6.0
+
+
+def kaiser_bessel_beta(padding: float) -> float:
+    """The Kaiser-Bessel kernel's shape for ``W = 4`` taps and oversampling ``padding`` (Beatty, Nishimura
+    and Pauly 2005): ``pi sqrt((W / s)^2 (s - 1/2)^2 - 0.8)``, 9.0 at the default padding 2.  It puts the
+    kernel's transform's first zero where the nearest replica's edge falls, so the replicas the
+    interpolation ghosts in are smallest."""
+    w = 2.0 * WINDOW_HALF_WIDTH
+    return math.pi * math.sqrt((w / padding) ** 2 * (padding - 0.5) ** 2 - 0.8)
+
+
+def kaiser_window(x: np.ndarray, beta: float, derivative: bool = False) -> np.ndarray:
+    """``I0(beta sqrt(1 - (x / 2)^2)) / I0(beta)`` for ``|x| < 2`` (0 beyond), or its derivative in ``x``."""
+    x = np.asarray(x, dtype=np.float64)
+    u = np.clip(x / WINDOW_HALF_WIDTH, -1.0, 1.0)
+    root = np.sqrt(np.maximum(1.0 - u * u, 0.0))
+    inside = np.abs(x) < WINDOW_HALF_WIDTH
+    if not derivative:
+        return np.where(inside, np.i0(beta * root) / np.i0(beta), 0.0)
+    # d/dx I0(beta sqrt(1 - u^2)) = I1(.) beta (-u / sqrt(1 - u^2)) / W, and I1 = I0'
+    safe = np.where(root > 1e-12, root, 1.0)
+    slope = np.where(root > 1e-12, _i1(beta * root) * beta * (-u / safe) / WINDOW_HALF_WIDTH, 0.0)
+    return np.where(inside, slope / np.i0(beta), 0.0)
 
 
 def windowed_sinc(x: np.ndarray, derivative: bool = False) -> np.ndarray:
     """The windowed-sinc kernel at ``x`` (spectrum samples), zero beyond ``WINDOW_HALF_WIDTH``; or its
     derivative (by the product rule, in float64)."""
     x = np.asarray(x, dtype=np.float64)
-    u = np.clip(x / WINDOW_HALF_WIDTH, -1.0, 1.0)
-    root = np.sqrt(np.maximum(1.0 - u * u, 0.0))
-    window = np.i0(KAISER_BETA * root) / np.i0(KAISER_BETA)
-    inside = np.abs(x) < WINDOW_HALF_WIDTH
+    window = kaiser_window(x, KAISER_BETA)
     s = np.sinc(x)
     if not derivative:
-        return np.where(inside, s * window, 0.0)
+        return s * window
     with np.errstate(invalid="ignore", divide="ignore"):
         ds = np.where(np.abs(x) > 1e-8, (np.cos(np.pi * x) - s) / np.where(x == 0, 1.0, x), 0.0)
-        # d/dx I0(beta sqrt(1 - u^2)) = I1(.) beta (-u / sqrt(1 - u^2)) / W, and I1 = I0' (numerically)
-        z = KAISER_BETA * root
-        i1 = _i1(z)
-        dwindow = np.where(root > 1e-12, i1 * KAISER_BETA * (-u / np.where(root > 1e-12, root, 1.0))
-                           / WINDOW_HALF_WIDTH, 0.0) / np.i0(KAISER_BETA)
-    return np.where(inside, ds * window + s * dwindow, 0.0)
+    return ds * window + s * kaiser_window(x, KAISER_BETA, True)
+
+
+def kernel(interpolation: str, padding: float):
+    """The windowed kernels ``k(x, derivative=False)`` (the trilinear's and the cubic's weights are
+    polynomials, :mod:`.oracle`)."""
+    if interpolation == "windowed_sinc":
+        return windowed_sinc
+    beta = kaiser_bessel_beta(padding)
+    return lambda x, derivative=False: kaiser_window(x, beta, derivative)
 
 
 def _i1(z: np.ndarray) -> np.ndarray:
-    """The modified Bessel function I1 by its power series (z <= KAISER_BETA: 30 terms reach float64)."""
+    """The modified Bessel function I1 by its power series (z <= 12: 30 terms reach float64)."""
     z = np.asarray(z, dtype=np.float64)
     term = z / 2.0
     total = term.copy()
@@ -93,20 +118,22 @@ def padded_length(n: int, padding: float) -> int:
         m += 2
 
 
-def kernel_transform(interpolation: str, xi: np.ndarray) -> np.ndarray:
+def kernel_transform(interpolation: str, xi: np.ndarray, padding: float = 2.0) -> np.ndarray:
     """What interpolating the spectrum with the kernel multiplies the samples by, at ``xi`` (positions
     over the period): the kernel's transform, ``sinc^2`` for the tent (trilinear), ``sinc^4`` for the cubic
-    B-spline, by quadrature for the windowed sinc."""
+    B-spline, by quadrature for the windowed sinc and the Kaiser-Bessel kernel (whose shape depends on the
+    padding)."""
     s = np.sinc(xi)
     if interpolation == "trilinear":
         return s * s
     if interpolation == "cubic_bspline":
         return s ** 4
-    if interpolation == "windowed_sinc":  # its transform by Gauss-Legendre over the support (even: a cosine)
+    if interpolation in ("windowed_sinc", "kaiser_bessel"):  # Gauss-Legendre over the support (even: a cosine)
         x, w = np.polynomial.legendre.leggauss(200)
         x, w = WINDOW_HALF_WIDTH * (x + 1.0) / 2.0, w * WINDOW_HALF_WIDTH / 2.0
         xi = np.asarray(xi, dtype=np.float64)
-        return 2.0 * (np.cos(2.0 * math.pi * xi[..., None] * x) * (w * windowed_sinc(x))).sum(axis=-1)
+        k = kernel(interpolation, padding)
+        return 2.0 * (np.cos(2.0 * math.pi * xi[..., None] * x) * (w * k(x))).sum(axis=-1)
     raise ValueError(f"unknown slice interpolation {interpolation!r}; choose one of {', '.join(INTERPOLATIONS)}")
 
 
@@ -130,7 +157,7 @@ class Spectrum:
         weights = []
         for axis, (m, k, s) in enumerate(zip(self.dims, n, self.start)):
             xi = (np.arange(k) + s - m / 2.0) / m
-            weights.append(1.0 / kernel_transform(interpolation, xi))
+            weights.append(1.0 / kernel_transform(interpolation, xi, padding))
         premultiply = weights[2][:, None, None] * weights[1][None, :, None] * weights[0][None, None, :]
         self.spectra = []
         for c in range(count):
