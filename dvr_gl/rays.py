@@ -28,10 +28,14 @@ def intersect_box(origins: np.ndarray, directions: np.ndarray, lo, hi) -> tuple[
         inv = 1.0 / d
         ta = (lo - o) * inv
         tb = (hi - o) * inv
-    inside = (o >= lo) & (o <= hi)
-    tmin = np.where(parallel, np.where(inside, -np.inf, np.inf), np.minimum(ta, tb))
-    tmax = np.where(parallel, np.where(inside, np.inf, -np.inf), np.maximum(ta, tb))
-    return tmin.max(axis=1), tmax.min(axis=1)
+    tmin, tmax = np.minimum(ta, tb), np.maximum(ta, tb)
+    if parallel.any():  # (rarely: rays along a slab) inside it for all t, or never
+        inside = (o >= lo) & (o <= hi)
+        tmin = np.where(parallel, np.where(inside, -np.inf, np.inf), tmin)
+        tmax = np.where(parallel, np.where(inside, np.inf, -np.inf), tmax)
+    # column by column: numpy's reductions along a short last axis are several times slower
+    return (np.maximum(np.maximum(tmin[:, 0], tmin[:, 1]), tmin[:, 2]),
+            np.minimum(np.minimum(tmax[:, 0], tmax[:, 1]), tmax[:, 2]))
 
 
 def segment_counts(t0: np.ndarray, t1: np.ndarray, d: float) -> np.ndarray:

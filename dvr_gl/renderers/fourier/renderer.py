@@ -52,7 +52,8 @@ class ShellTexture:
 
     def __init__(self, ctx, scene, ghosted: np.ndarray, border: int):
         self.shell = Shell(scene, border)
-        padded = self.shell.padded(ghosted)
+        self.empty = self.shell.empty(ghosted)  # nothing beyond the box: no pass, and a one-texel texture
+        padded = self.shell.padded(ghosted) if not self.empty else np.zeros((1, 1, 1, ghosted.shape[-1]))
         texels = np.zeros(padded.shape[:3] + (4,), np.float32)
         texels[..., :padded.shape[-1]] = padded
         self.dims = padded.shape[2::-1][:3]  # (x, y, z)
@@ -136,11 +137,14 @@ class FourierRenderer(GLVolumeRenderer):
         return image.astype(np.float32)
 
     def _shell(self, scene, frame, data, border) -> np.ndarray:
-        """The shell pass (``shaders/fourier/shell.frag``): ``(H, W, C)`` whole-line integrals beyond the box."""
+        """The shell pass (``shaders/fourier/shell.frag``): ``(H, W, C)`` whole-line integrals beyond the box
+        (None when the ghosted field is zero there)."""
         from .projection import cue_line
 
         r, img = scene.renderer, scene.image
         texture = self._cached("shell texture", (data,), lambda: ShellTexture(self.ctx, scene, data, border))
+        if texture.empty:
+            return None
         shell = texture.shell
         defines = {"NODES": str(shell.nodes), "CUBIC_BSPLINE": r.filter == "cubic_bspline"}
         program = create_program(self.ctx, "fullscreen.vert", "fourier/shell.frag", {k: v for k, v in defines.items() if v})
