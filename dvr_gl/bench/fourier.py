@@ -74,7 +74,7 @@ SHARED_COLUMNS = [("dataset", "dataset", ""), ("mode", "mode", ""), ("pre_s", "p
 
 def shared(scenes, size: int = 128, progress=None) -> list[dict]:
     """The accuracy study: each shared dataset (``(name, overrides)``) in both modes at its defaults
-    (the trilinear field, the cubic B-spline slice, padding 2), against reference-converged of the same
+    (the trilinear field, the plugin's slice settings), against reference-converged of the same
     scene: RMS over the image's maximum, the largest error, the largest error two pixels or more inside
     the box's silhouette, and the RMS with the slice's frequencies reaching twice the voxels' Nyquist limit."""
     import numpy as np
