@@ -537,11 +537,12 @@ def run_fourier(args) -> int:
 
         defaults = ", ".join(f"{setting.name} {setting.default:g}" if isinstance(setting.default, float)
                              else f"{setting.name} {setting.default}" for setting in
-                             (fourier_plugin.SLICE_INTERPOLATION, fourier_plugin.PADDING, fourier_plugin.SLICE_BANDWIDTH))
+                             (fourier_plugin.SLICE_INTERPOLATION, fourier_plugin.SLICE_TAPS, fourier_plugin.PADDING,
+                              fourier_plugin.SLICE_BANDWIDTH))
         args.report.text(f"dvr bench fourier --shared: each regular dataset at {args.error_size}x{args.error_size}, "
                          f"orthographic, default camera and transfer function, the defaults (trilinear field, "
                          f"{defaults}), against reference-converged (tolerance 1e-4); the last column with "
-                         f"slice_bandwidth 2")
+                         f"slice_taps 6 and slice_bandwidth 2")
         rows = fourier.shared(scenes, args.error_size, progress=lambda r: print(
             f"{r['dataset']} {r['mode']}: RMS / max {r['rms_rel']:.2e}", flush=True))
         args.report.text()

@@ -67,6 +67,8 @@ CASES = [{}, {"renderer.slice_interpolation": "trilinear"}, {"renderer.filter": 
          {"renderer.filter": "cubic_bspline"}, {"renderer.slice_interpolation": "kaiser_bessel"},
          {"renderer.slice_interpolation": "kaiser_bessel", "renderer.compositing": "xray", "renderer.depth_cue": 0.3,
           "renderer.padding": 1.5},
+         {"renderer.slice_taps": 6}, {"renderer.slice_taps": 6, "renderer.slice_interpolation": "windowed_sinc",
+                                      "renderer.compositing": "xray", "renderer.depth_cue": 0.5},
          {"renderer.filter": "cubic_bspline", "renderer.compositing": "xray", "renderer.depth_cue": 0.5,
           "camera.azimuth": 0.0, "camera.elevation": 0.0}]
 
@@ -298,7 +300,8 @@ def test_premultiplication_divides_by_the_kernels_transform(tmp_path, monkeypatc
     right = np.abs(p - exact).max() / exact.max()
     original = spectrum_module.kernel_transform
     # the sign slip: the volume multiplied by k (1 / (1 / k)) instead of divided
-    monkeypatch.setattr(spectrum_module, "kernel_transform", lambda kind, xi, padding: 1.0 / original(kind, xi, padding))
+    monkeypatch.setattr(spectrum_module, "kernel_transform",
+                        lambda kind, xi, padding, taps: 1.0 / original(kind, xi, padding, taps))
     p, _, _ = line_integrals(scene, same_slices(scene))
     slipped = np.abs(p - exact).max() / exact.max()
     assert right < 1e-2 and slipped > 5 * right, (right, slipped)
@@ -338,8 +341,17 @@ def test_spectrum_is_made_once_per_volume_and_settings(fourier):
     ({"renderer.compositing": "xray", "renderer.classification": "post"}, "pre"),
     ({"renderer.compositing": "emission_absorption"}, "average"),
     ({"camera.distance": 1.0}, "camera.distance"),
+    ({"renderer.slice_taps": 6, "renderer.slice_interpolation": "cubic_bspline"}, "windowed kernels"),
 ])
 def test_refusals_in_one_line(extra, words):
     scene = small_scene({**ORTHO, "renderer.compositing": "average", **extra})
     reason = registry.refusal(scene, "fourier")
     assert reason is not None and words in reason and "\n" not in reason, reason
+
+
+def test_slice_taps_other_than_4_or_6_are_refused_when_read():
+    from dvr_gl.errors import SceneError
+
+    with pytest.raises(SceneError, match="renderer.slice_taps must be 4 or 6, got 5"):
+        small_scene({**ORTHO, "renderer.slice_taps": 5})
+

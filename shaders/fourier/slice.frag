@@ -40,24 +40,25 @@ ivec3 stored(ivec3 k, out vec4 conj) {
 #ifdef TRILINEAR
 const int TAPS = 2;
 const int FIRST = 0;
-void weights(float f, out float w[4], out float dw[4]) {
-    w[0] = 1.0 - f; w[1] = f; w[2] = 0.0; w[3] = 0.0;
-    dw[0] = -1.0; dw[1] = 1.0; dw[2] = 0.0; dw[3] = 0.0;
+void weights(float f, out float w[6], out float dw[6]) {
+    w[0] = 1.0 - f; w[1] = f;
+    dw[0] = -1.0; dw[1] = 1.0;
 }
 #elif defined(WINDOWED_SINC) || defined(KAISER_BESSEL)
-// sinc(x) under a Kaiser window of half-width 2 (dvr_gl/renderers/fourier/spectrum.py, windowed_sinc), or
+// sinc(x) under a Kaiser window of half-width SLICE_TAPS / 2 (dvr_gl/renderers/fourier/spectrum.py), or
 // KAISER_BESSEL: the window alone (kaiser_window, its shape from the padding)
-const int TAPS = 4;
-const int FIRST = -1;
+const int TAPS = SLICE_TAPS;
+const int FIRST = 1 - SLICE_TAPS / 2;
+const float HALF_WIDTH = float(SLICE_TAPS) / 2.0;
 uniform float u_kaiser_beta;
 const float PI = 3.14159265358979;
 
-// I0 and I1 by their power series (z <= beta: 20 terms reach float32)
+// I0 and I1 by their power series (z <= beta <= 18: 30 terms reach float32)
 void bessel(float z, out float i0, out float i1) {
     float q = 0.25 * z * z, t0 = 1.0, t1 = 0.5 * z;
     i0 = t0;
     i1 = t1;
-    for (int k = 1; k < 20; ++k) {
+    for (int k = 1; k < 30; ++k) {
         t0 *= q / float(k * k);
         t1 *= q / float(k * (k + 1));
         i0 += t0;
@@ -68,9 +69,9 @@ void bessel(float z, out float i0, out float i1) {
 void kernel_at(float x, out float k, out float dk) {
     k = 0.0;
     dk = 0.0;
-    if (abs(x) >= 2.0)
+    if (abs(x) >= HALF_WIDTH)
         return;
-    float u = x / 2.0, root = sqrt(max(1.0 - u * u, 0.0));
+    float u = x / HALF_WIDTH, root = sqrt(max(1.0 - u * u, 0.0));
     float i0, i1, n0, n1;
     bessel(u_kaiser_beta * root, i0, i1);
     bessel(u_kaiser_beta, n0, n1);
@@ -81,19 +82,19 @@ void kernel_at(float x, out float k, out float dk) {
     float s = abs(x) > 1e-6 ? sin(PI * x) / (PI * x) : 1.0;
     float ds = abs(x) > 1e-6 ? (cos(PI * x) - s) / x : 0.0;
 #endif
-    float dwindow = root > 1e-6 ? i1 * u_kaiser_beta * (-u / root) / 2.0 / n0 : 0.0;
+    float dwindow = root > 1e-6 ? i1 * u_kaiser_beta * (-u / root) / HALF_WIDTH / n0 : 0.0;
     k = s * window;
     dk = ds * window + s * dwindow;
 }
 
-void weights(float f, out float w[4], out float dw[4]) {
-    for (int o = 0; o < 4; ++o)
+void weights(float f, out float w[6], out float dw[6]) {
+    for (int o = 0; o < TAPS; ++o)
         kernel_at(f - float(o + FIRST), w[o], dw[o]);
 }
 #else
 const int TAPS = 4;
 const int FIRST = -1;
-void weights(float f, out float w[4], out float dw[4]) {
+void weights(float f, out float w[6], out float dw[6]) {
     float f2 = f * f, f3 = f2 * f;
     w[0] = (1.0 - f) * (1.0 - f) * (1.0 - f) / 6.0;
     w[1] = (3.0 * f3 - 6.0 * f2 + 4.0) / 6.0;
@@ -114,7 +115,7 @@ void main() {
     vec3 base = floor(g);
     vec3 f = g - base;
     ivec3 b = ivec3(base);
-    float wx[4], wy[4], wz[4], dx[4], dy[4], dz[4];
+    float wx[6], wy[6], wz[6], dx[6], dy[6], dz[6];
     weights(f.x, wx, dx);
     weights(f.y, wy, dy);
     weights(f.z, wz, dz);

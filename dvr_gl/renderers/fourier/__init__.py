@@ -13,7 +13,7 @@ from ... import sweeps
 from ...errors import SceneError
 from ...gl.geometry import box_corners
 from ..registry import RendererPlugin
-from .spectrum import INTERPOLATIONS
+from .spectrum import INTERPOLATIONS, WINDOWED
 
 SLICE_INTERPOLATION = s.Setting("slice_interpolation", str, "kaiser_bessel", "how the central slice is "
                                 "interpolated from the spectrum's samples: trilinear, cubic_bspline, windowed_sinc "
@@ -23,6 +23,10 @@ SLICE_INTERPOLATION = s.Setting("slice_interpolation", str, "kaiser_bessel", "ho
                                 choices=INTERPOLATIONS, group="fourier")
 PADDING = s.Setting("padding", float, 2.0, "zero padding of the volume before its transform, a factor per axis "
                     "(ghosting of the replicas falls with it)", check=s.between(1.0, 8.0), group="fourier")
+SLICE_TAPS = s.Setting("slice_taps", int, 4, "samples per axis of the windowed slice kernels (kaiser_bessel, "
+                       "windowed_sinc): 4 (64 a slice sample) or 6 (216: the Kaiser-Bessel kernel's replicas about "
+                       "40 times smaller, for data whose integrals span a wide range such as the X-ray of CT bone)",
+                       check=lambda taps: None if taps in (4, 6) else "must be 4 or 6", group="fourier")
 SLICE_BANDWIDTH = s.Setting("slice_bandwidth", float, 1.0, "how far the central slice's frequencies reach, in "
                             "multiples of the voxels' Nyquist limit (always at least the pixels'): where pixels are "
                             "wider than voxels the slice is computed on a finer grid and the image is its every K-th "
@@ -32,7 +36,11 @@ SLICE_BANDWIDTH = s.Setting("slice_bandwidth", float, 1.0, "how far the central 
 
 
 def check(scene):
-    """Whole chords: the camera outside the volume."""
+    """Whole chords: the camera outside the volume; six taps only for the windowed kernels."""
+    r = scene.renderer
+    if r.slice_taps != 4 and r.slice_interpolation not in WINDOWED:
+        raise SceneError(f"renderer.slice_taps = {r.slice_taps} is for the windowed kernels (kaiser_bessel, windowed_sinc); "
+                         f"{r.slice_interpolation} has its own taps: use 4 or another renderer.slice_interpolation")
     cam = scene.camera
     forward = cam.basis()[0]
     lo, hi = scene.field.bounds
@@ -47,7 +55,7 @@ PLUGIN = RendererPlugin(
     renderer="dvr_gl.renderers.fourier.renderer:FourierRenderer",
     settings=(s.COMPOSITING.only("average", "xray"), s.CLASSIFICATION.only("pre"),  # the X-ray transforms classified voxels
               s.FILTER.only("linear", "cubic_bspline", "gaussian"), s.KERNEL_WIDTH, s.DEPTH_CUE, s.HEMISPHERICAL_SHADING,
-              SLICE_INTERPOLATION, PADDING, SLICE_BANDWIDTH),
+              SLICE_INTERPOLATION, SLICE_TAPS, PADDING, SLICE_BANDWIDTH),
     needs_gl=True,
     projections=("orthographic",),  # the projection-slice theorem: parallel projections
     check=check,
@@ -60,5 +68,7 @@ PLUGIN = RendererPlugin(
     tolerances={"box": 1e-6, ("ramp", "average"): 1e-3, ("ramp", "xray"): 4e-3},
     sweeps=(sweeps.Family("padding", "renderer.padding", (1.25, 1.5, 2.0, 3.0), (("renderer.compositing", "average"),)),
             sweeps.Family("slice bandwidth", "renderer.slice_bandwidth", (0.0, 1.0, 2.0, 4.0),
-                          (("renderer.compositing", "xray"),))),
+                          (("renderer.compositing", "xray"),)),
+            sweeps.Family("slice bandwidth, 6 taps", "renderer.slice_bandwidth", (1.0, 2.0, 3.0),
+                          (("renderer.compositing", "xray"), ("renderer.slice_taps", 6)))),
 )

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from .projection import Frame, channels, clips_exactly, finish, shell_integrals, weighted
-from .spectrum import Spectrum, kernel
+from .spectrum import WINDOWED, Spectrum, kernel
 
 
 def bspline_weights(f: np.ndarray, derivative: bool = False) -> list[np.ndarray]:
@@ -22,29 +22,37 @@ def bspline_weights(f: np.ndarray, derivative: bool = False) -> list[np.ndarray]
             (-3.0 * f ** 3 + 3.0 * f ** 2 + 3.0 * f + 1.0) / 6.0, f ** 3 / 6.0]
 
 
-def _weights(interpolation: str, f: np.ndarray, derivative: bool = False, padding: float = 2.0):
+def _offsets(interpolation: str, taps: int) -> tuple[int, ...]:
+    """The taps' offsets from ``floor(g)``."""
+    if interpolation == "trilinear":
+        return (0, 1)
+    count = taps if interpolation in WINDOWED else 4
+    return tuple(range(1 - count // 2, count // 2 + 1))
+
+
+def _weights(interpolation: str, f: np.ndarray, derivative: bool = False, padding: float = 2.0, taps: int = 4):
     if interpolation == "trilinear":
         return [-np.ones_like(f), np.ones_like(f)] if derivative else [1.0 - f, f]
-    if interpolation in ("windowed_sinc", "kaiser_bessel"):  # the tap at offset o lies f - o away
-        k = kernel(interpolation, padding)
-        return [k(f - o, derivative) for o in (-1, 0, 1, 2)]
+    if interpolation in WINDOWED:  # the tap at offset o lies f - o away
+        k = kernel(interpolation, padding, taps)
+        return [k(f - o, derivative) for o in _offsets(interpolation, taps)]
     return bspline_weights(f, derivative)
 
 
 def interpolate(half: np.ndarray, dims, g: np.ndarray, interpolation: str, direction=None,
-                padding: float = 2.0) -> np.ndarray:
+                padding: float = 2.0, taps: int = 4) -> np.ndarray:
     """``S`` at grid positions ``g`` ``(..., 3)`` (x, y, z) from the half spectrum ``half`` ``(Mz, My, Mx // 2
     + 1)``: periodic, and ``S(-k)`` the conjugate of ``S(k)`` for the half not stored; with ``direction``
     (index units), the interpolant's derivative along it instead."""
     m = np.asarray(dims)
     base = np.floor(g).astype(np.int64)
     f = g - base
-    offsets = (0, 1) if interpolation == "trilinear" else (-1, 0, 1, 2)
-    plain = [_weights(interpolation, f[..., a], padding=padding) for a in range(3)]
+    offsets = _offsets(interpolation, taps)
+    plain = [_weights(interpolation, f[..., a], padding=padding, taps=taps) for a in range(3)]
     if direction is None:
         weights = plain
     else:  # the derivative along `direction` of the tensor product: one factor differentiated at a time
-        slopes = [_weights(interpolation, f[..., a], True, padding) for a in range(3)]
+        slopes = [_weights(interpolation, f[..., a], True, padding, taps) for a in range(3)]
     out = np.zeros(g.shape[:-1], complex)
     for iz, oz in enumerate(offsets):
         for iy, oy in enumerate(offsets):
@@ -67,14 +75,16 @@ def reference(scene) -> np.ndarray:
     """The image ``(H, W, 4)`` float64 that ``fourier`` must match."""
     r = scene.renderer
     data, offsets, border = channels(scene)
-    spectrum = Spectrum(data, r.slice_interpolation, r.padding, border)
+    spectrum = Spectrum(data, r.slice_interpolation, r.padding, border, r.slice_taps)
     frame = Frame(scene)
     g = frame.grid_positions(spectrum)
-    slices = [interpolate(s, spectrum.dims, g, r.slice_interpolation, padding=r.padding) for s in spectrum.spectra]
+    slices = [interpolate(s, spectrum.dims, g, r.slice_interpolation, padding=r.padding, taps=r.slice_taps)
+              for s in spectrum.spectra]
     derivatives = None
     if r.depth_cue < 1.0:
         direction = frame.depth_direction(spectrum)
-        derivatives = {c: interpolate(spectrum.spectra[c], spectrum.dims, g, r.slice_interpolation, direction, r.padding)
+        derivatives = {c: interpolate(spectrum.spectra[c], spectrum.dims, g, r.slice_interpolation, direction, r.padding,
+                                      r.slice_taps)
                        for c in weighted(scene)}
     shell = shell_integrals(scene, data, border) if clips_exactly(scene) else None
     return finish(scene, frame, spectrum, slices, offsets, derivatives, shell)

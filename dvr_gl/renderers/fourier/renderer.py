@@ -20,7 +20,7 @@ from ... import limits
 from ...sandbox import check_bytes
 from ..grid.gl_base import GLVolumeRenderer
 from .projection import Frame, Shell, channels, clips_exactly, finish, weighted
-from .spectrum import KAISER_BETA, Spectrum, kaiser_bessel_beta
+from .spectrum import KAISER_BETA, WINDOWED, Spectrum, kaiser_bessel_beta
 
 
 class SpectrumTextures:
@@ -78,7 +78,8 @@ class FourierRenderer(GLVolumeRenderer):
             raise SceneError(f"fourier's spectrum needs a {side}-texel 3D texture, over this GL's {gl.texture_3d_size}: "
                              "use a smaller renderer.padding or volume")
         limits.check_texture("fourier's slice", Frame(scene).size, gl,
-                             "frame the volume in the image (camera.view_height), or use a smaller image or renderer.slice_bandwidth")
+                             "frame the volume in the image (camera.view_height), or use a smaller image or "
+                             "renderer.slice_bandwidth")
         count = (4 if r.compositing == "xray" else 1) + (3 if r.compositing == "xray" else 1) * r.hemispherical_shading
         # the float64 spectra on the host and their float32 textures, and the shell pass's float32 channels
         shell = 16 * int(np.prod([n + 10 for n in scene.volume.dims])) if clips_exactly(scene) else 0
@@ -93,17 +94,19 @@ class FourierRenderer(GLVolumeRenderer):
         key = (*key, r.filter, r.kernel_width, r.hemispherical_shading)
         data, offsets, border = self._cached("channels", key, lambda: channels(scene))
         fresh = []
-        spectrum = self._cached("spectrum", (data, r.slice_interpolation, r.padding),
-                                lambda: fresh.append(1) or Spectrum(data, r.slice_interpolation, r.padding, border))
+        taps = r.slice_taps if r.slice_interpolation in WINDOWED else 4
+        spectrum = self._cached("spectrum", (data, r.slice_interpolation, r.padding, taps),
+                                lambda: fresh.append(1) or Spectrum(data, r.slice_interpolation, r.padding, border, taps))
         textures = self._cached("spectrum textures", (spectrum,), lambda: SpectrumTextures(self.ctx, spectrum))
         start = time.perf_counter()
         frame = Frame(scene)
         wf, hf = frame.size
         cued = r.depth_cue < 1.0
         count = len(textures.textures)
-        defines = {"TRILINEAR": r.slice_interpolation == "trilinear", "TEXTURES": str(count),
+        defines = {"TRILINEAR": r.slice_interpolation == "trilinear", "TEXTURES": str(count), "SLICE_TAPS": str(taps),
                    "WINDOWED_SINC": r.slice_interpolation == "windowed_sinc",
                    "KAISER_BESSEL": r.slice_interpolation == "kaiser_bessel", "DEPTH_CUE": cued}
+        beta = KAISER_BETA if r.slice_interpolation == "windowed_sinc" else kaiser_bessel_beta(r.padding, taps)
         program = create_program(self.ctx, "fullscreen.vert", "fourier/slice.frag",
                                  {k: v for k, v in defines.items() if v})
         attachments = (4,) * (count * (2 if cued else 1))
@@ -115,7 +118,7 @@ class FourierRenderer(GLVolumeRenderer):
         self.bind(program, {"u_dims": spectrum.dims, "u_size": frame.size,
                             "u_frequency_step": (1.0 / (wf * frame.pixel), 1.0 / (hf * frame.pixel)),
                             "u_right": tuple(frame.right), "u_down": tuple(frame.down),
-                            "u_grid_scale": tuple(np.asarray(spectrum.dims) * frame.spacing), "u_kaiser_beta": KAISER_BETA if r.slice_interpolation == "windowed_sinc" else kaiser_bessel_beta(r.padding),
+                            "u_grid_scale": tuple(np.asarray(spectrum.dims) * frame.spacing), "u_kaiser_beta": beta,
                             **({"u_depth_dir": tuple(frame.depth_direction(spectrum))} if cued else {})}, {})
         quad = self.ctx.vertex_array(program, [])
         quad.render(moderngl.TRIANGLES, vertices=3)

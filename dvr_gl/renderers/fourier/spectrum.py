@@ -31,60 +31,62 @@ import numpy as np
 
 #: The slice interpolation kernels (``renderer.slice_interpolation``).
 INTERPOLATIONS = ("trilinear", "cubic_bspline", "windowed_sinc", "kaiser_bessel")
-#: The windowed sinc: ``sinc(x)`` under a Kaiser window of half-width 2 (the cubic's four taps a side)
-#: and shape ``KAISER_BETA`` (the window's side lobes against its main lobe's width).  The Kaiser-Bessel
-#: kernel is the window alone, of the shape :func:`kaiser_bessel_beta` gives for the padding.
-WINDOW_HALF_WIDTH = 2.0
+#: The windowed sinc: ``sinc(x)`` under a Kaiser window of shape ``KAISER_BETA`` (the window's side lobes
+#: against its main lobe's width).  The Kaiser-Bessel kernel is the window alone, of the shape
+#: :func:`kaiser_bessel_beta` gives for the padding.  Both reach ``taps / 2`` samples a side
+#: (``renderer.slice_taps``: 4, the cubic's, or 6).
 KAISER_BETA = 6.0
+WINDOWED = ("windowed_sinc", "kaiser_bessel")
 
 
-def kaiser_bessel_beta(padding: float) -> float:
-    """The Kaiser-Bessel kernel's shape for ``W = 4`` taps and oversampling ``padding`` (Beatty, Nishimura
-    and Pauly 2005): ``pi sqrt((W / s)^2 (s - 1/2)^2 - 0.8)``, 9.0 at the default padding 2.  It puts the
-    kernel's transform's first zero where the nearest replica's edge falls, so the replicas the
-    interpolation ghosts in are smallest."""
-    w = 2.0 * WINDOW_HALF_WIDTH
-    return math.pi * math.sqrt((w / padding) ** 2 * (padding - 0.5) ** 2 - 0.8)
+def kaiser_bessel_beta(padding: float, taps: int = 4) -> float:
+    """The Kaiser-Bessel kernel's shape for ``W = taps`` and oversampling ``padding`` (Beatty, Nishimura
+    and Pauly 2005): ``pi sqrt((W / s)^2 (s - 1/2)^2 - 0.8)``, 9.0 at the default padding 2 and 4 taps,
+    13.9 with 6.  It puts the kernel's transform's first zero where the nearest replica's edge falls,
+    so the replicas the interpolation ghosts in are smallest."""
+    return math.pi * math.sqrt((taps / padding) ** 2 * (padding - 0.5) ** 2 - 0.8)
 
 
-def kaiser_window(x: np.ndarray, beta: float, derivative: bool = False) -> np.ndarray:
-    """``I0(beta sqrt(1 - (x / 2)^2)) / I0(beta)`` for ``|x| < 2`` (0 beyond), or its derivative in ``x``."""
+def kaiser_window(x: np.ndarray, beta: float, derivative: bool = False, half_width: float = 2.0) -> np.ndarray:
+    """``I0(beta sqrt(1 - (x / a)^2)) / I0(beta)`` for ``|x| < a`` (``a`` the half-width; 0 beyond), or its
+    derivative in ``x``."""
     x = np.asarray(x, dtype=np.float64)
-    u = np.clip(x / WINDOW_HALF_WIDTH, -1.0, 1.0)
+    u = np.clip(x / half_width, -1.0, 1.0)
     root = np.sqrt(np.maximum(1.0 - u * u, 0.0))
-    inside = np.abs(x) < WINDOW_HALF_WIDTH
+    inside = np.abs(x) < half_width
     if not derivative:
         return np.where(inside, np.i0(beta * root) / np.i0(beta), 0.0)
-    # d/dx I0(beta sqrt(1 - u^2)) = I1(.) beta (-u / sqrt(1 - u^2)) / W, and I1 = I0'
+    # d/dx I0(beta sqrt(1 - u^2)) = I1(.) beta (-u / sqrt(1 - u^2)) / a, and I1 = I0'
     safe = np.where(root > 1e-12, root, 1.0)
-    slope = np.where(root > 1e-12, _i1(beta * root) * beta * (-u / safe) / WINDOW_HALF_WIDTH, 0.0)
+    slope = np.where(root > 1e-12, _i1(beta * root) * beta * (-u / safe) / half_width, 0.0)
     return np.where(inside, slope / np.i0(beta), 0.0)
 
 
-def windowed_sinc(x: np.ndarray, derivative: bool = False) -> np.ndarray:
-    """The windowed-sinc kernel at ``x`` (spectrum samples), zero beyond ``WINDOW_HALF_WIDTH``; or its
-    derivative (by the product rule, in float64)."""
+def windowed_sinc(x: np.ndarray, derivative: bool = False, half_width: float = 2.0) -> np.ndarray:
+    """The windowed-sinc kernel at ``x`` (spectrum samples), zero beyond ``half_width``; or its derivative
+    (by the product rule, in float64)."""
     x = np.asarray(x, dtype=np.float64)
-    window = kaiser_window(x, KAISER_BETA)
+    window = kaiser_window(x, KAISER_BETA, False, half_width)
     s = np.sinc(x)
     if not derivative:
         return s * window
     with np.errstate(invalid="ignore", divide="ignore"):
         ds = np.where(np.abs(x) > 1e-8, (np.cos(np.pi * x) - s) / np.where(x == 0, 1.0, x), 0.0)
-    return ds * window + s * kaiser_window(x, KAISER_BETA, True)
+    return ds * window + s * kaiser_window(x, KAISER_BETA, True, half_width)
 
 
-def kernel(interpolation: str, padding: float):
-    """The windowed kernels ``k(x, derivative=False)`` (the trilinear's and the cubic's weights are
-    polynomials, :mod:`.oracle`)."""
+def kernel(interpolation: str, padding: float, taps: int = 4):
+    """The windowed kernels ``k(x, derivative=False)`` of ``taps`` samples (the trilinear's and the cubic's
+    weights are polynomials, :mod:`.oracle`)."""
+    half = taps / 2.0
     if interpolation == "windowed_sinc":
-        return windowed_sinc
-    beta = kaiser_bessel_beta(padding)
-    return lambda x, derivative=False: kaiser_window(x, beta, derivative)
+        return lambda x, derivative=False: windowed_sinc(x, derivative, half)
+    beta = kaiser_bessel_beta(padding, taps)
+    return lambda x, derivative=False: kaiser_window(x, beta, derivative, half)
 
 
 def _i1(z: np.ndarray) -> np.ndarray:
-    """The modified Bessel function I1 by its power series (z <= 12: 30 terms reach float64)."""
+    """The modified Bessel function I1 by its power series (z <= 16: 30 terms reach float64)."""
     z = np.asarray(z, dtype=np.float64)
     term = z / 2.0
     total = term.copy()
@@ -118,21 +120,22 @@ def padded_length(n: int, padding: float) -> int:
         m += 2
 
 
-def kernel_transform(interpolation: str, xi: np.ndarray, padding: float = 2.0) -> np.ndarray:
+def kernel_transform(interpolation: str, xi: np.ndarray, padding: float = 2.0, taps: int = 4) -> np.ndarray:
     """What interpolating the spectrum with the kernel multiplies the samples by, at ``xi`` (positions
     over the period): the kernel's transform, ``sinc^2`` for the tent (trilinear), ``sinc^4`` for the cubic
     B-spline, by quadrature for the windowed sinc and the Kaiser-Bessel kernel (whose shape depends on the
-    padding)."""
+    padding and the taps)."""
     s = np.sinc(xi)
     if interpolation == "trilinear":
         return s * s
     if interpolation == "cubic_bspline":
         return s ** 4
-    if interpolation in ("windowed_sinc", "kaiser_bessel"):  # Gauss-Legendre over the support (even: a cosine)
+    if interpolation in WINDOWED:  # Gauss-Legendre over the support (even: a cosine)
+        half = taps / 2.0
         x, w = np.polynomial.legendre.leggauss(200)
-        x, w = WINDOW_HALF_WIDTH * (x + 1.0) / 2.0, w * WINDOW_HALF_WIDTH / 2.0
+        x, w = half * (x + 1.0) / 2.0, w * half / 2.0
         xi = np.asarray(xi, dtype=np.float64)
-        k = kernel(interpolation, padding)
+        k = kernel(interpolation, padding, taps)
         return 2.0 * (np.cos(2.0 * math.pi * xi[..., None] * x) * (w * k(x))).sum(axis=-1)
     raise ValueError(f"unknown slice interpolation {interpolation!r}; choose one of {', '.join(INTERPOLATIONS)}")
 
@@ -143,7 +146,7 @@ class Spectrum:
     ``start`` the volume's first index in the padded grid per axis (x, y, z), ``seconds`` and ``bytes``
     what making it took."""
 
-    def __init__(self, channels: np.ndarray, interpolation: str, padding: float, border: int = 0):
+    def __init__(self, channels: np.ndarray, interpolation: str, padding: float, border: int = 0, taps: int = 4):
         import time
 
         start_time = time.perf_counter()
@@ -157,7 +160,7 @@ class Spectrum:
         weights = []
         for axis, (m, k, s) in enumerate(zip(self.dims, n, self.start)):
             xi = (np.arange(k) + s - m / 2.0) / m
-            weights.append(1.0 / kernel_transform(interpolation, xi, padding))
+            weights.append(1.0 / kernel_transform(interpolation, xi, padding, taps))
         premultiply = weights[2][:, None, None] * weights[1][None, :, None] * weights[0][None, None, :]
         self.spectra = []
         for c in range(count):
