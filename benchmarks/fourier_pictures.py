@@ -26,7 +26,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parent.parent
 
 from dvr_gl.bench.splatting import shared_scenes  # noqa: E402
-from dvr_gl.image import composite_over, write_image  # noqa: E402
+from dvr_gl.image import side_by_side, write_image  # noqa: E402
 from dvr_gl.reference.converged import ConvergedReference  # noqa: E402
 from dvr_gl.renderers import create_renderer  # noqa: E402
 from dvr_gl.scene import load_scene  # noqa: E402
@@ -60,15 +60,6 @@ def row(name: str, overrides: dict, mode: str, cheaper: dict, gain: float, size:
     return pictures + errors
 
 
-def side_by_side(pictures: list[np.ndarray]) -> np.ndarray:
-    gap = np.zeros((pictures[0].shape[0], 4, 4), np.float32)
-    gap[..., 3] = 1.0
-    out = []
-    for p in pictures:
-        out += [composite_over(p, (0.0, 0.0, 0.0, 1.0)), gap]
-    return np.concatenate(out[:-1], axis=1)
-
-
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", type=int, default=160)
@@ -82,9 +73,7 @@ def main(argv=None) -> int:
             print("; ".join(notes) or f"{name} not found", file=sys.stderr)
             return 1
         rows.append(side_by_side(row(name, scenes[0][1], mode, cheaper, gain, args.size)))
-    gap = np.zeros((4, rows[0].shape[1], 4), np.float32)
-    gap[..., 3] = 1.0
-    write_image(Path(args.out) / "fourier-study.png", np.concatenate([rows[0], gap, rows[1]], axis=0), overwrite=True)
+    write_image(Path(args.out) / "fourier-study.png", side_by_side(rows, axis=0), overwrite=True)
     return 0
 
 

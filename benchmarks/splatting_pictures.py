@@ -21,7 +21,7 @@ import numpy as np
 
 REPO = Path(__file__).resolve().parent.parent
 
-from dvr_gl.image import composite_over, write_image  # noqa: E402
+from dvr_gl.image import side_by_side, write_image  # noqa: E402
 from dvr_gl.phantoms import demo_scene  # noqa: E402
 from dvr_gl.renderers import create_renderer  # noqa: E402
 from dvr_gl.scene import load_scene  # noqa: E402
@@ -69,15 +69,6 @@ def _reference(base: dict, name: str) -> np.ndarray:
                                                    "renderer.sample_distance_voxels": 0.1}))
     print(f"{name} reference: {time.perf_counter() - t:.1f} s", flush=True)
     return image
-
-
-def side_by_side(pictures: list[np.ndarray]) -> np.ndarray:
-    gap = np.zeros((pictures[0].shape[0], 4, 4), np.float32)
-    gap[..., 3] = 1.0
-    row = []
-    for p in pictures:
-        row += [composite_over(p, (0.0, 0.0, 0.0, 1.0)), gap]
-    return np.concatenate(row[:-1], axis=1)
 
 
 def main(argv=None) -> int:

@@ -33,6 +33,18 @@ def composite_over(rgba: np.ndarray, background) -> np.ndarray:
     return rgba + (1.0 - rgba[..., 3:4]) * bg_premult
 
 
+def side_by_side(pictures: list, axis: int = 1, gap: int = 4, background=(0.0, 0.0, 0.0, 1.0)) -> np.ndarray:
+    """Premultiplied pictures of one height (``axis`` 1; of one width, stacked: ``axis`` 0) composited over
+    ``background`` and joined with ``gap`` pixels of it between them: the docs' figures."""
+    shape = list(pictures[0].shape)
+    shape[axis] = gap
+    spacer = composite_over(np.zeros(shape, np.float32), background)
+    parts = []
+    for p in pictures:
+        parts += [composite_over(np.asarray(p, np.float32), background), spacer]
+    return np.concatenate(parts[:-1], axis=axis)
+
+
 def check_writable(path: Path, overwrite: bool = False) -> Path:
     """Fail early, before any work, if ``path`` cannot or must not be written."""
     path = Path(path)

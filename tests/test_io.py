@@ -587,3 +587,15 @@ def test_skips_are_seeked_or_counted_against_the_budget(tmp_path):
             load_volume(path)
     path = _nhdr_with(tmp_path, extra="line skip: 1\nbyte skip: -1\n", data=b"x\nabc" + raw)
     np.testing.assert_array_equal(load_volume(path).data, DATA)
+
+
+def test_side_by_side_composites_over_the_background_with_gaps():
+    """The docs' figures: premultiplied pictures over the background, a gap of it between them."""
+    from dvr_gl.image import side_by_side
+
+    half_red = np.zeros((5, 3, 4), np.float32)
+    half_red[..., 0] = half_red[..., 3] = 0.5  # premultiplied red at alpha 0.5
+    row = side_by_side([half_red, half_red], gap=2, background=(0.0, 0.0, 1.0, 1.0))
+    assert row.shape == (5, 8, 4)
+    assert np.allclose(row[0, 0], [0.5, 0.0, 0.5, 1.0]) and np.allclose(row[0, 3], [0.0, 0.0, 1.0, 1.0])
+    assert side_by_side([row, row], axis=0, gap=1).shape == (11, 8, 4)
