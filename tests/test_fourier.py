@@ -352,6 +352,6 @@ def test_refusals_in_one_line(extra, words):
 def test_slice_taps_other_than_4_or_6_are_refused_when_read():
     from dvr_gl.errors import SceneError
 
-    with pytest.raises(SceneError, match="renderer.slice_taps must be 4 or 6, got 5"):
+    with pytest.raises(SceneError, match="renderer.slice_taps: 5 is not one of 4, 6"):
         small_scene({**ORTHO, "renderer.slice_taps": 5})
 

@@ -26,7 +26,7 @@ PADDING = s.Setting("padding", float, 2.0, "zero padding of the volume before it
 SLICE_TAPS = s.Setting("slice_taps", int, 4, "samples per axis of the windowed slice kernels (kaiser_bessel, "
                        "windowed_sinc): 4 (64 a slice sample) or 6 (216: the Kaiser-Bessel kernel's replicas about "
                        "40 times smaller, for data whose integrals span a wide range such as the X-ray of CT bone)",
-                       check=lambda taps: None if taps in (4, 6) else "must be 4 or 6", group="fourier")
+                       choices=(4, 6), group="fourier")
 SLICE_BANDWIDTH = s.Setting("slice_bandwidth", float, 1.0, "how far the central slice's frequencies reach, in "
                             "multiples of the voxels' Nyquist limit (always at least the pixels'): where pixels are "
                             "wider than voxels the slice is computed on a finer grid and the image is its every K-th "
