@@ -279,9 +279,7 @@ def _on_shared_data(args, module, title: str) -> int:
     data_dir, datasets = _chosen_datasets(args, module.DATASETS)
     args.report.text(title)
     rows, notes = module.run(data_dir, args.size, args.repeat, datasets)
-    args.report.table(rows, module.COLUMNS)
-    for note in notes:
-        args.report.text(note)
+    args.report.table(rows, module.COLUMNS, notes)
     return 0
 
 
@@ -399,9 +397,7 @@ def run_tradeoff(args) -> int:
               f"{args.repeat} frames after a warm-up; error against the converged reference "
               f"({time.perf_counter() - start:.1f} s to compute)")
         rows, notes = tradeoff.run(scene, args.repeat, renderers, truth, scene_name=name)
-        args.report.table(rows, tradeoff.COLUMNS)
-        for note in notes:
-            args.report.text(note)
+        args.report.table(rows, tradeoff.COLUMNS, notes)
         checks, note = tradeoff.tolerance_check(scene, rows, truth, args.repeat)
         if checks:
             args.report.text("\n--tolerance E: the error model's choice, measured, against the measured front")
@@ -457,9 +453,7 @@ def run_cells(args) -> int:
                             pictures=Path(args.pictures) if args.pictures else None, progress=lambda r: print(f"{r['mesh']} {r['view']} {r['renderer']}: {r['ms']:.0f} ms, "
                                                      f"RMS {r['rms']:.2e}", flush=True))
     args.report.text()
-    args.report.table(rows, cells.COLUMNS)
-    for note in notes:
-        args.report.text(note)
+    args.report.table(rows, cells.COLUMNS, notes)
     return 0
 
 
@@ -508,9 +502,7 @@ def run_splatting(args) -> int:
     rows = splatting.run(scenes, args.size, args.repeat, progress=lambda r: print(
         f"{r['dataset']} {r['scheme']} {r['classification']}: {r['ms']:.0f} ms, RMS {r['rms']:.2e}", flush=True))
     args.report.text()
-    args.report.table(rows, splatting.COLUMNS)
-    for note in notes:
-        args.report.text(note)
+    args.report.table(rows, splatting.COLUMNS, notes)
     if args.study_size and args.volume_size:
         args.report.text(f"\nthe 45-degree study: Shepp-Logan {args.volume_size}^3 at {args.study_size}x"
                          f"{args.study_size}, elevation 0, post-classified; the largest change of each image between "
@@ -546,9 +538,7 @@ def run_fourier(args) -> int:
         rows = fourier.shared(scenes, args.error_size, progress=lambda r: print(
             f"{r['dataset']} {r['mode']}: RMS / max {r['rms_rel']:.2e}", flush=True))
         args.report.text()
-        args.report.table(rows, fourier.SHARED_COLUMNS)
-        for note in notes:
-            args.report.text(note)
+        args.report.table(rows, fourier.SHARED_COLUMNS, notes)
         return 0
     args.report.text(f"dvr bench fourier: the blobs demo N^3, orthographic, the average and the pre-classified X-ray; "
                      f"times at {args.size}x{args.size} (median of {args.repeat} after a warm-up), RMS against "

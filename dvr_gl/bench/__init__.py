@@ -35,9 +35,12 @@ class Report:
         print(line)
         self.parts.append(line)
 
-    def table(self, rows: list[dict], columns):
+    def table(self, rows: list[dict], columns, notes=()):
+        """The rows as a table, then each of ``notes`` (what was left out, and why) as a line."""
         print(format_table(rows, columns))
         self.parts += ["", format_markdown(rows, columns), ""]
+        for note in notes:
+            self.text(note)
 
     def markdown(self, command: str) -> str:
         import datetime
