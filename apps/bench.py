@@ -156,6 +156,8 @@ def add_arguments(p):
                                                           "phantom (long: a converged reference each)")
     sp.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder (default ../shared/data)")
     sp.add_argument("--only", metavar="TEXT", help="with --shared: only datasets whose name contains TEXT")
+    sp.add_argument("--no-shaded", action="store_true", help="leave out the shaded row (its converged reference "
+                    "computes gradients at every sample: over an hour on CThead)")
     sp.add_argument("--study-size", type=int, default=48, help="square image size of the 45-degree study "
                                                               "(default 48; 0 leaves it out)")
     fo = sub.add_parser("fourier", help="Fourier volume rendering against the ray caster: pre-processing and time "
@@ -497,9 +499,10 @@ def run_splatting(args) -> int:
         raise DvrError("nothing to measure: --volume-size 0 and --particles 0")
     args.report.text(f"dvr bench splatting: {args.size}x{args.size}, the Gaussian of width 0.7 (particles: their "
                      f"cubic spline), default camera and "
-                     f"transfer function, no shading; median of {args.repeat} frames after a warm-up; RMS against "
-                     f"reference-converged of the same kernel and classification (tolerance 1e-4)")
-    rows = splatting.run(scenes, args.size, args.repeat, progress=lambda r: print(
+                     f"transfer function, no shading but the shaded row's"
+                     f"{' (left out)' if args.no_shaded else ''}; median of {args.repeat} frames after a warm-up; "
+                     f"RMS against reference-converged of the same kernel and classification (tolerance 1e-4)")
+    rows = splatting.run(scenes, args.size, args.repeat, shaded=not args.no_shaded, progress=lambda r: print(
         f"{r['dataset']} {r['scheme']} {r['classification']}: {r['ms']:.0f} ms, RMS {r['rms']:.2e}", flush=True))
     args.report.text()
     args.report.table(rows, splatting.COLUMNS, notes)

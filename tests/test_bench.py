@@ -159,6 +159,15 @@ def test_bench_splatting_prints_the_schemes_and_the_study(tmp_path, capsys):
     assert "no such folder" in capsys.readouterr().err
 
 
+def test_bench_splatting_leaves_the_shaded_row_out(capsys):
+    assert main(["bench", "splatting", "--volume-size", "8", "--size", "8", "--repeat", "1", "--study-size", "0",
+                 "--particles", "0", "--no-shaded"]) == 0
+    out = capsys.readouterr().out
+    rows = [line.split() for line in out.splitlines() if line.startswith("Shepp-Logan") and ":" not in line]
+    assert [r[3] for r in rows] == ["post", "pre", "post", "pre"]
+    assert "(left out)" in out
+
+
 def test_bench_fourier_prints_times_and_errors(tmp_path, capsys):
     md = tmp_path / "fourier.md"
     assert main(["bench", "fourier", "--sizes", "16", "--size", "24", "--error-size", "16", "--repeat", "1",
