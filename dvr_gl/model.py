@@ -32,6 +32,9 @@ GAUSSIAN_RADIUS = 5.0
 DEFAULT_KERNEL_WIDTH = 0.7
 ORDERS = ("front_to_back", "back_to_front")
 LIGHT_TYPES = ("headlight", "directional")
+SCATTERING_LIGHT_TYPES = ("directional", "point")
+PHASE_FUNCTIONS = ("isotropic", "henyey_greenstein")
+SCATTERING_METHODS = ("shadow_rays", "light_volume", "half_angle")
 
 Vec3 = tuple[float, float, float]
 
@@ -69,3 +72,40 @@ class ShadingSpec:
     two_sided: bool = doc(True, "light both sides of a surface (the normal turned toward the viewer)")
     lights: list[LightSpec] = doc(None, "`[[renderer.shading.lights]]` tables (default: one headlight)",
                                   factory=lambda: [LightSpec()])
+
+
+@dataclass
+class ScatteringLightSpec:
+    """A light of single scattering: ``directional`` (parallel rays) or ``point`` (from a position,
+    falling off with the squared distance)."""
+
+    type: str = choices(*SCATTERING_LIGHT_TYPES, default="directional", doc="parallel rays, or from a position")
+    direction: Vec3 = doc((1.0, 2.0, -3.0), "directional: the direction the light travels (world; the default "
+                                            "comes from above, beside the default eye)")
+    position: Vec3 = doc((0.0, 0.0, 0.0), "point: where the light is (world units)")
+    color: Vec3 = doc((1.0, 1.0, 1.0), "linear RGB")
+    intensity: float = doc(1.0, "irradiance of a directional light; a point light's at unit distance "
+                                "(intensity / distance^2)")
+
+
+@dataclass
+class ScatteringSpec:
+    """Single scattering toward the eye with shadows (emission-absorption only; docs/scattering.md).
+
+    The source term at a point is ``sigma c ((1 - albedo) + albedo sum_l 4 pi p(cos theta_l) E_l T_l)``:
+    ``c`` and ``sigma`` from the transfer function, ``p`` the phase function normalised to 1 over the
+    sphere, ``E_l`` a light's irradiance and ``T_l`` the transmittance toward it (1 without shadows).
+    ``4 pi p`` is the phase normalised to 4 pi as VTK writes it, so a light of intensity 1 seen through
+    an isotropic, unshadowed medium gives the colour emission-absorption would."""
+
+    enabled: bool = doc(False, "single scattering of the lights below (a scene without it compiles and "
+                               "computes none of it)")
+    albedo: float = doc(0.8, "the scattered fraction of the extinction; the rest emits the colour as in "
+                             "emission-absorption (the lit volume's ambient term)")
+    phase: str = choices(*PHASE_FUNCTIONS, default="isotropic", doc="the phase function")
+    g: float = doc(0.0, "henyey_greenstein: the mean cosine of the scattering angle (-1 .. 1, > 0 forward)")
+    shadows: bool = doc(True, "attenuate each light by the transmittance toward it")
+    method: str = choices(*SCATTERING_METHODS, default="shadow_rays",
+                          doc="how a GPU renderer finds the transmittance (the references integrate it)")
+    lights: list[ScatteringLightSpec] = doc(None, "`[[renderer.scattering.lights]]` tables (default: one "
+                                                  "directional light)", factory=lambda: [ScatteringLightSpec()])

@@ -72,7 +72,7 @@ def apply_overrides(raw: dict, overrides: dict[str, object]) -> dict:
             node = node.setdefault(p, {})
             if not isinstance(node, dict):
                 raise SceneError(f"override {dotted!r}: {p} is not a table")
-        node[parts[-1]] = value
+        node[parts[-1]] = copy.deepcopy(value)  # a later dotted key must not change the caller's table
         for other in _EXCLUSIVE.get((parts[0], parts[-1]), ()) if len(parts) == 2 else ():
             out.get(parts[0], {}).pop(other, None)
     return out

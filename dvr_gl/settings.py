@@ -28,7 +28,7 @@ from typing import Any, Callable, Optional
 
 from .errors import SceneError
 from .model import (CLASSIFICATIONS, CLASSIFIED_ALONG_RAY, COMPOSITING_MODES, DEFAULT_KERNEL_WIDTH, FILTERS, GAUSSIAN_RADIUS, ORDERS,
-                    ShadingSpec)
+                    ScatteringSpec, ShadingSpec)
 
 DEFAULT_SAMPLE_DISTANCE_VOXELS = 0.5
 
@@ -155,6 +155,32 @@ def _check_shading(sh: ShadingSpec) -> None:
             raise SceneError(f"renderer.shading.lights[{i}].color must be >= 0, got {list(light.color)}")
 
 
+def _check_scattering(sc: ScatteringSpec) -> None:
+    """The [renderer.scattering] table's values, each named by its own key."""
+    if not 0.0 <= sc.albedo <= 1.0:
+        raise SceneError(f"renderer.scattering.albedo must be in [0, 1], got {sc.albedo}")
+    if not -1.0 < sc.g < 1.0:
+        raise SceneError(f"renderer.scattering.g must be in (-1, 1) (the phase function is a delta at +-1), "
+                         f"got {sc.g}")
+    if sc.g != 0.0 and sc.phase == "isotropic":
+        raise SceneError(f"renderer.scattering.g = {sc.g} applies to phase = 'henyey_greenstein'; set the "
+                         f"phase or remove g")
+    if sc.enabled and not sc.lights:
+        raise SceneError("renderer.scattering.lights is empty: give at least one [[renderer.scattering.lights]] "
+                         "table, or set enabled = false")
+    for i, light in enumerate(sc.lights):
+        where = f"renderer.scattering.lights[{i}]"
+        if light.type == "directional" and not any(light.direction):
+            raise SceneError(f"{where}.direction must be a non-zero vector")
+        if any(c < 0 for c in light.color):
+            raise SceneError(f"{where}.color must be >= 0, got {list(light.color)}")
+        if not light.intensity >= 0:
+            raise SceneError(f"{where}.intensity must be >= 0, got {light.intensity}")
+        problem = world_coordinates(light.position)
+        if problem:
+            raise SceneError(f"{where}.position {problem}, got {list(light.position)}")
+
+
 # --- the model: what the picture should be ---------------------------------------------------
 
 COMPOSITING = Setting("compositing", str, "emission_absorption", "compositing mode: emission-absorption, "
@@ -223,6 +249,11 @@ SHADING = Setting("shading", ShadingSpec, None, "Blinn-Phong shading from the gr
                   check=_check_shading, must_support=True, in_use=lambda sh: sh.enabled, group="model",
                   default_factory=ShadingSpec, flag=False, applies=_lit)
 
+SCATTERING = Setting("scattering", ScatteringSpec, None, "single scattering with shadows: the [renderer.scattering] "
+                     "table (enabled, albedo, phase, g, shadows, method, lights); emission-absorption only",
+                     check=_check_scattering, must_support=True, in_use=lambda sc: sc.enabled, group="model",
+                     default_factory=ScatteringSpec, flag=False)
+
 # --- sampling: how closely a renderer approaches the picture ---------------------------------
 
 SAMPLE_DISTANCE = Setting("sample_distance", Optional[float], None, "segment length (default 0.5 voxel)",
@@ -261,10 +292,25 @@ TEXTURE_BUDGET_MB = Setting("texture_budget_mb", float, 2048.0, "GPU texture mem
 
 #: Every renderer reads these (narrowed where it supports fewer choices).
 MODEL_SETTINGS = (COMPOSITING, CLASSIFICATION, ASSOCIATED_COLORS, FILTER, KERNEL_WIDTH, ISO_VALUE, GRADIENT_OPACITY,
-                  GRADIENT_OPACITY_REFERENCE, SHADING, DEPTH_CUE, HEMISPHERICAL_SHADING)
+                  GRADIENT_OPACITY_REFERENCE, SHADING, DEPTH_CUE, HEMISPHERICAL_SHADING, SCATTERING)
 
 
 # --- resolution ------------------------------------------------------------------------------
+
+def _check_scattering_with(spec) -> None:
+    """Scattering is a source term of emission-absorption: refused with the modes that have none, and
+    with gradient shading, which lights the same samples another way."""
+    sc = getattr(spec, "scattering", None)
+    if sc is None or not sc.enabled:
+        return
+    if spec.compositing != "emission_absorption":
+        raise SceneError(f"renderer.scattering lights emission-absorption only, not compositing = "
+                         f"{spec.compositing!r}: set renderer.scattering.enabled = false or compositing = "
+                         f"'emission_absorption'")
+    if spec.shading.enabled:
+        raise SceneError("renderer.scattering and renderer.shading both light the samples: turn one off "
+                         "(renderer.shading.enabled = false)")
+
 
 def resolve_sample_distance(spec, field) -> float:
     """The sample distance in world units: ``sample_distance``, or ``sample_distance_voxels`` (default
@@ -292,6 +338,7 @@ def resolve_renderer(spec, field, settings):
     if spec.classification == "preintegrated" and spec.jitter:
         raise SceneError("renderer.jitter does not apply to pre-integrated classification (which needs no "
                          "jitter against wood-grain); turn one of them off")
+    _check_scattering_with(spec)
     lo, hi = field.value_range
     iso = spec.iso_value if spec.iso_value is not None else (lo + hi) / 2.0
     g_ref = spec.gradient_opacity_reference

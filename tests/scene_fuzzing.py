@@ -30,7 +30,7 @@ import numpy as np
 from hypothesis import strategies as st
 
 from dvr_gl.errors import DvrError
-from dvr_gl.model import LightSpec, ShadingSpec
+from dvr_gl.model import ScatteringSpec, ShadingSpec
 from dvr_gl.scene_schema import (CameraSpec, ImageSpec, TransferFunctionSpec, VolumeSpec,
                                   renderer_spec_class)
 
@@ -81,8 +81,8 @@ def _valid(tp, key: str, choices: tuple):
         colour = st.one_of(st.floats(0, 1), st.floats(0, 1), st.floats(0, 1), st.floats(-0.5, 1.5))
         point = st.one_of(st.lists(colour, min_size=4, max_size=4), st.lists(colour, max_size=6))
         return st.lists(point, max_size=5).map(lambda rows: [[i / 4.0] + r for i, r in enumerate(rows)])
-    if origin is list and args[0] is LightSpec:
-        return st.lists(table(LightSpec, f"{key}[]", wildness=0.0), max_size=3)
+    if origin is list and dataclasses.is_dataclass(args[0]):  # lights
+        return st.lists(table(args[0], f"{key}[]", wildness=0.0), max_size=3)
     if dataclasses.is_dataclass(tp):
         return table(tp, key, wildness=0.0)
     raise TypeError(f"no strategy for {key}: {tp}")
@@ -174,6 +174,8 @@ def scene_dicts(draw, files: dict[str, Path]):
     renderer = maybe(table(renderer_spec_class(), "renderer", rnd, wildness, present=0.1))
     if isinstance(renderer, dict) and rnd.random() < 0.3:
         renderer["shading"] = draw(table(ShadingSpec, "renderer.shading", rnd, wildness))
+    if isinstance(renderer, dict) and rnd.random() < 0.2:
+        renderer["scattering"] = draw(table(ScatteringSpec, "renderer.scattering", rnd, wildness, present=0.6))
     scene = {
         "volume": maybe(_volume(files, rnd, wildness)) if wildness else draw(_volume(files, rnd, 0.0)),
         "transfer_function": maybe(table(TransferFunctionSpec, "transfer_function", rnd, wildness)),
@@ -213,7 +215,9 @@ def _scene_outcome(raw: dict, render: bool):
         registry.check(scene)
         with create_renderer(scene.renderer.name) as renderer:
             rgba = renderer.render(scene)
-        if not (np.isfinite(rgba).all() and rgba.min() >= 0 and rgba.max() <= 1 + 1e-6):
+        # lights brighter than 1 scatter more than the colours (high dynamic range, by design)
+        bright = rgba[..., :3].max() if not scene.renderer.scattering.enabled else 0.0
+        if not (np.isfinite(rgba).all() and rgba.min() >= 0 and max(rgba[..., 3].max(), bright) <= 1 + 1e-6):
             return "other", AssertionError(f"pixels out of [0, 1] or not finite: {rgba.min()}..{rgba.max()}")
         return "rendered", None
     except DvrError:

@@ -75,6 +75,15 @@ def test_overrides_replace_their_exclusive_partner():
         apply_overrides(raw, {"filter": "nearest"})
 
 
+def test_a_table_given_as_an_override_is_copied():
+    """A later dotted key inside a table given whole changes the scene's copy, not the caller's table
+    (found when one dict of scattering settings served several scenes)."""
+    table = {"enabled": True, "shadows": True}
+    out = apply_overrides({}, {"renderer.scattering": table, "renderer.scattering.shadows": False})
+    assert out["renderer"]["scattering"] == {"enabled": True, "shadows": False}
+    assert table == {"enabled": True, "shadows": True}
+
+
 def test_orbit_keys_modify_a_look_at_camera(tmp_path):
     path = write(tmp_path, '[volume]\ndemo = "shepp-logan"\nsize = 8\n[camera]\neye = [0, -40, 0]\n'
                            'target = [0, 0, 0]\n')

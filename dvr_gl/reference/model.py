@@ -13,6 +13,7 @@ from ..model import CLASSIFIED_ALONG_RAY
 from ..preintegration import preintegrate, shortened
 from ..transfer_function import TransferFunction
 from .classification import PostClassifier, PreClassifier
+from .scattering import SingleScattering
 from .shading import blinn_phong, normals_from_gradient
 
 
@@ -118,6 +119,15 @@ class OpticalModel:
         self.epsilon = gradient_epsilon(scene.field)
         self.gradient_reference = r.gradient_opacity_reference if r.gradient_opacity and not xray else None
         self.depth_cue = depth_cue(scene) if r.compositing in ("average", "xray") and r.depth_cue < 1.0 else None
+        self.by_cell = hasattr(self.scalar, "pieces")  # a mesh: its pieces know their cells
+        self.scattering = None
+        scattering = getattr(r, "scattering", None)
+        if scattering is not None and scattering.enabled and r.compositing == "emission_absorption":
+            if exact:  # shadow rays integrated between the field's knots, to the pixel's budget
+                self.scattering = SingleScattering(scene, self.extinction, pieces=self._shadow_pieces,
+                                                   tolerance=r.converged_tolerance)
+            else:  # marched at the sample distance, as the ray caster's shadow rays
+                self.scattering = SingleScattering(scene, self.extinction, step=r.sample_distance)
         self.hemispherical = None
         if r.compositing in ("average", "xray") and r.hemispherical_shading:
             if scene.field.kind != "grid":
@@ -131,6 +141,25 @@ class OpticalModel:
             else:  # the emission sigma c of the pre-classified voxels (associated), or post-classified points
                 voxels = self.tf.classify_voxels(scene.field.samples, True)[..., :3]
                 self.hemispherical = HemisphericalShading(scene, self._emitted, voxels)
+
+    def _shadow_pieces(self, origins, directions, t0, t1):
+        """Smooth pieces ``(ray, a, b, cell)`` of shadow rays (a grid's between its filter's knots)."""
+        if self.by_cell:
+            return self.scalar.pieces(origins, directions, t0, t1)
+        from ..fields.reconstruction import smooth_pieces
+
+        ray, a, b = smooth_pieces(self.scalar, origins, directions, t0, t1)
+        return ray, a, b, np.zeros(len(ray), np.int64)
+
+    def extinction(self, points: np.ndarray, cells: np.ndarray | None = None) -> np.ndarray:
+        """``sigma`` at points, scaled by gradient-magnitude opacity if the scene asks (what attenuates
+        a shadow ray as it attenuates the view's); ``cells``: as in :meth:`values` (ignored on grids)."""
+        cells = cells if self.by_cell else None
+        _, sigma = self.classify(points, None if cells is None else self.values(points, cells))
+        if self.gradient_reference is not None:
+            gradient = self.gradients(points, cells)
+            sigma = sigma * np.minimum(1.0, np.linalg.norm(gradient, axis=1) / self.gradient_reference)
+        return sigma
 
     def _emitted(self, points: np.ndarray) -> np.ndarray:
         """``sigma c`` at points (unshaded)."""
@@ -165,6 +194,8 @@ class OpticalModel:
         ``min(1, |gradient| / reference)`` (gradient-magnitude opacity), if the scene asks.
         ``cells``: as in :meth:`values`."""
         colour, sigma = self.classify(points, None if cells is None else self.values(points, cells))
+        if self.scattering is not None:
+            colour = colour * self.scattering.factor(points, directions)
         if self.shading is None and self.gradient_reference is None:
             return colour, sigma
         gradient = self.gradients(points, cells)
@@ -180,6 +211,8 @@ class OpticalModel:
         scales the optical depth and shading the mean colour ``C / alpha``, both at ``middle``."""
         premult, tau = self.preintegration.lookup(self.scalar.sample(front), self.scalar.sample(back))
         premult, tau = shortened(premult, tau, fraction)
+        if self.scattering is not None:  # the segment lit as its middle is (as shading is)
+            premult = premult * self.scattering.factor(middle, directions)
         if self.shading is None and self.gradient_reference is None:
             return premult, tau
         gradient = self.scalar.gradient(middle)

@@ -9,7 +9,23 @@ uniform sampler3D u_classified;      // (sigma c, sigma), or (c, sigma) without 
 #include "common/preintegration.glsl"
 #endif
 
-// Shaded non-associated colour and extinction at p.
+#ifdef SCATTERING
+// Extinction at p alone (what attenuates a shadow ray), as classify() finds it.
+float extinction(vec3 p) {
+#ifdef CLASSIFY_PRE
+    float sigma = max(sample_texture(u_classified, voxel_coord(p)).a, 0.0);
+#else
+    float sigma = transfer_function(sample_scalar(p)).a;
+#endif
+#ifdef GRADIENT_OPACITY
+    sigma *= min(1.0, length(gradient(p)) / u_gradient_reference);
+#endif
+    return sigma;
+}
+#include "common/scattering.glsl"
+#endif
+
+// Shaded (or lit by scattering) non-associated colour and extinction at p.
 vec4 classify(vec3 p, vec3 dir) {
 #ifdef CLASSIFY_PRE
     vec4 c = max(sample_texture(u_classified, voxel_coord(p)), 0.0);  // cubics may overshoot
@@ -33,6 +49,9 @@ vec4 classify(vec3 p, vec3 dir) {
 #ifdef SHADING
     colour = blinn_phong(colour, g, dir);
 #endif
+#ifdef SCATTERING
+    colour *= scattering_factor(p, dir);
+#endif
     return vec4(colour, sigma);
 }
 
@@ -50,6 +69,9 @@ vec4 preintegrated_segment(float front, float back, float len, vec3 p, vec3 dir)
   #ifdef SHADING
     float alpha = opacity_of_depth(e.a);
     e.rgb = blinn_phong(alpha > 0.0 ? e.rgb / alpha : vec3(0.0), g, dir) * alpha;
+  #endif
+  #ifdef SCATTERING
+    e.rgb *= scattering_factor(p, dir);  // the segment lit as its middle is
   #endif
     return e;
 }

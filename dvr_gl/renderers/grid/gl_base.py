@@ -42,7 +42,37 @@ def classification_features(scene) -> dict:
     defines["ASSOCIATED_COLORS"] = r.classification == "pre" and r.associated_colors
     defines["GRADIENT_OPACITY"] = r.gradient_opacity
     shading_defines(scene, defines)
+    scattering_defines(scene, defines)
     return {k: v for k, v in defines.items() if v is not False}
+
+
+def scattering_defines(scene, defines: dict):
+    """Single scattering (shaders/common/scattering.glsl), only where the scene enables it."""
+    sc = getattr(scene.renderer, "scattering", None)
+    if sc is None or not sc.enabled or scene.renderer.compositing != "emission_absorption":
+        return
+    defines.update(SCATTERING=True, NUM_SCATTER_LIGHTS=len(sc.lights), PHASE_HG=sc.phase == "henyey_greenstein",
+                   SHADOWS=sc.shadows)
+
+
+def scattering_uniforms(scene) -> dict:
+    """The lights of single scattering: toward a directional light (w 0) or a point light's position
+    (w 1), irradiance, albedo, phase, the shadow rays' step (the sample distance) and the nearest a
+    point light counts as (half the smallest voxel, as dvr_gl.reference.scattering)."""
+    sc, r = scene.renderer.scattering, scene.renderer
+    if not sc.enabled:
+        return {}
+    lights = []
+    for light in sc.lights:
+        if light.type == "directional":
+            w = np.asarray(light.direction, dtype=np.float64)
+            lights.append((*(-w / np.linalg.norm(w)), 0.0))
+        else:
+            lights.append((*light.position, 1.0))
+    return {"u_scatter_light": lights,
+            "u_scatter_irradiance": [tuple(light.intensity * np.asarray(light.color)) for light in sc.lights],
+            "u_albedo": sc.albedo, "u_phase_g": sc.g, "u_shadow_step": r.sample_distance,
+            "u_min_light_distance": 0.5 * float(scene.field.sample_spacing)}
 
 
 def shading_defines(scene, defines: dict):
@@ -239,7 +269,7 @@ class GLVolumeRenderer(Renderer):
                                 (*(-np.asarray(light.direction) / np.linalg.norm(light.direction)), 0.0)
                                 for light in lights]
             u["u_light_color"] = [tuple(light.color) for light in lights]
-        return u
+        return {**u, **scattering_uniforms(scene)}
 
     @staticmethod
     def set_uniform(program, name, value):

@@ -11,6 +11,7 @@ from __future__ import annotations
 from typing import Optional
 
 from ... import settings as s
+from ...errors import SceneError
 from ...model import SPLINE_FILTERS
 from ... import sweeps
 from ..registry import RendererPlugin
@@ -34,6 +35,15 @@ HOMOGENEITY_TOLERANCE = s.Setting("homogeneity_tolerance", float, 0.0, "> 0 also
                                   "approximately (docs/acceleration.md)", check=s.at_least(0), group="raycast",
                                   flag=False)
 
+def check(scene):
+    """Scattering by shadow rays only (the light volume and half-angle slicing are other methods)."""
+    sc = scene.renderer.scattering
+    if sc.enabled and sc.method != "shadow_rays":
+        raise SceneError(f"raycast finds scattering's transmittance by shadow rays, not by "
+                         f"renderer.scattering.method = {sc.method!r}: set method = 'shadow_rays' or use "
+                         f"reference or reference-converged")
+
+
 PLUGIN = RendererPlugin(
     name="raycast",
     description="GPU ray casting in a GLSL fragment loop",
@@ -42,9 +52,10 @@ PLUGIN = RendererPlugin(
               s.ASSOCIATED_COLORS, s.PREINTEGRATION, s.PREINTEGRATION_SIZE, s.FILTER.only(*SPLINE_FILTERS), s.FILTERING,
               s.GRADIENT, s.GRADIENT_OPACITY, s.GRADIENT_OPACITY_REFERENCE, s.ISO_VALUE, s.ISO_REFINEMENT, s.JITTER,
               s.JITTER_SEED, s.ERT_THRESHOLD, s.LUT_SIZE, s.TEXTURE_BUDGET_MB, ACCELERATION, BLOCK_SIZE,
-              HOMOGENEITY_TOLERANCE, s.SHADING),
+              HOMOGENEITY_TOLERANCE, s.SHADING, s.SCATTERING),
     data_kinds=("grid",),
     needs_gl=True,
+    check=check,
     oracle="dvr_gl.reference.discrete:same_discretization",
     resolve="dvr_gl.tolerance:resolve",
     sweeps=(sweeps.POST, sweeps.PRE_CLASSIFIED, sweeps.PREINTEGRATED, sweeps.PREINTEGRATED_FAST, sweeps.NEAREST,

@@ -18,6 +18,7 @@ import moderngl
 import numpy as np
 
 from ... import limits
+from ...errors import SceneError
 from ... import rays as rays_mod
 from ...fields import diagonal
 from ...gl.geometry import gl_matrix, projection_matrix, view_matrix
@@ -76,7 +77,8 @@ def shader_features(scene, count_samples: bool = False, bricked: bool = False) -
     defines = classification_features(scene)
     defines[COMPOSITING[r.compositing]] = True
     if xray:  # absorption only: no shading, no gradient opacity (dvr_gl.reference.model), nothing terminates
-        for key in ("SHADING", "NUM_LIGHTS", "TWO_SIDED", "GRADIENT_TEXTURE", "GRADIENT_OPACITY"):
+        for key in ("SHADING", "NUM_LIGHTS", "TWO_SIDED", "GRADIENT_TEXTURE", "GRADIENT_OPACITY", "SCATTERING",
+                    "NUM_SCATTER_LIGHTS", "PHASE_HG", "SHADOWS"):
             defines.pop(key, None)
         defines["XRAY"] = True
     if not emission:  # classification, gradient opacity: emission-absorption only
@@ -187,11 +189,15 @@ def worth_skipping(estimate, sample_distance: float) -> bool:
 def segment_windows(scene, accelerated: bool = False) -> list[tuple[int, int]]:
     """Segment index ranges, one per pass: all segments at once unless the longest possible ray
     (the box's diagonal) takes more than :data:`PASS_SEGMENTS` (a third of that where the loop skips
-    empty space, ``accelerated``)."""
+    empty space, ``accelerated``; a segment's shadow rays count theirs too: each as long as the
+    diagonal at most, plus one for the loop's exit)."""
     longest = math.ceil(diagonal(scene.volume) / scene.renderer.sample_distance)
     per_pass = PASS_SEGMENTS - scene.renderer.iso_refinement
-    if accelerated:
-        per_pass //= ACCELERATED_COST
+    cost = ACCELERATED_COST if accelerated else 1
+    sc = scene.renderer.scattering
+    if sc.enabled and sc.shadows and scene.renderer.compositing == "emission_absorption":
+        cost += len(sc.lights) * (longest + 1)
+    per_pass = max(per_pass // cost, 1)
     if longest <= per_pass:
         return [(0, MAX_INT)]
     return [(k, k + per_pass) for k in range(0, longest + 1, per_pass)]
@@ -235,9 +241,10 @@ class RayCastRenderer(GLVolumeRenderer):
             mode = "minip" if "COMPOSITE_MINIP" in defines else "max"
             return self._cached("blocks", ("minmax", pyramids, r.filter, mode), lambda: BlockTextures(
                 self.ctx, accel.minmax_textures(pyramids, r.filter), mode))
-        # Shaded colours differ at every sample, and pre-integrated segments see the table's own
+        # Shaded (or lit) colours differ at every sample, and pre-integrated segments see the table's own
         # values: only empty blocks are jumped then (exactly zero in both).
-        constant_allowed = not ("SHADING" in defines or "GRADIENT_OPACITY" in defines or preint is not None)
+        constant_allowed = not ("SHADING" in defines or "SCATTERING" in defines or "GRADIENT_OPACITY" in defines
+                                or preint is not None)
         snap = (preint.domain, preint.size) if preint is not None else None
         if preint is not None:
             lut = preint.source
@@ -289,6 +296,11 @@ class RayCastRenderer(GLVolumeRenderer):
         decided = {"skippable_estimate": estimate and estimate.fraction, "accelerated": "ACCELERATE" in defines,
                    "lookups_estimate": estimate and estimate.lookups, "ray_bounds": "RAY_BOUNDS" in defines,
                    "outside_bounds_estimate": estimate and estimate.outside, "bounds_seconds": self.bounds_seconds}
+        if len(views) > 1 and "SCATTERING" in defines:
+            raise SceneError(f"raycast renders scattering from one texture of the whole volume (a shadow ray "
+                             f"crosses bricks), and {scene.volume.name} needs {len(views)} bricks at "
+                             f"renderer.texture_budget_mb = {scene.renderer.texture_budget_mb:g}: raise it or "
+                             f"turn renderer.scattering off")
         if len(views) > 1 or len(windows) > 1:
             if len(views) == 1:  # long rays: the whole volume as one brick, in passes over segment windows
                 views = [GridView((0, 0, 0), scene.volume.dims, whole_volume_brick(scene.volume))]

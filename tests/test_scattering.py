@@ -1,0 +1,337 @@
+"""Single scattering with shadows (``[renderer.scattering]``): the phase functions, the references
+against closed forms, and what a scene without scattering keeps.
+
+The closed forms (orthographic views along -z, a homogeneous medium of extinction ``S``, colour ``C``,
+albedo ``a``, one directional light of irradiance ``E``; ``q = 4 pi p(cos theta)``):
+
+* a slab of thickness ``L`` lit through the face the eye sees, the light tilted by ``theta`` from the
+  normal (``mu = cos theta``): a point at depth ``t`` is ``t / mu`` from the light's entry, so the pixel
+  is ``C ((1 - a)(1 - e^(-S L)) + a q E (1 - e^(-S L (1 + 1/mu))) / (1 + 1/mu))``;
+* the same slab lit through its back face: ``C ((1 - a)(1 - e^(-S L)) + a q E S e^(-S L / mu)
+  (1 - e^(-S L k)) / (S k))`` with ``k = 1 - 1/mu``;
+* a ball of radius ``R`` lit along the view (the light's path inside it lies on the pixel's chord of
+  half-length ``h``): lit from the eye's side ``C ((1 - a)(1 - e^(-2 S h)) + a q E (1 - e^(-4 S h)) / 2)``,
+  from behind ``C ((1 - a)(1 - e^(-2 S h)) + a q E 2 S h e^(-2 S h))``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from dvr_gl.errors import SceneError
+from dvr_gl.fields import SphereField
+from dvr_gl.reference.converged import ConvergedReference
+from dvr_gl.reference.discrete import DiscreteReference
+from dvr_gl.reference.scattering import FOUR_PI, henyey_greenstein, isotropic, phase_maximum
+from dvr_gl.renderers import registry
+from dvr_gl.scene import load_scene
+from dvr_gl.transfer_function import TransferFunction
+
+from conftest import array_scene
+
+COLOUR = np.array([0.9, 0.6, 0.3])
+SIGMA, ALBEDO, INTENSITY = 1.3, 0.7, 1.5
+
+
+# --- the phase functions -------------------------------------------------------------------------
+
+def _sphere_integral(f) -> float:
+    """``2 pi`` times the integral of ``f(mu)`` over ``mu`` in [-1, 1]: Gauss-Legendre on pieces that
+    shrink geometrically toward both ends, where Henyey-Greenstein's peaks are (width ~ (1 - |g|)^2)."""
+    edges = np.concatenate([-1.0 + np.logspace(-12, 0, 49), 1.0 - np.logspace(0, -12, 49)[1:]])
+    edges = np.unique(np.concatenate([[-1.0, 1.0], edges]))
+    x, w = np.polynomial.legendre.leggauss(32)
+    a, b = edges[:-1, None], edges[1:, None]
+    mu = 0.5 * (a + b) + 0.5 * (b - a) * x
+    return float(2.0 * np.pi * np.sum(0.5 * (b - a) * w * f(mu)))
+
+
+@pytest.mark.parametrize("g", [-0.99, -0.6, 0.0, 0.3, 0.85, 0.99])
+def test_henyey_greenstein_is_normalised_with_mean_cosine_g(g):
+    assert _sphere_integral(lambda mu: henyey_greenstein(mu, g)) == pytest.approx(1.0, abs=1e-10)
+    assert _sphere_integral(lambda mu: mu * henyey_greenstein(mu, g)) == pytest.approx(g, abs=1e-10)
+    peak = 1.0 if g >= 0 else -1.0
+    assert FOUR_PI * henyey_greenstein(np.array([peak]), g)[0] == pytest.approx(
+        phase_maximum(type("S", (), {"phase": "henyey_greenstein", "g": g})()), rel=1e-12)
+
+
+def test_isotropic_phase_and_henyey_greenstein_at_zero_agree():
+    mu = np.linspace(-1.0, 1.0, 7)
+    assert np.allclose(isotropic(mu), 1.0 / FOUR_PI)
+    assert np.allclose(henyey_greenstein(mu, 0.0), 1.0 / FOUR_PI, rtol=0, atol=1e-15)
+    assert _sphere_integral(isotropic) == pytest.approx(1.0, abs=1e-12)
+
+
+def test_henyey_greenstein_keeps_its_digits_at_the_extremes():
+    """Near g = -1 the textbook denominator 1 + g^2 - 2 g mu cancels at mu = -1; the written-out form
+    keeps the peak (1 + |g|) / (1 - |g|)^2 / (4 pi) to rounding."""
+    for g in (-0.999999, 0.999999):
+        peak = np.array([math.copysign(1.0, g)])
+        exact = (1.0 + abs(g)) / (1.0 - abs(g)) ** 2 / FOUR_PI
+        assert henyey_greenstein(peak, g)[0] == pytest.approx(exact, rel=1e-9)
+
+
+# --- closed forms ---------------------------------------------------------------------------------
+
+def _medium_points():
+    return [[0.0, *COLOUR, SIGMA], [1.0, *COLOUR, SIGMA]]
+
+
+def _light(direction, **extra):
+    return {"type": "directional", "direction": list(direction), "intensity": INTENSITY, **extra}
+
+
+def _scattering(lights, **extra):
+    return {"enabled": True, "albedo": ALBEDO, "lights": lights, **extra}
+
+
+def _slab_scene(tmp_path, renderer, lights, **extra):
+    """A slab 4 x 4 x 1 (world) of constant data, seen orthographically from +z."""
+    data = np.full((3, 9, 9), 0.5, np.float32)
+    overrides = {"renderer.name": renderer, "transfer_function.points": _medium_points(),
+                 "transfer_function.opacity_model": "extinction", "image.width": 12, "image.height": 12,
+                 "camera.projection": "orthographic", "camera.eye": [2.0, 2.0, 10.0], "camera.target": [2.0, 2.0, 0.5],
+                 "camera.up": [0.0, 1.0, 0.0], "camera.view_height": 2.0, "renderer.ert_threshold": 1.0,
+                 "renderer.converged_tolerance": 1e-7, "renderer.scattering": _scattering(lights, **extra)}
+    return array_scene(tmp_path, data, overrides, spacing=(0.5, 0.5, 0.5))
+
+
+def _slab_expected(front: bool, theta: float, q: float):
+    mu, s_l = math.cos(theta), SIGMA * 1.0
+    emitted = (1.0 - ALBEDO) * -math.expm1(-s_l)
+    if front:
+        k = 1.0 + 1.0 / mu
+        scattered = q * INTENSITY * -math.expm1(-s_l * k) / k
+    else:
+        k = 1.0 - 1.0 / mu
+        scattered = q * INTENSITY * math.exp(-s_l / mu) * -math.expm1(-s_l * k) / k
+    return COLOUR * (emitted + ALBEDO * scattered), -math.expm1(-s_l)
+
+
+@pytest.mark.parametrize("front", [True, False])
+@pytest.mark.parametrize("phase", [{}, {"phase": "henyey_greenstein", "g": 0.6}])
+def test_slab_lit_by_a_directional_light(tmp_path, front, phase):
+    theta = math.radians(40.0)
+    direction = (math.sin(theta), 0.0, -math.cos(theta) if front else math.cos(theta))
+    # cos of the angle between the light's travel and the direction toward the eye (+z)
+    cos_scatter = direction[2]
+    q = 1.0 if not phase else FOUR_PI * henyey_greenstein(np.array([cos_scatter]), 0.6)[0]
+    colour, alpha = _slab_expected(front, theta, q)
+    scene = _slab_scene(tmp_path, "reference-converged", [_light(direction)], **phase)
+    assert scene.field.bounds[1][2] - scene.field.bounds[0][2] == pytest.approx(1.0)
+    image = ConvergedReference(scene).render_float64()
+    # every pixel's shadow rays leave through the lit face: the image is within 1 of the slab's middle
+    assert np.abs(image[..., :3] - colour).max() < 1e-6
+    assert np.abs(image[..., 3] - alpha).max() < 1e-12
+    # the same discretization at a fine step: midpoint sampling of e^(-S t / mu) errs by about
+    # (S d / mu)^2 / 24 relatively (2.8e-7 at d = 0.002); the shadow march of a constant medium is exact
+    fine = DiscreteReference(scene.with_renderer(name="reference", sample_distance=0.002)).render_float64()
+    assert np.abs(fine[..., :3] - colour).max() < 1e-6
+
+
+def _ball_scene(renderer, lights, **extra):
+    radius = 1.0
+    box = load_scene(None, {"volume.demo": "shepp-logan", "volume.size": 4, "renderer.name": renderer,
+                            "image.width": 11, "image.height": 11, "camera.projection": "orthographic",
+                            "camera.eye": [0.0, 0.0, 8.0], "camera.target": [0.0, 0.0, 0.0],
+                            "camera.up": [0.0, 1.0, 0.0], "camera.view_height": 2.4, "renderer.ert_threshold": 1.0,
+                            "renderer.converged_tolerance": 1e-7,
+                            "renderer.scattering": _scattering(lights, **extra)})
+    field = SphereField((0.0, 0.0, 0.0), radius, bounds=((-1.2, -1.2, -1.2), (1.2, 1.2, 1.2)), sample_spacing=0.05)
+    tf = TransferFunction(np.array([[0.0, *COLOUR, 0.0], [1.0, *COLOUR, SIGMA]]), opacity_model="extinction")
+    return box.replace(field=field, camera=box.camera, transfer_function=tf), radius
+
+
+@pytest.mark.parametrize("toward_eye", [False, True])
+def test_ball_lit_along_the_view(toward_eye):
+    """Light travelling along the view (lit from the eye's side, backscattering) or toward the eye
+    (lit from behind, forward scattering through Henyey-Greenstein)."""
+    g = 0.5
+    direction = (0.0, 0.0, 1.0 if toward_eye else -1.0)
+    scene, radius = _ball_scene("reference-converged", [_light(direction)], phase="henyey_greenstein", g=g)
+    q = FOUR_PI * henyey_greenstein(np.array([direction[2]]), g)[0]
+    o, d = scene.camera.pixel_rays(scene.image.width, scene.image.height)
+    b2 = np.sum(o[:, :2] ** 2, axis=1)
+    h = np.sqrt(np.maximum(radius ** 2 - b2, 0.0))
+    emitted = (1.0 - ALBEDO) * -np.expm1(-2.0 * SIGMA * h)
+    if toward_eye:
+        scattered = q * INTENSITY * 2.0 * SIGMA * h * np.exp(-2.0 * SIGMA * h)
+    else:
+        scattered = q * INTENSITY * -np.expm1(-4.0 * SIGMA * h) / 2.0
+    expected = (emitted + ALBEDO * scattered)[:, None] * COLOUR
+    image = ConvergedReference(scene).render_float64().reshape(-1, 4)
+    away = np.abs(np.sqrt(b2) - radius) > 0.02  # the silhouette, where a pixel's chord is all edge
+    assert away.sum() > 60
+    assert np.abs(image[away, :3] - expected[away]).max() < 1e-6
+    assert np.abs(image[away, 3] - -np.expm1(-2.0 * SIGMA * h[away])).max() < 1e-9
+
+
+def test_point_light_on_the_axis_against_a_direct_quadrature():
+    """A point light above the ball on the view axis: along the central pixel's chord (z from R down to
+    -R) the light is ``Z - z`` away and its path inside the ball ``R - z``, so the scattered light is
+    ``a q I S int e^(-2 S (R - z)) / (Z - z)^2 dz`` (q for backscattering, isotropic: 1)."""
+    z_light = 3.0
+    scene, radius = _ball_scene("reference-converged", [{"type": "point", "position": [0.0, 0.0, z_light],
+                                                          "intensity": INTENSITY}])
+    x, w = np.polynomial.legendre.leggauss(200)
+    z = radius * x
+    scattered = radius * np.sum(w * SIGMA * INTENSITY * np.exp(-2.0 * SIGMA * (radius - z)) / (z_light - z) ** 2)
+    emitted = (1.0 - ALBEDO) * -math.expm1(-2.0 * SIGMA * radius)
+    image = ConvergedReference(scene).render_float64()
+    centre = image[scene.image.height // 2, scene.image.width // 2]
+    assert np.abs(centre[:3] - COLOUR * (emitted + ALBEDO * scattered)).max() < 1e-6
+
+
+# --- identities and what a scene without scattering keeps -----------------------------------------
+
+SMALL = {"volume.demo": "shepp-logan", "volume.size": 12, "image.width": 14, "image.height": 12}
+
+
+@pytest.mark.parametrize("name", ["reference", "reference-converged"])
+def test_unshadowed_isotropic_unit_light_is_emission_absorption(name):
+    """With no shadows, isotropic phase and one light of intensity 1, ``F = 1`` everywhere: the image is
+    emission-absorption's, whatever the albedo; albedo 0 is emission-absorption with any light."""
+    plain = registry.plugin(name).create().render(load_scene(None, {**SMALL, "renderer.name": name}))
+    for scattering in ({"enabled": True, "albedo": 1.0, "shadows": False, "lights": [{"intensity": 1.0}]},
+                       {"enabled": True, "albedo": 0.0, "lights": [{"intensity": 7.0}]}):
+        scene = load_scene(None, {**SMALL, "renderer.name": name, "renderer.scattering": scattering})
+        image = registry.plugin(name).create().render(scene)
+        assert np.abs(image - plain).max() < 1e-6
+
+
+def test_shadows_darken_and_the_discrete_reference_converges():
+    """Shepp-Logan lit from the side: shadows take light away, and the same-discretization reference
+    approaches the converged one as its step (view and shadow rays) shrinks."""
+    scattering = {"enabled": True, "albedo": 1.0, "lights": [{"direction": [1.0, 0.3, -0.2], "intensity": 3.0}]}
+    over = {**SMALL, "renderer.scattering": scattering, "renderer.ert_threshold": 1.0,
+            "transfer_function.points": [[0.0, 1.0, 1.0, 1.0, 0.0], [0.3, 1.0, 1.0, 1.0, 0.6],
+                                         [1.0, 1.0, 1.0, 1.0, 0.9]]}
+    truth = ConvergedReference(load_scene(None, {**over, "renderer.converged_tolerance": 1e-6})).render_float64()
+    unshadowed = ConvergedReference(load_scene(None, {**over, "renderer.scattering.shadows": False})).render_float64()
+    assert truth[..., 3].max() > 0.3
+    assert (truth[..., :3] <= unshadowed[..., :3] + 1e-6).all()
+    assert (unshadowed[..., :3] - truth[..., :3]).max() > 0.05
+    errors = []
+    for voxels in (1.0, 0.5, 0.25):
+        scene = load_scene(None, {**over, "renderer.name": "reference", "renderer.sample_distance_voxels": voxels})
+        errors.append(float(np.sqrt(np.mean((DiscreteReference(scene).render_float64() - truth) ** 2))))
+    assert errors[0] > errors[1] > errors[2]
+    assert errors[2] < 0.35 * errors[0]  # second order: a quarter per halving, with rounding of knots
+
+
+def test_scene_file_round_trip_and_defaults(tmp_path):
+    scene = load_scene(None, {**SMALL, "renderer.name": "reference",
+                              "renderer.scattering": {"enabled": True, "phase": "henyey_greenstein", "g": 0.4,
+                                                      "lights": [{"type": "point", "position": [1.0, 2.0, 3.0]}]}})
+    path = tmp_path / "scene.toml"
+    path.write_text(scene.to_toml())
+    again = load_scene(path)
+    assert again.renderer.scattering == scene.renderer.scattering
+    assert again.renderer.scattering.lights[0].position == (1.0, 2.0, 3.0)
+    default = load_scene(None, SMALL).renderer.scattering
+    assert not default.enabled and default.lights[0].type == "directional"
+
+
+@pytest.mark.parametrize("overrides, words", [
+    ({"renderer.scattering.albedo": 1.5}, "albedo must be in [0, 1]"),
+    ({"renderer.scattering.g": 1.0, "renderer.scattering.phase": "henyey_greenstein"}, "g must be in (-1, 1)"),
+    ({"renderer.scattering.g": 0.5}, "applies to phase = 'henyey_greenstein'"),
+    ({"renderer.scattering.lights": []}, "lights is empty"),
+    ({"renderer.scattering.lights": [{"direction": [0.0, 0.0, 0.0]}]}, "direction must be a non-zero vector"),
+    ({"renderer.scattering.lights": [{"intensity": -1.0}]}, "intensity must be >= 0"),
+    ({"renderer.scattering.phase": "rayleigh"}, "is not one of isotropic, henyey_greenstein"),
+    ({"renderer.compositing": "mip"}, "emission-absorption only, not compositing = 'mip'"),
+    ({"renderer.shading.enabled": True}, "turn one off"),
+])
+def test_bad_scattering_is_one_line(overrides, words):
+    with pytest.raises(SceneError) as info:
+        load_scene(None, {**SMALL, "renderer.name": "reference", "renderer.scattering.enabled": True, **overrides})
+    assert words in str(info.value) and "\n" not in str(info.value)
+
+
+def test_renderers_without_scattering_refuse_it():
+    """Every grid renderer that does not declare the setting refuses a scene that asks for it, naming the
+    ones that render it (those without emission-absorption refuse the mode first: tested above)."""
+    for name in registry.names():
+        plugin = registry.plugin(name)
+        if (plugin.declared("scattering") is not None or "emission_absorption" not in plugin.choices("compositing")
+                or (plugin.data_kinds is not None and "grid" not in plugin.data_kinds)):
+            continue
+        filters = plugin.choices("filter")
+        scene = load_scene(None, {**SMALL, "renderer.scattering.enabled": True,
+                                  "renderer.filter": "linear" if "linear" in filters else filters[0]})
+        problem = registry.refusal(scene, name)
+        assert problem is not None and "scattering" in problem and "reference" in problem, name
+
+
+# --- the ray caster's shadow rays ------------------------------------------------------------------
+
+LIT = {**SMALL, "renderer.ert_threshold": 1.0,
+       "renderer.scattering": {"enabled": True, "albedo": 0.9, "lights": [{"direction": [1.0, 0.3, -0.2],
+                                                                          "intensity": 3.0}]},
+       "transfer_function.points": [[0.0, 1.0, 0.8, 0.6, 0.0], [0.3, 1.0, 0.8, 0.6, 0.6],
+                                    [1.0, 0.6, 0.8, 1.0, 0.9]]}
+
+
+@pytest.mark.parametrize("extra", [
+    {}, {"renderer.ert_threshold": 0.99}, {"camera.projection": "orthographic"},
+    {"renderer.scattering.phase": "henyey_greenstein", "renderer.scattering.g": -0.4},
+    {"renderer.scattering.lights": [{"type": "point", "position": [3.0, 20.0, 10.0], "intensity": 300.0},
+                                    {"direction": [0.0, 0.0, -1.0], "color": [0.5, 0.7, 1.0]}]},
+    {"renderer.scattering.lights": [{"type": "point", "position": [6.0, 6.0, 6.0], "intensity": 4.0}]},  # inside
+    {"renderer.classification": "pre"}, {"renderer.classification": "preintegrated"},
+    {"renderer.gradient_opacity": True}, {"renderer.scattering.shadows": False}, {"renderer.acceleration": "on"},
+    {"renderer.filter": "cubic_bspline"},
+], ids=lambda e: ",".join(f"{k.split('.')[-1]}={v}" if not isinstance(v, list) else k.split('.')[-1] for k, v in e.items()) or "default")
+def test_raycast_shadow_rays_match_the_same_discretization(gl_context, extra):
+    """The ray caster's shadow rays against the reference's (same segments on both rays): float32
+    against float64, measured at most 6e-6 (the conftest's bound: 1e-4 for 0.5 % of values)."""
+    from conftest import assert_close
+
+    scene = load_scene(None, {**LIT, "renderer.name": "raycast", **extra})
+    with registry.plugin("raycast").create(ctx=gl_context) as renderer:
+        image = renderer.render(scene)
+        assert renderer.stats["defines"]["SCATTERING"]
+    reference = DiscreteReference(scene).render_float64()
+    assert image[..., :3].max() > 0.1  # lit, not black
+    assert_close(image, reference)
+
+
+def test_raycast_shadow_rays_longer_than_the_loop_cap_go_in_passes(gl_context):
+    """A shadow ray per sample multiplies a ray's loop iterations; llvmpipe stops a shader's loops after
+    65535 in all, so the frame is drawn in windows of segments (here 3): without them the far half of
+    every ray would be missing."""
+    from conftest import assert_close
+    from dvr_gl.renderers.raycast.renderer import segment_windows
+
+    scene = load_scene(None, {**LIT, "renderer.name": "raycast", "renderer.sample_distance_voxels": 0.05,
+                              "image.width": 6, "image.height": 5})
+    assert len(segment_windows(scene)) >= 3
+    with registry.plugin("raycast").create(ctx=gl_context) as renderer:
+        image = renderer.render(scene)
+        assert renderer.stats["passes"] >= 3
+    assert_close(image, DiscreteReference(scene).render_float64())
+
+
+def test_a_scene_without_scattering_compiles_none_and_is_unchanged(gl_context):
+    """``enabled = false`` (whatever else the table holds) is the scene without the table: no scattering
+    define, the same image to the bit."""
+    plain = load_scene(None, {**SMALL, "renderer.name": "raycast"})
+    off = load_scene(None, {**SMALL, "renderer.name": "raycast",
+                            "renderer.scattering": {"enabled": False, "albedo": 0.3, "shadows": True,
+                                                    "lights": [{"type": "point", "intensity": 9.0}]}})
+    with registry.plugin("raycast").create(ctx=gl_context) as renderer:
+        a = renderer.render(plain)
+        defines = dict(renderer.stats["defines"])
+        b = renderer.render(off)
+        assert renderer.stats["defines"] == defines
+    assert not any(k in defines for k in ("SCATTERING", "SHADOWS", "NUM_SCATTER_LIGHTS", "PHASE_HG"))
+    assert np.array_equal(a, b)
+
+
+def test_raycast_refuses_other_methods_and_bricks():
+    scene = load_scene(None, {**LIT, "renderer.name": "raycast", "renderer.scattering.method": "half_angle"})
+    assert "by shadow rays, not by renderer.scattering.method = 'half_angle'" in registry.refusal(scene)
