@@ -106,6 +106,8 @@ class ScatteringSpec:
     g: float = doc(0.0, "henyey_greenstein: the mean cosine of the scattering angle (-1 .. 1, > 0 forward)")
     shadows: bool = doc(True, "attenuate each light by the transmittance toward it")
     method: str = choices(*SCATTERING_METHODS, default="shadow_rays",
-                          doc="how a GPU renderer finds the transmittance (the references integrate it)")
+                          doc="how a GPU renderer finds the transmittance: a shadow ray per sample, or the "
+                              "light_volume's grid of shadow rays interpolated (reference-converged integrates it)")
+    light_volume_size: int = doc(64, "light_volume: the grid's nodes along the box's longest axis (2 .. 256)")
     lights: list[ScatteringLightSpec] = doc(None, "`[[renderer.scattering.lights]]` tables (default: one "
                                                   "directional light)", factory=lambda: [ScatteringLightSpec()])

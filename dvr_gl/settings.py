@@ -165,6 +165,11 @@ def _check_scattering(sc: ScatteringSpec) -> None:
     if sc.g != 0.0 and sc.phase == "isotropic":
         raise SceneError(f"renderer.scattering.g = {sc.g} applies to phase = 'henyey_greenstein'; set the "
                          f"phase or remove g")
+    if not 2 <= sc.light_volume_size <= 256:
+        raise SceneError(f"renderer.scattering.light_volume_size must be 2 to 256 nodes, got {sc.light_volume_size}")
+    if sc.method == "light_volume" and len(sc.lights) > 4:
+        raise SceneError(f"renderer.scattering.method = 'light_volume' holds at most 4 lights (one channel each), "
+                         f"got {len(sc.lights)}; use shadow_rays or fewer lights")
     if sc.enabled and not sc.lights:
         raise SceneError("renderer.scattering.lights is empty: give at least one [[renderer.scattering.lights]] "
                          "table, or set enabled = false")

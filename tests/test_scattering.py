@@ -16,6 +16,7 @@ albedo ``a``, one directional light of irradiance ``E``; ``q = 4 pi p(cos theta)
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -335,3 +336,62 @@ def test_a_scene_without_scattering_compiles_none_and_is_unchanged(gl_context):
 def test_raycast_refuses_other_methods_and_bricks():
     scene = load_scene(None, {**LIT, "renderer.name": "raycast", "renderer.scattering.method": "half_angle"})
     assert "by shadow rays, not by renderer.scattering.method = 'half_angle'" in registry.refusal(scene)
+
+
+# --- the light volume ------------------------------------------------------------------------------
+
+VOLUME_LIT = {**LIT, "renderer.scattering.method": "light_volume", "renderer.scattering.light_volume_size": 20}
+
+
+@pytest.mark.parametrize("extra", [
+    {}, {"renderer.scattering.lights": [{"type": "point", "position": [3.0, 20.0, 10.0], "intensity": 300.0},
+                                        {"direction": [0.0, 0.0, -1.0], "color": [0.5, 0.7, 1.0]}]},
+    {"renderer.classification": "pre"}, {"renderer.classification": "preintegrated"},
+    {"renderer.gradient_opacity": True}, {"renderer.filter": "cubic_bspline"},
+    {"renderer.scattering.light_volume_size": 5},
+], ids=lambda e: ",".join(f"{k.split('.')[-1]}={v}" if not isinstance(v, list) else k.split('.')[-1] for k, v in e.items()) or "default")
+def test_raycast_light_volume_matches_the_same_discretization(gl_context, extra):
+    """The light volume marched in GL from its nodes and interpolated in the shader, against the
+    reference marching the same rays in float64: measured at most 6e-6, the conftest's bound."""
+    from conftest import assert_close
+
+    scene = load_scene(None, {**VOLUME_LIT, "renderer.name": "raycast", **extra})
+    with registry.plugin("raycast").create(ctx=gl_context) as renderer:
+        image = renderer.render(scene)
+        assert renderer.stats["defines"]["LIGHT_VOLUME"] and "SHADOWS" not in renderer.stats["defines"]
+    assert image[..., :3].max() > 0.1
+    assert_close(image, DiscreteReference(scene).render_float64())
+
+
+def test_light_volume_is_made_once_per_light_and_transfer_function(gl_context):
+    scene = load_scene(None, {**VOLUME_LIT, "renderer.name": "raycast"})
+    with registry.plugin("raycast").create(ctx=gl_context) as renderer:
+        renderer.render(scene)
+        assert renderer.stats["light_volume_seconds"] > 0
+        renderer.render(scene.replace(camera=scene.camera.orbited(azimuth=80.0)))  # a new view: kept
+        assert renderer.stats["light_volume_seconds"] == 0
+        moved = scene.with_renderer(scattering=dataclasses.replace(
+            scene.renderer.scattering, lights=[dataclasses.replace(scene.renderer.scattering.lights[0],
+                                                                   direction=(0.0, 1.0, -1.0))]))
+        renderer.render(moved)
+        assert renderer.stats["light_volume_seconds"] > 0
+        plain = load_scene(None, {**SMALL, "renderer.name": "raycast"})
+        with registry.plugin("raycast").create(ctx=gl_context) as fresh:
+            fresh.render(plain)
+            assert "light volume" not in fresh._cache  # nothing of scattering uploaded
+
+
+def test_light_volume_converges_to_the_shadow_rays():
+    """The light volume's error against reference-converged falls with its resolution, at second
+    order (trilinear interpolation of a smooth optical depth), toward the shadow rays' own."""
+    over = {**LIT, "volume.size": 20, "image.width": 24, "image.height": 24}
+    truth = ConvergedReference(load_scene(None, {**over, "renderer.converged_tolerance": 1e-5})).render_float64()
+
+    def rms(extra):
+        scene = load_scene(None, {**over, "renderer.name": "reference", **extra})
+        return float(np.sqrt(np.mean((DiscreteReference(scene).render_float64() - truth) ** 2)))
+    rays = rms({})
+    errors = [rms({"renderer.scattering.method": "light_volume", "renderer.scattering.light_volume_size": n})
+              for n in (8, 16, 32)]
+    assert errors[0] > 2.5 * errors[1] > 2.5 ** 2 * errors[2]
+    assert errors[2] < 10 * rays

@@ -5,7 +5,9 @@ Shared by both references (:class:`~dvr_gl.reference.model.OpticalModel` multipl
 
 * ``reference`` marches a shadow ray as a GPU renderer would: segments of the scene's sample distance
   from the point to where the ray leaves the box (or reaches a point light), the last one shortened,
-  the extinction from the transfer-function table at each segment's midpoint;
+  the extinction from the transfer-function table at each segment's midpoint; with ``method =
+  "light_volume"`` it marches them from the nodes of the light volume (:func:`light_volume_nodes`)
+  instead and interpolates their optical depths trilinearly, as the GPU samples its light volume;
 * ``reference-converged`` integrates the optical depth between the field's knots by Gauss-Legendre,
   bisecting until its error at each point is within the share of the pixel's budget that point can
   spend (see :meth:`SingleScattering._tolerances`).
@@ -83,6 +85,7 @@ class SingleScattering:
     def __init__(self, scene, extinction, pieces=None, step: float | None = None, tolerance: float = 1e-4,
                  nodes: int = 4):
         self.spec = scene.renderer.scattering
+        self.grid = None  # the light volume's nodes and optical depths, made when first needed
         self.extinction = extinction
         self.pieces = pieces
         self.step = step
@@ -132,7 +135,24 @@ class SingleScattering:
             else:
                 t[lit] = 1.0
             total += weight * t[:, None]
+        if self.spec.shadows and self._uses_light_volume():
+            total = sum(w * np.exp(-tau)[:, None] for w, tau in zip(weights, self._light_volume_depths(points)))
         return (1.0 - a) + a * total
+
+    def _uses_light_volume(self) -> bool:
+        return self.pieces is None and self.spec.method == "light_volume"
+
+    def _light_volume_depths(self, points):
+        """Each light's optical depth at points, trilinear between the light volume's nodes."""
+        if self.grid is None:
+            nodes, dims = light_volume_nodes(self.lo, self.hi, self.spec.light_volume_size)
+            depths = []
+            for light in self.spec.lights:
+                toward, _, reach = self._light(light, nodes)
+                depths.append(self._marched(nodes, toward, reach).reshape(dims[::-1]))
+            self.grid = (dims, depths)
+        dims, depths = self.grid
+        return [trilinear(d, self.lo, self.hi, points) for d in depths]
 
     def _tolerances(self, weights):
         """Per light and point, the optical depth's error allowed: half the pixel's budget, shared by the
@@ -146,6 +166,8 @@ class SingleScattering:
 
     def transmittance(self, points, toward, reach, tolerance=None) -> np.ndarray:
         """``exp(-tau)`` along ``points + t toward`` for ``t`` in ``[0, reach]``."""
+        if self._uses_light_volume():
+            return np.ones(len(points))  # factor() takes the light volume's instead
         if self.pieces is None:
             return np.exp(-self._marched(points, toward, reach))
         return np.exp(-self._converged(points, toward, reach, tolerance))
@@ -207,3 +229,37 @@ class SingleScattering:
         sigma = self.extinction(pts.reshape(-1, 3), cells).reshape(len(ray), len(self.x))
         self.stats["shadow_evaluations"] += sigma.size
         return half * (sigma @ self.w)
+
+
+def light_volume_dims(lo, hi, size: int) -> tuple[int, int, int]:
+    """Nodes per axis ``(nx, ny, nz)`` of a light volume over the box ``[lo, hi]``: ``size`` along its
+    longest axis, the others in proportion (at least 2 each)."""
+    extent = np.asarray(hi, dtype=np.float64) - np.asarray(lo, dtype=np.float64)
+    longest = max(float(extent.max()), 1e-300)
+    return tuple(int(max(2, round(1 + (size - 1) * e / longest))) for e in extent)
+
+
+def light_volume_nodes(lo, hi, size: int):
+    """The light volume's nodes ``(nz * ny * nx, 3)`` (x fastest) spanning the box, and its dims (x, y, z)."""
+    dims = light_volume_dims(lo, hi, size)
+    axes = [np.linspace(a, b, n) for a, b, n in zip(lo, hi, dims)]
+    z, y, x = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
+    return np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1), dims
+
+
+def trilinear(grid: np.ndarray, lo, hi, points: np.ndarray) -> np.ndarray:
+    """``grid[z, y, x]`` (nodes spanning ``[lo, hi]``) interpolated trilinearly at points, clamped to the box."""
+    lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+    n = np.array(grid.shape[::-1])
+    u = np.clip((points - lo) / np.where(hi > lo, hi - lo, 1.0) * (n - 1), 0.0, n - 1)
+    i0 = np.minimum(np.floor(u).astype(np.int64), np.maximum(n - 2, 0))
+    f = u - i0
+    out = np.zeros(len(points))
+    for dz in (0, 1):
+        for dy in (0, 1):
+            for dx in (0, 1):
+                w = (np.where(dx, f[:, 0], 1 - f[:, 0]) * np.where(dy, f[:, 1], 1 - f[:, 1])
+                     * np.where(dz, f[:, 2], 1 - f[:, 2]))
+                idx = np.minimum(i0 + [dx, dy, dz], n - 1)
+                out += w * grid[idx[:, 2], idx[:, 1], idx[:, 0]]
+    return out

@@ -7,7 +7,10 @@
 // leaves the box (or reaches a point light), the last one shortened, each sampled at its midpoint
 // (dvr_gl.reference.discrete's shadow rays); it stops once its optical depth passes
 // SHADOW_DEPTH_LIMIT (the light left is below float32's resolution of 1).
-// Defines: NUM_SCATTER_LIGHTS, PHASE_HG (Henyey-Greenstein; else isotropic), SHADOWS.
+// LIGHT_VOLUME: T from the light volume instead, each light's optical depth at the nodes of a grid
+// spanning the box (one channel per light; shaders/scattering/light_volume.frag marches the shadow
+// rays from the nodes), interpolated trilinearly with float weights (as dvr_gl.reference.scattering).
+// Defines: NUM_SCATTER_LIGHTS, PHASE_HG (Henyey-Greenstein; else isotropic), SHADOWS, LIGHT_VOLUME.
 // Needs: u_box_lo, u_box_hi, and float extinction(vec3 p) (classify.glsl).
 
 uniform vec4 u_scatter_light[NUM_SCATTER_LIGHTS];       // w 0: xyz the unit vector toward a directional
@@ -21,6 +24,28 @@ uniform float u_phase_g;
 #ifdef SHADOWS
 uniform float u_shadow_step;                            // world units
 const float SHADOW_DEPTH_LIMIT = 20.0;
+#endif
+#ifdef LIGHT_VOLUME
+uniform sampler3D u_light_volume;                       // RGBA32F, nearest: light i's optical depth in channel i
+uniform ivec3 u_light_volume_dims;                      // nodes (x, y, z)
+
+// The optical depths toward the lights at p: trilinear between the nodes, clamped to the box.
+vec4 light_volume_depths(vec3 p) {
+    vec3 n = vec3(u_light_volume_dims - 1);
+    vec3 u = clamp((p - u_box_lo) / max(u_box_hi - u_box_lo, vec3(1e-30)) * n, vec3(0.0), n);
+    ivec3 i0 = min(ivec3(floor(u)), max(u_light_volume_dims - 2, ivec3(0)));
+    vec3 f = u - vec3(i0);
+    ivec3 top = u_light_volume_dims - 1;
+    vec4 out_depth = vec4(0.0);
+    for (int dz = 0; dz < 2; ++dz)
+        for (int dy = 0; dy < 2; ++dy)
+            for (int dx = 0; dx < 2; ++dx) {
+                ivec3 c = min(i0 + ivec3(dx, dy, dz), top);
+                float w = (dx == 1 ? f.x : 1.0 - f.x) * (dy == 1 ? f.y : 1.0 - f.y) * (dz == 1 ? f.z : 1.0 - f.z);
+                out_depth += w * texelFetch(u_light_volume, c, 0);
+            }
+    return out_depth;
+}
 #endif
 
 // 4 pi p(cos theta): 1 for the isotropic phase; Henyey-Greenstein with its denominator as a sum of
@@ -50,26 +75,39 @@ float shadow_depth(vec3 p, vec3 toward, float reach) {
 }
 #endif
 
+// Light i seen from p: the unit vector toward it, its irradiance there, and how far a shadow ray
+// goes (to the box's exit, or to a point light inside it).
+void light_at(int i, vec3 p, out vec3 toward, out vec3 energy, out float reach) {
+    vec4 light = u_scatter_light[i];
+    toward = light.xyz;
+    energy = u_scatter_irradiance[i];
+    float distance = 3.0e38;
+    if (light.w > 0.5) {
+        vec3 v = light.xyz - p;
+        distance = length(v);
+        toward = distance > 0.0 ? v / distance : vec3(0.0, 0.0, 1.0);
+        float r = max(distance, u_min_light_distance);
+        energy /= r * r;
+    }
+    float enter, leave;
+    intersect_box(p, toward, u_box_lo, u_box_hi, enter, leave);
+    reach = clamp(min(leave, distance), 0.0, 3.0e38);
+}
+
 // (1 - albedo) + albedo F at p, seen along the unit ray direction dir.
 vec3 scattering_factor(vec3 p, vec3 dir) {
     vec3 total = vec3(0.0);
+#ifdef LIGHT_VOLUME
+    vec4 depths = light_volume_depths(p);
+#endif
     for (int i = 0; i < NUM_SCATTER_LIGHTS; ++i) {
-        vec4 light = u_scatter_light[i];
-        vec3 toward = light.xyz;
-        vec3 energy = u_scatter_irradiance[i];
-        float distance = 3.0e38;
-        if (light.w > 0.5) {
-            vec3 v = light.xyz - p;
-            distance = length(v);
-            toward = distance > 0.0 ? v / distance : vec3(0.0, 0.0, 1.0);
-            float r = max(distance, u_min_light_distance);
-            energy /= r * r;
-        }
+        vec3 toward, energy;
+        float reach;
+        light_at(i, p, toward, energy, reach);
         vec3 lit = scatter_phase(dot(toward, dir)) * energy;  // cos theta = (-toward) . (-dir)
-#ifdef SHADOWS
-        float enter, leave;
-        intersect_box(p, toward, u_box_lo, u_box_hi, enter, leave);
-        float reach = clamp(min(leave, distance), 0.0, 3.0e38);
+#if defined(LIGHT_VOLUME)
+        lit *= exp(-depths[i]);
+#elif defined(SHADOWS)
         lit *= exp(-shadow_depth(p, toward, reach));
 #endif
         total += lit;

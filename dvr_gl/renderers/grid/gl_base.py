@@ -15,6 +15,7 @@ import moderngl
 import numpy as np
 
 from ... import limits
+from ...reference.scattering import light_volume_dims
 from .bricking import brick_size_for, ghost_width, plan_bricks
 from ...gl.context import create_context, make_current, release_context
 from ...gl.shaders import release_programs
@@ -51,8 +52,21 @@ def scattering_defines(scene, defines: dict):
     sc = getattr(scene.renderer, "scattering", None)
     if sc is None or not sc.enabled or scene.renderer.compositing != "emission_absorption":
         return
+    volume = sc.method == "light_volume"
     defines.update(SCATTERING=True, NUM_SCATTER_LIGHTS=len(sc.lights), PHASE_HG=sc.phase == "henyey_greenstein",
-                   SHADOWS=sc.shadows)
+                   SHADOWS=sc.shadows and not volume, LIGHT_VOLUME=sc.shadows and volume)
+
+
+def light_volume_pass_defines(defines: dict) -> dict:
+    """The light volume's pass (shaders/scattering/light_volume.frag): the frame's filtering and
+    classification defines (the extinction its samples see; a pre-integrated frame's shadow rays
+    classify points, post) and its lights, marching shadow rays."""
+    keep = {k: v for k, v in defines.items() if k in PASS_KEYS or k.startswith("FILTER")}
+    return {**keep, "SHADOWS": True}
+
+
+PASS_KEYS = ("CLASSIFY_PRE", "ASSOCIATED_COLORS", "GRADIENT_OPACITY", "GRADIENT_TEXTURE", "SCATTERING",
+             "NUM_SCATTER_LIGHTS", "PHASE_HG")
 
 
 def scattering_uniforms(scene) -> dict:
@@ -69,7 +83,8 @@ def scattering_uniforms(scene) -> dict:
             lights.append((*(-w / np.linalg.norm(w)), 0.0))
         else:
             lights.append((*light.position, 1.0))
-    return {"u_scatter_light": lights,
+    lo, hi = scene.field.bounds
+    return {"u_scatter_light": lights, "u_light_volume_dims": light_volume_dims(lo, hi, sc.light_volume_size),
             "u_scatter_irradiance": [tuple(light.intensity * np.asarray(light.color)) for light in sc.lights],
             "u_albedo": sc.albedo, "u_phase_g": sc.g, "u_shadow_step": r.sample_distance,
             "u_min_light_distance": 0.5 * float(scene.field.sample_spacing)}
@@ -98,6 +113,42 @@ def _release(value):
     target = getattr(value, "texture", value)
     if hasattr(target, "release"):
         target.release()
+
+
+class LightVolumeTexture:
+    """Each light's optical depth at the light volume's nodes (RGBA32F 3D texture, nearest; the shaders
+    interpolate), marched by shaders/scattering/light_volume.frag in slabs of nodes; ``seconds``: what
+    making it took (the recomputation a light or transfer-function change costs)."""
+
+    MAX_ROWS = 8192  # a pass's target height: within every GL's texture limit
+
+    def __init__(self, renderer, scene, defines, view, lut_texture):
+        from ...gl.shaders import create_program
+
+        start = time.perf_counter()
+        ctx = renderer.ctx
+        lo, hi = scene.field.bounds
+        nx, ny, nz = self.dims = light_volume_dims(lo, hi, scene.renderer.scattering.light_volume_size)
+        program = create_program(ctx, "fullscreen.vert", "scattering/light_volume.frag", defines)
+        textures = {**renderer.view_textures(scene, defines, view, resident=True), "u_lut": lut_texture}
+        uniforms = {**renderer.grid_uniforms(scene, view), **renderer.optics_uniforms(scene, lut_texture.lut),
+                    "u_box_lo": lo, "u_box_hi": hi, "u_nodes": self.dims}
+        slabs = max(1, self.MAX_ROWS // ny)
+        depths = []
+        for first in range(0, nz, slabs):
+            count = min(slabs, nz - first)
+            renderer.bind(program, {**uniforms, "u_first_k": first}, textures)
+            (_,), fbo = renderer.target("light volume", nx, ny * count)
+            renderer._draw(program, fbo, nx, ny * count)
+            depths.append(renderer.read(fbo, nx, ny * count)[::-1])  # read() turns rows top down
+        data = np.concatenate(depths).reshape(nz, ny, nx, 4)
+        self.texture = ctx.texture3d((nx, ny, nz), 4, np.ascontiguousarray(data).tobytes(), dtype="f4")
+        self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.depths = data
+        self.seconds = time.perf_counter() - start
+
+    def release(self):
+        self.texture.release()
 
 
 class PreintegrationTexture:
@@ -237,6 +288,17 @@ class GLVolumeRenderer(Renderer):
                 lambda: PreintegrationTexture(self.ctx, preintegrate(tf, slab_length, r.preintegration_size,
                                                                      r.preintegration, r.lut_size)))
         return out
+
+    def light_volume_texture(self, scene, defines, view, lut_texture) -> "LightVolumeTexture":
+        """The frame's light volume (common/scattering.glsl's LIGHT_VOLUME), cached by what it depends on:
+        the volume, the transfer function, the lights and the shadow rays' step and classification."""
+        r = scene.renderer
+        pass_defines = light_volume_pass_defines(defines)
+        key = (scene.volume, scene.transfer_function, repr(r.scattering.lights), r.scattering.light_volume_size,
+               r.sample_distance, repr(sorted(pass_defines.items())), r.lut_size, r.gradient_opacity_reference,
+               r.kernel_width)
+        return self._cached("light volume", key, lambda: LightVolumeTexture(self, scene, pass_defines, view,
+                                                                             lut_texture))
 
     def _classified_voxels(self, scene) -> np.ndarray:
         """Pre-classified voxels (float32), shared by their textures and block classes."""

@@ -36,12 +36,12 @@ HOMOGENEITY_TOLERANCE = s.Setting("homogeneity_tolerance", float, 0.0, "> 0 also
                                   flag=False)
 
 def check(scene):
-    """Scattering by shadow rays only (the light volume and half-angle slicing are other methods)."""
+    """Scattering by shadow rays or the light volume (half-angle slicing is slicing3d's)."""
     sc = scene.renderer.scattering
-    if sc.enabled and sc.method != "shadow_rays":
-        raise SceneError(f"raycast finds scattering's transmittance by shadow rays, not by "
-                         f"renderer.scattering.method = {sc.method!r}: set method = 'shadow_rays' or use "
-                         f"reference or reference-converged")
+    if sc.enabled and sc.method not in ("shadow_rays", "light_volume"):
+        raise SceneError(f"raycast finds scattering's transmittance by shadow rays or a light volume, not by "
+                         f"renderer.scattering.method = {sc.method!r}: set method = 'shadow_rays' or "
+                         f"'light_volume'")
 
 
 PLUGIN = RendererPlugin(

@@ -78,7 +78,7 @@ def shader_features(scene, count_samples: bool = False, bricked: bool = False) -
     defines[COMPOSITING[r.compositing]] = True
     if xray:  # absorption only: no shading, no gradient opacity (dvr_gl.reference.model), nothing terminates
         for key in ("SHADING", "NUM_LIGHTS", "TWO_SIDED", "GRADIENT_TEXTURE", "GRADIENT_OPACITY", "SCATTERING",
-                    "NUM_SCATTER_LIGHTS", "PHASE_HG", "SHADOWS"):
+                    "NUM_SCATTER_LIGHTS", "PHASE_HG", "SHADOWS", "LIGHT_VOLUME"):
             defines.pop(key, None)
         defines["XRAY"] = True
     if not emission:  # classification, gradient opacity: emission-absorption only
@@ -195,7 +195,7 @@ def segment_windows(scene, accelerated: bool = False) -> list[tuple[int, int]]:
     per_pass = PASS_SEGMENTS - scene.renderer.iso_refinement
     cost = ACCELERATED_COST if accelerated else 1
     sc = scene.renderer.scattering
-    if sc.enabled and sc.shadows and scene.renderer.compositing == "emission_absorption":
+    if sc.enabled and sc.shadows and sc.method == "shadow_rays" and scene.renderer.compositing == "emission_absorption":
         cost += len(sc.lights) * (longest + 1)
     per_pass = max(per_pass // cost, 1)
     if longest <= per_pass:
@@ -290,17 +290,24 @@ class RayCastRenderer(GLVolumeRenderer):
         start = now()
         defines = shader_features(scene, self.count_samples)
         views = self.grid_views(scene, defines)
-        tables = self.table_textures(scene, defines, scene.renderer.sample_distance)
-        defines, blocks, estimate = self.decide_skipping(scene, defines, tables)
-        windows = segment_windows(scene, "ACCELERATE" in defines)
-        decided = {"skippable_estimate": estimate and estimate.fraction, "accelerated": "ACCELERATE" in defines,
-                   "lookups_estimate": estimate and estimate.lookups, "ray_bounds": "RAY_BOUNDS" in defines,
-                   "outside_bounds_estimate": estimate and estimate.outside, "bounds_seconds": self.bounds_seconds}
         if len(views) > 1 and "SCATTERING" in defines:
             raise SceneError(f"raycast renders scattering from one texture of the whole volume (a shadow ray "
                              f"crosses bricks), and {scene.volume.name} needs {len(views)} bricks at "
                              f"renderer.texture_budget_mb = {scene.renderer.texture_budget_mb:g}: raise it or "
                              f"turn renderer.scattering off")
+        tables = self.table_textures(scene, defines, scene.renderer.sample_distance)
+        light_seconds = 0.0
+        if "LIGHT_VOLUME" in defines:
+            made = self._cache.get("light volume")
+            light = self.light_volume_texture(scene, defines, views[0], tables["u_lut"])
+            light_seconds = light.seconds if made is None or made[1] is not light else 0.0
+            tables = {**tables, "u_light_volume": light}
+        defines, blocks, estimate = self.decide_skipping(scene, defines, tables)
+        windows = segment_windows(scene, "ACCELERATE" in defines)
+        decided = {"light_volume_seconds": light_seconds,
+                   "skippable_estimate": estimate and estimate.fraction, "accelerated": "ACCELERATE" in defines,
+                   "lookups_estimate": estimate and estimate.lookups, "ray_bounds": "RAY_BOUNDS" in defines,
+                   "outside_bounds_estimate": estimate and estimate.outside, "bounds_seconds": self.bounds_seconds}
         if len(views) > 1 or len(windows) > 1:
             if len(views) == 1:  # long rays: the whole volume as one brick, in passes over segment windows
                 views = [GridView((0, 0, 0), scene.volume.dims, whole_volume_brick(scene.volume))]
