@@ -17,6 +17,8 @@
   dvr bench splatting  splatting's sheet buffers and classifications: frame time, splats, error against
                        the same kernel's converged reference, the ray caster at equal error; the
                        45-degree study
+  dvr bench scattering single scattering in the ray caster: shadow rays against the light volume, frame
+                       time and error against reference-converged, the speed-up at equal error
   dvr bench peers      dvr-gl against VTK, vispy and pygfx (from a separate benchmark environment) on
                        the same scenes: frame time, error against the converged reference, ratios
 """
@@ -173,6 +175,22 @@ def add_arguments(p):
                                                           "--data-dir at --error-size, against reference-converged")
     fo.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder (default ../shared/data)")
     fo.add_argument("--only", metavar="TEXT", help="with --shared: only datasets whose name contains TEXT")
+    sc = sub.add_parser("scattering", help="single scattering in the ray caster: shadow rays and the light volume "
+                                           "at several settings, frame time and RMS against reference-converged, "
+                                           "the speed-up at equal error (docs/scattering.md)")
+    sc.add_argument("--size", type=int, default=256, help="square image size of the timings (default 256)")
+    sc.add_argument("--error-size", type=int, default=64, help="square image size of the errors against "
+                                                               "reference-converged (default 64)")
+    sc.add_argument("--repeat", type=count, default=3, help="timed frames per case, after a warm-up (default 3)")
+    sc.add_argument("--tolerance", type=float, default=1e-4, help="reference-converged's budget (default 1e-4)")
+    sc.add_argument("--shared", action="store_true", help="also the small shared datasets (bucky, nucleon, neghip, "
+                                                          "ironProt) in --data-dir, lit by a default light (long: a "
+                                                          "converged reference each)")
+    sc.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder (default ../shared/data)")
+    sc.add_argument("--only", metavar="TEXT", help="only scenes whose name contains TEXT")
+    sc.add_argument("--paths", type=int, default=64, help="Monte Carlo paths per pixel of the multiple-scattering "
+                                                          "table (default 64; 0 leaves it out)")
+    sc.add_argument("--paths-size", type=int, default=32, help="square image size of that table (default 32)")
     for parser in sub.choices.values():
         parser.add_argument("--markdown", metavar="FILE", help="also write the tables as Markdown to FILE (the "
                                                                "measured tables in docs/ are written this way)")
@@ -199,7 +217,7 @@ def run(args) -> int:
     code = {"raycast": run_raycast, "accel": run_accel, "quality": run_quality,
             "slicing": run_slicing, "renderers": run_renderers, "shearwarp": run_shearwarp,
             "tradeoff": run_tradeoff, "peers": run_peers, "cells": run_cells,
-            "splatting": run_splatting, "fourier": run_fourier}[args.benchmark](args)
+            "splatting": run_splatting, "fourier": run_fourier, "scattering": run_scattering}[args.benchmark](args)
     if args.markdown:
         write_text(Path(args.markdown), args.report.markdown(args.command_line), args.overwrite)
         print(f"wrote {args.markdown}")
@@ -511,6 +529,53 @@ def run_splatting(args) -> int:
                          f"{args.study_size}, elevation 0, post-classified; the largest change of each image between "
                          f"azimuth - {splatting.STUDY_STEP:g} and + {splatting.STUDY_STEP:g} degrees")
         args.report.table(splatting.study(demo, args.study_size), splatting.STUDY_COLUMNS)
+    return 0
+
+
+SCATTERING_SHARED = ("bucky", "nucleon", "neghip", "ironProt")
+
+
+def run_scattering(args) -> int:
+    from pathlib import Path
+
+    from dvr_gl.bench import scattering
+    from dvr_gl.bench.splatting import shared_scenes
+    from dvr_gl.errors import DvrError
+
+    for flag, value, low, high in (("--size", args.size, 8, 4096), ("--error-size", args.error_size, 8, 4096),
+                                   ("--paths", args.paths, 0, 100_000), ("--paths-size", args.paths_size, 4, 1024)):
+        if not low <= value <= high:
+            raise DvrError(f"{flag} must be {low} to {high}, got {value}")
+    if not 1e-8 <= args.tolerance <= 0.1:
+        raise DvrError(f"--tolerance must be 1e-8 to 0.1, got {args.tolerance}")
+    scenes, notes = [scattering.shadow_demo()], []
+    if args.shared:
+        if not Path(args.data_dir).is_dir():
+            raise DvrError(f"--data-dir {args.data_dir}: no such folder (the shared datasets)")
+        found, notes = shared_scenes(Path(args.data_dir))
+        scenes += [(n, o) for n, o in found if n in SCATTERING_SHARED]
+    if args.only:
+        scenes = [(n, o) for n, o in scenes if args.only in n]
+        if not scenes:
+            raise DvrError(f"--only {args.only}: no scene matches")
+    args.report.text(f"dvr bench scattering: the ray caster with single scattering (emission-absorption, no "
+                     f"gradient shading), frame times at {args.size}x{args.size} (median of {args.repeat} after a "
+                     f"warm-up; the light volume made once, timed apart), RMS against reference-converged "
+                     f"(tolerance {args.tolerance:g}) at {args.error_size}x{args.error_size}; the shared datasets "
+                     f"lit by one directional light (0.4, 0.6, -1), albedo 0.9")
+    rows = scattering.run(scenes, args.size, args.error_size, args.repeat, args.tolerance, progress=lambda r: print(
+        f"{r['scene']} {r['method']} {r['setting']}: {r['ms']:.0f} ms, RMS {r['rms']:.2e}", flush=True))
+    args.report.text()
+    args.report.table(rows, scattering.COLUMNS, notes)
+    args.report.text("\nat equal error: each shadow-ray setting against the fastest light volume as accurate")
+    args.report.table(scattering.equal_error(rows), scattering.EQUAL_COLUMNS)
+    if args.paths:
+        args.report.text(f"\nwhat single scattering leaves out: reference-converged (single scattering) against the "
+                         f"Monte Carlo reference (every order; delta tracking, seed 0) at {args.paths_size}x"
+                         f"{args.paths_size}, {args.paths} paths per pixel")
+        rows = scattering.multiple(scenes, args.paths_size, args.paths, args.tolerance, progress=lambda r: print(
+            f"{r['scene']}: single {r['single']:.4f}, all orders {r['full']:.4f}", flush=True))
+        args.report.table(rows, scattering.MULTIPLE_COLUMNS)
     return 0
 
 

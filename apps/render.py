@@ -22,6 +22,7 @@ from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.sandbox import Sandbox, active, parse_bytes
 from dvr_gl.scene import load_scene
 from dvr_gl.scene_schema import CameraSpec, VolumeSpec
+from dvr_gl.model import SCATTERING_METHODS
 from dvr_gl.transfer_function import PRESETS
 
 from .progress import DELAY as PROGRESS_DELAY
@@ -32,6 +33,7 @@ HELP = "render a scene, a volume file or the demo to an image (.png .exr .tif)"
 # flag destination -> scene key, for the flags of the other tables (the renderer's come from the registry)
 _SCENE_KEYS = {
     "renderer": "renderer.name", "shading": "renderer.shading.enabled",
+    "scattering": "renderer.scattering.enabled", "scattering_method": "renderer.scattering.method",
     "azimuth": "camera.azimuth", "elevation": "camera.elevation",
     "distance": "camera.distance", "projection": "camera.projection", "fov": "camera.fov",
     "transfer_function": "transfer_function.preset", "rescale_intercept": "transfer_function.rescale_intercept",
@@ -72,6 +74,11 @@ def add_arguments(p: argparse.ArgumentParser):
                    help="renderer: " + "; ".join(f"{n} ({q.description})" for n, q in registry.plugins().items()))
     g.add_argument("--shading", action=argparse.BooleanOptionalAction, default=None,
                    help="Blinn-Phong shading from the gradient")
+    g.add_argument("--scattering", action=argparse.BooleanOptionalAction, default=None,
+                   help="single scattering of [renderer.scattering]'s lights, with shadows, instead of gradient "
+                        "shading (docs/scattering.md)")
+    g.add_argument("--scattering-method", choices=SCATTERING_METHODS,
+                   help="how the GPU finds the light's transmittance: a shadow ray per sample, or a light volume")
     g.add_argument("--azimuth", type=float, help="degrees about the up axis")
     g.add_argument("--elevation", type=float, help="degrees above the horizontal plane")
     g.add_argument("--distance", type=float, help="eye to target, world units")
@@ -146,6 +153,8 @@ def overrides_from(args) -> dict:
     for dest, value in vars(args).items():
         if dest.startswith(SETTING_DEST) and value is not None:
             out["renderer." + dest.removeprefix(SETTING_DEST)] = value
+    if getattr(args, "scattering", None) and getattr(args, "shading", None) is None:
+        out["renderer.shading.enabled"] = False  # scattering lights the samples instead (--shading: refused)
     if args.demo:
         out["volume.demo"] = args.demo
     if args.size:

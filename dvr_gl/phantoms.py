@@ -110,7 +110,22 @@ def blobs(n: int = 64) -> np.ndarray:
     return (out / out.max()).astype(np.float32)
 
 
-DEMOS = {"shepp-logan": shepp_logan, "marschner-lobb": marschner_lobb, "blobs": blobs, "plummer": None}
+#: The shadow demo: a ball (value 1) floating above a floor slab (value 0.4), on [-1, 1]^3.
+SHADOW_BALL, SHADOW_FLOOR = ((0.0, 0.0, 0.15), 0.35), -0.55
+
+
+def shadow(n: int = 64) -> np.ndarray:
+    """A ball above a floor on ``n^3`` nodes over [-1, 1]^3, ``[z, y, x]`` float32, edges blurred by 0.75
+    voxel: lit from above, the ball casts a hard shadow on the floor (the scattering demo)."""
+    x, y, z = _grid(n, (0.0, 0.0, 0.0))
+    (cx, cy, cz), r = SHADOW_BALL
+    out = np.where(z < SHADOW_FLOOR, 0.4, 0.0)
+    out = np.where((x - cx) ** 2 + (y - cy) ** 2 + (z - cz) ** 2 <= r * r, 1.0, out)
+    return gaussian_blur(out, 0.75).astype(np.float32)
+
+
+DEMOS = {"shepp-logan": shepp_logan, "marschner-lobb": marschner_lobb, "blobs": blobs, "shadow": shadow,
+         "plummer": None}
 #: The particle demo: a Plummer sphere of ``(size / 2)^3`` SPH particles of unit mass (scale radius ``size / 8``,
 #: cut at four of them, so it spans about the box of a ``size^3`` grid demo; density 16 at the centre, 0.013 at
 #: the cut, whatever the size); :func:`dvr_gl.fields.particles.plummer_sphere`.
@@ -125,6 +140,9 @@ def demo_scene(name: str) -> dict:
     elif name == "marschner-lobb":
         size, points = 64, [[0.0, 0.1, 0.2, 0.8, 0.0], [0.45, 0.1, 0.4, 0.9, 0.0], [0.5, 0.9, 0.7, 0.3, 0.6],
                              [0.55, 0.9, 0.3, 0.1, 0.0], [1.0, 0.9, 0.3, 0.1, 0.0]]
+    elif name == "shadow":  # a grey floor and an orange ball
+        size, points = 64, [[0.0, 0.8, 0.8, 0.8, 0.0], [0.2, 0.8, 0.8, 0.8, 0.0], [0.4, 0.85, 0.85, 0.85, 0.5],
+                            [0.45, 0.95, 0.6, 0.2, 0.5], [1.0, 0.95, 0.55, 0.15, 1.0]]
     elif name == "plummer":  # densities from 0.013 (the cut) to 16 (the centre): most of the range is faint
         size, points = 48, [[0.0, 0.0, 0.0, 0.0, 0.0], [0.05, 0.15, 0.25, 0.8, 0.01], [0.5, 0.9, 0.45, 0.15, 0.05],
                             [4.0, 1.0, 0.85, 0.4, 0.2], [16.0, 1.0, 1.0, 1.0, 0.5]]
@@ -140,6 +158,10 @@ def demo_scene(name: str) -> dict:
         scene["transfer_function"] = {"points": points}
     if name in PARTICLE_DEMOS:  # a glowing cloud, no surfaces: unshaded
         scene["renderer"] = {"shading": {"enabled": False}}
+    if name == "shadow":  # lit by single scattering from above, beside the eye
+        scene["renderer"] = {"sample_distance_voxels": 0.25, "scattering": {
+            "enabled": True, "albedo": 0.9, "method": "light_volume", "light_volume_size": 128,
+            "lights": [{"type": "directional", "direction": [0.4, 0.6, -1.0], "intensity": 1.5}]}}
     return scene
 
 

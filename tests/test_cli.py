@@ -315,3 +315,26 @@ def test_bench_counts_and_fractions_are_checked(capsys, argv, fragment):
     """--repeat 0 was an internal error (no median of no frames); --spike-width 0 silently ran the defaults."""
     code, _, err = run(capsys, "bench", *argv)
     assert_one_line_error(code, err, fragment)
+
+
+def test_scattering_flags(tmp_path, capsys):
+    """--scattering lights the demo by single scattering instead of its gradient shading; the shadow
+    demo renders with its light volume; a renderer without scattering, or --shading beside it, is one
+    line and no file."""
+    lit, plain = tmp_path / "lit.png", tmp_path / "plain.png"
+    assert run(capsys, "render", "--demo", "blobs", "--scattering", "-o", lit, *SMALL)[0] == 0
+    assert run(capsys, "render", "--demo", "blobs", "--no-shading", "-o", plain, *SMALL)[0] == 0
+    assert np.abs(read_image(lit) - read_image(plain)).max() > 0.05
+    shadow = tmp_path / "shadow.png"
+    code, out, _ = run(capsys, "render", "--demo", "shadow", "--size", "32", "--set", "volume.size=20",
+                       "--set", "renderer.scattering.light_volume_size=16", "-o", shadow)
+    assert code == 0 and shadow.exists()
+    assert run(capsys, "render", "--demo", "shadow", "--size", "16", "--set", "volume.size=12",
+               "--scattering-method", "shadow_rays", "-o", tmp_path / "rays.png")[0] == 0
+    bad = tmp_path / "bad.png"
+    code, _, err = run(capsys, "render", "--demo", "blobs", "--scattering", "--renderer", "slicing3d", "-o", bad,
+                       *SMALL)
+    assert_one_line_error(code, err, "slicing3d does not support renderer.scattering")
+    code, _, err = run(capsys, "render", "--demo", "blobs", "--scattering", "--shading", "-o", bad, *SMALL)
+    assert_one_line_error(code, err, "turn one off")
+    assert not bad.exists()

@@ -395,3 +395,58 @@ def test_light_volume_converges_to_the_shadow_rays():
               for n in (8, 16, 32)]
     assert errors[0] > 2.5 * errors[1] > 2.5 ** 2 * errors[2]
     assert errors[2] < 10 * rays
+
+
+# --- the Monte Carlo reference ---------------------------------------------------------------------
+
+MC_SCENE = {**SMALL, "image.width": 10, "image.height": 8, "renderer.converged_tolerance": 1e-5,
+            "renderer.scattering": {"enabled": True, "albedo": 0.9, "phase": "henyey_greenstein", "g": 0.4,
+                                    "lights": [{"direction": [1.0, 0.3, -0.2], "intensity": 3.0}]},
+            "transfer_function.points": [[0.0, 1.0, 0.8, 0.6, 0.0], [0.3, 1.0, 0.8, 0.6, 0.6],
+                                         [1.0, 0.6, 0.8, 1.0, 0.9]]}
+
+
+def test_monte_carlo_single_scattering_agrees_with_the_converged_reference():
+    """Paths of one collision estimate what reference-converged integrates: the differences over their
+    standard errors are standard normal (measured: RMS 0.80, largest 2.6 over 24 pixels x 4 channels
+    at 2000 paths, seed 1); a pixel the reference sees material in has collisions."""
+    from dvr_gl.reference.monte_carlo import MonteCarloReference
+
+    scene = load_scene(None, MC_SCENE)
+    truth = ConvergedReference(scene).render_float64()
+    image, error = MonteCarloReference(scene, paths=2000, seed=1, max_collisions=1).render()
+    seen = error[..., 3] > 0
+    assert seen.sum() >= 20 and truth[~seen].max() < 2e-3
+    z = ((image - truth) / np.where(error > 0, error, 1.0))[seen]
+    assert 0.5 < np.sqrt(np.mean(z ** 2)) < 1.5 and np.abs(z).max() < 5.0
+
+
+def test_monte_carlo_multiple_scattering_adds_light_and_is_seeded():
+    from dvr_gl.reference.monte_carlo import MonteCarloReference
+
+    scene = load_scene(None, MC_SCENE)
+    single, single_error = MonteCarloReference(scene, paths=300, seed=3, max_collisions=1).render()
+    full, full_error = MonteCarloReference(scene, paths=300, seed=3).render()
+    again, _ = MonteCarloReference(scene, paths=300, seed=3).render()
+    assert np.array_equal(full, again)
+    # albedo 0.9: light scattered twice and more brightens the picture well beyond the noise
+    gain = full[..., :3].sum() - single[..., :3].sum()
+    noise = np.sqrt((full_error[..., :3] ** 2).sum() + (single_error[..., :3] ** 2).sum())
+    assert gain > 5 * noise
+    # albedo 0: nothing scatters, so paths end at their first collision either way
+    dark = scene.with_renderer(scattering=dataclasses.replace(scene.renderer.scattering, albedo=0.0))
+    a, _ = MonteCarloReference(dark, paths=50, seed=5).render()
+    b, _ = MonteCarloReference(dark, paths=50, seed=5, max_collisions=1).render()
+    assert np.array_equal(a, b)
+
+
+def test_henyey_greenstein_sampling_has_mean_cosine_g():
+    from dvr_gl.reference.monte_carlo import sample_henyey_greenstein
+
+    rng = np.random.default_rng(0)
+    d = np.tile([[0.0, 0.6, 0.8]], (200_000, 1))
+    for g in (-0.7, 0.0, 0.5, 0.95):
+        new = sample_henyey_greenstein(d, g, rng)
+        assert np.allclose(np.linalg.norm(new, axis=1), 1.0)
+        # the sample mean of cos within 4 standard errors (its variance is below 1 / 3 + g^2)
+        assert abs(np.mean(np.sum(new * d, axis=1)) - g) < 4.0 * np.sqrt(0.5 / len(d))

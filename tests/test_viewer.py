@@ -234,6 +234,19 @@ def test_settings_switch_and_refuse():
     fine = settings.set_sample_distance_voxels(scene, 1e-9)
     assert settings.sample_distance_voxels(fine) == settings.MIN_SAMPLE_VOXELS
     assert settings.toggle_shading(scene).renderer.shading.enabled != scene.renderer.shading.enabled
+    lit = settings.toggle_scattering(settings.toggle_shading(scene))
+    assert lit.renderer.scattering.enabled and not lit.renderer.shading.enabled
+    assert not settings.toggle_scattering(lit).renderer.scattering.enabled
+    assert "scattering (shadow rays)" in settings.describe(lit)
+    turned = settings.turn_light(settings.turn_light(lit, about_up=15.0), about_up=-15.0)
+    assert np.allclose(turned.renderer.scattering.lights[0].direction, lit.renderer.scattering.lights[0].direction)
+    tilted = settings.turn_light(lit, tilt=90.0).renderer.scattering.lights[0].direction
+    up = np.asarray(scene.camera.basis()[2])
+    before = np.asarray(lit.renderer.scattering.lights[0].direction)
+    assert np.dot(tilted, up) != pytest.approx(np.dot(before, up))
+    assert np.linalg.norm(tilted) == pytest.approx(np.linalg.norm(before))
+    with pytest.raises(SceneError, match="slicing3d does not support renderer.scattering"):
+        settings.change(lit, name="slicing3d")
     assert "voxel plane" in settings.sampling_text(settings.change(scene, name="slicing2d"))
     assert "slices" in settings.sampling_text(settings.change(scene, name="slicing3d"))
 

@@ -123,9 +123,12 @@ class OpticalModel:
         self.scattering = None
         scattering = getattr(r, "scattering", None)
         if scattering is not None and scattering.enabled and r.compositing == "emission_absorption":
-            if exact:  # shadow rays integrated between the field's knots, to the pixel's budget
+            if exact:  # shadow rays integrated between the field's knots, to the pixel's budget; with
+                # Gauss-Legendre exact for the field's polynomial pieces, only pieces holding a
+                # transfer-function breakpoint are bisected
+                nodes = max(1, -(-(int(getattr(self.scalar, "degree", 3)) + 1) // 2))
                 self.scattering = SingleScattering(scene, self.extinction, pieces=self._shadow_pieces,
-                                                   tolerance=r.converged_tolerance)
+                                                   tolerance=r.converged_tolerance, nodes=nodes)
             else:  # marched at the sample distance, as the ray caster's shadow rays
                 self.scattering = SingleScattering(scene, self.extinction, step=r.sample_distance)
         self.hemispherical = None

@@ -224,6 +224,8 @@ class ViewerGui:
                 v.apply(lambda s, k=key, c=choice: settings.change(s, **{k: c}))
         if self._checkbox("shading (L)", r.shading.enabled, plugin.declared("shading") is not None):
             v.apply(settings.toggle_shading)
+        if self._checkbox("scattering (G)", r.scattering.enabled, plugin.declared("scattering") is not None):
+            v.apply(settings.toggle_scattering)
         if self._checkbox("jitter (J)", r.jitter, plugin.declared("jitter") is not None):
             v.apply(settings.toggle_jitter)
         changed, passes = imgui.slider_int("jitter passes", v.options.passes, 1, 64)

@@ -12,6 +12,11 @@ SETTING_KEYS = (
     ("K", "next_classification", "classification: post, pre, pre-integrated"),
     ("F", "next_filter", "filter: those of the renderer (nearest, linear, cubic B-spline, Catmull-Rom, Gaussian)"),
     ("L", "toggle_shading", "shading (lighting) on/off"),
+    ("G", "toggle_scattering", "single scattering with shadows on/off (replaces shading)"),
+    ("COMMA", "light_left", "scattering: turn the first light 15 degrees about the view's up axis (also .)"),
+    ("PERIOD", "light_right", ""),
+    ("shift+COMMA", "light_down", "scattering: tilt the first light 15 degrees (also >)"),
+    ("shift+PERIOD", "light_up", ""),
     ("J", "toggle_jitter", "jitter on/off (idle: averages jittered passes)"),
     ("RIGHT_BRACKET", "finer", "finer sampling: sample distance or slice spacing / 1.5"),
     ("LEFT_BRACKET", "coarser", "coarser sampling: sample distance or slice spacing x 1.5"),
@@ -60,4 +65,5 @@ def help_lines() -> list[str]:
 
 
 def _label(key: str) -> str:
-    return {"RIGHT_BRACKET": "]", "LEFT_BRACKET": "[", "TAB": "Tab", "ESCAPE": "Esc"}.get(key, key)
+    return {"RIGHT_BRACKET": "]", "LEFT_BRACKET": "[", "TAB": "Tab", "ESCAPE": "Esc", "COMMA": ",",
+            "shift+COMMA": "<"}.get(key, key)

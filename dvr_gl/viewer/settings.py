@@ -13,6 +13,8 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import numpy as np
+
 from ..errors import SceneError
 from ..fields import diagonal
 from ..renderers import registry
@@ -82,6 +84,43 @@ def toggle_shading(scene: Scene) -> Scene:
     return change(scene, shading=shading)
 
 
+def toggle_scattering(scene: Scene) -> Scene:
+    """Single scattering on (gradient shading off: both light the samples) or off."""
+    sc = scene.renderer.scattering
+    if sc.enabled:
+        return change(scene, scattering=dataclasses.replace(sc, enabled=False))
+    return change(scene, scattering=dataclasses.replace(sc, enabled=True),
+                  shading=dataclasses.replace(scene.renderer.shading, enabled=False))
+
+
+def turn_light(scene: Scene, about_up: float = 0.0, tilt: float = 0.0) -> Scene:
+    """The first scattering light turned by ``about_up`` degrees about the camera's up axis and tilted by
+    ``tilt`` degrees about its right axis: a directional light's direction, a point light's position
+    about the box's centre."""
+    sc = scene.renderer.scattering
+    if not sc.lights:
+        raise SceneError("renderer.scattering has no light to turn")
+    forward, right, up = (np.asarray(v, dtype=np.float64) for v in scene.camera.basis())
+    rotation = _rotation(up, about_up) @ _rotation(right, tilt)
+    light = sc.lights[0]
+    if light.type == "directional":
+        light = dataclasses.replace(light, direction=tuple(float(x) for x in rotation @ light.direction))
+    else:
+        lo, hi = (np.asarray(b, dtype=np.float64) for b in scene.field.bounds)
+        centre = (lo + hi) / 2.0
+        moved = centre + rotation @ (np.asarray(light.position) - centre)
+        light = dataclasses.replace(light, position=tuple(float(x) for x in moved))
+    return change(scene, scattering=dataclasses.replace(sc, lights=[light, *sc.lights[1:]]))
+
+
+def _rotation(axis, degrees: float) -> np.ndarray:
+    """Rodrigues' rotation matrix about a unit ``axis``."""
+    a = np.asarray(axis, dtype=np.float64) / np.linalg.norm(axis)
+    t = math.radians(degrees)
+    k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    return np.eye(3) + math.sin(t) * k + (1.0 - math.cos(t)) * (k @ k)
+
+
 def toggle_jitter(scene: Scene) -> Scene:
     return change(scene, jitter=not scene.renderer.jitter)
 
@@ -124,6 +163,8 @@ def describe(scene: Scene) -> str:
     parts.append(f"filter {r.filter}")
     if r.compositing in ("emission_absorption", "isosurface") and plugin.declared("shading"):
         parts.append("shading on" if r.shading.enabled else "shading off")
+    if r.scattering.enabled:
+        parts.append(f"scattering ({r.scattering.method.replace('_', ' ')})")
     if plugin.declared("jitter"):
         parts.append("jitter on" if r.jitter else "jitter off")
     parts.append(sampling_text(scene))

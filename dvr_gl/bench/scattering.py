@@ -1,0 +1,131 @@
+"""``dvr bench scattering``: single scattering's methods in the ray caster, error against time.
+
+Per scene (the ``shadow`` demo, a ball's hard shadow on a floor; with ``--shared`` the small shared
+datasets, lit by the default light): shadow rays at several sample distances (the shadow rays take the
+view rays' step), and the light volume at several sizes and view-ray sample distances.  Each row: the
+frame time at the timing size (median after a warm-up: the light volume is made once per light and
+transfer function, so it is kept between frames), the light volume's making apart, and the RMS against
+reference-converged at the error size.  Then per scene the speed-up at equal error: for each
+shadow-ray setting, the fastest light-volume setting at most as far from the reference.  Last, what
+single scattering leaves out (:func:`multiple`): the Monte Carlo reference with every order of
+scattering against reference-converged's single scattering, beside the Monte Carlo noise.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..image import compare_images
+from ..phantoms import demo_scene
+from ..reference.converged import ConvergedReference
+from ..renderers import create_renderer
+from ..scene import load_scene
+from . import median_seconds
+
+SHADOW_RAY_DISTANCES = (2.0, 1.0, 0.5, 0.25)
+LIGHT_VOLUME_SIZES = (32, 64, 128)
+LIGHT_VOLUME_DISTANCES = (1.0, 0.5, 0.25)
+COLUMNS = [("scene", "scene", ""), ("method", "method", ""), ("setting", "setting", ""),
+           ("ms", "frame ms", ".0f"), ("volume_ms", "light volume ms", ".0f"), ("rms", "RMS vs converged", ".2e")]
+EQUAL_COLUMNS = [("scene", "scene", ""), ("rays", "shadow rays", ""), ("rays_rms", "RMS", ".2e"),
+                 ("rays_ms", "ms", ".0f"), ("volume", "fastest light volume as accurate", ""),
+                 ("volume_rms", "RMS", ".2e"), ("volume_ms", "ms", ".0f"), ("speedup", "speed-up", ".1f")]
+DEFAULT_LIGHT = {"enabled": True, "albedo": 0.9, "lights": [{"direction": [0.4, 0.6, -1.0], "intensity": 1.5}]}
+
+
+def shadow_demo() -> tuple[str, dict]:
+    """The shadow demo's scene as overrides (its own transfer function and light)."""
+    scene = demo_scene("shadow")
+    overrides = {"volume.demo": "shadow", "volume.size": scene["volume"]["size"],
+                 "transfer_function.points": scene["transfer_function"]["points"],
+                 "renderer.scattering": {k: v for k, v in scene["renderer"]["scattering"].items()
+                                         if k not in ("method", "light_volume_size")}}
+    return "shadow demo", {**overrides, **{f"camera.{k}": v for k, v in scene["camera"].items()}}
+
+
+def settings() -> list[tuple[str, str, dict]]:
+    """(method, setting's label, renderer overrides) of the rows."""
+    out = [("shadow_rays", f"{d:g} voxel", {"renderer.scattering.method": "shadow_rays",
+                                            "renderer.sample_distance_voxels": d}) for d in SHADOW_RAY_DISTANCES]
+    out += [("light_volume", f"{n} nodes, {d:g} voxel", {"renderer.scattering.method": "light_volume",
+                                                         "renderer.scattering.light_volume_size": n,
+                                                         "renderer.sample_distance_voxels": d})
+            for n in LIGHT_VOLUME_SIZES for d in LIGHT_VOLUME_DISTANCES]
+    return out
+
+
+def _scene(overrides: dict, size: int, extra: dict):
+    base = {"renderer.name": "raycast", "renderer.shading.enabled": False, "image.width": size,
+            "image.height": size}
+    if "renderer.scattering" not in overrides:
+        base["renderer.scattering"] = DEFAULT_LIGHT
+    return load_scene(None, {**base, **overrides, **extra})
+
+
+def run(scenes, size: int = 256, error_size: int = 64, repeat: int = 3, tolerance: float = 1e-4,
+        progress=None) -> list[dict]:
+    """Rows of the methods' table for ``scenes`` (``(name, overrides)``)."""
+    rows = []
+    with create_renderer("raycast") as raycast:
+        for name, overrides in scenes:
+            truth = ConvergedReference(_scene(overrides, error_size, {"renderer.converged_tolerance": tolerance,
+                                                                      "renderer.name": "reference-converged"}
+                                              )).render()
+            for method, label, extra in settings():
+                scene = _scene(overrides, size, extra)
+                raycast.render(scene)  # the light volume, if any, made here
+                made = raycast.stats.get("light_volume_seconds", 0.0)
+                ms = 1e3 * median_seconds(raycast, scene, repeat, warm_up=False)
+                image = raycast.render(_scene(overrides, error_size, extra))
+                row = {"scene": name, "method": method, "setting": label, "ms": ms,
+                       "volume_ms": 1e3 * made if method == "light_volume" else None,
+                       "rms": compare_images(image, truth)["rms"]}
+                rows.append(row)
+                if progress:
+                    progress(row)
+    return rows
+
+
+def equal_error(rows: list[dict]) -> list[dict]:
+    """Per scene and shadow-ray row: the fastest light-volume row at most as far from the reference."""
+    out = []
+    for ray in (r for r in rows if r["method"] == "shadow_rays"):
+        candidates = [r for r in rows if r["scene"] == ray["scene"] and r["method"] == "light_volume"
+                      and r["rms"] <= ray["rms"]]
+        best = min(candidates, key=lambda r: r["ms"], default=None)
+        out.append({"scene": ray["scene"], "rays": ray["setting"], "rays_rms": ray["rms"], "rays_ms": ray["ms"],
+                    "volume": best["setting"] if best else "none as accurate",
+                    "volume_rms": best and best["rms"], "volume_ms": best and best["ms"],
+                    "speedup": best and ray["ms"] / best["ms"]})
+    return out
+
+
+MULTIPLE_COLUMNS = [("scene", "scene", ""), ("paths", "paths per pixel", "d"),
+                    ("single", "single scattering: mean RGB", ".4f"), ("full", "all orders (Monte Carlo): mean RGB", ".4f"),
+                    ("rms", "RMS of the difference", ".2e"), ("noise", "Monte Carlo's RMS standard error", ".2e"),
+                    ("largest", "largest difference", ".2e"), ("seconds", "Monte Carlo s", ".0f")]
+
+
+def multiple(scenes, size: int = 32, paths: int = 64, tolerance: float = 1e-4, progress=None) -> list[dict]:
+    """Per scene: reference-converged (single scattering) against the Monte Carlo reference (all orders)
+    at ``size``: the means, the RMS and largest difference, and the Monte Carlo standard error's RMS
+    (the difference's noise floor)."""
+    import time
+
+    from ..reference.monte_carlo import MonteCarloReference
+
+    rows = []
+    for name, overrides in scenes:
+        scene = _scene(overrides, size, {"renderer.converged_tolerance": tolerance,
+                                         "renderer.name": "reference-converged"})
+        single = ConvergedReference(scene).render_float64()
+        start = time.perf_counter()
+        full, error = MonteCarloReference(scene, paths=paths, seed=0).render()
+        diff = (full - single)[..., :3]
+        rows.append({"scene": name, "paths": paths, "single": float(single[..., :3].mean()),
+                     "full": float(full[..., :3].mean()), "rms": float(np.sqrt(np.mean(diff ** 2))),
+                     "noise": float(np.sqrt(np.mean(error[..., :3] ** 2))), "largest": float(np.abs(diff).max()),
+                     "seconds": time.perf_counter() - start})
+        if progress:
+            progress(rows[-1])
+    return rows
