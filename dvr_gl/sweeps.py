@@ -14,17 +14,28 @@ DISTANCES = (4.0, 2.0, 1.0, 0.5, 0.25, 0.125)   # sample distances, voxels
 
 @dataclass(frozen=True)
 class Family:
-    """One curve: the renderer setting ``key`` takes ``values`` with ``fixed`` set (dotted scene keys), for
-    fields of ``data_kinds`` (None: any the renderer renders)."""
+    """One curve: the renderer setting ``key`` takes ``values`` with ``fixed`` set (dotted scene keys, a
+    table's own keys too: ``renderer.scattering.method``), for fields of ``data_kinds`` (None: any the
+    renderer renders) and scenes where the renderer setting ``needs`` is true (None: any)."""
 
     label: str
     key: str
     values: tuple
     fixed: tuple = ()   # ((dotted key, value), ...)
     data_kinds: tuple | None = None
+    needs: str | None = None
 
     def applies_to(self, kind: str | None) -> bool:
         return kind is None or self.data_kinds is None or kind in self.data_kinds
+
+    def applies_to_scene(self, scene) -> bool:
+        """Whether the scene uses what the family varies (``needs``)."""
+        if self.needs is None:
+            return True
+        value = scene.renderer
+        for part in self.needs.removeprefix("renderer.").split("."):
+            value = getattr(value, part)
+        return bool(value)
 
 
 POST = Family("post, linear", "renderer.sample_distance_voxels", DISTANCES)
@@ -44,3 +55,6 @@ EARLY_TERMINATION = Family("early termination", "renderer.ert_threshold", (0.8, 
 BRICKED = Family("bricked 4 MB", "renderer.sample_distance_voxels", DISTANCES[1:5],
                  (("renderer.texture_budget_mb", 4.0),))
 CLASSIFICATION = Family("classification", "renderer.classification", ("post", "pre", "preintegrated"))
+#: The light volume's resolution, where the scene scatters (the shadow rays' family is the sample distance's).
+LIGHT_VOLUME = Family("light volume", "renderer.scattering.light_volume_size", (16, 32, 64, 128, 256),
+                      (("renderer.scattering.method", "light_volume"),), needs="renderer.scattering.enabled")

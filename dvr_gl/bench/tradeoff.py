@@ -17,6 +17,8 @@ marked.  A renderer joins the bench by declaring its sweeps in its plugin.
 
 from __future__ import annotations
 
+import dataclasses
+
 import math
 
 import numpy as np
@@ -75,7 +77,11 @@ def variant(scene, name: str, family, value):
     a distance in voxels becomes world units where the scene resolves it)."""
     changes = {"name": name}
     for key, v in (*family.fixed, (family.key, value)):
-        changes[key.removeprefix("renderer.")] = v
+        table, _, field = key.removeprefix("renderer.").partition(".")
+        if field:  # a key of a table setting (renderer.scattering.method): the table with it replaced
+            changes[table] = dataclasses.replace(changes.get(table, getattr(scene.renderer, table)), **{field: v})
+        else:
+            changes[table] = v
     return scene.with_renderer(**changes)
 
 
@@ -85,6 +91,8 @@ def run(scene, repeat: int = 5, renderers=None, truth=None, progress=None, scene
     rows, refused, open_renderers = [], {}, {}
     try:
         for name, family, value in cases(renderers, getattr(scene.field, "kind", None), scene.camera.projection):
+            if not family.applies_to_scene(scene):
+                continue
             case = variant(scene, name, family, value)
             renderer = open_renderers.get(name) or open_renderers.setdefault(name, create_renderer(name))
             try:

@@ -60,7 +60,7 @@ PLUGIN = RendererPlugin(
     resolve="dvr_gl.tolerance:resolve",
     sweeps=(sweeps.POST, sweeps.PRE_CLASSIFIED, sweeps.PREINTEGRATED, sweeps.PREINTEGRATED_FAST, sweeps.NEAREST,
             sweeps.CUBIC_BSPLINE, sweeps.LUT_SIZE, sweeps.PREINTEGRATION_TABLE, sweeps.EARLY_TERMINATION,
-            sweeps.BRICKED),
+            sweeps.BRICKED, sweeps.LIGHT_VOLUME),
     # Against the conformance tests' closed forms (tests/closed_forms.py), float32 arithmetic only:
     # measured 1.4e-6 (box, ramp), 2.4e-8 (sphere).  MIP and MinIP of the ramp take the extreme
     # *sample*, up to half a segment (0.11 world units here) inside the chord's end, where the
