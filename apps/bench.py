@@ -167,10 +167,7 @@ def add_arguments(p):
                                          "equal error (docs/renderers/fourier.md)")
     fo.add_argument("--sizes", default="64,128,256", metavar="N,N", help="volume sizes, the blobs demo N^3 "
                                                                           "(default 64,128,256)")
-    fo.add_argument("--size", type=int, default=512, help="square image size of the timings (default 512)")
-    fo.add_argument("--error-size", type=int, default=128, help="square image size of the errors against "
-                                                                "reference-converged (default 128)")
-    fo.add_argument("--repeat", type=count, default=3, help="timed frames per case, after a warm-up (default 3)")
+    _timing_arguments(fo, size=512, error_size=128)
     fo.add_argument("--shared", action="store_true", help="the accuracy study instead: every regular dataset in "
                                                           "--data-dir at --error-size, against reference-converged")
     fo.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder (default ../shared/data)")
@@ -178,11 +175,9 @@ def add_arguments(p):
     sc = sub.add_parser("scattering", help="single scattering in the ray caster: shadow rays and the light volume "
                                            "at several settings, frame time and RMS against reference-converged, "
                                            "the speed-up at equal error (docs/scattering.md)")
-    sc.add_argument("--size", type=int, default=256, help="square image size of the timings (default 256)")
-    sc.add_argument("--error-size", type=int, default=64, help="square image size of the errors against "
-                                                               "reference-converged (default 64)")
-    sc.add_argument("--repeat", type=count, default=3, help="timed frames per case, after a warm-up (default 3)")
+    _timing_arguments(sc, size=256, error_size=64)
     sc.add_argument("--tolerance", type=float, default=1e-4, help="reference-converged's budget (default 1e-4)")
+    sc.add_argument("--demo-size", type=int, default=64, help="the shadow demo's samples per axis (default 64)")
     sc.add_argument("--shared", action="store_true", help="also the small shared datasets (bucky, nucleon, neghip, "
                                                           "ironProt) in --data-dir, lit by a default light (long: a "
                                                           "converged reference each)")
@@ -196,6 +191,14 @@ def add_arguments(p):
                                                                "measured tables in docs/ are written this way)")
         if "--overwrite" not in parser._option_string_actions:
             parser.add_argument("--overwrite", action="store_true", help="replace FILE if it exists")
+
+
+def _timing_arguments(p, size: int, error_size: int):
+    """``--size`` (timings), ``--error-size`` (errors against reference-converged) and ``--repeat``."""
+    p.add_argument("--size", type=int, default=size, help=f"square image size of the timings (default {size})")
+    p.add_argument("--error-size", type=int, default=error_size, help="square image size of the errors against "
+                                                                      f"reference-converged (default {error_size})")
+    p.add_argument("--repeat", type=count, default=3, help="timed frames per case, after a warm-up (default 3)")
 
 
 def _shared_data_arguments(p, size: int = 512):
@@ -517,8 +520,7 @@ def run_splatting(args) -> int:
         raise DvrError("nothing to measure: --volume-size 0 and --particles 0")
     args.report.text(f"dvr bench splatting: {args.size}x{args.size}, the Gaussian of width 0.7 (particles: their "
                      f"cubic spline), default camera and "
-                     f"transfer function, no shading but the shaded row's"
-                     f"{' (left out)' if args.no_shaded else ''}; median of {args.repeat} frames after a warm-up; "
+                     f"transfer function, {'no shading (the shaded row left out)' if args.no_shaded else 'no shading but the shaded row'}; median of {args.repeat} frames after a warm-up; "
                      f"RMS against reference-converged of the same kernel and classification (tolerance 1e-4)")
     rows = splatting.run(scenes, args.size, args.repeat, shaded=not args.no_shaded, progress=lambda r: print(
         f"{r['dataset']} {r['scheme']} {r['classification']}: {r['ms']:.0f} ms, RMS {r['rms']:.2e}", flush=True))
@@ -543,12 +545,13 @@ def run_scattering(args) -> int:
     from dvr_gl.errors import DvrError
 
     for flag, value, low, high in (("--size", args.size, 8, 4096), ("--error-size", args.error_size, 8, 4096),
-                                   ("--paths", args.paths, 0, 100_000), ("--paths-size", args.paths_size, 4, 1024)):
+                                   ("--paths", args.paths, 0, 100_000), ("--paths-size", args.paths_size, 4, 1024),
+                                   ("--demo-size", args.demo_size, 4, 1024)):
         if not low <= value <= high:
             raise DvrError(f"{flag} must be {low} to {high}, got {value}")
     if not 1e-8 <= args.tolerance <= 0.1:
         raise DvrError(f"--tolerance must be 1e-8 to 0.1, got {args.tolerance}")
-    scenes, notes = [scattering.shadow_demo()], []
+    scenes, notes = [scattering.shadow_demo(args.demo_size)], []
     if args.shared:
         if not Path(args.data_dir).is_dir():
             raise DvrError(f"--data-dir {args.data_dir}: no such folder (the shared datasets)")

@@ -69,8 +69,8 @@ def main(argv=None) -> int:
              lambda a: cli_outcome(["render", "--demo", *a, "--set", "volume.size=8", "--size", "8", "--overwrite",
                                     "-o", str(out)]), max(1, args.examples // 10)),
         ]
-        print(f"| target | examples | user errors | loaded / rendered / exit 0 | other exceptions | seconds |")
-        print(f"|---|---:|---:|---:|---:|---:|")
+        print("| target | examples | user errors | loaded / rendered / exit 0 | other exceptions | seconds |")
+        print("|---|---:|---:|---:|---:|---:|")
         for name, strategy, outcome_of, n in targets:
             start = time.perf_counter()
             c = run(name, strategy, outcome_of, n, args.seed, findings)

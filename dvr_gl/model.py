@@ -8,6 +8,7 @@ use these; the model never imports the schema (the schema imports the model).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Optional
 
 COMPOSITING_MODES = ("emission_absorption", "isosurface", "average", "mip", "minip", "xray")
 #: ``xray``: a radiograph of the classified extinction, absorption only: alpha ``1 - exp(-tau)`` with
@@ -109,5 +110,7 @@ class ScatteringSpec:
                           doc="how a GPU renderer finds the transmittance: a shadow ray per sample, or the "
                               "light_volume's grid of shadow rays interpolated (reference-converged integrates it)")
     light_volume_size: int = doc(64, "light_volume: the grid's nodes along the box's longest axis (2 .. 256)")
+    shadow_step_voxels: Optional[float] = doc(None, "shadow rays' segment length in voxels of the smallest "
+                                                    "spacing (default: the view rays' sample distance)")
     lights: list[ScatteringLightSpec] = doc(None, "`[[renderer.scattering.lights]]` tables (default: one "
                                                   "directional light)", factory=lambda: [ScatteringLightSpec()])

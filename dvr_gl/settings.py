@@ -165,6 +165,9 @@ def _check_scattering(sc: ScatteringSpec) -> None:
     if sc.g != 0.0 and sc.phase == "isotropic":
         raise SceneError(f"renderer.scattering.g = {sc.g} applies to phase = 'henyey_greenstein'; set the "
                          f"phase or remove g")
+    if sc.shadow_step_voxels is not None and not 1.0 / 64.0 <= sc.shadow_step_voxels <= 64.0:
+        raise SceneError(f"renderer.scattering.shadow_step_voxels must be 1/64 to 64 voxels, got "
+                         f"{sc.shadow_step_voxels}")
     if not 2 <= sc.light_volume_size <= 256:
         raise SceneError(f"renderer.scattering.light_volume_size must be 2 to 256 nodes, got {sc.light_volume_size}")
     if sc.method == "light_volume" and len(sc.lights) > 4:
@@ -315,6 +318,13 @@ def _check_scattering_with(spec) -> None:
     if spec.shading.enabled:
         raise SceneError("renderer.scattering and renderer.shading both light the samples: turn one off "
                          "(renderer.shading.enabled = false)")
+
+
+def shadow_step(spec, field) -> float:
+    """The shadow rays' segment length, world units: ``scattering.shadow_step_voxels`` of the field's voxel,
+    or the sample distance."""
+    voxels = spec.scattering.shadow_step_voxels
+    return spec.sample_distance if voxels is None else voxels * field.sample_spacing
 
 
 def resolve_sample_distance(spec, field) -> float:

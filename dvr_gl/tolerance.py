@@ -216,9 +216,9 @@ def check_tolerance(scene, tolerance: float):
     if r.compositing != "emission_absorption":
         raise SceneError(f"a tolerance is modelled for emission_absorption compositing, not {r.compositing}; "
                          f"set the sample distance yourself")
-    if r.shading.enabled or r.gradient_opacity or r.jitter:
-        raise SceneError("a tolerance is modelled without shading, gradient opacity or jitter; turn them off "
-                         "or set the sample distance yourself")
+    if r.shading.enabled or r.gradient_opacity or r.jitter or r.scattering.enabled:
+        raise SceneError("a tolerance is modelled without shading, scattering, gradient opacity or jitter; turn "
+                         "them off or set the sample distance yourself")
 
 
 def choose(scene, tolerance: float, model: SamplingModel | None = None) -> Choice:

@@ -165,7 +165,21 @@ def test_bench_splatting_leaves_the_shaded_row_out(capsys):
     out = capsys.readouterr().out
     rows = [line.split() for line in out.splitlines() if line.startswith("Shepp-Logan") and ":" not in line]
     assert [r[3] for r in rows] == ["post", "pre", "post", "pre"]
-    assert "(left out)" in out
+    assert "the shaded row left out" in out
+
+
+def test_bench_scattering_prints_methods_equal_error_and_multiple_scattering(tmp_path, capsys):
+    md = tmp_path / "scattering.md"
+    assert main(["bench", "scattering", "--demo-size", "12", "--size", "16", "--error-size", "8", "--repeat", "1",
+                 "--paths", "8", "--paths-size", "6", "--markdown", str(md)]) == 0
+    out = capsys.readouterr().out
+    rows = [line.split() for line in out.splitlines() if line.startswith("shadow demo ") and ":" not in line]
+    methods = [r[2] for r in rows[:16]]
+    assert methods.count("shadow_rays") == 4 and methods.count("light_volume") == 9
+    assert "at equal error" in out and "what single scattering leaves out" in out
+    assert "| scene |" in md.read_text()
+    assert main(["bench", "scattering", "--paths", "-1"]) == 1
+    assert "--paths" in capsys.readouterr().err
 
 
 def test_bench_fourier_prints_times_and_errors(tmp_path, capsys):

@@ -246,6 +246,7 @@ def test_scene_file_round_trip_and_defaults(tmp_path):
     ({"renderer.scattering.phase": "rayleigh"}, "is not one of isotropic, henyey_greenstein"),
     ({"renderer.compositing": "mip"}, "emission-absorption only, not compositing = 'mip'"),
     ({"renderer.shading.enabled": True}, "turn one off"),
+    ({"renderer.name": "raycast", "renderer.tolerance": 0.01}, "modelled without shading, scattering"),
 ])
 def test_bad_scattering_is_one_line(overrides, words):
     with pytest.raises(SceneError) as info:
@@ -333,9 +334,13 @@ def test_a_scene_without_scattering_compiles_none_and_is_unchanged(gl_context):
     assert np.array_equal(a, b)
 
 
-def test_raycast_refuses_other_methods_and_bricks():
+def test_raycast_refuses_other_methods_and_bricks(gl_context):
     scene = load_scene(None, {**LIT, "renderer.name": "raycast", "renderer.scattering.method": "half_angle"})
-    assert "by shadow rays, not by renderer.scattering.method = 'half_angle'" in registry.refusal(scene)
+    assert "not by renderer.scattering.method = 'half_angle'" in registry.refusal(scene)
+    bricked = load_scene(None, {**LIT, "renderer.name": "raycast", "renderer.texture_budget_mb": 0.002})
+    with registry.plugin("raycast").create(ctx=gl_context) as renderer:
+        with pytest.raises(SceneError, match="a shadow ray crosses bricks"):
+            renderer.render(bricked)
 
 
 # --- the light volume ------------------------------------------------------------------------------
@@ -450,3 +455,19 @@ def test_henyey_greenstein_sampling_has_mean_cosine_g():
         assert np.allclose(np.linalg.norm(new, axis=1), 1.0)
         # the sample mean of cos within 4 standard errors (its variance is below 1 / 3 + g^2)
         assert abs(np.mean(np.sum(new * d, axis=1)) - g) < 4.0 * np.sqrt(0.5 / len(d))
+
+
+@pytest.mark.parametrize("method", ["shadow_rays", "light_volume"])
+def test_shadow_step_of_its_own(gl_context, method):
+    """renderer.scattering.shadow_step_voxels marches shadow rays at their own step (the view rays keep
+    theirs): the GPU within float32 of the reference at that step, and a coarser step changes the image."""
+    from conftest import assert_close
+
+    over = {**LIT, "renderer.name": "raycast", "renderer.scattering.method": method,
+            "renderer.scattering.light_volume_size": 12}
+    coarse = load_scene(None, {**over, "renderer.scattering.shadow_step_voxels": 2.0})
+    with registry.plugin("raycast").create(ctx=gl_context) as renderer:
+        image = renderer.render(coarse)
+        fine = renderer.render(load_scene(None, over))
+    assert_close(image, DiscreteReference(coarse).render_float64())
+    assert np.abs(image - fine).max() > 1e-3

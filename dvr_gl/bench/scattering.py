@@ -33,14 +33,15 @@ EQUAL_COLUMNS = [("scene", "scene", ""), ("rays", "shadow rays", ""), ("rays_rms
 DEFAULT_LIGHT = {"enabled": True, "albedo": 0.9, "lights": [{"direction": [0.4, 0.6, -1.0], "intensity": 1.5}]}
 
 
-def shadow_demo() -> tuple[str, dict]:
-    """The shadow demo's scene as overrides (its own transfer function and light)."""
+def shadow_demo(size: int = 64) -> tuple[str, dict]:
+    """The shadow demo's scene as overrides (its own transfer function, light and camera), ``size^3``."""
     scene = demo_scene("shadow")
-    overrides = {"volume.demo": "shadow", "volume.size": scene["volume"]["size"],
+    overrides = {"volume.demo": "shadow", "volume.size": size,
                  "transfer_function.points": scene["transfer_function"]["points"],
                  "renderer.scattering": {k: v for k, v in scene["renderer"]["scattering"].items()
                                          if k not in ("method", "light_volume_size")}}
-    return "shadow demo", {**overrides, **{f"camera.{k}": v for k, v in scene["camera"].items()}}
+    camera = {f"camera.{k}": v for k, v in scene["camera"].items() if k != "distance"}  # framed at any size
+    return "shadow demo", {**overrides, **camera}
 
 
 def settings() -> list[tuple[str, str, dict]]:

@@ -129,8 +129,10 @@ class OpticalModel:
                 nodes = max(1, -(-(int(getattr(self.scalar, "degree", 3)) + 1) // 2))
                 self.scattering = SingleScattering(scene, self.extinction, pieces=self._shadow_pieces,
                                                    tolerance=r.converged_tolerance, nodes=nodes)
-            else:  # marched at the sample distance, as the ray caster's shadow rays
-                self.scattering = SingleScattering(scene, self.extinction, step=r.sample_distance)
+            else:  # marched at the shadow step, as the ray caster's shadow rays
+                from ..settings import shadow_step
+
+                self.scattering = SingleScattering(scene, self.extinction, step=shadow_step(r, scene.field))
         self.hemispherical = None
         if r.compositing in ("average", "xray") and r.hemispherical_shading:
             if scene.field.kind != "grid":

@@ -16,6 +16,7 @@ import numpy as np
 
 from ... import limits
 from ...reference.scattering import light_volume_dims
+from ...settings import shadow_step
 from .bricking import brick_size_for, ghost_width, plan_bricks
 from ...gl.context import create_context, make_current, release_context
 from ...gl.shaders import release_programs
@@ -86,7 +87,7 @@ def scattering_uniforms(scene) -> dict:
     lo, hi = scene.field.bounds
     return {"u_scatter_light": lights, "u_light_volume_dims": light_volume_dims(lo, hi, sc.light_volume_size),
             "u_scatter_irradiance": [tuple(light.intensity * np.asarray(light.color)) for light in sc.lights],
-            "u_albedo": sc.albedo, "u_phase_g": sc.g, "u_shadow_step": r.sample_distance,
+            "u_albedo": sc.albedo, "u_phase_g": sc.g, "u_shadow_step": shadow_step(r, scene.field),
             "u_min_light_distance": 0.5 * float(scene.field.sample_spacing)}
 
 
@@ -295,7 +296,7 @@ class GLVolumeRenderer(Renderer):
         r = scene.renderer
         pass_defines = light_volume_pass_defines(defines)
         key = (scene.volume, scene.transfer_function, repr(r.scattering.lights), r.scattering.light_volume_size,
-               r.sample_distance, repr(sorted(pass_defines.items())), r.lut_size, r.gradient_opacity_reference,
+               shadow_step(r, scene.field), repr(sorted(pass_defines.items())), r.lut_size, r.gradient_opacity_reference,
                r.kernel_width)
         return self._cached("light volume", key, lambda: LightVolumeTexture(self, scene, pass_defines, view,
                                                                              lut_texture))

@@ -19,6 +19,7 @@ import numpy as np
 
 from ... import limits
 from ...errors import SceneError
+from ...settings import shadow_step
 from ... import rays as rays_mod
 from ...fields import diagonal
 from ...gl.geometry import gl_matrix, projection_matrix, view_matrix
@@ -196,7 +197,7 @@ def segment_windows(scene, accelerated: bool = False) -> list[tuple[int, int]]:
     cost = ACCELERATED_COST if accelerated else 1
     sc = scene.renderer.scattering
     if sc.enabled and sc.shadows and sc.method == "shadow_rays" and scene.renderer.compositing == "emission_absorption":
-        cost += len(sc.lights) * (longest + 1)
+        cost += len(sc.lights) * (math.ceil(diagonal(scene.volume) / shadow_step(scene.renderer, scene.volume)) + 1)
     per_pass = max(per_pass // cost, 1)
     if longest <= per_pass:
         return [(0, MAX_INT)]
