@@ -107,9 +107,11 @@ class ScatteringSpec:
     g: float = doc(0.0, "henyey_greenstein: the mean cosine of the scattering angle (-1 .. 1, > 0 forward)")
     shadows: bool = doc(True, "attenuate each light by the transmittance toward it")
     method: str = choices(*SCATTERING_METHODS, default="shadow_rays",
-                          doc="how a GPU renderer finds the transmittance: a shadow ray per sample, or the "
-                              "light_volume's grid of shadow rays interpolated (reference-converged integrates it)")
+                          doc="how a GPU renderer finds the transmittance: a shadow ray per sample, the "
+                              "light_volume's grid of shadow rays interpolated, or half_angle slicing's light "
+                              "buffer (slicing3d; reference-converged integrates it)")
     light_volume_size: int = doc(64, "light_volume: the grid's nodes along the box's longest axis (2 .. 256)")
+    light_buffer_size: int = doc(256, "half_angle: the light buffer's pixels along its longer side (8 .. 4096)")
     shadow_step_voxels: Optional[float] = doc(None, "shadow rays' segment length in voxels of the smallest "
                                                     "spacing (default: the view rays' sample distance)")
     lights: list[ScatteringLightSpec] = doc(None, "`[[renderer.scattering.lights]]` tables (default: one "

@@ -168,6 +168,11 @@ def _check_scattering(sc: ScatteringSpec) -> None:
     if sc.shadow_step_voxels is not None and not 1.0 / 64.0 <= sc.shadow_step_voxels <= 64.0:
         raise SceneError(f"renderer.scattering.shadow_step_voxels must be 1/64 to 64 voxels, got "
                          f"{sc.shadow_step_voxels}")
+    if not 8 <= sc.light_buffer_size <= 4096:
+        raise SceneError(f"renderer.scattering.light_buffer_size must be 8 to 4096 pixels, got {sc.light_buffer_size}")
+    if sc.enabled and sc.method == "half_angle" and (len(sc.lights) != 1 or sc.lights[0].type != "directional"):
+        raise SceneError("renderer.scattering.method = 'half_angle' slices halfway between the eye and one "
+                         "directional light; give one directional light, or use shadow_rays or light_volume")
     if not 2 <= sc.light_volume_size <= 256:
         raise SceneError(f"renderer.scattering.light_volume_size must be 2 to 256 nodes, got {sc.light_volume_size}")
     if sc.method == "light_volume" and len(sc.lights) > 4:

@@ -27,6 +27,8 @@ uniform vec3 u_forward;
 uniform vec3 u_slice_normal;      // view axis (3D) or the stack's axis (2D)
 uniform float u_slab_length;      // the slice spacing, world units
 uniform float u_gradient_reference;
+uniform vec3 u_box_lo;             // SCATTERING: where the lights' rays enter the volume
+uniform vec3 u_box_hi;
 
 #include "common/classify.glsl"
 

@@ -108,10 +108,10 @@ def _crossings(rays: RayBatch, offset: np.ndarray, rate: np.ndarray, anchor: flo
     return PlaneSamples(rays, first, step, count, np.abs(step), spacing)
 
 
-def view_planes(rays: RayBatch, camera, box, spacing: float) -> PlaneSamples:
-    """Planes perpendicular to the view axis, ``spacing`` apart, anchored at the box centre's depth
-    (3D texture slicing draws these)."""
-    f, _, _ = camera.basis()
+def view_planes(rays: RayBatch, camera, box, spacing: float, normal=None) -> PlaneSamples:
+    """Planes perpendicular to the view axis (or ``normal``: half-angle slicing's), ``spacing`` apart,
+    anchored at the box centre (3D texture slicing draws these)."""
+    f = camera.basis()[0] if normal is None else np.asarray(normal, dtype=np.float64)
     eye = np.asarray(camera.eye)
     centre = (np.asarray(box[0]) + np.asarray(box[1])) / 2.0
     return _crossings(rays, (rays.origins - eye) @ f, rays.directions @ f, float((centre - eye) @ f), spacing)

@@ -7,7 +7,10 @@ Shared by both references (:class:`~dvr_gl.reference.model.OpticalModel` multipl
   from the point to where the ray leaves the box (or reaches a point light), the last one shortened,
   the extinction from the transfer-function table at each segment's midpoint; with ``method =
   "light_volume"`` it marches them from the nodes of the light volume (:func:`light_volume_nodes`)
-  instead and interpolates their optical depths trilinearly, as the GPU samples its light volume;
+  instead and interpolates their optical depths trilinearly, as the GPU samples its light volume; with
+  ``"half_angle"`` it accumulates the light buffer of half-angle slicing (:mod:`dvr_gl.half_angle`)
+  slice by slice as ``slicing3d`` does, and looks a point up bilinearly in the buffer the slices
+  nearer the light than it left;
 * ``reference-converged`` integrates the optical depth between the field's knots by Gauss-Legendre,
   bisecting until its error at each point is within the share of the pixel's budget that point can
   spend (see :meth:`SingleScattering._tolerances`).
@@ -85,6 +88,8 @@ class SingleScattering:
     def __init__(self, scene, extinction, pieces=None, step: float | None = None, tolerance: float = 1e-4,
                  nodes: int = 4):
         self.spec = scene.renderer.scattering
+        self.scene = scene
+        self.buffers = None  # half-angle slicing: the light buffers, made when first needed
         self.grid = None  # the light volume's nodes and optical depths, made when first needed
         self.extinction = extinction
         self.pieces = pieces
@@ -137,10 +142,57 @@ class SingleScattering:
             total += weight * t[:, None]
         if self.spec.shadows and self._uses_light_volume():
             total = sum(w * np.exp(-tau)[:, None] for w, tau in zip(weights, self._light_volume_depths(points)))
+        if self.spec.shadows and self._uses_half_angle():
+            total = weights[0] * np.exp(-self._light_buffer_depths(points))[:, None]
         return (1.0 - a) + a * total
 
     def _uses_light_volume(self) -> bool:
         return self.pieces is None and self.spec.method == "light_volume"
+
+    def _uses_half_angle(self) -> bool:
+        return self.pieces is None and self.spec.method == "half_angle"
+
+    def _light_buffer_depths(self, points) -> np.ndarray:
+        """Half-angle slicing's light buffer at points: the optical depth the slices nearer the light than
+        a point (by half a spacing or more: a point on slice k sees the slices before it) left,
+        bilinear between the buffer's pixel centres."""
+        from ..half_angle import half_angle
+
+        if self.buffers is None:
+            geometry = half_angle(self.scene.camera, (self.lo, self.hi), self.spec.lights[0].direction,
+                                  self.scene.renderer.sample_distance, self.spec.light_buffer_size)
+            self.buffers = (geometry, self._accumulated(geometry))
+        geometry, cumulative = self.buffers
+        offset = (np.asarray(points, dtype=np.float64) - geometry.eye) @ geometry.normal
+        k_min = np.ceil((offset + 0.5 * geometry.spacing - geometry.anchor) / geometry.spacing).astype(np.int64)
+        index = np.clip(geometry.first - k_min + 1, 0, len(cumulative) - 1)  # planes first .. k_min drawn
+        none = k_min > geometry.first
+        uv = geometry.light_uv(points)
+        tau = bilinear(cumulative, index, uv)
+        return np.where(none, 0.0, tau)
+
+    def _accumulated(self, geometry) -> np.ndarray:
+        """``(K + 1, ny, nx)``: the light buffer after 0, 1, ... K slices in drawing order."""
+        from ..sandbox import check_bytes
+
+        nx, ny = geometry.size
+        ks = geometry.order()
+        check_bytes((len(ks) + 1) * nx * ny * 8.0 * 3, "half-angle slicing's light buffers in the reference",
+                    "lower renderer.scattering.light_buffer_size or the image's size")
+        i, j = np.meshgrid((np.arange(nx) + 0.5) / nx, (np.arange(ny) + 0.5) / ny)
+        pixels = (geometry.origin + (i.ravel() * geometry.extent[0])[:, None] * geometry.axis_u
+                  + (j.ravel() * geometry.extent[1])[:, None] * geometry.axis_v)
+        along = float(geometry.toward_light @ geometry.normal)
+        out = np.zeros((len(ks) + 1, ny * nx))
+        for n, k in enumerate(ks):
+            s = (geometry.offsets(k) - (pixels - geometry.eye) @ geometry.normal) / along
+            y = pixels + s[:, None] * geometry.toward_light
+            inside = np.all((y >= self.lo) & (y <= self.hi), axis=1)
+            slab = np.zeros(len(y))
+            if inside.any():
+                slab[inside] = self.extinction(y[inside], None) * geometry.light_length
+            out[n + 1] = out[n] + slab
+        return out.reshape(len(ks) + 1, ny, nx)
 
     def _light_volume_depths(self, points):
         """Each light's optical depth at points, trilinear between the light volume's nodes."""
@@ -263,3 +315,17 @@ def trilinear(grid: np.ndarray, lo, hi, points: np.ndarray) -> np.ndarray:
                 idx = np.minimum(i0 + [dx, dy, dz], n - 1)
                 out += w * grid[idx[:, 2], idx[:, 1], idx[:, 0]]
     return out
+
+
+def bilinear(buffers: np.ndarray, index: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """``buffers[index]`` (each ``(ny, nx)``) at ``uv`` in [0, 1]^2, bilinear between pixel centres,
+    clamped to the edge pixels (as a GL texture with clamp-to-edge)."""
+    ny, nx = buffers.shape[1:]
+    x = np.clip(uv[:, 0] * nx - 0.5, 0.0, nx - 1)
+    y = np.clip(uv[:, 1] * ny - 0.5, 0.0, ny - 1)
+    x0 = np.minimum(np.floor(x).astype(np.int64), nx - 2)
+    y0 = np.minimum(np.floor(y).astype(np.int64), ny - 2)
+    fx, fy = x - x0, y - y0
+    b = buffers
+    return ((1 - fy) * ((1 - fx) * b[index, y0, x0] + fx * b[index, y0, x0 + 1])
+            + fy * ((1 - fx) * b[index, y0 + 1, x0] + fx * b[index, y0 + 1, x0 + 1]))

@@ -10,8 +10,12 @@
 // LIGHT_VOLUME: T from the light volume instead, each light's optical depth at the nodes of a grid
 // spanning the box (one channel per light; shaders/scattering/light_volume.frag marches the shadow
 // rays from the nodes), interpolated trilinearly with float weights (as dvr_gl.reference.scattering).
-// Defines: NUM_SCATTER_LIGHTS, PHASE_HG (Henyey-Greenstein; else isotropic), SHADOWS, LIGHT_VOLUME.
-// Needs: u_box_lo, u_box_hi, and float extinction(vec3 p) (classify.glsl).
+// HALF_ANGLE: T from half-angle slicing's light buffer (dvr_gl.half_angle: one directional light; the
+// optical depth the slices nearer the light left, bilinear between its pixel centres, clamped).
+// Defines: NUM_SCATTER_LIGHTS, PHASE_HG (Henyey-Greenstein; else isotropic), SHADOWS, LIGHT_VOLUME,
+// HALF_ANGLE.  Needs: u_box_lo, u_box_hi, and float extinction(vec3 p) (classify.glsl).
+
+#include "common/box.glsl"
 
 uniform vec4 u_scatter_light[NUM_SCATTER_LIGHTS];       // w 0: xyz the unit vector toward a directional
                                                         // light; w 1: a point light's position
@@ -24,6 +28,26 @@ uniform float u_phase_g;
 #ifdef SHADOWS
 uniform float u_shadow_step;                            // world units
 const float SHADOW_DEPTH_LIMIT = 20.0;
+#endif
+#ifdef HALF_ANGLE
+uniform sampler2D u_light_buffer;                       // R32F: optical depth toward the light
+uniform vec3 u_light_origin;                            // the buffer's corner (world)
+uniform vec3 u_light_u;                                 // its axes over their extents: uv = (p - origin) . u, v
+uniform vec3 u_light_v;
+uniform ivec2 u_light_buffer_size;
+
+float light_buffer_depth(vec3 p) {
+    vec2 uv = vec2(dot(p - u_light_origin, u_light_u), dot(p - u_light_origin, u_light_v));
+    vec2 n = vec2(u_light_buffer_size);
+    vec2 x = clamp(uv * n - 0.5, vec2(0.0), n - 1.0);
+    ivec2 i0 = min(ivec2(floor(x)), u_light_buffer_size - 2);
+    vec2 f = x - vec2(i0);
+    float a = texelFetch(u_light_buffer, i0, 0).r;
+    float b = texelFetch(u_light_buffer, i0 + ivec2(1, 0), 0).r;
+    float c = texelFetch(u_light_buffer, i0 + ivec2(0, 1), 0).r;
+    float d = texelFetch(u_light_buffer, i0 + ivec2(1, 1), 0).r;
+    return mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
+}
 #endif
 #ifdef LIGHT_VOLUME
 uniform sampler3D u_light_volume;                       // RGBA32F, nearest: light i's optical depth in channel i
@@ -107,6 +131,8 @@ vec3 scattering_factor(vec3 p, vec3 dir) {
         vec3 lit = scatter_phase(dot(toward, dir)) * energy;  // cos theta = (-toward) . (-dir)
 #if defined(LIGHT_VOLUME)
         lit *= exp(-depths[i]);
+#elif defined(HALF_ANGLE)
+        lit *= exp(-light_buffer_depth(p));  // one light
 #elif defined(SHADOWS)
         lit *= exp(-shadow_depth(p, toward, reach));
 #endif

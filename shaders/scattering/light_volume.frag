@@ -10,7 +10,6 @@
 #define NEEDS_GRADIENT
 #endif
 
-#include "common/camera_ray.glsl"
 #include "common/volume_sample.glsl"
 #include "common/gradient.glsl"
 #include "common/transfer_function.glsl"

@@ -53,9 +53,10 @@ def scattering_defines(scene, defines: dict):
     sc = getattr(scene.renderer, "scattering", None)
     if sc is None or not sc.enabled or scene.renderer.compositing != "emission_absorption":
         return
-    volume = sc.method == "light_volume"
     defines.update(SCATTERING=True, NUM_SCATTER_LIGHTS=len(sc.lights), PHASE_HG=sc.phase == "henyey_greenstein",
-                   SHADOWS=sc.shadows and not volume, LIGHT_VOLUME=sc.shadows and volume)
+                   SHADOWS=sc.shadows and sc.method == "shadow_rays",
+                   LIGHT_VOLUME=sc.shadows and sc.method == "light_volume",
+                   HALF_ANGLE=sc.shadows and sc.method == "half_angle")
 
 
 def light_volume_pass_defines(defines: dict) -> dict:
@@ -136,12 +137,19 @@ class LightVolumeTexture:
                     "u_box_lo": lo, "u_box_hi": hi, "u_nodes": self.dims}
         slabs = max(1, self.MAX_ROWS // ny)
         depths = []
-        for first in range(0, nz, slabs):
-            count = min(slabs, nz - first)
-            renderer.bind(program, {**uniforms, "u_first_k": first}, textures)
-            (_,), fbo = renderer.target("light volume", nx, ny * count)
-            renderer._draw(program, fbo, nx, ny * count)
-            depths.append(renderer.read(fbo, nx, ny * count)[::-1])  # read() turns rows top down
+        vao = ctx.vertex_array(program, [])
+        try:
+            for first in range(0, nz, slabs):
+                count = min(slabs, nz - first)
+                renderer.bind(program, {**uniforms, "u_first_k": first}, textures)
+                (_,), fbo = renderer.target("light volume", nx, ny * count)
+                fbo.use()
+                ctx.viewport = (0, 0, nx, ny * count)
+                ctx.disable(ctx.BLEND | ctx.DEPTH_TEST)
+                vao.render(mode=ctx.TRIANGLES, vertices=3)  # fullscreen.vert's one triangle
+                depths.append(renderer.read(fbo, nx, ny * count)[::-1])  # read() turns rows top down
+        finally:
+            vao.release()
         data = np.concatenate(depths).reshape(nz, ny, nx, 4)
         self.texture = ctx.texture3d((nx, ny, nz), 4, np.ascontiguousarray(data).tobytes(), dtype="f4")
         self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)

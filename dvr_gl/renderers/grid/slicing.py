@@ -11,14 +11,18 @@ the same near plane: :func:`reference`.
 
 from __future__ import annotations
 
+import moderngl
 import numpy as np
 
 from .bricking import visibility_order
 from ...gl.geometry import clip_planes, gl_matrix, projection_matrix, view_matrix
 from ...gl.shaders import create_program
+from ...half_angle import half_angle
 from ...reference import plans
 from ...reference.discrete import DiscreteReference
-from .gl_base import GLVolumeRenderer, classification_features, now
+from ...errors import SceneError
+from ...gl.geometry import slice_polygons
+from .gl_base import GLVolumeRenderer, classification_features, light_volume_pass_defines, now
 
 MAX_REACH = 64.0  # voxels: rays this close to parallel with the slices need more ghost than any brick has
 
@@ -26,8 +30,20 @@ MAX_REACH = 64.0  # voxels: rays this close to parallel with the slices need mor
 def reference_plan(scene, kind: str):
     """The sample plan of ``slicing3d`` or ``slicing2d`` for :class:`~dvr_gl.reference.discrete.DiscreteReference`."""
     if kind == "slicing3d":
-        return lambda rays: plans.view_planes(rays, scene.camera, scene.volume.box, scene.renderer.sample_distance)
+        ha = half_angle_of(scene)
+        return lambda rays: plans.view_planes(rays, scene.camera, scene.volume.box, scene.renderer.sample_distance,
+                                              None if ha is None else ha.normal)
     return lambda rays: plans.axis_planes(rays, scene.camera, scene.volume)
+
+
+def half_angle_of(scene):
+    """Half-angle slicing's geometry (:mod:`dvr_gl.half_angle`) where the scene asks for it (with shadows:
+    without, nothing needs the light buffer and the slices face the eye), else None."""
+    sc = scene.renderer.scattering
+    if not (sc.enabled and sc.shadows and sc.method == "half_angle"):
+        return None
+    return half_angle(scene.camera, scene.volume.box, sc.lights[0].direction, scene.renderer.sample_distance,
+                      sc.light_buffer_size)
 
 
 def reference(scene, kind: str) -> DiscreteReference:
@@ -73,6 +89,19 @@ class SlicingRenderer(GLVolumeRenderer):
         program = create_program(self.ctx, "slice.vert", "slice.frag", defines)
         tables = self.table_textures(scene, defines, self.slab_length(scene))
         views = self.grid_views(scene, defines)
+        if len(views) > 1 and "SCATTERING" in defines:
+            raise SceneError(f"{scene.renderer.name} renders scattering from one texture of the whole volume (the "
+                             f"lights' rays cross bricks), and {scene.volume.name} needs {len(views)} bricks at "
+                             f"renderer.texture_budget_mb = {scene.renderer.texture_budget_mb:g}: raise it or "
+                             f"turn renderer.scattering off")
+        light_seconds = 0.0
+        if "LIGHT_VOLUME" in defines:
+            made = self._cache.get("light volume")
+            light = self.light_volume_texture(scene, defines, views[0], tables["u_lut"])
+            light_seconds = light.seconds if made is None or made[1] is not light else 0.0
+            tables = {**tables, "u_light_volume": light}
+        if "HALF_ANGLE" in defines:
+            return self._draw_half_angle(scene, defines, program, tables, views[0], start)
         per_voxel = scene.volume.data.itemsize + self.texture_bytes_per_voxel(defines)
         resident = sum(np.prod(v.dims) for v in views) * per_voxel <= scene.renderer.texture_budget_mb * 2 ** 20
         if len(views) > 1:
@@ -112,7 +141,89 @@ class SlicingRenderer(GLVolumeRenderer):
             self.ctx.disable(self.ctx.BLEND)
         image = self.read(fbo, width, height)
         self.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines,
-                      "bricks": len(views), "triangles": triangles}
+                      "bricks": len(views), "triangles": triangles, "light_volume_seconds": light_seconds}
+        return image
+
+    def _draw_half_angle(self, scene, defines, program, tables, view, start) -> np.ndarray:
+        """Half-angle slicing (:mod:`dvr_gl.half_angle`): the slices in order from the light, each drawn
+        into the eye buffer (under or over, lit by the light buffer) and then into the light buffer
+        (adding its optical depth)."""
+        ctx, r = self.ctx, scene.renderer
+        ha = half_angle_of(scene)
+        lo, hi = scene.volume.box
+        e1 = np.cross(ha.normal, [1.0, 0.0, 0.0] if abs(ha.normal[0]) < 0.9 else [0.0, 1.0, 0.0])
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(ha.normal, e1)
+        ks = ha.order()
+        # the light pass draws each slice's polygon in a box grown by a light-buffer pixel and keeps the
+        # fragments inside the volume's box by their world position (light_slice.frag): the rasterizer
+        # snaps vertices to a fraction of a pixel, so its own edges would decide the pixels along the
+        # box's faces differently from the reference
+        grow = max(ha.extent[0] / ha.size[0], ha.extent[1] / ha.size[1])
+        meshes = []
+        for box_lo, box_hi in ((lo, hi), (lo - grow, hi + grow)):
+            tris = slice_polygons(ha.normal, ha.offsets(ks), box_lo, box_hi, ha.eye, e1, e2)   # (K, 10, 3, 3)
+            finite = np.all(np.isfinite(tris), axis=(2, 3))
+            counts = finite.sum(axis=1) * 3
+            meshes.append((tris[finite].reshape(-1, 3), np.concatenate([[0], np.cumsum(counts)[:-1]]), counts))
+        (vertices, firsts, counts), (light_vertices, light_firsts, light_counts) = meshes
+        light_defines = {k: v for k, v in light_volume_pass_defines(defines).items() if k != "SHADOWS"}
+        light_program = create_program(ctx, "slice.vert", "scattering/light_slice.frag", light_defines)
+        width, height = scene.image.width, scene.image.height
+        (_,), eye_fbo = self.target("main", width, height)
+        nx, ny = ha.size
+        (light_buffer,), light_fbo = self.target("light buffer", nx, ny, (1,))
+        light_buffer.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        light_fbo.use()
+        ctx.viewport = (0, 0, nx, ny)
+        ctx.clear(0.0, 0.0, 0.0, 0.0)
+        eye_fbo.use()
+        ctx.viewport = (0, 0, width, height)
+        ctx.clear(0.0, 0.0, 0.0, 0.0)
+        textures = {**self.volume_textures(scene, defines, view, True), **tables}
+        common = {**self.optics_uniforms(scene, tables["u_lut"].lut), **self.grid_uniforms(scene, view),
+                  "u_box_lo": lo, "u_box_hi": hi}
+        self.bind(program, {**common, **self.camera_uniforms(scene), **self.view_uniforms(scene),
+                            "u_slice_normal": ha.normal, "u_light_origin": ha.origin,
+                            "u_light_u": ha.axis_u / ha.extent[0], "u_light_v": ha.axis_v / ha.extent[1],
+                            "u_light_buffer_size": ha.size}, {**textures, "u_light_buffer": light_buffer})
+        self.bind(light_program, {**common, "u_view_projection": _Matrix(_light_matrix(ha)),
+                                  "u_light_length": ha.light_length}, textures)
+        vbo = ctx.buffer(np.ascontiguousarray(vertices, dtype=np.float32).tobytes())
+        light_vbo = ctx.buffer(np.ascontiguousarray(light_vertices, dtype=np.float32).tobytes())
+        eye_vao = ctx.vertex_array(program, [(vbo, "3f", "position")])
+        light_vao = ctx.vertex_array(light_program, [(light_vbo, "3f", "position")])
+        under = (ctx.ONE_MINUS_DST_ALPHA, ctx.ONE)   # front to back, premultiplied
+        over = (ctx.ONE, ctx.ONE_MINUS_SRC_ALPHA)
+        ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE)
+        ctx.enable(ctx.BLEND)
+        try:
+            ctx.finish()
+            drawn = now()
+            for first, count, light_first, light_count in zip(firsts, counts, light_firsts, light_counts):
+                if count:
+                    eye_fbo.use()
+                    ctx.viewport = (0, 0, width, height)
+                    ctx.blend_func = under if ha.eye_front_to_back else over
+                    eye_vao.render(ctx.TRIANGLES, vertices=int(count), first=int(first))
+                if light_count:
+                    light_fbo.use()
+                    ctx.viewport = (0, 0, nx, ny)
+                    ctx.blend_func = (ctx.ONE, ctx.ONE)
+                    light_vao.render(ctx.TRIANGLES, vertices=int(light_count), first=int(light_first))
+            ctx.finish()
+            gpu_seconds = now() - drawn
+        finally:
+            ctx.disable(ctx.BLEND)
+            ctx.blend_func = over
+            eye_vao.release()
+            light_vao.release()
+            vbo.release()
+            light_vbo.release()
+        image = self.read(eye_fbo, width, height)
+        self.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines, "bricks": 1,
+                      "triangles": len(vertices) // 3, "slices": int((counts > 0).sum()),
+                      "light_buffer": ha.size, "light_volume_seconds": 0.0}
         return image
 
     def volume_textures(self, scene, defines, view, resident) -> dict:
@@ -120,7 +231,8 @@ class SlicingRenderer(GLVolumeRenderer):
 
     def view_uniforms(self, scene) -> dict:
         f, _, _ = scene.camera.basis()
-        return {"u_slice_normal": f, "u_slab_length": self.slab_length(scene)}
+        lo, hi = scene.volume.box
+        return {"u_slice_normal": f, "u_slab_length": self.slab_length(scene), "u_box_lo": lo, "u_box_hi": hi}
 
     @staticmethod
     def camera_uniforms(scene) -> dict:
@@ -140,6 +252,17 @@ class SlicingRenderer(GLVolumeRenderer):
 class _Matrix:
     def __init__(self, m):
         self.m = m
+
+
+def _light_matrix(ha) -> np.ndarray:
+    """World to clip coordinates of the light buffer: orthographic along the light, its pixels the
+    buffer's (dvr_gl.half_angle); depth 0 (nothing is depth-tested)."""
+    m = np.zeros((4, 4))
+    for row, (axis, extent) in enumerate(((ha.axis_u, ha.extent[0]), (ha.axis_v, ha.extent[1]))):
+        m[row, :3] = 2.0 * axis / extent
+        m[row, 3] = -2.0 * float(ha.origin @ axis) / extent - 1.0
+    m[3, 3] = 1.0
+    return m
 
 
 def core_box(scene, view):
