@@ -17,7 +17,7 @@
   dvr bench splatting  splatting's sheet buffers and classifications: frame time, splats, error against
                        the same kernel's converged reference, the ray caster at equal error; the
                        45-degree study
-  dvr bench scattering single scattering in the ray caster: shadow rays against the light volume, frame
+  dvr bench scattering single scattering: shadow rays, the light volume and half-angle slicing, frame
                        time and error against reference-converged, the speed-up at equal error
   dvr bench peers      dvr-gl against VTK, vispy and pygfx (from a separate benchmark environment) on
                        the same scenes: frame time, error against the converged reference, ratios
@@ -172,8 +172,8 @@ def add_arguments(p):
                                                           "--data-dir at --error-size, against reference-converged")
     fo.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder (default ../shared/data)")
     fo.add_argument("--only", metavar="TEXT", help="with --shared: only datasets whose name contains TEXT")
-    sc = sub.add_parser("scattering", help="single scattering in the ray caster: shadow rays and the light volume "
-                                           "at several settings, frame time and RMS against reference-converged, "
+    sc = sub.add_parser("scattering", help="single scattering: the ray caster's shadow rays and light volume and "
+                                           "slicing3d's half-angle slicing at several settings, frame time and RMS against reference-converged, "
                                            "the speed-up at equal error (docs/scattering.md)")
     _timing_arguments(sc, size=256, error_size=64)
     sc.add_argument("--tolerance", type=float, default=1e-4, help="reference-converged's budget (default 1e-4)")
@@ -561,16 +561,18 @@ def run_scattering(args) -> int:
         scenes = [(n, o) for n, o in scenes if args.only in n]
         if not scenes:
             raise DvrError(f"--only {args.only}: no scene matches")
-    args.report.text(f"dvr bench scattering: the ray caster with single scattering (emission-absorption, no "
-                     f"gradient shading), frame times at {args.size}x{args.size} (median of {args.repeat} after a "
+    args.report.text(f"dvr bench scattering: single scattering (emission-absorption, no gradient shading) by the "
+                     f"ray caster's shadow rays and light volume and slicing3d's half-angle slicing, frame times at {args.size}x{args.size} (median of {args.repeat} after a "
                      f"warm-up; the light volume made once, timed apart), RMS against reference-converged "
                      f"(tolerance {args.tolerance:g}) at {args.error_size}x{args.error_size}; the shared datasets "
                      f"lit by one directional light (0.4, 0.6, -1), albedo 0.9")
     rows = scattering.run(scenes, args.size, args.error_size, args.repeat, args.tolerance, progress=lambda r: print(
-        f"{r['scene']} {r['method']} {r['setting']}: {r['ms']:.0f} ms, RMS {r['rms']:.2e}", flush=True))
+        f"{r['scene']} {r['renderer']} {r['method']} {r['setting']}: {r['ms']:.0f} ms, RMS {r['rms']:.2e}",
+        flush=True))
     args.report.text()
     args.report.table(rows, scattering.COLUMNS, notes)
-    args.report.text("\nat equal error: each shadow-ray setting against the fastest light volume as accurate")
+    args.report.text("\nat equal error: each shadow-ray setting against the fastest light volume or half-angle "
+                     "setting as accurate")
     args.report.table(scattering.equal_error(rows), scattering.EQUAL_COLUMNS)
     if args.paths:
         args.report.text(f"\nwhat single scattering leaves out: reference-converged (single scattering) against the "

@@ -174,8 +174,9 @@ def test_bench_scattering_prints_methods_equal_error_and_multiple_scattering(tmp
                  "--paths", "8", "--paths-size", "6", "--markdown", str(md)]) == 0
     out = capsys.readouterr().out
     rows = [line.split() for line in out.splitlines() if line.startswith("shadow demo ") and ":" not in line]
-    methods = [r[2] for r in rows[:16]]
+    methods = [r[3] for r in rows[:22]]
     assert methods.count("shadow_rays") == 4 and methods.count("light_volume") == 9
+    assert methods.count("half_angle") == 9
     assert "at equal error" in out and "what single scattering leaves out" in out
     assert "| scene |" in md.read_text()
     assert main(["bench", "scattering", "--paths", "-1"]) == 1

@@ -25,10 +25,11 @@ from . import median_seconds
 SHADOW_RAY_DISTANCES = (2.0, 1.0, 0.5, 0.25)
 LIGHT_VOLUME_SIZES = (32, 64, 128)
 LIGHT_VOLUME_DISTANCES = (1.0, 0.5, 0.25)
-COLUMNS = [("scene", "scene", ""), ("method", "method", ""), ("setting", "setting", ""),
+LIGHT_BUFFER_SIZES = (128, 256, 512)
+COLUMNS = [("scene", "scene", ""), ("renderer", "renderer", ""), ("method", "method", ""), ("setting", "setting", ""),
            ("ms", "frame ms", ".0f"), ("volume_ms", "light volume ms", ".0f"), ("rms", "RMS vs converged", ".2e")]
 EQUAL_COLUMNS = [("scene", "scene", ""), ("rays", "shadow rays", ""), ("rays_rms", "RMS", ".2e"),
-                 ("rays_ms", "ms", ".0f"), ("volume", "fastest light volume as accurate", ""),
+                 ("rays_ms", "ms", ".0f"), ("volume", "fastest other method as accurate", ""),
                  ("volume_rms", "RMS", ".2e"), ("volume_ms", "ms", ".0f"), ("speedup", "speed-up", ".1f")]
 DEFAULT_LIGHT = {"enabled": True, "albedo": 0.9, "lights": [{"direction": [0.4, 0.6, -1.0], "intensity": 1.5}]}
 
@@ -44,14 +45,19 @@ def shadow_demo(size: int = 64) -> tuple[str, dict]:
     return "shadow demo", {**overrides, **camera}
 
 
-def settings() -> list[tuple[str, str, dict]]:
-    """(method, setting's label, renderer overrides) of the rows."""
-    out = [("shadow_rays", f"{d:g} voxel", {"renderer.scattering.method": "shadow_rays",
-                                            "renderer.sample_distance_voxels": d}) for d in SHADOW_RAY_DISTANCES]
-    out += [("light_volume", f"{n} nodes, {d:g} voxel", {"renderer.scattering.method": "light_volume",
-                                                         "renderer.scattering.light_volume_size": n,
-                                                         "renderer.sample_distance_voxels": d})
+def settings() -> list[tuple[str, str, str, dict]]:
+    """(renderer, method, setting's label, renderer overrides) of the rows."""
+    out = [("raycast", "shadow_rays", f"{d:g} voxel", {"renderer.scattering.method": "shadow_rays",
+                                                       "renderer.sample_distance_voxels": d})
+           for d in SHADOW_RAY_DISTANCES]
+    out += [("raycast", "light_volume", f"{n} nodes, {d:g} voxel", {"renderer.scattering.method": "light_volume",
+                                                                    "renderer.scattering.light_volume_size": n,
+                                                                    "renderer.sample_distance_voxels": d})
             for n in LIGHT_VOLUME_SIZES for d in LIGHT_VOLUME_DISTANCES]
+    out += [("slicing3d", "half_angle", f"{n} pixels, {d:g} voxel", {"renderer.scattering.method": "half_angle",
+                                                                     "renderer.scattering.light_buffer_size": n,
+                                                                     "renderer.sample_distance_voxels": d})
+            for n in LIGHT_BUFFER_SIZES for d in LIGHT_VOLUME_DISTANCES]
     return out
 
 
@@ -67,35 +73,42 @@ def run(scenes, size: int = 256, error_size: int = 64, repeat: int = 3, toleranc
         progress=None) -> list[dict]:
     """Rows of the methods' table for ``scenes`` (``(name, overrides)``)."""
     rows = []
-    with create_renderer("raycast") as raycast:
+    renderers = {name: create_renderer(name) for name in ("raycast", "slicing3d")}
+    try:
         for name, overrides in scenes:
             truth = ConvergedReference(_scene(overrides, error_size, {"renderer.converged_tolerance": tolerance,
                                                                       "renderer.name": "reference-converged"}
                                               )).render()
-            for method, label, extra in settings():
+            for renderer_name, method, label, extra in settings():
+                renderer = renderers[renderer_name]
+                extra = {**extra, "renderer.name": renderer_name}
                 scene = _scene(overrides, size, extra)
-                raycast.render(scene)  # the light volume, if any, made here
-                made = raycast.stats.get("light_volume_seconds", 0.0)
-                ms = 1e3 * median_seconds(raycast, scene, repeat, warm_up=False)
-                image = raycast.render(_scene(overrides, error_size, extra))
-                row = {"scene": name, "method": method, "setting": label, "ms": ms,
+                renderer.render(scene)  # the light volume, if any, made here
+                made = renderer.stats.get("light_volume_seconds", 0.0)
+                ms = 1e3 * median_seconds(renderer, scene, repeat, warm_up=False)
+                image = renderer.render(_scene(overrides, error_size, extra))
+                row = {"scene": name, "renderer": renderer_name, "method": method, "setting": label, "ms": ms,
                        "volume_ms": 1e3 * made if method == "light_volume" else None,
                        "rms": compare_images(image, truth)["rms"]}
                 rows.append(row)
                 if progress:
                     progress(row)
+    finally:
+        for renderer in renderers.values():
+            renderer.close()
     return rows
 
 
 def equal_error(rows: list[dict]) -> list[dict]:
-    """Per scene and shadow-ray row: the fastest light-volume row at most as far from the reference."""
+    """Per scene and shadow-ray row: the fastest light-volume or half-angle row at most as far from the
+    reference."""
     out = []
     for ray in (r for r in rows if r["method"] == "shadow_rays"):
-        candidates = [r for r in rows if r["scene"] == ray["scene"] and r["method"] == "light_volume"
+        candidates = [r for r in rows if r["scene"] == ray["scene"] and r["method"] != "shadow_rays"
                       and r["rms"] <= ray["rms"]]
         best = min(candidates, key=lambda r: r["ms"], default=None)
         out.append({"scene": ray["scene"], "rays": ray["setting"], "rays_rms": ray["rms"], "rays_ms": ray["ms"],
-                    "volume": best["setting"] if best else "none as accurate",
+                    "volume": f"{best['method']} {best['setting']}" if best else "none as accurate",
                     "volume_rms": best and best["rms"], "volume_ms": best and best["ms"],
                     "speedup": best and ray["ms"] / best["ms"]})
     return out
