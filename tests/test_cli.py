@@ -332,9 +332,9 @@ def test_scattering_flags(tmp_path, capsys):
     assert run(capsys, "render", "--demo", "shadow", "--size", "16", "--set", "volume.size=12",
                "--scattering-method", "shadow_rays", "-o", tmp_path / "rays.png")[0] == 0
     bad = tmp_path / "bad.png"
-    code, _, err = run(capsys, "render", "--demo", "blobs", "--scattering", "--renderer", "slicing3d", "-o", bad,
+    code, _, err = run(capsys, "render", "--demo", "blobs", "--scattering", "--renderer", "slicing2d", "-o", bad,
                        *SMALL)
-    assert_one_line_error(code, err, "slicing3d does not support renderer.scattering")
+    assert_one_line_error(code, err, "slicing2d does not support renderer.scattering")
     code, _, err = run(capsys, "render", "--demo", "blobs", "--scattering", "--shading", "-o", bad, *SMALL)
     assert_one_line_error(code, err, "turn one off")
     assert not bad.exists()

@@ -58,11 +58,11 @@ def test_light_volume_family_only_where_the_scene_scatters():
     assert v.renderer.scattering.lights == lit.renderer.scattering.lights
     assert sweeps.LIGHT_VOLUME.applies_to_scene(lit)
     assert not sweeps.LIGHT_VOLUME.applies_to_scene(load_scene(None, SMALL))
-    rows, notes = tradeoff.run(lit, repeat=1, renderers=["raycast", "slicing3d"])
+    rows, notes = tradeoff.run(lit, repeat=1, renderers=["raycast", "slicing2d"])
     curve = [r["rms"] for r in rows if r["family"] == "light volume"]
     assert len(curve) == len(sweeps.LIGHT_VOLUME.values) and curve[0] > curve[2]
-    assert not any(r["renderer"] == "slicing3d" for r in rows)
-    assert any("slicing3d" in n and "scattering" in n for n in notes)
+    assert not any(r["renderer"] == "slicing2d" for r in rows)
+    assert any("slicing2d" in n and "scattering" in n for n in notes)
 
 
 def test_sweep_measures_every_renderer():

@@ -245,8 +245,8 @@ def test_settings_switch_and_refuse():
     before = np.asarray(lit.renderer.scattering.lights[0].direction)
     assert np.dot(tilted, up) != pytest.approx(np.dot(before, up))
     assert np.linalg.norm(tilted) == pytest.approx(np.linalg.norm(before))
-    with pytest.raises(SceneError, match="slicing3d does not support renderer.scattering"):
-        settings.change(lit, name="slicing3d")
+    with pytest.raises(SceneError, match="slicing2d does not support renderer.scattering"):
+        settings.change(lit, name="slicing2d")
     assert "voxel plane" in settings.sampling_text(settings.change(scene, name="slicing2d"))
     assert "slices" in settings.sampling_text(settings.change(scene, name="slicing3d"))
 
