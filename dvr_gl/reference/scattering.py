@@ -132,25 +132,29 @@ class SingleScattering:
         for light, (toward, energy, _) in zip(self.spec.lights, lights):
             cos_theta = np.sum(-toward * -np.asarray(directions, dtype=np.float64), axis=1)
             weights.append(FOUR_PI * self.phase(cos_theta)[:, None] * energy)
-        for (toward, _, reach), weight, tol in zip(lights, weights, self._tolerances(weights)):
+        depths = self._grid_depths(points)  # the light volume's or the light buffer's, if the method has one
+        for i, ((toward, _, reach), weight, tol) in enumerate(zip(lights, weights, self._tolerances(weights))):
             lit = np.any(weight > 0, axis=1)
             t = np.zeros(len(points))
-            if self.spec.shadows and lit.any():
-                t[lit] = self.transmittance(points[lit], toward[lit], reach[lit], tol[lit])
-            else:
+            if not self.spec.shadows:
                 t[lit] = 1.0
+            elif depths is not None:
+                t[lit] = np.exp(-depths[i][lit])
+            elif lit.any():
+                t[lit] = self.transmittance(points[lit], toward[lit], reach[lit], tol[lit])
             total += weight * t[:, None]
-        if self.spec.shadows and self._uses_light_volume():
-            total = sum(w * np.exp(-tau)[:, None] for w, tau in zip(weights, self._light_volume_depths(points)))
-        if self.spec.shadows and self._uses_half_angle():
-            total = weights[0] * np.exp(-self._light_buffer_depths(points))[:, None]
         return (1.0 - a) + a * total
 
-    def _uses_light_volume(self) -> bool:
-        return self.pieces is None and self.spec.method == "light_volume"
-
-    def _uses_half_angle(self) -> bool:
-        return self.pieces is None and self.spec.method == "half_angle"
+    def _grid_depths(self, points):
+        """Per light, the optical depth at points from the method's grid: the light volume's, or half-angle
+        slicing's light buffer (one light); None for shadow rays (and the converged reference)."""
+        if not self.spec.shadows or self.pieces is not None:
+            return None
+        if self.spec.method == "light_volume":
+            return self._light_volume_depths(points)
+        if self.spec.method == "half_angle":
+            return [self._light_buffer_depths(points)]
+        return None
 
     def _light_buffer_depths(self, points) -> np.ndarray:
         """Half-angle slicing's light buffer at points: the optical depth the slices nearer the light than
@@ -218,8 +222,6 @@ class SingleScattering:
 
     def transmittance(self, points, toward, reach, tolerance=None) -> np.ndarray:
         """``exp(-tau)`` along ``points + t toward`` for ``t`` in ``[0, reach]``."""
-        if self._uses_light_volume():
-            return np.ones(len(points))  # factor() takes the light volume's instead
         if self.pieces is None:
             return np.exp(-self._marched(points, toward, reach))
         return np.exp(-self._converged(points, toward, reach, tolerance))
