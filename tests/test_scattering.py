@@ -521,3 +521,24 @@ def test_half_angle_converges_to_the_converged_reference(gl_context):
 def test_half_angle_takes_one_directional_light(lights):
     with pytest.raises(SceneError, match="one directional light"):
         load_scene(None, {**HALF, "renderer.scattering.lights": lights})
+
+
+def test_half_angle_geometry():
+    """The half vector lies between the eye and the light (or the light and away from the eye), the
+    slices go from the light, and the light buffer covers the box."""
+    from dvr_gl.half_angle import half_angle
+    from dvr_gl.gl.geometry import box_corners
+
+    scene = load_scene(None, {**SMALL, "camera.projection": "orthographic"})
+    box = scene.volume.box
+    toward_eye = -np.asarray(scene.camera.basis()[0])
+    for direction, front_to_back in (((0.3, -0.2, -1.0), True), (tuple(toward_eye), False)):
+        ha = half_angle(scene.camera, box, direction, 0.5, 64)
+        l = -np.asarray(direction) / np.linalg.norm(direction)
+        assert np.isclose(np.linalg.norm(ha.normal), 1.0) and ha.normal @ l > 0
+        assert ha.eye_front_to_back == front_to_back
+        offsets = ha.offsets(ha.order())
+        assert np.all(np.diff(offsets) < 0)  # from the light: largest offsets along h first
+        uv = ha.light_uv(box_corners(*box))
+        assert uv.min() > 0.0 and uv.max() < 1.0
+        assert ha.light_length == pytest.approx(0.5 / abs(l @ ha.normal))
