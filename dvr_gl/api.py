@@ -174,8 +174,10 @@ def _field_of(data, spacing, origin):
 
 
 def _renderer_settings(renderer: str | None, keywords: dict) -> dict:
-    """Renderer keywords as ``[renderer]`` keys (``shading=True`` enables shading); unknown keywords are
-    an error listing the valid ones."""
+    """Renderer keywords as ``[renderer]`` keys (``shading=True`` enables shading; ``scattering=True``
+    enables single scattering with its default light, or takes a dict of ``[renderer.scattering]`` keys,
+    and turns shading off unless ``shading`` is given); unknown keywords are an error listing the
+    valid ones."""
     valid = {s.name for s in registry.all_settings()}
     unknown = sorted(set(keywords) - valid)
     if unknown:
@@ -184,6 +186,13 @@ def _renderer_settings(renderer: str | None, keywords: dict) -> dict:
     out = dict(keywords)
     if isinstance(out.get("shading"), bool):
         out["shading.enabled"] = out.pop("shading")
+    scattering = out.get("scattering")
+    if isinstance(scattering, (bool, dict)):
+        table = {"enabled": scattering} if isinstance(scattering, bool) else {"enabled": True, **scattering}
+        out.pop("scattering")
+        out.update({f"scattering.{k}": v for k, v in table.items()})
+        if table["enabled"] and "shading.enabled" not in out:
+            out["shading.enabled"] = False  # scattering lights the samples instead
     if renderer is not None:
         out["name"] = renderer
     return out

@@ -55,6 +55,19 @@ def test_shading_keyword_and_transfer_function_points():
     np.testing.assert_array_equal(image.scene.transfer_function.points, points)
 
 
+def test_scattering_keyword():
+    """scattering=True lights by single scattering (shading off unless asked for, which is refused beside
+    it); a dict gives [renderer.scattering]'s keys."""
+    lit = dvr_gl.render(blob(), scattering=True, size=12)
+    assert lit.scene.renderer.scattering.enabled and not lit.scene.renderer.shading.enabled
+    assert float(np.abs(lit.rgba - dvr_gl.render(blob(), size=12).rgba).max()) > 1e-3
+    volume = dvr_gl.render(blob(), size=12, scattering={"method": "light_volume", "light_volume_size": 8,
+                                                        "lights": [{"direction": (1.0, 0.0, -1.0)}]})
+    assert volume.scene.renderer.scattering.lights[0].direction == (1.0, 0.0, -1.0)
+    with pytest.raises(dvr_gl.SceneError, match="turn one off"):
+        dvr_gl.render(blob(), scattering=True, shading=True, size=8)
+
+
 def test_render_of_files_and_of_scenes(tmp_path):
     path = tmp_path / "blob.npy"
     np.save(path, blob())
