@@ -339,7 +339,7 @@ def test_raycast_refuses_other_methods_and_bricks(gl_context):
     assert "not by renderer.scattering.method = 'half_angle'" in registry.refusal(scene)
     bricked = load_scene(None, {**LIT, "renderer.name": "raycast", "renderer.texture_budget_mb": 0.002})
     with registry.plugin("raycast").create(ctx=gl_context) as renderer:
-        with pytest.raises(SceneError, match="a shadow ray crosses bricks"):
+        with pytest.raises(SceneError, match="the lights. rays cross bricks"):
             renderer.render(bricked)
 
 

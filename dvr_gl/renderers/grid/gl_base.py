@@ -20,7 +20,7 @@ from ...settings import shadow_step
 from .bricking import brick_size_for, ghost_width, plan_bricks
 from ...gl.context import create_context, make_current, release_context
 from ...gl.shaders import release_programs
-from ...errors import DvrError
+from ...errors import DvrError, SceneError
 from .textures import FORMATS, central_difference_gradients, upload_field, upload_table, upload_volume
 from ...fields import gradient_epsilon
 from ...preintegration import preintegrate
@@ -297,6 +297,23 @@ class GLVolumeRenderer(Renderer):
                 lambda: PreintegrationTexture(self.ctx, preintegrate(tf, slab_length, r.preintegration_size,
                                                                      r.preintegration, r.lut_size)))
         return out
+
+    def scattering_tables(self, scene, defines, views, tables) -> tuple[dict, float]:
+        """The frame's tables with what scattering needs (the light volume, if the scene asks for it), and
+        the seconds its making took this frame (0 when it was kept); a bricked volume is refused (the
+        lights' rays cross bricks)."""
+        if "SCATTERING" not in defines:
+            return tables, 0.0
+        if len(views) > 1:
+            raise SceneError(f"{scene.renderer.name} renders scattering from one texture of the whole volume (the "
+                             f"lights' rays cross bricks), and {scene.volume.name} needs {len(views)} bricks at "
+                             f"renderer.texture_budget_mb = {scene.renderer.texture_budget_mb:g}: raise it or "
+                             f"turn renderer.scattering off")
+        if "LIGHT_VOLUME" not in defines:
+            return tables, 0.0
+        made = self._cache.get("light volume")
+        light = self.light_volume_texture(scene, defines, views[0], tables["u_lut"])
+        return {**tables, "u_light_volume": light}, (light.seconds if made is None or made[1] is not light else 0.0)
 
     def light_volume_texture(self, scene, defines, view, lut_texture) -> "LightVolumeTexture":
         """The frame's light volume (common/scattering.glsl's LIGHT_VOLUME), cached by what it depends on:

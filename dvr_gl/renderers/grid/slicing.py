@@ -20,7 +20,6 @@ from ...gl.shaders import create_program
 from ...half_angle import half_angle
 from ...reference import plans
 from ...reference.discrete import DiscreteReference
-from ...errors import SceneError
 from ...gl.geometry import slice_polygons
 from .gl_base import GLVolumeRenderer, classification_features, light_volume_pass_defines, now
 
@@ -89,17 +88,7 @@ class SlicingRenderer(GLVolumeRenderer):
         program = create_program(self.ctx, "slice.vert", "slice.frag", defines)
         tables = self.table_textures(scene, defines, self.slab_length(scene))
         views = self.grid_views(scene, defines)
-        if len(views) > 1 and "SCATTERING" in defines:
-            raise SceneError(f"{scene.renderer.name} renders scattering from one texture of the whole volume (the "
-                             f"lights' rays cross bricks), and {scene.volume.name} needs {len(views)} bricks at "
-                             f"renderer.texture_budget_mb = {scene.renderer.texture_budget_mb:g}: raise it or "
-                             f"turn renderer.scattering off")
-        light_seconds = 0.0
-        if "LIGHT_VOLUME" in defines:
-            made = self._cache.get("light volume")
-            light = self.light_volume_texture(scene, defines, views[0], tables["u_lut"])
-            light_seconds = light.seconds if made is None or made[1] is not light else 0.0
-            tables = {**tables, "u_light_volume": light}
+        tables, light_seconds = self.scattering_tables(scene, defines, views, tables)
         if "HALF_ANGLE" in defines:
             return self._draw_half_angle(scene, defines, program, tables, views[0], start)
         per_voxel = scene.volume.data.itemsize + self.texture_bytes_per_voxel(defines)
@@ -148,7 +137,7 @@ class SlicingRenderer(GLVolumeRenderer):
         """Half-angle slicing (:mod:`dvr_gl.half_angle`): the slices in order from the light, each drawn
         into the eye buffer (under or over, lit by the light buffer) and then into the light buffer
         (adding its optical depth)."""
-        ctx, r = self.ctx, scene.renderer
+        ctx = self.ctx
         ha = half_angle_of(scene)
         lo, hi = scene.volume.box
         e1 = np.cross(ha.normal, [1.0, 0.0, 0.0] if abs(ha.normal[0]) < 0.9 else [0.0, 1.0, 0.0])

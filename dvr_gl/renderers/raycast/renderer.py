@@ -18,7 +18,6 @@ import moderngl
 import numpy as np
 
 from ... import limits
-from ...errors import SceneError
 from ...settings import shadow_step
 from ... import rays as rays_mod
 from ...fields import diagonal
@@ -291,18 +290,8 @@ class RayCastRenderer(GLVolumeRenderer):
         start = now()
         defines = shader_features(scene, self.count_samples)
         views = self.grid_views(scene, defines)
-        if len(views) > 1 and "SCATTERING" in defines:
-            raise SceneError(f"raycast renders scattering from one texture of the whole volume (a shadow ray "
-                             f"crosses bricks), and {scene.volume.name} needs {len(views)} bricks at "
-                             f"renderer.texture_budget_mb = {scene.renderer.texture_budget_mb:g}: raise it or "
-                             f"turn renderer.scattering off")
         tables = self.table_textures(scene, defines, scene.renderer.sample_distance)
-        light_seconds = 0.0
-        if "LIGHT_VOLUME" in defines:
-            made = self._cache.get("light volume")
-            light = self.light_volume_texture(scene, defines, views[0], tables["u_lut"])
-            light_seconds = light.seconds if made is None or made[1] is not light else 0.0
-            tables = {**tables, "u_light_volume": light}
+        tables, light_seconds = self.scattering_tables(scene, defines, views, tables)
         defines, blocks, estimate = self.decide_skipping(scene, defines, tables)
         windows = segment_windows(scene, "ACCELERATE" in defines)
         decided = {"light_volume_seconds": light_seconds,
