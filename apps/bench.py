@@ -178,6 +178,8 @@ def add_arguments(p):
     _timing_arguments(sc, size=256, error_size=64)
     sc.add_argument("--tolerance", type=float, default=1e-4, help="reference-converged's budget (default 1e-4)")
     sc.add_argument("--demo-size", type=int, default=64, help="the shadow demo's samples per axis (default 64)")
+    sc.add_argument("--light-volume-sizes", default="32,64,128,256", metavar="N,N",
+                    help="the light volume's sizes swept (default 32,64,128,256)")
     sc.add_argument("--shared", action="store_true", help="also the small shared datasets (bucky, nucleon, neghip, "
                                                           "ironProt) in --data-dir, lit by a default light (long: a "
                                                           "converged reference each)")
@@ -551,6 +553,13 @@ def run_scattering(args) -> int:
             raise DvrError(f"{flag} must be {low} to {high}, got {value}")
     if not 1e-8 <= args.tolerance <= 0.1:
         raise DvrError(f"--tolerance must be 1e-8 to 0.1, got {args.tolerance}")
+    try:
+        sizes = tuple(int(n) for n in args.light_volume_sizes.split(","))
+    except ValueError:
+        raise DvrError(f"--light-volume-sizes: a comma-separated list of node counts, got "
+                       f"{args.light_volume_sizes!r}") from None
+    if not all(2 <= n <= 256 for n in sizes):
+        raise DvrError(f"--light-volume-sizes must be 2 to 256 nodes each, got {args.light_volume_sizes}")
     scenes, notes = [scattering.shadow_demo(args.demo_size)], []
     if args.shared:
         if not Path(args.data_dir).is_dir():
@@ -566,7 +575,8 @@ def run_scattering(args) -> int:
                      f"warm-up; the light volume made once, timed apart), RMS against reference-converged "
                      f"(tolerance {args.tolerance:g}) at {args.error_size}x{args.error_size}; the shared datasets "
                      f"lit by one directional light (0.4, 0.6, -1), albedo 0.9")
-    rows = scattering.run(scenes, args.size, args.error_size, args.repeat, args.tolerance, progress=lambda r: print(
+    rows = scattering.run(scenes, args.size, args.error_size, args.repeat, args.tolerance, light_volume_sizes=sizes,
+                          progress=lambda r: print(
         f"{r['scene']} {r['renderer']} {r['method']} {r['setting']}: {r['ms']:.0f} ms, RMS {r['rms']:.2e}",
         flush=True))
     args.report.text()

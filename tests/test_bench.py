@@ -171,7 +171,7 @@ def test_bench_splatting_leaves_the_shaded_row_out(capsys):
 def test_bench_scattering_prints_methods_equal_error_and_multiple_scattering(tmp_path, capsys):
     md = tmp_path / "scattering.md"
     assert main(["bench", "scattering", "--demo-size", "12", "--size", "16", "--error-size", "8", "--repeat", "1",
-                 "--paths", "8", "--paths-size", "6", "--markdown", str(md)]) == 0
+                 "--paths", "8", "--paths-size", "6", "--light-volume-sizes", "8,16,32", "--markdown", str(md)]) == 0
     out = capsys.readouterr().out
     rows = [line.split() for line in out.splitlines() if line.startswith("shadow demo ") and ":" not in line]
     methods = [r[3] for r in rows[:22]]
@@ -181,6 +181,8 @@ def test_bench_scattering_prints_methods_equal_error_and_multiple_scattering(tmp
     assert "| scene |" in md.read_text()
     assert main(["bench", "scattering", "--paths", "-1"]) == 1
     assert "--paths" in capsys.readouterr().err
+    assert main(["bench", "scattering", "--light-volume-sizes", "8,x"]) == 1
+    assert "--light-volume-sizes" in capsys.readouterr().err
 
 
 def test_bench_fourier_prints_times_and_errors(tmp_path, capsys):

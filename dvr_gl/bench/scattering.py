@@ -23,7 +23,7 @@ from ..scene import load_scene
 from . import median_seconds
 
 SHADOW_RAY_DISTANCES = (2.0, 1.0, 0.5, 0.25)
-LIGHT_VOLUME_SIZES = (32, 64, 128)
+LIGHT_VOLUME_SIZES = (32, 64, 128, 256)
 LIGHT_VOLUME_DISTANCES = (1.0, 0.5, 0.25)
 LIGHT_BUFFER_SIZES = (128, 256, 512)
 COLUMNS = [("scene", "scene", ""), ("renderer", "renderer", ""), ("method", "method", ""), ("setting", "setting", ""),
@@ -45,7 +45,7 @@ def shadow_demo(size: int = 64) -> tuple[str, dict]:
     return "shadow demo", {**overrides, **camera}
 
 
-def settings() -> list[tuple[str, str, str, dict]]:
+def settings(light_volume_sizes=LIGHT_VOLUME_SIZES) -> list[tuple[str, str, str, dict]]:
     """(renderer, method, setting's label, renderer overrides) of the rows."""
     out = [("raycast", "shadow_rays", f"{d:g} voxel", {"renderer.scattering.method": "shadow_rays",
                                                        "renderer.sample_distance_voxels": d})
@@ -53,7 +53,7 @@ def settings() -> list[tuple[str, str, str, dict]]:
     out += [("raycast", "light_volume", f"{n} nodes, {d:g} voxel", {"renderer.scattering.method": "light_volume",
                                                                     "renderer.scattering.light_volume_size": n,
                                                                     "renderer.sample_distance_voxels": d})
-            for n in LIGHT_VOLUME_SIZES for d in LIGHT_VOLUME_DISTANCES]
+            for n in light_volume_sizes for d in LIGHT_VOLUME_DISTANCES]
     out += [("slicing3d", "half_angle", f"{n} pixels, {d:g} voxel", {"renderer.scattering.method": "half_angle",
                                                                      "renderer.scattering.light_buffer_size": n,
                                                                      "renderer.sample_distance_voxels": d})
@@ -70,7 +70,7 @@ def _scene(overrides: dict, size: int, extra: dict):
 
 
 def run(scenes, size: int = 256, error_size: int = 64, repeat: int = 3, tolerance: float = 1e-4,
-        progress=None) -> list[dict]:
+        progress=None, light_volume_sizes=LIGHT_VOLUME_SIZES) -> list[dict]:
     """Rows of the methods' table for ``scenes`` (``(name, overrides)``)."""
     rows = []
     renderers = {name: create_renderer(name) for name in ("raycast", "slicing3d")}
@@ -79,7 +79,7 @@ def run(scenes, size: int = 256, error_size: int = 64, repeat: int = 3, toleranc
             truth = ConvergedReference(_scene(overrides, error_size, {"renderer.converged_tolerance": tolerance,
                                                                       "renderer.name": "reference-converged"}
                                               )).render()
-            for renderer_name, method, label, extra in settings():
+            for renderer_name, method, label, extra in settings(light_volume_sizes):
                 renderer = renderers[renderer_name]
                 extra = {**extra, "renderer.name": renderer_name}
                 scene = _scene(overrides, size, extra)
