@@ -8,7 +8,7 @@ use these; the model never imports the schema (the schema imports the model).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Optional
+from typing import Optional, Union
 
 COMPOSITING_MODES = ("emission_absorption", "isosurface", "average", "mip", "minip", "xray")
 #: ``xray``: a radiograph of the classified extinction, absorption only: alpha ``1 - exp(-tau)`` with
@@ -101,8 +101,11 @@ class ScatteringSpec:
 
     enabled: bool = doc(False, "single scattering of the lights below (a scene without it compiles and "
                                "computes none of it)")
-    albedo: float = doc(0.8, "the scattered fraction of the extinction; the rest emits the colour as in "
-                             "emission-absorption (the lit volume's ambient term)")
+    albedo: Optional[Union[float, str]] = doc(None, "the scattered fraction of the extinction (0 .. 1; the rest "
+                                                    "emits the colour as in emission-absorption, the lit volume's "
+                                                    "ambient term), or `transfer_function`: its sixth column per "
+                                                    "data value (default: that column where the points have one, "
+                                                    "else 0.8)")
     phase: str = choices(*PHASE_FUNCTIONS, default="isotropic", doc="the phase function")
     g: float = doc(0.0, "henyey_greenstein: the mean cosine of the scattering angle (-1 .. 1, > 0 forward)")
     shadows: bool = doc(True, "attenuate each light by the transmittance toward it")

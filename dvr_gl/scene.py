@@ -31,7 +31,7 @@ from .io import load_field
 from .sandbox import check_bytes, check_input_path
 from .scene_schema import (CameraSpec, ImageSpec, SceneSpec, TransferFunctionSpec, VolumeSpec, parse_table,
                            renderer_spec_class, spec_to_dict)
-from .settings import FILTER, WORLD_RANGE, resolve_renderer as resolve_settings
+from .settings import FILTER, WORLD_RANGE, check_albedo, resolve_renderer as resolve_settings
 from .toml_writer import dumps
 from .transfer_function import PRESETS, TransferFunction, preset
 
@@ -246,6 +246,9 @@ class Scene:
     volume_source: VolumeSpec = dataclasses.field(default_factory=VolumeSpec)
     spec: SceneSpec | None = None
     tolerance_choice: object = None
+
+    def __post_init__(self):
+        check_albedo(self.renderer, self.transfer_function)
 
     @property
     def volume(self):

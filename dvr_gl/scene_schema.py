@@ -93,7 +93,8 @@ class TransferFunctionSpec:
     preset: Optional[str] = doc(None, "`grayscale`, `viridis`, `ct-bone`, `ct-skin`, `shepp-logan` (default "
                                       "`grayscale`; `shepp-logan` for that demo)")
     points: Optional[list[list[float]]] = doc(None, "`[[value, r, g, b, opacity], ...]`, values strictly "
-                                                    "increasing, data units; or give `preset`")
+                                                    "increasing, data units; or give `preset`; a sixth column "
+                                                    "is scattering's albedo (docs/scattering.md)")
     unit_distance: float = checked(1.0, "world length that `alpha` refers to", world_length)
     opacity_model: str = choices("alpha", "extinction", default="alpha",
                                  doc="what the 5th column means: `alpha` per `unit_distance`, or `extinction` sigma")
@@ -168,7 +169,14 @@ def _convert(value, tp, where: str):
     args = typing.get_args(tp)
     if origin in (Union, types.UnionType):
         inner = [a for a in args if a is not type(None)]
-        return _convert(value, inner[0], where)
+        if len(inner) == 1:
+            return _convert(value, inner[0], where)
+        # a number or a name (scattering's albedo): the value's own type picks the one to check
+        if isinstance(value, str) and str in inner:
+            return value
+        if isinstance(value, (int, float)) and not isinstance(value, bool) and float in inner:
+            return _convert(value, float, where)
+        raise SceneError(f"{where}: expected {_type_name(tp)}, got {value!r}")
     bad = SceneError(f"{where}: expected {_type_name(tp)}, got {value!r}")
     if tp is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):

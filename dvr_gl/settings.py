@@ -157,7 +157,10 @@ def _check_shading(sh: ShadingSpec) -> None:
 
 def _check_scattering(sc: ScatteringSpec) -> None:
     """The [renderer.scattering] table's values, each named by its own key."""
-    if not 0.0 <= sc.albedo <= 1.0:
+    if isinstance(sc.albedo, str) and sc.albedo != "transfer_function":
+        raise SceneError(f"renderer.scattering.albedo must be a number in [0, 1] or 'transfer_function' (the "
+                         f"points' sixth column), got {sc.albedo!r}")
+    if isinstance(sc.albedo, float) and not 0.0 <= sc.albedo <= 1.0:
         raise SceneError(f"renderer.scattering.albedo must be in [0, 1], got {sc.albedo}")
     if not -1.0 < sc.g < 1.0:
         raise SceneError(f"renderer.scattering.g must be in (-1, 1) (the phase function is a delta at +-1), "
@@ -323,6 +326,37 @@ def _check_scattering_with(spec) -> None:
     if spec.shading.enabled:
         raise SceneError("renderer.scattering and renderer.shading both light the samples: turn one off "
                          "(renderer.shading.enabled = false)")
+
+
+DEFAULT_ALBEDO = 0.8
+
+
+def albedo_column(spec, transfer_function) -> bool:
+    """Whether single scattering reads the albedo from the transfer function's sixth column: asked for by
+    name, or by default where the points have one (a number given overrides it)."""
+    albedo = spec.scattering.albedo
+    return albedo == "transfer_function" or (albedo is None and transfer_function.has_albedo)
+
+
+def constant_albedo(spec) -> float:
+    """The albedo when it is one number: the one given, or the default."""
+    albedo = spec.scattering.albedo
+    return DEFAULT_ALBEDO if albedo is None or isinstance(albedo, str) else float(albedo)
+
+
+def check_albedo(spec, transfer_function) -> None:
+    """An albedo column asked for must exist, and is looked up per sample (post or pre-integrated
+    classification: the pre-classified voxels hold colour and extinction only)."""
+    sc = getattr(spec, "scattering", None)
+    if sc is None or not sc.enabled or spec.compositing != "emission_absorption":
+        return
+    if sc.albedo == "transfer_function" and not transfer_function.has_albedo:
+        raise SceneError("renderer.scattering.albedo = 'transfer_function' reads the points' sixth column, and "
+                         "these have five: give [value, r, g, b, opacity, albedo] rows, or the albedo as a number")
+    if albedo_column(spec, transfer_function) and spec.classification == "pre":
+        raise SceneError("renderer.scattering: the transfer function's albedo column is looked up per sample, "
+                         "and classification = 'pre' classifies the voxels: use post or preintegrated, or give "
+                         "renderer.scattering.albedo as a number")
 
 
 def shadow_step(spec, field) -> float:

@@ -14,6 +14,10 @@ Colour is linear and non-associated.  ``opacity`` means, by ``opacity_model``:
 
 Emission is ``q = sigma * c``; a segment of length ``d`` at constant value has
 opacity ``1 - exp(-sigma d)`` and associated colour ``c (1 - exp(-sigma d))``.
+
+An optional sixth column is the single-scattering albedo (in [0, 1], linear between points): what a
+scene's ``renderer.scattering.albedo = "transfer_function"`` reads (docs/scattering.md); every other
+use of the function ignores it.
 """
 
 from __future__ import annotations
@@ -76,9 +80,9 @@ class TransferFunction:
             pts = np.array(self.points, dtype=np.float64)
         except (ValueError, TypeError):  # ragged rows or non-numbers
             pts = np.empty((0, 0))
-        if pts.ndim != 2 or pts.shape[1] != 5 or len(pts) < 1:
+        if pts.ndim != 2 or pts.shape[1] not in (5, 6) or len(pts) < 1:
             raise SceneError("transfer_function.points must be a non-empty list of [value, r, g, b, opacity] "
-                             "rows (or give transfer_function.preset)")
+                             "rows, or [value, r, g, b, opacity, albedo] (or give transfer_function.preset)")
         with np.errstate(over="ignore", invalid="ignore"):  # infinite steps are refused below
             steps = np.diff(pts[:, 0])
         if not (np.isfinite(pts).all() and np.isfinite(steps).all()):
@@ -95,6 +99,7 @@ class TransferFunction:
         _check_range(pts[:, 1:4], 0.0, 1.0, "colour (r, g, b)")
         hi = 1.0 if self.opacity_model == "alpha" else np.inf
         _check_range(pts[:, 4:5], 0.0, hi, "alpha" if self.opacity_model == "alpha" else "extinction")
+        _check_range(pts[:, 5:6], 0.0, 1.0, "albedo")
         u = float(self.unit_distance)
         if not np.isfinite(u) or u <= 0:
             raise SceneError(f"transfer_function.unit_distance must be a positive number, got {u}")
@@ -114,6 +119,18 @@ class TransferFunction:
     def color(self, values) -> np.ndarray:
         """Non-associated linear colour ``(..., 3)`` at data values."""
         return np.stack([self._interp(values, c) for c in (1, 2, 3)], axis=-1)
+
+    @property
+    def has_albedo(self) -> bool:
+        """Whether the points carry the albedo column (the sixth)."""
+        return self.points.shape[1] == 6
+
+    def albedo(self, values) -> np.ndarray:
+        """The single-scattering albedo at data values (the sixth column, linear between points)."""
+        if not self.has_albedo:
+            raise SceneError("the transfer function has no albedo column: give its points as [value, r, g, b, "
+                             "opacity, albedo], or renderer.scattering.albedo as a number")
+        return self._interp(values, 5)
 
     def opacity(self, values) -> np.ndarray:
         """The interpolated opacity column (alpha or sigma, by ``opacity_model``)."""
@@ -161,9 +178,12 @@ class TransferFunction:
         grid, outside its cells; ``above``: the lowest value of the material)."""
         if not value < above:
             raise ValueError(f"transparent_below: {value} is not below {above}")
-        rgb, column = self.color([above])[0], self._interp([above], 4)[0]
+        row = np.array([self._interp([above], c)[0] for c in range(self.points.shape[1])])
+        row[0] = above
+        start = row.copy()
+        start[0], start[4] = value, 0.0
         kept = self.points[self.points[:, 0] > above]
-        points = np.concatenate([[[value, *rgb, 0.0], [above, *rgb, column]], kept])
+        points = np.concatenate([[start, row], kept])
         return TransferFunction(points, self.unit_distance, self.opacity_model)
 
     def tabulate(self, size: int = 4096) -> "TransferFunctionLUT":
@@ -175,7 +195,7 @@ class TransferFunction:
             hi = lo + 1.0
         nodes = np.linspace(lo, hi, int(size))
         table = np.concatenate([self.color(nodes), self.extinction(nodes)[:, None]], axis=1)
-        return TransferFunctionLUT(table, (lo, hi))
+        return TransferFunctionLUT(table, (lo, hi), self.albedo(nodes) if self.has_albedo else None)
 
     def classify_voxels(self, data: np.ndarray, associated: bool = True) -> np.ndarray:
         """Pre-classification: ``(..., 4)`` float64 per voxel, ``(sigma c, sigma)`` (associated:
@@ -206,7 +226,8 @@ def _check_range(cols: np.ndarray, lo: float, hi: float, what: str):
 class TransferFunctionLUT:
     """A transfer function tabulated at evenly spaced values (the GPU's lookup texture).
 
-    ``table[i] = (r, g, b, sigma)`` at value ``domain[0] + i * (domain[1] - domain[0]) / (N - 1)``:
+    ``table[i] = (r, g, b, sigma)`` at value ``domain[0] + i * (domain[1] - domain[0]) / (N - 1)``
+    (and ``albedo_table[i]``, the albedo column there, where the function has one):
     node-centred in value, so texture coordinate ``(x + 0.5) / N`` with ``x`` the
     fractional node index reproduces :meth:`lookup` under linear filtering.
 
@@ -219,6 +240,7 @@ class TransferFunctionLUT:
 
     table: np.ndarray
     domain: tuple[float, float]
+    albedo_table: np.ndarray | None = None
 
     @property
     def size(self) -> int:
@@ -237,6 +259,15 @@ class TransferFunctionLUT:
         f = (x - i0)[..., None]
         row = self.table[i0] * (1.0 - f) + self.table[i0 + 1] * f
         return row[..., :3], row[..., 3]
+
+    def albedo(self, values) -> np.ndarray:
+        """The albedo column by linear interpolation of its table (as :meth:`lookup`)."""
+        if self.albedo_table is None:
+            raise SceneError("the transfer function has no albedo column")
+        x = self.node_coordinate(values)
+        i0 = np.minimum(np.floor(x).astype(np.int64), self.size - 2)
+        f = x - i0
+        return self.albedo_table[i0] * (1.0 - f) + self.albedo_table[i0 + 1] * f
 
 
 # --- presets -------------------------------------------------------------------------------------

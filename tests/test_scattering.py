@@ -100,16 +100,16 @@ def _slab_scene(tmp_path, renderer, lights, **extra):
     return array_scene(tmp_path, data, overrides, spacing=(0.5, 0.5, 0.5))
 
 
-def _slab_expected(front: bool, theta: float, q: float):
+def _slab_expected(front: bool, theta: float, q: float, albedo: float = ALBEDO):
     mu, s_l = math.cos(theta), SIGMA * 1.0
-    emitted = (1.0 - ALBEDO) * -math.expm1(-s_l)
+    emitted = (1.0 - albedo) * -math.expm1(-s_l)
     if front:
         k = 1.0 + 1.0 / mu
         scattered = q * INTENSITY * -math.expm1(-s_l * k) / k
     else:
         k = 1.0 - 1.0 / mu
         scattered = q * INTENSITY * math.exp(-s_l / mu) * -math.expm1(-s_l * k) / k
-    return COLOUR * (emitted + ALBEDO * scattered), -math.expm1(-s_l)
+    return COLOUR * (emitted + albedo * scattered), -math.expm1(-s_l)
 
 
 @pytest.mark.parametrize("front", [True, False])
@@ -542,3 +542,150 @@ def test_half_angle_geometry():
         uv = ha.light_uv(box_corners(*box))
         assert uv.min() > 0.0 and uv.max() < 1.0
         assert ha.light_length == pytest.approx(0.5 / abs(l @ ha.normal))
+
+
+# --- the albedo as the transfer function's sixth column ---------------------------------------------
+
+def test_slab_with_the_albedo_column_against_its_closed_form(tmp_path):
+    """The slab's data is 0.5 everywhere, so a column rising from 0.3 at 0 to 1.0 at 1 gives it albedo
+    0.65: the closed form with that albedo, to 1e-6 as with a number."""
+    theta = math.radians(40.0)
+    direction = (math.sin(theta), 0.0, -math.cos(theta))
+    colour, alpha = _slab_expected(True, theta, 1.0, albedo=0.65)
+    scene = _slab_scene(tmp_path, "reference-converged", [_light(direction)])
+    column = scene.replace(transfer_function=TransferFunction(
+        [[0.0, *COLOUR, SIGMA, 0.3], [1.0, *COLOUR, SIGMA, 1.0]], opacity_model="extinction"))
+    column = column.with_renderer(scattering=dataclasses.replace(column.renderer.scattering, albedo=None))
+    image = ConvergedReference(column).render_float64()
+    assert np.abs(image[..., :3] - colour).max() < 1e-6
+    assert np.abs(image[..., 3] - alpha).max() < 1e-12
+
+
+def _with_column(overrides: dict, column) -> dict:
+    """``overrides`` with its transfer function's points given a sixth column."""
+    points = [[*row, a] for row, a in zip(overrides["transfer_function.points"], column)]
+    return {**overrides, "transfer_function.points": points}
+
+
+@pytest.mark.parametrize("name", ["reference", "reference-converged"])
+def test_a_constant_albedo_column_is_the_number(name):
+    """A column holding 0.9 at every point renders as ``albedo = 0.9``; a number given overrides the
+    column (the default reads it)."""
+    plain = load_scene(None, {**LIT, "renderer.name": name})
+    column = load_scene(None, {**_with_column(LIT, [0.9] * 3), "renderer.name": name,
+                               "renderer.scattering.albedo": "transfer_function"})
+    renderer = registry.plugin(name).create()
+    expected = renderer.render(plain)
+    assert np.abs(renderer.render(column) - expected).max() < 1e-12
+    overridden = load_scene(None, {**_with_column(LIT, [0.1] * 3), "renderer.name": name,
+                                   "renderer.scattering.albedo": 0.9})
+    assert np.abs(renderer.render(overridden) - expected).max() < 1e-12
+
+
+COLUMN_LIT = _with_column(LIT, [0.1, 1.0, 0.4])
+ALBEDO_BY_DEFAULT = {"renderer.scattering": {k: v for k, v in LIT["renderer.scattering"].items() if k != "albedo"}}
+
+
+@pytest.mark.parametrize("extra", [
+    {}, {"renderer.classification": "preintegrated"},
+    {"renderer.scattering.method": "light_volume", "renderer.scattering.light_volume_size": 20},
+], ids=["post", "preintegrated", "light_volume"])
+def test_raycast_albedo_column_matches_the_same_discretization(gl_context, extra):
+    """The ray caster looks the albedo up in its own table beside the transfer function's, as the
+    reference does: float32 against float64 to the conftest's bound, and unlike one number's image."""
+    from conftest import assert_close
+
+    scene = load_scene(None, {**COLUMN_LIT, "renderer.name": "raycast", **ALBEDO_BY_DEFAULT, **extra})
+    with registry.plugin("raycast").create(ctx=gl_context) as renderer:
+        image = renderer.render(scene)
+        assert renderer.stats["defines"]["ALBEDO_TABLE"]
+        number = renderer.render(load_scene(None, {**LIT, "renderer.name": "raycast", **extra}))
+    assert_close(image, DiscreteReference(scene).render_float64())
+    assert np.abs(image - number).max() > 0.05
+
+
+@pytest.mark.parametrize("method", ["half_angle", "light_volume"])
+def test_slicing3d_albedo_column_matches_its_planes(gl_context, method):
+    from conftest import assert_close
+    from dvr_gl.renderers.grid.slicing import same_planes_3d
+
+    scene = load_scene(None, {**_with_column(HALF, [0.1, 1.0, 0.4]), **ALBEDO_BY_DEFAULT,
+                              "renderer.name": "slicing3d", "renderer.scattering.method": method,
+                              "renderer.scattering.light_buffer_size": 32})
+    with registry.plugin("slicing3d").create(ctx=gl_context) as renderer:
+        image = renderer.render(scene)
+        assert renderer.stats["defines"]["ALBEDO_TABLE"]
+    assert_close(image, same_planes_3d(scene))
+
+
+def test_an_albedo_column_without_scattering_is_not_uploaded(gl_context):
+    """Without scattering the column is ignored: no define, no table, the five-column image to the bit."""
+    plain = load_scene(None, {**LIT, "renderer.name": "raycast", "renderer.scattering.enabled": False})
+    column = load_scene(None, {**COLUMN_LIT, "renderer.name": "raycast", "renderer.scattering.enabled": False})
+    with registry.plugin("raycast").create(ctx=gl_context) as renderer:
+        a = renderer.render(plain)
+        b = renderer.render(column)
+        assert "ALBEDO_TABLE" not in renderer.stats["defines"] and "albedo lut" not in renderer._cache
+    assert np.array_equal(a, b)
+
+
+def test_monte_carlo_reads_the_albedo_column():
+    """The same seed draws the same paths: a constant column is the number exactly, and a column of 0
+    ends every path at its first collision."""
+    from dvr_gl.reference.monte_carlo import MonteCarloReference
+
+    scene = load_scene(None, MC_SCENE)
+    column = load_scene(None, {**_with_column(MC_SCENE, [0.9] * 3), "renderer.scattering.albedo": "transfer_function"})
+    assert np.array_equal(MonteCarloReference(scene, paths=40, seed=2).render()[0],
+                          MonteCarloReference(column, paths=40, seed=2).render()[0])
+    dark = load_scene(None, {**_with_column(MC_SCENE, [0.0] * 3), "renderer.scattering.albedo": "transfer_function"})
+    a, _ = MonteCarloReference(dark, paths=30, seed=5).render()
+    b, _ = MonteCarloReference(dark, paths=30, seed=5, max_collisions=1).render()
+    assert np.array_equal(a, b) and a[..., :3].max() > 0
+
+
+def test_monte_carlo_with_a_varying_albedo_column_agrees_with_the_converged_reference():
+    """One collision per path against reference-converged with the column (as with a number above):
+    the differences over their standard errors are standard normal."""
+    from dvr_gl.reference.monte_carlo import MonteCarloReference
+
+    scene = load_scene(None, {**_with_column(MC_SCENE, [0.1, 1.0, 0.4]), "image.width": 8, "image.height": 6,
+                              "renderer.scattering.albedo": "transfer_function"})
+    truth = ConvergedReference(scene).render_float64()
+    image, error = MonteCarloReference(scene, paths=1500, seed=1, max_collisions=1).render()
+    seen = error[..., 3] > 0
+    z = ((image - truth) / np.where(error > 0, error, 1.0))[seen]
+    assert seen.sum() >= 12 and 0.5 < np.sqrt(np.mean(z ** 2)) < 1.5 and np.abs(z).max() < 5.0
+
+
+@pytest.mark.parametrize("overrides, words", [
+    ({"renderer.scattering.albedo": "transfer_function"}, "these have five"),
+    ({"renderer.scattering.albedo": "column"}, "or 'transfer_function'"),
+    ({"renderer.scattering.albedo": True}, "expected a number or a string"),
+    ({"transfer_function.points": [[0.0, 1, 1, 1, 0.5, 0.2], [1.0, 1, 1, 1, 0.5, 1.5]]},
+     "albedo [1.5] outside [0, 1]"),
+    ({"transfer_function.points": [[0.0, 1, 1, 1, 0.5, 0.2], [1.0, 1, 1, 1, 0.5, 0.3]],
+      "renderer.classification": "pre"}, "classification = 'pre' classifies the voxels"),
+    ({"transfer_function.points": [[0.0, 1, 1, 1, 0.5, 0.2, 0.1]]}, "[value, r, g, b, opacity, albedo]"),
+])
+def test_bad_albedo_column_is_one_line(overrides, words):
+    with pytest.raises(SceneError) as info:
+        load_scene(None, {**SMALL, "renderer.name": "reference", "renderer.scattering.enabled": True, **overrides})
+    assert words in str(info.value) and "\n" not in str(info.value)
+
+
+def test_albedo_column_round_trips_and_survives_edits(tmp_path):
+    from dvr_gl.viewer.tf_editor import TransferFunctionEditor
+
+    scene = load_scene(None, {**COLUMN_LIT, "renderer.name": "reference"})
+    path = tmp_path / "scene.toml"
+    path.write_text(scene.to_toml())
+    again = load_scene(path)
+    assert np.array_equal(again.transfer_function.points, scene.transfer_function.points)
+    assert again.transfer_function.has_albedo and again.renderer.scattering.albedo == 0.9
+    editor = TransferFunctionEditor(scene.transfer_function)
+    i = editor.add(0.65, 0.2)  # halfway between the points at 0.3 (albedo 1.0) and 1.0 (0.4)
+    edited = editor.transfer_function()
+    assert edited.points[i, 5] == pytest.approx(0.7) and edited.albedo([0.65])[0] == pytest.approx(0.7)
+    cut = scene.transfer_function.transparent_below(-0.5, 0.0)
+    assert cut.has_albedo and cut.albedo([0.0, 1.0]).tolist() == [0.1, 0.4]

@@ -121,8 +121,12 @@ class OpticalModel:
         self.depth_cue = depth_cue(scene) if r.compositing in ("average", "xray") and r.depth_cue < 1.0 else None
         self.by_cell = hasattr(self.scalar, "pieces")  # a mesh: its pieces know their cells
         self.scattering = None
+        self.albedo_column = False
         scattering = getattr(r, "scattering", None)
         if scattering is not None and scattering.enabled and r.compositing == "emission_absorption":
+            from ..settings import albedo_column
+
+            self.albedo_column = albedo_column(r, self.tf)
             if exact:  # shadow rays integrated between the field's knots, to the pixel's budget; with
                 # Gauss-Legendre exact for the field's polynomial pieces, only pieces holding a
                 # transfer-function breakpoint are bisected
@@ -146,6 +150,13 @@ class OpticalModel:
             else:  # the emission sigma c of the pre-classified voxels (associated), or post-classified points
                 voxels = self.tf.classify_voxels(scene.field.samples, True)[..., :3]
                 self.hemispherical = HemisphericalShading(scene, self._emitted, voxels)
+
+    def albedo(self, points, cells=None) -> np.ndarray | None:
+        """The albedo at points from the transfer function's column (tabulated as the GPU's, or exact), or
+        None where the scene gives one number."""
+        if not self.albedo_column:
+            return None
+        return self.table.albedo(self.values(points, cells if self.by_cell else None))
 
     def _shadow_pieces(self, origins, directions, t0, t1):
         """Smooth pieces ``(ray, a, b, cell)`` of shadow rays (a grid's between its filter's knots)."""
@@ -200,7 +211,7 @@ class OpticalModel:
         ``cells``: as in :meth:`values`."""
         colour, sigma = self.classify(points, None if cells is None else self.values(points, cells))
         if self.scattering is not None:
-            colour = colour * self.scattering.factor(points, directions)
+            colour = colour * self.scattering.factor(points, directions, self.albedo(points, cells))
         if self.shading is None and self.gradient_reference is None:
             return colour, sigma
         gradient = self.gradients(points, cells)
@@ -217,7 +228,7 @@ class OpticalModel:
         premult, tau = self.preintegration.lookup(self.scalar.sample(front), self.scalar.sample(back))
         premult, tau = shortened(premult, tau, fraction)
         if self.scattering is not None:  # the segment lit as its middle is (as shading is)
-            premult = premult * self.scattering.factor(middle, directions)
+            premult = premult * self.scattering.factor(middle, directions, self.albedo(middle))
         if self.shading is None and self.gradient_reference is None:
             return premult, tau
         gradient = self.scalar.gradient(middle)

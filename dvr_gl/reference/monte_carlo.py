@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..rays import RayBatch, intersect_box
+from ..settings import constant_albedo
 from .model import OpticalModel
 from .scattering import FOUR_PI
 
@@ -74,6 +75,7 @@ class MonteCarloReference:
         self.scene = scene
         self.model = OpticalModel(scene, exact=True)
         self.model.scattering = None  # the paths sample the lights themselves
+        self.albedo = constant_albedo(r)
         self.spec = r.scattering
         self.paths = int(paths)
         self.seed = seed
@@ -92,6 +94,11 @@ class MonteCarloReference:
         over = sigma > self.majorant * (1.0 + 1e-12)
         self.stats["above_majorant"] += int(over.sum())
         return colour, np.minimum(sigma, self.majorant)
+
+    def _albedo(self, points) -> np.ndarray:
+        """``(N, 1)``: the scene's albedo, or its transfer function's column, at points."""
+        albedo = self.model.albedo(points)
+        return np.full((len(points), 1), self.albedo) if albedo is None else albedo[:, None]
 
     def _exit(self, points, directions):
         _, t1 = intersect_box(points, directions, self.lo, self.hi)
@@ -144,7 +151,7 @@ class MonteCarloReference:
 
     def render(self) -> tuple[np.ndarray, np.ndarray]:
         """``(image (H, W, 4), standard error (H, W, 4))``, premultiplied linear RGBA, float64."""
-        scene, a = self.scene, self.spec.albedo
+        scene = self.scene
         width, height = scene.image.width, scene.image.height
         rays = RayBatch.for_camera(scene.camera, width, height, scene.field.bounds)
         rng = np.random.default_rng(self.seed)
@@ -174,10 +181,11 @@ class MonteCarloReference:
             self.stats["tentative"] += len(live)
             real = rng.random(len(live)) * self.majorant < sigma
             p, x, colour = live[real], x[real], colour[real]
+            a = self._albedo(x)
             self.stats["collisions"] += len(p)
             # the emitted part now; the lights' part (its ratio tracking) in batches, later
             total[p] += throughput[p] * colour * (1.0 - a)
-            if a > 0.0:
+            if np.any(a > 0.0):
                 pending.append((p, throughput[p] * colour * a, x, direction[p].copy()))
                 waiting += len(p)
                 if waiting >= NEE_BATCH:
@@ -186,7 +194,7 @@ class MonteCarloReference:
             collided[p[collisions[p] == 0]] = 1.0
             collisions[p] += 1
             # continue: scattered (weight a c), unless the path has had its collisions
-            go = np.full(len(p), a > 0.0)
+            go = a[:, 0] > 0.0
             if self.max_collisions is not None:
                 go &= collisions[p] < self.max_collisions
             throughput[p] *= a * colour

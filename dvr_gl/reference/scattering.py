@@ -32,6 +32,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..rays import intersect_box
+from ..settings import constant_albedo
 
 FOUR_PI = 4.0 * np.pi
 #: Bisection rounds of the converged optical depth before a piece is taken as it is.
@@ -122,9 +123,10 @@ class SingleScattering:
         reach = np.clip(np.minimum(exit_t, distance), 0.0, None)
         return np.ascontiguousarray(toward), energy, np.where(np.isfinite(reach), reach, 0.0)
 
-    def factor(self, points: np.ndarray, directions: np.ndarray) -> np.ndarray:
-        """``(1 - a) + a F`` at ``points`` seen along unit ``directions`` (both ``(N, 3)``)."""
-        a = self.spec.albedo
+    def factor(self, points: np.ndarray, directions: np.ndarray, albedo: np.ndarray | None = None) -> np.ndarray:
+        """``(1 - a) + a F`` at ``points`` seen along unit ``directions`` (both ``(N, 3)``); ``albedo``: ``a``
+        at each point (the transfer function's column), or None for the scene's number."""
+        a = constant_albedo(self.scene.renderer) if albedo is None else np.asarray(albedo, np.float64)[:, None]
         points = np.asarray(points, dtype=np.float64)
         total = np.zeros(points.shape)
         lights = [self._light(light, points) for light in self.spec.lights]
@@ -133,7 +135,7 @@ class SingleScattering:
             cos_theta = np.sum(-toward * -np.asarray(directions, dtype=np.float64), axis=1)
             weights.append(FOUR_PI * self.phase(cos_theta)[:, None] * energy)
         depths = self._grid_depths(points)  # the light volume's or the light buffer's, if the method has one
-        for i, ((toward, _, reach), weight, tol) in enumerate(zip(lights, weights, self._tolerances(weights))):
+        for i, ((toward, _, reach), weight, tol) in enumerate(zip(lights, weights, self._tolerances(weights, a))):
             lit = np.any(weight > 0, axis=1)
             t = np.zeros(len(points))
             if not self.spec.shadows:
@@ -210,13 +212,14 @@ class SingleScattering:
         dims, depths = self.grid
         return [trilinear(d, self.lo, self.hi, points) for d in depths]
 
-    def _tolerances(self, weights):
+    def _tolerances(self, weights, albedo):
         """Per light and point, the optical depth's error allowed: half the pixel's budget, shared by the
         lights, over what a unit of transmittance there is worth (``a 4 pi p E``; its error changes the
         pixel by at most that times the point's weight along the ray, which sums to the pixel's alpha
         <= 1)."""
         share = 0.5 * self.tolerance / max(len(weights), 1)
-        return [share / np.maximum(self.spec.albedo * w.max(axis=1), 1e-300) for w in weights]
+        a = np.reshape(albedo, -1)
+        return [share / np.maximum(a * w.max(axis=1), 1e-300) for w in weights]
 
     # --- transmittance ----------------------------------------------------------------------
 

@@ -112,9 +112,10 @@ class TransferFunctionEditor:
         same = np.nonzero(np.abs(values - value) <= self._gap())[0]
         if same.size:
             return self.move(int(same[0]), float(values[same[0]]), opacity)
-        colour = [np.interp(value, values, self.points[:, c]) for c in (1, 2, 3)]
+        # colour (and an albedo column, if any) as the function has them there
+        row = [np.interp(value, values, self.points[:, c]) for c in range(self.points.shape[1])]
+        row[0], row[4] = value, min(max(opacity, 0.0), self.opacity_limit)
         i = int(np.searchsorted(values, value))
-        row = [value, *colour, min(max(opacity, 0.0), self.opacity_limit)]
         self.points = np.insert(self.points, i, row, axis=0)
         self._edited(i)
         return i

@@ -36,7 +36,8 @@ vec4 classify(vec3 p, vec3 dir) {
   #endif
     float sigma = c.a;
 #else
-    vec4 tf = transfer_function(sample_scalar(p));
+    float value = sample_scalar(p);
+    vec4 tf = transfer_function(value);
     vec3 colour = tf.rgb;
     float sigma = tf.a;
 #endif
@@ -49,8 +50,10 @@ vec4 classify(vec3 p, vec3 dir) {
 #ifdef SHADING
     colour = blinn_phong(colour, g, dir);
 #endif
-#ifdef SCATTERING
-    colour *= scattering_factor(p, dir);
+#if defined(SCATTERING) && defined(ALBEDO_TABLE)  // never with CLASSIFY_PRE (dvr_gl.settings.check_albedo)
+    colour *= scattering_factor(p, dir, albedo_table(value));
+#elif defined(SCATTERING)
+    colour *= scattering_factor(p, dir, u_albedo);
 #endif
     return vec4(colour, sigma);
 }
@@ -70,8 +73,10 @@ vec4 preintegrated_segment(float front, float back, float len, vec3 p, vec3 dir)
     float alpha = opacity_of_depth(e.a);
     e.rgb = blinn_phong(alpha > 0.0 ? e.rgb / alpha : vec3(0.0), g, dir) * alpha;
   #endif
-  #ifdef SCATTERING
-    e.rgb *= scattering_factor(p, dir);  // the segment lit as its middle is
+  #if defined(SCATTERING) && defined(ALBEDO_TABLE)
+    e.rgb *= scattering_factor(p, dir, albedo_table(sample_scalar(p)));  // lit as its middle is
+  #elif defined(SCATTERING)
+    e.rgb *= scattering_factor(p, dir, u_albedo);  // the segment lit as its middle is
   #endif
     return e;
 }

@@ -13,7 +13,8 @@
 // HALF_ANGLE: T from half-angle slicing's light buffer (dvr_gl.half_angle: one directional light; the
 // optical depth the slices nearer the light left, bilinear between its pixel centres, clamped).
 // Defines: NUM_SCATTER_LIGHTS, PHASE_HG (Henyey-Greenstein; else isotropic), SHADOWS, LIGHT_VOLUME,
-// HALF_ANGLE.  Needs: u_box_lo, u_box_hi, and float extinction(vec3 p) (classify.glsl).
+// HALF_ANGLE; ALBEDO_TABLE: the caller passes the transfer function's albedo at the sample (else
+// u_albedo).  Needs: u_box_lo, u_box_hi, and float extinction(vec3 p) (classify.glsl).
 
 #include "common/box.glsl"
 
@@ -119,7 +120,7 @@ void light_at(int i, vec3 p, out vec3 toward, out vec3 energy, out float reach) 
 }
 
 // (1 - albedo) + albedo F at p, seen along the unit ray direction dir.
-vec3 scattering_factor(vec3 p, vec3 dir) {
+vec3 scattering_factor(vec3 p, vec3 dir, float albedo) {
     vec3 total = vec3(0.0);
 #ifdef LIGHT_VOLUME
     vec4 depths = light_volume_depths(p);
@@ -138,5 +139,5 @@ vec3 scattering_factor(vec3 p, vec3 dir) {
 #endif
         total += lit;
     }
-    return (1.0 - u_albedo) + u_albedo * total;
+    return (1.0 - albedo) + albedo * total;
 }

@@ -16,7 +16,7 @@ import numpy as np
 
 from ... import limits
 from ...reference.scattering import light_volume_dims
-from ...settings import shadow_step
+from ...settings import albedo_column, constant_albedo, shadow_step
 from .bricking import brick_size_for, ghost_width, plan_bricks
 from ...gl.context import create_context, make_current, release_context
 from ...gl.shaders import release_programs
@@ -56,7 +56,8 @@ def scattering_defines(scene, defines: dict):
     defines.update(SCATTERING=True, NUM_SCATTER_LIGHTS=len(sc.lights), PHASE_HG=sc.phase == "henyey_greenstein",
                    SHADOWS=sc.shadows and sc.method == "shadow_rays",
                    LIGHT_VOLUME=sc.shadows and sc.method == "light_volume",
-                   HALF_ANGLE=sc.shadows and sc.method == "half_angle")
+                   HALF_ANGLE=sc.shadows and sc.method == "half_angle",
+                   ALBEDO_TABLE=albedo_column(scene.renderer, scene.transfer_function))
 
 
 def light_volume_pass_defines(defines: dict) -> dict:
@@ -88,7 +89,7 @@ def scattering_uniforms(scene) -> dict:
     lo, hi = scene.field.bounds
     return {"u_scatter_light": lights, "u_light_volume_dims": light_volume_dims(lo, hi, sc.light_volume_size),
             "u_scatter_irradiance": [tuple(light.intensity * np.asarray(light.color)) for light in sc.lights],
-            "u_albedo": sc.albedo, "u_phase_g": sc.g, "u_shadow_step": shadow_step(r, scene.field),
+            "u_albedo": constant_albedo(r), "u_phase_g": sc.g, "u_shadow_step": shadow_step(r, scene.field),
             "u_min_light_distance": 0.5 * float(scene.field.sample_spacing)}
 
 
@@ -291,6 +292,10 @@ class GLVolumeRenderer(Renderer):
     def table_textures(self, scene, defines, slab_length: float) -> dict:
         r, tf = scene.renderer, scene.transfer_function
         out = {"u_lut": self._cached("lut", (tf, r.lut_size), lambda: TableTexture(self.ctx, tf.tabulate(r.lut_size)))}
+        if defines.get("ALBEDO_TABLE"):  # scattering's albedo column, at the same nodes (r; gba unused)
+            albedo = out["u_lut"].lut.albedo_table
+            out["u_albedo_lut"] = self._cached("albedo lut", (tf, r.lut_size), lambda: upload_table(
+                self.ctx, np.column_stack([albedo, np.zeros((len(albedo), 3))])))
         if "CLASSIFY_PREINTEGRATED" in defines:
             out["u_preint"] = self._cached(
                 "preintegration", (tf, slab_length, r.preintegration_size, r.preintegration, r.lut_size),
