@@ -38,6 +38,7 @@ PHASE_FUNCTIONS = ("isotropic", "henyey_greenstein")
 SCATTERING_METHODS = ("shadow_rays", "light_volume", "half_angle")
 
 Vec3 = tuple[float, float, float]
+Vec4 = tuple[float, float, float, float]
 
 
 def choices(*values, default, doc: str = ""):
@@ -119,3 +120,16 @@ class ScatteringSpec:
                                                     "spacing (default: the view rays' sample distance)")
     lights: list[ScatteringLightSpec] = doc(None, "`[[renderer.scattering.lights]]` tables (default: one "
                                                   "directional light)", factory=lambda: [ScatteringLightSpec()])
+
+
+@dataclass
+class ClippingSpec:
+    """What of the volume is kept: the side ``n . x + d >= 0`` of each plane and the inside of the box,
+    both in world coordinates, applied to every sample (a ray's kept part is one interval, as the region
+    is convex; its ends are shortened segments, as the volume box's are).  Nothing given: nothing clipped
+    (docs/clipping.md)."""
+
+    planes: list[Vec4] = doc(None, "`[[nx, ny, nz, d], ...]`: keep where nx x + ny y + nz z + d >= 0 "
+                                   "(world units)", factory=list)
+    box: Optional[tuple[Vec3, Vec3]] = doc(None, "`[[xmin, ymin, zmin], [xmax, ymax, zmax]]`: keep inside "
+                                                 "(world units; a cropping box or region of interest)")

@@ -90,9 +90,14 @@ class RayBatch:
         return len(self.t0)
 
     @classmethod
-    def for_camera(cls, camera, width: int, height: int, box, jitter_seed: int | None = None) -> "RayBatch":
+    def for_camera(cls, camera, width: int, height: int, box, jitter_seed: int | None = None,
+                   clip=None) -> "RayBatch":
+        """The pixels' rays inside ``box`` past the near plane, and inside ``clip`` (a
+        :class:`dvr_gl.clipping.ClipRegion`) where given."""
         o, d = camera.pixel_rays(width, height)
         t_enter, t_exit = intersect_box(o, d, *box)
+        if clip is not None:
+            t_enter, t_exit = clip.interval(o, d, t_enter, t_exit)
         t0 = np.maximum(t_enter, camera.near_distance(d))
         hit = t_exit > t0
         t0 = np.where(hit, t0, 0.0)

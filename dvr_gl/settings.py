@@ -26,9 +26,10 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import Any, Callable, Optional
 
+from .clipping import check_clipping, clipping_in_use
 from .errors import SceneError
 from .model import (CLASSIFICATIONS, CLASSIFIED_ALONG_RAY, COMPOSITING_MODES, DEFAULT_KERNEL_WIDTH, FILTERS, GAUSSIAN_RADIUS, ORDERS,
-                    ScatteringSpec, ShadingSpec)
+                    ClippingSpec, ScatteringSpec, ShadingSpec)
 
 DEFAULT_SAMPLE_DISTANCE_VOXELS = 0.5
 
@@ -270,6 +271,10 @@ SCATTERING = Setting("scattering", ScatteringSpec, None, "single scattering with
                      check=_check_scattering, must_support=True, in_use=lambda sc: sc.enabled, group="model",
                      default_factory=ScatteringSpec, flag=False)
 
+CLIPPING = Setting("clipping", ClippingSpec, None, "clipping planes and a cropping box, per sample: the "
+                   "[renderer.clipping] table (planes, box; world units)", check=check_clipping, must_support=True,
+                   in_use=clipping_in_use, group="model", default_factory=ClippingSpec, flag=False)
+
 # --- sampling: how closely a renderer approaches the picture ---------------------------------
 
 SAMPLE_DISTANCE = Setting("sample_distance", Optional[float], None, "segment length (default 0.5 voxel)",
@@ -308,7 +313,7 @@ TEXTURE_BUDGET_MB = Setting("texture_budget_mb", float, 2048.0, "GPU texture mem
 
 #: Every renderer reads these (narrowed where it supports fewer choices).
 MODEL_SETTINGS = (COMPOSITING, CLASSIFICATION, ASSOCIATED_COLORS, FILTER, KERNEL_WIDTH, ISO_VALUE, GRADIENT_OPACITY,
-                  GRADIENT_OPACITY_REFERENCE, SHADING, DEPTH_CUE, HEMISPHERICAL_SHADING, SCATTERING)
+                  GRADIENT_OPACITY_REFERENCE, SHADING, DEPTH_CUE, HEMISPHERICAL_SHADING, SCATTERING, CLIPPING)
 
 
 # --- resolution ------------------------------------------------------------------------------
@@ -326,6 +331,9 @@ def _check_scattering_with(spec) -> None:
     if spec.shading.enabled:
         raise SceneError("renderer.scattering and renderer.shading both light the samples: turn one off "
                          "(renderer.shading.enabled = false)")
+    if clipping_in_use(getattr(spec, "clipping", None)):
+        raise SceneError("renderer.clipping with renderer.scattering: the lights' rays are not clipped yet (a "
+                         "clipped part would still cast shadows); turn one of them off")
 
 
 DEFAULT_ALBEDO = 0.8

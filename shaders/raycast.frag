@@ -62,6 +62,9 @@
 #ifdef JITTER
 #include "common/jitter.glsl"
 #endif
+#ifdef CLIPPING
+#include "common/clipping.glsl"
+#endif
 
 uniform vec3 u_box_lo;
 uniform vec3 u_box_hi;
@@ -272,6 +275,9 @@ void main() {
 #endif
     camera_ray(o, d);
     bool hit = intersect_box(o, d, u_box_lo, u_box_hi, t0, t1);
+#ifdef CLIPPING
+    clip_interval(o, d, t0, t1);  // the kept part of the ray, sampled as the box's is
+#endif
     t0 = max(t0, near_distance(d));
     // Segments k_first .. k_last - 1 are this pass's (all of them without bricks).
     n = max(int(ceil((t1 - t0) / u_sample_distance)), 1);  // from the ray's length: no loop cap

@@ -6,7 +6,8 @@
 // the slices at its own angle): opacity correction for that length; pre-integrated slabs read the
 // scalar here and where the ray meets the next slice.
 //   STACK: 2D texture stacks (object-aligned slices of a texture array); else 3D texture slicing.
-//   classification and options as in raycast.frag.
+//   classification and options as in raycast.frag; CLIPPING: fragments outside the kept region
+//   are discarded (common/clipping.glsl).
 
 #if defined(SHADING) || defined(GRADIENT_OPACITY)
 #define NEEDS_GRADIENT
@@ -30,12 +31,20 @@ uniform float u_gradient_reference;
 uniform vec3 u_box_lo;             // SCATTERING: where the lights' rays enter the volume
 uniform vec3 u_box_hi;
 
+// box.glsl here, not first inside an #ifdef: a file is expanded once, where it is first named
+#include "common/box.glsl"
 #include "common/classify.glsl"
+#ifdef CLIPPING
+#include "common/clipping.glsl"
+#endif
 
 in vec3 world;
 out vec4 frag_color;
 
 void main() {
+#ifdef CLIPPING
+    if (!clip_inside(world)) discard;  // per sample: the slice's fragment is the sample
+#endif
 #ifdef CAMERA_ORTHOGRAPHIC
     vec3 dir = u_forward;
 #else

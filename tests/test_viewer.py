@@ -251,6 +251,32 @@ def test_settings_switch_and_refuse():
     assert "slices" in settings.sampling_text(settings.change(scene, name="slicing3d"))
 
 
+def test_clip_plane_keys_cut_the_volume_along_the_view():
+    """X: a plane facing the eye through the box's centre keeps the far half; Z moves it deeper by 5 %
+    of the diagonal (shift+Z back); X again removes it; a renderer without clipping refuses it."""
+    from dvr_gl.clipping import ClipRegion
+
+    scene = small_scene()
+    cut = settings.toggle_clip_plane(scene)
+    (plane,) = cut.renderer.clipping.planes
+    forward = np.asarray(scene.camera.basis()[0])
+    lo, hi = (np.asarray(b) for b in scene.field.bounds)
+    region = ClipRegion.of(cut.renderer)
+    centre = (lo + hi) / 2.0
+    assert np.allclose(plane[:3], forward)
+    assert region.inside(np.array([centre + forward, centre - forward])).tolist() == [True, False]
+    deeper = settings.move_clip_plane(cut, 0.05)
+    shift = plane[3] - deeper.renderer.clipping.planes[0][3]
+    assert shift == pytest.approx(0.05 * np.linalg.norm(hi - lo))
+    assert settings.move_clip_plane(deeper, -0.05).renderer.clipping.planes[0][3] == pytest.approx(plane[3])
+    assert "clipped by 1 plane" in settings.describe(cut)
+    assert not settings.toggle_clip_plane(cut).renderer.clipping.planes
+    with pytest.raises(SceneError, match="no plane to move"):
+        settings.move_clip_plane(scene, 0.05)
+    with pytest.raises(SceneError, match="shearwarp does not support renderer.clipping"):
+        settings.change(cut, name="shearwarp")
+
+
 def test_hud_lines_and_nominal_samples():
     """An orthographic view straight down the y axis of a 32^3 volume (box side 31), view height
     twice the box: the 16 x 16 central pixels of a 32 x 32 image each cross 31 units."""

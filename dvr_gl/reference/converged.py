@@ -35,6 +35,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..fields.reconstruction import smooth_pieces
+from ..clipping import ClipRegion
 from ..rays import RayBatch
 from ..sandbox import check_bytes
 from ..transfer_function import xray_rgba
@@ -78,7 +79,7 @@ class ConvergedReference:
         self.scene = scene
         self.model = OpticalModel(scene, exact=True)
         self.rays = RayBatch.for_camera(scene.camera, scene.image.width, scene.image.height,
-                                        scene.field.bounds)
+                                        scene.field.bounds, clip=ClipRegion.of(scene.renderer))
         self.tol = scene.renderer.converged_tolerance
         self.by_cell = hasattr(self.model.scalar, "pieces")  # a mesh: pieces know their cells
         self.x, self.w, self.S = collocation(nodes)

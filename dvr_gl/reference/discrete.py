@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..clipping import ClipRegion
 from ..rays import RayBatch
 from ..transfer_function import xray_rgba
 from .model import OpticalModel
@@ -83,7 +84,7 @@ class DiscreteReference:
         r = scene.renderer
         self.rays = rays if rays is not None else RayBatch.for_camera(
             scene.camera, scene.image.width, scene.image.height, scene.field.bounds,
-            r.jitter_seed if r.jitter else None)
+            r.jitter_seed if r.jitter else None, ClipRegion.of(r))
         self.plan = plan(self.rays) if plan is not None else RaySegments(self.rays, r.sample_distance)
         self.model = OpticalModel(scene, exact=False, segment_length=self.plan.slab_length)
         self.n_seg = self.plan.count

@@ -226,6 +226,9 @@ class ViewerGui:
             v.apply(settings.toggle_shading)
         if self._checkbox("scattering (G)", r.scattering.enabled, plugin.declared("scattering") is not None):
             v.apply(settings.toggle_scattering)
+        if self._checkbox("clipping plane (X; Z moves it)", bool(r.clipping.planes),
+                          plugin.declared("clipping") is not None):
+            v.apply(settings.toggle_clip_plane)
         if self._checkbox("jitter (J)", r.jitter, plugin.declared("jitter") is not None):
             v.apply(settings.toggle_jitter)
         changed, passes = imgui.slider_int("jitter passes", v.options.passes, 1, 64)

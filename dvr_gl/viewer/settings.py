@@ -121,6 +121,31 @@ def _rotation(axis, degrees: float) -> np.ndarray:
     return np.eye(3) + math.sin(t) * k + (1.0 - math.cos(t)) * (k @ k)
 
 
+def toggle_clip_plane(scene: Scene) -> Scene:
+    """A clipping plane facing the eye through the box's centre, keeping what lies beyond it (the volume
+    cut open along the view), or none (a cropping box stays)."""
+    clipping = scene.renderer.clipping
+    if clipping.planes:
+        return change(scene, clipping=dataclasses.replace(clipping, planes=[]))
+    forward = np.asarray(scene.camera.basis()[0], dtype=np.float64)
+    lo, hi = (np.asarray(b, dtype=np.float64) for b in scene.field.bounds)
+    plane = (*forward, -float(forward @ ((lo + hi) / 2.0)))
+    return change(scene, clipping=dataclasses.replace(clipping, planes=[tuple(float(x) for x in plane)]))
+
+
+def move_clip_plane(scene: Scene, fraction: float) -> Scene:
+    """The first clipping plane moved along its normal (into the part kept: ``fraction`` > 0 clips more)
+    by ``fraction`` of the box's diagonal."""
+    clipping = scene.renderer.clipping
+    if not clipping.planes:
+        raise SceneError("renderer.clipping has no plane to move: press X to add one")
+    lo, hi = (np.asarray(b, dtype=np.float64) for b in scene.field.bounds)
+    nx, ny, nz, d = clipping.planes[0]
+    shift = fraction * float(np.linalg.norm(hi - lo)) * math.sqrt(nx * nx + ny * ny + nz * nz)
+    return change(scene, clipping=dataclasses.replace(clipping, planes=[(nx, ny, nz, d - shift),
+                                                                        *clipping.planes[1:]]))
+
+
 def toggle_jitter(scene: Scene) -> Scene:
     return change(scene, jitter=not scene.renderer.jitter)
 
@@ -165,6 +190,11 @@ def describe(scene: Scene) -> str:
         parts.append("shading on" if r.shading.enabled else "shading off")
     if r.scattering.enabled:
         parts.append(f"scattering ({r.scattering.method.replace('_', ' ')})")
+    clipping = getattr(r, "clipping", None)
+    if clipping is not None and (clipping.planes or clipping.box is not None):
+        planes = len(clipping.planes)
+        parts.append("clipped by " + " and ".join(
+            ([f"{planes} plane{'s' * (planes != 1)}"] if planes else []) + (["a box"] if clipping.box else [])))
     if plugin.declared("jitter"):
         parts.append("jitter on" if r.jitter else "jitter off")
     parts.append(sampling_text(scene))

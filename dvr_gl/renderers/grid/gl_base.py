@@ -15,6 +15,7 @@ import moderngl
 import numpy as np
 
 from ... import limits
+from ...clipping import ClipRegion
 from ...reference.scattering import light_volume_dims
 from ...settings import albedo_column, constant_albedo, shadow_step
 from .bricking import brick_size_for, ghost_width, plan_bricks
@@ -45,6 +46,9 @@ def classification_features(scene) -> dict:
     defines["GRADIENT_OPACITY"] = r.gradient_opacity
     shading_defines(scene, defines)
     scattering_defines(scene, defines)
+    clip = ClipRegion.of(r)
+    if clip is not None:  # every mode: common/clipping.glsl
+        defines.update(clip.defines())
     return {k: v for k, v in defines.items() if v is not False}
 
 
@@ -362,7 +366,8 @@ class GLVolumeRenderer(Renderer):
                                 (*(-np.asarray(light.direction) / np.linalg.norm(light.direction)), 0.0)
                                 for light in lights]
             u["u_light_color"] = [tuple(light.color) for light in lights]
-        return {**u, **scattering_uniforms(scene)}
+        clip = ClipRegion.of(r)
+        return {**u, **scattering_uniforms(scene), **(clip.uniforms() if clip is not None else {})}
 
     @staticmethod
     def set_uniform(program, name, value):
