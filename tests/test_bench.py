@@ -129,6 +129,7 @@ def test_bench_shearwarp_prints_a_table(shared_data, capsys):
     # uint8 data move it), and at least those are never read
     assert 0.85 <= row["transparent"] <= 0.95 and row["skipped"] >= row["transparent"] - 1e-12
     assert row["build_s"] > 0 and row["ms"] > 0 and row["raycast_ms"] > 0 and row["rle_mb"] > 0
+    assert row["normals_s"] > 0 and row["shaded_ms"] > 0
 
 
 def test_bench_shearwarp_needs_the_data(tmp_path, capsys):

@@ -168,8 +168,8 @@ BAD_INPUTS = {
     "bad size": (lambda t: ["--demo", "--set", "image.width=0"], ["image.width must be at least 1"]),
     "bad flag choice": (lambda t: ["--demo", "--compositing", "bogus"], ["invalid choice: 'bogus'",
                                                                          "see dvr render --help"]),
-    "renderer refuses": (lambda t: ["--demo", "--renderer", "shearwarp"],
-                         ["shearwarp does not support renderer.shading", "use raycast"]),
+    "renderer refuses": (lambda t: ["--demo", "--renderer", "shearwarp", "--classification", "preintegrated"],
+                         ["shearwarp does not support renderer.classification = 'preintegrated'", "use raycast"]),
     "shading value": (lambda t: ["--demo", "--set", "renderer.shading.ambient=-1"],
                       ["renderer.shading.ambient must be >= 0, got -1.0"]),
     # issue 14: each of these was silently accepted, misreported or an internal error

@@ -14,6 +14,7 @@ that image bilinearly.  So each stage is checked against its own reference:
   where the two resamplings show: bounded below with the reasons.
 """
 
+import dataclasses
 import math
 
 import numpy as np
@@ -24,7 +25,10 @@ from dvr_gl.reference import plans
 from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.reference.discrete import DiscreteReference
 from dvr_gl.renderers import create_renderer
-from dvr_gl.renderers.shearwarp.renderer import ShearWarpRenderer, composite, intermediate_reference, warp_reference
+from dvr_gl.renderers.shearwarp.renderer import (ShearWarpRenderer, composite, intermediate_reference, reference,
+                                                 warp_reference)
+from dvr_gl.renderers.shearwarp.shading import (NO_NORMAL, decode_normals, encode_normals, frame_table,
+                                                voxel_gradients)
 from dvr_gl.renderers.shearwarp.run_length import RunLengthVolume, SliceClassifier, encode_scanlines, expand_runs
 from dvr_gl.renderers.shearwarp.factorization import factorize
 
@@ -320,13 +324,101 @@ def test_shearwarp_against_the_converged_reference_is_close_to_2d_stacks():
     assert errors["shearwarp"] <= 1.5 * errors["slicing2d"], errors
 
 
+# --- shading by lookup tables over quantized normals ---
+
+SHADED = {**NO_ERT, "renderer.shading.enabled": True}
+
+
+@pytest.mark.parametrize("extra", [
+    {}, {"camera.projection": "orthographic"}, {"renderer.classification": "pre"},
+    {"renderer.gradient_opacity": True}, {"renderer.gradient_opacity": True, "renderer.classification": "pre"},
+    {"renderer.shading.lights": [{"type": "directional", "direction": [1.0, -1.0, -1.0], "color": [1.0, 0.8, 0.6]},
+                                 {"type": "headlight", "color": [0.3, 0.3, 0.3]}], "renderer.shading.two_sided": True},
+    {"renderer.shading.enabled": False, "renderer.gradient_opacity": True},  # gradient opacity alone
+    {"camera.azimuth": 200.0, "camera.elevation": -60.0}, {"renderer.ert_threshold": 0.3},
+], ids=view_id)
+def test_shaded_intermediate_image_matches_the_same_quantization(shearwarp, extra):
+    """Shading and gradient opacity at the voxels, by the frame's table over the voxels' normal codes,
+    against the same-slices reference doing the same in float64 (VoxelShadedModel): measured max
+    1.6e-14 post-classified, 6.7e-9 pre-classified (float32 payload); asserted as unshaded."""
+    scene = small_scene({**SHADED, **extra})
+    fact = factorize(scene.camera, scene.volume, 32, 32)
+    rle = shearwarp.encoding(scene, fact.axis)
+    assert rle.codes is not None
+    image, _ = composite(fact, rle, scene, frame_table(scene))
+    reference = intermediate_reference(scene)
+    plain = intermediate_reference(small_scene({**NO_ERT, **{k: v for k, v in extra.items() if "shading" not in k and
+                                                           "gradient" not in k}}))
+    assert reference[..., 3].max() > 0.3 and np.abs(reference - plain).max() > 0.05  # shading shows
+    tolerance = 5e-8 if scene.renderer.classification == "pre" else 1e-12
+    assert np.abs(image - reference).max() <= tolerance
+
+
+def test_normal_codes_round_trip_within_their_cells():
+    """The octahedral encoding: every code decodes to a unit vector that encodes to itself; a random
+    direction lies within 1.9 degrees of its code's (measured 1.89 over 2e6 directions, mean 0.67); a
+    zero vector has its own code, which shades with the ambient term only."""
+    codes = np.arange(NO_NORMAL)
+    directions = decode_normals()
+    assert np.array_equal(encode_normals(directions[:-1]), codes) and not directions[-1].any()
+    assert np.allclose(np.linalg.norm(directions[:-1], axis=1), 1.0)
+    rng = np.random.default_rng(1)
+    v = rng.normal(size=(200000, 3))
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    angle = np.degrees(np.arccos(np.clip(np.sum(v * directions[encode_normals(v)], axis=1), -1.0, 1.0)))
+    assert angle.max() < 1.9 and angle.mean() < 0.7
+    assert encode_normals(np.zeros((1, 3)))[0] == NO_NORMAL
+    for axis in np.eye(3):  # the poles and the equator's axes are cells' centres' neighbours, not lost
+        assert np.degrees(np.arccos(directions[encode_normals(axis[None])[0]] @ axis)) < 1.0
+
+
+def test_voxel_gradients_are_the_references_at_the_voxels():
+    """Central differences one voxel apart with the edges clamped: the reference field's gradient at
+    every voxel centre (the boundary's included)."""
+    scene = small_scene({"volume.size": 9})
+    volume = scene.volume
+    field = volume.reconstruct_values(np.asarray(volume.data, dtype=np.float64))
+    k, j, i = (a.ravel() for a in np.mgrid[0:9, 0:9, 0:9])
+    centres = np.array(volume.origin) + np.stack([i, j, k], axis=1) * np.array(volume.spacing)
+    expected = field.gradient(centres)
+    assert np.abs(voxel_gradients(volume.data, volume.spacing).reshape(-1, 3) - expected).max() < 1e-12
+
+
+def test_quantization_error_against_unquantized_normals():
+    """What quantizing the normals costs in the image: the same-slices reference shaded with the codes'
+    directions against the voxels' own normals (measured RMS 1.3e-4, max 2.5e-3 on the 64^3 demo at
+    128^2; at this size RMS 4.9e-5, max 9.1e-4)."""
+    scene = small_scene({**SHADED, "volume.size": 24})
+    quantized, exact = reference(scene), reference(scene, quantized=False)
+    rms = float(np.sqrt(np.mean((quantized - exact) ** 2)))
+    assert 0 < rms < 5e-4 and np.abs(quantized - exact).max() < 5e-3
+
+
+def test_shaded_encoding_is_kept_until_the_normals_change(shearwarp):
+    """The normals (and the encoding holding them) are made once per volume and gradient-opacity
+    reference: a new light or view reuses them; the table is made per frame."""
+    scene = small_scene(SHADED)
+    axis = factorize(scene.camera, scene.volume, 32, 32).axis
+    first = shearwarp.encoding(scene, axis)
+    lit = scene.with_renderer(shading=dataclasses.replace(scene.renderer.shading, specular=0.9))
+    assert shearwarp.encoding(lit, axis) is first
+    assert shearwarp.encoding(scene.with_renderer(gradient_opacity=True), axis) is not first
+
+
+def test_shaded_demo_renders_close_to_its_reference(shearwarp):
+    """The whole frame (the GL warp included) against the same-slices reference warped on the host, at the
+    final pixels: the warp's float32 bound (measured 2.0e-6)."""
+    scene = small_scene(SHADED)
+    image = shearwarp.render(scene)
+    assert np.abs(image - reference(scene)).max() < 1e-5
+
+
 # --- what it refuses ---
 
 @pytest.mark.parametrize("extra, message", [
     ({"renderer.compositing": "mip"}, "does not support renderer.compositing = 'mip'"),
     ({"renderer.classification": "preintegrated"}, "does not support renderer.classification = 'preintegrated'"),
     ({"renderer.filter": "cubic_bspline"}, "does not support renderer.filter = 'cubic_bspline'"),
-    ({"renderer.shading.enabled": True}, "does not support renderer.shading"),
     ({"renderer.jitter": True}, "does not support renderer.jitter"),
     ({"camera.eye": [2.0, -3.0, 1.0], "camera.target": [0.0, 10.0, 0.0]}, "eye is inside the volume"),
 ], ids=lambda v: v if isinstance(v, str) else None)

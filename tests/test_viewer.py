@@ -373,12 +373,13 @@ def test_a_display_that_cannot_be_opened_is_one_line():
 
 def test_refusals_are_known_before_rendering():
     """The panel greys out what the renderer refuses, asking the registry (no rendering): shear-warp with
-    shading, MIP for the slicers; cycling skips a refused choice to the next one that renders."""
-    shaded = small_scene({"renderer.shading.enabled": True})
-    assert "shearwarp does not support renderer.shading" in settings.refusal(shaded, name="shearwarp")
+    pre-integration, MIP for the slicers; cycling skips a refused choice to the next one that renders."""
+    shaded = small_scene({"renderer.shading.enabled": True, "renderer.classification": "preintegrated"})
+    assert ("shearwarp does not support renderer.classification = 'preintegrated'"
+            in settings.refusal(shaded, name="shearwarp"))
     assert settings.refusal(shaded, name="slicing3d") is None
     sliced = settings.change(shaded, name="slicing2d")
     assert settings.refusal(sliced, compositing="mip").startswith("slicing2d does not support renderer.compositing")
-    assert settings.cycle(sliced, "name").renderer.name == "reference"     # shearwarp skipped: it cannot shade
+    assert settings.cycle(sliced, "name").renderer.name == "reference"     # shearwarp skipped: no pre-integration
     assert settings.choices("name") == tuple(settings.renderer_names())
     assert settings.fixed_planes("shearwarp") and not settings.fixed_planes("raycast")

@@ -364,15 +364,16 @@ def test_editing_a_control_point_changes_the_rendering(viewer):
 
 
 def test_a_refused_setting_is_shown_and_the_previous_kept(viewer):
-    """Shear-warp refuses shading (on in the demo): the registry's reason is logged (and shown in the
-    HUD) before anything renders, and the ray caster stays: the next change (shading off) renders
-    with it."""
+    """Fourier rendering (key 0) refuses the demo's perspective view: the registry's reason is logged (and
+    shown in the HUD) before anything renders, and the ray caster stays: the next change (shading off)
+    renders with it."""
     frame = viewer.last_frame()
     viewer.x.move(SIZE / 2, SIZE / 2)
-    viewer.x.key("4")
+    viewer.x.key("0")
     message = viewer.wait(lambda rs: next((r for r in rs if r.get("event") == "message" and r["error"]), None),
                           "the refusal")
-    assert "shearwarp does not support renderer.shading" in message["text"] and "keeping raycast" in message["text"]
+    assert "fourier renders orthographic views, not perspective" in message["text"]
+    assert "keeping raycast" in message["text"]
     assert viewer.last_frame() == frame  # refused before rendering: no shear-warp frame was drawn
     viewer.x.key("L")
     last = viewer.wait_full(frame)
@@ -400,13 +401,15 @@ def test_without_the_gui_keys_still_work(xvfb, tmp_path):
 
 
 def test_a_refused_scene_is_one_line_before_a_window_opens(xvfb, tmp_path):
-    """dvr view on settings its renderer refuses (the demo shades; shear-warp does not): the registry's
+    """dvr view on settings its renderer refuses (shear-warp does not pre-integrate): the registry's
     one-line reason and exit 1, as dvr render gives, and no window."""
-    out = subprocess.run([sys.executable, "-m", "dvr_gl.apps.cli", "view", "--demo", "--renderer", "shearwarp"],
+    out = subprocess.run([sys.executable, "-m", "dvr_gl.apps.cli", "view", "--demo", "--renderer", "shearwarp",
+                          "--classification", "preintegrated"],
                          env=dict(os.environ, DISPLAY=xvfb), capture_output=True, text=True, cwd=tmp_path, timeout=60)
     assert out.returncode == 1
-    assert out.stderr.strip() == ("dvr view: error: shearwarp does not support renderer.shading; turn it off or use "
-                                  "raycast, slicing3d, slicing2d, reference or reference-converged")
+    assert out.stderr.strip() == ("dvr view: error: shearwarp does not support renderer.classification = "
+                                  "'preintegrated' (it takes post or pre); use raycast, slicing3d, slicing2d, "
+                                  "reference or reference-converged")
 
 
 @pytest.mark.parametrize("flags, reason", [

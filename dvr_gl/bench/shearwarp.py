@@ -13,17 +13,23 @@ below the quantile; ties in the data make the measured fraction differ a little)
   fraction of voxels never read (transparent runs and pieces of runs behind opaque
   pixels);
 * the GPU ray caster's frame time on the same scene (same image size, half-voxel
-  steps, pre-classified, early termination and empty-space skipping on).
+  steps, pre-classified, early termination and empty-space skipping on);
+* what shading costs: the time to encode every voxel's normal (once per volume), and the
+  shaded frame (Blinn-Phong, the default headlight, by the frame's table over the normal
+  codes; median alike, after a warm-up that builds its encoding).
 """
 
 from __future__ import annotations
 
+import dataclasses
+import time
 from pathlib import Path
 
 import numpy as np
 
 from ..renderers import create_renderer
 from ..renderers.shearwarp.run_length import RunLengthVolume, SliceClassifier
+from ..renderers.shearwarp.shading import VoxelNormals
 from ..scene import load_scene
 from . import median_seconds
 
@@ -36,7 +42,8 @@ TRANSPARENT = (0.5, 0.9, 0.99)
 COLUMNS = [("dataset", "dataset", ""), ("target", "transparent target", ".0%"),
            ("transparent", "transparent", ".1%"), ("rle_mb", "RLE MB (3 axes)", ".0f"),
            ("build_s", "RLE build s (3 axes)", ".2f"), ("ms", "shear-warp frame ms", ".0f"),
-           ("skipped", "voxels skipped", ".1%"), ("raycast_ms", "raycast frame ms", ".0f")]
+           ("skipped", "voxels skipped", ".1%"), ("raycast_ms", "raycast frame ms", ".0f"),
+           ("normals_s", "normals s (once)", ".2f"), ("shaded_ms", "shaded frame ms", ".0f")]
 
 
 def ramp(data: np.ndarray, fraction: float) -> list[list[float]]:
@@ -68,9 +75,15 @@ def run(data_dir: Path, size: int = 512, repeat: int = 5, datasets=DATASETS, fra
                 ms = 1e3 * median_seconds(shearwarp, scene, repeat)
                 stats = dict(shearwarp.stats)
                 raycast_ms = 1e3 * median_seconds(raycast, scene.with_renderer(name="raycast"), repeat)
+                start = time.perf_counter()
+                VoxelNormals(volume, None)
+                normals_s = time.perf_counter() - start
+                shaded = scene.with_renderer(shading=dataclasses.replace(scene.renderer.shading, enabled=True))
+                shaded_ms = 1e3 * median_seconds(shearwarp, shaded, repeat)
                 rows.append({"dataset": name, "target": fraction,
                              "transparent": 1.0 - stats["stored_voxels"] / stats["voxels"],
                              "rle_mb": sum(e.nbytes for e in encodings) / 2 ** 20,
                              "build_s": sum(e.seconds for e in encodings), "ms": ms,
-                             "skipped": stats["skipped_fraction"], "raycast_ms": raycast_ms})
+                             "skipped": stats["skipped_fraction"], "raycast_ms": raycast_ms,
+                             "normals_s": normals_s, "shaded_ms": shaded_ms})
     return rows, notes

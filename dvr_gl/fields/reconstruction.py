@@ -184,6 +184,19 @@ class SampledField:
                     out += (wzy * wx[:, a])[:, None] * self.flat[row + ix[:, a]]
         return out if self.channels else out[:, 0]
 
+    def taps(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The samples :meth:`sample` weighs at world points (spline filters): ``(N, T)`` flat indices
+        into ``data[z, y, x]`` and their weights; other values at the samples interpolate alike."""
+        if self.kernel is not None:
+            raise ValueError("taps: the Gaussian and particle kernels have no fixed taps")
+        u = (np.asarray(points, dtype=np.float64) - self.origin) / self.spacing
+        ix, wx = _axis_taps(u[:, 0], self.nx, self.kind)
+        iy, wy = _axis_taps(u[:, 1], self.ny, self.kind)
+        iz, wz = _axis_taps(u[:, 2], self.nz, self.kind)
+        rows = (iz[:, :, None, None] * self.ny + iy[:, None, :, None]) * self.nx + ix[:, None, None, :]
+        weights = wz[:, :, None, None] * wy[:, None, :, None] * wx[:, None, None, :]
+        return rows.reshape(len(u), -1), weights.reshape(len(u), -1)
+
     def gradient(self, points: np.ndarray) -> np.ndarray:
         """Central differences one voxel apart along each world axis, ``(N, 3)`` in value/world unit."""
         p = np.asarray(points, dtype=np.float64)

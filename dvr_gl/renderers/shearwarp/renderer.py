@@ -19,8 +19,9 @@ factorization, :mod:`.run_length` for the encoding):
 
 The work vectorized per slice is proportional to the stored (non-transparent)
 voxels and their runs, not to the volume's size.  Emission-absorption with post-
-or pre-classification, linear filtering; shading, gradient opacity,
-pre-integration and jitter are refused with the reason.  The same-discretization
+or pre-classification, linear filtering; shading and gradient-magnitude opacity
+by lookup tables over quantized normals (:mod:`.shading`); pre-integration and
+jitter are refused with the reason.  The same-discretization
 reference of step 2 is the 2D-stack plan across the principal axis sampled along
 the intermediate pixels' rays (:func:`intermediate_reference`); warped bilinearly on the host, the
 reference of the final image (:func:`reference`).
@@ -40,11 +41,18 @@ from ...rays import RayBatch, intersect_box
 from ...reference import plans
 from ...reference.discrete import DiscreteReference
 from .run_length import RunLengthVolume, SliceClassifier, expand_runs
+from .shading import VoxelNormals, VoxelShadedModel, frame_table
 from .factorization import factorize
 from ..grid.gl_base import GLVolumeRenderer, now
 
 OPEN_REFRESH = 4  # slices between refreshes of the per-row count of open pixels (stale counts are safe)
 PIECE = 8         # voxels: runs are cut into pieces this long for skipping occluded ones
+
+
+def shades(scene) -> bool:
+    """Whether the scene shades or scales opacity by the gradient (then the voxels carry normals)."""
+    r = scene.renderer
+    return (r.shading.enabled and bool(r.shading.lights)) or r.gradient_opacity
 
 
 def slab_lengths(fact, rays: RayBatch, scene) -> np.ndarray:
@@ -71,8 +79,9 @@ class _Depth:
         return ((q @ self.fact.to_world.T)[:, :3] - self.eye) @ self.f >= self.near - self.slack
 
 
-def composite(fact, rle: RunLengthVolume, scene) -> tuple[np.ndarray, dict]:
-    """The intermediate image ``(Hi, Wi, 4)`` float64 (premultiplied colour, opacity) and counts."""
+def composite(fact, rle: RunLengthVolume, scene, table=None) -> tuple[np.ndarray, dict]:
+    """The intermediate image ``(Hi, Wi, 4)`` float64 (premultiplied colour, opacity) and counts;
+    ``table``: the frame's shading table ``(D, S)`` (:mod:`.shading`), if the scene shades."""
     width, height = fact.size
     ni, nj, _ = fact.dims
     r = scene.renderer
@@ -110,7 +119,7 @@ def composite(fact, rle: RunLengthVolume, scene) -> tuple[np.ndarray, dict]:
         p, w, rows = p[keep], w[keep], rows[keep]
         if not len(p):
             continue
-        pix, weight, values = _accumulate(p, w, rle.payload[rows], slot)
+        pix, weight, values = _accumulate(p, w, _shaded_payload(rle, rows, table), slot)
         c, sigma, pix = _classify(pix, weight, values, lut)
         seg_tau = sigma * slab[pix]
         colour[pix] += np.exp(-tau[pix])[:, None] * c * (-np.expm1(-seg_tau))[:, None]
@@ -192,16 +201,39 @@ def _accumulate(p, w, payload, slot):
     return p[first], weight, values
 
 
+def _shaded_payload(rle: RunLengthVolume, rows, table) -> np.ndarray:
+    """What the voxels of ``rows`` contribute (:mod:`.shading`): the payload, pre-classified voxels
+    shaded and scaled by their gradient-opacity factor (``(sigma f (c D + S), sigma f)``); after a
+    post-classified value, its voxel's ``D``, ``S`` and ``f`` (interpolated alike)."""
+    payload = rle.payload[rows].astype(np.float64)
+    if rle.codes is None:
+        return payload
+    codes = rle.codes[rows]
+    f = np.ones((len(rows), 1)) if rle.factor is None else rle.factor[rows].astype(np.float64)[:, None]
+    d, s = (np.ones((len(rows), 3)), np.zeros((len(rows), 3))) if table is None else \
+        (table[0][codes], table[1][codes])
+    if rle.lut is None:
+        sigma = payload[:, 3:4] * f
+        return np.concatenate([(payload[:, :3] * d + payload[:, 3:4] * s) * f, sigma], axis=1)
+    return np.concatenate([payload, d, s, f], axis=1)
+
+
 def _classify(pix, weight, values, lut):
     """Colour and extinction of the accumulated samples.  Post-classification keeps only samples whose
-    four voxels were all stored (weights adding to 1); the others are transparent by construction."""
+    four voxels were all stored (weights adding to 1); the others are transparent by construction.
+    Post-classified samples with shading carry their interpolated ``D``, ``S`` and ``f`` after the
+    value (:func:`_shaded_payload`)."""
     if lut is None:
         sigma = np.maximum(values[:, 3], 0.0)
         with np.errstate(invalid="ignore", divide="ignore"):
             colour = np.where(sigma[:, None] > 0, np.maximum(values[:, :3], 0.0) / sigma[:, None], 0.0)
         return colour, sigma, pix
     complete = weight >= 1.0 - 1e-9
-    colour, sigma = lut.lookup(values[complete, 0] / weight[complete])
+    w = weight[complete, None]
+    colour, sigma = lut.lookup(values[complete, 0] / w[:, 0])
+    if values.shape[1] > 1:
+        shades = values[complete, 1:] / w
+        colour, sigma = colour * shades[:, :3] + shades[:, 3:6], sigma * shades[:, 6]
     return colour, sigma, pix[complete]
 
 
@@ -227,15 +259,19 @@ def intermediate_rays(fact, scene, u=None, v=None) -> RayBatch:
     return RayBatch(o, d, np.where(hit, t0, 0.0), np.where(hit, t_exit, 0.0), np.full(len(o), 0.5))
 
 
-def _same_slices_reference(scene, fact, rays) -> np.ndarray:
+def _same_slices_reference(scene, fact, rays, quantized: bool = True) -> np.ndarray:
     """Float64 RGBA ``(len(rays), 4)`` of rays sampled where they cross the slices across the
-    principal axis, stopping at ``ert_threshold`` as shear-warp does."""
+    principal axis, stopping at ``ert_threshold`` as shear-warp does; ``quantized=False``: shaded with
+    the voxels' own normals (:mod:`.shading`)."""
     def plan(rs):
         planes = plans.axis_planes(rs, scene.camera, scene.volume, fact.axis)
         planes.terminates = True
         return planes
 
-    return DiscreteReference(scene, plan=plan, rays=rays).render_float64(shape=(len(rays), 1))[:, 0]
+    reference = DiscreteReference(scene, plan=plan, rays=rays)
+    if shades(scene):  # shading and gradient opacity at the voxels, by the same tables
+        reference.model = VoxelShadedModel(reference.model, scene, quantized)
+    return reference.render_float64(shape=(len(rays), 1))[:, 0]
 
 
 def intermediate_reference(scene) -> np.ndarray:
@@ -246,10 +282,11 @@ def intermediate_reference(scene) -> np.ndarray:
     return _same_slices_reference(scene, fact, intermediate_rays(fact, scene)).reshape(height, width, 4)
 
 
-def reference(scene) -> np.ndarray:
+def reference(scene, quantized: bool = True) -> np.ndarray:
     """The same-discretization reference of the final image, float64 ``(H, W, 4)``: the four
     intermediate pixels around each final pixel's warped position, each by
-    :func:`_same_slices_reference`, interpolated bilinearly (only the pixels needed are computed)."""
+    :func:`_same_slices_reference`, interpolated bilinearly (only the pixels needed are computed);
+    ``quantized=False``: shaded with unquantized normals."""
     width, height = scene.image.width, scene.image.height
     fact = factorize(scene.camera, scene.volume, width, height)
     u, v, weights, valid = _warp_taps(fact, width, height)
@@ -257,7 +294,8 @@ def reference(scene) -> np.ndarray:
     key = np.where(valid, v * wi + u, -1)
     needed = np.unique(key[valid])
     values = np.zeros((len(needed) + 1, 4))  # the last row: transparent, for taps outside
-    values[:-1] = _same_slices_reference(scene, fact, intermediate_rays(fact, scene, needed % wi, needed // wi))
+    values[:-1] = _same_slices_reference(scene, fact, intermediate_rays(fact, scene, needed % wi, needed // wi),
+                                         quantized)
     rows = np.where(valid, np.searchsorted(needed, key), len(needed))
     return np.einsum("tp,tpc->pc", weights, values[rows]).reshape(height, width, 4)
 
@@ -291,12 +329,23 @@ class ShearWarpRenderer(GLVolumeRenderer):
 
     def encoding(self, scene, axis: int) -> RunLengthVolume:
         """The run-length encoding across ``axis``, rebuilt only when the volume, transfer function,
-        classification, threshold or table size change."""
+        classification, threshold, table size or (shading) the voxels' normals change."""
         r = scene.renderer
-        key = (scene.volume, scene.transfer_function, r.classification, r.opacity_threshold, r.lut_size)
+        normals = self.voxel_normals(scene)
+        key = (scene.volume, scene.transfer_function, r.classification, r.opacity_threshold, r.lut_size, normals)
         return self._cached(f"rle {axis}", key, lambda: RunLengthVolume(
             scene.volume.data, axis, SliceClassifier(scene.transfer_function, r.classification, r.lut_size,
-                                                     r.opacity_threshold)))
+                                                     r.opacity_threshold), normals))
+
+    def voxel_normals(self, scene) -> "VoxelNormals | None":
+        """The volume's encoded normals (:mod:`.shading`), made once per volume and gradient-opacity
+        reference; None where the scene neither shades nor scales opacity by the gradient."""
+        if not shades(scene):
+            return None
+        r = scene.renderer
+        reference = r.gradient_opacity_reference if r.gradient_opacity else None
+        return self._cached("voxel normals", (scene.volume, reference),
+                            lambda: VoxelNormals(scene.volume, reference))
 
     def check_tables(self, scene, gl):
         """Classification runs on the host: the table is no texture, only its memory counts; the
@@ -313,7 +362,8 @@ class ShearWarpRenderer(GLVolumeRenderer):
         fact = factorize(scene.camera, scene.volume, width, height)
         rle = self.encoding(scene, fact.axis)
         composited = now()
-        intermediate, counts = composite(fact, rle, scene)
+        table = frame_table(scene) if rle.codes is not None else None
+        intermediate, counts = composite(fact, rle, scene, table)
         composited = now() - composited
         image = self.warp(fact, intermediate, width, height)
         total = int(np.prod(scene.volume.dims))

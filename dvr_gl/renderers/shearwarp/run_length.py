@@ -113,23 +113,31 @@ class RunLengthVolume:
         pair_offset: ``(Nk + 1,)`` index of each slice's first pair.
         payload: ``(voxels stored, C)`` float32; ``payload_offset``: each slice's first row.
         lut: post-classification's transfer-function table (None for pre-classified payloads).
+        codes, factor: with ``normals`` (:class:`.shading.VoxelNormals`), the stored voxels' normal
+            codes and (with gradient opacity) factors, row for row with the payload; else None.
         seconds: the time the encoding took.
     """
 
-    def __init__(self, data: np.ndarray, axis: int, classify: SliceClassifier):
+    def __init__(self, data: np.ndarray, axis: int, classify: SliceClassifier, normals=None):
         start = time.perf_counter()
         a, b, c = permuted_axes(axis)
         shape_xyz = data.shape[::-1]
         self.axis = axis
         self.dims = (shape_xyz[a], shape_xyz[b], shape_xyz[c])
         self.lut = getattr(classify, "lut", None)  # post-classification: the table samples are classified by
-        transparent, visible, payload = [], [], []
+        transparent, visible, payload, codes, factor = [], [], [], [], []
         for k in range(self.dims[2]):
             values, mask = classify(permuted_slice(data, axis, k))
             t, v = encode_scanlines(mask)
             transparent.append(t)
             visible.append(v)
             payload.append(values[mask])
+            if normals is not None:
+                codes.append(permuted_slice(normals.codes, axis, k)[mask])
+            if normals is not None and normals.factor is not None:
+                factor.append(permuted_slice(normals.factor, axis, k)[mask])
+        self.codes = np.concatenate(codes) if codes else None
+        self.factor = np.concatenate(factor) if factor else None
         self.transparent = np.concatenate(transparent)
         self.visible = np.concatenate(visible)
         self.pair_offset = np.concatenate([[0], np.cumsum([len(t) for t in transparent])])
@@ -145,7 +153,7 @@ class RunLengthVolume:
     def nbytes(self) -> int:
         """Memory held: runs, offsets and payload."""
         return sum(a.nbytes for a in (self.transparent, self.visible, self.pair_offset, self.payload,
-                                      self.payload_offset))
+                                      self.payload_offset, self.codes, self.factor) if a is not None)
 
     def runs(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Slice ``k``'s non-transparent runs: first voxel (flat ``j Ni + i``), length, first payload row."""
