@@ -69,23 +69,30 @@ def test_homogeneous_slab_clipped_is_beer_lambert(tmp_path, name, case):
     assert expected[..., 3].max() > 0.3 and np.abs(image - expected).max() < 1e-9
 
 
+def _same_samples(scene, name) -> np.ndarray:
+    """The same-discretization reference of a renderer that samples fixed planes."""
+    from dvr_gl.renderers.grid.slicing import same_planes_2d, same_planes_3d
+    from dvr_gl.renderers.shearwarp.renderer import reference
+
+    return {"slicing3d": same_planes_3d, "slicing2d": same_planes_2d, "shearwarp": reference}[name](scene)
+
+
 @pytest.mark.parametrize("case", CASES)
-@pytest.mark.parametrize("name", ["raycast", "slicing3d", "slicing2d"])
+@pytest.mark.parametrize("name", ["raycast", "slicing3d", "slicing2d", "shearwarp"])
 def test_gpu_renderers_clip_the_slab_as_beer_lambert(tmp_path, gl_context, name, case):
     """The ray caster ends its rays at the planes with shortened segments (float32: measured 2e-7); the
-    slicers discard fragments outside, so a slice spacing s errs by up to S s on the chord: against
-    their same planes instead (below)."""
+    slicers discard fragments outside and shear-warp drops samples outside, so a slice spacing s errs by
+    up to S s on the chord: against their same planes instead."""
     clipping, chord = CASES[case]
     scene = _slab_scene(tmp_path, name, clipping)
     with registry.plugin(name).create(ctx=gl_context) as renderer:
         image = renderer.render(scene)
-        assert renderer.stats["defines"]["CLIPPING"]
+        if name != "shearwarp":  # shear-warp clips on the host
+            assert renderer.stats["defines"]["CLIPPING"]
     if name == "raycast":
         assert np.abs(image - _beer_lambert(scene, chord)).max() < 2e-6
     else:
-        from dvr_gl.renderers.grid.slicing import same_planes_2d, same_planes_3d
-
-        assert_close(image, (same_planes_3d if name == "slicing3d" else same_planes_2d)(scene))
+        assert_close(image, _same_samples(scene, name))
         spacing = scene.renderer.sample_distance if name == "slicing3d" else 0.5
         assert np.abs(image - _beer_lambert(scene, chord)).max() < SIGMA * spacing
 
@@ -108,7 +115,7 @@ SMALL = {"volume.demo": "shepp-logan", "volume.size": 16, "image.width": 20, "im
 def test_raycast_clips_every_mode_as_its_reference(gl_context, extra):
     """Shepp-Logan cut by an oblique plane and a box crossing it: float32 against float64, to the
     conftest's bound (measured at most 3.5e-7 in every case here, bricks and skipping included, no
-    value off by more than 1e-4; the slicers below 1.4e-7)."""
+    value off by more than 1e-4)."""
     scene = load_scene(None, {**SMALL, "renderer.name": "raycast", "renderer.ert_threshold": 1.0, **extra})
     with registry.plugin("raycast").create(ctx=gl_context) as renderer:
         image = renderer.render(scene)
@@ -120,16 +127,23 @@ def test_raycast_clips_every_mode_as_its_reference(gl_context, extra):
     assert_close(image, reference)
 
 
-@pytest.mark.parametrize("name", ["slicing3d", "slicing2d"])
-@pytest.mark.parametrize("extra", [{}, {"renderer.classification": "preintegrated"},
-                                   {"renderer.shading.enabled": True}])
-def test_slicers_discard_what_is_clipped_as_their_planes(gl_context, name, extra):
-    from dvr_gl.renderers.grid.slicing import same_planes_2d, same_planes_3d
+FIXED_PLANE_CASES = [(name, extra) for name in ("slicing3d", "slicing2d", "shearwarp")
+                     for extra in ({}, {"renderer.classification": "preintegrated"}, {"renderer.shading.enabled": True},
+                                   {"camera.projection": "orthographic"})
+                     if not (name == "shearwarp" and extra.get("renderer.classification") == "preintegrated")]
 
+
+@pytest.mark.parametrize("name, extra", FIXED_PLANE_CASES,
+                         ids=[f"{n}-{','.join(v for v in e.values() if isinstance(v, str)) or 'default'}"
+                              f"{'-shaded' if e.get('renderer.shading.enabled') else ''}" for n, e in FIXED_PLANE_CASES])
+def test_fixed_plane_renderers_drop_what_is_clipped_as_their_references(gl_context, name, extra):
+    """The slicers' fragments and shear-warp's samples outside the region are dropped, as their
+    references' plane crossings outside each ray's interval are (measured: slicers 2.7e-7, shear-warp
+    1.4e-7, no value off by more than 1e-4; shear-warp does not pre-integrate)."""
     scene = load_scene(None, {**SMALL, "renderer.name": name, **extra})
     with registry.plugin(name).create(ctx=gl_context) as renderer:
         image = renderer.render(scene)
-    assert_close(image, (same_planes_3d if name == "slicing3d" else same_planes_2d)(scene))
+    assert_close(image, _same_samples(scene, name))
 
 
 def test_a_scene_without_clipping_compiles_none_and_is_unchanged(gl_context):

@@ -196,7 +196,9 @@ VIEWS = [{}, {"camera.projection": "orthographic"}, {"renderer.classification": 
          {"camera.near": 105.0},                                  # the near plane cuts the volume
          {"camera.projection": "orthographic", "camera.eye": [2.0, -3.0, 1.0],
           "camera.target": [0.0, 10.0, 0.0]},                     # orthographic, eye inside
-         {"renderer.ert_threshold": 0.3}]                         # early termination
+         {"renderer.ert_threshold": 0.3},                         # early termination
+         {"renderer.clipping": {"planes": [[1.0, 0.4, -0.3, 2.0]],  # clipped per sample
+                                "box": [[-20.0, -8.0, -20.0], [20.0, 10.0, 12.0]]}}]
 
 
 def view_id(extra):

@@ -273,8 +273,8 @@ def test_clip_plane_keys_cut_the_volume_along_the_view():
     assert not settings.toggle_clip_plane(cut).renderer.clipping.planes
     with pytest.raises(SceneError, match="no plane to move"):
         settings.move_clip_plane(scene, 0.05)
-    with pytest.raises(SceneError, match="shearwarp does not support renderer.clipping"):
-        settings.change(cut, name="shearwarp")
+    splattable = settings.change(cut, filter="cubic_bspline")
+    assert "splatting does not support renderer.clipping" in settings.refusal(splattable, name="splatting")
 
 
 def test_hud_lines_and_nominal_samples():

@@ -35,6 +35,7 @@ import moderngl
 import numpy as np
 
 from ... import limits
+from ...clipping import ClipRegion
 from ...gl.geometry import depth_range
 from ...gl.shaders import create_program
 from ...rays import RayBatch, intersect_box
@@ -74,9 +75,14 @@ class _Depth:
         self.slack = 1e-9 * scene.volume.spacing[fact.axis] / max(abs(f[fact.axis]), 1e-12)
 
     def keep(self, k: int, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-        scale, ou, ov = self.fact.slice_transform(k)
-        q = np.stack([(u - ou) / scale, (v - ov) / scale, np.full(u.shape, float(k)), np.ones(u.shape)], axis=-1)
-        return ((q @ self.fact.to_world.T)[:, :3] - self.eye) @ self.f >= self.near - self.slack
+        return (slice_points(self.fact, k, u, v) - self.eye) @ self.f >= self.near - self.slack
+
+
+def slice_points(fact, k: int, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """World points ``(N, 3)`` where intermediate pixels ``(u, v)``' rays cross slice ``k``."""
+    scale, ou, ov = fact.slice_transform(k)
+    q = np.stack([(u - ou) / scale, (v - ov) / scale, np.full(u.shape, float(k)), np.ones(u.shape)], axis=-1)
+    return (q @ fact.to_world.T)[:, :3]
 
 
 def composite(fact, rle: RunLengthVolume, scene, table=None) -> tuple[np.ndarray, dict]:
@@ -95,6 +101,7 @@ def composite(fact, rle: RunLengthVolume, scene, table=None) -> tuple[np.ndarray
     slab = slab_lengths(fact, rays, scene)
     lut = rle.lut
     depth = _Depth(fact, scene)
+    clip = ClipRegion.of(r)
     slot = np.zeros(pixels, dtype=np.int64)  # compacting scratch: pixel -> one of its entries
     counts = {"voxels_read": 0, "samples": 0}
     for n, k in enumerate(fact.slices):
@@ -116,6 +123,8 @@ def composite(fact, rle: RunLengthVolume, scene, table=None) -> tuple[np.ndarray
         keep = _inside(u, ou, scale, ni) & _inside(v, ov, scale, nj)
         if depth.needed:
             keep &= depth.keep(int(k), u.astype(np.float64), v.astype(np.float64))
+        if clip is not None:  # per sample, as the slicers' fragments
+            keep &= clip.inside(slice_points(fact, int(k), u.astype(np.float64), v.astype(np.float64)))
         p, w, rows = p[keep], w[keep], rows[keep]
         if not len(p):
             continue
@@ -254,6 +263,9 @@ def intermediate_rays(fact, scene, u=None, v=None) -> RayBatch:
         d = np.broadcast_to(f, points.shape).copy()
         o = points - ((points - eye) @ f)[:, None] * f
     t_enter, t_exit = intersect_box(o, d, *scene.volume.box)
+    clip = ClipRegion.of(scene.renderer)
+    if clip is not None:  # the slices crossed inside the region: the samples composite keeps
+        t_enter, t_exit = clip.interval(o, d, t_enter, t_exit)
     t0 = np.maximum(t_enter, cam.near_distance(d))
     hit = t_exit > t0
     return RayBatch(o, d, np.where(hit, t0, 0.0), np.where(hit, t_exit, 0.0), np.full(len(o), 0.5))
