@@ -68,6 +68,17 @@ def test_scattering_keyword():
         dvr_gl.render(blob(), scattering=True, shading=True, size=8)
 
 
+def test_clipping_keyword():
+    """clipping={...} gives [renderer.clipping]'s keys: a plane through the blob's middle (z = 9.5) keeps its
+    upper half."""
+    cut = dvr_gl.render(blob(), size=12, renderer="reference", clipping={"planes": [[0.0, 0.0, 1.0, -9.5]]})
+    assert cut.scene.renderer.clipping.planes == [(0.0, 0.0, 1.0, -9.5)]
+    whole = dvr_gl.render(blob(), size=12, renderer="reference")
+    assert 0.0 < cut.rgba[..., 3].sum() < 0.9 * whole.rgba[..., 3].sum()
+    with pytest.raises(dvr_gl.SceneError, match="zero normal"):
+        dvr_gl.render(blob(), size=8, clipping={"planes": [[0.0, 0.0, 0.0, 1.0]]})
+
+
 def test_render_of_files_and_of_scenes(tmp_path):
     path = tmp_path / "blob.npy"
     np.save(path, blob())
