@@ -398,13 +398,16 @@ def test_quantization_error_against_unquantized_normals():
 
 def test_shaded_encoding_is_kept_until_the_normals_change(shearwarp):
     """The normals (and the encoding holding them) are made once per volume and gradient-opacity
-    reference: a new light or view reuses them; the table is made per frame."""
+    reference: a new light or view reuses them; the table is made per frame; a scene that neither
+    shades nor scales opacity by the gradient makes none."""
     scene = small_scene(SHADED)
     axis = factorize(scene.camera, scene.volume, 32, 32).axis
     first = shearwarp.encoding(scene, axis)
     lit = scene.with_renderer(shading=dataclasses.replace(scene.renderer.shading, specular=0.9))
     assert shearwarp.encoding(lit, axis) is first
     assert shearwarp.encoding(scene.with_renderer(gradient_opacity=True), axis) is not first
+    plain = shearwarp.encoding(small_scene(NO_ERT), axis)  # unshaded: no normals made or stored
+    assert plain.codes is None and plain.factor is None and first.factor is None
 
 
 def test_shaded_demo_renders_close_to_its_reference(shearwarp):

@@ -72,6 +72,20 @@ def voxel_gradients(data: np.ndarray, spacing) -> np.ndarray:
     return out
 
 
+def unit_normals(gradients: np.ndarray, epsilon: float) -> np.ndarray:
+    """``-g / |g|`` (``(..., 3)``), zero where ``|g|`` is at most ``epsilon`` (the shading convention)."""
+    magnitude = np.linalg.norm(gradients, axis=-1, keepdims=True)
+    return np.where(magnitude > epsilon, -gradients / np.maximum(magnitude, 1e-300), 0.0)
+
+
+def diffuse_specular(normals: np.ndarray, view_direction, shading) -> tuple[np.ndarray, np.ndarray]:
+    """Blinn-Phong split as ``c D + S``: the diffuse factor ``D`` (ambient included) and the specular
+    term ``S``, ``(N, 3)`` each, of unit ``normals`` seen along ``view_direction``."""
+    direction = np.broadcast_to(np.asarray(view_direction, dtype=np.float64), normals.shape)
+    specular = blinn_phong(np.zeros_like(normals), normals, direction, shading)
+    return blinn_phong(np.ones_like(normals), normals, direction, shading) - specular, specular
+
+
 class VoxelNormals:
     """A volume's encoded normals ``codes`` (int16) and, with a gradient-opacity reference, its factors
     ``factor`` (float32; else None), ``(nz, ny, nx)`` each: made once per volume and reference, in slabs
@@ -88,20 +102,16 @@ class VoxelNormals:
         for z0 in range(0, nz, self.SLAB):
             lo, hi = max(z0 - 1, 0), min(z0 + self.SLAB + 1, nz)  # a neighbour slice either side
             g = voxel_gradients(data[lo:hi], volume.spacing)[z0 - lo:z0 - lo + min(self.SLAB, nz - z0)]
-            magnitude = np.linalg.norm(g, axis=-1)
-            normals = np.where((magnitude > epsilon)[..., None], -g / np.maximum(magnitude, 1e-300)[..., None], 0.0)
-            self.codes[z0:z0 + len(g)] = encode_normals(normals.reshape(-1, 3)).reshape(magnitude.shape)
+            normals = unit_normals(g, epsilon)
+            self.codes[z0:z0 + len(g)] = encode_normals(normals.reshape(-1, 3)).reshape(g.shape[:-1])
             if self.factor is not None:
-                self.factor[z0:z0 + len(g)] = np.minimum(1.0, magnitude / gradient_reference)
+                self.factor[z0:z0 + len(g)] = np.minimum(1.0, np.linalg.norm(g, axis=-1) / gradient_reference)
 
 
 def shading_table(shading, view_direction) -> tuple[np.ndarray, np.ndarray]:
     """``(D, S)``, each ``(NORMAL_GRID^2 + 1, 3)`` float64: the diffuse factor and specular term of
     every code, seen along ``view_direction`` (the camera's axis)."""
-    normals = decode_normals()
-    direction = np.broadcast_to(np.asarray(view_direction, dtype=np.float64), normals.shape)
-    specular = blinn_phong(np.zeros_like(normals), normals, direction, shading)
-    return blinn_phong(np.ones_like(normals), normals, direction, shading) - specular, specular
+    return diffuse_specular(decode_normals(), view_direction, shading)
 
 
 def frame_table(scene):
@@ -126,12 +136,7 @@ def unquantized_shades(scene, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]
         up = flat + (np.minimum(index + 1, n - 1) - index) * stride
         down = flat - (index - np.maximum(index - 1, 0)) * stride
         g[:, axis] = (data.ravel()[up].astype(np.float64) - data.ravel()[down]) / (2.0 * volume.spacing[axis])
-    magnitude = np.linalg.norm(g, axis=1)
-    normals = np.where((magnitude > gradient_epsilon(volume))[:, None], -g / np.maximum(magnitude, 1e-300)[:, None],
-                       0.0)
-    direction = np.broadcast_to(np.asarray(scene.camera.basis()[0], dtype=np.float64), normals.shape)
-    s = blinn_phong(np.zeros_like(normals), normals, direction, r.shading)
-    d = blinn_phong(np.ones_like(normals), normals, direction, r.shading) - s
+    d, s = diffuse_specular(unit_normals(g, gradient_epsilon(volume)), scene.camera.basis()[0], r.shading)
     return d.reshape(rows.shape + (3,)), s.reshape(rows.shape + (3,))
 
 
