@@ -7,6 +7,8 @@
   below its top fifth, left to right: the ray caster, slicing3d and shear-warp.
 * ``shearwarp-shaded.png``: CThead with the bone preset, left to right: the ray caster shaded per
   sample, shear-warp shaded by its tables over quantized normals, shear-warp unshaded.
+* ``geometry.png``: CThead with the bone preset and two opaque meshes (``[[renderer.geometry]]``): a
+  sphere through the skull and a plate beyond it, by the ray caster and slicing3d.
 
 The frame times are printed: one frame each on this machine, after a first one that makes the
 encodings, normals and textures.
@@ -15,12 +17,14 @@ encodings, normals and textures.
 from __future__ import annotations
 
 import argparse
+import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
 from dvr_gl.image import side_by_side, write_image
+from dvr_gl.model import GeometrySpec
 from dvr_gl.renderers import create_renderer
 from dvr_gl.scene import load_scene
 
@@ -75,6 +79,57 @@ def shaded_shearwarp(size: int, data_dir: Path) -> np.ndarray:
     return side_by_side(pictures)
 
 
+def icosphere(centre, radius: float, subdivisions: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """A sphere's triangles: an icosahedron's faces split ``subdivisions`` times, pushed to the sphere."""
+    t = (1.0 + 5 ** 0.5) / 2.0
+    v = [(-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0), (0, -1, t), (0, 1, t), (0, -1, -t), (0, 1, -t),
+         (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)]
+    f = [(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11), (1, 5, 9), (5, 11, 4), (11, 10, 2), (10, 7, 6),
+         (7, 1, 8), (3, 9, 4), (3, 4, 2), (3, 2, 6), (3, 6, 8), (3, 8, 9), (4, 9, 5), (2, 4, 11), (6, 2, 10),
+         (8, 6, 7), (9, 8, 1)]
+    points = [np.asarray(p, dtype=np.float64) / np.linalg.norm(p) for p in v]
+    for _ in range(subdivisions):
+        middle, faces = {}, []
+
+        def mid(a, b):
+            key = (min(a, b), max(a, b))
+            if key not in middle:
+                m = points[a] + points[b]
+                points.append(m / np.linalg.norm(m))
+                middle[key] = len(points) - 1
+            return middle[key]
+        for a, b, c in f:
+            ab, bc, ca = mid(a, b), mid(b, c), mid(c, a)
+            faces += [(a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca)]
+        f = faces
+    return np.asarray(centre) + radius * np.array(points), np.array(f, dtype=np.int32)
+
+
+def geometry(size: int, data_dir: Path, folder: Path) -> np.ndarray:
+    """A sphere through the skull and a floor below it, with the ray caster and slicing3d."""
+    import meshio
+
+    scene, label = _head(size, data_dir, "ct-bone")
+    lo, hi = (np.asarray(b, dtype=np.float64) for b in scene.field.bounds)
+    centre, span = (lo + hi) / 2.0, hi - lo
+    points, faces = icosphere(centre + [0.25 * span[0], 0.0, 0.0], 0.3 * span.min())
+    meshio.write_points_cells(str(folder / "sphere.obj"), points, [("triangle", faces)])
+    z = hi[2] + 0.02 * span[2]  # beyond the head: CThead's up is -z, and the default eye above it
+    plate = np.array([[lo[0] - span[0], lo[1] - span[1], z], [hi[0] + span[0], lo[1] - span[1], z],
+                      [hi[0] + span[0], hi[1] + span[1], z], [lo[0] - span[0], hi[1] + span[1], z]])
+    meshio.write_points_cells(str(folder / "plate.obj"), plate, [("triangle", np.array([[0, 1, 2], [0, 2, 3]],
+                                                                                        dtype=np.int32))])
+    meshes = [GeometrySpec(path=str(folder / "sphere.obj"), color=(0.2, 0.5, 0.9)),
+              GeometrySpec(path=str(folder / "plate.obj"), color=(0.6, 0.6, 0.55))]
+    scene = scene.with_renderer(geometry=meshes)
+    print(f"geometry ({label}):")
+    pictures = []
+    for name in ("raycast", "slicing3d"):
+        with create_renderer(name) as renderer:
+            pictures.append(_timed(renderer, scene.with_renderer(name=name), name))
+    return side_by_side(pictures)
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--size", type=int, default=256)
@@ -84,7 +139,9 @@ def main(argv=None) -> int:
     out = Path(args.out)
     write_image(out / "clipping.png", clipping(args.size, Path(args.data_dir)), overwrite=True)
     write_image(out / "shearwarp-shaded.png", shaded_shearwarp(args.size, Path(args.data_dir)), overwrite=True)
-    print(f"wrote {out / 'clipping.png'} and {out / 'shearwarp-shaded.png'}")
+    with tempfile.TemporaryDirectory() as folder:
+        write_image(out / "geometry.png", geometry(args.size, Path(args.data_dir), Path(folder)), overwrite=True)
+    print(f"wrote {out / 'clipping.png'}, {out / 'shearwarp-shaded.png'} and {out / 'geometry.png'}")
     return 0
 
 

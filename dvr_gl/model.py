@@ -133,3 +133,13 @@ class ClippingSpec:
                                    "(world units)", factory=list)
     box: Optional[tuple[Vec3, Vec3]] = doc(None, "`[[xmin, ymin, zmin], [xmax, ymax, zmax]]`: keep inside "
                                                  "(world units; a cropping box or region of interest)")
+
+
+@dataclass
+class GeometrySpec:
+    """An opaque triangle mesh in the volume's world coordinates (docs/geometry.md): the renderers stop
+    integrating at its surface and show it, Blinn-Phong shaded, behind what lies in front of it."""
+
+    path: Optional[str] = doc(None, "an OBJ, PLY, STL or VTK polydata file (relative to the scene file; read "
+                                    "by meshio: the `mesh` extra)")
+    color: Vec3 = doc((0.8, 0.8, 0.8), "linear RGB, non-associated (opaque)")

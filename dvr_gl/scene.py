@@ -323,7 +323,7 @@ class Scene:
                                   "opacity_model": tf.opacity_model},
             "camera": self.camera.to_dict(),
             "image": spec_to_dict(self.image),
-            "renderer": effective_renderer_dict(self.renderer),
+            "renderer": _relative_geometry(effective_renderer_dict(self.renderer), relative_to),
         }
 
     def to_toml(self, relative_to: Path | None = None) -> str:
@@ -363,10 +363,40 @@ def resolve_scene(spec: SceneSpec, base_dir: Path | str = ".", field=None, volum
     _check_extent(field, volume_source or spec.volume)
     tf = transfer_function or _resolve_transfer_function(spec.transfer_function, field, spec.volume.demo)
     camera = camera or _resolve_camera(spec.camera, field, spec.image)
-    renderer = resolve_renderer(spec.renderer, field)
+    renderer = _resolve_geometry(resolve_renderer(spec.renderer, field), base_dir)
     scene = Scene(field, tf, camera, spec.image, renderer, volume_source or VolumeSpec(), spec)
     hook = registry.plugin(renderer.name).resolve
     return registry._load(hook)(scene) if hook is not None else scene
+
+
+def _resolve_geometry(renderer, base_dir: Path):
+    """``[[renderer.geometry]]`` paths made absolute (relative to the scene file) and their meshes read,
+    so that a missing or unreadable mesh is one line before anything renders."""
+    meshes = getattr(renderer, "geometry", None)
+    if not meshes:
+        return renderer
+    from .geometry import read_mesh
+
+    resolved = []
+    for g in meshes:
+        path = Path(g.path).expanduser()
+        path = path if path.is_absolute() else base_dir / path
+        read_mesh(path)
+        resolved.append(dataclasses.replace(g, path=str(path.resolve())))
+    return dataclasses.replace(renderer, geometry=resolved)
+
+
+def _relative_geometry(renderer: dict, relative_to: Path | None) -> dict:
+    """A saved scene's mesh paths relative to its folder, as its volume's."""
+    if relative_to is None or not renderer.get("geometry"):
+        return renderer
+    out = []
+    for g in renderer["geometry"]:
+        try:
+            out.append({**g, "path": os.path.relpath(g["path"], relative_to)})
+        except ValueError:  # another drive on Windows
+            out.append(g)
+    return {**renderer, "geometry": out}
 
 
 def load_scene(path: Path | str | None = None, overrides: dict | None = None, base: dict | None = None) -> Scene:

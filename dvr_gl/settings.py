@@ -29,7 +29,7 @@ from typing import Any, Callable, Optional
 from .clipping import check_clipping, clipping_in_use
 from .errors import SceneError
 from .model import (CLASSIFICATIONS, CLASSIFIED_ALONG_RAY, COMPOSITING_MODES, DEFAULT_KERNEL_WIDTH, FILTERS, GAUSSIAN_RADIUS, ORDERS,
-                    ClippingSpec, ScatteringSpec, ShadingSpec)
+                    ClippingSpec, GeometrySpec, ScatteringSpec, ShadingSpec)
 
 DEFAULT_SAMPLE_DISTANCE_VOXELS = 0.5
 
@@ -275,6 +275,19 @@ CLIPPING = Setting("clipping", ClippingSpec, None, "clipping planes and a croppi
                    "[renderer.clipping] table (planes, box; world units)", check=check_clipping, must_support=True,
                    in_use=clipping_in_use, group="model", default_factory=ClippingSpec, flag=False)
 
+def _check_geometry(meshes) -> None:
+    for i, g in enumerate(meshes):
+        if not g.path:
+            raise SceneError(f"renderer.geometry[{i}] has no path: give the mesh file (OBJ, PLY, STL or VTK)")
+        if any(not 0.0 <= c <= 1.0 for c in g.color):
+            raise SceneError(f"renderer.geometry[{i}].color must be in [0, 1], got {list(g.color)}")
+
+
+GEOMETRY = Setting("geometry", list[GeometrySpec], None, "opaque triangle meshes in the volume's world: "
+                   "[[renderer.geometry]] tables (path, color); integration stops at their surface",
+                   check=_check_geometry, must_support=True, in_use=bool, group="model", default_factory=list,
+                   flag=False)
+
 # --- sampling: how closely a renderer approaches the picture ---------------------------------
 
 SAMPLE_DISTANCE = Setting("sample_distance", Optional[float], None, "segment length (default 0.5 voxel)",
@@ -313,7 +326,7 @@ TEXTURE_BUDGET_MB = Setting("texture_budget_mb", float, 2048.0, "GPU texture mem
 
 #: Every renderer reads these (narrowed where it supports fewer choices).
 MODEL_SETTINGS = (COMPOSITING, CLASSIFICATION, ASSOCIATED_COLORS, FILTER, KERNEL_WIDTH, ISO_VALUE, GRADIENT_OPACITY,
-                  GRADIENT_OPACITY_REFERENCE, SHADING, DEPTH_CUE, HEMISPHERICAL_SHADING, SCATTERING, CLIPPING)
+                  GRADIENT_OPACITY_REFERENCE, SHADING, DEPTH_CUE, HEMISPHERICAL_SHADING, SCATTERING, CLIPPING, GEOMETRY)
 
 
 # --- resolution ------------------------------------------------------------------------------

@@ -65,6 +65,9 @@
 #ifdef CLIPPING
 #include "common/clipping.glsl"
 #endif
+#ifdef GEOMETRY
+uniform sampler2D u_geometry;  // dvr_gl/renderers/grid/surfaces.py: a = the nearest surface's t (3e38: none)
+#endif
 
 uniform vec3 u_box_lo;
 uniform vec3 u_box_hi;
@@ -277,6 +280,9 @@ void main() {
     bool hit = intersect_box(o, d, u_box_lo, u_box_hi, t0, t1);
 #ifdef CLIPPING
     clip_interval(o, d, t0, t1);  // the kept part of the ray, sampled as the box's is
+#endif
+#ifdef GEOMETRY
+    t1 = min(t1, texelFetch(u_geometry, ivec2(gl_FragCoord.xy), 0).a);  // ends at an opaque surface
 #endif
     t0 = max(t0, near_distance(d));
     // Segments k_first .. k_last - 1 are this pass's (all of them without bricks).

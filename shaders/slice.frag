@@ -7,7 +7,7 @@
 // scalar here and where the ray meets the next slice.
 //   STACK: 2D texture stacks (object-aligned slices of a texture array); else 3D texture slicing.
 //   classification and options as in raycast.frag; CLIPPING: fragments outside the kept region
-//   are discarded (common/clipping.glsl).
+//   are discarded (common/clipping.glsl); GEOMETRY: so are those behind an opaque mesh.
 
 #if defined(SHADING) || defined(GRADIENT_OPACITY)
 #define NEEDS_GRADIENT
@@ -37,6 +37,9 @@ uniform vec3 u_box_hi;
 #ifdef CLIPPING
 #include "common/clipping.glsl"
 #endif
+#ifdef GEOMETRY
+uniform sampler2D u_geometry;      // dvr_gl/renderers/grid/surfaces.py: a = the nearest surface's t
+#endif
 
 in vec3 world;
 out vec4 frag_color;
@@ -44,6 +47,14 @@ out vec4 frag_color;
 void main() {
 #ifdef CLIPPING
     if (!clip_inside(world)) discard;  // per sample: the slice's fragment is the sample
+#endif
+#ifdef GEOMETRY
+  #ifdef CAMERA_ORTHOGRAPHIC
+    float t_here = dot(world - u_eye, u_forward);
+  #else
+    float t_here = length(world - u_eye);
+  #endif
+    if (t_here > texelFetch(u_geometry, ivec2(gl_FragCoord.xy), 0).a) discard;  // behind a surface
 #endif
 #ifdef CAMERA_ORTHOGRAPHIC
     vec3 dir = u_forward;

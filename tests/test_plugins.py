@@ -78,8 +78,8 @@ def test_dvr_render_renders_with_it_and_refuses_in_one_line(site, tmp_path):
     assert refused.returncode == 1
     assert refused.stderr.strip() == (f"dvr render: error: {NAME} does not support renderer.compositing = "
                                       f"'emission_absorption' (it takes mip, minip or average); use raycast, "
-                                      f"slicing3d, slicing2d, reference or reference-converged")  # not shearwarp:
-    # the demo shades, which shear-warp does not (alternatives support every model setting the scene uses)
+                                      f"slicing3d, slicing2d, shearwarp, reference or reference-converged")
+    # (the alternatives render every model setting the scene uses: the demo shades, as shear-warp now does)
     assert not (tmp_path / "ea.png").exists()
 
 

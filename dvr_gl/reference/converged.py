@@ -36,6 +36,7 @@ import numpy as np
 
 from ..fields.reconstruction import smooth_pieces
 from ..clipping import ClipRegion
+from ..geometry import over_surface, surface_rgba
 from ..rays import RayBatch
 from ..sandbox import check_bytes
 from ..transfer_function import xray_rgba
@@ -80,6 +81,7 @@ class ConvergedReference:
         self.model = OpticalModel(scene, exact=True)
         self.rays = RayBatch.for_camera(scene.camera, scene.image.width, scene.image.height,
                                         scene.field.bounds, clip=ClipRegion.of(scene.renderer))
+        self.surface = surface_rgba(scene, self.rays)  # opaque meshes end the rays (and show behind)
         self.tol = scene.renderer.converged_tolerance
         self.by_cell = hasattr(self.model.scalar, "pieces")  # a mesh: pieces know their cells
         self.x, self.w, self.S = collocation(nodes)
@@ -106,7 +108,7 @@ class ConvergedReference:
             rgba[rows] = method(rows)
             if self.progress is not None:
                 self.progress(min(i + RAYS_PER_BATCH, len(hit)), len(hit))
-        return rgba.reshape(self.scene.image.height, self.scene.image.width, 4)
+        return over_surface(rgba, self.surface).reshape(self.scene.image.height, self.scene.image.width, 4)
 
     # --- pieces ------------------------------------------------------------------------------
 

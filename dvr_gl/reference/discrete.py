@@ -41,6 +41,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..clipping import ClipRegion
+from ..geometry import over_surface, surface_rgba
 from ..rays import RayBatch
 from ..transfer_function import xray_rgba
 from .model import OpticalModel
@@ -85,6 +86,7 @@ class DiscreteReference:
         self.rays = rays if rays is not None else RayBatch.for_camera(
             scene.camera, scene.image.width, scene.image.height, scene.field.bounds,
             r.jitter_seed if r.jitter else None, ClipRegion.of(r))
+        self.surface = surface_rgba(scene, self.rays)  # opaque meshes end the rays (and show behind)
         self.plan = plan(self.rays) if plan is not None else RaySegments(self.rays, r.sample_distance)
         self.model = OpticalModel(scene, exact=False, segment_length=self.plan.slab_length)
         self.n_seg = self.plan.count
@@ -122,7 +124,7 @@ class DiscreteReference:
         else:
             rgba = self._projection(mode)
         rows, cols = shape or (self.scene.image.height, self.scene.image.width)
-        return rgba.reshape(rows, cols, 4)
+        return over_surface(rgba, self.surface).reshape(rows, cols, 4)
 
     def _segments(self, grid: SegmentGrid):
         """Associated colour and optical depth of each segment, ``(rows, m, 3)`` and ``(rows, m)``."""

@@ -49,6 +49,7 @@ def classification_features(scene) -> dict:
     clip = ClipRegion.of(r)
     if clip is not None:  # every mode: common/clipping.glsl
         defines.update(clip.defines())
+    defines["GEOMETRY"] = bool(getattr(r, "geometry", None))  # samples end at the meshes' surfaces
     return {k: v for k, v in defines.items() if v is not False}
 
 

@@ -22,6 +22,8 @@ from ...reference import plans
 from ...reference.discrete import DiscreteReference
 from ...gl.geometry import slice_polygons
 from .gl_base import GLVolumeRenderer, classification_features, light_volume_pass_defines, now
+from .surfaces import SurfaceLayer
+from ...geometry import over_surface
 
 MAX_REACH = 64.0  # voxels: rays this close to parallel with the slices need more ghost than any brick has
 
@@ -80,13 +82,26 @@ class SlicingRenderer(GLVolumeRenderer):
         return float(min(np.max(steps / np.asarray(scene.volume.spacing)), MAX_REACH))
 
     def draw(self, scene) -> np.ndarray:
+        """The frame; with ``[[renderer.geometry]]`` the meshes are drawn first (:mod:`.surfaces`), the
+        slices' fragments behind them discarded, and the slices composited over them."""
+        if not getattr(scene.renderer, "geometry", None):
+            return self._draw_volume(scene, {})
+        self.activate()
+        layer = SurfaceLayer(self, scene)
+        try:
+            image = self._draw_volume(scene, {"u_geometry": layer.texture})
+        finally:
+            layer.release()
+        return over_surface(image, layer.rgba).astype(np.float32)
+
+    def _draw_volume(self, scene, surfaces: dict) -> np.ndarray:
         self.activate()
         start = now()
         defines = classification_features(scene)
         if self.stack:
             defines["STACK"] = True
         program = create_program(self.ctx, "slice.vert", "slice.frag", defines)
-        tables = self.table_textures(scene, defines, self.slab_length(scene))
+        tables = {**self.table_textures(scene, defines, self.slab_length(scene)), **surfaces}
         views = self.grid_views(scene, defines)
         tables, light_seconds = self.scattering_tables(scene, defines, views, tables)
         if "HALF_ANGLE" in defines:

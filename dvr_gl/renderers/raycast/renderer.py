@@ -25,6 +25,8 @@ from ...gl.geometry import gl_matrix, projection_matrix, view_matrix
 from ...gl.shaders import create_program
 from ..grid.bricking import plan_bricks, visibility_order
 from ..grid.gl_base import GLVolumeRenderer, GridView, _same, classification_features, now
+from ..grid.surfaces import SurfaceLayer
+from ...geometry import over_surface
 from ..grid.textures import upload_field
 from . import acceleration as accel
 from . import ray_bounds
@@ -286,11 +288,24 @@ class RayCastRenderer(GLVolumeRenderer):
         return 0.0
 
     def draw(self, scene) -> np.ndarray:
+        """The frame; with ``[[renderer.geometry]]`` the meshes are drawn first (:mod:`..grid.surfaces`),
+        the rays end at them, and the volume is composited over them."""
+        if not getattr(scene.renderer, "geometry", None):
+            return self._draw_volume(scene, {})
+        self.activate()
+        layer = SurfaceLayer(self, scene)
+        try:
+            image = self._draw_volume(scene, {"u_geometry": layer.texture})
+        finally:
+            layer.release()
+        return over_surface(image, layer.rgba).astype(np.float32)
+
+    def _draw_volume(self, scene, surfaces: dict) -> np.ndarray:
         self.activate()
         start = now()
         defines = shader_features(scene, self.count_samples)
         views = self.grid_views(scene, defines)
-        tables = self.table_textures(scene, defines, scene.renderer.sample_distance)
+        tables = {**self.table_textures(scene, defines, scene.renderer.sample_distance), **surfaces}
         tables, light_seconds = self.scattering_tables(scene, defines, views, tables)
         defines, blocks, estimate = self.decide_skipping(scene, defines, tables)
         windows = segment_windows(scene, "ACCELERATE" in defines)

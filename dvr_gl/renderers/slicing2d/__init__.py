@@ -25,7 +25,7 @@ PLUGIN = RendererPlugin(
     renderer="dvr_gl.renderers.slicing2d.renderer:Slicing2DRenderer",
     settings=(s.COMPOSITING.only("emission_absorption"), s.CLASSIFICATION.only("post", "preintegrated"),
               s.PREINTEGRATION, s.PREINTEGRATION_SIZE, s.FILTER.only("nearest", "linear"), s.FILTERING, s.GRADIENT,
-              s.GRADIENT_OPACITY, s.GRADIENT_OPACITY_REFERENCE, s.LUT_SIZE, s.TEXTURE_BUDGET_MB, s.SHADING, s.CLIPPING),
+              s.GRADIENT_OPACITY, s.GRADIENT_OPACITY_REFERENCE, s.LUT_SIZE, s.TEXTURE_BUDGET_MB, s.SHADING, s.CLIPPING, s.GEOMETRY),
     data_kinds=("grid",),
     needs_gl=True,
     fixed_planes=True,

@@ -18,7 +18,7 @@ PLUGIN = RendererPlugin(
     settings=(s.SAMPLE_DISTANCE, s.SAMPLE_DISTANCE_VOXELS, s.COMPOSITING.only("emission_absorption"),
               s.CLASSIFICATION, s.ASSOCIATED_COLORS, s.PREINTEGRATION, s.PREINTEGRATION_SIZE,
               s.FILTER.only(*SPLINE_FILTERS), s.FILTERING, s.GRADIENT, s.GRADIENT_OPACITY, s.GRADIENT_OPACITY_REFERENCE, s.LUT_SIZE,
-              s.TEXTURE_BUDGET_MB, s.SHADING, s.SCATTERING, s.CLIPPING),
+              s.TEXTURE_BUDGET_MB, s.SHADING, s.SCATTERING, s.CLIPPING, s.GEOMETRY),
     data_kinds=("grid",),
     needs_gl=True,
     oracle="dvr_gl.renderers.grid.slicing:same_planes_3d",

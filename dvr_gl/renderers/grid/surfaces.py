@@ -1,0 +1,79 @@
+"""Opaque meshes drawn by GL (``[[renderer.geometry]]``, :mod:`dvr_gl.geometry`): every triangle
+rasterized with a depth buffer into one RGBA32F target, the nearest surface's shaded colour in rgb and
+its distance along the pixel's ray in a (:data:`NO_SURFACE` where there is none).  The ray caster ends
+its rays there (``GEOMETRY`` in raycast.frag) and the frame is composited over the layer on the host.
+"""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from ...geometry import scene_meshes
+from ...gl.geometry import box_corners, clip_planes, gl_matrix, projection_matrix, view_matrix
+from ...gl.shaders import create_program
+
+NO_SURFACE = 3.0e38  # t where no surface covers a pixel
+
+
+class SurfaceLayer:
+    """The frame's surfaces: ``texture`` (for the passes that end rays there) and ``rgba`` ``(H, W, 4)``
+    premultiplied (alpha 1 where a surface is seen) for compositing under the volume."""
+
+    def __init__(self, renderer, scene):
+        ctx, img, cam = renderer.ctx, scene.image, scene.camera
+        meshes = scene_meshes(scene.renderer)
+        corners, normals, colours = [], [], []
+        for mesh, rgb in meshes:
+            c = mesh.corners
+            face = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
+            length = np.linalg.norm(face, axis=1)
+            keep = length > 0
+            corners.append(c[keep].reshape(-1, 3))
+            normals.append(np.repeat(face[keep] / length[keep, None], 3, axis=0))
+            colours.append(np.broadcast_to(rgb, (3 * int(keep.sum()), 3)))
+        vertices = np.concatenate([np.concatenate(corners), np.concatenate(normals), np.concatenate(colours)], axis=1)
+        lo, hi = (np.asarray(b, dtype=np.float64) for b in scene.field.bounds)
+        points = np.concatenate([box_corners(lo, hi), vertices[:, :3]])
+        near, _ = clip_planes(cam, lo, hi)
+        far = float(((points - np.asarray(cam.eye)) @ np.asarray(cam.basis()[0])).max())
+        far = max(far, near) * 1.01 + 1e-6 * float(np.linalg.norm(hi - lo)) + 1e-6
+        defines = {"CAMERA_ORTHOGRAPHIC": cam.projection == "orthographic"}
+        lights = scene.renderer.shading.lights
+        if lights:
+            defines.update(SHADING=True, NUM_LIGHTS=len(lights))
+        program = create_program(ctx, "geometry/surface.vert", "geometry/surface.frag",
+                                 {k: v for k, v in defines.items() if v})
+        colour = ctx.texture((img.width, img.height), 4, dtype="f4")
+        depth = ctx.depth_renderbuffer((img.width, img.height))
+        fbo = ctx.framebuffer(color_attachments=[colour], depth_attachment=depth)
+        vbo = ctx.buffer(np.ascontiguousarray(vertices, dtype=np.float32).tobytes())
+        vao = ctx.vertex_array(program, [(vbo, "3f 3f 3f", "position", "normal", "colour")])
+        try:
+            fbo.use()
+            ctx.viewport = (0, 0, img.width, img.height)
+            ctx.clear(0.0, 0.0, 0.0, NO_SURFACE, depth=1.0)
+            ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
+            ctx.enable(moderngl.DEPTH_TEST)
+            uniforms = {"u_view_projection": None, "u_eye": tuple(cam.eye), "u_forward": tuple(cam.basis()[0]),
+                        **renderer.optics_uniforms(scene, renderer.table_textures(scene, {}, 1.0)["u_lut"].lut)}
+            program["u_view_projection"].write(gl_matrix(projection_matrix(cam, img.width / img.height, near, far)
+                                                         @ view_matrix(cam)))
+            for name, value in uniforms.items():
+                if name != "u_view_projection":
+                    renderer.set_uniform(program, name, value)
+            vao.render(moderngl.TRIANGLES)
+            ctx.disable(moderngl.DEPTH_TEST)
+            layer = renderer.read(fbo, img.width, img.height)
+        finally:
+            vao.release()
+            vbo.release()
+            fbo.release()
+            depth.release()
+        self.texture = colour
+        seen = layer[..., 3] < 0.5 * NO_SURFACE
+        self.rgba = np.where(seen[..., None], np.concatenate([layer[..., :3], np.ones(seen.shape + (1,),
+                                                                                      np.float32)], axis=-1), 0.0)
+
+    def release(self):
+        self.texture.release()
