@@ -81,7 +81,9 @@ def _valid(tp, key: str, choices: tuple):
         colour = st.one_of(st.floats(0, 1), st.floats(0, 1), st.floats(0, 1), st.floats(-0.5, 1.5))
         point = st.one_of(st.lists(colour, min_size=4, max_size=4), st.lists(colour, max_size=6))
         return st.lists(point, max_size=5).map(lambda rows: [[i / 4.0] + r for i, r in enumerate(rows)])
-    if origin is list and dataclasses.is_dataclass(args[0]):  # lights
+    if origin is list and typing.get_origin(args[0]) is tuple:  # clipping planes
+        return st.lists(_valid(args[0], key, ()), max_size=3)
+    if origin is list and dataclasses.is_dataclass(args[0]):  # lights, meshes
         return st.lists(table(args[0], f"{key}[]", wildness=0.0), max_size=3)
     if dataclasses.is_dataclass(tp):
         return table(tp, key, wildness=0.0)
