@@ -33,7 +33,7 @@ PLUGIN = RendererPlugin(
     renderer="dvr_gl.renderers.shearwarp.renderer:ShearWarpRenderer",
     settings=(s.COMPOSITING.only("emission_absorption"), s.CLASSIFICATION.only("post", "pre"), s.ASSOCIATED_COLORS,
               s.FILTER.only("linear"), s.ERT_THRESHOLD, s.LUT_SIZE, OPACITY_THRESHOLD, s.SHADING, s.GRADIENT_OPACITY,
-              s.GRADIENT_OPACITY_REFERENCE, s.CLIPPING),
+              s.GRADIENT_OPACITY_REFERENCE, s.CLIPPING, s.GEOMETRY),
     data_kinds=("grid",),
     needs_gl=True,
     fixed_planes=True,

@@ -36,6 +36,7 @@ import numpy as np
 
 from ... import limits
 from ...clipping import ClipRegion
+from ...geometry import over_surface, surface_rgba
 from ...gl.geometry import depth_range
 from ...gl.shaders import create_program
 from ...rays import RayBatch, intersect_box
@@ -95,6 +96,12 @@ def composite(fact, rle: RunLengthVolume, scene, table=None) -> tuple[np.ndarray
     colour = np.zeros((pixels, 3))
     tau = np.zeros(pixels)
     rays = intermediate_rays(fact, scene)
+    surface = surface_rgba(scene, rays)  # opaque meshes: each ray ends at its surface (t1 narrowed)
+    if surface is not None:
+        v_all, u_all = (a.ravel() for a in np.mgrid[0:height, 0:width])
+        surface[on_border(fact, u_all, v_all)] = 0.0
+    # where a surface ends a ray: a sample past it is dropped (with the reference's slack for a slice on it)
+    ends = None if surface is None else np.where(surface[:, 3] > 0, rays.t1, np.inf)
     open_ = rays.t1 > rays.t0  # rays that only touch the box (at an edge) miss it, as in the reference
     open_rows = np.full((height, width + 1), 0, dtype=np.int64)
     tau_stop = -math.log1p(-r.ert_threshold) if r.ert_threshold < 1.0 else np.inf
@@ -125,6 +132,11 @@ def composite(fact, rle: RunLengthVolume, scene, table=None) -> tuple[np.ndarray
             keep &= depth.keep(int(k), u.astype(np.float64), v.astype(np.float64))
         if clip is not None:  # per sample, as the slicers' fragments
             keep &= clip.inside(slice_points(fact, int(k), u.astype(np.float64), v.astype(np.float64)))
+        if ends is not None:  # per sample: behind a surface, dropped
+            points = slice_points(fact, int(k), u.astype(np.float64), v.astype(np.float64))
+            along = np.sum((points - rays.origins[p]) * rays.directions[p], axis=1)
+            slack = 1e-9 * scene.volume.spacing[fact.axis] / np.maximum(np.abs(rays.directions[p, fact.axis]), 1e-12)
+            keep &= along <= ends[p] + slack
         p, w, rows = p[keep], w[keep], rows[keep]
         if not len(p):
             continue
@@ -135,8 +147,8 @@ def composite(fact, rle: RunLengthVolume, scene, table=None) -> tuple[np.ndarray
         tau[pix] += seg_tau
         open_[pix] = tau[pix] < tau_stop
         counts["samples"] += len(pix)
-    rgba = np.concatenate([colour, -np.expm1(-tau)[:, None]], axis=1).reshape(height, width, 4)
-    return rgba, counts
+    rgba = over_surface(np.concatenate([colour, -np.expm1(-tau)[:, None]], axis=1), surface)
+    return rgba.reshape(height, width, 4), counts
 
 
 def _runs_in_view(first, length, first_row, ni, scale, ou, ov, open_rows):
@@ -271,16 +283,25 @@ def intermediate_rays(fact, scene, u=None, v=None) -> RayBatch:
     return RayBatch(o, d, np.where(hit, t0, 0.0), np.where(hit, t_exit, 0.0), np.full(len(o), 0.5))
 
 
-def _same_slices_reference(scene, fact, rays, quantized: bool = True) -> np.ndarray:
-    """Float64 RGBA ``(len(rays), 4)`` of rays sampled where they cross the slices across the
-    principal axis, stopping at ``ert_threshold`` as shear-warp does; ``quantized=False``: shaded with
-    the voxels' own normals (:mod:`.shading`)."""
+def on_border(fact, u, v) -> np.ndarray:
+    """Whether intermediate pixels ``(u, v)`` lie on the image's one-pixel border, which stays transparent
+    (meshes included) so that the warp fades to nothing at its edges as the reference's taps outside do."""
+    width, height = fact.size
+    return (u <= 0) | (v <= 0) | (u >= width - 1) | (v >= height - 1)
+
+
+def _same_slices_reference(scene, fact, rays, u, v, quantized: bool = True) -> np.ndarray:
+    """Float64 RGBA ``(len(rays), 4)`` of rays (those of intermediate pixels ``(u, v)``) sampled where they
+    cross the slices across the principal axis, stopping at ``ert_threshold`` as shear-warp does;
+    ``quantized=False``: shaded with the voxels' own normals (:mod:`.shading`)."""
     def plan(rs):
         planes = plans.axis_planes(rs, scene.camera, scene.volume, fact.axis)
         planes.terminates = True
         return planes
 
     reference = DiscreteReference(scene, plan=plan, rays=rays)
+    if reference.surface is not None:
+        reference.surface[on_border(fact, np.asarray(u), np.asarray(v))] = 0.0
     if shades(scene):  # shading and gradient opacity at the voxels, by the same tables
         reference.model = VoxelShadedModel(reference.model, scene, quantized)
     return reference.render_float64(shape=(len(rays), 1))[:, 0]
@@ -291,7 +312,8 @@ def intermediate_reference(scene) -> np.ndarray:
     rays of its pixels, sampled where they cross the slices across the principal axis."""
     fact = factorize(scene.camera, scene.volume, scene.image.width, scene.image.height)
     width, height = fact.size
-    return _same_slices_reference(scene, fact, intermediate_rays(fact, scene)).reshape(height, width, 4)
+    v, u = (a.ravel() for a in np.mgrid[0:height, 0:width])
+    return _same_slices_reference(scene, fact, intermediate_rays(fact, scene), u, v).reshape(height, width, 4)
 
 
 def reference(scene, quantized: bool = True) -> np.ndarray:
@@ -306,8 +328,8 @@ def reference(scene, quantized: bool = True) -> np.ndarray:
     key = np.where(valid, v * wi + u, -1)
     needed = np.unique(key[valid])
     values = np.zeros((len(needed) + 1, 4))  # the last row: transparent, for taps outside
-    values[:-1] = _same_slices_reference(scene, fact, intermediate_rays(fact, scene, needed % wi, needed // wi),
-                                         quantized)
+    u, v = needed % wi, needed // wi
+    values[:-1] = _same_slices_reference(scene, fact, intermediate_rays(fact, scene, u, v), u, v, quantized)
     rows = np.where(valid, np.searchsorted(needed, key), len(needed))
     return np.einsum("tp,tpc->pc", weights, values[rows]).reshape(height, width, 4)
 
