@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import os
 import sys
 import time
 import tomllib
@@ -79,6 +80,9 @@ def add_arguments(p: argparse.ArgumentParser):
                         "shading (docs/scattering.md)")
     g.add_argument("--scattering-method", choices=SCATTERING_METHODS,
                    help="how the GPU finds the light's transmittance: a shadow ray per sample, or a light volume")
+    g.add_argument("--mesh", action="append", default=[], metavar="FILE[:R,G,B]",
+                   help="an opaque mesh (OBJ, PLY, STL, VTK) in the volume's world, optionally its linear colour; "
+                        "repeatable (docs/geometry.md)")
     g.add_argument("--azimuth", type=float, help="degrees about the up axis")
     g.add_argument("--elevation", type=float, help="degrees above the horizontal plane")
     g.add_argument("--distance", type=float, help="eye to target, world units")
@@ -167,8 +171,30 @@ def overrides_from(args) -> dict:
         if len(bg) not in (3, 4):
             raise DvrError(f"--background {args.background!r}: use R,G,B or R,G,B,A numbers in 0..1")
         out["image.background"] = bg + [1.0] * (4 - len(bg))
+    if getattr(args, "mesh", None):
+        out["renderer.geometry"] = [mesh_table(item) for item in args.mesh]
     out.update(set_overrides(args.set))
     return out
+
+
+def mesh_table(item: str) -> dict:
+    """``--mesh FILE[:R,G,B]`` as a ``[[renderer.geometry]]`` table (the path made absolute: relative to
+    where dvr runs, not to a scene file)."""
+    head, sep, tail = item.rpartition(":")
+    if not sep or "/" in tail or "\\" in tail or os.path.exists(item):  # no colour (or a drive's colon)
+        path, sep, colour = item, "", ""
+    else:
+        path, colour = head, tail
+    table = {"path": os.path.abspath(os.path.expanduser(path))}
+    if sep:
+        try:
+            rgb = [float(x) for x in colour.split(",")]
+        except ValueError:
+            rgb = []
+        if len(rgb) != 3:
+            raise DvrError(f"--mesh {item!r}: give FILE or FILE:R,G,B with three numbers in 0..1")
+        table["color"] = rgb
+    return table
 
 
 def set_overrides(items: list[str]) -> dict:

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import SceneError
+from .sandbox import check_input_path
 
 #: Rays times triangles tested at once by :func:`first_hits` (float64 arrays of this many entries).
 BATCH = 1 << 21
@@ -45,15 +46,10 @@ class TriangleMesh:
 
 
 def read_mesh(path: str | Path) -> TriangleMesh:
-    """The triangles of a mesh file (cached by path, size and modification time)."""
-    p = Path(path)
-    try:
-        stat = p.stat()
-    except OSError as exc:
-        raise SceneError(f"renderer.geometry: cannot read {p} ({exc.strerror}); give an existing OBJ, PLY, STL or "
-                         f"VTK file") from None
-    if not p.is_file():
-        raise SceneError(f"renderer.geometry: {p} is not a file; give an OBJ, PLY, STL or VTK mesh file")
+    """The triangles of a mesh file (cached by path, size and modification time); the file is checked as
+    every input is (:func:`dvr_gl.sandbox.check_input_path`)."""
+    p = check_input_path(path, "mesh file (renderer.geometry)")  # a regular file, inside a sandbox's roots
+    stat = p.stat()
     return _read(str(p.resolve()), stat.st_size, stat.st_mtime_ns)
 
 

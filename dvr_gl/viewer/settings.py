@@ -195,6 +195,9 @@ def describe(scene: Scene) -> str:
         planes = len(clipping.planes)
         parts.append("clipped by " + " and ".join(
             ([f"{planes} plane{'s' * (planes != 1)}"] if planes else []) + (["a box"] if clipping.box else [])))
+    meshes = len(getattr(r, "geometry", None) or [])
+    if meshes:
+        parts.append(f"{meshes} mesh{'es' * (meshes != 1)}")
     if plugin.declared("jitter"):
         parts.append("jitter on" if r.jitter else "jitter off")
     parts.append(sampling_text(scene))
