@@ -22,8 +22,7 @@ from ...reference import plans
 from ...reference.discrete import DiscreteReference
 from ...gl.geometry import slice_polygons
 from .gl_base import GLVolumeRenderer, classification_features, light_volume_pass_defines, now
-from .surfaces import SurfaceLayer
-from ...geometry import over_surface
+from .surfaces import with_surfaces
 
 MAX_REACH = 64.0  # voxels: rays this close to parallel with the slices need more ghost than any brick has
 
@@ -84,15 +83,7 @@ class SlicingRenderer(GLVolumeRenderer):
     def draw(self, scene) -> np.ndarray:
         """The frame; with ``[[renderer.geometry]]`` the meshes are drawn first (:mod:`.surfaces`), the
         slices' fragments behind them discarded, and the slices composited over them."""
-        if not getattr(scene.renderer, "geometry", None):
-            return self._draw_volume(scene, {})
-        self.activate()
-        layer = SurfaceLayer(self, scene)
-        try:
-            image = self._draw_volume(scene, {"u_geometry": layer.texture})
-        finally:
-            layer.release()
-        return over_surface(image, layer.rgba).astype(np.float32)
+        return with_surfaces(self, scene, self._draw_volume)
 
     def _draw_volume(self, scene, surfaces: dict) -> np.ndarray:
         self.activate()

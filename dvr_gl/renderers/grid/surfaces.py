@@ -9,7 +9,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from ...geometry import scene_meshes
+from ...geometry import over_surface, scene_meshes
 from ...gl.geometry import box_corners, clip_planes, gl_matrix, projection_matrix, view_matrix
 from ...gl.shaders import create_program
 
@@ -77,3 +77,18 @@ class SurfaceLayer:
 
     def release(self):
         self.texture.release()
+
+
+def with_surfaces(renderer, scene, draw_volume) -> np.ndarray:
+    """A GL renderer's frame with the scene's meshes: ``draw_volume(scene, textures)`` draws the volume
+    (``textures``: ``u_geometry``, the layer its samples end at, or none without meshes), composited
+    over the layer.  A scene without meshes draws nothing more."""
+    if not getattr(scene.renderer, "geometry", None):
+        return draw_volume(scene, {})
+    renderer.activate()
+    layer = SurfaceLayer(renderer, scene)
+    try:
+        image = draw_volume(scene, {"u_geometry": layer.texture})
+    finally:
+        layer.release()
+    return over_surface(image, layer.rgba).astype(np.float32)

@@ -25,8 +25,7 @@ from ...gl.geometry import gl_matrix, projection_matrix, view_matrix
 from ...gl.shaders import create_program
 from ..grid.bricking import plan_bricks, visibility_order
 from ..grid.gl_base import GLVolumeRenderer, GridView, _same, classification_features, now
-from ..grid.surfaces import SurfaceLayer
-from ...geometry import over_surface
+from ..grid.surfaces import with_surfaces
 from ..grid.textures import upload_field
 from . import acceleration as accel
 from . import ray_bounds
@@ -290,15 +289,7 @@ class RayCastRenderer(GLVolumeRenderer):
     def draw(self, scene) -> np.ndarray:
         """The frame; with ``[[renderer.geometry]]`` the meshes are drawn first (:mod:`..grid.surfaces`),
         the rays end at them, and the volume is composited over them."""
-        if not getattr(scene.renderer, "geometry", None):
-            return self._draw_volume(scene, {})
-        self.activate()
-        layer = SurfaceLayer(self, scene)
-        try:
-            image = self._draw_volume(scene, {"u_geometry": layer.texture})
-        finally:
-            layer.release()
-        return over_surface(image, layer.rgba).astype(np.float32)
+        return with_surfaces(self, scene, self._draw_volume)
 
     def _draw_volume(self, scene, surfaces: dict) -> np.ndarray:
         self.activate()
