@@ -126,6 +126,8 @@ def _tilted(tmp_path):
     {"renderer.classification": "preintegrated"}, {"renderer.shading.enabled": True},
     {"renderer.acceleration": "on"}, {"renderer.texture_budget_mb": 0.004}, {"renderer.ert_threshold": 0.95},
     {"renderer.clipping": {"planes": [[1.0, 0.4, -0.3, 1.0]]}},
+    {"camera.eye": [0.0, -2.0, 0.5], "camera.target": [0.0, 8.0, 0.5]},  # the eye inside, the meshes around it
+    {"camera.near": 20.0},  # the near plane cuts the meshes away with the volume
 ], ids=lambda e: ",".join(f"{k.split('.')[-1]}={v}" if not isinstance(v, (list, dict)) else k.split('.')[-1]
                          for k, v in e.items()) or "default")
 def test_raycast_ends_rays_at_the_meshes_as_its_reference(tmp_path, gl_context, extra):
