@@ -98,6 +98,13 @@ class ClipRegion:
             t1 = np.where((rate == 0) & (at_origin < 0), -np.inf, t1)
         return t0, t1
 
+    def shifted(self, origin) -> "ClipRegion":
+        """The same region in coordinates relative to ``origin`` (``x' = x - origin``)."""
+        o = np.asarray(origin, dtype=np.float64)
+        planes = self.planes.copy()
+        planes[:, 3] += planes[:, :3] @ o
+        return ClipRegion(planes, self.lo - o, self.hi - o)
+
     def uniforms(self) -> dict:
         """What ``shaders/common/clipping.glsl`` reads."""
         out = {}

@@ -32,25 +32,47 @@ float cumulative(float x) {
     return table_1d(u_cumulative, x / (2.0 * u_sigmas) + 0.5);
 }
 
-// The part of a ray inside the box (from the near plane) and between the view depths `slab`.
-bool ray_part(vec3 o, vec3 d, vec2 slab, out float lo, out float hi) {
+#ifdef CLIPPING
+// planes and box relative to the volume's centre, as every point here (renderer.py: clip_uniforms)
+#include "common/clipping.glsl"
+#endif
+#ifdef GEOMETRY
+uniform sampler2D u_geometry;   // dvr_gl/renderers/grid/surfaces.py: a = the nearest surface's t
+#endif
+
+// The ray's part narrowed to the clipped region and to the front of the nearest mesh (pixel: the
+// ray's pixel, whose surface ends it).
+void narrow_part(vec2 pixel, vec3 o, vec3 d, inout float lo, inout float hi) {
+#ifdef CLIPPING
+    clip_interval(o, d, lo, hi);
+#endif
+#ifdef GEOMETRY
+    hi = min(hi, texelFetch(u_geometry, ivec2(pixel), 0).a);
+#endif
+}
+
+// The part of pixel's ray inside the box (from the near plane) and between the view depths `slab`.
+bool ray_part(vec2 pixel, vec3 o, vec3 d, vec2 slab, out float lo, out float hi) {
     if (!intersect_box(o, d, u_box_lo, u_box_hi, lo, hi))
         return false;
     lo = max(lo, near_distance(d));
+    narrow_part(pixel, o, d, lo, hi);
     float along = dot(d, u_forward);  // the ray's depth per unit length
     lo = max(lo, slab.x / along);
     hi = min(hi, slab.y / along);
     return hi > lo;
 }
 
-// The part of this pixel's ray the splat integrates over: the box (from the near plane) and the slab.
+// The part of this pixel's ray the splat integrates over: the box (from the near plane), clipped,
+// before the nearest mesh, and the slab.
 bool ray_extent(vec3 o, vec3 d, out float lo, out float hi) {
 #ifdef SLABS
-    return ray_part(o, d, u_slab, lo, hi);
+    return ray_part(gl_FragCoord.xy, o, d, u_slab, lo, hi);
 #else
     if (!intersect_box(o, d, u_box_lo, u_box_hi, lo, hi))
         return false;
     lo = max(lo, near_distance(d));
+    narrow_part(gl_FragCoord.xy, o, d, lo, hi);
     return hi > lo;
 #endif
 }

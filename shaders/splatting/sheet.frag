@@ -29,7 +29,7 @@ float slab_mean(sampler2D sheet, vec2 frag, vec2 slab) {
     vec3 o, d;
     camera_ray_at(frag, o, d);
     float lo, hi;
-    if (!ray_part(o, d, slab, lo, hi))
+    if (!ray_part(frag, o, d, slab, lo, hi))
         return 0.0;
     return texelFetch(sheet, ivec2(frag), 0).r / (hi - lo);
 }

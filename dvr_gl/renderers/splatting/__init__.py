@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from ... import settings as s
 from ... import sweeps
+from ...clipping import clipping_in_use
 from ...errors import SceneError
 from ...model import CLASSIFIED_ALONG_RAY
 from ..registry import RendererPlugin
@@ -75,6 +76,10 @@ def check(scene):
                          "renderer.classification = pre, or use sheet_buffer image_aligned")
     if r.classification == "pre" and not r.associated_colors:
         raise SceneError("splatting splats associated colours (sigma c); set renderer.associated_colors = true")
+    if not grid and (clipping_in_use(r.clipping) or r.geometry):
+        raise SceneError("splatting clips and stops at meshes along each pixel's ray, and averages particles "
+                         "smaller than a pixel over its square instead: turn renderer.clipping and "
+                         "renderer.geometry off for particle sets, or resample them onto a grid")
 
 
 PLUGIN = RendererPlugin(
@@ -83,7 +88,7 @@ PLUGIN = RendererPlugin(
     renderer="dvr_gl.renderers.splatting.renderer:SplattingRenderer",
     settings=(s.COMPOSITING.only("emission_absorption", "average", "xray"), s.CLASSIFICATION.only("post", "pre"),
               s.ASSOCIATED_COLORS, s.FILTER.only("gaussian", "cubic_bspline", "m4"), s.KERNEL_WIDTH, SHEET_BUFFER, SLAB_WIDTH, SLABS_PER_DRAW, FOOTPRINT, SCREEN_LOW_PASS,
-              s.ERT_THRESHOLD, s.LUT_SIZE, s.SHADING),
+              s.ERT_THRESHOLD, s.LUT_SIZE, s.SHADING, s.CLIPPING, s.GEOMETRY),
     data_kinds=("grid", "particles"),
     needs_gl=True,
     check=check,

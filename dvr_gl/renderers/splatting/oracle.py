@@ -39,6 +39,8 @@ from ...fields import filter_parameters, gradient_epsilon, reconstruct, sph
 from ...fields.particles import ParticleSet, SPHInterpolant
 from ...fields.ragged import ranks
 from ...fields.reconstruction import GaussianKernel, _erf
+from ...clipping import ClipRegion
+from ...geometry import over_surface, surface_rgba
 from ...rays import RayBatch
 from ...reference.shading import blinn_phong, normals_from_gradient
 from ...transfer_function import projected_rgba, segment_opacity, xray_rgba
@@ -55,7 +57,9 @@ CHUNK = 20000        # (ray, part) pairs or splats per batch
 def reference(scene) -> np.ndarray:
     """The image ``(H, W, 4)`` float64 that ``splatting`` must match (see the module doc)."""
     r, img = scene.renderer, scene.image
-    rays = RayBatch.for_camera(scene.camera, img.width, img.height, scene.field.bounds)
+    rays = RayBatch.for_camera(scene.camera, img.width, img.height, scene.field.bounds,
+                               clip=ClipRegion.of(r))  # the parts kept by clipping
+    surface = surface_rgba(scene, rays)  # meshes end the parts, and show behind
     sub = SubPixel(scene, rays) if scene.field.kind == "particles" else None
     if r.compositing == "average":
         out = _average(scene, rays, sub)
@@ -67,7 +71,7 @@ def reference(scene) -> np.ndarray:
         out = _axis_sheets(scene, rays)
     else:
         out = _sheets(scene, rays, sub)
-    return out.reshape(img.height, img.width, 4)
+    return over_surface(out, surface).reshape(img.height, img.width, 4)
 
 
 def _pieces(field, rays, ray, a, b, spacing):

@@ -15,7 +15,9 @@ import functools
 import moderngl
 import numpy as np
 
+from ...clipping import ClipRegion
 from ...gl.shaders import create_program
+from ..grid.surfaces import with_surfaces
 from ...model import GAUSSIAN_RADIUS
 from ...rays import chord_lengths
 from ...transfer_function import projected_rgba, xray_rgba
@@ -112,7 +114,13 @@ class SplattingRenderer(GLVolumeRenderer):
     name = "splatting"
 
     def draw(self, scene) -> np.ndarray:
+        """The frame; with ``[[renderer.geometry]]`` the meshes are drawn first (:mod:`..grid.surfaces`),
+        every ray's parts end at them, and the sheets are composited over them."""
+        return with_surfaces(self, scene, self._draw_volume)
+
+    def _draw_volume(self, scene, surfaces: dict) -> np.ndarray:
         self.activate()
+        self._surfaces = surfaces  # u_geometry for every pass, or nothing
         r, field, cam = scene.renderer, scene.field, scene.camera
         lo, hi = (np.asarray(b, float) for b in field.bounds)
         centre = 0.5 * (lo + hi)
@@ -176,7 +184,12 @@ class SplattingRenderer(GLVolumeRenderer):
             defines["KERNEL_BSPLINE"] = True
         if scene.camera.projection == "orthographic":
             defines["CAMERA_ORTHOGRAPHIC"] = True
-        return {k: v for k, v in defines.items() if v}
+        defines["GEOMETRY"] = bool(getattr(scene.renderer, "geometry", None))
+        defines = {k: v for k, v in defines.items() if v}
+        clip = ClipRegion.of(scene.renderer)
+        if clip is not None:  # NUM_CLIP_PLANES may be 0: kept
+            defines.update({k: v for k, v in clip.defines().items() if v is not False})
+        return defines
 
     def _uniforms(self, scene, centre, eye, basis) -> dict:
         r, field, img, cam = scene.renderer, scene.field, scene.image, scene.camera
@@ -188,6 +201,9 @@ class SplattingRenderer(GLVolumeRenderer):
         if is_grid(scene):
             u.update(u_spacing=tuple(field.spacing), u_radius=kernel_radius(scene), u_sigma=r.kernel_width,
                      u_sigmas=GAUSSIAN_RADIUS, u_low_pass=r.screen_low_pass)
+        clip = ClipRegion.of(r)
+        if clip is not None:  # in the shaders' coordinates: relative to the box's centre
+            u.update(clip.shifted(centre).uniforms())
         return u
 
     def _splat_program(self, scene, **extra):
@@ -218,7 +234,7 @@ class SplattingRenderer(GLVolumeRenderer):
         uniforms = self._uniforms(scene, centre, eye, basis)
         particles = not is_grid(scene)
         tables = self._cached("footprint tables", (particles,), lambda: FootprintTextures(self.ctx, particles))
-        textures = dict(tables.textures)
+        textures = {**tables.textures, **self._surfaces}
         ctx = self.ctx
         ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         count = buffers[0][2].size // 16
@@ -287,7 +303,8 @@ class SplattingRenderer(GLVolumeRenderer):
             if shaded:
                 sheets.update(u_sheet_prev=ring[(index - 1) % 3][0][0] if index > 0 else empty,
                               u_sheet_next=ring[(index + 1) % 3][0][0] if index + 1 < len(schedule) else empty)
-            self.bind(sheet_program, {**sheet_uniforms, **schedule[index][0]}, {**sheets, "u_lut": lut.texture})
+            self.bind(sheet_program, {**sheet_uniforms, **schedule[index][0]},
+                      {**sheets, "u_lut": lut.texture, **self._surfaces})
             quad.render(moderngl.TRIANGLES, vertices=3)
 
         size = r.slabs_per_draw if grouped else 1  # slabs drawn at once
