@@ -30,7 +30,7 @@ from .fields import diagonal
 from .io import load_field
 from .sandbox import check_bytes, check_input_path
 from .scene_schema import (CameraSpec, ImageSpec, SceneSpec, TransferFunctionSpec, VolumeSpec, parse_table,
-                           renderer_spec_class, spec_to_dict)
+                           renderer_spec_class, spec_to_dict, tables_as_specs)
 from .settings import FILTER, WORLD_RANGE, check_albedo, resolve_renderer as resolve_settings
 from .toml_writer import dumps
 from .transfer_function import PRESETS, TransferFunction, preset
@@ -295,6 +295,7 @@ class Scene:
     def with_renderer(self, **changes) -> "Scene":
         """The scene with renderer settings changed, checked as a scene file's would be.  A sample
         distance given here replaces one in voxels and a tolerance (and the other way round)."""
+        changes = tables_as_specs(self.renderer, changes, "renderer")
         for key, others in _EXCLUSIVE.items():
             if key[0] == "renderer" and key[1] in changes:
                 for other in others:

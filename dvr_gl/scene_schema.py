@@ -236,6 +236,19 @@ def parse_table(cls, table: dict, where: str):
     return cls(**kwargs)
 
 
+def tables_as_specs(spec, changes: dict, where: str) -> dict:
+    """``changes`` to dataclass ``spec`` with each table given as a dict (or a list of them: meshes)
+    read as a scene file's would be (``with_renderer(clipping={"planes": ...})``); other values as
+    they are."""
+    hints = typing.get_type_hints(type(spec))
+
+    def is_table(value):
+        return isinstance(value, dict) or (isinstance(value, list) and any(isinstance(v, dict) for v in value))
+
+    return {key: _convert(value, hints[key], f"{where}.{key}") if key in hints and is_table(value) else value
+            for key, value in changes.items()}
+
+
 def spec_to_dict(obj) -> dict:
     """A dataclass tree as nested dicts for TOML, without None values."""
     out = {}

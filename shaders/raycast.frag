@@ -66,7 +66,7 @@
 #include "common/clipping.glsl"
 #endif
 #ifdef GEOMETRY
-uniform sampler2D u_geometry;  // dvr_gl/renderers/grid/surfaces.py: a = the nearest surface's t (3e38: none)
+uniform sampler2D u_geometry;  // dvr_gl/renderers/surfaces.py: a = the nearest surface's t (3e38: none)
 #endif
 
 uniform vec3 u_box_lo;

@@ -38,7 +38,7 @@ uniform vec3 u_box_hi;
 #include "common/clipping.glsl"
 #endif
 #ifdef GEOMETRY
-uniform sampler2D u_geometry;      // dvr_gl/renderers/grid/surfaces.py: a = the nearest surface's t
+uniform sampler2D u_geometry;      // dvr_gl/renderers/surfaces.py: a = the nearest surface's t
 #endif
 
 in vec3 world;

@@ -259,3 +259,14 @@ def test_splatting_refuses_clipping_particles():
     with pytest.raises(SceneError, match="turn renderer.clipping and renderer.geometry off for particle sets"):
         registry.check(load_scene(None, {"volume.demo": "plummer", "volume.size": 8, "renderer.name": "splatting",
                                          "renderer.clipping": {"planes": [[1.0, 0.0, 0.0, 0.0]]}}))
+
+
+def test_with_renderer_reads_tables_given_as_dicts():
+    """``scene.with_renderer(clipping={...})`` (the API and the viewer change scenes so) reads the
+    table as a scene file's: the region is the same, and a bad key is one line."""
+    scene = load_scene(None, {**SMALL, "renderer.name": "reference"})
+    changed = scene.with_renderer(clipping={"planes": [[0.0, 0.0, 2.0, 1.0]]})
+    region = ClipRegion.of(changed.renderer)
+    assert np.allclose(region.planes, [[0.0, 0.0, 1.0, 0.5]]) and not region.has_box
+    with pytest.raises(SceneError, match="renderer.clipping: unknown key 'plane'"):
+        scene.with_renderer(clipping={"plane": [[0.0, 0.0, 1.0, 0.0]]})

@@ -12,15 +12,18 @@ import moderngl
 import numpy as np
 
 from .. import limits
+from ..clipping import ClipRegion
 from ..errors import SceneError
 from ..fields.mesh_rays import FacePlanes
 from ..gl.context import create_context, make_current, release_context
 from ..gl.geometry import box_corners, clip_planes, gl_matrix, projection_matrix, view_matrix
+from ..gl.lights import set_uniform
 from ..gl.shaders import release_programs
 from ..rays import chord_lengths
 from ..reference.converged import collocation
 from ..transfer_function import extinction_from_alpha, segment_opacity
 from .base import Renderer
+from .surfaces import with_surfaces
 
 ROW = 4096  # texels a row of the mesh textures (mesh_fetch.glsl)
 CELL_TEXELS = 6  # a cell's face planes, their sides and its scalar (mesh_fetch.glsl)
@@ -160,6 +163,24 @@ class MeshRenderer(Renderer):
         vectors = int(self.ctx.info["GL_MAX_FRAGMENT_UNIFORM_COMPONENTS"]) // 4
         return max(vectors - 64, 0) // 2
 
+    # --- a frame ---
+
+    def draw(self, scene) -> np.ndarray:
+        """The frame; with ``[[renderer.geometry]]`` the meshes are drawn first (:mod:`.surfaces`), each
+        ray's integration ends at them and the frame is composited over them."""
+        make_current(self.ctx)
+        return with_surfaces(self, scene, self._draw_volume)
+
+    def _draw_volume(self, scene, surfaces: dict) -> np.ndarray:
+        """The mesh's frame, rows from the top; ``surfaces``: ``u_geometry`` where meshes end the rays."""
+        raise NotImplementedError
+
+    @staticmethod
+    def _kept_part_defines(scene, surfaces: dict) -> dict:
+        """``shaders/cells/kept_part.glsl``'s defines: the clipping region's, and GEOMETRY."""
+        clip = ClipRegion.of(scene.renderer)
+        return {**(clip.defines() if clip is not None else {}), "GEOMETRY": "u_geometry" in surfaces}
+
     # --- resources ---
 
     def _mesh_resources(self, mesh):
@@ -228,6 +249,10 @@ class MeshRenderer(Renderer):
         for name, value in values.items():
             if name in program:
                 program[name].value = value
+        clip = ClipRegion.of(r)
+        if clip is not None:  # the rays are relative to the mesh's centre (u_eye), the region too
+            for name, value in clip.shifted(textures.centre).uniforms().items():
+                set_uniform(program, name, value)
         if "u_view_projection" in program:
             program["u_view_projection"].write(gl_matrix(vp))
         if "u_gauss_s" in program:

@@ -8,9 +8,11 @@
 //   MIP, MINIP: the larger (smaller) end value, blended by max (min);
 //   AVERAGE: the integral of the value along the piece, blended by addition;
 //   ISOSURFACE: where the piece reaches the iso-value: its depth, for the depth test.
-// Projections keep a coverage flag in .g; the host classifies the blended value.
+// Projections keep a coverage flag in .g; the host classifies the blended value.  CLIPPING and
+// GEOMETRY narrow the piece to the kept region and end it at the nearest surface (kept_part.glsl).
 #include "common/camera_ray.glsl"
 #include "cells/mesh_fetch.glsl"
+#include "cells/kept_part.glsl"
 
 flat in uint g_cell;
 
@@ -45,7 +47,8 @@ void main() {
     clip_face(plane1, side.y, o, d, t_in, t_out);
     clip_face(plane2, side.z, o, d, t_in, t_out);
     clip_face(plane3, side.w, o, d, t_in, t_out);
-    if (!(t_out > t_in)) discard;  // the ray misses the cell (the footprint is grown)
+    kept_part(o, d, t_in, t_out);
+    if (!(t_out > t_in)) discard;  // the ray misses the cell (the footprint is grown), or its kept part
 #ifdef FRAGMENT_COUNT
     frag = vec4(1.0, 0.0, 0.0, 0.0);  // added up: the cells this pixel's fragments found (tests)
     return;

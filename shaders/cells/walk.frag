@@ -10,9 +10,11 @@
 // Projections keep a coverage flag in .g; the host classifies the value (mesh_gl.py).
 // Where the ray leaves the mesh it goes on at the next entry beyond its exit: no visibility order,
 // no footprints.  START_CELLS: the mesh reaches the near plane, and the cell holding each ray's
-// start (located on the host) is walked first.
+// start (located on the host) is walked first.  CLIPPING and GEOMETRY: each piece is narrowed to
+// the ray's kept part [t_lo, t_hi] (kept_part.glsl), and the walk ends once it has passed t_hi.
 #include "common/camera_ray.glsl"
 #include "cells/mesh_fetch.glsl"
+#include "cells/kept_part.glsl"
 #ifdef EMISSION
 #include "cells/transfer_segment.glsl"
 #endif
@@ -40,6 +42,7 @@ const int MAX_STALLS = 32;
 
 vec4 acc;   // see the modes above
 bool done;
+float t_lo, t_hi;  // the ray's kept part (all of it without CLIPPING and GEOMETRY)
 vec4 walk_stats;  // WALK_STATS: steps, walks, walks given up, the last t reached
 
 void piece(float sf, float sb, float a, float b) {
@@ -85,8 +88,9 @@ void walk(uint cell, vec3 o, vec3 d, inout float t_prev) {
         if (!(b < 3.0e38)) break;  // no face to leave by: a cell without extent
         int k = b == t_out.x ? 0 : b == t_out.y ? 1 : b == t_out.z ? 2 : 3;
         if (i == 0 && a > b + u_touching) break;  // see above
-        if (b > a) {
-            piece(dot(lin.xyz, o + a * d) + lin.w, dot(lin.xyz, o + b * d) + lin.w, a, b);
+        float ka = max(a, t_lo), kb = min(b, t_hi);  // the piece's kept part
+        if (kb > ka) {
+            piece(dot(lin.xyz, o + ka * d) + lin.w, dot(lin.xyz, o + kb * d) + lin.w, ka, kb);
             if (done) break;
         }
         // Only a piece moves the ray on: a cell the ray passes beside (rounding at an edge sent the
@@ -95,6 +99,7 @@ void walk(uint cell, vec3 o, vec3 d, inout float t_prev) {
         stalls = advanced ? 0 : stalls + 1;
         if (stalls > MAX_STALLS) { walk_stats.z += 1.0; break; }
         if (advanced) t_prev = b;
+        if (t_prev >= t_hi) { done = true; break; }  // nothing kept beyond
         int next = texelFetch(u_neighbours, texel_of(cell), 0)[k];
         if (next < 0) break;
         cell = uint(next);
@@ -111,12 +116,15 @@ void main() {
 #else
     acc = vec4(0.0);
 #endif
-    done = false;
     walk_stats = vec4(0.0);
     float t_prev = max(near_distance(d), 0.0);
+    t_lo = -3.0e38;
+    t_hi = 3.0e38;
+    kept_part(o, d, t_lo, t_hi);
+    done = !(t_hi > max(t_lo, t_prev));  // nothing of this ray is kept
 #ifdef START_CELLS
     uint start = texelFetch(u_start, ivec2(gl_FragCoord.xy), 0).r;
-    if (start != 0u) walk(start - 1u, o, d, t_prev);
+    if (start != 0u && !done) walk(start - 1u, o, d, t_prev);
 #endif
     uint head = imageLoad(u_heads, ivec2(gl_FragCoord.xy)).r;
     // the entries taken so far end at (cut_t, cut_node): (t, node) orders them, ties included

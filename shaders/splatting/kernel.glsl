@@ -37,7 +37,7 @@ float cumulative(float x) {
 #include "common/clipping.glsl"
 #endif
 #ifdef GEOMETRY
-uniform sampler2D u_geometry;   // dvr_gl/renderers/grid/surfaces.py: a = the nearest surface's t
+uniform sampler2D u_geometry;   // dvr_gl/renderers/surfaces.py: a = the nearest surface's t
 #endif
 
 // The ray's part narrowed to the clipped region and to the front of the nearest mesh (pixel: the

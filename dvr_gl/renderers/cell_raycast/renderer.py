@@ -105,8 +105,7 @@ class CellRaycastRenderer(MeshRenderer):
 
     # --- a frame ---
 
-    def draw(self, scene) -> np.ndarray:
-        make_current(self.ctx)
+    def _draw_volume(self, scene, surfaces: dict) -> np.ndarray:
         mesh = scene.field
         start = time.perf_counter()
         textures, walk = self._mesh_resources(mesh)
@@ -114,7 +113,7 @@ class CellRaycastRenderer(MeshRenderer):
         heads, entries = self._entry_lists(scene, textures, walk)
         listed = time.perf_counter()
         starts = self._start_cells(scene) if self._reaches_near_plane(scene) else None
-        image = self._walk(scene, textures, walk, heads, starts)
+        image = self._walk(scene, textures, walk, heads, starts, surfaces)
         now = time.perf_counter()
         self.stats = {"seconds": now - start, "lists_seconds": listed - start, "walk_seconds": now - listed,
                       "entries": entries, "start_cells": starts is not None, "cells": textures.cells,
@@ -176,12 +175,13 @@ class CellRaycastRenderer(MeshRenderer):
         cells = mesh.reconstruct().locator.locate(o + cam.near_distance(d)[:, None] * d)
         return (cells + 1).astype(np.uint32).reshape(img.height, img.width)[::-1]
 
-    def _walk(self, scene, textures, walk, heads, starts) -> np.ndarray:
+    def _walk(self, scene, textures, walk, heads, starts, surfaces) -> np.ndarray:
         """The full-screen walk; the image, rows from the top."""
         cam, img, r, tf = scene.camera, scene.image, scene.renderer, scene.transfer_function
         mode = r.compositing
         defines = {MODES[mode]: True, "FOLDED_PLANES": True, "CAMERA_ORTHOGRAPHIC": cam.projection == "orthographic",
-                   "START_CELLS": starts is not None, "WALK_STATS": self._walk_stats}
+                   "START_CELLS": starts is not None, "WALK_STATS": self._walk_stats,
+                   **self._kept_part_defines(scene, surfaces)}
         if mode == "emission_absorption":
             defines.update(ALPHA_MODEL=tf.opacity_model == "alpha", TF_COUNT=len(tf.points),
                            TF_POW2=1 << len(tf.points).bit_length())
@@ -191,7 +191,7 @@ class CellRaycastRenderer(MeshRenderer):
             if name in program:
                 program[name].value = value
         start_tex = None
-        bound = [*textures.textures, ("u_neighbours", walk.neighbours)]
+        bound = [*textures.textures, ("u_neighbours", walk.neighbours), *surfaces.items()]
         if starts is not None:
             start_tex = self.ctx.texture((img.width, img.height), 1, np.ascontiguousarray(starts).tobytes(), dtype="u4")
             start_tex.filter = (moderngl.NEAREST, moderngl.NEAREST)

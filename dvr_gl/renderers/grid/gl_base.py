@@ -20,6 +20,7 @@ from ...reference.scattering import light_volume_dims
 from ...settings import albedo_column, constant_albedo, shadow_step
 from .bricking import brick_size_for, ghost_width, plan_bricks
 from ...gl.context import create_context, make_current, release_context
+from ...gl.lights import set_uniform, shading_uniforms
 from ...gl.shaders import release_programs
 from ...errors import DvrError, SceneError
 from .textures import FORMATS, central_difference_gradients, upload_field, upload_table, upload_volume
@@ -359,28 +360,11 @@ class GLVolumeRenderer(Renderer):
         lut_lo, lut_hi = lut.domain
         u = {"u_unit_distance": tf.unit_distance, "u_gradient_reference": r.gradient_opacity_reference,
              "u_lut_size": r.lut_size, "u_lut_lo": lut_lo, "u_lut_scale": (r.lut_size - 1) / (lut_hi - lut_lo),
-             "u_ambient": r.shading.ambient, "u_diffuse": r.shading.diffuse, "u_specular": r.shading.specular,
-             "u_shininess": r.shading.shininess, "u_gradient_epsilon": gradient_epsilon(field)}
-        lights = r.shading.lights
-        if lights:
-            u["u_light_dir"] = [(0.0, 0.0, 0.0, 1.0) if light.type == "headlight" else
-                                (*(-np.asarray(light.direction) / np.linalg.norm(light.direction)), 0.0)
-                                for light in lights]
-            u["u_light_color"] = [tuple(light.color) for light in lights]
+             "u_gradient_epsilon": gradient_epsilon(field), **shading_uniforms(r.shading)}
         clip = ClipRegion.of(r)
         return {**u, **scattering_uniforms(scene), **(clip.uniforms() if clip is not None else {})}
 
-    @staticmethod
-    def set_uniform(program, name, value):
-        if name not in program:
-            return  # unused by this feature set: compiled out
-        uniform = program[name]
-        if isinstance(value, list):  # a uniform array: write its packed float32 values
-            uniform.write(np.asarray(value, dtype=np.float32).tobytes())
-        elif isinstance(value, (tuple, np.ndarray)):
-            uniform.value = tuple(int(x) if uniform.fmt.endswith("i") else float(x) for x in value)
-        else:
-            uniform.value = value
+    set_uniform = staticmethod(set_uniform)
 
     def bind(self, program, uniforms: dict, textures: dict):
         for name, value in uniforms.items():

@@ -22,7 +22,7 @@ from ...reference import plans
 from ...reference.discrete import DiscreteReference
 from ...gl.geometry import slice_polygons
 from .gl_base import GLVolumeRenderer, classification_features, light_volume_pass_defines, now
-from .surfaces import with_surfaces
+from ..surfaces import with_surfaces
 
 MAX_REACH = 64.0  # voxels: rays this close to parallel with the slices need more ghost than any brick has
 

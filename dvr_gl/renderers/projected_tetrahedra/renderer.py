@@ -17,7 +17,6 @@ import time
 import moderngl
 import numpy as np
 
-from ...gl.context import make_current
 from ...gl.shaders import create_program
 from ..mesh_gl import MODES, ROW, MeshRenderer, rows
 from .order import VisibilityOrder
@@ -51,8 +50,7 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
 
     # --- a frame ---
 
-    def draw(self, scene) -> np.ndarray:
-        make_current(self.ctx)
+    def _draw_volume(self, scene, surfaces: dict) -> np.ndarray:
         r, cam, img, mesh = scene.renderer, scene.camera, scene.image, scene.field
         mode = r.compositing
         start = time.perf_counter()
@@ -73,10 +71,11 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
                            TF_POW2=1 << len(tf.points).bit_length())
         if self._count_fragments:
             defines = {"FRAGMENT_COUNT": True, "CAMERA_ORTHOGRAPHIC": defines["CAMERA_ORTHOGRAPHIC"]}
+        defines.update(self._kept_part_defines(scene, surfaces))
         program = create_program(self.ctx, "cells/pt.vert", "cells/pt.frag", defines, geometry="cells/pt.geom")
         self._uniforms(program, scene, textures)
         slots = self._order_texture(self._flag_cover_all(order, scene))
-        for unit, (name, tex) in enumerate([*textures.textures, ("u_order", slots)]):
+        for unit, (name, tex) in enumerate([*textures.textures, ("u_order", slots), *surfaces.items()]):
             tex.use(location=unit)
             if name in program:
                 program[name].value = unit

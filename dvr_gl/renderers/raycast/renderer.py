@@ -25,7 +25,7 @@ from ...gl.geometry import gl_matrix, projection_matrix, view_matrix
 from ...gl.shaders import create_program
 from ..grid.bricking import plan_bricks, visibility_order
 from ..grid.gl_base import GLVolumeRenderer, GridView, _same, classification_features, now
-from ..grid.surfaces import with_surfaces
+from ..surfaces import with_surfaces
 from ..grid.textures import upload_field
 from . import acceleration as accel
 from . import ray_bounds
@@ -287,7 +287,7 @@ class RayCastRenderer(GLVolumeRenderer):
         return 0.0
 
     def draw(self, scene) -> np.ndarray:
-        """The frame; with ``[[renderer.geometry]]`` the meshes are drawn first (:mod:`..grid.surfaces`),
+        """The frame; with ``[[renderer.geometry]]`` the meshes are drawn first (:mod:`..surfaces`),
         the rays end at them, and the volume is composited over them."""
         return with_surfaces(self, scene, self._draw_volume)
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from ...clipping import ClipRegion
 from ...gl.shaders import create_program
-from ..grid.surfaces import with_surfaces
+from ..surfaces import with_surfaces
 from ...model import GAUSSIAN_RADIUS
 from ...rays import chord_lengths
 from ...transfer_function import projected_rgba, xray_rgba
@@ -114,7 +114,7 @@ class SplattingRenderer(GLVolumeRenderer):
     name = "splatting"
 
     def draw(self, scene) -> np.ndarray:
-        """The frame; with ``[[renderer.geometry]]`` the meshes are drawn first (:mod:`..grid.surfaces`),
+        """The frame; with ``[[renderer.geometry]]`` the meshes are drawn first (:mod:`..surfaces`),
         every ray's parts end at them, and the sheets are composited over them."""
         return with_surfaces(self, scene, self._draw_volume)
 

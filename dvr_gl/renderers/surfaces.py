@@ -9,9 +9,11 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from ...geometry import over_surface, scene_meshes
-from ...gl.geometry import box_corners, clip_planes, gl_matrix, projection_matrix, view_matrix
-from ...gl.shaders import create_program
+from ..geometry import over_surface, scene_meshes
+from ..gl.context import make_current
+from ..gl.lights import set_uniform, shading_uniforms
+from ..gl.geometry import box_corners, clip_planes, gl_matrix, projection_matrix, view_matrix
+from ..gl.shaders import create_program
 
 NO_SURFACE = 3.0e38  # t where no surface covers a pixel
 
@@ -20,8 +22,8 @@ class SurfaceLayer:
     """The frame's surfaces: ``texture`` (for the passes that end rays there) and ``rgba`` ``(H, W, 4)``
     premultiplied (alpha 1 where a surface is seen) for compositing under the volume."""
 
-    def __init__(self, renderer, scene):
-        ctx, img, cam = renderer.ctx, scene.image, scene.camera
+    def __init__(self, ctx, scene):
+        img, cam = scene.image, scene.camera
         meshes = scene_meshes(scene.renderer)
         corners, normals, colours = [], [], []
         for mesh, rgb in meshes:
@@ -55,16 +57,16 @@ class SurfaceLayer:
             ctx.clear(0.0, 0.0, 0.0, NO_SURFACE, depth=1.0)
             ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
             ctx.enable(moderngl.DEPTH_TEST)
-            uniforms = {"u_view_projection": None, "u_eye": tuple(cam.eye), "u_forward": tuple(cam.basis()[0]),
-                        **renderer.optics_uniforms(scene, renderer.table_textures(scene, {}, 1.0)["u_lut"].lut)}
             program["u_view_projection"].write(gl_matrix(projection_matrix(cam, img.width / img.height, near, far)
                                                          @ view_matrix(cam)))
+            uniforms = {"u_eye": tuple(cam.eye), "u_forward": tuple(cam.basis()[0]),
+                        **shading_uniforms(scene.renderer.shading)}
             for name, value in uniforms.items():
-                if name != "u_view_projection":
-                    renderer.set_uniform(program, name, value)
+                set_uniform(program, name, value)
             vao.render(moderngl.TRIANGLES)
             ctx.disable(moderngl.DEPTH_TEST)
-            layer = renderer.read(fbo, img.width, img.height)
+            layer = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32)
+            layer = layer.reshape(img.height, img.width, 4)[::-1]  # GL rows run bottom up
         finally:
             vao.release()
             vbo.release()
@@ -85,8 +87,8 @@ def with_surfaces(renderer, scene, draw_volume) -> np.ndarray:
     over the layer.  A scene without meshes draws nothing more."""
     if not getattr(scene.renderer, "geometry", None):
         return draw_volume(scene, {})
-    renderer.activate()
-    layer = SurfaceLayer(renderer, scene)
+    make_current(renderer.ctx)
+    layer = SurfaceLayer(renderer.ctx, scene)
     try:
         image = draw_volume(scene, {"u_geometry": layer.texture})
     finally:
