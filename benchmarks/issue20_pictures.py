@@ -7,6 +7,8 @@
   below its top fifth, left to right: the ray caster, slicing3d and shear-warp.
 * ``shearwarp-shaded.png``: CThead with the bone preset, left to right: the ray caster shaded per
   sample, shear-warp shaded by its tables over quantized normals, shear-warp unshaded.
+* ``shearwarp-inside.png``: the eye inside CThead (bone preset, shaded, a 100-degree view), by the ray
+  caster and by shear-warp factored by pyramids of rays (three here).
 * ``geometry.png``: CThead with the bone preset and two opaque meshes (``[[renderer.geometry]]``): a
   sphere through the skull and a plate beyond it, by the ray caster and slicing3d.
 
@@ -79,6 +81,32 @@ def shaded_shearwarp(size: int, data_dir: Path) -> np.ndarray:
     return side_by_side(pictures)
 
 
+def inside_shearwarp(size: int, data_dir: Path) -> np.ndarray:
+    scene, label = _head(size, data_dir, "ct-bone")
+    lo, hi = (np.asarray(b, dtype=np.float64) for b in scene.field.bounds)
+    centre, span = (lo + hi) / 2.0, hi - lo
+    eye = centre + np.array([0.05, -0.1, 0.05]) * span  # inside the skull, looking out at an angle
+    target = eye + np.array([0.6, -1.0, 0.45]) * span.max()
+    scene = load_scene(None, {**_head_keys(scene), "camera.eye": list(eye), "camera.target": list(target),
+                              "camera.fov": 100.0, "camera.up": [0, 0, -1]})
+    print(f"eye inside ({label}):")
+    with create_renderer("raycast") as raycast, create_renderer("shearwarp") as shearwarp:
+        pictures = [_timed(raycast, scene.with_renderer(name="raycast"), "raycast"),
+                    _timed(shearwarp, scene.with_renderer(name="shearwarp"), "shearwarp")]
+        print(f"  shear-warp's factorizations: {shearwarp.stats['factorizations']}")
+    return side_by_side(pictures)
+
+
+def _head_keys(scene) -> dict:
+    """The scene-file keys of :func:`_head`'s scene (its data, transfer function, image, shading)."""
+    source = scene.volume_source
+    keys = {"image.width": scene.image.width, "image.height": scene.image.height, "renderer.shading.enabled": True}
+    if source.path:
+        return {**keys, "volume.path": source.path, "transfer_function.preset": "ct-bone",
+                "transfer_function.rescale_intercept": -1024.0}
+    return {**keys, "volume.demo": source.demo, "volume.size": source.size}
+
+
 def icosphere(centre, radius: float, subdivisions: int = 3) -> tuple[np.ndarray, np.ndarray]:
     """A sphere's triangles: an icosahedron's faces split ``subdivisions`` times, pushed to the sphere."""
     t = (1.0 + 5 ** 0.5) / 2.0
@@ -139,9 +167,10 @@ def main(argv=None) -> int:
     out = Path(args.out)
     write_image(out / "clipping.png", clipping(args.size, Path(args.data_dir)), overwrite=True)
     write_image(out / "shearwarp-shaded.png", shaded_shearwarp(args.size, Path(args.data_dir)), overwrite=True)
+    write_image(out / "shearwarp-inside.png", inside_shearwarp(args.size, Path(args.data_dir)), overwrite=True)
     with tempfile.TemporaryDirectory() as folder:
         write_image(out / "geometry.png", geometry(args.size, Path(args.data_dir), Path(folder)), overwrite=True)
-    print(f"wrote {out / 'clipping.png'}, {out / 'shearwarp-shaded.png'} and {out / 'geometry.png'}")
+    print(f"wrote clipping.png, shearwarp-shaded.png, shearwarp-inside.png and geometry.png in {out}")
     return 0
 
 

@@ -137,7 +137,7 @@ def _nearest(o, d, a, e1, e2):
         q = np.cross(s, e1[None, :, :])
         v = np.einsum("rk,rtk->rt", d, q) * inv
         t = np.einsum("tk,rtk->rt", e2, q) * inv
-    hit = (det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0)
+        hit = (det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0)  # (det 0: inf and NaN, not a hit)
     t = np.where(hit, t, np.inf)
     tri = np.argmin(t, axis=1)
     return t[np.arange(len(o)), tri], tri

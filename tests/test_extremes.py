@@ -257,8 +257,8 @@ def test_one_voxel_thick_and_single_voxel_volumes(tmp_path, renderer, shape):
 
 def test_camera_inside_the_volume(tmp_path, renderer):
     """A perspective eye at the centre of the volume: rays start at the eye (near plane 0), for each
-    renderer against its reference; shear-warp refuses it in one line (its single factorization needs
-    the eye outside, Lacroute 1995)."""
+    renderer against its reference (shear-warp factors the view by pyramids of rays, Lacroute 1995; a
+    renderer that refuses the eye inside does so in one line)."""
     rng = np.random.default_rng(4)
     scene = array_scene(tmp_path, rng.random((8, 8, 8)).astype(np.float32),
                         {"transfer_function.points": [[0, 1, 0.5, 0.2, 0.0], [1, 0.2, 0.5, 1, 0.3]],

@@ -30,7 +30,7 @@ from dvr_gl.renderers.shearwarp.renderer import (ShearWarpRenderer, composite, i
 from dvr_gl.renderers.shearwarp.shading import (NO_NORMAL, decode_normals, encode_normals, frame_table,
                                                 voxel_gradients)
 from dvr_gl.renderers.shearwarp.run_length import RunLengthVolume, SliceClassifier, encode_scanlines, expand_runs
-from dvr_gl.renderers.shearwarp.factorization import factorize
+from dvr_gl.renderers.shearwarp.factorization import factorize, factorize_view, pixel_directions, pyramid_of
 
 from conftest import array_scene, small_scene
 
@@ -425,7 +425,6 @@ def test_shaded_demo_renders_close_to_its_reference(shearwarp):
     ({"renderer.classification": "preintegrated"}, "does not support renderer.classification = 'preintegrated'"),
     ({"renderer.filter": "cubic_bspline"}, "does not support renderer.filter = 'cubic_bspline'"),
     ({"renderer.jitter": True}, "does not support renderer.jitter"),
-    ({"camera.eye": [2.0, -3.0, 1.0], "camera.target": [0.0, 10.0, 0.0]}, "eye is inside the volume"),
 ], ids=lambda v: v if isinstance(v, str) else None)
 def test_refuses_what_it_cannot_render(shearwarp, extra, message):
     with pytest.raises(SceneError, match=message) as info:
@@ -436,3 +435,84 @@ def test_refuses_what_it_cannot_render(shearwarp, extra, message):
 def test_opacity_threshold_is_validated():
     with pytest.raises(SceneError, match="opacity_threshold"):
         small_scene({"renderer.opacity_threshold": 1.0})
+
+
+# --- a perspective eye inside the volume: one factorization per pyramid ---
+
+INSIDE = {
+    "one pyramid": {"camera.eye": [2.0, -3.0, 1.0], "camera.target": [0.0, 10.0, 0.0]},
+    "three pyramids": {"camera.eye": [2.0, -3.0, 1.0], "camera.target": [10.0, 10.0, 5.0], "camera.fov": 100.0},
+    "five pyramids, pre": {"camera.eye": [0.3, 0.2, 0.1], "camera.target": [10.0, -4.0, 3.0], "camera.fov": 120.0,
+                           "renderer.classification": "pre"},
+    "shaded": {"camera.eye": [2.0, -3.0, 1.0], "camera.target": [10.0, 10.0, 5.0], "camera.fov": 100.0,
+               "renderer.shading.enabled": True},
+    "clipped, a mesh": {"camera.eye": [2.0, -3.0, 1.0], "camera.target": [10.0, 10.0, 5.0], "camera.fov": 100.0,
+                        "renderer.clipping": {"planes": [[1.0, 0.2, 0.0, 1.0]]}},
+    "early termination": {"camera.eye": [2.0, -3.0, 1.0], "camera.target": [10.0, 10.0, 5.0], "camera.fov": 100.0,
+                          "renderer.ert_threshold": 0.5},
+}
+
+
+def _inside_scene(extra, tmp_path):
+    keys = {**NO_ERT, "image.width": 48, "image.height": 40, **extra}
+    if extra.get("renderer.classification") == "pre":
+        keys["renderer.associated_colors"] = True
+    if "renderer.clipping" in extra:
+        meshio = pytest.importorskip("meshio", reason="meshes are read by meshio (the mesh extra)")
+        path = tmp_path / "plate.ply"
+        meshio.write_points_cells(str(path), np.array([[-9.0, 6.0, -9.0], [9.0, 6.0, -9.0], [9.0, 8.0, 9.0]]),
+                                  [("triangle", np.array([[0, 1, 2]], np.int32))])
+        keys["renderer.geometry"] = [{"path": str(path), "color": [0.3, 0.5, 0.9]}]
+    return small_scene(keys)
+
+
+@pytest.mark.parametrize("case", INSIDE)
+def test_an_eye_inside_is_factored_by_pyramids_as_the_same_rays_reference(shearwarp, case, tmp_path):
+    """Each pyramid's intermediate image against its own rays' same-slices reference (float64 both:
+    to rounding; pre-classified voxels are float32 payloads), and the frame, each pixel warped from its
+    ray's pyramid, against the reference warped on the host (float32 texture and warp: measured at most
+    8.7e-7, 5.1e-6 across the mesh's edge; the outside views' bound 1e-5)."""
+    scene = _inside_scene(INSIDE[case], tmp_path)
+    facts = factorize_view(scene.camera, scene.volume, 48, 40)
+    assert facts and all(f.gather and f.pyramid for f in facts)
+    table = frame_table(scene) if scene.renderer.shading.enabled else None
+    for fact in facts:
+        image, _ = composite(fact, shearwarp.encoding(scene, fact.axis), scene, table)
+        truth = intermediate_reference(scene, fact)
+        assert truth[..., 3].max() > 0.1
+        assert np.abs(image - truth).max() <= (5e-8 if scene.renderer.classification == "pre" else 1e-12)
+    frame = shearwarp.render(scene)
+    assert shearwarp.stats["factorizations"] == len(facts)
+    assert np.abs(frame - reference(scene)).max() < 1e-5
+
+
+def test_pyramids_cover_every_pixel_once_and_see_beyond_the_eye(shearwarp):
+    """Every pixel's ray belongs to one pyramid; each pyramid composites only the slices beyond the eye
+    on its side, and its base plane lies beyond the eye as well; the three- and five-pyramid views
+    above draw from that many."""
+    for case, count in (("one pyramid", 1), ("three pyramids", 3), ("five pyramids, pre", 5)):
+        scene = small_scene({**NO_ERT, "image.width": 48, "image.height": 40, **INSIDE[case],
+                             "renderer.associated_colors": True})
+        facts = factorize_view(scene.camera, scene.volume, 48, 40)
+        assert len(facts) == count, case
+        py, px = np.mgrid[0:40, 0:48] + 0.5
+        d = np.stack([px.ravel(), py.ravel(), np.ones(px.size)], axis=1) @ \
+            pixel_directions(scene.camera, scene.volume, 48, 40).T
+        axes, signs = pyramid_of(d)
+        assert sum(int(((axes == f.pyramid[0]) & (signs == f.pyramid[1])).sum()) for f in facts) == 48 * 40
+        for f in facts:
+            eye_k, sign = f.eye[2], f.pyramid[1]
+            assert np.all(sign * (f.slices - eye_k) > 0) and sign * (f.base - eye_k) >= 1.0
+            assert len(f.slices) == (f.dims[2] - f.front if sign > 0 else f.front + 1)
+
+
+def test_an_eye_inside_sees_what_the_volume_holds(shearwarp):
+    """Against the ray caster's judge, not only its own slices: the eye inside, as the other renderers
+    see it (RMS measured 0.019 at 48 x 40 and a mean opacity of 0.15: the slices' slabs against the
+    reference's steps, as from outside, where the default view differs by 0.010 at a mean opacity of
+    0.03)."""
+    scene = small_scene({**NO_ERT, "image.width": 48, "image.height": 40, **INSIDE["three pyramids"]})
+    frame = shearwarp.render(scene)
+    truth = DiscreteReference(scene.with_renderer(name="reference")).render_float64()
+    assert truth[..., 3].mean() > 0.1
+    assert np.sqrt(np.mean((frame - truth) ** 2)) < 0.04

@@ -17,14 +17,11 @@ OPACITY_THRESHOLD = s.Setting("opacity_threshold", float, 0.0, "voxels at most t
 
 
 def check(scene):
-    """What the settings do not say: associated colours for pre-classification, and a perspective eye
-    outside the volume (one factorization; Lacroute splits the view into several, not done here)."""
+    """What the settings do not say: associated colours for pre-classification.  (A perspective eye
+    inside the volume is factored by pyramids: :func:`.factorization.factorize_view`.)"""
     r = scene.renderer
     if r.classification == "pre" and not r.associated_colors:
         raise SceneError("shearwarp composites associated colours; set renderer.associated_colors = true")
-    from .factorization import factorize
-
-    factorize(scene.camera, scene.volume, scene.image.width, scene.image.height)
 
 
 PLUGIN = RendererPlugin(

@@ -27,6 +27,19 @@ homogeneous ``(px w, py w, w)``, is a 2D transformation: affine for parallel
 projection, projective (a homography) for perspective.  The viewing
 transformation is ``M_view = W3 S P`` with ``W3`` independent of ``k``
 (:meth:`Factorization.matrices`; tested to rounding).
+
+A perspective eye inside the volume (inside the slab of slices of every axis) has no single
+factorization: rays leave it in every direction.  The view is split as Lacroute (1995) splits it,
+into the pyramids of rays sharing a principal axis and a direction along it (the six faces of a cube
+around the eye): each final pixel belongs to the pyramid of its ray (:func:`pixel_directions`), and
+each pyramid is factored apart (:func:`pyramid_factorization`) over the slices beyond the eye on its
+side.  Its intermediate image cannot lie in the front slice's plane, which may be a hair from the
+eye (every ray would pass through a few pixels); it lies in a plane ``base`` beyond the eye, as
+far as makes one intermediate pixel about one final pixel at the image's centre, and covers only the
+pyramid's pixels' rays (plus a margin for the warp's taps).  Slices nearer than it are magnified
+(scale above 1), so each intermediate pixel gathers its sample bilinearly from the slice rather than
+each voxel scattering to four pixels (``gather``).  :func:`factorize_view` gives one factorization,
+or one per pyramid that the image sees.
 """
 
 from __future__ import annotations
@@ -85,6 +98,15 @@ def permutation_matrix(axis: int) -> np.ndarray:
     return p
 
 
+def eye_inside(camera, volume) -> bool:
+    """Whether a perspective eye lies inside the slab of slices of every axis (no single factorization)."""
+    if camera.projection == "orthographic":
+        return False
+    eye_voxel = (np.asarray(camera.eye) - volume.box[0]) / np.asarray(volume.spacing)
+    n = np.asarray(volume.dims) - 1
+    return not bool(((eye_voxel < -EYE_MARGIN) | (eye_voxel > n + EYE_MARGIN)).any())
+
+
 def principal_axis(camera, volume) -> int:
     """The slice axis: the largest component of the viewing direction in voxel coordinates (so that
     consecutive slices shift by at most one voxel along a ray).  Perspective: the direction from the
@@ -100,8 +122,7 @@ def principal_axis(camera, volume) -> int:
     outside = (eye_voxel < -EYE_MARGIN) | (eye_voxel > n + EYE_MARGIN)
     if not outside.any():
         raise SceneError("shearwarp: the perspective eye is inside the volume, where no slice axis has all "
-                         "rays crossing the slices one way; move the camera out, use an orthographic camera, "
-                         "or use renderer raycast")
+                         "rays crossing the slices one way: factor the view by pyramids (factorize_view)")
     direction = np.abs(((lo + hi) / 2.0 - np.asarray(camera.eye)) / spacing)
     return int(np.argmax(np.where(outside, direction, -1.0)))
 
@@ -121,10 +142,18 @@ class Factorization:
     size: tuple[int, int]             # intermediate image (width, height), border included
     warp: np.ndarray                  # 3x3: (u, v, 1) -> (px w, py w, w)
     to_world: np.ndarray              # 4x4: permuted (i, j, k, 1) -> world
+    base: float | None = None         # k of the intermediate image's plane (None: the front slice's)
+    count: int | None = None          # slices composited (None: all dims[2])
+    gather: bool = False              # each pixel samples the slices (a pyramid of an eye inside)
+    pyramid: tuple[int, int] | None = None  # (axis, sign): the pixels whose rays are this pyramid's
+
+    @property
+    def base_k(self) -> float:
+        return float(self.front) if self.base is None else self.base
 
     @property
     def slices(self) -> np.ndarray:
-        return self.front + self.step * np.arange(self.dims[2])
+        return self.front + self.step * np.arange(self.dims[2] if self.count is None else self.count)
 
     def slice_transform(self, k):
         """``(scale, offset_u, offset_v)``: slice ``k``'s voxel ``(i, j)`` lands at
@@ -135,14 +164,14 @@ class Factorization:
             sx, sy = self.shear
             return np.ones_like(k), sx * (k - self.front) + tu, sy * (k - self.front) + tv
         ei, ej, ek = self.eye
-        scale = (ek - self.front) / (ek - k)
+        scale = (ek - self.base_k) / (ek - k)
         return scale, ei * (1.0 - scale) + tu, ej * (1.0 - scale) + tv
 
     def front_points(self, u, v) -> np.ndarray:
-        """World points ``(..., 3)`` on the front slice's plane at intermediate ``(u, v)``."""
+        """World points ``(..., 3)`` on the intermediate image's plane at intermediate ``(u, v)``."""
         tu, tv = self.translation
         q = np.stack([np.asarray(u, float) - tu, np.asarray(v, float) - tv,
-                      np.full(np.shape(u), float(self.front)), np.ones(np.shape(u))], axis=-1)
+                      np.full(np.shape(u), self.base_k), np.ones(np.shape(u))], axis=-1)
         return (q @ self.to_world.T)[..., :3]
 
     def matrices(self, camera, width: int, height: int) -> dict:
@@ -155,7 +184,7 @@ class Factorization:
             s[1, 2], s[1, 3] = sy, tv - sy * self.front
         else:
             ei, ej, ek = self.eye
-            depth = ek - self.front
+            depth = ek - self.base_k
             for row, (e, t) in enumerate(((ei, tu), (ej, tv))):
                 s[row, 2], s[row, 3] = -(e + t) / depth, (e + t) * ek / depth - e
             s[3, 2], s[3, 3] = -1.0 / depth, ek / depth
@@ -197,5 +226,78 @@ def factorize(camera, volume, width: int, height: int) -> Factorization:
     tu, tv = 1.0 - math.floor(lo_u), 1.0 - math.floor(lo_v)
     size = (int(math.floor(hi_u) + tu) + 3, int(math.floor(hi_v) + tv) + 3)
     fact = dataclasses.replace(probe, translation=(tu, tv), size=size)
+    w3 = fact.matrices(camera, width, height)["W3"]
+    return dataclasses.replace(fact, warp=w3[np.ix_([0, 1, 3], [0, 1, 3])])
+
+
+def pixel_directions(camera, volume, width: int, height: int) -> np.ndarray:
+    """3x3 ``M``: a final pixel's ray direction in voxel units (world direction over the spacing,
+    x, y, z order), unnormalized, ``M @ (px, py, 1)`` for pixel coordinates ``px = col + 0.5``,
+    ``py = row + 0.5`` (row 0 at the top), as :meth:`dvr_gl.camera.Camera.pixel_rays` builds them;
+    ``shaders/warp.frag`` assigns pixels to pyramids with it (PYRAMID)."""
+    f, right, up = (np.asarray(v, dtype=np.float64) for v in camera.basis())
+    half_w, half_h = camera.half_extent(width / height)
+    world = np.stack([2.0 * half_w / width * right, -2.0 * half_h / height * up,
+                      f - half_w * right + half_h * up], axis=1)
+    return world / np.asarray(volume.spacing, dtype=np.float64)[:, None]
+
+
+def pyramid_of(directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The pyramid of each direction ``(N, 3)`` (voxel units): its principal axis (the largest
+    component's; ties to the lower axis, as ``argmax`` and warp.frag) and the sign along it."""
+    axis = np.argmax(np.abs(directions), axis=1)
+    return axis, np.sign(directions[np.arange(len(directions)), axis]).astype(np.int64)
+
+
+def factorize_view(camera, volume, width: int, height: int) -> list[Factorization]:
+    """The view's factorizations: one (:func:`factorize`), or with a perspective eye inside the volume
+    one per pyramid that the image's pixels see and that has slices beyond the eye."""
+    if not eye_inside(camera, volume):
+        return [factorize(camera, volume, width, height)]
+    py, px = np.mgrid[0:height, 0:width] + 0.5
+    directions = np.stack([px.ravel(), py.ravel(), np.ones(px.size)], axis=1) @ \
+        pixel_directions(camera, volume, width, height).T
+    axes, signs = pyramid_of(directions)
+    out = []
+    for axis, sign in sorted(set(zip(axes.tolist(), signs.tolist()))):
+        mine = (axes == axis) & (signs == sign)
+        fact = pyramid_factorization(camera, volume, width, height, axis, sign, directions[mine])
+        if fact is not None:
+            out.append(fact)
+    return out
+
+
+def pyramid_factorization(camera, volume, width: int, height: int, axis: int, sign: int,
+                          directions: np.ndarray) -> Factorization | None:
+    """The factorization of pyramid ``(axis, sign)`` for its pixels' ray ``directions`` (voxel units):
+    the slices beyond the eye on that side (None where there are none), the intermediate image in
+    the plane ``base`` (see the module doc) over those rays' crossings with it, two pixels of margin."""
+    a, b, c = permuted_axes(axis)
+    n = np.asarray(volume.dims)
+    dims = (int(n[a]), int(n[b]), int(n[c]))
+    p = permutation_matrix(axis)
+    to_world = voxel_to_world(volume) @ np.linalg.inv(p)
+    spacing = np.asarray(volume.spacing, dtype=np.float64)
+    eye_voxel = (np.asarray(camera.eye) - np.asarray(volume.origin)) / spacing
+    eye = (float(eye_voxel[a]), float(eye_voxel[b]), float(eye_voxel[c]))
+    if sign > 0:
+        front = int(math.floor(eye[2])) + 1      # the first slice beyond the eye
+        count, step = dims[2] - front, 1
+    else:
+        front = int(math.ceil(eye[2])) - 1
+        count, step = front + 1, -1
+    if count <= 0:
+        return None
+    # one intermediate pixel (one voxel across a and b) about one final pixel at the image's centre
+    pixel = 2.0 * camera.half_extent(width / height)[1] / height  # tan units per final pixel
+    across = min(spacing[a], spacing[b]) / (spacing[c] * pixel)
+    base = eye[2] + sign * max(across, 1.0)
+    d = directions[:, [a, b, c]]
+    reach = (base - eye[2]) / d[:, 2]
+    u, v = eye[0] + d[:, 0] * reach, eye[1] + d[:, 1] * reach
+    tu, tv = 2.0 - math.floor(u.min()), 2.0 - math.floor(v.min())
+    size = (int(math.floor(u.max()) + tu) + 4, int(math.floor(v.max()) + tv) + 4)
+    fact = Factorization(axis, True, dims, front, step, (0.0, 0.0), eye, (tu, tv), size, np.eye(3), to_world,
+                         base=base, count=count, gather=True, pyramid=(axis, sign))
     w3 = fact.matrices(camera, width, height)["W3"]
     return dataclasses.replace(fact, warp=w3[np.ix_([0, 1, 3], [0, 1, 3])])

@@ -44,7 +44,7 @@ from ...reference import plans
 from ...reference.discrete import DiscreteReference
 from .run_length import RunLengthVolume, SliceClassifier, expand_runs
 from .shading import VoxelNormals, VoxelShadedModel, frame_table
-from .factorization import factorize
+from .factorization import factorize, factorize_view, pixel_directions, pyramid_of
 from ..grid.gl_base import GLVolumeRenderer, now
 
 OPEN_REFRESH = 4  # slices between refreshes of the per-row count of open pixels (stale counts are safe)
@@ -90,7 +90,6 @@ def composite(fact, rle: RunLengthVolume, scene, table=None) -> tuple[np.ndarray
     """The intermediate image ``(Hi, Wi, 4)`` float64 (premultiplied colour, opacity) and counts;
     ``table``: the frame's shading table ``(D, S)`` (:mod:`.shading`), if the scene shades."""
     width, height = fact.size
-    ni, nj, _ = fact.dims
     r = scene.renderer
     pixels = width * height
     colour = np.zeros((pixels, 3))
@@ -114,20 +113,15 @@ def composite(fact, rle: RunLengthVolume, scene, table=None) -> tuple[np.ndarray
     for n, k in enumerate(fact.slices):
         if n % OPEN_REFRESH == 0:
             open_rows[:, 1:] = np.cumsum(open_.reshape(height, width), axis=1)
-        first, length, first_row = rle.runs(int(k))
-        if not len(first):
+        if fact.gather:  # a pyramid of an eye inside: each open pixel samples the slice
+            p, w, rows, read = _gathered(fact, rle, int(k), open_)
+        else:
+            p, w, rows, read = _scattered(fact, rle, int(k), open_, open_rows)
+        counts["voxels_read"] += read
+        if not len(p):
             continue
-        scale, ou, ov = (float(x) for x in fact.slice_transform(k))
-        first, length, first_row = _runs_in_view(first, length, first_row, ni, scale, ou, ov, open_rows)
-        if not len(first):
-            continue
-        offset, run = expand_runs(first, length)
-        flat = first[run] + offset
-        rows = first_row[run] + offset
-        counts["voxels_read"] += len(flat)
-        p, w, rows = _footprints(flat % ni, flat // ni, rows, scale, ou, ov, fact.dims, width, open_)
         u, v = p % width, p // width
-        keep = _inside(u, ou, scale, ni) & _inside(v, ov, scale, nj)
+        keep = np.ones(len(p), dtype=bool)
         if depth.needed:
             keep &= depth.keep(int(k), u.astype(np.float64), v.astype(np.float64))
         if clip is not None:  # per sample, as the slicers' fragments
@@ -149,6 +143,70 @@ def composite(fact, rle: RunLengthVolume, scene, table=None) -> tuple[np.ndarray
         counts["samples"] += len(pix)
     rgba = over_surface(np.concatenate([colour, -np.expm1(-tau)[:, None]], axis=1), surface)
     return rgba.reshape(height, width, 4), counts
+
+
+def _scattered(fact, rle, k: int, open_, open_rows):
+    """Slice ``k``'s stored voxels scattered to their (up to four) open pixels: pixel indices, bilinear
+    weights and the voxels' rows, only pixels whose ray crosses the slice within its voxels; and the
+    number of voxels read."""
+    width, _ = fact.size
+    ni, nj, _ = fact.dims
+    empty = (np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64), 0)
+    first, length, first_row = rle.runs(k)
+    if not len(first):
+        return empty
+    scale, ou, ov = (float(x) for x in fact.slice_transform(k))
+    first, length, first_row = _runs_in_view(first, length, first_row, ni, scale, ou, ov, open_rows)
+    if not len(first):
+        return empty
+    offset, run = expand_runs(first, length)
+    flat = first[run] + offset
+    rows = first_row[run] + offset
+    p, w, rows = _footprints(flat % ni, flat // ni, rows, scale, ou, ov, fact.dims, width, open_)
+    keep = _inside(p % width, ou, scale, ni) & _inside(p // width, ov, scale, nj)
+    return p[keep], w[keep], rows[keep], len(flat)
+
+
+def _gathered(fact, rle, k: int, open_):
+    """Slice ``k`` sampled by each open pixel whose ray crosses it within its voxels: the pixel, its
+    (up to four) stored voxels' bilinear weights and rows, as :func:`_scattered` gives them (the tent
+    ``max(0, 1 - |x - i|)`` is the same either way); also where the slice is magnified (scale above
+    1), which scattering to four pixels cannot do.  Voxels not stored (transparent) are left out; the
+    last value counts the taps read."""
+    width, height = fact.size
+    ni, nj, _ = fact.dims
+    scale, ou, ov = (float(x) for x in fact.slice_transform(k))
+    pad_i, pad_j = (0.5 if ni == 1 else 0.0), (0.5 if nj == 1 else 0.0)
+    u0, u1 = max(0, math.floor(ou - scale * pad_i)), min(width - 1, math.ceil(ou + scale * (ni - 1 + pad_i)))
+    v0, v1 = max(0, math.floor(ov - scale * pad_j)), min(height - 1, math.ceil(ov + scale * (nj - 1 + pad_j)))
+    if u1 < u0 or v1 < v0:
+        return np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64), 0
+    v, u = (a.ravel() for a in np.mgrid[v0:v1 + 1, u0:u1 + 1])
+    p = v * width + u
+    keep = open_[p] & _inside(u, ou, scale, ni) & _inside(v, ov, scale, nj)
+    p, u, v = p[keep], u[keep], v[keep]
+    first, length, first_row = rle.runs(k)
+    index = np.full(ni * nj, -1, dtype=np.int64)  # the slice's voxel -> its row (-1: not stored)
+    if len(first):
+        offset, run = expand_runs(first, length)
+        index[first[run] + offset] = first_row[run] + offset
+    (i, wi), (j, wj) = _taps((u - ou) / scale, ni), _taps((v - ov) / scale, nj)
+    pix = np.tile(p, 4)
+    w = np.concatenate([wi[0] * wj[0], wi[1] * wj[0], wi[0] * wj[1], wi[1] * wj[1]])
+    rows = index[np.concatenate([j[0] * ni + i[0], j[0] * ni + i[1], j[1] * ni + i[0], j[1] * ni + i[1]])]
+    keep = (w > 0) & (rows >= 0)
+    return pix[keep], w[keep], rows[keep], int(keep.sum())
+
+
+def _taps(x, n: int):
+    """The two voxels along an axis of ``n`` around positions ``x`` and their linear weights; a single
+    sample: itself, weight 1 (its half-voxel extent is checked by :func:`_inside`)."""
+    if n == 1:
+        zero = np.zeros(len(x), dtype=np.int64)
+        return (zero, zero), (np.ones(len(x)), np.zeros(len(x)))
+    lo = np.clip(np.floor(x), 0, n - 2).astype(np.int64)
+    frac = x - lo
+    return (lo, lo + 1), (1.0 - frac, frac)
 
 
 def _runs_in_view(first, length, first_row, ni, scale, ou, ov, open_rows):
@@ -279,14 +337,17 @@ def intermediate_rays(fact, scene, u=None, v=None) -> RayBatch:
     if clip is not None:  # the slices crossed inside the region: the samples composite keeps
         t_enter, t_exit = clip.interval(o, d, t_enter, t_exit)
     t0 = np.maximum(t_enter, cam.near_distance(d))
-    hit = t_exit > t0
+    hit = (t_exit > t0) & (d @ f > 0)  # a ray leaving the eye backwards is no camera's (a pyramid's margin)
     return RayBatch(o, d, np.where(hit, t0, 0.0), np.where(hit, t_exit, 0.0), np.full(len(o), 0.5))
 
 
 def on_border(fact, u, v) -> np.ndarray:
     """Whether intermediate pixels ``(u, v)`` lie on the image's one-pixel border, which stays transparent
-    (meshes included) so that the warp fades to nothing at its edges as the reference's taps outside do."""
+    (meshes included) so that the warp fades to nothing at its edges as the reference's taps outside do.
+    A pyramid's image has none: it covers its pixels' taps with a margin, every pixel a ray's."""
     width, height = fact.size
+    if fact.gather:
+        return np.zeros(np.shape(u), dtype=bool)
     return (u <= 0) | (v <= 0) | (u >= width - 1) | (v >= height - 1)
 
 
@@ -307,31 +368,54 @@ def _same_slices_reference(scene, fact, rays, u, v, quantized: bool = True) -> n
     return reference.render_float64(shape=(len(rays), 1))[:, 0]
 
 
-def intermediate_reference(scene) -> np.ndarray:
+def intermediate_reference(scene, fact=None) -> np.ndarray:
     """The same-discretization reference of the intermediate image, float64 ``(Hi, Wi, 4)``: the
-    rays of its pixels, sampled where they cross the slices across the principal axis."""
-    fact = factorize(scene.camera, scene.volume, scene.image.width, scene.image.height)
+    rays of its pixels, sampled where they cross the slices across the principal axis (``fact``: a
+    pyramid's factorization, default the view's single one)."""
+    fact = fact or factorize(scene.camera, scene.volume, scene.image.width, scene.image.height)
     width, height = fact.size
     v, u = (a.ravel() for a in np.mgrid[0:height, 0:width])
     return _same_slices_reference(scene, fact, intermediate_rays(fact, scene), u, v).reshape(height, width, 4)
+
+
+def pixel_owners(facts, scene) -> np.ndarray:
+    """``(H * W,)``: the index in ``facts`` of the factorization each final pixel is warped from (its
+    ray's pyramid's; -1: a pyramid with no slices beyond the eye, which sees nothing)."""
+    width, height = scene.image.width, scene.image.height
+    if facts[0].pyramid is None:
+        return np.zeros(width * height, dtype=np.int64)
+    py, px = np.mgrid[0:height, 0:width] + 0.5
+    directions = np.stack([px.ravel(), py.ravel(), np.ones(px.size)], axis=1) @ \
+        pixel_directions(scene.camera, scene.volume, width, height).T
+    axes, signs = pyramid_of(directions)
+    owner = np.full(width * height, -1, dtype=np.int64)
+    for n, fact in enumerate(facts):
+        owner[(axes == fact.pyramid[0]) & (signs == fact.pyramid[1])] = n
+    return owner
 
 
 def reference(scene, quantized: bool = True) -> np.ndarray:
     """The same-discretization reference of the final image, float64 ``(H, W, 4)``: the four
     intermediate pixels around each final pixel's warped position, each by
     :func:`_same_slices_reference`, interpolated bilinearly (only the pixels needed are computed);
-    ``quantized=False``: shaded with unquantized normals."""
+    with the eye inside, each pixel from its pyramid's intermediate image; ``quantized=False``:
+    shaded with unquantized normals."""
     width, height = scene.image.width, scene.image.height
-    fact = factorize(scene.camera, scene.volume, width, height)
-    u, v, weights, valid = _warp_taps(fact, width, height)
-    wi, hi = fact.size
-    key = np.where(valid, v * wi + u, -1)
-    needed = np.unique(key[valid])
-    values = np.zeros((len(needed) + 1, 4))  # the last row: transparent, for taps outside
-    u, v = needed % wi, needed // wi
-    values[:-1] = _same_slices_reference(scene, fact, intermediate_rays(fact, scene, u, v), u, v, quantized)
-    rows = np.where(valid, np.searchsorted(needed, key), len(needed))
-    return np.einsum("tp,tpc->pc", weights, values[rows]).reshape(height, width, 4)
+    facts = factorize_view(scene.camera, scene.volume, width, height)
+    owner = pixel_owners(facts, scene)
+    out = np.zeros((width * height, 4))
+    for n, fact in enumerate(facts):
+        mine = owner == n
+        u, v, weights, valid = (a[:, mine] for a in _warp_taps(fact, width, height))
+        wi, hi = fact.size
+        key = np.where(valid, v * wi + u, -1)
+        needed = np.unique(key[valid])
+        values = np.zeros((len(needed) + 1, 4))  # the last row: transparent, for taps outside
+        nu, nv = needed % wi, needed // wi
+        values[:-1] = _same_slices_reference(scene, fact, intermediate_rays(fact, scene, nu, nv), nu, nv, quantized)
+        rows = np.where(valid, np.searchsorted(needed, key), len(needed))
+        out[mine] = np.einsum("tp,tpc->pc", weights, values[rows])
+    return out.reshape(height, width, 4)
 
 
 def _warp_taps(fact, width: int, height: int):
@@ -385,33 +469,46 @@ class ShearWarpRenderer(GLVolumeRenderer):
         """Classification runs on the host: the table is no texture, only its memory counts; the
         intermediate image is one (one pixel per voxel of the front slice, plus the shear)."""
         limits.check_lut_memory(scene.renderer.lut_size)
-        fact = factorize(scene.camera, scene.volume, scene.image.width, scene.image.height)
-        limits.check_texture("shear-warp's intermediate image", fact.size, gl,
-                             "downsample the volume or use another renderer (raycast bricks large volumes)")
+        for fact in factorize_view(scene.camera, scene.volume, scene.image.width, scene.image.height):
+            limits.check_texture("shear-warp's intermediate image", fact.size, gl,
+                                 "downsample the volume or use another renderer (raycast bricks large volumes)")
 
     def draw(self, scene) -> np.ndarray:
         self.activate()
         start = now()
         width, height = scene.image.width, scene.image.height
-        fact = factorize(scene.camera, scene.volume, width, height)
-        rle = self.encoding(scene, fact.axis)
-        composited = now()
-        table = frame_table(scene) if rle.codes is not None else None
-        intermediate, counts = composite(fact, rle, scene, table)
-        composited = now() - composited
-        image = self.warp(fact, intermediate, width, height)
+        image = np.zeros((height, width, 4), dtype=np.float32)
+        counts = {"voxels_read": 0, "samples": 0}
+        composited, stored = 0.0, 0
+        facts = factorize_view(scene.camera, scene.volume, width, height)
+        for fact in facts:  # one, or one per pyramid of an eye inside (each pixel warped from one)
+            begun = now()
+            rle = self.encoding(scene, fact.axis)
+            table = frame_table(scene) if rle.codes is not None else None
+            intermediate, done = composite(fact, rle, scene, table)
+            composited += now() - begun
+            stored = max(stored, rle.stored_voxels)
+            counts = {key: counts[key] + done[key] for key in counts}
+            image += self.warp(fact, intermediate, width, height, scene)
         total = int(np.prod(scene.volume.dims))
-        self.stats = {"seconds": now() - start, "composite_seconds": composited, "axis": fact.axis,
-                      "intermediate": fact.size, "voxels": total, "stored_voxels": rle.stored_voxels,
-                      "skipped_fraction": 1.0 - counts["voxels_read"] / total, **counts}
+        self.stats = {"seconds": now() - start, "composite_seconds": composited, "axis": facts[0].axis,
+                      "intermediate": facts[0].size, "factorizations": len(facts), "voxels": total,
+                      "stored_voxels": stored, "skipped_fraction": 1.0 - counts["voxels_read"] / total, **counts}
         return image
 
-    def warp(self, fact, intermediate: np.ndarray, width: int, height: int) -> np.ndarray:
+    def warp(self, fact, intermediate: np.ndarray, width: int, height: int, scene=None) -> np.ndarray:
         """Draw the intermediate image on a quad transformed by ``M_warp`` (homogeneous, so that GL
-        interpolates texture coordinates perspective-correctly), bilinear."""
+        interpolates texture coordinates perspective-correctly), bilinear; a pyramid's only on the
+        pixels whose rays are its own (PYRAMID in warp.frag, :func:`pixel_owners`' rule)."""
         wi, hi = fact.size
         to_ndc = np.array([[2.0 / width, 0.0, -1.0], [0.0, -2.0 / height, 1.0], [0.0, 0.0, 1.0]])
-        program = create_program(self.ctx, "warp.vert", "warp.frag", {})
+        program = create_program(self.ctx, "warp.vert", "warp.frag", {"PYRAMID": fact.pyramid is not None})
+        if fact.pyramid is not None:
+            directions = pixel_directions(scene.camera, scene.volume, width, height)
+            program["u_pixel_dirs"].write(directions.T.astype("f4").tobytes())  # GL: column-major
+            program["u_pyramid_axis"].value = fact.pyramid[0]
+            program["u_pyramid_sign"].value = float(fact.pyramid[1])
+            program["u_image_height"].value = float(height)
         texture = self.ctx.texture((wi, hi), 4, np.ascontiguousarray(intermediate, dtype=np.float32).tobytes(),
                                    dtype="f4")
         texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
