@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dvr_gl.geometry import icosphere
 from dvr_gl.image import side_by_side, write_image
 from dvr_gl.model import GeometrySpec
 from dvr_gl.renderers import create_renderer
@@ -105,32 +106,6 @@ def _head_keys(scene) -> dict:
         return {**keys, "volume.path": source.path, "transfer_function.preset": "ct-bone",
                 "transfer_function.rescale_intercept": -1024.0}
     return {**keys, "volume.demo": source.demo, "volume.size": source.size}
-
-
-def icosphere(centre, radius: float, subdivisions: int = 3) -> tuple[np.ndarray, np.ndarray]:
-    """A sphere's triangles: an icosahedron's faces split ``subdivisions`` times, pushed to the sphere."""
-    t = (1.0 + 5 ** 0.5) / 2.0
-    v = [(-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0), (0, -1, t), (0, 1, t), (0, -1, -t), (0, 1, -t),
-         (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)]
-    f = [(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11), (1, 5, 9), (5, 11, 4), (11, 10, 2), (10, 7, 6),
-         (7, 1, 8), (3, 9, 4), (3, 4, 2), (3, 2, 6), (3, 6, 8), (3, 8, 9), (4, 9, 5), (2, 4, 11), (6, 2, 10),
-         (8, 6, 7), (9, 8, 1)]
-    points = [np.asarray(p, dtype=np.float64) / np.linalg.norm(p) for p in v]
-    for _ in range(subdivisions):
-        middle, faces = {}, []
-
-        def mid(a, b):
-            key = (min(a, b), max(a, b))
-            if key not in middle:
-                m = points[a] + points[b]
-                points.append(m / np.linalg.norm(m))
-                middle[key] = len(points) - 1
-            return middle[key]
-        for a, b, c in f:
-            ab, bc, ca = mid(a, b), mid(b, c), mid(c, a)
-            faces += [(a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca)]
-        f = faces
-    return np.asarray(centre) + radius * np.array(points), np.array(f, dtype=np.int32)
 
 
 def geometry(size: int, data_dir: Path, folder: Path) -> np.ndarray:

@@ -168,3 +168,32 @@ def over_surface(rgba: np.ndarray, surface: np.ndarray | None) -> np.ndarray:
         return rgba
     surface = surface.reshape(rgba.shape)
     return rgba + (1.0 - rgba[..., 3:4]) * surface
+
+
+def icosphere(centre, radius: float, subdivisions: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """A sphere's triangles ``(points (V, 3), faces (T, 3))``: an icosahedron's faces split
+    ``subdivisions`` times, their corners pushed out to the sphere (the facets lie inside it: the
+    largest gap, at a facet's centre, is below ``radius * 0.3 / 4 ** subdivisions``, tested).  For tests and
+    pictures."""
+    t = (1.0 + 5 ** 0.5) / 2.0
+    v = [(-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0), (0, -1, t), (0, 1, t), (0, -1, -t), (0, 1, -t),
+         (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)]
+    f = [(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11), (1, 5, 9), (5, 11, 4), (11, 10, 2), (10, 7, 6),
+         (7, 1, 8), (3, 9, 4), (3, 4, 2), (3, 2, 6), (3, 6, 8), (3, 8, 9), (4, 9, 5), (2, 4, 11), (6, 2, 10),
+         (8, 6, 7), (9, 8, 1)]
+    points = [np.asarray(p, dtype=np.float64) / np.linalg.norm(p) for p in v]
+    for _ in range(subdivisions):
+        middle, faces = {}, []
+
+        def mid(a, b):
+            key = (min(a, b), max(a, b))
+            if key not in middle:
+                m = points[a] + points[b]
+                points.append(m / np.linalg.norm(m))
+                middle[key] = len(points) - 1
+            return middle[key]
+        for a, b, c in f:
+            ab, bc, ca = mid(a, b), mid(b, c), mid(c, a)
+            faces += [(a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca)]
+        f = faces
+    return np.asarray(centre) + radius * np.array(points), np.array(f, dtype=np.int32)

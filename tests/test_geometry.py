@@ -304,3 +304,77 @@ def test_splatting_ends_its_parts_at_the_meshes_as_its_oracle(tmp_path, gl_conte
     with registry.plugin("splatting").create(ctx=gl_context) as renderer:
         image = renderer.render(scene)
     assert_close(image, reference(scene))
+
+
+SPHERE_RADIUS = 0.5
+
+
+def _sphere(path, z, subdivisions=4):
+    from dvr_gl.geometry import icosphere
+
+    points, faces = icosphere((2.0, 2.0, z), SPHERE_RADIUS, subdivisions)
+    meshio.write_points_cells(str(path), points, [("triangle", faces)])
+    return str(path)
+
+
+def _sphere_bounds(scene, z):
+    """The closed forms of a sphere of colour ``GREY`` shown flat (no lights) at height ``z`` above or in
+    the slab, for the true radius and for the radius of the sphere inside every facet (the
+    tessellation's gap, :func:`dvr_gl.geometry.icosphere`): a pixel's ray meets the facets between
+    the two spheres, and the pixel is monotone in that depth, so it lies between the two forms.
+    Pixels whose ray passes between the two silhouettes are left out (``None`` mask)."""
+    gap = SPHERE_RADIUS * 0.3 / 4 ** 4
+    origins, _ = scene.camera.pixel_rays(scene.image.width, scene.image.height)
+    r2 = (origins[:, 0] - 2.0) ** 2 + (origins[:, 1] - 2.0) ** 2
+    forms = []
+    for radius in (SPHERE_RADIUS, SPHERE_RADIUS - gap):
+        hit = r2 < radius ** 2
+        top = np.where(hit, z + np.sqrt(np.maximum(radius ** 2 - r2, 0.0)), -np.inf)
+        depth = 1.0 - np.clip(top, 0.0, 1.0)  # the slab's part in front of the surface
+        alpha = -np.expm1(-SIGMA * depth)
+        rgba = np.concatenate([COLOUR * alpha[:, None], alpha[:, None]], axis=1)
+        rgba += (1.0 - alpha[:, None]) * np.where(hit[:, None], np.append(GREY, 1.0), 0.0)
+        forms.append(rgba)
+    clear = (r2 < (SPHERE_RADIUS - gap) ** 2) | (r2 > SPHERE_RADIUS ** 2)
+    shape = (scene.image.height, scene.image.width, 4)
+    lo, hi = np.minimum(*forms), np.maximum(*forms)
+    return lo.reshape(shape), hi.reshape(shape), clear.reshape(shape[:2])
+
+
+def test_icosphere_facets_lie_within_the_stated_gap():
+    from dvr_gl.geometry import icosphere
+
+    for subdivisions in (2, 3, 4):
+        points, faces = icosphere((0.0, 0.0, 0.0), 1.0, subdivisions)
+        assert np.allclose(np.linalg.norm(points, axis=1), 1.0)
+        centres = np.linalg.norm(points[faces].mean(axis=1), axis=1)
+        assert 0.5 * 0.3 / 4 ** subdivisions < 1.0 - centres.min() < 0.3 / 4 ** subdivisions
+
+
+@pytest.mark.parametrize("height", [1.6, 0.5], ids=["in front", "inside"])
+@pytest.mark.parametrize("name", ["reference", "reference-converged", "raycast", "projected-tetrahedra"])
+def test_sphere_in_front_of_and_inside_a_slab(tmp_path, gl_context, name, height):
+    """The issue's closed form: a sphere (5120 facets, radius 0.5, flat colour) above the slab hides it
+    where it covers it; inside it (touching both faces) it ends each ray at the height of its top,
+    ``z + sqrt(R^2 - r^2)``.  Every pixel between the forms of the true and the inscribed sphere, to
+    rounding (the references) or float32 (2e-6: the GPU renderers); 60 % of the pixels are clear of
+    the silhouettes' band."""
+    extra = {"renderer.shading.lights": [], "image.width": 24, "image.height": 20}
+    geometry = [{"path": _sphere(tmp_path / "sphere.obj", height), "color": list(GREY)}]
+    if name == "projected-tetrahedra":  # the slab meshed into tetrahedra (tests/test_mesh_clipping.py)
+        from test_mesh_clipping import slab_keys, slab_mesh
+        from test_projected_tetrahedra import mesh_scene
+
+        scene = mesh_scene(slab_mesh(), **slab_keys(name, **{"renderer.geometry": geometry, **extra}))
+    else:
+        scene = _slab_scene(tmp_path, name, geometry, **extra)
+    if name in ("raycast", "projected-tetrahedra"):
+        with registry.plugin(name).create(ctx=gl_context) as renderer:
+            image, tolerance = renderer.render(scene), 2e-6
+    else:
+        reference = ConvergedReference(scene) if name == "reference-converged" else DiscreteReference(scene)
+        image, tolerance = reference.render_float64(), 1e-9
+    lo, hi, clear = _sphere_bounds(scene, height)
+    assert clear.mean() > 0.6 and (hi - lo)[clear].max() < 3e-3  # narrow: measured 2.2e-3 at most (a rim pixel)
+    assert np.all(image[clear] >= lo[clear] - tolerance) and np.all(image[clear] <= hi[clear] + tolerance)
+    assert image[..., 3].min() > 0.7  # the slab everywhere, or the opaque sphere

@@ -50,7 +50,10 @@ class SurfaceLayer:
         depth = ctx.depth_renderbuffer((img.width, img.height))
         fbo = ctx.framebuffer(color_attachments=[colour], depth_attachment=depth)
         vbo = ctx.buffer(np.ascontiguousarray(vertices, dtype=np.float32).tobytes())
-        vao = ctx.vertex_array(program, [(vbo, "3f 3f 3f", "position", "normal", "colour")])
+        # an attribute the program does not read (the normal, without lights) is skipped as padding
+        used = [name for name in ("position", "normal", "colour") if name in program]
+        layout = " ".join("3f" if name in used else "12x" for name in ("position", "normal", "colour"))
+        vao = ctx.vertex_array(program, [(vbo, layout, *used)])
         try:
             fbo.use()
             ctx.viewport = (0, 0, img.width, img.height)
