@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import functools
 import os
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -59,13 +58,12 @@ def _read(path: str, size: int, mtime: int) -> TriangleMesh:
         import meshio
     except ImportError:
         raise SceneError("renderer.geometry: reading meshes needs meshio: pip install 'dvr-gl[mesh]'") from None
+    from .io.mesh import UnreadableMesh, quiet_read
+
     try:
-        with warnings.catch_warnings():  # meshio's format probes overflow on some files: not ours to show
-            warnings.simplefilter("ignore", RuntimeWarning)
-            mesh = meshio.read(path)
-    except Exception as exc:  # meshio raises many kinds on malformed files: one line, not a traceback
-        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise SceneError(f"renderer.geometry: cannot read {os.path.basename(path)} as a mesh ({reason}); give an "
+        mesh = quiet_read(meshio, path)
+    except UnreadableMesh as exc:  # one line, not meshio's prints or a traceback
+        raise SceneError(f"renderer.geometry: cannot read {os.path.basename(path)} as a mesh ({exc}); give an "
                          f"OBJ, PLY, STL or VTK polydata file") from None
     points = np.asarray(mesh.points, dtype=np.float64)
     if points.ndim != 2 or points.shape[1] not in (2, 3):

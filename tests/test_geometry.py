@@ -223,9 +223,11 @@ def test_renderers_without_meshes_refuse_them(tmp_path):
         assert problem is not None and "geometry" in problem and "reference" in problem, name
 
 
-def test_bad_meshes_are_one_line(tmp_path):
+def test_bad_meshes_are_one_line(tmp_path, capsys):
     garbage = tmp_path / "garbage.obj"
     garbage.write_bytes(b"\x00\x01 not a mesh \xff" * 20)
+    damaged = tmp_path / "damaged.ply"  # meshio prints and calls sys.exit on this one
+    damaged.write_bytes(b"garbage\x00\x01")
     points_only = tmp_path / "points.vtk"
     meshio.write_points_cells(str(points_only), np.zeros((3, 3)), [("vertex", np.array([[0], [1], [2]]))])
     nan = tmp_path / "nan.obj"
@@ -234,6 +236,7 @@ def test_bad_meshes_are_one_line(tmp_path):
     for geometry, words in (([{"path": str(tmp_path / "absent.obj")}], "mesh file (renderer.geometry) not found"),
                             ([{"path": str(tmp_path)}], "is a folder"),
                             ([{"path": str(garbage)}], "garbage.obj"),
+                            ([{"path": str(damaged)}], "cannot read damaged.ply as a mesh"),
                             ([{"path": str(points_only)}], "has no triangles"),
                             ([{"path": str(nan)}], "not finite"),
                             ([{"color": [0.5, 0.5, 0.5]}], "has no path"),
@@ -241,6 +244,7 @@ def test_bad_meshes_are_one_line(tmp_path):
         with pytest.raises(DvrError) as info:  # SceneError, or the sandbox's error for the file itself
             load_scene(None, {**TILTED, "renderer.name": "reference", "renderer.geometry": geometry})
         assert words in str(info.value) and "\n" not in str(info.value), words
+    assert capsys.readouterr() == ("", "")  # nothing of meshio's own printing reaches the terminal
 
 
 def test_mesh_paths_are_relative_to_the_scene_file(tmp_path):

@@ -36,6 +36,24 @@ def is_legacy_unstructured(path: Path) -> bool:
     return b"DATASET UNSTRUCTURED_GRID" in head.upper()
 
 
+class UnreadableMesh(Exception):
+    """meshio could not read a file; the message is its reason, on one line."""
+
+
+def quiet_read(meshio, path, **kwargs):
+    """``meshio.read(path, **kwargs)`` with what meshio prints kept out of the terminal and its failures
+    (exceptions of many kinds, and ``sys.exit`` for some: an unknown cell type, a damaged PLY) raised
+    as :class:`UnreadableMesh` with a one-line reason."""
+    said = io.StringIO()
+    try:
+        with warnings.catch_warnings(), contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
+            warnings.simplefilter("ignore")
+            return meshio.read(str(path), **kwargs)
+    except (Exception, SystemExit) as exc:  # ReadError, ValueError, KeyError, sys.exit... on malformed files
+        reason = " ".join((str(exc) if not isinstance(exc, SystemExit) else said.getvalue()).split())[:160]
+        raise UnreadableMesh(reason or type(exc).__name__) from None
+
+
 def read_mesh(path: Path, array: str | None = None) -> TetMesh:
     """A ``.vtu`` or legacy ``.vtk`` unstructured grid as a tetrahedral mesh."""
     meshio = require("meshio", "meshio", "mesh")
@@ -43,16 +61,10 @@ def read_mesh(path: Path, array: str | None = None) -> TetMesh:
     check_input_path(path, "mesh file")
     # meshio's memory is about 4x the file for binary data; ASCII parses to Python objects
     check_bytes(path.stat().st_size * 8.0, f"{path.name}: reading the mesh", "use a smaller mesh")
-    said = io.StringIO()
     try:
-        # meshio prints its complaints and, for some (an unknown cell type), exits: both caught here
-        with warnings.catch_warnings(), contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
-            warnings.simplefilter("ignore")
-            m = meshio.read(str(path), file_format="vtu" if path.suffix.lower() == ".vtu" else "vtk")
-    except (Exception, SystemExit) as exc:  # ReadError, ValueError, KeyError, sys.exit... on malformed files
-        reason = " ".join((str(exc) if not isinstance(exc, SystemExit) else said.getvalue()).split())[:160]
-        reason = reason or type(exc).__name__
-        raise VolumeError(f"{path}: not a readable VTK unstructured grid ({reason}); check the file") from None
+        m = quiet_read(meshio, path, file_format="vtu" if path.suffix.lower() == ".vtu" else "vtk")
+    except UnreadableMesh as exc:
+        raise VolumeError(f"{path}: not a readable VTK unstructured grid ({exc}); check the file") from None
     blocks, skipped = [], {}
     for i, block in enumerate(m.cells):
         if block.type in CORNERS:
