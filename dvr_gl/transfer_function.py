@@ -254,20 +254,21 @@ class TransferFunctionLUT:
 
     def lookup(self, values) -> tuple[np.ndarray, np.ndarray]:
         """``(colour (..., 3), sigma (...))`` by linear interpolation of the table."""
-        x = self.node_coordinate(values)
-        i0 = np.minimum(np.floor(x).astype(np.int64), self.size - 2)
-        f = (x - i0)[..., None]
-        row = self.table[i0] * (1.0 - f) + self.table[i0 + 1] * f
+        row = self._interpolate(self.table, values)
         return row[..., :3], row[..., 3]
 
     def albedo(self, values) -> np.ndarray:
         """The albedo column by linear interpolation of its table (as :meth:`lookup`)."""
         if self.albedo_table is None:
             raise SceneError("the transfer function has no albedo column")
+        return self._interpolate(self.albedo_table[:, None], values)[..., 0]
+
+    def _interpolate(self, table, values) -> np.ndarray:
+        """Rows of ``table`` (``(size, C)``, at the nodes) linearly interpolated at data values."""
         x = self.node_coordinate(values)
         i0 = np.minimum(np.floor(x).astype(np.int64), self.size - 2)
-        f = x - i0
-        return self.albedo_table[i0] * (1.0 - f) + self.albedo_table[i0 + 1] * f
+        f = (x - i0)[..., None]
+        return table[i0] * (1.0 - f) + table[i0 + 1] * f
 
 
 # --- presets -------------------------------------------------------------------------------------

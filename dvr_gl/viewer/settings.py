@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from ..clipping import clipping_in_use
 from ..errors import SceneError
 from ..fields import diagonal
 from ..renderers import registry
@@ -191,7 +192,7 @@ def describe(scene: Scene) -> str:
     if r.scattering.enabled:
         parts.append(f"scattering ({r.scattering.method.replace('_', ' ')})")
     clipping = getattr(r, "clipping", None)
-    if clipping is not None and (clipping.planes or clipping.box is not None):
+    if clipping_in_use(clipping):
         planes = len(clipping.planes)
         parts.append("clipped by " + " and ".join(
             ([f"{planes} plane{'s' * (planes != 1)}"] if planes else []) + (["a box"] if clipping.box else [])))

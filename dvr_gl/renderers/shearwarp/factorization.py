@@ -144,8 +144,13 @@ class Factorization:
     to_world: np.ndarray              # 4x4: permuted (i, j, k, 1) -> world
     base: float | None = None         # k of the intermediate image's plane (None: the front slice's)
     count: int | None = None          # slices composited (None: all dims[2])
-    gather: bool = False              # each pixel samples the slices (a pyramid of an eye inside)
     pyramid: tuple[int, int] | None = None  # (axis, sign): the pixels whose rays are this pyramid's
+
+    @property
+    def gather(self) -> bool:
+        """Whether each pixel samples the slices (a pyramid of an eye inside) rather than each voxel
+        scattering to its pixels."""
+        return self.pyramid is not None
 
     @property
     def base_k(self) -> float:
@@ -242,6 +247,15 @@ def pixel_directions(camera, volume, width: int, height: int) -> np.ndarray:
     return world / np.asarray(volume.spacing, dtype=np.float64)[:, None]
 
 
+def pixel_pyramids(camera, volume, width: int, height: int):
+    """Every final pixel's ray direction in voxel units ``(H * W, 3)``, row-major from the top, and its
+    pyramid (:func:`pyramid_of`: axis and sign, ``(H * W,)`` each)."""
+    py, px = np.mgrid[0:height, 0:width] + 0.5
+    directions = np.stack([px.ravel(), py.ravel(), np.ones(px.size)], axis=1) @ \
+        pixel_directions(camera, volume, width, height).T
+    return (directions, *pyramid_of(directions))
+
+
 def pyramid_of(directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The pyramid of each direction ``(N, 3)`` (voxel units): its principal axis (the largest
     component's; ties to the lower axis, as ``argmax`` and warp.frag) and the sign along it."""
@@ -254,10 +268,7 @@ def factorize_view(camera, volume, width: int, height: int) -> list[Factorizatio
     one per pyramid that the image's pixels see and that has slices beyond the eye."""
     if not eye_inside(camera, volume):
         return [factorize(camera, volume, width, height)]
-    py, px = np.mgrid[0:height, 0:width] + 0.5
-    directions = np.stack([px.ravel(), py.ravel(), np.ones(px.size)], axis=1) @ \
-        pixel_directions(camera, volume, width, height).T
-    axes, signs = pyramid_of(directions)
+    directions, axes, signs = pixel_pyramids(camera, volume, width, height)
     out = []
     for axis, sign in sorted(set(zip(axes.tolist(), signs.tolist()))):
         mine = (axes == axis) & (signs == sign)
@@ -298,6 +309,6 @@ def pyramid_factorization(camera, volume, width: int, height: int, axis: int, si
     tu, tv = 2.0 - math.floor(u.min()), 2.0 - math.floor(v.min())
     size = (int(math.floor(u.max()) + tu) + 4, int(math.floor(v.max()) + tv) + 4)
     fact = Factorization(axis, True, dims, front, step, (0.0, 0.0), eye, (tu, tv), size, np.eye(3), to_world,
-                         base=base, count=count, gather=True, pyramid=(axis, sign))
+                         base=base, count=count, pyramid=(axis, sign))
     w3 = fact.matrices(camera, width, height)["W3"]
     return dataclasses.replace(fact, warp=w3[np.ix_([0, 1, 3], [0, 1, 3])])

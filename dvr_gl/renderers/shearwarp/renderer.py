@@ -44,7 +44,7 @@ from ...reference import plans
 from ...reference.discrete import DiscreteReference
 from .run_length import RunLengthVolume, SliceClassifier, expand_runs
 from .shading import VoxelNormals, VoxelShadedModel, frame_table
-from .factorization import factorize, factorize_view, pixel_directions, pyramid_of
+from .factorization import factorize, factorize_view, pixel_directions, pixel_pyramids
 from ..grid.gl_base import GLVolumeRenderer, now
 
 OPEN_REFRESH = 4  # slices between refreshes of the per-row count of open pixels (stale counts are safe)
@@ -64,19 +64,20 @@ def slab_lengths(fact, rays: RayBatch, scene) -> np.ndarray:
 
 
 class _Depth:
-    """Near-plane clipping: the depth along the view axis of slice ``k``'s crossing with pixel ``(u, v)``,
-    affine in ``u`` and ``v``; ``needed`` is False when the whole box lies beyond the near plane."""
+    """Near-plane clipping of samples by their depth along the view axis; ``needed`` is False when the
+    whole box lies beyond the near plane."""
 
     def __init__(self, fact, scene):
         f, _, _ = scene.camera.basis()
-        self.f, self.eye, self.fact = f, np.asarray(scene.camera.eye), fact
+        self.f, self.eye = f, np.asarray(scene.camera.eye)
         self.near = scene.camera.near
         self.needed = depth_range(scene.camera, *scene.volume.box)[0] < self.near
         # the reference counts a plane crossed up to 1e-9 plane spacings before the ray's start
         self.slack = 1e-9 * scene.volume.spacing[fact.axis] / max(abs(f[fact.axis]), 1e-12)
 
-    def keep(self, k: int, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-        return (slice_points(self.fact, k, u, v) - self.eye) @ self.f >= self.near - self.slack
+    def keep(self, points: np.ndarray) -> np.ndarray:
+        """Whether samples at world ``points`` (:func:`slice_points`) lie at or past the near plane."""
+        return (points - self.eye) @ self.f >= self.near - self.slack
 
 
 def slice_points(fact, k: int, u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -100,7 +101,10 @@ def composite(fact, rle: RunLengthVolume, scene, table=None) -> tuple[np.ndarray
         v_all, u_all = (a.ravel() for a in np.mgrid[0:height, 0:width])
         surface[on_border(fact, u_all, v_all)] = 0.0
     # where a surface ends a ray: a sample past it is dropped (with the reference's slack for a slice on it)
-    ends = None if surface is None else np.where(surface[:, 3] > 0, rays.t1, np.inf)
+    ends = None
+    if surface is not None:
+        slack = 1e-9 * scene.volume.spacing[fact.axis] / np.maximum(np.abs(rays.directions[:, fact.axis]), 1e-12)
+        ends = np.where(surface[:, 3] > 0, rays.t1 + slack, np.inf)
     open_ = rays.t1 > rays.t0  # rays that only touch the box (at an edge) miss it, as in the reference
     open_rows = np.full((height, width + 1), 0, dtype=np.int64)
     tau_stop = -math.log1p(-r.ert_threshold) if r.ert_threshold < 1.0 else np.inf
@@ -120,18 +124,16 @@ def composite(fact, rle: RunLengthVolume, scene, table=None) -> tuple[np.ndarray
         counts["voxels_read"] += read
         if not len(p):
             continue
-        u, v = p % width, p // width
-        keep = np.ones(len(p), dtype=bool)
-        if depth.needed:
-            keep &= depth.keep(int(k), u.astype(np.float64), v.astype(np.float64))
-        if clip is not None:  # per sample, as the slicers' fragments
-            keep &= clip.inside(slice_points(fact, int(k), u.astype(np.float64), v.astype(np.float64)))
-        if ends is not None:  # per sample: behind a surface, dropped
-            points = slice_points(fact, int(k), u.astype(np.float64), v.astype(np.float64))
-            along = np.sum((points - rays.origins[p]) * rays.directions[p], axis=1)
-            slack = 1e-9 * scene.volume.spacing[fact.axis] / np.maximum(np.abs(rays.directions[p, fact.axis]), 1e-12)
-            keep &= along <= ends[p] + slack
-        p, w, rows = p[keep], w[keep], rows[keep]
+        if depth.needed or clip is not None or ends is not None:  # per-sample tests at the samples' points
+            points = slice_points(fact, int(k), (p % width).astype(np.float64), (p // width).astype(np.float64))
+            keep = np.ones(len(p), dtype=bool)
+            if depth.needed:
+                keep &= depth.keep(points)
+            if clip is not None:  # as the slicers' fragments
+                keep &= clip.inside(points)
+            if ends is not None:  # behind a surface: dropped
+                keep &= np.sum((points - rays.origins[p]) * rays.directions[p], axis=1) <= ends[p]
+            p, w, rows = p[keep], w[keep], rows[keep]
         if not len(p):
             continue
         pix, weight, values = _accumulate(p, w, _shaded_payload(rle, rows, table), slot)
@@ -384,10 +386,7 @@ def pixel_owners(facts, scene) -> np.ndarray:
     width, height = scene.image.width, scene.image.height
     if facts[0].pyramid is None:
         return np.zeros(width * height, dtype=np.int64)
-    py, px = np.mgrid[0:height, 0:width] + 0.5
-    directions = np.stack([px.ravel(), py.ravel(), np.ones(px.size)], axis=1) @ \
-        pixel_directions(scene.camera, scene.volume, width, height).T
-    axes, signs = pyramid_of(directions)
+    _, axes, signs = pixel_pyramids(scene.camera, scene.volume, width, height)
     owner = np.full(width * height, -1, dtype=np.int64)
     for n, fact in enumerate(facts):
         owner[(axes == fact.pyramid[0]) & (signs == fact.pyramid[1])] = n
