@@ -55,12 +55,19 @@ class Volume:
         spacing: distance between samples along x, y, z (world units, > 0).
         origin: world position of sample ``(0, 0, 0)``.
         name: a label for messages (file name or demo name).
+        direction: ``3x3`` orthonormal matrix whose columns are the directions of the x, y and z index
+            axes in the patient (LPS) frame, as the file's header states it (NRRD ``space directions``,
+            NIfTI's sform/qform, DICOM's ImageOrientationPatient, MetaImage's ``TransformMatrix``);
+            identity when the file states none.  The voxels are never reordered: the renderers work in
+            the volume's own frame (sample ``(i, j, k)`` at ``origin + (i*sx, j*sy, k*sz)``) and the
+            camera, given in the patient frame, is turned into it (:mod:`dvr_gl.orientation`).
     """
 
     data: np.ndarray
     spacing: tuple[float, float, float] = (1.0, 1.0, 1.0)
     origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
     name: str = "volume"
+    direction: tuple = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
     value_range: tuple[float, float] = field(init=False)
 
     kind = "grid"
@@ -84,6 +91,7 @@ class Volume:
         if len(origin) != 3 or not all(np.isfinite(origin)):
             raise VolumeError(f"{self.name}: origin must be three finite numbers, got {self.origin}")
         object.__setattr__(self, "data", data)
+        object.__setattr__(self, "direction", check_direction(self.direction, self.name))
         object.__setattr__(self, "spacing", spacing)
         object.__setattr__(self, "origin", origin)
         object.__setattr__(self, "value_range", (float(data.min()), float(data.max())))
@@ -152,8 +160,9 @@ class Volume:
     def describe(self) -> str:
         nx, ny, nz = self.dims
         lo, hi = self.value_range
+        turned = "" if self.direction == IDENTITY else f", direction {[list(r) for r in self.direction]}"
         return (f"{self.name}: {nx}x{ny}x{nz} {self.data.dtype}, spacing {self.spacing}, "
-                f"origin {self.origin}, values {lo:g}..{hi:g}")
+                f"origin {self.origin}{turned}, values {lo:g}..{hi:g}")
 
     def __repr__(self) -> str:
         nx, ny, nz = self.dims
@@ -164,6 +173,30 @@ class Volume:
 
 def _short(v) -> str:
     return "(" + ", ".join(f"{x:g}" for x in v) + ")"
+
+
+IDENTITY = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+
+
+def check_direction(direction, name: str = "volume") -> tuple:
+    """A direction matrix as a tuple of three rows, checked: finite, ``3x3``, columns of unit length and
+    mutually orthogonal (within 1e-4, what headers written in float32 reach); the columns are
+    re-orthonormalized so that the renderers' frame change is exact."""
+    if direction is None:
+        return IDENTITY
+    try:
+        m = np.asarray(direction, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise VolumeError(f"{name}: direction must be a 3x3 matrix of numbers, got {direction!r}") from None
+    if m.shape != (3, 3) or not np.isfinite(m).all():
+        raise VolumeError(f"{name}: direction must be a finite 3x3 matrix, got shape {m.shape}")
+    if np.abs(m.T @ m - np.eye(3)).max() > 1e-4:
+        raise VolumeError(f"{name}: the direction matrix's columns (the index axes in the patient frame) must be "
+                          f"orthonormal; shear or scaling belongs in the spacing; fix the header")
+    u, _, vt = np.linalg.svd(m)  # the nearest orthogonal matrix
+    m = u @ vt
+    m[np.abs(m) < 1e-12] = 0.0
+    return tuple(tuple(float(x) for x in row) for row in m)
 
 
 def replace_non_finite(data: np.ndarray, value: float) -> np.ndarray:

@@ -179,4 +179,5 @@ def load_volume(path, format: str = "auto", *, dims=None, dtype=None, endian: st
             spacing=spacing if spacing is not None else (raw.spacing or (1.0, 1.0, 1.0)),
             origin=origin if origin is not None else (raw.origin or (0.0, 0.0, 0.0)),
             name=path.name,
+            direction=raw.direction,
         )

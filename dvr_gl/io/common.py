@@ -29,6 +29,7 @@ class RawArray:
     data: np.ndarray
     spacing: tuple[float, float, float] | None = None
     origin: tuple[float, float, float] | None = None
+    direction: tuple | None = None  # 3x3, columns the index axes in the patient (LPS) frame; None: not stated
 
 
 def require(module: str, package: str, extra: str):
