@@ -125,3 +125,32 @@ def parse_ascii(text: bytes, count: int, dtype: np.dtype, name: str, field: str)
         if not np.all(np.isfinite(values)) or info and (values.min() < info.min or values.max() > info.max):
             raise VolumeError(f"{name}: the ASCII {field} holds values outside the range of {dtype.name}")
     return values.astype(dtype)
+
+
+# NIfTI and NRRD's "right-anterior-superior" state positions in RAS; the volume's frame is LPS (DICOM's
+# and ITK's): x and y change sign, z does not.
+RAS_TO_LPS = np.diag([-1.0, -1.0, 1.0])
+ORTHOGONALITY = 1e-4  # largest |cos| between two index axes: headers written in float32 reach 1e-6
+
+
+def axes_geometry(steps, name: str, field: str):
+    """Spacing and direction from the three index-axis steps a header states (the vector in the patient
+    frame from sample ``(0, 0, 0)`` to ``(1, 0, 0)``, ``(0, 1, 0)``, ``(0, 0, 1)``, x first): the spacing is
+    each step's length, the direction's columns the unit steps.
+
+    Axes that are not orthogonal (a sheared grid: gantry tilt, an affine with shear) are refused: the
+    renderers sample rectangular grids, and taking the nearest rotation, as some tools do silently, would
+    move every sample off the position the file gives it."""
+    m = np.array(steps, dtype=np.float64).reshape(3, 3).T  # columns: the steps
+    lengths = np.linalg.norm(m, axis=0)
+    if not np.all(np.isfinite(m)) or not np.all(lengths > 0):
+        raise VolumeError(f"{name}: {field} must give three finite, non-zero axis vectors; fix the header")
+    d = m / lengths
+    cos = np.abs(d.T @ d - np.eye(3)).max()
+    if cos > ORTHOGONALITY:
+        angle = 90.0 - np.degrees(np.arccos(min(cos, 1.0)))
+        raise VolumeError(f"{name}: {field} gives index axes {angle:.3g} degrees from orthogonal (a sheared "
+                          f"grid); resample it onto a rectangular grid first (e.g. with ITK's or Slicer's "
+                          f"resampler)")
+    spacing = check_spacing(lengths, name, field)
+    return spacing, tuple(tuple(float(x) for x in row) for row in d)

@@ -6,8 +6,14 @@ in ``shared/data/large/frogtissue.mhd``: 260020 of 262087 bytes) it returns abou
 million uninitialized voxels, different on every read, without any error.  This
 reader decodes the zlib stream (up to one byte past the promised size, so a small
 header over a huge stream fails at once) and checks that it holds exactly the
-voxels the header promises.  Only the voxel grid, spacing and origin are used; a
-``TransformMatrix`` other than the identity is not applied.
+voxels the header promises.
+
+Orientation: ``TransformMatrix`` (or its synonyms ``Rotation``, ``Orientation``) holds the
+direction of each index axis in turn, x's three numbers first, as ITK's MetaImageIO reads
+it (``SetDirection(axis, numbers[3*axis : 3*axis+3])``): the numbers as written fill the
+direction matrix's columns.  ITK's frame is LPS, so they are kept as they are, and so is
+``Offset`` (or ``Origin``, ``Position``).  ``AnatomicalOrientation`` is a label that ITK
+does not apply either; it is ignored.
 """
 
 from __future__ import annotations
@@ -18,7 +24,7 @@ import numpy as np
 
 from ..errors import VolumeError
 from ..sandbox import check_input_path
-from .common import RawArray, check_spacing, integer, integers, numbers, promised_bytes, show
+from .common import RawArray, axes_geometry, check_spacing, integer, integers, numbers, promised_bytes, show
 from .compression import read_data
 
 ELEMENT_TYPES = {
@@ -86,6 +92,11 @@ def read_metaimage(path: Path) -> RawArray:
         if spacing_key else None
     origin_key = _first(fields, "Offset", "Origin", "Position")
     origin = numbers(fields[origin_key], name, origin_key, 3) if origin_key else None
+    direction = None
+    matrix_key = _first(fields, "TransformMatrix", "Rotation", "Orientation")
+    if matrix_key:
+        columns = numbers(fields[matrix_key], name, matrix_key, 9)
+        _, direction = axes_geometry(columns, name, matrix_key)  # each axis's unit vector, x first
 
     datafile = fields["ElementDataFile"]
     if datafile.upper().startswith("LIST") or "%" in datafile:
@@ -96,4 +107,4 @@ def read_metaimage(path: Path) -> RawArray:
                      encoding="zlib" if _flag(fields, "CompressedData", name) else "raw",
                      start=data_start if local else 0, skip=header, what="MetaImage data file",
                      promise=f"DimSize {nx} {ny} {nz} of {etype}")
-    return RawArray(np.frombuffer(blob, dtype=dtype).reshape(nz, ny, nx), spacing, origin)
+    return RawArray(np.frombuffer(blob, dtype=dtype).reshape(nz, ny, nx), spacing, origin, direction)

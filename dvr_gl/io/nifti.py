@@ -1,8 +1,12 @@
 """NIfTI-1/2 (``.nii``, ``.nii.gz``) through nibabel.
 
-The voxel grid is used as stored: spacing from ``pixdim[1..3]``, origin from the
-affine's translation.  A rotation or flip in the affine is not applied (the
-renderer's volumes are axis-aligned); the voxel order is kept, x fastest.
+The voxel grid is used as stored (the voxel order is kept, x fastest).  Its place in the
+patient comes from the sform when ``sform_code > 0``, else from the qform when
+``qform_code > 0`` (NIfTI's methods 3 and 2): the affine's columns are the index axes'
+steps (their lengths the spacing, their directions :attr:`Volume.direction`), its
+translation the origin.  NIfTI states both in RAS; they are turned into LPS by negating
+the first two rows.  With both codes 0 (method 1) the file states no orientation: spacing
+from ``pixdim[1..3]``, origin 0, identity direction.
 
 Before nibabel reads the voxels the header is checked here: 3 dimensions of at
 least 1 voxel, a scalar ``datatype``, finite positive ``pixdim`` (nibabel would
@@ -22,7 +26,7 @@ import numpy as np
 
 from ..errors import VolumeError
 from ..sandbox import check_bytes, check_input_path
-from .common import RawArray, check_sample_type, check_spacing, require
+from .common import RAS_TO_LPS, RawArray, axes_geometry, check_sample_type, check_spacing, require
 
 MAX_GZIP_OFFSET = 64 << 20  # bytes: header and extensions; seeking a .nii.gz decodes all of them
 
@@ -38,14 +42,28 @@ def read_nifti(path: Path) -> RawArray:
             shape, scaled, spacing = _check_header(nib, img, path)
             proxy = img.dataobj
             arr = np.asarray(proxy) if scaled else np.asarray(proxy.get_unscaled())
-            affine = img.affine
+            affine, field = _patient_affine(img.header)
     except errors as exc:
         raise VolumeError(f"{path}: NIfTI file is truncated or corrupt ({exc})") from None
     data = np.ascontiguousarray(arr.reshape(shape).transpose(2, 1, 0))  # nibabel indexes (i, j, k): x first
-    origin = tuple(float(v) for v in affine[:3, 3])
+    if affine is None:
+        return RawArray(data, spacing, (0.0, 0.0, 0.0))
+    lps = RAS_TO_LPS @ affine[:3]
+    origin = tuple(float(v) for v in lps[:, 3])
     if not all(math.isfinite(v) for v in origin):
-        raise VolumeError(f"{path}: the qform/sform offsets give origin {origin}; they must be finite")
-    return RawArray(data, spacing, origin)
+        raise VolumeError(f"{path}: the {field} offsets give origin {origin}; they must be finite")
+    spacing, direction = axes_geometry(lps[:, :3].T, str(path), field)
+    return RawArray(data, spacing, origin, direction)
+
+
+def _patient_affine(header):
+    """The affine that places the voxels in the patient (RAS, mm) and the field it comes from: the sform
+    when its code is > 0, else the qform when its code is > 0, else None (no orientation stated)."""
+    if int(header["sform_code"]) > 0:
+        return header.get_sform(), "sform (srow_x, srow_y, srow_z)"
+    if int(header["qform_code"]) > 0:
+        return header.get_qform(), "qform (quatern_b/c/d, pixdim, qoffset)"
+    return None, None
 
 
 @contextlib.contextmanager

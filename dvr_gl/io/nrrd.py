@@ -1,6 +1,8 @@
 """NRRD (``.nrrd`` and detached ``.nhdr``): strict header fields, bounded data.
 
-pynrrd parses the vector fields (``space directions``, ``space origin``).  The rest is
+pynrrd parses the vector fields (``space directions``, ``space origin``): their lengths are the
+spacing, their directions :attr:`Volume.direction`, turned from the header's ``space`` (RAS, LAS,
+LPS; the spaces without a patient frame as they are) into LPS.  The rest is
 done here, because pynrrd's header parser is lossy and its data reader is unbounded
 (``tests/test_io.py::test_why_not_pynrrd_alone`` shows both): it truncates
 ``sizes: 32.5`` to 32 and casts ``sizes: 1e30`` to garbage, reads a ``line skip`` one
@@ -21,7 +23,7 @@ import numpy as np
 
 from ..errors import VolumeError
 from ..sandbox import check_input_path
-from .common import (RawArray, check_sample_type, integer, integers, numbers, parse_ascii, promised_bytes,
+from .common import (RawArray, axes_geometry, check_sample_type, integer, integers, numbers, parse_ascii, promised_bytes,
                      require, show)
 from .compression import read_data, read_text
 
@@ -118,28 +120,57 @@ def _vectors(fields, field, name, parse):
                           f"(1,0,0) ({exc}); fix the header") from None
 
 
-def _spacing(fields, name, dim, axes):
-    """Spacing of the three axes from ``spacings`` or the lengths of ``space directions``;
-    None where the header gives none (NaN or ``none``)."""
-    if "spacings" in fields:
-        values = numbers(fields["spacings"], name, "spacings", dim, allow_nan=True)
-        chosen = [values[a] for a in axes]
-        field = "spacings"
-    elif "space directions" in fields:
+# NRRD's spaces (and their abbreviations) -> the signs that turn their coordinates into LPS.  The spaces
+# without a patient frame (scanner-xyz, 3D-right-handed, 3D-left-handed) are taken as they are.
+SPACES = {
+    **dict.fromkeys(("right-anterior-superior", "ras"), (-1.0, -1.0, 1.0)),
+    **dict.fromkeys(("left-anterior-superior", "las"), (1.0, -1.0, 1.0)),
+    **dict.fromkeys(("left-posterior-superior", "lps"), (1.0, 1.0, 1.0)),
+    **dict.fromkeys(("scanner-xyz", "3d-right-handed", "3d-left-handed"), (1.0, 1.0, 1.0)),
+}
+
+
+def _space_signs(fields, name) -> np.ndarray:
+    """The signs that turn the header's space coordinates into LPS."""
+    if "space" in fields:
+        space = fields["space"].lower()
+        if space not in SPACES:
+            raise VolumeError(f"{name}: space {show(fields['space'])} is not a 3D NRRD space; use "
+                              f"right-anterior-superior (RAS), left-anterior-superior (LAS), "
+                              f"left-posterior-superior (LPS), scanner-xyz or 3D-right-handed")
+        return np.array(SPACES[space])
+    if "space dimension" in fields and integer(fields["space dimension"], name, "space dimension") != 3:
+        raise VolumeError(f"{name}: space dimension {fields['space dimension']}; a volume needs 3")
+    return np.ones(3)
+
+
+def _geometry(fields, name, dim, axes):
+    """Spacing and direction of the three axes: from ``space directions`` (each axis's step, its length the
+    spacing), else ``spacings`` (direction not stated); None where the header gives none."""
+    if "space directions" in fields:
         nrrd = require("nrrd", "pynrrd", "nrrd")
         rows = _vectors(fields, "space directions", name, nrrd.parse_optional_vector_list)
         if len(rows) != dim:
             raise VolumeError(f"{name}: space directions has {len(rows)} entries for dimension {dim}")
-        chosen = [math.nan if rows[a] is None else float(np.linalg.norm(rows[a])) for a in axes]
-        field = "space directions"
-    else:
-        return None
+        steps = [rows[a] for a in axes]
+        if all(s is not None for s in steps):
+            if any(len(s) != 3 for s in steps):
+                raise VolumeError(f"{name}: space directions {show(fields['space directions'])} must give "
+                                  f"3-vectors for a 3D space; fix the header")
+            signs = _space_signs(fields, name)
+            return axes_geometry([signs * np.asarray(s) for s in steps], name, "space directions")
+        if "spacings" not in fields:
+            return None, None
+    if "spacings" not in fields:
+        return None, None
+    values = numbers(fields["spacings"], name, "spacings", dim, allow_nan=True)
+    chosen = [values[a] for a in axes]
     if any(math.isnan(s) for s in chosen):
-        return None
+        return None, None
     if not all(math.isfinite(s) and s > 0 for s in chosen):
-        raise VolumeError(f"{name}: {field} {show(fields[field])} must give spacings that are finite and > 0; "
+        raise VolumeError(f"{name}: spacings {show(fields['spacings'])} must give spacings that are finite and > 0; "
                           f"fix the header or set volume.spacing")
-    return tuple(chosen)
+    return tuple(chosen), None
 
 
 def _origin(fields, name):
@@ -149,7 +180,7 @@ def _origin(fields, name):
     origin = _vectors(fields, "space origin", name, nrrd.parse_vector)
     if len(origin) != 3 or not np.all(np.isfinite(origin)):
         raise VolumeError(f"{name}: space origin {show(fields['space origin'])} must be three finite numbers")
-    return tuple(float(v) for v in origin)
+    return tuple(float(v) for v in _space_signs(fields, name) * origin)
 
 
 def _data_file(fields, path) -> tuple[Path, int]:
@@ -177,7 +208,7 @@ def read_nrrd(path: Path) -> RawArray:
         raise VolumeError(f"{name}: kinds {show(fields['kinds'])} has {len(fields['kinds'].split())} entries "
                           f"for dimension {dim}; give one kind per axis")
     axes = _axes(sizes, name)
-    spacing, origin = _spacing(fields, name, dim, axes), _origin(fields, name)
+    (spacing, direction), origin = _geometry(fields, name, dim, axes), _origin(fields, name)
     line_skip = integer(_get(fields, "line skip", "lineskip", default="0"), name, "line skip", minimum=0)
     byte_skip = integer(_get(fields, "byte skip", "byteskip", default="0"), name, "byte skip", minimum=-1)
     target, start = _data_file(fields, path)
@@ -192,5 +223,5 @@ def read_nrrd(path: Path) -> RawArray:
         flat = np.frombuffer(blob, dtype=dtype)
     # NRRD lists the fastest axis first: sizes "nx ny nz" is the array [z, y, x]
     data = flat.reshape(tuple(reversed(sizes))).reshape(tuple(sizes[a] for a in reversed(axes)))
-    return RawArray(data, spacing, origin)
+    return RawArray(data, spacing, origin, direction)
 
