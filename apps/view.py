@@ -71,6 +71,7 @@ def run(args) -> int:
 
     defaults = {"output": None, "overwrite": False, "save_scene": None, "frames": None, "quiet": False}
     _refuse_render_only(args, defaults)
+    render_cmd.positional_volume(args)
     if not args.scene and not args.demo and not args.volume:
         raise DvrError("nothing to view: give a scene file, --volume FILE or --demo")
     if args.demo and args.volume:

@@ -28,6 +28,7 @@ from .camera import (DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Camera, framing_distanc
 from .errors import SceneError
 from .fields import diagonal
 from .io import load_field
+from .orientation import ANATOMICAL_VIEWS, to_patient_frame
 from .sandbox import check_bytes, check_input_path
 from .scene_schema import (CameraSpec, ImageSpec, SceneSpec, TransferFunctionSpec, VolumeSpec, parse_table,
                            renderer_spec_class, spec_to_dict, tables_as_specs)
@@ -39,6 +40,8 @@ from .transfer_function import PRESETS, TransferFunction, preset
 _EXCLUSIVE = {
     ("volume", "path"): ("demo",), ("volume", "demo"): ("path",),
     ("transfer_function", "preset"): ("points",), ("transfer_function", "points"): ("preset",),
+    ("camera", "view"): ("azimuth", "elevation"), ("camera", "azimuth"): ("view",),
+    ("camera", "elevation"): ("view",),
     ("renderer", "sample_distance"): ("sample_distance_voxels", "tolerance"),
     ("renderer", "sample_distance_voxels"): ("sample_distance", "tolerance"),
     ("renderer", "tolerance"): ("sample_distance", "sample_distance_voxels"),
@@ -55,7 +58,9 @@ def read_scene_dict(path: Path) -> dict:
     except OSError as exc:
         raise SceneError(f"{path}: cannot read the scene file ({exc.strerror or exc})") from None
     except tomllib.TOMLDecodeError as exc:
-        raise SceneError(f"{path}: not valid TOML ({exc})") from exc
+        hint = ("" if path.suffix.lower() == ".toml" else
+                "; if it is a volume file, give its format: --volume FILE --format F (or volume.format)")
+        raise SceneError(f"{path}: not valid TOML ({exc}){hint}") from exc
     except UnicodeDecodeError as exc:
         raise SceneError(f"{path}: not a UTF-8 text file ({exc})") from exc
 
@@ -74,6 +79,9 @@ def apply_overrides(raw: dict, overrides: dict[str, object]) -> dict:
                 raise SceneError(f"override {dotted!r}: {p} is not a table")
         node[parts[-1]] = copy.deepcopy(value)  # a later dotted key must not change the caller's table
         for other in _EXCLUSIVE.get((parts[0], parts[-1]), ()) if len(parts) == 2 else ():
+            if overrides.get(f"{parts[0]}.{other}") is not None and value is not None:
+                raise SceneError(f"{dotted} and {parts[0]}.{other} were both given; they exclude each other: "
+                                 "give one")
             out.get(parts[0], {}).pop(other, None)
     return out
 
@@ -169,9 +177,15 @@ def _resolve_camera(spec: CameraSpec, field, image: ImageSpec) -> Camera:
     lo, hi = (np.asarray(b, dtype=np.float64) for b in field.bounds)
     radius = max(diagonal(field) / 2.0, 1e-12)
     aspect = image.width / image.height
-    target = spec.target if spec.target is not None else tuple((lo + hi) / 2.0)
+    # the box centre in the patient frame, where the camera is stated (dvr_gl.orientation)
+    target = spec.target if spec.target is not None else tuple(to_patient_frame(field, (lo + hi) / 2.0))
     view_height = spec.view_height or framing_view_height(radius, aspect)
     common = dict(projection=spec.projection, fov=spec.fov, view_height=view_height, near=spec.near)
+    if spec.view is not None:
+        if spec.azimuth is not None or spec.elevation is not None:
+            raise SceneError(f"camera: view = {spec.view!r} sets azimuth and elevation; give one or the other")
+        spec = dataclasses.replace(spec, azimuth=ANATOMICAL_VIEWS[spec.view][0],
+                                   elevation=ANATOMICAL_VIEWS[spec.view][1])
     orbit_keys = (spec.azimuth, spec.elevation, spec.distance)
     if spec.eye is not None:
         camera = Camera(spec.eye, target, spec.up, **common)
@@ -398,6 +412,24 @@ def _relative_geometry(renderer: dict, relative_to: Path | None) -> dict:
         except ValueError:  # another drive on Windows
             out.append(g)
     return {**renderer, "geometry": out}
+
+
+def is_volume_path(path) -> bool:
+    """Whether a path names data (a volume, mesh or particle file, a folder of slices, a glob) rather than a
+    scene file: anything but ``.toml`` whose suffix a reader knows."""
+    from .errors import VolumeError
+    from .io import detect_format
+
+    p = Path(os.path.expanduser(str(path)))
+    if p.suffix.lower() == ".toml":
+        return False
+    if p.is_dir() or any(c in str(p) for c in "*?["):
+        return True
+    try:
+        detect_format(p)
+    except VolumeError:
+        return False
+    return True
 
 
 def load_scene(path: Path | str | None = None, overrides: dict | None = None, base: dict | None = None) -> Scene:

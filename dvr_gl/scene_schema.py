@@ -21,6 +21,7 @@ from typing import Optional, Union
 from .camera import LENS_CHECKS
 from .errors import SceneError
 from .model import choices, doc
+from .orientation import ANATOMICAL_VIEWS
 from .settings import at_least, between, world_coordinates, world_length
 
 Vec3 = tuple[float, float, float]
@@ -118,6 +119,9 @@ class CameraSpec:
     azimuth: Optional[float] = doc(None, "orbit about the target, degrees (default 30); with `eye`, replaces "
                                          "the eye's")
     elevation: Optional[float] = doc(None, "orbit elevation, degrees (default 20)")
+    view: Optional[str] = choices(*ANATOMICAL_VIEWS, default=None,
+                                  doc="an anatomical view (sets azimuth and elevation about `up`; with the "
+                                      "default up, superior, it shows the patient upright: docs/orientation.md)")
     distance: Optional[float] = checked(None, "eye to target, world units (default: frames the data)",
                                         world_length)
     near: float = checked(0.0, "near plane distance from the eye; rays start there or at the data",

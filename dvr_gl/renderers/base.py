@@ -21,6 +21,7 @@ from typing import ClassVar
 import numpy as np
 
 from .. import limits
+from ..orientation import volume_frame_scene
 from ..sandbox import current, time_limit_error
 from . import registry
 
@@ -46,7 +47,11 @@ class Renderer:
         self.check_resources(scene)
         self.stats = {}
         start = self._started = time.perf_counter()
-        image = self.draw(scene)
+        # the camera is stated in the patient frame; renderers draw in the volume's own (dvr_gl.orientation)
+        local, mirrored = volume_frame_scene(scene)
+        image = self.draw(local)
+        if mirrored:
+            image = np.ascontiguousarray(image[:, ::-1])
         self.stats.setdefault("seconds", time.perf_counter() - start)
         return image
 

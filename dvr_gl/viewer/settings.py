@@ -18,6 +18,7 @@ import numpy as np
 from ..clipping import clipping_in_use
 from ..errors import SceneError
 from ..fields import diagonal
+from ..orientation import direction_of
 from ..renderers import registry
 from ..scene import Scene
 from ..settings import with_sample_distance
@@ -102,7 +103,8 @@ def turn_light(scene: Scene, about_up: float = 0.0, tilt: float = 0.0) -> Scene:
     if not sc.lights:
         raise SceneError("renderer.scattering has no light to turn")
     forward, right, up = (np.asarray(v, dtype=np.float64) for v in scene.camera.basis())
-    rotation = _rotation(up, about_up) @ _rotation(right, tilt)
+    d = direction_of(scene.field)  # the camera is in the patient frame, the lights in the volume's
+    rotation = d.T @ _rotation(up, about_up) @ _rotation(right, tilt) @ d
     light = sc.lights[0]
     if light.type == "directional":
         light = dataclasses.replace(light, direction=tuple(float(x) for x in rotation @ light.direction))
@@ -128,7 +130,7 @@ def toggle_clip_plane(scene: Scene) -> Scene:
     clipping = scene.renderer.clipping
     if clipping.planes:
         return change(scene, clipping=dataclasses.replace(clipping, planes=[]))
-    forward = np.asarray(scene.camera.basis()[0], dtype=np.float64)
+    forward = np.asarray(scene.camera.basis()[0], dtype=np.float64) @ direction_of(scene.field)  # volume frame
     lo, hi = (np.asarray(b, dtype=np.float64) for b in scene.field.bounds)
     plane = (*forward, -float(forward @ ((lo + hi) / 2.0)))
     return change(scene, clipping=dataclasses.replace(clipping, planes=[tuple(float(x) for x in plane)]))
