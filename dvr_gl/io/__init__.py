@@ -10,6 +10,9 @@ metaimage  ``.mhd``, ``.mha``                     built-in reader (see its modul
 vtk        ``.vtk`` STRUCTURED_POINTS             built-in parser
 npy        ``.npy``                               numpy
 tiff       ``.tif`` pages, a folder, a glob       OpenImageIO
+dicom      a folder, a list of files, a glob      pydicom (extra ``dicom``)
+vti        ``.vti`` VTK XML image data            built-in reader (see its module)
+zarr       ``.zarr``, OME-Zarr (a chosen level)   zarr (extra ``zarr``)
 vtk        ``.vtk`` UNSTRUCTURED_GRID (a mesh)    meshio (extra ``mesh``)
 vtu        ``.vtu`` (a mesh)                      meshio (extra ``mesh``)
 plot3d     ``.xyz`` grid + ``q`` solution (mesh)   built-in reader
@@ -44,23 +47,32 @@ from ..sandbox import check_input_path
 from .common import RawArray, check_spacing
 from .compression import exists_or_split
 
-FORMATS = ("raw", "nrrd", "nifti", "metaimage", "vtk", "npy", "tiff", "vtu", "plot3d", "csv", "npz", "hdf5")
+FORMATS = ("raw", "nrrd", "nifti", "metaimage", "vtk", "npy", "tiff", "dicom", "vti", "zarr", "vtu", "plot3d", "csv",
+           "npz", "hdf5")
 PARTICLE_FORMATS = ("csv", "npz", "hdf5")
-GRID_FORMATS = FORMATS[:7]
+GRID_FORMATS = FORMATS[:10]
 
 _SUFFIXES = {
     ".nrrd": "nrrd", ".nhdr": "nrrd", ".nii": "nifti", ".nii.gz": "nifti", ".mhd": "metaimage",
     ".mha": "metaimage", ".vtk": "vtk", ".npy": "npy", ".tif": "tiff", ".tiff": "tiff",
-    ".vtu": "vtu", ".xyz": "plot3d", ".csv": "csv", ".npz": "npz", ".h5": "hdf5", ".hdf5": "hdf5",
+    ".vtu": "vtu", ".vti": "vti", ".dcm": "dicom", ".zarr": "zarr", ".xyz": "plot3d", ".csv": "csv", ".npz": "npz", ".h5": "hdf5", ".hdf5": "hdf5",
     ".raw": "raw", ".raw.gz": "raw", ".raw.bz2": "raw", ".bin": "raw", ".dat": "raw", ".den": "raw",
 }
 
 
-def detect_format(path: Path) -> str:
-    """The format a path's suffix (or being a folder or glob) names."""
+def detect_format(path) -> str:
+    """The format a path's suffix names; a folder or a glob by its files' content (DICOM, else TIFF
+    slices), a folder holding zarr metadata as zarr; a list of files is a DICOM series."""
+    if isinstance(path, (list, tuple)):
+        return "dicom"
+    path = Path(path)
     name = path.name.lower()
+    if path.is_dir() and (name.endswith(".zarr") or any((path / m).is_file() for m in ZARR_METADATA)):
+        return "zarr"
     if path.is_dir() or any(c in str(path) for c in "*?["):
-        return "tiff"
+        from .dicom import folder_holds_dicom
+
+        return "dicom" if folder_holds_dicom(path) else "tiff"
     for suffix in sorted(_SUFFIXES, key=len, reverse=True):
         if name.endswith(suffix):
             return _SUFFIXES[suffix]
@@ -72,8 +84,12 @@ def detect_format(path: Path) -> str:
 _READERS = {
     "raw": (".raw", "read_raw"), "nrrd": (".nrrd", "read_nrrd"), "nifti": (".nifti", "read_nifti"),
     "metaimage": (".metaimage", "read_metaimage"), "vtk": (".vtk_legacy", "read_vtk_structured_points"),
-    "npy": (".npy", "read_npy"), "tiff": (".tiff", "read_tiff_stack"),
+    "npy": (".npy", "read_npy"), "tiff": (".tiff", "read_tiff_stack"), "dicom": (".dicom", "read_dicom_series"),
+    "vti": (".vti", "read_vti"), "zarr": (".zarr", "read_zarr"),
 }
+ZARR_METADATA = ("zarr.json", ".zarray", ".zgroup")
+# the options a reader takes beyond the path (the scene's volume.<key>)
+_OPTIONS = {"dicom": ("series",), "vti": ("array",), "zarr": ("array", "level")}
 
 
 def _read(path: Path, fmt: str, raw_options: dict) -> RawArray:
@@ -84,11 +100,17 @@ def _read(path: Path, fmt: str, raw_options: dict) -> RawArray:
         raise VolumeError(f"{path}: unknown format {fmt!r}; use one of {', '.join(FORMATS)} or auto")
     module, function = _READERS[fmt]
     reader = getattr(importlib.import_module(module, __name__), function)
-    if fmt == "raw":
-        return reader(path, **raw_options)
-    if raw_options.get("dims") is not None or raw_options.get("dtype") is not None:
+    layout = ("dims", "dtype", "endian", "header_bytes")
+    chosen = {k: v for k, v in raw_options.items() if k not in layout and v is not None}
+    if fmt == "raw" and not chosen:
+        return reader(path, **{k: v for k, v in raw_options.items() if k in layout})
+    if fmt != "raw" and (raw_options.get("dims") is not None or raw_options.get("dtype") is not None):
         raise VolumeError(f"{path}: dims and dtype apply to raw files only; this is {fmt}")
-    return reader(path)
+    for key in chosen:
+        if key not in _OPTIONS.get(fmt, ()):
+            users = ", ".join(f for f, keys in _OPTIONS.items() if key in keys)
+            raise VolumeError(f"{path}: volume.{key} applies to {users}; this is {fmt}: remove it")
+    return reader(path, **chosen)
 
 
 def load_field(path, format: str = "auto", *, array: str | None = None, solution=None, **grid_options):
@@ -96,6 +118,8 @@ def load_field(path, format: str = "auto", *, array: str | None = None, solution
     UNSTRUCTURED_GRID, PLOT3D): ``array`` names a mesh's scalar array, ``solution`` a PLOT3D q file."""
     from . import mesh
 
+    if isinstance(path, (list, tuple)):  # the files of a DICOM series
+        return load_volume(path, format, array=array, **grid_options)
     path = Path(os.path.expanduser(str(path)))
     try:
         fmt = detect_format(path) if format == "auto" else format
@@ -108,10 +132,10 @@ def load_field(path, format: str = "auto", *, array: str | None = None, solution
     is_mesh = fmt in ("vtu", "plot3d") or (fmt == "vtk" and path.is_file() and mesh.is_legacy_unstructured(path))
     if not is_mesh:
         for key, value in (("array", array), ("solution", solution)):
-            if value is not None:
-                raise VolumeError(f"{path}: volume.{key} applies to meshes (.vtu, unstructured .vtk, PLOT3D); "
-                                  "this is a regular grid: remove it")
-        return load_volume(path, format, **grid_options)
+            if value is not None and not (key == "array" and fmt in ("vti", "zarr")):
+                raise VolumeError(f"{path}: volume.{key} applies to meshes (.vtu, unstructured .vtk, PLOT3D), "
+                                  ".vti and zarr; this is a regular grid: remove it")
+        return load_volume(path, format, array=array, **grid_options)
     if not path.exists():
         raise VolumeError(f"{path}: file not found")
     given = [k for k, v in grid_options.items() if v is not None and k not in ("endian", "header_bytes")]
@@ -144,16 +168,24 @@ def _load_particles(path: Path, fmt: str, array, solution, grid_options):
 
 
 def load_volume(path, format: str = "auto", *, dims=None, dtype=None, endian: str = "little",
-                header_bytes: int = 0, spacing=None, origin=None, nan_value: float | None = None) -> Volume:
+                header_bytes: int = 0, spacing=None, origin=None, nan_value: float | None = None,
+                array: str | None = None, series: str | None = None, level: int | None = None) -> Volume:
     """Load a volume file.
 
     Args:
-        path: the file (for TIFF stacks also a folder or a glob pattern).
-        format: one of :data:`FORMATS`, or ``auto`` to choose by suffix.
+        path: the file (for TIFF stacks and DICOM series also a folder or a glob pattern; a list of
+            files is a DICOM series).
+        format: one of :data:`FORMATS`, or ``auto`` to choose by suffix (a folder by its files' content).
         dims, dtype, endian, header_bytes: the layout of a raw file, ``dims = (nx, ny, nz)``.
         spacing, origin: override what the file states (world units, x first; spacing finite, > 0).
         nan_value: replace NaN and Inf by this value; without it they are an error.
+        array: ``.vti``: the point-data array (default the first); zarr: the array's path in a group.
+        series: DICOM: the SeriesInstanceUID or SeriesNumber when the files hold several series.
+        level: OME-Zarr: the resolution level (0, the default, is the full resolution).
     """
+    if isinstance(path, (list, tuple)):
+        return _load_series(list(path), format, spacing=spacing, origin=origin, nan_value=nan_value,
+                            series=series, dims=dims, dtype=dtype, array=array, level=level)
     path = Path(os.path.expanduser(str(path)))
     is_pattern = any(c in str(path) for c in "*?[")
     if not is_pattern and not path.is_dir() and not exists_or_split(path):
@@ -161,7 +193,7 @@ def load_volume(path, format: str = "auto", *, dims=None, dtype=None, endian: st
     if not is_pattern and os.path.lexists(path) and not path.is_dir():
         check_input_path(path, "volume file")  # before its suffix is judged: a FIFO, a path outside the roots
     fmt = detect_format(path) if format == "auto" else format
-    options = {"dims": dims, "dtype": dtype}
+    options = {"dims": dims, "dtype": dtype, "array": array, "series": series, "level": level}
     if fmt == "raw":
         options.update(endian=endian, header_bytes=header_bytes)
     if spacing is not None:
@@ -170,14 +202,41 @@ def load_volume(path, format: str = "auto", *, dims=None, dtype=None, endian: st
     # own checks say what matters in one line, and nothing else may reach the terminal.
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore")
-        raw = _read(path, fmt, options)
-        data = raw.data
-        if nan_value is not None:
-            data = replace_non_finite(data, float(nan_value))
-        return Volume(
-            data,
-            spacing=spacing if spacing is not None else (raw.spacing or (1.0, 1.0, 1.0)),
-            origin=origin if origin is not None else (raw.origin or (0.0, 0.0, 0.0)),
-            name=path.name,
-            direction=raw.direction,
-        )
+        return _volume(_read(path, fmt, options), path.name, spacing, origin, nan_value)
+
+
+def _volume(raw: RawArray, name: str, spacing, origin, nan_value) -> Volume:
+    data = raw.data
+    if nan_value is not None:
+        data = replace_non_finite(data, float(nan_value))
+    return Volume(
+        data,
+        spacing=spacing if spacing is not None else (raw.spacing or (1.0, 1.0, 1.0)),
+        origin=origin if origin is not None else (raw.origin or (0.0, 0.0, 0.0)),
+        name=name,
+        direction=raw.direction,
+    )
+
+
+def _load_series(files: list, format: str, *, spacing, origin, nan_value, series, **others) -> Volume:
+    """A DICOM series given as a list of files."""
+    from .dicom import read_dicom_series
+
+    if format not in ("auto", "dicom"):
+        raise VolumeError(f"a list of files is read as a DICOM series; format {format!r} takes one path")
+    given = [k for k, v in others.items() if v is not None]
+    if given:
+        raise VolumeError(f"volume.{given[0]} does not apply to a DICOM series: remove it")
+    if not files:
+        raise VolumeError("an empty list of files; give the files of a DICOM series")
+    files = [Path(os.path.expanduser(str(f))) for f in files]
+    for f in files:
+        if not f.is_file():
+            raise VolumeError(f"{f}: file not found")
+    if spacing is not None:
+        spacing = check_spacing(spacing, str(files[0]), "spacing (volume.spacing)")
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore")
+        raw = read_dicom_series(files, series)
+        return _volume(raw, f"{files[0].parent.name or files[0].name} ({len(files)} files)", spacing, origin,
+                       nan_value)

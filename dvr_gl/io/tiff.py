@@ -33,7 +33,7 @@ def stack_files(path: Path) -> list[Path]:
     else:
         files = [path]
     if not files:
-        raise VolumeError(f"{path}: no TIFF files found")
+        raise VolumeError(f"{path}: no TIFF files found (nor DICOM files, which are found by content)")
     return [check_input_path(f, "TIFF file") for f in sorted(files, key=_natural_key)]
 
 

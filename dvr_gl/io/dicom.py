@@ -1,0 +1,260 @@
+"""DICOM series (a folder, a list of files or a glob) through pydicom (extra ``dicom``).
+
+pydicom reads each file's header and pixels; the series is assembled here, from the headers'
+geometry only (file names and InstanceNumber say nothing reliable about position):
+
+* slices are ordered by ImagePositionPatient projected on the slice normal
+  (ImageOrientationPatient's row direction x column direction);
+* the spacing between slices comes from those positions, which must be evenly spaced (within
+  :data:`GAP_TOLERANCE`): a missing slice is named, not stretched over;
+* the in-plane spacing from PixelSpacing (row spacing, then column spacing: y, then x);
+* :attr:`Volume.direction`'s columns are the row direction, the column direction and the normal,
+  in DICOM's patient frame, LPS; the origin is the first slice's ImagePositionPatient;
+* RescaleSlope and RescaleIntercept (per slice) are applied: int16 when every value is an integer that
+  int16 holds, float32 otherwise; without rescaling the stored type is kept.
+
+Refused in one line: several series in the files (each named, with how to choose one), slices of
+different size, spacing or orientation, positions that step sideways (a tilted gantry: a sheared grid),
+two slices at one position, colour or multi-frame images, and compressed transfer syntaxes that pydicom
+cannot decode without a plugin (naming the package that decodes it).
+
+A folder's DICOM files are found by content (the ``DICM`` marker after the 128-byte preamble), so a
+folder of TIFF slices still reads as a TIFF stack (:func:`is_dicom`).
+"""
+
+from __future__ import annotations
+
+import glob
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import VolumeError
+from ..sandbox import check_bytes, check_input_path
+from .common import RawArray, axes_geometry, require
+
+GAP_TOLERANCE = 0.01  # relative: gaps between slice positions may differ by 1% of the median gap
+ORIENTATION_TOLERANCE = 1e-4  # ImageOrientationPatient's numbers, written to about 6 decimals
+MEDIA_DIRECTORY = "1.2.840.10008.1.3.10"  # DICOMDIR: an index of files, not an image
+
+
+def is_dicom(path: Path) -> bool:
+    """Whether ``path`` is a DICOM Part 10 file: ``DICM`` at byte 128."""
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(132)[128:] == b"DICM"
+    except OSError:
+        return False
+
+
+def series_candidates(path) -> list[Path]:
+    """The DICOM files that ``path`` names: a list of files, a folder's files (by content) or a glob's."""
+    if isinstance(path, (list, tuple)):
+        files = [Path(p) for p in path]
+        for f in files:
+            check_input_path(f, "DICOM file")
+            if not is_dicom(f):
+                raise VolumeError(f"{f}: not a DICOM file (no DICM marker at byte 128); leave it out of the list")
+        return files
+    path = Path(path)
+    text = str(path)
+    if any(c in text for c in "*?["):
+        found = [Path(p) for p in sorted(glob.glob(text)) if Path(p).is_file()]
+    elif path.is_dir():
+        found = sorted(p for p in path.iterdir() if p.is_file())
+    else:
+        found = [path]
+    files = [f for f in found if is_dicom(f)]
+    if not files:
+        raise VolumeError(f"{path}: no DICOM files (none has the DICM marker at byte 128)")
+    return [check_input_path(f, "DICOM file") for f in files]
+
+
+def folder_holds_dicom(path: Path) -> bool:
+    """Whether a folder (or a glob) names at least one DICOM file, by content."""
+    text = str(path)
+    if any(c in text for c in "*?["):
+        found = glob.glob(text)
+    elif path.is_dir():
+        found = [str(p) for p in path.iterdir()]
+    else:
+        return False
+    return any(is_dicom(Path(p)) for p in found if Path(p).is_file())
+
+
+def _numbers(ds, keyword: str, count: int, f: Path):
+    value = ds.get(keyword)
+    if value is None:
+        raise VolumeError(f"{f}: {keyword} is missing; a slice of a volume needs it (is this a localizer or a "
+                          f"secondary capture?)")
+    try:
+        values = [float(v) for v in (value if count > 1 else [value])]
+    except (TypeError, ValueError):
+        values = []
+    if len(values) != count or not all(math.isfinite(v) for v in values):
+        raise VolumeError(f"{f}: {keyword} must hold {count} finite numbers, got {value!r}")
+    return np.array(values)
+
+
+def _headers(pydicom, files):
+    """Each file's header (pixels not read), DICOMDIR and image-less files left out."""
+    out = []
+    for f in files:
+        try:
+            ds = pydicom.dcmread(str(f), stop_before_pixels=True)
+        except Exception as exc:  # pydicom raises many kinds for a damaged file
+            raise VolumeError(f"{f}: not a readable DICOM file ({str(exc).splitlines()[0] if str(exc) else exc!r})") \
+                from None
+        sop = str(getattr(getattr(ds, "file_meta", None), "MediaStorageSOPClassUID", ""))
+        if sop == MEDIA_DIRECTORY or "Rows" not in ds:
+            continue
+        out.append((f, ds))
+    return out
+
+
+def _choose_series(entries, path, series):
+    groups: dict[str, list] = {}
+    for f, ds in entries:
+        groups.setdefault(str(ds.get("SeriesInstanceUID", "?")), []).append((f, ds))
+    groups = dict(sorted(groups.items(), key=lambda item: (str(item[1][0][1].get("SeriesNumber", "")), item[0])))
+    if series is not None:
+        chosen = {uid: g for uid, g in groups.items()
+                  if series in (uid, str(g[0][1].get("SeriesNumber", "")))}
+        if not chosen:
+            raise VolumeError(f"{path}: no series {series!r} among {_names(groups)}; give a SeriesInstanceUID or "
+                              f"SeriesNumber from those")
+        groups = chosen
+    if len(groups) > 1:
+        raise VolumeError(f"{path}: {len(groups)} series: {_names(groups)}; choose one with volume.series "
+                          f"(its number or UID), a glob, or a list of its files")
+    return next(iter(groups.values()))
+
+
+def _names(groups) -> str:
+    parts = []
+    for uid, g in groups.items():
+        ds = g[0][1]
+        label = f"number {ds.get('SeriesNumber', '?')}"
+        if ds.get("SeriesDescription"):
+            label += f" {str(ds.SeriesDescription)!r}"
+        parts.append(f"{label} ({len(g)} files, UID {uid})")
+    return "; ".join(parts)
+
+
+def _same(entries, keyword, f0, values, tolerance=0.0):
+    for (f, _), v in zip(entries, values):
+        if np.abs(np.asarray(v) - np.asarray(values[0])).max() > tolerance:
+            raise VolumeError(f"{f}: {keyword} {np.asarray(v).tolist()} differs from {f0.name}'s "
+                              f"{np.asarray(values[0]).tolist()}; the slices of one volume must match "
+                              f"(choose the files of one series)")
+
+
+def read_dicom_series(path, series: str | None = None) -> RawArray:
+    """A volume from the DICOM files that ``path`` names (see the module doc); ``series``: a
+    SeriesInstanceUID or SeriesNumber when the files hold several series."""
+    pydicom = require("pydicom", "pydicom", "dicom")
+    entries = _headers(pydicom, series_candidates(path))
+    if not entries:
+        raise VolumeError(f"{path}: the DICOM files hold no images (only a DICOMDIR or other objects)")
+    entries = _choose_series(entries, path, series)
+    f0, ds0 = entries[0]
+    for f, ds in entries:
+        if int(ds.get("SamplesPerPixel", 1)) != 1:
+            raise VolumeError(f"{f}: {ds.SamplesPerPixel} samples per pixel (colour); a volume needs grey slices")
+        if int(ds.get("NumberOfFrames", 1) or 1) != 1:
+            raise VolumeError(f"{f}: a multi-frame image ({ds.NumberOfFrames} frames); only series of "
+                              f"single-frame slices are read: convert it (e.g. with dcm2niix) first")
+    _same(entries, "size (Rows, Columns)", f0, [(int(ds.Rows), int(ds.Columns)) for _, ds in entries])
+    iop = [_numbers(ds, "ImageOrientationPatient", 6, f) for f, ds in entries]
+    _same(entries, "ImageOrientationPatient", f0, iop, ORIENTATION_TOLERANCE)
+    pixel = [_numbers(ds, "PixelSpacing", 2, f) for f, ds in entries]
+    _same(entries, "PixelSpacing", f0, pixel, 1e-6 * max(pixel[0]))
+    row, col = iop[0][:3], iop[0][3:]
+    normal = np.cross(row, col)
+    positions = np.array([_numbers(ds, "ImagePositionPatient", 3, f) for f, ds in entries])
+    order = np.argsort(positions @ normal, kind="stable")
+    entries, positions = [entries[i] for i in order], positions[order]
+    gap = _slice_gap(entries, positions, normal, ds0)
+    spacing, direction = axes_geometry([row * pixel[0][1], col * pixel[0][0], normal * gap], str(f0),
+                                       "ImageOrientationPatient")
+    data = _pixels(pydicom, entries, path)
+    return RawArray(data, spacing, tuple(float(v) for v in positions[0]), direction)
+
+
+def _slice_gap(entries, positions, normal, ds0) -> float:
+    """The distance between slices, from their positions: evenly spaced, along the normal."""
+    if len(entries) == 1:
+        for key in ("SpacingBetweenSlices", "SliceThickness"):
+            if ds0.get(key) not in (None, "") and float(ds0.get(key)) > 0:
+                return float(ds0.get(key))
+        return 1.0
+    along = positions @ normal
+    gaps = np.diff(along)
+    for i, g in enumerate(gaps):
+        if g <= 1e-6 * max(1.0, abs(along[i])):
+            raise VolumeError(f"{entries[i][0].name} and {entries[i + 1][0].name}: two slices at one position "
+                              f"({positions[i].tolist()}); several acquisitions, echoes or time points? choose "
+                              f"one with a glob or a list of files")
+    median = float(np.median(gaps))
+    bad = np.flatnonzero(np.abs(gaps - median) > GAP_TOLERANCE * median)
+    if bad.size:
+        i = int(bad[0])
+        raise VolumeError(f"{entries[i][0].name} and {entries[i + 1][0].name}: slices {gaps[i]:.6g} mm apart, "
+                          f"the others {median:.6g} mm (a missing slice?); the slices of a volume must be evenly "
+                          f"spaced: give the whole series")
+    step = (positions[-1] - positions[0]) / (len(positions) - 1)
+    sideways = np.linalg.norm(step - (step @ normal) * normal)
+    if sideways > GAP_TOLERANCE * median:
+        raise VolumeError(f"{entries[0][0].name}: each slice is shifted {sideways:.3g} mm sideways from the one "
+                          f"before (a tilted gantry: a sheared grid); resample the series onto a rectangular "
+                          f"grid first")
+    return float(np.mean(gaps))
+
+
+def _pixels(pydicom, entries, path) -> np.ndarray:
+    ds0 = entries[0][1]
+    rows, cols = int(ds0.Rows), int(ds0.Columns)
+    check_bytes(len(entries) * rows * cols * 8, f"{path}: the {cols}x{rows}x{len(entries)} DICOM series",
+                "read fewer slices, or raise the memory budget")
+    slices, scales = [], []
+    for f, _ in entries:
+        syntax = None
+        try:
+            ds = pydicom.dcmread(str(f))
+            syntax = str(ds.file_meta.TransferSyntaxUID)
+            pixels = ds.pixel_array
+        except Exception as exc:  # a missing decoder and a damaged stream both end here
+            raise VolumeError(_pixel_error(f, syntax, exc)) from None
+        if pixels.shape != (rows, cols):
+            raise VolumeError(f"{f}: pixel data of shape {pixels.shape}, the header says {(rows, cols)}")
+        slices.append(pixels)
+        scales.append((float(ds.get("RescaleSlope", 1) or 1), float(ds.get("RescaleIntercept", 0) or 0)))
+    stored = np.stack(slices)
+    if all(s == (1.0, 0.0) for s in scales):
+        return stored
+    slope = np.array([s[0] for s in scales])[:, None, None]
+    intercept = np.array([s[1] for s in scales])[:, None, None]
+    values = stored * slope + intercept
+    i16 = np.iinfo(np.int16)
+    if np.all(values == np.round(values)) and values.min() >= i16.min and values.max() <= i16.max:
+        return values.astype(np.int16)
+    return values.astype(np.float32)
+
+
+def _pixel_error(f, syntax, exc) -> str:
+    """The line for pixels pydicom could not decode: the plugins it names when it has no decoder for the
+    transfer syntax (JPEG lossless, JPEG-LS, JPEG 2000 without Pillow, ...), else the decoder's complaint."""
+    from pydicom.pixels import get_decoder
+    from pydicom.uid import UID
+
+    try:
+        decoder = get_decoder(UID(syntax)) if syntax else None
+    except (NotImplementedError, ValueError):
+        decoder = None
+    if syntax and UID(syntax).is_compressed and (decoder is None or not decoder.is_available):
+        needs = "; ".join(decoder.missing_dependencies) if decoder else "no decoder is known"
+        return (f"{f}: its transfer syntax {UID(syntax).name} is compressed, and pydicom decodes it only with a "
+                f"plugin ({needs}): e.g. pip install pylibjpeg pylibjpeg-libjpeg pylibjpeg-openjpeg")
+    first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    return f"{f}: cannot decode the pixel data ({first})"
