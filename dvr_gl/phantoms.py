@@ -64,6 +64,19 @@ def gaussian_blur(data: np.ndarray, sigma: float) -> np.ndarray:
     return out
 
 
+def _ellipsoid_box(axes: np.ndarray, ellipsoid, margin: float) -> tuple[slice, slice, slice]:
+    """Index slices (z, y, x) of the nodes ``axes`` (x, y, z coordinates) within ``margin`` of the
+    ellipsoid's bounding box: no node outside them can be inside it."""
+    _, a, b, c, x0, y0, z0, phi = ellipsoid
+    cp, sp = abs(math.cos(math.radians(phi))), abs(math.sin(math.radians(phi)))
+    half = (math.hypot(a * cp, b * sp), math.hypot(a * sp, b * cp), c)
+    boxes = []
+    for axis, centre, h in zip(axes, (x0, y0, z0), half):
+        lo, hi = np.searchsorted(axis, [centre - h - margin, centre + h + margin])
+        boxes.append(slice(int(lo), int(hi)))
+    return boxes[2], boxes[1], boxes[0]
+
+
 def shepp_logan(n: int = 64, subsamples: int | None = None, blur: float = 0.75) -> np.ndarray:
     """The phantom sampled on ``n^3`` nodes over [-1, 1]^3, ``[z, y, x]`` float32.
 
@@ -72,17 +85,26 @@ def shepp_logan(n: int = 64, subsamples: int | None = None, blur: float = 0.75) 
     if subsamples is None:
         subsamples = 3 if n <= 128 else 1
     out = np.zeros((n, n, n), dtype=np.float64)
+    step = 2.0 / (n - 1)
+    axis = -1.0 + step * np.arange(n)
     sub = (np.arange(subsamples) + 0.5) / subsamples - 0.5
     for ox in sub:
         for oy in sub:
             for oz in sub:
-                x, y, z = _grid(n, (ox, oy, oz))
-                for A, a, b, c, x0, y0, z0, phi in SHEPP_LOGAN_3D:
+                axes = (axis + ox * step, axis + oy * step, axis + oz * step)
+                for ellipsoid in SHEPP_LOGAN_3D:
+                    # Each ellipsoid is tested only within its bounding box (a step wider), and the test is
+                    # split into its (y, x) part, computed once per box, plus the z term broadcast over it:
+                    # the same arithmetic in the same order as testing every node, 15x faster at 96^3.
+                    A, a, b, c, x0, y0, z0, phi = ellipsoid
+                    bz, by, bx = _ellipsoid_box(axes, ellipsoid, step)
+                    x, y, z = axes[0][bx][None, :], axes[1][by][:, None], axes[2][bz]
                     cp, sp = math.cos(math.radians(phi)), math.sin(math.radians(phi))
                     xr = (x - x0) * cp + (y - y0) * sp
                     yr = -(x - x0) * sp + (y - y0) * cp
-                    inside = (xr / a) ** 2 + (yr / b) ** 2 + ((z - z0) / c) ** 2 <= 1.0
-                    out[inside] += A
+                    inside = ((xr / a) ** 2 + (yr / b) ** 2)[None] + (((z - z0) / c) ** 2)[:, None, None] <= 1.0
+                    box = out[bz, by, bx]
+                    np.add(box, A, out=box, where=inside)
     out = gaussian_blur(out / subsamples ** 3, blur) if blur > 0 else out / subsamples ** 3
     return np.clip(out, 0.0, 1.0).astype(np.float32)
 
@@ -132,6 +154,24 @@ DEMOS = {"shepp-logan": shepp_logan, "marschner-lobb": marschner_lobb, "blobs": 
 PARTICLE_DEMOS = ("plummer",)
 
 
+# The default demo's look (dvr render --demo): a translucent ivory skull, a faint blue brain with its two
+# ventricles (value 0) as hollows, orange lesions.  The skull is 1.3-2.2 voxels thin at 96^3, so after the
+# blur its peak value varies around the head with the voxel grid; opacity flat from 0.5 to 1 keeps that
+# variation from drawing contour rings (a ramp up to 1 did).  The skull's edges pass through the lesions'
+# values (0.3-0.42) too: their opacity is low per voxel, so the crossing adds little while a lesion's
+# 10-20 voxels of depth make it bright.
+_SKULL, _BRAIN, _LESION = (0.95, 0.9, 0.8), (0.25, 0.45, 1.0), (1.0, 0.45, 0.1)
+SHEPP_LOGAN_DEMO_POINTS = [
+    [0.0, 0.0, 0.0, 0.0, 0.0], [0.16, *_BRAIN, 0.0], [0.2, *_BRAIN, 0.035], [0.24, *_BRAIN, 0.0],
+    [0.27, *_LESION, 0.0], [0.3, *_LESION, 0.2], [0.42, 1.0, 0.85, 0.2, 0.2], [0.46, 1.0, 0.85, 0.2, 0.0],
+    [0.5, *_SKULL, 0.15], [1.0, *_SKULL, 0.15]]
+# Mostly ambient: in a translucent volume the gradient is small and its direction noisy away from the
+# edges, and a diffuse-only term darkens those samples.
+SHEPP_LOGAN_DEMO_SHADING = {"enabled": True, "ambient": 0.6, "diffuse": 0.5, "specular": 0.4}
+#: The demo's clipping plane keeps z <= volume.size / this (world units, spacing 1: 4.8 at 96^3).
+SHEPP_LOGAN_DEMO_CUT = 20
+
+
 def demo_scene(name: str) -> dict:
     """The scene ``dvr render --demo NAME`` starts from (a TOML-shaped dict)."""
     if name == "blobs":
@@ -147,13 +187,17 @@ def demo_scene(name: str) -> dict:
         size, points = 48, [[0.0, 0.0, 0.0, 0.0, 0.0], [0.05, 0.15, 0.25, 0.8, 0.01], [0.5, 0.9, 0.45, 0.15, 0.05],
                             [4.0, 1.0, 0.85, 0.4, 0.2], [16.0, 1.0, 1.0, 1.0, 0.5]]
     else:
-        size, points = 96, None
+        size, points = 96, SHEPP_LOGAN_DEMO_POINTS
     scene = {
         "volume": {"demo": name, "size": size},
         "camera": {"azimuth": 50.0, "elevation": 30.0, "distance": 2.7 * size},
         "image": {"width": 384, "height": 384},
         "renderer": {"sample_distance_voxels": 0.25, "shading": {"enabled": True}},
     }
+    if name == "shepp-logan":  # cut open above the middle and seen from higher up: the inside shows
+        scene["camera"].update(elevation=45.0, distance=2.3 * size)
+        scene["renderer"] = {"sample_distance_voxels": 0.25, "shading": SHEPP_LOGAN_DEMO_SHADING,
+                             "clipping": {"planes": [[0.0, 0.0, -1.0, size / SHEPP_LOGAN_DEMO_CUT]]}}
     if points:
         scene["transfer_function"] = {"points": points}
     if name in PARTICLE_DEMOS:  # a glowing cloud, no surfaces: unshaded
