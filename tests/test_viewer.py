@@ -7,18 +7,38 @@ import math
 
 import numpy as np
 import pytest
-
 from conftest import small_scene
+
 from dvr_gl.camera import Camera
 from dvr_gl.errors import DvrError, SceneError
 from dvr_gl.scene import load_scene
 from dvr_gl.transfer_function import TransferFunction
 from dvr_gl.viewer import navigation, settings
-from dvr_gl.viewer.hud import FrameStats, hud_lines, nominal_samples
+from dvr_gl.viewer.hud import FrameClock, FrameStats, hud_lines, nominal_samples
 from dvr_gl.viewer.keys import help_lines, key_table
-from dvr_gl.viewer.refinement import FIRST_GUESS, FULL, LADDER, FramePlan, Level, RefinementController
+from dvr_gl.viewer.layout import (
+    PANEL_WIDTH,
+    STATUS_HEIGHT,
+    fit,
+    layout,
+    overlaps,
+    window_size,
+)
+from dvr_gl.viewer.refinement import (
+    FIRST_GUESS,
+    FULL,
+    LADDER,
+    FramePlan,
+    Level,
+    RefinementController,
+)
 from dvr_gl.viewer.screenshots import next_paths, write_screenshot
-from dvr_gl.viewer.tf_editor import CanvasMapping, TransferFunctionEditor, load_points, nice_opacity_max
+from dvr_gl.viewer.tf_editor import (
+    CanvasMapping,
+    TransferFunctionEditor,
+    load_points,
+    nice_opacity_max,
+)
 
 
 def project(camera: Camera, point, height: int = 200) -> tuple[float, float]:
@@ -287,9 +307,67 @@ def test_hud_lines_and_nominal_samples():
     scene = small_scene({"camera.projection": "orthographic", "camera.view_height": 62.0, "camera.azimuth": 0.0,
                          "camera.elevation": 0.0, "renderer.sample_distance": 0.5})
     assert nominal_samples(scene) == pytest.approx(16 * 16 * 31 / 0.5)
-    lines = hud_lines(scene, FrameStats(render_seconds=0.5, frame_seconds=0.6, samples=1e6, size=(32, 32),
-                                        state="full", level_text="full resolution"))
-    assert "raycast" in lines[0] and "2.0 M samples/s (nominal)" in lines[2] and lines[3].endswith("full")
+    stats = FrameStats(render_seconds=0.5, frame_seconds=0.6, samples=1e6, size=(32, 32), state="full",
+                       level_text="full resolution")
+    lines = hud_lines(scene, stats)
+    assert len(lines) == 2 and lines[0].startswith("raycast | ")
+    assert lines[1].startswith("full | 32x32 full resolution | frame 600.0 ms = render 500.0 + display 100.0 ms")
+    assert "2.0 M samples/s (nominal)" in lines[1]
+    assert hud_lines(scene, stats, "a message")[0] == "a message"   # the message takes the settings' line
+
+
+def test_frame_times_are_one_clock_and_render_within_frame():
+    """The frame clock times the render inside the frame, with one clock: render <= frame, and the
+    difference is what the frame spent outside the renderer (a fake clock: exact)."""
+    ticks = iter([0.0, 10.0, 10.25, 10.75, 11.0])     # made, begin, render from .. to, end
+    clock = FrameClock(clock=lambda: next(ticks))
+    clock.begin()
+    assert clock.render(lambda: "image") == "image"
+    render, frame = clock.end()
+    assert (render, frame) == (0.5, 1.0)
+    stats = FrameStats(render_seconds=render, frame_seconds=frame)
+    assert stats.other_seconds == 0.5 and stats.render_seconds <= stats.frame_seconds
+
+
+# --- the window's layout ---
+
+@pytest.mark.parametrize("fit_image", [None, (512, 512), (384, 384), (1920, 1080), (100, 700)])
+@pytest.mark.parametrize("panel, status", [(True, True), (False, True), (True, False), (False, False)])
+def test_the_status_bar_and_panel_never_cover_the_image(fit_image, panel, status):
+    """At every window size (from 1 x 1 to 2000 x 1500), the status bar, the panel and the image
+    are inside the window and do not overlap; the status bar is at most two lines high; a scene
+    file's image (fit_image) keeps its aspect (to 1e-9) and is centred in the render area."""
+    for w in (1, 100, 359, 361, 600, 872, 2000):
+        for h in (1, 39, 41, 300, 552, 1500):
+            parts = layout((w, h), panel, status, fit_image)
+            rects = [r for r in (parts.image, parts.panel, parts.status) if r is not None]
+            for r in rects:
+                assert r[0] >= 0 and r[1] >= 0 and r[0] + r[2] <= w and r[1] + r[3] <= h and min(r[2:]) >= 0
+            for i, a in enumerate(rects):
+                for b in rects[i + 1:]:
+                    assert not overlaps(a, b), (w, h, a, b)
+            assert (parts.status is not None) == status and (parts.panel is not None) == panel
+            if status:
+                assert parts.status[3] <= STATUS_HEIGHT and parts.status[1] + parts.status[3] == h
+            if fit_image and parts.image[3] > 0:
+                x, y, iw, ih = parts.image
+                assert iw / ih == pytest.approx(fit_image[0] / fit_image[1], rel=1e-9)
+                ax, ay, aw, ah = parts.area
+                assert (x - ax) == pytest.approx(ax + aw - x - iw) and (y - ay) == pytest.approx(ay + ah - y - ih)
+            elif not fit_image:
+                assert parts.image == parts.area
+
+
+def test_window_sizes_at_start():
+    """The image follows the window: its render area is the size asked.  A scene file's image: a render
+    area of its aspect at least 512 high, never more than it needs, and within the monitor."""
+    assert window_size((512, 512), panel=True, status=True, fit_image=False) == (512 + PANEL_WIDTH, 512 + STATUS_HEIGHT)
+    assert window_size((240, 240), panel=False, status=False, fit_image=False) == (240, 240)
+    assert window_size((256, 128), True, True, fit_image=True) == (1024 + PANEL_WIDTH, 512 + STATUS_HEIGHT)
+    assert window_size((700, 600), True, True, fit_image=True) == (700 + PANEL_WIDTH, 600 + STATUS_HEIGHT)
+    w, h = window_size((4000, 3000), True, True, fit_image=True, limit=(1920, 1080))
+    assert w <= 1920 and h <= 1080 and (w - PANEL_WIDTH) / (h - STATUS_HEIGHT) == pytest.approx(4 / 3, rel=1e-2)
+    assert fit((256, 128), (0, 0, 512, 512)) == (0, 128, 512, 256)
 
 
 def test_every_key_has_an_action_and_help():
@@ -349,6 +427,40 @@ def test_bad_volume_gets_the_render_error(monkeypatch, capsys, tmp_path):
     render_err = capsys.readouterr().err.strip()
     assert view_err.removeprefix("dvr view: ") == render_err.removeprefix("dvr render: ")
     assert "\n" not in view_err and "Traceback" not in view_err
+
+
+@pytest.fixture
+def opened(monkeypatch):
+    """``dvr view`` up to the window: the scene and options it would open, no window."""
+    from dvr_gl.viewer import app
+
+    seen = []
+    monkeypatch.setenv("DISPLAY", ":9999")
+    monkeypatch.setattr(app, "check_display", lambda: None)
+    monkeypatch.setattr(app, "run_viewer", lambda scene, options: seen.append((scene, options)) or 0)
+    return seen
+
+
+def test_the_render_area_is_512_square_by_default(opened, tmp_path):
+    """The demo and a volume file (as --volume or where the scene file goes): a 512 x 512 render area
+    that follows the window; --size: the size given; a scene file: its own image size, drawn scaled
+    to fit (the window is then at least 512 high: test_window_sizes_at_start)."""
+    from dvr_gl.apps.cli import main
+
+    volume = tmp_path / "v.npy"
+    np.save(volume, np.zeros((4, 5, 6), np.float32))
+    scene_file = tmp_path / "s.toml"
+    scene_file.write_text(f'[volume]\npath = "{volume.name}"\n[image]\nwidth = 300\nheight = 200\n')
+    cases = [(["--demo", "--set", "volume.size=8"], (512, 512), False),
+             (["--volume", str(volume)], (512, 512), False),
+             ([str(volume)], (512, 512), False),
+             (["--volume", str(volume), "--size", "200x100"], (200, 100), False),
+             ([str(scene_file)], (300, 200), True),
+             ([str(scene_file), "--size", "64"], (64, 64), False)]
+    for args, size, fit_image in cases:
+        assert main(["view", *args]) == 0, args
+        scene, options = opened.pop()
+        assert ((scene.image.width, scene.image.height), options.fit) == (size, fit_image), args
 
 
 def test_render_only_flags_are_refused(monkeypatch, capsys):

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import itertools
 import json
 import os
 import shutil
@@ -157,14 +158,15 @@ def xvfb():
 class ViewerProcess:
     """``dvr view`` running in Xvfb, with its frame log and screenshot folder."""
 
-    def __init__(self, display: str, folder: Path, *args: str):
+    def __init__(self, display: str, folder: Path, *args: str, size: int | None = SIZE):
         self.folder, self.log = folder, folder / "frames.jsonl"
         self.x = XDisplay(display)
         env = dict(os.environ, DISPLAY=display)
         self.output = open(folder / "viewer.out", "w")
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "dvr_gl.apps.cli", "view", "--demo", "--set", "volume.size=48",
-             "--size", f"{SIZE}x{SIZE}", "--screenshot-dir", str(folder), "--screenshot-format", "exr",
+             *(["--size", f"{size}x{size}"] if size else []), "--screenshot-dir", str(folder),
+             "--screenshot-format", "exr",
              "--frame-log", str(self.log), "--passes", str(PASSES), *args],
             env=env, cwd=folder, stdout=self.output, stderr=subprocess.STDOUT)
 
@@ -285,20 +287,19 @@ def test_refinement_reaches_full_quality_when_idle(viewer):
     """While the button is held and moving, frames are reduced (the 5 ms budget); after release the
     view refines to full quality, and the window shows the screenshot's image: 8-bit sRGB of the
     window against the screenshot encoded the same way, at most 2 levels apart (the display shader
-    and this test each round to 8 bits once; the HUD is hidden with H for this)."""
+    and this test each round to 8 bits once).  The status bar is below the image, so nothing
+    covers it: the whole render area is compared."""
     frame = viewer.last_frame()
     viewer.x.drag(1, (120, 120), (120, 150), steps=6, pause=0.1)
     last = viewer.wait_full(frame)
     moving = [f for f in viewer.frames() if f["frame"] > frame and f["interactive"]]
     assert moving and all(f["block"] > 1 or f["distance_factor"] > 1 for f in moving)
     assert (last["block"], last["distance_factor"], last["width"]) == (1, 1.0, SIZE)
-    viewer.x.key("h")                     # HUD off: the render area shows the image alone
     time.sleep(0.5)
     image, _ = viewer.screenshot()
     time.sleep(0.3)
     window = viewer.x.capture(0, 0, SIZE, SIZE).astype(np.float64)
     assert np.abs(window - srgb8(image)).max() <= 2
-    viewer.x.key("h")
 
 
 def test_jittered_passes_average_when_idle(viewer):
@@ -307,7 +308,6 @@ def test_jittered_passes_average_when_idle(viewer):
     frame = viewer.last_frame()
     viewer.x.move(SIZE / 2, SIZE / 2)
     viewer.x.key("j")
-    viewer.x.key("h")
     last = viewer.wait_full(frame)
     passes = [f["jitter_pass"] for f in viewer.frames() if f["frame"] > frame and f["block"] == 1]
     assert passes[-PASSES:] == list(range(PASSES)) and last["passes"] == PASSES
@@ -322,7 +322,6 @@ def test_jittered_passes_average_when_idle(viewer):
     assert np.abs(window - srgb8(mean)).max() <= 2
     assert np.abs(window - srgb8(single)).max() > 2   # the mean, not the first pass
     viewer.x.key("j")
-    viewer.x.key("h")
     viewer.wait_full(viewer.last_frame())
 
 
@@ -378,6 +377,80 @@ def test_a_refused_setting_is_shown_and_the_previous_kept(viewer):
     viewer.x.key("L")
     last = viewer.wait_full(frame)
     assert last["renderer"] == "raycast"
+
+
+def layouts(v: ViewerProcess) -> list[dict]:
+    return [r for r in v.records() if r.get("event") in ("ready", "layout")]
+
+
+def scroll_panel_to(v: ViewerProcess, end: str) -> dict:
+    """Turn the wheel over the side panel until it is scrolled to ``end`` (top or bottom); the layout then."""
+    panel = layouts(v)[-1]["panel"]
+    v.x.move(panel[0] + panel[2] / 2, panel[1] + panel[3] / 2)
+    time.sleep(0.1)
+    wheel = 5 if end == "bottom" else 4      # X buttons 4 and 5: the wheel up and down
+    for _ in range(30):
+        v.x.button(wheel, True)
+        v.x.button(wheel, False)
+        time.sleep(0.03)
+
+    def scrolled(records):
+        last = [r for r in records if r.get("event") == "layout"][-1]["panel_scroll"]
+        return last if last["y"] == (last["max"] if end == "bottom" else 0.0) else None
+    v.wait(scrolled, f"the panel scrolled to its {end}")
+    return layouts(v)[-1]
+
+
+def check_panel_scrolls(v: ViewerProcess):
+    """The panel's sections are taller than it: it scrolls, and scrolled down its last item (the
+    screenshot folder's line) is inside it; scrolled back, the transfer-function canvas is where it was."""
+    before = layouts(v)[-1]
+    _, y, _, h = before["panel"]
+    assert before["panel_scroll"]["max"] > 0 and before["panel_scroll"]["last_item_bottom"] > y + h
+    bottom = scroll_panel_to(v, "bottom")
+    assert y < bottom["panel_scroll"]["last_item_bottom"] <= y + h
+    top = scroll_panel_to(v, "top")
+    assert top["tf_canvas"] == before["tf_canvas"]
+
+
+def check_times(frames: list[dict]):
+    """Every frame's render time is within its frame time, and the status bar, while drawing a frame,
+    showed the previous frame's pair (complete: never one frame's render time with another's frame time)."""
+    assert len(frames) >= 2
+    for f in frames:
+        assert 0 < f["render_ms"] <= f["frame_ms"], f
+    for previous, f in itertools.pairwise(frames):
+        assert (f["hud_render_ms"], f["hud_frame_ms"]) == (previous["render_ms"], previous["frame_ms"])
+
+
+def test_the_panel_scrolls_in_a_low_window(viewer):
+    """At 240 + 40 pixels high the panel's sections do not fit: the wheel over it scrolls to the end."""
+    check_panel_scrolls(viewer)
+
+
+def test_frame_and_render_times_mean_what_they_say(viewer):
+    """Over all the frames the tests above made (refining, interactive, jittered passes, refusals)."""
+    check_times(viewer.frames())
+
+
+def test_the_default_window_fits(xvfb, tmp_path):
+    """`dvr view --demo` without --size: a 512 x 512 render area at the top left, the status bar (the
+    HUD, 40 pixels) below it across the window, the panel (360 pixels) beside it, none overlapping;
+    the panel, 512 high, scrolls to its last item; the times hold for its frames."""
+    v = ViewerProcess(xvfb, tmp_path, "--budget", "5", size=None)
+    try:
+        v.wait(lambda rs: any(r.get("event") == "layout" and "tf_canvas" in r for r in rs), "the window")
+        v.wait_full()
+        parts = layouts(v)[-1]
+        assert parts["window"] == [512 + 360, 512 + 40] and parts["image"] == [512, 512]
+        assert parts["render_area"] == parts["image_rect"] == [0, 0, 512, 512]
+        assert parts["status"] == [0, 512, 872, 40] and parts["panel"] == [512, 0, 360, 512]
+        assert v.frames()[-1]["width"] == v.frames()[-1]["height"] == 512
+        check_panel_scrolls(v)
+        check_times(v.frames())
+    finally:
+        v.close()
+    assert v.proc.returncode == 0
 
 
 def test_without_the_gui_keys_still_work(xvfb, tmp_path):

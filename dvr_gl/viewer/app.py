@@ -1,9 +1,12 @@
 """The viewer's window and loop: input to scene changes, the refinement controller's plan to
 frames, frames to the screen.
 
-The window holds the *render area* (left) and, with imgui-bundle installed, a side panel (right,
-:data:`PANEL_WIDTH` window pixels).  The render area's size in framebuffer pixels is the scene's
-image size, so a screenshot's saved scene has the size it was rendered at.  Every renderer draws
+The window holds the *render area* (top left) and, with imgui-bundle installed, a side panel
+(right) and a status bar (the HUD, bottom), never over the image (:mod:`.layout`).  For the demo,
+a volume file or ``--size``, the render area's size in framebuffer pixels is the scene's image
+size and follows the window; a scene file's image keeps the file's size and is drawn scaled to
+fit (``ViewerOptions.fit``).  Either way a screenshot's saved scene has the size it was rendered
+at.  Every renderer draws
 into the window's own OpenGL context (the CPU references render on the host).  Images are
 premultiplied and linear; the background is composited once, before display or writing, as in
 ``dvr render``.
@@ -31,9 +34,10 @@ from ..renderers import create_renderer
 from ..settings import with_sample_distance
 from . import navigation, settings
 from .display import ImageDisplay
-from .hud import FrameStats, hud_lines, nominal_samples
+from .hud import FrameClock, FrameStats, hud_lines, nominal_samples
 from .imgui_backend import load_imgui
 from .keys import help_lines, key_table
+from .layout import Layout, layout, window_size
 from .refinement import FramePlan, RefinementController
 from .screenshots import write_screenshot
 from .tf_editor import TransferFunctionEditor
@@ -41,7 +45,6 @@ from .tf_editor import TransferFunctionEditor
 imgui = load_imgui()  # before glfw: imgui-bundle points pyGLFW at the GLFW library it ships
 import glfw  # noqa: E402
 
-PANEL_WIDTH = 360            # window pixels
 TIMED_GESTURE_SECONDS = 0.3  # wheel and window resizing count as interaction until this long after
 MESSAGE_SECONDS = 8.0
 NO_DISPLAY = ("cannot open a window: no display (DISPLAY is unset); run under a desktop session or Xvfb, "
@@ -60,6 +63,9 @@ class ViewerOptions:
     rescale_intercept: for the CT presets in the transfer-function panel (HU = data + intercept).
     benchmark: seconds of a simulated orbit drag, then refinement to full quality, a summary of
         the frame times on stdout, and exit (None: interactive).
+    fit: keep the scene's image size (a scene file's) and draw the image scaled to fit the render
+        area, which is at least :data:`.layout.MIN_AREA` pixels high at start; False: the image
+        size follows the render area (the demo, a volume file, ``--size``).
     """
 
     budget_ms: float = 100.0
@@ -70,6 +76,7 @@ class ViewerOptions:
     gui: bool = True
     rescale_intercept: float = 0.0
     benchmark: float | None = None
+    fit: bool = False
     frames: list = field(default_factory=list)  # filled with the frame records (benchmarks, tests)
 
 
@@ -78,7 +85,16 @@ def check_display():
         raise DvrError(NO_DISPLAY)
 
 
-def open_window(width: int, height: int, title: str):
+def _work_area() -> tuple[int, int] | None:
+    """The primary monitor's work area (width, height), window pixels; None if unknown."""
+    monitor = glfw.get_primary_monitor()
+    if not monitor:
+        return None
+    _, _, w, h = glfw.get_monitor_workarea(monitor)
+    return (w, h) if w > 0 and h > 0 else None
+
+
+def open_window(image: tuple[int, int], gui: bool, fit: bool, title: str):
     """A GLFW window with an OpenGL 3.3 core context, current; DvrError with the reason if none."""
     check_display()
     errors: list[str] = []
@@ -91,6 +107,7 @@ def open_window(width: int, height: int, title: str):
     for hint, value in ((glfw.CONTEXT_VERSION_MAJOR, 3), (glfw.CONTEXT_VERSION_MINOR, 3),
                         (glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE), (glfw.OPENGL_FORWARD_COMPAT, True)):
         glfw.window_hint(hint, value)
+    width, height = window_size(image, panel=gui, status=gui, fit_image=fit, limit=_work_area() if fit else None)
     window = glfw.create_window(width, height, title, None, None)
     if not window:
         why = errors[-1] if errors else "unknown reason"
@@ -144,8 +161,8 @@ class Viewer:
     def __init__(self, scene, options: ViewerOptions):
         self.options = options
         self.gui_module = imgui if options.gui else None
-        panel = PANEL_WIDTH if self.gui_module else 0
-        self.window = open_window(scene.image.width + panel, scene.image.height, "dvr view")
+        self.window = open_window((scene.image.width, scene.image.height), self.gui_module is not None,
+                                  options.fit, "dvr view")
         try:
             self._start(scene, options)
         except BaseException:
@@ -164,7 +181,9 @@ class Viewer:
         self.tf_version = self.editor.version
         self.controller = RefinementController(options.budget_ms / 1e3, self._passes(scene))
         self.renderers: dict = {}
-        self.stats = FrameStats()
+        self.stats = FrameStats()             # the last frame presented, complete: what the HUD shows
+        self.clock = FrameClock()
+        self._frame_info: dict = {}
         self.version = 0                      # counts scene changes
         self.full_image: tuple[int, np.ndarray] | None = None   # (version, pass-0 full-quality image)
         self.accum: np.ndarray | None = None  # running mean of the jittered passes shown
@@ -244,16 +263,28 @@ class Viewer:
 
     # --- window geometry ---
 
-    def render_area(self) -> tuple[int, int, int, int]:
-        """``(width, height)`` of the render area in window pixels, then in framebuffer pixels."""
+    def window_layout(self) -> Layout:
+        """The window's parts now (:func:`.layout.layout`), window pixels."""
+        gui = self.gui is not None
+        image = (self.scene.image.width, self.scene.image.height) if self.options.fit else None
+        return layout(glfw.get_window_size(self.window), panel=gui and self.show_panel,
+                      status=gui and self.show_hud, image=image)
+
+    def framebuffer_scale(self) -> tuple[float, float]:
+        """Framebuffer pixels per window pixel, x and y (HiDPI)."""
         win_w, win_h = glfw.get_window_size(self.window)
         fb_w, fb_h = glfw.get_framebuffer_size(self.window)
-        panel = PANEL_WIDTH if self.show_panel else 0
-        area_w = max(1, win_w - panel)
-        scale = fb_w / win_w if win_w else 1.0
-        return area_w, win_h, max(1, round(area_w * scale)), fb_h
+        return (fb_w / win_w if win_w else 1.0), (fb_h / win_h if win_h else 1.0)
+
+    def render_area(self) -> tuple[int, int, int, int]:
+        """``(width, height)`` of the render area in window pixels, then in framebuffer pixels."""
+        _, _, w, h = self.window_layout().area
+        sx, sy = self.framebuffer_scale()
+        return int(w), int(h), max(1, round(w * sx)), max(1, round(h * sy))
 
     def _sync_size(self):
+        if self.options.fit:   # the scene's own size, drawn scaled to fit
+            return
         _, _, w, h = self.render_area()
         image = self.scene.image
         if h > 0 and (w, h) != (image.width, image.height):
@@ -263,8 +294,9 @@ class Viewer:
             self.gesture_until = time.perf_counter() + TIMED_GESTURE_SECONDS
 
     def in_render_area(self, x: float, y: float) -> bool:
-        area_w, area_h, _, _ = self.render_area()
-        return 0 <= x < area_w and 0 <= y < area_h
+        """Whether a window point is on the image."""
+        ix, iy, iw, ih = self.window_layout().image
+        return ix <= x < ix + iw and iy <= y < iy + ih
 
     # --- input ---
 
@@ -290,9 +322,8 @@ class Viewer:
         cam = self.scene.camera
         if gesture == "orbit":
             cam = navigation.orbit(cam, dx, dy)
-        elif gesture == "pan":
-            _, area_h, _, _ = self.render_area()
-            cam = navigation.pan(cam, dx, dy, area_h)
+        elif gesture == "pan":   # the image's height on screen: the cursor's point stays under it
+            cam = navigation.pan(cam, dx, dy, self.window_layout().image[3])
         else:
             cam = navigation.zoom(cam, -dy / 20.0)   # 20 pixels up: one wheel step in
         self.move_camera(cam)
@@ -418,9 +449,8 @@ class Viewer:
         scene = self.frame_scene(plan)
         try:
             renderer = self._renderer(scene.renderer.name)
-            start = time.perf_counter()
-            rgba = renderer.render(scene)
-            seconds = time.perf_counter() - start
+            rgba = self.clock.render(lambda: renderer.render(scene))   # read back: the GPU has finished
+            seconds = self.clock.render_seconds
         except DvrError as exc:
             self._refused(exc)
             return None
@@ -434,9 +464,9 @@ class Viewer:
         shown = self.accum if self.accum is not None else rgba
         self.display.upload(composite_over(shown, self.scene.image.background))
         samples = renderer.stats.get("samples")
-        self.stats.measured_samples = samples is not None
-        self.stats.samples = float(samples) if samples is not None else nominal_samples(scene)
-        self.stats.render_seconds, self.stats.size = seconds, (scene.image.width, scene.image.height)
+        self._frame_info = {"measured_samples": samples is not None,
+                            "samples": float(samples) if samples is not None else nominal_samples(scene),
+                            "size": (scene.image.width, scene.image.height)}
         return seconds
 
     def _refused(self, exc: DvrError):
@@ -467,10 +497,19 @@ class Viewer:
             self.step()
 
     def layout(self) -> dict:
-        area_w, area_h, fb_w, fb_h = self.render_area()
-        out = {"render_area": [0, 0, area_w, area_h], "image": [fb_w, fb_h]}
+        """The window's parts for the frame log: window pixels, and the image's size in pixels."""
+        parts = self.window_layout()
+        out = {"window": list(parts.window), "render_area": [round(v, 1) for v in parts.area],
+               "image_rect": [round(v, 1) for v in parts.image],
+               "image": [self.scene.image.width, self.scene.image.height]}
+        for name in ("panel", "status"):
+            rect = getattr(parts, name)
+            if rect is not None:
+                out[name] = [round(v, 1) for v in rect]
         if self.gui is not None and self.gui.tf_canvas is not None and self.show_panel:
             out["tf_canvas"] = [round(v, 1) for v in self.gui.tf_canvas]
+        if self.gui is not None and self.show_panel:
+            out["panel_scroll"] = self.gui.panel_scroll
         return out
 
     def step(self):
@@ -482,7 +521,8 @@ class Viewer:
             glfw.poll_events()
         else:
             glfw.wait_events_timeout(0.25)
-        start = time.perf_counter()
+        self.clock.begin()
+        start = self.clock.started
         if self.benchmark:
             self.benchmark.step(self)
         if self.gesture is None and start > self.gesture_until and self.controller.state == "interactive" \
@@ -492,24 +532,27 @@ class Viewer:
         self._sync_editor()
         plan = self.controller.next_frame() if self.stalled != self.version else None
         seconds = self.render(plan) if plan is not None else None
-        self.draw()
+        self.draw()   # the HUD shows self.stats: the last frame presented before this one
         if plan is not None and seconds is not None:
-            total = time.perf_counter() - start
-            self.controller.measured(plan, seconds, max(0.0, total - seconds))
+            seconds, total = self.clock.end()
+            self.controller.measured(plan, seconds, total - seconds)
             self.controller.shown(plan)
-            self.stats.frame_seconds = total
-            self.stats.state = self.controller.state
-            self.stats.level_text = self._level_text(plan)
-            self._record(plan, seconds, total)
+            shown = self.stats
+            self.stats = FrameStats(render_seconds=seconds, frame_seconds=total, state=self.controller.state,
+                                    level_text=self._level_text(plan), **self._frame_info)
+            self._record(plan, seconds, total, shown)
         self._update_title()
 
-    def _record(self, plan: FramePlan, seconds: float, total: float):
+    def _record(self, plan: FramePlan, seconds: float, total: float, shown: FrameStats):
+        """Log the frame, and the times the HUD showed while drawing it (the frame before)."""
         self.frame_count += 1
         record = {"frame": self.frame_count, "state": self.controller.state, "interactive": plan.interactive,
                   "block": plan.level.block, "distance_factor": plan.level.distance_factor,
                   "jitter_pass": plan.jitter_pass, "passes": self.controller.passes,
                   "width": self.stats.size[0], "height": self.stats.size[1], "renderer": self.scene.renderer.name,
-                  "render_ms": round(seconds * 1e3, 3), "frame_ms": round(total * 1e3, 3)}
+                  "render_ms": round(seconds * 1e3, 3), "frame_ms": round(total * 1e3, 3),
+                  "hud_render_ms": round(shown.render_seconds * 1e3, 3),
+                  "hud_frame_ms": round(shown.frame_seconds * 1e3, 3)}
         self.options.frames.append(record)
         self.log.write(**record)
 
@@ -517,17 +560,21 @@ class Viewer:
         fb_w, fb_h = glfw.get_framebuffer_size(self.window)
         if fb_w <= 0 or fb_h <= 0:
             return
-        _, _, area_w, area_h = self.render_area()
+        x, y, w, h = self.window_layout().image
+        sx, sy = self.framebuffer_scale()
+        win_h = glfw.get_window_size(self.window)[1]
         self.ctx.screen.use()
         self.ctx.viewport = (0, 0, fb_w, fb_h)
         self.ctx.clear(0.08, 0.08, 0.09, 1.0)
-        self.display.draw((0, 0, area_w, area_h))
+        # GL's viewport counts from the bottom left, in framebuffer pixels
+        self.display.draw((round(x * sx), round((win_h - y - h) * sy), max(1, round(w * sx)), max(1, round(h * sy))))
         if self.gui is not None:
             self.gui.frame()
         glfw.swap_buffers(self.window)
 
     def hud_lines(self) -> list[str]:
-        return hud_lines(self.scene, self.stats)
+        message = self.current_message()
+        return hud_lines(self.scene, self.stats, message[0] if message else None)
 
     def current_message(self) -> tuple[str, bool] | None:
         if self.message and time.perf_counter() < self.message_until:

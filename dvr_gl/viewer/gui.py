@@ -1,13 +1,15 @@
 """The viewer's panels, HUD and help overlay, in Dear ImGui (imgui-bundle).
 
-* **Side panel** (right): the renderer settings (every registered renderer, compositing,
+* **Side panel** (right, above the status bar; it scrolls when its sections do not fit, and its
+  transfer-function canvas is lower in a low window): the renderer settings (every registered renderer, compositing,
   classification, filter, shading, jitter and passes, sample distance, projection, frame-time
   budget; what the current renderer refuses is greyed out, the reason in a tooltip), the view
   (reset, screenshot), and the **transfer-function editor**: the data histogram (log counts), the
   opacity curve with its control points, the colour bar; click to add a point, drag to move,
   right-click to delete; the selected point's value, opacity and colour; presets; save and load.
-* **HUD** (top left of the render area): settings, frame time, samples per second, refinement state,
-  and the last message (errors in red).
+* **Status bar** (the HUD, across the bottom of the window, never over the image; hover for all
+  of it): the settings or the last message (errors in red), then the refinement state, the last
+  frame's times and samples per second.
 * **Help** (F1): the key and mouse bindings of :mod:`.keys`.
 """
 
@@ -23,7 +25,8 @@ from .imgui_backend import ImGuiInput, ImGuiRenderer
 from .keys import help_lines
 from .tf_editor import CanvasMapping, load_points, nice_opacity_max
 
-CANVAS_HEIGHT = 150       # window pixels of the transfer-function canvas
+CANVAS_HEIGHT = 150       # window pixels of the transfer-function canvas (at most; see canvas_height)
+MIN_CANVAS_HEIGHT = 80
 COLOUR_BAR_HEIGHT = 14
 HISTOGRAM_BINS = 128
 OPACITY_AXES = ("auto", "0.01", "0.05", "0.2", "0.5", "1")
@@ -37,6 +40,12 @@ def _col32(r, g, b, a=1.0) -> int:
     """Packed ABGR colour from components in [0, 1] (already display-encoded)."""
     r, g, b, a = (int(round(min(1.0, max(0.0, float(x))) * 255)) for x in (r, g, b, a))
     return (a << 24) | (b << 16) | (g << 8) | r
+
+
+def canvas_height(panel_height: float) -> int:
+    """The transfer-function canvas's height for a panel ``panel_height`` window pixels high: 30 %
+    of it, within [MIN_CANVAS_HEIGHT, CANVAS_HEIGHT], so that a low panel keeps room for the rest."""
+    return int(min(CANVAS_HEIGHT, max(MIN_CANVAS_HEIGHT, 0.3 * panel_height)))
 
 
 def histogram(data: np.ndarray, value_range: tuple[float, float], bins: int = HISTOGRAM_BINS) -> np.ndarray:
@@ -75,6 +84,9 @@ class ViewerGui:
         self.any_active = False
         self._refusal_cache: dict = {}
         self._refusal_version = -1
+        self.canvas_height = CANVAS_HEIGHT
+        self.panel_scroll: dict = {}
+        self._logged_layout: dict | None = None
 
     @property
     def tf_dragging(self) -> bool:
@@ -99,55 +111,65 @@ class ViewerGui:
         io.delta_time = max(now - self._last_time, 1e-4)
         self._last_time = now
         imgui.new_frame()
-        area_w, area_h, _, _ = v.render_area()
-        if v.show_panel:
-            self.panel(area_w, win_w - area_w, win_h)
+        parts = v.window_layout()
+        if parts.panel is not None:
+            self.panel(parts.panel)
         else:
             self._set_canvas(None)
-        if v.show_hud:
-            self.hud()
+        if parts.status is not None:
+            self.status_bar(parts.status)
         if v.show_help:
-            self.help(area_w, area_h)
+            self.help(parts.image)
         self.any_active = imgui.is_any_item_active()
         imgui.render()
         self.renderer.render(imgui.get_draw_data(), fb_size)
+        self._log_layout()
 
     def _set_canvas(self, rect):
-        """Where the transfer-function canvas is (window pixels); a change goes to the frame log."""
-        if rect != self.tf_canvas:
-            self.tf_canvas = rect
-            self.viewer.log.write(event="layout", **self.viewer.layout())
+        """Where the transfer-function canvas is (window pixels)."""
+        self.tf_canvas = rect
+
+    def _log_layout(self):
+        """A change of the window's parts, the canvas or the panel's scrolling goes to the frame log."""
+        now = self.viewer.layout()
+        if now != self._logged_layout:
+            self._logged_layout = now
+            self.viewer.log.write(event="layout", **now)
 
     # --- overlays ---
 
-    def hud(self):
+    def status_bar(self, rect):
+        """The HUD's two lines in a bar of its own (:data:`.layout.STATUS_HEIGHT` high), clipped at
+        the window's width; hovering shows them whole."""
         imgui = self.imgui
-        flags = (imgui.WindowFlags_.no_decoration | imgui.WindowFlags_.no_inputs | imgui.WindowFlags_.no_nav
-                 | imgui.WindowFlags_.always_auto_resize | imgui.WindowFlags_.no_focus_on_appearing
-                 | imgui.WindowFlags_.no_saved_settings)
-        imgui.set_next_window_pos(imgui.ImVec2(8, 8))
-        imgui.set_next_window_bg_alpha(0.55)
-        imgui.begin("HUD", None, flags)
-        area_w = self.viewer.render_area()[0]
-        imgui.push_text_wrap_pos(max(200.0, area_w - 24.0))
-        for line in self.viewer.hud_lines():
-            imgui.text_wrapped(line)
+        x, y, w, h = rect
+        flags = (imgui.WindowFlags_.no_decoration | imgui.WindowFlags_.no_move | imgui.WindowFlags_.no_nav
+                 | imgui.WindowFlags_.no_focus_on_appearing | imgui.WindowFlags_.no_saved_settings
+                 | imgui.WindowFlags_.no_scroll_with_mouse | imgui.WindowFlags_.no_bring_to_front_on_focus)
+        imgui.set_next_window_pos(imgui.ImVec2(x, y))
+        imgui.set_next_window_size(imgui.ImVec2(w, h))
+        imgui.push_style_var(imgui.StyleVar_.window_padding, imgui.ImVec2(8, 4))
+        imgui.push_style_var(imgui.StyleVar_.window_rounding, 0.0)
+        imgui.begin("status", None, flags)
+        lines = self.viewer.hud_lines()
         message = self.viewer.current_message()
         if message:
-            text, error = message
-            colour = imgui.ImVec4(1.0, 0.35, 0.3, 1.0) if error else imgui.ImVec4(0.6, 0.9, 0.6, 1.0)
-            imgui.push_style_color(imgui.Col_.text, colour)
-            imgui.text_wrapped(text)
-            imgui.pop_style_color()
-        imgui.text_disabled("F1: help")
-        imgui.pop_text_wrap_pos()
+            colour = imgui.ImVec4(1.0, 0.35, 0.3, 1.0) if message[1] else imgui.ImVec4(0.6, 0.9, 0.6, 1.0)
+            imgui.text_colored(colour, lines[0])
+        else:
+            imgui.text(lines[0])
+        imgui.text(lines[1])
+        if imgui.is_window_hovered():
+            imgui.set_tooltip("\n".join(lines))
         imgui.end()
+        imgui.pop_style_var(2)
 
-    def help(self, area_w: float, area_h: float):
+    def help(self, image_rect):
         imgui = self.imgui
+        x, y, w, h = image_rect
         flags = (imgui.WindowFlags_.no_inputs | imgui.WindowFlags_.always_auto_resize
                  | imgui.WindowFlags_.no_collapse | imgui.WindowFlags_.no_saved_settings)
-        imgui.set_next_window_pos(imgui.ImVec2(area_w / 2, area_h / 2), 0, imgui.ImVec2(0.5, 0.5))
+        imgui.set_next_window_pos(imgui.ImVec2(x + w / 2, y + h / 2), 0, imgui.ImVec2(0.5, 0.5))
         imgui.set_next_window_bg_alpha(0.85)
         imgui.begin("Keys and mouse (F1 closes)", None, flags)
         for line in help_lines():
@@ -156,12 +178,17 @@ class ViewerGui:
 
     # --- side panel ---
 
-    def panel(self, x: float, width: float, height: float):
+    def panel(self, rect):
+        """The side panel in ``rect`` (window pixels): collapsing sections in a window that scrolls
+        (wheel or scroll bar) when they are taller than it."""
         imgui = self.imgui
-        imgui.set_next_window_pos(imgui.ImVec2(x, 0))
+        x, y, width, height = rect
+        self.canvas_height = canvas_height(height)
+        imgui.set_next_window_pos(imgui.ImVec2(x, y))
         imgui.set_next_window_size(imgui.ImVec2(width, height))
         flags = (imgui.WindowFlags_.no_move | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_collapse
                  | imgui.WindowFlags_.no_saved_settings | imgui.WindowFlags_.no_title_bar)
+        imgui.push_style_var(imgui.StyleVar_.window_rounding, 0.0)
         imgui.begin("dvr view", None, flags)
         imgui.push_item_width(-130)
         if imgui.collapsing_header("Transfer function", imgui.TreeNodeFlags_.default_open):
@@ -173,7 +200,11 @@ class ViewerGui:
         if imgui.collapsing_header("View", imgui.TreeNodeFlags_.default_open):
             self.view_section()
         imgui.pop_item_width()
+        # how far it scrolls, and where its last item ends (window pixels): for the frame log's tests
+        self.panel_scroll = {"y": round(imgui.get_scroll_y(), 1), "max": round(imgui.get_scroll_max_y(), 1),
+                             "last_item_bottom": round(imgui.get_item_rect_max().y, 1)}
         imgui.end()
+        imgui.pop_style_var()
 
     def _refusals(self, key: str) -> dict:
         """Option -> why the current scene's renderer refuses it (None: available), asked of the
@@ -308,9 +339,10 @@ class ViewerGui:
         value_range = self._value_range()
         pos = imgui.get_cursor_screen_pos()
         width = max(imgui.get_content_region_avail().x, 50.0)
-        mapping = CanvasMapping(pos.x, pos.y, width, CANVAS_HEIGHT, value_range, self._opacity_max())
-        self._set_canvas((pos.x, pos.y, width, float(CANVAS_HEIGHT)))
-        imgui.invisible_button("tf canvas", imgui.ImVec2(width, CANVAS_HEIGHT + COLOUR_BAR_HEIGHT),
+        canvas_h = self.canvas_height
+        mapping = CanvasMapping(pos.x, pos.y, width, canvas_h, value_range, self._opacity_max())
+        self._set_canvas((pos.x, pos.y, width, float(canvas_h)))
+        imgui.invisible_button("tf canvas", imgui.ImVec2(width, canvas_h + COLOUR_BAR_HEIGHT),
                                imgui.ButtonFlags_.mouse_button_left | imgui.ButtonFlags_.mouse_button_right)
         self._canvas_input(mapping)
         self._draw_canvas(mapping, value_range)

@@ -1,11 +1,14 @@
-"""What the HUD shows: frame time, samples per second, renderer and settings (pure; no window)."""
+"""What the HUD (the status bar) shows: frame and render times, samples per second, renderer and
+settings (pure; no window)."""
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..orientation import volume_frame_scene
 from ..rays import intersect_box
 from .settings import describe
 
@@ -14,7 +17,7 @@ def nominal_samples(scene, grid: int = 32) -> float:
     """Samples a full frame of ``scene`` takes before any skipping or early termination: the
     length of every pixel's ray inside the field's box (from the near plane on) over the sample
     distance, summed, estimated from the rays of an image at most ``grid`` pixels wide and high."""
-    img, cam = scene.image, scene.camera
+    img, cam = scene.image, volume_frame_scene(scene)[0].camera  # the rays in the field's own frame
     scale = min(1.0, grid / max(img.width, img.height))   # a coarser image of the same aspect
     w, h = max(1, round(img.width * scale)), max(1, round(img.height * scale))
     origins, dirs = cam.pixel_rays(w, h)
@@ -24,9 +27,19 @@ def nominal_samples(scene, grid: int = 32) -> float:
     return float(length.sum() / scene.renderer.sample_distance * (img.width * img.height) / (w * h))
 
 
-@dataclass
+@dataclass(frozen=True)
 class FrameStats:
-    """The last rendered frame: seconds in the renderer and for the whole frame, samples, size."""
+    """One presented frame, complete (the HUD shows the last one; it never mixes two frames).
+
+    render_seconds: the renderer's ``render`` of the frame, its image read back to the host (so
+        a GPU renderer has finished).
+    frame_seconds: the whole loop iteration that made the frame, from its start (after waiting
+        for input) to the buffer swap that presented it: render, upload, panel, swap.  Both are
+        measured with one clock (:class:`FrameClock`) and the render lies inside the frame, so
+        ``render_seconds <= frame_seconds``.
+    samples: the frame's samples (the renderer's count, or :func:`nominal_samples`).
+    size: the rendered image's size, pixels; state, level_text: the refinement's.
+    """
 
     render_seconds: float = 0.0
     frame_seconds: float = 0.0
@@ -40,16 +53,48 @@ class FrameStats:
     def samples_per_second(self) -> float:
         return self.samples / self.render_seconds if self.render_seconds > 0 else 0.0
 
+    @property
+    def other_seconds(self) -> float:
+        """The frame outside the renderer: upload, panel, swap."""
+        return max(0.0, self.frame_seconds - self.render_seconds)
 
-def hud_lines(scene, stats: FrameStats) -> list[str]:
-    """The HUD's lines: settings (two lines), then timing, then the refinement state."""
+
+class FrameClock:
+    """Times one frame at a time in one clock: :meth:`begin` when the loop iteration starts,
+    :meth:`render` around the renderer, :meth:`end` after the swap; seconds of ``clock``
+    (default :func:`time.perf_counter`)."""
+
+    def __init__(self, clock=time.perf_counter):
+        self.clock = clock
+        self.started = clock()
+        self.render_seconds: float | None = None
+
+    def begin(self):
+        self.started, self.render_seconds = self.clock(), None
+
+    def render(self, draw):
+        """``draw()``, timed as the frame's render; its result."""
+        start = self.clock()
+        try:
+            return draw()
+        finally:
+            self.render_seconds = self.clock() - start
+
+    def end(self) -> tuple[float, float]:
+        """``(render, frame)`` seconds of the frame just presented."""
+        frame = self.clock() - self.started
+        return (self.render_seconds or 0.0), frame
+
+
+def hud_lines(scene, stats: FrameStats, message: str | None = None) -> list[str]:
+    """The status bar's two lines: the settings (or, while there is one, the last message), then
+    the refinement state, the image's size and level, the last frame's times and samples per second."""
     sps = stats.samples_per_second
     kind = "" if stats.measured_samples else " (nominal)"
-    parts = describe(scene).split(" | ")
+    level = f" {stats.level_text}" if stats.level_text else ""
     return [
-        " | ".join(parts[:4]),
-        " | ".join(parts[4:]),
-        f"frame {stats.frame_seconds * 1e3:.1f} ms (render {stats.render_seconds * 1e3:.1f} ms) | "
-        f"{sps / 1e6:.1f} M samples/s{kind}",
-        f"{stats.size[0]}x{stats.size[1]} {stats.level_text} | {stats.state}",
+        message if message else describe(scene),
+        (f"{stats.state} | {stats.size[0]}x{stats.size[1]}{level} | frame {stats.frame_seconds * 1e3:.1f} ms = "
+         f"render {stats.render_seconds * 1e3:.1f} + display {stats.other_seconds * 1e3:.1f} ms | "
+         f"{sps / 1e6:.1f} M samples/s{kind} | F1: help"),
     ]
