@@ -29,7 +29,7 @@ _SCENE_DESTS = {"scene", "demo", "volume", "size", "background", "set", "help", 
 
 def _is_scene_dest(dest: str) -> bool:
     return dest in _SCENE_DESTS or dest.startswith(render_cmd.SETTING_DEST)
-DEMO_SIZE = "512x512"  # the demo's window: larger than `dvr render --demo`'s image, for the panels
+DEFAULT_SIZE = "512x512"  # the render area of the demo and a volume file (dvr render's default is 256x256)
 
 
 def add_arguments(p: argparse.ArgumentParser):
@@ -79,8 +79,11 @@ def run(args) -> int:
     if args.passes < 1 or args.budget <= 0:
         raise DvrError("--passes must be at least 1 and --budget positive")
     check_display()  # before loading a volume that may be large
-    if args.demo and not args.scene and not args.size:
-        args.size = DEMO_SIZE
+    # A scene file keeps its image size, drawn scaled to fit; the demo and a volume file get a
+    # DEFAULT_SIZE render area that follows the window (docs/viewer.md)
+    fit = bool(args.scene) and not args.size
+    if not args.scene and not args.size:
+        args.size = DEFAULT_SIZE
     overrides = render_cmd.overrides_from(args)
     base = demo_scene(args.demo) if args.demo and not args.scene else None
     scene = load_scene(args.scene, overrides, base)
@@ -91,5 +94,6 @@ def run(args) -> int:
     options = ViewerOptions(budget_ms=args.budget, passes=args.passes, screenshot_dir=shots,
                             screenshot_format="." + args.screenshot_format, gui=not args.no_gui,
                             frame_log=Path(args.frame_log) if args.frame_log else None,
-                            rescale_intercept=_rescale_intercept(args, overrides), benchmark=args.benchmark)
+                            rescale_intercept=_rescale_intercept(args, overrides), benchmark=args.benchmark,
+                            fit=fit)
     return run_viewer(scene, options)
