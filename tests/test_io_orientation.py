@@ -28,7 +28,7 @@ def placed(v, index):
     return np.asarray(v.origin) + np.asarray(v.direction) @ (np.asarray(index) * np.asarray(v.spacing))
 
 
-def expected(steps, origin, index, to_lps=np.eye(3)):
+def expected(steps, origin, index, to_lps):
     return to_lps @ (np.asarray(origin, float) + np.asarray(index) @ np.asarray(steps, float))
 
 
