@@ -26,7 +26,7 @@ SETTING_KEYS = (
     ("P", "toggle_projection", "perspective / orthographic"),
     ("R", "reset_view", "reset the view"),
     ("S", "screenshot", "screenshot: image and effective scene (.toml), numbered"),
-    ("H", "toggle_hud", "HUD on/off"),
+    ("H", "toggle_hud", "status bar (HUD) on/off"),
     ("TAB", "toggle_panel", "side panel on/off"),
     ("F1", "toggle_help", "this help (also ?)"),
     ("Q", "quit", "quit (also Esc)"),
