@@ -26,12 +26,15 @@
 from __future__ import annotations
 
 import argparse
+import logging
 import math
 
 from dvr_gl.phantoms import DEMOS
 from dvr_gl.transfer_function import PRESETS
 
 HELP = "run a benchmark and print its table"
+
+log = logging.getLogger(__name__)
 
 
 def count(text: str) -> int:
@@ -193,6 +196,15 @@ def add_arguments(p):
                                                                "measured tables in docs/ are written this way)")
         if "--overwrite" not in parser._option_string_actions:
             parser.add_argument("--overwrite", action="store_true", help="replace FILE if it exists")
+    _feedback_arguments(sub)
+
+
+def _feedback_arguments(sub):
+    """``-q``/``-v`` after the benchmark's name too (``dvr bench tradeoff -q``)."""
+    from .progress import add_arguments
+
+    for parser in sub.choices.values():
+        add_arguments(parser)
 
 
 def _timing_arguments(p, size: int, error_size: int):
@@ -213,16 +225,18 @@ def _shared_data_arguments(p, size: int = 512):
 def run(args) -> int:
     from pathlib import Path
 
-    from dvr_gl.bench import Report
+    from dvr_gl.bench import Report, counting
     from dvr_gl.image import check_writable, write_text
 
     if args.markdown:  # before measuring: fail fast, overwrite nothing unasked
         check_writable(Path(args.markdown), args.overwrite)
     args.report = Report()
-    code = {"raycast": run_raycast, "accel": run_accel, "quality": run_quality,
-            "slicing": run_slicing, "renderers": run_renderers, "shearwarp": run_shearwarp,
-            "tradeoff": run_tradeoff, "peers": run_peers, "cells": run_cells,
-            "splatting": run_splatting, "fourier": run_fourier, "scattering": run_scattering}[args.benchmark](args)
+    bench = {"raycast": run_raycast, "accel": run_accel, "quality": run_quality,
+             "slicing": run_slicing, "renderers": run_renderers, "shearwarp": run_shearwarp,
+             "tradeoff": run_tradeoff, "peers": run_peers, "cells": run_cells,
+             "splatting": run_splatting, "fourier": run_fourier, "scattering": run_scattering}[args.benchmark]
+    with counting(f"dvr bench {args.benchmark}"):  # a bar of the frames measured, after a second
+        code = bench(args)
     if args.markdown:
         write_text(Path(args.markdown), args.report.markdown(args.command_line), args.overwrite)
         print(f"wrote {args.markdown}")
@@ -387,7 +401,7 @@ def _tradeoff_scenes(args):
     scenes = []
     for name, path, extra in chosen:
         if not (data_dir / path).exists():
-            print(f"{name}: {data_dir / path} not found, skipped")
+            log.warning("%s: %s not found, skipped", name, data_dir / path)
             continue
         scenes.append((name, load_scene(None, {"volume.path": str(data_dir / path), **extra, **overrides})))
     if not scenes:
@@ -445,7 +459,7 @@ def run_tradeoff(args) -> int:
         atomic_write(outputs["png"], lambda tmp: plot.tradeoff_plot(all_rows, tmp), args.overwrite)
         written.append(outputs["png"])
     elif not args.no_plot:
-        print("no plot: install the optional extra for plots (pip install 'dvr-gl[plot]')")
+        log.warning("no plot: install the optional extra for plots (pip install 'dvr-gl[plot]')")
     print("wrote " + ", ".join(map(str, written)))
     return 0
 
@@ -698,5 +712,5 @@ def run_peers(args) -> int:
         atomic_write(Path(args.plot), lambda tmp: plot.peers_plot(rows, tmp), args.overwrite)
         print(f"wrote {args.plot}")
     elif args.plot:
-        print("no plot: install the optional extra for plots (pip install 'dvr-gl[plot]')")
+        log.warning("no plot: install the optional extra for plots (pip install 'dvr-gl[plot]')")
     return 0

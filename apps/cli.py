@@ -17,6 +17,7 @@ from dvr_gl.errors import DvrError
 
 from . import bench as bench_cmd
 from . import info as info_cmd
+from . import progress as feedback
 from . import render as render_cmd
 from . import view as view_cmd
 
@@ -34,21 +35,31 @@ class OneLineParser(argparse.ArgumentParser):
 def build_parser() -> argparse.ArgumentParser:
     parser = OneLineParser(prog="dvr", description="dvr-gl: direct volume rendering on OpenGL")
     parser.add_argument("--version", action="version", version=f"dvr-gl {__version__}")
+    feedback.add_arguments(parser)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name, module in SUBCOMMANDS.items():
         p = sub.add_parser(name, help=module.HELP, description=module.__doc__)
         p.add_argument("--debug", action="store_true", help="show tracebacks of errors")
+        feedback.add_arguments(p)
         module.add_arguments(p)
         p.set_defaults(run=module.run)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
+    # the printed time is what the user waits for: from the process's start when run from the shell
+    started = feedback.started(whole_process=argv is None)
     parser = build_parser()
     args = parser.parse_args(argv)
     args.command_line = "dvr " + " ".join(sys.argv[1:] if argv is None else argv)
+    args.started = started
+    args.quiet = getattr(args, "quiet", False)
+    args.verbose = getattr(args, "verbose", 0)
+    if args.quiet and args.verbose:
+        parser.error("give -q or -v, not both")
+    verbosity = feedback.QUIET if args.quiet else min(args.verbose, feedback.VERBOSE)
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), feedback.feedback(args.command, verbosity):
             if not args.debug:
                 # The last guard: a library warning (numpy's RuntimeWarning) is no line for the user; their
                 # sources are fixed where found (the scene's checks), and --debug shows any that remain.

@@ -8,16 +8,19 @@ no partial file; an existing file is replaced only with ``--overwrite``.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
+import logging
 import os
-import sys
 import time
 import tomllib
 import typing
 from pathlib import Path
 
 from dvr_gl.errors import DvrError
-from dvr_gl.image import check_output_path, check_writable, composite_over, write_image, write_text
+from dvr_gl import progress
+from dvr_gl.image import (DEFAULT_FPS, MOVIE_FORMATS, Movie, check_movie, check_output_path, check_writable,
+                          composite_over, write_image, write_text)
 from dvr_gl.phantoms import DEMOS, demo_scene
 from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.sandbox import Sandbox, active, parse_bytes
@@ -26,8 +29,7 @@ from dvr_gl.scene_schema import CameraSpec, VolumeSpec
 from dvr_gl.model import SCATTERING_METHODS
 from dvr_gl.transfer_function import PRESETS
 
-from .progress import DELAY as PROGRESS_DELAY
-from .progress import Progress
+log = logging.getLogger(__name__)
 
 HELP = "render a scene, a volume file or the demo to an image (.png .exr .tif)"
 
@@ -54,15 +56,19 @@ def _choices(spec, key: str) -> tuple:
 
 def add_arguments(p: argparse.ArgumentParser):
     p.add_argument("scene", nargs="?", help="scene file (.toml)")
-    p.add_argument("-o", "--output", required=True, help="output image: .png (8-bit sRGB), .exr or .tif (float)")
+    p.add_argument("-o", "--output", required=True,
+                   help="output image: .png (8-bit sRGB), .exr or .tif (float); an animation (every frame of "
+                        "--frames in one file, 8-bit sRGB): .gif, or .mp4, .webm, .webp with the extra 'video'")
     p.add_argument("--demo", nargs="?", const="shepp-logan", choices=list(DEMOS),
                    help="render a built-in phantom (default shepp-logan)")
     p.add_argument("--volume", metavar="FILE", help="volume file (overrides the scene's)")
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
     p.add_argument("--save-scene", metavar="FILE", help="also write the effective scene (TOML)")
     p.add_argument("--frames", type=int, metavar="N",
-                   help="render an orbit of N frames to OUTPUT_0000.ext, OUTPUT_0001.ext, ...")
-    p.add_argument("--quiet", action="store_true", help="print nothing but errors")
+                   help="render an orbit of N frames: into one animation (.gif .mp4 .webm .webp), or to "
+                        "OUTPUT_0000.ext, OUTPUT_0001.ext, ...")
+    p.add_argument("--fps", type=float, default=DEFAULT_FPS,
+                   help=f"an animation's frames per second (default {DEFAULT_FPS:g})")
     b = p.add_argument_group("sandbox, for scenes you did not write (docs/robustness.md)")
     b.add_argument("--sandbox", action="append", metavar="ROOT", help="read and write only inside folder ROOT "
                    "(repeatable): the scene, every file it names and the outputs; FIFOs and devices are refused")
@@ -209,11 +215,14 @@ def set_overrides(items: list[str]) -> dict:
 
 
 def frame_paths(output: Path, frames: int | None) -> list[Path]:
+    """The files the frames go to: one (a single image, or an animation of every frame), or one per frame."""
     if frames is None:
         return [output]
     if not 1 <= frames <= MAX_FRAMES:
         raise DvrError(f"--frames must be in [1, {MAX_FRAMES}] (the images of the orbit, numbered with 4 "
                        f"digits), got {frames}")
+    if output.suffix.lower() in MOVIE_FORMATS:
+        return [output]
     return [output.with_name(f"{output.stem}_{i:04d}{output.suffix}") for i in range(frames)]
 
 
@@ -234,46 +243,66 @@ def render(args) -> int:
     if args.demo and args.volume:
         raise DvrError("give --demo or --volume, not both")
     base = demo_scene(args.demo) if args.demo and not args.scene else None
+    begun = time.perf_counter()
     scene = load_scene(args.scene, overrides_from(args), base)
+    log.debug("scene loaded and resolved in %.2f s", time.perf_counter() - begun)
     outputs = frame_paths(Path(args.output), args.frames)
+    count = args.frames or 1
     for path in outputs:  # before rendering: fail fast, and never half-overwrite a sequence
         check_output_path(path, args.overwrite)
+    movie = outputs[0].suffix.lower() in MOVIE_FORMATS
+    if movie:
+        check_movie(outputs[0], scene.image.width, scene.image.height, args.fps, scene.image.background)
     if args.save_scene:
         check_writable(Path(args.save_scene), args.overwrite)
     registry.check(scene)  # before rendering: the renderer's one-line refusal, if any
-    if scene.tolerance_choice is not None and not args.quiet:
+    if scene.tolerance_choice is not None and not args.quiet:  # a result (the settings chosen): stdout
         given = getattr(args, SETTING_DEST + "tolerance", None)
         print(f"tolerance {given if given is not None else 'from the scene'}: "
               f"{scene.tolerance_choice.describe(scene.field.sample_spacing)}")
     renderer = create_renderer(scene.renderer.name)
-    progress = Progress(len(outputs), "rendering") if args.frames is not None and not args.quiet else None
-    steps = None if args.quiet or args.frames is not None else Progress(0, "rendering", delay=PROGRESS_DELAY)
-    renderer.progress = steps  # long work's steps (the CPU references'), shown after PROGRESS_DELAY seconds
     start = time.perf_counter()
     try:
-        for i, path in enumerate(outputs):
-            frame = scene
-            if args.frames is not None and i:
-                az0 = scene.camera.orbited().orbit[0]
-                frame = scene.replace(camera=scene.camera.orbited(azimuth=az0 + 360.0 * i / len(outputs)))
-            image = renderer.render(frame)
-            write_image(path, composite_over(image, scene.image.background), args.overwrite)
-            if renderer.stats.get("converged") is False:
-                print(f"dvr render: warning: {path} did not reach renderer.converged_tolerance "
-                      f"{scene.renderer.converged_tolerance:g} in every pixel", file=sys.stderr)
-            if progress:
-                progress.update(i + 1)
+        with contextlib.ExitStack() as stack:
+            sink = stack.enter_context(Movie(outputs[0], count, args.fps, args.overwrite)) if movie else None
+            if args.frames is not None:  # a bar over the frames, at once: the orbit is long work by request
+                step = stack.enter_context(progress.task("frames", count, "frame", delay=0.0, leave=True))
+            else:  # a long frame's steps (the CPU references'), shown after progress.DELAY seconds
+                renderer.progress = stack.enter_context(progress.task("rendering"))
+            for i in range(count):
+                frame = scene
+                if i:
+                    az0 = scene.camera.orbited().orbit[0]
+                    frame = scene.replace(camera=scene.camera.orbited(azimuth=az0 + 360.0 * i / count))
+                begun = time.perf_counter()
+                image = composite_over(renderer.render(frame), scene.image.background)
+                log.debug("frame %d rendered in %.2f s%s", i, time.perf_counter() - begun,
+                          " (compiling the shaders included)" if i == 0 and registry.plugin(
+                              scene.renderer.name).needs_gl else "")
+                if sink is not None:
+                    sink.add(image)
+                else:
+                    write_image(outputs[i], image, args.overwrite)
+                if renderer.stats.get("converged") is False:
+                    log.warning("%s did not reach renderer.converged_tolerance %g in every pixel",
+                                f"frame {i}" if movie else outputs[i], scene.renderer.converged_tolerance)
+                if args.frames is not None:
+                    step(i + 1)
     finally:
         renderer.close()  # also on Ctrl-C (exit 130): the GL context is released, nothing was written
-        for bar in (progress, steps):
-            if bar:
-                bar.close()
+    rendered = time.perf_counter() - start
     if args.save_scene:
         scene_path = Path(args.save_scene)
         write_text(scene_path, scene.to_toml(relative_to=scene_path.resolve().parent), args.overwrite)
     if not args.quiet:
-        what = (f"{len(outputs)} frames to {outputs[0]} .. {outputs[-1].name}" if args.frames is not None
-                else str(outputs[0]))
-        print(f"wrote {what} ({scene.image.width}x{scene.image.height}, {scene.renderer.name}, "
-              f"{time.perf_counter() - start:.2f} s)")
+        if movie:
+            what = f"{outputs[0]} ({count} frame{'s' * (count > 1)} at {args.fps:g} fps, "
+        elif args.frames is not None:
+            what = f"{count} frames to {outputs[0]} .. {outputs[-1].name} ("
+        else:
+            what = f"{outputs[0]} ("
+        # render: the frames (compiling included); total: what the user waited, from the process's start
+        total = time.perf_counter() - getattr(args, "started", start)
+        print(f"wrote {what}{scene.image.width}x{scene.image.height}, {scene.renderer.name}; "
+              f"render {rendered:.2f} s, total {total:.2f} s)")
     return 0

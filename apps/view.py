@@ -69,7 +69,8 @@ def _rescale_intercept(args, overrides: dict) -> float:
 def run(args) -> int:
     from dvr_gl.viewer.app import ViewerOptions, check_display, run_viewer
 
-    defaults = {"output": None, "overwrite": False, "save_scene": None, "frames": None, "quiet": False}
+    defaults = {"output": None, "overwrite": False, "save_scene": None, "frames": None,
+                "fps": render_cmd.DEFAULT_FPS}
     _refuse_render_only(args, defaults)
     render_cmd.positional_volume(args)
     if not args.scene and not args.demo and not args.volume:

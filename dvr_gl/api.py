@@ -15,6 +15,10 @@ renderer's name) and any renderer setting by its scene-file name (``sample_dista
 ``compositing="mip"``, ``shading=True``); ``size`` (pixels: ``n`` or ``(width, height)``) and
 ``background`` (linear RGB or RGBA).  What is not given is resolved as a scene file would be: the
 camera frames the data, a transfer function spans its values.
+
+``progress``: ``True`` for a progress bar (tqdm; a widget in Jupyter) on long work (decompressing a
+file, the ``tolerance`` search, a CPU reference's frame), shown after a second; or a callable
+``callback(done, total)`` told each step (see :mod:`dvr_gl.progress`); default: silent.
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import progress as _progress
 from .camera import Camera
 from .errors import SceneError
 from .fields import Field
@@ -97,13 +102,16 @@ class Image:
 
 def render(data, *, spacing=None, origin=None, transfer_function=None, rescale_intercept=None,
            camera: Camera | None = None, renderer: str | None = None, size=None, background=None, ctx=None,
-           sandbox: Sandbox | None = None, **keywords) -> Image:
+           sandbox: Sandbox | None = None, progress=None, **keywords) -> Image:
     """Render ``data`` (see the module doc): a numpy array indexed ``[z, y, x]``, a field
     (:mod:`dvr_gl.fields`), a path (a ``.toml`` scene file or a volume file), or a :class:`Scene`.
     ``ctx``: a moderngl context for GL renderers (default: a new headless one, released after).
     ``sandbox``: limits for scenes one did not write (:class:`dvr_gl.sandbox.Sandbox`: folders files may
-    be read from, memory, time), for loading and rendering both."""
-    with active(sandbox) if sandbox is not None else contextlib.nullcontext():
+    be read from, memory, time), for loading and rendering both.
+    ``progress``: ``True`` (a bar), a callable ``callback(done, total)``, or ``None`` (as the caller's
+    :func:`dvr_gl.progress.reporting` block says; silent outside one)."""
+    with (active(sandbox) if sandbox is not None else contextlib.nullcontext(),
+          _progress.reporting(progress) if progress is not None else contextlib.nullcontext()):
         return _render(data, spacing=spacing, origin=origin, transfer_function=transfer_function,
                        rescale_intercept=rescale_intercept, camera=camera, renderer=renderer, size=size,
                        background=background, ctx=ctx, **keywords)
@@ -112,7 +120,8 @@ def render(data, *, spacing=None, origin=None, transfer_function=None, rescale_i
 def _render(data, *, ctx=None, **keywords) -> Image:
     scene = scene_of(data, **keywords)
     registry.check(scene)
-    with create_renderer(scene.renderer.name, ctx=ctx) as r:
+    with create_renderer(scene.renderer.name, ctx=ctx) as r, _progress.task("rendering") as step:
+        r.progress = step  # the CPU references' steps
         rgba = r.render(scene)
         return Image(rgba, scene, r.stats)
 

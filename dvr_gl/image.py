@@ -6,14 +6,23 @@ non-premultiplied RGBA).  EXR and TIFF keep linear float32 values; PNG and
 JPEG are 8 bit, sRGB-encoded (OpenImageIO's colour conversion).  Files are
 written to a temporary name in the target folder and renamed, so a failure
 never leaves a partial file, and an existing file is replaced only when asked.
+An output's folder must exist: it is never created (a mistyped folder is refused
+before any work, in one line).
+
+Animations (several frames in one file: :class:`Movie`) are 8-bit sRGB without
+alpha: GIF through OpenImageIO, MP4 (H.264), WebM (VP9) and animated WebP through
+PyAV, the optional extra ``video`` (its wheels carry FFmpeg's encoders).
 """
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import math
 
 import os
 import tempfile
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -21,9 +30,18 @@ import numpy as np
 from . import sandbox
 from .errors import DvrError
 
+log = logging.getLogger(__name__)
+
 FLOAT_FORMATS = (".exr", ".tif", ".tiff")
 EIGHT_BIT_FORMATS = (".png", ".jpg", ".jpeg")
-FORMATS = FLOAT_FORMATS + EIGHT_BIT_FORMATS
+VIDEO_FORMATS = (".mp4", ".webm", ".webp")  # through PyAV (pip install 'dvr-gl[video]')
+MOVIE_FORMATS = (".gif",) + VIDEO_FORMATS   # every frame of --frames in one file
+FORMATS = FLOAT_FORMATS + EIGHT_BIT_FORMATS + MOVIE_FORMATS
+DEFAULT_FPS = 25.0  # frames per second: exact in GIF, whose frame delays are whole hundredths of a second
+# PyAV's encoder per suffix and its options: x264 at constant quality 18 (visually lossless for renderings;
+# its default 23 bands smooth gradients), VP9 at constant quality 24, WebP lossless.
+VIDEO_CODECS = {".mp4": ("libx264", {"crf": "18"}), ".webm": ("libvpx-vp9", {"crf": "24", "b": "0"}),
+                ".webp": ("libwebp_anim", {"lossless": "1"})}
 
 
 def composite_over(rgba: np.ndarray, background) -> np.ndarray:
@@ -61,7 +79,8 @@ def check_writable(path: Path, overwrite: bool = False) -> Path:
     if path.exists() and not overwrite:
         raise DvrError(f"{path}: exists; pass --overwrite to replace it, or choose another name")
     if not folder.is_dir():
-        raise DvrError(f"{path}: folder {folder} does not exist; create it first")
+        raise DvrError(f"{path}: folder {folder} does not exist; create it first (mkdir -p {folder}) "
+                       f"or choose another output path")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise DvrError(f"{path}: folder {folder} is not writable; choose another output path")
     return path
@@ -93,9 +112,10 @@ def _file_mode(path: Path) -> int:
     return 0o666 & ~umask
 
 
-def atomic_write(path: Path, write, overwrite: bool = False):
-    """Call ``write(tmp_path)`` for a temporary file beside ``path``, then rename it over ``path``
-    (callers check the path first: :func:`check_output_path`)."""
+@contextlib.contextmanager
+def atomic_output(path: Path, overwrite: bool = False):
+    """Yield a temporary file's path beside ``path`` to write; when the block ends without an error,
+    rename it over ``path`` (else remove it). Callers check the path first (:func:`check_output_path`)."""
     path = sandbox.check_output_path(path)
     folder = path.parent if str(path.parent) else Path(".")
     try:
@@ -105,7 +125,7 @@ def atomic_write(path: Path, write, overwrite: bool = False):
                        f"choose another output path") from exc
     os.close(fd)
     try:
-        write(Path(tmp))
+        yield Path(tmp)
         os.chmod(tmp, _file_mode(path))  # mkstemp makes private files; outputs are ordinary ones
         if path.exists() and not overwrite:
             raise DvrError(f"{path}: appeared while rendering; not replaced (pass --overwrite)")
@@ -115,6 +135,13 @@ def atomic_write(path: Path, write, overwrite: bool = False):
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
+
+
+def atomic_write(path: Path, write, overwrite: bool = False):
+    """Call ``write(tmp_path)`` for a temporary file beside ``path``, then rename it over ``path``
+    (callers check the path first: :func:`check_output_path`)."""
+    with atomic_output(path, overwrite) as tmp:
+        write(tmp)
 
 
 def _encode(rgba: np.ndarray, suffix: str):
@@ -152,6 +179,152 @@ def write_image(path, rgba: np.ndarray, overwrite: bool = False):
             raise DvrError(f"{path}: writing failed ({buf.geterror().strip()})")
 
     atomic_write(path, write, overwrite)
+
+
+def have_video() -> bool:
+    """Whether PyAV (the optional extra ``video``) is installed."""
+    try:
+        import av  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def check_movie(path: Path, width: int, height: int, fps: float, background=(0.0, 0.0, 0.0, 1.0)):
+    """Refuse, before any rendering, an animation that could not be written as asked (one line each)."""
+    suffix = Path(path).suffix.lower()
+    if not (math.isfinite(fps) and fps > 0):
+        raise DvrError(f"--fps {fps:g}: give a positive number of frames per second")
+    if suffix == ".gif" and fps > 50:
+        # GIF stores each frame's delay in whole hundredths of a second, and viewers show delays
+        # below 2 as 10: faster GIFs play slower, not faster.
+        raise DvrError(f"--fps {fps:g}: GIF frames last whole hundredths of a second and viewers slow down "
+                       f"frames shorter than 0.02 s; use --fps 50 or less, or .mp4")
+    if suffix in VIDEO_FORMATS and not have_video():
+        raise DvrError(f"{path}: writing {suffix} needs PyAV, the optional extra 'video': "
+                       f"pip install 'dvr-gl[video]' (or write .gif, or frames as .png)")
+    if suffix == ".mp4" and (width % 2 or height % 2):
+        raise DvrError(f"{path}: H.264 (4:2:0) needs an even width and height, got {width}x{height}; "
+                       f"use e.g. --size {width + width % 2}x{height + height % 2}")
+    if len(background) > 3 and background[3] < 1.0:
+        raise DvrError(f"{path}: {suffix} frames have no partial transparency; give an opaque background "
+                       f"(alpha 1) or write frames as .png")
+
+
+class Movie:
+    """Frames written one at a time into one animated file, atomically: ``with Movie(...) as m:
+    m.add(rgba)``; the file appears when the block ends with every frame added, never otherwise.
+
+    Frames are linear RGBA with the background composited (:func:`composite_over`), encoded to 8-bit
+    sRGB as for PNG, alpha dropped (:func:`check_movie` asks for an opaque background).
+    """
+
+    def __init__(self, path, frames: int, fps: float = DEFAULT_FPS, overwrite: bool = False):
+        self.path, self.frames, self.fps, self.overwrite = Path(path), frames, fps, overwrite
+        self.suffix = self.path.suffix.lower()
+        if self.suffix not in MOVIE_FORMATS:
+            raise DvrError(f"{path}: not an animation format; use one of {', '.join(MOVIE_FORMATS)}")
+        self.added = 0
+        self._output = self._writer = None
+
+    def __enter__(self):
+        check_writable(self.path, self.overwrite)
+        self._stack = contextlib.ExitStack()
+        self._tmp = self._stack.enter_context(atomic_output(self.path, self.overwrite))
+        return self
+
+    def add(self, rgba: np.ndarray):
+        """Append a frame (linear RGBA over the background, ``(H, W, 4)``)."""
+        if self.added >= self.frames:
+            raise ValueError(f"{self.path}: all {self.frames} frames were added")
+        rgb = encode_8bit(rgba)[..., :3]
+        if self._writer is None:
+            open_ = _GifWriter if self.suffix == ".gif" else _VideoWriter
+            self._writer = open_(self._tmp, rgb.shape[1], rgb.shape[0], self.frames, self.fps, self.suffix)
+        self._writer.add(rgb)
+        self.added += 1
+
+    def __exit__(self, kind, exc, tb):
+        if kind is None:
+            with self._stack:  # renamed into place at the end; removed if finishing fails
+                if self.added != self.frames:
+                    raise DvrError(f"{self.path}: {self.added} of {self.frames} frames were rendered; "
+                                   f"nothing was written")
+                self._writer.close(failed=False)
+        else:
+            try:
+                if self._writer is not None:
+                    self._writer.close(failed=True)
+            finally:
+                self._stack.__exit__(kind, exc, tb)  # the temporary file removed
+        return False
+
+
+class _GifWriter:
+    """A multi-image GIF through OpenImageIO (its frames' subimages appended one by one)."""
+
+    def __init__(self, tmp: Path, width: int, height: int, frames: int, fps: float, suffix: str):
+        import OpenImageIO as oiio
+
+        self.oiio, self.tmp = oiio, tmp
+        rate = Fraction(fps).limit_denominator(1000)
+        spec = oiio.ImageSpec(width, height, 3, oiio.UINT8)
+        spec.attribute("FramesPerSecond", oiio.TypeDesc("rational"), (rate.numerator, rate.denominator))
+        spec.attribute("oiio:Movie", 1)
+        spec.attribute("gif:LoopCount", 0)  # loop forever
+        self.spec, self.out = spec, oiio.ImageOutput.create(str(tmp))
+        if self.out is None or not self.out.open(str(tmp), [spec] * frames):
+            raise DvrError(f"cannot write GIF: {oiio.geterror() if self.out is None else self.out.geterror()}")
+        self.count = 0
+        log.debug("GIF at %g frames per second (a delay of %d hundredths of a second)", fps, round(100 / fps))
+
+    def add(self, rgb: np.ndarray):
+        if self.count and not self.out.open(str(self.tmp), self.spec, "AppendSubimage"):
+            raise DvrError(f"cannot append a GIF frame: {self.out.geterror()}")
+        if not self.out.write_image(np.ascontiguousarray(rgb)):
+            raise DvrError(f"cannot write a GIF frame: {self.out.geterror()}")
+        self.count += 1
+
+    def close(self, failed: bool):
+        if not self.out.close() and not failed:
+            raise DvrError(f"cannot finish the GIF: {self.out.geterror()}")
+
+
+class _VideoWriter:
+    """MP4, WebM or animated WebP through PyAV (FFmpeg's encoders)."""
+
+    def __init__(self, tmp: Path, width: int, height: int, frames: int, fps: float, suffix: str):
+        import av
+
+        self.av = av
+        codec, options = VIDEO_CODECS[suffix]
+        try:
+            self.container = av.open(str(tmp), mode="w")
+            self.stream = self.container.add_stream(codec, rate=Fraction(fps).limit_denominator(1000),
+                                                    options=dict(options))
+            self.stream.width, self.stream.height = width, height
+            self.stream.pix_fmt = "yuv420p"
+        except av.FFmpegError as exc:
+            raise DvrError(f"cannot write {suffix} with {codec}: {exc}") from None
+        self.suffix = suffix
+
+    def add(self, rgb: np.ndarray):
+        frame = self.av.VideoFrame.from_ndarray(np.ascontiguousarray(rgb), format="rgb24")
+        try:
+            for packet in self.stream.encode(frame):
+                self.container.mux(packet)
+        except self.av.FFmpegError as exc:
+            raise DvrError(f"encoding a {self.suffix} frame failed: {exc}") from None
+
+    def close(self, failed: bool):
+        try:
+            if not failed:
+                for packet in self.stream.encode():  # flush the encoder's delayed frames
+                    self.container.mux(packet)
+        except self.av.FFmpegError as exc:
+            raise DvrError(f"finishing the {self.suffix} file failed: {exc}") from None
+        finally:
+            self.container.close()
 
 
 def write_text(path, text: str, overwrite: bool = False):

@@ -46,6 +46,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import progress
 from .errors import SceneError
 from .fields import diagonal, reconstruct
 
@@ -283,11 +284,16 @@ def check(scene, choice: Choice, tolerance: float, renderer=None) -> Choice:
     renderer = renderer or create_renderer("raycast")
     try:
         small = check_scene(scene.with_renderer(**choice.renderer_changes()))
-        if choice.filtering == "hardware":  # its 8-bit weights are a bias that no step removes
-            shader = small.with_renderer(filtering="shader")
-            if _rms(renderer.render(small), renderer.render(shader)) > FILTERING_SHARE * tolerance:
-                choice, small = dataclasses.replace(choice, filtering="shader"), shader
-        d, estimate = _refine(renderer, small, tolerance)
+        # the renders: 2 to compare the filterings, 3 to start, at most CHECK_HALVINGS more
+        renders = (2 if choice.filtering == "hardware" else 0) + 3 + CHECK_HALVINGS
+        with progress.task(f"tolerance {tolerance:g}: checking the sample distance", renders, "render") as step:
+            render = _counting(renderer, step)
+            if choice.filtering == "hardware":  # its 8-bit weights are a bias that no step removes
+                shader = small.with_renderer(filtering="shader")
+                if _rms(render(small), render(shader)) > FILTERING_SHARE * tolerance:
+                    choice, small = dataclasses.replace(choice, filtering="shader"), shader
+            d, estimate = _refine(render, small, tolerance)
+            step(render.done, render.done)  # finished early: the halvings were not all needed
     finally:
         if own:
             renderer.close()
@@ -302,17 +308,28 @@ def check(scene, choice: Choice, tolerance: float, renderer=None) -> Choice:
                                predicted_error=choice.model.predicted_error(choice.classification, d))
 
 
-def _refine(renderer, small, tolerance: float) -> tuple[float, float]:
+def _counting(renderer, step):
+    """``renderer.render`` that tells ``step`` how many renders were done (``render.done``)."""
+    def render(scene):
+        image = renderer.render(scene)
+        render.done += 1
+        step(render.done)
+        return image
+    render.done = 0
+    return render
+
+
+def _refine(render, small, tolerance: float) -> tuple[float, float]:
     """(sample distance, its estimated error): from ``small``'s, halved while the estimate exceeds
-    ``MARGIN tolerance`` (at most ``CHECK_HALVINGS`` times)."""
+    ``MARGIN tolerance`` (at most ``CHECK_HALVINGS`` times); ``render(scene)`` renders."""
     d = small.renderer.sample_distance
-    images = [renderer.render(small.with_renderer(sample_distance=d / k)) for k in (1, 2, 4)]
+    images = [render(small.with_renderer(sample_distance=d / k)) for k in (1, 2, 4)]
     for halving in range(CHECK_HALVINGS + 1):
         estimate, _ = richardson(*images)
         if estimate <= MARGIN * tolerance or halving == CHECK_HALVINGS:
             break
         d /= 2.0
-        images = images[1:] + [renderer.render(small.with_renderer(sample_distance=d / 4))]
+        images = images[1:] + [render(small.with_renderer(sample_distance=d / 4))]
     return d, estimate
 
 

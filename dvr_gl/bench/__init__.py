@@ -1,6 +1,53 @@
-"""Benchmarks behind ``dvr bench``: each returns rows for :func:`format_table`."""
+"""Benchmarks behind ``dvr bench``: each returns rows for :func:`format_table`.
+
+Progress (:mod:`dvr_gl.progress`): a bench runs inside :func:`counting`, whose bar counts the frames
+measured (:func:`tick`); a converged reference, the longest single piece of work, gets its own bar
+(:func:`converged`).
+"""
 
 from __future__ import annotations
+
+import contextlib
+import contextvars
+
+from .. import progress
+
+_ticks: contextvars.ContextVar = contextvars.ContextVar("dvr_gl_bench_ticks", default=None)
+
+
+@contextlib.contextmanager
+def counting(label: str):
+    """A bar over a whole bench (total unknown): each :func:`tick` within the block moves it."""
+    with progress.task(label, unit="frame") as step:
+        done = 0
+
+        def count():
+            nonlocal done
+            done += 1
+            step(done)
+
+        token = _ticks.set(count)
+        try:
+            yield count
+        finally:
+            _ticks.reset(token)
+
+
+def tick():
+    """A frame was measured (nothing happens outside :func:`counting`)."""
+    count = _ticks.get()
+    if count is not None:
+        count()
+
+
+def converged(reference, float64: bool = False):
+    """``reference.render()`` (``render_float64()`` if ``float64``) of a
+    :class:`~dvr_gl.reference.converged.ConvergedReference`, with a bar over its rays."""
+    with progress.task("converged reference", unit="ray") as step:
+        reference.progress = step
+        image = reference.render_float64() if float64 else reference.render()
+    tick()
+    return image
 
 
 def format_table(rows: list[dict], columns: list[tuple[str, str, str]]) -> str:
@@ -74,4 +121,5 @@ def median_seconds(renderer, scene, repeat: int, stat: str = "seconds", warm_up:
     for _ in range(repeat):
         renderer.render(scene)
         times.append(renderer.stats[stat])
+        tick()
     return statistics.median(times)

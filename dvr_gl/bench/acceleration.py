@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..renderers.raycast import acceleration as accel
-from . import median_seconds
+from . import median_seconds, tick
 from ..renderers.raycast.renderer import RayCastRenderer
 from ..scene import load_scene
 
@@ -146,6 +146,7 @@ def overhead(scenes: list[tuple[str, dict]], size: int = 512, views: int = 6, re
                     for mode, scene in scenes_.items():
                         renderer.render(scene)
                         best[mode] = min(best[mode], renderer.stats["gpu_seconds"])
+                        tick()
                 for mode in ms:
                     ms[mode].append(1e3 * best[mode])
                 for mode in ratios:

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..fields import diagonal
+from ..progress import task as progress_task
 
 MESHES = {  # name: (file under the data folder, scalar array or None for the reader's default)
     "bluntfin": ("unstructured/bluntfin_tets.vtk", "density"),
@@ -119,7 +120,9 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
                 at = {**keys, "camera.azimuth": az, "camera.elevation": el, "renderer.name": "projected-tetrahedra"}
                 scene = load_scene(None, {**at, "image.width": size, "image.height": size})
                 small = load_scene(None, {**at, "image.width": error_size, "image.height": error_size})
-                truth = reference.render(small.with_renderer(name="reference-converged")).astype(np.float64)
+                with progress_task("converged reference", unit="step") as step:
+                    reference.progress = step
+                    truth = reference.render(small.with_renderer(name="reference-converged")).astype(np.float64)
                 tiles = [truth]
                 for order in ("exact", "centroid"):
                     row = {"mesh": name, "view": view, "renderer": f"dvr-gl {order}", "cells": len(mesh.tets),

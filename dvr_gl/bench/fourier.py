@@ -17,7 +17,7 @@ from ..image import compare_images
 from ..reference.converged import ConvergedReference
 from ..renderers import create_renderer
 from ..scene import load_scene
-from . import median_seconds
+from . import converged, median_seconds
 
 DISTANCES = (2.0, 1.0, 0.5, 0.25, 0.125)
 COLUMNS = [("n", "N", "d"), ("mode", "mode", ""), ("pre_s", "pre-processing s", ".2f"),
@@ -54,7 +54,7 @@ def run(sizes, size: int = 512, error_size: int = 128, repeat: int = 3, progress
                 row["raycast_ms"] = 1e3 * median_seconds(raycast, ray, repeat)
                 row["speedup"] = row["raycast_ms"] / row["view_ms"]
                 small = scene_for(n, mode, error_size)
-                truth = ConvergedReference(small.with_renderer(converged_tolerance=1e-4)).render()
+                truth = converged(ConvergedReference(small.with_renderer(converged_tolerance=1e-4)))
                 row["rms"] = compare_images(fourier.render(small), truth)["rms"]
                 row["raycast_rms"] = compare_images(raycast.render(small.with_renderer(name="raycast")), truth)["rms"]
                 row["equal"] = _raycast_at(raycast, ray, small.with_renderer(name="raycast"), truth, row["rms"], repeat)
@@ -93,7 +93,7 @@ def shared(scenes, size: int = 128, progress=None) -> list[dict]:
                 image = fourier.render(scene).astype(np.float64)
                 pre = fourier.stats["preprocess_seconds"]
                 fourier.render(scene)
-                truth = ConvergedReference(scene.with_renderer(converged_tolerance=1e-4)).render_float64()
+                truth = converged(ConvergedReference(scene.with_renderer(converged_tolerance=1e-4)), float64=True)
                 error = np.abs(image - truth)
                 rays = RayBatch.for_camera(scene.camera, size, size, scene.volume.bounds)
                 inside = (rays.t1 > rays.t0).reshape(size, size)

@@ -13,6 +13,7 @@ import statistics
 
 from ..renderers.raycast.renderer import RayCastRenderer
 from ..scene import load_scene
+from . import tick
 
 CASES = [  # (label, overrides, fragment shader)
     ("emission, early termination off", {"renderer.ert_threshold": 1.0}, "raycast.frag"),
@@ -70,6 +71,7 @@ def run(base: dict, repeat: int = 5, cases=CASES) -> list[dict]:
             for _ in range(repeat):
                 r.render(scene)
                 times.append(r.stats["gpu_seconds"])
+                tick()
             t = statistics.median(times)
             nx, ny, nz = scene.volume.dims
             rows.append({"case": label, "volume": f"{nx}x{ny}x{nz}",

@@ -17,6 +17,7 @@ import statistics
 
 from ..renderers import create_renderer
 from ..scene import load_scene
+from . import tick
 
 RENDERERS = ("raycast", "slicing3d", "slicing2d")
 CLASSIFICATIONS = ("post", "preintegrated")
@@ -42,6 +43,7 @@ def run(base: dict, repeat: int = 5, budget_mb: float = 48.0) -> list[dict]:
                     for _ in range(repeat):
                         r.render(scene)
                         draws.append(r.stats["gpu_seconds"])
+                        tick()
                         frames.append(r.stats["seconds"])
                     rows.append({"renderer": name, "classification": classification,
                                  "bricks": r.stats.get("bricks", 1), "ms": 1e3 * statistics.median(draws),

@@ -20,7 +20,7 @@ from ..phantoms import demo_scene
 from ..reference.converged import ConvergedReference
 from ..renderers import create_renderer
 from ..scene import load_scene
-from . import median_seconds
+from . import converged, median_seconds
 
 SHADOW_RAY_DISTANCES = (2.0, 1.0, 0.5, 0.25)
 LIGHT_VOLUME_SIZES = (32, 64, 128, 256)
@@ -76,9 +76,8 @@ def run(scenes, size: int = 256, error_size: int = 64, repeat: int = 3, toleranc
     renderers = {name: create_renderer(name) for name in ("raycast", "slicing3d")}
     try:
         for name, overrides in scenes:
-            truth = ConvergedReference(_scene(overrides, error_size, {"renderer.converged_tolerance": tolerance,
-                                                                      "renderer.name": "reference-converged"}
-                                              )).render()
+            truth = converged(ConvergedReference(_scene(overrides, error_size, {
+                "renderer.converged_tolerance": tolerance, "renderer.name": "reference-converged"})))
             for renderer_name, method, label, extra in settings(light_volume_sizes):
                 renderer = renderers[renderer_name]
                 extra = {**extra, "renderer.name": renderer_name}
@@ -132,7 +131,7 @@ def multiple(scenes, size: int = 32, paths: int = 64, tolerance: float = 1e-4, p
     for name, overrides in scenes:
         scene = _scene(overrides, size, {"renderer.converged_tolerance": tolerance,
                                          "renderer.name": "reference-converged"})
-        single = ConvergedReference(scene).render_float64()
+        single = converged(ConvergedReference(scene), float64=True)
         start = time.perf_counter()
         full, error = MonteCarloReference(scene, paths=paths, seed=0).render()
         diff = (full - single)[..., :3]

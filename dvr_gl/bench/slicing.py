@@ -25,6 +25,7 @@ from ..reference.converged import ConvergedReference
 from ..reference.plans import stack_axis
 from ..renderers import create_renderer
 from ..scene import load_scene
+from . import converged, tick
 
 AZIMUTHS = (0.0, 15.0, 30.0, 40.0, 44.0, 46.0, 50.0, 60.0, 75.0, 90.0)
 JUMP_ANGLES = (30.0, 45.0)
@@ -68,10 +69,12 @@ class _Sweep:
     def render(self, name: str, classification: str, azimuth: float) -> np.ndarray:
         if name not in self.renderers:
             self.renderers[name] = create_renderer(name)
-        return self.renderers[name].render(self.scene(azimuth, classification))
+        image = self.renderers[name].render(self.scene(azimuth, classification))
+        tick()
+        return image
 
     def converged(self, azimuth: float) -> np.ndarray:
-        return ConvergedReference(self.scene(azimuth)).render_float64().astype(np.float32)
+        return converged(ConvergedReference(self.scene(azimuth)), float64=True).astype(np.float32)
 
     def close(self):
         for r in self.renderers.values():

@@ -25,7 +25,7 @@ from ..reference.converged import ConvergedReference
 from ..renderers import create_renderer, registry
 from ..renderers.splatting.oracle import reference as same_slabs
 from ..scene import load_scene
-from . import median_seconds
+from . import converged, median_seconds
 
 HU = {"transfer_function.preset": "ct-bone", "transfer_function.rescale_intercept": -1024.0}
 DATASETS = [  # name, file under the data folder, scene overrides
@@ -75,7 +75,7 @@ def run(scenes, size: int = 128, repeat: int = 3, progress=None, shaded: bool = 
                 if label.endswith("shaded"):
                     scene = scene.with_renderer(shading=dataclasses.replace(scene.renderer.shading, enabled=True))
                 if label not in truth:
-                    truth[label] = ConvergedReference(scene.with_renderer(converged_tolerance=1e-4)).render()
+                    truth[label] = converged(ConvergedReference(scene.with_renderer(converged_tolerance=1e-4)))
                 ms = 1e3 * median_seconds(splatting, scene, repeat)
                 image = splatting.render(scene)
                 stats = splatting.stats
@@ -107,7 +107,7 @@ def _raycast_at(raycast, scene, rms: float, repeat: int) -> str:
     """The ray caster's frame time at the largest sample distance whose RMS against its own (trilinear)
     converged reference is at most ``rms``."""
     linear = scene.with_renderer(name="raycast", filter="linear")
-    truth = ConvergedReference(linear.with_renderer(converged_tolerance=1e-4)).render()
+    truth = converged(ConvergedReference(linear.with_renderer(converged_tolerance=1e-4)))
     for d in RAYCAST_DISTANCES:
         case = linear.with_renderer(sample_distance_voxels=d)
         if registry.refusal(case, "raycast"):
@@ -129,7 +129,7 @@ def study(overrides: dict, size: int = 48):
                 a, b = (splatting.render(load_scene(None, {**base, **v, "renderer.sheet_buffer": scheme}))
                         for v in views)
                 row[scheme] = float(np.abs(a - b).max())
-            a, b = (ConvergedReference(load_scene(None, {**base, **v})).render_float64() for v in views)
+            a, b = (converged(ConvergedReference(load_scene(None, {**base, **v})), float64=True) for v in views)
             row["converged"] = float(np.abs(a - b).max())
             rows.append(row)
     return rows

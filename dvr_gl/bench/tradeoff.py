@@ -28,7 +28,7 @@ from ..image import compare_images, composite_over
 from ..reference.converged import ConvergedReference
 from ..renderers import create_renderer, registry
 from ..transfer_function import linear_to_srgb
-from . import acceleration, median_seconds
+from . import acceleration, converged, median_seconds
 
 def sweeps(renderers=None, kind: str | None = None, projection: str | None = None) -> dict:
     """renderer -> its trade-off families (:mod:`dvr_gl.sweeps`), as its plugin declares them: every
@@ -61,7 +61,7 @@ def flip_error(image: np.ndarray, truth: np.ndarray, background) -> float | None
 def converged_truth(scene, tolerance: float = 1e-4) -> np.ndarray:
     """The converged reference of ``scene`` as float32 (its error budget per pixel: ``tolerance``)."""
     truth_scene = scene.with_renderer(converged_tolerance=tolerance)
-    return ConvergedReference(truth_scene).render_float64().astype(np.float32)
+    return converged(ConvergedReference(truth_scene), float64=True).astype(np.float32)
 
 
 def cases(renderers=None, kind: str | None = None, projection: str | None = None):
