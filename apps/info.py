@@ -1,5 +1,7 @@
 """Print versions, the volume readers, the registered renderers (what each renders and reads), and
-what the OpenGL context offers."""
+what the OpenGL context offers; with a FILE (or a folder, a glob, several DICOM files), what the data
+holds: dims, type, spacing, origin, orientation, the value range, a histogram and a transfer function
+to start from."""
 
 from __future__ import annotations
 
@@ -11,14 +13,26 @@ from dvr_gl.gl.context import create_context, gl_info
 from dvr_gl.gl.selftest import selftest
 from dvr_gl.renderers import registry
 
-HELP = "show versions, volume readers, renderers and the OpenGL context"
+HELP = "show versions, readers, renderers and the OpenGL context; or a data file's facts (dvr info FILE)"
 
 READERS = [("NRRD", "nrrd", "pynrrd", "nrrd"), ("NIfTI", "nibabel", "nibabel", "nifti"),
+           ("DICOM", "pydicom", "pydicom", "dicom"), ("zarr", "zarr", "zarr", "zarr"),
            ("meshes", "meshio", "meshio", "mesh"), ("HDF5 SPH", "h5py", "h5py", "particles")]
 
 
 def add_arguments(p):
-    pass
+    p.add_argument("file", nargs="*", metavar="FILE",
+                   help="a volume, mesh or particle file, a folder of slices or a glob (several files: a DICOM "
+                        "series); without it: versions, readers, renderers, OpenGL")
+    v = p.add_argument_group("file options (as dvr render's)")
+    v.add_argument("--format", help="reader (default: by suffix, a folder by its files)")
+    v.add_argument("--dims", type=int, nargs=3, metavar=("NX", "NY", "NZ"), help="raw files")
+    v.add_argument("--dtype", help="raw files: the sample type")
+    v.add_argument("--endian", choices=("little", "big"), default="little", help="raw files")
+    v.add_argument("--header-bytes", type=int, default=0, help="raw files")
+    v.add_argument("--array", metavar="NAME", help="meshes, particles, .vti, zarr: the array")
+    v.add_argument("--series", metavar="N|UID", help="DICOM: the series, when a folder holds several")
+    v.add_argument("--level", type=int, metavar="L", help="OME-Zarr: the resolution level (0: full)")
 
 
 def renderer_lines() -> list[str]:
@@ -46,6 +60,8 @@ def _version(module: str) -> str | None:
 
 
 def run(args) -> int:
+    if getattr(args, "file", None):
+        return file_info(args)
     print(f"dvr-gl {__version__}, Python {platform.python_version()}")
     for module in ("numpy", "moderngl", "OpenImageIO", "glfw"):
         print(f"  {module:12s} {_version(module) or 'missing'}")
@@ -70,3 +86,24 @@ def run(args) -> int:
     finally:
         ctx.release()
     return 1 if problem else 0
+
+
+def file_info(args) -> int:
+    """``dvr info FILE``: the data's facts (:func:`dvr_gl.io.summary.summary_lines`)."""
+    from dvr_gl.io import load_field
+    from dvr_gl.io.summary import summary_lines
+
+    files = args.file
+    source = files if len(files) > 1 else files[0]
+    field = load_field(source, args.format or "auto", array=args.array, dims=args.dims, dtype=args.dtype,
+                       endian=args.endian, header_bytes=args.header_bytes, series=args.series, level=args.level)
+    shown = " ".join(_quoted(f) for f in files)
+    for line in summary_lines(field, shown):
+        print(line)
+    return 0
+
+
+def _quoted(text: str) -> str:
+    import shlex
+
+    return shlex.quote(str(text))

@@ -68,8 +68,10 @@ class VolumeSpec:
     demo: Optional[str] = doc(None, "a built-in phantom: `shepp-logan`, `marschner-lobb`, `blobs`, or `plummer` "
                                     "(SPH particles)")
     size: int = checked(64, "samples per axis of a demo phantom (`plummer`: (size / 2)^3 particles)", at_least(2))
-    format: str = choices("auto", "raw", "nrrd", "nifti", "metaimage", "vtk", "npy", "tiff", "vtu", "plot3d", "csv",
-                          "npz", "hdf5", default="auto", doc="the reader; `auto` goes by the suffix (`.vtk` by its dataset)")
+    format: str = choices("auto", "raw", "nrrd", "nifti", "metaimage", "vtk", "npy", "tiff", "dicom", "vti", "zarr",
+                          "vtu", "plot3d", "csv", "npz", "hdf5", default="auto",
+                          doc="the reader; `auto` goes by the suffix (`.vtk` by its dataset, a folder by its files: "
+                              "DICOM, TIFF or zarr)")
     dims: Optional[tuple[int, int, int]] = checked(None, "raw files: `[nx, ny, nz]`", each(at_least(1)))
     dtype: Optional[str] = doc(None, "raw files: `uint8`, `int8`, `uint16`, `int16`, `uint32`, `int32`, "
                                      "`float32`, `float64`")
@@ -80,7 +82,13 @@ class VolumeSpec:
     origin: Optional[Vec3] = checked(None, "override the file's origin (world units, x first)", world_coordinates)
     nan_value: Optional[float] = doc(None, "replace NaN/Inf by this value; without it they are an error")
     array: Optional[str] = doc(None, "meshes: the scalar array to render (default: the first one-component "
-                                     "array of finite values); SPH particles: the quantity (default: the density)")
+                                     "array of finite values); SPH particles: the quantity (default: the density); "
+                                     "`.vti`: the point-data array (default: the first); zarr: the array's path in "
+                                     "its group")
+    series: Optional[str] = doc(None, "DICOM: the series to read (its SeriesNumber or SeriesInstanceUID) when a "
+                                      "folder holds several")
+    level: Optional[int] = checked(None, "OME-Zarr: the resolution level (0, the default, is the full resolution)",
+                                   at_least(0))
     solution: Optional[str] = doc(None, "PLOT3D grids: the q (solution) file (default: the grid's name with "
                                         "`xyz` replaced by `q`)")
     resample: Optional[int] = checked(None, "meshes: resample onto a grid of this many points along the longest "
