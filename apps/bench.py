@@ -199,6 +199,12 @@ def add_arguments(p):
     _feedback_arguments(sub)
 
 
+def _wrote(args, what):
+    """The files a bench wrote, on stdout with its tables (not with -q)."""
+    if not getattr(args, "quiet", False):
+        print(f"wrote {what}")
+
+
 def _feedback_arguments(sub):
     """``-q``/``-v`` after the benchmark's name too (``dvr bench tradeoff -q``)."""
     from .progress import add_arguments
@@ -239,7 +245,7 @@ def run(args) -> int:
         code = bench(args)
     if args.markdown:
         write_text(Path(args.markdown), args.report.markdown(args.command_line), args.overwrite)
-        print(f"wrote {args.markdown}")
+        _wrote(args, args.markdown)
     return code
 
 
@@ -297,7 +303,7 @@ def run_slicing(args) -> int:
           f"the stacks switch at 45")
     args.report.table(jumps, slicing.JUMP_COLUMNS)
     for path in written:
-        print(f"wrote {path}")
+        _wrote(args, path)
     return 0
 
 
@@ -460,7 +466,7 @@ def run_tradeoff(args) -> int:
         written.append(outputs["png"])
     elif not args.no_plot:
         log.warning("no plot: install the optional extra for plots (pip install 'dvr-gl[plot]')")
-    print("wrote " + ", ".join(map(str, written)))
+    _wrote(args, ", ".join(map(str, written)))
     return 0
 
 
@@ -707,10 +713,10 @@ def run_peers(args) -> int:
     if pictures is not None:
         references = images.pop("references")
         for path in peers.write_pictures(images, references, pictures):
-            print(f"wrote {path}")
+            _wrote(args, path)
     if drawing:
         atomic_write(Path(args.plot), lambda tmp: plot.peers_plot(rows, tmp), args.overwrite)
-        print(f"wrote {args.plot}")
+        _wrote(args, args.plot)
     elif args.plot:
         log.warning("no plot: install the optional extra for plots (pip install 'dvr-gl[plot]')")
     return 0
