@@ -27,7 +27,7 @@ from dvr_gl.sandbox import Sandbox, active, parse_bytes
 from dvr_gl.scene import load_scene
 from dvr_gl.scene_schema import CameraSpec, VolumeSpec
 from dvr_gl.model import SCATTERING_METHODS
-from dvr_gl.transfer_function import PRESETS
+from dvr_gl.transfer_function import PRESETS, is_transfer_function_file
 
 log = logging.getLogger(__name__)
 
@@ -94,8 +94,10 @@ def add_arguments(p: argparse.ArgumentParser):
     g.add_argument("--distance", type=float, help="eye to target, world units")
     g.add_argument("--projection", choices=_choices(CameraSpec, "projection"))
     g.add_argument("--fov", type=float, help="vertical field of view, degrees")
-    g.add_argument("--transfer-function", metavar="PRESET", choices=list(PRESETS),
-                   help=f"transfer function preset: {', '.join(PRESETS)}")
+    g.add_argument("--transfer-function", metavar="NAME|FILE",
+                   help=f"a preset, any case ({', '.join(list(PRESETS)[:5])}, 3D Slicer's: CT-AAA, CT-Bone, MR-Default, "
+                        f"...), a matplotlib colour map (inferno, ...), or a Slicer .vp/.xml or ParaView .json file "
+                        f"(docs/transfer-functions.md)")
     g.add_argument("--rescale-intercept", type=float, help="CT presets: HU = data + intercept")
     g.add_argument("--background", metavar="R,G,B[,A]", help="background colour, linear, 0..1")
     g.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
@@ -163,6 +165,8 @@ def overrides_from(args) -> dict:
     for dest, value in vars(args).items():
         if dest.startswith(SETTING_DEST) and value is not None:
             out["renderer." + dest.removeprefix(SETTING_DEST)] = value
+    if is_transfer_function_file(out.get("transfer_function.preset")):
+        out["transfer_function.file"] = str(Path(out.pop("transfer_function.preset")).expanduser().resolve())
     if getattr(args, "scattering", None) and getattr(args, "shading", None) is None:
         out["renderer.shading.enabled"] = False  # scattering lights the samples instead (--shading: refused)
     if args.demo:

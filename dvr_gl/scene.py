@@ -25,7 +25,7 @@ import numpy as np
 
 from . import phantoms
 from .camera import (DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Camera, framing_distance, framing_view_height)
-from .errors import SceneError
+from .errors import DvrError, SceneError
 from .fields import diagonal
 from .io import load_field
 from .orientation import ANATOMICAL_VIEWS, to_patient_frame
@@ -34,12 +34,15 @@ from .scene_schema import (CameraSpec, ImageSpec, SceneSpec, TransferFunctionSpe
                            renderer_spec_class, spec_to_dict, tables_as_specs)
 from .settings import FILTER, WORLD_RANGE, check_albedo, resolve_renderer as resolve_settings
 from .toml_writer import dumps
-from .transfer_function import PRESETS, TransferFunction, preset
+from .transfer_function import (PRESETS, TransferFunction, from_property, preset, preset_property,
+                                read_transfer_function_file)
 
 # Keys that replace one another when overridden (giving one drops the others).
 _EXCLUSIVE = {
     ("volume", "path"): ("demo",), ("volume", "demo"): ("path",),
-    ("transfer_function", "preset"): ("points",), ("transfer_function", "points"): ("preset",),
+    ("transfer_function", "preset"): ("points", "file", "name", "stretch"),
+    ("transfer_function", "points"): ("preset", "file", "name", "stretch"),
+    ("transfer_function", "file"): ("points", "preset"),
     ("camera", "view"): ("azimuth", "elevation"), ("camera", "azimuth"): ("view",),
     ("camera", "elevation"): ("view",),
     ("renderer", "sample_distance"): ("sample_distance_voxels", "tolerance"),
@@ -86,10 +89,12 @@ def apply_overrides(raw: dict, overrides: dict[str, object]) -> dict:
     return out
 
 
-def parse_scene(raw: dict, source: str | None = None) -> SceneSpec:
-    """The checked spec of a scene dict; errors name the key, after ``source`` (the file) if given."""
+def parse_scene(raw: dict, source: str | None = None, base_dir: Path | str | None = None) -> SceneSpec:
+    """The checked spec of a scene dict; errors name the key, after ``source`` (the file) if given.
+    A Slicer preset's (or file's) shading fills the ``renderer.shading`` keys the dict does not give
+    (``base_dir``: where a relative ``transfer_function.file`` lies; default the working folder)."""
     try:
-        return parse_table(SceneSpec, raw, "")
+        return parse_table(SceneSpec, _with_preset_shading(raw, Path(base_dir or Path.cwd())), "")
     except SceneError as exc:
         if source is None:
             raise
@@ -153,19 +158,68 @@ def _source_name(field, spec: VolumeSpec) -> str:
     return spec.path or spec.demo or getattr(field, "name", None) or "the data"
 
 
-def _resolve_transfer_function(spec: TransferFunctionSpec, field, demo: str | None) -> TransferFunction:
-    if spec.preset is not None and spec.points is not None:
-        raise SceneError("transfer_function: give preset or points, not both")
+def _resolve_transfer_function(spec: TransferFunctionSpec, field, demo: str | None,
+                               base_dir: Path = Path(".")) -> TransferFunction:
+    if spec.points is not None and (spec.preset is not None or spec.file is not None):
+        raise SceneError(f"transfer_function: give {'preset' if spec.preset is not None else 'file'} or points, "
+                         f"not both")
+    if spec.file is not None and spec.preset is not None:
+        raise SceneError("transfer_function: give preset or file, not both (transfer_function.name picks one of "
+                         "a file's maps)")
+    for key in ("stretch", "name"):
+        if getattr(spec, key) is not None and spec.file is None:
+            raise SceneError(f"transfer_function.{key} applies to a file (transfer_function.file); remove it")
     if spec.points is not None:
         tf = TransferFunction(spec.points, spec.unit_distance, spec.opacity_model)
     else:
-        name = spec.preset or _default_preset(VolumeSpec(demo=demo))
         if spec.opacity_model != "alpha":
-            raise SceneError("transfer_function: presets are written in alpha; use opacity_model = 'alpha'")
-        tf = preset(name, field.value_range, spec.rescale_intercept, spec.unit_distance)
+            raise SceneError("transfer_function: presets and files are written in alpha; use opacity_model = 'alpha'")
+        if spec.file is not None:
+            prop = read_transfer_function_file(_tf_path(spec.file, base_dir), spec.name, spec.stretch)
+            tf = from_property(prop, field.value_range, spec.rescale_intercept, spec.unit_distance)
+        else:
+            name = spec.preset or _default_preset(VolumeSpec(demo=demo))
+            tf = preset(name, field.value_range, spec.rescale_intercept, spec.unit_distance)
     # a field with a value standing for "no material" (a mesh resampled onto a grid, outside its cells)
     outside = getattr(field, "transparent_outside", None)
     return tf if outside is None else outside(tf)
+
+
+def _tf_path(file: str, base_dir: Path) -> Path:
+    path = Path(os.path.expanduser(file))
+    return path if path.is_absolute() else Path(base_dir) / path
+
+
+def _with_preset_shading(raw: dict, base_dir: Path) -> dict:
+    """``raw`` with the shading of its transfer function's preset or file (Slicer's ``shade``, ambient,
+    diffuse, specular, specular power) in the ``renderer.shading`` keys it does not set itself, where
+    the renderer shades and scattering is off.  A dict this cannot read is returned as it is: parsing
+    and resolution name what is wrong."""
+    from .renderers import registry
+
+    tf, renderer = raw.get("transfer_function"), raw.get("renderer", {})
+    if not isinstance(tf, dict) or not isinstance(renderer, dict) or tf.get("points") is not None:
+        return raw
+    name, file = tf.get("name") if "file" in tf else tf.get("preset"), tf.get("file")
+    shading = renderer.get("shading", {})
+    scattering = renderer.get("scattering", {})
+    if not isinstance(shading, dict) or (isinstance(scattering, dict) and scattering.get("enabled")):
+        return raw
+    try:
+        if isinstance(file, str):
+            prop = read_transfer_function_file(_tf_path(file, base_dir), name if isinstance(name, str) else None)
+        elif isinstance(name, str):
+            prop = preset_property(name)
+        else:
+            return raw
+        plugin = registry.plugin(renderer.get("name") or registry.default_for("grid"))
+    except (DvrError, TypeError, ValueError, OSError):
+        return raw
+    if prop is None or not prop.shading or not prop.shading["enabled"] or "shading" not in plugin.setting_names:
+        return raw
+    out = copy.deepcopy(raw)
+    out.setdefault("renderer", {})["shading"] = {**prop.shading, **shading}
+    return out
 
 
 def _default_preset(volume: VolumeSpec) -> str:
@@ -376,7 +430,10 @@ def resolve_scene(spec: SceneSpec, base_dir: Path | str = ".", field=None, volum
     if field is None:
         field, volume_source = _resolve_volume(spec.volume, base_dir)
     _check_extent(field, volume_source or spec.volume)
-    tf = transfer_function or _resolve_transfer_function(spec.transfer_function, field, spec.volume.demo)
+    tf = transfer_function or _resolve_transfer_function(spec.transfer_function, field, spec.volume.demo, base_dir)
+    if spec.transfer_function.file is not None:  # absolute, so that a new field re-resolves it from anywhere
+        spec = dataclasses.replace(spec, transfer_function=dataclasses.replace(
+            spec.transfer_function, file=str(_tf_path(spec.transfer_function.file, base_dir).resolve())))
     camera = camera or _resolve_camera(spec.camera, field, spec.image)
     renderer = _resolve_geometry(resolve_renderer(spec.renderer, field), base_dir)
     scene = Scene(field, tf, camera, spec.image, renderer, volume_source or VolumeSpec(), spec)
@@ -437,7 +494,7 @@ def load_scene(path: Path | str | None = None, overrides: dict | None = None, ba
     raw = read_scene_dict(Path(path)) if path is not None else copy.deepcopy(base or {})
     if overrides:
         raw = apply_overrides(raw, overrides)
-    spec = parse_scene(raw, str(path) if path is not None else None)
+    spec = parse_scene(raw, str(path) if path is not None else None, Path(path).parent if path is not None else None)
     return resolve_scene(spec, Path(path).parent if path is not None else Path.cwd())
 
 

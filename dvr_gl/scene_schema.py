@@ -97,17 +97,24 @@ class VolumeSpec:
 
 @dataclass
 class TransferFunctionSpec:
-    """A preset by name, or explicit ``points = [[value, r, g, b, opacity], ...]``."""
+    """A preset by name, a file, or explicit ``points = [[value, r, g, b, opacity], ...]``."""
 
-    preset: Optional[str] = doc(None, "`grayscale`, `viridis`, `ct-bone`, `ct-skin`, `shepp-logan` (default "
-                                      "`grayscale`; `shepp-logan` for that demo)")
+    preset: Optional[str] = doc(None, "a name, any case: `grayscale`, `viridis`, `ct-bone`, `ct-skin`, `shepp-logan`, "
+                                      "3D Slicer's presets (`CT-AAA`, `MR-Default`, ...), a matplotlib colour map "
+                                      "(default `grayscale`; `shepp-logan` for that demo; docs/transfer-functions.md)")
+    file: Optional[str] = doc(None, "a Slicer `.vp` or presets `.xml`, or a ParaView colour-map `.json` "
+                                    "(relative to the scene file)")
+    name: Optional[str] = doc(None, "with `file`: which of the file's maps or presets (any case)")
+    stretch: Optional[bool] = doc(None, "stretch the file's values onto the data's value range (default: "
+                                        "ParaView JSON yes, Slicer files no)")
     points: Optional[list[list[float]]] = doc(None, "`[[value, r, g, b, opacity], ...]`, values strictly "
                                                     "increasing, data units; or give `preset`; a sixth column "
                                                     "is scattering's albedo (docs/scattering.md)")
     unit_distance: float = checked(1.0, "world length that `alpha` refers to", world_length)
     opacity_model: str = choices("alpha", "extinction", default="alpha",
                                  doc="what the 5th column means: `alpha` per `unit_distance`, or `extinction` sigma")
-    rescale_intercept: float = doc(0.0, "CT presets: HU = data + intercept")
+    rescale_intercept: float = doc(0.0, "CT presets and Slicer files: HU = data + intercept (-1024 for CT "
+                                        "stored as unsigned HU + 1024)")
 
 
 @dataclass

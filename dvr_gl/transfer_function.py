@@ -22,11 +22,19 @@ use of the function ignores it.
 
 from __future__ import annotations
 
+import dataclasses
+import difflib
+import os
+import warnings
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from .errors import SceneError
+from .presets import colormaps, paraview, slicer
+from .presets.colour import linear_to_srgb, srgb_to_linear  # noqa: F401  (the names other modules import)
+from .presets.property import gradient_opacity_is_constant
 
 ALPHA_MAX = 1.0 - 2.0 ** -24
 MAX_OPTICAL_DEPTH = -np.log1p(-ALPHA_MAX)  # = 24 ln 2 = 16.6355...
@@ -272,22 +280,11 @@ class TransferFunctionLUT:
 
 
 # --- presets -------------------------------------------------------------------------------------
-
-def srgb_to_linear(c):
-    """sRGB-encoded colour (colour maps are published that way) to linear."""
-    c = np.asarray(c, dtype=np.float64)
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-
-
-def linear_to_srgb(c):
-    """Linear colour in [0, 1] (clipped) to sRGB-encoded, as displays show it."""
-    c = np.clip(np.asarray(c, dtype=np.float64), 0.0, 1.0)
-    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055)
-
-
-# Viridis (matplotlib, CC0) at 0, 1/4, 1/2, 3/4, 1, sRGB-encoded.
-_VIRIDIS = [(0.267, 0.005, 0.329), (0.229, 0.322, 0.546), (0.128, 0.567, 0.551),
-            (0.369, 0.789, 0.383), (0.993, 0.906, 0.144)]
+#
+# A preset is found by name (docs/transfer-functions.md): one of dvr-gl's own (PRESETS' first five),
+# one of 3D Slicer's volume-rendering presets (shipped as Slicer's own XML), or a matplotlib colour
+# map; or read from a file (Slicer .vp or presets XML, ParaView colour-map JSON).  Names match without
+# regard to case; an exact spelling wins (`ct-bone` is dvr-gl's, `CT-Bone` Slicer's).
 
 
 def _grayscale(lo, hi, intercept):
@@ -295,9 +292,8 @@ def _grayscale(lo, hi, intercept):
 
 
 def _viridis(lo, hi, intercept):
-    t = np.linspace(0, 1, len(_VIRIDIS))
-    cols = srgb_to_linear(_VIRIDIS)
-    return [[lo + ti * (hi - lo), *c, 0.1 * ti] for ti, c in zip(t, cols)]
+    """matplotlib's 256-entry viridis (shipped, CC0) over the value range, opacity 0 to 0.1."""
+    return colormaps.from_table("viridis", colormaps.viridis_table()).points((lo, hi))
 
 
 def _ct_bone(lo, hi, intercept):
@@ -323,27 +319,127 @@ def _shepp_logan(lo, hi, intercept):
             [1.0, 1.0, 1.0, 0.95, 0.03]]
 
 
+def _slicer(name):
+    return lambda lo, hi, intercept: slicer.read_presets()[name].points((lo, hi), intercept)
+
+
 PRESETS = {
     "grayscale": (_grayscale, "grey ramp over the volume's value range"),
-    "viridis": (_viridis, "viridis colour map over the value range, opacity ramp"),
+    "viridis": (_viridis, "matplotlib's viridis over the value range, opacity ramp 0 to 0.1"),
     "ct-bone": (_ct_bone, "CT bone (Hounsfield units, see rescale_intercept)"),
     "ct-skin": (_ct_skin, "CT skin and soft tissue (Hounsfield units, see rescale_intercept)"),
     "shepp-logan": (_shepp_logan, "the built-in Shepp-Logan phantom"),
+    **{n: (_slicer(n), "3D Slicer's preset (data units: Hounsfield units for CT, see rescale_intercept)")
+       for n in slicer.read_presets()},
 }
+
+
+def find_preset(name: str) -> str:
+    """The preset's name as :data:`PRESETS` or matplotlib spells it: the exact spelling first, then
+    any case; an unknown name is one line with the close matches."""
+    if name in PRESETS:
+        return name
+    # any other spelling of `ct-bone` is Slicer's `CT-Bone`: its mixed-case names win when folded
+    folded = {n.lower(): n for n in PRESETS if n.islower()}
+    folded.update({n.lower(): n for n in PRESETS if not n.islower()})
+    key = str(name).lower()
+    if key in folded:
+        return folded[key]
+    mpl = colormaps.matplotlib_names()
+    if mpl is not None and key in mpl:
+        return mpl[key]
+    known = list(folded) + list(mpl or {})
+    close = difflib.get_close_matches(key, known, n=4, cutoff=0.6)
+    hint = f"did you mean {', '.join(folded.get(c) or mpl[c] for c in close)}? " if close else ""
+    extra = ("" if mpl is not None else "; matplotlib colour maps by name (inferno, magma, ...) need matplotlib: "
+             "pip install 'dvr-gl[plot]'")
+    raise SceneError(f"unknown transfer function preset {name!r}: {hint}give a preset ({', '.join(list(PRESETS)[:5])}, "
+                     f"3D Slicer's such as CT-AAA), a matplotlib colour map, or a .vp/.json/.xml file "
+                     f"(docs/transfer-functions.md){extra}")
+
+
+def preset_property(name: str):
+    """The :class:`~dvr_gl.presets.property.VolumeProperty` behind a named preset (Slicer's, a colour
+    map), or None for dvr-gl's own."""
+    found = find_preset(name)
+    if found in slicer.read_presets():
+        return slicer.read_presets()[found]
+    if found in PRESETS:
+        return None
+    return colormaps.matplotlib_map(found)
 
 
 def preset(name: str, value_range: tuple[float, float], rescale_intercept: float = 0.0,
            unit_distance: float = 1.0) -> TransferFunction:
-    """A named preset as a :class:`TransferFunction` in data units.
+    """A named preset as a :class:`TransferFunction` in data units (names: :func:`find_preset`).
 
-    Generic presets span ``value_range``; CT presets are written in Hounsfield
-    units and placed with ``HU = data + rescale_intercept`` (DICOM's meaning:
-    -1024 for CT data stored as HU + 1024, such as CThead and the CT bunny).
+    Generic presets and colour maps span ``value_range``; CT presets (dvr-gl's and Slicer's) are
+    written in Hounsfield units and placed with ``HU = data + rescale_intercept`` (DICOM's meaning:
+    -1024 for CT data stored as HU + 1024, such as CThead and the CT bunny).  ``unit_distance``: the
+    world length alpha refers to (Slicer's presets: 1, a millimetre, as VTK's default).
     """
-    if name not in PRESETS:
-        raise SceneError(f"unknown transfer function preset {name!r}; choose one of {', '.join(PRESETS)}")
+    found = find_preset(name)
     lo, hi = value_range
     if hi <= lo:
         hi = lo + 1.0
-    return TransferFunction(np.array(PRESETS[name][0](lo, hi, rescale_intercept), dtype=np.float64),
-                            unit_distance=unit_distance)
+    if found in PRESETS:
+        points = PRESETS[found][0](lo, hi, rescale_intercept)
+        prop = slicer.read_presets().get(found)
+        if prop is not None:
+            _warn_unmodelled(prop)
+    else:
+        points = colormaps.matplotlib_map(found).points((lo, hi))
+    return TransferFunction(np.array(points, dtype=np.float64), unit_distance=unit_distance)
+
+
+def from_property(prop, value_range, rescale_intercept: float = 0.0, unit_distance: float = 1.0) -> TransferFunction:
+    """A :class:`~dvr_gl.presets.property.VolumeProperty` (read from a file) as a TransferFunction;
+    what we do not model (a varying gradient opacity, nearest interpolation) is warned about."""
+    _warn_unmodelled(prop)
+    return TransferFunction(prop.points(value_range, rescale_intercept), unit_distance=unit_distance)
+
+
+def read_transfer_function_file(path, name: str | None = None, stretch: bool | None = None):
+    """A transfer-function file as a VolumeProperty, by its suffix: Slicer's ``.vp``, Slicer's presets
+    or MRML XML (``.xml``, ``.mrml``: ``name`` picks one), ParaView's colour-map JSON (``.json``:
+    ``name`` picks one of several).  ``stretch``: see :class:`TransferFunctionSpec`."""
+    from .sandbox import check_input_path
+
+    path = check_input_path(Path(os.path.expanduser(str(path))), "transfer function file")
+    suffix = path.suffix.lower()
+    if suffix == ".vp":
+        prop = slicer.read_vp(path)
+    elif suffix in (".xml", ".mrml"):
+        props = slicer.read_presets(path.resolve())
+        if name is None and len(props) > 1:
+            raise SceneError(f"{path}: holds {len(props)} volume properties ({', '.join(list(props)[:5])}, ...); "
+                             f"name one with transfer_function.name")
+        matches = [p for n, p in props.items() if name is None or n.lower() == name.lower()]
+        if not matches:
+            raise SceneError(f"{path}: no volume property named {name!r}; it holds {', '.join(list(props)[:8])}")
+        prop = matches[0]
+    elif suffix == ".json":
+        prop = paraview.to_property(paraview.choose(paraview.read_maps(path), name, path), path.name, stretch)
+    else:
+        raise SceneError(f"{path}: cannot tell the transfer function format from the suffix {suffix or '(none)'!r}; "
+                         f"give a Slicer .vp or .xml file or a ParaView colour-map .json")
+    if stretch is not None and suffix != ".json":
+        prop = dataclasses.replace(prop, stretch=bool(stretch))
+    return prop
+
+
+FILE_SUFFIXES = (".vp", ".xml", ".mrml", ".json")
+
+
+def is_transfer_function_file(name) -> bool:
+    """Whether a ``--transfer-function`` argument names a file (by its suffix) rather than a preset."""
+    return isinstance(name, str) and Path(name).suffix.lower() in FILE_SUFFIXES
+
+
+def _warn_unmodelled(prop) -> None:
+    if not gradient_opacity_is_constant(prop):
+        warnings.warn(f"{prop.source}: its gradient opacity is not modelled and is dropped (the image shows "
+                      f"more of the flat regions than in Slicer; docs/transfer-functions.md)", stacklevel=3)
+    if prop.interpolation == 0:
+        warnings.warn(f"{prop.source}: nearest-neighbour interpolation is not applied from the file; set "
+                      f"renderer.filter = \"nearest\" for it", stacklevel=3)
