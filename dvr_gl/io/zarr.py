@@ -1,0 +1,131 @@
+"""zarr arrays and OME-Zarr images through the zarr package (extra ``zarr``).
+
+* A zarr array of three dimensions (leading axes of size 1 are dropped): ``[z, y, x]``, spacing 1.
+* A group holding one array (or the one ``volume.array`` names, by its path in the group).
+* An OME-Zarr image (NGFF 0.4, ``multiscales`` in the group's attributes, or 0.5, under ``ome``): the
+  level ``volume.level`` chooses (0, the default, is the full resolution); its ``axes`` name the z, y
+  and x axes (in any order: the array is transposed by name, never guessed), a time or channel axis of
+  size 1 is dropped and a longer one refused; the ``coordinateTransformations``, the dataset's then the
+  multiscale's, give the spacing (``scale``) and origin (``translation``) in the axes' units.
+
+The bytes the chosen array holds are checked against the memory budget before it is read.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import VolumeError
+from ..sandbox import SandboxError, check_bytes, current
+from .common import RawArray, check_sample_type, check_spacing, require
+
+SPATIAL = ("z", "y", "x")
+
+
+def read_zarr(path: Path, array: str | None = None, level: int | None = None) -> RawArray:
+    zarr = require("zarr", "zarr", "zarr")
+    path = Path(path)
+    if not current().allows(path):
+        raise SandboxError(f"{path}: the zarr store lies outside the allowed folders; move it into one of them")
+    name = str(path)
+    try:
+        node = zarr.open(store=name, mode="r")
+    except Exception as exc:  # zarr raises many kinds for a folder that is not a store  # noqa: BLE001
+        raise VolumeError(f"{name}: not a zarr store ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})") \
+            from None
+    axes, transforms = None, []
+    if isinstance(node, zarr.Array):
+        if array is not None or level is not None:
+            raise VolumeError(f"{name}: a single zarr array; volume.array and volume.level apply to groups: remove them")
+        target = node
+    else:
+        attrs = dict(node.attrs)
+        multiscales = attrs.get("multiscales") or attrs.get("ome", {}).get("multiscales")
+        if multiscales:
+            target, axes, transforms = _level(node, multiscales[0], level, name)
+        else:
+            if level is not None:
+                raise VolumeError(f"{name}: volume.level applies to OME-Zarr multiscale images; this group has no "
+                                  f"multiscales metadata")
+            target = _member(node, array, name)
+    dtype = check_sample_type(np.dtype(target.dtype), name, "dtype", str(target.dtype))
+    check_bytes(math.prod(target.shape) * dtype.itemsize, f"{name}: the zarr array of shape {target.shape}",
+                "choose a coarser level (volume.level), or raise the memory budget")
+    data = np.asarray(target[...])
+    if axes is None:
+        while data.ndim > 3 and data.shape[0] == 1:
+            data = data[0]
+        if data.ndim != 3:
+            raise VolumeError(f"{name}: the array has shape {target.shape}; a volume needs 3 dimensions (z, y, x)")
+        return RawArray(data)
+    return _by_axes(data, axes, transforms, name)
+
+
+def _member(group, array, name):
+    arrays = dict(sorted(group.arrays()))
+    if array is not None:
+        try:
+            found = group[array]
+        except KeyError:
+            found = None
+        if found is None or not hasattr(found, "dtype"):
+            raise VolumeError(f"{name}: no array {array!r} in the group; it has {', '.join(map(repr, arrays)) or 'none'}")
+        return found
+    if len(arrays) != 1:
+        raise VolumeError(f"{name}: the group holds {len(arrays)} arrays ({', '.join(map(repr, arrays)) or 'none'}); "
+                          f"name one with volume.array")
+    return next(iter(arrays.values()))
+
+
+def _level(group, multiscale, level, name):
+    datasets = multiscale.get("datasets") or []
+    level = 0 if level is None else int(level)
+    if not 0 <= level < len(datasets):
+        raise VolumeError(f"{name}: volume.level {level} is out of range; the image has {len(datasets)} levels "
+                          f"(0 is the full resolution, {len(datasets) - 1} the coarsest)")
+    axes = multiscale.get("axes")
+    if not axes:
+        raise VolumeError(f"{name}: the multiscales metadata has no axes; fix the store (OME-Zarr 0.4 or later)")
+    names = [a["name"] if isinstance(a, dict) else str(a) for a in axes]
+    types = [a.get("type") if isinstance(a, dict) else None for a in axes]
+    transforms = list(datasets[level].get("coordinateTransformations") or []) + \
+        list(multiscale.get("coordinateTransformations") or [])
+    return group[datasets[level]["path"]], list(zip(names, types)), transforms
+
+
+def _by_axes(data, axes, transforms, name):
+    if len(axes) != data.ndim:
+        raise VolumeError(f"{name}: {len(axes)} axes for an array of {data.ndim} dimensions; fix the metadata")
+    names = [n.lower() for n, _ in axes]
+    scale, shift = np.ones(len(axes)), np.zeros(len(axes))
+    for t in transforms:
+        if t.get("type") == "scale":  # applied in turn: a later scale scales an earlier translation too
+            factor = np.asarray(t["scale"], dtype=np.float64)
+            scale, shift = scale * factor, shift * factor
+        elif t.get("type") == "translation":
+            shift = shift + np.asarray(t["translation"], dtype=np.float64)
+    index = []
+    for (axis, kind), size in zip(axes, data.shape):
+        if axis.lower() in SPATIAL:
+            index.append(slice(None))
+        elif size == 1:
+            index.append(0)
+        else:
+            what = "channel" if kind == "channel" or axis.lower() == "c" else "time" if kind == "time" or \
+                axis.lower() == "t" else kind or "other"
+            raise VolumeError(f"{name}: the {what} axis {axis!r} has {size} entries; a volume is one scalar field: "
+                              f"write one {what} to its own array (e.g. with zarr) and read that")
+    missing = [a for a in SPATIAL if a not in names]
+    if missing:
+        raise VolumeError(f"{name}: the axes {names} name no {', '.join(missing)} axis; a volume needs z, y and x")
+    data = data[tuple(index)]
+    kept = [n for n in names if n in SPATIAL]
+    order = [kept.index(a) for a in SPATIAL]
+    data = np.transpose(data, order)  # by name: [z, y, x]
+    at = {n: i for i, n in enumerate(names)}
+    spacing = check_spacing([scale[at[a]] for a in ("x", "y", "z")], name, "the scale coordinateTransformation")
+    origin = tuple(float(shift[at[a]]) for a in ("x", "y", "z"))
+    return RawArray(np.ascontiguousarray(data), spacing, origin)
