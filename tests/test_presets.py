@@ -12,14 +12,13 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 
+from conftest import array_scene, assert_close
 from dvr_gl.errors import SceneError
 from dvr_gl.presets import colormaps
 from dvr_gl.presets.property import COLOUR_TOLERANCE
 from dvr_gl.presets.slicer import PRESETS_FILE
 from dvr_gl.scene import load_scene
 from dvr_gl.transfer_function import PRESETS, linear_to_srgb, preset
-
-from conftest import array_scene, assert_close
 
 SLICER_NAMES = ["CT-AAA", "CT-AAA2", "CT-Bone", "CT-Bones", "CT-Cardiac", "CT-Cardiac2", "CT-Cardiac3",
                 "CT-Chest-Contrast-Enhanced", "CT-Chest-Vessels", "CT-Coronary-Arteries", "CT-Coronary-Arteries-2",

@@ -57,14 +57,6 @@ class VolumeProperty:
         ``rescale_intercept`` (their values are ``data + rescale_intercept``, e.g. Hounsfield units)."""
         cx = self.colours[:, 0]
         ox = self.opacity[:, 0]
-        if self.stretch:
-            lo, hi = (float(v) for v in value_range)
-            hi = hi if hi > lo else lo + 1.0
-            x0, x1 = float(cx[0]), float(cx[-1])
-            scale = (hi - lo) / (x1 - x0) if x1 > x0 else 0.0
-            place = (lambda x: lo + (np.asarray(x) - x0) * scale) if scale else (lambda x: np.asarray(x) * 0 + lo)
-        else:
-            place = (lambda x: np.asarray(x, dtype=np.float64) - rescale_intercept)
         values = np.union1d(cx, ox)
         dense = [values]
         for i in range(len(cx) - 1):  # the colour space's curve between colour points
@@ -74,7 +66,14 @@ class VolumeProperty:
         values = np.unique(np.concatenate(dense))
         srgb = colour.interpolate(self.colours, values, self.space)
         alpha = np.interp(values, ox, self.opacity[:, 1])
-        out = np.column_stack([place(values), colour.srgb_to_linear(srgb), alpha])
+        if self.stretch:  # the colour points' range onto the value range
+            lo, hi = (float(v) for v in value_range)
+            hi = hi if hi > lo else lo + 1.0
+            x0, x1 = float(cx[0]), float(cx[-1])
+            placed = lo + (values - x0) * ((hi - lo) / (x1 - x0) if x1 > x0 else 0.0)
+        else:
+            placed = values - rescale_intercept
+        out = np.column_stack([placed, colour.srgb_to_linear(srgb), alpha])
         return _strictly_increasing(out)
 
     def _pieces(self, i: int) -> int:
