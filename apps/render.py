@@ -95,9 +95,9 @@ def add_arguments(p: argparse.ArgumentParser):
     g.add_argument("--projection", choices=_choices(CameraSpec, "projection"))
     g.add_argument("--fov", type=float, help="vertical field of view, degrees")
     g.add_argument("--transfer-function", metavar="NAME|FILE",
-                   help=f"a preset, any case ({', '.join(list(PRESETS)[:5])}, 3D Slicer's: CT-AAA, CT-Bone, MR-Default, "
-                        f"...), a matplotlib colour map (inferno, ...), or a Slicer .vp/.xml or ParaView .json file "
-                        f"(docs/transfer-functions.md)")
+                   help=f"a preset, any case ({', '.join(list(PRESETS)[:5])}, 3D Slicer's: CT-AAA, CT-Bone, "
+                        f"MR-Default, ...), a matplotlib colour map (inferno, ...), or a Slicer .vp/.xml or ParaView "
+                        f".json file (docs/transfer-functions.md)")
     g.add_argument("--rescale-intercept", type=float, help="CT presets: HU = data + intercept")
     g.add_argument("--background", metavar="R,G,B[,A]", help="background colour, linear, 0..1")
     g.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
