@@ -73,6 +73,14 @@ class Volume:
     kind = "grid"
 
     def __post_init__(self):
+        from ..io.labelled import is_data_array
+
+        if is_data_array(self.data):  # xarray: its dims name the axes, its coordinates give the geometry
+            from ..io.labelled import unpack
+
+            defaults = {"spacing": (1.0, 1.0, 1.0), "origin": (0.0, 0.0, 0.0), "name": "volume"}
+            for key, value in unpack(self.data, self.spacing, self.origin, self.name, defaults).items():
+                object.__setattr__(self, key, value)
         data = np.asarray(self.data)
         if data.ndim != 3:
             raise VolumeError(f"{self.name}: expected a 3D array (z, y, x), got shape {data.shape}")
@@ -95,6 +103,12 @@ class Volume:
         object.__setattr__(self, "spacing", spacing)
         object.__setattr__(self, "origin", origin)
         object.__setattr__(self, "value_range", (float(data.min()), float(data.max())))
+
+    @classmethod
+    def from_xarray(cls, data_array, **kwargs) -> "Volume":
+        """A volume from an xarray ``DataArray`` (dims ``z``, ``y``, ``x`` in any order; coordinates as
+        spacing and origin): :mod:`dvr_gl.io.labelled`.  ``Volume(data_array)`` does the same."""
+        return cls(data_array, **kwargs)
 
     @property
     def dims(self) -> tuple[int, int, int]:
