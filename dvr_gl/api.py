@@ -170,6 +170,10 @@ def scene_of(data, *, spacing=None, origin=None, transfer_function=None, rescale
 
 
 def _field_of(data, spacing, origin):
+    from .io.labelled import is_data_array
+
+    if is_data_array(data):  # its dims name the axes and its coordinates give the geometry (Volume does it)
+        return Volume(data, spacing=spacing or (1.0, 1.0, 1.0), origin=origin or (0.0, 0.0, 0.0))
     if isinstance(data, np.ndarray) or (hasattr(data, "__array__") and not isinstance(data, Field)):
         array = np.asarray(data)
         if array.ndim != 3:

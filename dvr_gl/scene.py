@@ -122,7 +122,7 @@ def _resolve_volume(spec: VolumeSpec, base_dir: Path):
         solution = str(base_dir / os.path.expanduser(solution))
     volume = load_field(path, spec.format, array=spec.array, solution=solution, dims=spec.dims, dtype=spec.dtype,
                         endian=spec.endian, header_bytes=spec.header_bytes, spacing=spec.spacing,
-                        origin=spec.origin, nan_value=spec.nan_value)
+                        origin=spec.origin, nan_value=spec.nan_value, series=spec.series, level=spec.level)
     if spec.resample is not None:
         if not hasattr(volume, "resampled"):
             raise SceneError(f"volume.resample applies to meshes; {path.name} is a {getattr(volume, 'kind', 'grid')}: "
@@ -131,7 +131,7 @@ def _resolve_volume(spec: VolumeSpec, base_dir: Path):
     return volume, dataclasses.replace(spec, path=str(path.resolve()))
 
 
-_FILE_KEYS = ("dims", "dtype", "spacing", "origin", "nan_value", "array", "solution", "resample")
+_FILE_KEYS = ("dims", "dtype", "spacing", "origin", "nan_value", "array", "solution", "resample", "series", "level")
 
 def _check_extent(field, spec: VolumeSpec):
     """Refuse a field whose voxels, box or position are out of :data:`WORLD_RANGE`, naming where the

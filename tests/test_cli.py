@@ -206,7 +206,8 @@ BAD_INPUTS = {
                      ["renderer.lut_size must be an integer of at most 64 bits"]),
     "negative seed": (lambda t: ["--demo", "--jitter-seed", -1], ["renderer.jitter_seed must be in [0, 4294967295]"]),
     "zero up": (lambda t: ["--demo", "--set", "camera.up=[0,0,0]"], ["camera.up must be a non-zero vector"]),
-    "scene is a folder": (lambda t: [t], ["the scene file is a folder"]),
+    # a folder where the scene goes is a folder of slices (TIFF or DICOM): the reader says what it lacks
+    "scene is a folder": (lambda t: [t], ["no TIFF files found (nor DICOM"]),
 }
 
 

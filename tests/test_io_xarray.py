@@ -4,6 +4,7 @@ misread), coordinates as spacing and origin, and the one-line refusals."""
 import numpy as np
 import pytest
 
+import dvr_gl
 from dvr_gl import Volume
 from dvr_gl.errors import VolumeError
 
@@ -48,3 +49,14 @@ def test_uneven_or_decreasing_coordinates_are_refused():
 def test_explicit_geometry_wins():
     v = Volume(xr.DataArray(DATA, dims=("z", "y", "x"), coords=COORDS), spacing=(1, 1, 3), name="mine")
     assert v.spacing == (1.0, 1.0, 3.0) and v.origin == (-1.0, 0.0, 10.0) and v.name == "mine"
+
+
+def test_render_and_scene_of_keep_an_xarrays_coordinates():
+    """dvr_gl.render / scene_of take a DataArray as Volume() does: axes by name, coordinates as geometry."""
+    da = xr.DataArray(np.arange(120, dtype=np.float32).reshape(6, 5, 4), dims=("x", "y", "z"),
+                      coords={"x": 1.0 + 2.0 * np.arange(6), "y": 0.5 * np.arange(5), "z": 3.0 * np.arange(4)},
+                      name="temperature")
+    field = dvr_gl.scene_of(da).field
+    assert field.dims == (6, 5, 4) and field.spacing == (2.0, 0.5, 3.0) and field.origin == (1.0, 0.0, 0.0)
+    assert field.name == "temperature"
+    assert field.data[0, 0, 5] == da.isel(x=5, y=0, z=0).item()
