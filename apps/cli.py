@@ -16,12 +16,14 @@ from dvr_gl import __version__
 from dvr_gl.errors import DvrError
 
 from . import bench as bench_cmd
+from . import completion as completion_cmd
 from . import info as info_cmd
 from . import progress as feedback
 from . import render as render_cmd
 from . import view as view_cmd
 
-SUBCOMMANDS = {"render": render_cmd, "view": view_cmd, "info": info_cmd, "bench": bench_cmd}
+SUBCOMMANDS = {"render": render_cmd, "view": view_cmd, "info": info_cmd, "bench": bench_cmd,
+               "completion": completion_cmd}
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -38,7 +40,9 @@ def build_parser() -> argparse.ArgumentParser:
     feedback.add_arguments(parser)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name, module in SUBCOMMANDS.items():
-        p = sub.add_parser(name, help=module.HELP, description=module.__doc__)
+        # descriptions keep their line breaks: bench's list of benches, render's list of renderers
+        p = sub.add_parser(name, help=module.HELP, description=module.__doc__,
+                           formatter_class=argparse.RawDescriptionHelpFormatter)
         p.add_argument("--debug", action="store_true", help="show tracebacks of errors")
         feedback.add_arguments(p)
         module.add_arguments(p)

@@ -1,64 +1,35 @@
-"""A TOML writer for the scene schema (tables, arrays of tables, numbers, strings, arrays).
+"""Writing TOML: tomli-w, with numpy's values made plain and a comment header.
 
-The standard library reads TOML (``tomllib``) but does not write it.  Scenes
-need only this subset; floats are written with ``repr``, which round-trips
-exactly, so a saved scene reproduces the same numbers bit for bit.
+The standard library reads TOML (``tomllib``) but does not write it; tomli-w is the well-kept writer
+that pairs with it.  tomli-w writes floats with ``str``, which round-trips exactly, so a saved
+scene reproduces the same numbers bit for bit.  It refuses numpy scalars other than ``float64``
+(``int64``, ``float32``, ``bool_``) and arrays, which scenes and transfer functions carry, so those
+are turned into Python numbers and lists first.
 """
 
 from __future__ import annotations
 
-import json
-import math
+from collections.abc import Mapping
+
+import numpy as np
+import tomli_w
 
 
-def _value(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        if math.isnan(v):
-            return "nan"
-        if math.isinf(v):
-            return "inf" if v > 0 else "-inf"
-        return repr(v)
-    if isinstance(v, str):
-        # JSON string escapes are TOML basic-string escapes; DEL must be escaped in TOML too.
-        return json.dumps(v, ensure_ascii=False).replace("\x7f", "\\u007f")
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_value(x) for x in v) + "]"
-    raise TypeError(f"cannot write {type(v).__name__} to TOML")
-
-
-def _key(k: str) -> str:
-    return k if k and all(c.isalnum() or c in "_-" for c in k) else _value(k)
-
-
-def _is_table_array(v) -> bool:
-    return isinstance(v, list) and bool(v) and all(isinstance(x, dict) for x in v)
-
-
-def _table(lines: list[str], path: list[str], table: dict):
-    scalars = {k: v for k, v in table.items() if not isinstance(v, dict) and not _is_table_array(v)}
-    if path and (scalars or not table):
-        lines.append(f"[{'.'.join(map(_key, path))}]")
-    for k, v in scalars.items():
-        lines.append(f"{_key(k)} = {_value(v)}")
-    if scalars:
-        lines.append("")
-    for k, v in table.items():
-        if isinstance(v, dict):
-            _table(lines, path + [k], v)
-        elif _is_table_array(v):
-            for item in v:
-                lines.append(f"[[{'.'.join(map(_key, path + [k]))}]]")
-                for ik, iv in item.items():
-                    lines.append(f"{_key(ik)} = {_value(iv)}")
-                lines.append("")
+def plain(value):
+    """``value`` with numpy scalars as Python numbers, arrays and tuples as lists (recursively)."""
+    if isinstance(value, Mapping):
+        return {str(k): plain(v) for k, v in value.items()}
+    if isinstance(value, np.ndarray):
+        return plain(value.tolist())
+    if isinstance(value, (list, tuple)):
+        return [plain(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
 
 
 def dumps(data: dict, header: str = "") -> str:
-    """TOML text for a nested dict (None values must be removed beforehand)."""
-    lines = [f"# {ln}" for ln in header.splitlines()] + ([""] if header else [])
-    _table(lines, [], data)
-    return "\n".join(lines).rstrip("\n") + "\n"
+    """TOML text for a nested dict (None values must be removed beforehand: TOML has no null),
+    each line of ``header`` as a comment above it."""
+    lines = "".join(f"# {ln}\n" for ln in header.splitlines()) + ("\n" if header else "")
+    return lines + tomli_w.dumps(plain(data), indent=4)

@@ -21,6 +21,10 @@ def test_regular_install_finds_shaders(tmp_path):
     assert not (target / "apps").exists()
     assert (target / "dvr_gl" / "apps" / "cli.py").is_file()
     assert (target / "dvr_gl" / "shaders" / "common" / "pixel.glsl").is_file()
+    assert (target / "dvr_gl" / "py.typed").is_file()  # type checkers read the package's annotations
+    metadata = next(target.glob("dvr_gl-*.dist-info")) / "METADATA"
+    assert "License-Expression: BSD-3-Clause" in metadata.read_text()
+    assert (metadata.parent / "licenses" / "LICENSE").is_file()
     shutil.rmtree(src)  # nothing may come from the source tree any more
     check = ("import dvr_gl, dvr_gl.gl.shaders as s, dvr_gl.apps.cli; "
              "d = s.shader_dir(); print(d); "
