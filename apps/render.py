@@ -54,7 +54,20 @@ def _choices(spec, key: str) -> tuple:
     return next(f.metadata["choices"] for f in dataclasses.fields(spec) if f.name == key)
 
 
+def renderers_epilog() -> str:
+    """The registered renderers, one a line, for the end of ``--help`` (the CLI keeps its line breaks)."""
+    import textwrap
+
+    width = max(len(name) for name in registry.plugins()) + 4
+    lines = ["renderers (--renderer NAME; dvr info lists what each reads and refuses):"]
+    for name, plugin in registry.plugins().items():
+        lines += textwrap.wrap(plugin.description, 100, initial_indent=f"  {name:<{width - 2}}",
+                               subsequent_indent=" " * width)
+    return "\n".join(lines)
+
+
 def add_arguments(p: argparse.ArgumentParser):
+    p.epilog = renderers_epilog()
     p.add_argument("scene", nargs="?", help="scene file (.toml)")
     p.add_argument("-o", "--output", required=True,
                    help="output image: .png (8-bit sRGB), .exr or .tif (float); an animation (every frame of "
