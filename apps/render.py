@@ -17,10 +17,19 @@ import tomllib
 import typing
 from pathlib import Path
 
-from dvr_gl.errors import DvrError
 from dvr_gl import progress
-from dvr_gl.image import (DEFAULT_FPS, MOVIE_FORMATS, Movie, check_movie, check_output_path, check_writable,
-                          composite_over, write_image, write_text)
+from dvr_gl.errors import DvrError
+from dvr_gl.image import (
+    DEFAULT_FPS,
+    MOVIE_FORMATS,
+    Movie,
+    check_movie,
+    check_output_path,
+    check_writable,
+    composite_over,
+    write_image,
+    write_text,
+)
 from dvr_gl.phantoms import DEMOS, demo_scene
 from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.sandbox import Sandbox, active, parse_bytes

@@ -19,7 +19,6 @@ from __future__ import annotations
 import contextlib
 import logging
 import math
-
 import os
 import tempfile
 from fractions import Fraction

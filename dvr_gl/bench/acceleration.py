@@ -18,9 +18,9 @@ from pathlib import Path
 import numpy as np
 
 from ..renderers.raycast import acceleration as accel
-from . import median_seconds, tick
 from ..renderers.raycast.renderer import RayCastRenderer
 from ..scene import load_scene
+from . import median_seconds, tick
 
 HU = {"transfer_function.rescale_intercept": -1024.0}
 # name, file under the data folder, scene overrides (transfer function, camera)

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..image import check_writable, composite_over, compare_images, write_image
+from ..image import check_writable, compare_images, composite_over, write_image
 from ..reference.converged import ConvergedReference
 from ..reference.plans import stack_axis
 from ..renderers import create_renderer

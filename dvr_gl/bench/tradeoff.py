@@ -18,7 +18,6 @@ marked.  A renderer joins the bench by declaring its sweeps in its plugin.
 from __future__ import annotations
 
 import dataclasses
-
 import math
 
 import numpy as np
@@ -29,6 +28,7 @@ from ..reference.converged import ConvergedReference
 from ..renderers import create_renderer, registry
 from ..transfer_function import linear_to_srgb
 from . import acceleration, converged, median_seconds
+
 
 def sweeps(renderers=None, kind: str | None = None, projection: str | None = None) -> dict:
     """renderer -> its trade-off families (:mod:`dvr_gl.sweeps`), as its plugin declares them: every
