@@ -171,6 +171,12 @@ def write_image(path, rgba: np.ndarray, overwrite: bool = False):
     path = Path(path)
     suffix = path.suffix.lower()
     check_output_path(path, overwrite)
+    if suffix in MOVIE_FORMATS:  # an animation of one frame: 8-bit sRGB as every animation
+        height, width = rgba.shape[:2]
+        check_movie(path, width, height, DEFAULT_FPS, (0.0, 0.0, 0.0, float(np.min(rgba[..., 3]))))
+        with Movie(path, 1, overwrite=overwrite) as movie:
+            movie.add(rgba)
+        return
     buf, fmt = _encode(rgba, suffix)
 
     def write(tmp: Path):

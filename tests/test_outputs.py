@@ -169,3 +169,18 @@ def test_missing_output_folders_are_refused_in_one_line(tmp_path, capsys, flag):
     code, _, err = run(capsys, *argv)
     one_line_error(code, err, "does not exist; create it first")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_image_save_as_gif_is_srgb(tmp_path):
+    """``Image.save("x.gif")`` writes the same 8-bit sRGB pixels as a PNG (not linear values)."""
+    import dvr_gl
+
+    picture = dvr_gl.render(np.linspace(0, 1, 8 ** 3, dtype=np.float32).reshape(8, 8, 8), size=16,
+                            transfer_function="grayscale")
+    picture.save(tmp_path / "x.gif")
+    picture.save(tmp_path / "x.png")
+    frames, _ = gif_frames(tmp_path / "x.gif")
+    want = np.round(read_image(tmp_path / "x.png")[..., :3] * 255)
+    # Metric: mean absolute difference in 8-bit levels, as for the CLI's GIF above (palette quantization);
+    # linear values written as if sRGB would darken the mid-greys by tens of levels.
+    assert len(frames) == 1 and np.abs(frames[0][..., :3] - want).mean() < 2.0
