@@ -9,13 +9,12 @@ import tomllib
 import numpy as np
 import pytest
 
+from conftest import REPO
 from dvr_gl.apps.cli import main
 from dvr_gl.camera import Camera
 from dvr_gl.renderers import registry
 from dvr_gl.scene import load_scene
 from dvr_gl.toml_writer import dumps
-
-from conftest import REPO
 
 PYPROJECT = tomllib.loads((REPO / "pyproject.toml").read_text())
 
@@ -24,7 +23,8 @@ def test_licence_and_metadata():
     project = PYPROJECT["project"]
     assert project["license"] == "BSD-3-Clause"
     assert project["license-files"] == ["LICENSE"]
-    assert (REPO / "LICENSE").read_text().startswith("BSD 3-Clause License\n\nCopyright (c) 2026, the dvr-gl developers")
+    licence = (REPO / "LICENSE").read_text()
+    assert licence.startswith("BSD 3-Clause License\n\nCopyright (c) 2026, the dvr-gl developers")
     assert project["authors"] and project["keywords"]
     # an SPDX licence expression replaces the licence classifiers (setuptools refuses both)
     assert not [c for c in project["classifiers"] if c.startswith("License ::")]
