@@ -50,11 +50,25 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def joined_negative_axes(argv) -> list[str]:
+    """``--up -z`` as ``--up=-z``: argparse takes a value that starts with ``-`` for a flag."""
+    args, out = [str(a) for a in argv], []
+    i = 0
+    while i < len(args):
+        if args[i] == "--up" and i + 1 < len(args) and args[i + 1].lower() in ("-x", "-y", "-z"):
+            out.append(f"--up={args[i + 1]}")
+            i += 2
+        else:
+            out.append(args[i])
+            i += 1
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     # the printed time is what the user waits for: from the process's start when run from the shell
     started = feedback.started(whole_process=argv is None)
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(joined_negative_axes(sys.argv[1:] if argv is None else argv))
     args.command_line = "dvr " + " ".join(sys.argv[1:] if argv is None else argv)
     args.started = started
     args.quiet = getattr(args, "quiet", False)

@@ -11,6 +11,7 @@ import argparse
 import contextlib
 import dataclasses
 import logging
+import math
 import os
 import time
 import tomllib
@@ -33,7 +34,8 @@ from dvr_gl.image import (
 from dvr_gl.phantoms import DEMOS, demo_scene
 from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.sandbox import Sandbox, active, parse_bytes
-from dvr_gl.scene import load_scene
+from dvr_gl.orientation import ANATOMICAL_VIEWS
+from dvr_gl.scene import is_volume_path, load_scene
 from dvr_gl.scene_schema import CameraSpec, VolumeSpec
 from dvr_gl.model import SCATTERING_METHODS
 from dvr_gl.transfer_function import PRESETS, is_transfer_function_file
@@ -46,7 +48,7 @@ HELP = "render a scene, a volume file or the demo to an image (.png .exr .tif)"
 _SCENE_KEYS = {
     "renderer": "renderer.name", "shading": "renderer.shading.enabled",
     "scattering": "renderer.scattering.enabled", "scattering_method": "renderer.scattering.method",
-    "azimuth": "camera.azimuth", "elevation": "camera.elevation",
+    "azimuth": "camera.azimuth", "elevation": "camera.elevation", "view": "camera.view", "up": "camera.up",
     "distance": "camera.distance", "projection": "camera.projection", "fov": "camera.fov",
     "transfer_function": "transfer_function.preset", "rescale_intercept": "transfer_function.rescale_intercept",
     "volume": "volume.path", "format": "volume.format", "dims": "volume.dims", "dtype": "volume.dtype",
@@ -77,7 +79,9 @@ def renderers_epilog() -> str:
 
 def add_arguments(p: argparse.ArgumentParser):
     p.epilog = renderers_epilog()
-    p.add_argument("scene", nargs="?", help="scene file (.toml)")
+    p.add_argument("scene", nargs="?", metavar="SCENE_OR_VOLUME",
+                   help="a scene file (.toml), or a volume, mesh or particle file (any suffix dvr info lists; a "
+                        "folder of slices)")
     p.add_argument("-o", "--output", required=True,
                    help="output image: .png (8-bit sRGB), .exr or .tif (float); an animation (every frame of "
                         "--frames in one file, 8-bit sRGB): .gif, or .mp4, .webm, .webp with the extra 'video'")
@@ -116,6 +120,10 @@ def add_arguments(p: argparse.ArgumentParser):
     g.add_argument("--distance", type=float, help="eye to target, world units")
     g.add_argument("--projection", choices=_choices(CameraSpec, "projection"))
     g.add_argument("--fov", type=float, help="vertical field of view, degrees")
+    g.add_argument("--view", choices=list(ANATOMICAL_VIEWS),
+                   help="an anatomical view, patient upright (the file's orientation applied; docs/orientation.md)")
+    g.add_argument("--up", metavar="X,Y,Z|[-]x|y|z", type=parse_up,
+                   help="the up direction (world; default +z, superior): an axis, e.g. -z, or 0,0,-1")
     g.add_argument("--transfer-function", metavar="NAME|FILE",
                    help=f"a preset, any case ({', '.join(list(PRESETS)[:5])}, 3D Slicer's: CT-AAA, CT-Bone, "
                         f"MR-Default, ...), a matplotlib colour map (inferno, ...), or a Slicer .vp/.xml or ParaView "
@@ -156,6 +164,29 @@ def add_setting_arguments(g):
             g.add_argument(flag, dest=dest, type=kind, choices=setting.choices, help=text)
         else:
             g.add_argument(flag, dest=dest, type=kind, metavar=kind.__name__.upper(), help=text)
+
+
+def parse_up(text: str) -> list[float]:
+    """``--up``: an axis (``z``, ``-y``, ``+x``) or three numbers ``X,Y,Z``."""
+    axes = {"x": [1.0, 0.0, 0.0], "y": [0.0, 1.0, 0.0], "z": [0.0, 0.0, 1.0]}
+    t = text.strip().lower()
+    if t.lstrip("+-") in axes and len(t) <= 2:
+        return [-c for c in axes[t[-1]]] if t.startswith("-") else axes[t[-1]]
+    try:
+        values = [float(x) for x in t.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != 3 or not all(map(math.isfinite, values)) or not any(values):
+        raise argparse.ArgumentTypeError(f"{text!r}: give an axis (x, -y, +z) or three numbers X,Y,Z, not all 0")
+    return values
+
+
+def positional_volume(args):
+    """A volume file given where the scene file goes (``dvr render head.nhdr``) is read as ``--volume``."""
+    if args.scene and is_volume_path(args.scene):
+        if args.volume or args.demo:
+            raise DvrError(f"{args.scene} is a volume file; give it once, without --volume or --demo")
+        args.volume, args.scene = args.scene, None
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -264,6 +295,7 @@ def run(args) -> int:
 
 
 def render(args) -> int:
+    positional_volume(args)
     if not args.scene and not args.demo and not args.volume:
         raise DvrError("nothing to render: give a scene file, --volume FILE or --demo")
     if args.demo and args.volume:

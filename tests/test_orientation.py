@@ -160,7 +160,7 @@ def dvr(*args, cwd=None):
 def test_a_volume_file_where_the_scene_goes_and_view_and_up(tmp_path):
     np.save(tmp_path / "head.npy", marked_head("lps").data)
     out = tmp_path / "a.png"
-    r = dvr("render", str(tmp_path / "head.npy"), "-o", str(out), "--size", "24", "--view", "left", "--up=-z")
+    r = dvr("render", str(tmp_path / "head.npy"), "-o", str(out), "--size", "24", "--view", "left", "--up", "-z")
     assert r.returncode == 0, r.stderr
     assert out.exists()
     r = dvr("render", str(tmp_path / "head.npy"), "--volume", str(tmp_path / "head.npy"), "-o", str(tmp_path / "b.png"))
