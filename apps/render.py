@@ -31,13 +31,13 @@ from dvr_gl.image import (
     write_image,
     write_text,
 )
+from dvr_gl.model import SCATTERING_METHODS
+from dvr_gl.orientation import ANATOMICAL_VIEWS
 from dvr_gl.phantoms import DEMOS, demo_scene
 from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.sandbox import Sandbox, active, parse_bytes
-from dvr_gl.orientation import ANATOMICAL_VIEWS
 from dvr_gl.scene import is_volume_path, load_scene
 from dvr_gl.scene_schema import CameraSpec, VolumeSpec
-from dvr_gl.model import SCATTERING_METHODS
 from dvr_gl.transfer_function import PRESETS, is_transfer_function_file
 
 log = logging.getLogger(__name__)

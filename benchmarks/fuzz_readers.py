@@ -24,9 +24,8 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO / "tests"))  # the mutations are shared with the tests
 
-from fuzz_inputs import check_reader, mutate, seeds, shared_seeds, write_case  # noqa: E402
-
 from dvr_gl.bench import format_table  # noqa: E402
+from fuzz_inputs import check_reader, mutate, seeds, shared_seeds, write_case  # noqa: E402
 
 
 def run(inputs, examples: int, seed: int):

@@ -23,9 +23,8 @@ import numpy as np
 from hypothesis import HealthCheck, given, seed, settings
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
-from scene_fuzzing import cli_argvs, cli_outcome, scene_dicts, scene_outcome  # noqa: E402
-
 from dvr_gl.apps.cli import build_parser  # noqa: E402
+from scene_fuzzing import cli_argvs, cli_outcome, scene_dicts, scene_outcome  # noqa: E402
 
 
 def run(name, strategy, outcome_of, examples: int, random_seed: int, findings: dict) -> collections.Counter:

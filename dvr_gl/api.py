@@ -37,9 +37,9 @@ from .errors import SceneError
 from .fields import Field
 from .fields.grid import Volume
 from .image import composite_over, encode_8bit, write_image
+from .orientation import ANATOMICAL_VIEWS
 from .renderers import create_renderer, registry
 from .sandbox import Sandbox, active
-from .orientation import ANATOMICAL_VIEWS
 from .scene import Scene, apply_overrides, load_scene, parse_scene, resolve_scene
 from .scene_schema import ImageSpec, parse_table, spec_to_dict
 from .transfer_function import TransferFunction, preset

@@ -33,14 +33,14 @@ optically thick segments); ``O(N^2)``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from .errors import SceneError
 from .limits import check_preintegration_memory
+
 
 def _gauss(n: int) -> tuple[np.ndarray, np.ndarray]:
     x, w = np.polynomial.legendre.leggauss(n)

@@ -24,18 +24,34 @@ from pathlib import Path
 import numpy as np
 
 from . import phantoms
-from .camera import (DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Camera, framing_distance, framing_view_height)
+from .camera import DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Camera, framing_distance, framing_view_height
 from .errors import DvrError, SceneError
 from .fields import diagonal
 from .io import load_field
 from .orientation import ANATOMICAL_VIEWS, to_patient_frame
 from .sandbox import check_bytes, check_input_path
-from .scene_schema import (CameraSpec, ImageSpec, SceneSpec, TransferFunctionSpec, VolumeSpec, parse_table,
-                           renderer_spec_class, spec_to_dict, tables_as_specs)
-from .settings import FILTER, WORLD_RANGE, check_albedo, resolve_renderer as resolve_settings
+from .scene_schema import (
+    CameraSpec,
+    ImageSpec,
+    SceneSpec,
+    TransferFunctionSpec,
+    VolumeSpec,
+    parse_table,
+    renderer_spec_class,
+    spec_to_dict,
+    tables_as_specs,
+)
+from .settings import FILTER, WORLD_RANGE, check_albedo
+from .settings import resolve_renderer as resolve_settings
 from .toml_writer import dumps
-from .transfer_function import (PRESETS, TransferFunction, from_property, preset, preset_property,
-                                read_transfer_function_file)
+from .transfer_function import (
+    PRESETS,
+    TransferFunction,
+    from_property,
+    preset,
+    preset_property,
+    read_transfer_function_file,
+)
 
 # Keys that replace one another when overridden (giving one drops the others).
 _EXCLUSIVE = {

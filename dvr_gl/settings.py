@@ -28,8 +28,19 @@ from typing import Any, Callable, Optional
 
 from .clipping import check_clipping, clipping_in_use
 from .errors import SceneError
-from .model import (CLASSIFICATIONS, CLASSIFIED_ALONG_RAY, COMPOSITING_MODES, DEFAULT_KERNEL_WIDTH, FILTERS, GAUSSIAN_RADIUS, ORDERS,
-                    ClippingSpec, GeometrySpec, ScatteringSpec, ShadingSpec)
+from .model import (
+    CLASSIFICATIONS,
+    CLASSIFIED_ALONG_RAY,
+    COMPOSITING_MODES,
+    DEFAULT_KERNEL_WIDTH,
+    FILTERS,
+    GAUSSIAN_RADIUS,
+    ORDERS,
+    ClippingSpec,
+    GeometrySpec,
+    ScatteringSpec,
+    ShadingSpec,
+)
 
 DEFAULT_SAMPLE_DISTANCE_VOXELS = 0.5
 

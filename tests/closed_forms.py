@@ -36,8 +36,8 @@ from typing import Callable
 import numpy as np
 
 from dvr_gl.fields import SphereField
-from dvr_gl.renderers import registry
 from dvr_gl.rays import RayBatch, intersect_box
+from dvr_gl.renderers import registry
 from dvr_gl.scene import load_scene
 
 WIDTH, HEIGHT = 24, 20

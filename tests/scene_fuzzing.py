@@ -31,8 +31,7 @@ from hypothesis import strategies as st
 
 from dvr_gl.errors import DvrError
 from dvr_gl.model import ScatteringSpec, ShadingSpec
-from dvr_gl.scene_schema import (CameraSpec, ImageSpec, TransferFunctionSpec, VolumeSpec,
-                                  renderer_spec_class)
+from dvr_gl.scene_schema import CameraSpec, ImageSpec, TransferFunctionSpec, VolumeSpec, renderer_spec_class
 
 #: Numbers for keys whose large values are the resource bounds' business (another part of issue 14).
 BOUNDED = {

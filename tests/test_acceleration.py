@@ -3,12 +3,11 @@
 import numpy as np
 import pytest
 
-from dvr_gl.renderers.raycast import acceleration as accel
+from conftest import array_scene, small_scene
 from dvr_gl.fields.reconstruction import SampledField
+from dvr_gl.renderers.raycast import acceleration as accel
 from dvr_gl.renderers.raycast.renderer import RayCastRenderer
 from dvr_gl.transfer_function import TransferFunction
-
-from conftest import array_scene, small_scene
 
 FILTERS = ["nearest", "linear", "cubic_bspline", "catmull_rom"]
 

@@ -4,11 +4,10 @@ acceleration.run_keys and skippable_fraction; docs/acceleration.md)."""
 import numpy as np
 import pytest
 
+from conftest import array_scene
 from dvr_gl.renderers.raycast import acceleration as accel
 from dvr_gl.renderers.raycast.renderer import AUTO_MIN_SKIPPABLE, RayCastRenderer
 from dvr_gl.scene import load_scene
-
-from conftest import array_scene
 
 
 def _brute_reduce(key, reach, op):

@@ -5,10 +5,9 @@ import numpy as np
 import pytest
 
 import dvr_gl
+from conftest import REPO, small_scene
 from dvr_gl.image import read_image
 from dvr_gl.renderers import create_renderer
-
-from conftest import REPO, small_scene
 
 
 def blob(shape=(20, 16, 12)):

@@ -4,11 +4,10 @@ import math
 
 import numpy as np
 
+from conftest import small_scene
 from dvr_gl.apps.cli import main
 from dvr_gl.bench import format_table
 from dvr_gl.renderers.raycast.renderer import RayCastRenderer
-
-from conftest import small_scene
 
 
 def test_minimal_shader_renders_the_emission_only_image():

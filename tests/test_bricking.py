@@ -3,11 +3,10 @@
 import numpy as np
 import pytest
 
-from dvr_gl.renderers.grid.bricking import plan_bricks, visibility_order
-from dvr_gl.camera import Camera
-from dvr_gl.renderers.raycast.renderer import RayCastRenderer
-
 from conftest import array_scene, small_scene
+from dvr_gl.camera import Camera
+from dvr_gl.renderers.grid.bricking import plan_bricks, visibility_order
+from dvr_gl.renderers.raycast.renderer import RayCastRenderer
 
 TINY = 1 / 16  # MB: bricks of at most 16 voxels per axis (ghosts included) for the 32^3 phantom
 

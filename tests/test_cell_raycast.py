@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from conftest import SHARED_DATA
 from dvr_gl.errors import SceneError
 from dvr_gl.fields.mesh import TetMesh
 from dvr_gl.fields.mesh_cells import hexahedra_of_grid, tetrahedralize
@@ -16,7 +17,6 @@ from dvr_gl.fields.mesh_rays import boundary_faces, face_neighbours
 from dvr_gl.renderers import create_renderer
 from dvr_gl.renderers.cell_raycast import renderer as walk_module
 from dvr_gl.renderers.projected_tetrahedra.order import adjacency
-from conftest import SHARED_DATA
 from test_projected_tetrahedra import REFERENCE_VIEWS, jittered_mesh, mesh_scene, rms
 
 needs_data = pytest.mark.skipif(not (SHARED_DATA / "unstructured").is_dir(),

@@ -15,14 +15,13 @@ import math
 import numpy as np
 import pytest
 
+from conftest import array_scene, assert_close
 from dvr_gl.clipping import ClipRegion
 from dvr_gl.errors import SceneError
 from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.reference.discrete import DiscreteReference
 from dvr_gl.renderers import registry
 from dvr_gl.scene import load_scene
-
-from conftest import array_scene, assert_close
 
 COLOUR = np.array([0.9, 0.6, 0.3])
 SIGMA = 1.3

@@ -19,11 +19,10 @@ A renderer registered from another package is tested here the day it is installe
 import numpy as np
 import pytest
 
-from dvr_gl.renderers import create_renderer, registry
-from dvr_gl.scene import load_scene
-
 from closed_forms import CLOSED_FORMS, VIEWS, error_outside, own_filter
 from conftest import assert_close
+from dvr_gl.renderers import create_renderer, registry
+from dvr_gl.scene import load_scene
 
 PLUGINS = registry.plugins()
 

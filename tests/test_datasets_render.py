@@ -6,14 +6,13 @@ tolerance is the float32 one."""
 import numpy as np
 import pytest
 
+from conftest import assert_close
 from dvr_gl.reference.discrete import DiscreteReference
 from dvr_gl.renderers import create_renderer
-from dvr_gl.renderers.shearwarp.renderer import reference as shearwarp_reference
 from dvr_gl.renderers.grid.slicing import reference as slicer_reference
+from dvr_gl.renderers.shearwarp.renderer import reference as shearwarp_reference
 from dvr_gl.renderers.splatting.oracle import reference as splatting_reference
 from dvr_gl.scene import load_scene
-
-from conftest import assert_close
 
 HU = {"transfer_function.preset": "ct-bone", "transfer_function.rescale_intercept": -1024.0}
 DATASETS = {

@@ -3,9 +3,8 @@ is the front door (under 400 lines) and its links resolve."""
 
 import re
 
-from dvr_gl.scene_reference import reference_text
-
 from conftest import REPO
+from dvr_gl.scene_reference import reference_text
 
 
 def test_scene_format_reference_is_current():

@@ -4,11 +4,10 @@
 import numpy as np
 import pytest
 
+from conftest import REPO
 from dvr_gl.phantoms import demo_scene
 from dvr_gl.renderers import render
 from dvr_gl.scene import load_scene, read_scene_dict
-
-from conftest import REPO
 
 EXAMPLES = sorted((REPO / "examples").glob("*.toml"))
 

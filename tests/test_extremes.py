@@ -12,11 +12,10 @@ import math
 import numpy as np
 import pytest
 
-from dvr_gl.errors import SceneError
-from dvr_gl.renderers import create_renderer, registry
-from dvr_gl.rays import intersect_box
-
 from conftest import array_scene, assert_close
+from dvr_gl.errors import SceneError
+from dvr_gl.rays import intersect_box
+from dvr_gl.renderers import create_renderer, registry
 
 WITH_ORACLE = [name for name, p in registry.plugins().items() if p.oracle is not None]
 
@@ -163,8 +162,8 @@ def test_long_rays_in_passes_equal_one_pass(monkeypatch, extra):
     continue each ray exactly: forced here to windows of 20 segments, against one pass.  Measured
     identical (the state passes between them in float32 textures, losslessly); asserted 2e-6,
     the bound of bricked passes, which share the mechanism."""
-    from dvr_gl.renderers.raycast import renderer as raycast
     from conftest import small_scene
+    from dvr_gl.renderers.raycast import renderer as raycast
 
     scene = small_scene({**NO_ERT, "renderer.acceleration": False, **extra})
     with create_renderer("raycast") as r:

@@ -7,14 +7,13 @@ import math
 import numpy as np
 import pytest
 
+from conftest import array_scene, assert_close, small_scene
+from dvr_gl.rays import intersect_box
 from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.renderers import registry
 from dvr_gl.renderers.fourier import spectrum as spectrum_module
 from dvr_gl.renderers.fourier.oracle import reference as same_slices
 from dvr_gl.renderers.fourier.renderer import FourierRenderer
-from dvr_gl.rays import intersect_box
-
-from conftest import array_scene, assert_close, small_scene
 
 ORTHO = {"renderer.name": "fourier", "camera.projection": "orthographic", "camera.azimuth": 31.0,
          "camera.elevation": 22.0}

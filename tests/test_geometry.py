@@ -13,14 +13,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from conftest import array_scene, assert_close
 from dvr_gl.errors import DvrError
 from dvr_gl.geometry import first_hits, read_mesh
 from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.reference.discrete import DiscreteReference
 from dvr_gl.renderers import registry
 from dvr_gl.scene import load_scene
-
-from conftest import array_scene, assert_close
 
 meshio = pytest.importorskip("meshio", reason="meshes are read by meshio (the mesh extra)")
 
@@ -171,8 +170,8 @@ def test_shear_warp_drops_samples_behind_the_meshes_as_its_reference(tmp_path, g
     (measured 9e-16; pre-classified 2.5e-9, float32 payload), the frame within the warp's float32
     (measured 2.5e-6).  The image's one-pixel border stays transparent, meshes included: with it
     opaque, GL's clamped taps past the edge and the reference's zeros differed by 0.16 on an edge pixel."""
-    from dvr_gl.renderers.shearwarp.renderer import composite, intermediate_reference, reference
     from dvr_gl.renderers.shearwarp.factorization import factorize
+    from dvr_gl.renderers.shearwarp.renderer import composite, intermediate_reference, reference
     from dvr_gl.renderers.shearwarp.shading import frame_table
 
     scene = load_scene(None, {**TILTED, "renderer.name": "shearwarp", "renderer.geometry": _tilted(tmp_path), **extra})

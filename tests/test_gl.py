@@ -85,9 +85,8 @@ def test_renderers_with_their_own_contexts_interleave():
     """Each renderer owns a context and the newest is current after creation: an older renderer
     must make its own current (it once rendered empty images into the newer one's context),
     and closing one must not release objects in another's."""
-    from dvr_gl.renderers import create_renderer
-
     from conftest import small_scene
+    from dvr_gl.renderers import create_renderer
 
     scenes = [small_scene({"camera.azimuth": a, "renderer.classification": c, "image.width": 16,
                            "image.height": 16}) for a, c in [(0.0, "post"), (0.0, "preintegrated"), (30.0, "post")]]
@@ -119,9 +118,8 @@ def test_a_new_view_uploads_nothing(name, budget):
     texture; the tables stay."""
     import dataclasses
 
-    from dvr_gl.renderers import create_renderer
-
     from conftest import small_scene
+    from dvr_gl.renderers import create_renderer
 
     overrides = {"volume.size": 48, "renderer.classification": "preintegrated"}
     if budget:

@@ -15,12 +15,11 @@ import numpy as np
 import pytest
 
 from apps import cli
+from conftest import assert_close, small_scene
 from dvr_gl import limits
 from dvr_gl.errors import DvrError
 from dvr_gl.renderers import create_renderer
 from dvr_gl.sandbox import Sandbox, SandboxError, active
-
-from conftest import assert_close, small_scene
 
 GL_RENDERERS = ("raycast", "slicing3d", "slicing2d")
 
@@ -175,7 +174,6 @@ def test_a_sandbox_time_budget_stops_a_cpu_reference_mid_render(monkeypatch):
     import contextlib
 
     from dvr_gl import sandbox
-
     from dvr_gl.reference import discrete
 
     monkeypatch.setattr(sandbox, "_time_limit", lambda seconds: contextlib.nullcontext())
@@ -214,7 +212,6 @@ def cli_args(tmp_path, name="reference", extra=()):
 
 def test_cli_shows_a_progress_bar_for_long_work(tmp_path, monkeypatch, capsys):
     from apps import render
-
     from dvr_gl.reference import discrete
 
     monkeypatch.setattr(render, "PROGRESS_DELAY", 0.0)  # force it: this render is short

@@ -14,8 +14,7 @@ import pytest
 from dvr_gl.fields.mesh import TetMesh
 from dvr_gl.fields.mesh_cells import hexahedra_of_grid, tetrahedralize
 from dvr_gl.renderers import create_renderer
-
-from test_clipping import COLOUR, SIGMA, PLANE, _beer_lambert
+from test_clipping import COLOUR, PLANE, SIGMA, _beer_lambert
 from test_geometry import GREY, _expected, _square
 from test_projected_tetrahedra import jittered_mesh, mesh_scene, rms
 

@@ -6,11 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from conftest import SHARED_DATA
 from dvr_gl.errors import DvrError
 from dvr_gl.io import load_field
 from dvr_gl.io.mesh import read_plot3d
-
-from conftest import SHARED_DATA
 
 pytest.importorskip("meshio", reason="meshes are read with meshio (pip install 'dvr-gl[mesh]')")
 

@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+from conftest import assert_close, small_scene
 from dvr_gl.apps.cli import main
 from dvr_gl.errors import DvrError, SceneError
 from dvr_gl.fields import sph
@@ -17,12 +18,11 @@ from dvr_gl.io.particles import write_npz
 from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.renderers import registry
 from dvr_gl.renderers.splatting.footprint import M4Footprint
-from dvr_gl.renderers.splatting.oracle import reference as same_slabs, subpixel_mask
+from dvr_gl.renderers.splatting.oracle import reference as same_slabs
+from dvr_gl.renderers.splatting.oracle import subpixel_mask
 from dvr_gl.renderers.splatting.particles import SUBPIXEL_RADIUS
 from dvr_gl.renderers.splatting.renderer import SplattingRenderer, m4_tables
 from dvr_gl.scene import apply_overrides, parse_scene, resolve_scene
-
-from conftest import assert_close, small_scene
 
 TF = {"transfer_function.points": [[0, 0, 0, 0, 0], [0.05, 0.15, 0.25, 0.8, 0.05], [0.5, 0.9, 0.45, 0.15, 0.3],
                                    [4, 1, 0.85, 0.4, 0.6], [16, 1, 1, 1, 0.9]]}

@@ -5,12 +5,11 @@ import math
 import numpy as np
 import pytest
 
+from conftest import array_scene
 from dvr_gl.errors import SceneError
 from dvr_gl.preintegration import preintegrate, shortened
 from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.transfer_function import TransferFunction
-
-from conftest import array_scene
 
 SIZE = 33          # table nodes: value = index / 32
 REFINEMENT = 257   # fine nodes: 8 per table interval
@@ -184,9 +183,8 @@ def test_table_is_rebuilt_only_when_the_transfer_function_or_length_changes(monk
     import dataclasses
 
     import dvr_gl.renderers.grid.gl_base as gl_base
-    from dvr_gl.renderers import create_renderer
-
     from conftest import small_scene
+    from dvr_gl.renderers import create_renderer
 
     builds = []
 

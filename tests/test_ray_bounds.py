@@ -4,13 +4,12 @@
 import numpy as np
 import pytest
 
+from conftest import array_scene
 from dvr_gl.rays import intersect_box
 from dvr_gl.renderers.raycast import acceleration as accel
 from dvr_gl.renderers.raycast import ray_bounds
 from dvr_gl.renderers.raycast import renderer as raycast
 from dvr_gl.renderers.raycast.renderer import RayCastRenderer
-
-from conftest import array_scene
 
 
 @pytest.fixture(scope="module")

@@ -13,11 +13,10 @@ import math
 import numpy as np
 import pytest
 
+from conftest import array_scene
 from dvr_gl.fields import SphereField
 from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.reference.discrete import DiscreteReference
-
-from conftest import array_scene
 
 REL = 1e-9
 

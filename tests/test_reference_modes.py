@@ -5,11 +5,10 @@ import math
 import numpy as np
 import pytest
 
+from conftest import array_scene, small_scene
 from dvr_gl.image import compare_images
 from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.reference.discrete import DiscreteReference
-
-from conftest import array_scene, small_scene
 
 NO_ERT = {"renderer.ert_threshold": 1.0}
 

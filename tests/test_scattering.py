@@ -22,6 +22,7 @@ import math
 import numpy as np
 import pytest
 
+from conftest import array_scene
 from dvr_gl.errors import SceneError
 from dvr_gl.fields import SphereField
 from dvr_gl.reference.converged import ConvergedReference
@@ -30,8 +31,6 @@ from dvr_gl.reference.scattering import FOUR_PI, henyey_greenstein, isotropic, p
 from dvr_gl.renderers import registry
 from dvr_gl.scene import load_scene
 from dvr_gl.transfer_function import TransferFunction
-
-from conftest import array_scene
 
 COLOUR = np.array([0.9, 0.6, 0.3])
 SIGMA, ALBEDO, INTENSITY = 1.3, 0.7, 1.5
@@ -526,8 +525,8 @@ def test_half_angle_takes_one_directional_light(lights):
 def test_half_angle_geometry():
     """The half vector lies between the eye and the light (or the light and away from the eye), the
     slices go from the light, and the light buffer covers the box."""
-    from dvr_gl.half_angle import half_angle
     from dvr_gl.gl.geometry import box_corners
+    from dvr_gl.half_angle import half_angle
 
     scene = load_scene(None, {**SMALL, "camera.projection": "orthographic"})
     box = scene.volume.box

@@ -3,12 +3,11 @@ import tomllib
 import numpy as np
 import pytest
 
+from conftest import small_scene
 from dvr_gl.errors import SceneError
 from dvr_gl.renderers import render
 from dvr_gl.scene import apply_overrides, load_scene
 from dvr_gl.toml_writer import dumps
-
-from conftest import small_scene
 
 
 def write(tmp_path, text, name="scene.toml"):

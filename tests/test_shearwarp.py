@@ -20,19 +20,22 @@ import math
 import numpy as np
 import pytest
 
+from conftest import array_scene, small_scene
 from dvr_gl.errors import SceneError
 from dvr_gl.reference import plans
 from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.reference.discrete import DiscreteReference
 from dvr_gl.renderers import create_renderer
-from dvr_gl.renderers.shearwarp.renderer import (ShearWarpRenderer, composite, intermediate_reference, reference,
-                                                 warp_reference)
-from dvr_gl.renderers.shearwarp.shading import (NO_NORMAL, decode_normals, encode_normals, frame_table,
-                                                voxel_gradients)
-from dvr_gl.renderers.shearwarp.run_length import RunLengthVolume, SliceClassifier, encode_scanlines, expand_runs
 from dvr_gl.renderers.shearwarp.factorization import factorize, factorize_view, pixel_directions, pyramid_of
-
-from conftest import array_scene, small_scene
+from dvr_gl.renderers.shearwarp.renderer import (
+    ShearWarpRenderer,
+    composite,
+    intermediate_reference,
+    reference,
+    warp_reference,
+)
+from dvr_gl.renderers.shearwarp.run_length import RunLengthVolume, SliceClassifier, encode_scanlines, expand_runs
+from dvr_gl.renderers.shearwarp.shading import NO_NORMAL, decode_normals, encode_normals, frame_table, voxel_gradients
 
 NO_ERT = {"renderer.ert_threshold": 1.0}
 

@@ -10,12 +10,11 @@ silhouette may fall on either side of a polygon edge), mean <= 2e-6 over the oth
 import numpy as np
 import pytest
 
+from conftest import array_scene, assert_close, small_scene
 from dvr_gl.errors import SceneError
 from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.renderers import create_renderer
 from dvr_gl.renderers.grid.slicing import reference as slicer_reference
-
-from conftest import array_scene, assert_close, small_scene
 
 NO_ERT = {"renderer.ert_threshold": 1.0}
 

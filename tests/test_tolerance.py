@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from conftest import array_scene
 from dvr_gl import tolerance
 from dvr_gl.apps.cli import main
 from dvr_gl.bench.quality import spike
@@ -12,8 +13,6 @@ from dvr_gl.image import compare_images, read_image
 from dvr_gl.phantoms import marschner_lobb, shepp_logan
 from dvr_gl.renderers import create_renderer
 from dvr_gl.scene import load_scene
-
-from conftest import array_scene
 
 ML = {"volume.demo": "marschner-lobb", "volume.size": 33, "image.width": 48, "image.height": 48,
       "transfer_function.opacity_model": "extinction"}

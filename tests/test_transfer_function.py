@@ -2,8 +2,15 @@ import numpy as np
 import pytest
 
 from dvr_gl.errors import SceneError
-from dvr_gl.transfer_function import (ALPHA_MAX, MAX_OPTICAL_DEPTH, PRESETS, TransferFunction,
-                                      extinction_from_alpha, preset, segment_opacity)
+from dvr_gl.transfer_function import (
+    ALPHA_MAX,
+    MAX_OPTICAL_DEPTH,
+    PRESETS,
+    TransferFunction,
+    extinction_from_alpha,
+    preset,
+    segment_opacity,
+)
 
 TF = TransferFunction(np.array([[10.0, 1, 0, 0, 0.0], [20.0, 0, 1, 0, 0.5], [40.0, 0, 0, 1, 1.0]]),
                       unit_distance=2.0)

@@ -7,8 +7,8 @@ import math
 
 import numpy as np
 import pytest
-from conftest import small_scene
 
+from conftest import small_scene
 from dvr_gl.camera import Camera
 from dvr_gl.errors import DvrError, SceneError
 from dvr_gl.scene import load_scene

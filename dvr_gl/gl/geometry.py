@@ -7,7 +7,6 @@ to the pixel whose ray passes through it.  Matrices are numpy row-major
 
 from __future__ import annotations
 
-
 import numpy as np
 
 # The 12 edges of a box as pairs of corner indices; corner i has x = bit 0, y = bit 1, z = bit 2.

@@ -23,8 +23,18 @@ import numpy as np
 
 from ..errors import VolumeError
 from ..sandbox import check_input_path
-from .common import (RawArray, axes_geometry, check_sample_type, integer, integers, numbers, parse_ascii,
-                     promised_bytes, require, show)
+from .common import (
+    RawArray,
+    axes_geometry,
+    check_sample_type,
+    integer,
+    integers,
+    numbers,
+    parse_ascii,
+    promised_bytes,
+    require,
+    show,
+)
 from .compression import read_data, read_text
 
 MAX_HEADER = 1 << 20  # bytes: a header longer than this is not a header

@@ -34,8 +34,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..fields.reconstruction import smooth_pieces
 from ..clipping import ClipRegion
+from ..fields.reconstruction import smooth_pieces
 from ..geometry import over_surface, surface_rgba
 from ..rays import RayBatch
 from ..sandbox import check_bytes

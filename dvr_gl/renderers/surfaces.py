@@ -11,8 +11,8 @@ import numpy as np
 
 from ..geometry import over_surface, scene_meshes
 from ..gl.context import make_current
-from ..gl.lights import set_uniform, shading_uniforms
 from ..gl.geometry import box_corners, clip_planes, gl_matrix, projection_matrix, view_matrix
+from ..gl.lights import set_uniform, shading_uniforms
 from ..gl.shaders import create_program
 
 NO_SURFACE = 3.0e38  # t where no surface covers a pixel

@@ -27,10 +27,10 @@ import math
 import numpy as np
 
 from ...gl.geometry import box_corners
-from ...rays import RayBatch
-from ...transfer_function import projected_rgba, xray_rgba
 from ...model import GAUSSIAN_RADIUS
+from ...rays import RayBatch
 from ...reference.model import gradient_magnitudes
+from ...transfer_function import projected_rgba, xray_rgba
 from .spectrum import padded_length
 
 

@@ -14,9 +14,9 @@ import time
 import moderngl
 import numpy as np
 
+from ... import limits
 from ...errors import SceneError
 from ...gl.shaders import create_program
-from ... import limits
 from ...sandbox import check_bytes
 from ..grid.gl_base import GLVolumeRenderer
 from .projection import Frame, Shell, channels, clips_exactly, finish, weighted

@@ -16,17 +16,17 @@ import numpy as np
 
 from ... import limits
 from ...clipping import ClipRegion
-from ...reference.scattering import light_volume_dims
-from ...settings import albedo_column, constant_albedo, shadow_step
-from .bricking import brick_size_for, ghost_width, plan_bricks
+from ...errors import DvrError, SceneError
+from ...fields import gradient_epsilon
 from ...gl.context import create_context, make_current, release_context
 from ...gl.lights import set_uniform, shading_uniforms
 from ...gl.shaders import release_programs
-from ...errors import DvrError, SceneError
-from .textures import FORMATS, central_difference_gradients, upload_field, upload_table, upload_volume
-from ...fields import gradient_epsilon
 from ...preintegration import preintegrate
+from ...reference.scattering import light_volume_dims
+from ...settings import albedo_column, constant_albedo, shadow_step
 from ..base import Renderer
+from .bricking import brick_size_for, ghost_width, plan_bricks
+from .textures import FORMATS, central_difference_gradients, upload_field, upload_table, upload_volume
 
 FILTER = {"nearest": "FILTER_NEAREST", "linear": "FILTER_LINEAR", "cubic_bspline": "FILTER_CUBIC_BSPLINE",
           "catmull_rom": "FILTER_CATMULL_ROM"}

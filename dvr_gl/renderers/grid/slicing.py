@@ -14,15 +14,14 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from .bricking import visibility_order
-from ...gl.geometry import clip_planes, gl_matrix, projection_matrix, view_matrix
+from ...gl.geometry import clip_planes, gl_matrix, projection_matrix, slice_polygons, view_matrix
 from ...gl.shaders import create_program
 from ...half_angle import half_angle
 from ...reference import plans
 from ...reference.discrete import DiscreteReference
-from ...gl.geometry import slice_polygons
-from .gl_base import GLVolumeRenderer, classification_features, light_volume_pass_defines, now
 from ..surfaces import with_surfaces
+from .bricking import visibility_order
+from .gl_base import GLVolumeRenderer, classification_features, light_volume_pass_defines, now
 
 MAX_REACH = 64.0  # voxels: rays this close to parallel with the slices need more ghost than any brick has
 

@@ -11,9 +11,9 @@ from __future__ import annotations
 from typing import Optional
 
 from ... import settings as s
+from ... import sweeps
 from ...errors import SceneError
 from ...model import SPLINE_FILTERS
-from ... import sweeps
 from ..registry import RendererPlugin
 
 

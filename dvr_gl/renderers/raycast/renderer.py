@@ -18,15 +18,15 @@ import moderngl
 import numpy as np
 
 from ... import limits
-from ...settings import shadow_step
 from ... import rays as rays_mod
 from ...fields import diagonal
 from ...gl.geometry import gl_matrix, projection_matrix, view_matrix
 from ...gl.shaders import create_program
+from ...settings import shadow_step
 from ..grid.bricking import plan_bricks, visibility_order
 from ..grid.gl_base import GLVolumeRenderer, GridView, _same, classification_features, now
-from ..surfaces import with_surfaces
 from ..grid.textures import upload_field
+from ..surfaces import with_surfaces
 from . import acceleration as accel
 from . import ray_bounds
 from .acceleration import level_count
@@ -464,7 +464,7 @@ class RayCastRenderer(GLVolumeRenderer):
         lut = tables["u_lut"].lut
         counting = "COUNT_SAMPLES" in defines
         width, height = scene.image.width, scene.image.height
-        front_to_back = not ("BACK_TO_FRONT" in defines)
+        front_to_back = "BACK_TO_FRONT" not in defines
         bricks = visibility_order([v.brick for v in views], scene.volume, scene.camera, front_to_back)
         by_brick = {v.brick: v for v in views}
         per_voxel = scene.volume.data.itemsize + self.texture_bytes_per_voxel(defines)

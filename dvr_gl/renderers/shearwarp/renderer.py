@@ -42,10 +42,10 @@ from ...gl.shaders import create_program
 from ...rays import RayBatch, intersect_box
 from ...reference import plans
 from ...reference.discrete import DiscreteReference
+from ..grid.gl_base import GLVolumeRenderer, now
+from .factorization import factorize, factorize_view, pixel_directions, pixel_pyramids
 from .run_length import RunLengthVolume, SliceClassifier, expand_runs
 from .shading import VoxelNormals, VoxelShadedModel, frame_table
-from .factorization import factorize, factorize_view, pixel_directions, pixel_pyramids
-from ..grid.gl_base import GLVolumeRenderer, now
 
 OPEN_REFRESH = 4  # slices between refreshes of the per-row count of open pixels (stale counts are safe)
 PIECE = 8         # voxels: runs are cut into pieces this long for skipping occluded ones

@@ -7,8 +7,8 @@ See ``docs/renderers/slicing.md``; the renderer is :class:`Slicing3DRenderer` in
 from __future__ import annotations
 
 from ... import settings as s
-from ...model import SPLINE_FILTERS
 from ... import sweeps
+from ...model import SPLINE_FILTERS
 from ..registry import RendererPlugin
 
 PLUGIN = RendererPlugin(

@@ -14,7 +14,6 @@ from ...gl.geometry import clip_planes, depth_range, slice_polygons
 from ...sandbox import check_bytes
 from ..grid.slicing import SlicingRenderer, core_box
 
-
 BYTES_PER_SLICE = 2048  # a slice's polygon (up to 4 triangles, float64) and its clipping's temporaries
 
 

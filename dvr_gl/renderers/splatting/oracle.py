@@ -35,18 +35,18 @@ import math
 
 import numpy as np
 
+from ...clipping import ClipRegion
 from ...fields import filter_parameters, gradient_epsilon, reconstruct, sph
 from ...fields.particles import ParticleSet, SPHInterpolant
 from ...fields.ragged import ranks
 from ...fields.reconstruction import GaussianKernel, _erf
-from ...clipping import ClipRegion
 from ...geometry import over_surface, surface_rgba
 from ...rays import RayBatch
 from ...reference.shading import blinn_phong, normals_from_gradient
 from ...transfer_function import projected_rgba, segment_opacity, xray_rgba
 from . import low_pass
-from .sheets import kernel_reach, pixel_rectangles, pre_classified, shaded_sheets, slab_bounds
 from .particles import SUBPIXEL_RADIUS, ParticleSplats
+from .sheets import kernel_reach, pixel_rectangles, pre_classified, shaded_sheets, slab_bounds
 from .splats import Splats
 
 NODES = 8            # Gauss-Legendre nodes per piece

@@ -17,16 +17,27 @@ import numpy as np
 
 from ...clipping import ClipRegion
 from ...gl.shaders import create_program
-from ..surfaces import with_surfaces
 from ...model import GAUSSIAN_RADIUS
 from ...rays import chord_lengths
 from ...transfer_function import projected_rgba, xray_rgba
 from ..grid.gl_base import GLVolumeRenderer, TableTexture, shading_defines
+from ..surfaces import with_surfaces
+from . import low_pass
 from .footprint import GaussianFootprint, M4Footprint
 from .particles import SUBPIXEL_RADIUS, ParticleSplats
-from . import low_pass
-from .sheets import (axis_schedule, culled_post, is_grid, kernel_radius, kernel_reach, kernel_sigma, part_voxels, pixel_rectangles,
-                     pre_classified, shaded_sheets, slab_schedule)
+from .sheets import (
+    axis_schedule,
+    culled_post,
+    is_grid,
+    kernel_radius,
+    kernel_reach,
+    kernel_sigma,
+    part_voxels,
+    pixel_rectangles,
+    pre_classified,
+    shaded_sheets,
+    slab_schedule,
+)
 from .splats import Splats, ghost_layers, post_visibility
 
 

@@ -18,7 +18,6 @@ from ...reference.plans import stack_axis
 from . import low_pass
 from .splats import slabs, support_depth
 
-
 #: The cubic B-spline's support is a cube of four voxels: its bounding sphere's radius, voxels.
 BSPLINE_RADIUS = 2.0 * math.sqrt(3.0)
 

@@ -21,8 +21,8 @@ import numpy as np
 
 from dvr_gl import settings as s
 from dvr_gl import sweeps
-from dvr_gl.renderers import Renderer, RendererPlugin
 from dvr_gl.rays import RayBatch, segment_counts
+from dvr_gl.renderers import Renderer, RendererPlugin
 
 
 class ProjectionRenderer(Renderer):
