@@ -18,3 +18,11 @@ def test_ci_runs_the_readme_test_command_verbatim():
     test_command = next(c for c in readme_commands() if "pytest" in c)
     ci = (REPO / ".ci" / "run").read_text().splitlines()
     assert test_command in [ln.strip() for ln in ci]
+
+
+def test_ci_checks_the_code_with_ruff():
+    """The ruff configuration is enforced: CI runs it after the tests, with the test extra's ruff."""
+    ci = [ln.strip() for ln in (REPO / ".ci" / "run").read_text().splitlines()]
+    assert ".venv/bin/ruff check ." in ci
+    pyproject = (REPO / "pyproject.toml").read_text()
+    assert "[tool.ruff]" in pyproject and '"ruff' in pyproject
