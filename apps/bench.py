@@ -176,8 +176,9 @@ def add_arguments(p):
     fo.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder (default ../shared/data)")
     fo.add_argument("--only", metavar="TEXT", help="with --shared: only datasets whose name contains TEXT")
     sc = sub.add_parser("scattering", help="single scattering: the ray caster's shadow rays and light volume and "
-                                           "slicing3d's half-angle slicing at several settings, frame time and RMS against reference-converged, "
-                                           "the speed-up at equal error (docs/scattering.md)")
+                                           "slicing3d's half-angle slicing at several settings, frame time and RMS "
+                                           "against reference-converged, the speed-up at equal error "
+                                           "(docs/scattering.md)")
     _timing_arguments(sc, size=256, error_size=64)
     sc.add_argument("--tolerance", type=float, default=1e-4, help="reference-converged's budget (default 1e-4)")
     sc.add_argument("--demo-size", type=int, default=64, help="the shadow demo's samples per axis (default 64)")
@@ -255,9 +256,9 @@ def run_quality(args) -> int:
     widths = [args.spike_width] if args.spike_width is not None else quality.WIDTHS
     for width in widths:
         n = quality.table_size(width)
-        args.report.text(f"dvr bench quality: Marschner-Lobb {args.volume_size}^3, extinction spike {100 * width:g} % of the "
-              f"range wide, {args.size}x{args.size}, against the converged reference (tolerance 1e-5), "
-              f"pre-integration table {n}x{n}")
+        args.report.text(f"dvr bench quality: Marschner-Lobb {args.volume_size}^3, extinction spike "
+                         f"{100 * width:g} % of the range wide, {args.size}x{args.size}, against the converged "
+                         f"reference (tolerance 1e-5), pre-integration table {n}x{n}")
         rows, lines, builds = quality.run(args.size, args.volume_size, width)
         args.report.table(rows, quality.COLUMNS)
         for line in lines:
@@ -275,9 +276,9 @@ def run_renderers(args) -> int:
     else:
         base.update({"volume.demo": "shepp-logan", "volume.size": args.volume_size})
     what = args.volume or f"Shepp-Logan {args.volume_size}^3"
-    args.report.text(f"dvr bench renderers: {what}, {args.size}x{args.size}, sample distance 0.5 voxel (2D stacks: the voxel "
-          f"planes), early termination and acceleration off, {args.repeat} timed frames per case after a warm-up; "
-          f"bricked under {args.budget:g} MB")
+    args.report.text(f"dvr bench renderers: {what}, {args.size}x{args.size}, sample distance 0.5 voxel "
+                     f"(2D stacks: the voxel planes), early termination and acceleration off, {args.repeat} timed "
+                     f"frames per case after a warm-up; bricked under {args.budget:g} MB")
     args.report.table(renderers.run(base, args.repeat, args.budget), renderers.COLUMNS)
     return 0
 
@@ -299,8 +300,8 @@ def run_slicing(args) -> int:
           f"against the converged reference")
     rows, jumps, written = slicing.run(base, pictures=pictures, overwrite=args.overwrite)
     args.report.table(rows, slicing.COLUMNS)
-    args.report.text(f"\nimage change (RMS) between azimuth - {slicing.JUMP_STEP:g} and + {slicing.JUMP_STEP:g} degrees; "
-          f"the stacks switch at 45")
+    args.report.text(f"\nimage change (RMS) between azimuth - {slicing.JUMP_STEP:g} and + {slicing.JUMP_STEP:g} "
+                     f"degrees; the stacks switch at 45")
     args.report.table(jumps, slicing.JUMP_COLUMNS)
     for path in written:
         _wrote(args, path)
@@ -344,11 +345,11 @@ def run_accel(args) -> int:
         scenes = [s for s in acceleration.dense_scenes(args.volume_size)
                   if not args.only or args.only.lower() in s[0].lower()] + scenes
         args.report.text()
-        args.report.text(f"What skipping costs and saves, one process: {args.size}x{args.size} images, elevation 20, "
-                         f"{args.views} azimuths from 30 degrees; per azimuth off, on and auto alternate, 2 rounds, the "
-                         f"fastest frame of each (draw to glFinish); ratios to off per azimuth, median and worst. "
-                         f"Phantoms at 1 voxel per sample, the demo at 0.25, the datasets at 0.5; early termination "
-                         f"at the default 1 - 1/255")
+        args.report.text(f"What skipping costs and saves, one process: {args.size}x{args.size} images, "
+                         f"elevation 20, {args.views} azimuths from 30 degrees; per azimuth off, on and auto "
+                         f"alternate, 2 rounds, the fastest frame of each (draw to glFinish); ratios to off per "
+                         f"azimuth, median and worst. Phantoms at 1 voxel per sample, the demo at 0.25, the datasets "
+                         f"at 0.5; early termination at the default 1 - 1/255")
         args.report.table(acceleration.overhead(scenes, args.size, args.views), acceleration.OVERHEAD_COLUMNS)
     return 0
 
@@ -376,8 +377,8 @@ def run_raycast(args) -> int:
         base["transfer_function.rescale_intercept"] = args.rescale_intercept
     if args.up:
         base["camera.up"] = list(args.up)
-    args.report.text(f"dvr bench raycast: {args.repeat} timed frames per case after a warm-up, sample distance 0.5 voxel, "
-          f"acceleration structures off")
+    args.report.text(f"dvr bench raycast: {args.repeat} timed frames per case after a warm-up, sample distance "
+                     f"0.5 voxel, acceleration structures off")
     args.report.table(raycast.run(base, repeat=args.repeat), raycast.COLUMNS)
     return 0
 
@@ -495,7 +496,8 @@ def run_cells(args) -> int:
                      f"{args.frames} frames after one untimed (dvr-gl: order and draw of the median frame, every "
                      f"frame sorted again); RMS against reference-converged at {args.error_size}x{args.error_size}")
     rows, notes = cells.run(names, Path(args.data_dir), args.size, args.error_size, args.frames, python,
-                            pictures=Path(args.pictures) if args.pictures else None, progress=lambda r: print(f"{r['mesh']} {r['view']} {r['renderer']}: {r['ms']:.0f} ms, "
+                            pictures=Path(args.pictures) if args.pictures else None,
+                            progress=lambda r: print(f"{r['mesh']} {r['view']} {r['renderer']}: {r['ms']:.0f} ms, "
                                                      f"RMS {r['rms']:.2e}", flush=True))
     args.report.text()
     args.report.table(rows, cells.COLUMNS, notes)
@@ -523,7 +525,8 @@ def run_splatting(args) -> int:
     from dvr_gl.errors import DvrError
 
     for flag, value, low, high in (("--size", args.size, 8, 4096), ("--volume-size", args.volume_size, 0, 4096),
-                                   ("--study-size", args.study_size, 0, 4096), ("--particles", args.particles, 0, 10 ** 7)):
+                                   ("--study-size", args.study_size, 0, 4096),
+                                   ("--particles", args.particles, 0, 10 ** 7)):
         if not low <= value <= high:
             raise DvrError(f"{flag} must be {low} to {high}, got {value}")
     demo = {"volume.demo": "shepp-logan", "volume.size": args.volume_size}
@@ -542,7 +545,9 @@ def run_splatting(args) -> int:
         raise DvrError("nothing to measure: --volume-size 0 and --particles 0")
     args.report.text(f"dvr bench splatting: {args.size}x{args.size}, the Gaussian of width 0.7 (particles: their "
                      f"cubic spline), default camera and "
-                     f"transfer function, {'no shading (the shaded row left out)' if args.no_shaded else 'no shading but the shaded row'}; median of {args.repeat} frames after a warm-up; "
+                     f"transfer function, "
+                     f"{'no shading (the shaded row left out)' if args.no_shaded else 'no shading but the shaded row'}"
+                     f"; median of {args.repeat} frames after a warm-up; "
                      f"RMS against reference-converged of the same kernel and classification (tolerance 1e-4)")
     rows = splatting.run(scenes, args.size, args.repeat, shaded=not args.no_shaded, progress=lambda r: print(
         f"{r['dataset']} {r['scheme']} {r['classification']}: {r['ms']:.0f} ms, RMS {r['rms']:.2e}", flush=True))
@@ -591,7 +596,8 @@ def run_scattering(args) -> int:
         if not scenes:
             raise DvrError(f"--only {args.only}: no scene matches")
     args.report.text(f"dvr bench scattering: single scattering (emission-absorption, no gradient shading) by the "
-                     f"ray caster's shadow rays and light volume and slicing3d's half-angle slicing, frame times at {args.size}x{args.size} (median of {args.repeat} after a "
+                     f"ray caster's shadow rays and light volume and slicing3d's half-angle slicing, frame times at "
+                     f"{args.size}x{args.size} (median of {args.repeat} after a "
                      f"warm-up; the light volume made once, timed apart), RMS against reference-converged "
                      f"(tolerance {args.tolerance:g}) at {args.error_size}x{args.error_size}; the shared datasets "
                      f"lit by one directional light (0.4, 0.6, -1), albedo 0.9")
@@ -695,7 +701,8 @@ def run_peers(args) -> int:
                      f"peak 1) against dvr-gl's converged reference at {args.error_size}x{args.error_size}; peers at "
                      f"{peers.PEER_SAMPLE_VOXELS:g} sample per voxel")
     rows, ratios, notes, images = peers.run(renderers, scenes, args.size, args.volume_size, args.rounds, args.frames,
-                                            args.error_size, python, cache, progress=lambda line: print(line, flush=True),
+                                            args.error_size, python, cache,
+                                            progress=lambda line: print(line, flush=True),
                                             data_dir=Path(args.data_dir), sweep=sweep)
     args.report.text()
     args.report.table(rows, peers.COLUMNS)

@@ -159,7 +159,8 @@ void walk(uint cell, vec3 o, vec3 d, inout float t_prev, inout vec4 acc) {
         vec4 p0 = cell_texel(cell, 0u), p1 = cell_texel(cell, 1u), p2 = cell_texel(cell, 2u), p3 = cell_texel(cell, 3u);
         vec4 side = cell_texel(cell, 4u), lin = cell_texel(cell, 5u);
         vec4 nd = vec4(dot(p0.xyz, d), dot(p1.xyz, d), dot(p2.xyz, d), dot(p3.xyz, d)) * side;
-        vec4 no = (vec4(dot(p0.xyz, o), dot(p1.xyz, o), dot(p2.xyz, o), dot(p3.xyz, o)) - vec4(p0.w, p1.w, p2.w, p3.w)) * side;
+        vec4 no = (vec4(dot(p0.xyz, o), dot(p1.xyz, o), dot(p2.xyz, o), dot(p3.xyz, o))
+                   - vec4(p0.w, p1.w, p2.w, p3.w)) * side;
         vec4 t = -no / nd;
         vec4 t_in = mix(vec4(-3e38), t, greaterThan(nd, vec4(0.0)));
         vec4 t_out = mix(vec4(3e38), t, lessThan(nd, vec4(0.0)));

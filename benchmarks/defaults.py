@@ -80,7 +80,8 @@ def main(argv=None) -> int:
             errors[(d, e)] = compare_images(image, ref)
         for _ in range(args.rounds):
             for d, e in grid:
-                scene = load_scene(None, {**overrides, "renderer.sample_distance_voxels": d, "renderer.ert_threshold": e,
+                scene = load_scene(None, {**overrides, "renderer.sample_distance_voxels": d,
+                                          "renderer.ert_threshold": e,
                                           "image.width": args.size, "image.height": args.size}).replace(volume=big)
                 renderer.render(scene)
                 renderer.render(scene)

@@ -61,7 +61,8 @@ def clipping(size: int, data_dir: Path) -> np.ndarray:
     centre = (lo + hi) / 2.0
     # a plane facing the eye through the centre (the near half cut away), and a box cropping the top
     plane = (*(float(x) for x in forward), -float(forward @ centre))
-    box = (tuple(float(x) for x in lo - 1.0), tuple(float(x) for x in np.where([0, 0, 1], lo + 0.8 * (hi - lo), hi + 1.0)))
+    box = (tuple(float(x) for x in lo - 1.0),
+           tuple(float(x) for x in np.where([0, 0, 1], lo + 0.8 * (hi - lo), hi + 1.0)))
     scene = base.with_renderer(clipping=type(base.renderer.clipping)(planes=[plane], box=box))
     print(f"clipping ({label}):")
     top = []

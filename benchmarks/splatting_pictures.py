@@ -37,7 +37,8 @@ def grid_row(size: int) -> list[np.ndarray]:
     pictures = []
     with create_renderer("splatting") as splatting:
         for scheme, classification in SCHEMES:
-            scene = load_scene(None, {**base, "renderer.sheet_buffer": scheme, "renderer.classification": classification})
+            scene = load_scene(None, {**base, "renderer.sheet_buffer": scheme,
+                                      "renderer.classification": classification})
             t = time.perf_counter()
             pictures.append(splatting.render(scene))
             print(f"phantom {scheme} {classification}: {time.perf_counter() - t:.1f} s", flush=True)

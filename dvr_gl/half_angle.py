@@ -65,11 +65,11 @@ def half_angle(camera, box, light_direction, spacing: float, light_buffer_size: 
     v = eye - centre if camera.projection == "perspective" else -np.asarray(camera.basis()[0], dtype=np.float64)
     v = v / max(np.linalg.norm(v), 1e-300)
     w = np.asarray(light_direction, dtype=np.float64)
-    l = -w / np.linalg.norm(w)
-    same_side = float(v @ l) >= 0.0
-    h = v + l if same_side else l - v
+    toward_light = -w / np.linalg.norm(w)
+    same_side = float(v @ toward_light) >= 0.0
+    h = v + toward_light if same_side else toward_light - v
     if np.linalg.norm(h) < 1e-9:  # the light straight behind the volume, toward the eye: any h along l
-        h = l
+        h = toward_light
     h = h / np.linalg.norm(h)
     anchor = float((centre - eye) @ h)
     depths = (box_corners(lo, hi) - eye) @ h
@@ -78,19 +78,19 @@ def half_angle(camera, box, light_direction, spacing: float, light_buffer_size: 
     # from the light: the largest offsets along h first (l . h > 0)
     first, last, step = k_hi, k_lo, -1
     # the light buffer: an orthonormal pair across l, the box's projection's extents
-    helper = np.array([1.0, 0.0, 0.0]) if abs(l[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    u = np.cross(l, helper)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(toward_light[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(toward_light, helper)
     u /= np.linalg.norm(u)
-    vv = np.cross(l, u)
+    vv = np.cross(toward_light, u)
     corners = box_corners(lo, hi)
     cu, cv = corners @ u, corners @ vv
     margin = 1e-6 * float(np.linalg.norm(hi - lo))
     eu, ev = max(cu.max() - cu.min(), margin) + 2 * margin, max(cv.max() - cv.min(), margin) + 2 * margin
-    origin = (cu.min() - margin) * u + (cv.min() - margin) * vv + float(centre @ l) * l
+    origin = (cu.min() - margin) * u + (cv.min() - margin) * vv + float(centre @ toward_light) * toward_light
     longer = max(eu, ev)
     nx = max(2, int(round(light_buffer_size * eu / longer)))
     ny = max(2, int(round(light_buffer_size * ev / longer)))
     # v (toward the eye) . h > 0: the slices nearest the light are nearest the eye too
     eye_front_to_back = float(v @ h) > 0.0
-    return HalfAngle(h, l, eye_front_to_back, eye, anchor, float(spacing), first, last, step,
-                     float(spacing / max(abs(l @ h), 1e-12)), origin, u, vv, (eu, ev), (nx, ny))
+    return HalfAngle(h, toward_light, eye_front_to_back, eye, anchor, float(spacing), first, last, step,
+                     float(spacing / max(abs(toward_light @ h), 1e-12)), origin, u, vv, (eu, ev), (nx, ny))

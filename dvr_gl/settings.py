@@ -239,7 +239,8 @@ CLASSIFICATION = Setting("classification", str, "post", "post (interpolate, then
                          applies=_classified_along)
 ASSOCIATED_COLORS = Setting("associated_colors", bool, True, "pre-classification interpolates sigma*c (no colour "
                             "bleeding); false shows the artefact", group="model", flag=False)
-FILTER = Setting("filter", str, "linear", "reconstruction filter (SPH particles: m4, their kernel, which linear stands for)", choices=FILTERS, must_support=True, group="model")
+FILTER = Setting("filter", str, "linear", "reconstruction filter (SPH particles: m4, their kernel, which linear "
+                 "stands for)", choices=FILTERS, must_support=True, group="model")
 
 
 def _gaussian(spec) -> bool:

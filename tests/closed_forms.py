@@ -141,7 +141,8 @@ def _box_bounds(scene):
     elif mode == "isosurface":
         rgba = _rgba(COLOUR, hit.astype(float))
     else:
-        rgba = np.where(hit[:, None], _classified(np.full(len(hit), BOX_VALUE), lambda v: BOX_SIGMA * np.ones_like(v)), 0.0)
+        rgba = np.where(hit[:, None],
+                        _classified(np.full(len(hit), BOX_VALUE), lambda v: BOX_SIGMA * np.ones_like(v)), 0.0)
     image = _image(rgba, scene)
     return image, image, _margin_mask(scene, 0.05)
 

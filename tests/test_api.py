@@ -146,7 +146,8 @@ def test_any_field_renders_with_the_renderers_that_declare_its_kind():
     b = np.linalg.norm(np.cross(-o, d), axis=1)                    # each ray's distance from the centre
     chord = 2.0 * np.sqrt(np.maximum(4.0 - b * b, 0.0)).reshape(16, 16)
     sigma = -np.log1p(-0.5)                                         # alpha 0.5 per unit distance
-    np.testing.assert_allclose(image.rgba[..., 3], -np.expm1(-sigma * chord), atol=1e-6)  # measured 1.9e-8 (float32 output)
+    # measured 1.9e-8 (float32 output)
+    np.testing.assert_allclose(image.rgba[..., 3], -np.expm1(-sigma * chord), atol=1e-6)
     with pytest.raises(dvr_gl.SceneError, match="raycast renders grid data, not analytic; use reference or "
                                                 "reference-converged"):
         dvr_gl.render(sphere, renderer="raycast", transfer_function=points, size=16)

@@ -22,7 +22,8 @@ def test_minimal_shader_renders_the_emission_only_image():
 def test_bench_raycast_prints_a_table(capsys, tmp_path):
     """It prints the table, and with --markdown writes it for the docs (never over a file unasked)."""
     md = tmp_path / "raycast.md"
-    assert main(["bench", "raycast", "--volume-size", "16", "--size", "16", "--repeat", "1", "--markdown", str(md)]) == 0
+    assert main(["bench", "raycast", "--volume-size", "16", "--size", "16", "--repeat", "1",
+                 "--markdown", str(md)]) == 0
     out = capsys.readouterr().out
     assert "samples/ray" in out and "minimal hand-written shader" in out and "16x16x16" in out
     text = md.read_text()
@@ -57,7 +58,8 @@ def test_bench_accel_overhead_on_the_phantoms(tmp_path, capsys):
     rows = [line.split() for line in capsys.readouterr().out.splitlines() if line.startswith("marschner-lobb")]
     assert len(rows) == 2  # composite and MIP
     composite = rows[0]
-    assert composite[3:6] == ["0.00", "0.00", "0.00"], composite  # outside bounds and skippable estimates, samples saved
+    # outside bounds and skippable estimates, samples saved
+    assert composite[3:6] == ["0.00", "0.00", "0.00"], composite
 
 
 def test_bench_accel_needs_the_data(tmp_path, capsys):
@@ -203,7 +205,8 @@ def test_bench_fourier_prints_times_and_errors(tmp_path, capsys):
 def test_bench_fourier_shared_accuracy_study(shared_data, capsys):
     assert main(["bench", "fourier", "--shared", "--data-dir", str(shared_data), "--only", "nucleon",
                  "--error-size", "16"]) == 0
-    rows = [line.split() for line in capsys.readouterr().out.splitlines() if line.startswith("nucleon ") and ":" not in line]
+    rows = [line.split() for line in capsys.readouterr().out.splitlines()
+            if line.startswith("nucleon ") and ":" not in line]
     assert [r[1] for r in rows] == ["average", "xray"]
     assert all(0 < float(r[4]) < 1e-2 for r in rows)  # RMS over the image's maximum
     assert main(["bench", "fourier", "--shared", "--data-dir", str(shared_data), "--only", "nothing-like-this"]) == 1

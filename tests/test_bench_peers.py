@@ -85,7 +85,8 @@ def test_stub_peer_sees_what_dvr_gl_sees(tmp_path, monkeypatch):
     assert [(r["scene"], r["peer"]) for r in ratio_rows] == [("ml-composite", "numpy"), ("ml-mip", "numpy")]
     for r in ratio_rows:
         assert r["ratio_1vox"] == pytest.approx(r["peer_ms"] / next(
-            x["ms"] for x in rows if x["scene"] == r["scene"] and x["setting"] == "1 voxel" and x["renderer"] == "dvr-gl"))
+            x["ms"] for x in rows
+            if x["scene"] == r["scene"] and x["setting"] == "1 voxel" and x["renderer"] == "dvr-gl"))
     assert any("computed" in n for n in notes)
 
 

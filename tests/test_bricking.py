@@ -248,9 +248,10 @@ def test_bricked_passes_skip(tmp_path, counting):
     assert bricked < 0.6 * stepped and bricked <= unbricked + 1.0, (stepped, unbricked, bricked)
 
 
-@pytest.mark.parametrize("extra", [{}, {"renderer.order": "back_to_front"}, {"renderer.classification": "preintegrated"},
-                                   {"renderer.compositing": "mip"}, {"renderer.compositing": "isosurface"},
-                                   {"renderer.ert_threshold": 0.9}, {"renderer.texture_budget_mb": TINY}],
+@pytest.mark.parametrize("extra", [{}, {"renderer.order": "back_to_front"},
+                                   {"renderer.classification": "preintegrated"}, {"renderer.compositing": "mip"},
+                                   {"renderer.compositing": "isosurface"}, {"renderer.ert_threshold": 0.9},
+                                   {"renderer.texture_budget_mb": TINY}],
                          ids=["ftb", "btf", "preint", "mip", "iso", "ert", "bricks"])
 def test_long_ray_windows_skip_within_their_window(tmp_path, counting, monkeypatch, extra):
     """The passes over segment windows (forced to 20 segments) jump too, never past their window's

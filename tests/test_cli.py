@@ -68,7 +68,8 @@ def test_acceleration_flags_leave_the_image_unchanged(tmp_path, capsys):
     a, b = tmp_path / "a.exr", tmp_path / "b.exr"
     c = tmp_path / "c.exr"
     run(capsys, "render", "--demo", "-o", a, *SMALL, "--acceleration", "off", "--ert-threshold", "1")
-    run(capsys, "render", "--demo", "-o", b, *SMALL, "--acceleration", "on", "--block-size", "4", "--ert-threshold", "1")
+    run(capsys, "render", "--demo", "-o", b, *SMALL, "--acceleration", "on", "--block-size", "4",
+        "--ert-threshold", "1")
     run(capsys, "render", "--demo", "-o", c, *SMALL, "--ert-threshold", "1")  # auto
     assert np.abs(read_image(a) - read_image(b)).max() <= 2e-6
     assert np.abs(read_image(a) - read_image(c)).max() <= 2e-6

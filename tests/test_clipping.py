@@ -134,7 +134,8 @@ FIXED_PLANE_CASES = [(name, extra) for name in ("slicing3d", "slicing2d", "shear
 
 @pytest.mark.parametrize("name, extra", FIXED_PLANE_CASES,
                          ids=[f"{n}-{','.join(v for v in e.values() if isinstance(v, str)) or 'default'}"
-                              f"{'-shaded' if e.get('renderer.shading.enabled') else ''}" for n, e in FIXED_PLANE_CASES])
+                              f"{'-shaded' if e.get('renderer.shading.enabled') else ''}"
+                              for n, e in FIXED_PLANE_CASES])
 def test_fixed_plane_renderers_drop_what_is_clipped_as_their_references(gl_context, name, extra):
     """The slicers' fragments and shear-warp's samples outside the region are dropped, as their
     references' plane crossings outside each ray's interval are (measured: slicers 2.7e-7, shear-warp
@@ -195,7 +196,8 @@ def test_renderers_without_clipping_refuse_it():
     """Every renderer that does not declare the setting refuses a scene that clips, naming those that do."""
     for name in registry.names():
         plugin = registry.plugin(name)
-        if plugin.declared("clipping") is not None or (plugin.data_kinds is not None and "grid" not in plugin.data_kinds):
+        if (plugin.declared("clipping") is not None
+                or (plugin.data_kinds is not None and "grid" not in plugin.data_kinds)):
             continue
         filters = plugin.choices("filter")
         scene = load_scene(None, {**SMALL, "renderer.filter": "linear" if "linear" in filters else filters[0],

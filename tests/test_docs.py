@@ -11,7 +11,8 @@ def test_scene_format_reference_is_current():
     """docs/scene-files.md is generated from the schema and the renderers' declared settings; after
     changing a key: python -m dvr_gl.scene_reference docs/scene-files.md"""
     page = (REPO / "docs" / "scene-files.md").read_text(encoding="utf-8")
-    assert page == reference_text(), "docs/scene-files.md is stale: python -m dvr_gl.scene_reference docs/scene-files.md"
+    assert page == reference_text(), ("docs/scene-files.md is stale: "
+                                      "python -m dvr_gl.scene_reference docs/scene-files.md")
 
 
 def test_reference_documents_every_key():

@@ -53,7 +53,8 @@ def line_integrals(scene, image):
 CASES = [{}, {"renderer.slice_interpolation": "trilinear"}, {"renderer.filter": "gaussian"},
          {"renderer.slice_interpolation": "windowed_sinc"},
          {"renderer.slice_interpolation": "windowed_sinc", "renderer.compositing": "xray", "renderer.depth_cue": 0.4},
-         {"renderer.compositing": "xray"}, {"renderer.compositing": "xray", "renderer.slice_interpolation": "trilinear"},
+         {"renderer.compositing": "xray"},
+         {"renderer.compositing": "xray", "renderer.slice_interpolation": "trilinear"},
          {"renderer.padding": 1.3, "camera.view_height": 9.0}, {"camera.target": [3.0, -2.0, 1.0], "image.width": 30},
          {"renderer.depth_cue": 0.2, "transfer_function.points": [[0, 1, 0.5, 0.2, 0], [0.3, 0.2, 0.5, 1, 3.0]],
           "transfer_function.opacity_model": "extinction"},
@@ -87,14 +88,16 @@ def test_against_its_same_slices_reference(fourier, extra):
 
 
 @pytest.mark.parametrize("extra", [{}, {"renderer.filter": "cubic_bspline", "renderer.depth_cue": 0.4},
-                                   {"renderer.compositing": "average", "camera.azimuth": 90.0, "camera.elevation": 0.0}],
+                                   {"renderer.compositing": "average", "camera.azimuth": 90.0,
+                                    "camera.elevation": 0.0}],
                          ids=["linear", "cubic-cued", "average-along-an-axis"])
 def test_anisotropic_spacing_off_centre_box(tmp_path, fourier, extra):
     """Random data (nothing zero at the faces: the shell pass runs) in an off-centre, anisotropic box."""
     rng = np.random.default_rng(3)
     scene = array_scene(tmp_path, rng.random((7, 9, 8)).astype(np.float32),
                         {**ORTHO, "renderer.compositing": "xray", "renderer.classification": "pre",
-                         "image.width": 20, "image.height": 18, **extra}, spacing=(0.5, 0.8, 1.3), origin=(40.0, -7.0, 3.0))
+                         "image.width": 20, "image.height": 18, **extra},
+                        spacing=(0.5, 0.8, 1.3), origin=(40.0, -7.0, 3.0))
     assert_close(fourier.render(scene), same_slices(scene))
 
 
@@ -132,7 +135,8 @@ def test_blob_against_the_converged_reference(tmp_path, fourier, interpolation, 
     the other way round (1.2e-2 against 4e-4; docs/renderers/fourier.md).  Asserted the bound, RMS a tenth."""
     data, _, _ = blob()
     scene = blob_scene(tmp_path, data, {"renderer.compositing": compositing, "renderer.classification": "pre",
-                                        "renderer.converged_tolerance": 1e-6, "renderer.slice_interpolation": interpolation,
+                                        "renderer.converged_tolerance": 1e-6,
+                                        "renderer.slice_interpolation": interpolation,
                                         "transfer_function.points": [[0, 1, 0.5, 0.2, 0], [1, 0.2, 0.5, 1, 3.0]]},
                        size=32)
     image = fourier.render(scene).astype(np.float64)
@@ -178,7 +182,8 @@ def test_hemispherical_shading_against_the_converged_reference(tmp_path, fourier
     scene = blob_scene(tmp_path, data, {"renderer.compositing": compositing, "renderer.classification": "pre",
                                         "renderer.hemispherical_shading": True, "renderer.depth_cue": 0.4,
                                         "renderer.slice_interpolation": "cubic_bspline",
-                                        "renderer.shading.lights": [{"type": "directional", "direction": [1.0, -0.5, 0.3]}],
+                                        "renderer.shading.lights": [{"type": "directional",
+                                                                     "direction": [1.0, -0.5, 0.3]}],
                                         "renderer.converged_tolerance": 1e-6,
                                         "transfer_function.points": [[0, 1, 0.5, 0.2, 0], [1, 0.2, 0.5, 1, 3.0]]},
                        size=32)
@@ -194,7 +199,8 @@ def test_slice_bandwidth_reaches_the_references_point_samples():
     projection, whose frequencies go on past the pixels' Nyquist limit.  The slice on a grid K times
     finer, the image its every K-th sample, takes them in: RMS against reference-converged measured
     1.6e-2 at the pixels' limit (bandwidth 0), 1.8e-3, 1.1e-4 and 2.2e-5 at 1, 2 and 4 times the voxels'
-    (K = 4, 7, 14; the Kaiser-Bessel slice, 3.4e-5 at 4 with the cubic B-spline).  Asserted: each step at least 3x smaller, and 5e-5 at 4."""
+    (K = 4, 7, 14; the Kaiser-Bessel slice, 3.4e-5 at 4 with the cubic B-spline).  Asserted: each step
+    at least 3x smaller, and 5e-5 at 4."""
     from dvr_gl.renderers.fourier.projection import oversampling
 
     scene = small_scene({**ORTHO, "renderer.compositing": "xray", "renderer.classification": "pre",

@@ -10,8 +10,9 @@ from __future__ import annotations
 import pytest
 
 hypothesis = pytest.importorskip("hypothesis")
+# the imports below come after importorskip on purpose: hypothesis is optional (E402)
 from hypothesis import HealthCheck, given, settings  # noqa: E402
-from hypothesis import strategies as st
+from hypothesis import strategies as st  # noqa: E402
 
 from fuzz_inputs import check_reader, mutate, seeds, shared_seeds, write_case  # noqa: E402
 

@@ -73,7 +73,8 @@ def test_square_in_and_above_a_slab(tmp_path, gl_context, name, height):
             assert renderer.stats["defines"]["GEOMETRY"]
         tolerance = 2e-6
     else:
-        image = (ConvergedReference(scene) if name == "reference-converged" else DiscreteReference(scene)).render_float64()
+        image = (ConvergedReference(scene) if name == "reference-converged"
+                 else DiscreteReference(scene)).render_float64()
         tolerance = 1e-9
     expected = _expected(scene, height)
     assert np.abs(image - expected).max() < tolerance
@@ -211,7 +212,8 @@ def test_a_scene_without_meshes_compiles_none_and_is_unchanged(gl_context):
 def test_renderers_without_meshes_refuse_them(tmp_path):
     for name in registry.names():
         plugin = registry.plugin(name)
-        if plugin.declared("geometry") is not None or (plugin.data_kinds is not None and "grid" not in plugin.data_kinds):
+        if (plugin.declared("geometry") is not None
+                or (plugin.data_kinds is not None and "grid" not in plugin.data_kinds)):
             continue
         filters = plugin.choices("filter")
         scene = load_scene(None, {**TILTED, "renderer.geometry": _tilted(tmp_path),
@@ -302,7 +304,8 @@ def test_splatting_ends_its_parts_at_the_meshes_as_its_oracle(tmp_path, gl_conte
     from dvr_gl.renderers.splatting.oracle import reference
 
     scene = load_scene(None, {"volume.demo": "shepp-logan", "volume.size": 12, "image.width": 16, "image.height": 12,
-                              "renderer.name": "splatting", "renderer.filter": "gaussian", "renderer.ert_threshold": 1.0,
+                              "renderer.name": "splatting", "renderer.filter": "gaussian",
+                              "renderer.ert_threshold": 1.0,
                               "renderer.geometry": _tilted(tmp_path), **extra})
     with registry.plugin("splatting").create(ctx=gl_context) as renderer:
         image = renderer.render(scene)

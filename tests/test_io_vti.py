@@ -101,7 +101,8 @@ def test_direction_is_kept(tmp_path):
 @pytest.mark.parametrize("change, message", [
     (lambda b: b.replace(b'NumberOfComponents="1"', b""), None),
     (lambda b: b.replace(b'format="binary"', b'format="binary" NumberOfComponents="3"'), "3 components"),
-    (lambda b: b.replace(b'WholeExtent="2 6', b'WholeExtent="2 600'), "the pieces hold 60 points, WholeExtent .* has 7188"),
+    (lambda b: b.replace(b'WholeExtent="2 6', b'WholeExtent="2 600'),
+     "the pieces hold 60 points, WholeExtent .* has 7188"),
     (lambda b: b.replace(b'type="Float32"', b'type="Complex"'), "type 'Complex'"),
     (lambda b: b[:len(b) // 2], "not valid VTK XML"),
     (lambda b: b.replace(b'type="ImageData"', b'type="UnstructuredGrid"'), "not VTK XML image data"),

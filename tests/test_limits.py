@@ -87,8 +87,8 @@ def test_image_over_the_render_target_limit(renderers, gl_context, monkeypatch, 
 
 def test_preintegration_table_over_the_texture_limit(renderers, gl_context, monkeypatch):
     fake(monkeypatch, gl_context, texture_size=100)
-    scene = small_scene({"renderer.classification": "preintegrated", "renderer.preintegration_size": 101, "renderer.lut_size": 64,
-                         "volume.size": 16, "image.width": 8, "image.height": 8})
+    scene = small_scene({"renderer.classification": "preintegrated", "renderer.preintegration_size": 101,
+                         "renderer.lut_size": 64, "volume.size": 16, "image.width": 8, "image.height": 8})
     with pytest.raises(DvrError, match="renderer.preintegration_size = 101 exceeds GL_MAX_TEXTURE_SIZE 100"):
         renderers["raycast"].render(scene)
 

@@ -158,7 +158,8 @@ def test_plummer_sphere_holds_its_mass_and_density():
 def test_csv_and_npz_tables_read_back(tmp_path):
     p = plummer_sphere(50, seed=5)
     path = tmp_path / "p.csv"
-    rows = ["X,y,z,h,mass,rho,temperature"] + [",".join(repr(float(v)) for v in (*x, hh, m, r, 3.0 * r)) for x, hh, m, r in
+    rows = ["X,y,z,h,mass,rho,temperature"] + [",".join(repr(float(v)) for v in (*x, hh, m, r, 3.0 * r))
+                                               for x, hh, m, r in
                                                zip(p.positions, p.smoothing_lengths, p.masses, p.densities)]
     path.write_text("\n".join(rows) + "\n")
     q = load_field(path, array="temperature")

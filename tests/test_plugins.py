@@ -68,7 +68,8 @@ def test_dvr_render_renders_with_it_and_refuses_in_one_line(site, tmp_path):
     assert out.returncode == 0, out.stderr
     assert f"{NAME}" in out.stdout and image.is_file()
     same = tmp_path / "reference.exr"
-    assert dvr(site, "render", *SMALL, "--renderer", "reference", "--compositing", "mip", "-o", str(same)).returncode == 0
+    assert dvr(site, "render", *SMALL, "--renderer", "reference", "--compositing", "mip",
+               "-o", str(same)).returncode == 0
     from dvr_gl.image import read_image
 
     ours, judge = read_image(image), read_image(same)
@@ -84,8 +85,9 @@ def test_dvr_render_renders_with_it_and_refuses_in_one_line(site, tmp_path):
 
 
 def test_the_viewer_offers_it(site):
-    """Its number key (after the built-in renderers') and the panel's renderer list come from the registry, and switching to it is checked
-    (emission-absorption refused, MIP accepted) before anything renders."""
+    """Its number key (after the built-in renderers') and the panel's renderer list come from the
+    registry, and switching to it is checked (emission-absorption refused, MIP accepted) before
+    anything renders."""
     code = ("from dvr_gl.viewer import keys, settings\n"
             "from dvr_gl.scene import load_scene\n"
             f"print([k for k in keys.key_table() if k[1] == 'renderer_{NAME}'])\n"

@@ -263,8 +263,8 @@ def test_the_cli_and_the_viewer_take_a_mesh(tmp_path):
 
 def test_the_tradeoff_bench_sweeps_a_mesh_through_the_registry():
     """``dvr bench tradeoff`` on a mesh scene: only the renderers of meshes are swept (their declared
-    families: the cell order, cell-raycast's early termination), against the converged reference; the ray caster's tolerance check is
-    left out with a note."""
+    families: the cell order, cell-raycast's early termination), against the converged reference; the
+    ray caster's tolerance check is left out with a note."""
     from dvr_gl.bench import tradeoff
 
     scene = mesh_scene(jittered_mesh(), **{"image.width": 24, "image.height": 24})
@@ -306,7 +306,8 @@ def test_dvr_bench_cells(tmp_path, monkeypatch, capsys):
     assert all(float(r[-2]) < 1e-4 for r in rows if r[3] == "exact"), rows  # RMS against the reference
     # cell-raycast at its defaults: early termination drops at most 1/255 where a ray gets that opaque
     assert all(float(r[-1]) < 1e-3 for r in rows if r[3] == "cell-raycast"), rows  # (no cycles column)
-    assert all(1e-4 < float(r[-1]) < 0.05 for r in rows if r[2] == "raycast,"), rows  # resampling: its own error (no cycles column)
+    # resampling: its own error (no cycles column)
+    assert all(1e-4 < float(r[-1]) < 0.05 for r in rows if r[2] == "raycast,"), rows
     assert "vtk-pt: not installed" in out
     from dvr_gl.image import read_image
 

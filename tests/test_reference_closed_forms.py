@@ -100,7 +100,10 @@ def test_linear_ramp_of_extinction(tmp_path, view):
                  "transfer_function.points": [[0.0, *colour, s0], [n - 1.0, *colour, s1]],
                  "transfer_function.opacity_model": "extinction", "renderer.sample_distance": 0.37}
     scene = array_scene(tmp_path, data, overrides)
-    sigma = lambda x: s0 + (s1 - s0) * x / (n - 1)
+
+    def sigma(x):
+        return s0 + (s1 - s0) * x / (n - 1)
+
     o, d = rays_of(scene)
     tau = []
     for oi, di in zip(o, d):

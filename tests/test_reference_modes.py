@@ -210,8 +210,10 @@ def test_depth_cue_weights_by_depth(tmp_path, compositing):
 
     value, sigma, cue = 0.6, 0.4, 0.25
     data = np.full((5, 6, 7), value, np.float32)
-    scene = array_scene(tmp_path, data, {"transfer_function.points": [[0, 0.9, 0.5, 0.2, 0], [1, 0.9, 0.5, 0.2, sigma / value]],
-                                         "transfer_function.opacity_model": "extinction", "renderer.compositing": compositing,
+    scene = array_scene(tmp_path, data, {"transfer_function.points": [[0, 0.9, 0.5, 0.2, 0],
+                                                                      [1, 0.9, 0.5, 0.2, sigma / value]],
+                                         "transfer_function.opacity_model": "extinction",
+                                         "renderer.compositing": compositing,
                                          "renderer.classification": "pre", "renderer.depth_cue": cue,
                                          "camera.projection": "orthographic", "camera.azimuth": 0.0,
                                          "camera.elevation": 0.0, "camera.view_height": 3.0,

@@ -286,7 +286,8 @@ LIT = {**SMALL, "renderer.ert_threshold": 1.0,
     {"renderer.classification": "pre"}, {"renderer.classification": "preintegrated"},
     {"renderer.gradient_opacity": True}, {"renderer.scattering.shadows": False}, {"renderer.acceleration": "on"},
     {"renderer.filter": "cubic_bspline"},
-], ids=lambda e: ",".join(f"{k.split('.')[-1]}={v}" if not isinstance(v, list) else k.split('.')[-1] for k, v in e.items()) or "default")
+], ids=lambda e: ",".join(f"{k.split('.')[-1]}={v}" if not isinstance(v, list) else k.split('.')[-1]
+                          for k, v in e.items()) or "default")
 def test_raycast_shadow_rays_match_the_same_discretization(gl_context, extra):
     """The ray caster's shadow rays against the reference's (same segments on both rays): float32
     against float64, measured at most 6e-6 (the conftest's bound: 1e-4 for 0.5 % of values)."""
@@ -353,7 +354,8 @@ VOLUME_LIT = {**LIT, "renderer.scattering.method": "light_volume", "renderer.sca
     {"renderer.classification": "pre"}, {"renderer.classification": "preintegrated"},
     {"renderer.gradient_opacity": True}, {"renderer.filter": "cubic_bspline"},
     {"renderer.scattering.light_volume_size": 5},
-], ids=lambda e: ",".join(f"{k.split('.')[-1]}={v}" if not isinstance(v, list) else k.split('.')[-1] for k, v in e.items()) or "default")
+], ids=lambda e: ",".join(f"{k.split('.')[-1]}={v}" if not isinstance(v, list) else k.split('.')[-1]
+                          for k, v in e.items()) or "default")
 def test_raycast_light_volume_matches_the_same_discretization(gl_context, extra):
     """The light volume marched in GL from its nodes and interpolated in the shader, against the
     reference marching the same rays in float64: measured at most 6e-6, the conftest's bound."""
@@ -484,7 +486,8 @@ HALF = {**LIT, "renderer.name": "slicing3d", "renderer.scattering.method": "half
     {"renderer.classification": "preintegrated"}, {"renderer.gradient_opacity": True},
     {"renderer.scattering.light_buffer_size": 100}, {"renderer.scattering.shadows": False},
     {"renderer.scattering.method": "shadow_rays"}, {"renderer.scattering.method": "light_volume"},
-], ids=lambda e: ",".join(f"{k.split('.')[-1]}={v}" if not isinstance(v, list) else k.split('.')[-1] for k, v in e.items()) or "default")
+], ids=lambda e: ",".join(f"{k.split('.')[-1]}={v}" if not isinstance(v, list) else k.split('.')[-1]
+                          for k, v in e.items()) or "default")
 def test_slicing3d_scattering_matches_its_planes(gl_context, extra):
     """Half-angle slicing against the reference of the same planes and the same light buffer (its
     slices accumulated per pixel, looked up bilinearly): float32 against float64 on all but a
@@ -533,14 +536,14 @@ def test_half_angle_geometry():
     toward_eye = -np.asarray(scene.camera.basis()[0])
     for direction, front_to_back in (((0.3, -0.2, -1.0), True), (tuple(toward_eye), False)):
         ha = half_angle(scene.camera, box, direction, 0.5, 64)
-        l = -np.asarray(direction) / np.linalg.norm(direction)
-        assert np.isclose(np.linalg.norm(ha.normal), 1.0) and ha.normal @ l > 0
+        toward_light = -np.asarray(direction) / np.linalg.norm(direction)
+        assert np.isclose(np.linalg.norm(ha.normal), 1.0) and ha.normal @ toward_light > 0
         assert ha.eye_front_to_back == front_to_back
         offsets = ha.offsets(ha.order())
         assert np.all(np.diff(offsets) < 0)  # from the light: largest offsets along h first
         uv = ha.light_uv(box_corners(*box))
         assert uv.min() > 0.0 and uv.max() < 1.0
-        assert ha.light_length == pytest.approx(0.5 / abs(l @ ha.normal))
+        assert ha.light_length == pytest.approx(0.5 / abs(toward_light @ ha.normal))
 
 
 # --- the albedo as the transfer function's sixth column ---------------------------------------------

@@ -65,10 +65,11 @@ def test_slicing2d_refuses_what_stacks_cannot_do(extra):
         slicer.render(small_scene(extra))
 
 
-@pytest.mark.parametrize("extra, message", [({"renderer.compositing": "mip"},
-                                             "does not support renderer.compositing = 'mip' .it takes emission_absorption"),
-                                            ({"renderer.jitter": True}, "does not support renderer.jitter; turn it off or "
-                                                                        "use raycast, reference or reference-converged")])
+@pytest.mark.parametrize("extra, message", [
+    ({"renderer.compositing": "mip"}, "does not support renderer.compositing = 'mip' .it takes emission_absorption"),
+    ({"renderer.jitter": True}, "does not support renderer.jitter; turn it off or use raycast, reference or "
+                                "reference-converged"),
+])
 def test_slicers_refuse_other_compositing_and_jitter(slicer, extra, message):
     with pytest.raises(SceneError, match=message):
         slicer.render(small_scene(extra))

@@ -130,14 +130,16 @@ def test_xray_of_one_kernel_is_a_2d_gaussian(tmp_path, splatting, projection):
     """One sample of 1 in zeros, the average (the line integral over the chord): each pixel's integral
     is the kernel's footprint at its ray's distance from the sample, a 2D Gaussian within 2e-5 of its
     peak (model.GAUSSIAN_RADIUS).  Measured 1.5e-5 of the peak in both projections (the truncation's;
-    the GL against the truncated kernel's footprint 2.2e-6 orthographic, 1.2e-6 perspective); asserted 1e-4.  In perspective each pixel's ray is
-    its own, no affine approximation of the projection (EWA's) enters."""
+    the GL against the truncated kernel's footprint 2.2e-6 orthographic, 1.2e-6 perspective); asserted
+    1e-4.  In perspective each pixel's ray is its own, no affine approximation of the projection
+    (EWA's) enters."""
     k_sigma, sigma = 0.5, 1.0
     data = np.zeros((21, 21, 21), np.float32)
     data[10, 10, 10] = 1.0
     view = ({"camera.projection": "orthographic", "camera.view_height": 8.0} if projection == "orthographic"
             else {"camera.fov": 30.0, "camera.distance": 24.0})
-    scene = array_scene(tmp_path, data, {**GAUSSIAN, "transfer_function.points": [[0, 1, 1, 1, 0], [1, 1, 1, 1, k_sigma]],
+    scene = array_scene(tmp_path, data, {**GAUSSIAN,
+                                         "transfer_function.points": [[0, 1, 1, 1, 0], [1, 1, 1, 1, k_sigma]],
                                          "transfer_function.opacity_model": "extinction",
                                          "renderer.compositing": "average", "renderer.kernel_width": sigma,
                                          "camera.azimuth": 31.0, "camera.elevation": 22.0,
@@ -416,7 +418,8 @@ def test_low_passed_xray_of_one_kernel_is_the_widened_2d_gaussian(tmp_path, spla
     data[10, 10, 10] = 1.0
     size, height = 32, 8.0
     for pixels in (1.0, 3.0):
-        scene = array_scene(tmp_path, data, {**GAUSSIAN, "transfer_function.points": [[0, 1, 1, 1, 0], [1, 1, 1, 1, 0.5]],
+        scene = array_scene(tmp_path, data, {**GAUSSIAN,
+                                             "transfer_function.points": [[0, 1, 1, 1, 0], [1, 1, 1, 1, 0.5]],
                                              "transfer_function.opacity_model": "extinction",
                                              "renderer.compositing": "average", "renderer.kernel_width": 1.0,
                                              "renderer.screen_low_pass": pixels,
@@ -452,7 +455,8 @@ def test_low_passed_kernels_in_perspective_against_the_screen_convolution(tmp_pa
     for distance, angle in ((8.0, 0.0), (20.0, 13.0)):
         a = math.radians(angle)
         eye = np.array([c - distance * math.cos(a), c - distance * math.sin(a), c])
-        scene = array_scene(tmp_path, data, {**GAUSSIAN, "transfer_function.points": [[0, 1, 1, 1, 0], [1, 1, 1, 1, 0.5]],
+        scene = array_scene(tmp_path, data, {**GAUSSIAN,
+                                             "transfer_function.points": [[0, 1, 1, 1, 0], [1, 1, 1, 1, 0.5]],
                                              "transfer_function.opacity_model": "extinction",
                                              "renderer.compositing": "average", "renderer.kernel_width": 1.0,
                                              "renderer.screen_low_pass": pixels, "camera.eye": eye.tolist(),
@@ -490,12 +494,14 @@ def test_low_pass_keeps_the_flux_of_kernels_smaller_than_a_pixel(tmp_path, splat
         flux = []
         for pixels in (0.0, 1.0):
             # pre-classified, only the sample is splatted (its neighbours are transparent)
-            scene = array_scene(tmp_path, data, {**GAUSSIAN, "transfer_function.points": [[0, 1, 1, 1, 0], [1, 1, 1, 1, 0.5]],
+            scene = array_scene(tmp_path, data, {**GAUSSIAN,
+                                                 "transfer_function.points": [[0, 1, 1, 1, 0], [1, 1, 1, 1, 0.5]],
                                                  "transfer_function.opacity_model": "extinction",
                                                  "renderer.compositing": "xray", "renderer.classification": "pre",
                                                  "renderer.screen_low_pass": pixels,
                                                  "camera.projection": "orthographic", "camera.view_height": 4.0,
-                                                 "camera.target": [0, 0, 0], "camera.azimuth": 0.0, "camera.elevation": 0.0,
+                                                 "camera.target": [0, 0, 0], "camera.azimuth": 0.0,
+                                                 "camera.elevation": 0.0,
                                                  "image.width": size, "image.height": size},
                                 spacing=(h, h, h), origin=origin)
             alpha = splatting.render(scene)[..., 3].astype(np.float64).ravel()

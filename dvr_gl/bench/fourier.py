@@ -105,7 +105,8 @@ def shared(scenes, size: int = 128, progress=None) -> list[dict]:
                 peak = max(truth.max(), 1e-300)
                 rows.append({"dataset": name, "mode": mode, "pre_s": pre, "view_ms": view_ms,
                              "rms_rel": float(np.sqrt(np.mean(error ** 2)) / peak),
-                             "max": float(error.max()), "silhouette": float(error[inside].max()) if inside.any() else 0.0,
+                             "max": float(error.max()),
+                             "silhouette": float(error[inside].max()) if inside.any() else 0.0,
                              "rms_wide": float(np.sqrt(np.mean((wide - truth) ** 2)) / peak)})
                 if progress:
                     progress(rows[-1])

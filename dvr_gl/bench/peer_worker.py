@@ -370,7 +370,8 @@ class VispyPeer(Peer):
         view.camera = SceneCamera(interactive=False)
         self.image = None
         self.settings = {"method": self.volume.method, "relative_step_size": step, "interpolation": "linear",
-                         "texture_format": "auto", "data": str(data.dtype), "clipping_planes": "the hull of the samples",
+                         "texture_format": "auto", "data": str(data.dtype),
+                         "clipping_planes": "the hull of the samples",
                          "colormap": "the transfer function's points, alpha per sample"}
 
     def render(self):
@@ -530,7 +531,8 @@ class DvrGlPeer(Peer):
         self.scene_ = load_scene(None, {**overrides, "image.width": size[0], "image.height": size[1]})
         self.renderer = create_renderer(self.scene_.renderer.name)
         r = self.scene_.renderer
-        self.settings = {"renderer": r.name, "sample_distance_voxels": r.sample_distance / self.scene_.volume.spacing[0]}
+        self.settings = {"renderer": r.name,
+                         "sample_distance_voxels": r.sample_distance / self.scene_.volume.spacing[0]}
         for key in ("ert_threshold", "acceleration", "classification", "filter", "tolerance"):
             if hasattr(r, key):
                 self.settings[key] = getattr(r, key)

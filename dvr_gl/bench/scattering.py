@@ -114,7 +114,8 @@ def equal_error(rows: list[dict]) -> list[dict]:
 
 
 MULTIPLE_COLUMNS = [("scene", "scene", ""), ("paths", "paths per pixel", "d"),
-                    ("single", "single scattering: mean RGB", ".4f"), ("full", "all orders (Monte Carlo): mean RGB", ".4f"),
+                    ("single", "single scattering: mean RGB", ".4f"),
+                    ("full", "all orders (Monte Carlo): mean RGB", ".4f"),
                     ("rms", "RMS of the difference", ".2e"), ("noise", "Monte Carlo's RMS standard error", ".2e"),
                     ("largest", "largest difference", ".2e"), ("seconds", "Monte Carlo s", ".0f")]
 

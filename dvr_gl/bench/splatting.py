@@ -141,8 +141,9 @@ def plummer_scene(particles: int) -> tuple[str, dict]:
 
     size = max(2, 2 * round(particles ** (1.0 / 3.0)))
     demo = demo_scene("plummer")
-    return (f"Plummer, {(size // 2) ** 3} SPH particles", {"volume.demo": "plummer", "volume.size": size,
-                                                            "transfer_function.points": demo["transfer_function"]["points"]})
+    return (f"Plummer, {(size // 2) ** 3} SPH particles",
+            {"volume.demo": "plummer", "volume.size": size,
+             "transfer_function.points": demo["transfer_function"]["points"]})
 
 
 def shared_scenes(data_dir: Path, only: str | None = None):

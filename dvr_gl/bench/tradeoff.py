@@ -160,7 +160,8 @@ def tolerance_check(scene, rows: list[dict], truth, repeat: int = 5, tolerances=
     out = []
     kind = getattr(scene.field, "kind", "grid")
     if kind != "grid":
-        return out, f"--tolerance not checked: it chooses the ray caster's settings, and the ray caster renders grids, not {kind}"
+        return out, (f"--tolerance not checked: it chooses the ray caster's settings, and the ray caster renders "
+                     f"grids, not {kind}")
     scene = scene.with_renderer(name="raycast")
     try:
         model.check_tolerance(scene, tolerances[0])

@@ -256,11 +256,12 @@ class SPHInterpolant:
 
 def plummer_sphere(count: int, scale: float = 1.0, cut: float = 4.0, seed: int = 0, eta: float = 1.2,
                    total_mass: float = 1.0, name: str = "plummer") -> ParticleSet:
-    """A Plummer sphere of ``count`` equal-mass particles (``total_mass`` within the cut, scale radius ``scale``), cut at
-    ``cut`` scale radii, drawn with ``seed``: density ``rho(r) = 3 M / (4 pi a^3) (1 + r^2 / a^2)^(-5/2)``,
-    radii by inverting the enclosed mass ``M(r) = r^3 / (r^2 + a^2)^(3/2)``; each particle's density is the
-    exact one at its radius and its smoothing length ``eta (m / rho)^(1/3)`` (about 58 neighbours in its
-    support at ``eta = 1.2``, as SPH codes choose)."""
+    """A Plummer sphere of ``count`` equal-mass particles (``total_mass`` within the cut, scale radius
+    ``scale``), cut at ``cut`` scale radii, drawn with ``seed``: density
+    ``rho(r) = 3 M / (4 pi a^3) (1 + r^2 / a^2)^(-5/2)``, radii by inverting the enclosed mass
+    ``M(r) = r^3 / (r^2 + a^2)^(3/2)``; each particle's density is the exact one at its radius and its
+    smoothing length ``eta (m / rho)^(1/3)`` (about 58 neighbours in its support at ``eta = 1.2``, as SPH
+    codes choose)."""
     if count < 1:
         raise SceneError(f"a Plummer sphere needs at least one particle, got {count}")
     rng = np.random.default_rng(seed)

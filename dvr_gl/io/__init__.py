@@ -55,7 +55,8 @@ GRID_FORMATS = FORMATS[:10]
 _SUFFIXES = {
     ".nrrd": "nrrd", ".nhdr": "nrrd", ".nii": "nifti", ".nii.gz": "nifti", ".mhd": "metaimage",
     ".mha": "metaimage", ".vtk": "vtk", ".npy": "npy", ".tif": "tiff", ".tiff": "tiff",
-    ".vtu": "vtu", ".vti": "vti", ".dcm": "dicom", ".zarr": "zarr", ".xyz": "plot3d", ".csv": "csv", ".npz": "npz", ".h5": "hdf5", ".hdf5": "hdf5",
+    ".vtu": "vtu", ".vti": "vti", ".dcm": "dicom", ".zarr": "zarr", ".xyz": "plot3d", ".csv": "csv", ".npz": "npz",
+    ".h5": "hdf5", ".hdf5": "hdf5",
     ".raw": "raw", ".raw.gz": "raw", ".raw.bz2": "raw", ".bin": "raw", ".dat": "raw", ".den": "raw",
 }
 

@@ -34,12 +34,13 @@ def read_zarr(path: Path, array: str | None = None, level: int | None = None) ->
     try:
         node = zarr.open(store=name, mode="r")
     except Exception as exc:  # zarr raises many kinds for a folder that is not a store  # noqa: BLE001
-        raise VolumeError(f"{name}: not a zarr store ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})") \
-            from None
+        raise VolumeError(f"{name}: not a zarr store "
+                          f"({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})") from None
     axes, transforms = None, []
     if isinstance(node, zarr.Array):
         if array is not None or level is not None:
-            raise VolumeError(f"{name}: a single zarr array; volume.array and volume.level apply to groups: remove them")
+            raise VolumeError(f"{name}: a single zarr array; volume.array and volume.level apply to groups: "
+                              f"remove them")
         target = node
     else:
         attrs = dict(node.attrs)
@@ -72,7 +73,8 @@ def _member(group, array, name):
         except KeyError:
             found = None
         if found is None or not hasattr(found, "dtype"):
-            raise VolumeError(f"{name}: no array {array!r} in the group; it has {', '.join(map(repr, arrays)) or 'none'}")
+            raise VolumeError(f"{name}: no array {array!r} in the group; it has "
+                              f"{', '.join(map(repr, arrays)) or 'none'}")
         return found
     if len(arrays) != 1:
         raise VolumeError(f"{name}: the group holds {len(arrays)} arrays ({', '.join(map(repr, arrays)) or 'none'}); "

@@ -321,7 +321,10 @@ class ConvergedReference:
         lo = grid[np.maximum(j - 1, 0)]
         hi = grid[np.minimum(j + 1, GRID_PER_PIECE)]
         best = values[np.arange(len(ray)), j]
-        f = lambda x: sign * self._horner(coeffs, x)
+
+        def f(x):
+            return sign * self._horner(coeffs, x)
+
         c, d = hi - GOLDEN * (hi - lo), lo + GOLDEN * (hi - lo)
         fc, fd = f(c), f(d)
         for _ in range(60):  # the bracket shrinks by 0.618 per step: to float64 resolution

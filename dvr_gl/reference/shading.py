@@ -39,14 +39,14 @@ def blinn_phong(color: np.ndarray, normal: np.ndarray, ray_dir: np.ndarray, shad
     specular = np.zeros_like(color)
     for light in shading.lights:
         if light.type == "headlight":
-            l = v
+            toward_light = v
         else:
             d = np.asarray(light.direction, dtype=np.float64)
-            l = np.broadcast_to(-d / np.linalg.norm(d), v.shape)
+            toward_light = np.broadcast_to(-d / np.linalg.norm(d), v.shape)
         intensity = np.asarray(light.color, dtype=np.float64)
-        ndotl = np.sum(n * l, axis=1, keepdims=True)
+        ndotl = np.sum(n * toward_light, axis=1, keepdims=True)
         diffuse += intensity * np.maximum(ndotl, 0.0)
-        h = l + v
+        h = toward_light + v
         h = h / np.linalg.norm(h, axis=1, keepdims=True).clip(1e-300)
         ndoth = np.maximum(np.sum(n * h, axis=1, keepdims=True), 0.0)
         specular += intensity * np.where(ndotl > 0, ndoth ** shading.shininess, 0.0)

@@ -137,7 +137,8 @@ class CellRaycastRenderer(MeshRenderer):
         the node buffer overflowed.  Returns the heads' texture and the number of entries."""
         img = scene.image
         heads, fbo = self._lists_target(img.width, img.height)
-        capacity, nodes = self._node_buffer(self._nodes[0] if self._nodes else FIRST_NODES_PER_PIXEL * img.width * img.height)
+        capacity, nodes = self._node_buffer(self._nodes[0] if self._nodes
+                                            else FIRST_NODES_PER_PIXEL * img.width * img.height)
         if walk.boundary is None:
             heads.write(np.zeros((img.height, img.width), np.uint32).tobytes())
             return heads, 0

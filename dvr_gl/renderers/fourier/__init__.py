@@ -39,23 +39,25 @@ def check(scene):
     """Whole chords: the camera outside the volume; six taps only for the windowed kernels."""
     r = scene.renderer
     if r.slice_taps != 4 and r.slice_interpolation not in WINDOWED:
-        raise SceneError(f"renderer.slice_taps = {r.slice_taps} is for the windowed kernels (kaiser_bessel, windowed_sinc); "
+        raise SceneError(f"renderer.slice_taps = {r.slice_taps} is for the windowed kernels "
+                         f"(kaiser_bessel, windowed_sinc); "
                          f"{r.slice_interpolation} has its own taps: use 4 or another renderer.slice_interpolation")
     cam = scene.camera
     forward = cam.basis()[0]
     lo, hi = scene.field.bounds
     if float(((box_corners(lo, hi) - cam.eye) @ forward).min()) <= cam.near:
-        raise SceneError("fourier integrates whole chords, and the camera is inside the volume or on its faces: move it "
-                         "out (camera.distance), the box in front of its near plane")
+        raise SceneError("fourier integrates whole chords, and the camera is inside the volume or on its faces: "
+                         "move it out (camera.distance), the box in front of its near plane")
 
 
 PLUGIN = RendererPlugin(
     name="fourier",
     description="Fourier volume rendering: projections from central slices of the volume's spectrum",
     renderer="dvr_gl.renderers.fourier.renderer:FourierRenderer",
-    settings=(s.COMPOSITING.only("average", "xray"), s.CLASSIFICATION.only("pre"),  # the X-ray transforms classified voxels
-              s.FILTER.only("linear", "cubic_bspline", "gaussian"), s.KERNEL_WIDTH, s.DEPTH_CUE, s.HEMISPHERICAL_SHADING,
-              SLICE_INTERPOLATION, SLICE_TAPS, PADDING, SLICE_BANDWIDTH),
+    # the X-ray transforms classified voxels
+    settings=(s.COMPOSITING.only("average", "xray"), s.CLASSIFICATION.only("pre"),
+              s.FILTER.only("linear", "cubic_bspline", "gaussian"), s.KERNEL_WIDTH, s.DEPTH_CUE,
+              s.HEMISPHERICAL_SHADING, SLICE_INTERPOLATION, SLICE_TAPS, PADDING, SLICE_BANDWIDTH),
     needs_gl=True,
     projections=("orthographic",),  # the projection-slice theorem: parallel projections
     check=check,

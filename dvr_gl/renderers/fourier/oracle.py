@@ -83,8 +83,8 @@ def reference(scene) -> np.ndarray:
     derivatives = None
     if r.depth_cue < 1.0:
         direction = frame.depth_direction(spectrum)
-        derivatives = {c: interpolate(spectrum.spectra[c], spectrum.dims, g, r.slice_interpolation, direction, r.padding,
-                                      r.slice_taps)
+        derivatives = {c: interpolate(spectrum.spectra[c], spectrum.dims, g, r.slice_interpolation, direction,
+                                      r.padding, r.slice_taps)
                        for c in weighted(scene)}
     shell = shell_integrals(scene, data, border) if clips_exactly(scene) else None
     return finish(scene, frame, spectrum, slices, offsets, derivatives, shell)

@@ -137,7 +137,8 @@ def _profile(scene):
     if r.filter == "cubic_bspline":
         def bspline(x):
             a = np.abs(x)
-            return np.where(a < 1, 2.0 / 3.0 - a * a + 0.5 * a ** 3, np.where(a < 2, (2.0 - np.minimum(a, 2.0)) ** 3 / 6.0, 0.0))
+            return np.where(a < 1, 2.0 / 3.0 - a * a + 0.5 * a ** 3,
+                            np.where(a < 2, (2.0 - np.minimum(a, 2.0)) ** 3 / 6.0, 0.0))
         return bspline, 2.0
     return (lambda x: np.maximum(1.0 - np.abs(x), 0.0)), 1.0
 
@@ -223,7 +224,8 @@ def weighted(scene) -> tuple[int, ...]:
     return shaded + tuple(first + k for k in range(len(shaded)))
 
 
-def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, derivatives=None, shell=None) -> np.ndarray:
+def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, derivatives=None,
+           shell=None) -> np.ndarray:
     """The image ``(H, W, 4)`` float64 from the interpolated spectra ``slices`` (``(H', W')`` complex, one per
     channel): the filter, the phase, the inverse transform, the constants taken out before the transform
     (``offsets``, :func:`channels`) added back per chord, and the compositing mode's classification.

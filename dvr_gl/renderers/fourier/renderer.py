@@ -75,8 +75,8 @@ class FourierRenderer(GLVolumeRenderer):
         dims = [padded_length(n + 10, r.padding) for n in scene.volume.dims]  # with the ghost layers
         side = max(dims[0] // 2 + 1, dims[1], dims[2])
         if side > gl.texture_3d_size:
-            raise SceneError(f"fourier's spectrum needs a {side}-texel 3D texture, over this GL's {gl.texture_3d_size}: "
-                             "use a smaller renderer.padding or volume")
+            raise SceneError(f"fourier's spectrum needs a {side}-texel 3D texture, over this GL's "
+                             f"{gl.texture_3d_size}: use a smaller renderer.padding or volume")
         limits.check_texture("fourier's slice", Frame(scene).size, gl,
                              "frame the volume in the image (camera.view_height), or use a smaller image or "
                              "renderer.slice_bandwidth")
@@ -96,7 +96,8 @@ class FourierRenderer(GLVolumeRenderer):
         fresh = []
         taps = r.slice_taps if r.slice_interpolation in WINDOWED else 4
         spectrum = self._cached("spectrum", (data, r.slice_interpolation, r.padding, taps),
-                                lambda: fresh.append(1) or Spectrum(data, r.slice_interpolation, r.padding, border, taps))
+                                lambda: fresh.append(1) or Spectrum(data, r.slice_interpolation, r.padding, border,
+                                                                    taps))
         textures = self._cached("spectrum textures", (spectrum,), lambda: SpectrumTextures(self.ctx, spectrum))
         start = time.perf_counter()
         frame = Frame(scene)
@@ -150,7 +151,8 @@ class FourierRenderer(GLVolumeRenderer):
             return None
         shell = texture.shell
         defines = {"NODES": str(shell.nodes), "CUBIC_BSPLINE": r.filter == "cubic_bspline"}
-        program = create_program(self.ctx, "fullscreen.vert", "fourier/shell.frag", {k: v for k, v in defines.items() if v})
+        program = create_program(self.ctx, "fullscreen.vert", "fourier/shell.frag",
+                                 {k: v for k, v in defines.items() if v})
         _, fbo = self.target("shell", img.width, img.height)
         fbo.use()
         nodes, weights = np.polynomial.legendre.leggauss(shell.nodes)
@@ -163,7 +165,8 @@ class FourierRenderer(GLVolumeRenderer):
         self.bind(program, {"u_texels": texture.dims, "u_origin": tuple(shell.origin), "u_spacing": tuple(spacing),
                             "u_box_lo": tuple(lo), "u_box_hi": tuple(hi), "u_outer_lo": tuple(shell.outer[0]),
                             "u_outer_hi": tuple(shell.outer[1]), "u_corner": tuple(frame.origin),
-                            "u_right": tuple(frame.right), "u_down": tuple(frame.down), "u_forward": tuple(frame.forward),
+                            "u_right": tuple(frame.right), "u_down": tuple(frame.down),
+                            "u_forward": tuple(frame.forward),
                             "u_eye": tuple(np.asarray(scene.camera.eye, float)), "u_pixel": frame.image_pixel,
                             "u_cue": cue_line(scene), "u_weighted": tuple(cued), "u_nodes": list(nodes),
                             "u_node_weights": list(weights), "u_max_pieces": int(np.ceil(extent).sum()) + 4},

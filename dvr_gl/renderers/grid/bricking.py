@@ -64,7 +64,7 @@ def plan_bricks(dims, max_texture: int, ghost: int = GHOST) -> list[Brick]:
     for (bx, ax), (by, ay), (bz, az) in itertools.product(*(list(enumerate(a)) for a in per_axis)):
         lo = (ax[0], ay[0], az[0])
         hi = (ax[1], ay[1], az[1])
-        tex_lo = tuple(max(l - ghost, 0) for l in lo)
+        tex_lo = tuple(max(low - ghost, 0) for low in lo)
         tex_hi = tuple(min(h + ghost, n - 1) for h, n in zip(hi, dims))
         bricks.append(Brick((bx, by, bz), lo, hi, tex_lo, tuple(int(b - a + 1) for a, b in zip(tex_lo, tex_hi)),
                             (ax[2], ay[2], az[2])))

@@ -332,8 +332,8 @@ class GLVolumeRenderer(Renderer):
         r = scene.renderer
         pass_defines = light_volume_pass_defines(defines)
         key = (scene.volume, scene.transfer_function, repr(r.scattering.lights), r.scattering.light_volume_size,
-               shadow_step(r, scene.field), repr(sorted(pass_defines.items())), r.lut_size, r.gradient_opacity_reference,
-               r.kernel_width)
+               shadow_step(r, scene.field), repr(sorted(pass_defines.items())), r.lut_size,
+               r.gradient_opacity_reference, r.kernel_width)
         return self._cached("light volume", key, lambda: LightVolumeTexture(self, scene, pass_defines, view,
                                                                              lut_texture))
 

@@ -3,10 +3,10 @@ blended with the over operator.
 
 :class:`SlicingRenderer` draws a renderer's slices (its ``geometry``) brick by brick; the
 plugins :mod:`dvr_gl.renderers.slicing3d` (view-aligned planes through a 3D texture) and
-:mod:`dvr_gl.renderers.slicing2d` (object-aligned 2D stacks) supply the geometry.  Both composite emission-absorption with post-, pre- (3D only) or pre-integrated
-classification, shading and gradient opacity; every slice is blended (no early
-termination).  The same-discretization reference samples the same planes, clipped by
-the same near plane: :func:`reference`.
+:mod:`dvr_gl.renderers.slicing2d` (object-aligned 2D stacks) supply the geometry.  Both composite
+emission-absorption with post-, pre- (3D only) or pre-integrated classification, shading and
+gradient opacity; every slice is blended (no early termination).  The same-discretization reference
+samples the same planes, clipped by the same near plane: :func:`reference`.
 """
 
 from __future__ import annotations

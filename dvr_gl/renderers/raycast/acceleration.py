@@ -313,11 +313,11 @@ def skip_estimate(level0: np.ndarray, mode: str, block_size: int, volume, camera
     met before, a bound the true running maximum (minimum) can only exceed; isosurface, a block
     whose maximum is below iso, counting each ray only up to the end of its first block that is not.
     Lookups: one per skippable block a ray enters, at the coarsest level whose block around the point
-    is skippable (as the shader jumps), and one per run of points that are not skippable (a run in the shader ends at its dense neighbourhood's
-    edge, at most ``2 * RUN_RADII[-1] - 1`` blocks on). Early termination is ignored: the estimate is
-    over the whole ray.  ``bounded``: the rays start one step before their first non-empty block and
-    end one step after their last (emission-absorption's ray bounds, :mod:`.ray_bounds`), and
-    ``outside`` is the fraction of all points left out so."""
+    is skippable (as the shader jumps), and one per run of points that are not skippable (a run in the
+    shader ends at its dense neighbourhood's edge, at most ``2 * RUN_RADII[-1] - 1`` blocks on). Early
+    termination is ignored: the estimate is over the whole ray.  ``bounded``: the rays start one step
+    before their first non-empty block and end one step after their last (emission-absorption's ray
+    bounds, :mod:`.ray_bounds`), and ``outside`` is the fraction of all points left out so."""
     nx = rays if aspect >= 1.0 else max(1, round(rays * aspect))
     ny = rays if aspect <= 1.0 else max(1, round(rays / aspect))
     origins, dirs = camera.pixel_rays(nx, ny)

@@ -20,8 +20,8 @@ PLUGIN = RendererPlugin(
     description="CPU float64, exact transfer function, integrated to a tolerance",
     renderer="dvr_gl.renderers.reference_converged.renderer:ConvergedReferenceRenderer",
     settings=(s.COMPOSITING, s.CLASSIFICATION, s.ASSOCIATED_COLORS, s.FILTER, s.KERNEL_WIDTH, s.GRADIENT_OPACITY,
-              s.GRADIENT_OPACITY_REFERENCE, s.ISO_VALUE, s.JITTER, s.SHADING, s.SCATTERING, s.CLIPPING, s.GEOMETRY, s.DEPTH_CUE, s.HEMISPHERICAL_SHADING,
-              CONVERGED_TOLERANCE),
+              s.GRADIENT_OPACITY_REFERENCE, s.ISO_VALUE, s.JITTER, s.SHADING, s.SCATTERING, s.CLIPPING, s.GEOMETRY,
+              s.DEPTH_CUE, s.HEMISPHERICAL_SHADING, CONVERGED_TOLERANCE),
     data_kinds=None,
     reference=True,
     # Against the closed forms (tests/closed_forms.py), at converged_tolerance 1e-6: measured 5e-8.

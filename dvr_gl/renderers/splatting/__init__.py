@@ -58,12 +58,13 @@ def check(scene):
     grid = scene.field.kind == "grid"
     kernels = GRID_KERNELS if grid else ("m4",)
     if r.filter not in kernels:
-        raise SceneError(f"splatting splats a {'grid with the gaussian or cubic_bspline' if grid else 'particle set with its m4'} "
+        raise SceneError(f"splatting splats a "
+                         f"{'grid with the gaussian or cubic_bspline' if grid else 'particle set with its m4'} "
                          f"kernel; set renderer.filter = {kernels[0]} (got {r.filter})")
     if r.screen_low_pass > 0 and r.filter != "gaussian":
-        raise SceneError("renderer.screen_low_pass widens Gaussian footprints (EWA); set renderer.filter = gaussian, or "
-                         "screen_low_pass = 0" + ("" if grid else " (particles smaller than a pixel are averaged over "
-                                                                 "its square already)"))
+        raise SceneError("renderer.screen_low_pass widens Gaussian footprints (EWA); set renderer.filter = "
+                         "gaussian, or screen_low_pass = 0"
+                         + ("" if grid else " (particles smaller than a pixel are averaged over its square already)"))
     if not grid and r.sheet_buffer == "axis_aligned":
         raise SceneError("renderer.sheet_buffer = axis_aligned stacks a grid's voxel planes; SPH particles have none: "
                          "use image_aligned or none")
@@ -87,8 +88,9 @@ PLUGIN = RendererPlugin(
     description="splatting: each sample's kernel integrated into footprints, sheet buffers in GL",
     renderer="dvr_gl.renderers.splatting.renderer:SplattingRenderer",
     settings=(s.COMPOSITING.only("emission_absorption", "average", "xray"), s.CLASSIFICATION.only("post", "pre"),
-              s.ASSOCIATED_COLORS, s.FILTER.only("gaussian", "cubic_bspline", "m4"), s.KERNEL_WIDTH, SHEET_BUFFER, SLAB_WIDTH, SLABS_PER_DRAW, FOOTPRINT, SCREEN_LOW_PASS,
-              s.ERT_THRESHOLD, s.LUT_SIZE, s.SHADING, s.CLIPPING, s.GEOMETRY),
+              s.ASSOCIATED_COLORS, s.FILTER.only("gaussian", "cubic_bspline", "m4"), s.KERNEL_WIDTH, SHEET_BUFFER,
+              SLAB_WIDTH, SLABS_PER_DRAW, FOOTPRINT, SCREEN_LOW_PASS, s.ERT_THRESHOLD, s.LUT_SIZE, s.SHADING,
+              s.CLIPPING, s.GEOMETRY),
     data_kinds=("grid", "particles"),
     needs_gl=True,
     check=check,

@@ -157,7 +157,8 @@ def _slab_parts(scene, rays, field, bounds, along, sub, carried):
         extra = None if sub is None else sub.sums(carried, len(rays), (bounds[k], bounds[k + 1]))
         for i in range(0, len(ray), CHUNK):
             rows = ray[i:i + CHUNK]
-            integral = _integrals(field, rays, rows, a[rows], b[rows], scene.field.sample_spacing).reshape(len(rows), -1)
+            integral = _integrals(field, rays, rows, a[rows], b[rows],
+                                  scene.field.sample_spacing).reshape(len(rows), -1)
             if extra is not None:
                 integral = integral + extra[rows]
             yield k, rows, b[rows] - a[rows], integral
@@ -180,7 +181,8 @@ class _WidenedKernels:
     def integrals(self, rays, t0, t1, idx=None) -> np.ndarray:
         """``(rays, C)``: the kernels' (``idx``, default all) integrals along each ray over ``[t0, t1]``."""
         idx = np.arange(len(self.splats)) if idx is None else idx
-        splat, pixel, integral = _all_pair_integrals(self.scene, rays, self.splats, idx, self.kernel, t0, t1, self.metric)
+        splat, pixel, integral = _all_pair_integrals(self.scene, rays, self.splats, idx, self.kernel, t0, t1,
+                                                     self.metric)
         return np.stack([np.bincount(pixel, integral * self.values[splat, c], minlength=len(rays))
                          for c in range(self.values.shape[1])], axis=1)
 

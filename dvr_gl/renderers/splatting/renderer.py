@@ -165,7 +165,8 @@ class SplattingRenderer(GLVolumeRenderer):
         attributes = splats.attributes(order)
         buffers = [(name, width, self.ctx.buffer(rows.tobytes())) for name, width, rows in attributes]
         occlusion = None
-        if schedule is not None and mode == "emission_absorption" and r.ert_threshold < 1.0 and not shaded_sheets(scene):
+        if (schedule is not None and mode == "emission_absorption" and r.ert_threshold < 1.0
+                and not shaded_sheets(scene)):
             occlusion = Occlusion(scene, splats.positions[order] + centre, splats.bounding_radii(), attributes)
         try:
             return self._composite(scene, buffers, schedule, centre, eye, (forward, right, up), occlusion)
