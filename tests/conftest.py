@@ -73,3 +73,15 @@ def assert_close(image, reference):
     close = err <= 1e-4
     assert np.mean(~close) <= 0.005, f"{np.mean(~close):.3%} of values off by > 1e-4"
     assert err[close].mean() <= 2e-6, f"mean {err[close].mean():.3g}"
+
+
+def run_cli(capsys, *argv) -> tuple[int, str, str]:
+    """``dvr ARGV`` in this process: ``(exit code, stdout, stderr)``."""
+    from dvr_gl.apps.cli import main
+
+    try:
+        code = main([str(a) for a in argv])
+    except SystemExit as exc:  # argparse's own errors (one line, exit 1: apps/cli.py)
+        code = exc.code
+    out, err = capsys.readouterr()
+    return code, out, err

@@ -11,19 +11,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dvr_gl.apps.cli import main
+from conftest import run_cli
 from dvr_gl.image import read_image
 
 SMALL = ["--size", "40x32", "--set", "volume.size=24"]
 
 
-def run(capsys, *argv):
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as exc:  # argparse's own errors (one line, exit 1: apps/cli.py)
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
+run = run_cli
 
 
 def assert_one_line_error(code, err, *fragments):

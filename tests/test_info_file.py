@@ -6,18 +6,12 @@ import shlex
 import numpy as np
 import pytest
 
-from dvr_gl.apps.cli import main
+from conftest import run_cli
 
 DATA = (np.arange(6 * 5 * 4, dtype=np.int16).reshape(4, 5, 6) * 7 - 300)  # [z, y, x]: -300 .. 533
 
 
-def run(capsys, *argv):
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as exc:
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
+run = run_cli
 
 
 def test_grid_facts(tmp_path, capsys):

@@ -211,30 +211,43 @@ def cli_args(tmp_path, name="reference", extra=()):
 
 
 def test_cli_shows_a_progress_bar_for_long_work(tmp_path, monkeypatch, capsys):
-    from apps import render
+    from dvr_gl import progress
     from dvr_gl.reference import discrete
 
-    monkeypatch.setattr(render, "PROGRESS_DELAY", 0.0)  # force it: this render is short
+    monkeypatch.setattr(progress, "DELAY", 0.0)  # force it: this render is short
     monkeypatch.setattr(discrete, "SAMPLES_PER_CHUNK", 4096)
     assert cli.main(cli_args(tmp_path)) == 0
     err = capsys.readouterr().err
-    assert "rendering [" in err and "s left" in err
+    # tqdm's bar, drawn as soon as the task starts (DELAY 0): "rendering: 0step [00:00, ?step/s]", then
+    # redrawn at most every 0.1 s, which this short render may not reach
+    assert "\rrendering: " in err and "step" in err
+
+
+def interrupting_task(monkeypatch, interrupt):
+    """Replace the "rendering" task's reporter (dvr_gl.progress.task) by ``interrupt(done, total)``, which
+    may raise KeyboardInterrupt as Ctrl-C would between two steps of a frame."""
+    import contextlib
+
+    from dvr_gl import progress
+
+    real = progress.task
+
+    @contextlib.contextmanager
+    def task(label, *args, **kwargs):
+        if label != "rendering":
+            with real(label, *args, **kwargs) as step:
+                yield step
+            return
+        yield interrupt
+
+    monkeypatch.setattr(progress, "task", task)
 
 
 def test_ctrl_c_mid_render_exits_130_and_writes_nothing(tmp_path, monkeypatch, capsys):
-    from apps import render
+    def interrupt(done, total=None):
+        raise KeyboardInterrupt  # as Ctrl-C would, between two steps of the render
 
-    class Interrupting:
-        def __init__(self, *args, **kwargs):
-            self.calls = 0
-
-        def __call__(self, done, total):
-            raise KeyboardInterrupt  # as Ctrl-C would, between two steps of the render
-
-        def close(self):
-            pass
-
-    monkeypatch.setattr(render, "Progress", Interrupting)
+    interrupting_task(monkeypatch, interrupt)
     assert cli.main(cli_args(tmp_path)) == 130
     err = capsys.readouterr().err.strip()
     assert err == "dvr render: interrupted"
@@ -242,8 +255,6 @@ def test_ctrl_c_mid_render_exits_130_and_writes_nothing(tmp_path, monkeypatch, c
 
 
 def test_ctrl_c_between_bricked_gl_passes(tmp_path, monkeypatch, capsys):
-    from apps import render
-
     real = limits.gl_limits
 
     def small(ctx):  # bricks of at most 10 voxels: several passes of the ray caster
@@ -251,20 +262,13 @@ def test_ctrl_c_between_bricked_gl_passes(tmp_path, monkeypatch, capsys):
 
     passes = []
 
-    class Interrupting:
-        def __init__(self, *args, **kwargs):
-            pass
-
-        def __call__(self, done, total):
-            passes.append(done)
-            if done == 2:
-                raise KeyboardInterrupt
-
-        def close(self):
-            pass
+    def interrupt(done, total=None):
+        passes.append(done)
+        if done == 2:
+            raise KeyboardInterrupt
 
     monkeypatch.setattr(limits, "gl_limits", small)
-    monkeypatch.setattr(render, "Progress", Interrupting)
+    interrupting_task(monkeypatch, interrupt)
     assert cli.main(cli_args(tmp_path, "raycast")) == 130
     assert passes == [1, 2]
     assert capsys.readouterr().err.strip() == "dvr render: interrupted"

@@ -9,19 +9,13 @@ from pathlib import Path
 
 import pytest
 
+from conftest import run_cli
 from dvr_gl.apps import progress as feedback
-from dvr_gl.apps.cli import main
 
 SMALL = ["--size", "24", "--set", "volume.size=16"]
 
 
-def run(capsys, *argv):
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as exc:
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
+run = run_cli
 
 
 @pytest.mark.parametrize("where", ["before", "after", "long"])

@@ -3,21 +3,15 @@
 import numpy as np
 import pytest
 
+from conftest import run_cli
 from dvr_gl import image
-from dvr_gl.apps.cli import main
 from dvr_gl.errors import DvrError
 from dvr_gl.image import Movie, encode_8bit, read_image
 
 SMALL = ["--size", "40x32", "--set", "volume.size=24"]
 
 
-def run(capsys, *argv):
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as exc:
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
+run = run_cli
 
 
 def one_line_error(code, err, *fragments):
