@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from conftest import assert_close
+from dvr_gl.orientation import to_patient_frame, volume_frame_scene
 from dvr_gl.reference.discrete import DiscreteReference
 from dvr_gl.renderers import create_renderer
 from dvr_gl.renderers.grid.slicing import reference as slicer_reference
@@ -52,8 +53,13 @@ def test_dataset_renders(shared_data, renderers, volumes, name, renderer):
                  "renderer.sample_distance_voxels": 1.0, **DATASETS[name]}
     scene = load_scene(None, overrides)
     image = renderers[renderer].render(scene)
-    judge = DiscreteReference(scene) if renderer == "raycast" else slicer_reference(scene, renderer)
+    # the judges are called directly, so they get the camera in the volume's own frame as Renderer.render
+    # gives it to the renderers (MNI152's sform: RAS, a mirrored view flipped back; dvr_gl.orientation)
+    local, mirrored = volume_frame_scene(scene)
+    judge = DiscreteReference(local) if renderer == "raycast" else slicer_reference(local, renderer)
     reference = judge.render_float64()
+    if mirrored:
+        reference = reference[:, ::-1]
     assert np.all(np.isfinite(image)) and image.min() >= 0 and image[..., 3].max() <= 1
     assert reference[..., 3].max() > 0.05, "the preset shows nothing of this dataset"
     assert_close(image, reference)
@@ -71,7 +77,7 @@ def test_dataset_renders_with_shear_warp(shared_data, renderers, volumes, name):
     for projection in ("perspective", "orthographic"):
         scene = load_scene(None, {**overrides, "camera.projection": projection}).replace(volume=volumes(name))
         image = renderers["shearwarp"].render(scene)
-        reference = shearwarp_reference(scene)
+        reference = judged(shearwarp_reference, scene)
         assert np.all(np.isfinite(image)) and image.min() >= 0 and image[..., 3].max() <= 1
         assert reference[..., 3].max() > 0.05, "the preset shows nothing of this dataset"
         assert_close(image, reference)
@@ -86,7 +92,7 @@ def test_dataset_renders_with_shaded_shear_warp(shared_data, renderers, volumes,
                  "renderer.ert_threshold": 1.0, "renderer.shading.enabled": True, **DATASETS[name]}
     scene = load_scene(None, overrides).replace(volume=volumes(name))
     image = renderers["shearwarp"].render(scene)
-    reference = shearwarp_reference(scene)
+    reference = judged(shearwarp_reference, scene)
     assert reference[..., 3].max() > 0.05 and np.all(np.isfinite(image))
     assert_close(image, reference)
 
@@ -104,11 +110,12 @@ def test_dataset_renders_with_shear_warp_from_inside(shared_data, renderers, vol
     scene = scene.replace(volume=volumes(name))
     lo, hi = (np.asarray(b, dtype=np.float64) for b in scene.volume.box)
     eye = (lo + hi) / 2.0 + 0.013 * (hi - lo)  # off the centre: no slice plane through the eye
-    scene = scene.replace(camera=scene.camera.with_(eye=tuple(eye), target=tuple(eye + (hi - lo) * [0.7, 1.0, 0.4]),
-                                                    fov=100.0))
+    # placed in the volume's frame, given in the patient frame where the camera lives (dvr_gl.orientation)
+    eye_p, target_p = to_patient_frame(scene.volume, [eye, eye + (hi - lo) * [0.7, 1.0, 0.4]])
+    scene = scene.replace(camera=scene.camera.with_(eye=tuple(eye_p), target=tuple(target_p), fov=100.0))
     image = renderers["shearwarp"].render(scene)
     assert renderers["shearwarp"].stats["factorizations"] >= 2
-    reference = shearwarp_reference(scene)
+    reference = judged(shearwarp_reference, scene)
     assert reference[..., 3].max() > 0.05 and np.all(np.isfinite(image))
     assert_close(image, reference)
 
@@ -138,3 +145,11 @@ def test_dataset_renders_with_splatting(shared_data, volumes, name):
             assert np.all(np.isfinite(image)) and image.min() >= 0 and image[..., 3].max() <= 1
             assert reference[..., 3].max() > 0.05, "the preset shows nothing of this dataset"
             assert_close(image, reference)
+
+
+def judged(reference, scene, *args, **kwargs):
+    """A judge called directly, with the camera in the volume's own frame as Renderer.render gives it to the
+    renderers (MNI152's sform is RAS: a mirrored view, flipped back; dvr_gl.orientation)."""
+    local, mirrored = volume_frame_scene(scene)
+    image = reference(local, *args, **kwargs)
+    return image[:, ::-1] if mirrored else image
