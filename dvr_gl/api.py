@@ -37,7 +37,7 @@ from .errors import SceneError
 from .fields import Field
 from .fields.grid import Volume
 from .image import composite_over, encode_8bit, write_image
-from .orientation import ANATOMICAL_VIEWS
+from .orientation import view_orbit
 from .renderers import create_renderer, registry
 from .sandbox import Sandbox, active
 from .scene import Scene, apply_overrides, load_scene, parse_scene, resolve_scene
@@ -246,10 +246,8 @@ def _changed(scene: Scene, transfer_function, camera, camera_keys: dict, setting
         cam = scene.camera
         if camera_keys.get("view") is not None:
             view = camera_keys.pop("view")
-            if view not in ANATOMICAL_VIEWS or "azimuth" in camera_keys or "elevation" in camera_keys:
-                raise SceneError(f"view: give one of {', '.join(ANATOMICAL_VIEWS)}, and no azimuth or elevation "
-                                 f"with it; got {view!r}")
-            camera_keys["azimuth"], camera_keys["elevation"] = ANATOMICAL_VIEWS[view]
+            camera_keys["azimuth"], camera_keys["elevation"] = view_orbit(
+                view, camera_keys.get("azimuth"), camera_keys.get("elevation"))
         if "projection" in camera_keys or "fov" in camera_keys or "up" in camera_keys:
             cam = cam.with_(**{k: (tuple(v) if k == "up" else v) for k, v in camera_keys.items()
                                if k in ("projection", "fov", "up")})

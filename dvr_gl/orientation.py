@@ -31,6 +31,7 @@ import dataclasses
 
 import numpy as np
 
+from .errors import SceneError
 from .fields.grid import IDENTITY
 
 #: view name -> (azimuth, elevation) in degrees about ``up = +z`` (superior), see :mod:`dvr_gl.camera`'s orbit
@@ -42,6 +43,16 @@ ANATOMICAL_VIEWS = {
 SUPERIOR = (0.0, 0.0, 1.0)
 
 _LETTERS = (("L", "R"), ("P", "A"), ("S", "I"))  # LPS axes: + letter, - letter
+
+
+def view_orbit(view: str, azimuth=None, elevation=None) -> tuple[float, float]:
+    """``(azimuth, elevation)`` of an anatomical view; refused in one line when the view is unknown or an
+    azimuth or elevation is given with it (the view sets both)."""
+    if view not in ANATOMICAL_VIEWS:
+        raise SceneError(f"camera.view {view!r} is not one of {', '.join(ANATOMICAL_VIEWS)}")
+    if azimuth is not None or elevation is not None:
+        raise SceneError(f"camera: view = {view!r} sets azimuth and elevation; give one or the other")
+    return ANATOMICAL_VIEWS[view]
 
 
 def direction_of(field) -> np.ndarray:

@@ -28,7 +28,7 @@ from .camera import DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Camera, framing_distance
 from .errors import DvrError, SceneError
 from .fields import diagonal
 from .io import load_field
-from .orientation import ANATOMICAL_VIEWS, to_patient_frame
+from .orientation import to_patient_frame, view_orbit
 from .sandbox import check_bytes, check_input_path
 from .scene_schema import (
     CameraSpec,
@@ -252,10 +252,8 @@ def _resolve_camera(spec: CameraSpec, field, image: ImageSpec) -> Camera:
     view_height = spec.view_height or framing_view_height(radius, aspect)
     common = dict(projection=spec.projection, fov=spec.fov, view_height=view_height, near=spec.near)
     if spec.view is not None:
-        if spec.azimuth is not None or spec.elevation is not None:
-            raise SceneError(f"camera: view = {spec.view!r} sets azimuth and elevation; give one or the other")
-        spec = dataclasses.replace(spec, azimuth=ANATOMICAL_VIEWS[spec.view][0],
-                                   elevation=ANATOMICAL_VIEWS[spec.view][1])
+        azimuth, elevation = view_orbit(spec.view, spec.azimuth, spec.elevation)
+        spec = dataclasses.replace(spec, azimuth=azimuth, elevation=elevation)
     orbit_keys = (spec.azimuth, spec.elevation, spec.distance)
     if spec.eye is not None:
         camera = Camera(spec.eye, target, spec.up, **common)
