@@ -23,7 +23,9 @@ from ...fields import diagonal
 from ...gl.geometry import gl_matrix, projection_matrix, view_matrix
 from ...gl.shaders import create_program
 from ...settings import shadow_step
-from ..grid.bricking import plan_bricks, visibility_order
+from ...orientation import volume_frame_scene
+from .. import registry
+from ..grid.bricking import ghost_width, plan_bricks, visibility_order
 from ..grid.gl_base import GLVolumeRenderer, GridView, _same, classification_features, now
 from ..grid.textures import upload_field
 from ..surfaces import with_surfaces
@@ -286,6 +288,56 @@ class RayCastRenderer(GLVolumeRenderer):
             return segment / 2.0
         return 0.0
 
+    # --- sort-last: partial states of bricks, composited elsewhere (dvr_gl.distributed) ---
+
+    def brick_plan(self, scene, edge: int | None = None) -> list:
+        """The bricks (:class:`..grid.bricking.Brick`) this scene's volume is rendered in: the
+        budget's bricks, or, with ``edge``, bricks of at most ``edge`` voxels a side, ghosts included
+        (the ghosts this scene's filter, gradients and segments need)."""
+        local, _ = volume_frame_scene(scene)
+        defines = shader_features(local)
+        if edge is None:
+            views = self.grid_views(local, defines)
+            return [v.brick for v in views] if views[0].brick is not None else [whole_volume_brick(local.volume)]
+        central = ("SHADING" in defines or "GRADIENT_OPACITY" in defines) and "GRADIENT_TEXTURE" not in defines
+        return plan_bricks(local.volume.dims, edge, ghost_width(local.renderer.filter, central,
+                                                                self.brick_reach(local)))
+
+    def render_state(self, scene, bricks: list) -> np.ndarray:
+        """Sort-last rendering's partial image: the compositing state (``height, width, 4`` float32,
+        before the resolve; see shaders/raycast.frag's BRICKED) that ``bricks`` (of :meth:`brick_plan`)
+        leave, composited among themselves in visibility order from the empty state, as a pass of
+        :meth:`render` would carry it.  Early termination sees only these bricks' samples."""
+        registry.check(scene, self.name)
+        self.check_resources(scene)
+        self.stats, self._started = {}, now()
+        local, mirrored = volume_frame_scene(scene)
+        self._partial = list(bricks)
+        try:
+            state = self._draw_volume(local, {})
+        finally:
+            self._partial = None
+        return np.ascontiguousarray(state[:, ::-1]) if mirrored else state
+
+    def resolve_state(self, scene, state: np.ndarray) -> np.ndarray:
+        """The image of a compositing state (:meth:`render_state`'s, or several composited): the
+        resolve pass :meth:`render` ends with."""
+        self.activate()
+        local, mirrored = volume_frame_scene(scene)
+        if mirrored:
+            state = state[:, ::-1]
+        defines = bricked_features(shader_features(local))
+        tables = self.table_textures(local, defines, local.renderer.sample_distance)
+        height, width = state.shape[:2]
+        texture = self.ctx.texture((width, height), 4, np.ascontiguousarray(state[::-1], np.float32).tobytes(),
+                                   dtype="f4")
+        texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        try:
+            image = self._resolve(local, defines, tables, texture, now(), 0.0, [], [], {})
+        finally:
+            texture.release()
+        return np.ascontiguousarray(image[:, ::-1]) if mirrored else image
+
     def draw(self, scene) -> np.ndarray:
         """The frame; with ``[[renderer.geometry]]`` the meshes are drawn first (:mod:`..surfaces`),
         the rays end at them, and the volume is composited over them."""
@@ -304,11 +356,14 @@ class RayCastRenderer(GLVolumeRenderer):
                    "skippable_estimate": estimate and estimate.fraction, "accelerated": "ACCELERATE" in defines,
                    "lookups_estimate": estimate and estimate.lookups, "ray_bounds": "RAY_BOUNDS" in defines,
                    "outside_bounds_estimate": estimate and estimate.outside, "bounds_seconds": self.bounds_seconds}
-        if len(views) > 1 or len(windows) > 1:
-            if len(views) == 1:  # long rays: the whole volume as one brick, in passes over segment windows
-                views = [GridView((0, 0, 0), scene.volume.dims, whole_volume_brick(scene.volume))]
+        partial = getattr(self, "_partial", None)
+        if partial is not None:  # render_state: these bricks' state, not resolved
+            views = [GridView(b.tex_lo, b.tex_dims, b) for b in partial]
+        if partial is not None or len(views) > 1 or len(windows) > 1:
+            if len(views) == 1 and views[0].brick is None:  # long rays: the whole volume as one brick, in
+                views = [GridView((0, 0, 0), scene.volume.dims, whole_volume_brick(scene.volume))]  # windows
             return self._render_bricks(scene, bricked_features(defines), views, start, windows,
-                                       {**tables, **blocks}, decided)
+                                       {**tables, **blocks}, decided, resolve=partial is None)
         textures = {**self.view_textures(scene, defines, views[0], resident=True), **tables, **blocks}
         lut = textures["u_lut"].lut
         program = create_program(self.ctx, "fullscreen.vert", self.fragment_shader, defines)
@@ -454,13 +509,12 @@ class RayCastRenderer(GLVolumeRenderer):
             fbo.scissor = None
             vao.release()
 
-    def _render_bricks(self, scene, defines, views, start, windows, tables, decided) -> np.ndarray:
+    def _render_bricks(self, scene, defines, views, start, windows, tables, decided, resolve=True) -> np.ndarray:
         """One pass per brick and segment window; ``tables``: the frame's tables and block textures
-        (the whole volume's, shared by every pass); ``decided``: the stats of the skipping decision."""
+        (the whole volume's, shared by every pass); ``decided``: the stats of the skipping decision;
+        ``resolve``: False returns the compositing state the passes left (:meth:`render_state`)."""
         r = scene.renderer
         program = create_program(self.ctx, "fullscreen.vert", "raycast.frag", defines)
-        resolve = create_program(self.ctx, "fullscreen.vert", "raycast_resolve.frag",
-                                 {k: v for k, v in defines.items() if k not in SKIPPING_DEFINES})
         lut = tables["u_lut"].lut
         counting = "COUNT_SAMPLES" in defines
         width, height = scene.image.width, scene.image.height
@@ -497,13 +551,26 @@ class RayCastRenderer(GLVolumeRenderer):
             gpu_seconds += self._draw(program, targets[1 - current][1], width, height)
             current = 1 - current
             self.report(done + 1, len(passes))  # long bricked or windowed frames: a progress bar, Ctrl-C
+        if not resolve:
+            self.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines,
+                          "bricks": len(bricks), "passes": len(passes), **decided}
+            return self.read(targets[current][1], width, height)
+        return self._resolve(scene, defines, tables, targets[current][0][0], start, gpu_seconds, bricks, passes,
+                             decided, targets[current] if counting else None)
+
+    def _resolve(self, scene, defines, tables, state, start, gpu_seconds, bricks, passes, decided, counted=None):
+        """The resolve pass (shaders/raycast_resolve.frag): the state texture ``state`` to the image."""
+        lut = tables["u_lut"].lut
+        width, height = scene.image.width, scene.image.height
+        resolve = create_program(self.ctx, "fullscreen.vert", "raycast_resolve.frag",
+                                 {k: v for k, v in defines.items() if k not in SKIPPING_DEFINES})
         self.bind(resolve, {"u_unit_distance": scene.transfer_function.unit_distance,
-                            **self.optics_uniforms(scene, lut)}, {**tables, "u_state": targets[current][0][0]})
+                            **self.optics_uniforms(scene, lut)}, {**tables, "u_state": state})
         out = self.target("main", width, height)[1]
         gpu_seconds += self._draw(resolve, out, width, height)
         image = self.read(out, width, height)
         self.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines,
                       "bricks": len(bricks), "passes": len(passes), **decided}
-        if counting:
-            self.count_stats(self.read(targets[current][1], width, height, 4, attachment=1), scene)
+        if counted is not None:
+            self.count_stats(self.read(counted[1], width, height, 4, attachment=1), scene)
         return image
