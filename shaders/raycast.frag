@@ -81,7 +81,8 @@ uniform float u_gradient_reference;  // GRADIENT_OPACITY: |gradient| giving full
 
 #ifdef BRICKED
 uniform sampler2D u_state;      // the previous pass's state, this pixel
-uniform vec3 u_world_to_global_offset;  // global voxel coordinate = p * u_world_to_voxel_scale + this
+uniform vec3 u_world_to_global_scale;   // global (level-0) voxel coordinate = p * this + the offset: a
+uniform vec3 u_world_to_global_offset;  // brick drawn from a coarser level (dvr_gl.multires) owns by level 0
 uniform vec3 u_core_lo;         // the brick's core in global voxel coordinates: [lo, hi), or [lo, hi] where
 uniform vec3 u_core_hi;         //   u_core_closed (the last brick along an axis)
 uniform vec3 u_core_closed;
@@ -92,7 +93,7 @@ uniform ivec2 u_segment_window;  // this pass's segments (llvmpipe caps a shader
 // Global voxel coordinates, computed from the same uniforms in every pass (not from the brick's
 // local ones), so that every pass rounds a point alike: each sample has exactly one owner.
 vec3 global_voxel(vec3 p) {
-    return p * u_world_to_voxel_scale + u_world_to_global_offset;
+    return p * u_world_to_global_scale + u_world_to_global_offset;
 }
 
 // Does this brick own the sample at p?
@@ -311,7 +312,11 @@ void main() {
         offset = 0.5;
 #endif
 #ifdef ACCELERATE
+#ifdef BRICKED
+        du = d * u_world_to_global_scale;  // blocks are level 0's (block_voxel)
+#else
         du = d * u_world_to_voxel_scale;
+#endif
 #endif
         bool done = mode_init(state);  // BRICKED: an earlier pass may have finished the ray
 #ifdef BACK_TO_FRONT

@@ -71,6 +71,8 @@ class Volume:
     value_range: tuple[float, float] = field(init=False)
 
     kind = "grid"
+    #: The voxels are in memory (``data``); a volume read out of core (:mod:`dvr_gl.out_of_core`) says True.
+    out_of_core = False
 
     def __post_init__(self):
         from ..io.labelled import is_data_array
@@ -109,6 +111,36 @@ class Volume:
         """A volume from an xarray ``DataArray`` (dims ``z``, ``y``, ``x`` in any order; coordinates as
         spacing and origin): :mod:`dvr_gl.io.labelled`.  ``Volume(data_array)`` does the same."""
         return cls(data_array, **kwargs)
+
+    @property
+    def dtype(self) -> np.dtype:
+        """The scalar type of the samples."""
+        return self.data.dtype
+
+    @property
+    def nbytes(self) -> int:
+        """The samples' size in bytes."""
+        return self.data.nbytes
+
+    @property
+    def levels(self) -> tuple:
+        """Coarser levels of a multi-resolution pyramid, fine to coarse (:mod:`dvr_gl.multires`); none
+        unless given (:meth:`with_levels`)."""
+        return self.__dict__.get("_levels", ())
+
+    def with_levels(self, levels) -> "Volume":
+        """This volume with ``levels`` (coarser grids of the same box, fine to coarse) attached."""
+        out = Volume.__new__(Volume)
+        out.__dict__.update(self.__dict__)
+        out.__dict__["_levels"] = tuple(levels)
+        return out
+
+    def read(self, lo, dims) -> np.ndarray:
+        """The samples of the voxel box ``lo .. lo + dims - 1`` (x, y, z order) as a ``[z, y, x]``
+        C-contiguous array the caller owns: what a brick's texture holds (the same call reads a volume
+        out of core)."""
+        (x0, y0, z0), (nx, ny, nz) = lo, dims
+        return np.array(self.data[z0:z0 + nz, y0:y0 + ny, x0:x0 + nx], order="C")
 
     @property
     def dims(self) -> tuple[int, int, int]:

@@ -54,6 +54,8 @@ class RendererPlugin:
         the tests' resolution (``tests/test_conformance.py``, ``tests/closed_forms.py``).
     reference: a CPU float64 reference (a judge: no oracle, slow).
     projections: the camera projections it renders (Fourier rendering: parallel projections only).
+    out_of_core: it renders a volume read out of core (:mod:`dvr_gl.out_of_core`), reading bricks
+        as it needs them; the others need the voxels in memory.
     """
 
     name: str
@@ -70,6 +72,7 @@ class RendererPlugin:
     tolerances: Any = None
     reference: bool = False
     projections: tuple[str, ...] = ("perspective", "orthographic")
+    out_of_core: bool = False
 
     def declared(self, name: str) -> Optional[Setting]:
         return next((s for s in self.settings if s.name == name), None)
@@ -267,6 +270,14 @@ def check(scene, name: str | None = None):
         others = renderers_with(lambda q: q.data_kinds is None or kind in q.data_kinds)
         raise SceneError(f"{p.name} renders {', '.join(p.data_kinds)} data, not {kind}"
                          + (f"; use {_either(others)}" if others else ""))
+    if getattr(scene.field, "out_of_core", False) and not p.out_of_core:
+        others = renderers_with(lambda q: q.out_of_core)
+        budget = getattr(scene.renderer, "memory_budget_mb", None)
+        raise SceneError(f"{p.name} needs the voxels in memory, and {scene.field.name} "
+                         f"({scene.field.nbytes / 2 ** 20:.0f} MB) is read out of core"
+                         + (f" (over renderer.memory_budget_mb = {budget:g})" if budget is not None else "")
+                         + (f"; use {_either(others)}" if others else "")
+                         + ", or set volume.out_of_core = false to load it whole")
     projection = scene.camera.projection
     if projection not in p.projections:
         raise SceneError(f"{p.name} renders {_either(p.projections)} views, not {projection}: set "

@@ -10,6 +10,7 @@ unbricked rendering share every shader and uniform.
 from __future__ import annotations
 
 import time
+from collections import OrderedDict
 
 import moderngl
 import numpy as np
@@ -27,6 +28,9 @@ from ...settings import albedo_column, constant_albedo, shadow_step
 from ..base import Renderer
 from .bricking import brick_size_for, ghost_width, plan_bricks
 from .textures import FORMATS, central_difference_gradients, upload_field, upload_table, upload_volume
+
+# A volume read out of core is drawn in bricks of at most 1 / OUT_OF_CORE_BRICKS of its host-memory budget.
+OUT_OF_CORE_BRICKS = 8
 
 FILTER = {"nearest": "FILTER_NEAREST", "linear": "FILTER_LINEAR", "cubic_bspline": "FILTER_CUBIC_BSPLINE",
           "catmull_rom": "FILTER_CATMULL_ROM"}
@@ -187,10 +191,53 @@ class TableTexture:
 
 
 class GridView:
-    """The part of the voxel grid a pass samples: ``tex_lo`` (x, y, z) and ``dims`` of its texture."""
+    """The part of the voxel grid a pass samples: ``tex_lo`` (x, y, z) and ``dims`` of its texture, in
+    the voxels of ``grid``: the scene's volume (None), or its coarser level ``level``."""
 
-    def __init__(self, tex_lo=(0, 0, 0), dims=None, brick=None):
+    def __init__(self, tex_lo=(0, 0, 0), dims=None, brick=None, level: int = 0, grid=None):
         self.tex_lo, self.dims, self.brick = tuple(tex_lo), tuple(dims), brick
+        self.level, self.grid = level, grid
+
+
+class TextureLRU:
+    """Brick textures, least recently used first out, within ``budget`` bytes (the most recent entry
+    stays even alone over it: a pass needs its brick); ``uploaded``: bytes uploaded so far, ``hits``
+    and ``misses`` of :meth:`get`."""
+
+    def __init__(self, budget: int = 0):
+        self.budget, self.used, self.uploaded, self.hits, self.misses = budget, 0, 0, 0, 0
+        self._entries: "OrderedDict[tuple, tuple[dict, int]]" = OrderedDict()
+
+    def get(self, key: tuple, make) -> dict:
+        """The textures under ``key``, or ``make() -> (textures, bytes)`` made and kept."""
+        entry = self._entries.pop(key, None)
+        if entry is None:
+            self.misses += 1
+            self._evict_for(0)
+            entry = make()
+            self.uploaded += entry[1]
+            self.used += entry[1]
+        else:
+            self.hits += 1
+        self._entries[key] = entry
+        self._evict_for(0, keep=key)
+        return entry[0]
+
+    def _evict_for(self, nbytes: int, keep=None):
+        while self._entries and self.used + nbytes > self.budget:
+            key = next(iter(self._entries))
+            if key == keep:
+                break
+            textures, size = self._entries.pop(key)
+            for tex in textures.values():
+                _release(tex)
+            self.used -= size
+
+    def release(self):
+        self.budget = 0
+        self._evict_for(0)
+        self._entries.clear()
+        self.used = 0
 
 
 class GLVolumeRenderer(Renderer):
@@ -202,6 +249,7 @@ class GLVolumeRenderer(Renderer):
         self._owns_context = ctx is None
         self._cache: dict = {}   # what -> (key objects, texture or host data)
         self._targets: dict = {}
+        self.bricks = TextureLRU()  # brick textures read apart (out of core, coarser levels)
 
     # --- limits: checked before anything is drawn ---
 
@@ -253,21 +301,47 @@ class GLVolumeRenderer(Renderer):
         return per
 
     def grid_views(self, scene, defines) -> list[GridView]:
-        """The whole volume if its textures fit the GL limit and the budget, else bricks that do."""
+        """The whole volume if its textures fit the GL limit and the budget, else bricks that do; a
+        volume read out of core (:mod:`dvr_gl.out_of_core`) always in bricks, each at most an eighth of
+        ``renderer.memory_budget_mb`` (its host copy is read while the last one's texture lives)."""
         r, volume = scene.renderer, scene.volume
-        per_voxel = FORMATS[volume.data.dtype][3] + self.texture_bytes_per_voxel(defines)
+        per_voxel = FORMATS[volume.dtype][3] + self.texture_bytes_per_voxel(defines)
         limit = self.grid_texture_limit(limits.gl_limits(self.ctx))
         budget = r.texture_budget_mb * 2 ** 20
-        if max(volume.dims) <= limit and volume.data.size * per_voxel <= budget:
+        whole = max(volume.dims) <= limit and np.prod(volume.dims) * per_voxel <= budget
+        if whole and not volume.out_of_core and not volume.levels:
             return [GridView((0, 0, 0), volume.dims)]
         central = ("SHADING" in defines or "GRADIENT_OPACITY" in defines) and "GRADIENT_TEXTURE" not in defines
         ghost = ghost_width(r.filter, central, self.brick_reach(scene))
-        edge = brick_size_for(volume, per_voxel, budget, limit, ghost)
-        if edge ** 3 * per_voxel > budget or edge <= 2 * ghost + 1:
+        brick_budget = budget
+        if volume.out_of_core:
+            brick_budget = min(budget, getattr(r, "memory_budget_mb", 4096.0) * 2 ** 20 / OUT_OF_CORE_BRICKS)
+        edge = brick_size_for(volume, per_voxel, brick_budget, limit, ghost)
+        if edge ** 3 * per_voxel > brick_budget or edge <= 2 * ghost + 1:
             raise DvrError(f"renderer.texture_budget_mb = {r.texture_budget_mb} cannot hold even a "
                            f"{2 * ghost + 2}^3 brick of {volume.name} ({ghost} ghost voxel{'s' * (ghost > 1)} a side); "
                            f"raise it")
         return [GridView(b.tex_lo, b.tex_dims, b) for b in plan_bricks(volume.dims, edge, ghost)]
+
+    def level_view(self, scene, view: GridView, level: int) -> GridView:
+        """``view``'s brick drawn from the volume's coarser level ``level`` (1: ``volume.levels[0]``): the
+        level's voxels over the brick's texture box, with as many ghost voxels of the level as the
+        brick has of level 0 (ownership stays level 0's: the shader's global coordinates)."""
+        if level == 0 or view.brick is None:
+            return view
+        volume = scene.volume
+        grid = volume.levels[level - 1]
+        o0, s0 = np.asarray(volume.origin), np.asarray(volume.spacing)
+        ok, sk = np.asarray(grid.origin), np.asarray(grid.spacing)
+        lo0 = o0 + np.asarray(view.brick.core_lo) * s0
+        hi0 = o0 + np.asarray(view.brick.core_hi) * s0
+        ghost = max(np.asarray(view.brick.core_lo) - np.asarray(view.brick.tex_lo))
+        ghost = int(max(ghost, max(np.asarray(view.brick.tex_lo) + np.asarray(view.brick.tex_dims) - 1
+                                   - np.asarray(view.brick.core_hi)), 1))
+        dims = np.asarray(grid.dims)
+        lo = np.clip(np.floor((lo0 - ok) / sk).astype(int) - ghost, 0, dims - 1)
+        hi = np.clip(np.ceil((hi0 - ok) / sk).astype(int) + ghost, 0, dims - 1)
+        return GridView(tuple(int(v) for v in lo), tuple(int(v) for v in hi - lo + 1), view.brick, level, grid)
 
     def brick_reach(self, scene) -> float:
         """How far (voxels along any axis) beyond a brick's core this renderer samples for what the
@@ -276,8 +350,12 @@ class GLVolumeRenderer(Renderer):
 
     def view_textures(self, scene, defines, view: GridView, resident: bool) -> dict:
         """The textures of one grid view: scalar volume, classified copy, gradients.  ``resident``:
-        keep them cached (all bricks fit the budget) rather than replace them per pass."""
+        keep them cached (all bricks fit the budget) rather than replace them per pass.  A volume read
+        out of core, or a brick drawn from a coarser level, goes through :attr:`bricks`, the texture
+        budget's least-recently-used cache, its voxels read (:meth:`Volume.read`) only when missing."""
         volume = scene.volume
+        if volume.out_of_core or view.level:
+            return self._brick_textures(scene, defines, view)
         tag = f"view {view.tex_lo}" if resident else "view"
         key = (volume, view.tex_lo, view.dims)
 
@@ -285,7 +363,7 @@ class GLVolumeRenderer(Renderer):
             return view.brick.data(array) if view.brick is not None else array
 
         out = {"u_volume": self._cached(tag + " volume", key, lambda: upload_volume(
-            self.ctx, _SubVolume(part(volume.data))))}
+            self.ctx, _SubVolume(volume.read(view.tex_lo, view.dims) if view.brick is not None else volume.data)))}
         if "CLASSIFY_PRE" in defines:
             voxels = self._classified_voxels(scene)
             out["u_classified"] = self._cached(tag + " classified", key + (voxels,),
@@ -294,6 +372,29 @@ class GLVolumeRenderer(Renderer):
             out["u_gradient"] = self._cached(tag + " gradient", key, lambda: upload_field(
                 self.ctx, part(self._cached("gradients", (volume,), lambda: central_difference_gradients(volume)))))
         return out
+
+    def _brick_textures(self, scene, defines, view: GridView) -> dict:
+        """A brick's textures through the LRU cache :attr:`bricks` (bounded by
+        ``renderer.texture_budget_mb``): the voxels read from the volume or its level, classified per
+        voxel where the frame pre-classifies (pointwise: the same as the whole volume's)."""
+        if "GRADIENT_TEXTURE" in defines:
+            raise SceneError(f"renderer.gradient = 'texture' needs the whole volume's gradients, and "
+                             f"{scene.volume.name} is drawn in bricks read apart; use gradient = 'central' "
+                             f"(the shader's central differences)")
+        r, grid = scene.renderer, view.grid or scene.volume
+        classify = "CLASSIFY_PRE" in defines
+        key = (id(grid), view.tex_lo, view.dims, classify and (id(scene.transfer_function), r.associated_colors))
+
+        def make():
+            voxels = grid.read(view.tex_lo, view.dims)
+            out = {"u_volume": upload_volume(self.ctx, _SubVolume(voxels))}
+            if classify:
+                classified = scene.transfer_function.classify_voxels(voxels, r.associated_colors)
+                out["u_classified"] = upload_field(self.ctx, classified.astype(np.float32))
+            return out, voxels.size * (FORMATS[voxels.dtype][3] + 16 * classify)
+
+        self.bricks.budget = int(r.texture_budget_mb * 2 ** 20)
+        return self.bricks.get(key, make)
 
     def table_textures(self, scene, defines, slab_length: float) -> dict:
         r, tf = scene.renderer, scene.transfer_function
@@ -347,7 +448,7 @@ class GLVolumeRenderer(Renderer):
 
     @staticmethod
     def grid_uniforms(scene, view: GridView) -> dict:
-        vol = scene.volume
+        vol = view.grid or scene.volume
         spacing = np.array(vol.spacing)
         return {"u_world_to_voxel_scale": 1.0 / spacing,
                 "u_world_to_voxel_offset": -np.array(vol.origin) / spacing - np.array(view.tex_lo),
@@ -409,6 +510,7 @@ class GLVolumeRenderer(Renderer):
         for _, value in self._cache.values():
             _release(value)
         self._cache.clear()
+        self.bricks.release()
         for textures, fbo in self._targets.values():
             for t in (*textures, fbo):
                 t.release()

@@ -34,6 +34,11 @@ BLOCK_SIZE = s.Setting("block_size", int, 8, "voxels per edge of the finest acce
 HOMOGENEITY_TOLERANCE = s.Setting("homogeneity_tolerance", float, 0.0, "> 0 also jumps nearly constant blocks, "
                                   "approximately (docs/acceleration.md)", check=s.at_least(0), group="raycast",
                                   flag=False)
+SCREEN_SPACE_ERROR = s.Setting("screen_space_error", float, 1.0, "volumes with coarser levels (OME-Zarr "
+                               "multiscales, dvr pyramid): draw each brick from the coarsest level whose voxel "
+                               "covers at most this many pixels; 0: always the finest (docs/multiresolution.md)",
+                               check=s.at_least(0), group="raycast")
+
 
 def check(scene):
     """Scattering by shadow rays or the light volume (half-angle slicing is slicing3d's)."""
@@ -52,9 +57,10 @@ PLUGIN = RendererPlugin(
               s.ASSOCIATED_COLORS, s.PREINTEGRATION, s.PREINTEGRATION_SIZE, s.FILTER.only(*SPLINE_FILTERS), s.FILTERING,
               s.GRADIENT, s.GRADIENT_OPACITY, s.GRADIENT_OPACITY_REFERENCE, s.ISO_VALUE, s.ISO_REFINEMENT, s.JITTER,
               s.JITTER_SEED, s.ERT_THRESHOLD, s.LUT_SIZE, s.TEXTURE_BUDGET_MB, ACCELERATION, BLOCK_SIZE,
-              HOMOGENEITY_TOLERANCE, s.SHADING, s.SCATTERING, s.CLIPPING, s.GEOMETRY),
+              HOMOGENEITY_TOLERANCE, SCREEN_SPACE_ERROR, s.SHADING, s.SCATTERING, s.CLIPPING, s.GEOMETRY),
     data_kinds=("grid",),
     needs_gl=True,
+    out_of_core=True,
     check=check,
     oracle="dvr_gl.reference.discrete:same_discretization",
     resolve="dvr_gl.tolerance:resolve",

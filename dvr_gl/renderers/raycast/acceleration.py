@@ -108,8 +108,34 @@ class MinMaxPyramid:
             levels.append(tuple(_coarsen(a, op) for a, op in zip(levels[-1], (np.minimum, np.maximum))))
         return cls(block_size, tuple(support), tuple(levels))
 
+    @classmethod
+    def from_ranges(cls, ranges, support=(0, 1), max_levels: int = MAX_LEVELS):
+        """The pyramid of a volume read out of core, from its blocks' plain ranges
+        (:class:`dvr_gl.out_of_core.BlockRanges`: each block's own voxels), without reading a voxel: each
+        block's window also takes its neighbours' ranges on the sides the filter reaches into (a
+        superset of the voxels :meth:`build` takes: only wider, so skipping stays exact)."""
+        lo, hi = support
+        mins, maxs = (np.asarray(a, dtype=np.float32) for a in (ranges.mins, ranges.maxs))
+        for axis in range(3):
+            for reach, shift in ((lo, 1), (hi, -1)):
+                if reach and mins.shape[axis] > 1:
+                    mins = np.minimum(mins, _shifted(mins, axis, shift))
+                    maxs = np.maximum(maxs, _shifted(maxs, axis, shift))
+        levels = [(mins, maxs)]
+        dims = tuple(n * ranges.block_size for n in mins.shape)
+        for _ in range(1, level_count(dims, ranges.block_size, max_levels)):
+            levels.append(tuple(_coarsen(a, op) for a, op in zip(levels[-1], (np.minimum, np.maximum))))
+        return cls(ranges.block_size, tuple(support), tuple(levels))
+
     def block_voxels(self, level: int) -> int:
         return self.block_size << level
+
+
+def _shifted(a: np.ndarray, axis: int, shift: int) -> np.ndarray:
+    """``a`` moved by one along ``axis`` (1: each entry takes its lower neighbour's), edges repeated."""
+    n = a.shape[axis]
+    index = np.clip(np.arange(n) - shift, 0, n - 1)
+    return np.take(a, index, axis=axis)
 
 
 def _coarsen(a: np.ndarray, op) -> np.ndarray:

@@ -12,6 +12,7 @@ so the image is the one a single texture would give.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import moderngl
@@ -30,7 +31,7 @@ from ..grid.gl_base import GLVolumeRenderer, GridView, _same, classification_fea
 from ..grid.textures import upload_field
 from ..surfaces import with_surfaces
 from . import acceleration as accel
-from . import ray_bounds
+from . import out_of_core, ray_bounds
 from .acceleration import level_count
 
 # A one-pass frame estimated to take longer than this (seconds, at limits.RATES) is drawn in bands of
@@ -96,7 +97,10 @@ def shader_features(scene, count_samples: bool = False, bricked: bool = False) -
         defines["BACK_TO_FRONT"] = r.order == "back_to_front"
         defines["EARLY_TERMINATION"] = r.order == "front_to_back" and r.ert_threshold < 1.0
     defines["JITTER"] = r.jitter
-    if acceleration_mode(r.acceleration) != "off" and r.compositing != "average":  # every sample counts in an average
+    # every sample counts in an average; pre-classified blocks of a volume read out of core would need
+    # a pass over all its voxels
+    out_of_core_pre = scene.volume.out_of_core and "CLASSIFY_PRE" in defines
+    if acceleration_mode(r.acceleration) != "off" and r.compositing != "average" and not out_of_core_pre:
         defines.update(ACCELERATE=True, NUM_LEVELS=level_count(scene.volume.dims, r.block_size),
                        RUNS_IN_CLASSES=emission)
     defines["COUNT_SAMPLES"] = count_samples
@@ -238,8 +242,9 @@ class RayCastRenderer(GLVolumeRenderer):
             pyramids = self._cached("pyramid", (voxels, support, r.block_size), lambda: [
                 accel.MinMaxPyramid.build(voxels[..., c], r.block_size, support) for c in range(4)])
         else:
-            pyramids = self._cached("pyramid", (volume, support, r.block_size),
-                                    lambda: accel.MinMaxPyramid.build(volume.data, r.block_size, support))
+            pyramids = self._cached("pyramid", (volume, support, r.block_size), lambda: (
+                accel.MinMaxPyramid.from_ranges(volume.ranges, support) if volume.out_of_core
+                else accel.MinMaxPyramid.build(volume.data, r.block_size, support)))
         if "COMPOSITE_EMISSION" not in defines:
             mode = "minip" if "COMPOSITE_MINIP" in defines else "max"
             return self._cached("blocks", ("minmax", pyramids, r.filter, mode), lambda: BlockTextures(
@@ -346,6 +351,9 @@ class RayCastRenderer(GLVolumeRenderer):
     def _draw_volume(self, scene, surfaces: dict) -> np.ndarray:
         self.activate()
         start = now()
+        if scene.volume.out_of_core:  # its blocks are the ranges' (dvr_gl.out_of_core): no pass over the voxels
+            scene = dataclasses.replace(scene, renderer=dataclasses.replace(
+                scene.renderer, block_size=scene.volume.ranges.block_size))
         defines = shader_features(scene, self.count_samples)
         views = self.grid_views(scene, defines)
         tables = {**self.table_textures(scene, defines, scene.renderer.sample_distance), **surfaces}
@@ -359,7 +367,10 @@ class RayCastRenderer(GLVolumeRenderer):
         partial = getattr(self, "_partial", None)
         if partial is not None:  # render_state: these bricks' state, not resolved
             views = [GridView(b.tex_lo, b.tex_dims, b) for b in partial]
-        if partial is not None or len(views) > 1 or len(windows) > 1:
+        if views[0].brick is not None:
+            views, frame = out_of_core.frame_views(self, scene, defines, views)
+            decided.update(frame)
+        if partial is not None or len(views) > 1 or len(windows) > 1 or views[0].brick is not None:
             if len(views) == 1 and views[0].brick is None:  # long rays: the whole volume as one brick, in
                 views = [GridView((0, 0, 0), scene.volume.dims, whole_volume_brick(scene.volume))]  # windows
             return self._render_bricks(scene, bricked_features(defines), views, start, windows,
@@ -521,7 +532,7 @@ class RayCastRenderer(GLVolumeRenderer):
         front_to_back = "BACK_TO_FRONT" not in defines
         bricks = visibility_order([v.brick for v in views], scene.volume, scene.camera, front_to_back)
         by_brick = {v.brick: v for v in views}
-        per_voxel = scene.volume.data.itemsize + self.texture_bytes_per_voxel(defines)
+        per_voxel = scene.volume.dtype.itemsize + self.texture_bytes_per_voxel(defines)
         resident = sum(np.prod(v.dims) for v in views) * per_voxel <= r.texture_budget_mb * 2 ** 20
         initial = {"COMPOSITE_MIP": -3.0e38, "COMPOSITE_MINIP": 3.0e38}
         first = next((v for k, v in initial.items() if k in defines), 0.0)
@@ -543,6 +554,7 @@ class RayCastRenderer(GLVolumeRenderer):
             lo, hi = brick.world_box(scene.volume)
             single = np.asarray(scene.volume.dims) == 1
             uniforms = {**common, **self.grid_uniforms(scene, view), "u_world_to_global_offset": to_global,
+                        "u_world_to_global_scale": 1.0 / np.asarray(scene.volume.spacing),
                         "u_core_lo": np.where(single, -1e30, brick.core_lo),
                         "u_core_hi": np.where(single, 1e30, brick.core_hi),
                         "u_core_closed": np.asarray(brick.last, dtype=float), "u_brick_lo": lo, "u_brick_hi": hi,
