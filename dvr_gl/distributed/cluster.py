@@ -1,0 +1,82 @@
+"""Reaching a Dask cluster: ``local:N`` (a LocalCluster of N worker processes, one thread each,
+closed afterwards), a scheduler's address, or a :class:`distributed.Client` the caller owns; and
+what the workers' transfer logs say was moved between them."""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import re
+
+from ..errors import DvrError
+
+EXTRA = "dask"
+
+
+def _distributed():
+    try:
+        import distributed
+    except ImportError:
+        raise DvrError(f"--dask needs Dask's distributed scheduler: install the extra {EXTRA!r} "
+                       f"(pip install 'dvr-gl[{EXTRA}]')") from None
+    return distributed
+
+
+@contextlib.contextmanager
+def connect(dask):
+    """A client for ``dask``: ``"local:N"``, an address (``tcp://host:8786``) or a Client (kept open)."""
+    distributed = _distributed()
+    if isinstance(dask, distributed.Client):
+        yield dask
+        return
+    if not isinstance(dask, str) or not dask:
+        raise DvrError(f"dask: give 'local:N' or a scheduler's address (tcp://host:8786) or a Client, got {dask!r}")
+    local = re.fullmatch(r"local:(\d+)", dask)
+    if dask.startswith("local") and not local:
+        raise DvrError(f"--dask {dask}: a local cluster is 'local:N' with N worker processes, e.g. local:2")
+    if local:
+        n = int(local.group(1))
+        if n < 1:
+            raise DvrError(f"--dask {dask}: a local cluster needs at least 1 worker")
+        # processes (one GL context each), one thread each: the renderer holds its process's context
+        with distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                                      silence_logs=logging.ERROR) as cluster, distributed.Client(cluster) as client:
+            yield client
+        return
+    try:
+        client = distributed.Client(dask, timeout="10s")
+    except (OSError, TimeoutError, ValueError) as e:
+        raise DvrError(f"--dask {dask}: cannot reach the scheduler ({e}); start one (dask scheduler) or use "
+                       f"local:N") from None
+    with client:
+        yield client
+
+
+def workers_of(client) -> list[str]:
+    """The workers' addresses, sorted (worker i of the kd split is the i-th)."""
+    workers = sorted(client.scheduler_info(n_workers=-1)["workers"]) if _takes_n_workers(client) else \
+        sorted(client.scheduler_info()["workers"])
+    if not workers:
+        raise DvrError("the Dask cluster has no workers: start some (dask worker ADDRESS)")
+    return workers
+
+
+def _takes_n_workers(client) -> bool:
+    import inspect
+
+    return "n_workers" in inspect.signature(client.scheduler_info).parameters
+
+
+def _log_of(prefix: str, dask_worker=None):
+    """This worker's transfers of keys starting with ``prefix``: received from other workers
+    (``incoming``: key, bytes, from whom) and sent (``outgoing``, to other workers or the client)."""
+    def entries(log):
+        return [(str(key), int(size), str(entry.get("who"))) for entry in log
+                for key, size in entry.get("keys", {}).items() if str(key).startswith(prefix)]
+    return {"incoming": entries(dask_worker.transfer_incoming_log),
+            "outgoing": entries(dask_worker.transfer_outgoing_log)}
+
+
+def transfers(client, prefix: str) -> dict:
+    """Per worker address: the transfers of keys starting with ``prefix`` (see :func:`_log_of`)."""
+    return client.run(_log_of, prefix)

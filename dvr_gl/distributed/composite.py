@@ -1,0 +1,68 @@
+"""Compositing partial images (the ray caster's compositing states) in numpy.
+
+A state is what :meth:`RayCastRenderer.render_state` returns for a subset of the bricks: a
+``(height, width, 4)`` float32 array per pixel (shaders/raycast.frag, BRICKED).  Two states of
+bricks that follow each other along every ray (``front``, then ``back``) combine into the state
+of both, per compositing mode:
+
+* emission-absorption, front to back: (colour reaching the eye, optical depth tau); the over
+  operator in optical-depth form: ``C = C_front + exp(-tau_front) C_back``, ``tau = tau_front +
+  tau_back`` (exactly what the ray caster's next pass would do, starting from the front's state);
+* back-to-front emission and the isosurface: a premultiplied RGBA image, the over operator
+  ``C = C_front + (1 - alpha_front) C_back`` for all four channels;
+* MIP and MinIP: the running maximum (minimum) in x, the other channels zero;
+* average (x: sum of value x length, y: length) and xray (rgb: sum of sigma c l, a: sum of sigma l):
+  sums.
+
+Each operator is associative, so states may be combined in any grouping that keeps the visibility
+order (direct send's sequence, binary swap's tree).  The arithmetic runs in float64 and the result
+is float32, as the GPU's state texture is.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+EMPTY = {"mip": -3.0e38, "minip": 3.0e38}  # the x channel of a ray before any sample (raycast/projection.glsl)
+
+
+def operator_of(compositing: str, order: str = "front_to_back") -> str:
+    """The operator that combines two states of this compositing mode and order."""
+    if compositing == "emission_absorption":
+        return "over_rgba" if order == "back_to_front" else "over_depth"
+    return {"isosurface": "over_rgba", "mip": "max", "minip": "min", "average": "sum", "xray": "sum"}[compositing]
+
+
+def empty_state(operator: str, height: int, width: int) -> np.ndarray:
+    """The state of rays that met no brick (the identity of ``operator``)."""
+    state = np.zeros((height, width, 4), np.float32)
+    state[..., 0] = {"max": EMPTY["mip"], "min": EMPTY["minip"]}.get(operator, 0.0)
+    return state
+
+
+def combine(operator: str, front: np.ndarray, back: np.ndarray) -> np.ndarray:
+    """The state of ``front``'s bricks followed by ``back``'s (same shape), float32."""
+    f, b = np.asarray(front, np.float64), np.asarray(back, np.float64)
+    if operator == "over_depth":
+        out = np.empty_like(f)
+        out[..., :3] = f[..., :3] + np.exp(-f[..., 3:4]) * b[..., :3]
+        out[..., 3] = f[..., 3] + b[..., 3]
+    elif operator == "over_rgba":
+        out = f + (1.0 - f[..., 3:4]) * b
+    elif operator == "max":
+        out = np.maximum(f, b)
+    elif operator == "min":
+        out = np.minimum(f, b)
+    elif operator == "sum":
+        out = f + b
+    else:
+        raise ValueError(f"unknown compositing operator {operator!r}")
+    return out.astype(np.float32)
+
+
+def combine_all(operator: str, states: list) -> np.ndarray:
+    """States in visibility order (front first) combined into one."""
+    out = states[0]
+    for state in states[1:]:
+        out = combine(operator, out, state)
+    return np.asarray(out, np.float32)

@@ -1,0 +1,36 @@
+"""Whole frames on Dask: an animation's frames, one task each, dealt round-robin to the workers
+(pinned, so that every worker draws); the scene travels once per worker (:func:`.worker.payload_of`)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+from . import worker as w
+from .cluster import workers_of
+from .plan import check_scene
+
+
+def render_frames(client, scene, cameras: list, ahead: int | None = None) -> Iterator:
+    """``(image, seconds)`` for each camera, in order (image: the renderer's premultiplied RGBA,
+    as :meth:`RayCastRenderer.render`'s; seconds: the worker's render time).  At most ``ahead``
+    frames (default two per worker) are in flight or waiting to be taken, so a long animation
+    never holds all its frames in memory."""
+    check_scene(scene)
+    addresses = workers_of(client)
+    ahead = ahead or 2 * len(addresses)
+    payload = client.scatter(w.payload_of(scene), broadcast=True, hash=True)
+    pending = []
+
+    def submit(k):
+        pending.append(client.submit(w.render_frame, payload, cameras[k], key=f"dvr-frame-{k}-{id(pending)}",
+                                     workers=[addresses[k % len(addresses)]], allow_other_workers=False,
+                                     pure=False))
+
+    for k in range(min(ahead, len(cameras))):
+        submit(k)
+    for k in range(len(cameras)):
+        future = pending.pop(0)
+        if k + ahead < len(cameras):
+            submit(k + ahead)
+        yield future.result()
+        del future

@@ -1,0 +1,144 @@
+"""What runs in a Dask worker process: one ray caster per process (its EGL context created on the
+first task and kept for the next ones), the scene reloaded once per payload, and the small steps
+of compositing (a band of rows cut from a state, states combined).
+
+A scene reaches the workers as a *payload*: ``(token, "dict", scene_dict, base_dir)`` for a scene
+whose volume is a file (the worker reads the file itself; only the scene's few kilobytes travel)
+or ``(token, "pickle", bytes)`` for a scene built in Python (arrays, the demos, volumes read out of
+core, which pickle without their voxels and reopen their file).  ``token`` (a hash of the payload)
+keys the worker's cache, so the frames of an animation load their scene once per worker."""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import io
+import pickle
+import threading
+from collections import OrderedDict
+from pathlib import Path
+
+import numpy as np
+
+from .composite import combine_all, empty_state
+
+_LOCK = threading.Lock()  # one GL context per process: its tasks draw one at a time
+_RENDERER = None
+_SCENES: OrderedDict = OrderedDict()
+_KEEP_SCENES = 2
+
+
+def payload_of(scene) -> tuple:
+    """The scene as the workers receive it (see the module doc)."""
+    source = scene.volume_source
+    if source.path and not getattr(scene.field, "out_of_core", False):
+        from ..errors import SceneError
+
+        try:
+            data = scene.to_dict()
+        except SceneError:
+            data = None
+        if data is not None:
+            data["volume"]["path"] = str(Path(source.path).expanduser().resolve())
+            body = ("dict", data, str(Path.cwd()))
+            return (hashlib.sha1(pickle.dumps(body)).hexdigest(), *body)
+    body = ("pickle", dumps(scene))
+    return (hashlib.sha1(body[1]).hexdigest(), *body)
+
+
+def dumps(scene) -> bytes:
+    """The scene pickled.  The ``[renderer]`` dataclass is built at run time from the registered
+    settings (:func:`dvr_gl.renderers.registry.renderer_spec_class`), so pickle cannot find it by
+    name: it travels as its fields and is rebuilt by :func:`_renderer_spec`."""
+    from ..renderers.registry import renderer_spec_class
+
+    spec_class = renderer_spec_class()
+
+    class Pickler(pickle.Pickler):
+        def reducer_override(self, obj):
+            if type(obj) is spec_class:
+                return _renderer_spec, ({f.name: getattr(obj, f.name) for f in dataclasses.fields(obj)},)
+            return NotImplemented
+
+    out = io.BytesIO()
+    Pickler(out, protocol=pickle.HIGHEST_PROTOCOL).dump(scene)
+    return out.getvalue()
+
+
+def _renderer_spec(fields: dict):
+    from ..renderers.registry import renderer_spec_class
+
+    return renderer_spec_class()(**fields)
+
+
+def scene_of(payload):
+    """The payload's scene, loaded once per worker process (the last few kept)."""
+    token, kind, *rest = payload
+    scene = _SCENES.get(token)
+    if scene is None:
+        if kind == "dict":
+            from ..scene import parse_scene, resolve_scene
+
+            data, base_dir = rest
+            scene = resolve_scene(parse_scene(data, None, base_dir), base_dir)
+        else:
+            scene = pickle.loads(rest[0])
+        _SCENES[token] = scene
+        while len(_SCENES) > _KEEP_SCENES:
+            _SCENES.popitem(last=False)
+    _SCENES.move_to_end(token)
+    return scene
+
+
+def renderer():
+    """This process's ray caster (created on first use)."""
+    global _RENDERER
+    if _RENDERER is None:
+        from ..renderers.raycast.renderer import RayCastRenderer
+
+        _RENDERER = RayCastRenderer()
+    return _RENDERER
+
+
+def render_part(payload, bricks: list, operator: str) -> tuple:
+    """``(state, seconds)``: the compositing state of ``bricks`` (none: the empty state) and the
+    time the renderer took."""
+    with _LOCK:
+        scene = scene_of(payload)
+        if not bricks:
+            return empty_state(operator, scene.image.height, scene.image.width), 0.0
+        r = renderer()
+        state = r.render_state(scene, bricks)
+        return state, float(r.stats.get("seconds", 0.0))
+
+
+def render_frame(payload, camera) -> tuple:
+    """``(image, seconds)``: a whole frame of the payload's scene seen by ``camera``."""
+    with _LOCK:
+        scene = scene_of(payload)
+        if camera is not None:
+            scene = scene.replace(camera=camera)
+        r = renderer()
+        image = r.render(scene)
+        return image, float(r.stats.get("seconds", 0.0))
+
+
+def state_of(part):
+    return part[0] if isinstance(part, tuple) else part
+
+
+def rows(part, lo: int, hi: int) -> np.ndarray:
+    """Rows ``lo .. hi - 1`` of a state (a copy: only these bytes travel)."""
+    return np.ascontiguousarray(state_of(part)[lo:hi])
+
+
+def composite(operator: str, *states) -> np.ndarray:
+    """States in visibility order (front first) combined."""
+    return combine_all(operator, [state_of(s) for s in states])
+
+
+def swap(operator: str, mine, lo: int, hi: int, theirs, mine_in_front: bool) -> np.ndarray:
+    """Binary swap's step: rows ``lo .. hi - 1`` of this worker's tile combined with the partner's
+    rows of the same band."""
+    own = state_of(mine)[lo:hi]
+    return combine_all(operator, [own, theirs] if mine_in_front else [theirs, own])
