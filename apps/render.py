@@ -95,6 +95,14 @@ def add_arguments(p: argparse.ArgumentParser):
                         "OUTPUT_0000.ext, OUTPUT_0001.ext, ...")
     p.add_argument("--fps", type=float, default=DEFAULT_FPS,
                    help=f"an animation's frames per second (default {DEFAULT_FPS:g})")
+    d = p.add_argument_group("on a Dask cluster, with the extra 'dask' (docs/distributed.md)")
+    d.add_argument("--dask", metavar="ADDRESS|local:N",
+                   help="render on Dask workers: a scheduler's address, or local:N (a local cluster of N worker "
+                        "processes, closed after); one frame: its bricks, composited sort-last; --frames: one "
+                        "frame per task (renderer raycast)")
+    d.add_argument("--compositing-method", choices=("direct_send", "binary_swap"), default="direct_send",
+                   help="--dask, one frame: how the workers composite their partial images (binary_swap needs "
+                        "a power-of-two number of workers; default direct_send)")
     b = p.add_argument_group("sandbox, for scenes you did not write (docs/robustness.md)")
     b.add_argument("--sandbox", action="append", metavar="ROOT", help="read and write only inside folder ROOT "
                    "(repeatable): the scene, every file it names and the outputs; FIFOs and devices are refused")
@@ -289,6 +297,14 @@ def sandbox_of(args) -> Sandbox:
     return Sandbox(tuple(args.sandbox or ()), memory, args.max_seconds)
 
 
+def frame_scene(scene, i: int, count: int):
+    """Frame ``i`` of an orbit of ``count`` frames (frame 0: the scene's own camera)."""
+    if not i:
+        return scene
+    az0 = scene.camera.orbited().orbit[0]
+    return scene.replace(camera=scene.camera.orbited(azimuth=az0 + 360.0 * i / count))
+
+
 def run(args) -> int:
     with active(sandbox_of(args)):
         return render(args)
@@ -318,22 +334,33 @@ def render(args) -> int:
         given = getattr(args, SETTING_DEST + "tolerance", None)
         print(f"tolerance {given if given is not None else 'from the scene'}: "
               f"{scene.tolerance_choice.describe(scene.field.sample_spacing)}")
+    if getattr(args, "dask", None):
+        from dvr_gl.distributed.session import check_request
+
+        check_request(scene, args.compositing_method)  # one line before a cluster starts
+        if args.sandbox or args.max_seconds is not None or args.max_memory is not None:
+            raise DvrError("--dask with the sandbox's flags: the limits hold in this process, not in the Dask "
+                           "workers; render scenes you did not write without --dask")
     renderer = create_renderer(scene.renderer.name)
     start = time.perf_counter()
     try:
         with contextlib.ExitStack() as stack:
             sink = stack.enter_context(Movie(outputs[0], count, args.fps, args.overwrite)) if movie else None
+            remote = None
+            if getattr(args, "dask", None):  # the same frames, drawn by Dask workers
+                from dvr_gl.distributed.session import frames_on
+
+                remote = stack.enter_context(frames_on(args.dask, [frame_scene(scene, i, count) for i in range(count)],
+                                                       args.compositing_method, renderer))
             if args.frames is not None:  # a bar over the frames, at once: the orbit is long work by request
                 step = stack.enter_context(progress.task("frames", count, "frame", delay=0.0, leave=True))
             else:  # a long frame's steps (the CPU references'), shown after progress.DELAY seconds
                 renderer.progress = stack.enter_context(progress.task("rendering"))
             for i in range(count):
-                frame = scene
-                if i:
-                    az0 = scene.camera.orbited().orbit[0]
-                    frame = scene.replace(camera=scene.camera.orbited(azimuth=az0 + 360.0 * i / count))
+                frame = frame_scene(scene, i, count)
                 begun = time.perf_counter()
-                image = composite_over(renderer.render(frame), scene.image.background)
+                image = composite_over(next(remote) if remote is not None else renderer.render(frame),
+                                       scene.image.background)
                 log.debug("frame %d rendered in %.2f s%s", i, time.perf_counter() - begun,
                           " (compiling the shaders included)" if i == 0 and registry.plugin(
                               scene.renderer.name).needs_gl else "")

@@ -102,24 +102,37 @@ class Image:
 
 def render(data, *, spacing=None, origin=None, transfer_function=None, rescale_intercept=None,
            camera: Camera | None = None, renderer: str | None = None, size=None, background=None, ctx=None,
-           sandbox: Sandbox | None = None, progress=None, **keywords) -> Image:
+           sandbox: Sandbox | None = None, progress=None, dask=None, compositing_method: str = "direct_send",
+           **keywords) -> Image:
     """Render ``data`` (see the module doc): a numpy array indexed ``[z, y, x]``, a field
     (:mod:`dvr_gl.fields`), a path (a ``.toml`` scene file or a volume file), or a :class:`Scene`.
     ``ctx``: a moderngl context for GL renderers (default: a new headless one, released after).
     ``sandbox``: limits for scenes one did not write (:class:`dvr_gl.sandbox.Sandbox`: folders files may
     be read from, memory, time), for loading and rendering both.
     ``progress``: ``True`` (a bar), a callable ``callback(done, total)``, or ``None`` (as the caller's
-    :func:`dvr_gl.progress.reporting` block says; silent outside one)."""
+    :func:`dvr_gl.progress.reporting` block says; silent outside one).
+    ``dask``: render on Dask workers (the extra ``dask``; renderer raycast): ``"local:N"`` (a local
+    cluster of N processes, closed after), a scheduler's address, or a ``distributed.Client``; the
+    bricks are composited sort-last by ``compositing_method`` (``"direct_send"`` or ``"binary_swap"``,
+    which needs a power-of-two number of workers); see docs/distributed.md."""
     with (active(sandbox) if sandbox is not None else contextlib.nullcontext(),
           _progress.reporting(progress) if progress is not None else contextlib.nullcontext()):
         return _render(data, spacing=spacing, origin=origin, transfer_function=transfer_function,
                        rescale_intercept=rescale_intercept, camera=camera, renderer=renderer, size=size,
-                       background=background, ctx=ctx, **keywords)
+                       background=background, ctx=ctx, dask=dask, compositing_method=compositing_method,
+                       **keywords)
 
 
-def _render(data, *, ctx=None, **keywords) -> Image:
+def _render(data, *, ctx=None, dask=None, compositing_method="direct_send", **keywords) -> Image:
     scene = scene_of(data, **keywords)
     registry.check(scene)
+    if dask is not None:
+        from .distributed.session import check_request, render_image
+
+        check_request(scene, compositing_method)
+        with create_renderer(scene.renderer.name, ctx=ctx) as r:
+            rgba, stats = render_image(scene, dask, compositing_method, r)
+        return Image(rgba, scene, stats)
     with create_renderer(scene.renderer.name, ctx=ctx) as r, _progress.task("rendering") as step:
         r.progress = step  # the CPU references' steps
         rgba = r.render(scene)
