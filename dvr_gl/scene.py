@@ -119,7 +119,9 @@ def parse_scene(raw: dict, source: str | None = None, base_dir: Path | str | Non
 
 # --- resolution ---------------------------------------------------------------------------------
 
-def _resolve_volume(spec: VolumeSpec, base_dir: Path):
+def _resolve_volume(spec: VolumeSpec, base_dir: Path, memory_budget_mb: float | None = None):
+    """The field the spec names; a grid too large for ``memory_budget_mb`` (renderer.memory_budget_mb) read out
+    of core where its format allows (``volume.out_of_core``: :mod:`dvr_gl.out_of_core`)."""
     if spec.path and spec.demo:
         raise SceneError("volume: give path or demo, not both")
     if spec.demo:
@@ -127,6 +129,9 @@ def _resolve_volume(spec: VolumeSpec, base_dir: Path):
             if getattr(spec, key) is not None:
                 raise SceneError(f"volume.{key} applies to volume files, not to the demo {spec.demo!r} "
                                  f"(voxels of 1 world unit); remove it or give volume.path")
+        if spec.out_of_core is True:
+            raise SceneError(f"volume.out_of_core = true applies to volume files; the demo {spec.demo!r} is made in "
+                             f"memory: remove it or give volume.path")
         return phantoms.demo_volume(spec.demo, spec.size), spec
     if not spec.path:
         raise SceneError("volume: no volume given; set volume.path (or --volume FILE) or volume.demo (--demo)")
@@ -136,9 +141,13 @@ def _resolve_volume(spec: VolumeSpec, base_dir: Path):
     solution = spec.solution
     if solution is not None and not Path(os.path.expanduser(solution)).is_absolute():
         solution = str(base_dir / os.path.expanduser(solution))
-    volume = load_field(path, spec.format, array=spec.array, solution=solution, dims=spec.dims, dtype=spec.dtype,
-                        endian=spec.endian, header_bytes=spec.header_bytes, spacing=spec.spacing,
-                        origin=spec.origin, nan_value=spec.nan_value, series=spec.series, level=spec.level)
+    from .out_of_core import MEMORY_BUDGET_MB, open_for_scene
+
+    volume = open_for_scene(path, spec, MEMORY_BUDGET_MB if memory_budget_mb is None else memory_budget_mb)
+    if volume is None:
+        volume = load_field(path, spec.format, array=spec.array, solution=solution, dims=spec.dims, dtype=spec.dtype,
+                            endian=spec.endian, header_bytes=spec.header_bytes, spacing=spec.spacing,
+                            origin=spec.origin, nan_value=spec.nan_value, series=spec.series, level=spec.level)
     if spec.resample is not None:
         if not hasattr(volume, "resampled"):
             raise SceneError(f"volume.resample applies to meshes; {path.name} is a {getattr(volume, 'kind', 'grid')}: "
@@ -442,7 +451,8 @@ def resolve_scene(spec: SceneSpec, base_dir: Path | str = ".", field=None, volum
     base_dir = Path(base_dir)
     _check_image(spec.image)
     if field is None:
-        field, volume_source = _resolve_volume(spec.volume, base_dir)
+        budget = getattr(spec.renderer, "memory_budget_mb", None)  # declared by the renderers that read out of core
+        field, volume_source = _resolve_volume(spec.volume, base_dir, budget)
     _check_extent(field, volume_source or spec.volume)
     tf = transfer_function or _resolve_transfer_function(spec.transfer_function, field, spec.volume.demo, base_dir)
     if spec.transfer_function.file is not None:  # absolute, so that a new field re-resolves it from anywhere

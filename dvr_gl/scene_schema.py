@@ -50,6 +50,10 @@ def non_zero(vector) -> str | None:
     return None if any(vector) else "must be a non-zero vector"
 
 
+def auto_or_bool(value) -> str | None:
+    return None if value is True or value is False or value == "auto" else "must be auto, true or false"
+
+
 def renderer_spec_class():
     from .renderers.registry import renderer_spec_class as build
 
@@ -93,6 +97,11 @@ class VolumeSpec:
                                         "`xyz` replaced by `q`)")
     resample: Optional[int] = checked(None, "meshes: resample onto a grid of this many points along the longest "
                                             "axis (2 to 1024), for the grid renderers", between(2, 1024))
+    out_of_core: Union[bool, str] = checked("auto", "read the voxels in part, brick by brick, never whole "
+                                            "(docs/out-of-core.md): `auto` when they exceed "
+                                            "`renderer.memory_budget_mb` and the format is read in part (raw, NRRD "
+                                            "and MetaImage uncompressed, zarr), `true` always, `false` never",
+                                            auto_or_bool)
 
 
 @dataclass
@@ -190,8 +199,11 @@ def _convert(value, tp, where: str):
         inner = [a for a in args if a is not type(None)]
         if len(inner) == 1:
             return _convert(value, inner[0], where)
-        # a number or a name (scattering's albedo): the value's own type picks the one to check
+        # a number or a name (scattering's albedo), true/false or a name (volume.out_of_core): the value's
+        # own type picks the one to check
         if isinstance(value, str) and str in inner:
+            return value
+        if isinstance(value, bool) and bool in inner:
             return value
         if isinstance(value, (int, float)) and not isinstance(value, bool) and float in inner:
             return _convert(value, float, where)

@@ -335,6 +335,9 @@ GRADIENT = Setting("gradient", str, "central_differences", "shading gradients on
                    "texture (12 bytes per voxel, faster)", choices=("central_differences", "texture"), group="gpu")
 TEXTURE_BUDGET_MB = Setting("texture_budget_mb", float, 2048.0, "GPU texture memory allowed; larger volumes are "
                             "rendered in bricks", check=positive, units="MB", group="gpu", flag=False)
+MEMORY_BUDGET_MB = Setting("memory_budget_mb", float, 4096.0, "host memory allowed for the volume's resident voxels; "
+                           "larger volumes are read out of core (volume.out_of_core, docs/out-of-core.md)",
+                           check=positive, units="MB", group="gpu", flag=False)
 
 #: Every renderer reads these (narrowed where it supports fewer choices).
 MODEL_SETTINGS = (COMPOSITING, CLASSIFICATION, ASSOCIATED_COLORS, FILTER, KERNEL_WIDTH, ISO_VALUE, GRADIENT_OPACITY,

@@ -93,13 +93,31 @@ ZARR_METADATA = ("zarr.json", ".zarray", ".zgroup")
 _OPTIONS = {"dicom": ("series",), "vti": ("array",), "zarr": ("array", "level")}
 
 
-def _read(path: Path, fmt: str, raw_options: dict) -> RawArray:
+# format -> (module, function) telling where the voxels lie without reading them (dvr_gl.out_of_core)
+_LAYOUTS = {"raw": (".raw", "raw_layout"), "nrrd": (".nrrd", "nrrd_layout"),
+            "metaimage": (".metaimage", "metaimage_layout"), "zarr": (".zarr", "zarr_layout")}
+#: The formats whose voxels can be read in part (raw encodings; zarr by chunks).
+PARTIAL_FORMATS = tuple(_LAYOUTS)
+
+
+def voxel_layout(path: Path, fmt: str, raw_options: dict):
+    """Where a grid file's voxels lie, unread, for :mod:`dvr_gl.out_of_core`: a :class:`.raw.RawLayout` (raw,
+    NRRD, MetaImage; its ``refusal`` says why one cannot be read in part) or the chosen zarr array with its
+    axes, transforms, name and coarser levels (:func:`.zarr.open_zarr`); the options as :func:`load_volume`
+    checks them."""
+    if fmt in _READERS and fmt not in _LAYOUTS:
+        raise VolumeError(f"{path}: {fmt} files are read whole, not in part; convert the volume to raw, NRRD (raw "
+                          f"encoding) or zarr to read it out of core")
+    return _read(path, fmt, raw_options, _LAYOUTS)
+
+
+def _read(path: Path, fmt: str, raw_options: dict, readers: dict = _READERS) -> RawArray:
     if fmt in ("vtu", "plot3d") or fmt in PARTICLE_FORMATS:
         kind = "a mesh" if fmt in ("vtu", "plot3d") else "SPH particles"
         raise VolumeError(f"{path}: a {fmt} file holds {kind}, not a regular grid; read it with load_field")
     if fmt not in _READERS:
         raise VolumeError(f"{path}: unknown format {fmt!r}; use one of {', '.join(FORMATS)} or auto")
-    module, function = _READERS[fmt]
+    module, function = readers[fmt]
     reader = getattr(importlib.import_module(module, __name__), function)
     layout = ("dims", "dtype", "endian", "header_bytes")
     chosen = {k: v for k, v in raw_options.items() if k not in layout and v is not None}

@@ -70,9 +70,52 @@ def _first(fields: dict, *keys):
     return next((k for k in keys if k in fields), None)
 
 
+def metaimage_layout(path: Path):
+    """Where the voxels of a MetaImage file lie (:class:`.raw.RawLayout`), for reading them in part:
+    uncompressed data only (``.mhd`` with its ``ElementDataFile``, or ``.mha``); compressed data carries a
+    refusal (write it uncompressed, or convert it to zarr)."""
+    from .raw import RawLayout, stored_layout
+
+    path = check_input_path(Path(path), "MetaImage file")
+    name = str(path)
+    fields, data_start, dims, dtype, geometry = _header(path, name)
+    datafile, local, header = _data_file(fields, name)
+    if _flag(fields, "CompressedData", name):
+        return RawLayout(path, 0, dims, dtype, refusal=f"{name}: compressed MetaImage data cannot be read in part; "
+                         f"write it uncompressed (CompressedData = False) or convert it to zarr")
+    offset = -1 if header < 0 else (data_start if local else 0) + header
+    nx, ny, nz = dims
+    return stored_layout(path if local else path.parent / datafile, offset, dims, dtype, name,
+                         f"DimSize {nx} {ny} {nz} of {fields['ElementType']}", "MetaImage data file",
+                         spacing=geometry[0], origin=geometry[1], direction=geometry[2])
+
+
+def _data_file(fields: dict, name: str):
+    """The data file's name, whether it is the header's own file (LOCAL) and the bytes to skip in it."""
+    datafile = fields["ElementDataFile"]
+    if datafile.upper().startswith("LIST") or "%" in datafile:
+        raise VolumeError(f"{name}: multi-file MetaImage ({datafile}) is not supported; join the slices first")
+    header = integer(fields.get("HeaderSize", "0"), name, "HeaderSize", minimum=-1)
+    return datafile, datafile.upper() == "LOCAL", header
+
+
 def read_metaimage(path: Path) -> RawArray:
     path = check_input_path(Path(path), "MetaImage file")
     name = str(path)
+    fields, data_start, dims, dtype, (spacing, origin, direction) = _header(path, name)
+    nx, ny, nz = dims
+    etype = fields["ElementType"]
+    datafile, local, header = _data_file(fields, name)
+    blob = read_data(path if local else path.parent / datafile, promised_bytes(dims, dtype), name=name,
+                     encoding="zlib" if _flag(fields, "CompressedData", name) else "raw",
+                     start=data_start if local else 0, skip=header, what="MetaImage data file",
+                     promise=f"DimSize {nx} {ny} {nz} of {etype}")
+    return RawArray(np.frombuffer(blob, dtype=dtype).reshape(nz, ny, nx), spacing, origin, direction)
+
+
+def _header(path: Path, name: str):
+    """The checked header: its fields, where LOCAL data starts, dims (x, y, z), the stored sample type and
+    the geometry ``(spacing, origin, direction)``."""
     fields, data_start = _parse_header(path, name)
     ndims = integer(fields.get("NDims", "missing"), name, "NDims")
     if ndims != 3:
@@ -80,7 +123,7 @@ def read_metaimage(path: Path) -> RawArray:
     channels = integer(fields.get("ElementNumberOfChannels", "1"), name, "ElementNumberOfChannels")
     if channels != 1:
         raise VolumeError(f"{name}: ElementNumberOfChannels = {channels}; a volume needs 1")
-    nx, ny, nz = dims = integers(fields.get("DimSize", ""), name, "DimSize", 3, minimum=1)
+    dims = integers(fields.get("DimSize", ""), name, "DimSize", 3, minimum=1)
     etype = fields.get("ElementType", "")
     if etype not in ELEMENT_TYPES:
         raise VolumeError(f"{name}: ElementType = {show(etype)} is not supported; use one of "
@@ -97,14 +140,4 @@ def read_metaimage(path: Path) -> RawArray:
     if matrix_key:
         columns = numbers(fields[matrix_key], name, matrix_key, 9)
         _, direction = axes_geometry(columns, name, matrix_key)  # each axis's unit vector, x first
-
-    datafile = fields["ElementDataFile"]
-    if datafile.upper().startswith("LIST") or "%" in datafile:
-        raise VolumeError(f"{name}: multi-file MetaImage ({datafile}) is not supported; join the slices first")
-    local = datafile.upper() == "LOCAL"
-    header = integer(fields.get("HeaderSize", "0"), name, "HeaderSize", minimum=-1)
-    blob = read_data(path if local else path.parent / datafile, promised_bytes(dims, dtype), name=name,
-                     encoding="zlib" if _flag(fields, "CompressedData", name) else "raw",
-                     start=data_start if local else 0, skip=header, what="MetaImage data file",
-                     promise=f"DimSize {nx} {ny} {nz} of {etype}")
-    return RawArray(np.frombuffer(blob, dtype=dtype).reshape(nz, ny, nx), spacing, origin, direction)
+    return fields, data_start, dims, dtype, (spacing, origin, direction)

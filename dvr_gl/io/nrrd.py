@@ -203,10 +203,38 @@ def _data_file(fields, path) -> tuple[Path, int]:
     return path.parent / os.path.expanduser(datafile), 0
 
 
-def read_nrrd(path: Path) -> RawArray:
+def nrrd_layout(path: Path):
+    """Where the voxels of an NRRD file lie (:class:`.raw.RawLayout`), for reading them in part: raw
+    encoding only (attached or detached; ``line skip`` and ``byte skip`` counted); other encodings carry a
+    refusal (convert the file to raw encoding or to zarr)."""
+    from .raw import RawLayout, stored_layout
+
     path = check_input_path(Path(path), "NRRD file")
     name = str(path)
     fields, header_size = read_header(path)
+    dim, sizes, encoding, dtype, axes, geometry = _header(fields, name)
+    volume_dims = tuple(sizes[a] for a in axes)  # x, y, z: the leading axes dropped have size 1
+    if encoding != "raw":
+        return RawLayout(path, 0, volume_dims, dtype, refusal=f"{name}: {encoding}-encoded NRRD data cannot be read "
+                         f"in part; convert it to raw encoding (e.g. unu save -e raw) or to zarr")
+    line_skip = integer(_get(fields, "line skip", "lineskip", default="0"), name, "line skip", minimum=0)
+    byte_skip = integer(_get(fields, "byte skip", "byteskip", default="0"), name, "byte skip", minimum=-1)
+    target, start = _data_file(fields, path)
+    start = header_size if start is None else start
+    if line_skip and byte_skip >= 0 and os.path.isfile(target):
+        with open(target, "rb") as fh:  # the lines' length is known only by reading them
+            fh.seek(start)
+            for _ in range(line_skip):
+                start += len(fh.readline())
+    offset = -1 if byte_skip < 0 else start + byte_skip
+    return stored_layout(target, offset, volume_dims, dtype, name, f"the header (sizes {fields['sizes']}, type "
+                         f"{fields['type']})", "NRRD data file", spacing=geometry[0], direction=geometry[1],
+                         origin=geometry[2])
+
+
+def _header(fields, name):
+    """The checked fields that say what the voxels are: dimension, sizes, encoding, sample type, the three
+    volume axes and the geometry ``(spacing, direction, origin)``."""
     dim = integer(_required(fields, "dimension", name), name, "dimension", minimum=1)
     sizes = integers(_required(fields, "sizes", name), name, "sizes", dim, minimum=1)
     encoding = ENCODINGS.get(_required(fields, "encoding", name))
@@ -219,6 +247,14 @@ def read_nrrd(path: Path) -> RawArray:
                           f"for dimension {dim}; give one kind per axis")
     axes = _axes(sizes, name)
     (spacing, direction), origin = _geometry(fields, name, dim, axes), _origin(fields, name)
+    return dim, sizes, encoding, dtype, axes, (spacing, direction, origin)
+
+
+def read_nrrd(path: Path) -> RawArray:
+    path = check_input_path(Path(path), "NRRD file")
+    name = str(path)
+    fields, header_size = read_header(path)
+    dim, sizes, encoding, dtype, axes, (spacing, direction, origin) = _header(fields, name)
     line_skip = integer(_get(fields, "line skip", "lineskip", default="0"), name, "line skip", minimum=0)
     byte_skip = integer(_get(fields, "byte skip", "byteskip", default="0"), name, "byte skip", minimum=-1)
     target, start = _data_file(fields, path)

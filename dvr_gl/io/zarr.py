@@ -26,6 +26,19 @@ SPATIAL = ("z", "y", "x")
 
 
 def read_zarr(path: Path, array: str | None = None, level: int | None = None) -> RawArray:
+    target, axes, transforms, name = open_zarr(path, array, level)
+    dtype = check_sample_type(np.dtype(target.dtype), name, "dtype", str(target.dtype))
+    check_bytes(math.prod(target.shape) * dtype.itemsize, f"{name}: the zarr array of shape {target.shape}",
+                "choose a coarser level (volume.level), or raise the memory budget")
+    index, order, spacing, origin = zarr_plan(target.shape, axes, transforms, name)
+    data = np.asarray(target[...])
+    return RawArray(np.ascontiguousarray(np.transpose(data[index], order)), spacing, origin)
+
+
+def open_zarr(path: Path, array: str | None = None, level: int | None = None, with_levels: bool = False):
+    """The zarr array chosen (see the module doc) without reading it: ``(array, axes, transforms, name)``;
+    ``axes`` is None for an array without OME metadata.  ``with_levels``: a fifth item, the
+    ``(array, transforms)`` of each coarser OME-Zarr level after the chosen one, fine to coarse."""
     zarr = require("zarr", "zarr", "zarr")
     path = Path(path)
     if not current().allows(path):
@@ -36,7 +49,7 @@ def read_zarr(path: Path, array: str | None = None, level: int | None = None) ->
     except Exception as exc:  # zarr raises many kinds for a folder that is not a store  # noqa: BLE001
         raise VolumeError(f"{name}: not a zarr store "
                           f"({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})") from None
-    axes, transforms = None, []
+    axes, transforms, coarser = None, [], []
     if isinstance(node, zarr.Array):
         if array is not None or level is not None:
             raise VolumeError(f"{name}: a single zarr array; volume.array and volume.level apply to groups: "
@@ -47,24 +60,35 @@ def read_zarr(path: Path, array: str | None = None, level: int | None = None) ->
         multiscales = attrs.get("multiscales") or attrs.get("ome", {}).get("multiscales")
         if multiscales:
             target, axes, transforms = _level(node, multiscales[0], level, name)
+            chosen = 0 if level is None else int(level)
+            coarser = [_level(node, multiscales[0], k, name)[::2]
+                       for k in range(chosen + 1, len(multiscales[0].get("datasets") or []))]
         else:
             if level is not None:
                 raise VolumeError(f"{name}: volume.level applies to OME-Zarr multiscale images; this group has no "
                                   f"multiscales metadata")
             target = _member(node, array, name)
-    dtype = check_sample_type(np.dtype(target.dtype), name, "dtype", str(target.dtype))
-    check_bytes(math.prod(target.shape) * dtype.itemsize, f"{name}: the zarr array of shape {target.shape}",
-                "choose a coarser level (volume.level), or raise the memory budget")
-    data = np.asarray(target[...])
+    return (target, axes, transforms, name, coarser) if with_levels else (target, axes, transforms, name)
+
+
+def zarr_layout(path: Path, array: str | None = None, level: int | None = None):
+    """The chosen array and its coarser levels, unread (:func:`open_zarr` ``with_levels``), for reading in part."""
+    return open_zarr(path, array, level, with_levels=True)
+
+
+def zarr_plan(shape, axes, transforms, name):
+    """How to turn an array of ``shape`` into the volume ``[z, y, x]``: ``(index, order, spacing, origin)``:
+    ``array[index]`` drops the axes of size 1 that are not spatial, ``np.transpose(_, order)`` orders the
+    spatial ones z, y, x; spacing and origin (x first) come from the OME transforms (None without
+    ``axes``: a bare array's leading axes of size 1 are dropped, nothing is transposed)."""
     if axes is None:
-        while data.ndim > 3 and data.shape[0] == 1:
-            data = data[0]
-        if data.ndim != 3:
-            raise VolumeError(f"{name}: the array has shape {target.shape}; a volume needs 3 dimensions (z, y, x)")
-        return RawArray(data)
-    return _by_axes(data, axes, transforms, name)
-
-
+        drop = 0
+        while len(shape) - drop > 3 and shape[drop] == 1:
+            drop += 1
+        if len(shape) - drop != 3:
+            raise VolumeError(f"{name}: the array has shape {tuple(shape)}; a volume needs 3 dimensions (z, y, x)")
+        return (0,) * drop + (slice(None),) * 3, (0, 1, 2), None, None
+    return _by_axes(shape, axes, transforms, name)
 def _member(group, array, name):
     arrays = dict(sorted(group.arrays()))
     if array is not None:
@@ -98,9 +122,9 @@ def _level(group, multiscale, level, name):
     return group[datasets[level]["path"]], list(zip(names, types)), transforms
 
 
-def _by_axes(data, axes, transforms, name):
-    if len(axes) != data.ndim:
-        raise VolumeError(f"{name}: {len(axes)} axes for an array of {data.ndim} dimensions; fix the metadata")
+def _by_axes(shape, axes, transforms, name):
+    if len(axes) != len(shape):
+        raise VolumeError(f"{name}: {len(axes)} axes for an array of {len(shape)} dimensions; fix the metadata")
     names = [n.lower() for n, _ in axes]
     scale, shift = np.ones(len(axes)), np.zeros(len(axes))
     for t in transforms:
@@ -110,7 +134,7 @@ def _by_axes(data, axes, transforms, name):
         elif t.get("type") == "translation":
             shift = shift + np.asarray(t["translation"], dtype=np.float64)
     index = []
-    for (axis, kind), size in zip(axes, data.shape):
+    for (axis, kind), size in zip(axes, shape):
         if axis.lower() in SPATIAL:
             index.append(slice(None))
         elif size == 1:
@@ -123,11 +147,9 @@ def _by_axes(data, axes, transforms, name):
     missing = [a for a in SPATIAL if a not in names]
     if missing:
         raise VolumeError(f"{name}: the axes {names} name no {', '.join(missing)} axis; a volume needs z, y and x")
-    data = data[tuple(index)]
     kept = [n for n in names if n in SPATIAL]
-    order = [kept.index(a) for a in SPATIAL]
-    data = np.transpose(data, order)  # by name: [z, y, x]
+    order = tuple(kept.index(a) for a in SPATIAL)  # by name: [z, y, x]
     at = {n: i for i, n in enumerate(names)}
     spacing = check_spacing([scale[at[a]] for a in ("x", "y", "z")], name, "the scale coordinateTransformation")
     origin = tuple(float(shift[at[a]]) for a in ("x", "y", "z"))
-    return RawArray(np.ascontiguousarray(data), spacing, origin)
+    return tuple(index), order, spacing, origin
