@@ -19,11 +19,12 @@ from . import bench as bench_cmd
 from . import completion as completion_cmd
 from . import info as info_cmd
 from . import progress as feedback
+from . import pyramid as pyramid_cmd
 from . import render as render_cmd
 from . import view as view_cmd
 
 SUBCOMMANDS = {"render": render_cmd, "view": view_cmd, "info": info_cmd, "bench": bench_cmd,
-               "completion": completion_cmd}
+               "completion": completion_cmd, "pyramid": pyramid_cmd}
 
 
 class OneLineParser(argparse.ArgumentParser):
