@@ -1,0 +1,397 @@
+"""The out-of-core data layer (dvr_gl.out_of_core): every source reads exactly the voxels slicing the
+array in memory gives, block ranges equal brute force, the sidecar is written once and recomputed
+when the data changes, NaN is refused as Volume refuses it, volume.out_of_core chooses, and reading
+every brick of a file 4x the memory budget keeps the peak resident memory within the budget."""
+
+import gzip
+import json
+import pickle
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+from dvr_gl.errors import SceneError, VolumeError
+from dvr_gl.fields.grid import Volume
+from dvr_gl.io import load_volume
+from dvr_gl.out_of_core import (
+    ArraySource,
+    BlockRanges,
+    ByteLRU,
+    OutOfCoreVolume,
+    RawSource,
+    ZarrSource,
+    open_volume,
+    write_synthetic_raw,
+)
+from dvr_gl.out_of_core import ranges as ranges_module
+from dvr_gl.out_of_core.synthetic import synthetic_slab
+
+RNG = np.random.default_rng(22)
+DIMS = (37, 29, 23)  # x, y, z: no axis a multiple of the blocks or chunks used below
+DATA = RNG.integers(0, 60000, size=DIMS[::-1], dtype=np.uint16)  # [z, y, x]
+BOXES = [((0, 0, 0), DIMS), ((0, 0, 0), (1, 1, 1)), ((36, 28, 22), (1, 1, 1)), ((3, 5, 7), (11, 2, 9)),
+         ((0, 10, 4), (37, 1, 19)), ((30, 0, 0), (7, 29, 23)), ((5, 6, 0), (32, 23, 1)), ((1, 0, 2), (36, 29, 3))]
+
+
+def sliced(data, lo, dims):
+    (x0, y0, z0), (nx, ny, nz) = lo, dims
+    return data[z0:z0 + nz, y0:y0 + ny, x0:x0 + nx]
+
+
+def check_reads(source_or_volume, data):
+    for lo, dims in BOXES:
+        got = source_or_volume.read(lo, dims)
+        want = sliced(data, lo, dims)
+        assert got.flags.c_contiguous and got.dtype == want.dtype.newbyteorder("=") and got.dtype.isnative
+        np.testing.assert_array_equal(got, want, err_msg=f"box {lo} {dims}")
+
+
+# --- sources ----------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("order", ["little", "big"])
+def test_raw_source_reads_every_box_after_a_header(tmp_path, order):
+    path = tmp_path / "v.raw"
+    path.write_bytes(b"H" * 123 + DATA.astype(DATA.dtype.newbyteorder("<" if order == "little" else ">")).tobytes())
+    source = RawSource(path, DIMS, "uint16", offset=123, byteorder=order)
+    assert source.dims == DIMS and source.dtype == np.uint16 and source.nbytes == DATA.nbytes
+    check_reads(source, DATA)
+    got = source.read((1, 2, 3), (4, 5, 6))
+    got[...] = 0  # the caller's own copy
+    np.testing.assert_array_equal(source.read((1, 2, 3), (4, 5, 6)), sliced(DATA, (1, 2, 3), (4, 5, 6)))
+
+
+def test_raw_source_window_smaller_than_a_plane(tmp_path, monkeypatch):
+    """A plane larger than the mapped window is read over several windows, rows at a time."""
+    from dvr_gl.out_of_core import sources
+
+    monkeypatch.setattr(sources, "MAP_WINDOW", 3 * DIMS[0] * 2)  # three rows of uint16
+    path = tmp_path / "v.raw"
+    DATA.tofile(path)
+    check_reads(RawSource(path, DIMS, np.uint16), DATA)
+
+
+def test_raw_source_converts_as_volume_does(tmp_path):
+    """int8 becomes int16 and float64 float32, as Volume's to_scalar_type does."""
+    data = RNG.integers(-128, 127, size=(4, 5, 6), dtype=np.int8)
+    data.tofile(tmp_path / "i8.raw")
+    source = RawSource(tmp_path / "i8.raw", (6, 5, 4), "int8")
+    assert source.dtype == np.int16
+    np.testing.assert_array_equal(source.read((0, 0, 0), (6, 5, 4)), data.astype(np.int16))
+
+
+def test_raw_source_refuses_a_short_file_and_a_box_outside(tmp_path):
+    DATA.tofile(tmp_path / "v.raw")
+    with pytest.raises(VolumeError, match="check dims, dtype and offset"):
+        RawSource(tmp_path / "v.raw", DIMS, "uint16", offset=2)
+    source = RawSource(tmp_path / "v.raw", DIMS, "uint16")
+    with pytest.raises(VolumeError, match=r"is not inside the volume's \[37, 29, 23\] voxels"):
+        source.read((30, 0, 0), (8, 1, 1))
+
+
+def nrrd_header(extra=""):
+    return (f"NRRD0004\ntype: uint16\ndimension: 3\nsizes: {DIMS[0]} {DIMS[1]} {DIMS[2]}\nendian: big\n"
+            f"encoding: raw\nspace directions: (0.5,0,0) (0,0.25,0) (0,0,2)\nspace origin: (1,2,3)\n{extra}")
+
+
+def test_nrrd_attached_and_detached_offsets(tmp_path):
+    big = DATA.astype(">u2").tobytes()
+    attached = tmp_path / "a.nrrd"
+    attached.write_bytes((nrrd_header("byte skip: 5\n") + "\n").encode() + b"\0" * 5 + big)
+    detached = tmp_path / "d.nhdr"
+    detached.write_text(nrrd_header("data file: d.data\nline skip: 2\nbyte skip: 3\n"))
+    (tmp_path / "d.data").write_bytes(b"first line\nsecond\n" + b"xyz" + big)
+    tail = tmp_path / "t.nhdr"
+    tail.write_text(nrrd_header("data file: t.data\nbyte skip: -1\n"))
+    (tmp_path / "t.data").write_bytes(b"anything" * 7 + big)
+    for path in (attached, detached, tail):
+        v = open_volume(path, out_of_core=True)
+        whole = load_volume(path)
+        assert isinstance(v, OutOfCoreVolume) and v.out_of_core and not whole.out_of_core
+        assert (v.dims, v.spacing, v.origin, v.direction, v.dtype) == \
+               (whole.dims, whole.spacing, whole.origin, whole.direction, whole.dtype)
+        assert v.value_range == whole.value_range
+        check_reads(v, DATA)
+
+
+def test_metaimage_mhd_and_mha(tmp_path):
+    head = (f"NDims = 3\nDimSize = {DIMS[0]} {DIMS[1]} {DIMS[2]}\nElementType = MET_USHORT\n"
+            f"BinaryDataByteOrderMSB = False\nElementSpacing = 0.5 1 2\nOffset = 4 5 6\n")
+    (tmp_path / "v.mhd").write_text(head + "HeaderSize = 16\nElementDataFile = v.raw\n")
+    (tmp_path / "v.raw").write_bytes(b"\0" * 16 + DATA.astype("<u2").tobytes())
+    (tmp_path / "l.mha").write_bytes((head + "ElementDataFile = LOCAL\n").encode() + DATA.astype("<u2").tobytes())
+    for name in ("v.mhd", "l.mha"):
+        v = open_volume(tmp_path / name)
+        assert v.spacing == (0.5, 1.0, 2.0) and v.origin == (4.0, 5.0, 6.0)
+        check_reads(v, DATA)
+
+
+def test_formats_that_cannot_be_read_in_part(tmp_path):
+    """true refuses in one line, saying what to convert to; auto loads them whole."""
+    path = tmp_path / "g.nrrd"
+    path.write_bytes((nrrd_header().replace("encoding: raw", "encoding: gzip") + "\n").encode()
+                     + gzip.compress(DATA.astype(">u2").tobytes()))
+    with pytest.raises(VolumeError) as err:
+        open_volume(path, out_of_core=True)
+    assert "\n" not in str(err.value) and "gzip-encoded NRRD data cannot be read in part" in str(err.value) \
+        and "raw encoding" in str(err.value) and "zarr" in str(err.value)
+    whole = open_volume(path, out_of_core="auto", memory_budget_mb=1e-3)
+    assert isinstance(whole, Volume)
+    np.save(tmp_path / "v.npy", DATA)
+    with pytest.raises(VolumeError, match="npy files are read whole, not in part; convert the volume to raw"):
+        open_volume(tmp_path / "v.npy", out_of_core=True)
+    assert isinstance(open_volume(tmp_path / "v.npy", out_of_core="auto", memory_budget_mb=1e-3), Volume)
+
+
+zarr = pytest.importorskip("zarr", reason="zarr reads zarr stores (extra 'zarr')")
+
+
+@pytest.mark.parametrize("fmt", [2, 3])
+def test_zarr_source_odd_chunks(tmp_path, fmt):
+    store = tmp_path / f"v{fmt}.zarr"
+    array = zarr.create_array(str(store), shape=DATA.shape, chunks=(5, 7, 3), dtype=DATA.dtype, zarr_format=fmt)
+    array[...] = DATA
+    source = ZarrSource(zarr.open_array(str(store), mode="r"))
+    assert source.dims == DIMS and source.chunks == (5, 7, 3)
+    check_reads(source, DATA)
+    v = open_volume(store, out_of_core=True)
+    check_reads(v, DATA)
+    check_reads(pickle.loads(pickle.dumps(v)), DATA)  # the store reopened by its path
+
+
+def test_ome_zarr_axes_by_name_and_levels(tmp_path):
+    """Axes stored x, z, y behind a time axis of size 1; the coarser levels open lazily, fine to coarse,
+    each with its own spacing and origin, equal to what load_volume reads of that level."""
+    from test_io_zarr import write_ome
+
+    path = write_ome(tmp_path / "i.ome.zarr", DATA, axes=("x", "z", "y"), extra=(("t", 1),), levels=3)
+    v = open_volume(path, out_of_core=True)
+    assert v.spacing == (0.5, 0.75, 2.0) and v.origin == (30.0, 20.0, 10.0)
+    check_reads(v, DATA)
+    assert len(v.levels) == 2 and all(level._ranges is None for level in v.levels)  # not computed yet
+    for k, level in enumerate(v.levels, start=1):
+        whole = load_volume(path, level=k)
+        assert (level.dims, level.spacing, level.origin) == (whole.dims, whole.spacing, whole.origin)
+        np.testing.assert_array_equal(level.read((0, 0, 0), level.dims), whole.data)
+        assert level.value_range == whole.value_range and level.cache is v.cache
+
+
+def test_array_source_and_volume_interface():
+    v = OutOfCoreVolume(ArraySource(DATA), spacing=(1, 2, 3), origin=(4, 5, 6), memory_budget_mb=1)
+    whole = Volume(DATA, spacing=(1, 2, 3), origin=(4, 5, 6))
+    check_reads(v, DATA)
+    for lo, hi in zip(v.box, whole.box):
+        np.testing.assert_array_equal(lo, hi)
+    assert v.kind == "grid" and v.nbytes == whole.nbytes and v.levels == () and v.sample_spacing == 1.0
+    np.testing.assert_array_equal(v.world_to_texture([[4, 5, 6]]), whole.world_to_texture([[4, 5, 6]]))
+    assert v.value_range == whole.value_range and "read out of core" in v.describe()
+    assert not v.read((0, 0, 0), (2, 2, 2)).flags.writeable  # the cache's own array
+
+
+# --- block ranges -----------------------------------------------------------------------------------
+
+def test_block_ranges_equal_brute_force():
+    source = ArraySource(DATA)
+    b = 8
+    # tiles of 2 x 1 blocks of x: the pass splits x and y as well as z
+    ranges = BlockRanges.compute(source, block=b, slab_bytes=2 * b * b * b * 2)
+    assert ranges.shape == (3, 4, 5)
+    for kz, ky, kx in np.ndindex(ranges.shape):
+        block = DATA[kz * b:(kz + 1) * b, ky * b:(ky + 1) * b, kx * b:(kx + 1) * b]
+        assert (ranges.mins[kz, ky, kx], ranges.maxs[kz, ky, kx]) == (block.min(), block.max())
+    assert ranges.value_range == (DATA.min(), DATA.max())
+    for lo, dims in BOXES:
+        box = sliced(DATA, lo, dims)
+        lo_v, hi_v = ranges.range_of(lo, dims)
+        assert lo_v <= box.min() and hi_v >= box.max()  # conservative
+        whole_blocks = sliced(DATA, [a // b * b for a in lo], [(a + n - 1) // b * b + b - a // b * b
+                                                               for a, n in zip(lo, dims)])
+        assert (lo_v, hi_v) == (whole_blocks.min(), whole_blocks.max())  # and exactly the blocks' union
+    assert ranges.range_of((8, 8, 8), (8, 8, 8)) == (DATA[8:16, 8:16, 8:16].min(), DATA[8:16, 8:16, 8:16].max())
+
+
+def raw_volume(tmp_path, data=DATA, name="v.raw", **kwargs):
+    path = tmp_path / name
+    data.tofile(path)
+    return path, (lambda: OutOfCoreVolume(RawSource(path, data.shape[::-1], data.dtype, **kwargs),
+                                          memory_budget_mb=1))
+
+
+def test_sidecar_written_once_reused_and_recomputed(tmp_path, monkeypatch):
+    path, opened = raw_volume(tmp_path)
+    computed = []
+    compute = BlockRanges.compute.__func__
+    monkeypatch.setattr(BlockRanges, "compute", classmethod(lambda cls, *a, **k: computed.append(1) or
+                                                            compute(cls, *a, **k)))
+    v = opened()
+    sidecar = tmp_path / "v.raw.dvr-ranges.npz"
+    assert v.ranges.sidecar == sidecar and sidecar.is_file() and len(computed) == 1
+    key = json.loads(str(np.load(sidecar)["key"]))
+    assert key["size"] == DATA.nbytes and key["block"] == 32 and key["dims"] == list(DIMS)
+    again = opened()
+    assert len(computed) == 1 and again.value_range == (DATA.min(), DATA.max())
+    changed = DATA.copy()
+    changed[3, 4, 5] = 65535
+    changed.tofile(path)  # the same size: the modification time tells
+    import os
+
+    os.utime(path, ns=(0, os.stat(sidecar).st_mtime_ns + 10 ** 9))
+    assert opened().value_range == (DATA.min(), 65535) and len(computed) == 2
+    assert opened().value_range == (DATA.min(), 65535) and len(computed) == 2
+
+
+def test_sidecar_in_the_cache_folder_when_the_data_folder_is_read_only(tmp_path, monkeypatch):
+    path, opened = raw_volume(tmp_path)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    real = ranges_module.tempfile.mkstemp
+
+    def refuse_beside(prefix, suffix, dir):
+        if str(dir) == str(tmp_path):
+            raise PermissionError(13, "read-only folder")
+        return real(prefix=prefix, suffix=suffix, dir=dir)
+
+    monkeypatch.setattr(ranges_module.tempfile, "mkstemp", refuse_beside)
+    v = opened()
+    assert v.ranges.sidecar.parent == tmp_path / "cache" / "dvr-gl" / "ranges"
+    assert not (tmp_path / "v.raw.dvr-ranges.npz").exists()
+    assert opened().ranges.sidecar == v.ranges.sidecar  # found there again
+
+
+def test_nan_refused_as_volume_refuses_it_or_replaced(tmp_path):
+    data = RNG.random((9, 10, 11), dtype=np.float32)
+    data[2, 3, 4] = np.nan
+    data[8, 9, 10] = np.inf
+    path, opened = raw_volume(tmp_path, data, "f.raw")
+    with pytest.raises(VolumeError) as err:
+        opened()
+    with pytest.raises(VolumeError) as same:
+        Volume(data, name="f.raw")
+    assert str(err.value) == str(same.value) and "volume.nan_value" in str(err.value)
+    with pytest.raises(VolumeError, match="2 NaN or Inf values"):  # again, from the sidecar
+        opened()
+    v = OutOfCoreVolume(RawSource(path, (11, 10, 9), np.float32, nan_value=-1.0), memory_budget_mb=1)
+    assert v.value_range == (-1.0, float(np.nanmax(np.where(np.isfinite(data), data, np.nan))))
+    assert v.read((4, 3, 2), (1, 1, 1))[0, 0, 0] == -1.0 and np.isfinite(v.read((0, 0, 0), (11, 10, 9))).all()
+    assert open_volume(path, dims=(11, 10, 9), dtype="float32", nan_value=5.0).read((10, 9, 8), (1, 1, 1)) == 5.0
+
+
+# --- the volume ---------------------------------------------------------------------------------------
+
+def test_data_is_refused_in_one_line(tmp_path):
+    _, opened = raw_volume(tmp_path)
+    with pytest.raises(SceneError) as err:
+        opened().data
+    text = str(err.value)
+    assert "\n" not in text and "read out of core" in text and "raycast" in text and "memory_budget_mb" in text
+
+
+def test_pickles_small_and_reopens(tmp_path):
+    _, opened = raw_volume(tmp_path)
+    v = opened()
+    v.read((0, 0, 0), DIMS)  # something in the cache, which does not travel
+    blob = pickle.dumps(v)
+    assert len(blob) < 4000 < DATA.nbytes  # the ranges (2 x 2 blocks) and the path, no voxels
+    back = pickle.loads(blob)
+    assert len(back.cache) == 0 and back.value_range == v.value_range
+    check_reads(back, DATA)
+
+
+def test_lru_by_bytes():
+    cache = ByteLRU(100)
+    a, b, c = (np.zeros(40, np.uint8) for _ in range(3))
+    cache.put("a", a)
+    cache.put("b", b)
+    assert cache.get("a") is a  # a is now the most recent: b goes first
+    cache.put("c", c)
+    assert "b" not in cache and cache.get("a") is a and cache.get("c") is c and cache.nbytes == 80
+    cache.put("huge", np.zeros(101, np.uint8))  # larger than the whole cache: not kept
+    assert "huge" not in cache and cache.nbytes == 80 and cache.evicted == 1
+
+
+# --- volume.out_of_core in scenes -------------------------------------------------------------------------
+
+def test_scene_key_auto_true_false(tmp_path):
+    from dvr_gl.scene import _resolve_volume, parse_scene, resolve_scene
+
+    path, _ = raw_volume(tmp_path)
+    base = {"path": str(path), "dims": list(DIMS), "dtype": "uint16"}
+    small = DATA.nbytes / 2 ** 20 / 2  # MB: half the voxels
+    for choice, budget, out in (("auto", small, True), ("auto", 4096, False), (True, 4096, True),
+                                (False, small, False)):
+        spec = parse_scene({"volume": {**base, "out_of_core": choice}}).volume
+        volume, _ = _resolve_volume(spec, tmp_path, budget)
+        assert volume.out_of_core is out, (choice, budget)
+        np.testing.assert_array_equal(volume.read((1, 2, 3), (4, 5, 6)), sliced(DATA, (1, 2, 3), (4, 5, 6)))
+    scene = resolve_scene(parse_scene({"volume": {**base, "out_of_core": True}}), tmp_path)
+    assert scene.field.out_of_core and scene.to_dict()["volume"]["out_of_core"] is True
+    with pytest.raises(SceneError, match="volume.out_of_core: expected true or false or a string"):
+        parse_scene({"volume": {**base, "out_of_core": 1}})
+    with pytest.raises(SceneError, match="volume.out_of_core must be auto, true or false"):
+        parse_scene({"volume": {**base, "out_of_core": "yes"}})
+    with pytest.raises(SceneError, match="demo 'blobs' is made in memory"):
+        resolve_scene(parse_scene({"volume": {"demo": "blobs", "out_of_core": True}}), tmp_path)
+
+
+# --- synthetic volumes and bounded memory -----------------------------------------------------------------
+
+def test_synthetic_volume_written_in_slabs(tmp_path):
+    dims = (40, 30, 20)
+    header = write_synthetic_raw(tmp_path / "s.raw", dims, "uint16", slab_bytes=4 * 40 * 30 * 3)  # 3 planes a slab
+    whole = synthetic_slab(dims, 0, 20, "uint16")
+    v = load_volume(header)
+    np.testing.assert_array_equal(v.data, whole)
+    # empty space, and blobs that peak near 1 (0.9 here: 20 planes sample the first blob off its centre)
+    assert (whole == 0).mean() > 0.5 and whole.max() > 0.85 * 65535
+    assert not (tmp_path / "s.raw.partial").exists()
+
+
+RSS_SCRIPT = textwrap.dedent("""
+    import sys
+    import numpy as np
+    from dvr_gl.out_of_core import OutOfCoreVolume, RawSource
+
+    def status(key):  # KiB
+        return int(next(line.split()[1] for line in open("/proc/self/status") if line.startswith(key)))
+
+    path, n, budget = sys.argv[1], int(sys.argv[2]), float(sys.argv[3])
+    # the imports' own peak (larger than their resident memory) would hide the work's: start a new peak here
+    with open("/proc/self/clear_refs", "w") as fh:
+        fh.write("5")
+    baseline = status("VmRSS:")
+    v = OutOfCoreVolume(RawSource(path, (n, n, n), "uint8"), memory_budget_mb=budget, sidecar=False)
+    b = 64
+    for z in range(0, n, b):
+        for y in range(0, n, b):
+            for x in range(0, n, b):
+                v.read((x, y, z), (min(b, n - x), min(b, n - y), min(b, n - z))).sum(dtype=np.int64)
+    assert v.cache.nbytes <= budget * 2 ** 20 / 2
+    if sys.argv[4] == "whole":  # the control: the same after loading the file whole
+        whole = np.fromfile(path, np.uint8)
+    print(baseline, status("VmHWM:"))
+""")
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="peak RSS as Linux counts it (/proc/self/status)")
+def test_peak_memory_within_the_budget_reading_a_file_four_times_larger(tmp_path):
+    """A 256 MiB file (640^3 uint8) with a 64 MiB budget: computing its block ranges and reading every 64^3
+    brick through the cache raises the peak RSS (VmHWM, which counts a mapped file's touched pages, as
+    /usr/bin/time -v does) above the RSS before the work by at most the budget plus 32 MiB: a mapped
+    window (16 MiB, MAP_WINDOW), the brick being read and numpy's temporaries.  The control, loading the
+    file whole in the same script, must break that bound (or the measurement measures nothing)."""
+    n, budget = 640, 64
+    path = write_synthetic_raw(tmp_path / "big.raw", (n, n, n), "uint8", header=False)
+
+    def growth(mode):
+        out = subprocess.run([sys.executable, "-c", RSS_SCRIPT, str(path), str(n), str(budget), mode],
+                             capture_output=True, text=True)
+        if "clear_refs" in out.stderr:
+            pytest.skip("this kernel does not let a process reset its peak RSS (/proc/self/clear_refs)")
+        assert out.returncode == 0, out.stderr
+        baseline, peak = map(int, out.stdout.split())
+        return (peak - baseline) / 1024  # MiB
+
+    grown = growth("bricks")
+    assert grown <= budget + 32, grown
+    assert growth("whole") > budget + 32 + 128  # the 256 MiB of voxels show
