@@ -89,3 +89,115 @@ def test_transparent_finds_every_opaque_value_of_the_range():
     assert not transparent(tf, 49.5, 50.1, grid)   # widened to 49 .. 51: the spike is in
     assert transparent(tf, 52.0, 100.0, grid)
     assert not transparent(tf, 51.2, 52.0, [((0.0, 100.0), 11)])  # coarse nodes 50 .. 60 take the spike in
+
+
+# --- images -------------------------------------------------------------------------------------------
+
+from dvr_gl.api import scene_of  # noqa: E402
+from dvr_gl.errors import SceneError  # noqa: E402
+from dvr_gl.fields.grid import Volume  # noqa: E402
+from dvr_gl.out_of_core import open_volume, write_synthetic_raw  # noqa: E402
+from dvr_gl.renderers.raycast.renderer import RayCastRenderer  # noqa: E402
+
+# The synthetic volume's shell has 0.5 of the range (32767), its blobs up to 1: a transfer function
+# from 40000 up shows the blobs only, so the bricks the shell alone crosses are empty.
+BLOBS_ONLY = [[0, 0, 0, 0, 0], [40000, 0, 0, 0, 0], [50000, 1, 0.8, 0.5, 0.3], [65535, 1, 1, 1, 0.9]]
+SHELL_TOO = [[0, 0, 0, 0, 0], [10000, 0, 0, 0, 0], [30000, 1, 0.8, 0.5, 0.3], [65535, 1, 1, 1, 0.9]]
+
+
+@pytest.fixture(scope="module")
+def synthetic(tmp_path_factory):
+    """A 70x64x60 uint16 synthetic volume on disk, read out of core and in memory."""
+    nhdr = write_synthetic_raw(tmp_path_factory.mktemp("ooc") / "s.raw", (70, 64, 60), "uint16")
+    return open_volume(nhdr, out_of_core=True, memory_budget_mb=1), open_volume(nhdr, out_of_core=False)
+
+
+@pytest.fixture(scope="module")
+def raycaster():
+    with RayCastRenderer() as r:
+        yield r
+
+
+# Bricks of at most 0.05 MB (27 or more) in both: the volume in memory is bricked by the texture budget,
+# the one out of core by the smaller of it and an eighth of the memory budget; the same plan, so the
+# same textures and the same passes: the images must be equal bit for bit.
+CASES = [dict(compositing="emission_absorption"), dict(compositing="emission_absorption", acceleration="on"),
+         dict(compositing="emission_absorption", classification="preintegrated"),
+         dict(compositing="emission_absorption", classification="pre"),
+         dict(compositing="emission_absorption", shading=True),
+         dict(compositing="mip"), dict(compositing="mip", acceleration="on"), dict(compositing="xray"),
+         dict(compositing="isosurface", iso_value=30000.0)]
+
+
+@pytest.mark.parametrize("settings", CASES, ids=lambda c: "-".join(str(v) for v in c.values()))
+@pytest.mark.parametrize("tf", [BLOBS_ONLY, SHELL_TOO], ids=["blobs", "shell"])
+def test_out_of_core_renders_as_in_memory(synthetic, raycaster, settings, tf):
+    out_of_core, in_memory = synthetic
+    scene = scene_of(in_memory, size=(48, 40), transfer_function=tf, texture_budget_mb=0.05, **settings)
+    expected = raycaster.render(scene)
+    bricks = raycaster.stats["bricks"]
+    assert bricks >= 27  # 27 at least (more where segments reach further: wider ghosts, smaller cores)
+    image = raycaster.render(scene.replace(volume=out_of_core, camera=scene.camera))
+    assert np.array_equal(image, expected)
+    assert expected[..., 3].max() > 0.05  # something is drawn
+    empty = raycaster.stats.get("bricks_empty") or 0
+    assert raycaster.stats["bricks"] + empty == bricks
+    if tf is BLOBS_ONLY and settings["compositing"] in ("emission_absorption", "xray"):
+        assert empty >= 9  # the shell's bricks were neither read nor drawn
+    else:
+        assert not empty
+
+
+def test_out_of_core_refusals_are_one_line(synthetic):
+    import dvr_gl
+
+    out_of_core, _ = synthetic
+    with pytest.raises(SceneError, match=r"slicing3d needs the voxels in memory.*use raycast") as err:
+        dvr_gl.render(out_of_core, renderer="slicing3d", size=(16, 16))
+    assert "\n" not in str(err.value)
+    with pytest.raises(SceneError, match="gradient = 'central'"):
+        dvr_gl.render(out_of_core, size=(16, 16), shading=True, gradient="texture")
+
+
+def linear_with_level():
+    """A linear field and its level 1 (every other sample: exact for a linear field under trilinear
+    interpolation), over the same box (odd sample counts)."""
+    z, y, x = np.mgrid[0:33, 0:41, 0:37].astype(np.float32)
+    data = (0.3 * x + 0.2 * y + 0.5 * z).astype(np.float32)
+    fine = Volume(data, spacing=(1.0, 1.2, 0.9))
+    coarse = Volume(data[::2, ::2, ::2].copy(), spacing=(2.0, 2.4, 1.8))
+    return fine, fine.with_levels([coarse])
+
+
+@pytest.mark.parametrize("compositing", ["emission_absorption", "mip"])
+def test_a_coarse_level_of_a_linear_field_renders_as_the_fine_one(raycaster, compositing):
+    """Bricks drawn from level 1 own the same samples (by level-0 coordinates) and, the field being
+    linear, sample the same values: the image equals the fine volume's to float32 rounding (measured
+    1.2e-7; 1e-6 allows for the different texture coordinates' rounding)."""
+    fine, with_level = linear_with_level()
+    tf = [[0, 0, 0, 0, 0], [60, 1, 0.5, 0.2, 0.05]]
+    scene = scene_of(fine, size=(64, 48), compositing=compositing, transfer_function=tf, ert_threshold=1.0)
+    expected = raycaster.render(scene)
+    levelled = scene.replace(volume=with_level, camera=scene.camera).with_renderer(screen_space_error=1e6)
+    image = raycaster.render(levelled)
+    assert raycaster.stats["brick_levels"] == [0, 1]
+    assert np.abs(image - expected).max() < 1e-6
+    raycaster.render(levelled.with_renderer(screen_space_error=0.0))
+    assert raycaster.stats["brick_levels"] == [1, 0]
+
+
+def test_smaller_frames_choose_coarser_levels(raycaster):
+    """The level follows the frame's pixels: the viewer's interactive frames (fewer pixels) draw from
+    coarser levels than the full frame it refines to when idle."""
+    from dvr_gl.multires import build_levels
+
+    rng = np.random.default_rng(1)
+    fine = Volume(rng.random((64, 64, 64)).astype(np.float32))
+    volume = fine.with_levels(build_levels(fine))
+    scene = scene_of(volume, size=(256, 256), transfer_function=[[0, 0, 0, 0, 0], [1, 1, 1, 1, 0.2]])
+    raycaster.render(scene)
+    full = raycaster.stats["brick_levels"]
+    raycaster.render(scene.replace(image=scene.image.__class__(width=32, height=32)))
+    small = raycaster.stats["brick_levels"]
+    mean = lambda counts: np.dot(counts, np.arange(len(counts))) / sum(counts)  # noqa: E731
+    assert mean(small) > mean(full)

@@ -51,8 +51,10 @@ def frame_views(renderer, scene, defines: dict, views: list) -> tuple[list, dict
     if volume.levels and views:
         from ...multires.lod import choose_levels
 
-        chosen = choose_levels([v.brick for v in views], volume, scene.camera, scene.image.width,
-                               scene.image.height, r.screen_space_error)
+        chosen = [0] * len(views)  # screen_space_error 0: always the finest
+        if r.screen_space_error > 0:
+            chosen = choose_levels([v.brick for v in views], [volume, *volume.levels], scene.camera,
+                                   scene.image.width, scene.image.height, r.screen_space_error)
         views = [renderer.level_view(scene, v, k) for v, k in zip(views, chosen)]
         stats["brick_levels"] = np.bincount(np.asarray(chosen, dtype=int), minlength=len(volume.levels) + 1).tolist()
     return views, stats
