@@ -23,8 +23,8 @@ from ... import rays as rays_mod
 from ...fields import diagonal
 from ...gl.geometry import gl_matrix, projection_matrix, view_matrix
 from ...gl.shaders import create_program
-from ...settings import shadow_step
 from ...orientation import volume_frame_scene
+from ...settings import shadow_step
 from .. import registry
 from ..grid.bricking import ghost_width, plan_bricks, visibility_order
 from ..grid.gl_base import GLVolumeRenderer, GridView, _same, classification_features, now
