@@ -206,17 +206,20 @@ class TextureLRU:
 
     def __init__(self, budget: int = 0):
         self.budget, self.used, self.uploaded, self.hits, self.misses = budget, 0, 0, 0, 0
-        self._entries: "OrderedDict[tuple, tuple[dict, int]]" = OrderedDict()
+        self._entries: "OrderedDict[tuple, tuple[dict, int, tuple]]" = OrderedDict()
 
-    def get(self, key: tuple, make) -> dict:
-        """The textures under ``key``, or ``make() -> (textures, bytes)`` made and kept."""
+    def get(self, key: tuple, make, alive=()) -> dict:
+        """The textures under ``key``, or ``make() -> (textures, bytes)`` made and kept; ``alive``: the
+        objects whose ``id`` the key holds, referenced by the entry so that no other object takes an
+        id while it is cached."""
         entry = self._entries.pop(key, None)
         if entry is None:
             self.misses += 1
             self._evict_for(0)
-            entry = make()
-            self.uploaded += entry[1]
-            self.used += entry[1]
+            textures, size = make()
+            entry = (textures, size, alive)
+            self.uploaded += size
+            self.used += size
         else:
             self.hits += 1
         self._entries[key] = entry
@@ -228,7 +231,7 @@ class TextureLRU:
             key = next(iter(self._entries))
             if key == keep:
                 break
-            textures, size = self._entries.pop(key)
+            textures, size, _ = self._entries.pop(key)
             for tex in textures.values():
                 _release(tex)
             self.used -= size
@@ -394,7 +397,7 @@ class GLVolumeRenderer(Renderer):
             return out, voxels.size * (FORMATS[voxels.dtype][3] + 16 * classify)
 
         self.bricks.budget = int(r.texture_budget_mb * 2 ** 20)
-        return self.bricks.get(key, make)
+        return self.bricks.get(key, make, alive=(grid, scene.transfer_function))
 
     def table_textures(self, scene, defines, slab_length: float) -> dict:
         r, tf = scene.renderer, scene.transfer_function
