@@ -7,6 +7,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import re
+import uuid
 
 from ..errors import DvrError
 
@@ -41,6 +42,7 @@ def connect(dask):
         # processes (one GL context each), one thread each: the renderer holds its process's context
         with distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
                                       silence_logs=logging.ERROR) as cluster, distributed.Client(cluster) as client:
+            client.wait_for_workers(n)  # every worker registered: the kd split counts them
             yield client
         return
     try:
@@ -50,6 +52,19 @@ def connect(dask):
                        f"local:N") from None
     with client:
         yield client
+
+
+def place(client, value, addresses: list, name: str) -> list:
+    """``value`` held on each worker (a future per address, in order): one small task each that
+    returns it, pinned.  (Not ``client.scatter(broadcast=True)``, which hung now and then on a
+    freshly started local cluster of four workers.)"""
+    token = uuid.uuid4().hex[:10]
+    return [client.submit(_hold, value, key=f"dvr-{name}-{i}-{token}", workers=[a], allow_other_workers=False,
+                          pure=False) for i, a in enumerate(addresses)]
+
+
+def _hold(value):
+    return value
 
 
 def workers_of(client) -> list[str]:

@@ -6,7 +6,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 
 from . import worker as w
-from .cluster import workers_of
+from .cluster import place, workers_of
 from .plan import check_scene
 
 
@@ -18,13 +18,13 @@ def render_frames(client, scene, cameras: list, ahead: int | None = None) -> Ite
     check_scene(scene)
     addresses = workers_of(client)
     ahead = ahead or 2 * len(addresses)
-    payload = client.scatter(w.payload_of(scene), broadcast=True, hash=True)
+    payload = place(client, w.payload_of(scene), addresses, "scene")
     pending = []
 
     def submit(k):
-        pending.append(client.submit(w.render_frame, payload, cameras[k], key=f"dvr-frame-{k}-{id(pending)}",
-                                     workers=[addresses[k % len(addresses)]], allow_other_workers=False,
-                                     pure=False))
+        i = k % len(addresses)
+        pending.append(client.submit(w.render_frame, payload[i], cameras[k], key=f"dvr-frame-{k}-{id(pending)}",
+                                     workers=[addresses[i]], allow_other_workers=False, pure=False))
 
     for k in range(min(ahead, len(cameras))):
         submit(k)

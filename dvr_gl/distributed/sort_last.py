@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import worker as w
-from .cluster import transfers, workers_of
+from .cluster import place, transfers, workers_of
 from .plan import check_method, plan
 
 BYTES_PER_PIXEL = 16  # a state is 4 float32 per pixel
@@ -70,7 +70,7 @@ def render(client, scene, method: str = "direct_send", renderer=None) -> Result:
         started = time.perf_counter()
         p = plan(renderer, scene, n)
         tag = uuid.uuid4().hex[:10]
-        payload = client.scatter(w.payload_of(scene), broadcast=True, hash=True)
+        payload = place(client, w.payload_of(scene), addresses, "scene")
         height, width = scene.image.height, scene.image.width
 
         def pinned(i, fn, *args, key):
@@ -78,7 +78,7 @@ def render(client, scene, method: str = "direct_send", renderer=None) -> Result:
                                  allow_other_workers=False, pure=False)
 
         stream = stack.enter_context(get_task_stream(client))
-        parts = [pinned(i, w.render_part, payload, p.bricks[i], p.operator, key=f"part-{i}") for i in range(n)]
+        parts = [pinned(i, w.render_part, payload[i], p.bricks[i], p.operator, key=f"part-{i}") for i in range(n)]
         if method == "direct_send":
             finals = _direct_send(pinned, parts, p, height, n)
         else:
