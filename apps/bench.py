@@ -19,6 +19,8 @@
                        45-degree study
   dvr bench scattering single scattering: shadow rays, the light volume and half-angle slicing, frame
                        time and error against reference-converged, the speed-up at equal error
+  dvr bench scale      frame time against Dask workers (and a model to N), time and memory against the
+                       volume's size, the multi-resolution error
   dvr bench peers      dvr-gl against VTK, vispy and pygfx (from a separate benchmark environment) on
                        the same scenes: frame time, error against the converged reference, ratios
 """
@@ -192,6 +194,12 @@ def add_arguments(p):
     sc.add_argument("--paths", type=int, default=64, help="Monte Carlo paths per pixel of the multiple-scattering "
                                                           "table (default 64; 0 leaves it out)")
     sc.add_argument("--paths-size", type=int, default=32, help="square image size of that table (default 32)")
+    sa = sub.add_parser("scale", help="scaling: frame time against the number of Dask workers (and a model to N "
+                                      "workers), time and peak memory against the volume's size, multi-resolution "
+                                      "error (docs/distributed.md, docs/out-of-core.md)")
+    sa.add_argument("--part", choices=("workers", "sizes", "levels", "all"), default="all",
+                    help="which measurement (default all)")
+    sa.add_argument("--out", dest="markdown", metavar="FILE", help="also write the tables as Markdown to FILE")
     for parser in sub.choices.values():
         parser.add_argument("--markdown", metavar="FILE", help="also write the tables as Markdown to FILE (the "
                                                                "measured tables in docs/ are written this way)")
@@ -241,13 +249,20 @@ def run(args) -> int:
     bench = {"raycast": run_raycast, "accel": run_accel, "quality": run_quality,
              "slicing": run_slicing, "renderers": run_renderers, "shearwarp": run_shearwarp,
              "tradeoff": run_tradeoff, "peers": run_peers, "cells": run_cells,
-             "splatting": run_splatting, "fourier": run_fourier, "scattering": run_scattering}[args.benchmark]
+             "splatting": run_splatting, "fourier": run_fourier, "scattering": run_scattering,
+             "scale": run_scale}[args.benchmark]
     with counting(f"dvr bench {args.benchmark}"):  # a bar of the frames measured, after a second
         code = bench(args)
     if args.markdown:
         write_text(Path(args.markdown), args.report.markdown(args.command_line), args.overwrite)
         _wrote(args, args.markdown)
     return code
+
+
+def run_scale(args) -> int:
+    from dvr_gl.bench import scale
+
+    return scale.run(args)
 
 
 def run_quality(args) -> int:
