@@ -206,3 +206,15 @@ def test_cli_dask(capsys, tmp_path):
     for i in range(2):
         a, b = (oiio.ImageBuf(str(tmp_path / f"{stem}_{i:04d}.exr")).get_pixels() for stem in ("single", "dask"))
         assert np.abs(a - b).max() <= EXACT
+
+
+def test_scaling_model_closed_form():
+    """docs/distributed.md's model at N = 4: render W/4; both methods receive 3/4 of the image's
+    bytes; direct send pays 3 latencies, binary swap 2; the gather one image and one latency."""
+    from dvr_gl.bench.scale import scaling_model
+
+    one, four = scaling_model(1.0, 100, 0.0, bandwidth=1600.0, latency=0.01, workers=(1, 4))
+    assert four["render"] == pytest.approx(0.25)
+    assert four["direct"] == pytest.approx(3 * 0.01 + 0.75) and four["swap"] == pytest.approx(2 * 0.01 + 0.75)
+    assert four["frame_swap"] == pytest.approx(0.25 + 0.77 + 1.01)
+    assert one["direct"] == one["swap"] == 0.0 and one["speedup"] == pytest.approx(1.0)
