@@ -8,6 +8,7 @@ import contextlib
 import logging
 import re
 import uuid
+import warnings
 
 from ..errors import DvrError
 
@@ -39,7 +40,9 @@ def connect(dask):
         n = int(local.group(1))
         if n < 1:
             raise DvrError(f"--dask {dask}: a local cluster needs at least 1 worker")
-        # processes (one GL context each), one thread each: the renderer holds its process's context
+        # processes (one GL context each), one thread each: the renderer holds its process's context;
+        # another cluster's HTTP port taken is no news to the user (this one takes another)
+        warnings.filterwarnings("ignore", message="Port .* is already in use", category=UserWarning)
         with distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
                                       silence_logs=logging.ERROR) as cluster, distributed.Client(cluster) as client:
             client.wait_for_workers(n)  # every worker registered: the kd split counts them
@@ -85,8 +88,8 @@ def _takes_n_workers(client) -> bool:
 def _log_of(prefix: str, dask_worker=None):
     """This worker's transfers of keys starting with ``prefix``: received from other workers
     (``incoming``: key, bytes, from whom) and sent (``outgoing``, to other workers or the client)."""
-    def entries(log):
-        return [(str(key), int(size), str(entry.get("who"))) for entry in log
+    def entries(log):  # (key, bytes, peer, seconds the whole message took)
+        return [(str(key), int(size), str(entry.get("who")), float(entry.get("duration", 0.0))) for entry in log
                 for key, size in entry.get("keys", {}).items() if str(key).startswith(prefix)]
     return {"incoming": entries(dask_worker.transfer_incoming_log),
             "outgoing": entries(dask_worker.transfer_outgoing_log)}
