@@ -153,11 +153,13 @@ def bytes_moved(log: dict, tag: str, addresses: list, method: str, image_bytes: 
     ``theory_per_worker`` = ``(N - 1) / N`` image for both methods (direct send: ``N - 1`` pieces
     of ``1/N``; binary swap: ``1/2 + ... + 1/N``), ``theory_to_client`` = one image."""
     n = len(addresses)
-    incoming = {a: sum(size for key, size, _ in log[a]["incoming"] if key.endswith(tag)) for a in addresses}
-    messages = {a: sum(1 for key, _, _ in log[a]["incoming"] if key.endswith(tag)) for a in addresses}
-    to_client = sum(size for a in addresses for key, size, who in log[a]["outgoing"]
-                    if key.endswith(tag) and key.startswith("dvr-band-") and who not in addresses)
+    incoming = {a: sum(e[1] for e in log[a]["incoming"] if e[0].endswith(tag)) for a in addresses}
+    messages = {a: sum(1 for e in log[a]["incoming"] if e[0].endswith(tag)) for a in addresses}
+    seconds = {a: sum(e[3] for e in log[a]["incoming"] if e[0].endswith(tag)) for a in addresses}
+    to_client = sum(e[1] for a in addresses for e in log[a]["outgoing"]
+                    if e[0].endswith(tag) and e[0].startswith("dvr-band-") and e[2] not in addresses)
     return {"image_bytes": image_bytes, "between_workers": incoming, "messages": messages,
+            "transfer_seconds": seconds,
             "to_client": to_client, "theory_per_worker": image_bytes * (n - 1) / n,
             "theory_messages_per_worker": (n - 1) if method == "direct_send" else n.bit_length() - 1,
             "theory_to_client": image_bytes}
