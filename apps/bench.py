@@ -200,6 +200,10 @@ def add_arguments(p):
     sa.add_argument("--part", choices=("workers", "sizes", "levels", "all"), default="all",
                     help="which measurement (default all)")
     sa.add_argument("--out", dest="markdown", metavar="FILE", help="also write the tables as Markdown to FILE")
+    sa.add_argument("--sizes", type=lambda text: [float(v) for v in text.split(",")], metavar="GIB,...",
+                    help="sizes: the volumes' sizes in GiB (default 1,2,4,8,16)")
+    sa.add_argument("--data-dir", metavar="DIR", help="sizes: where the synthetic volumes are written once and "
+                                                     "kept (default: the temporary folder)")
     for parser in sub.choices.values():
         parser.add_argument("--markdown", metavar="FILE", help="also write the tables as Markdown to FILE (the "
                                                                "measured tables in docs/ are written this way)")

@@ -218,3 +218,22 @@ def test_scaling_model_closed_form():
     assert four["direct"] == pytest.approx(3 * 0.01 + 0.75) and four["swap"] == pytest.approx(2 * 0.01 + 0.75)
     assert four["frame_swap"] == pytest.approx(0.25 + 0.77 + 1.01)
     assert one["direct"] == one["swap"] == 0.0 and one["speedup"] == pytest.approx(1.0)
+
+
+def test_a_volume_read_out_of_core_renders_sort_last(client, single, tmp_path):
+    """A volume read out of core travels to the workers as its file's path and block ranges (no voxels)
+    and each worker reads only its own bricks: the composite equals the single process's, which
+    reads the same file in the same bricks."""
+    from dvr_gl.api import scene_of
+    from dvr_gl.out_of_core import open_volume, write_synthetic_raw
+
+    nhdr = write_synthetic_raw(tmp_path / "s.raw", (50, 44, 40), "uint16")
+    volume = open_volume(nhdr, out_of_core=True, memory_budget_mb=1)
+    s = scene_of(volume, size=(W, H), ert_threshold=1.0,
+                 transfer_function=[[0, 0, 0, 0, 0], [10000, 0, 0, 0, 0], [30000, 1, 0.8, 0.5, 0.3],
+                                    [65535, 1, 1, 1, 0.9]])
+    expected = single.render(s)
+    result = render(client, s, "direct_send", single)
+    assert sum(result.bricks) > 2
+    assert np.abs(result.image - expected).max() <= EXACT
+    assert expected[..., 3].max() > 0.05

@@ -235,3 +235,14 @@ def test_peak_memory_rendering_a_volume_four_times_the_budget(tmp_path):
     whole = peak_rss_mib([str(nhdr), "-o", str(tmp_path / "b.png"), "--size", "128", "--set",
                           "volume.out_of_core=false"])
     assert whole - baseline > 320
+
+
+def test_bench_scale_sizes_prints_its_table(tmp_path, capsys):
+    """``dvr bench scale --part sizes`` on a 10 MiB volume: a row per run, peak memory within the bound."""
+    from dvr_gl.apps.cli import main
+
+    assert main(["bench", "scale", "--part", "sizes", "--sizes", "0.01", "--data-dir", str(tmp_path)]) == 0
+    rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| 0.01 |")]
+    assert [row.split("|")[3].strip() for row in rows] == ["first", "again"]
+    assert all(float(row.split("|")[-2]) < 1.0 for row in rows)  # peak / bound
+    assert list(tmp_path.glob("*.dvr-ranges.npz"))  # the first run wrote the block ranges' sidecar

@@ -75,10 +75,10 @@ def test_completion_script_names_the_subcommands(capsys, shell):
     pytest.importorskip("shtab", reason="shell completion needs the completion extra (shtab)")
     assert main(["completion", shell]) == 0
     script = capsys.readouterr().out
-    for command in ("render", "view", "info", "bench", "completion"):
+    for command in ("render", "view", "info", "bench", "completion", "pyramid"):
         assert command in script
     if shell == "bash":
-        assert "_shtab_dvr_subparsers=(render view info bench completion)" in script
+        assert "_shtab_dvr_subparsers=(render view info bench completion pyramid)" in script
         assert "--transfer-function" in script  # the subcommands' flags too
 
 

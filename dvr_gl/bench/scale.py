@@ -162,7 +162,8 @@ def run_workers(args) -> list[dict]:
     bandwidth = moved_bytes / sum(t[1] for t in transfers) if transfers and sum(t[1] for t in transfers) else math.nan
     report.text(f"dvr bench scale --part workers: blobs {volume_size}^3 (float32, from a .npy file), {size}x{size}, "
                 f"emission-absorption, early termination off; a local cluster of processes (one thread each, "
-                f"LP_NUM_THREADS={os.environ.get('LP_NUM_THREADS')}) on {cores()} cores; median of {repeat} frames after a warm-up; one process renders it in {one:.3f} s")
+                f"LP_NUM_THREADS={os.environ.get('LP_NUM_THREADS')}) on {cores()} cores; median of {repeat} "
+                f"frames after a warm-up; one process renders it in {one:.3f} s")
     report.table(rows, MEASURED_COLUMNS, notes=[
         "frame: the client's wall clock (plan, the workers' render and compositing, the gather); render: the "
         "slowest worker's render_state; compositing: from the last partial image to the last band composited "

@@ -73,8 +73,11 @@ def render_command(volume: Path, out: Path, memory_mb: float, texture_mb: float,
 
 
 def run(args) -> str:
-    """Print (and return) the table; ``args``: ``sizes`` (GiB), ``data_dir``, ``memory_budget_mb``,
-    ``texture_budget_mb``, ``size`` (image pixels), where given."""
+    """Print (and return) the table, to ``args.report`` where given (``dvr bench scale``); ``args``:
+    ``sizes`` (GiB), ``data_dir``, ``memory_budget_mb``, ``texture_budget_mb``, ``size`` (image pixels),
+    where given."""
+    report = getattr(args, "report", None)
+    say = report.text if report is not None else (lambda line: print(line, flush=True))
     sizes = getattr(args, "sizes", None) or SIZES_GIB
     memory_mb = getattr(args, "memory_budget_mb", None) or MEMORY_BUDGET_MB
     texture_mb = getattr(args, "texture_budget_mb", None) or TEXTURE_BUDGET_MB
@@ -92,7 +95,8 @@ def run(args) -> str:
              f"{baseline['peak_mib']:.0f} MiB, so the bound is {bound:.0f} MiB.", "",
              "| size GiB | dims | run | render s | total s | wall s | peak RSS MiB | peak / bound |",
              "|---:|---|---|---:|---:|---:|---:|---:|"]
-    print("\n".join(lines), flush=True)
+    for line in lines:
+        say(line)
     for gib in sizes:
         start = time.perf_counter()
         volume = volume_file(folder, gib)
@@ -105,6 +109,7 @@ def run(args) -> str:
             row = (f"| {gib:g} | {dims} | {run_name} | {m['render']:.2f} | {m['total']:.2f} | {m['wall']:.1f} | "
                    f"{m['peak_mib']:.0f} | {m['peak_mib'] / bound:.2f} |")
             lines.append(row)
-            print(row + (f"  (file written in {written:.0f} s)" if run_name == "first" and written > 1 else ""),
-                  flush=True)
+            say(row)
+        if written > 1:
+            say(f"(the {gib:g} GiB file was written in {written:.0f} s)")
     return "\n".join(lines)
