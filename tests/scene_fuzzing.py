@@ -31,6 +31,7 @@ from hypothesis import strategies as st
 
 from dvr_gl.errors import DvrError
 from dvr_gl.model import ScatteringSpec, ShadingSpec
+from dvr_gl.scene import _FILE_KEYS as _SCENE_FILE_KEYS
 from dvr_gl.scene_schema import CameraSpec, ImageSpec, TransferFunctionSpec, VolumeSpec, renderer_spec_class
 
 #: Numbers for keys whose large values are the resource bounds' business (another part of issue 14).
@@ -91,8 +92,9 @@ def _valid(tp, key: str, choices: tuple):
 
 #: How wild a whole example is: the chance that a present key gets a value of another kind.
 WILDNESS = (0.0, 0.0, 0.02, 0.1, 0.5)
-#: Keys that only raw files read (a demo refuses them).
-FILE_KEYS = ("dims", "dtype", "spacing", "origin", "nan_value", "header_bytes", "endian", "format")
+#: Keys that only volume files read (a demo refuses them: the scene's list, and the raw reader's own), and
+#: volume.out_of_core (a demo is made in memory: true is refused).
+FILE_KEYS = tuple(dict.fromkeys(_SCENE_FILE_KEYS + ("header_bytes", "endian", "format", "out_of_core")))
 
 
 def _accepted(cls, name: str, value) -> bool:
