@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import importlib
 import platform
+from pathlib import Path
 
 from dvr_gl import __version__
 from dvr_gl.gl.context import create_context, gl_info
@@ -95,12 +96,33 @@ def file_info(args) -> int:
 
     files = args.file
     source = files if len(files) > 1 else files[0]
-    field = load_field(source, args.format or "auto", array=args.array, dims=args.dims, dtype=args.dtype,
-                       endian=args.endian, header_bytes=args.header_bytes, series=args.series, level=args.level)
+    options = dict(array=args.array, dims=args.dims, dtype=args.dtype, endian=args.endian,
+                   header_bytes=args.header_bytes, level=args.level)
+    field = None
+    if len(files) == 1 and args.series is None:  # a volume over renderer.memory_budget_mb's default: out of core
+        field = open_for_info(source, args.format or "auto", options)
+    if field is None:
+        field = load_field(source, args.format or "auto", series=args.series, **options)
     shown = " ".join(_quoted(f) for f in files)
     for line in summary_lines(field, shown):
         print(line)
     return 0
+
+
+def open_for_info(path, fmt: str, options: dict):
+    """The volume at ``path`` as ``dvr render`` opens it where its format can be read in part: out of core
+    when larger than renderer.memory_budget_mb's default, else in memory; None: another format."""
+    from dvr_gl.errors import DvrError
+    from dvr_gl.io import PARTIAL_FORMATS, detect_format
+    from dvr_gl.out_of_core import MEMORY_BUDGET_MB, open_volume
+
+    try:
+        partial = (detect_format(Path(path)) if fmt == "auto" else fmt) in PARTIAL_FORMATS
+    except DvrError:
+        return None
+    if not partial:
+        return None
+    return open_volume(path, "auto", MEMORY_BUDGET_MB, fmt, **options)
 
 
 def _quoted(text: str) -> str:

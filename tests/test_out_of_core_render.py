@@ -246,3 +246,50 @@ def test_bench_scale_sizes_prints_its_table(tmp_path, capsys):
     assert [row.split("|")[3].strip() for row in rows] == ["first", "again"]
     assert all(float(row.split("|")[-2]) < 1.0 for row in rows)  # peak / bound
     assert list(tmp_path.glob("*.dvr-ranges.npz"))  # the first run wrote the block ranges' sidecar
+
+
+def test_an_ome_zarr_pyramid_read_out_of_core_renders_its_levels(tmp_path, raycaster):
+    """An OME-Zarr pyramid written by dvr_gl.multires and opened out of core (its levels too) renders
+    bit for bit as the same volume in memory with the same levels (build_levels), brick by brick, at
+    every screen-space error; a large error draws coarser levels."""
+    pytest.importorskip("zarr", reason="OME-Zarr needs the zarr extra")
+    from dvr_gl.multires import build_levels, write_pyramid
+
+    rng = np.random.default_rng(5)
+    z, y, x = np.mgrid[0:40, 0:36, 0:44]
+    data = (1000 * np.exp(-((x - 20) ** 2 + (y - 18) ** 2 + (z - 22) ** 2) / 150.0)
+            + rng.integers(0, 60, size=x.shape)).astype(np.uint16)
+    fine = Volume(data, spacing=(1.0, 1.1, 0.9))
+    store = tmp_path / "p.zarr"
+    write_pyramid(fine, store, levels=3, chunks=16)
+    on_disk = open_volume(store, out_of_core=True, memory_budget_mb=0.25)
+    assert len(on_disk.levels) == 2
+    in_memory = fine.with_levels(build_levels(fine, 2))  # the coarser levels only (write_pyramid counts all)
+    tf = [[0, 0, 0, 0, 0], [100, 0, 0, 0, 0], [800, 1, 0.7, 0.4, 0.2]]
+    for error in (0.0, 1.0, 50.0):
+        scene = scene_of(in_memory, size=(40, 32), transfer_function=tf, screen_space_error=error,
+                         texture_budget_mb=0.25 / 8)
+        expected = raycaster.render(scene)
+        levels = raycaster.stats["brick_levels"]
+        image = raycaster.render(scene.replace(volume=on_disk, camera=scene.camera))
+        assert raycaster.stats["brick_levels"] == levels and sum(levels) > 1
+        assert np.array_equal(image, expected)
+    assert levels[0] == 0  # at 50 pixels a voxel, every brick from a coarser level
+
+
+def test_subsample_and_dvr_info_of_a_volume_read_out_of_core(synthetic, tmp_path, capsys, monkeypatch):
+    """``dvr info`` on a volume larger than renderer.memory_budget_mb's default opens it out of core: the
+    value range from the block ranges (exact), the histogram from an even subsample (every s-th voxel)."""
+    import dvr_gl.out_of_core as ooc
+    from dvr_gl.apps.cli import main
+
+    out_of_core, in_memory = synthetic
+    sub = out_of_core.subsample(4000)
+    stride = 5  # ceil((70 * 64 * 60 / 4000) ** (1/3)) = ceil(4.07)
+    assert np.array_equal(sub, in_memory.data[::stride, ::stride, ::stride]) and sub.size <= 4000
+    monkeypatch.setattr(ooc, "MEMORY_BUDGET_MB", 0.1)  # the default budget, for this test: under the volume
+    path = out_of_core.source.path.with_suffix(".nhdr")
+    assert main(["info", str(path)]) == 0
+    out = capsys.readouterr().out
+    lo, hi = in_memory.value_range
+    assert f"value range: {lo:g} .. {hi:g}" in out and "read out of core" in out and "histogram (8 bins" in out

@@ -507,3 +507,16 @@ def test_a_tolerance_opens_the_viewer(xvfb, tmp_path):
                          env=dict(os.environ, DISPLAY=xvfb), capture_output=True, text=True, cwd=tmp_path, timeout=120)
     assert out.returncode == 0, out.stderr
     assert "dvr view benchmark: shepp-logan 32x32x32, raycast" in out.stdout and "interactive: " in out.stdout
+
+
+def test_a_volume_read_out_of_core_opens_in_the_viewer(xvfb, tmp_path):
+    """The panel's histogram of a volume read out of core comes from an even subsample (its voxels are
+    never all read); before, it asked for the voxels and the viewer ended in an error."""
+    from dvr_gl.out_of_core import write_synthetic_raw
+
+    nhdr = write_synthetic_raw(tmp_path / "s.raw", (40, 36, 32), "uint16")
+    out = subprocess.run([sys.executable, "-m", "dvr_gl.apps.cli", "view", str(nhdr), "--set",
+                          "volume.out_of_core=true", "--size", "96x96", "--benchmark", "0.5"],
+                         env=dict(os.environ, DISPLAY=xvfb), capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert "dvr view benchmark: s.nhdr 40x36x32, raycast" in out.stdout and "interactive: " in out.stdout

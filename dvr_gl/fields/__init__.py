@@ -97,4 +97,14 @@ def diagonal(field: Field) -> float:
     return float(np.linalg.norm(np.asarray(hi) - np.asarray(lo)))
 
 
-__all__ = ["Field", "Reconstruction", "Volume", "SphereField", "ParticleSet", "gradient_epsilon", "diagonal"]
+def value_sample(field, max_values: int = 1 << 22) -> np.ndarray:
+    """Values whose distribution is the field's, for histograms and suggested transfer functions: a grid's
+    samples, a mesh's values; a volume read out of core gives an even subsample of at most ``max_values``
+    (:meth:`dvr_gl.out_of_core.OutOfCoreVolume.subsample`), never its whole voxels."""
+    if getattr(field, "out_of_core", False):
+        return field.subsample(max_values)
+    return np.asarray(field.samples if hasattr(field, "samples") else field.values)
+
+
+__all__ = ["Field", "Reconstruction", "Volume", "SphereField", "ParticleSet", "gradient_epsilon", "diagonal",
+           "value_sample"]

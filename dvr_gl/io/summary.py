@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..fields import value_sample
+
 HISTOGRAM_BINS = 8
 BAR = 40  # characters of the longest histogram bar
 CT_AIR = -900.0  # a minimum below this in an integer volume: Hounsfield units (air is -1000 HU)
@@ -18,7 +20,7 @@ def number(value: float, integral: bool) -> str:
 def summary_lines(field, source: str) -> list[str]:
     """The lines ``dvr info`` prints for ``field`` (a Volume, a TetMesh or a ParticleSet) read from ``source``."""
     lo, hi = (float(v) for v in field.value_range)
-    samples = np.asarray(field.samples if hasattr(field, "samples") else field.values)  # a mesh: its values
+    samples = value_sample(field)  # a mesh: its values; read out of core: an even subsample
     integral = samples.dtype.kind in "iub"
     kind = getattr(field, "kind", "grid")
     lines = [field.describe()]
@@ -28,6 +30,10 @@ def summary_lines(field, source: str) -> list[str]:
         lines.append(f"bounds: {_vec(field.bounds[0])} .. {_vec(field.bounds[1])} (world units)")
     lines.append(f"value range: {number(lo, integral)} .. {number(hi, integral)}"
                  + ("" if kind == "grid" else " (of the interpolated field)" if kind == "particles" else ""))
+    if getattr(field, "out_of_core", False):
+        lines.append(f"read out of core ({field.nbytes / 2 ** 30:.2f} GiB over renderer.memory_budget_mb = "
+                     f"{field.memory_budget_mb:g}): the value range from its block ranges, the histogram and the "
+                     f"suggestion from an even subsample of {samples.size} samples")
     lines += histogram_lines(samples, integral)
     lines += suggestion_lines(field, samples, integral, source)
     return lines
@@ -45,8 +51,8 @@ def _grid_lines(v) -> list[str]:
     letters = axis_letters(d)
     kind = ("oblique" if letters != letters.upper() else "identity" if np.array_equal(d, np.eye(3))
             else "mirrored" if np.linalg.det(d) < 0 else "turned")
-    lines = [f"dims: {nx} x {ny} x {nz} (x, y, z) = {v.data.size} samples",
-             f"type: {v.data.dtype}",
+    lines = [f"dims: {nx} x {ny} x {nz} (x, y, z) = {nx * ny * nz} samples",
+             f"type: {v.dtype}",
              f"spacing: {_vec(v.spacing)} (world units per sample step, x y z)",
              f"origin: {_vec(v.origin)} (sample (0, 0, 0) in the patient frame, LPS)",
              f"orientation: {letters} ({kind}; the index axes x, y, z point to these patient directions)"]

@@ -121,6 +121,15 @@ class OutOfCoreVolume:
         self.cache.put(key, data)
         return data
 
+    def subsample(self, max_values: int = 1 << 22) -> np.ndarray:
+        """An even subsample of the voxels, ``[z, y, x]``, at most ``max_values`` of them: every ``s``-th
+        voxel along each axis (the same stride on all three), read a plane at a time (one plane of the
+        volume resident at most), for histograms and suggestions (``dvr info``, the viewer's panel)."""
+        nx, ny, nz = self.dims
+        stride = max(1, int(np.ceil((nx * ny * nz / max_values) ** (1 / 3))))
+        planes = [self.source.read((0, 0, z), (nx, ny, 1))[0, ::stride, ::stride] for z in range(0, nz, stride)]
+        return np.stack(planes)
+
     @property
     def data(self):
         raise SceneError(f"{self.name}: the volume ({_size(self.nbytes)}) is read out of core and only the raycast "

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import DvrError
+from ..fields import value_sample
 from ..renderers import registry
 from ..transfer_function import PRESETS, linear_to_srgb, preset, srgb_to_linear
 from . import navigation, settings
@@ -321,7 +322,7 @@ class ViewerGui:
         if key != self._histogram_key:
             field = self.viewer.scene.field
             # a grid's samples, a mesh's values (point or cell): what the transfer function maps
-            values = field.samples if hasattr(field, "samples") else field.values
+            values = value_sample(field)  # out of core: an even subsample
             self._histogram_key, self._heights = key, histogram(values, value_range)
         return self._heights
 
