@@ -26,14 +26,20 @@ def add_arguments(p):
                    help="a volume, mesh or particle file, a folder of slices or a glob (several files: a DICOM "
                         "series); without it: versions, readers, renderers, OpenGL")
     v = p.add_argument_group("file options (as dvr render's)")
-    v.add_argument("--format", help="reader (default: by suffix, a folder by its files)")
-    v.add_argument("--dims", type=int, nargs=3, metavar=("NX", "NY", "NZ"), help="raw files")
-    v.add_argument("--dtype", help="raw files: the sample type")
-    v.add_argument("--endian", choices=("little", "big"), default="little", help="raw files")
-    v.add_argument("--header-bytes", type=int, default=0, help="raw files")
-    v.add_argument("--array", metavar="NAME", help="meshes, particles, .vti, zarr: the array")
+    file_options(v, "reader (default: by suffix, a folder by its files)", "meshes, particles, .vti, zarr: the array")
     v.add_argument("--series", metavar="N|UID", help="DICOM: the series, when a folder holds several")
     v.add_argument("--level", type=int, metavar="L", help="OME-Zarr: the resolution level (0: full)")
+
+
+def file_options(group, format_help: str, array_help: str):
+    """The options that say how to read a volume file (``dvr info``, ``dvr pyramid``): reader, raw layout,
+    array; defaults as the readers take them (``dvr render`` has its own, as scene-key overrides)."""
+    group.add_argument("--format", help=format_help)
+    group.add_argument("--dims", type=int, nargs=3, metavar=("NX", "NY", "NZ"), help="raw files")
+    group.add_argument("--dtype", help="raw files: the sample type")
+    group.add_argument("--endian", choices=("little", "big"), default="little", help="raw files")
+    group.add_argument("--header-bytes", type=int, default=0, help="raw files")
+    group.add_argument("--array", metavar="NAME", help=array_help)
 
 
 def renderer_lines() -> list[str]:

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import sys
 
+from .info import file_options
+
 HELP = "write a volume as an OME-Zarr multi-resolution pyramid (low-pass levels)"
 
 
@@ -19,12 +21,7 @@ def add_arguments(p):
     p.add_argument("--chunks", type=int, default=64, metavar="N", help="chunk side in samples (default 64)")
     p.add_argument("--unit", metavar="UNIT", help="the axes' unit, an OME-Zarr space unit (e.g. millimeter)")
     v = p.add_argument_group("input options (as dvr render's)")
-    v.add_argument("--format", help="reader (default: by suffix)")
-    v.add_argument("--dims", type=int, nargs=3, metavar=("NX", "NY", "NZ"), help="raw files")
-    v.add_argument("--dtype", help="raw files: the sample type")
-    v.add_argument("--endian", choices=("little", "big"), default="little", help="raw files")
-    v.add_argument("--header-bytes", type=int, default=0, help="raw files")
-    v.add_argument("--array", metavar="NAME", help=".vti, zarr: the array")
+    file_options(v, "reader (default: by suffix)", ".vti, zarr: the array")
     v.add_argument("--level", type=int, metavar="L", help="OME-Zarr input: the resolution level to start from")
 
 

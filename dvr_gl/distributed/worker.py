@@ -10,9 +10,7 @@ keys the worker's cache, so the frames of an animation load their scene once per
 
 from __future__ import annotations
 
-import dataclasses
 import hashlib
-import io
 import pickle
 import threading
 from collections import OrderedDict
@@ -47,28 +45,9 @@ def payload_of(scene) -> tuple:
 
 
 def dumps(scene) -> bytes:
-    """The scene pickled.  The ``[renderer]`` dataclass is built at run time from the registered
-    settings (:func:`dvr_gl.renderers.registry.renderer_spec_class`), so pickle cannot find it by
-    name: it travels as its fields and is rebuilt by :func:`_renderer_spec`."""
-    from ..renderers.registry import renderer_spec_class
-
-    spec_class = renderer_spec_class()
-
-    class Pickler(pickle.Pickler):
-        def reducer_override(self, obj):
-            if type(obj) is spec_class:
-                return _renderer_spec, ({f.name: getattr(obj, f.name) for f in dataclasses.fields(obj)},)
-            return NotImplemented
-
-    out = io.BytesIO()
-    Pickler(out, protocol=pickle.HIGHEST_PROTOCOL).dump(scene)
-    return out.getvalue()
-
-
-def _renderer_spec(fields: dict):
-    from ..renderers.registry import renderer_spec_class
-
-    return renderer_spec_class()(**fields)
+    """The scene pickled (its ``[renderer]`` dataclass, built at run time, pickles as its fields:
+    :func:`dvr_gl.renderers.registry.renderer_spec_class`)."""
+    return pickle.dumps(scene, protocol=pickle.HIGHEST_PROTOCOL)
 
 
 def scene_of(payload):

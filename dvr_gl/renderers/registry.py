@@ -225,7 +225,18 @@ def renderer_spec_class():
     cls = dataclasses.make_dataclass("RendererSpec", fields)
     cls.__module__ = __name__
     cls.__doc__ = "The renderer and its settings: the union of what the registered renderers declare."
+    cls.__reduce__ = _reduce_renderer_spec  # made at run time: pickle cannot find it by name (Dask ships scenes)
     return cls
+
+
+def _reduce_renderer_spec(spec):
+    """Pickle a RendererSpec as its fields, rebuilt by :func:`renderer_spec_of` from the registered settings."""
+    return renderer_spec_of, ({f.name: getattr(spec, f.name) for f in dataclasses.fields(spec)},)
+
+
+def renderer_spec_of(values: dict):
+    """A RendererSpec with ``values`` (an unpickled one)."""
+    return renderer_spec_class()(**values)
 
 
 def _meta(s: Setting) -> dict:
