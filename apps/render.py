@@ -354,8 +354,8 @@ def render(args) -> int:
                                                        args.compositing_method, renderer))
             if args.frames is not None:  # a bar over the frames, at once: the orbit is long work by request
                 step = stack.enter_context(progress.task("frames", count, "frame", delay=0.0, leave=True))
-            else:  # a long frame's steps (the CPU references'), shown after progress.DELAY seconds
-                renderer.progress = stack.enter_context(progress.task("rendering"))
+            elif remote is None:  # a long frame's steps (the CPU references'), shown after progress.DELAY seconds
+                renderer.progress = stack.enter_context(progress.task("rendering"))  # (Dask's workers report none)
             for i in range(count):
                 frame = frame_scene(scene, i, count)
                 begun = time.perf_counter()
