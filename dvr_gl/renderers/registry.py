@@ -284,9 +284,10 @@ def check(scene, name: str | None = None):
     if getattr(scene.field, "out_of_core", False) and not p.out_of_core:
         others = renderers_with(lambda q: q.out_of_core)
         budget = getattr(scene.renderer, "memory_budget_mb", None)
+        over = budget is not None and scene.field.nbytes > budget * 2 ** 20
         raise SceneError(f"{p.name} needs the voxels in memory, and {scene.field.name} "
                          f"({scene.field.nbytes / 2 ** 20:.0f} MB) is read out of core"
-                         + (f" (over renderer.memory_budget_mb = {budget:g})" if budget is not None else "")
+                         + (f" (over renderer.memory_budget_mb = {budget:g})" if over else " (volume.out_of_core)")
                          + (f"; use {_either(others)}" if others else "")
                          + ", or set volume.out_of_core = false to load it whole")
     projection = scene.camera.projection
