@@ -287,7 +287,8 @@ def check(scene, name: str | None = None):
         over = budget is not None and scene.field.nbytes > budget * 2 ** 20
         raise SceneError(f"{p.name} needs the voxels in memory, and {scene.field.name} "
                          f"({scene.field.nbytes / 2 ** 20:.0f} MB) is read out of core"
-                         + (f" (over renderer.memory_budget_mb = {budget:g})" if over else " (volume.out_of_core)")
+                         + (f" (over renderer.memory_budget_mb = {budget:g})" if over
+                            else " (volume.out_of_core = true)")
                          + (f"; use {_either(others)}" if others else "")
                          + ", or set volume.out_of_core = false to load it whole")
     projection = scene.camera.projection
