@@ -97,6 +97,7 @@ def run(args) -> str:
              "|---:|---|---|---:|---:|---:|---:|---:|"]
     for line in lines:
         say(line)
+    notes = []
     for gib in sizes:
         start = time.perf_counter()
         volume = volume_file(folder, gib)
@@ -111,5 +112,8 @@ def run(args) -> str:
             lines.append(row)
             say(row)
         if written > 1:
-            say(f"(the {gib:g} GiB file was written in {written:.0f} s)")
+            notes.append(f"the {gib:g} GiB file was written in {written:.0f} s")
+    if notes:  # after the table, which they would break
+        say("")
+        say("; ".join(notes) + ".")
     return "\n".join(lines)
