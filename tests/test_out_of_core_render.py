@@ -293,3 +293,14 @@ def test_subsample_and_dvr_info_of_a_volume_read_out_of_core(synthetic, tmp_path
     out = capsys.readouterr().out
     lo, hi = in_memory.value_range
     assert f"value range: {lo:g} .. {hi:g}" in out and "read out of core" in out and "histogram (8 bins" in out
+
+
+def test_a_frame_whose_every_brick_is_empty(synthetic, raycaster):
+    """A transfer function transparent over the whole value range leaves every brick out: the frame is
+    transparent, drawn with no pass (it ended in an IndexError before), and so is render_state's."""
+    out_of_core, _ = synthetic
+    scene = scene_of(out_of_core, size=(16, 16), transfer_function=[[0, 0, 0, 0, 0], [65535, 1, 1, 1, 0]])
+    image = raycaster.render(scene)
+    assert raycaster.stats["bricks"] == 0 and raycaster.stats["bricks_empty"] >= 1
+    assert not image.any()
+    assert not raycaster.render_state(scene, raycaster.brick_plan(scene)).any()

@@ -88,6 +88,8 @@ def brick_size_for(volume, bytes_per_voxel: int, budget_bytes: int, max_size: in
 
 def visibility_order(bricks: list[Brick], volume, camera, front_to_back: bool = True) -> list[Brick]:
     """Bricks in an order valid for every ray of the camera (see the module doc)."""
+    if not bricks:  # every brick of the frame empty
+        return []
     f, _, _ = camera.basis()
     index = np.array([b.index for b in bricks])
     if camera.projection == "orthographic":  # parallel rays: along each axis the index moves one way

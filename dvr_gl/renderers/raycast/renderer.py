@@ -367,12 +367,13 @@ class RayCastRenderer(GLVolumeRenderer):
         partial = getattr(self, "_partial", None)
         if partial is not None:  # render_state: these bricks' state, not resolved
             views = [GridView(b.tex_lo, b.tex_dims, b) for b in partial]
-        if views[0].brick is not None:
+        bricked = partial is not None or views[0].brick is not None
+        if bricked:  # empty bricks left out (all of them, maybe), levels chosen
             views, frame = out_of_core.frame_views(self, scene, defines, views)
             decided.update(frame)
-        if partial is not None or len(views) > 1 or len(windows) > 1 or views[0].brick is not None:
-            if len(views) == 1 and views[0].brick is None:  # long rays: the whole volume as one brick, in
-                views = [GridView((0, 0, 0), scene.volume.dims, whole_volume_brick(scene.volume))]  # windows
+        if bricked or len(windows) > 1:
+            if not bricked:  # long rays: the whole volume as one brick, in passes over segment windows
+                views = [GridView((0, 0, 0), scene.volume.dims, whole_volume_brick(scene.volume))]
             return self._render_bricks(scene, bricked_features(defines), views, start, windows,
                                        {**tables, **blocks}, decided, resolve=partial is None)
         textures = {**self.view_textures(scene, defines, views[0], resident=True), **tables, **blocks}
