@@ -43,13 +43,18 @@ class Renderer:
     def render(self, scene) -> np.ndarray:
         """The image of ``scene`` (SceneError with the reason if this renderer cannot render it).
         ``stats["seconds"]`` is the frame's wall time, unless ``draw`` measured it itself."""
+        return self.in_volume_frame(scene, self.draw)
+
+    def in_volume_frame(self, scene, draw) -> np.ndarray:
+        """``draw(local)`` of ``scene`` checked and turned into the volume's frame, its columns turned back
+        (what :meth:`render` does around :meth:`draw`; a renderer's other frames, e.g. partial states)."""
         registry.check(scene, self.name)
         self.check_resources(scene)
         self.stats = {}
         start = self._started = time.perf_counter()
         # the camera is stated in the patient frame; renderers draw in the volume's own (dvr_gl.orientation)
         local, mirrored = volume_frame_scene(scene)
-        image = self.draw(local)
+        image = draw(local)
         if mirrored:
             image = np.ascontiguousarray(image[:, ::-1])
         self.stats.setdefault("seconds", time.perf_counter() - start)

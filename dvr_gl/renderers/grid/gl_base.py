@@ -332,15 +332,14 @@ class GLVolumeRenderer(Renderer):
         brick has of level 0 (ownership stays level 0's: the shader's global coordinates)."""
         if level == 0 or view.brick is None:
             return view
-        volume = scene.volume
+        volume, b = scene.volume, view.brick
         grid = volume.levels[level - 1]
         o0, s0 = np.asarray(volume.origin), np.asarray(volume.spacing)
         ok, sk = np.asarray(grid.origin), np.asarray(grid.spacing)
-        lo0 = o0 + np.asarray(view.brick.core_lo) * s0
-        hi0 = o0 + np.asarray(view.brick.core_hi) * s0
-        ghost = max(np.asarray(view.brick.core_lo) - np.asarray(view.brick.tex_lo))
-        ghost = int(max(ghost, max(np.asarray(view.brick.tex_lo) + np.asarray(view.brick.tex_dims) - 1
-                                   - np.asarray(view.brick.core_hi)), 1))
+        lo0 = o0 + np.asarray(b.core_lo) * s0
+        hi0 = o0 + np.asarray(b.core_hi) * s0
+        tex_hi = np.asarray(b.tex_lo) + np.asarray(b.tex_dims) - 1
+        ghost = int(max(1, *(np.asarray(b.core_lo) - b.tex_lo), *(tex_hi - b.core_hi)))  # its widest side
         dims = np.asarray(grid.dims)
         lo = np.clip(np.floor((lo0 - ok) / sk).astype(int) - ghost, 0, dims - 1)
         hi = np.clip(np.ceil((hi0 - ok) / sk).astype(int) + ghost, 0, dims - 1)

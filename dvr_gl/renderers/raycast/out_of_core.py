@@ -42,9 +42,9 @@ def frame_views(renderer, scene, defines: dict, views: list) -> tuple[list, dict
     stats = {}
     ranges = getattr(volume, "ranges", None)
     if ranges is not None and "COMPOSITE_EMISSION" in defines:
-        grids = [(tf.tabulate(2).domain, r.lut_size)]
-        if "CLASSIFY_PREINTEGRATED" in defines:
-            grids.append((tf.tabulate(2).domain, r.preintegration_size))
+        domain = tf.tabulate(2).domain  # the tables' (a one-point function's widened)
+        grids = [(domain, r.lut_size)] + ([(domain, r.preintegration_size)]
+                                          if "CLASSIFY_PREINTEGRATED" in defines else [])
         kept = [v for v in views if not transparent(tf, *ranges.range_of(v.brick.tex_lo, v.brick.tex_dims), grids)]
         stats["bricks_empty"] = len(views) - len(kept)
         views = kept

@@ -25,7 +25,6 @@ from ...gl.geometry import gl_matrix, projection_matrix, view_matrix
 from ...gl.shaders import create_program
 from ...orientation import volume_frame_scene
 from ...settings import shadow_step
-from .. import registry
 from ..grid.bricking import ghost_width, plan_bricks, visibility_order
 from ..grid.gl_base import GLVolumeRenderer, GridView, _same, classification_features, now
 from ..grid.textures import upload_field
@@ -313,16 +312,11 @@ class RayCastRenderer(GLVolumeRenderer):
         before the resolve; see shaders/raycast.frag's BRICKED) that ``bricks`` (of :meth:`brick_plan`)
         leave, composited among themselves in visibility order from the empty state, as a pass of
         :meth:`render` would carry it.  Early termination sees only these bricks' samples."""
-        registry.check(scene, self.name)
-        self.check_resources(scene)
-        self.stats, self._started = {}, now()
-        local, mirrored = volume_frame_scene(scene)
         self._partial = list(bricks)
         try:
-            state = self._draw_volume(local, {})
+            return self.in_volume_frame(scene, lambda local: self._draw_volume(local, {}))
         finally:
             self._partial = None
-        return np.ascontiguousarray(state[:, ::-1]) if mirrored else state
 
     def resolve_state(self, scene, state: np.ndarray) -> np.ndarray:
         """The image of a compositing state (:meth:`render_state`'s, or several composited): the
