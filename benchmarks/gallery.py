@@ -28,8 +28,8 @@ BLUNTFIN = ("[[0.19,0.27,0.0,0.33,0],[0.9,0.13,0.57,0.55,0.02],[1.3,0.37,0.79,0.
 
 # name, caption, data file (under DATA; None: a built-in demo), the command's other arguments
 PICTURES = [
-    ("demo", "The built-in demo (`dvr render --demo`, no data needed): the 3D Shepp-Logan head phantom cut open "
-     "by a clipping plane, its skull translucent, the brain blue with its two ventricles hollow, the lesions "
+    ("demo", "The built-in demo (`dvr render --demo`, no data needed): the 3D Shepp-Logan head phantom seen from "
+     "above through its translucent skull, the brain blue with its two ventricles hollow, the lesions "
      "orange.", None, ["--demo"]),
     ("cthead", "CThead (University of North Carolina; Stanford volume archive), the `ct-bone` preset. "
      "Its slices are stored from the top of the head down, so `--up=-z` stands it upright.",
