@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import SHARED_DATA
 from dvr_gl.camera import Camera
 from dvr_gl.errors import SceneError
 from dvr_gl.fields.mesh import TetMesh
@@ -215,6 +216,40 @@ def test_topological_order_respects_relations_and_breaks_cycles():
     assert list(order).index(0) < list(order).index(2) < list(order).index(1)
     order, broken = topological(3, np.array([0, 1, 2]), np.array([1, 2, 0]), np.array([1.0, 0.0, 2.0]))
     assert broken == 1 and sorted(order) == [0, 1, 2] and order[0] == 1  # the nearest goes first
+
+
+def test_topological_order_places_loosely_related_cells_by_depth():
+    """A cell with no relation in front of it goes where its depth puts it, as in the centroid order,
+    not into the first level of Kahn's sort (the jaw seen from above: a cell beside a face seen edge
+    on, related to nothing across a gap, went out 657th of 454,288 cells, in front of the whole
+    mesh, and float32 clipping gave it a piece 0.013 long far behind); and a cell behind a far one by a
+    relation goes behind it whatever its own depth."""
+    order, _ = topological(3, np.array([0]), np.array([1]), np.array([0.0, 1.0, 5.0]))
+    assert list(order) == [0, 1, 2]  # was [0, 2, 1]: cell 2 in the first level
+    order, _ = topological(3, np.array([0]), np.array([1]), np.array([5.0, 1.0, 3.0]))
+    assert list(order) == [2, 0, 1]  # cell 1 takes cell 0's depth: behind the unrelated cell 2
+
+
+@pytest.mark.skipif(not (SHARED_DATA / "unstructured").is_dir(), reason="the shared datasets are absent")
+def test_the_jaw_from_above_in_the_exact_order(pt, converged):
+    """Real data where whole lines of rays lie in face planes through the eye: the exact order is no
+    worse than the centroid order (RMS 1.79e-6 against 1.89e-6 here; it was 1.8e-5, three pixels off
+    by up to 3.3e-3, before cells were placed by depth in the sort), largest pixel error 3.1e-4,
+    bound 1e-3 (the float32 clipping's rounding in those planes, the same in the centroid order)."""
+    pytest.importorskip("meshio")
+    from dvr_gl.bench.cells import MESHES, scene_keys
+
+    source, array = MESHES["jaw"]
+    path = SHARED_DATA / source
+    mesh = load_scene(None, {"volume.path": str(path)}).field
+    scene = load_scene(None, {**scene_keys(path, array, mesh), "camera.azimuth": 0.0, "camera.elevation": 90.0,
+                              "image.width": 128, "image.height": 128})
+    truth = converged.render(scene.with_renderer(name="reference-converged"))
+    exact = pt.render(scene.with_renderer(cell_order="exact"))
+    centroid = pt.render(scene.with_renderer(cell_order="centroid"))
+    assert truth[..., 3].max() > 0.3
+    assert rms(exact, truth) <= rms(centroid, truth), (rms(exact, truth), rms(centroid, truth))
+    assert np.abs(exact - truth).max() < 1e-3
 
 
 @pytest.mark.parametrize("mode", ["mip", "minip", "average", "isosurface"])

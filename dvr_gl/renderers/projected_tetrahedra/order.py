@@ -12,10 +12,11 @@ separated by a gap (a concavity, a hole, another part of the mesh).
   front of B (the rays' sampling of the boundary relations of Williams' XMPVO: exact for the
   pixels drawn, which are the only ones the image has).
 
-A topological sort of these relations (Kahn's, level by level, each level in centroid order)
-orders every pixel's cells correctly.  A cycle (cells in front of each other, which happens in
-real meshes) stops the sort; it is broken by taking the remaining cell whose centroid is nearest
-the eye as if nothing were in front of it, and counted (``stats["cycles_broken"]``).
+A topological sort of these relations (Kahn's, each cell placed by the largest centroid distance
+of itself and what is related in front of it) orders every pixel's cells correctly.  A cycle
+(cells in front of each other, which happens in real meshes) stops the sort; it is broken by
+taking the remaining cell placed nearest the eye as if nothing were in front of it, and counted
+(``stats["cycles_broken"]``).
 
 **centroid**: cells by the distance of their centroid from the eye (as VTK's
 ``vtkCellCenterDepthSort``): fast, and wrong where a large cell's centroid lies behind a small
@@ -174,8 +175,15 @@ def _moller_trumbore(v0, edges, o, d):
 
 
 def topological(n: int, front: np.ndarray, back: np.ndarray, depth: np.ndarray) -> tuple[np.ndarray, int]:
-    """Cells ``0..n-1`` front to back respecting every ``front -> back`` relation (Kahn's algorithm,
-    a level at a time, each level by ``depth``), and the number of cycles broken."""
+    """Cells ``0..n-1`` front to back respecting every ``front -> back`` relation, and the number of
+    cycles broken.
+
+    Kahn's algorithm, a level at a time, gives each cell the earliest level its relations allow; a
+    cell with few relations (one the pixels' rays only touch, such as a cell beside a face seen edge
+    on) would then go out in the first levels however far it lies.  So each cell is placed by a key
+    instead: the largest ``depth`` of itself and everything related in front of it (its own depth
+    where nothing is, as in the centroid order), ties by level.  A relation's back cell has at
+    least its front cell's key and a later level, so every relation holds."""
     key = _distinct(front.astype(np.int64) * n + back)  # each relation once
     src, dst = key // n, key % n
     indegree = np.bincount(dst, minlength=n)
@@ -183,32 +191,38 @@ def topological(n: int, front: np.ndarray, back: np.ndarray, depth: np.ndarray) 
     dst_by_src = dst[order_src]
     start = np.searchsorted(src[order_src], np.arange(n + 1))
     done = np.zeros(n, bool)
-    out, broken = [], 0
+    place = np.asarray(depth, np.float64).copy()  # the key: grows with what is related in front
+    level = np.zeros(n, np.int64)
+    broken, step = 0, 0
     frontier = np.nonzero(indegree == 0)[0]
     remaining = n
     while remaining:
         if not len(frontier):  # a cycle: the nearest remaining cell goes first
             left = np.nonzero(~done)[0]
-            frontier = left[[np.argmin(depth[left])]]
+            frontier = left[[np.argmin(place[left])]]
             indegree[frontier] = 0
             broken += 1
-        frontier = frontier[np.argsort(depth[frontier], kind="stable")]
-        out.append(frontier)
+        level[frontier] = step
+        step += 1
         done[frontier] = True
         remaining -= len(frontier)
         count = start[frontier + 1] - start[frontier]
         nxt = dst_by_src[ranges(start[frontier], count)]
         if len(nxt):
-            # each successor once, with how many of its relations this level settles (a sort, as
-            # np.unique; np.subtract.at costs several times that)
-            nxt = np.sort(nxt)
+            # each successor once, with how many of its relations this level settles and the largest
+            # key in front of it (a sort, as np.unique; np.subtract.at costs several times that)
+            by = np.argsort(nxt)
+            nxt, keys = nxt[by], np.repeat(place[frontier], count)[by]
             first = np.r_[True, nxt[1:] != nxt[:-1]]
+            at = np.nonzero(first)[0]
             cells = nxt[first]
-            indegree[cells] -= np.diff(np.r_[np.nonzero(first)[0], len(nxt)])
-            frontier = cells[(indegree[cells] == 0) & ~done[cells]]
+            indegree[cells] -= np.diff(np.r_[at, len(nxt)])
+            open_ = ~done[cells]  # a cell already out (past a broken cycle) keeps its key
+            place[cells[open_]] = np.maximum(place[cells[open_]], np.maximum.reduceat(keys, at)[open_])
+            frontier = cells[(indegree[cells] == 0) & open_]
         else:
             frontier = np.zeros(0, np.int64)
-    return np.concatenate(out) if out else np.zeros(0, np.int64), broken
+    return np.lexsort((level, place)), broken
 
 
 def _distinct(values: np.ndarray) -> np.ndarray:
