@@ -374,6 +374,7 @@ def test_light_volume_is_made_once_per_light_and_transfer_function(gl_context):
     with registry.plugin("raycast").create(ctx=gl_context) as renderer:
         renderer.render(scene)
         assert renderer.stats["light_volume_seconds"] > 0
+        assert renderer._cache["light volume"][1].texture.components == 1  # a channel per light, no more
         renderer.render(scene.replace(camera=scene.camera.orbited(azimuth=80.0)))  # a new view: kept
         assert renderer.stats["light_volume_seconds"] == 0
         moved = scene.with_renderer(scattering=dataclasses.replace(

@@ -51,7 +51,7 @@ float light_buffer_depth(vec3 p) {
 }
 #endif
 #ifdef LIGHT_VOLUME
-uniform sampler3D u_light_volume;                       // RGBA32F, nearest: light i's optical depth in channel i
+uniform sampler3D u_light_volume;                       // 32-bit float, nearest: light i's optical depth in channel i
 uniform ivec3 u_light_volume_dims;                      // nodes (x, y, z)
 
 // The optical depths toward the lights at p: trilinear between the nodes, clamped to the box.
