@@ -189,6 +189,10 @@ def add_arguments(p):
     sc.add_argument("--shared", action="store_true", help="also the small shared datasets (bucky, nucleon, neghip, "
                                                           "ironProt) in --data-dir, lit by a default light (long: a "
                                                           "converged reference each)")
+    sc.add_argument("--datasets", metavar="A,B", help="also these shared datasets, by name (any of "
+                    + ", ".join(SCATTERING_DATASETS) + "), lit by the same light")
+    sc.add_argument("--shadow-ray-distances", default="2,1,0.75,0.5,0.375,0.25", metavar="D,D",
+                    help="the shadow rays' sample distances swept, voxels (default 2,1,0.75,0.5,0.375,0.25)")
     sc.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder (default ../shared/data)")
     sc.add_argument("--only", metavar="TEXT", help="only scenes whose name contains TEXT")
     sc.add_argument("--paths", type=int, default=64, help="Monte Carlo paths per pixel of the multiple-scattering "
@@ -581,6 +585,8 @@ def run_splatting(args) -> int:
 
 
 SCATTERING_SHARED = ("bucky", "nucleon", "neghip", "ironProt")
+SCATTERING_DATASETS = ("bucky", "nucleon", "neghip", "ironProt", "headsq", "hydrogen", "brainsmall", "lobster",
+                       "CThead", "MNI152")  # dvr_gl.bench.splatting.DATASETS' names (a test checks)
 
 
 def run_scattering(args) -> int:
@@ -604,12 +610,27 @@ def run_scattering(args) -> int:
                        f"{args.light_volume_sizes!r}") from None
     if not all(2 <= n <= 256 for n in sizes):
         raise DvrError(f"--light-volume-sizes must be 2 to 256 nodes each, got {args.light_volume_sizes}")
+    try:
+        distances = tuple(float(d) for d in args.shadow_ray_distances.split(","))
+    except ValueError:
+        raise DvrError(f"--shadow-ray-distances: a comma-separated list of voxels, got "
+                       f"{args.shadow_ray_distances!r}") from None
+    if not all(1.0 / 64.0 <= d <= 64.0 for d in distances):
+        raise DvrError(f"--shadow-ray-distances must be 1/64 to 64 voxels each, got {args.shadow_ray_distances}")
+    wanted = set(SCATTERING_SHARED) if args.shared else set()
+    if args.datasets:
+        names = [n.strip() for n in args.datasets.split(",") if n.strip()]
+        unknown = [n for n in names if n not in SCATTERING_DATASETS]
+        if unknown:
+            raise DvrError(f"--datasets: no shared dataset named {', '.join(unknown)} (the names: "
+                           f"{', '.join(SCATTERING_DATASETS)})")
+        wanted |= set(names)
     scenes, notes = [scattering.shadow_demo(args.demo_size)], []
-    if args.shared:
+    if wanted:
         if not Path(args.data_dir).is_dir():
             raise DvrError(f"--data-dir {args.data_dir}: no such folder (the shared datasets)")
         found, notes = shared_scenes(Path(args.data_dir))
-        scenes += [(n, o) for n, o in found if n in SCATTERING_SHARED]
+        scenes += [(n, o) for n, o in found if n in wanted]
     if args.only:
         scenes = [(n, o) for n, o in scenes if args.only in n]
         if not scenes:
@@ -621,6 +642,7 @@ def run_scattering(args) -> int:
                      f"(tolerance {args.tolerance:g}) at {args.error_size}x{args.error_size}; the shared datasets "
                      f"lit by one directional light (0.4, 0.6, -1), albedo 0.9")
     rows = scattering.run(scenes, args.size, args.error_size, args.repeat, args.tolerance, light_volume_sizes=sizes,
+                          shadow_ray_distances=distances,
                           progress=lambda r: print(
         f"{r['scene']} {r['renderer']} {r['method']} {r['setting']}: {r['ms']:.0f} ms, RMS {r['rms']:.2e}",
         flush=True))

@@ -3,8 +3,9 @@
 import math
 
 import numpy as np
+import pytest
 
-from conftest import small_scene
+from conftest import SHARED_DATA, small_scene
 from dvr_gl.apps.cli import main
 from dvr_gl.bench import format_table
 from dvr_gl.renderers.raycast.renderer import RayCastRenderer
@@ -176,15 +177,37 @@ def test_bench_scattering_prints_methods_equal_error_and_multiple_scattering(tmp
                  "--paths", "8", "--paths-size", "6", "--light-volume-sizes", "8,16,32", "--markdown", str(md)]) == 0
     out = capsys.readouterr().out
     rows = [line.split() for line in out.splitlines() if line.startswith("shadow demo ") and ":" not in line]
-    methods = [r[3] for r in rows[:22]]
-    assert methods.count("shadow_rays") == 4 and methods.count("light_volume") == 9
-    assert methods.count("half_angle") == 9
+    methods = [r[3] for r in rows[:42]]
+    assert methods.count("shadow_rays") == 6 and methods.count("light_volume") == 18
+    assert methods.count("half_angle") == 18
     assert "at equal error" in out and "what single scattering leaves out" in out
     assert "| scene |" in md.read_text()
     assert main(["bench", "scattering", "--paths", "-1"]) == 1
     assert "--paths" in capsys.readouterr().err
     assert main(["bench", "scattering", "--light-volume-sizes", "8,x"]) == 1
     assert "--light-volume-sizes" in capsys.readouterr().err
+    assert main(["bench", "scattering", "--datasets", "bucky,nosuch"]) == 1
+    assert "no shared dataset named nosuch" in capsys.readouterr().err
+    assert main(["bench", "scattering", "--shadow-ray-distances", "0.5,0"]) == 1
+    assert "--shadow-ray-distances must be" in capsys.readouterr().err
+
+
+def test_bench_scattering_datasets_and_shadow_ray_distances(tmp_path, capsys):
+    """``--datasets`` names any shared dataset the other benches know (the larger ones too), and the
+    shadow rays' distances are chosen (a large dataset's 0.25-voxel rows take minutes a frame)."""
+    from dvr_gl.apps.bench import SCATTERING_DATASETS
+    from dvr_gl.bench.splatting import DATASETS
+
+    assert set(SCATTERING_DATASETS) == {name for name, _, _ in DATASETS}
+    if not (SHARED_DATA / "regular" / "bucky.nhdr").exists():
+        pytest.skip("the shared datasets are absent")
+    assert main(["bench", "scattering", "--demo-size", "8", "--size", "12", "--error-size", "8", "--repeat", "1",
+                 "--paths", "0", "--light-volume-sizes", "8", "--shadow-ray-distances", "2,1",
+                 "--datasets", "bucky", "--data-dir", str(SHARED_DATA), "--tolerance", "1e-2"]) == 0
+    out = capsys.readouterr().out
+    rows = [line.split() for line in out.splitlines() if " | " not in line and ":" in line]
+    assert sum(r[0] == "bucky" and r[2] == "shadow_rays" for r in rows) == 2
+    assert sum(r[0] == "bucky" and r[2] == "light_volume" for r in rows) == 6
 
 
 def test_bench_fourier_prints_times_and_errors(tmp_path, capsys):
