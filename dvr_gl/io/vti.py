@@ -12,6 +12,10 @@ by the bytes; a compressed one is a header ``[blocks, block size, last block siz
 size of each block]`` followed by the zlib blocks.  In base64, an uncompressed array's header and bytes
 are encoded as one stream, a compressed array's header apart from its blocks.
 
+Pieces are assembled into WholeExtent: each piece's Extent inside it, every point covered, a point that
+two pieces share (VTK splits an extent by cells, so neighbours share a plane of points) holding the same
+value in both; gaps, conflicting overlaps and pieces of different types are refused.
+
 Bounded like the other readers: the file's size and the array the extent promises are checked against
 the memory budget before anything is decoded, each block is inflated to at most the block size, and the
 header's sizes must add up to exactly the promised bytes.  VTK has no patient frame: the direction is
@@ -96,26 +100,54 @@ def read_vti(path: Path, array: str | None = None) -> RawArray:
     if not pieces:
         raise VolumeError(f"{name}: ImageData has no Piece; fix the file")
     codec = _Codec(name, order, header, compressor, appended, root)
-    out, covered = None, 0
-    for piece in pieces:
+    out = _assemble(pieces, extent, dims, codec, array, order, name)
+    return RawArray(out, spacing, tuple(float(v) for v in origin), direction)
+
+
+def _assemble(pieces, extent, dims, codec, array, order, name) -> np.ndarray:
+    """The whole extent's samples ``[z, y, x]`` from its pieces.
+
+    Each piece's extent must lie inside WholeExtent, and together they must cover every point.  Pieces
+    may share points only where they hold the same values there: VTK splits an extent by cells, so
+    neighbouring pieces share their boundary plane of points; a shared point with two different values
+    (or two pieces written over one another) is refused, as is a gap (it would be silent zeros)."""
+    out = covered = None
+    for number, piece in enumerate(pieces):
         element = _choose(piece, array, name)
         dtype = _dtype(element, order, name)
         if out is None:
-            check_bytes(math.prod(dims) * dtype.itemsize, f"{name}: the {dims} array its WholeExtent promises",
-                        "check WholeExtent, or raise the memory budget")
-            out = np.zeros(dims[::-1], dtype)
-        part = integers(piece.get("Extent", image.get("WholeExtent")), name, "Piece Extent", 6)
-        if any(part[2 * a] < extent[2 * a] or part[2 * a + 1] > extent[2 * a + 1] for a in range(3)):
-            raise VolumeError(f"{name}: Piece Extent {part} lies outside WholeExtent {extent}")
+            check_bytes(math.prod(dims) * (dtype.itemsize + 1), f"{name}: the {dims} array its WholeExtent "
+                        f"promises", "check WholeExtent, or raise the memory budget")
+            out, covered = np.zeros(dims[::-1], dtype), np.zeros(dims[::-1], bool)
+        elif dtype != out.dtype:
+            raise VolumeError(f"{name}: Piece {number}'s DataArray {element.get('Name')!r} has type "
+                              f"{element.get('type')}, the first piece's is {out.dtype.name}; the pieces of one "
+                              f"array must share its type")
+        part = integers(piece.get("Extent", _text(extent)), name, f"Piece {number} Extent", 6)
+        if any(part[2 * a] < extent[2 * a] or part[2 * a + 1] > extent[2 * a + 1]
+               or part[2 * a + 1] < part[2 * a] for a in range(3)):
+            raise VolumeError(f"{name}: Piece {number} Extent {_text(part)} is empty or lies outside WholeExtent "
+                              f"{_text(extent)}; fix the file")
         shape = tuple(part[2 * a + 1] - part[2 * a] + 1 for a in (2, 1, 0))
         values = codec.read(element, dtype, math.prod(shape)).reshape(shape)
-        lo = [part[2 * a] - extent[2 * a] for a in (2, 1, 0)]
-        out[lo[0]:lo[0] + shape[0], lo[1]:lo[1] + shape[1], lo[2]:lo[2] + shape[2]] = values
-        covered += values.size
-    if covered != math.prod(dims):  # a gap would be silent zeros
-        raise VolumeError(f"{name}: the pieces hold {covered} points, WholeExtent {extent} has {math.prod(dims)}; "
-                          f"the file is incomplete")
-    return RawArray(out, spacing, tuple(float(v) for v in origin), direction)
+        box = tuple(slice(part[2 * a] - extent[2 * a], part[2 * a + 1] - extent[2 * a] + 1) for a in (2, 1, 0))
+        shared = covered[box]
+        if shared.any() and not np.array_equal(out[box][shared], values[shared], equal_nan=dtype.kind == "f"):
+            raise VolumeError(f"{name}: Piece {number} Extent {_text(part)} overlaps an earlier piece with other "
+                              f"values; each point of WholeExtent must have one value: fix the pieces' extents")
+        out[box] = values
+        covered[box] = True
+    if not covered.all():  # a gap would be silent zeros
+        z, y, x = (int(i) for i in np.argwhere(~covered)[0])
+        missing = int(covered.size - np.count_nonzero(covered))
+        raise VolumeError(f"{name}: the pieces leave {missing} of the {covered.size} points of WholeExtent "
+                          f"{_text(extent)} without a value (the first at x, y, z = {x + extent[0]}, "
+                          f"{y + extent[2]}, {z + extent[4]}); the file is incomplete")
+    return out
+
+
+def _text(extent) -> str:
+    return " ".join(map(str, extent))
 
 
 def _choose(piece, array, name):
