@@ -8,6 +8,7 @@ User errors (:class:`~dvr_gl.errors.DvrError`) and command-line mistakes print o
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import traceback
 import warnings
@@ -65,7 +66,30 @@ def joined_negative_axes(argv) -> list[str]:
     return out
 
 
+#: The exit status of a command whose reader went away (``dvr info FILE | head -1``): 128 + SIGPIPE, as a
+#: command the signal ended would report.
+BROKEN_PIPE = 141
+
+
+def closed_stdout() -> int:
+    """The reader of stdout closed it: no more output and no message, the standard way (Python's docs, "Note on
+    SIGPIPE"): stdout goes to devnull, so that flushing it at exit does not fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):  # a stdout without a file descriptor (captured, in tests)
+        pass
+    return BROKEN_PIPE
+
+
 def main(argv: list[str] | None = None) -> int:
+    try:
+        return _main(argv)
+    except BrokenPipeError:  # also from --help or --version, printed before any command runs
+        return closed_stdout()
+
+
+def _main(argv: list[str] | None) -> int:
     # the printed time is what the user waits for: from the process's start when run from the shell
     started = feedback.started(whole_process=argv is None)
     parser = build_parser()
@@ -92,6 +116,8 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"dvr {args.command}: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # stdout's reader went away: main's quiet exit, not a bug
+        raise
     except Exception as exc:  # a bug: say so in one line unless debugging
         if args.debug:
             traceback.print_exc()

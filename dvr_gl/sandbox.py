@@ -128,16 +128,21 @@ def _time_limit(seconds: float | None):
     def expired(signum, frame):
         raise _Expired()
 
+    # The timer may fire anywhere from setting it to clearing it, even before the body is entered (a
+    # deadline of 1e-9 s passes inside setitimer): the outer try catches it there too.
     previous = signal.signal(signal.SIGALRM, expired)
-    outer, _ = signal.setitimer(signal.ITIMER_REAL, seconds)
+    outer = signal.getitimer(signal.ITIMER_REAL)[0]  # an enclosing limit's time left
     start = time.monotonic()
     try:
-        with _cpu_backstop(seconds):
-            yield
+        try:
+            signal.setitimer(signal.ITIMER_REAL, seconds)
+            with _cpu_backstop(seconds):
+                yield
+        finally:
+            signal.setitimer(signal.ITIMER_REAL, 0)
     except _Expired:
         raise time_limit_error(seconds) from None
     finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, previous)
         if outer:  # an enclosing limit (a nested sandbox): its timer goes on with what is left of it
             signal.setitimer(signal.ITIMER_REAL, max(outer - (time.monotonic() - start), 1e-3))
@@ -214,8 +219,8 @@ def parse_bytes(text: str, what: str = "--max-memory") -> int:
     except (KeyError, ValueError):
         value = None
     if value is None or not 1 <= value < 2**63:
-        raise SandboxError(f"{what} {text!r}: give a size of at least 1 byte, e.g. 2GiB, 512MB or 1e9 (units: "
-                           f"B, kB, MB, GB, TB, KiB, MiB, GiB, TiB)")
+        raise SandboxError(f"{what} {text!r}: give a size from 1 byte to 8 EiB, e.g. 2GiB, 512MB or 1e9 (units: B, kB, "
+                           f"MB, GB, TB, KiB, MiB, GiB, TiB)")
     return int(value)
 
 

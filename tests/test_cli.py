@@ -334,3 +334,20 @@ def test_scattering_flags(tmp_path, capsys):
     code, _, err = run(capsys, "render", "--demo", "blobs", "--scattering", "--shading", "-o", bad, *SMALL)
     assert_one_line_error(code, err, "turn one off")
     assert not bad.exists()
+
+
+@pytest.mark.parametrize("argv", [["completion", "bash"], ["render", "--help"], ["info", "{volume}"]])
+def test_a_closed_stdout_ends_quietly(tmp_path, argv):
+    """``dvr info FILE | head -1``: the reader closes the pipe before dvr writes; no internal error and no
+    "Exception ignored" at exit, the status of a command SIGPIPE ended (141) or 0 where nothing failed."""
+    volume = tmp_path / "v.npy"
+    np.save(volume, np.zeros((4, 4, 4), np.float32))
+    dvr = Path(sys.executable).parent / "dvr"
+    proc = subprocess.Popen([str(dvr), *(a.format(volume=volume) for a in argv)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    proc.stdout.close()  # before the command prints anything
+    err = proc.stderr.read().decode()
+    code = proc.wait(timeout=60)
+    assert err == "" and code in (0, 141), (code, err)
+    if argv[0] != "render":  # argparse's help swallows the error itself
+        assert code == 141

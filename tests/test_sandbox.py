@@ -195,3 +195,45 @@ def test_bad_sandbox_flags_are_one_line(tmp_path, capsys, argv, fragment):
     code = main(["render", "--demo", "--size", "8", *argv, "-o", str(tmp_path / "o.png")])
     err = capsys.readouterr().err.strip()
     assert code == 1 and fragment in err and "\n" not in err, err
+
+
+@pytest.mark.parametrize("seconds", ["1e-9", "1e-300"])
+def test_a_deadline_passed_before_the_render_starts_is_one_line(tmp_path, capsys, seconds):
+    """The timer fires inside setitimer itself (before the body is entered): the same one line, no traceback
+    of the timer's private exception."""
+    code = main(["render", "--demo", "--size", "8", "--max-seconds", seconds, "-o", str(tmp_path / "o.png")])
+    err = capsys.readouterr().err.strip()
+    assert code == 1 and "ran past the time limit" in err and "\n" not in err, err
+    assert signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["--max-seconds", "-1"], "--max-seconds) must be in (0,"),
+    (["--max-seconds", "1e400"], "--max-seconds) must be in (0,"),
+    (["--max-memory", "1e30"], "from 1 byte to 8 EiB"),
+    (["--max-memory", "-5"], "from 1 byte to 8 EiB"),
+    (["--max-memory", "8EiB"], "from 1 byte to 8 EiB"),
+])
+def test_absurd_limits_are_one_line(tmp_path, capsys, argv, fragment):
+    code = main(["render", "--demo", "--size", "8", *argv, "-o", str(tmp_path / "o.png")])
+    err = capsys.readouterr().err.strip()
+    assert code == 1 and fragment in err and "\n" not in err, err
+
+
+def test_a_sandbox_root_that_is_a_file_is_one_line(tmp_path, capsys):
+    (tmp_path / "file").write_text("x")
+    code = main(["render", "--demo", "--size", "8", "--sandbox", str(tmp_path / "file"), "-o", str(tmp_path / "o.png")])
+    err = capsys.readouterr().err.strip()
+    assert code == 1 and "must be an existing folder" in err and "\n" not in err, err
+
+
+def test_a_symlinked_root_confines_to_its_target(box):
+    """A root given through a link is the folder it points to: what lies there loads, a link out does not."""
+    root, outside = box
+    link = root.parent / "link-to-root"
+    link.symlink_to(root)
+    with active(Sandbox((link,))):
+        assert load_scene(_scene(link, "v.npy")).field.data.shape == (4, 4, 4)
+        with pytest.raises(SandboxError, match="outside the allowed"):
+            load_scene(_scene(link, outside / "v.npy", "t.toml"))
