@@ -44,7 +44,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO / "tests"))  # the byte and line mutations are shared with the tests
 
-from fuzz_inputs import BAD_TOKENS, mutate_bytes, mutate_lines  # noqa: E402
+from fuzz_inputs import mutate_bytes, mutate_lines  # noqa: E402
 
 DVR = [sys.executable, "-m", "dvr_gl"]
 SIZE = ["--size", "32x32"]
@@ -378,35 +378,46 @@ def mutated_case(folder: Path, kind: str, rnd: random.Random) -> Case:
     return Case("mutated", f"{kind}: {what}", folder, args)
 
 
-SETTINGS = {  # flag -> absurd or extreme values
-    "--kernel-width": ["1e6", "1e-9", "0", "-1", "nan", "1e300"],
-    "--slab-width": ["1e9", "1e-5", "0", "inf"],
-    "--sample-distance-voxels": ["1e-7", "1e9", "-0"],
-    "--padding": ["1e6", "0", "-2", "1e-9"],
-    "--slice-bandwidth": ["1e6", "0", "-1"],
-    "--screen-low-pass": ["1e6", "-1", "0"],
-    "--lut-size": ["1", "0", "16385", "1000000000"],
-    "--resample": ["1", "2", "1024", "100000", "-3"],
-    "--rescale-intercept": ["1e300", "-1e300", "nan", "1e30"],
-    "--max-seconds": ["1e-9", "0", "-1", "nan", "inf", "1e400"],
-    "--max-memory": ["1", "0", "4MiB", "-5", "1e30"],
-    "--size": ["1x1", "0x0", "20000x2000", "16384x16384"],
-    "--iso-value": ["1e300", "nan"],
-    "--ert-threshold": ["0", "1", "2"],
-    "--dask": ["ucx://127.0.0.1:1", "tls://127.0.0.1:1", "tcp://", "127.0.0.1:1", "local:0", "local:1000"],
+GENERAL = ("raycast", "slicing3d", "slicing2d", "shearwarp", "reference", "splatting", "fourier")
+SETTINGS = {  # flag -> (absurd or extreme values, the renderers that take it)
+    "--kernel-width": (["1e6", "1e-9", "0", "-1", "nan", "1e300", "50"], ("splatting", "fourier")),
+    "--slab-width": (["1e9", "1e-5", "0", "inf", "1e-3"], ("splatting",)),
+    "--screen-low-pass": (["1e6", "-1", "0", "1e-9"], ("splatting",)),
+    "--padding": (["1e6", "0", "-2", "1e-9", "16"], ("fourier",)),
+    "--slice-bandwidth": (["1e6", "0", "-1"], ("fourier",)),
+    "--sample-distance-voxels": (["1e-7", "1e9", "-0", "1e-4"], GENERAL),
+    "--lut-size": (["1", "0", "16385", "1000000000"], GENERAL),
+    "--rescale-intercept": (["1e300", "-1e300", "nan", "1e30"], GENERAL),
+    "--max-seconds": (["1e-9", "0", "-1", "nan", "inf", "1e400", "0.5"], GENERAL),
+    "--max-memory": (["1", "0", "4MiB", "-5", "1e30"], GENERAL),
+    "--size": (["1x1", "0x0", "20000x2000", "16384x16384", "2048x2048"], GENERAL),
+    "--iso-value": (["1e300", "nan"], ("raycast", "reference")),
+    "--ert-threshold": (["0", "1", "2"], ("raycast",)),
+    "--dask": (["ucx://127.0.0.1:1", "tls://127.0.0.1:1", "tcp://", "127.0.0.1:1", "local:0", "local:1000"],
+               ("raycast",)),
 }
-RENDERERS = ("raycast", "slicing3d", "slicing2d", "shearwarp", "reference", "splatting", "fourier")
+
+
+def _volume(folder: Path, n: int) -> Path:
+    """An ``n``-cubed uint8 volume of blobs (a NRRD with its data attached)."""
+    z, y, x = np.mgrid[:n, :n, :n] / max(n - 1, 1) - 0.5
+    data = (255 * np.exp(-12 * (x * x + y * y + z * z))).astype(np.uint8)
+    path = folder / "b.nrrd"
+    path.write_bytes(f"NRRD0004\ntype: uint8\ndimension: 3\nsizes: {n} {n} {n}\nencoding: raw\n\n".encode()
+                     + data.tobytes())
+    return path
 
 
 def settings_case(folder: Path, rnd: random.Random) -> Case:
-    volume = _nrrd(folder) if rnd.random() < 0.8 else _particles(folder, "csv")
-    flags = rnd.sample(sorted(SETTINGS), rnd.randint(1, 2))
-    extra = ["--renderer", rnd.choice(RENDERERS)]
-    for flag in flags:
-        extra += [flag, rnd.choice(SETTINGS[flag])]
-    if rnd.random() < 0.3:
-        extra += ["--set", f"renderer.{rnd.choice(['kernel_width', 'slab_width', 'padding', 'lut_size'])}="
-                            f"{rnd.choice(BAD_TOKENS) or '0'}"]
+    flag = rnd.choice(sorted(SETTINGS))
+    values, renderers = SETTINGS[flag]
+    renderer = rnd.choice(renderers)
+    volume = rnd.choice([_nrrd(folder), _volume(folder, rnd.choice([16, 64, 128]))]) \
+        if renderer != "splatting" or rnd.random() < 0.7 else _particles(folder, "csv")
+    extra = ["--renderer", renderer, flag, rnd.choice(values)]
+    second = rnd.choice([f for f, (_, r) in SETTINGS.items() if renderer in r and f != flag])
+    if rnd.random() < 0.5:
+        extra += [second, rnd.choice(SETTINGS[second][0])]
     args = _render(folder, volume, *extra)
     if "--size" in extra:  # the flag given last wins
         args = [a for i, a in enumerate(args) if not (i < 6 and a in SIZE)]
