@@ -185,3 +185,93 @@ def test_series_key_on_other_formats_is_refused(tmp_path):
     with pytest.raises(VolumeError, match="volume.series applies to dicom; this is npy"):
         load_volume(tmp_path / "v.npy", series="3")
     assert os.path.exists(tmp_path / "v.npy")
+
+
+def retag(paths, change=None, replace=None):
+    """Rewrite each slice: ``change(ds)`` on the dataset, then ``replace`` (old, new) in the file's bytes
+    (how a value pydicom would not write, such as a DS of letters, gets into a file)."""
+    for p in paths:
+        if change is not None:
+            ds = pydicom.dcmread(p)
+            change(ds)
+            ds.save_as(p)
+        if replace is not None:
+            blob = p.read_bytes()
+            assert replace[0] in blob
+            p.write_bytes(blob.replace(*replace))
+
+
+def _set(keyword, value):
+    return lambda ds: setattr(ds, keyword, value)
+
+
+@pytest.mark.parametrize("change, replace, message", [
+    # issue 40: internal errors before
+    (lambda ds: delattr(ds, "Columns"), None, "slice_000.dcm: Columns is missing"),
+    (_set("SamplesPerPixel", None), None, "slice_000.dcm: SamplesPerPixel must be an integer >= 1, got nothing"),
+    (_set("RescaleSlope", "9.99"), (b"9.99", b"abcd"), "RescaleSlope must be a finite number, got 'abcd'"),
+    # issue 40: messages that blamed another tag, or the transfer function
+    (_set("PixelSpacing", ["-2.8", "-2.8"]), None, r"PixelSpacing must hold 2 finite numbers > 0, got '-2.8\\-2.8'"),
+    (_set("PixelSpacing", ["0", "0"]), None, r"PixelSpacing must hold 2 finite numbers > 0, got '0\\0'"),
+    (_set("RescaleIntercept", "1e30"), None, "RescaleSlope 1 and RescaleIntercept 1e.30 take the stored values "
+     r"-100 to -23 to values near 1e.30, where float32 cannot tell neighbouring stored values apart"),
+    (_set("RescaleSlope", "1e37"), None, "outside the range of float32"),
+    # found trying more
+    (_set("RescaleSlope", "0"), None, "RescaleSlope is 0"),
+    (_set("RescaleSlope", "nan"), None, "RescaleSlope must be a finite number, got 'nan'"),
+    (_set("NumberOfFrames", "0"), None, "NumberOfFrames must be an integer >= 1, got '0'"),
+    (_set("ImageOrientationPatient", ["0"] * 6), None, r"ImageOrientationPatient's row direction .* has length 0"),
+    (_set("ImageOrientationPatient", ["1", "0", "0", "1", "0", "0"]), None,
+     "ImageOrientationPatient's row and column directions are 0 degrees apart"),
+    (_set("PhotometricInterpretation", "PALETTE COLOR"), None, "PhotometricInterpretation 'PALETTE COLOR'"),
+    (_set("Rows", 0), None, "Rows must be an integer from 1 to 65535, got '0'"),
+])
+def test_bad_tags_are_named(tmp_path, change, replace, message):
+    paths = write_series(tmp_path / "s")
+    retag(paths, change, replace)
+    with pytest.raises(VolumeError, match=message):
+        load_volume(tmp_path / "s")
+
+
+def test_bad_slice_thickness_of_a_single_slice_is_named(tmp_path):
+    paths = write_series(tmp_path / "s", stored=STORED[:1])
+    retag(paths, _set("SliceThickness", "7.77"), (b"7.77", b"thin"))
+    with pytest.raises(VolumeError, match="SliceThickness must be a finite number, got 'thin'"):
+        load_volume(tmp_path / "s")
+
+
+def test_pydicom_prints_nothing(tmp_path, capfd):
+    """pydicom warns about values it cannot convert; nothing of it reaches the terminal."""
+    paths = write_series(tmp_path / "s")
+    retag(paths, _set("RescaleSlope", "9.99"), (b"9.99", b"abcd"))
+    with pytest.raises(VolumeError):
+        load_volume(tmp_path / "s")
+    retag(paths, None, (b"abcd", b"1.0 "))
+    retag(paths[:1], _set("SeriesDescription", "x" * 80))  # too long for LO: pydicom warns when it reads it
+    np.testing.assert_array_equal(load_volume(tmp_path / "s").data, STORED)
+    assert capfd.readouterr() == ("", "")
+
+
+def test_series_members_stay_in_the_sandbox(tmp_path):
+    """Every member of a folder or glob is checked (links followed) before it is read: a member linked
+    to an outside file is refused, not read and not skipped, and so is a glob or list reaching outside."""
+    from dvr_gl.sandbox import Sandbox, SandboxError, active
+
+    root, outside = tmp_path / "root", tmp_path / "outside"
+    root.mkdir()
+    paths = write_series(root / "s")
+    other = write_series(outside, stored=STORED[:1], names="far{:03d}.dcm")[0]
+    (outside / "notes.txt").write_text("secret")
+    with active(Sandbox(roots=(root,))):
+        np.testing.assert_array_equal(load_volume(root / "s").data, STORED)
+        for target in (other, outside / "notes.txt"):
+            link = root / "s" / "zz_link.dcm"
+            link.symlink_to(target)
+            with pytest.raises(SandboxError, match="zz_link.dcm: the file of the series folder or glob lies "
+                                                   "outside the allowed folders"):
+                load_volume(root / "s")
+            link.unlink()
+        with pytest.raises(SandboxError, match="far000.dcm: the .* lies outside the allowed folders"):
+            load_volume(str(root / "s" / ".." / ".." / "outside" / "*.dcm"))
+        with pytest.raises(SandboxError, match="lies outside the allowed folders"):
+            load_volume([*paths, other])

@@ -18,6 +18,15 @@ different size, spacing or orientation, positions that step sideways (a tilted g
 two slices at one position, colour or multi-frame images, and compressed transfer syntaxes that pydicom
 cannot decode without a plugin (naming the package that decodes it).
 
+Every tag the reader uses is checked before it is used, and a bad one is named with its file: Rows and
+Columns (1 to 65535), SamplesPerPixel and NumberOfFrames (integers, 1), PhotometricInterpretation (grey:
+MONOCHROME1 or 2), ImageOrientationPatient (two perpendicular unit vectors), PixelSpacing (two numbers > 0),
+ImagePositionPatient, RescaleSlope (finite, not 0) and RescaleIntercept (finite); a rescale whose values
+float32 cannot hold or tell apart is refused naming both tags.
+
+A folder's or a glob's members are each checked against the sandbox (symlinks followed) before any is
+opened, so a member linked to a file outside the roots is refused, not read.
+
 A folder's DICOM files are found by content (the ``DICM`` marker after the 128-byte preamble), so a
 folder of TIFF slices still reads as a TIFF stack (:func:`is_dicom`).
 """
@@ -32,10 +41,12 @@ import numpy as np
 
 from ..errors import VolumeError
 from ..sandbox import check_bytes, check_input_path
-from .common import RawArray, axes_geometry, require
+from .common import ORTHOGONALITY, RawArray, axes_geometry, require
 
 GAP_TOLERANCE = 0.01  # relative: gaps between slice positions may differ by 1% of the median gap
 ORIENTATION_TOLERANCE = 1e-4  # ImageOrientationPatient's numbers, written to about 6 decimals
+UNIT_TOLERANCE = 1e-3  # how far from 1 the length of its directions may be (some writers keep 4 decimals)
+GREY = ("MONOCHROME1", "MONOCHROME2")  # PhotometricInterpretation of grey values (not palette indices)
 MEDIA_DIRECTORY = "1.2.840.10008.1.3.10"  # DICOMDIR: an index of files, not an image
 
 
@@ -48,6 +59,20 @@ def is_dicom(path: Path) -> bool:
         return False
 
 
+def members(path: Path) -> list[Path]:
+    """The regular files a folder or a glob names, in name order, each allowed by the sandbox (symlinks
+    followed) before anything reads it: a member linked to a file outside the roots is refused, not
+    skipped, as is a glob reaching outside them."""
+    text = str(path)
+    if any(c in text for c in "*?["):
+        found = [Path(p) for p in sorted(glob.glob(text))]
+    elif path.is_dir():
+        found = sorted(path.iterdir())
+    else:
+        return []
+    return [check_input_path(f, "file of the series folder or glob") for f in found if f.is_file()]
+
+
 def series_candidates(path) -> list[Path]:
     """The DICOM files that ``path`` names: a list of files, a folder's files (by content) or a glob's."""
     if isinstance(path, (list, tuple)):
@@ -58,43 +83,89 @@ def series_candidates(path) -> list[Path]:
                 raise VolumeError(f"{f}: not a DICOM file (no DICM marker at byte 128); leave it out of the list")
         return files
     path = Path(path)
-    text = str(path)
-    if any(c in text for c in "*?["):
-        found = [Path(p) for p in sorted(glob.glob(text)) if Path(p).is_file()]
-    elif path.is_dir():
-        found = sorted(p for p in path.iterdir() if p.is_file())
-    else:
-        found = [path]
+    found = members(path) if path.is_dir() or any(c in str(path) for c in "*?[") else \
+        [check_input_path(path, "DICOM file")]
     files = [f for f in found if is_dicom(f)]
     if not files:
         raise VolumeError(f"{path}: no DICOM files (none has the DICM marker at byte 128)")
-    return [check_input_path(f, "DICOM file") for f in files]
+    return files
 
 
 def folder_holds_dicom(path: Path) -> bool:
     """Whether a folder (or a glob) names at least one DICOM file, by content."""
-    text = str(path)
-    if any(c in text for c in "*?["):
-        found = glob.glob(text)
-    elif path.is_dir():
-        found = [str(p) for p in path.iterdir()]
-    else:
-        return False
-    return any(is_dicom(Path(p)) for p in found if Path(p).is_file())
+    return any(is_dicom(p) for p in members(Path(path)))
 
 
-def _numbers(ds, keyword: str, count: int, f: Path):
-    value = ds.get(keyword)
+def _value(ds, keyword: str, f: Path):
+    """A tag's value as pydicom gives it; None when the tag is absent or empty."""
+    try:
+        value = ds.get(keyword)
+    except Exception as exc:  # noqa: BLE001 - pydicom converts lazily, and may raise any kind here
+        raise VolumeError(f"{f}: {keyword} cannot be read ({exc}); fix the tag") from None
+    if value is None or isinstance(value, (str, bytes)) and not value.strip() or \
+            isinstance(value, (list, tuple)) and not len(value):
+        return None
+    return value
+
+
+def _numbers(ds, keyword: str, count: int, f: Path, positive: bool = False, default=None):
+    """``count`` finite numbers of a tag (each > 0 if ``positive``); ``default`` when absent or empty
+    (None: the tag is required)."""
+    value = _value(ds, keyword, f)
     if value is None:
+        if default is not None:
+            return np.array(default, dtype=float)
         raise VolumeError(f"{f}: {keyword} is missing; a slice of a volume needs it (is this a localizer or a "
                           f"secondary capture?)")
+    many = not isinstance(value, (str, bytes)) and hasattr(value, "__len__")
     try:
-        values = [float(v) for v in (value if count > 1 else [value])]
+        values = [float(v) for v in (value if many else [value])]
     except (TypeError, ValueError):
         values = []
-    if len(values) != count or not all(math.isfinite(v) for v in values):
-        raise VolumeError(f"{f}: {keyword} must hold {count} finite numbers, got {value!r}")
+    if len(values) != count or not all(math.isfinite(v) and (v > 0 or not positive) for v in values):
+        what = (f"hold {count} finite numbers" if count > 1 else "be a finite number") + (" > 0" if positive else "")
+        raise VolumeError(f"{f}: {keyword} must {what}, got {_shown(value)}; fix the tag")
     return np.array(values)
+
+
+def _integer(ds, keyword: str, f: Path, default: int | None = None, maximum: int = 2**31 - 1) -> int:
+    """A tag's integer, 1 to ``maximum``; ``default`` when absent (an empty tag is refused: it is there,
+    but says nothing)."""
+    if keyword not in ds:
+        if default is None:
+            raise VolumeError(f"{f}: {keyword} is missing; an image slice needs it: fix the header")
+        return default
+    value = _value(ds, keyword, f)
+    try:
+        number = int(str(value).strip()) if value is not None else None
+    except ValueError:
+        number = None
+    if number is None or not 1 <= number <= maximum:
+        bound = f"from 1 to {maximum}" if maximum < 2**31 - 1 else ">= 1"
+        raise VolumeError(f"{f}: {keyword} must be an integer {bound}, got "
+                          f"{'nothing (empty)' if value is None else _shown(value)}; fix the tag")
+    return number
+
+
+def _shown(value) -> str:
+    """A tag's value as DICOM writes it (several values apart by backslashes), shortened."""
+    many = not isinstance(value, (str, bytes)) and hasattr(value, "__len__")
+    text = "\\".join(str(v) for v in value) if many else str(value)
+    return "'" + (text if len(text) <= 60 else text[:57] + "...") + "'"
+
+
+def _unit_axes(iop: np.ndarray, f: Path) -> None:
+    """ImageOrientationPatient's row and column directions: unit vectors, written to a few decimals."""
+    for what, axis in (("row", iop[:3]), ("column", iop[3:])):
+        length = float(np.linalg.norm(axis))
+        if abs(length - 1) > UNIT_TOLERANCE:
+            raise VolumeError(f"{f}: ImageOrientationPatient's {what} direction {axis.tolist()} has length "
+                              f"{length:.6g}; each of its two directions must be a unit vector: fix the tag")
+    cos = abs(float(iop[:3] @ iop[3:]))
+    if cos > ORTHOGONALITY:
+        raise VolumeError(f"{f}: ImageOrientationPatient's row and column directions are "
+                          f"{np.degrees(np.arccos(min(cos, 1.0))):.3g} degrees apart; they must be perpendicular: "
+                          f"fix the tag")
 
 
 def _headers(pydicom, files):
@@ -160,16 +231,27 @@ def read_dicom_series(path, series: str | None = None) -> RawArray:
     entries = _choose_series(entries, path, series)
     f0, ds0 = entries[0]
     for f, ds in entries:
-        if int(ds.get("SamplesPerPixel", 1)) != 1:
-            raise VolumeError(f"{f}: {ds.SamplesPerPixel} samples per pixel (colour); a volume needs grey slices")
-        if int(ds.get("NumberOfFrames", 1) or 1) != 1:
-            raise VolumeError(f"{f}: a multi-frame image ({ds.NumberOfFrames} frames); only series of "
+        samples = _integer(ds, "SamplesPerPixel", f, default=1)
+        if samples != 1:
+            raise VolumeError(f"{f}: {samples} samples per pixel (colour); a volume needs grey slices")
+        frames = _integer(ds, "NumberOfFrames", f, default=1)
+        if frames != 1:
+            raise VolumeError(f"{f}: a multi-frame image ({frames} frames); only series of "
                               f"single-frame slices are read: convert it (e.g. with dcm2niix) first")
-    _same(entries, "size (Rows, Columns)", f0, [(int(ds.Rows), int(ds.Columns)) for _, ds in entries])
+        photometric = _value(ds, "PhotometricInterpretation", f)
+        if photometric is not None and str(photometric).strip().upper() not in GREY:
+            raise VolumeError(f"{f}: PhotometricInterpretation {_shown(photometric)}: the pixels are not grey "
+                              f"values (MONOCHROME1 or MONOCHROME2); a volume needs grey slices")
+    sizes = [(_integer(ds, "Rows", f, maximum=65535), _integer(ds, "Columns", f, maximum=65535))
+             for f, ds in entries]
+    _same(entries, "size (Rows, Columns)", f0, sizes)
     iop = [_numbers(ds, "ImageOrientationPatient", 6, f) for f, ds in entries]
+    for (f, _), axes in zip(entries, iop):
+        _unit_axes(axes, f)
     _same(entries, "ImageOrientationPatient", f0, iop, ORIENTATION_TOLERANCE)
-    pixel = [_numbers(ds, "PixelSpacing", 2, f) for f, ds in entries]
+    pixel = [_numbers(ds, "PixelSpacing", 2, f, positive=True) for f, ds in entries]
     _same(entries, "PixelSpacing", f0, pixel, 1e-6 * max(pixel[0]))
+    scales = [_rescale(ds, f) for f, ds in entries]
     row, col = iop[0][:3], iop[0][3:]
     normal = np.cross(row, col)
     positions = np.array([_numbers(ds, "ImagePositionPatient", 3, f) for f, ds in entries])
@@ -178,7 +260,7 @@ def read_dicom_series(path, series: str | None = None) -> RawArray:
     gap = _slice_gap(entries, positions, normal, ds0)
     spacing, direction = axes_geometry([row * pixel[0][1], col * pixel[0][0], normal * gap], str(f0),
                                        "ImageOrientationPatient")
-    data = _pixels(pydicom, entries, path)
+    data = _pixels(pydicom, entries, [scales[i] for i in order], path)
     return RawArray(data, spacing, tuple(float(v) for v in positions[0]), direction)
 
 
@@ -186,8 +268,9 @@ def _slice_gap(entries, positions, normal, ds0) -> float:
     """The distance between slices, from their positions: evenly spaced, along the normal."""
     if len(entries) == 1:
         for key in ("SpacingBetweenSlices", "SliceThickness"):
-            if ds0.get(key) not in (None, "") and float(ds0.get(key)) > 0:
-                return float(ds0.get(key))
+            value = _numbers(ds0, key, 1, entries[0][0], default=[0.0])[0]
+            if value > 0:  # 0 or negative (some writers' sign convention): say nothing
+                return float(value)
         return 1.0
     along = positions @ normal
     gaps = np.diff(along)
@@ -212,13 +295,40 @@ def _slice_gap(entries, positions, normal, ds0) -> float:
     return float(np.mean(gaps))
 
 
-def _pixels(pydicom, entries, path) -> np.ndarray:
+def _rescale(ds, f: Path) -> tuple[float, float]:
+    """RescaleSlope and RescaleIntercept (1 and 0 when absent or empty): finite, the slope not 0."""
+    slope = float(_numbers(ds, "RescaleSlope", 1, f, default=[1.0])[0])
+    intercept = float(_numbers(ds, "RescaleIntercept", 1, f, default=[0.0])[0])
+    if slope == 0:
+        raise VolumeError(f"{f}: RescaleSlope is 0, which maps every stored value to the intercept; fix the tag")
+    return slope, intercept
+
+
+def _check_rescale(f: Path, stored: np.ndarray, slope: float, intercept: float) -> None:
+    """Refuse a rescale whose values float32 cannot hold, or cannot tell apart: neighbouring stored
+    integers must stay more than one float32 step apart (``RescaleIntercept 1e30`` turned a CT into one
+    constant, and the message blamed the transfer function)."""
+    low, high = float(stored.min()), float(stored.max())
+    ends = (low * slope + intercept, high * slope + intercept)
+    largest = max(abs(e) for e in ends)
+    shown = f"RescaleSlope {slope:g} and RescaleIntercept {intercept:g}"
+    if not math.isfinite(largest) or largest > float(np.finfo(np.float32).max):
+        raise VolumeError(f"{f}: {shown} take the stored values {low:g} to {high:g} to {ends[0]:g} to {ends[1]:g}, "
+                          f"outside the range of float32 (about 3.4e38); fix the tags")
+    step = float(np.spacing(np.float32(largest)))
+    if abs(slope) <= step:
+        raise VolumeError(f"{f}: {shown} take the stored values {low:g} to {high:g} to values near {largest:.3g}, "
+                          f"where float32 cannot tell neighbouring stored values apart (its step there is "
+                          f"{step:.3g}); fix the tags")
+
+
+def _pixels(pydicom, entries, scales, path) -> np.ndarray:
     ds0 = entries[0][1]
     rows, cols = int(ds0.Rows), int(ds0.Columns)
     check_bytes(len(entries) * rows * cols * 8, f"{path}: the {cols}x{rows}x{len(entries)} DICOM series",
                 "read fewer slices, or raise the memory budget")
-    slices, scales = [], []
-    for f, _ in entries:
+    slices = []
+    for (f, _), (slope, intercept) in zip(entries, scales):
         syntax = None
         try:
             ds = pydicom.dcmread(str(f))
@@ -228,8 +338,9 @@ def _pixels(pydicom, entries, path) -> np.ndarray:
             raise VolumeError(_pixel_error(f, syntax, exc)) from None
         if pixels.shape != (rows, cols):
             raise VolumeError(f"{f}: pixel data of shape {pixels.shape}, the header says {(rows, cols)}")
+        if (slope, intercept) != (1.0, 0.0) and pixels.size:
+            _check_rescale(f, pixels, slope, intercept)
         slices.append(pixels)
-        scales.append((float(ds.get("RescaleSlope", 1) or 1), float(ds.get("RescaleIntercept", 0) or 0)))
     stored = np.stack(slices)
     if all(s == (1.0, 0.0) for s in scales):
         return stored
