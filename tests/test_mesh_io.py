@@ -105,15 +105,17 @@ TET_HEADER = "# vtk DataFile Version 3.0\nt\nASCII\nDATASET UNSTRUCTURED_GRID\n"
 
 
 @pytest.mark.parametrize("case, text, message", [
-    ("truncated", TET_HEADER + "POINTS 4 float\n0 0 0 1 0 0\n", "not a readable VTK unstructured grid"),
+    ("truncated", TET_HEADER + "POINTS 4 float\n0 0 0 1 0 0\n", "POINTS claims 12 values, more than the rest"),
     ("surface only", TET_HEADER + "POINTS 3 float\n0 0 0 1 0 0 0 1 0\nCELLS 1 4\n3 0 1 2\nCELL_TYPES 1\n5\n"
      "POINT_DATA 3\nSCALARS s float 1\nLOOKUP_TABLE default\n1 2 3\n", "no volume cells"),
     ("no scalars", TET_HEADER + "POINTS 4 float\n0 0 0 1 0 0 0 1 0 0 0 1\nCELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\n",
      "no one-component array"),
     ("bad index", TET_HEADER + "POINTS 4 float\n0 0 0 1 0 0 0 1 0 0 0 1\nCELLS 1 5\n4 0 1 2 9\nCELL_TYPES 1\n10\n"
      "POINT_DATA 4\nSCALARS s float 1\nLOOKUP_TABLE default\n1 2 3 4\n", "outside 0..3"),
-    ("quadratic hexahedron", TET_HEADER + "POINTS 4 float\n0 0 0 1 0 0 0 1 0 0 0 1\nCELLS 1 5\n4 0 1 2 3\n"
-     "CELL_TYPES 1\n25\n", "not a readable VTK unstructured grid"),  # meshio knows no type 25
+    ("quadratic hexahedron, short", TET_HEADER + "POINTS 4 float\n0 0 0 1 0 0 0 1 0 0 0 1\nCELLS 1 5\n4 0 1 2 3\n"
+     "CELL_TYPES 1\n25\n", "a quadratic_hexahedron cell \\(VTK type 25\\) has 4 points, not 20"),
+    ("quadratic hexahedron", TET_HEADER + "POINTS 20 float\n" + "0 0 0 " * 20 + "\nCELLS 1 21\n20 "
+     + " ".join(map(str, range(20))) + "\nCELL_TYPES 1\n25\n", "type 'quadratic_hexahedron' \\(VTK 25\\) cannot be"),
 ])
 def test_malformed_mesh_files_are_one_line_errors(tmp_path, case, text, message):
     path = _write(tmp_path, "bad.vtk", text)
@@ -152,3 +154,141 @@ def test_malformed_plot3d_is_refused_in_one_line(tmp_path, case, message):
         _write(tmp_path, "gq.bin", q)
     with pytest.raises(DvrError, match=message):
         read_plot3d(tmp_path / "gxyz.bin")
+
+
+# --- the strict VTK readers (issue 40): every layout, every damage refused --------------------------
+
+import mesh_inputs as mi  # noqa: E402
+
+
+def _reference_mesh(tmp_path):
+    return load_field(_write(tmp_path, "ref.vtk", mi.legacy()), array="s")
+
+
+@pytest.mark.parametrize("encoding", ["ascii", "binary", "zlib", "raw", "appended64"])
+def test_every_vtu_layout_reads_the_same_mesh(tmp_path, encoding):
+    ref = _reference_mesh(tmp_path)
+    mesh = load_field(_write(tmp_path, f"m-{encoding}.vtu", mi.vtu(encoding)), array="s")
+    np.testing.assert_array_equal(mesh.points, ref.points)
+    np.testing.assert_array_equal(mesh.tets, ref.tets)
+    np.testing.assert_array_equal(mesh.values, ref.values)
+    cells = load_field(_write(tmp_path, f"c-{encoding}.vtu", mi.vtu(encoding)), array="c")
+    assert cells.association == "cell" and sorted(set(cells.values)) == [1.0, 2.0, 3.0, 4.0, 5.0]
+
+
+@pytest.mark.parametrize("binary", [False, True])
+@pytest.mark.parametrize("version", ["4.2", "5.1"])
+def test_every_legacy_layout_reads_the_same_mesh(tmp_path, binary, version):
+    ref = load_field(_write(tmp_path, "ref.vtu", mi.vtu()), array="s")
+    mesh = load_field(_write(tmp_path, "m.vtk", mi.legacy(binary, version)), array="s")
+    np.testing.assert_array_equal(mesh.tets, ref.tets)
+    np.testing.assert_array_equal(mesh.values, ref.values)
+    # 1 + 12 + 8 + 2 + 8 tetrahedra, a centroid added for the hexahedron and the wedge
+    assert len(mesh.tets) + mesh.n_degenerate == 31 and len(mesh.points) == len(mi.POINTS) + 2
+    cells = load_field(_write(tmp_path, "c.vtk", mi.legacy(binary, version)), array="c")
+    assert cells.association == "cell" and sorted(set(cells.values)) == [1.0, 2.0, 3.0, 4.0, 5.0]
+
+
+def test_a_multi_piece_vtu_is_joined_where_meshio_keeps_the_last_piece(tmp_path):
+    meshio = pytest.importorskip("meshio")
+    path = _write(tmp_path, "two.vtu", mi.vtu(pieces=2))
+    mesh = load_field(path, array="s")
+    one = load_field(_write(tmp_path, "one.vtu", mi.vtu()), array="s")
+    assert len(mesh.tets) == 2 * len(one.tets)
+    assert sum(len(b.data) for b in meshio.read(path).cells) == len(mi.CELLS)  # meshio: one piece's cells
+
+
+def test_vtu_offsets_all_zero_are_refused_where_meshio_reads_other_cells(tmp_path):
+    """Issue 40: zeroed offsets rendered a different picture with exit 0 (meshio takes each cell as the
+    entries ending at its offset, wherever that is)."""
+    meshio = pytest.importorskip("meshio")
+    conn, ends, _ = mi.cell_arrays()
+    path = _write(tmp_path, "z.vtu", mi.vtu(offsets=np.zeros_like(ends)))
+    misread = meshio.read(path)
+    assert [b.data.tolist() for b in misread.cells] != [c for _, c in mi.CELLS]  # no error: other cells
+    with pytest.raises(DvrError, match="offsets run from 0 to 0, not from 0 to the connectivity's length 33"):
+        load_field(path)
+
+
+@pytest.mark.parametrize("case, change, message", [
+    ("offsets decrease", dict(offsets=[4, 12, 10, 23, 33]), "offsets decrease at cell 2"),
+    ("offsets short", dict(offsets=[4, 12, 18, 23, 30]), "offsets run from 0 to 30"),
+    ("offsets past the end", dict(offsets=[4, 12, 18, 23, 40]), "offsets run from 0 to 40"),
+    ("offsets shifted", dict(offsets=[4, 11, 18, 23, 33]), "hexahedron cell .VTK type 12. has 7 points"),
+    ("unknown type", dict(types=[10, 12, 13, 14, 99]), "cell 4 has type 99, not a VTK cell type"),
+    ("type swapped", dict(types=[10, 13, 12, 14, 24]), "hexahedron cell .VTK type 12. has 6 points"),
+    ("types short", dict(types=[10, 12, 13, 14]), "5 offsets and 4 types for NumberOfCells"),
+    ("tetrahedron index", dict(connectivity=[0, 1, 3, 40] + mi.cell_arrays()[0].tolist()[4:]), "names point 40"),
+    ("hexahedron index", dict(connectivity=mi.cell_arrays()[0].tolist()[:4] + [0, 1, 2, 3, 4, 5, 6, 19]
+                              + mi.cell_arrays()[0].tolist()[12:]), "names point 19, outside 0..18"),
+    ("wedge index", dict(connectivity=mi.cell_arrays()[0].tolist()[:12] + [1, 8, 5, 2, 9, -1]
+                         + mi.cell_arrays()[0].tolist()[18:]), "names point -1"),
+    ("pyramid index", dict(connectivity=mi.cell_arrays()[0].tolist()[:18] + [0, 1, 2, 3, 1000]
+                           + mi.cell_arrays()[0].tolist()[23:]), "names point 1000"),
+    ("tetra10 index", dict(connectivity=mi.cell_arrays()[0].tolist()[:23] + [0, 1, 3, 4, 17, 14, 15, 16, 13, 19]),
+     "names point 19"),
+    ("point data short", dict(point_values=mi.POINT_VALUES[:-1]), "array 's' holds 18 values; 19 points"),
+    ("cell data long", dict(cell_values=np.ones(6)), "array 'c' holds 6 values; 5 cells"),
+    ("points short", dict(points=mi.POINTS[:-1]), "Points holds 54 values"),
+])
+@pytest.mark.parametrize("encoding", ["ascii", "raw"])
+def test_damaged_vtu_cells_and_arrays_are_one_line_errors(tmp_path, case, change, message, encoding):
+    text = mi.vtu(encoding, **change)
+    if case == "points short":  # NumberOfPoints from the intact mesh, the data one point short
+        text = text.replace(b'NumberOfPoints="18"', b'NumberOfPoints="19"')
+    with pytest.raises(DvrError, match=message) as info:
+        load_field(_write(tmp_path, "bad.vtu", text))
+    assert "\n" not in str(info.value)
+
+
+def test_legacy_cell_types_fewer_than_cells_are_refused_where_meshio_drops_cells(tmp_path):
+    meshio = pytest.importorskip("meshio")
+    text = mi.legacy(types=[10, 12, 13, 14]).replace(b"CELL_TYPES 4", b"CELL_TYPES 4")
+    path = _write(tmp_path, "short.vtk", text)
+    try:
+        kept = sum(len(b.data) for b in meshio.read(path).cells)
+    except Exception:  # noqa: BLE001 - only the silent drop is shown here
+        kept = None
+    assert kept in (None, 4)
+    with pytest.raises(DvrError, match="CELL_TYPES has 4 entries for 5 CELLS"):
+        load_field(path)
+
+
+@pytest.mark.parametrize("case, mutate, message", [
+    ("counts overrun", lambda t: t.replace(b"CELLS 5 38\n4 ", b"CELLS 5 38\n9 "), "point count lies past|add up to"),
+    ("size too large", lambda t: t.replace(b"CELLS 5 38", b"CELLS 5 39"), "CELLS holds b?'CELL_TYPES', not a number"),
+    ("hexahedron index", lambda t: t.replace(b"8 0 1 2 3 4 5 6 7", b"8 0 1 2 3 4 5 6 77"), "names point 77"),
+    ("wedge index", lambda t: t.replace(b"6 1 8 5 2 9 6", b"6 1 8 5 2 9 -6"), "names point -6"),
+    ("nan point", lambda t: t.replace(b"POINTS 19 double\n0.0", b"POINTS 19 double\nnan"), "1 points have NaN"),
+    ("inf point", lambda t: t.replace(b"POINTS 19 double\n0.0", b"POINTS 19 double\ninf"), "1 points have NaN"),
+    ("point data count", lambda t: t.replace(b"POINT_DATA 19", b"POINT_DATA 18"), "a number .9.0. where"),
+    ("cell data count", lambda t: t.replace(b"c 1 5 double", b"c 1 4 double"), "'c' has 4 tuples for 5"),
+    ("huge count", lambda t: t.replace(b"POINTS 19", b"POINTS 99999999999"), "more than the rest of the file"),
+    ("not a count", lambda t: t.replace(b"CELL_TYPES 5", b"CELL_TYPES five"), "CELL_TYPES n must be a count"),
+    ("bad number", lambda t: t.replace(b"CELL_TYPES 5\n10", b"CELL_TYPES 5\n1x"), "holds b?'1x', not a number"),
+])
+def test_damaged_legacy_files_are_one_line_errors(tmp_path, case, mutate, message):
+    text = mutate(mi.legacy())
+    assert text != mi.legacy()
+    with pytest.raises(DvrError, match=message) as info:
+        load_field(_write(tmp_path, "bad.vtk", text))
+    assert "\n" not in str(info.value)
+
+
+@needs_data
+def test_notch_stress_cells_are_drawn_from_their_corners_not_the_mid_edge_nodes(tmp_path):
+    """notch_stress.vtk writes 20-point 'hexahedra' and 15-point 'wedges' (quadratic cells under linear
+    types): VTK draws them from their first 8 (6) points, the corners; meshio took the last 8 (6),
+    mid-edge nodes, a smaller cell turned 45 degrees.  The centroid added for each hexahedron is the
+    mean of its corners."""
+    from dvr_gl.io.mesh_vtk import read_legacy
+
+    path = UNSTRUCTURED / "notch_stress.vtk"
+    grid = read_legacy(path)
+    mesh = load_field(path)
+    first = grid.connectivity[grid.offsets[0]:grid.offsets[0] + 8]
+    centroid = mesh.points[len(grid.points)]  # the first cell's added point
+    np.testing.assert_allclose(centroid, grid.points[first].mean(axis=0))
+    meshio = pytest.importorskip("meshio")
+    misread = meshio.read(path).cells[0].data[0]
+    assert not np.allclose(grid.points[misread].mean(axis=0), centroid)

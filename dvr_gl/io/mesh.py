@@ -1,10 +1,11 @@
-"""Unstructured grids: legacy VTK ``UNSTRUCTURED_GRID`` and VTK XML ``.vtu`` through meshio (the
-``mesh`` extra), and PLOT3D curvilinear grids (whole-file binary, big-endian) read directly.
+"""Unstructured grids: legacy VTK ``UNSTRUCTURED_GRID`` and VTK XML ``.vtu``, read strictly by
+:mod:`.mesh_vtk`, and PLOT3D curvilinear grids (whole-file binary, big-endian) read directly.
 
-meshio reads every file in ``../shared/data/unstructured/`` correctly (ASCII and big-endian binary
-legacy files, the 5.1 layout with OFFSETS/CONNECTIVITY, zlib-compressed base64 ``.vtu``; checked
-in ``tests/test_mesh_io.py`` against the counts and ranges of the data's README), so there is no
-reader of our own for them.  It does not read PLOT3D; that format is a fixed binary layout.
+meshio read the VTK files before issue 40; it reads the intact files in ``../shared/data/unstructured/``
+correctly but reinterprets damaged ones without a word (zeroed ``.vtu`` offsets give other cells, a
+multi-piece file keeps its last piece, short ``CELL_TYPES`` drop cells: ``tests/test_mesh_io.py``),
+so the cells, offsets, types, counts and arrays are now read and checked here.  meshio still reads
+the surface meshes of ``[[renderer.geometry]]`` (:mod:`dvr_gl.geometry`), which validates its result.
 
 Every reader returns a :class:`~dvr_gl.fields.mesh.TetMesh`: cells split into tetrahedra
 (:mod:`dvr_gl.fields.mesh_cells`), one scalar array chosen by name (``volume.array``) or, by
@@ -24,13 +25,14 @@ from ..errors import VolumeError
 from ..fields.mesh import TetMesh
 from ..fields.mesh_cells import CORNERS, hexahedra_of_grid, tetrahedralize
 from ..sandbox import check_bytes, check_input_path
-from .common import require
+from .mesh_vtk import SURFACE_TYPES, VTK_CELLS, check_arrays, read_legacy, read_vtu
 
 PLOT3D_ARRAYS = ("density", "momentum_x", "momentum_y", "momentum_z", "energy", "momentum_magnitude")
 
 
 def is_legacy_unstructured(path: Path) -> bool:
     """Whether a legacy ``.vtk`` file holds an ``UNSTRUCTURED_GRID`` (its DATASET line, within the header)."""
+    check_input_path(path, "volume file")  # even these 1024 bytes are read only inside the sandbox
     with open(path, "rb") as f:
         head = f.read(1024)
     return b"DATASET UNSTRUCTURED_GRID" in head.upper()
@@ -55,37 +57,73 @@ def quiet_read(meshio, path, **kwargs):
 
 
 def read_mesh(path: Path, array: str | None = None) -> TetMesh:
-    """A ``.vtu`` or legacy ``.vtk`` unstructured grid as a tetrahedral mesh."""
-    meshio = require("meshio", "meshio", "mesh")
+    """A ``.vtu`` or legacy ``.vtk`` unstructured grid as a tetrahedral mesh (read by
+    :mod:`.mesh_vtk`, strictly: damaged cells are refused, never reinterpreted)."""
     path = Path(path)
     check_input_path(path, "mesh file")
-    # meshio's memory is about 4x the file for binary data; ASCII parses to Python objects
-    check_bytes(path.stat().st_size * 8.0, f"{path.name}: reading the mesh", "use a smaller mesh")
-    try:
-        m = quiet_read(meshio, path, file_format="vtu" if path.suffix.lower() == ".vtu" else "vtk")
-    except UnreadableMesh as exc:
-        raise VolumeError(f"{path}: not a readable VTK unstructured grid ({exc}); check the file") from None
+    size = path.stat().st_size
+    # the file's bytes, and what parsing makes of them: ASCII tokens are Python objects (about 24 bytes
+    # for each byte of text), binary arrays about one copy (converted to float64 and int64: 2x)
+    check_bytes(size * (24.0 if _is_ascii(path) else 4.0), f"{path.name}: reading the mesh", "use a smaller mesh")
+    grid = read_vtu(path) if path.suffix.lower() == ".vtu" else read_legacy(path)
+    check_arrays(path, grid)
+    return tet_mesh(path, grid, array)
+
+
+def _is_ascii(path: Path) -> bool:
+    """Whether a mesh file's data are text (legacy ASCII, or a .vtu without binary or appended data)."""
+    with open(path, "rb") as f:
+        head = f.read(4096)
+    if path.suffix.lower() == ".vtu":
+        return b'format="binary"' not in head and b"AppendedData" not in head and b'format="appended"' not in head
+    return b"\nASCII" in head.upper()
+
+
+# tetrahedra per cell of each rendered type, and whether a centroid point is added
+TETS_PER_CELL = {"tetra": 1, "tetra10": 8, "pyramid": 2, "wedge": 8, "hexahedron": 12, "voxel": 12}
+BYTES_PER_TET = 640     # the split (int64 corners, parents) and TetMesh's float64 corners, edges and volumes
+BYTES_PER_POINT = 96    # points, values, the used-point mask and their copies
+
+
+def tet_mesh(path: Path, grid, array: str | None = None) -> TetMesh:
+    """The volume cells of a checked :class:`~.mesh_vtk.RawGrid` split into tetrahedra, with the chosen array."""
+    volume_types = {number: name for number, (name, _) in VTK_CELLS.items() if name in CORNERS}
     blocks, skipped = [], {}
-    for i, block in enumerate(m.cells):
-        if block.type in CORNERS:
-            blocks.append((i, block.type, np.asarray(block.data)))
-        elif block.type in ("vertex", "line", "triangle", "quad", "polygon", "line3", "triangle6", "quad8"):
-            skipped[block.type] = skipped.get(block.type, 0) + len(block.data)
+    volume_cell = np.isin(grid.types, list(volume_types))
+    for t in np.unique(grid.types).tolist():
+        name = VTK_CELLS[t][0]
+        if t in volume_types:
+            continue
+        if t in SURFACE_TYPES:
+            skipped[name] = int((grid.types == t).sum())
         else:
-            raise VolumeError(f"{path}: cells of type {block.type!r} cannot be rendered; dvr-gl takes "
+            raise VolumeError(f"{path}: cells of type {name!r} (VTK {t}) cannot be rendered; dvr-gl takes "
                               f"{', '.join(CORNERS)} (surface cells are ignored)")
-    if not blocks:
+    if not volume_cell.any():
         raise VolumeError(f"{path}: no volume cells ({', '.join(f'{n} {t}' for t, n in skipped.items()) or 'no cells'})"
                           "; a mesh needs tetrahedra, hexahedra, wedges or pyramids")
-    points = np.asarray(m.points, dtype=np.float64)
-    if points.ndim != 2 or points.shape[1] not in (2, 3):
-        raise VolumeError(f"{path}: points of shape {points.shape}; expected (N, 3)")
-    point_arrays = {k: np.asarray(v) for k, v in m.point_data.items()}
-    cell_arrays = {k: np.concatenate([np.asarray(v[i]) for i, _, _ in blocks])
-                   for k, v in m.cell_data.items() if all(i < len(v) for i, _, _ in blocks)}
+    cells = np.flatnonzero(volume_cell)
+    # blocks of one type each, in file order within a type (cell arrays follow the same order)
+    order = []
+    for t, name in volume_types.items():
+        picked = cells[grid.types[cells] == t]
+        if len(picked):
+            starts = grid.offsets[picked]
+            blocks.append((name, grid.connectivity[starts[:, None] + np.arange(CORNERS[name])]))
+            order.append(picked)
+    order = np.concatenate(order)
+    tets = sum(TETS_PER_CELL[name] * len(c) for name, c in blocks)
+    added = sum(len(c) for name, c in blocks if name in ("wedge", "hexahedron", "voxel"))
+    check_bytes(tets * float(BYTES_PER_TET) + (len(grid.points) + added) * float(BYTES_PER_POINT),
+                f"{path.name}: splitting {len(order)} cells into {tets} tetrahedra", "use a smaller mesh")
+    if not np.isfinite(grid.points).all():
+        bad = int((~np.isfinite(grid.points)).any(axis=1).sum())
+        raise VolumeError(f"{path}: {bad} points have NaN or Inf coordinates; fix the file")
+    point_arrays = {k: np.asarray(v) for k, v in grid.point_arrays.items()}
+    cell_arrays = {k: np.asarray(v)[order] for k, v in grid.cell_arrays.items()}
     name, association, values = choose_array(path, point_arrays, cell_arrays, array)
     new_points, tets, parent, point_values = tetrahedralize(
-        points, [(t, c) for _, t, c in blocks], values if association == "point" else None)
+        grid.points, blocks, values if association == "point" else None)
     cell_values = point_values if association == "point" else values[parent]
     return TetMesh(new_points, tets, cell_values, association, name=path.name, array=name, source=str(path))
 

@@ -1,0 +1,142 @@
+"""Small valid mesh files, written by hand in every layout the mesh readers take, for the reader
+tests (``tests/test_mesh_io.py``) and the mesh fuzzing (``tests/test_fuzz_meshes.py``).
+
+The volume mesh :data:`CELLS` holds one cell of each rendered type (tetrahedron, hexahedron, wedge,
+pyramid, quadratic tetrahedron) over :data:`POINTS`, with a point array ``s`` and a cell array ``c``.
+"""
+
+from __future__ import annotations
+
+import base64
+import struct
+import zlib
+
+import numpy as np
+
+POINTS = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1],
+                   [2, 0, 0], [2, 1, 0], [2, 0, 1], [2, 1, 1], [0.5, 0.5, -1],
+                   [0.5, 0, 0.5], [0.5, 0.5, 0], [0, 0.5, 0], [0, 0, 0.5], [0.5, 0, 0], [0, 0.5, 0.5]],
+                  dtype=np.float64)
+# (VTK type, points): tetrahedron, hexahedron, wedge, pyramid below the hexahedron, quadratic tetrahedron
+# (corners 0, 1, 3, 4 and the mid-edge nodes 17, 14, 15, 16, 13, 18 in VTK's order)
+CELLS = [(10, [0, 1, 3, 4]), (12, [0, 1, 2, 3, 4, 5, 6, 7]), (13, [1, 8, 5, 2, 9, 6]),
+         (14, [0, 1, 2, 3, 12]), (24, [0, 1, 3, 4, 17, 14, 15, 16, 13, 18])]
+POINT_VALUES = np.arange(len(POINTS), dtype=np.float64) * 0.5
+CELL_VALUES = np.array([1.0, 2.0, 3.0, 4.0, 5.0])
+
+
+def cell_arrays(cells=CELLS):
+    """(connectivity, offsets (ends, one per cell), types) of ``cells``."""
+    connectivity = np.concatenate([c for _, c in cells]).astype(np.int64)
+    offsets = np.cumsum([len(c) for _, c in cells]).astype(np.int64)
+    types = np.array([t for t, _ in cells], np.uint8)
+    return connectivity, offsets, types
+
+
+def _ascii(values) -> str:
+    return " ".join(repr(float(v)) if isinstance(v, (float, np.floating)) else str(int(v))
+                    for v in np.asarray(values).ravel())
+
+
+def vtu(encoding: str = "ascii", points=POINTS, cells=CELLS, point_values=POINT_VALUES, cell_values=CELL_VALUES,
+        connectivity=None, offsets=None, types=None, pieces: int = 1) -> bytes:
+    """A ``.vtu`` file: ``encoding`` ascii, binary (inline base64), zlib (inline base64 in zlib blocks),
+    raw (appended raw) or appended64 (appended base64); arrays given explicitly override ``cells``'.
+    ``pieces`` > 1 repeats the piece (its points and cells numbered within it, as VTK writes pieces)."""
+    conn, offs, typ = cell_arrays(cells)
+    conn = conn if connectivity is None else np.asarray(connectivity)
+    offs = offs if offsets is None else np.asarray(offsets)
+    typ = typ if types is None else np.asarray(types)
+    appended = bytearray()
+    arrays = [("Points", np.asarray(points, "<f8"), "Float64", 3), ("connectivity", conn.astype("<i8"), "Int64", 1),
+              ("offsets", offs.astype("<i8"), "Int64", 1), ("types", typ.astype("u1"), "UInt8", 1),
+              ("s", np.asarray(point_values, "<f8"), "Float64", 1), ("c", np.asarray(cell_values, "<f8"), "Float64", 1)]
+    xml = {}
+    for name, data, kind, components in arrays:
+        raw = data.tobytes()
+        attrs = f'type="{kind}" Name="{name}" NumberOfComponents="{components}"'
+        if encoding == "ascii":
+            xml[name] = f'<DataArray {attrs} format="ascii">{_ascii(data)}</DataArray>'
+        elif encoding == "binary":
+            text = base64.b64encode(struct.pack("<I", len(raw))).decode() + base64.b64encode(raw).decode()
+            xml[name] = f'<DataArray {attrs} format="binary">{text}</DataArray>'
+        elif encoding == "zlib":
+            packed = zlib.compress(raw)
+            head = struct.pack("<IIII", 1, len(raw), len(raw), len(packed))
+            text = base64.b64encode(head).decode() + base64.b64encode(packed).decode()
+            xml[name] = f'<DataArray {attrs} format="binary">{text}</DataArray>'
+        else:
+            block = struct.pack("<I", len(raw)) + raw
+            offset = len(appended)
+            appended += block if encoding == "raw" else base64.b64encode(block)
+            xml[name] = f'<DataArray {attrs} format="appended" offset="{offset}"/>'
+    n_points, n_cells = len(np.asarray(points)), len(typ)
+    piece = (f'<Piece NumberOfPoints="{n_points}" NumberOfCells="{n_cells}"><Points>{xml["Points"]}</Points>'
+             f'<Cells>{xml["connectivity"]}{xml["offsets"]}{xml["types"]}</Cells>'
+             f'<PointData>{xml["s"]}</PointData><CellData>{xml["c"]}</CellData></Piece>')
+    compressor = ' compressor="vtkZLibDataCompressor"' if encoding == "zlib" else ""
+    head = (f'<?xml version="1.0"?>\n<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" '
+            f'header_type="UInt32"{compressor}>\n<UnstructuredGrid>{piece * pieces}</UnstructuredGrid>\n').encode()
+    if encoding in ("raw", "appended64"):
+        kind = "raw" if encoding == "raw" else "base64"
+        head += f'<AppendedData encoding="{kind}">\n_'.encode() + bytes(appended) + b"\n</AppendedData>\n"
+    return head + b"</VTKFile>\n"
+
+
+def legacy(binary: bool = False, version: str = "4.2", points=POINTS, cells=CELLS, point_values=POINT_VALUES,
+           cell_values=CELL_VALUES, types=None) -> bytes:
+    """A legacy ``.vtk`` UNSTRUCTURED_GRID: ``version`` 4.2 (``CELLS n size`` of counted cells) or 5.1
+    (OFFSETS and CONNECTIVITY), ASCII or big-endian binary."""
+    conn, ends, typ = cell_arrays(cells)
+    typ = typ if types is None else np.asarray(types)
+
+    def block(values, dtype):
+        values = np.asarray(values)
+        return (values.astype(">" + dtype).tobytes() + b"\n") if binary else (_ascii(values) + "\n").encode()
+
+    out = [f"# vtk DataFile Version {version}\nmesh\n{'BINARY' if binary else 'ASCII'}\n"
+           f"DATASET UNSTRUCTURED_GRID\nPOINTS {len(points)} double\n".encode(), block(points, "f8")]
+    if version == "5.1":
+        out += [f"CELLS {len(ends) + 1} {len(conn)}\nOFFSETS vtktypeint64\n".encode(),
+                block(np.concatenate([[0], ends]), "i8"), b"CONNECTIVITY vtktypeint64\n", block(conn, "i8")]
+    else:
+        counted = np.concatenate([[len(c), *c] for _, c in cells])
+        out += [f"CELLS {len(cells)} {len(counted)}\n".encode(), block(counted, "i4")]
+    out += [f"CELL_TYPES {len(typ)}\n".encode(), block(typ, "i4"),
+            f"POINT_DATA {len(points)}\nSCALARS s double 1\nLOOKUP_TABLE default\n".encode(),
+            block(point_values, "f8"),
+            f"CELL_DATA {len(cells)}\nFIELD FieldData 1\nc 1 {len(cells)} double\n".encode(), block(cell_values, "f8")]
+    return b"".join(out)
+
+
+# --- surface meshes ([[renderer.geometry]]) ------------------------------------------------------
+
+TRIANGLES = np.array([[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2]])  # a tetrahedron's surface
+CORNERS = np.array([[0.1, 0.1, 0.1], [0.9, 0.1, 0.1], [0.1, 0.9, 0.1], [0.1, 0.1, 0.9]])
+
+
+def obj() -> bytes:
+    lines = [f"v {x} {y} {z}" for x, y, z in CORNERS] + [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in TRIANGLES]
+    return ("\n".join(lines) + "\n").encode()
+
+
+def ply(binary: bool = False) -> bytes:
+    head = (f"ply\nformat {'binary_little_endian' if binary else 'ascii'} 1.0\nelement vertex {len(CORNERS)}\n"
+            f"property float x\nproperty float y\nproperty float z\nelement face {len(TRIANGLES)}\n"
+            "property list uchar int vertex_indices\nend_header\n").encode()
+    if binary:
+        body = CORNERS.astype("<f4").tobytes() + b"".join(struct.pack("<Biii", 3, *t) for t in TRIANGLES.tolist())
+    else:
+        body = ("\n".join(" ".join(map(str, p)) for p in CORNERS) + "\n"
+                + "\n".join("3 " + " ".join(map(str, t)) for t in TRIANGLES.tolist()) + "\n").encode()
+    return head + body
+
+
+def stl(binary: bool = False) -> bytes:
+    tris = CORNERS[TRIANGLES]
+    if binary:
+        body = b"".join(struct.pack("<12fH", 0, 0, 0, *t.ravel(), 0) for t in tris)
+        return b"\0" * 80 + struct.pack("<I", len(tris)) + body
+    facets = "".join("facet normal 0 0 0\n outer loop\n" + "".join(f"  vertex {x} {y} {z}\n" for x, y, z in t)
+                     + " endloop\nendfacet\n" for t in tris)
+    return f"solid s\n{facets}endsolid s\n".encode()
