@@ -402,6 +402,89 @@ def test_nrrd_line_skip_within_the_file(tmp_path):
     np.testing.assert_array_equal(load_volume(path).data, DATA)
 
 
+def test_nrrd_huge_line_skip_is_bounded_by_the_file_size_when_read_in_part(tmp_path):
+    """The out-of-core layout counted a line skip one readline at a time: ``line skip: 100000000`` on a
+    32 KB file ran for minutes in ``dvr render`` (issue 40); now the newlines are counted in chunks."""
+    import time
+
+    from dvr_gl.io import voxel_layout
+
+    path = tmp_path / "v.nrrd"
+    path.write_bytes(b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 32 32 32\nencoding: raw\n"
+                     b"line skip: 100000000\n\n" + bytes(range(256)) * 128)
+    start = time.perf_counter()
+    with pytest.raises(VolumeError, match="line skip 100000000 goes past the end of the data file .128 lines."):
+        voxel_layout(path, "nrrd", {})
+    assert time.perf_counter() - start < 1
+    lines = b"one\n" + b"x" * (3 << 20) + b"\ntwo\n"  # lines that span the chunks read
+    layout = voxel_layout(_nhdr_with(tmp_path, extra="line skip: 3\n", data=lines + DATA.astype(">i2").tobytes()),
+                          "nrrd", {})
+    assert layout.offset == len(lines) and layout.dims == (4, 3, 2)
+
+
+def test_nrrd_more_leading_axes_of_size_1_than_numpy_has_dimensions(tmp_path):
+    """70 axes, 67 of them of size 1: numpy takes 64 dimensions at most (was an internal error); 100,000
+    such axes are dropped in linear time."""
+    for ones in (67, 100000):
+        sizes = "1 " * ones + "4 3 2"
+        path = _nhdr_with(tmp_path, {"dimension": ones + 3, "sizes": sizes, "spacings": "nan " * ones + "1 1 2"})
+        np.testing.assert_array_equal(load_volume(path).data, DATA)
+
+
+def _outside_data_files(tmp_path):
+    """A sandbox root and, outside it, a data file; the headers inside the root name it through a
+    symlink, ``..`` and an absolute path."""
+    root, outside = tmp_path / "root", tmp_path / "outside"
+    root.mkdir()
+    outside.mkdir()
+    raw = DATA.astype(">i2").tobytes()
+    (outside / "v.raw").write_bytes(raw)
+    (root / "link.raw").symlink_to(outside / "v.raw")
+    return root, outside, ("link.raw", "../outside/v.raw", str(outside / "v.raw"))
+
+
+@pytest.mark.parametrize("kind", ["nrrd", "metaimage"])
+def test_data_files_outside_the_sandbox_are_refused(tmp_path, kind):
+    """A header inside the root naming a data file outside it (a symlink, ``..``, an absolute path) is
+    refused when read whole, when read in part (the out-of-core layout), and before a missing data file's
+    folder is searched for split parts."""
+    from dvr_gl.io import voxel_layout
+
+    root, outside, names = _outside_data_files(tmp_path)
+    for name in (*names, "../outside/absent.raw"):
+        if kind == "nrrd":
+            header = root / "v.nhdr"
+            header.write_text("NRRD0004\ntype: int16\ndimension: 3\nsizes: 4 3 2\nendian: big\nencoding: raw\n"
+                              f"line skip: 0\ndata file: {name}\n")
+        else:
+            header = root / "v.mhd"
+            header.write_text(_mhd_header(name, msb=True))
+        if "absent" not in name:  # outside the sandbox, each reads
+            np.testing.assert_array_equal(load_volume(header).data, DATA)
+        with active(Sandbox(roots=(root,))):
+            for read in (lambda: load_volume(header), lambda: voxel_layout(header, kind, {})):
+                with pytest.raises(SandboxError, match="data file lies outside the allowed folders"):
+                    read()
+    (outside / "absent.raw.part1").write_bytes(b"")
+    with active(Sandbox(roots=(root,))), pytest.raises(SandboxError, match="absent.raw: the .* lies outside"):
+        load_volume(header)
+
+
+def test_nrrd_line_skip_in_part_checks_the_data_file_first(tmp_path):
+    """The layout counts a line skip's newlines in the data file: only after the sandbox allowed it."""
+    from dvr_gl.io import voxel_layout
+
+    root, outside, names = _outside_data_files(tmp_path)
+    (root / "v.nhdr").write_text("NRRD0004\ntype: int16\ndimension: 3\nsizes: 4 3 2\nendian: big\n"
+                                 "encoding: raw\nline skip: 1\ndata file: link.raw\n")
+    os.mkfifo(root / "fifo.raw")
+    (root / "f.nhdr").write_text((root / "v.nhdr").read_text().replace("link.raw", "fifo.raw"))
+    with active(Sandbox(roots=(root,))), pytest.raises(SandboxError, match="link.raw: the NRRD data file lies"):
+        voxel_layout(root / "v.nhdr", "nrrd", {})
+    with pytest.raises(SandboxError, match="fifo.raw: the NRRD data file is not a regular file"):
+        voxel_layout(root / "f.nhdr", "nrrd", {})
+
+
 def test_tiny_spacing_is_accepted_without_work_proportional_to_its_inverse(tmp_path):
     v = load_volume(_nhdr_with(tmp_path, {"spacings": "1e-300 1 2"}))
     assert v.spacing == (1e-300, 1.0, 2.0)

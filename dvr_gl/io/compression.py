@@ -23,7 +23,7 @@ from pathlib import Path
 
 from .. import progress
 from ..errors import VolumeError
-from ..sandbox import check_bytes, check_input_path
+from ..sandbox import check_bytes, check_input_path, current
 
 ENCODINGS = ("raw", "gzip", "bzip2", "zlib")
 CHUNK = 1 << 20  # bytes read from a file at a time
@@ -54,6 +54,8 @@ def exists_or_split(path: Path) -> bool:
 def stored_files(path: Path, what: str, name: str) -> list[Path]:
     """The files holding ``path``'s bytes (itself, or its parts), each one allowed to be read."""
     path = Path(path)
+    if not current().allows(path):  # before its folder is listed for parts: refused whether or not it exists
+        check_input_path(path, what)
     files = [path] if os.path.lexists(path) else split_parts(path)
     if not files:
         raise VolumeError(f"{name}: its {what} {path} was not found; put it next to the header or fix its name")
@@ -93,6 +95,28 @@ def _pieces(files: list[Path], start: int, line_skip: int, name: str):
     if lines_left:
         raise VolumeError(f"{name}: line skip {line_skip} goes past the end of the data file "
                           f"({line_skip - lines_left} lines); fix the line skip")
+
+
+def after_lines(path: Path, start: int, lines: int, name: str) -> int:
+    """The offset in ``path`` just after ``lines`` lines from byte ``start``: the file is read in chunks and
+    its newlines counted, so the work is bounded by the file's size, whatever the count (``line skip:
+    100000000`` on a 32 KB file once read a line at a time, for minutes); a count past the end is refused."""
+    left, at = lines, start
+    with open(path, "rb") as fh:
+        fh.seek(start)
+        while left and (piece := fh.read(CHUNK)):
+            found = piece.count(b"\n")
+            if found < left:
+                left, at = left - found, at + len(piece)
+                continue
+            end = -1
+            for _ in range(left):
+                end = piece.find(b"\n", end + 1)
+            return at + end + 1
+    if left:
+        raise VolumeError(f"{name}: line skip {lines} goes past the end of the data file "
+                          f"({lines - left} lines); fix the line skip")
+    return at
 
 
 def _decoder(encoding: str):

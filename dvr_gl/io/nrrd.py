@@ -35,7 +35,7 @@ from .common import (
     require,
     show,
 )
-from .compression import read_data, read_text
+from .compression import after_lines, read_data, read_text
 
 MAX_HEADER = 1 << 20  # bytes: a header longer than this is not a header
 # The NRRD type names (teem's nrrdTypeStr and its synonyms), as numpy codes.
@@ -112,9 +112,8 @@ def _dtype(fields, name, encoding) -> np.dtype:
 def _axes(sizes, name) -> list[int]:
     """The three axes that form the volume: all of them, or those left after dropping leading
     axes of size 1 (a one-valued "list" axis, for example)."""
-    axes = list(range(len(sizes)))
-    while len(axes) > 3 and sizes[axes[0]] == 1:
-        axes.pop(0)
+    ones = next((i for i, s in enumerate(sizes) if s != 1), len(sizes))
+    axes = list(range(min(ones, max(len(sizes) - 3, 0)), len(sizes)))
     if len(axes) != 3:
         raise VolumeError(f"{name}: sizes {' '.join(map(str, sizes))} do not form a 3D volume; a volume "
                           f"needs dimension 3 (or extra leading axes of size 1)")
@@ -221,11 +220,8 @@ def nrrd_layout(path: Path):
     byte_skip = integer(_get(fields, "byte skip", "byteskip", default="0"), name, "byte skip", minimum=-1)
     target, start = _data_file(fields, path)
     start = header_size if start is None else start
-    if line_skip and byte_skip >= 0 and os.path.isfile(target):
-        with open(target, "rb") as fh:  # the lines' length is known only by reading them
-            fh.seek(start)
-            for _ in range(line_skip):
-                start += len(fh.readline())
+    if line_skip and byte_skip >= 0 and os.path.lexists(target):  # a split file is refused by stored_layout
+        start = after_lines(check_input_path(target, "NRRD data file"), start, line_skip, name)
     offset = -1 if byte_skip < 0 else start + byte_skip
     return stored_layout(target, offset, volume_dims, dtype, name, f"the header (sizes {fields['sizes']}, type "
                          f"{fields['type']})", "NRRD data file", spacing=geometry[0], direction=geometry[1],
@@ -267,7 +263,8 @@ def read_nrrd(path: Path) -> RawArray:
                          line_skip=line_skip, skip=byte_skip, what="NRRD data file",
                          promise=f"the header (sizes {fields['sizes']}, type {fields['type']})")
         flat = np.frombuffer(blob, dtype=dtype)
-    # NRRD lists the fastest axis first: sizes "nx ny nz" is the array [z, y, x]
-    data = flat.reshape(tuple(reversed(sizes))).reshape(tuple(sizes[a] for a in reversed(axes)))
+    # NRRD lists the fastest axis first: sizes "nx ny nz" is the array [z, y, x]; the leading axes left out
+    # have size 1 (and there may be more of them than numpy's 64 dimensions)
+    data = flat.reshape(tuple(sizes[a] for a in reversed(axes)))
     return RawArray(data, spacing, origin, direction)
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import VolumeError
-from ..sandbox import check_input_path
+from ..sandbox import check_input_path, current
 from .common import RawArray, promised_bytes
 from .compression import encoding_from_suffix, read_data, split_parts
 
@@ -58,6 +58,8 @@ def stored_layout(path: Path, offset: int, dims, dtype: np.dtype, name: str, pro
     checks it (exactly ``offset + nbytes`` bytes; ``offset`` -1: the voxels are the file's last bytes);
     a file split into parts is refused (it cannot be read in part): join the parts."""
     path = Path(path)
+    if not current().allows(path):  # before its folder is listed for parts
+        check_input_path(path, what)
     if not os.path.lexists(path) and split_parts(path):
         return RawLayout(path, 0, dims, dtype, refusal=f"{name}: its {what} is split into parts ({path.name}.part1, "
                          f"...), which are not read in part; join them (cat {path.name}.part* > {path.name})")
