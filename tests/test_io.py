@@ -284,6 +284,93 @@ def _write_tiff_pages(path, slices):
     out.close()
 
 
+def write_imagej_stack(path, pages=30, description=None, big=False):
+    """A multi-page TIFF with an ImageJ-style description (``images=``, ``slices=``) on its pages, as OpenImageIO
+    writes it (tifffile is not a dependency); the pages' values are their index times 7."""
+    import OpenImageIO as oiio
+
+    data = np.arange(pages * 16 * 20, dtype=np.uint16).reshape(pages, 16, 20) * 7
+    text = description or f"ImageJ=1.53t\nimages={pages}\nslices={pages}\nloop=false\n"
+    specs = []
+    for _ in range(pages):
+        specs.append(oiio.ImageSpec(20, 16, 1, oiio.UINT16))
+        specs[-1].attribute("ImageDescription", text)
+        specs[-1].attribute("tiff:bigtiff", int(big))
+    out = oiio.ImageOutput.create(str(path))
+    assert out.open(str(path), specs)
+    for i in range(pages):
+        if i:
+            assert out.open(str(path), specs[i], "AppendSubimage")
+        assert out.write_image(np.ascontiguousarray(data[i][..., None]))
+    out.close()
+    return data
+
+
+@pytest.mark.parametrize("fraction", [0.3, 0.5, 0.9, 0.999])
+@pytest.mark.parametrize("big", [False, True])
+def test_tiff_truncated_stack_is_refused(tmp_path, fraction, big):
+    """Issue 40: a 30-page stack cut at 30 % read as 9 slices without a word (OpenImageIO stops at the first
+    page it cannot reach); the chain of pages walked here names the first page past the end."""
+    path = tmp_path / "stack.tif"
+    data = write_imagej_stack(path, big=big)
+    np.testing.assert_array_equal(load_volume(path).data, data)
+    blob = path.read_bytes()
+    assert blob[2] == (43 if big else 42)
+    path.write_bytes(blob[:int(len(blob) * fraction)])
+    with pytest.raises(VolumeError, match=r"stack.tif: page \d+ reaches past the end of the file .* truncated"):
+        load_volume(path)
+
+
+@pytest.mark.parametrize("description, message", [
+    ("ImageJ=1.53t\nimages=40\nslices=40\n", "holds 30 pages, its ImageJ description promises 40"),
+    ("ImageJ=1.53t\nslices=31\n", "holds 30 pages, its ImageJ description promises 31"),
+    ("ImageJ=1.53t\nimages=30\nchannels=2\nslices=15\n", "an ImageJ hyperstack of 2 channels and 1 time point;"),
+    ("ImageJ=1.53t\nimages=banana\n", "its ImageJ description has images='banana'"),
+    ('<?xml version="1.0"?><OME xmlns="http://www.openmicroscopy.org/Schemas/OME/2016-06"><Image ID="Image:0">'
+     '<Pixels SizeX="20" SizeY="16" SizeZ="32" SizeC="1" SizeT="1" DimensionOrder="XYZCT" Type="uint16"/>'
+     '</Image></OME>', "holds 30 pages, its OME-XML description promises 32"),
+    ('<OME><Image><Pixels SizeZ="15" SizeC="1" SizeT="2"/></Image></OME>', "an OME-TIFF of 1 channel and 2 time"),
+    ('<OME><Image><Pixels SizeZ="30"/></Image><Image><Pixels SizeZ="30"/></Image></OME>', "describes 2 images"),
+    ("<OME><Image", "its OME-XML description is not valid XML"),
+])
+def test_tiff_description_must_match_the_pages(tmp_path, description, message):
+    write_imagej_stack(tmp_path / "stack.tif", description=description)
+    with pytest.raises(VolumeError, match=message):
+        load_volume(tmp_path / "stack.tif")
+
+
+def test_tiff_descriptions_that_agree_are_read(tmp_path):
+    ome = ('<OME><Image><Pixels SizeZ="30" SizeC="1" SizeT="1"/></Image></OME>', "ImageJ=1.53t\nslices=30\n",
+           "made with a camera", '<OME><Image><Pixels SizeZ="1"><TiffData><UUID FileName="other.ome.tif"/>'
+           '</TiffData></Pixels></Image></OME>')  # a multi-file OME-TIFF: its pages lie in several files
+    for description in ome:
+        data = write_imagej_stack(tmp_path / "stack.tif", description=description)
+        np.testing.assert_array_equal(load_volume(tmp_path / "stack.tif").data, data)
+
+
+def test_tiff_chain_of_pages_that_loops_is_refused(tmp_path):
+    """A page whose next-page offset points back at the first page: named, not followed forever."""
+    path = tmp_path / "s.tif"
+    write_imagej_stack(path, pages=2)
+    blob = bytearray(path.read_bytes())
+    first = struct.unpack("<I", blob[4:8])[0]
+    second = struct.unpack("<I", blob[first + 2 + 12 * struct.unpack("<H", blob[first:first + 2])[0]:][:4])[0]
+    n = struct.unpack("<H", blob[second:second + 2])[0]
+    blob[second + 2 + 12 * n:second + 6 + 12 * n] = struct.pack("<I", first)
+    path.write_bytes(bytes(blob))
+    with pytest.raises(VolumeError, match="its chain of pages loops"):
+        load_volume(path)
+
+
+def test_tiff_hyperstack_is_refused_not_interleaved(tmp_path, shared_data):
+    """The shared 2-channel z stack (ZCYX, 45 x 2 pages) read as 90 slices, the channels interleaved."""
+    path = shared_data / "microscopy" / "xyzc_16bit__dna_conf_wf.tif"
+    if not path.is_file():
+        pytest.skip("the shared microscopy data is not here")
+    with pytest.raises(VolumeError, match="an ImageJ hyperstack of 2 channels and 1 time point; a volume is one"):
+        load_volume(path)
+
+
 def test_tiff_multipage_stack(tmp_path):
     data = DATA.astype(np.uint16) + 1000
     _write_tiff_pages(tmp_path / "stack.tif", list(data))
