@@ -379,6 +379,7 @@ def preset(name: str, value_range: tuple[float, float], rescale_intercept: float
     world length alpha refers to (Slicer's presets: 1, a millimetre, as VTK's default).
     """
     found = find_preset(name)
+    check_rescale_intercept(rescale_intercept)
     lo, hi = value_range
     if hi <= lo:
         hi = lo + 1.0
@@ -395,8 +396,29 @@ def preset(name: str, value_range: tuple[float, float], rescale_intercept: float
 def from_property(prop, value_range, rescale_intercept: float = 0.0, unit_distance: float = 1.0) -> TransferFunction:
     """A :class:`~dvr_gl.presets.property.VolumeProperty` (read from a file) as a TransferFunction;
     what we do not model (a varying gradient opacity, nearest interpolation) is warned about."""
+    check_rescale_intercept(rescale_intercept)
     _warn_unmodelled(prop)
     return TransferFunction(prop.points(value_range, rescale_intercept), unit_distance=unit_distance)
+
+
+#: The largest rescale intercept (in magnitude): values are shifted by it in float64, where 1e12 keeps steps
+#: of 1e-4 apart (a preset's 0.01 HU); DICOM's intercepts are about 1e3 to 1e5.
+MAX_RESCALE_INTERCEPT = 1e12
+
+
+def check_rescale_intercept(value) -> float:
+    """``value`` if it is a usable rescale intercept: a finite number within :data:`MAX_RESCALE_INTERCEPT`
+    (beyond that, the points ``HU - intercept`` of a preset collapse onto one value in float64, and the message
+    would blame points the user never gave)."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = float("nan")
+    if not abs(v) <= MAX_RESCALE_INTERCEPT:  # NaN too
+        raise SceneError(f"transfer_function.rescale_intercept (--rescale-intercept) {value!r}: give a finite number "
+                         f"within +-{MAX_RESCALE_INTERCEPT:g} (HU = data + intercept: -1024 for CT stored as "
+                         f"HU + 1024)")
+    return v
 
 
 def read_transfer_function_file(path, name: str | None = None, stretch: bool | None = None):

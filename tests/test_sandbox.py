@@ -237,3 +237,39 @@ def test_a_symlinked_root_confines_to_its_target(box):
         assert load_scene(_scene(link, "v.npy")).field.data.shape == (4, 4, 4)
         with pytest.raises(SandboxError, match="outside the allowed"):
             load_scene(_scene(link, outside / "v.npy", "t.toml"))
+
+
+VP = "1\n0\n0.9\n0.1\n0.2\n10\n4 0 0 1 1\n4 0 1 255 1\n8 0 0 0 0 1 1 1 1\n"
+OBJ = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+
+
+@pytest.mark.parametrize("key", ["transfer_function", "geometry"])
+@pytest.mark.parametrize("how", ["absolute", "dot-dot", "symlink"])
+def test_every_path_a_scene_names_is_confined(box, key, how):
+    """A transfer-function file and a mesh named by a scene (absolute, with .., or a link inside the root
+    pointing out) are read only inside the roots, as the volume is; the same file inside loads."""
+    root, outside = box
+    name = {"transfer_function": "tf.vp", "geometry": "m.obj"}[key]
+    for folder in (root, outside):
+        (folder / name).write_text(VP if key == "transfer_function" else OBJ)
+    (root / ("link" + name)).symlink_to(outside / name)
+    target = {"absolute": outside / name, "dot-dot": f"../outside/{name}", "symlink": "link" + name}[how]
+    table = {"transfer_function": '[transfer_function]\nfile = "{p}"\n',
+             "geometry": '[renderer]\nname = "raycast"\n[[renderer.geometry]]\npath = "{p}"\n'}[key]
+    scene = root / "s.toml"
+    with active(Sandbox((root,))):
+        scene.write_text(SCENE.format(path="v.npy") + table.format(p=name))
+        load_scene(scene)  # inside: fine
+        scene.write_text(SCENE.format(path="v.npy") + table.format(p=target))
+        with pytest.raises(SandboxError, match="lies outside the allowed folders"):
+            load_scene(scene)
+
+
+def test_a_transfer_function_flag_outside_the_roots_is_one_line(box, capsys):
+    root, outside = box
+    (outside / "tf.vp").write_text(VP)
+    code = main(["render", str(root / "v.npy"), "--size", "8", "--sandbox", str(root), "--transfer-function",
+                 str(outside / "tf.vp"), "-o", str(root / "o.png")])
+    err = capsys.readouterr().err.strip()
+    assert code == 1 and "transfer function file lies outside the allowed folders" in err and "\n" not in err, err
+    assert not (root / "o.png").exists()

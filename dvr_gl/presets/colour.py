@@ -75,31 +75,33 @@ def _msh_to_srgb(msh: np.ndarray) -> np.ndarray:
 
 
 def _adjust_hue(m_sat, s_sat, h_sat, m_unsat):
-    """Moreland's hue for an unsaturated end, turned from the saturated one's."""
-    if m_sat >= m_unsat:
-        return h_sat
-    spin = s_sat * np.sqrt(m_unsat ** 2 - m_sat ** 2) / (m_sat * np.sin(s_sat))
-    return h_sat + spin if h_sat > -np.pi / 3 else h_sat - spin
+    """Moreland's hue for an unsaturated end, turned from the saturated one's (arrays, element by element)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        spin = s_sat * np.sqrt(np.maximum(m_unsat ** 2 - m_sat ** 2, 0.0)) / (m_sat * np.sin(s_sat))
+    return np.where(m_sat >= m_unsat, h_sat, np.where(h_sat > -np.pi / 3, h_sat + spin, h_sat - spin))
 
 
-def _diverging(c0: np.ndarray, c1: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """Moreland's diverging interpolation from ``c0`` to ``c1`` (sRGB) at fractions ``t``."""
-    a, b = _msh(c0), _msh(c1)
-    t = np.asarray(t, dtype=np.float64)
-    if a[1] > 0.05 and b[1] > 0.05 and abs(np.angle(np.exp(1j * (a[2] - b[2])))) > np.pi / 3:
-        mid = np.array([max(a[0], b[0], 88.0), 0.0, 0.0])
-        first = _diverging_msh(a, mid, np.clip(2 * t, 0, 1))
-        second = _diverging_msh(mid, b, np.clip(2 * t - 1, 0, 1))
-        return np.where((t < 0.5)[..., None], first, second)
-    return _diverging_msh(a, b, t)
+def _diverging(a: np.ndarray, b: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Moreland's diverging interpolation from Msh colours ``a`` to ``b`` (``(P, 3)``, each point its own
+    segment's ends) at fractions ``t`` ``(P,)``: sRGB ``(P, 3)``.  Two saturated ends of hues far apart
+    pass through white (an Msh of their largest M, at least 88) half way."""
+    far = (a[:, 1] > 0.05) & (b[:, 1] > 0.05) & (np.abs(np.angle(np.exp(1j * (a[:, 2] - b[:, 2])))) > np.pi / 3)
+    mid = np.zeros_like(a)
+    mid[:, 0] = np.maximum(np.maximum(a[:, 0], b[:, 0]), 88.0)
+    first, second = far & (t < 0.5), far & ~(t < 0.5)
+    start = np.where(second[:, None], mid, a)
+    end = np.where(first[:, None], mid, b)
+    u = np.where(first, np.clip(2 * t, 0, 1), np.where(second, np.clip(2 * t - 1, 0, 1), t))
+    return _diverging_msh(start, end, u)
 
 
 def _diverging_msh(a: np.ndarray, b: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Linear in Msh from ``a`` to ``b`` (``(P, 3)``) at ``t``, an unsaturated end's hue turned first."""
     a, b = a.copy(), b.copy()
-    if a[1] < 0.05 <= b[1]:
-        a[2] = _adjust_hue(b[0], b[1], b[2], a[0])
-    elif b[1] < 0.05 <= a[1]:
-        b[2] = _adjust_hue(a[0], a[1], a[2], b[0])
+    turn_a = (a[:, 1] < 0.05) & (b[:, 1] >= 0.05)
+    turn_b = (b[:, 1] < 0.05) & (a[:, 1] >= 0.05)
+    a[:, 2] = np.where(turn_a, _adjust_hue(b[:, 0], b[:, 1], b[:, 2], a[:, 0]), a[:, 2])
+    b[:, 2] = np.where(turn_b, _adjust_hue(a[:, 0], a[:, 1], a[:, 2], b[:, 0]), b[:, 2])
     return _msh_to_srgb(a + (b - a) * t[..., None])
 
 
@@ -121,10 +123,7 @@ def interpolate(colours: np.ndarray, x, space: str = "rgb") -> np.ndarray:
         h1 = np.where(h1 - h0 > 0.5, h1 - 1, np.where(h0 - h1 > 0.5, h1 + 1, h1))  # the short way round
         out = np.stack([h0 + (h1 - h0) * t, *(hsv[i, c] + (hsv[i + 1, c] - hsv[i, c]) * t for c in (1, 2))], axis=-1)
         return _hsv_to_rgb(out)
-    if space == "diverging":
-        out = np.empty((len(x), 3))
-        for k in np.unique(i):
-            sel = i == k
-            out[sel] = _diverging(rgb[k], rgb[k + 1], t[sel])
-        return np.clip(out, 0.0, 1.0)
+    if space == "diverging":  # every point at once, with its segment's ends (many segments are no loop)
+        msh = _msh(rgb)
+        return np.clip(_diverging(msh[i], msh[i + 1], t), 0.0, 1.0)
     raise ValueError(f"unknown colour space {space!r}")

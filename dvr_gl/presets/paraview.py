@@ -17,21 +17,31 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SceneError
+from ..sandbox import check_bytes
 from .property import RAMP_ALPHA, VolumeProperty, flat_rows, unique_values
 
 _SPACES = {"rgb": "rgb", "lab": "lab", "cielab": "lab", "hsv": "hsv", "diverging": "diverging"}
 _MAX_BYTES = 64 * 2 ** 20
+# Python objects per byte of JSON at most: a number in two bytes ("0,") is a 24-32 byte object and a
+# list's 8-byte pointer to it.
+_OBJECT_BYTES = 20
 
 
 def read_maps(path: Path) -> list[dict]:
     """The JSON objects of a ParaView preset file, each with ``Name``."""
     path = Path(path)
-    if os.path.getsize(path) > _MAX_BYTES:
-        raise SceneError(f"{path}: too large for a colour-map file ({os.path.getsize(path)} bytes)")
+    size = os.path.getsize(path)
+    if size > _MAX_BYTES:
+        raise SceneError(f"{path}: too large for a colour-map file ({size} bytes)")
+    check_bytes(_OBJECT_BYTES * size, f"{path}: reading the colour-map file", "give a smaller file or allow more "
+                "memory (--max-memory)")
     try:
         data = json.loads(path.read_bytes())
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise SceneError(f"{path}: not valid JSON ({exc}); give a ParaView colour-map export") from None
+    except RecursionError:  # the decoder's own guard against deep nesting ([[[[...]]]]), before the C stack's
+        raise SceneError(f"{path}: JSON nested too deeply for a colour-map file (a ParaView export is three "
+                         f"levels deep); give a ParaView colour-map export") from None
     maps = data if isinstance(data, list) else [data]
     if not maps or not all(isinstance(m, dict) for m in maps):
         raise SceneError(f"{path}: not a ParaView colour-map file (a JSON object or list of objects with "

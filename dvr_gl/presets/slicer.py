@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import functools
 import os
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
@@ -87,14 +86,12 @@ def read_presets(path: Path = PRESETS_FILE) -> dict[str, VolumeProperty]:
 def _read_presets(path: str, mtime_ns: int, size: int) -> dict[str, VolumeProperty]:
     where = Path(path).name
     try:
-        root = ET.parse(path).getroot()
-    except ET.ParseError as exc:
-        raise SceneError(f"{path}: not a valid XML file ({exc})") from None
+        data = Path(path).read_bytes()
     except OSError as exc:
         raise SceneError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
+    elements = _volume_properties(data, path)
     out = {}
-    for element in root.iter("VolumeProperty"):
-        a = element.attrib
+    for a in elements:
         name = a.get("name", f"property {len(out) + 1}")
         missing = [k for k in ("scalarOpacity", "colorTransfer", "shade", "ambient", "diffuse", "specular",
                                "specularPower", "interpolation") if k not in a]
@@ -104,6 +101,41 @@ def _read_presets(path: str, mtime_ns: int, size: int) -> dict[str, VolumeProper
     if not out:
         raise SceneError(f"{path}: no VolumeProperty elements; give a Slicer presets/MRML file")
     return out
+
+
+class _Declaration(Exception):
+    """A DOCTYPE or entity declaration met by :func:`_volume_properties`."""
+
+
+def _volume_properties(data: bytes, path) -> list[dict]:
+    """The attributes of each ``VolumeProperty`` element of an XML document, in order: read by expat as
+    it streams (no tree: memory as the attributes, however deep the nesting).  A DOCTYPE (and so any entity
+    declaration) is refused as it is met, before anything is expanded: entities that expand into each
+    other (the "billion laughs") or name other files are XML's ways to make a small file huge or to read
+    outside the sandbox, and Slicer writes neither."""
+    import xml.parsers.expat
+
+    found = []
+
+    def refuse(*_):
+        raise _Declaration()
+
+    def start(name, attributes):
+        if name == "VolumeProperty":
+            found.append(attributes)
+
+    parser = xml.parsers.expat.ParserCreate()
+    parser.StartDoctypeDeclHandler = refuse
+    parser.EntityDeclHandler = refuse
+    parser.StartElementHandler = start
+    try:
+        parser.Parse(data, True)
+    except _Declaration:
+        raise SceneError(f"{path}: holds a DOCTYPE or entity declaration, which volume property files do not "
+                         f"use (entities can expand without bound); remove it") from None
+    except xml.parsers.expat.ExpatError as exc:
+        raise SceneError(f"{path}: not a valid XML file ({exc})") from None
+    return found
 
 
 def read_vp(path: Path) -> VolumeProperty:
