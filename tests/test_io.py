@@ -250,6 +250,21 @@ def test_vtk_ascii(tmp_path):
     np.testing.assert_array_equal(load_volume(path).data, DATA)
 
 
+def test_vtk_cell_scalars_are_not_read_as_point_data(tmp_path):
+    """SCALARS after CELL_DATA (one per cell, fewer than the points) were read as the point data, running on
+    into what follows them."""
+    cells = " ".join(["9"] * 6)
+    head = "# vtk DataFile Version 3.0\nt\nASCII\nDATASET STRUCTURED_POINTS\nDIMENSIONS 4 3 2\nSPACING 1 1 1\n"
+    (tmp_path / "c.vtk").write_text(head + f"CELL_DATA 6\nSCALARS c short\nLOOKUP_TABLE default\n{cells}\n"
+                                    f"POINT_DATA 24\nSCALARS p short\nLOOKUP_TABLE default\n"
+                                    + " ".join(map(str, DATA.ravel())) + "\n")
+    with pytest.raises(VolumeError, match="its first SCALARS are cell data"):
+        load_volume(tmp_path / "c.vtk")
+    (tmp_path / "p.vtk").write_text(head + "POINT_DATA 24\nSCALARS p short\nLOOKUP_TABLE default\n"
+                                    + " ".join(map(str, DATA.ravel())) + f"\nCELL_DATA 6\nSCALARS c short\n{cells}\n")
+    np.testing.assert_array_equal(load_volume(tmp_path / "p.vtk").data, DATA)
+
+
 def test_vtk_truncated_and_unstructured(tmp_path):
     path = tmp_path / "v.vtk"
     path.write_bytes(_vtk_header("BINARY").encode() + DATA.astype(">i2").tobytes()[:30])

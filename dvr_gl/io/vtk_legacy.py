@@ -43,6 +43,7 @@ def _header_lines(blob: bytes):
 def _parse(lines, name: str) -> dict:
     """The header's DIMENSIONS, SPACING, ORIGIN, POINT_DATA and SCALARS, and where the data starts."""
     found: dict = {"spacing": None, "origin": None}
+    section = None  # POINT_DATA or CELL_DATA: which the attributes that follow belong to
     for line, after in lines:
         key, _, rest = line.partition(" ")
         key = key.upper()
@@ -57,6 +58,12 @@ def _parse(lines, name: str) -> dict:
             found["origin"] = numbers(rest, name, "ORIGIN", 3)
         elif key == "POINT_DATA":
             found["count"] = integer(rest, name, "POINT_DATA", minimum=1)
+            section = key
+        elif key == "CELL_DATA":
+            section = key
+        elif key == "SCALARS" and section == "CELL_DATA":  # read as point data, it was the wrong values
+            raise VolumeError(f"{name}: its first SCALARS are cell data (after CELL_DATA); a volume needs point "
+                              f"data: write the POINT_DATA section first, or convert the cell data to point data")
         elif key == "SCALARS":
             words = rest.split()
             if len(words) not in (2, 3):
