@@ -18,11 +18,12 @@ from pathlib import Path
 
 import numpy as np
 
+from . import progress
 from .errors import SceneError
-from .sandbox import check_input_path
+from .sandbox import check_bytes, check_input_path, current
 
-#: Rays times triangles tested at once by :func:`first_hits` (float64 arrays of this many entries).
-BATCH = 1 << 21
+#: Memory while reading a mesh file, per byte of the file (meshio's peak, with a margin).
+BYTES_PER_FILE_BYTE = 10
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,6 +61,9 @@ def _read(path: str, size: int, mtime: int) -> TriangleMesh:
         raise SceneError("renderer.geometry: reading meshes needs meshio: pip install 'dvr-gl[mesh]'") from None
     from .io.mesh import UnreadableMesh, quiet_read
 
+    # meshio's peak while reading is up to 7x the file (binary STL; OBJ 6x, PLY 5x: measured)
+    check_bytes(size * float(BYTES_PER_FILE_BYTE), f"reading the mesh {os.path.basename(path)} (renderer.geometry)",
+                "use a smaller mesh (fewer triangles)")
     try:
         mesh = quiet_read(meshio, path)
     except UnreadableMesh as exc:  # one line, not meshio's prints or a traceback
@@ -98,47 +102,241 @@ def scene_meshes(renderer_spec) -> list[tuple[TriangleMesh, np.ndarray]]:
 def first_hits(meshes, origins: np.ndarray, directions: np.ndarray):
     """The nearest surface along each ray at ``t > 0``: ``(t (N,), normal (N, 3), colour (N, 3))``,
     ``t`` infinite where a ray meets none; ``normal`` the face's unit normal turned toward the ray's
-    origin.  Moller and Trumbore's test in float64, edges and corners included."""
+    origin.  Moller and Trumbore's test in float64, edges and corners included, of the pairs that
+    :class:`HitPlan` finds can meet (the work is refused over :func:`surface_bound`, with progress)."""
     o = np.asarray(origins, dtype=np.float64)
     d = np.asarray(directions, dtype=np.float64)
     best = np.full(len(o), np.inf)
     normal = np.zeros((len(o), 3))
     colour = np.zeros((len(o), 3))
-    for mesh, rgb in meshes:
+    triangles = sum(len(mesh.triangles) for mesh, _ in meshes)
+    check_bytes(PAIR_CHUNK * BYTES_PER_PAIR + triangles * float(BYTES_PER_HOST_TRIANGLE) + len(o) * 160.0,
+                f"testing {len(o)} rays against {triangles} triangles (renderer.geometry)",
+                "lower --size or use a smaller mesh (fewer triangles)")
+    corners, faces, rgbs, owner = [], [], [], []
+    for k, (mesh, rgb) in enumerate(meshes):
         c = mesh.corners
-        e1, e2 = c[:, 1] - c[:, 0], c[:, 2] - c[:, 0]
-        face = np.cross(e1, e2)
+        face = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
         length = np.linalg.norm(face, axis=1)
         keep = length > 0  # degenerate triangles cover nothing
-        c, e1, e2, face = c[keep], e1[keep], e2[keep], face[keep] / length[keep, None]
-        step = max(1, BATCH // max(len(c), 1))
-        for start in range(0, len(o), step):
-            rows = slice(start, start + step)
-            t, tri = _nearest(o[rows], d[rows], c[:, 0], e1, e2)
-            closer = t < best[rows]
-            idx = np.arange(start, min(start + step, len(o)))[closer]
-            best[idx] = t[closer]
-            n = face[tri[closer]]
-            n = np.where(np.sum(n * d[idx], axis=1, keepdims=True) > 0, -n, n)  # toward the eye
-            normal[idx], colour[idx] = n, rgb
+        corners.append(c[keep])
+        faces.append(face[keep] / length[keep, None])
+        owner.append(np.full(int(keep.sum()), k))
+        rgbs.append(np.asarray(rgb, dtype=np.float64))
+    if not len(o) or not sum(len(c) for c in corners):
+        return best, normal, colour  # (a mesh of degenerate triangles only covers nothing)
+    c, face, owner = np.concatenate(corners), np.concatenate(faces), np.concatenate(owner)
+    a, e1, e2 = c[:, 0], c[:, 1] - c[:, 0], c[:, 2] - c[:, 0]
+    plan = HitPlan(o, d, c)
+    check_surface_work(plan.pairs, len(o), len(c))
+    tri = np.full(len(o), -1)
+    with progress.task("surfaces", int(plan.pairs), "test") as step:
+        done = 0
+        for ray, idx in plan.chunks():
+            t = _hit(o[ray], d[ray], a[idx], e1[idx], e2[idx])
+            found = np.isfinite(t)
+            ray, idx, t = ray[found], idx[found], t[found]
+            order = np.lexsort((idx, t, ray))  # per ray, the nearest first (ties: the first triangle)
+            ray, idx, t = ray[order], idx[order], t[order]
+            first = np.ones(len(ray), bool)
+            first[1:] = ray[1:] != ray[:-1]
+            ray, idx, t = ray[first], idx[first], t[first]
+            closer = (t < best[ray]) | ((t == best[ray]) & (idx < tri[ray]))
+            best[ray[closer]], tri[ray[closer]] = t[closer], idx[closer]
+            done += len(found)
+            step(done)
+    seen = tri >= 0
+    n = face[tri[seen]]
+    normal[seen] = np.where(np.sum(n * d[seen], axis=1, keepdims=True) > 0, -n, n)  # toward the eye
+    colour[seen] = np.asarray(rgbs)[owner[tri[seen]]]
     return best, normal, colour
 
 
-def _nearest(o, d, a, e1, e2):
-    """Per ray, the nearest hit parameter among the triangles (inf where none) and its triangle."""
-    p = np.cross(d[:, None, :], e2[None, :, :])                     # (R, T, 3)
-    det = np.einsum("tk,rtk->rt", e1, p)
+def _hit(o, d, a, e1, e2):
+    """Moller and Trumbore per (ray, triangle) pair: the hit parameter, inf where none."""
+    p = np.cross(d, e2)
+    det = np.einsum("ik,ik->i", e1, p)
     with np.errstate(divide="ignore", invalid="ignore"):
         inv = 1.0 / det
-        s = o[:, None, :] - a[None, :, :]
-        u = np.einsum("rtk,rtk->rt", s, p) * inv
-        q = np.cross(s, e1[None, :, :])
-        v = np.einsum("rk,rtk->rt", d, q) * inv
-        t = np.einsum("tk,rtk->rt", e2, q) * inv
+        s = o - a
+        u = np.einsum("ik,ik->i", s, p) * inv
+        q = np.cross(s, e1)
+        v = np.einsum("ik,ik->i", d, q) * inv
+        t = np.einsum("ik,ik->i", e2, q) * inv
         hit = (det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0)  # (det 0: inf and NaN, not a hit)
-    t = np.where(hit, t, np.inf)
-    tri = np.argmin(t, axis=1)
-    return t[np.arange(len(o)), tri], tri
+    return np.where(hit, t, np.inf)
+
+
+#: Pairs tested at once (each about :data:`BYTES_PER_PAIR` of float64 temporaries).
+PAIR_CHUNK = 1 << 17
+BYTES_PER_PAIR = 480
+BYTES_PER_HOST_TRIANGLE = 640   # corners, edges, normals, projected boxes and their bins (measured 610)
+#: Ray-triangle tests allowed in one frame (about an hour at :data:`PAIR_RATE`), and the rate measured
+#: on two shared cores (tests per second, docs/geometry.md).
+PAIR_BOUND = 3e10
+PAIR_RATE = 1e7
+
+
+def surface_bound() -> float:
+    """The most ray-triangle tests a frame may make: :data:`PAIR_BOUND`, lowered by the sandbox's
+    ``max_seconds``."""
+    seconds = current().max_seconds
+    return PAIR_BOUND if seconds is None else min(PAIR_BOUND, seconds * PAIR_RATE)
+
+
+def check_surface_work(pairs: float, rays: int, triangles: int) -> None:
+    limit = surface_bound()
+    if not pairs <= limit:
+        seconds = pairs / PAIR_RATE
+        took = f"{seconds / 3600:.3g} hours" if seconds >= 7200 else (
+            f"{seconds / 60:.3g} minutes" if seconds >= 120 else f"{seconds:.3g} s")
+        raise SceneError(f"the surfaces would take {pairs:.3g} ray-triangle tests ({rays} rays against the "
+                         f"{triangles} triangles their boxes cover; about {took} at the rate measured on two CPU "
+                         f"cores), over the bound of {limit:.3g}; lower --size, use a mesh with fewer or smaller "
+                         f"triangles, or a GL renderer (raycast, slicing3d) that rasterizes them")
+
+
+class HitPlan:
+    """Which (ray, triangle) pairs can meet, found in 2D without testing them all.
+
+    Rays through one point (a perspective camera) are placed by where their direction crosses a plane
+    in front of that point, rays of one direction (orthographic) by where they cross a plane across it;
+    a triangle wholly in front of the point projects to a triangle there that every ray meeting it
+    crosses (a projective map keeps lines), so its box, widened by a rounding margin, holds those
+    rays.  The rays are binned about two to a cell of a grid over their extent and a triangle tested
+    against the rays of the cells its box covers.  A triangle straddling the plane through the point
+    is tested against every ray, and rays nearly across the view direction (or rays that share
+    neither origin nor direction) against every triangle.  ``pairs`` counts the tests (the work)."""
+
+    def __init__(self, o: np.ndarray, d: np.ndarray, corners: np.ndarray):
+        n_rays, n_tris = len(o), len(corners)
+        scale = max(float(np.abs(corners).max()), float(np.abs(o).max()), 1.0)
+        dn = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-300)
+        self.rays_all = np.zeros(0, np.int64)       # rays tested against every triangle
+        self.tris_all = np.zeros(0, np.int64)       # triangles tested against every binned ray
+        if np.ptp(o, axis=0).max() <= 1e-12 * scale:                       # one origin
+            f = _unit(dn.mean(axis=0))
+            r, u = _frame(f)
+            depth = dn @ f
+            binned = depth > 0.2
+            ray_xy = np.stack([dn @ r, dn @ u], axis=1)[binned] / depth[binned, None]
+            v = corners - o[0]
+            z = v @ f
+            front = (z > 1e-9 * np.linalg.norm(v, axis=2)).all(axis=1)
+            behind = (z <= 0).all(axis=1)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                tri_xy = np.stack([v @ r, v @ u], axis=2) / z[..., None]
+            boxed = front
+            self.tris_all = np.flatnonzero(~front & ~behind)
+        elif np.ptp(dn, axis=0).max() <= 1e-12:                          # one direction
+            f = _unit(dn[0])
+            r, u = _frame(f)
+            binned = np.ones(n_rays, bool)
+            ray_xy = np.stack([o @ r, o @ u], axis=1)
+            tri_xy = np.stack([corners @ r, corners @ u], axis=2)
+            boxed = np.ones(n_tris, bool)
+        else:                                                               # anything else: all pairs
+            binned = np.zeros(n_rays, bool)
+            boxed = np.zeros(n_tris, bool)
+            ray_xy = np.zeros((0, 2))
+            tri_xy = np.zeros((n_tris, 3, 2))
+        self.rays_all = np.flatnonzero(~binned)
+        self.n_tris = n_tris
+        self.order = np.flatnonzero(binned)                                   # binned rays, by cell below
+        self.entries = np.zeros((0, 3), np.int64)                             # (triangle, first, count)
+        if len(self.order):
+            self._bin(ray_xy, tri_xy[boxed], np.flatnonzero(boxed), scale)
+        self.pairs = float(self.entries[:, 2].sum()) + float(len(self.rays_all)) * n_tris \
+            + float(len(self.tris_all)) * len(self.order)
+
+    def _bin(self, ray_xy, tri_xy, tris, scale):
+        lo, hi = ray_xy.min(axis=0), ray_xy.max(axis=0)
+        extent = np.maximum(hi - lo, 1e-12 * max(float(np.abs(ray_xy).max()), 1e-300))
+        cells = max(1, len(ray_xy) // 2)
+        ratio = float(np.clip(extent[0] / extent[1], 1.0 / cells, cells))
+        gx = int(np.clip(round(np.sqrt(cells * ratio)), 1, cells))
+        gy = int(np.clip(cells // gx, 1, cells))
+        size = extent / [gx, gy]
+        cell = np.minimum(((ray_xy - lo) / size).astype(np.int64), [gx - 1, gy - 1])
+        ids = cell[:, 1] * gx + cell[:, 0]
+        sort = np.argsort(ids, kind="stable")
+        self.order = self.order[sort]
+        start = np.searchsorted(ids[sort], np.arange(gx * gy + 1))           # rays of cell k: start[k]..start[k+1]
+        margin = 1e-9 * (float(np.abs(tri_xy).max(initial=0.0)) + float(np.abs(ray_xy).max())) + 1e-12 * scale
+        grid = np.array([gx, gy], dtype=np.float64)
+        with np.errstate(invalid="ignore", over="ignore", divide="ignore"):  # far boxes: clipped to the grid
+            box_lo = np.floor(np.clip((tri_xy.min(axis=1) - margin - lo) / size, -1.0, grid))
+            box_hi = np.floor(np.clip((tri_xy.max(axis=1) + margin - lo) / size, -1.0, grid))
+        inside = (box_hi[:, 0] >= 0) & (box_hi[:, 1] >= 0) & (box_lo[:, 0] < gx) & (box_lo[:, 1] < gy)
+        tris = tris[inside]
+        x0 = np.clip(box_lo[inside, 0], 0, gx - 1).astype(np.int64)
+        x1 = np.clip(box_hi[inside, 0], 0, gx - 1).astype(np.int64)
+        y0 = np.clip(box_lo[inside, 1], 0, gy - 1).astype(np.int64)
+        y1 = np.clip(box_hi[inside, 1], 0, gy - 1).astype(np.int64)
+        rows = y1 - y0 + 1                                                    # one entry per triangle and grid row
+        tri = np.repeat(tris, rows)
+        row = np.repeat(y0, rows) + _ramp(rows)
+        first = start[row * gx + np.repeat(x0, rows)]
+        count = start[row * gx + np.repeat(x1, rows) + 1] - first
+        keep = count > 0
+        self.entries = np.stack([tri[keep], first[keep], count[keep]], axis=1)
+
+    def chunks(self):
+        """``(rays, triangles)`` index pairs, :data:`PAIR_CHUNK` at most at a time."""
+        tris = np.arange(self.n_tris)
+        for r in range(0, len(self.rays_all), max(1, PAIR_CHUNK // max(self.n_tris, 1))):
+            rays = self.rays_all[r:r + max(1, PAIR_CHUNK // max(self.n_tris, 1))]
+            yield np.repeat(rays, self.n_tris), np.tile(tris, len(rays))
+        for t in self.tris_all:
+            for r in range(0, len(self.order), PAIR_CHUNK):
+                rays = self.order[r:r + PAIR_CHUNK]
+                yield rays, np.full(len(rays), t)
+        entries = _split(self.entries, PAIR_CHUNK)
+        ends = np.cumsum(entries[:, 2])
+        at = 0
+        while at < len(entries):
+            stop = int(np.searchsorted(ends, (ends[at - 1] if at else 0) + PAIR_CHUNK, side="right"))
+            stop = max(stop, at + 1)
+            part = entries[at:stop]
+            count = part[:, 2]
+            positions = np.repeat(part[:, 1], count) + _ramp(count)
+            yield self.order[positions], np.repeat(part[:, 0], count)
+            at = stop
+
+
+def _ramp(counts: np.ndarray) -> np.ndarray:
+    """``0..n-1`` for each ``n`` of ``counts``, concatenated."""
+    counts = np.asarray(counts, dtype=np.int64)
+    total = int(counts.sum())
+    if not total:
+        return np.zeros(0, np.int64)
+    starts = np.repeat(np.cumsum(counts) - counts, counts)
+    return np.arange(total, dtype=np.int64) - starts
+
+
+def _split(entries: np.ndarray, most: int) -> np.ndarray:
+    """Entries ``(triangle, first, count)`` with counts over ``most`` cut into pieces of ``most``."""
+    big = entries[:, 2] > most
+    if not big.any():
+        return entries
+    pieces = -(-entries[:, 2] // most)
+    out = np.repeat(entries, pieces, axis=0)
+    k = _ramp(pieces)
+    out[:, 1] += k * most
+    out[:, 2] = np.minimum(np.repeat(entries[:, 2], pieces) - k * most, most)
+    return out
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    n = float(np.linalg.norm(v))
+    return v / n if n > 0 else np.array([0.0, 0.0, 1.0])
+
+
+def _frame(f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors across ``f`` (and each other)."""
+    helper = np.array([1.0, 0.0, 0.0]) if abs(f[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    r = _unit(np.cross(f, helper))
+    return r, np.cross(f, r)
 
 
 def surface_rgba(scene, rays) -> np.ndarray | None:

@@ -384,3 +384,124 @@ def test_sphere_in_front_of_and_inside_a_slab(tmp_path, gl_context, name, height
     assert clear.mean() > 0.6 and (hi - lo)[clear].max() < 3e-3  # narrow: measured 2.2e-3 at most (a rim pixel)
     assert np.all(image[clear] >= lo[clear] - tolerance) and np.all(image[clear] <= hi[clear] + tolerance)
     assert image[..., 3].min() > 0.7  # the slab everywhere, or the opaque sphere
+
+
+# --- issue 40: the host test's plan, degenerate meshes, memory and work bounds ------------------------
+
+def _brute(corners, o, d):
+    """Every ray against every triangle (the pre-issue-40 test), the nearest hit parameter per ray."""
+    a, e1, e2 = corners[:, 0], corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    p = np.cross(d[:, None, :], e2[None])
+    det = np.einsum("tk,rtk->rt", e1, p)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = o[:, None, :] - a[None]
+        u = np.einsum("rtk,rtk->rt", s, p) / det
+        q = np.cross(s, e1[None])
+        v = np.einsum("rk,rtk->rt", d, q) / det
+        t = np.einsum("tk,rtk->rt", e2, q) / det
+        hit = (det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0)
+    return np.where(hit, t, np.inf).min(axis=1)
+
+
+@pytest.mark.parametrize("rays", ["perspective", "orthographic", "scattered", "eye among the triangles"])
+def test_the_hit_plan_finds_what_testing_every_pair_finds(rays):
+    """The plan (rays binned in 2D, each triangle tested against the cells its box covers) misses no hit
+    of the brute-force test, rays through vertices and along edges included, and tests fewer pairs."""
+    from dvr_gl.geometry import HitPlan, TriangleMesh
+
+    rng = np.random.default_rng(11)
+    points = rng.uniform(-1, 1, (300, 3))
+    triangles = rng.integers(0, 300, (400, 3))
+    small = points[triangles[:200]]
+    points[triangles[:200, 1]] = small[:, 0] + 0.05 * (small[:, 1] - small[:, 0])  # small ones too
+    n = 24
+    ys, xs = np.meshgrid(np.linspace(-0.6, 0.6, n), np.linspace(-0.6, 0.6, n), indexing="ij")
+    if rays == "orthographic":
+        o = np.column_stack([xs.ravel(), ys.ravel(), np.full(n * n, 3.0)])
+        d = np.tile([0.0, 0.0, -1.0], (n * n, 1))
+    else:
+        eye = [0.0, 0.0, 0.0] if rays == "eye among the triangles" else [0.1, -0.2, 3.0]
+        o = np.tile(eye, (n * n, 1))
+        d = np.column_stack([xs.ravel(), ys.ravel(), -np.ones(n * n)])
+        if rays == "scattered":
+            o = o + rng.normal(0, 0.01, o.shape)
+    mesh = TriangleMesh(points, triangles, "random")
+    corner_rays = points[triangles[:40, 0]] - o[:40]  # 40 rays straight through a vertex each
+    d[:40] = corner_rays if rays != "orthographic" else d[:40]
+    if rays == "orthographic":
+        o[:40] = points[triangles[:40, 0]] + [0.0, 0.0, 3.0]
+    t, _, _ = first_hits([(mesh, GREY)], o, d)
+    expected = _brute(mesh.corners, o, d)
+    np.testing.assert_array_equal(np.isfinite(t), np.isfinite(expected))
+    np.testing.assert_allclose(t[np.isfinite(t)], expected[np.isfinite(t)], rtol=1e-12)
+    plan = HitPlan(o, d, mesh.corners)
+    assert plan.pairs <= len(o) * len(triangles)
+    if rays in ("perspective", "orthographic"):
+        assert plan.pairs < 0.5 * len(o) * len(triangles)
+
+
+def _degenerate(tmp_path):
+    path = tmp_path / "flat.stl"
+    points = np.array([[0.0, 0, 0], [1, 1, 1], [2, 2, 2], [5, 5, 5]])  # collinear: zero area
+    meshio.write_points_cells(str(path), points, [("triangle", np.array([[0, 1, 2], [1, 2, 3], [0, 0, 3]]))])
+    return [{"path": str(path), "color": [0.3, 0.5, 0.9]}]
+
+
+@pytest.mark.parametrize("name", ["raycast", "slicing3d", "shearwarp", "reference"])
+def test_a_mesh_of_only_degenerate_triangles_renders_as_none(tmp_path, gl_context, name):
+    """Issue 40: 'the buffer cannot be empty' (exit 3) for a valid mesh that covers nothing."""
+    from dvr_gl.renderers.base import create_renderer
+
+    with_mesh = load_scene(None, {**TILTED, "renderer.name": name, "renderer.geometry": _degenerate(tmp_path)})
+    without = load_scene(None, {**TILTED, "renderer.name": name})
+    with create_renderer(name, ctx=gl_context) as renderer:
+        np.testing.assert_array_equal(renderer.render(with_mesh), renderer.render(without))
+
+
+def _sphere_stl(tmp_path, subdivisions=4):
+    from dvr_gl.geometry import icosphere
+
+    points, faces = icosphere((0.0, 0.0, 0.0), 6.0, subdivisions)
+    path = tmp_path / f"sphere{subdivisions}.stl"
+    meshio.write_points_cells(str(path), points, [("triangle", faces)], binary=True)
+    return path
+
+
+def test_meshes_count_against_the_memory_budget(tmp_path, gl_context):
+    """Issue 40: a 327k-triangle STL rendered under a 4 MiB budget at 421 MB.  Reading (10x the file),
+    the GL layer and the host test are now checked before they are made."""
+    from dvr_gl.renderers.base import create_renderer
+    from dvr_gl.sandbox import Sandbox, SandboxError, active
+
+    path = _sphere_stl(tmp_path)  # 5120 triangles, 256 kB
+    geometry = [{"path": str(path), "color": [0.3, 0.5, 0.9]}]
+    with active(Sandbox(max_bytes=2 << 20)), pytest.raises(SandboxError, match="reading the mesh sphere4.stl"):
+        load_scene(None, {**TILTED, "renderer.name": "raycast", "renderer.geometry": geometry})
+    for name, words in (("raycast", "drawing 5120 triangles"), ("reference", "testing 320 rays against 5120")):
+        scene = load_scene(None, {**TILTED, "renderer.name": name, "renderer.geometry": geometry})
+        with active(Sandbox(max_bytes=3 << 20)), create_renderer(name, ctx=gl_context) as renderer, \
+                pytest.raises(SandboxError, match=words):
+            renderer.render(scene)
+
+
+def test_the_host_test_is_bounded_and_fast(tmp_path, monkeypatch):
+    """Issue 40: a 327k-triangle STL ran over 60 s in shearwarp and reference (every ray against every
+    triangle).  The plan tests a few pairs a ray; its count is checked against the bound (lowered by
+    --max-seconds) before any test, and the refusal names the count and what to change."""
+    import dvr_gl.geometry as geometry
+    from dvr_gl.sandbox import Sandbox, active
+
+    path = _sphere_stl(tmp_path, 5)  # 20480 triangles
+    scene = load_scene(None, {**TILTED, "image.width": 64, "image.height": 64, "renderer.name": "reference",
+                              "renderer.geometry": [{"path": str(path), "color": [0.3, 0.5, 0.9]}]})
+    rays = scene.camera.pixel_rays(64, 64)
+    plan = geometry.HitPlan(*rays, read_mesh(path).corners)
+    assert plan.pairs < 50 * len(rays[0])  # about 21 a ray; brute force: 20480 a ray
+    monkeypatch.setattr(geometry, "PAIR_BOUND", plan.pairs / 2)
+    with pytest.raises(DvrError, match=r"the surfaces would take .* ray-triangle tests \(4096 rays against the 20480 "
+                                       r"triangles .*over the bound.*lower --size"):
+        geometry.first_hits([(read_mesh(path), GREY)], *rays)
+    monkeypatch.setattr(geometry, "PAIR_BOUND", 3e10)
+    monkeypatch.setattr(geometry, "PAIR_RATE", plan.pairs / 20)  # --max-seconds 10 allows half the tests
+    with active(Sandbox(max_seconds=10)), pytest.raises(DvrError, match="over the bound of"):
+        geometry.first_hits([(read_mesh(path), GREY)], *rays)

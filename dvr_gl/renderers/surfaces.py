@@ -14,8 +14,22 @@ from ..gl.context import make_current
 from ..gl.geometry import box_corners, clip_planes, gl_matrix, projection_matrix, view_matrix
 from ..gl.lights import set_uniform, shading_uniforms
 from ..gl.shaders import create_program
+from ..sandbox import check_bytes
 
 NO_SURFACE = 3.0e38  # t where no surface covers a pixel
+
+
+#: Host and GL memory per triangle drawn: float64 corners, normals and colours (216 bytes), their float32
+#: copy and the vertex buffer (108 each), the face normals and the mask (about 100), with a margin.
+BYTES_PER_GL_TRIANGLE = 640
+BYTES_PER_LAYER_PIXEL = 80  # the RGBA32F target, its depth, the read-back and the composited layer
+
+
+def check_layer_memory(meshes, image) -> None:
+    """Refuse, before anything is allocated, a layer whose triangles and pixels exceed the memory budget."""
+    triangles = sum(len(mesh.triangles) for mesh, _ in meshes)
+    check_bytes(triangles * float(BYTES_PER_GL_TRIANGLE) + image.width * image.height * float(BYTES_PER_LAYER_PIXEL),
+                f"drawing {triangles} triangles (renderer.geometry)", "use a smaller mesh (fewer triangles)")
 
 
 class SurfaceLayer:
@@ -25,6 +39,7 @@ class SurfaceLayer:
     def __init__(self, ctx, scene):
         img, cam = scene.image, scene.camera
         meshes = scene_meshes(scene.renderer)
+        check_layer_memory(meshes, img)
         corners, normals, colours = [], [], []
         for mesh, rgb in meshes:
             c = mesh.corners
@@ -35,6 +50,8 @@ class SurfaceLayer:
             normals.append(np.repeat(face[keep] / length[keep, None], 3, axis=0))
             colours.append(np.broadcast_to(rgb, (3 * int(keep.sum()), 3)))
         vertices = np.concatenate([np.concatenate(corners), np.concatenate(normals), np.concatenate(colours)], axis=1)
+        if not len(vertices):  # only degenerate triangles: they cover nothing, a pixel's ray sees no surface
+            vertices = np.zeros((3, 9))
         lo, hi = (np.asarray(b, dtype=np.float64) for b in scene.field.bounds)
         points = np.concatenate([box_corners(lo, hi), vertices[:, :3]])
         near, _ = clip_planes(cam, lo, hi)
