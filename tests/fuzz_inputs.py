@@ -80,6 +80,112 @@ def _tiff() -> bytes:
         return Path(path).read_bytes()
 
 
+def _tiff_slices() -> dict[str, bytes]:
+    """A folder of one-page TIFF slices (natural order: s2 before s10)."""
+    import tempfile
+
+    import OpenImageIO as oiio
+
+    files = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for i, s in enumerate(DATA.astype(np.uint16)):
+            path = os.path.join(tmp, f"s{i}.tif")
+            out = oiio.ImageOutput.create(path)
+            out.open(path, oiio.ImageSpec(4, 3, 1, oiio.UINT16))
+            out.write_image(np.ascontiguousarray(s[..., None]))
+            out.close()
+            files[f"s{i}.tif"] = Path(path).read_bytes()
+    return files
+
+
+# The DICOM tags the series reader uses, and their value representations.
+DICOM_TAGS = {"Rows": "US", "Columns": "US", "SamplesPerPixel": "US", "NumberOfFrames": "IS",
+              "PhotometricInterpretation": "CS", "BitsAllocated": "US", "BitsStored": "US",
+              "PixelRepresentation": "US", "ImageOrientationPatient": "DS", "ImagePositionPatient": "DS",
+              "PixelSpacing": "DS", "RescaleSlope": "DS", "RescaleIntercept": "DS", "SliceThickness": "DS",
+              "SeriesInstanceUID": "UI", "SeriesNumber": "IS"}
+
+
+def _dicom_slice(pixels: np.ndarray, z: float, uid: str, slope=1.0, intercept=0.0) -> bytes:
+    from pydicom.dataset import Dataset, FileMetaDataset
+    from pydicom.uid import CTImageStorage, ExplicitVRLittleEndian
+
+    meta = FileMetaDataset()
+    meta.MediaStorageSOPClassUID = CTImageStorage
+    meta.MediaStorageSOPInstanceUID = f"1.2.3.4.{int(z * 10)}"
+    meta.TransferSyntaxUID = ExplicitVRLittleEndian
+    ds = Dataset()
+    ds.file_meta = meta
+    ds.SOPClassUID, ds.SOPInstanceUID = CTImageStorage, meta.MediaStorageSOPInstanceUID
+    ds.SeriesInstanceUID, ds.SeriesNumber, ds.Modality = uid, 3, "CT"
+    ds.ImageOrientationPatient = ["1", "0", "0", "0", "1", "0"]
+    ds.ImagePositionPatient = ["-1", "2", f"{z:g}"]
+    ds.PixelSpacing, ds.SliceThickness = ["0.75", "0.5"], "2"
+    ds.RescaleSlope, ds.RescaleIntercept = f"{slope:g}", f"{intercept:g}"
+    ds.Rows, ds.Columns = pixels.shape
+    ds.SamplesPerPixel, ds.PhotometricInterpretation = 1, "MONOCHROME2"
+    ds.BitsAllocated, ds.BitsStored, ds.HighBit, ds.PixelRepresentation = 16, 16, 15, 1
+    ds.PixelData = pixels.astype("<i2").tobytes()
+    buf = io.BytesIO()
+    ds.save_as(buf, enforce_file_format=True)
+    return buf.getvalue()
+
+
+def _dicom_series() -> dict[str, bytes]:
+    """Three slices 2 mm apart, their names out of position order; or {} without pydicom."""
+    try:
+        import pydicom  # noqa: F401
+    except ImportError:
+        return {}
+    stack = np.concatenate([DATA, DATA[:1] + 5])
+    return {f"IM{k}": _dicom_slice(stack[i], 2.0 * i, "1.2.3.9", slope=2, intercept=-10)
+            for k, i in zip((2, 0, 1), range(3))}
+
+
+def _vti(fmt: str, compressed: bool = False, appended_encoding: str = "raw") -> bytes:
+    """DATA as VTK XML image data (float32; header UInt32, little-endian) in one encoding, laid out as
+    VTK's vtkXMLWriter writes it (see tests/test_io_vti.py)."""
+    import base64
+
+    raw = DATA.astype("<f4").tobytes()
+    if compressed:
+        blocks = [zlib.compress(raw[i:i + 32]) for i in range(0, len(raw), 32)]
+        head = np.array([len(blocks), 32, len(raw) % 32] + [len(b) for b in blocks], "<u4").tobytes()
+        body = b"".join(blocks)
+        stream = (base64.b64encode(head) + base64.b64encode(body)) if fmt == "binary" or \
+            appended_encoding == "base64" else head + body
+    else:
+        sized = np.array([len(raw)], "<u4").tobytes() + raw
+        stream = base64.b64encode(sized) if fmt == "binary" or appended_encoding == "base64" else sized
+    if fmt == "ascii":
+        array = f'format="ascii">{" ".join(f"{v:g}" for v in DATA.ravel())}</DataArray>'
+    elif fmt == "binary":
+        array = f'format="binary">{stream.decode()}</DataArray>'
+    else:
+        array = 'format="appended" offset="0"/>'
+    xml = ('<?xml version="1.0"?>\n<VTKFile type="ImageData" version="1.0" byte_order="LittleEndian" '
+           'header_type="UInt32"' + (' compressor="vtkZLibDataCompressor"' if compressed else "") + '>\n'
+           '<ImageData WholeExtent="0 3 0 2 0 1" Origin="1 2 3" Spacing="0.5 1 2">\n'
+           '<Piece Extent="0 3 0 2 0 1">\n<PointData Scalars="s">\n'
+           f'<DataArray type="Float32" Name="s" NumberOfComponents="1" {array}\n'
+           '</PointData>\n</Piece>\n</ImageData>\n')
+    if fmt == "appended":
+        xml += f'<AppendedData encoding="{appended_encoding}">\n_'
+        return xml.encode() + stream + b"\n</AppendedData>\n</VTKFile>\n"
+    return (xml + "</VTKFile>\n").encode()
+
+
+def _vti_pieces() -> bytes:
+    """DATA in two ascii pieces that share the plane z = 0 (as VTK splits an extent by cells)."""
+    blob = _vti("ascii").decode()
+    piece = '<Piece Extent="{}">\n<PointData Scalars="s">\n<DataArray type="Float32" Name="s" format="ascii">{}' \
+            '</DataArray>\n</PointData>\n</Piece>\n'
+    two = piece.format("0 3 0 2 0 0", " ".join(f"{v:g}" for v in DATA[0].ravel())) + \
+        piece.format("0 3 0 2 0 1", " ".join(f"{v:g}" for v in DATA.ravel()))
+    start, end = blob.index("<Piece"), blob.index("</Piece>") + len("</Piece>\n")
+    return (blob[:start] + two + blob[end:]).encode()
+
+
 def _npy() -> bytes:
     buf = io.BytesIO()
     np.save(buf, DATA)
@@ -143,6 +249,15 @@ def seeds() -> list[Seed]:
         Seed("nifti", {"v.nii": _nifti(False)}, "v.nii"),
         Seed("nifti", {"v.nii.gz": _nifti(True)}, "v.nii.gz"),
         Seed("tiff", {"s.tif": _tiff()}, "s.tif"),
+        Seed("tiff", _tiff_slices(), ""),
+        Seed("vti", {"v.vti": _vti("ascii")}, "v.vti"),
+        Seed("vti", {"v.vti": _vti("binary")}, "v.vti"),
+        Seed("vti", {"v.vti": _vti("binary", compressed=True)}, "v.vti"),
+        Seed("vti", {"v.vti": _vti("appended")}, "v.vti"),
+        Seed("vti", {"v.vti": _vti("appended", compressed=True)}, "v.vti"),
+        Seed("vti", {"v.vti": _vti("appended", appended_encoding="base64")}, "v.vti"),
+        Seed("vti", {"v.vti": _vti_pieces()}, "v.vti"),
+        *([Seed("dicom", _dicom_series(), "")] if _dicom_series() else []),
         Seed("csv", {"p.csv": _particle_csv()}, "p.csv", text=("p.csv",)),
         Seed("npz", {"p.npz": _particle_npz()}, "p.npz"),
         *([Seed("hdf5", {"p.hdf5": _particle_hdf5()}, "p.hdf5")] if _particle_hdf5() else []),
@@ -220,11 +335,63 @@ def _split_header(blob: bytes) -> tuple[bytes, bytes, bytes]:
     return blob, b"", b""
 
 
+def mutate_xml(blob: bytes, rnd: random.Random) -> tuple[bytes, str]:
+    """A VTK XML attribute's value (before any appended data) replaced by a bad token, or an element
+    dropped or duplicated."""
+    import re
+
+    end = blob.find(b"<AppendedData")
+    head = blob if end < 0 else blob[:end]
+    if rnd.random() < 0.7:
+        found = list(re.finditer(rb'(\w+)="([^"]*)"', head))
+        m = rnd.choice(found)
+        token = rnd.choice(BAD_TOKENS + ["0 3 0 2 0 0", "0 3 0 2 1 1", "-1 3 0 2 0 1", "0 30 0 2 0 1", "0 0 0 0 0 0"])
+        return blob[:m.start(2)] + token.encode("utf-8") + blob[m.end(2):], f"{m.group(1).decode()} -> {token!r}"
+    found = list(re.finditer(rb"<(Piece|DataArray|PointData)\b.*?</\1>", head, re.S))
+    if not found:
+        return mutate_bytes(blob, rnd)
+    m = rnd.choice(found)
+    twice = rnd.random() < 0.5
+    return blob[:m.start()] + (m.group(0) * 2 if twice else b"") + blob[m.end():], \
+        f"{'duplicate' if twice else 'drop'} a {m.group(1).decode()}"
+
+
+def mutate_dicom(blob: bytes, rnd: random.Random) -> tuple[bytes, str]:
+    """A tag the series reader uses set to a bad token (as pydicom writes it, unchecked), or deleted."""
+    import warnings
+
+    import pydicom
+    from pydicom.dataelem import DataElement
+
+    ds = pydicom.dcmread(io.BytesIO(blob), force=True)
+    keyword = rnd.choice(sorted(DICOM_TAGS))
+    token = rnd.choice(BAD_TOKENS)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            if rnd.random() < 0.2:
+                if keyword in ds:
+                    del ds[keyword]
+                token = "(deleted)"
+            else:
+                vr = DICOM_TAGS[keyword]
+                value = int(token) if vr == "US" else token.replace(" ", "\\")
+                tag = pydicom.datadict.tag_for_keyword(keyword)
+                ds[tag] = DataElement(tag, vr, value, validation_mode=pydicom.config.IGNORE)
+            out = io.BytesIO()
+            ds.save_as(out)
+    except Exception:  # noqa: BLE001 - a value pydicom cannot write (a US of letters): mutate the bytes
+        return mutate_bytes(blob, rnd)
+    return out.getvalue(), f"{keyword} -> {token!r}"
+
+
 def mutate(seed: Seed, rnd: random.Random) -> tuple[dict[str, bytes], str]:
     """A mutated copy of ``seed``'s files and what was changed."""
     files = dict(seed.files)
     name = rnd.choice(sorted(files))
-    if name in seed.text and rnd.random() < 0.7:
+    if seed.reader in ("dicom", "vti") and rnd.random() < 0.6:
+        files[name], what = (mutate_dicom if seed.reader == "dicom" else mutate_xml)(files[name], rnd)
+    elif name in seed.text and rnd.random() < 0.7:
         files[name], what = mutate_lines(files[name], rnd)
     else:
         files[name], what = mutate_bytes(files[name], rnd)

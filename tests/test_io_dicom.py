@@ -208,6 +208,8 @@ def _set(keyword, value):
 @pytest.mark.parametrize("change, replace, message", [
     # issue 40: internal errors before
     (lambda ds: delattr(ds, "Columns"), None, "slice_000.dcm: Columns is missing"),
+    # found by fuzzing: a slice without Rows was taken for a non-image and left out (an end slice silently)
+    (lambda ds: delattr(ds, "Rows"), None, "slice_000.dcm: Rows is missing"),
     (_set("SamplesPerPixel", None), None, "slice_000.dcm: SamplesPerPixel must be an integer >= 1, got nothing"),
     (_set("RescaleSlope", "9.99"), (b"9.99", b"abcd"), "RescaleSlope must be a finite number, got 'abcd'"),
     # issue 40: messages that blamed another tag, or the transfer function

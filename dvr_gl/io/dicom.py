@@ -48,6 +48,9 @@ ORIENTATION_TOLERANCE = 1e-4  # ImageOrientationPatient's numbers, written to ab
 UNIT_TOLERANCE = 1e-3  # how far from 1 the length of its directions may be (some writers keep 4 decimals)
 GREY = ("MONOCHROME1", "MONOCHROME2")  # PhotometricInterpretation of grey values (not palette indices)
 MEDIA_DIRECTORY = "1.2.840.10008.1.3.10"  # DICOMDIR: an index of files, not an image
+# An image's pixel module: a file with none of these is no image; one with some, but short of Rows, is broken
+IMAGE_PIXEL = ("Rows", "Columns", "SamplesPerPixel", "PhotometricInterpretation", "BitsAllocated", "BitsStored",
+               "PixelRepresentation")
 
 
 def is_dicom(path: Path) -> bool:
@@ -174,12 +177,14 @@ def _headers(pydicom, files):
     for f in files:
         try:
             ds = pydicom.dcmread(str(f), stop_before_pixels=True)
+            for _ in (*ds, *getattr(ds, "file_meta", ())):  # pydicom decodes each element when first used:
+                pass  # decode them all here, where a damaged one is named, not later in any tag's access
         except Exception as exc:  # pydicom raises many kinds for a damaged file
             raise VolumeError(f"{f}: not a readable DICOM file ({str(exc).splitlines()[0] if str(exc) else exc!r})") \
                 from None
         sop = str(getattr(getattr(ds, "file_meta", None), "MediaStorageSOPClassUID", ""))
-        if sop == MEDIA_DIRECTORY or "Rows" not in ds:
-            continue
+        if sop == MEDIA_DIRECTORY or not any(keyword in ds for keyword in IMAGE_PIXEL):
+            continue  # not an image (an index, a report, a presentation state); an image short of Rows is named
         out.append((f, ds))
     return out
 
@@ -363,7 +368,11 @@ def _pixel_error(f, syntax, exc) -> str:
         decoder = get_decoder(UID(syntax)) if syntax else None
     except (NotImplementedError, ValueError):
         decoder = None
-    if syntax and UID(syntax).is_compressed and (decoder is None or not decoder.is_available):
+    try:
+        compressed = bool(syntax) and UID(syntax).is_compressed
+    except ValueError:  # not a transfer syntax's UID at all
+        compressed = False
+    if compressed and (decoder is None or not decoder.is_available):
         needs = "; ".join(decoder.missing_dependencies) if decoder else "no decoder is known"
         return (f"{f}: its transfer syntax {UID(syntax).name} is compressed, and pydicom decodes it only with a "
                 f"plugin ({needs}): e.g. pip install pylibjpeg pylibjpeg-libjpeg pylibjpeg-openjpeg")
