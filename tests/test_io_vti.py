@@ -192,6 +192,13 @@ def test_pieces_that_overlap_or_leave_gaps_are_refused(tmp_path, pieces, message
         load_volume(write_pieces(tmp_path / "v.vti", pieces))
 
 
+def test_ascii_array_longer_than_its_extent_is_refused(tmp_path):
+    """The extra values were ignored: a piece's extent cut to the first slice read silently."""
+    path = write_pieces(tmp_path / "v.vti", [((0, 4, 0, 3, 0, 0), WHOLE)], whole=(0, 4, 0, 3, 0, 0))
+    with pytest.raises(VolumeError, match="holds more than the 20 values its extent promises"):
+        load_volume(path)
+
+
 def test_pieces_of_different_types_are_refused(tmp_path):
     path = write_pieces(tmp_path / "v.vti", [((0, 4, 0, 3, 0, 1), WHOLE[:2]), ((0, 4, 0, 3, 2, 2), WHOLE[2])])
     blob = path.read_bytes()

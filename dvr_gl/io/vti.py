@@ -197,7 +197,11 @@ class _Codec:
         what = f"DataArray {element.get('Name')!r}"
         nbytes = count * dtype.itemsize
         if fmt == "ascii":
-            return parse_ascii((element.text or "").encode(), count, dtype, self.name, what)
+            text = (element.text or "").encode()
+            if len(text.split(maxsplit=count)) > count:  # more values than the extent: the extent or data is wrong
+                raise VolumeError(f"{self.name}: the ASCII {what} holds more than the {count} values its extent "
+                                  f"promises; the extent or the array is wrong")
+            return parse_ascii(text, count, dtype, self.name, what)
         if fmt == "binary":
             text = "".join((element.text or "").split()).encode()
             blob = self._stream(text, nbytes, what, encoded=True)
