@@ -8,31 +8,81 @@
   size 1 is dropped and a longer one refused; the ``coordinateTransformations``, the dataset's then the
   multiscale's, give the spacing (``scale``) and origin (``translation``) in the axes' units.
 
-The bytes the chosen array holds are checked against the memory budget before it is read.
+What is checked, before any voxel is read (each a one-line :class:`VolumeError`):
+
+* the OME metadata, against the NGFF 0.4/0.5 schema's rules, before any array is opened
+  (:func:`ome_image`): ``multiscales`` a list of objects, ``datasets`` a non-empty list of objects with
+  a relative ``path`` (no ``..``, ``.`` or leading ``/``), ``axes`` a list of unique names (objects with
+  a string ``name``), transforms of a known ``type`` with one finite number per axis;
+* the chosen array: a scalar type, chunks of at least one sample, a chunk within the memory budget
+  (zarr decodes whole chunks), at most :data:`MAX_CHUNKS` chunks, and its bytes within the budget;
+* every file the store reads (metadata and chunks, :func:`open_store`): inside the store, a regular
+  file, and under a sandbox with roots inside them once links are followed (a chunk linked to a file
+  elsewhere is refused, not read);
+* a chunk that does not decode (corrupt, cut, of another size) is refused in one line, and the zarr
+  reads still under way are let finish first, so that nothing else is printed.
 """
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
+import functools
+import json
+import logging
 import math
+import os
+import stat
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import VolumeError
+from .. import progress
+from ..errors import DvrError, VolumeError
 from ..sandbox import SandboxError, check_bytes, current
-from .common import RawArray, check_sample_type, check_spacing, require
+from .common import RawArray, check_sample_type, check_spacing, require, show
 
 SPATIAL = ("z", "y", "x")
+#: The most chunks an array may have: zarr reads 1.5k (stored) to 15k (missing) chunks a second on two
+#: cores, so this is 20 minutes to 3 hours of reading; a store in smaller chunks is refused (rechunk it).
+MAX_CHUNKS = 1 << 24
+CHUNK_RATE = 1500  # stored chunks a second read on two cores (small chunks; 0.7 ms each)
+#: Chunks one zarr call reads at most when an array is read whole: zarr lists every chunk of a call
+#: first, so this bounds that list, and each call is a step of the progress bar.
+SLAB_CHUNKS = 4096
+#: OME-Zarr versions read (0.1 to 0.3 have the same multiscales, 0.3's axes are plain names).
+VERSIONS = ("0.1", "0.2", "0.3", "0.4", "0.5")
+#: Seconds to let the zarr reads still under way finish after one failed (see :func:`reading`).
+SETTLE_SECONDS = 30.0
+
+log = logging.getLogger(__name__)
 
 
 def read_zarr(path: Path, array: str | None = None, level: int | None = None) -> RawArray:
     target, axes, transforms, name = open_zarr(path, array, level)
-    dtype = check_sample_type(np.dtype(target.dtype), name, "dtype", str(target.dtype))
-    check_bytes(math.prod(target.shape) * dtype.itemsize, f"{name}: the zarr array of shape {target.shape}",
-                "choose a coarser level (volume.level), or raise the memory budget")
+    check_bytes(math.prod(target.shape) * np.dtype(target.dtype).itemsize,
+                f"{name}: the zarr array of shape {tuple(target.shape)}",
+                "choose a coarser level (volume.level), read it out of core (volume.out_of_core), or raise the "
+                "memory budget")
+    check_array(target, name)
     index, order, spacing, origin = zarr_plan(target.shape, axes, transforms, name)
-    data = np.asarray(target[...])
+    data = read_all(target, name)
     return RawArray(np.ascontiguousarray(np.transpose(data[index], order)), spacing, origin)
+
+
+def read_all(target, name: str) -> np.ndarray:
+    """The whole array, read ``SLAB_CHUNKS`` chunks at a time along its first axis (a progress step each)."""
+    shape, chunks = tuple(target.shape), tuple(target.chunks)
+    if not shape:
+        return np.asarray(target[...])
+    out = np.empty(shape, dtype=target.dtype)
+    per_layer = math.prod(-(-n // c) for n, c in zip(shape[1:], chunks[1:]))
+    step_rows = chunks[0] * max(1, SLAB_CHUNKS // max(per_layer, 1))
+    with progress.task(f"reading {Path(name).name}", out.nbytes, "B") as step, reading(name, CHUNK):
+        for start in range(0, shape[0], step_rows):
+            out[start:start + step_rows] = target[start:start + step_rows]
+            step(out[:start + step_rows].nbytes)
+    return out
 
 
 def open_zarr(path: Path, array: str | None = None, level: int | None = None, with_levels: bool = False):
@@ -44,11 +94,8 @@ def open_zarr(path: Path, array: str | None = None, level: int | None = None, wi
     if not current().allows(path):
         raise SandboxError(f"{path}: the zarr store lies outside the allowed folders; move it into one of them")
     name = str(path)
-    try:
-        node = zarr.open(store=name, mode="r")
-    except Exception as exc:  # zarr raises many kinds for a folder that is not a store  # noqa: BLE001
-        raise VolumeError(f"{name}: not a zarr store "
-                          f"({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})") from None
+    with reading(name, "not a zarr store, or its metadata is not valid ({}); check the path, or fix the store"):
+        node = zarr.open(store=open_store(path), mode="r")
     axes, transforms, coarser = None, [], []
     if isinstance(node, zarr.Array):
         if array is not None or level is not None:
@@ -56,13 +103,13 @@ def open_zarr(path: Path, array: str | None = None, level: int | None = None, wi
                               f"remove them")
         target = node
     else:
-        attrs = dict(node.attrs)
-        multiscales = attrs.get("multiscales") or attrs.get("ome", {}).get("multiscales")
-        if multiscales:
-            target, axes, transforms = _level(node, multiscales[0], level, name)
-            chosen = 0 if level is None else int(level)
-            coarser = [_level(node, multiscales[0], k, name)[::2]
-                       for k in range(chosen + 1, len(multiscales[0].get("datasets") or []))]
+        image = ome_image(dict(node.attrs), name)
+        if image is not None:
+            datasets, axes, common = image
+            chosen = _level_index(level, len(datasets), name)
+            target, transforms = _dataset(node, datasets[chosen], common, name), datasets[chosen][1] + common
+            coarser = [(_dataset(node, d, common, name), d[1] + common) for d in datasets[chosen + 1:]] \
+                if with_levels else []
         else:
             if level is not None:
                 raise VolumeError(f"{name}: volume.level applies to OME-Zarr multiscale images; this group has no "
@@ -72,8 +119,32 @@ def open_zarr(path: Path, array: str | None = None, level: int | None = None, wi
 
 
 def zarr_layout(path: Path, array: str | None = None, level: int | None = None):
-    """The chosen array and its coarser levels, unread (:func:`open_zarr` ``with_levels``), for reading in part."""
-    return open_zarr(path, array, level, with_levels=True)
+    """The chosen array and its coarser levels, unread (:func:`open_zarr` ``with_levels``), for reading in part
+    (each checked by :func:`check_array`)."""
+    found = open_zarr(path, array, level, with_levels=True)
+    for target in [found[0], *(a for a, _ in found[4])]:
+        check_array(target, found[3])
+    return found
+
+
+def check_array(target, name: str) -> None:
+    """Refuse, before any chunk is read, an array a volume cannot come from or that reading would not
+    survive: not a scalar type, chunks of no sample, a chunk over the memory budget (zarr decodes whole
+    chunks), more than :data:`MAX_CHUNKS`, all its bytes over the budget."""
+    what = f"{name}: the zarr array {show(getattr(target, 'path', '') or '/')}"
+    dtype = np.dtype(target.dtype)
+    check_sample_type(dtype, name, "the zarr array's dtype", str(dtype))
+    shape, chunks = tuple(int(n) for n in target.shape), tuple(int(c) for c in target.chunks)
+    if len(chunks) != len(shape) or min(chunks, default=1) < 1 or min(shape, default=0) < 0:
+        raise VolumeError(f"{what} has shape {list(shape)} in chunks {list(chunks)}; chunks need one positive "
+                          f"size per axis: fix or rewrite the store")
+    check_bytes(math.prod(chunks) * dtype.itemsize, f"{what}: one chunk of {list(chunks)}",
+                "rewrite the store in smaller chunks (e.g. 64^3), or raise the memory budget")
+    count = math.prod(-(-n // c) for n, c in zip(shape, chunks))
+    if count > MAX_CHUNKS:
+        raise VolumeError(f"{what} has {count:.3g} chunks of {list(chunks)}, over {MAX_CHUNKS} (about "
+                          f"{_duration(count / CHUNK_RATE)} of reading at the {CHUNK_RATE} chunks a second measured "
+                          f"on two cores); rewrite the store in larger chunks (e.g. 64^3)")
 
 
 def zarr_plan(shape, axes, transforms, name):
@@ -89,13 +160,311 @@ def zarr_plan(shape, axes, transforms, name):
             raise VolumeError(f"{name}: the array has shape {tuple(shape)}; a volume needs 3 dimensions (z, y, x)")
         return (0,) * drop + (slice(None),) * 3, (0, 1, 2), None, None
     return _by_axes(shape, axes, transforms, name)
-def _member(group, array, name):
-    arrays = dict(sorted(group.arrays()))
-    if array is not None:
+
+
+# --- the store: every file checked before it is opened --------------------------------------------
+
+def open_store(path) -> "object":
+    """A read-only zarr store on the folder ``path`` whose every read is checked (:func:`check_key`)."""
+    return _checked_store_class()(Path(path), read_only=True)
+
+
+def is_checked(store) -> bool:
+    """Whether ``store`` is one :func:`open_store` made."""
+    return store is not None and isinstance(store, _checked_store_class())
+
+
+@functools.cache
+def _checked_store_class():
+    from zarr.storage import LocalStore
+
+    class CheckedStore(LocalStore):
+        """zarr's LocalStore, each key's file checked by :func:`check_key` before it is opened."""
+
+        async def get(self, key, prototype=None, byte_range=None):
+            check_key(self.root, key)
+            return await super().get(key, prototype, byte_range)
+
+        async def get_partial_values(self, prototype, key_ranges):
+            key_ranges = list(key_ranges)
+            for key, _ in key_ranges:
+                check_key(self.root, key)
+            return await super().get_partial_values(prototype, key_ranges)
+
+        def get_sync(self, key, *, prototype=None, byte_range=None):
+            check_key(self.root, key)
+            return super().get_sync(key, prototype=prototype, byte_range=byte_range)
+
+        async def list_dir(self, prefix):
+            check_key(self.root, prefix)
+            async for key in super().list_dir(prefix):
+                yield key
+
+    return CheckedStore
+
+
+def check_key(root: Path, key: str) -> None:
+    """Refuse to read the store's ``key``: a key outside the store (``..``, absolute), a file that is not
+    regular (a FIFO would block), and, inside a sandbox with roots, a file outside them once links are
+    followed.  A missing file passes (zarr reads a missing chunk as the fill value)."""
+    parts = key.replace("\\", "/").split("/")
+    if key.startswith(("/", "\\")) or ".." in parts:
+        raise VolumeError(f"{root}: the store names {show(key)}, outside itself; fix the metadata (paths are "
+                          f"relative, without '..')")
+    path = os.path.join(root, key)
+    roots = current().roots
+    if roots:
+        resolved = os.path.realpath(path)
+        if not any(resolved == r or resolved.startswith(r + os.sep) for r in _resolved(roots)):
+            raise SandboxError(f"{path}: the zarr store's file lies outside the allowed folders "
+                               f"({', '.join(map(str, roots))}) once links are followed; move it into one of them")
+        path = resolved
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return
+    if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
+        raise SandboxError(f"{path}: the zarr store's file is not a regular file (a FIFO, device or socket could "
+                           f"block); fix the store")
+
+
+def _duration(seconds: float) -> str:
+    for unit, size in (("hours", 3600.0), ("minutes", 60.0)):
+        if seconds >= 2 * size:
+            return f"{seconds / size:.3g} {unit}"
+    return f"{seconds:.3g} s"
+
+
+@functools.lru_cache(maxsize=16)
+def _resolved(roots: tuple) -> tuple[str, ...]:
+    """The roots with links followed, once per set of roots (not once per chunk)."""
+    return tuple(os.path.realpath(r) for r in roots)
+
+
+# --- reading: one line for whatever zarr raises, nothing else printed ------------------------------
+
+#: What :func:`reading` says of a chunk that does not decode.
+CHUNK = "a chunk of the zarr array cannot be read ({}); the store is damaged: rewrite it"
+#: ... and of an array's metadata zarr refuses.
+METADATA = "the zarr array's metadata is not valid ({}); fix or rewrite the store"
+
+
+@contextlib.contextmanager
+def reading(name: str, says: str = METADATA):
+    """Turn what zarr raises while opening or reading (a corrupt chunk, broken JSON, metadata zarr
+    refuses) into one :class:`VolumeError` line, ``f"{name}: {says}"`` with the cause in ``{}``; our own
+    errors (a file outside the sandbox) pass as they are.
+
+    zarr reads a call's chunks as concurrent tasks on its own event loop: when one fails the others
+    are still under way, and at exit Python would print each as "Task was destroyed but it is
+    pending!" with tracebacks.  They are let finish first (:func:`_settle`)."""
+    try:
+        yield
+    except DvrError:
+        _settle()
+        raise
+    except Exception as exc:  # zarr, numcodecs and json raise many kinds  # noqa: BLE001
+        _settle()
+        text = str(exc).splitlines()[0] if str(exc) else ""
+        raise VolumeError(f"{name}: " + says.format(f"{type(exc).__name__}: {text}" if text else
+                                                    type(exc).__name__)) from None
+    except BaseException:  # the sandbox's timer, ^C: what is under way is dropped
+        _settle(cancel=True)
+        raise
+
+
+def _settle(cancel: bool = False):
+    """Wait (at most :data:`SETTLE_SECONDS`) for the tasks still on zarr's event loop, or cancel them,
+    and send what the loop reports of them to the debug log rather than stderr."""
+    try:
+        from zarr.core import sync
+    except ImportError:
+        return
+    loop = sync.loop[0]
+    if loop is None or loop.is_closed():
+        return
+    loop.set_exception_handler(_quiet)
+
+    async def rest():
+        me = asyncio.current_task()
+        tasks = [t for t in asyncio.all_tasks() if t is not me]
+        for t in tasks if cancel else ():
+            t.cancel()
+        if tasks:
+            await asyncio.wait(tasks, timeout=SETTLE_SECONDS)
+        for t in tasks:  # retrieved: no "exception was never retrieved"
+            if t.done() and not t.cancelled():
+                t.exception()
+
+    with contextlib.suppress(Exception):
+        sync.sync(rest(), loop=loop)
+
+
+def _quiet(loop, context):
+    log.debug("zarr's event loop: %s", context.get("message"))
+
+
+# --- OME-Zarr metadata --------------------------------------------------------------------------------
+
+def ome_image(attrs: dict, name: str):
+    """The first multiscale image of a group's attributes, checked against the NGFF 0.4/0.5 schema's rules
+    (the module doc), or None where the group has no ``multiscales``: ``(datasets, axes, transforms)``
+    with ``datasets`` ``[(path, transforms), ...]`` fine to coarse, ``axes`` ``[(name, type), ...]`` and
+    ``transforms`` the multiscale's own (each a list of ``("scale" | "translation", values)``)."""
+    version = None
+    if "ome" in attrs:  # 0.5
+        ome = attrs["ome"]
+        if not isinstance(ome, dict):
+            raise VolumeError(f"{name}: the 'ome' attribute is {_kind(ome)}, not an object; fix the metadata "
+                              f"(OME-Zarr 0.5)")
+        if "multiscales" not in ome:
+            return None
+        multiscales, version = ome["multiscales"], ome.get("version")
+    elif "multiscales" in attrs:
+        multiscales = attrs["multiscales"]
+    else:
+        return None
+    if not isinstance(multiscales, list) or not multiscales:
+        raise VolumeError(f"{name}: 'multiscales' is {_kind(multiscales)}; OME-Zarr wants a list of images "
+                          f"(objects with 'axes' and 'datasets'): fix the metadata")
+    image = multiscales[0]
+    if not isinstance(image, dict):
+        raise VolumeError(f"{name}: the first multiscales entry is {_kind(image)}, not an object with 'axes' and "
+                          f"'datasets'; fix the metadata")
+    version = image.get("version", version)
+    if version is not None and version not in VERSIONS:
+        raise VolumeError(f"{name}: OME-Zarr version {show(version)} is not one this reader knows "
+                          f"({', '.join(VERSIONS)}); convert the image (e.g. with ome-zarr-py) or read its arrays "
+                          f"as plain zarr (volume.array)")
+    axes = _axes(image.get("axes"), name)
+    datasets = image.get("datasets")
+    if not isinstance(datasets, list) or not datasets:
+        raise VolumeError(f"{name}: the multiscales 'datasets' is {_kind(datasets)}; OME-Zarr wants a list of "
+                          f"levels, each {{'path': ..., 'coordinateTransformations': [...]}}: fix the metadata")
+    levels = []
+    for k, dataset in enumerate(datasets):
+        where = f"dataset {k}"
+        if not isinstance(dataset, dict) or "path" not in dataset:
+            raise VolumeError(f"{name}: {where} ({_kind(dataset)}) has no 'path'; each level is "
+                              f"{{'path': ..., 'coordinateTransformations': [...]}}: fix the metadata")
+        levels.append((_path(dataset["path"], name, where),
+                       _transforms(dataset.get("coordinateTransformations"), len(axes), name, where)))
+    return levels, axes, _transforms(image.get("coordinateTransformations"), len(axes), name, "the multiscale")
+
+
+def _kind(value) -> str:
+    """What a field holds, in a few words, for a message."""
+    if value is None:
+        return "missing"
+    if isinstance(value, dict):
+        return "an object" if value else "an empty object"
+    if isinstance(value, list) and not value:
+        return "an empty list"
+    if isinstance(value, str):
+        return show(value)
+    text = json.dumps(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _axes(axes, name: str) -> list[tuple[str, str | None]]:
+    if not isinstance(axes, list) or not axes:
+        raise VolumeError(f"{name}: the multiscales 'axes' is {_kind(axes)}; OME-Zarr 0.4 and later want a list "
+                          f"such as [{{'name': 'z', 'type': 'space'}}, ...]: fix the metadata")
+    found = []
+    for k, axis in enumerate(axes):
+        if isinstance(axis, str):  # OME-Zarr 0.3: plain names
+            axis = {"name": axis}
+        if not isinstance(axis, dict) or not isinstance(axis.get("name"), str) or not axis["name"]:
+            what = f"has name {_kind(axis.get('name'))}" if isinstance(axis, dict) else f"is {_kind(axis)}"
+            raise VolumeError(f"{name}: axis {k} {what}; each axis is {{'name': 'z', 'type': 'space'}} (a name "
+                              f"is a string): fix the metadata")
+        kind = axis.get("type")
+        if kind is not None and not isinstance(kind, str):
+            raise VolumeError(f"{name}: axis {show(axis['name'])} has type {_kind(kind)}; a type is 'space', "
+                              f"'time' or 'channel': fix the metadata")
+        found.append((axis["name"], kind))
+    names = [n.lower() for n, _ in found]
+    if len(set(names)) != len(names):
+        raise VolumeError(f"{name}: the axes {names} repeat a name; each axis needs its own: fix the metadata")
+    return found
+
+
+def _path(path, name: str, where: str) -> str:
+    """A dataset's path: relative, inside the group (no ``..``, ``.`` or leading ``/``)."""
+    if not isinstance(path, str) or not path.strip("/"):
+        raise VolumeError(f"{name}: {where} has path {_kind(path)}; a path is the array's name in the group "
+                          f"(a string, e.g. '0'): fix the metadata")
+    parts = path.replace("\\", "/").split("/")
+    if path.startswith(("/", "\\")) or any(p in ("", ".", "..") for p in parts) or ":" in parts[0]:
+        raise VolumeError(f"{name}: {where} has path {show(path)}, which leaves the image or is not plain; a path "
+                          f"is relative, inside the group, without '..': fix the metadata")
+    return path
+
+
+def _transforms(transforms, n: int, name: str, where: str) -> list[tuple[str, np.ndarray]]:
+    """A ``coordinateTransformations`` list checked: ``[(type, values), ...]``, identities left out."""
+    if transforms is None:
+        return []
+    if not isinstance(transforms, list):
+        raise VolumeError(f"{name}: {where}'s coordinateTransformations is {_kind(transforms)}, not a list; "
+                          f"fix the metadata")
+    found = []
+    for t in transforms:
+        kind = t.get("type") if isinstance(t, dict) else None
+        if kind == "identity":
+            continue
+        if kind not in ("scale", "translation"):
+            raise VolumeError(f"{name}: {where} has a coordinateTransformation {_kind(t)}; OME-Zarr has "
+                              f"{{'type': 'scale', 'scale': [...]}} and {{'type': 'translation', ...}}: fix the "
+                              f"metadata")
+        values = t.get(kind)
+        if values is None and "path" in t:
+            raise VolumeError(f"{name}: {where}'s {kind} is stored in a file ({show(t['path'])}); this reader takes "
+                              f"the values in the metadata: write them there")
+        if not isinstance(values, list) or len(values) != n or not all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in values):
+            raise VolumeError(f"{name}: {where}'s {kind} is {_kind(values)}; it needs {n} finite numbers, one per "
+                              f"axis: fix the metadata")
+        found.append((kind, np.asarray(values, dtype=np.float64)))
+    return found
+
+
+def _level_index(level, count: int, name: str) -> int:
+    try:
+        level = 0 if level is None else int(level)
+    except (TypeError, ValueError):
+        raise VolumeError(f"{name}: volume.level must be an integer, got {level!r}") from None
+    if not 0 <= level < count:
+        raise VolumeError(f"{name}: volume.level {level} is out of range; the image has {count} levels "
+                          f"(0 is the full resolution, {count - 1} the coarsest)")
+    return level
+
+
+def _dataset(group, dataset, common, name):
+    """The array at a dataset's path (opened, not read)."""
+    path = dataset[0]
+    with reading(name):
         try:
-            found = group[array]
+            found = group[path]
         except KeyError:
             found = None
+    if found is None or not hasattr(found, "dtype"):
+        raise VolumeError(f"{name}: the OME-Zarr dataset path {show(path)} names "
+                          f"{'no array' if found is None else 'a group, not an array'} in the store; fix the "
+                          f"metadata or the store")
+    return found
+
+
+def _member(group, array, name):
+    with reading(name):
+        arrays = dict(sorted(group.arrays()))
+    if array is not None:
+        _path(array, name, "volume.array")
+        with reading(name):
+            try:
+                found = group[array]
+            except KeyError:
+                found = None
         if found is None or not hasattr(found, "dtype"):
             raise VolumeError(f"{name}: no array {array!r} in the group; it has "
                               f"{', '.join(map(repr, arrays)) or 'none'}")
@@ -106,33 +475,22 @@ def _member(group, array, name):
     return next(iter(arrays.values()))
 
 
-def _level(group, multiscale, level, name):
-    datasets = multiscale.get("datasets") or []
-    level = 0 if level is None else int(level)
-    if not 0 <= level < len(datasets):
-        raise VolumeError(f"{name}: volume.level {level} is out of range; the image has {len(datasets)} levels "
-                          f"(0 is the full resolution, {len(datasets) - 1} the coarsest)")
-    axes = multiscale.get("axes")
-    if not axes:
-        raise VolumeError(f"{name}: the multiscales metadata has no axes; fix the store (OME-Zarr 0.4 or later)")
-    names = [a["name"] if isinstance(a, dict) else str(a) for a in axes]
-    types = [a.get("type") if isinstance(a, dict) else None for a in axes]
-    transforms = list(datasets[level].get("coordinateTransformations") or []) + \
-        list(multiscale.get("coordinateTransformations") or [])
-    return group[datasets[level]["path"]], list(zip(names, types)), transforms
-
-
 def _by_axes(shape, axes, transforms, name):
     if len(axes) != len(shape):
         raise VolumeError(f"{name}: {len(axes)} axes for an array of {len(shape)} dimensions; fix the metadata")
     names = [n.lower() for n, _ in axes]
+    missing = [a for a in SPATIAL if a not in names]
+    if missing:
+        raise VolumeError(f"{name}: the axes are named {', '.join(n for n, _ in axes)}; a volume needs axes named "
+                          f"z, y and x (type 'space', in any order; others, such as t and c, of size 1): rename the "
+                          f"axes in the multiscales metadata")
     scale, shift = np.ones(len(axes)), np.zeros(len(axes))
-    for t in transforms:
-        if t.get("type") == "scale":  # applied in turn: a later scale scales an earlier translation too
-            factor = np.asarray(t["scale"], dtype=np.float64)
-            scale, shift = scale * factor, shift * factor
-        elif t.get("type") == "translation":
-            shift = shift + np.asarray(t["translation"], dtype=np.float64)
+    # applied in turn: a later scale scales an earlier translation too
+    for kind, values in _as_pairs(transforms, len(axes), name):
+        if kind == "scale":
+            scale, shift = scale * values, shift * values
+        else:
+            shift = shift + values
     index = []
     for (axis, kind), size in zip(axes, shape):
         if axis.lower() in SPATIAL:
@@ -144,12 +502,21 @@ def _by_axes(shape, axes, transforms, name):
                 axis.lower() == "t" else kind or "other"
             raise VolumeError(f"{name}: the {what} axis {axis!r} has {size} entries; a volume is one scalar field: "
                               f"write one {what} to its own array (e.g. with zarr) and read that")
-    missing = [a for a in SPATIAL if a not in names]
-    if missing:
-        raise VolumeError(f"{name}: the axes {names} name no {', '.join(missing)} axis; a volume needs z, y and x")
     kept = [n for n in names if n in SPATIAL]
     order = tuple(kept.index(a) for a in SPATIAL)  # by name: [z, y, x]
     at = {n: i for i, n in enumerate(names)}
     spacing = check_spacing([scale[at[a]] for a in ("x", "y", "z")], name, "the scale coordinateTransformation")
     origin = tuple(float(shift[at[a]]) for a in ("x", "y", "z"))
+    if not all(math.isfinite(o) for o in origin):
+        raise VolumeError(f"{name}: the translation coordinateTransformation gives the origin {origin}; it needs "
+                          f"finite numbers: fix the metadata or set volume.origin")
     return tuple(index), order, spacing, origin
+
+
+def _as_pairs(transforms, n: int, name: str):
+    """Transforms as ``(kind, values)``: :func:`_transforms`' pairs, or raw NGFF objects (the Python API's
+    :class:`~dvr_gl.out_of_core.ZarrSource`) checked by it."""
+    transforms = list(transforms)
+    if all(isinstance(t, tuple) for t in transforms):
+        return transforms
+    return _transforms(transforms, n, name, "the transforms")

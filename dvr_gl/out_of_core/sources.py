@@ -211,9 +211,10 @@ class ZarrSource(Source):
 
     def __init__(self, array, axes=None, transforms=(), name: str | None = None, nan_value: float | None = None,
                  store: str | os.PathLike | None = None):
-        from ..io.zarr import zarr_plan
+        from ..io.zarr import check_array, is_checked, zarr_plan
 
         self.name = name or str(getattr(array, "path", "") or "zarr array")
+        check_array(array, self.name)
         self._array = array
         self.array_path = str(getattr(array, "path", "") or "")
         root = getattr(getattr(array, "store", None), "root", None)
@@ -227,13 +228,19 @@ class ZarrSource(Source):
             raise VolumeError(f"{self.name}: dtype {self.stored} is not a scalar type a volume can hold")
         self.chunks = tuple(int(c) for c in getattr(array, "chunks", array.shape))
         self.nan_value = None if nan_value is None else float(nan_value)
+        if self.store is not None and not is_checked(getattr(array, "store", None)):
+            self._array = None  # reopened through the checked store (every file against the sandbox)
 
     @property
     def array(self):
         if self._array is None:
             import zarr
 
-            self._array = zarr.open_array(store=str(self.store), path=self.array_path or None, mode="r")
+            from ..io.zarr import open_store, reading
+
+            with reading(self.name, "the zarr array cannot be opened again ({}); was the store changed?"):
+                # the store's every file checked against the sandbox, as when it was opened first
+                self._array = zarr.open_array(store=open_store(self.store), path=self.array_path or None, mode="r")
         return self._array
 
     def __getstate__(self):
@@ -243,6 +250,8 @@ class ZarrSource(Source):
         return state
 
     def _read(self, lo, dims) -> np.ndarray:
+        from ..io.zarr import CHUNK, reading
+
         box = [slice(lo[2 - j], lo[2 - j] + dims[2 - j]) for j in range(3)]  # z, y, x
         selection, spatial = [], 0
         inverse = {k: j for j, k in enumerate(self.order)}  # the j-th kept axis is spatial axis inverse[j]
@@ -252,7 +261,10 @@ class ZarrSource(Source):
                 spatial += 1
             else:
                 selection.append(i)
-        return np.transpose(np.asarray(self.array[tuple(selection)]), self.order)
+        array = self.array
+        with reading(self.name, CHUNK):  # a corrupt chunk: one line, nothing else printed
+            data = np.asarray(array[tuple(selection)])
+        return np.transpose(data, self.order)
 
     def _metadata(self) -> Path | None:
         if self.store is None:
