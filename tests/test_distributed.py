@@ -237,3 +237,79 @@ def test_a_volume_read_out_of_core_renders_sort_last(client, single, tmp_path):
     assert sum(result.bricks) > 2
     assert np.abs(result.image - expected).max() <= EXACT
     assert expected[..., 3].max() > 0.05
+
+
+@pytest.mark.parametrize("address, fragment", [
+    ("tls://127.0.0.1:8786", "tls:// transport is not supported"),
+    ("ucx://127.0.0.1:8786", "ucx:// transport is not supported"),
+    ("inproc://x", "inproc:// transport is not supported"),
+    ("tcp://host", "not a scheduler address"),
+    ("tcp://:8786", "not a scheduler address"),
+    ("tcp://host:99999", "not a scheduler address"),
+    ("tcp://host:80/path", "not a scheduler address"),
+])
+def test_unsupported_transports_and_bad_addresses_are_one_line(address, fragment):
+    with pytest.raises(DvrError) as e:
+        with connect(address):
+            pass
+    assert fragment in one_line(e)
+
+
+@pytest.fixture
+def silent_server():
+    """A loopback server that accepts connections and never answers (a port some other program holds)."""
+    import socket
+    import threading
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(8)
+    held, stop = [], threading.Event()
+
+    def accept():
+        server.settimeout(0.2)
+        while not stop.is_set():
+            try:
+                held.append(server.accept()[0])
+            except OSError:
+                pass
+
+    thread = threading.Thread(target=accept, daemon=True)
+    thread.start()
+    yield f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    stop.set()
+    thread.join()
+    for c in held:
+        c.close()
+    server.close()
+
+
+def test_a_server_that_never_answers_is_one_line_within_the_timeout(silent_server, monkeypatch):
+    """It hung past 300 s (Dask's handshake has no timeout); now the probe gives up after TIMEOUT seconds."""
+    import time
+
+    from dvr_gl.distributed import cluster
+
+    monkeypatch.setattr(cluster, "TIMEOUT", 1.0)
+    monkeypatch.setattr(cluster.probe, "__defaults__", (1.0,))
+    start = time.perf_counter()
+    with pytest.raises(DvrError) as e:
+        with connect(silent_server):
+            pass
+    assert "did not answer as a Dask scheduler" in one_line(e) or "cannot reach" in one_line(e)
+    assert time.perf_counter() - start < 10
+
+
+def test_a_scheduler_by_its_address_passes_the_probe_and_results_arrive():
+    """The probe asks a real scheduler its identity; :func:`results` waits across its liveness checks."""
+    import time
+
+    import distributed
+
+    from dvr_gl.distributed.cluster import results
+
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp://",
+                                dashboard_address=None) as lc:
+        with connect(lc.scheduler_address) as client:
+            future = client.submit(lambda: time.sleep(0.5) or 3, pure=False)
+            assert results(client, [future], timeout=0.2) == [3]

@@ -48,13 +48,92 @@ def connect(dask):
             client.wait_for_workers(n)  # every worker registered: the kd split counts them
             yield client
         return
+    address = scheduler_address(dask)
+    probe(address)  # a silent server: one line after TIMEOUT, before the client's own handshake (unbounded)
     try:
-        client = distributed.Client(dask, timeout="10s")
+        client = distributed.Client(address, timeout=f"{TIMEOUT:g}s")
     except (OSError, TimeoutError, ValueError) as e:
         raise DvrError(f"--dask {dask}: cannot reach the scheduler ({e}); start one (dask scheduler) or use "
                        f"local:N") from None
     with client:
         yield client
+
+
+#: Seconds every exchange with a scheduler may take (connecting, its handshake, its identity, and between
+#: the liveness checks while results are awaited: :func:`results`).
+TIMEOUT = 10.0
+
+
+def scheduler_address(dask: str) -> str:
+    """``dask`` as a TCP address ``tcp://host:port`` (a bare ``host:port`` is TCP, as Dask takes it); other
+    transports are refused in one line: ``tls://`` needs certificates this command cannot pass, ``ucx://``
+    a package and hardware, ``inproc://`` the same process."""
+    scheme, sep, rest = dask.partition("://")
+    if not sep:
+        scheme, rest = "tcp", dask
+    if scheme.lower() != "tcp":
+        raise DvrError(f"--dask {dask}: the {scheme}:// transport is not supported (TLS needs certificates, UCX "
+                       f"its package); give a TCP address, tcp://host:8786, e.g. through an SSH tunnel, or local:N")
+    host, colon, port = rest.rpartition(":")
+    if host.startswith("[") and host.endswith("]"):  # an IPv6 address
+        host = host[1:-1]
+    if not colon or not host or not port.isdigit() or not 0 < int(port) < 65536 or "/" in rest:
+        raise DvrError(f"--dask {dask}: not a scheduler address; give tcp://HOST:PORT (e.g. tcp://10.0.0.5:8786, "
+                       f"the port in 1..65535) or local:N")
+    return f"tcp://{rest}"
+
+
+def probe(address: str, timeout: float = TIMEOUT) -> None:
+    """Connect to the scheduler at ``address``, shake hands and ask its identity, all within ``timeout``
+    seconds (Dask's own timeout does not cover a server that accepts and never answers: the client waited
+    past 300 s); one line if it does not answer as a scheduler."""
+    import asyncio
+
+    from distributed.comm import connect as comm_connect
+
+    async def identity():
+        comm = await comm_connect(address, timeout=timeout)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    try:
+        answer = asyncio.run(asyncio.wait_for(identity(), timeout))
+    except (TimeoutError, asyncio.TimeoutError):
+        raise DvrError(f"--dask {address}: the server did not answer as a Dask scheduler within {timeout:g} s; "
+                       f"check the address (dask scheduler prints it) or use local:N") from None
+    except (OSError, ValueError, TypeError) as e:
+        raise DvrError(f"--dask {address}: cannot reach the scheduler ({e}); start one (dask scheduler) or use "
+                       f"local:N") from None
+    except Exception as e:  # a reply that is no Dask message (another protocol on that port)
+        raise DvrError(f"--dask {address}: the server there is not a Dask scheduler ({type(e).__name__}); check "
+                       f"the address or use local:N") from None
+    if not isinstance(answer, dict) or answer.get("type") != "Scheduler":
+        raise DvrError(f"--dask {address}: the server there is not a Dask scheduler; check the address or use "
+                       f"local:N")
+
+
+def results(client, futures: list, timeout: float = TIMEOUT) -> list:
+    """The results of ``futures``, waited for as long as the work takes, but with the scheduler asked
+    every ``timeout`` seconds whether it still answers (its identity, within ``timeout``): a scheduler
+    gone silent is one line, never a wait without end."""
+    import asyncio
+
+    distributed = _distributed()
+    while True:
+        try:
+            distributed.wait(futures, timeout=timeout)
+            break
+        except (TimeoutError, distributed.TimeoutError):
+            pass
+        try:
+            client.sync(lambda: asyncio.wait_for(client.scheduler.identity(), timeout))
+        except (TimeoutError, asyncio.TimeoutError, OSError) as e:
+            raise DvrError(f"the Dask scheduler stopped answering ({type(e).__name__}) while the frames were "
+                           f"rendered; check it and its workers, or use local:N") from None
+    return client.gather(futures)
 
 
 def place(client, value, addresses: list, name: str) -> list:

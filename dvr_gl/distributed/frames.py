@@ -6,7 +6,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 
 from . import worker as w
-from .cluster import place, workers_of
+from .cluster import place, results, workers_of
 from .plan import check_scene
 
 
@@ -32,5 +32,5 @@ def render_frames(client, scene, cameras: list, ahead: int | None = None) -> Ite
         future = pending.pop(0)
         if k + ahead < len(cameras):
             submit(k + ahead)
-        yield future.result()
+        yield results(client, [future])[0]  # the scheduler asked now and then whether it still answers
         del future

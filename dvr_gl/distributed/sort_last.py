@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import worker as w
-from .cluster import place, transfers, workers_of
+from .cluster import place, results, transfers, workers_of
 from .plan import check_method, plan
 
 BYTES_PER_PIXEL = 16  # a state is 4 float32 per pixel
@@ -83,8 +83,8 @@ def render(client, scene, method: str = "direct_send", renderer=None) -> Result:
             finals = _direct_send(pinned, parts, p, height, n)
         else:
             finals = _binary_swap(pinned, parts, p, height, n)
-        rendered = client.gather(parts)
-        gathered = client.gather([f for _, f in finals])
+        rendered = results(client, parts)  # the scheduler asked now and then whether it still answers
+        gathered = results(client, [f for _, f in finals])
         stack.close()
         seconds = time.perf_counter() - started
         state = np.empty((height, width, 4), np.float32)
