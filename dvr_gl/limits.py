@@ -96,6 +96,9 @@ def check_texture(what: str, size: tuple[int, int], limits: GLLimits, fix: str):
 # 512^3 volume at 1024^2 is 2e10 samples, a converged reference of it at 1024^2 5e9 pieces.
 BOUNDS = {"gpu samples": 1e12, "cpu samples": 3e10, "pieces": 1e10}
 RATES = {"gpu samples": 3e8, "cpu samples": 1e7, "pieces": 2e6}
+# splatting (dvr_gl.renderers.splatting.work): footprint fragments, instances and sheets; 6e6-1e7 a second
+# measured on llvmpipe (docs/renderers/splatting.md)
+BOUNDS["splat fragments"], RATES["splat fragments"] = 3e10, 1e7
 
 # Below this the converged reference's error estimates (differences of float64 sums of order 1,
 # ~1e-16 each, over ~1e3 pieces a ray) are rounding noise: refinement never meets them (measured:
