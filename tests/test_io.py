@@ -419,6 +419,21 @@ def test_tiff_folder_and_glob_through_a_scene(tmp_path):
             load_scene(None, {"volume.path": str(tmp_path), "image.width": 8, "image.height": 8})
 
 
+def test_tiff_slice_linked_out_of_the_sandbox_is_refused(tmp_path):
+    """A folder inside the root with one slice that is a symlink to a file outside: refused before any
+    member is opened (its content is not even sniffed for DICOM), in a folder and through a glob."""
+    (tmp_path / "root").mkdir()
+    for i, s in enumerate(DATA.astype(np.uint16)):
+        _write_tiff_pages(tmp_path / "root" / f"slice_{i}.tif", [s])
+    _write_tiff_pages(tmp_path / "far.tif", [DATA[0].astype(np.uint16)])
+    (tmp_path / "root" / "slice_2.tif").symlink_to(tmp_path / "far.tif")
+    with active(Sandbox(roots=(tmp_path / "root",))):
+        for path in (tmp_path / "root", tmp_path / "root" / "slice_*.tif"):
+            with pytest.raises(SandboxError, match="slice_2.tif: the .* lies outside the allowed folders"):
+                load_volume(path)
+    assert load_volume(tmp_path / "root").dims == (4, 3, 3)  # outside a sandbox the link is read
+
+
 def test_tiff_slices_of_different_size(tmp_path):
     _write_tiff_pages(tmp_path / "a.tif", [np.zeros((3, 4), np.uint16)])
     _write_tiff_pages(tmp_path / "b.tif", [np.zeros((3, 5), np.uint16)])
