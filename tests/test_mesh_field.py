@@ -260,3 +260,46 @@ def test_resampling_reproduces_linear_data_and_marks_the_outside():
     np.testing.assert_allclose(grid.data[inside], expected[inside], atol=1e-6)  # float32
     assert np.all(grid.data[~inside] == np.float32(outside_value(mesh)))
     assert outside_value(mesh) < mesh.value_range[0]
+
+
+def test_resampling_is_checked_before_anything_is_allocated(monkeypatch):
+    """Issue 40: --resample 1024 made a 7 GiB allocation with no estimate first.  The grid is float32
+    (4 bytes a point, located slab by slab), refused over the memory budget, and its point-in-cell
+    tests (counted from the locator's bins, exactly) over the work bound, in one line each."""
+    import dvr_gl.fields.mesh_resample as mr
+    from dvr_gl.sandbox import Sandbox, SandboxError, active
+
+    points, tets, values = hex_mesh((4, 4, 4), size=(1.0, 1.0, 1.0))
+    mesh = TetMesh(points, tets, values)
+    with active(Sandbox(max_bytes=256 << 20)), pytest.raises(SandboxError, match=r"resampling mesh onto "
+                                                             r"1024x1024x1024 points .* would take 4.14 GiB"):
+        mesh.resampled(1024)
+    locator = mesh.reconstruct().locator
+    work = mr.check_resample(mesh, 40, locator)
+    grid = mr.resample(mesh, 40)
+    counted = {"n": 0}
+    real = type(locator).locate
+
+    def counting(self, p):  # the candidates locate really tests: what the estimate counted
+        key = self._key(self._bin(p[np.all((p >= self.lo) & (p <= self.hi), axis=1)]))
+        counted["n"] += int((self.start[key + 1] - self.start[key]).sum())
+        return real(self, p)
+
+    monkeypatch.setattr(type(locator), "locate", counting)
+    assert np.array_equal(mr.resample(mesh, 40).data, grid.data) and counted["n"] == work
+    monkeypatch.setattr(mr, "CANDIDATE_BOUND", work / 2)
+    with pytest.raises(SceneError, match=r"would take .* point-in-cell tests .* over the bound of .*; lower "
+                                         r"--resample"):
+        mesh.resampled(40)
+
+
+def test_resampling_reports_progress_by_slabs(monkeypatch):
+    import dvr_gl.fields.mesh_resample as mr
+    from dvr_gl import progress
+
+    points, tets, values = hex_mesh((3, 3, 3), size=(1.0, 1.0, 1.0))
+    monkeypatch.setattr(mr, "POINTS_PER_SLAB", 64)  # 8x8 points a slice: one slice a slab
+    seen = []
+    with progress.reporting(lambda done, total: seen.append((done, total))):
+        TetMesh(points, tets, values).resampled(8)
+    assert seen[-1] == (8, 8) and len(seen) == 8

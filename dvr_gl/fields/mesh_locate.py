@@ -13,6 +13,11 @@ from .ragged import ranges, ranks
 
 INSIDE_TOLERANCE = 1e-10  # barycentric slack: points on a shared face belong to both cells
 QUERIES_PER_CHUNK = 1 << 16
+#: (point, candidate cell) pairs tested at once: each holds about :data:`BYTES_PER_CANDIDATE` of
+#: temporaries (the gathered 3x3 map, anchor, offsets, coordinates, indices), so a chunk is ~120 MiB
+#: however many cells a bin lists (a bin of the blunt fin lists hundreds: 1.7 GB for 65536 points).
+CANDIDATES_PER_CHUNK = 1 << 19
+BYTES_PER_CANDIDATE = 240
 
 
 class CellLocator:
@@ -50,6 +55,19 @@ class CellLocator:
     def _key(self, b):
         return (b[:, 2] * self.shape[1] + b[:, 1]) * self.shape[0] + b[:, 0]
 
+    def candidates_on_grid(self, axes) -> float:
+        """The (point, cell) pairs :meth:`locate` tests for the points of the grid ``axes[0] x axes[1] x
+        axes[2]`` (world coordinates along x, y, z): each point tests the cells its bin lists.  The grid
+        is separable, so this is the bins' counts weighted by how many grid points fall in each."""
+        counts = np.diff(self.start).reshape(self.shape[2], self.shape[1], self.shape[0]).astype(np.float64)
+        per_axis = []
+        for i in range(3):
+            a = np.asarray(axes[i], dtype=np.float64)
+            a = a[(a >= self.lo[i]) & (a <= self.hi[i])]
+            bins = np.clip(np.floor((a - self.lo[i]) / self.size[i]).astype(np.int64), 0, self.shape[i] - 1)
+            per_axis.append(np.bincount(bins, minlength=self.shape[i]).astype(np.float64))
+        return float(np.einsum("zyx,z,y,x->", counts, per_axis[2], per_axis[1], per_axis[0]))
+
     def locate(self, p: np.ndarray) -> np.ndarray:
         """The cell holding each point ``(N, 3)`` (the first found where several share it), -1
         where none does."""
@@ -60,12 +78,18 @@ class CellLocator:
             qi = np.nonzero(inbox)[0]
             key = self._key(self._bin(q[qi]))
             n = self.start[key + 1] - self.start[key]
-            which = np.repeat(qi, n)
-            cand = self.cells[ranges(self.start[key], n)]
-            lam = np.einsum("nij,nj->ni", self.inverse[cand], q[which] - self.anchor[cand])
-            inside = (lam.min(axis=1) >= -INSIDE_TOLERANCE) & (lam.sum(axis=1) <= 1.0 + INSIDE_TOLERANCE)
-            which, cand = which[inside][::-1], cand[inside][::-1]  # reversed: the first candidate wins
             found = np.full(len(q), -1, dtype=np.int64)
-            found[which] = cand
+            ends = np.cumsum(n)
+            a = 0
+            while a < len(qi):  # points in groups of at most CANDIDATES_PER_CHUNK candidates
+                before = ends[a - 1] if a else 0
+                b = max(int(np.searchsorted(ends, before + CANDIDATES_PER_CHUNK, side="right")), a + 1)
+                which = np.repeat(qi[a:b], n[a:b])
+                cand = self.cells[ranges(self.start[key[a:b]], n[a:b])]
+                lam = np.einsum("nij,nj->ni", self.inverse[cand], q[which] - self.anchor[cand])
+                inside = (lam.min(axis=1) >= -INSIDE_TOLERANCE) & (lam.sum(axis=1) <= 1.0 + INSIDE_TOLERANCE)
+                which, cand = which[inside][::-1], cand[inside][::-1]  # reversed: the first candidate wins
+                found[which] = cand
+                a = b
             out[s:s + QUERIES_PER_CHUNK] = found
         return out
