@@ -5,6 +5,7 @@ every brick of a file 4x the memory budget keeps the peak resident memory within
 
 import gzip
 import json
+import os
 import pickle
 import subprocess
 import sys
@@ -395,3 +396,149 @@ def test_peak_memory_within_the_budget_reading_a_file_four_times_larger(tmp_path
     grown = growth("bricks")
     assert grown <= budget + 32, grown
     assert growth("whole") > budget + 32 + 128  # the 256 MiB of voxels show
+
+
+# --- issue 40: a damaged sidecar is computed again, the sandbox holds for sidecars and zarr chunks ------
+
+def _forge(path, **members):
+    """Rewrite the sidecar at ``path`` with some members replaced (None: dropped)."""
+    with np.load(path) as z:
+        kept = {k: z[k] for k in z.files}
+    kept.update(members)
+    np.savez(path, **{k: v for k, v in kept.items() if v is not None})
+
+
+def _cut(path):
+    path.write_bytes(path.read_bytes()[:len(path.read_bytes()) // 2])
+
+
+SIDECAR_DAMAGE = {
+    "cut": _cut,
+    "garbage": lambda p: p.write_bytes(b"PK\x03\x04" + bytes(range(256)) * 4),
+    "empty": lambda p: p.write_bytes(b""),
+    "no mins": lambda p: _forge(p, mins=None),
+    "another member": lambda p: _forge(p, extra=np.zeros(3)),
+    "mins of another shape": lambda p: _forge(p, mins=np.zeros((1, 1, 1), np.uint16)),
+    "mins of another type": lambda p: _forge(p, mins=np.load(p)["mins"].astype(np.float64)),
+    "key not text": lambda p: _forge(p, key=np.zeros(2)),
+    "non_finite negative": lambda p: _forge(p, non_finite=np.array(-1)),
+    "non_finite a list": lambda p: _forge(p, non_finite=np.zeros(3, int)),
+    "min above max": lambda p: _forge(p, mins=np.load(p)["maxs"] + 1),
+    "a huge member": lambda p: _forge(p, mins=np.zeros((200, 200, 200), np.uint16)),
+}
+
+
+@pytest.mark.parametrize("damage", list(SIDECAR_DAMAGE))
+def test_a_damaged_sidecar_is_computed_again_with_a_warning(tmp_path, damage, caplog):
+    path, opened = raw_volume(tmp_path)
+    sidecar = tmp_path / "v.raw.dvr-ranges.npz"
+    opened()
+    SIDECAR_DAMAGE[damage](sidecar)
+    with caplog.at_level("WARNING", logger="dvr_gl"):
+        v = opened()
+    assert v.value_range == (DATA.min(), DATA.max())
+    np.testing.assert_array_equal(v.ranges.mins, BlockRanges.compute(ArraySource(DATA)).mins)
+    warned = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert len(warned) == 1 and "v.raw.dvr-ranges.npz: the block-ranges sidecar is damaged" in warned[0]
+    assert "computing the ranges again" in warned[0] and "\n" not in warned[0]
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="dvr_gl"):
+        assert opened().ranges.sidecar == sidecar  # rewritten: read again without a word
+    assert not caplog.records
+
+
+def test_a_float_sidecar_with_nan_ranges_is_not_used(tmp_path, caplog):
+    data = DATA.astype(np.float32)
+    path, opened = raw_volume(tmp_path, data)
+    sidecar = tmp_path / "v.raw.dvr-ranges.npz"
+    opened()
+    mins = np.load(sidecar)["mins"]
+    mins[0, 0, 0] = np.nan
+    _forge(sidecar, mins=mins)
+    with caplog.at_level("WARNING", logger="dvr_gl"):
+        assert opened().value_range == (data.min(), data.max())
+    assert "NaN or Inf in the ranges" in caplog.text
+
+
+def test_a_sidecar_linked_out_of_the_sandbox_is_not_read(tmp_path):
+    """A forged sidecar outside the sandbox's root (every block's range 0..0: every brick would be skipped),
+    linked beside the data: read without a sandbox (the link followed), neither read nor replaced under one."""
+    from dvr_gl.sandbox import Sandbox, active
+
+    (tmp_path / "box").mkdir()
+    (tmp_path / "out").mkdir()
+    path, opened = raw_volume(tmp_path / "box")
+    forged = tmp_path / "out" / "forged.npz"
+    ranges = opened().ranges
+    _forge(ranges.sidecar, mins=np.zeros_like(ranges.mins), maxs=np.zeros_like(ranges.maxs))
+    os.replace(ranges.sidecar, forged)
+    (tmp_path / "box" / "v.raw.dvr-ranges.npz").symlink_to(forged)
+    assert opened().value_range == (0, 0)  # the escape: without a sandbox the link is followed
+    with active(Sandbox(roots=(tmp_path / "box",))):
+        assert opened().value_range == (DATA.min(), DATA.max())
+    assert (tmp_path / "box" / "v.raw.dvr-ranges.npz").is_symlink()  # not written through (outside the roots)
+
+
+def test_the_cache_folder_outside_the_sandbox_is_not_used(tmp_path, monkeypatch):
+    """The data's folder read-only: the sidecar would go to the cache folder, outside the sandbox's root;
+    under the sandbox it is neither written nor read there (one from an earlier run without the sandbox)."""
+    from dvr_gl.sandbox import Sandbox, active
+
+    (tmp_path / "box").mkdir()
+    path, opened = raw_volume(tmp_path / "box")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    real = ranges_module.tempfile.mkstemp
+
+    def refuse_beside(prefix, suffix, dir):
+        if str(dir) == str(tmp_path / "box"):
+            raise PermissionError(13, "read-only folder")
+        return real(prefix=prefix, suffix=suffix, dir=dir)
+
+    monkeypatch.setattr(ranges_module.tempfile, "mkstemp", refuse_beside)
+    with active(Sandbox(roots=(tmp_path / "box",))):
+        assert opened().ranges.sidecar is None
+    assert not (tmp_path / "cache").exists()
+    cached = opened().ranges.sidecar
+    assert cached.parent == tmp_path / "cache" / "dvr-gl" / "ranges"
+    zeros = np.zeros_like(np.load(cached)["mins"])
+    _forge(cached, mins=zeros, maxs=zeros)  # were it read, the range would be 0..0
+    with active(Sandbox(roots=(tmp_path / "box",))):
+        assert opened().value_range == (DATA.min(), DATA.max())
+    assert opened().value_range == (0, 0)  # without the sandbox, the cache folder's (forged) sidecar
+
+
+def test_the_block_ranges_table_is_checked_against_the_memory_budget():
+    from dvr_gl.sandbox import Sandbox, SandboxError, active
+
+    with active(Sandbox(max_bytes=1000)), pytest.raises(SandboxError, match=r"the block ranges \(37x29x23 blocks "
+                                                                            r"of 1\^3\) would take"):
+        BlockRanges.compute(ArraySource(DATA), block=1)
+
+
+@pytest.mark.parametrize("fmt", [2, 3])
+def test_zarr_read_in_part_through_the_sandbox(tmp_path, fmt):
+    """Out of core, the chunks are read as boxes are: a chunk linked out of the sandbox is refused when its
+    box is read (the block ranges' pass reads them all when the volume is opened), as the reopened store
+    (pickled to a Dask worker) refuses it."""
+    from dvr_gl.sandbox import Sandbox, SandboxError, active
+
+    stores = []
+    for folder, data in (("box", DATA), ("out", DATA[::-1].copy())):
+        store = tmp_path / folder / "v.zarr"
+        store.parent.mkdir()
+        zarr.create_array(str(store), shape=data.shape, chunks=(8, 8, 8), dtype=data.dtype, zarr_format=fmt)[...] = data
+        stores.append(store)
+    box, out = stores
+    sandbox = Sandbox(roots=(tmp_path / "box",))
+    with active(sandbox):
+        v = open_volume(box, out_of_core=True, sidecar=False)
+        check_reads(v, DATA)
+    chunk = "1.1.1" if fmt == 2 else "c/1/1/1"
+    (box / chunk).unlink()
+    (box / chunk).symlink_to(out / chunk)
+    source = pickle.loads(pickle.dumps(v.source))
+    with active(sandbox), pytest.raises(SandboxError, match=f"{chunk}: the zarr store's file lies outside"):
+        source.read((8, 8, 8), (8, 8, 8))
+    with active(sandbox), pytest.raises(SandboxError, match=f"{chunk}: the zarr store's file lies outside"):
+        open_volume(box, out_of_core=True, sidecar=False)
+    assert not np.array_equal(source.read((8, 8, 8), (8, 8, 8)), sliced(DATA, (8, 8, 8), (8, 8, 8)))  # no sandbox

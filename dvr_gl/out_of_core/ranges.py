@@ -19,25 +19,36 @@ The table is saved to a sidecar file ``<data file>.dvr-ranges.npz`` (for a zarr 
 (the file's size and modification time, dims, type, offset, block size, ``nan_value``), and computed
 again when the key differs.  Where the data's folder is not writable the sidecar goes to the user's
 cache folder (``$XDG_CACHE_HOME/dvr-gl/ranges``, default ``~/.cache/dvr-gl/ranges``).
+
+A sidecar is never trusted: one that cannot be read or does not agree with itself (cut, garbage, other
+members, shapes or types, NaN) is computed again with a one-line warning (logger ``dvr_gl``), and
+rewritten.  Inside a sandbox with roots, a sidecar outside them (the cache folder, a link out) is
+neither read nor written.
 """
 
 from __future__ import annotations
 
 import json
+import logging
+import math
 import os
 import tempfile
+import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from .. import progress
 from ..errors import VolumeError
+from ..sandbox import check_bytes, current
 from .sources import check_box, fingerprint
 
 BLOCK = 32
 SLAB_BYTES = 32 << 20  # bytes of voxels the pass reads at a time (one tile)
 VERSION = 1  # of the sidecar's layout: a sidecar of another version is computed again
 SUFFIX = ".dvr-ranges.npz"
+
+log = logging.getLogger(__name__)
 
 
 class BlockRanges:
@@ -103,6 +114,8 @@ class BlockRanges:
         nx, ny, nz = source.dims
         item = source.dtype.itemsize
         shape = tuple(-(-n // block) for n in (nz, ny, nx))
+        check_bytes(2 * math.prod(shape) * item, f"{source.name}: the block ranges ({'x'.join(map(str, shape[::-1]))} "
+                    f"blocks of {block}^3)", "use larger blocks, or raise the memory budget")
         mins = np.empty(shape, dtype=source.dtype)
         maxs = np.empty(shape, dtype=source.dtype)
         # a tile: B planes, whole rows where they fit (x first, then y), in whole blocks
@@ -174,23 +187,63 @@ def sidecar_paths(source, key: dict) -> list[Path]:
 
 
 def _load(source, key: dict) -> BlockRanges | None:
+    """The ranges from the first sidecar whose key is ``key``; one that cannot be read or does not agree
+    with itself (cut, garbage, other members, shapes or types, NaN) is not used: a one-line warning, and
+    the ranges are computed again (and the sidecar rewritten).  Inside a sandbox with roots, a sidecar
+    outside them once links are followed (the cache folder, a link) is not read."""
+    box = current()
     for path in sidecar_paths(source, key):
-        try:
-            if not path.is_file():
-                continue
-            with np.load(path, allow_pickle=False) as z:
-                if json.loads(str(z["key"])) != json.loads(json.dumps(key)):
-                    continue  # stale: the data or its layout changed
-                return BlockRanges(z["mins"], z["maxs"], key["block"], source.dims, int(z["non_finite"]), path)
-        except (OSError, ValueError, KeyError, VolumeError):  # unreadable or foreign: computed again
+        if not path.is_file() or not box.allows(path):  # FIFOs, devices and folders are not files
             continue
+        try:
+            ranges = _read_sidecar(path, source, key)
+        except Exception as exc:  # a damaged file: zipfile, numpy and json raise many kinds  # noqa: BLE001
+            text = str(exc).splitlines()[0] if str(exc) else ""
+            log.warning("%s: the block-ranges sidecar is damaged (%s); computing the ranges again", path,
+                        f"{type(exc).__name__}: {text}" if text else type(exc).__name__)
+            continue
+        if ranges is not None:
+            return ranges
     return None
+
+
+#: The members of a sidecar, and the most bytes each but the ranges may hold.
+MEMBERS = {"mins.npy": None, "maxs.npy": None, "key.npy": 1 << 20, "non_finite.npy": 1 << 10}
+
+
+def _read_sidecar(path: Path, source, key: dict) -> BlockRanges | None:
+    """The ranges a sidecar holds, None where its key is another (stale: the data changed), or an exception
+    where it does not agree with itself.  Its members' sizes are checked before any is read, so that a
+    forged header cannot make numpy allocate more than the ranges of this volume."""
+    block = key["block"]
+    shape = tuple(-(-n // block) for n in reversed(source.dims))
+    limit = {m: n or math.prod(shape) * source.dtype.itemsize + 1024 for m, n in MEMBERS.items()}
+    with zipfile.ZipFile(path) as archive:
+        sizes = {info.filename: info.file_size for info in archive.infolist()}
+    if set(sizes) != set(MEMBERS) or any(sizes[m] > limit[m] for m in MEMBERS):
+        raise ValueError(f"members {sorted(sizes)} of {sizes}; expected {sorted(MEMBERS)} in at most {limit} bytes")
+    with np.load(path, allow_pickle=False) as z:
+        if json.loads(str(z["key"][()])) != json.loads(json.dumps(key)):
+            return None
+        mins, maxs, non_finite = z["mins"], z["maxs"], z["non_finite"]
+    if mins.dtype != source.dtype or maxs.dtype != source.dtype or mins.shape != shape or maxs.shape != shape:
+        raise ValueError(f"ranges of {mins.dtype}/{maxs.dtype} {mins.shape}/{maxs.shape}; expected {source.dtype} "
+                         f"{shape}")
+    if non_finite.shape != () or non_finite.dtype.kind not in "iu" or int(non_finite) < 0:
+        raise ValueError(f"non_finite {non_finite!r}")
+    if int(non_finite) == 0 and mins.dtype.kind == "f" and not (np.isfinite(mins).all() and np.isfinite(maxs).all()):
+        raise ValueError("NaN or Inf in the ranges of finite data")
+    if (mins > maxs).any():
+        raise ValueError("a block's minimum above its maximum")
+    return BlockRanges(mins, maxs, block, source.dims, int(non_finite), path)
 
 
 def _save(source, key: dict, ranges: BlockRanges) -> Path | None:
     """Write the sidecar (beside the data, else in the cache folder) under a temporary name renamed into
     place, so a reader never sees half a file; None when neither place is writable."""
     for path in sidecar_paths(source, key):
+        if not current().allows(path):  # the cache folder or a link outside the sandbox's roots
+            continue
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
             fd, temporary = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
