@@ -277,3 +277,15 @@ def test_series_members_stay_in_the_sandbox(tmp_path):
             load_volume(str(root / "s" / ".." / ".." / "outside" / "*.dcm"))
         with pytest.raises(SandboxError, match="lies outside the allowed folders"):
             load_volume([*paths, other])
+
+
+def test_a_damaged_element_is_named_only_where_it_is_used(tmp_path):
+    """pydicom decodes an element when it is first used (fuzzing found an unknown VR raising in a later tag
+    access): the tags the reader uses are decoded with the header and a damaged one named; a damaged tag
+    it does not use is left alone."""
+    paths = write_series(tmp_path / "s")
+    retag(paths, _set("SliceLocation", "1"), (b"\x20\x00\x41\x10DS", b"\x20\x00\x41\x10U\xff"))  # unused
+    np.testing.assert_array_equal(load_volume(tmp_path / "s").data, STORED)
+    retag(paths, None, (b"\x28\x00\x53\x10DS", b"\x28\x00\x53\x10U\xff"))  # RescaleSlope
+    with pytest.raises(VolumeError, match="RescaleSlope cannot be read .*Unknown Value Representation"):
+        load_volume(tmp_path / "s")

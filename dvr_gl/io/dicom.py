@@ -48,6 +48,11 @@ ORIENTATION_TOLERANCE = 1e-4  # ImageOrientationPatient's numbers, written to ab
 UNIT_TOLERANCE = 1e-3  # how far from 1 the length of its directions may be (some writers keep 4 decimals)
 GREY = ("MONOCHROME1", "MONOCHROME2")  # PhotometricInterpretation of grey values (not palette indices)
 MEDIA_DIRECTORY = "1.2.840.10008.1.3.10"  # DICOMDIR: an index of files, not an image
+# The tags the reader uses (beyond the pixel data and the file meta's UIDs)
+USED = ("Rows", "Columns", "SamplesPerPixel", "PhotometricInterpretation", "BitsAllocated", "BitsStored",
+        "PixelRepresentation", "NumberOfFrames", "ImageOrientationPatient", "ImagePositionPatient", "PixelSpacing",
+        "RescaleSlope", "RescaleIntercept", "SliceThickness", "SpacingBetweenSlices", "SeriesInstanceUID",
+        "SeriesNumber", "SeriesDescription")
 # An image's pixel module: a file with none of these is no image; one with some, but short of Rows, is broken
 IMAGE_PIXEL = ("Rows", "Columns", "SamplesPerPixel", "PhotometricInterpretation", "BitsAllocated", "BitsStored",
                "PixelRepresentation")
@@ -177,12 +182,18 @@ def _headers(pydicom, files):
     for f in files:
         try:
             ds = pydicom.dcmread(str(f), stop_before_pixels=True)
-            for _ in (*ds, *getattr(ds, "file_meta", ())):  # pydicom decodes each element when first used:
-                pass  # decode them all here, where a damaged one is named, not later in any tag's access
         except Exception as exc:  # pydicom raises many kinds for a damaged file
             raise VolumeError(f"{f}: not a readable DICOM file ({str(exc).splitlines()[0] if str(exc) else exc!r})") \
                 from None
-        sop = str(getattr(getattr(ds, "file_meta", None), "MediaStorageSOPClassUID", ""))
+        # pydicom decodes an element when it is first used: decode the ones used here, where a damaged one
+        # is named (the others may stay damaged, as a viewer would let them)
+        meta = getattr(ds, "file_meta", None)
+        for keyword in USED:
+            _value(ds, keyword, f)
+        for keyword in ("MediaStorageSOPClassUID", "TransferSyntaxUID"):
+            if meta is not None:
+                _value(meta, keyword, f)
+        sop = str(getattr(meta, "MediaStorageSOPClassUID", ""))
         if sop == MEDIA_DIRECTORY or not any(keyword in ds for keyword in IMAGE_PIXEL):
             continue  # not an image (an index, a report, a presentation state); an image short of Rows is named
         out.append((f, ds))
