@@ -99,6 +99,9 @@ RATES = {"gpu samples": 3e8, "cpu samples": 1e7, "pieces": 2e6}
 # splatting (dvr_gl.renderers.splatting.work): footprint fragments, instances and sheets; 6e6-1e7 a second
 # measured on llvmpipe (docs/renderers/splatting.md)
 BOUNDS["splat fragments"], RATES["splat fragments"] = 3e10, 1e7
+# fourier (dvr_gl.renderers.fourier.renderer): channels x M log2 M of its padded volume's transform, the
+# first frame's; 8e7-1.3e8 a second measured on two shared cores (240^3 to 800^3 spectra; 800^3: 113 s)
+BOUNDS["fft samples"], RATES["fft samples"] = 1e11, 1e8
 
 # Below this the converged reference's error estimates (differences of float64 sums of order 1,
 # ~1e-16 each, over ~1e3 pieces a ray) are rounding noise: refinement never meets them (measured:

@@ -360,3 +360,56 @@ def test_slice_taps_other_than_4_or_6_are_refused_when_read():
     with pytest.raises(SceneError, match="renderer.slice_taps: 5 is not one of 4, 6"):
         small_scene({**ORTHO, "renderer.slice_taps": 5})
 
+
+
+def test_ghost_moments_in_closed_form_match_the_quadrature():
+    """The Gaussian's share beyond a face, in closed form (the quadrature's grid cannot resolve a kernel
+    narrower than its step: kernel_width 1e-9 made the ghost layers' system singular)."""
+    from dvr_gl.renderers.fourier.projection import with_ghosts
+
+    values = np.random.default_rng(0).random((6, 7, 8, 1))
+    for width in (0.5, 0.7, 1.6):
+        scene = small_scene({**ORTHO, "renderer.compositing": "average", "renderer.filter": "gaussian",
+                             "renderer.kernel_width": width, "volume.size": 8})
+        ghosted, border = with_ghosts(scene, values)
+        sigma, x = width, np.linspace(0.0, 60.0, 400001)
+        share = 0.5 * math.erfc(-1.0 / (sigma * math.sqrt(2.0)))  # beyond the face, of a sample 1 voxel out
+        numeric = np.trapezoid(np.exp(-0.5 * ((x - 1.0) / sigma) ** 2), x) / (sigma * math.sqrt(2 * math.pi))
+        assert share == pytest.approx(numeric, abs=1e-8) and np.isfinite(ghosted).all()
+        assert border == math.ceil(5 * width) - 1 + 1
+
+
+@pytest.mark.parametrize("width", [1e-9, 1e-3])
+def test_a_tiny_gaussian_kernel_renders(fourier, width):
+    scene = small_scene({**ORTHO, "renderer.compositing": "average", "renderer.filter": "gaussian",
+                         "renderer.kernel_width": width, "volume.size": 16, "image.width": 16, "image.height": 16})
+    image = fourier.render(scene)
+    assert np.isfinite(image).all() and image[..., 3].max() > 0
+
+
+def test_a_huge_gaussian_kernel_is_refused_before_any_allocation():
+    """kernel_width 1e6 asks for 5e6 ghost layers a face: refused by the memory budget, naming the key."""
+    from dvr_gl.errors import DvrError
+    from dvr_gl.renderers import registry
+
+    scene = small_scene({**ORTHO, "renderer.compositing": "average", "renderer.filter": "gaussian",
+                         "renderer.kernel_width": 1e6, "volume.size": 8})
+    with pytest.raises(DvrError, match="renderer.kernel_width") as info:
+        registry.check(scene, "fourier")
+    assert "\n" not in str(info.value)
+
+
+def test_the_spectrum_work_is_estimated_and_bounded(fourier):
+    """A kernel wide enough to pad a 64^3 volume to 750^3 (113 s measured at 800^3) is refused under 20 s
+    with the estimate in fft samples; the default fits."""
+    from dvr_gl import limits
+    from dvr_gl.errors import DvrError
+    from dvr_gl.sandbox import Sandbox, active
+
+    wide = small_scene({**ORTHO, "renderer.compositing": "average", "renderer.filter": "gaussian",
+                        "renderer.kernel_width": 30.0, "volume.size": 64})
+    work = fourier.work(wide)
+    assert work.unit == "fft samples" and "750x750x750" in work.how and work.count > 1e10
+    with active(Sandbox(max_seconds=20)), pytest.raises(DvrError, match="fft samples.*kernel_width"):
+        limits.check_work(work, "fourier")
+    assert fourier.work(small_scene({**ORTHO, "renderer.compositing": "average"})).count < 1e8

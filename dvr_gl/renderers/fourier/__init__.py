@@ -42,12 +42,31 @@ def check(scene):
         raise SceneError(f"renderer.slice_taps = {r.slice_taps} is for the windowed kernels "
                          f"(kaiser_bessel, windowed_sinc); "
                          f"{r.slice_interpolation} has its own taps: use 4 or another renderer.slice_interpolation")
+    _check_ghosts(scene)
     cam = scene.camera
     forward = cam.basis()[0]
     lo, hi = scene.field.bounds
     if float(((box_corners(lo, hi) - cam.eye) @ forward).min()) <= cam.near:
         raise SceneError("fourier integrates whole chords, and the camera is inside the volume or on its faces: "
                          "move it out (camera.distance), the box in front of its near plane")
+
+
+def _check_ghosts(scene):
+    """The volume with its ghost layers (:func:`.projection.with_ghosts`: as many a face as the filter reaches
+    voxels, a Gaussian's 5 kernel widths) in float64 channels, and its copy, against the memory budget
+    before anything is built (a kernel_width of 1e6 asked for 10^7 layers a face)."""
+    import numpy as np
+
+    from ...sandbox import check_bytes
+    from .projection import ghost_layers
+
+    r = scene.renderer
+    border = ghost_layers(scene)
+    count = (4 if r.compositing == "xray" else 1) * (2 if r.hemispherical_shading else 1)
+    volume = float(np.prod([float(n + 2 * border) for n in scene.volume.dims]))
+    fix = ("use a smaller renderer.kernel_width (the Gaussian's ghost layers: 5 kernel widths a face) or volume"
+           if r.filter == "gaussian" else "use a smaller volume")
+    check_bytes(2 * 8 * count * volume, f"fourier's volume with {border} ghost layers a face", fix)
 
 
 PLUGIN = RendererPlugin(

@@ -150,6 +150,12 @@ def _profile(scene):
 MOMENTS = 1
 
 
+def ghost_layers(scene) -> int:
+    """How many ghost layers :func:`with_ghosts` puts on each face (the filter's reach, then the moments')."""
+    _, reach = _profile(scene)
+    return max(int(math.ceil(reach)) - 1, 0) + (0 if clips_exactly(scene) else MOMENTS)
+
+
 def with_ghosts(scene, values: np.ndarray, moments: int | None = None) -> tuple[np.ndarray, int]:
     """``values`` ``(nz, ny, nx, C)`` with ghost layers on every face, and their count.  The references clip
     the rays at the box (the first and last samples' planes) and clamp the taps beyond it; Fourier
@@ -164,8 +170,14 @@ def with_ghosts(scene, values: np.ndarray, moments: int | None = None) -> tuple[
     profile, reach = _profile(scene)
     clamped = max(int(math.ceil(reach)) - 1, 0)
     x = np.linspace(0.0, reach + clamped + moments + 2.0, 40001)
+    sigma = scene.renderer.kernel_width
 
     def beyond(n, m):  # S_m(n): the m-th moment beyond the face (at 0, outward positive) of a sample at n
+        if scene.renderer.filter == "gaussian" and m <= 1:
+            # in closed form: the quadrature's grid cannot resolve a Gaussian narrower than its step (a
+            # kernel_width of 1e-9 made the system singular)
+            below = 0.5 * math.erfc(-n / (sigma * math.sqrt(2.0)))  # the share beyond the face
+            return below if m == 0 else n * below + sigma / math.sqrt(2.0 * math.pi) * math.exp(-0.5 * (n / sigma) ** 2)
         return float(np.trapezoid(x ** m * profile(x - n), x))
 
     reach_in = int(math.ceil(reach))

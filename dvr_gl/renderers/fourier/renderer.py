@@ -9,6 +9,7 @@ inverse 2D transform, the compositing mode's classification).
 
 from __future__ import annotations
 
+import math
 import time
 
 import moderngl
@@ -19,7 +20,7 @@ from ...errors import SceneError
 from ...gl.shaders import create_program
 from ...sandbox import check_bytes
 from ..grid.gl_base import GLVolumeRenderer
-from .projection import Frame, Shell, channels, clips_exactly, finish, weighted
+from .projection import Frame, Shell, channels, clips_exactly, finish, ghost_layers, weighted
 from .spectrum import KAISER_BETA, WINDOWED, Spectrum, kaiser_bessel_beta
 
 
@@ -72,19 +73,37 @@ class FourierRenderer(GLVolumeRenderer):
         from .spectrum import padded_length
 
         r = scene.renderer
-        dims = [padded_length(n + 10, r.padding) for n in scene.volume.dims]  # with the ghost layers
+        border = ghost_layers(scene)
+        dims = [padded_length(n + 2 * border, r.padding) for n in scene.volume.dims]  # with the ghost layers
         side = max(dims[0] // 2 + 1, dims[1], dims[2])
         if side > gl.texture_3d_size:
             raise SceneError(f"fourier's spectrum needs a {side}-texel 3D texture, over this GL's "
-                             f"{gl.texture_3d_size}: use a smaller renderer.padding or volume")
+                             f"{gl.texture_3d_size}: use a smaller renderer.padding or volume"
+                             f"{' or renderer.kernel_width' if r.filter == 'gaussian' else ''}")
         limits.check_texture("fourier's slice", Frame(scene).size, gl,
                              "frame the volume in the image (camera.view_height), or use a smaller image or "
                              "renderer.slice_bandwidth")
         count = (4 if r.compositing == "xray" else 1) + (3 if r.compositing == "xray" else 1) * r.hemispherical_shading
         # the float64 spectra on the host and their float32 textures, and the shell pass's float32 channels
-        shell = 16 * int(np.prod([n + 10 for n in scene.volume.dims])) if clips_exactly(scene) else 0
+        shell = 16 * int(np.prod([n + 2 * border for n in scene.volume.dims])) if clips_exactly(scene) else 0
         check_bytes(count * 24 * (dims[0] // 2 + 1) * dims[1] * dims[2] + shell, "fourier's spectra",
-                    "use a smaller renderer.padding or volume")
+                    f"use a smaller renderer.padding or volume{' or renderer.kernel_width' * (r.filter == 'gaussian')}")
+
+    def work(self, scene) -> limits.Work:
+        """The first frame's transform: channels x ``M log2 M`` of the padded volume (``M`` samples; the
+        ghost layers included), an upper bound on what the later frames, which reuse it, take."""
+        from .spectrum import padded_length
+
+        r = scene.renderer
+        border = ghost_layers(scene)
+        dims = [padded_length(n + 2 * border, r.padding) for n in scene.volume.dims]
+        samples = float(np.prod([float(m) for m in dims]))
+        count = (4 if r.compositing == "xray" else 1) * (2 if r.hemispherical_shading else 1)
+        fix = "use a smaller renderer.padding or volume" + (" or renderer.kernel_width" if r.filter == "gaussian"
+                                                            else "")
+        return limits.Work(count * samples * math.log2(max(samples, 2.0)), "fft samples",
+                           f"{count} channel{'s' * (count > 1)} x a {dims[0]}x{dims[1]}x{dims[2]} padded spectrum "
+                           f"({border} ghost layers a face)", fix)
 
     def draw(self, scene) -> np.ndarray:
         self.activate()
@@ -92,12 +111,15 @@ class FourierRenderer(GLVolumeRenderer):
         xray = r.compositing == "xray"
         key = (scene.volume, r.compositing, scene.transfer_function if xray else None)
         key = (*key, r.filter, r.kernel_width, r.hemispherical_shading)
+        self.report(0, 3)  # the steps: the ghosted channels, their transform, the view (the first two cached)
         data, offsets, border = self._cached("channels", key, lambda: channels(scene))
+        self.report(1, 3)
         fresh = []
         taps = r.slice_taps if r.slice_interpolation in WINDOWED else 4
         spectrum = self._cached("spectrum", (data, r.slice_interpolation, r.padding, taps),
                                 lambda: fresh.append(1) or Spectrum(data, r.slice_interpolation, r.padding, border,
                                                                     taps))
+        self.report(2, 3)
         textures = self._cached("spectrum textures", (spectrum,), lambda: SpectrumTextures(self.ctx, spectrum))
         start = time.perf_counter()
         frame = Frame(scene)
@@ -135,6 +157,7 @@ class FourierRenderer(GLVolumeRenderer):
         drawn = time.perf_counter()
         image = finish(scene, frame, spectrum, slices, offsets, derivatives, shell)
         end = time.perf_counter()
+        self.report(3, 3)
         self.stats.update(preprocess_seconds=spectrum.seconds if fresh else 0.0, spectrum_bytes=spectrum.bytes,
                           spectrum_dims=spectrum.dims, fft=spectrum.library, slice_size=frame.size,
                           slice_seconds=drawn - start, inverse_seconds=end - drawn, view_seconds=end - start)
