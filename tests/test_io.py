@@ -800,3 +800,15 @@ def test_side_by_side_composites_over_the_background_with_gaps():
     assert row.shape == (5, 8, 4)
     assert np.allclose(row[0, 0], [0.5, 0.0, 0.5, 1.0]) and np.allclose(row[0, 3], [0.0, 0.0, 1.0, 1.0])
     assert side_by_side([row, row], axis=0, gap=1).shape == (11, 8, 4)
+
+
+def test_axis_steps_of_any_finite_length_keep_their_direction():
+    """The length of a step of 1e200 overflowed in the plain norm (its square is 1e400): the direction came
+    out 0 and a DICOM series of PixelSpacing 1e308 was called "90 degrees from orthogonal"."""
+    from dvr_gl.io.common import axes_geometry
+
+    for length in (1e-200, 1.0, 1e200, 1e307):
+        spacing, direction = axes_geometry(np.diag([length, 2 * length, 0.5 * length]) @ np.eye(3)[[1, 0, 2]],
+                                           "v", "space directions")
+        assert spacing == pytest.approx((length, 2 * length, 0.5 * length))
+        np.testing.assert_array_equal(np.abs(np.array(direction)), np.eye(3)[[1, 0, 2]].T)

@@ -142,7 +142,11 @@ def axes_geometry(steps, name: str, field: str):
     renderers sample rectangular grids, and taking the nearest rotation, as some tools do silently, would
     move every sample off the position the file gives it."""
     m = np.array(steps, dtype=np.float64).reshape(3, 3).T  # columns: the steps
-    lengths = np.linalg.norm(m, axis=0)
+    # each length scaled by its largest component first: the plain norm squares them, and a step of 1e200
+    # overflowed to inf (its direction then came out 0, "90 degrees from orthogonal")
+    scale = np.abs(m).max(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        lengths = scale * np.linalg.norm(m / np.where(scale > 0, scale, 1), axis=0)
     if not np.all(np.isfinite(m)) or not np.all(lengths > 0):
         raise VolumeError(f"{name}: {field} must give three finite, non-zero axis vectors; fix the header")
     d = m / lengths

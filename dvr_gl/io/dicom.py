@@ -275,7 +275,7 @@ def read_dicom_series(path, series: str | None = None) -> RawArray:
     entries, positions = [entries[i] for i in order], positions[order]
     gap = _slice_gap(entries, positions, normal, ds0)
     spacing, direction = axes_geometry([row * pixel[0][1], col * pixel[0][0], normal * gap], str(f0),
-                                       "ImageOrientationPatient")
+                                       "PixelSpacing and the slice positions (ImagePositionPatient)")
     data = _pixels(pydicom, entries, [scales[i] for i in order], path)
     return RawArray(data, spacing, tuple(float(v) for v in positions[0]), direction)
 
