@@ -210,6 +210,12 @@ def _read_pages(path: Path, budget: list[int]) -> list[np.ndarray]:
 
     found, description = check_pages(path)
     promised = promised_pages(description, path)
+    if promised is not None and promised != found:
+        kind = "ImageJ" if description.startswith("ImageJ") else "OME-XML"
+        contiguous = " (ImageJ writes a stack over 4 GiB as one page with the others' pixels after it, which is " \
+            "not read: save it as a folder of slices)" if found == 1 and kind == "ImageJ" else ""
+        raise VolumeError(f"{path}: holds {found} pages, its {kind} description promises {promised}{contiguous}; the "
+                          f"file is truncated or its description is wrong")
     inp = oiio.ImageInput.open(str(path))
     if inp is None:
         raise VolumeError(f"{path}: cannot open as TIFF ({oiio.geterror().strip()})")
@@ -232,11 +238,8 @@ def _read_pages(path: Path, budget: list[int]) -> list[np.ndarray]:
     finally:
         inp.close()
     if len(pages) != found:
-        raise VolumeError(f"{path}: {len(pages)} of its {found} pages could be read; the file is damaged")
-    if promised is not None and promised != found:
-        kind = "ImageJ" if description.startswith("ImageJ") else "OME-XML"
-        raise VolumeError(f"{path}: holds {found} pages, its {kind} description promises {promised}; the file is "
-                          f"truncated or its description is wrong")
+        raise VolumeError(f"{path}: OpenImageIO reads {len(pages)} pages, the file's chain of pages holds {found}; "
+                          f"the file is damaged")
     return pages
 
 
