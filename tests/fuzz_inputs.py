@@ -1,6 +1,11 @@
 """Inputs for fuzzing the volume readers: small valid files of every format, their mutations,
 and the one property every reader must have.
 
+Mutations: bytes (set, insert, delete, truncate) for every file; header lines for text headers; for
+DICOM series (issue 40) a tag the reader uses set to a bad token or deleted, written by pydicom
+unchecked; for ``.vti`` an XML attribute set to a bad token (extents among them) or an element
+dropped or duplicated.  A folder (DICOM series, TIFF slices) is a seed whose ``main`` is ``""``.
+
 Shared by ``tests/test_fuzz_readers.py`` (hypothesis draws the ``random.Random``, a bounded
 number of examples in CI) and ``benchmarks/fuzz_readers.py`` (a long seeded run with a table).
 
