@@ -548,6 +548,14 @@ def test_nrrd_more_leading_axes_of_size_1_than_numpy_has_dimensions(tmp_path):
         np.testing.assert_array_equal(load_volume(path).data, DATA)
 
 
+def test_nrrd_data_file_list_is_refused_as_such(tmp_path):
+    """``data file: LIST`` is followed by file names, one a line: once called a malformed header line."""
+    (tmp_path / "l.nhdr").write_text("NRRD0004\ntype: uint8\ndimension: 3\nsizes: 4 3 2\nencoding: raw\n"
+                                     "data file: LIST 2\na.raw\nb.raw\n")
+    with pytest.raises(VolumeError, match="data file 'LIST 2' names several files; join them into one"):
+        load_volume(tmp_path / "l.nhdr")
+
+
 def _outside_data_files(tmp_path):
     """A sandbox root and, outside it, a data file; the headers inside the root name it through a
     symlink, ``..`` and an absolute path."""

@@ -82,6 +82,8 @@ def read_header(path: Path) -> tuple[dict, int]:
         if field in fields:
             raise VolumeError(f"{path}: field {field!r} appears twice; keep one")
         fields[field] = value.strip()
+        if field in ("data file", "datafile") and fields[field].startswith("LIST"):
+            break  # the file names follow, one a line, to the end: refused by _data_file, not misread as fields
     return fields, min(pos, len(head))
 
 
