@@ -21,20 +21,24 @@ m_j W``), whose X-ray is the column density.
 * ``samples`` and ``reconstruct_values``: the quantities at the particles and other values at them
   interpolated alike (pre-classification classifies the particles).
 
-Points are sampled through a uniform grid of cells (:class:`CellIndex`), each listing the particles
-whose support reaches into it; the knots of a batch of rays come from every particle whose support
-the ray meets, found by the distance of its centre to the line (chunks of rays by particles).
+Points are sampled through sparse grids of cells (:class:`CellIndex`, a level per size of particle),
+each cell listing the particles whose support reaches into it; the knots of a batch of rays come from
+every particle whose support the ray meets, found by the distance of its centre to the line
+(chunks of rays by particles).
 """
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
 
 import numpy as np
 
+from .. import progress
 from ..errors import SceneError, VolumeError
 from ..sandbox import check_bytes
+from ..settings import WORLD_RANGE
 from . import sph
 from .ragged import joined_knots, ranges, ranks
 
@@ -43,7 +47,6 @@ from .ragged import joined_knots, ranges, ranks
 #: the ray parameter, but smooth between the knots.
 SPH_DEGREE = 9
 FILTER = "m4"
-CELLS_PER_AXIS = 128     # the index's grid, at most, along the box's longest axis
 POINTS_PER_BATCH = 8192  # points sampled at once (their pairs with the particles in their cells)
 PAIRS_PER_CHUNK = 4_000_000  # (ray, particle) pairs tested at once for knots
 
@@ -75,19 +78,20 @@ class ParticleSet:
                 raise VolumeError(f"{name}: {len(column)} {label} for {n} particles")
             arrays[label] = column
         for label, column in (("positions", positions), *arrays.items()):
-            bad = int((~np.isfinite(column)).sum())
-            if bad:
-                raise VolumeError(f"{name}: {bad} {label} are NaN or Inf; fix the file or choose another array "
-                                  "(volume.array)")
+            bad = ~np.isfinite(column.reshape(n, -1)).all(axis=1)
+            if bad.any():
+                raise VolumeError(f"{name}: {int(bad.sum())} {label} are NaN or Inf, the first at particle "
+                                  f"{int(np.argmax(bad)) + 1}; fix the file or choose another array (volume.array)")
         h, m, rho = arrays["smoothing lengths"], arrays["masses"], arrays["densities"]
-        if not (h > 0).all():
-            raise VolumeError(f"{name}: {int((h <= 0).sum())} particles have a smoothing length <= 0; every "
-                              "particle needs a positive one")
-        if not (m >= 0).all():
-            raise VolumeError(f"{name}: {int((m < 0).sum())} particles have a negative mass")
-        if not (rho > 0).all():
-            raise VolumeError(f"{name}: {int((rho <= 0).sum())} particles have a density <= 0 (m / rho is "
-                              "each particle's volume)")
+        _refuse(name, ~(h > 0), "a smoothing length <= 0; every particle needs a positive one")
+        _refuse(name, ~(m >= 0), "a negative mass")
+        _refuse(name, ~(rho > 0), "a density <= 0 (m / rho is each particle's volume)")
+        # GL draws in float32 relative to the box's centre, whose squares leave its range beyond these
+        lo, hi = WORLD_RANGE
+        _refuse(name, np.abs(positions).max(axis=1) > hi, f"a position beyond {hi:g} of the origin (float32 "
+                f"coordinates); shift or scale the particles")
+        _refuse(name, (h < lo / sph.SUPPORT) | (h > hi / sph.SUPPORT), f"a smoothing length outside "
+                f"[{lo / sph.SUPPORT:g}, {hi / sph.SUPPORT:g}] world units (float32 coordinates); scale the particles")
         self.positions, self.smoothing_lengths, self.masses, self.densities = positions, h, m, rho
         self.values = arrays.get(f"quantity {array!r}", rho)
         self.weights = m / rho  # each particle's volume
@@ -105,7 +109,7 @@ class ParticleSet:
 
     @functools.cached_property
     def value_range(self) -> tuple[float, float]:
-        at = self._reconstruction.sample(self.positions)
+        at = self._reconstruction.sample(self.positions, progress=f"{self.name}: the value range")
         return (min(0.0, float(at.min())), max(0.0, float(at.max())))
 
     @property
@@ -142,49 +146,88 @@ class ParticleSet:
         return CellIndex(self.positions, sph.SUPPORT * self.smoothing_lengths, self.bounds)
 
 
+def _refuse(name: str, bad: np.ndarray, what: str):
+    """Refuse the particles flagged in ``bad``, naming how many have ``what`` and the first of them."""
+    if bad.any():
+        count = int(bad.sum())
+        raise VolumeError(f"{name}: {count} particle{'s' if count > 1 else ''} (the first: particle "
+                          f"{int(np.argmax(bad)) + 1}) {'have' if count > 1 else 'has'} {what}")
+
+
 class CellIndex:
-    """A uniform grid of cells over ``bounds``, each listing the particles whose support (a sphere of
-    ``radius``) reaches into the cell's box (CSR: ``start``, ``members``)."""
+    """Cells listing the particles whose support (a sphere of ``radius``) reaches into them, in levels:
+    each particle in the level whose cells are at least half its support's radius and less than its
+    radius wide (cubes ``size * 2^level`` from the box's corner), so that it lists in at most 4-5 cells a
+    side and a point meets about 3.4-8 times the particles whose support holds it, whatever the spread of
+    the smoothing lengths (a single grid fine enough for the small ones lists a large particle in
+    thousands of cells).  Only occupied cells are kept (:class:`_SparseCells`), so a particle far away
+    (1e17 from the rest) costs its own cells, not a grid across the gap."""
 
     def __init__(self, centres: np.ndarray, radius: np.ndarray, bounds):
         lo, hi = (np.asarray(b, dtype=np.float64) for b in bounds)
-        extent = np.maximum(hi - lo, 1e-300)
-        # cells half the median support's radius wide (at most CELLS_PER_AXIS along the longest axis): a point
-        # then meets about (1 + 1/2)^3 = 3.4 times the particles whose support holds it, where cells a support
-        # across (twice the radius) would give 27 times (measured: the converged reference 4x faster)
-        size = max(float(np.median(radius)) * 0.5, float(extent.max()) / CELLS_PER_AXIS)
-        self.lo, self.size = lo, size
-        self.shape = np.maximum(np.ceil(extent / size).astype(np.int64), 1)
-        first = self._cell(centres - radius[:, None])
-        last = self._cell(centres + radius[:, None])
-        span = last - first + 1
-        count = span.prod(axis=1)
-        check_bytes(int(count.sum()) * 16, "the particles' cell index", "use fewer particles")
-        owner = np.repeat(np.arange(len(centres)), count)
-        k = ranks(count)  # each cell's rank inside its particle's block
-        sx, sy = span[owner, 0], span[owner, 1]
-        cx = first[owner, 0] + k % sx
-        cy = first[owner, 1] + (k // sx) % sy
-        cz = first[owner, 2] + k // (sx * sy)
-        cell = (cz * self.shape[1] + cy) * self.shape[0] + cx
-        order = np.argsort(cell, kind="stable")
-        self.members = owner[order]
-        self.start = np.searchsorted(cell[order], np.arange(int(self.shape.prod()) + 1))
-
-    def _cell(self, points: np.ndarray) -> np.ndarray:
-        i = np.floor((points - self.lo) / self.size).astype(np.int64)
-        return np.clip(i, 0, self.shape - 1)
+        extent = float(np.max(hi - lo))
+        # level 0: cells as wide as the smallest support's radius (cells of half the median radius made the
+        # converged reference 4x faster than cells a support across); at most 2^40 a side, so that cell
+        # coordinates are exact integers
+        size = max(float(radius.min()), extent / 2.0 ** 40, 1e-300)
+        level = np.floor(np.log2(np.maximum(radius / size, 1.0))).astype(np.int64)  # radius / 2^level in [1, 2)
+        self.levels = []
+        for k in np.unique(level):
+            owner = np.nonzero(level == k)[0]
+            cells = _SparseCells(lo, size * 2.0 ** int(k), centres[owner], radius[owner], owner)
+            self.levels.append(cells)
+        self.entries = sum(c.entries for c in self.levels)
 
     def pairs(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(point, particle)``: each point with every particle listed in its cell (points outside the
-        grid have none)."""
-        u = (points - self.lo) / self.size
-        inside = ((u >= 0) & (u < self.shape)).all(axis=1)
-        i = np.clip(np.floor(u).astype(np.int64), 0, self.shape - 1)
-        cell = (i[:, 2] * self.shape[1] + i[:, 1]) * self.shape[0] + i[:, 0]
-        count = np.where(inside, self.start[cell + 1] - self.start[cell], 0)
+        """``(point, particle)``: each point with every particle listed in its cell of each level."""
+        found = [c.pairs(points) for c in self.levels]
+        return np.concatenate([f[0] for f in found]), np.concatenate([f[1] for f in found])
+
+
+class _SparseCells:
+    """One level of :class:`CellIndex`: cubes of ``size`` from ``lo``, the occupied ones only, as sorted
+    integer keys (the cells' coordinates ranked axis by axis: exact, never hashed) with their members."""
+
+    def __init__(self, lo: np.ndarray, size: float, centres: np.ndarray, radius: np.ndarray, owner: np.ndarray):
+        self.lo, self.size = lo, size
+        first = self._cell(centres - radius[:, None])
+        span = self._cell(centres + radius[:, None]) - first + 1
+        count = span.prod(axis=1)
+        self.entries = int(count.sum())
+        check_bytes(self.entries * 64.0, "the particles' cell index", "use fewer particles")
+        who = np.repeat(np.arange(len(centres)), count)
+        k = ranks(count)  # each cell's rank inside its particle's block
+        sx, sy = span[who, 0], span[who, 1]
+        cell = first[who] + np.stack([k % sx, (k // sx) % sy, k // (sx * sy)], axis=1)
+        self.axes = [np.unique(cell[:, a]) for a in range(3)]
+        xy = np.searchsorted(self.axes[0], cell[:, 0]) * len(self.axes[1]) + np.searchsorted(self.axes[1], cell[:, 1])
+        self.xy = np.unique(xy)
+        key = np.searchsorted(self.xy, xy) * len(self.axes[2]) + np.searchsorted(self.axes[2], cell[:, 2])
+        order = np.argsort(key, kind="stable")
+        self.members = owner[who[order]]
+        self.keys, self.start = np.unique(key[order], return_index=True)
+        self.start = np.append(self.start, len(key)).astype(np.int64)
+
+    def _cell(self, points: np.ndarray) -> np.ndarray:
+        return np.floor((points - self.lo) / self.size).astype(np.int64)
+
+    @staticmethod
+    def _find(sorted_values: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Each value's place in ``sorted_values`` and whether it is there."""
+        at = np.minimum(np.searchsorted(sorted_values, values), len(sorted_values) - 1)
+        return at, sorted_values[at] == values
+
+    def pairs(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        u = np.floor((points - self.lo) / self.size)
+        inside = (np.abs(u) < 2.0 ** 62).all(axis=1)  # beyond: no cell (and no int64 overflow)
+        cell = np.where(inside[:, None], u, 0.0).astype(np.int64)
+        (x, hx), (y, hy), (z, hz) = (self._find(self.axes[a], cell[:, a]) for a in range(3))
+        xy, hxy = self._find(self.xy, x * len(self.axes[1]) + y)
+        at, hit = self._find(self.keys, xy * len(self.axes[2]) + z)
+        hit &= inside & hx & hy & hz & hxy
+        count = np.where(hit, self.start[at + 1] - self.start[at], 0)
         point = np.repeat(np.arange(len(points)), count)
-        slot = ranges(self.start[cell].astype(np.float64), count).astype(np.int64)
+        slot = ranges(self.start[at].astype(np.float64), count).astype(np.int64)
         return point, self.members[slot]
 
 
@@ -198,30 +241,42 @@ class SPHInterpolant:
         self.channels = values.shape[1] if values.ndim == 2 else 0
         self.carried = (particles.weights[:, None] * values.reshape(len(particles), -1))  # (m / rho) A
 
-    def _sum(self, points: np.ndarray, gradient: bool = False) -> np.ndarray:
-        p = self.particles
+    def _sum(self, points: np.ndarray, gradient: bool = False, label: str | None = None) -> np.ndarray:
+        """The sum (or its gradient) at ``points``, in batches; ``label``: long sums report progress
+        under it (:mod:`dvr_gl.progress`)."""
         points = np.asarray(points, dtype=np.float64)
         width = 3 if gradient else self.carried.shape[1]
         out = np.zeros((len(points), width))
-        for i in range(0, len(points), POINTS_PER_BATCH):
-            batch = points[i:i + POINTS_PER_BATCH]
-            point, j = p.index.pairs(batch)
-            d = batch[point] - p.positions[j]
-            r2 = np.einsum("ni,ni->n", d, d)
-            h = p.smoothing_lengths[j]
-            if gradient:  # grad W = w'(q) / (pi h^4) d / r
-                r = np.sqrt(r2)
-                scale = sph.dw(r / h) / (math.pi * h ** 4) / np.where(r > 0, r, 1.0) * self.carried[j, 0]
-                for axis in range(3):
-                    out[i:i + len(batch), axis] = np.bincount(point, scale * d[:, axis], minlength=len(batch))
-            else:
-                wk = sph.kernel(r2, h)
-                for c in range(width):
-                    out[i:i + len(batch), c] = np.bincount(point, wk * self.carried[j, c], minlength=len(batch))
+        with progress.task(label or "", len(points), "point") if label else contextlib.nullcontext() as step:
+            for i in range(0, len(points), POINTS_PER_BATCH):
+                self._batch(points, i, gradient, out)
+                if step is not None:
+                    step(min(i + POINTS_PER_BATCH, len(points)))
         return out
 
-    def sample(self, points: np.ndarray) -> np.ndarray:
-        out = self._sum(points)
+    def _batch(self, points: np.ndarray, i: int, gradient: bool, out: np.ndarray):
+        """The batch of ``points`` from ``i`` into ``out``."""
+        p, width = self.particles, out.shape[1]
+        batch = points[i:i + POINTS_PER_BATCH]
+        point, j = p.index.pairs(batch)
+        d = batch[point] - p.positions[j]
+        r2 = np.einsum("ni,ni->n", d, d)
+        h = p.smoothing_lengths[j]
+        inside = r2 < (sph.SUPPORT * h) ** 2  # a cell's candidates: about a fifth are within reach
+        point, j, d, r2, h = point[inside], j[inside], d[inside], r2[inside], h[inside]
+        if gradient:  # grad W = w'(q) / (pi h^4) d / r
+            r = np.sqrt(r2)
+            scale = sph.dw(r / h) / (math.pi * h ** 4) / np.where(r > 0, r, 1.0) * self.carried[j, 0]
+            for axis in range(3):
+                out[i:i + len(batch), axis] = np.bincount(point, scale * d[:, axis], minlength=len(batch))
+        else:
+            wk = sph.kernel(r2, h)
+            for c in range(width):
+                out[i:i + len(batch), c] = np.bincount(point, wk * self.carried[j, c], minlength=len(batch))
+
+    def sample(self, points: np.ndarray, progress: str | None = None) -> np.ndarray:
+        """The interpolant at ``points``; ``progress``: a label under which a long sum reports its batches."""
+        out = self._sum(points, label=progress)
         return out if self.channels else out[:, 0]
 
     def gradient(self, points: np.ndarray) -> np.ndarray:
