@@ -289,3 +289,23 @@ def test_a_damaged_element_is_named_only_where_it_is_used(tmp_path):
     retag(paths, None, (b"\x28\x00\x53\x10DS", b"\x28\x00\x53\x10U\xff"))  # RescaleSlope
     with pytest.raises(VolumeError, match="RescaleSlope cannot be read .*Unknown Value Representation"):
         load_volume(tmp_path / "s")
+
+
+def test_a_deflate_bomb_is_measured_against_the_budget(tmp_path):
+    """pydicom inflates a deflated dataset whole: a 300 KB file inflating to 300 MB took 1.3 GB under a 50 MB
+    budget; its size is now measured in chunks first, stopping past the budget."""
+    from pydicom.uid import DeflatedExplicitVRLittleEndian
+
+    from dvr_gl.sandbox import Sandbox, SandboxError, active
+
+    paths = write_series(tmp_path / "s", syntax=DeflatedExplicitVRLittleEndian)
+    np.testing.assert_array_equal(load_volume(tmp_path / "s").data, STORED)  # deflated slices read
+    ds = pydicom.dcmread(paths[0])
+    ds.add_new(0x00090010, "LO", "BOMB")
+    ds.add_new(0x00091010, "OB", bytes(64 << 20))
+    ds.save_as(paths[0])
+    assert paths[0].stat().st_size < 1 << 20
+    with active(Sandbox(max_bytes=16 << 20)):
+        with pytest.raises(SandboxError, match=r"its deflated dataset, inflated, would take \d+ MiB, over the "
+                                               r"memory budget of 16 MiB; raise the memory budget, or store"):
+            load_volume(tmp_path / "s")
