@@ -30,7 +30,7 @@ import numpy as np
 from hypothesis import strategies as st
 
 from dvr_gl.errors import DvrError
-from dvr_gl.model import ScatteringSpec, ShadingSpec
+from dvr_gl.model import ClippingSpec, GeometrySpec, ScatteringSpec, ShadingSpec
 from dvr_gl.scene import _FILE_KEYS as _SCENE_FILE_KEYS
 from dvr_gl.scene_schema import CameraSpec, ImageSpec, TransferFunctionSpec, VolumeSpec, renderer_spec_class
 
@@ -144,7 +144,8 @@ def table(draw, cls, where: str, rnd=None, wildness: float = 0.1, present: float
 
 @st.composite
 def _volume(draw, files: dict[str, Path], rnd, wildness: float):
-    """A demo (mostly) or one of ``files`` by name (a small volume, a folder, a missing or empty file)."""
+    """A demo (mostly) or one of ``files`` by name (a small volume, a folder, a missing or empty file; a
+    transfer-function file or a mesh as a volume too)."""
     volume = draw(table(VolumeSpec, "volume", rnd, wildness, present=0.15))
     kind = rnd.random()
     if kind < 0.7:
@@ -165,7 +166,9 @@ def _volume(draw, files: dict[str, Path], rnd, wildness: float):
 @st.composite
 def scene_dicts(draw, files: dict[str, Path]):
     """Whole scene dicts built from the schema: each table present, absent or (when wild) a wild value,
-    the renderer's with its shading table; sometimes an unknown table."""
+    the renderer's with its shading, scattering and clipping tables; sometimes an unknown table.  Files
+    named ``tf...`` and ``mesh...`` in ``files`` are given as ``transfer_function.file`` and as
+    ``[[renderer.geometry]]`` paths."""
     rnd = _coin(draw)
     wildness = rnd.choice(WILDNESS)
 
@@ -179,6 +182,12 @@ def scene_dicts(draw, files: dict[str, Path]):
         renderer["shading"] = draw(table(ShadingSpec, "renderer.shading", rnd, wildness))
     if isinstance(renderer, dict) and rnd.random() < 0.2:
         renderer["scattering"] = draw(table(ScatteringSpec, "renderer.scattering", rnd, wildness, present=0.6))
+    if isinstance(renderer, dict) and rnd.random() < 0.2:  # its planes and box, wild as any table
+        renderer["clipping"] = draw(table(ClippingSpec, "renderer.clipping", rnd, wildness, present=0.6))
+    meshes = [str(p) for k, p in sorted(files.items()) if k.startswith("mesh")]
+    if isinstance(renderer, dict) and meshes and rnd.random() < 0.15:  # real meshes (and wild tables)
+        renderer["geometry"] = [{**draw(table(GeometrySpec, "renderer.geometry[]", rnd, wildness, present=0.5)),
+                                 "path": draw(st.sampled_from(meshes))} for _ in range(rnd.randint(1, 2))]
     scene = {
         "volume": maybe(_volume(files, rnd, wildness)) if wildness else draw(_volume(files, rnd, 0.0)),
         "transfer_function": maybe(table(TransferFunctionSpec, "transfer_function", rnd, wildness)),
@@ -187,6 +196,13 @@ def scene_dicts(draw, files: dict[str, Path]):
         "renderer": renderer,
         "extra": draw(WILD) if rnd.random() < wildness / 4 else None,
     }
+    tf_files = [str(p) for k, p in sorted(files.items()) if k.startswith("tf")]
+    if isinstance(scene.get("transfer_function"), dict) and tf_files and rnd.random() < 0.3:
+        tf = scene["transfer_function"]  # a real file (its keys drawn above may conflict: a user error)
+        tf["file"] = draw(st.sampled_from(tf_files))
+        if rnd.random() >= wildness:
+            tf.pop("preset", None)
+            tf.pop("points", None)
     return {k: v for k, v in scene.items() if v is not None}
 
 
@@ -218,8 +234,10 @@ def _scene_outcome(raw: dict, render: bool):
         registry.check(scene)
         with create_renderer(scene.renderer.name) as renderer:
             rgba = renderer.render(scene)
-        # lights brighter than 1 scatter more than the colours (high dynamic range, by design)
-        bright = rgba[..., :3].max() if not scene.renderer.scattering.enabled else 0.0
+        # lights brighter than 1 scatter more than the colours, and an opaque mesh's Blinn-Phong reaches past 1
+        # (0.8 x (0.2 + 0.7) + 0.3 with the default coefficients): high dynamic range, by design
+        hdr = scene.renderer.scattering.enabled or bool(getattr(scene.renderer, "geometry", None))
+        bright = rgba[..., :3].max() if not hdr else 0.0
         if not (np.isfinite(rgba).all() and rgba.min() >= 0 and max(rgba[..., 3].max(), bright) <= 1 + 1e-6):
             return "other", AssertionError(f"pixels out of [0, 1] or not finite: {rgba.min()}..{rgba.max()}")
         return "rendered", None

@@ -21,8 +21,16 @@ def files(tmp_path_factory):
     folder = tmp_path_factory.mktemp("fuzz")
     np.save(folder / "small.npy", np.linspace(0, 1, 6 * 5 * 4, dtype=np.float32).reshape(6, 5, 4))
     (folder / "empty.raw").write_bytes(b"")
+    # transfer-function files (Slicer's .vp, ParaView's JSON) and a mesh, for transfer_function.file and
+    # [[renderer.geometry]] (their own mutations are tests/test_fuzz_transfer_functions.py's business)
+    from test_fuzz_transfer_functions import SEEDS
+
+    (folder / "tf.vp").write_bytes(SEEDS["bone.vp"])
+    (folder / "tf.json").write_bytes(SEEDS["map.json"])
+    (folder / "mesh.obj").write_text("v 0 0 0\nv 3 0 0\nv 0 3 0\nv 0 0 3\nf 1 2 3\nf 1 2 4\n")
     return {"small": folder / "small.npy", "folder": folder, "missing": folder / "absent.nrrd",
-            "empty": folder / "empty.raw"}
+            "empty": folder / "empty.raw", "tf-vp": folder / "tf.vp", "tf-json": folder / "tf.json",
+            "mesh": folder / "mesh.obj"}
 
 
 def test_scenes_load_or_give_a_user_error(files):

@@ -175,4 +175,11 @@ def flat_rows(numbers, width: int, what: str) -> np.ndarray:
         raise SceneError(f"{what}: {a.size} numbers, not a non-empty multiple of {width}")
     if not np.isfinite(a).all():
         raise SceneError(f"{what}: holds NaN or infinite numbers")
+    if np.abs(a).max() > MAX_VALUE:
+        raise SceneError(f"{what}: holds numbers beyond +-{MAX_VALUE:g}; give values in the data's range")
     return a.reshape(-1, width)
+
+
+#: The largest control value (in magnitude): Slicer's unique values step above it in float32, whose
+#: largest is 3.4e38 (beyond, the step is infinite).
+MAX_VALUE = 1e38

@@ -133,7 +133,7 @@ def _volume_properties(data: bytes, path) -> list[dict]:
     except _Declaration:
         raise SceneError(f"{path}: holds a DOCTYPE or entity declaration, which volume property files do not "
                          f"use (entities can expand without bound); remove it") from None
-    except xml.parsers.expat.ExpatError as exc:
+    except (xml.parsers.expat.ExpatError, LookupError, ValueError) as exc:  # LookupError: an unknown encoding
         raise SceneError(f"{path}: not a valid XML file ({exc})") from None
     return found
 
