@@ -309,3 +309,14 @@ def test_a_deflate_bomb_is_measured_against_the_budget(tmp_path):
         with pytest.raises(SandboxError, match=r"its deflated dataset, inflated, would take \d+ MiB, over the "
                                                r"memory budget of 16 MiB; raise the memory budget, or store"):
             load_volume(tmp_path / "s")
+
+
+def test_reading_a_series_reports_progress(tmp_path):
+    """A series of thousands of files takes minutes: its headers and pixels are reported as they are read."""
+    from dvr_gl import progress
+
+    write_series(tmp_path / "s")
+    seen = []
+    with progress.reporting(lambda done, total: seen.append((done, total))):
+        load_volume(tmp_path / "s")
+    assert seen.count((5, 5)) == 2 and (1, 5) in seen  # headers, then pixels

@@ -39,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import progress
 from ..errors import VolumeError
 from ..sandbox import check_bytes, check_input_path, memory_budget
 from .common import ORTHOGONALITY, RawArray, axes_geometry, require
@@ -179,26 +180,33 @@ def _unit_axes(iop: np.ndarray, f: Path) -> None:
 def _headers(pydicom, files):
     """Each file's header (pixels not read), DICOMDIR and image-less files left out."""
     out = []
-    for f in files:
-        _check_held(f)
-        try:
-            ds = pydicom.dcmread(str(f), stop_before_pixels=True)
-        except Exception as exc:  # pydicom raises many kinds for a damaged file
-            raise VolumeError(f"{f}: not a readable DICOM file ({str(exc).splitlines()[0] if str(exc) else exc!r})") \
-                from None
-        # pydicom decodes an element when it is first used: decode the ones used here, where a damaged one
-        # is named (the others may stay damaged, as a viewer would let them)
-        meta = getattr(ds, "file_meta", None)
-        for keyword in USED:
-            _value(ds, keyword, f)
-        for keyword in ("MediaStorageSOPClassUID", "TransferSyntaxUID"):
-            if meta is not None:
-                _value(meta, keyword, f)
-        sop = str(getattr(meta, "MediaStorageSOPClassUID", ""))
-        if sop == MEDIA_DIRECTORY or not any(keyword in ds for keyword in IMAGE_PIXEL):
-            continue  # not an image (an index, a report, a presentation state); an image short of Rows is named
-        out.append((f, ds))
+    with progress.task("reading DICOM headers", len(files), "file") as step:
+        for number, f in enumerate(files, 1):
+            _header(pydicom, f, out)
+            step(number)
     return out
+
+
+def _header(pydicom, f: Path, out: list) -> None:
+    """Append ``(f, its header)`` to ``out`` if ``f`` is an image."""
+    _check_held(f)
+    try:
+        ds = pydicom.dcmread(str(f), stop_before_pixels=True)
+    except Exception as exc:  # pydicom raises many kinds for a damaged file
+        raise VolumeError(f"{f}: not a readable DICOM file ({str(exc).splitlines()[0] if str(exc) else exc!r})") \
+            from None
+    # pydicom decodes an element when it is first used: decode the ones used here, where a damaged one
+    # is named (the others may stay damaged, as a viewer would let them)
+    meta = getattr(ds, "file_meta", None)
+    for keyword in USED:
+        _value(ds, keyword, f)
+    for keyword in ("MediaStorageSOPClassUID", "TransferSyntaxUID"):
+        if meta is not None:
+            _value(meta, keyword, f)
+    sop = str(getattr(meta, "MediaStorageSOPClassUID", ""))
+    if sop == MEDIA_DIRECTORY or not any(keyword in ds for keyword in IMAGE_PIXEL):
+        return  # not an image (an index, a report, a presentation state); an image short of Rows is named
+    out.append((f, ds))
 
 
 DEFLATED = "1.2.840.10008.1.2.1.99"  # Deflated Explicit VR Little Endian: the dataset is one deflate stream
@@ -376,19 +384,10 @@ def _pixels(pydicom, entries, scales, path) -> np.ndarray:
     check_bytes(len(entries) * rows * cols * 8, f"{path}: the {cols}x{rows}x{len(entries)} DICOM series",
                 "read fewer slices, or raise the memory budget")
     slices = []
-    for (f, _), (slope, intercept) in zip(entries, scales):
-        syntax = None
-        try:
-            ds = pydicom.dcmread(str(f))
-            syntax = str(ds.file_meta.TransferSyntaxUID)
-            pixels = ds.pixel_array
-        except Exception as exc:  # a missing decoder and a damaged stream both end here
-            raise VolumeError(_pixel_error(f, syntax, exc)) from None
-        if pixels.shape != (rows, cols):
-            raise VolumeError(f"{f}: pixel data of shape {pixels.shape}, the header says {(rows, cols)}")
-        if (slope, intercept) != (1.0, 0.0) and pixels.size:
-            _check_rescale(f, pixels, slope, intercept)
-        slices.append(pixels)
+    with progress.task("reading DICOM pixels", len(entries), "slice") as step:
+        for (f, _), (slope, intercept) in zip(entries, scales):
+            slices.append(_slice_pixels(pydicom, f, rows, cols, slope, intercept))
+            step(len(slices))
     stored = np.stack(slices)
     if all(s == (1.0, 0.0) for s in scales):
         return stored
@@ -399,6 +398,22 @@ def _pixels(pydicom, entries, scales, path) -> np.ndarray:
     if np.all(values == np.round(values)) and values.min() >= i16.min and values.max() <= i16.max:
         return values.astype(np.int16)
     return values.astype(np.float32)
+
+
+def _slice_pixels(pydicom, f: Path, rows: int, cols: int, slope: float, intercept: float) -> np.ndarray:
+    """One slice's stored values, checked against its header and its rescale."""
+    syntax = None
+    try:
+        ds = pydicom.dcmread(str(f))
+        syntax = str(ds.file_meta.TransferSyntaxUID)
+        pixels = ds.pixel_array
+    except Exception as exc:  # a missing decoder and a damaged stream both end here
+        raise VolumeError(_pixel_error(f, syntax, exc)) from None
+    if pixels.shape != (rows, cols):
+        raise VolumeError(f"{f}: pixel data of shape {pixels.shape}, the header says {(rows, cols)}")
+    if (slope, intercept) != (1.0, 0.0) and pixels.size:
+        _check_rescale(f, pixels, slope, intercept)
+    return pixels
 
 
 def _pixel_error(f, syntax, exc) -> str:

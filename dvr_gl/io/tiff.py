@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import progress
 from ..errors import VolumeError
 from ..sandbox import check_bytes, check_input_path
 from .common import RawArray, show
@@ -247,8 +248,11 @@ def read_tiff_stack(path: Path) -> RawArray:
     path = Path(path)
     slices: list[np.ndarray] = []
     budget = [0]
-    for f in stack_files(path):
-        slices.extend(_read_pages(f, budget))
+    files = stack_files(path)
+    with progress.task("reading TIFF slices", len(files), "file") as step:
+        for number, f in enumerate(files, 1):
+            slices.extend(_read_pages(f, budget))
+            step(number)
     shapes = {s.shape for s in slices}
     if len(shapes) != 1:
         raise VolumeError(f"{path}: slices differ in size {sorted(shapes)}; all slices must match")
