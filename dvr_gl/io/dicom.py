@@ -24,6 +24,9 @@ MONOCHROME1 or 2), ImageOrientationPatient (two perpendicular unit vectors), Pix
 ImagePositionPatient, RescaleSlope (finite, not 0) and RescaleIntercept (finite); a rescale whose values
 float32 cannot hold or tell apart is refused naming both tags.
 
+Each file counts against the memory budget (pydicom holds it whole); a deflated dataset, which pydicom
+inflates whole, is first inflated here in chunks and refused past the budget.
+
 A folder's or a glob's members are each checked against the sandbox (symlinks followed) before any is
 opened, so a member linked to a file outside the roots is refused, not read.
 
