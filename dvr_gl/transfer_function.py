@@ -343,6 +343,8 @@ def find_preset(name: str) -> str:
     folded = {n.lower(): n for n in PRESETS if n.islower()}
     folded.update({n.lower(): n for n in PRESETS if not n.islower()})
     key = str(name).lower()
+    if len(key) > 200:  # no name is that long: no close matches to look for (difflib is quadratic in it)
+        key = key[:200]
     if key in folded:
         return folded[key]
     mpl = colormaps.matplotlib_names()
@@ -353,7 +355,9 @@ def find_preset(name: str) -> str:
     hint = f"did you mean {', '.join(folded.get(c) or mpl[c] for c in close)}? " if close else ""
     extra = ("" if mpl is not None else "; matplotlib colour maps by name (inferno, magma, ...) need matplotlib: "
              "pip install 'dvr-gl[plot]'")
-    raise SceneError(f"unknown transfer function preset {name!r}: {hint}give a preset ({', '.join(list(PRESETS)[:5])}, "
+    text = str(name)
+    shown = repr(text) if len(text) <= 80 else f"{text[:60]!r} (and {len(text) - 60} more characters)"
+    raise SceneError(f"unknown transfer function preset {shown}: {hint}give a preset ({', '.join(list(PRESETS)[:5])}, "
                      f"3D Slicer's such as CT-AAA), a matplotlib colour map, or a .vp/.json/.xml file "
                      f"(docs/transfer-functions.md){extra}")
 
