@@ -340,10 +340,12 @@ def test_many_points_take_a_few_passes_not_one_per_segment(tmp_path, space, monk
 
     calls = []
     real = colour.interpolate
-    monkeypatch.setattr(colour, "interpolate", lambda *a, **k: calls.append(1) or real(*a, **k))
+    monkeypatch.setattr(colour, "interpolate", lambda *a, **k: calls.append(len(a[0])) or real(*a, **k))
     tf = _scene_with_file(tmp_path, "big.json", [_big_map(1500, space, np.random.default_rng(1))],
                           stretch=False).transfer_function
     assert len(tf.points) >= 1500 and len(calls) <= 2 * (1 + 7) + 2
+    # and each block's calls see the rows of its own segments, not the whole map (converted to Lab or Msh)
+    assert sorted(calls)[-2] <= 2 * 1024 and max(calls) == 1500
     assert np.isfinite(tf.points).all() and np.all(np.diff(tf.points[:, 0]) > 0)
 
 
