@@ -36,9 +36,18 @@ def run(args) -> int:
                           f"overwritten)")
     if args.levels is not None and args.levels < 1:
         raise VolumeError(f"--levels must be at least 1 (1: full resolution only), got {args.levels}")
+    from pathlib import Path
+
+    from dvr_gl.image import check_writable
+
+    check_writable(Path(args.output))  # its folder exists, is writable and inside the sandbox: before any work
     _zarr()  # the extra, checked before a large input is opened
     volume = _open(args, open_source)
-    plan = write_pyramid(volume, args.output, levels=args.levels, chunks=args.chunks, unit=args.unit)
+    try:
+        plan = write_pyramid(volume, args.output, levels=args.levels, chunks=args.chunks, unit=args.unit)
+    except OSError as exc:  # a folder that refuses what access() allowed (/proc, a full or read-only disk)
+        raise VolumeError(f"{args.output}: cannot write the pyramid ({exc.strerror or exc}); choose another "
+                          f"folder") from None
     if tuple(map(tuple, volume.direction)) != ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)):
         print("dvr pyramid: note: OME-Zarr 0.4 has no rotation: the volume's direction matrix is kept in the "
               "metadata only, and the pyramid is read back unrotated", file=sys.stderr)

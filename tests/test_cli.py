@@ -351,3 +351,22 @@ def test_a_closed_stdout_ends_quietly(tmp_path, argv):
     assert err == "" and code in (0, 141), (code, err)
     if argv[0] != "render":  # argparse's help swallows the error itself
         assert code == 141
+
+
+def test_pyramid_into_a_folder_that_cannot_be_written_is_one_line(tmp_path, capsys, monkeypatch):
+    """A missing folder is refused before any work; a write the file system refuses although access() allowed
+    it (/proc as root, a full disk) is one line too, not an internal error."""
+    pytest.importorskip("zarr")
+    from dvr_gl.multires import pyramid
+
+    volume = tmp_path / "v.npy"
+    np.save(volume, np.zeros((8, 8, 8), np.float32))
+    code, _, err = run(capsys, "pyramid", volume, tmp_path / "no" / "p.zarr")
+    assert_one_line_error(code, err, "does not exist")
+
+    def refused(*args, **kwargs):
+        raise FileNotFoundError(2, "No such file or directory")
+
+    monkeypatch.setattr(pyramid, "write_pyramid", refused)
+    code, _, err = run(capsys, "pyramid", volume, tmp_path / "p.zarr")
+    assert_one_line_error(code, err, "cannot write the pyramid (No such file or directory)")
