@@ -55,35 +55,15 @@ def read_mesh(path: str | Path) -> TriangleMesh:
 
 @functools.lru_cache(maxsize=8)
 def _read(path: str, size: int, mtime: int) -> TriangleMesh:
-    try:
-        import meshio
-    except ImportError:
-        raise SceneError("renderer.geometry: reading meshes needs meshio: pip install 'dvr-gl[mesh]'") from None
-    from .io.mesh import UnreadableMesh, quiet_read
-
-    # meshio's peak while reading is up to 7x the file (binary STL; OBJ 6x, PLY 5x: measured)
-    check_bytes(size * float(BYTES_PER_FILE_BYTE), f"reading the mesh {os.path.basename(path)} (renderer.geometry)",
-                "use a smaller mesh (fewer triangles)")
-    try:
-        mesh = quiet_read(meshio, path)
-    except UnreadableMesh as exc:  # one line, not meshio's prints or a traceback
-        raise SceneError(f"renderer.geometry: cannot read {os.path.basename(path)} as a mesh ({exc}); give an "
-                         f"OBJ, PLY, STL or VTK polydata file") from None
-    points = np.asarray(mesh.points, dtype=np.float64)
-    if points.ndim != 2 or points.shape[1] not in (2, 3):
-        raise SceneError(f"renderer.geometry: {os.path.basename(path)} has no 3D points")
-    if points.shape[1] == 2:
-        points = np.concatenate([points, np.zeros((len(points), 1))], axis=1)
-    faces = []
-    for block in mesh.cells:
-        cells = np.asarray(block.data, dtype=np.int64)
-        if block.type in ("triangle", "quad", "polygon") or block.type.startswith("polygon"):
-            if cells.ndim != 2 or cells.shape[1] < 3:
-                continue
-            for k in range(1, cells.shape[1] - 1):  # a fan from the first corner
-                faces.append(cells[:, [0, k, k + 1]])
-    triangles = np.concatenate(faces) if faces else np.zeros((0, 3), np.int64)
     name = os.path.basename(path)
+    # meshio's peak while reading is up to 7x the file (binary STL; OBJ 6x, PLY 5x: measured)
+    check_bytes(size * float(BYTES_PER_FILE_BYTE), f"reading the mesh {name} (renderer.geometry)",
+                "use a smaller mesh (fewer triangles)")
+    if path.lower().endswith((".vtk", ".vtu")):
+        points, faces = _vtk_faces(path)
+    else:
+        points, faces = _meshio_faces(path)
+    triangles = np.concatenate(faces) if faces else np.zeros((0, 3), np.int64)
     if not len(triangles):
         raise SceneError(f"renderer.geometry: {name} has no triangles, quadrilaterals or polygons")
     if triangles.min() < 0 or triangles.max() >= len(points):
@@ -91,6 +71,95 @@ def _read(path: str, size: int, mtime: int) -> TriangleMesh:
     if not np.isfinite(points[np.unique(triangles)]).all():
         raise SceneError(f"renderer.geometry: {name} has points that are not finite (NaN or Inf)")
     return TriangleMesh(points, triangles, name)
+
+
+READABLE = "give an OBJ, PLY or STL file, or a VTK file (.vtk, .vtu) of surface cells"
+
+
+def _meshio_faces(path: str):
+    """Points and triangle blocks of an OBJ, PLY or STL file read by meshio (a PLY header checked first:
+    meshio loops forever on one cut short, and for every face an ``element face`` count claims)."""
+    try:
+        import meshio
+    except ImportError:
+        raise SceneError("renderer.geometry: reading meshes needs meshio: pip install 'dvr-gl[mesh]'") from None
+    from .io.mesh import UnreadableMesh, quiet_read
+
+    name = os.path.basename(path)
+    if path.lower().endswith(".ply"):
+        _check_ply_header(path)
+    try:
+        mesh = quiet_read(meshio, path)
+    except UnreadableMesh as exc:  # one line, not meshio's prints or a traceback
+        raise SceneError(f"renderer.geometry: cannot read {name} as a mesh ({exc}); {READABLE}") from None
+    points = np.asarray(mesh.points)
+    if points.ndim != 2 or points.shape[1] not in (2, 3) or points.dtype.kind not in "iuf":
+        raise SceneError(f"renderer.geometry: {name} has no 3D points")
+    points = points.astype(np.float64)
+    if points.shape[1] == 2:
+        points = np.concatenate([points, np.zeros((len(points), 1))], axis=1)
+    faces = []
+    for block in mesh.cells:
+        cells = np.asarray(block.data)
+        if block.type in ("triangle", "quad", "polygon") or block.type.startswith("polygon"):
+            if cells.ndim != 2 or cells.shape[1] < 3 or cells.dtype.kind not in "iu":
+                continue
+            cells = cells.astype(np.int64)
+            for k in range(1, cells.shape[1] - 1):  # a fan from the first corner
+                faces.append(cells[:, [0, k, k + 1]])
+    return points, faces
+
+
+#: Bytes of a PLY header read to find its end (headers are a few hundred bytes; comments may add more).
+PLY_HEADER_BYTES = 1 << 20
+
+
+def _check_ply_header(path: str):
+    """A PLY header must end (an ``end_header`` line) and its element counts fit the file."""
+    name = os.path.basename(path)
+    with open(path, "rb") as f:
+        head = f.read(PLY_HEADER_BYTES)
+    size = os.path.getsize(path)
+    lines = head.split(b"\n")
+    ends = [i for i, line in enumerate(lines) if line.strip() == b"end_header"]
+    if not ends:
+        raise SceneError(f"renderer.geometry: cannot read {name} as a mesh (no 'end_header' line in its first "
+                         f"{PLY_HEADER_BYTES >> 20} MiB: a PLY file cut short, or not PLY); {READABLE}")
+    for line in lines[:ends[0]]:
+        words = line.split()
+        if words[:1] == [b"element"]:
+            if len(words) != 3 or not words[2].isdigit() or int(words[2]) > size:
+                raise SceneError(f"renderer.geometry: {name}: {line.decode('latin-1')[:60]!r} does not count what a "
+                                 f"file of {size} bytes can hold; the PLY header is damaged")
+
+
+def _vtk_faces(path: str):
+    """Points and triangle blocks of a legacy ``.vtk`` (POLYDATA or UNSTRUCTURED_GRID) or ``.vtu`` file,
+    read strictly (:mod:`dvr_gl.io.mesh_vtk`): triangles, quadrilaterals, pixels and polygons as fans,
+    triangle strips as their triangles."""
+    from .errors import VolumeError
+    from .io.mesh_vtk import check_cells, read_legacy, read_vtu
+
+    try:
+        grid = read_vtu(Path(path)) if path.lower().endswith(".vtu") else read_legacy(Path(path))
+        check_cells(path, grid)
+    except VolumeError as exc:
+        raise SceneError(f"renderer.geometry: {exc}") from None
+    sizes = np.diff(grid.offsets)
+    starts = grid.offsets[:-1]
+    faces = []
+    for t in (5, 7, 8, 9):  # triangle, polygon, pixel (corners 0 1 3 2), quad: fans from the first corner
+        for n in np.unique(sizes[grid.types == t]).tolist():
+            first = starts[(grid.types == t) & (sizes == n)]
+            cells = grid.connectivity[first[:, None] + np.arange(n)]
+            if t == 8:
+                cells = cells[:, [0, 1, 3, 2]]
+            faces += [cells[:, [0, k, k + 1]] for k in range(1, n - 1)]
+    for first, n in zip(starts[grid.types == 6].tolist(), sizes[grid.types == 6].tolist()):
+        strip = grid.connectivity[first:first + n]
+        k = np.arange(n - 2)
+        faces.append(np.stack([strip[k], strip[k + 1], strip[k + 2]], axis=1))
+    return grid.points, faces
 
 
 def scene_meshes(renderer_spec) -> list[tuple[TriangleMesh, np.ndarray]]:

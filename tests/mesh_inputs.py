@@ -140,3 +140,15 @@ def stl(binary: bool = False) -> bytes:
     facets = "".join("facet normal 0 0 0\n outer loop\n" + "".join(f"  vertex {x} {y} {z}\n" for x, y, z in t)
                      + " endloop\nendfacet\n" for t in tris)
     return f"solid s\n{facets}endsolid s\n".encode()
+
+
+def polydata(binary: bool = False) -> bytes:
+    """The tetrahedron's surface as a legacy POLYDATA of POLYGONS."""
+    def block(values, dtype):
+        values = np.asarray(values)
+        return (values.astype(">" + dtype).tobytes() + b"\n") if binary else (_ascii(values) + "\n").encode()
+
+    counted = np.concatenate([[3, *t] for t in TRIANGLES.tolist()])
+    return b"".join([f"# vtk DataFile Version 3.0\ns\n{'BINARY' if binary else 'ASCII'}\nDATASET POLYDATA\n"
+                     f"POINTS {len(CORNERS)} float\n".encode(), block(CORNERS, "f4"),
+                     f"POLYGONS {len(TRIANGLES)} {len(counted)}\n".encode(), block(counted, "i4")])

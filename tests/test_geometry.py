@@ -505,3 +505,42 @@ def test_the_host_test_is_bounded_and_fast(tmp_path, monkeypatch):
     monkeypatch.setattr(geometry, "PAIR_RATE", plan.pairs / 20)  # --max-seconds 10 allows half the tests
     with active(Sandbox(max_seconds=10)), pytest.raises(DvrError, match="over the bound of"):
         geometry.first_hits([(read_mesh(path), GREY)], *rays)
+
+
+@pytest.mark.parametrize("case, text, words", [
+    ("header cut", b"ply\nformat ascii 1.0\n", "no 'end_header' line"),
+    ("comment end", b"ply\nformat ascii 1.0\ncomment end_header\n", "no 'end_header' line"),
+    ("face count", b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                   b"element face 99999999999\nend_header\n0 0 0\n1 0 0\n0 1 0\n", "'element face 9+' does not"),
+])
+def test_ply_headers_that_hung_meshio_are_refused_at_once(tmp_path, case, text, words):
+    """Issue 40's campaign, again: meshio reads a PLY header line by line until 'end_header', forever at the
+    end of a file cut short, and loops over every face an 'element face' line counts."""
+    import time
+
+    path = tmp_path / "bad.ply"
+    path.write_bytes(text)
+    start = time.perf_counter()
+    with pytest.raises(DvrError, match=words) as info:
+        read_mesh(path)
+    assert time.perf_counter() - start < 5 and "\n" not in str(info.value)
+
+
+def test_vtk_surfaces_are_read_strictly_polydata_included(tmp_path):
+    """.vtk and .vtu surfaces go through the strict VTK readers: POLYDATA (which meshio does not read,
+    though the docs named it) with polygons and a triangle strip, and damaged offsets refused."""
+    import mesh_inputs as mi
+
+    poly = tmp_path / "poly.vtk"
+    poly.write_text("# vtk DataFile Version 3.0\np\nASCII\nDATASET POLYDATA\nPOINTS 5 float\n"
+                    "0 0 0 1 0 0 1 1 0 0 1 0 2 0 0\nPOLYGONS 1 5\n4 0 1 2 3\nTRIANGLE_STRIPS 1 4\n3 1 4 2\n")
+    mesh = read_mesh(poly)
+    assert sorted(map(tuple, mesh.triangles.tolist())) == [(0, 1, 2), (0, 2, 3), (1, 4, 2)]
+    damaged = tmp_path / "surface.vtu"
+    tri = [(5, [0, 1, 2]), (9, [0, 1, 2, 3])]
+    damaged.write_bytes(mi.vtu(cells=tri, offsets=[0, 0], cell_values=[1.0, 2.0]))
+    with pytest.raises(DvrError, match="offsets run from 0 to 0"):
+        read_mesh(damaged)
+    good = tmp_path / "surface2.vtu"
+    good.write_bytes(mi.vtu("zlib", cells=tri, cell_values=[1.0, 2.0]))
+    assert read_mesh(good).triangles.tolist() == [[0, 1, 2], [0, 1, 2], [0, 2, 3]]

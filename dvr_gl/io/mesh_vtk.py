@@ -476,34 +476,30 @@ def _count(path, words: list[str], i: int, what: str) -> int:
 
 def read_legacy(path: Path) -> RawGrid:
     """A legacy ``.vtk`` ``UNSTRUCTURED_GRID`` (versions up to 4.2: ``CELLS n size`` of counted
-    cells; 5.1: ``OFFSETS`` and ``CONNECTIVITY``), ASCII or binary."""
+    cells; 5.1: ``OFFSETS`` and ``CONNECTIVITY``), ASCII or binary; or a ``POLYDATA`` (its
+    VERTICES, LINES, POLYGONS and TRIANGLE_STRIPS as cells of VTK types 2, 4, 7 and 6)."""
     f = _Legacy(path, Path(path).read_bytes())
     points = offsets = conn = types = None
     arrays, n_data = None, 0
     grid = RawGrid(np.zeros((0, 3)), np.zeros(0, np.int64), np.zeros(1, np.int64), np.zeros(0, np.int64))
-    dataset, last = None, "the header"
+    dataset, last, poly = None, "the header", []
     while (words := f.keyword()) is not None:
         key = words[0].upper()
         if key == "DATASET":
             dataset = words[1].upper() if len(words) > 1 else ""
-            if dataset != "UNSTRUCTURED_GRID":
-                raise VolumeError(f"{path}: DATASET {dataset}; this reader takes UNSTRUCTURED_GRID")
+            if dataset not in ("UNSTRUCTURED_GRID", "POLYDATA"):
+                raise VolumeError(f"{path}: DATASET {dataset[:30]}; this reader takes UNSTRUCTURED_GRID (or POLYDATA "
+                                  "surfaces)")
         elif key == "POINTS":
             n = _count(path, words, 1, "POINTS n")
             points = f.values(3 * n, words[2] if len(words) > 2 else "?", "POINTS").astype(np.float64).reshape(n, 3)
         elif key == "CELLS":
             n, size = _count(path, words, 1, "CELLS n"), _count(path, words, 2, "CELLS size")
-            if f.peek()[:1] and f.peek()[0].upper() == "OFFSETS":
-                kind = f.keyword()
-                offsets = f.values(n, kind[1] if len(kind) > 1 else "?", "OFFSETS").astype(np.int64)
-                kind = f.keyword() or ["?"]
-                if kind[0].upper() != "CONNECTIVITY":
-                    raise VolumeError(f"{path}: CONNECTIVITY must follow OFFSETS; the file is damaged")
-                conn = f.values(size, kind[1] if len(kind) > 1 else "?", "CONNECTIVITY").astype(np.int64)
-                if not len(offsets):
-                    raise VolumeError(f"{path}: CELLS {n}: OFFSETS needs one more entry than cells; none given")
-            else:
-                offsets, conn = _counted_cells(path, f.values(size, "int", "CELLS").astype(np.int64), n)
+            offsets, conn = _cells_section(path, f, n, size)
+        elif key in POLYDATA_CELLS and dataset == "POLYDATA":
+            n, size = _count(path, words, 1, f"{key} n"), _count(path, words, 2, f"{key} size")
+            cell_offsets, cell_conn = _cells_section(path, f, n, size)
+            poly.append((POLYDATA_CELLS[key], cell_offsets, cell_conn))
         elif key == "CELL_TYPES":
             n = _count(path, words, 1, "CELL_TYPES n")
             types = f.values(n, "int", "CELL_TYPES").astype(np.int64)
@@ -524,6 +520,14 @@ def read_legacy(path: Path) -> RawGrid:
         last = key
     if dataset is None:
         raise VolumeError(f"{path}: no DATASET line; not a legacy VTK unstructured grid")
+    if dataset == "POLYDATA":  # surfaces: the sections' cells in the file's order, typed by section
+        if poly:
+            conn = np.concatenate([c for _, _, c in poly])
+            shift = np.cumsum([0] + [len(c) for _, _, c in poly[:-1]])
+            offsets = np.concatenate([[0]] + [o[1:] + s for (_, o, _), s in zip(poly, shift)])
+            types = np.concatenate([np.full(len(o) - 1, t) for t, o, _ in poly])
+        else:
+            offsets, conn, types = np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64)
     for value, section in ((points, "POINTS"), (conn, "CELLS"), (types, "CELL_TYPES")):
         if value is None:
             raise VolumeError(f"{path}: no {section} section; an unstructured grid needs POINTS, CELLS and "
@@ -535,6 +539,26 @@ def read_legacy(path: Path) -> RawGrid:
     check_cells(path, grid)
     check_arrays(path, grid)
     return grid
+
+
+def _cells_section(path, f: _Legacy, n: int, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """Offsets ``(cells + 1,)`` and connectivity of a cell section: ``n`` counted cells in ``size`` entries
+    (up to 4.2), or ``OFFSETS`` (``n`` entries) and ``CONNECTIVITY`` (``size``) in 5.1."""
+    if f.peek()[:1] and f.peek()[0].upper() == "OFFSETS":
+        kind = f.keyword()
+        offsets = f.values(n, kind[1] if len(kind) > 1 else "?", "OFFSETS").astype(np.int64)
+        kind = f.keyword() or ["?"]
+        if kind[0].upper() != "CONNECTIVITY":
+            raise VolumeError(f"{path}: CONNECTIVITY must follow OFFSETS; the file is damaged")
+        conn = f.values(size, kind[1] if len(kind) > 1 else "?", "CONNECTIVITY").astype(np.int64)
+        if not len(offsets):
+            raise VolumeError(f"{path}: OFFSETS needs one more entry than cells; none given")
+        return offsets, conn
+    return _counted_cells(path, f.values(size, "int", "CELLS").astype(np.int64), n)
+
+
+# POLYDATA sections and the VTK cell type of their cells
+POLYDATA_CELLS = {"VERTICES": 2, "LINES": 4, "POLYGONS": 7, "TRIANGLE_STRIPS": 6}
 
 
 def _counted_cells(path, data: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
