@@ -292,3 +292,25 @@ def test_notch_stress_cells_are_drawn_from_their_corners_not_the_mid_edge_nodes(
     meshio = pytest.importorskip("meshio")
     misread = meshio.read(path).cells[0].data[0]
     assert not np.allclose(grid.points[misread].mean(axis=0), centroid)
+
+
+def test_vtu_cell_arrays_must_be_integers(tmp_path):
+    """A Float32 types array of 10.5 was cast to 10 (a tetrahedron) by meshio; VTK stores them as integers."""
+    text = mi.vtu().replace(b'type="UInt8" Name="types"', b'type="Float32" Name="types"')
+    text = text.replace(b'>10 12 13 14 24<', b'>10.5 12 13 14 24<')
+    with pytest.raises(DvrError, match="types is of type float32; VTK stores it as integers"):
+        load_field(_write(tmp_path, "f.vtu", text))
+
+
+def test_large_meshes_are_checked_against_the_budget_before_splitting(tmp_path):
+    from dvr_gl.sandbox import Sandbox, SandboxError, active
+
+    path = _write(tmp_path, "m.vtk", mi.legacy(binary=True))
+    with active(Sandbox(max_bytes=12_000)), pytest.raises(SandboxError, match="splitting 5 cells into 31 "
+                                                                              "tetrahedra would take"):
+        load_field(path)
+    dims = np.array([3, 3, 3], ">i4").tobytes()
+    _write(tmp_path, "gxyz.bin", dims + np.arange(81, dtype=">f4").tobytes())
+    _write(tmp_path, "gq.bin", dims + np.zeros(4, ">f4").tobytes() + np.ones(135, ">f4").tobytes())
+    with active(Sandbox(max_bytes=20_000)), pytest.raises(SandboxError, match="splitting 8 hexahedra into 96"):
+        read_plot3d(tmp_path / "gxyz.bin")

@@ -183,6 +183,8 @@ def read_plot3d(xyz: Path, q: Path | None = None, array: str | None = None) -> T
         q = guess
     q = Path(q)
     check_input_path(q, "PLOT3D solution file")
+    check_bytes(float(xyz.stat().st_size + q.stat().st_size) * 2.5, f"{xyz.name}: reading the PLOT3D grid and "
+                "solution", "use a smaller grid")
     blob = xyz.read_bytes()
     ni, nj, nk = _dims(blob, xyz)
     n = ni * nj * nk
@@ -204,6 +206,9 @@ def read_plot3d(xyz: Path, q: Path | None = None, array: str | None = None) -> T
         array = "density" if np.ptp(arrays["density"]) > 0 else "energy"
     if array not in arrays:
         raise VolumeError(f"{q}: no array {array!r}; PLOT3D solutions have {', '.join(PLOT3D_ARRAYS)}")
+    cells = (ni - 1) * (nj - 1) * (nk - 1)
+    check_bytes(cells * 12.0 * BYTES_PER_TET + (n + cells) * float(BYTES_PER_POINT),
+                f"{xyz.name}: splitting {cells} hexahedra into {12 * cells} tetrahedra", "use a smaller grid")
     hexes = hexahedra_of_grid(ni, nj, nk)
     if iblank is not None:
         hexes = hexes[(iblank[hexes] != 0).all(axis=1)]

@@ -352,9 +352,8 @@ def _piece(path, data: _VtuData, piece, index: int) -> RawGrid:
     if "faces" in cells or "faceoffsets" in cells:
         raise VolumeError(f"{path}: polyhedron cells (faces) cannot be rendered; dvr-gl takes tetrahedra, "
                           "hexahedra, wedges, pyramids and quadratic tetrahedra")
-    conn = data.read(cells["connectivity"], "connectivity").astype(np.int64)
-    ends = data.read(cells["offsets"], "offsets").astype(np.int64)
-    types = data.read(cells["types"], "types").astype(np.int64)
+    conn, ends, types = (_indices(path, data.read(cells[name], name), name)
+                         for name in ("connectivity", "offsets", "types"))
     if len(ends) != n_cells or len(types) != n_cells:
         raise VolumeError(f"{path}: {where}: {len(ends)} offsets and {len(types)} types for NumberOfCells="
                           f"{n_cells}; the counts must agree")
@@ -370,6 +369,16 @@ def _piece(path, data: _VtuData, piece, index: int) -> RawGrid:
             arrays[name] = values.reshape(n, k) if k > 1 else values
     check_cells(path, out)
     return out
+
+
+def _indices(path, values: np.ndarray, what: str) -> np.ndarray:
+    """An array of indices, counts or types: of an integer type (a float 10.5 is no cell type), as int64."""
+    if values.dtype.kind not in "iu":
+        raise VolumeError(f"{path}: {what} is of type {values.dtype.name}; VTK stores it as integers (the file is "
+                          "damaged)")
+    if values.dtype == np.uint64 and len(values) and values.max() > np.iinfo(np.int64).max:
+        raise VolumeError(f"{path}: {what} holds {int(values.max())}, past any index; the file is damaged")
+    return values.astype(np.int64)
 
 
 def _join(path, parts: list[RawGrid]) -> RawGrid:
