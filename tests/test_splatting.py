@@ -518,3 +518,53 @@ def test_low_pass_only_for_gaussian_kernels(extra):
     scene = small_scene({**GAUSSIAN, "renderer.screen_low_pass": 1.0, **extra})
     reason = registry.refusal(scene, "splatting")
     assert reason is not None and "screen_low_pass" in reason and "\n" not in reason
+
+
+# --- bounds: the work estimate, the settings' ranges, progress ------------------------------------------
+
+@pytest.mark.parametrize("extra, words", [
+    ({"renderer.slab_width": 1e-5}, "raise renderer.slab_width"),  # was over 60 s, silently
+    ({"renderer.kernel_width": 1e6}, "use at most 32"),  # was an internal error
+    ({"renderer.kernel_width": 20.0}, "splat fragments"),  # 100 ghost layers: over the bound
+])
+def test_what_would_take_hours_is_refused_in_one_line(splatting, extra, words):
+    from dvr_gl.errors import SceneError
+
+    scene = small_scene({**GAUSSIAN, **extra})
+    with pytest.raises(SceneError, match=words) as caught:
+        splatting.render(scene)
+    assert "\n" not in str(caught.value)
+
+
+def test_the_work_estimate_grows_with_slabs_and_size():
+    """The estimate counts footprints, instances and sheets: thinner slabs and larger images cost more,
+    a particle set's count its particles'."""
+    from dvr_gl.renderers.splatting.work import splat_work
+
+    base = splat_work(small_scene(GAUSSIAN)).count
+    assert splat_work(small_scene({**GAUSSIAN, "renderer.slab_width": 0.25})).count > 3 * base
+    assert splat_work(small_scene({**GAUSSIAN, "image.width": 64, "image.height": 64})).count > base
+    assert splat_work(small_scene({**GAUSSIAN, "renderer.slab_width": 1e9})).count < base
+    particles = small_scene({"volume.demo": "plummer", "renderer.name": "splatting", "volume.size": 16})
+    work = splat_work(particles)
+    assert work.unit == "splat fragments" and f"{len(particles.field):.3g} particles" in work.how
+
+
+@pytest.mark.parametrize("extra", [{}, {"renderer.slabs_per_draw": 3},
+                                   {"renderer.classification": "pre", "renderer.sheet_buffer": "none"}])
+def test_a_long_frame_reports_progress(splatting, monkeypatch, extra):
+    """Above STEP_SECONDS of estimated work a frame reports each sheet (or each part of an unsheeted
+    draw) to the progress bar, and the image is the one drawn without reporting."""
+    from dvr_gl.renderers.splatting import renderer as module
+
+    scene = small_scene({**GAUSSIAN, **OPAQUE_TF, "volume.size": 16, "image.width": 24, "image.height": 24, **extra})
+    quiet = splatting.render(scene)
+    steps = []
+    monkeypatch.setattr(module, "STEP_SECONDS", 1e-9)
+    splatting.progress = lambda done, total: steps.append((done, total))
+    try:
+        image = splatting.render(scene)
+    finally:
+        splatting.progress = None
+    assert len(steps) > 3 and steps[-1][0] == steps[-1][1] and [d for d, _ in steps] == sorted(d for d, _ in steps)
+    np.testing.assert_allclose(image, quiet, atol=1e-6)

@@ -61,6 +61,11 @@ def check(scene):
         raise SceneError(f"splatting splats a "
                          f"{'grid with the gaussian or cubic_bspline' if grid else 'particle set with its m4'} "
                          f"kernel; set renderer.filter = {kernels[0]} (got {r.filter})")
+    if grid and r.filter == "gaussian" and not r.kernel_width <= max(scene.volume.dims):
+        largest = max(scene.volume.dims)
+        raise SceneError(f"renderer.kernel_width = {r.kernel_width:g} voxels is wider than the volume ({largest} "
+                         f"voxels along its longest axis), whose field would be flat; splatting pads the grid with "
+                         f"border copies as far as the kernel reaches: use at most {largest}")
     if r.screen_low_pass > 0 and r.filter != "gaussian":
         raise SceneError("renderer.screen_low_pass widens Gaussian footprints (EWA); set renderer.filter = "
                          "gaussian, or screen_low_pass = 0"

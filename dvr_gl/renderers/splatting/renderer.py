@@ -11,10 +11,12 @@ slab.  Coordinates are relative to the box's centre (float32 keeps its precision
 from __future__ import annotations
 
 import functools
+import math
 
 import moderngl
 import numpy as np
 
+from ... import limits
 from ...clipping import ClipRegion
 from ...gl.shaders import create_program
 from ...model import GAUSSIAN_RADIUS
@@ -39,6 +41,13 @@ from .sheets import (
     slab_schedule,
 )
 from .splats import Splats, ghost_layers, post_visibility
+from .work import splat_work
+
+# A frame estimated to take longer than this (seconds, at limits.RATES) reports its progress: per sheet, or,
+# without sheets, in draws of about this much work (at most MAX_STEPS): Ctrl-C and a sandbox's timer stop it
+# between them.
+STEP_SECONDS = 0.25
+MAX_STEPS = 256
 
 
 @functools.lru_cache(maxsize=1)
@@ -123,6 +132,16 @@ class Occlusion:
 
 class SplattingRenderer(GLVolumeRenderer):
     name = "splatting"
+
+    def work(self, scene):
+        """Fragments of footprints, instances and sheets (:mod:`.work`), checked before the frame."""
+        return splat_work(scene)
+
+    def _steps(self, scene) -> int:
+        """Draws to split an unsheeted frame into, for progress: about :data:`STEP_SECONDS` of estimated
+        work each (at most :data:`MAX_STEPS`)."""
+        seconds = limits.estimated_seconds(splat_work(scene))
+        return int(min(MAX_STEPS, max(1, math.ceil(seconds / STEP_SECONDS))))
 
     def draw(self, scene) -> np.ndarray:
         """The frame; with ``[[renderer.geometry]]`` the meshes are drawn first (:mod:`..surfaces`),
@@ -260,8 +279,14 @@ class SplattingRenderer(GLVolumeRenderer):
             ctx.enable(moderngl.BLEND)
             ctx.blend_func = (moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA) if over else (moderngl.ONE, moderngl.ONE)
             vao = self._splat_vao(program, buffers)
-            if count:
-                self._draw_splats(vao, program, buffers, 0, count)
+            steps = self._steps(scene) if count else 0
+            edges = np.linspace(0, count, steps + 1).round().astype(int)
+            for step, (a, b) in enumerate(zip(edges[:-1], edges[1:])):  # in upload order: the back-to-front order kept
+                if b > a:
+                    self._draw_splats(vao, program, buffers, int(a), int(b - a))
+                if steps > 1:
+                    ctx.finish()
+                    self.report(step + 1, steps)
             vao.release()
             ctx.disable(moderngl.BLEND)
             image = self.read(fbo, w, h).astype(np.float64)
@@ -320,6 +345,13 @@ class SplattingRenderer(GLVolumeRenderer):
             quad.render(moderngl.TRIANGLES, vertices=3)
 
         size = r.slabs_per_draw if grouped else 1  # slabs drawn at once
+        long_frame = self._steps(scene) > 1
+
+        def progress(done: int):
+            """A long frame tells its sheets' progress (and stops there at Ctrl-C or the time limit)."""
+            if long_frame:
+                ctx.finish()
+                self.report(done, sheet_count)
         if grouped:
             group_textures, group_fbo = self.target("sheet group", w, h, components=(4,) * size)
         try:
@@ -341,12 +373,14 @@ class SplattingRenderer(GLVolumeRenderer):
                                                              "u_group": bounds}, textures, draw)
                     for offset in range(len(group)):
                         composite(start + offset, group_textures[offset])
+                    progress(start + len(group))
                     continue
                 drawn += self._fill(ring[start % len(ring)][1], program, {**uniforms, **group[0][0]}, textures, draw)
                 if not shaded:
                     composite(start)
                 elif start > 0:
                     composite(start - 1)
+                progress(start + 1)
             if shaded and schedule:
                 composite(len(schedule) - 1)
         finally:

@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from ...fields.ragged import ranges
 from ...gl.geometry import box_corners
 from ...model import CLASSIFIED_ALONG_RAY, GAUSSIAN_RADIUS
 from ...reference.plans import stack_axis
@@ -122,10 +123,53 @@ def axis_schedule(scene, splats, centre):
 def slab_bounds(scene, eye, forward) -> np.ndarray:
     """The image-aligned slabs' view depths over the box (from the near plane); ``eye`` in world
     coordinates."""
+    return slabs(*_slab_span(scene, eye, forward))
+
+
+def _slab_span(scene, eye, forward) -> tuple[float, float, float]:
+    """``(first depth, last depth, slab width)`` of the image-aligned slabs, world units."""
     lo, hi = scene.field.bounds
     depths = (box_corners(lo, hi) - eye) @ forward
     width = scene.renderer.slab_width * scene.field.sample_spacing
-    return slabs(max(float(depths.min()), scene.camera.near), float(depths.max()), width)
+    return max(float(depths.min()), scene.camera.near), float(depths.max()), width
+
+
+def _slab_runs(scene, depth: np.ndarray, reach: float):
+    """``(start, width, count, a, b)``: the slabs from depth ``start`` of ``width`` (``count`` of them over
+    the box) and the runs ``a[i] .. b[i]`` of those a splat reaches (view depths ``depth`` of the centres,
+    every kernel within ``reach`` of its own)."""
+    cam = scene.camera
+    start, end, width = _slab_span(scene, np.asarray(cam.eye, float), cam.basis()[0])
+    count = max(math.ceil((end - start) / width - 1e-9), 1) if math.isfinite((end - start) / width) else math.inf
+    depth = np.sort(np.asarray(depth, float))
+    first = np.clip(np.floor((depth - reach - start) / width), 0, count - 1)
+    last = np.clip(np.floor((depth + reach - start) / width), 0, count - 1)
+    reached = np.maximum.accumulate(last)  # a run ends where the next splat starts past all reached so far
+    new = np.r_[True, first[1:] > reached[:-1] + 1] if len(depth) else np.zeros(0, bool)
+    return start, width, count, first[new], reached[np.r_[np.nonzero(new)[0][1:] - 1, len(depth) - 1]] \
+        if len(depth) else np.zeros(0)
+
+
+def occupied_slab_count(scene, depth: np.ndarray, reach: float) -> float:
+    """How many slabs :func:`occupied_slabs` gives (without making them): those reached, and one for each
+    stretch between (a float: it may be huge)."""
+    _, _, count, a, b = _slab_runs(scene, depth, reach)
+    if not len(a):
+        return 1.0
+    gaps = float(a[0] > 0) + float(b[-1] < count - 1) + float(np.count_nonzero(a[1:] > b[:-1] + 1))
+    return float((b - a + 1).sum()) + gaps
+
+
+def occupied_slabs(scene, depth: np.ndarray, reach: float) -> np.ndarray:
+    """Particles' slab boundaries: :func:`slab_bounds`' slabs where a splat reaches, each run of slabs that
+    none reaches merged into one (see :func:`_slab_runs`).  The field is zero all along such a run, so it
+    composites the same cut or whole (a homogeneous stretch); a particle 1e17 away from the rest then costs
+    its own slabs, not 1e17 of them.  Boundaries closer than float64 tells apart are merged too (no slab of
+    zero depth)."""
+    start, width, count, a, b = _slab_runs(scene, depth, reach)
+    edges = ranges(a, (b - a + 2).astype(np.int64))  # each run's slabs' boundaries
+    edges = np.unique(np.r_[0.0, edges, float(count)])
+    return np.unique(start + width * edges)
 
 
 def slab_schedule(scene, depth: np.ndarray, reach: float | None = None):
@@ -135,9 +179,11 @@ def slab_schedule(scene, depth: np.ndarray, reach: float | None = None):
     cam = scene.camera
     forward = cam.basis()[0]
     order = np.argsort(depth, kind="stable")
-    bounds = slab_bounds(scene, np.asarray(cam.eye, float), forward)  # depths: the same from any origin
-    if reach is None:
+    if reach is None:  # a grid: its kernels reach every slab across it
         reach = kernel_depth_reach(scene, forward)
+        bounds = slab_bounds(scene, np.asarray(cam.eye, float), forward)  # depths: the same from any origin
+    else:
+        bounds = occupied_slabs(scene, depth, reach)
     sorted_depth = depth[order]
     first = np.searchsorted(sorted_depth, bounds[:-1] - reach, side="left")
     last = np.searchsorted(sorted_depth, bounds[1:] + reach, side="right")
