@@ -200,6 +200,11 @@ def test_malformed_tables_are_refused_in_one_line(tmp_path, text, message):
         load_field(path)
 
 
+def test_a_csv_table_with_a_byte_order_mark_and_crlf_reads(tmp_path):
+    (tmp_path / "p.csv").write_bytes("\ufeffx,y,z,h,m\r\n0,0,0,1,1\r\n1,0,0,1,1\r\n".encode())
+    assert len(load_field(tmp_path / "p.csv")) == 2
+
+
 def test_a_large_csv_table_is_read_by_numpy(tmp_path):
     """A regular table goes through numpy's parser (the csv module took 8 s for 400k particles; checked here
     as the same particles from both paths), a quoted one through the csv module."""
@@ -549,3 +554,36 @@ def test_cli_refuses_an_hdf5_escape_under_the_sandbox(tmp_path, capsys):
                  "--size", "16"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "virtual dataset" in err[0] and not out.exists()
+
+
+@pytest.mark.parametrize("classification", ["post", "pre"])
+def test_slabs_no_particle_reaches_are_merged(splatting, classification):
+    """Two clusters far apart along the view: the slabs between them are one (the field is zero all along),
+    and the image is the same-slabs reference's, whose slabs are all cut (a homogeneous stretch composites
+    the same cut or whole; the transfer function is opaque at zero, so the stretch counts)."""
+    from dvr_gl.renderers.splatting.sheets import occupied_slabs, slab_bounds
+
+    a = plummer_sphere(60, scale=1.0, cut=2.0, eta=2.0, total_mass=100.0, seed=1)
+    positions = np.r_[a.positions, a.positions + [0.0, 0.0, 60.0]]
+    twice = ParticleSet(positions, np.tile(a.smoothing_lengths, 2), np.tile(a.masses, 2), np.tile(a.densities, 2))
+    tf = [[0.0, 0.2, 0.2, 0.2, 0.02], [0.5, 0.9, 0.6, 0.2, 0.4], [1.0, 1.0, 1.0, 1.0, 0.9]]
+    scene = scene_of(twice, {"image.width": 24, "image.height": 24, "renderer.ert_threshold": 1.0,
+                             "renderer.shading.enabled": False, "transfer_function.points": tf,
+                             "transfer_function.opacity_model": "extinction", "camera.elevation": 80.0,
+                             "renderer.classification": classification})
+    cam = scene.camera
+    forward = cam.basis()[0]
+    depth = (twice.positions - cam.eye) @ forward
+    merged = occupied_slabs(scene, depth, float(2 * twice.smoothing_lengths.max()))
+    assert len(merged) < len(slab_bounds(scene, np.asarray(cam.eye, float), forward)) - 20
+    assert_close(splatting.render(scene), same_slabs(scene))
+
+
+def test_a_particle_far_away_renders(splatting, tmp_path):
+    """A particle 1e17 from the rest: a few slabs (not 1e17 of them), a finite image."""
+    p = plummer_sphere(50, seed=5)
+    positions = np.r_[p.positions, [[1e17, 0.0, 0.0]]]
+    far = ParticleSet(positions, np.r_[p.smoothing_lengths, 1.0], np.r_[p.masses, 1.0], np.r_[p.densities, 1.0])
+    scene = scene_of(far, {"image.width": 16, "image.height": 16, "renderer.shading.enabled": False})
+    image = splatting.render(scene)
+    assert np.isfinite(image).all() and splatting.stats["sheets"] < 1000

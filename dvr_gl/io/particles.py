@@ -135,7 +135,7 @@ def _read_csv(path: Path, array: str | None) -> ParticleSet:
     the csv module took 8 s); on any complaint the csv module reads it again, line by line, to name the
     line at fault."""
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark (spreadsheets write one) is no name
     except UnicodeDecodeError:
         raise VolumeError(f"{path}: not a text CSV file (not UTF-8); a particle table is CSV with a header "
                           "row") from None
