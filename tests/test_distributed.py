@@ -313,3 +313,13 @@ def test_a_scheduler_by_its_address_passes_the_probe_and_results_arrive():
         with connect(lc.scheduler_address) as client:
             future = client.submit(lambda: time.sleep(0.5) or 3, pure=False)
             assert results(client, [future], timeout=0.2) == [3]
+
+
+def test_a_local_cluster_larger_than_the_machine_is_refused_before_it_starts():
+    """local:100000 would start as many processes (a GL context each)."""
+    import os
+
+    with pytest.raises(DvrError) as e:
+        with connect("local:100000"):
+            pass
+    assert f"over {4 * (os.cpu_count() or 1)}" in one_line(e)

@@ -40,6 +40,7 @@ def connect(dask):
         n = int(local.group(1))
         if n < 1:
             raise DvrError(f"--dask {dask}: a local cluster needs at least 1 worker")
+        check_local_workers(n, dask)
         # processes (one GL context each), one thread each: the renderer holds its process's context;
         # another cluster's HTTP port taken is no news to the user (this one takes another)
         warnings.filterwarnings("ignore", message="Port .* is already in use", category=UserWarning)
@@ -57,6 +58,25 @@ def connect(dask):
                        f"local:N") from None
     with client:
         yield client
+
+
+#: Local workers per core at most, and the memory each takes (a Python process with numpy, Dask and a GL
+#: context: 200-300 MB measured), counted against the memory budget.
+WORKERS_PER_CORE = 4
+WORKER_BYTES = 256 << 20
+
+
+def check_local_workers(n: int, dask: str) -> None:
+    """Refuse, before any process starts, a local cluster of more workers than the machine can hold."""
+    import os
+
+    from ..sandbox import check_bytes
+
+    most = WORKERS_PER_CORE * (os.cpu_count() or 1)
+    if n > most:
+        raise DvrError(f"--dask {dask}: {n} local workers, over {most} ({WORKERS_PER_CORE} per core of this "
+                       f"machine); use fewer, or a scheduler's address for a larger cluster")
+    check_bytes(n * WORKER_BYTES, f"--dask {dask}: {n} local worker processes", "use fewer workers")
 
 
 #: Seconds every exchange with a scheduler may take (connecting, its handshake, its identity, and between
