@@ -291,6 +291,11 @@ def frame_paths(output: Path, frames: int | None) -> list[Path]:
     return [output.with_name(f"{output.stem}_{i:04d}{output.suffix}") for i in range(frames)]
 
 
+def _staged_name(path: Path) -> Path:
+    """A hidden temporary name beside ``path`` for a frame of a sequence, with its suffix (the format)."""
+    return path.with_name(f".{path.stem}.{os.getpid()}.partial{path.suffix}")
+
+
 def sandbox_of(args) -> Sandbox:
     """The limits the sandbox flags ask for (none given: the unbounded default)."""
     memory = parse_bytes(args.max_memory) if args.max_memory is not None else None
@@ -343,6 +348,7 @@ def render(args) -> int:
                            "workers; render scenes you did not write without --dask")
     renderer = create_renderer(scene.renderer.name)
     start = time.perf_counter()
+    staged = []  # a sequence's frames under temporary names, renamed into place once every frame is drawn
     try:
         with contextlib.ExitStack() as stack:
             sink = stack.enter_context(Movie(outputs[0], count, args.fps, args.overwrite)) if movie else None
@@ -366,6 +372,9 @@ def render(args) -> int:
                               scene.renderer.name).needs_gl else "")
                 if sink is not None:
                     sink.add(image)
+                elif len(outputs) > 1:  # a run stopped at frame k (the time limit, Ctrl-C) leaves no frames
+                    staged.append((_staged_name(outputs[i]), outputs[i]))
+                    write_image(staged[-1][0], image, True)
                 else:
                     write_image(outputs[i], image, args.overwrite)
                 if renderer.stats.get("converged") is False:
@@ -373,8 +382,14 @@ def render(args) -> int:
                                 f"frame {i}" if movie else outputs[i], scene.renderer.converged_tolerance)
                 if args.frames is not None:
                     step(i + 1)
+        for temporary, final in staged:
+            os.replace(temporary, final)
+        staged.clear()
     finally:
         renderer.close()  # also on Ctrl-C (exit 130): the GL context is released, nothing was written
+        for temporary, _ in staged:
+            with contextlib.suppress(OSError):
+                temporary.unlink()
     rendered = time.perf_counter() - start
     if args.save_scene:
         scene_path = Path(args.save_scene)

@@ -370,3 +370,27 @@ def test_pyramid_into_a_folder_that_cannot_be_written_is_one_line(tmp_path, caps
     monkeypatch.setattr(pyramid, "write_pyramid", refused)
     code, _, err = run(capsys, "pyramid", volume, tmp_path / "p.zarr")
     assert_one_line_error(code, err, "cannot write the pyramid (No such file or directory)")
+
+
+def test_a_sequence_stopped_part_way_leaves_no_frames(tmp_path, capsys, monkeypatch):
+    """Frames of a sequence are renamed into place only when all are drawn: a time limit (or any error) at
+    frame 2 leaves neither frames 0 and 1 nor temporary files (it left a half sequence with exit 1)."""
+    from dvr_gl.apps import render as render_cmd
+    from dvr_gl.errors import DvrError
+
+    real, calls = render_cmd.composite_over, []
+
+    def stop_at_the_third(*args):
+        calls.append(1)
+        if len(calls) == 3:
+            raise DvrError("stopped at frame 2")
+        return real(*args)
+
+    monkeypatch.setattr(render_cmd, "composite_over", stop_at_the_third)
+    code, _, err = run(capsys, "render", "-q", "--demo", "-o", tmp_path / "seq.png", "--frames", "4", *SMALL)
+    assert_one_line_error(code, err, "stopped at frame 2")
+    assert list(tmp_path.iterdir()) == []
+    calls.clear()
+    monkeypatch.setattr(render_cmd, "composite_over", real)
+    code, _, err = run(capsys, "render", "--demo", "-o", tmp_path / "seq.png", "--frames", "2", *SMALL)
+    assert code == 0 and sorted(p.name for p in tmp_path.iterdir()) == ["seq_0000.png", "seq_0001.png"]
