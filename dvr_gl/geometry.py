@@ -61,6 +61,8 @@ def _read(path: str, size: int, mtime: int) -> TriangleMesh:
                 "use a smaller mesh (fewer triangles)")
     if path.lower().endswith((".vtk", ".vtu")):
         points, faces = _vtk_faces(path)
+    elif path.lower().endswith(".obj"):
+        points, faces = _obj_faces(path)
     else:
         points, faces = _meshio_faces(path)
     triangles = np.concatenate(faces) if faces else np.zeros((0, 3), np.int64)
@@ -68,16 +70,61 @@ def _read(path: str, size: int, mtime: int) -> TriangleMesh:
         raise SceneError(f"renderer.geometry: {name} has no triangles, quadrilaterals or polygons")
     if triangles.min() < 0 or triangles.max() >= len(points):
         raise SceneError(f"renderer.geometry: {name} has faces that name missing points")
-    if not np.isfinite(points[np.unique(triangles)]).all():
+    used = points[np.unique(triangles)]
+    if not np.isfinite(used).all():
         raise SceneError(f"renderer.geometry: {name} has points that are not finite (NaN or Inf)")
+    from .settings import WORLD_RANGE
+
+    reach = float(np.abs(used).max())
+    if reach > WORLD_RANGE[1]:  # beyond, the float64 test's products overflow (and float32 GL's)
+        raise SceneError(f"renderer.geometry: {name} has points {reach:.3g} world units from the origin, beyond "
+                         f"{WORLD_RANGE[1]:g}; rescale or move the mesh")
     return TriangleMesh(points, triangles, name)
+
+
+def _obj_faces(path: str):
+    """Points and triangle blocks of a Wavefront OBJ file: ``v x y z`` and ``f`` lines (``i``, ``i/t``,
+    ``i//n``, ``i/t/n``; negative indices count back from the last vertex so far, as the format says,
+    which meshio misread as missing points); other statements are ignored."""
+    name = os.path.basename(path)
+    with open(path, "rb") as f:
+        text = f.read().replace(b"\\\r\n", b" ").replace(b"\\\n", b" ")  # continued lines joined
+    vertices, faces = [], {}
+    for number, line in enumerate(text.splitlines(), 1):
+        words = line.split()
+        if not words or words[0] not in (b"v", b"f"):
+            continue
+        try:
+            if words[0] == b"v":
+                if len(words) < 4:
+                    raise ValueError("a vertex needs x, y and z")
+                vertices.append((float(words[1]), float(words[2]), float(words[3])))
+                continue
+            corners = []
+            for word in words[1:]:
+                i = int(word.split(b"/")[0])
+                if i == 0 or not -len(vertices) <= i <= 2**62:
+                    raise ValueError(f"vertex {i} (of {len(vertices)} so far)")
+                corners.append(i - 1 if i > 0 else len(vertices) + i)
+        except ValueError as exc:
+            raise SceneError(f"renderer.geometry: {name}, line {number}: {line.decode('latin-1')[:40]!r} is not a "
+                             f"vertex or face ({exc}); fix the OBJ file") from None
+        if len(corners) >= 3:
+            faces.setdefault(len(corners), []).append(corners)
+    points = np.array(vertices, dtype=np.float64).reshape(-1, 3)
+    blocks = []
+    for n, cells in faces.items():  # fans from the first corner
+        cells = np.array(cells, dtype=np.int64)
+        blocks += [cells[:, [0, k, k + 1]] for k in range(1, n - 1)]
+    return points, blocks
 
 
 READABLE = "give an OBJ, PLY or STL file, or a VTK file (.vtk, .vtu) of surface cells"
 
 
 def _meshio_faces(path: str):
-    """Points and triangle blocks of an OBJ, PLY or STL file read by meshio (a PLY header checked first:
+    """Points and triangle blocks of a PLY or STL file (or another format meshio knows) read by meshio (a
+    PLY header checked first:
     meshio loops forever on one cut short, and for every face an ``element face`` count claims)."""
     try:
         import meshio

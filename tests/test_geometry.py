@@ -544,3 +544,26 @@ def test_vtk_surfaces_are_read_strictly_polydata_included(tmp_path):
     good = tmp_path / "surface2.vtu"
     good.write_bytes(mi.vtu("zlib", cells=tri, cell_values=[1.0, 2.0]))
     assert read_mesh(good).triangles.tolist() == [[0, 1, 2], [0, 1, 2], [0, 2, 3]]
+
+
+def test_obj_relative_indices_and_far_points(tmp_path):
+    """OBJ's negative indices count back from the last vertex (meshio made them 'missing points', a
+    valid file refused); points beyond the world range (1e18) are refused, as the volume's are: the
+    float64 test's products overflow there."""
+    rel = tmp_path / "rel.obj"
+    rel.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\nv 1 1 0\nf 2/1/1 -1//2 3\n")
+    assert read_mesh(rel).triangles.tolist() == [[0, 1, 2], [1, 3, 2]]
+    for text, words in (("v 1e300 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\n", r"1e\+300 world units from the origin"),
+                        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n", "line 4: 'f 1 2 0' is not a vertex or face"),
+                        ("v 0 0\nf 1 1 1\n", "line 1: 'v 0 0' is not a vertex")):
+        bad = tmp_path / "bad.obj"
+        bad.write_text(text)
+        geometry_cache_clear()
+        with pytest.raises(DvrError, match=words):
+            read_mesh(bad)
+
+
+def geometry_cache_clear():
+    from dvr_gl import geometry
+
+    geometry._read.cache_clear()

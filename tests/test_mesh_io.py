@@ -314,3 +314,12 @@ def test_large_meshes_are_checked_against_the_budget_before_splitting(tmp_path):
     _write(tmp_path, "gq.bin", dims + np.zeros(4, ">f4").tobytes() + np.ones(135, ">f4").tobytes())
     with active(Sandbox(max_bytes=20_000)), pytest.raises(SandboxError, match="splitting 8 hexahedra into 96"):
         read_plot3d(tmp_path / "gxyz.bin")
+
+
+@pytest.mark.parametrize("scale, words", [(1e300, "points lie 2e.300 world units from the origin"),
+                                          (1e-300, "the mesh spans 2e-300 world units, below 1e-18")])
+def test_meshes_beyond_the_world_range_are_refused(tmp_path, scale, words):
+    """A mesh at 1e300 or 1e-300: its volumes over- or underflow, and every cell was 'of zero volume'
+    (or, with one far point, the cells touching it were left out without a word)."""
+    with pytest.raises(DvrError, match=words):
+        load_field(_write(tmp_path, "far.vtk", mi.legacy(points=mi.POINTS * scale)))

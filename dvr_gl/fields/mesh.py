@@ -54,6 +54,7 @@ class TetMesh:
                               "coordinates; fix the file")
         if tets.min() < 0 or tets.max() >= len(points):
             raise VolumeError(f"{name}: cells refer to points outside 0..{len(points) - 1}; the file is corrupt")
+        check_reach(name, points[np.unique(tets)])
         expected = len(points) if association == "point" else len(tets)
         if len(values) != expected:
             raise VolumeError(f"{name}: array {array!r} has {len(values)} values for {expected} "
@@ -117,6 +118,23 @@ class TetMesh:
     @functools.cached_property
     def _reconstruction(self) -> "MeshReconstruction":
         return MeshReconstruction(self)
+
+
+def check_reach(name: str, used: np.ndarray) -> None:
+    """The points the cells use lie within the world range (:data:`dvr_gl.settings.WORLD_RANGE`) and
+    span more than its least length: beyond it the volumes and edge lengths that judge degenerate
+    cells overflow or underflow (a point at 1e300 made every cell touching it 'of zero volume', left
+    out without a word; a mesh scaled by 1e-300 was 'all zero volume')."""
+    from ..settings import WORLD_RANGE
+
+    small, large = WORLD_RANGE
+    reach = float(np.abs(used).max())
+    if reach > large:
+        raise VolumeError(f"{name}: points lie {reach:.3g} world units from the origin, beyond {large:g}; rescale "
+                          "or move the mesh")
+    span = float(np.ptp(used, axis=0).max())
+    if 0 < span < small:
+        raise VolumeError(f"{name}: the mesh spans {span:.3g} world units, below {small:g}; rescale it")
 
 
 def max_edge_squared(corners: np.ndarray) -> np.ndarray:
