@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 import traceback
 import warnings
@@ -52,13 +53,22 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+# Negative numbers argparse takes for flags (it knows -1 and -.5 only): -1e3, -2.5E-4, -inf, -nan.
+_NEGATIVE_NUMBER = re.compile(r"-(?:(?:\d+\.?\d*|\.\d+)e[+-]?\d+|inf(?:inity)?|nan)", re.IGNORECASE)
+
+
 def joined_negative_axes(argv) -> list[str]:
-    """``--up -z`` as ``--up=-z``: argparse takes a value that starts with ``-`` for a flag."""
+    """``--up -z`` as ``--up=-z``, and ``--rescale-intercept -1e3`` as ``--rescale-intercept=-1e3``: argparse
+    takes a value that starts with ``-`` for a flag (unless it looks like -1 or -.5)."""
     args, out = [str(a) for a in argv], []
     i = 0
     while i < len(args):
         if args[i] == "--up" and i + 1 < len(args) and args[i + 1].lower() in ("-x", "-y", "-z"):
             out.append(f"--up={args[i + 1]}")
+            i += 2
+        elif args[i].startswith("--") and "=" not in args[i] and i + 1 < len(args) and \
+                _NEGATIVE_NUMBER.fullmatch(args[i + 1]):
+            out.append(f"{args[i]}={args[i + 1]}")
             i += 2
         else:
             out.append(args[i])

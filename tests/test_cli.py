@@ -394,3 +394,19 @@ def test_a_sequence_stopped_part_way_leaves_no_frames(tmp_path, capsys, monkeypa
     monkeypatch.setattr(render_cmd, "composite_over", real)
     code, _, err = run(capsys, "render", "--demo", "-o", tmp_path / "seq.png", "--frames", "2", *SMALL)
     assert code == 0 and sorted(p.name for p in tmp_path.iterdir()) == ["seq_0000.png", "seq_0001.png"]
+
+
+def test_negative_numbers_in_scientific_notation_are_values_not_flags():
+    """argparse takes -1e3 or -inf for a flag ("expected one argument"); they reach the flag's own check."""
+    from dvr_gl.apps.cli import joined_negative_axes
+
+    assert joined_negative_axes(["--rescale-intercept", "-1e3", "--azimuth", "-inf", "--up", "-z", "--fov", "-1"]) \
+        == ["--rescale-intercept=-1e3", "--azimuth=-inf", "--up=-z", "--fov", "-1"]
+    assert joined_negative_axes(["--set", "a=1", "-q"]) == ["--set", "a=1", "-q"]
+
+
+def test_a_huge_negative_rescale_intercept_names_the_flag(tmp_path, capsys):
+    code, _, err = run(capsys, "render", "--demo", "-o", tmp_path / "x.png", *SMALL, "--transfer-function", "ct-bone",
+                       "--rescale-intercept", "-1e300")
+    assert_one_line_error(code, err, "(--rescale-intercept)", "within +-1e+12")
+    assert "points" not in err
