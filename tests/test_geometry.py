@@ -567,3 +567,25 @@ def geometry_cache_clear():
     from dvr_gl import geometry
 
     geometry._read.cache_clear()
+
+
+def test_the_gl_surface_layer_counts_its_fragments_against_the_work_bound(tmp_path, gl_context, monkeypatch):
+    """Every renderer that takes geometry estimates it: the host test its ray-triangle pairs, the GL layer
+    the pixels of its triangles' boxes (huge or countless triangles refused in one line, naming them)."""
+    from dvr_gl import limits
+    from dvr_gl.renderers.base import create_renderer
+
+    scene = load_scene(None, {**TILTED, "renderer.name": "raycast", "renderer.geometry": _tilted(tmp_path)})
+    monkeypatch.setitem(limits.BOUNDS, "gpu samples", 100.0)  # the layer: 3 triangles, boxes of 190 pixels
+    monkeypatch.setattr(limits, "check_work", _only_layers(limits.check_work))
+    with create_renderer("raycast", ctx=gl_context) as renderer, \
+            pytest.raises(DvrError, match=r"raycast would take .* gpu samples \(3 triangles covering about"):
+        renderer.render(scene)
+
+
+def _only_layers(check):
+    """limits.check_work for the surface layer's work only (the volume's samples pass)."""
+    def checked(work, name):
+        if work is not None and "triangles covering" in work.how:
+            check(work, name)
+    return checked

@@ -9,6 +9,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from .. import limits
 from ..geometry import over_surface, scene_meshes
 from ..gl.context import make_current
 from ..gl.geometry import box_corners, clip_planes, gl_matrix, projection_matrix, view_matrix
@@ -32,11 +33,32 @@ def check_layer_memory(meshes, image) -> None:
                 f"drawing {triangles} triangles (renderer.geometry)", "use a smaller mesh (fewer triangles)")
 
 
+def layer_work(positions: np.ndarray, view_projection: np.ndarray, image) -> "limits.Work":
+    """The rasterizer's work for the triangles ``positions`` ``(3T, 3)``: each triangle's box on the image
+    in pixels (the whole image where a corner lies behind the eye, none where all do), plus one for its setup, in the GL
+    renderers' unit (fragments are samples of the same cost on llvmpipe).  Only huge or many large
+    triangles come near the bound (327k small ones at 256x256: about 1e6)."""
+    clip = np.concatenate([positions, np.ones((len(positions), 1))], axis=1) @ view_projection.T
+    w = clip[:, 3].reshape(-1, 3)
+    size = np.array([image.width, image.height], dtype=np.float64)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        pixel = ((clip[:, :2] / clip[:, 3:4] + 1.0) * 0.5 * size).reshape(-1, 3, 2)
+        lo = np.clip(np.floor(pixel.min(axis=1)), 0, size)
+        hi = np.clip(np.ceil(pixel.max(axis=1)), 0, size)
+    area = np.prod(np.maximum(hi - lo, 0.0), axis=1)
+    area = np.where((w > 0).all(axis=1) & np.isfinite(area), area, size.prod())
+    area = np.where((w <= 0).all(axis=1), 0.0, area)  # wholly behind the eye: clipped away
+    triangles = len(area)
+    return limits.Work(float(area.sum()) + triangles, "gpu samples",
+                       f"{triangles} triangles covering about {float(area.sum()):.3g} pixels of their boxes",
+                       "use a mesh with fewer or smaller triangles, or lower --size")
+
+
 class SurfaceLayer:
     """The frame's surfaces: ``texture`` (for the passes that end rays there) and ``rgba`` ``(H, W, 4)``
     premultiplied (alpha 1 where a surface is seen) for compositing under the volume."""
 
-    def __init__(self, ctx, scene):
+    def __init__(self, ctx, scene, name: str = "the renderer"):
         img, cam = scene.image, scene.camera
         meshes = scene_meshes(scene.renderer)
         check_layer_memory(meshes, img)
@@ -57,6 +79,8 @@ class SurfaceLayer:
         near, _ = clip_planes(cam, lo, hi)
         far = float(((points - np.asarray(cam.eye)) @ np.asarray(cam.basis()[0])).max())
         far = max(far, near) * 1.01 + 1e-6 * float(np.linalg.norm(hi - lo)) + 1e-6
+        view_projection = projection_matrix(cam, img.width / img.height, near, far) @ view_matrix(cam)
+        limits.check_work(layer_work(vertices[:, :3], view_projection, img), name)
         defines = {"CAMERA_ORTHOGRAPHIC": cam.projection == "orthographic"}
         lights = scene.renderer.shading.lights
         if lights:
@@ -77,8 +101,7 @@ class SurfaceLayer:
             ctx.clear(0.0, 0.0, 0.0, NO_SURFACE, depth=1.0)
             ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
             ctx.enable(moderngl.DEPTH_TEST)
-            program["u_view_projection"].write(gl_matrix(projection_matrix(cam, img.width / img.height, near, far)
-                                                         @ view_matrix(cam)))
+            program["u_view_projection"].write(gl_matrix(view_projection))
             uniforms = {"u_eye": tuple(cam.eye), "u_forward": tuple(cam.basis()[0]),
                         **shading_uniforms(scene.renderer.shading)}
             for name, value in uniforms.items():
@@ -108,7 +131,7 @@ def with_surfaces(renderer, scene, draw_volume) -> np.ndarray:
     if not getattr(scene.renderer, "geometry", None):
         return draw_volume(scene, {})
     make_current(renderer.ctx)
-    layer = SurfaceLayer(renderer.ctx, scene)
+    layer = SurfaceLayer(renderer.ctx, scene, renderer.name)
     try:
         image = draw_volume(scene, {"u_geometry": layer.texture})
     finally:
