@@ -1,6 +1,7 @@
 """Opaque triangle meshes in the scene (``[[renderer.geometry]]``, docs/geometry.md).
 
-A mesh is read once (meshio: OBJ, PLY, STL, VTK polydata; quadrilaterals and polygons split into
+A mesh is read once (OBJ by :func:`_obj_faces`, ``.vtk``/``.vtu`` by the strict readers of
+:mod:`dvr_gl.io.mesh_vtk`, PLY and STL by meshio; quadrilaterals and polygons split into
 triangles as fans) and kept by path and modification time.  A pixel's ray ends at its nearest
 surface: the volume is integrated up to there (the last segment shortened, as at the volume box's
 far face), and the surface shows behind it, opaque, Blinn-Phong shaded with ``[renderer.shading]``'s
