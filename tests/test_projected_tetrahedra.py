@@ -390,3 +390,27 @@ def _grid_file() -> Path:
     path = Path(tempfile.mkdtemp(prefix="dvr-grid-")) / "grid.npy"
     np.save(path, np.zeros((4, 4, 4), np.float32))
     return path
+
+
+def test_projected_tetrahedra_estimates_its_work_and_reports_progress(monkeypatch):
+    """Issue 40: 4096^2 of the oxygen post ran 95 s with no estimate and no progress.  The work is
+    pixels x fragments (a multiple of the cube root of the cells); the frame is drawn in batches, in
+    order, each reported (progress, and the time limit between them), and the picture is unchanged."""
+    import dvr_gl.renderers.projected_tetrahedra.renderer as pt
+    from dvr_gl import limits
+    from dvr_gl.errors import DvrError
+
+    scene = mesh_scene(jittered_mesh(), **REFERENCE_VIEWS[0])
+    with create_renderer("projected-tetrahedra") as renderer:
+        work = renderer.work(scene)
+        assert work.unit == "gpu samples" and work.count == pytest.approx(
+            scene.image.width * scene.image.height * pt.FRAGMENTS_PER_CUBE_ROOT * len(scene.field.tets) ** (1 / 3))
+        whole = renderer.render(scene)
+        steps = []
+        renderer.progress = lambda done, total: steps.append((done, total))
+        monkeypatch.setattr(pt, "BATCHES", 3)
+        np.testing.assert_array_equal(renderer.render(scene), whole)
+        assert len(steps) == 3 and steps[-1][0] == steps[-1][1]
+        monkeypatch.setitem(limits.BOUNDS, "gpu samples", work.count / 2)
+        with pytest.raises(DvrError, match=r"projected-tetrahedra would take .* gpu samples .*fragment samples for"):
+            renderer.render(scene)
