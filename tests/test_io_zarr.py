@@ -212,7 +212,9 @@ OME_CASES = {
     "transforms an object": (lambda a: ms(a)["datasets"][0].update(coordinateTransformations={"type": "scale"}),
                              "coordinateTransformations is an object, not a list"),
     "transform a string": (lambda a: ms(a)["datasets"][0].update(coordinateTransformations=["scale"]),
-                           "has a coordinateTransformation 'scale'"),
+                           "coordinateTransformations hold 'scale', not an object"),
+    "unknown transform": (lambda a: scale(a).update(type="rotation"), "a coordinateTransformation of type "
+                                                                      "'rotation'; OME-Zarr images have 'scale'"),
     "scale in a file": (lambda a: scale(a).update(scale=None, path="scale.bin"), "scale is stored in a file"),
     "unknown version": (lambda a: ms(a).update(version="9.9"), "OME-Zarr version '9.9' is not one this reader knows"),
 }

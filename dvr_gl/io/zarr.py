@@ -52,8 +52,9 @@ CHUNK_RATE = 1500  # stored chunks a second read on two cores (small chunks; 0.7
 SLAB_CHUNKS = 4096
 #: OME-Zarr versions read (0.1 to 0.3 have the same multiscales, 0.3's axes are plain names).
 VERSIONS = ("0.1", "0.2", "0.3", "0.4", "0.5")
-#: Seconds to let the zarr reads still under way finish after one failed (see :func:`reading`).
-SETTLE_SECONDS = 30.0
+#: Seconds to let the zarr reads still under way finish after one failed (see :func:`reading`); those
+#: still running then are cancelled.
+SETTLE_SECONDS = 10.0
 
 log = logging.getLogger(__name__)
 
@@ -272,15 +273,15 @@ def _resolved(roots: tuple) -> tuple[str, ...]:
 
 #: What :func:`reading` says of a chunk that does not decode.
 CHUNK = "a chunk of the zarr array cannot be read ({}); the store is damaged: rewrite it"
-#: ... and of an array's metadata zarr refuses.
-METADATA = "the zarr array's metadata is not valid ({}); fix or rewrite the store"
+#: ... and of an array's metadata zarr refuses (after ``what``, the array's name).
+METADATA = "metadata is not valid ({}); fix or rewrite the store"
 
 
 @contextlib.contextmanager
-def reading(name: str, says: str = METADATA):
+def reading(name: str, says: str = METADATA, what: str = ""):
     """Turn what zarr raises while opening or reading (a corrupt chunk, broken JSON, metadata zarr
-    refuses) into one :class:`VolumeError` line, ``f"{name}: {says}"`` with the cause in ``{}``; our own
-    errors (a file outside the sandbox) pass as they are.
+    refuses) into one :class:`VolumeError` line, ``f"{name}: {what}{says}"`` with the cause in ``says``'
+    ``{}``; our own errors (a file outside the sandbox) pass as they are.
 
     zarr reads a call's chunks as concurrent tasks on its own event loop: when one fails the others
     are still under way, and at exit Python would print each as "Task was destroyed but it is
@@ -293,8 +294,8 @@ def reading(name: str, says: str = METADATA):
     except Exception as exc:  # zarr, numcodecs and json raise many kinds  # noqa: BLE001
         _settle()
         text = str(exc).splitlines()[0] if str(exc) else ""
-        raise VolumeError(f"{name}: " + says.format(f"{type(exc).__name__}: {text}" if text else
-                                                    type(exc).__name__)) from None
+        raise VolumeError(f"{name}: {what}" + says.format(f"{type(exc).__name__}: {text}" if text else
+                                                           type(exc).__name__)) from None
     except BaseException:  # the sandbox's timer, ^C: what is under way is dropped
         _settle(cancel=True)
         raise
@@ -302,7 +303,8 @@ def reading(name: str, says: str = METADATA):
 
 def _settle(cancel: bool = False):
     """Wait (at most :data:`SETTLE_SECONDS`) for the tasks still on zarr's event loop, or cancel them,
-    and send what the loop reports of them to the debug log rather than stderr."""
+    and send what the loop reports of them to the debug log rather than stderr.  Waiting, not cancelling,
+    after an error: the loop is the process's, and another thread's reads (a Dask worker's) go on."""
     try:
         from zarr.core import sync
     except ImportError:
@@ -318,7 +320,11 @@ def _settle(cancel: bool = False):
         for t in tasks if cancel else ():
             t.cancel()
         if tasks:
-            await asyncio.wait(tasks, timeout=SETTLE_SECONDS)
+            _, late = await asyncio.wait(tasks, timeout=SETTLE_SECONDS)
+            for t in late:  # still reading after all that time: dropped
+                t.cancel()
+            if late:
+                await asyncio.wait(late, timeout=1.0)
         for t in tasks:  # retrieved: no "exception was never retrieved"
             if t.done() and not t.cancelled():
                 t.exception()
@@ -437,13 +443,15 @@ def _transforms(transforms, n: int, name: str, where: str) -> list[tuple[str, np
                           f"fix the metadata")
     found = []
     for t in transforms:
-        kind = t.get("type") if isinstance(t, dict) else None
+        if not isinstance(t, dict):
+            raise VolumeError(f"{name}: {where}'s coordinateTransformations hold {_kind(t)}, not an object such as "
+                              f"{{'type': 'scale', 'scale': [...]}}: fix the metadata")
+        kind = t.get("type")
         if kind == "identity":
             continue
         if kind not in ("scale", "translation"):
-            raise VolumeError(f"{name}: {where} has a coordinateTransformation {_kind(t)}; OME-Zarr has "
-                              f"{{'type': 'scale', 'scale': [...]}} and {{'type': 'translation', ...}}: fix the "
-                              f"metadata")
+            raise VolumeError(f"{name}: {where} has a coordinateTransformation of type {_kind(kind)}; OME-Zarr "
+                              f"images have 'scale' and 'translation' (and 'identity'): fix the metadata")
         values = t.get(kind)
         if values is None and "path" in t:
             raise VolumeError(f"{name}: {where}'s {kind} is stored in a file ({show(t['path'])}); this reader takes "
@@ -470,7 +478,7 @@ def _level_index(level, count: int, name: str) -> int:
 def _dataset(group, dataset, common, name):
     """The array at a dataset's path (opened, not read)."""
     path = dataset[0]
-    with reading(name):
+    with reading(name, what=f"the zarr array {show(path)}'s "):
         try:
             found = group[path]
         except KeyError:
@@ -483,11 +491,11 @@ def _dataset(group, dataset, common, name):
 
 
 def _member(group, array, name):
-    with reading(name):
+    with reading(name, what="an array's "):
         arrays = dict(sorted(group.arrays()))
     if array is not None:
         _path(array, name, "volume.array")
-        with reading(name):
+        with reading(name, what=f"the zarr array {show(array)}'s "):
             try:
                 found = group[array]
             except KeyError:
