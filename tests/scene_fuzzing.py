@@ -144,8 +144,8 @@ def table(draw, cls, where: str, rnd=None, wildness: float = 0.1, present: float
 
 @st.composite
 def _volume(draw, files: dict[str, Path], rnd, wildness: float):
-    """A demo (mostly) or one of ``files`` by name (a small volume, a folder, a missing or empty file; a
-    transfer-function file or a mesh as a volume too)."""
+    """A demo (mostly) or one of ``files`` by name (a small volume, a folder, a missing or empty file; not
+    the transfer-function files and meshes, which :func:`scene_dicts` gives to their own keys)."""
     volume = draw(table(VolumeSpec, "volume", rnd, wildness, present=0.15))
     kind = rnd.random()
     if kind < 0.7:
@@ -156,7 +156,8 @@ def _volume(draw, files: dict[str, Path], rnd, wildness: float):
             for key in FILE_KEYS:
                 volume.pop(key, None)
     elif kind < 0.9:
-        volume["path"] = str(files[draw(st.sampled_from(sorted(files)))])
+        volumes = sorted(k for k in files if not k.startswith(("tf", "mesh")))  # those are the other keys' files
+        volume["path"] = str(files[draw(st.sampled_from(volumes))])
         volume.pop("demo", None)
     else:
         volume["demo"] = draw(WILD)
