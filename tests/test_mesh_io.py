@@ -323,3 +323,11 @@ def test_meshes_beyond_the_world_range_are_refused(tmp_path, scale, words):
     (or, with one far point, the cells touching it were left out without a word)."""
     with pytest.raises(DvrError, match=words):
         load_field(_write(tmp_path, "far.vtk", mi.legacy(points=mi.POINTS * scale)))
+
+
+def test_cell_arrays_follow_their_cells_whatever_the_order_of_types(tmp_path):
+    """Cells are split type by type; each cell's value must stay with its own tetrahedra."""
+    cells = [mi.CELLS[i] for i in (3, 1, 0, 4, 2)]  # pyramid, hexahedron, tetrahedron, tetra10, wedge
+    path = _write(tmp_path, "mixed.vtu", mi.vtu("raw", cells=cells, cell_values=[40.0, 20, 10, 50, 30]))
+    values, counts = np.unique(load_field(path, array="c").values, return_counts=True)
+    assert dict(zip(values.tolist(), counts.tolist())) == {10.0: 1, 20.0: 12, 30.0: 8, 40.0: 2, 50.0: 8}
