@@ -333,3 +333,23 @@ def test_a_corrupt_chunk_prints_nothing_else(tmp_path):
     assert run.returncode == 1, run.stderr
     assert run.stderr.count("\n") == 1 and "a chunk of the zarr array cannot be read" in run.stderr, run.stderr
     assert not (tmp_path / "x.png").exists()
+
+
+def test_files_larger_than_the_memory_budget_are_not_read(tmp_path):
+    """A chunk file or metadata (parsed: 16 times its size) over the memory budget is refused before it is
+    read whole; as many levels as a forged image lists are bounded too (each would be opened)."""
+    path = tmp_path / "a.zarr"
+    zarr.create_array(str(path), shape=DATA.shape, dtype=DATA.dtype, zarr_format=2)[...] = DATA
+    with open(path / "0.0.0", "ab") as f:
+        f.truncate(2 << 20)
+    with active(Sandbox(max_bytes=1 << 20)), pytest.raises(SandboxError, match=r"0.0.0: reading this chunk file of "
+                                                                                r"2097152 bytes would take 2 MiB"):
+        load_volume(path)
+    (path / ".zattrs").write_text(json.dumps({"pad": "x" * (100 << 10)}))
+    with active(Sandbox(max_bytes=1 << 20)), pytest.raises(SandboxError, match=r".zattrs: reading this metadata file "
+                                                                                r"of \d+ bytes would take 1.56 MiB"):
+        load_volume(path)
+    image = write_ome(tmp_path / "i.zarr", levels=1)
+    edit_attrs(image, lambda a: ms(a).update(datasets=ms(a)["datasets"] * 100000))
+    with pytest.raises(VolumeError, match="the image has 100000 levels, over 64"):
+        load_volume(image)

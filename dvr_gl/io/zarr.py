@@ -52,6 +52,11 @@ CHUNK_RATE = 1500  # stored chunks a second read on two cores (small chunks; 0.7
 SLAB_CHUNKS = 4096
 #: OME-Zarr versions read (0.1 to 0.3 have the same multiscales, 0.3's axes are plain names).
 VERSIONS = ("0.1", "0.2", "0.3", "0.4", "0.5")
+#: The most levels an OME-Zarr image may have (each coarser one is opened to read it out of core).
+MAX_LEVELS = 64
+#: The files that hold a store's metadata (JSON), and the memory parsing one takes, in times its size.
+METADATA_FILES = (".zarray", ".zattrs", ".zgroup", ".zmetadata", "zarr.json")
+JSON_FACTOR = 16
 #: Seconds to let the zarr reads still under way finish after one failed (see :func:`reading`); those
 #: still running then are cancelled.
 SETTLE_SECONDS = 10.0
@@ -186,8 +191,8 @@ def _checked_store_class():
             super().__init__(root, read_only=read_only)
             self.folders = {}  # resolved folders (check_key)
 
-        def check(self, key):
-            check_key(self.root, key, self.folders)
+        def check(self, key, whole: bool = False):
+            check_key(self.root, key, self.folders, whole)
 
         async def get(self, key, prototype=None, byte_range=None):
             # checked and read in a worker thread, as LocalStore reads: the loop's thread, which starts
@@ -201,7 +206,7 @@ def _checked_store_class():
             return await super().get_partial_values(prototype, key_ranges)
 
         def get_sync(self, key, *, prototype=None, byte_range=None):
-            self.check(key)
+            self.check(key, whole=byte_range is None)
             return super().get_sync(key, prototype=prototype, byte_range=byte_range)
 
         async def list_dir(self, prefix):
@@ -212,10 +217,12 @@ def _checked_store_class():
     return CheckedStore
 
 
-def check_key(root: Path, key: str, folders: dict | None = None) -> None:
+def check_key(root: Path, key: str, folders: dict | None = None, whole: bool = False) -> None:
     """Refuse to read the store's ``key``: a key outside the store (``..``, absolute), a file that is not
-    regular (a FIFO would block), and, inside a sandbox with roots, a file outside them once links are
-    followed.  A missing file passes (zarr reads a missing chunk as the fill value).
+    regular (a FIFO would block), inside a sandbox with roots a file outside them once links are
+    followed, and a file read ``whole`` larger than the memory budget (metadata: :data:`JSON_FACTOR`
+    times its size, what parsing it takes).  A missing file passes (zarr reads a missing chunk as the fill
+    value).
 
     ``folders`` (the store's own) keeps each folder's resolved path, so that a chunk costs one ``lstat``
     more than none (its folder resolved once; the chunk itself followed only where it is a link):
@@ -245,6 +252,11 @@ def check_key(root: Path, key: str, folders: dict | None = None) -> None:
     if not (stat.S_ISREG(found.st_mode) or stat.S_ISDIR(found.st_mode)):
         raise SandboxError(f"{path}: the zarr store's file is not a regular file (a FIFO, device or socket could "
                            f"block); fix the store")
+    if whole and stat.S_ISREG(found.st_mode):
+        metadata = parts[-1] in METADATA_FILES
+        check_bytes(found.st_size * (JSON_FACTOR if metadata else 1),
+                    f"{path}: reading this {'metadata' if metadata else 'chunk'} file of {found.st_size} bytes",
+                    "the store is damaged or not meant for this: rewrite it, or raise the memory budget")
 
 
 def _inside(path: str, allowed: tuple[str, ...], roots) -> str:
@@ -374,6 +386,9 @@ def ome_image(attrs: dict, name: str):
     if not isinstance(datasets, list) or not datasets:
         raise VolumeError(f"{name}: the multiscales 'datasets' is {_kind(datasets)}; OME-Zarr wants a list of "
                           f"levels, each {{'path': ..., 'coordinateTransformations': [...]}}: fix the metadata")
+    if len(datasets) > MAX_LEVELS:
+        raise VolumeError(f"{name}: the image has {len(datasets)} levels, over {MAX_LEVELS} (each halves the last: "
+                          f"no image needs more); fix the metadata")
     levels = []
     for k, dataset in enumerate(datasets):
         where = f"dataset {k}"
