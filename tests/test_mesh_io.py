@@ -331,3 +331,20 @@ def test_cell_arrays_follow_their_cells_whatever_the_order_of_types(tmp_path):
     path = _write(tmp_path, "mixed.vtu", mi.vtu("raw", cells=cells, cell_values=[40.0, 20, 10, 50, 30]))
     values, counts = np.unique(load_field(path, array="c").values, return_counts=True)
     assert dict(zip(values.tolist(), counts.tolist())) == {10.0: 1, 20.0: 12, 30.0: 8, 40.0: 2, 50.0: 8}
+
+
+def test_telling_a_legacy_mesh_from_a_grid_reads_nothing_outside_the_sandbox(tmp_path):
+    """load_field read a .vtk's first 1024 bytes (to find its DATASET line) before any sandbox check."""
+    from dvr_gl.sandbox import Sandbox, SandboxError, active
+
+    outside, inside = tmp_path / "outside", tmp_path / "inside"
+    outside.mkdir()
+    inside.mkdir()
+    _write(outside, "m.vtk", mi.legacy())
+    (inside / "link.vtk").symlink_to(outside / "m.vtk")
+    from dvr_gl.io.mesh import is_legacy_unstructured
+
+    with active(Sandbox(roots=(inside,))):
+        for read in (load_field, is_legacy_unstructured):  # the peek itself is checked, not only the reader
+            with pytest.raises(SandboxError, match="outside the allowed folders"):
+                read(inside / "link.vtk")
