@@ -249,6 +249,22 @@ def test_far_away_particles_are_sampled(tmp_path):
     assert p.index.entries < 100
 
 
+@pytest.mark.parametrize("far", [[1e17, 0.0, 0.0], [1e17, 1e17, 1e17]], ids=["one-axis", "every-axis"])
+def test_the_cell_index_matches_the_brute_force_sum(far):
+    """Mixed sizes (levels), a cluster and particles far away along one axis (the keys a box's index) or
+    every axis (a box of 1e50 cells: the keys ranked axis by axis): the interpolant at the particles and
+    at points between them is the brute-force sum."""
+    p = plummer_sphere(300, seed=9)
+    positions = np.r_[p.positions, [far, [-s for s in far]]]
+    q = ParticleSet(positions, np.r_[p.smoothing_lengths, 0.5, 3.0], np.r_[p.masses, 1.0, 2.0],
+                    np.r_[p.densities, 1.0, 1.0])
+    points = np.r_[q.positions, q.positions[:50] + 0.01, [[f + 0.3 for f in far]]]
+    d2 = ((points[:, None, :] - q.positions[None]) ** 2).sum(axis=2)
+    brute = (sph.kernel(d2, q.smoothing_lengths[None]) * q.masses[None]).sum(axis=1)
+    np.testing.assert_allclose(q.reconstruct().sample(points), brute, rtol=1e-12, atol=1e-300)
+    assert q.index.levels[0].ranked == (far[1] != 0.0)
+
+
 def _snapshot(path, p, swift: bool, kernel: str = "Cubic spline (M4)"):
     h5py = pytest.importorskip("h5py", reason="HDF5 snapshots are read with h5py (pip install 'dvr-gl[particles]')")
     with h5py.File(path, "w") as f:

@@ -142,6 +142,11 @@ class ParticleSet:
         return SPHInterpolant(self, self.values)
 
     @functools.cached_property
+    def columns(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The positions' x, y and z, each contiguous."""
+        return tuple(np.ascontiguousarray(self.positions[:, a]) for a in range(3))
+
+    @functools.cached_property
     def index(self) -> "CellIndex":
         return CellIndex(self.positions, sph.SUPPORT * self.smoothing_lengths, self.bounds)
 
@@ -186,7 +191,9 @@ class CellIndex:
 
 class _SparseCells:
     """One level of :class:`CellIndex`: cubes of ``size`` from ``lo``, the occupied ones only, as sorted
-    integer keys (the cells' coordinates ranked axis by axis: exact, never hashed) with their members."""
+    integer keys with their members.  A key is the cell's index in the box of occupied cells where that
+    box has under 2^62 cells; else (particles far apart) the cells' coordinates ranked axis by axis:
+    exact either way, never hashed."""
 
     def __init__(self, lo: np.ndarray, size: float, centres: np.ndarray, radius: np.ndarray, owner: np.ndarray):
         self.lo, self.size = lo, size
@@ -198,15 +205,25 @@ class _SparseCells:
         who = np.repeat(np.arange(len(centres)), count)
         k = ranks(count)  # each cell's rank inside its particle's block
         sx, sy = span[who, 0], span[who, 1]
-        cell = first[who] + np.stack([k % sx, (k // sx) % sy, k // (sx * sy)], axis=1)
-        self.axes = [np.unique(cell[:, a]) for a in range(3)]
-        xy = np.searchsorted(self.axes[0], cell[:, 0]) * len(self.axes[1]) + np.searchsorted(self.axes[1], cell[:, 1])
-        self.xy = np.unique(xy)
-        key = np.searchsorted(self.xy, xy) * len(self.axes[2]) + np.searchsorted(self.axes[2], cell[:, 2])
-        order = np.argsort(key, kind="stable")
+        cell = (first[who, 0] + k % sx, first[who, 1] + (k // sx) % sy, first[who, 2] + k // (sx * sy))
+        del k, sx, sy
+        self.low = first.min(axis=0)
+        self.extent = (first + span).max(axis=0) - self.low
+        self.ranked = float(np.prod(self.extent.astype(np.float64))) >= 2.0 ** 62
+        if self.ranked:
+            self.axes = [np.unique(c) for c in cell]
+            self.xy = np.unique(np.searchsorted(self.axes[0], cell[0]) * len(self.axes[1])
+                                + np.searchsorted(self.axes[1], cell[1]))
+            key, _ = self._keys(np.stack(cell, axis=1))
+        else:  # every cell lies in the box of occupied cells
+            key = ((cell[2] - self.low[2]) * self.extent[1] + (cell[1] - self.low[1])) * self.extent[0] \
+                + (cell[0] - self.low[0])
+        del cell
+        order = np.argsort(key)  # a cell's members in any order
         self.members = owner[who[order]]
-        self.keys, self.start = np.unique(key[order], return_index=True)
-        self.start = np.append(self.start, len(key)).astype(np.int64)
+        key = key[order]
+        self.start = np.flatnonzero(np.r_[True, key[1:] != key[:-1], True]).astype(np.int64)
+        self.keys = key[self.start[:-1]]
 
     def _cell(self, points: np.ndarray) -> np.ndarray:
         return np.floor((points - self.lo) / self.size).astype(np.int64)
@@ -217,14 +234,23 @@ class _SparseCells:
         at = np.minimum(np.searchsorted(sorted_values, values), len(sorted_values) - 1)
         return at, sorted_values[at] == values
 
+    def _keys(self, cell: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The keys of cells ``(n, 3)`` and whether each can be occupied."""
+        if not self.ranked:
+            rel = cell - self.low
+            valid = ((rel >= 0) & (rel < self.extent)).all(axis=1)
+            rel = np.where(valid[:, None], rel, 0)
+            return (rel[:, 2] * self.extent[1] + rel[:, 1]) * self.extent[0] + rel[:, 0], valid
+        (x, hx), (y, hy), (z, hz) = (self._find(self.axes[a], cell[:, a]) for a in range(3))
+        xy, hxy = self._find(self.xy, x * len(self.axes[1]) + y)
+        return xy * len(self.axes[2]) + z, hx & hy & hz & hxy
+
     def pairs(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         u = np.floor((points - self.lo) / self.size)
         inside = (np.abs(u) < 2.0 ** 62).all(axis=1)  # beyond: no cell (and no int64 overflow)
-        cell = np.where(inside[:, None], u, 0.0).astype(np.int64)
-        (x, hx), (y, hy), (z, hz) = (self._find(self.axes[a], cell[:, a]) for a in range(3))
-        xy, hxy = self._find(self.xy, x * len(self.axes[1]) + y)
-        at, hit = self._find(self.keys, xy * len(self.axes[2]) + z)
-        hit &= inside & hx & hy & hz & hxy
+        key, valid = self._keys(np.where(inside[:, None], u, 0.0).astype(np.int64))
+        at, hit = self._find(self.keys, key)
+        hit &= inside & valid
         count = np.where(hit, self.start[at + 1] - self.start[at], 0)
         point = np.repeat(np.arange(len(points)), count)
         slot = ranges(self.start[at].astype(np.float64), count).astype(np.int64)
@@ -259,11 +285,13 @@ class SPHInterpolant:
         p, width = self.particles, out.shape[1]
         batch = points[i:i + POINTS_PER_BATCH]
         point, j = p.index.pairs(batch)
-        d = batch[point] - p.positions[j]
-        r2 = np.einsum("ni,ni->n", d, d)
+        # an axis at a time (gathers of one column are faster than of rows)
+        d = [batch[:, a][point] - p.columns[a][j] for a in range(3)]
+        r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
         h = p.smoothing_lengths[j]
         inside = r2 < (sph.SUPPORT * h) ** 2  # a cell's candidates: about a fifth are within reach
-        point, j, d, r2, h = point[inside], j[inside], d[inside], r2[inside], h[inside]
+        point, j, r2, h = point[inside], j[inside], r2[inside], h[inside]
+        d = np.stack([c[inside] for c in d], axis=1) if gradient else None
         if gradient:  # grad W = w'(q) / (pi h^4) d / r
             r = np.sqrt(r2)
             scale = sph.dw(r / h) / (math.pi * h ** 4) / np.where(r > 0, r, 1.0) * self.carried[j, 0]

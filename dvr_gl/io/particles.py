@@ -126,7 +126,7 @@ def _check_columns(path: Path, columns: dict, kind: str = "column", positive=(),
 def _particles(path: Path, positions, h, m, rho, values, label: str) -> ParticleSet:
     if rho is None:  # the SPH density at each particle: sum_j m_j W(x_i - x_j, h_j)
         probe = ParticleSet(positions, h, m, 1.0, name=path.name)
-        rho = probe.reconstruct().sample(probe.positions, progress="the SPH density at the particles")
+        rho = probe.reconstruct().sample(probe.positions, progress=f"{path.name}: the SPH density at the particles")
     return ParticleSet(positions, h, m, rho, values, name=path.name, array=label, source=str(path))
 
 
