@@ -197,6 +197,8 @@ def converged_pieces(scene) -> Work:
                          f"(rounding noise in the error estimates); use at least {MIN_CONVERGED_TOLERANCE:g}")
     field = scene.field
     planes = sum(field.dims) if hasattr(field, "dims") else 3.0 * diagonal(field) / field.sample_spacing
+    if getattr(field, "kind", "") == "particles":  # a ray's knots: where it enters and leaves each support
+        planes = min(planes, 2.0 * len(field))
     per_ray = (planes + 1.0) * 2.0
     return Work(pixels(scene) * per_ray, "pieces",
                 f"{scene.image.width}x{scene.image.height} rays x about {per_ray:.3g} pieces",

@@ -603,3 +603,15 @@ def test_a_particle_far_away_renders(splatting, tmp_path):
     scene = scene_of(far, {"image.width": 16, "image.height": 16, "renderer.shading.enabled": False})
     image = splatting.render(scene)
     assert np.isfinite(image).all() and splatting.stats["sheets"] < 1000
+
+
+def test_the_converged_reference_counts_a_particle_sets_knots():
+    """Its pieces a ray are at most two knots a particle (with particles 1e17 apart it counted 3e17 voxel
+    planes across the box and refused)."""
+    from dvr_gl import limits
+
+    p = plummer_sphere(50, seed=5)
+    far = ParticleSet(np.r_[p.positions, [[1e17, 0.0, 0.0]]], np.r_[p.smoothing_lengths, 1.0], np.r_[p.masses, 1.0],
+                      np.r_[p.densities, 1.0])
+    scene = scene_of(far, {"image.width": 16, "image.height": 16, "renderer.name": "reference-converged"})
+    assert limits.converged_pieces(scene).count <= 16 * 16 * (2 * 51 + 1) * 2
