@@ -26,7 +26,7 @@ from dvr_gl.sandbox import Sandbox, active  # noqa: E402
 from fuzz_inputs import BUDGET, TIMEOUT, mutate, seeds, time_limit, write_case  # noqa: E402
 
 SEEDS = [s for s in seeds() if s.reader in ("csv", "npz", "hdf5")]
-FUZZ = settings(max_examples=40, deadline=None, derandomize=True, database=None,
+FUZZ = settings(max_examples=30, deadline=None, derandomize=True, database=None,
                 suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 MARK = 4242.0  # the outside file's particles all sit here: a result holding it read outside the root
 NAMES = ["x", "y", "z", "h", "m", "rho", "u", "positions", "hsml", "mass", "density", "X"]

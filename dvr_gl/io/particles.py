@@ -63,7 +63,7 @@ def _table(path: Path, columns: dict[str, np.ndarray], array: str | None, row=No
         used = {c: columns[c] for c in "xyz"}
     else:
         raise VolumeError(f"{path}: no particle positions; name the columns x, y, z (or an (N, 3) array "
-                          f"positions); found {', '.join(sorted(columns)) or 'none'}")
+                          f"positions); found {_listed(sorted(columns))}")
     h, m, rho = find("h"), find("m"), find("rho")
     for key, name in (("h", h), ("m", m)):
         if name is None:
@@ -75,7 +75,7 @@ def _table(path: Path, columns: dict[str, np.ndarray], array: str | None, row=No
     values, label = None, "density"
     if array is not None:
         if array.lower() not in columns:
-            raise VolumeError(f"{path}: no column {array!r} (volume.array); it has {', '.join(sorted(columns))}")
+            raise VolumeError(f"{path}: no column {array!r} (volume.array); it has {_listed(sorted(columns))}")
         label = array
         if array.lower() != rho:
             values = used[array.lower()] = columns[array.lower()]
@@ -204,6 +204,12 @@ def _csv_line(text: str, i: int) -> str:
     return f"row {i + 1}"
 
 
+def _listed(names) -> str:
+    """Names for a message: comma-separated, at most 120 characters of them ("none" for none)."""
+    text = ", ".join(str(n) for n in names) or "none"
+    return text if len(text) <= 120 else text[:117] + "..."
+
+
 def _shown(row) -> str:
     """A row for a message: at most 120 characters of it."""
     text = str(list(row))
@@ -217,7 +223,7 @@ def _read_npz(path: Path, array: str | None) -> ParticleSet:
                         "use fewer particles")
         with np.load(path, allow_pickle=False) as z:
             if len({k.lower() for k in z.files}) != len(z.files):
-                raise VolumeError(f"{path}: arrays whose names differ only in case ({', '.join(z.files)}); "
+                raise VolumeError(f"{path}: arrays whose names differ only in case ({_listed(z.files)}); "
                                   "columns are named in any case, so give each once")
             columns = {k.lower(): np.asarray(z[k]) for k in z.files}
     except DvrError:
@@ -250,7 +256,7 @@ def _snapshot(path: Path, f, array: str | None) -> ParticleSet:
     gas = _linked(path, f, "PartType0", h5py)
     if not isinstance(gas, h5py.Group):
         raise VolumeError(f"{path}: no PartType0 group; dvr-gl reads the gas particles of GADGET/SWIFT "
-                          f"snapshots (groups here: {', '.join(f.keys()) or 'none'})")
+                          f"snapshots (groups here: {_listed(f.keys())})")
     names = set(gas.keys())  # link names only: testing one with `in` would follow it
 
     def dataset(name):
@@ -295,7 +301,7 @@ def _snapshot(path: Path, f, array: str | None) -> ParticleSet:
     if array is not None:
         if array not in names:
             raise VolumeError(f"{path}: no dataset PartType0/{array} (volume.array); it has "
-                              f"{', '.join(sorted(names))}")
+                              f"{_listed(sorted(names))}")
         label = array
         if array != rho_name:
             values = dataset(array)
@@ -355,11 +361,11 @@ def _check_storage(path: Path, item, shown: str):
         return
     if item.is_virtual:
         files = sorted({s.file_name for s in item.virtual_sources()})
-        raise SandboxError(f"{path}: {shown} is an HDF5 virtual dataset reading {', '.join(files)}; virtual "
+        raise SandboxError(f"{path}: {shown} is an HDF5 virtual dataset reading {_listed(files)}; virtual "
                            "datasets are not read under --sandbox; store the data in this file")
     if item.external:
         files = sorted({str(e[0]) for e in item.external})
-        raise SandboxError(f"{path}: {shown} keeps its data in external raw files ({', '.join(files)}); external "
+        raise SandboxError(f"{path}: {shown} keeps its data in external raw files ({_listed(files)}); external "
                            "storage is not read under --sandbox; store the data in this file")
 
 
