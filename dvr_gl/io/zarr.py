@@ -11,14 +11,16 @@
 What is checked, before any voxel is read (each a one-line :class:`VolumeError`):
 
 * the OME metadata, against the NGFF 0.4/0.5 schema's rules, before any array is opened
-  (:func:`ome_image`): ``multiscales`` a list of objects, ``datasets`` a non-empty list of objects with
-  a relative ``path`` (no ``..``, ``.`` or leading ``/``), ``axes`` a list of unique names (objects with
-  a string ``name``), transforms of a known ``type`` with one finite number per axis;
-* the chosen array: a scalar type, chunks of at least one sample, a chunk within the memory budget
-  (zarr decodes whole chunks), at most :data:`MAX_CHUNKS` chunks, and its bytes within the budget;
+  (:func:`ome_image`): ``multiscales`` a list of objects, ``datasets`` a non-empty list of at most
+  :data:`MAX_LEVELS` objects with a relative ``path`` (no ``..``, ``.`` or leading ``/``), ``axes`` a
+  list of unique names (objects with a string ``name``), transforms of a known ``type`` with one finite
+  number per axis, a known ``version``;
+* the chosen array (and out of core its coarser levels, :func:`check_array`): a scalar type, chunks of
+  at least one sample, a chunk within the memory budget (zarr decodes whole chunks), at most
+  :data:`MAX_CHUNKS` chunks; read whole, its bytes within the budget;
 * every file the store reads (metadata and chunks, :func:`open_store`): inside the store, a regular
-  file, and under a sandbox with roots inside them once links are followed (a chunk linked to a file
-  elsewhere is refused, not read);
+  file, read whole only within the memory budget, and under a sandbox with roots inside them once
+  links are followed (a chunk linked to a file elsewhere is refused, not read);
 * a chunk that does not decode (corrupt, cut, of another size) is refused in one line, and the zarr
   reads still under way are let finish first, so that nothing else is printed.
 """
@@ -98,7 +100,9 @@ def open_zarr(path: Path, array: str | None = None, level: int | None = None, wi
     zarr = require("zarr", "zarr", "zarr")
     path = Path(path)
     if not current().allows(path):
-        raise SandboxError(f"{path}: the zarr store lies outside the allowed folders; move it into one of them")
+        roots = ", ".join(str(r) for r in current().roots)
+        raise SandboxError(f"{path}: the zarr store lies outside the allowed folders ({roots}); move it into one "
+                           f"of them")
     name = str(path)
     with reading(name, "not a zarr store, or its metadata is not valid ({}); check the path, or fix the store"):
         node = zarr.open(store=open_store(path), mode="r")
@@ -113,8 +117,8 @@ def open_zarr(path: Path, array: str | None = None, level: int | None = None, wi
         if image is not None:
             datasets, axes, common = image
             chosen = _level_index(level, len(datasets), name)
-            target, transforms = _dataset(node, datasets[chosen], common, name), datasets[chosen][1] + common
-            coarser = [(_dataset(node, d, common, name), d[1] + common) for d in datasets[chosen + 1:]] \
+            target, transforms = _dataset(node, datasets[chosen], name), datasets[chosen][1] + common
+            coarser = [(_dataset(node, d, name), d[1] + common) for d in datasets[chosen + 1:]] \
                 if with_levels else []
         else:
             if level is not None:
@@ -136,7 +140,8 @@ def zarr_layout(path: Path, array: str | None = None, level: int | None = None):
 def check_array(target, name: str) -> None:
     """Refuse, before any chunk is read, an array a volume cannot come from or that reading would not
     survive: not a scalar type, chunks of no sample, a chunk over the memory budget (zarr decodes whole
-    chunks), more than :data:`MAX_CHUNKS`, all its bytes over the budget."""
+    chunks), more than :data:`MAX_CHUNKS` chunks (the whole array's bytes are checked where it is read
+    whole, :func:`read_zarr`)."""
     what = f"{name}: the zarr array {show(getattr(target, 'path', '') or '/')}"
     dtype = np.dtype(target.dtype)
     check_sample_type(dtype, name, "the zarr array's dtype", str(dtype))
@@ -490,7 +495,7 @@ def _level_index(level, count: int, name: str) -> int:
     return level
 
 
-def _dataset(group, dataset, common, name):
+def _dataset(group, dataset, name):
     """The array at a dataset's path (opened, not read)."""
     path = dataset[0]
     with reading(name, what=f"the zarr array {show(path)}'s "):
