@@ -518,8 +518,8 @@ def test_the_block_ranges_table_is_checked_against_the_memory_budget():
 @pytest.mark.parametrize("fmt", [2, 3])
 def test_zarr_read_in_part_through_the_sandbox(tmp_path, fmt):
     """Out of core, the chunks are read as boxes are: a chunk linked out of the sandbox is refused when its
-    box is read (the block ranges' pass reads them all when the volume is opened), as the reopened store
-    (pickled to a Dask worker) refuses it."""
+    box is read (the block ranges' pass reads them all when the volume is opened), and so it is where the
+    source is unpickled with no sandbox in force (a Dask worker): it keeps the roots it was opened under."""
     from dvr_gl.sandbox import Sandbox, SandboxError, active
 
     stores = []
@@ -533,12 +533,32 @@ def test_zarr_read_in_part_through_the_sandbox(tmp_path, fmt):
     with active(sandbox):
         v = open_volume(box, out_of_core=True, sidecar=False)
         check_reads(v, DATA)
+    free = open_volume(box, out_of_core=True, sidecar=False)  # opened with no sandbox
     chunk = "1.1.1" if fmt == 2 else "c/1/1/1"
     (box / chunk).unlink()
     (box / chunk).symlink_to(out / chunk)
-    source = pickle.loads(pickle.dumps(v.source))
     with active(sandbox), pytest.raises(SandboxError, match=f"{chunk}: the zarr store's file lies outside"):
-        source.read((8, 8, 8), (8, 8, 8))
+        v.source.read((8, 8, 8), (8, 8, 8))
+    with pytest.raises(SandboxError, match=f"{chunk}: the zarr store's file lies outside"):
+        pickle.loads(pickle.dumps(v.source)).read((8, 8, 8), (8, 8, 8))  # a worker: no sandbox in force
     with active(sandbox), pytest.raises(SandboxError, match=f"{chunk}: the zarr store's file lies outside"):
         open_volume(box, out_of_core=True, sidecar=False)
-    assert not np.array_equal(source.read((8, 8, 8), (8, 8, 8)), sliced(DATA, (8, 8, 8), (8, 8, 8)))  # no sandbox
+    escaped = pickle.loads(pickle.dumps(free.source)).read((8, 8, 8), (8, 8, 8))  # opened with no sandbox
+    np.testing.assert_array_equal(escaped, sliced(DATA[::-1], (8, 8, 8), (8, 8, 8)))
+
+
+def test_raw_source_checked_again_where_it_is_reopened(tmp_path):
+    """A raw file swapped for a link out of the sandbox after it was opened: the pickled source (a Dask
+    worker, no sandbox in force) refuses it when it opens the file."""
+    from dvr_gl.sandbox import Sandbox, SandboxError, active
+
+    (tmp_path / "box").mkdir()
+    (tmp_path / "out").mkdir()
+    DATA.tofile(tmp_path / "box" / "v.raw")
+    (DATA + 1).tofile(tmp_path / "out" / "w.raw")
+    with active(Sandbox(roots=(tmp_path / "box",))):
+        source = RawSource(tmp_path / "box" / "v.raw", DIMS, "uint16")
+    (tmp_path / "box" / "v.raw").unlink()
+    (tmp_path / "box" / "v.raw").symlink_to(tmp_path / "out" / "w.raw")
+    with pytest.raises(SandboxError, match="v.raw: the volume file lies outside the allowed folders"):
+        pickle.loads(pickle.dumps(source)).read((0, 0, 0), (1, 1, 1))

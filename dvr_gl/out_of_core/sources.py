@@ -16,6 +16,7 @@ Sources pickle without their open files or arrays (a Dask worker reopens the fil
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import mmap
@@ -83,6 +84,17 @@ class Source:
     def _read(self, lo, dims) -> np.ndarray:
         raise NotImplementedError
 
+    def confined(self):
+        """Where no sandbox is in force (a Dask worker that unpickled the source), the roots of the one it
+        was opened under, so that what it reads there is checked as it was here."""
+        from ..sandbox import Sandbox, active, current
+
+        box = current()
+        roots = getattr(self, "roots", ())
+        if box.roots or not roots:
+            return contextlib.nullcontext()
+        return active(Sandbox(roots=roots, max_bytes=box.max_bytes))
+
     def validity(self) -> dict | None:
         """What makes block ranges computed from this source valid (file size, mtime, layout), for the
         sidecar; None: nothing on disk to key them by (not cached)."""
@@ -132,6 +144,7 @@ class RawSource(Source):
                               f"and {'x'.join(map(str, self.dims))} samples of {dt.name} need {need}; "
                               f"check dims, dtype and offset")
         self._fd = None
+        self.roots = _roots()
 
     def __getstate__(self):
         state = dict(self.__dict__)
@@ -144,6 +157,10 @@ class RawSource(Source):
 
     def _file(self) -> int:
         if self._fd is None:
+            from ..sandbox import check_input_path
+
+            with self.confined():  # checked again where it is opened (a Dask worker, or a link swapped since)
+                check_input_path(self.path, "volume file")
             self._fd = os.open(self.path, os.O_RDONLY | getattr(os, "O_BINARY", 0))
         return self._fd
 
@@ -230,6 +247,7 @@ class ZarrSource(Source):
         self.nan_value = None if nan_value is None else float(nan_value)
         if self.store is not None and not is_checked(getattr(array, "store", None)):
             self._array = None  # reopened through the checked store (every file against the sandbox)
+        self.roots = _roots()
 
     @property
     def array(self):
@@ -238,7 +256,8 @@ class ZarrSource(Source):
 
             from ..io.zarr import open_store, reading
 
-            with reading(self.name, "the zarr array cannot be opened again ({}); was the store changed?"):
+            with self.confined(), reading(self.name, "the zarr array cannot be opened again ({}); was the store "
+                                                     "changed?"):
                 # the store's every file checked against the sandbox, as when it was opened first
                 self._array = zarr.open_array(store=open_store(self.store), path=self.array_path or None, mode="r")
         return self._array
@@ -262,7 +281,7 @@ class ZarrSource(Source):
             else:
                 selection.append(i)
         array = self.array
-        with reading(self.name, CHUNK):  # a corrupt chunk: one line, nothing else printed
+        with self.confined(), reading(self.name, CHUNK):  # a corrupt chunk: one line, nothing else printed
             data = np.asarray(array[tuple(selection)])
         return np.transpose(data, self.order)
 
@@ -313,6 +332,13 @@ class ArraySource(Source):
 
     def __repr__(self) -> str:
         return f"ArraySource({self.name!r}, dims={self.dims}, dtype={self.stored.str!r})"
+
+
+def _roots() -> tuple:
+    """The roots of the sandbox in force, kept by a source (:meth:`Source.confined`)."""
+    from ..sandbox import current
+
+    return tuple(current().roots)
 
 
 def fingerprint(key: dict) -> str:
