@@ -413,3 +413,19 @@ def test_the_spectrum_work_is_estimated_and_bounded(fourier):
     with active(Sandbox(max_seconds=20)), pytest.raises(DvrError, match="fft samples.*kernel_width"):
         limits.check_work(work, "fourier")
     assert fourier.work(small_scene({**ORTHO, "renderer.compositing": "average"})).count < 1e8
+
+
+@pytest.mark.parametrize("view_height", [1e9, 1e-9])
+def test_a_slice_beyond_any_texture_is_refused_at_once(fourier, view_height):
+    """A view height of 1e9 laid out a 59 GiB frequency grid (MemoryError), one of 1e-9 searched minutes for a
+    fast transform length of 1e13: the slice's size is now only measured, and refused by the GL limit."""
+    import time
+
+    from dvr_gl.errors import DvrError
+
+    scene = small_scene({**ORTHO, "renderer.compositing": "average", "renderer.slice_bandwidth": 8.0,
+                         "camera.view_height": view_height, "volume.size": 8})
+    start = time.perf_counter()
+    with pytest.raises(DvrError, match="fourier's slice of .* texels exceeds") as info:
+        fourier.render(scene)
+    assert "\n" not in str(info.value) and time.perf_counter() - start < 5

@@ -88,10 +88,25 @@ class Frame:
             along = corners @ axis
             first = min(0.0, float(along.min()) - margin)
             last = max((count - 1) * self.image_pixel, float(along.max()) + margin)
-            sizes.append(padded_length(int(math.ceil((last - first) / self.pixel)) + 1, 1.0))
+            samples = (last - first) / self.pixel
+            # beyond MAX_SLICE the size is only refused (the GL limits): not rounded to a fast length, a
+            # search that took minutes for a view height of 1e-9 (the grid of fftfreq: 59 GiB for 1e9)
+            count = int(math.ceil(samples)) + 1 if math.isfinite(samples) else 2 ** 62
+            sizes.append(padded_length(count, 1.0) if count < self.MAX_SLICE else count)
         self.size = tuple(sizes)
-        self.u = np.fft.fftfreq(self.size[0], self.pixel)
-        self.v = np.fft.fftfreq(self.size[1], self.pixel)
+
+    #: Samples a side past which the slice is not laid out: more than any GL's texture side (16384 on llvmpipe).
+    MAX_SLICE = 1 << 16
+
+    @functools.cached_property
+    def u(self) -> np.ndarray:
+        """The grid's frequencies along the image's rows (cycles per world unit)."""
+        return np.fft.fftfreq(self.size[0], self.pixel)
+
+    @functools.cached_property
+    def v(self) -> np.ndarray:
+        """The grid's frequencies down the image's columns."""
+        return np.fft.fftfreq(self.size[1], self.pixel)
 
     @functools.cached_property
     def w(self) -> np.ndarray:
