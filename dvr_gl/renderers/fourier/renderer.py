@@ -96,7 +96,9 @@ class FourierRenderer(GLVolumeRenderer):
 
         r = scene.renderer
         border = ghost_layers(scene)
-        dims = [padded_length(n + 2 * border, r.padding) for n in scene.volume.dims]
+        # a fast length is looked for only where a transform could be made (the search is long for huge n)
+        dims = [padded_length(n + 2 * border, r.padding) if n + 2 * border < 1 << 20 else
+                math.ceil(r.padding * (n + 2 * border)) for n in scene.volume.dims]
         samples = float(np.prod([float(m) for m in dims]))
         count = (4 if r.compositing == "xray" else 1) * (2 if r.hemispherical_shading else 1)
         fix = "use a smaller renderer.padding or volume" + (" or renderer.kernel_width" if r.filter == "gaussian"
