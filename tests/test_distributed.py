@@ -323,3 +323,20 @@ def test_a_local_cluster_larger_than_the_machine_is_refused_before_it_starts():
         with connect("local:100000"):
             pass
     assert f"over {4 * (os.cpu_count() or 1)}" in one_line(e)
+
+
+def test_nothing_listening_is_one_line_at_once():
+    """A refused connection or an unknown name is told at once (Dask retried until its 10 s timeout)."""
+    import socket
+    import time
+
+    with socket.socket() as s:  # a port that was free a moment ago: nothing listens there
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    start = time.perf_counter()
+    for address, fragment in ((f"tcp://127.0.0.1:{port}", "refused"), ("tcp://no-such-host.invalid:8786", "")):
+        with pytest.raises(DvrError) as e:
+            with connect(address):
+                pass
+        assert "cannot reach the scheduler" in one_line(e) and fragment in one_line(e).lower()
+    assert time.perf_counter() - start < 5

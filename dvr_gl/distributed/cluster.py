@@ -108,8 +108,17 @@ def probe(address: str, timeout: float = TIMEOUT) -> None:
     seconds (Dask's own timeout does not cover a server that accepts and never answers: the client waited
     past 300 s); one line if it does not answer as a scheduler."""
     import asyncio
+    import socket
 
     from distributed.comm import connect as comm_connect
+
+    host, _, port = address.removeprefix("tcp://").rpartition(":")
+    try:  # nothing listening, or a name that does not resolve: at once (Dask retries until its timeout)
+        socket.create_connection((host.strip("[]"), int(port)), timeout=timeout).close()
+    except OSError as e:
+        reason = e.strerror or str(e) or type(e).__name__
+        raise DvrError(f"--dask {address}: cannot reach the scheduler ({reason}); start one (dask scheduler) or "
+                       f"use local:N") from None
 
     async def identity():
         comm = await comm_connect(address, timeout=timeout)
