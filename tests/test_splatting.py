@@ -568,3 +568,17 @@ def test_a_long_frame_reports_progress(splatting, monkeypatch, extra):
         splatting.progress = None
     assert len(steps) > 3 and steps[-1][0] == steps[-1][1] and [d for d, _ in steps] == sorted(d for d, _ in steps)
     np.testing.assert_allclose(image, quiet, atol=1e-6)
+
+
+def test_the_estimate_of_a_view_from_inside_the_box_is_quiet():
+    """Kernels at the eye cover the whole image (no overflow warning on the user's terminal)."""
+    import warnings
+
+    from dvr_gl.renderers.splatting.work import splat_work
+
+    scene = small_scene({**GAUSSIAN, "camera.eye": [0.0, 0.0, 0.0], "camera.target": [1.0, 0.0, 0.0],
+                         "camera.up": [0.0, 0.0, 1.0]})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        work = splat_work(scene)
+    assert f"{32 * 32:.3g} pixels a footprint" in work.how or work.count > 0

@@ -47,7 +47,8 @@ def footprint_pixels(scene, radius, depth) -> float:
     """The mean count of pixels kernels of bounding radius ``radius`` (world units, one or one each) at view
     depths ``depth`` cover: each disc a pixel wider each side, at most the image (kernels at the eye)."""
     pixels = float(scene.image.width) * scene.image.height
-    area = math.pi * (np.asarray(radius, float) / pixel_size(scene, depth) + 1.0) ** 2
+    across = np.minimum(np.asarray(radius, float) / pixel_size(scene, depth), pixels)  # (no overflow at the eye)
+    area = math.pi * (across + 1.0) ** 2
     return float(np.minimum(area, pixels).mean())
 
 
