@@ -69,8 +69,11 @@ def _rescale_intercept(args, overrides: dict) -> float:
 def run(args) -> int:
     from dvr_gl.viewer.app import ViewerOptions, check_display, run_viewer
 
+    # the sandbox's and Dask's flags too: parsed (the parser is render's) but not applied by the viewer, so
+    # refused rather than silently ignored (a scene one did not write would be read unconfined)
     defaults = {"output": None, "overwrite": False, "save_scene": None, "frames": None,
-                "fps": render_cmd.DEFAULT_FPS}
+                "fps": render_cmd.DEFAULT_FPS, "sandbox": None, "max_seconds": None, "max_memory": None,
+                "dask": None, "compositing_method": "direct_send"}
     _refuse_render_only(args, defaults)
     render_cmd.positional_volume(args)
     if not args.scene and not args.demo and not args.volume:

@@ -410,3 +410,12 @@ def test_a_huge_negative_rescale_intercept_names_the_flag(tmp_path, capsys):
                        "--rescale-intercept", "-1e300")
     assert_one_line_error(code, err, "(--rescale-intercept)", "within +-1e+12")
     assert "points" not in err
+
+
+@pytest.mark.parametrize("flag, value", [("--sandbox", "{tmp}"), ("--max-seconds", "5"), ("--max-memory", "1GiB"),
+                                         ("--dask", "local:2")])
+def test_view_refuses_the_flags_it_would_ignore(tmp_path, capsys, flag, value):
+    """dvr view parsed the sandbox's flags (render's parser) and ignored them: a scene one did not write was
+    read unconfined. Refused now, before a window or a volume."""
+    code, _, err = run(capsys, "view", "--demo", flag, value.format(tmp=tmp_path))
+    assert_one_line_error(code, err, f"{flag} belongs to dvr render, not dvr view")
