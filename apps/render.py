@@ -227,7 +227,8 @@ def overrides_from(args) -> dict:
         if dest.startswith(SETTING_DEST) and value is not None:
             out["renderer." + dest.removeprefix(SETTING_DEST)] = value
     if is_transfer_function_file(out.get("transfer_function.preset")):
-        out["transfer_function.file"] = str(Path(out.pop("transfer_function.preset")).expanduser().resolve())
+        # absolute, relative to where dvr runs (links are followed when it is read: a link loop is one line there)
+        out["transfer_function.file"] = os.path.abspath(os.path.expanduser(out.pop("transfer_function.preset")))
     if getattr(args, "scattering", None) and getattr(args, "shading", None) is None:
         out["renderer.shading.enabled"] = False  # scattering lights the samples instead (--shading: refused)
     if args.demo:
@@ -393,7 +394,9 @@ def render(args) -> int:
     rendered = time.perf_counter() - start
     if args.save_scene:
         scene_path = Path(args.save_scene)
-        write_text(scene_path, scene.to_toml(relative_to=scene_path.resolve().parent), args.overwrite)
+        # where the file will be: the rename that writes it replaces a link there (abspath, not resolve: a link
+        # loop at that name raised RuntimeError)
+        write_text(scene_path, scene.to_toml(relative_to=Path(os.path.abspath(scene_path)).parent), args.overwrite)
     if not args.quiet:
         if movie:
             what = f"{outputs[0]} ({count} frame{'s' * (count > 1)} at {args.fps:g} fps, "

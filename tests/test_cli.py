@@ -419,3 +419,17 @@ def test_view_refuses_the_flags_it_would_ignore(tmp_path, capsys, flag, value):
     read unconfined. Refused now, before a window or a volume."""
     code, _, err = run(capsys, "view", "--demo", flag, value.format(tmp=tmp_path))
     assert_one_line_error(code, err, f"{flag} belongs to dvr render, not dvr view")
+
+
+def test_link_loops_are_one_line(tmp_path, capsys):
+    """A transfer-function file that is a link to itself was an internal error (pathlib's resolve); a
+    --save-scene name that is one is replaced as any link there is."""
+    loop = tmp_path / "loop.vp"
+    loop.symlink_to(loop)
+    code, _, err = run(capsys, "render", "--demo", "-o", tmp_path / "x.png", *SMALL, "--transfer-function", loop)
+    assert_one_line_error(code, err, "Too many levels of symbolic links")
+    saved = tmp_path / "loop.toml"
+    saved.symlink_to(saved)
+    code, _, err = run(capsys, "render", "--demo", "-o", tmp_path / "y.png", *SMALL, "--save-scene", saved,
+                       "--overwrite")
+    assert code == 0 and saved.is_file() and not saved.is_symlink(), err
