@@ -75,7 +75,7 @@ def check_writable(path: Path, overwrite: bool = False) -> Path:
     sandbox.check_output_path(path)
     if path.exists() and not path.is_file():  # replacing /dev/... or a FIFO by a rename is never meant
         raise DvrError(f"{path}: exists and is not a regular file (a device, FIFO or socket); choose another name")
-    if path.exists() and not overwrite:
+    if os.path.lexists(path) and not overwrite:  # a dangling or looping link too: the rename would replace it
         raise DvrError(f"{path}: exists; pass --overwrite to replace it, or choose another name")
     if not folder.is_dir():
         raise DvrError(f"{path}: folder {folder} does not exist; create it first (mkdir -p {folder}) "
@@ -126,7 +126,7 @@ def atomic_output(path: Path, overwrite: bool = False):
     try:
         yield Path(tmp)
         os.chmod(tmp, _file_mode(path))  # mkstemp makes private files; outputs are ordinary ones
-        if path.exists() and not overwrite:
+        if os.path.lexists(path) and not overwrite:
             raise DvrError(f"{path}: appeared while rendering; not replaced (pass --overwrite)")
         os.replace(tmp, path)
     except OSError as exc:

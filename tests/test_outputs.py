@@ -178,3 +178,14 @@ def test_image_save_as_gif_is_srgb(tmp_path):
     # Metric: mean absolute difference in 8-bit levels, as for the CLI's GIF above (palette quantization);
     # linear values written as if sRGB would darken the mid-greys by tens of levels.
     assert len(frames) == 1 and np.abs(frames[0][..., :3] - want).mean() < 2.0
+
+
+@pytest.mark.parametrize("kind", ["dangling", "loop"])
+def test_an_output_name_that_is_a_link_is_replaced_only_with_overwrite(tmp_path, kind):
+    """A dangling or looping link at the output's name is something there: the rename would replace it."""
+    out = tmp_path / "out.png"
+    out.symlink_to(tmp_path / "missing.png" if kind == "dangling" else out)
+    with pytest.raises(DvrError, match="exists; pass --overwrite"):
+        image.check_output_path(out)
+    assert out.is_symlink()
+    assert image.check_output_path(out, overwrite=True) == out
