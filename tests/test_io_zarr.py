@@ -155,6 +155,16 @@ def test_a_chunk_that_is_a_fifo_is_refused_not_waited_on(tmp_path):
         load_volume(path)
 
 
+def test_a_chunk_that_is_a_folder_is_refused_not_read_as_missing(tmp_path):
+    """zarr reads a folder at a chunk's key as a missing chunk (its fill value: a hole in the picture)."""
+    path = tmp_path / "a.zarr"
+    zarr.create_array(str(path), shape=DATA.shape, chunks=(1, 3, 4), dtype=DATA.dtype, zarr_format=2)[...] = DATA
+    (path / "1.0.0").unlink()
+    (path / "1.0.0").mkdir()
+    with pytest.raises(VolumeError, match="1.0.0: a folder where the store has a file"):
+        load_volume(path)
+
+
 def edit_json(path, change):
     data = json.loads(path.read_text())
     change(data)

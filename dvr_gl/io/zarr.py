@@ -257,6 +257,9 @@ def check_key(root: Path, key: str, folders: dict | None = None, whole: bool = F
     if not (stat.S_ISREG(found.st_mode) or stat.S_ISDIR(found.st_mode)):
         raise SandboxError(f"{path}: the zarr store's file is not a regular file (a FIFO, device or socket could "
                            f"block); fix the store")
+    if whole and stat.S_ISDIR(found.st_mode):  # zarr would read it as a missing chunk: its fill value
+        raise VolumeError(f"{path}: a folder where the store has a file (a chunk or metadata); the store is "
+                          f"damaged: rewrite it")
     if whole and stat.S_ISREG(found.st_mode):
         metadata = parts[-1] in METADATA_FILES
         check_bytes(found.st_size * (JSON_FACTOR if metadata else 1),
