@@ -19,9 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from . import progress
+from . import limits, progress
 from .errors import SceneError
-from .sandbox import check_bytes, check_input_path, current
+from .sandbox import check_bytes, check_input_path
 
 #: Memory while reading a mesh file, per byte of the file (meshio's peak, with a margin).
 BYTES_PER_FILE_BYTE = 10
@@ -288,29 +288,16 @@ def _hit(o, d, a, e1, e2):
 PAIR_CHUNK = 1 << 17
 BYTES_PER_PAIR = 480
 BYTES_PER_HOST_TRIANGLE = 640   # corners, edges, normals, projected boxes and their bins (measured 610)
-#: Ray-triangle tests allowed in one frame (about an hour at :data:`PAIR_RATE`), and the rate measured
-#: on two shared cores (tests per second, docs/geometry.md).
-PAIR_BOUND = 3e10
-PAIR_RATE = 1e7
-
-
+SURFACE_WORK = "ray-triangle tests"  # the unit of limits.BOUNDS the host test counts
 def surface_bound() -> float:
-    """The most ray-triangle tests a frame may make: :data:`PAIR_BOUND`, lowered by the sandbox's
-    ``max_seconds``."""
-    seconds = current().max_seconds
-    return PAIR_BOUND if seconds is None else min(PAIR_BOUND, seconds * PAIR_RATE)
+    """The most ray-triangle tests a frame may make (``limits.BOUNDS``, lowered by ``max_seconds``)."""
+    return limits.bound(SURFACE_WORK)
 
 
 def check_surface_work(pairs: float, rays: int, triangles: int) -> None:
-    limit = surface_bound()
-    if not pairs <= limit:
-        seconds = pairs / PAIR_RATE
-        took = f"{seconds / 3600:.3g} hours" if seconds >= 7200 else (
-            f"{seconds / 60:.3g} minutes" if seconds >= 120 else f"{seconds:.3g} s")
-        raise SceneError(f"the surfaces would take {pairs:.3g} ray-triangle tests ({rays} rays against the "
-                         f"{triangles} triangles their boxes cover; about {took} at the rate measured on two CPU "
-                         f"cores), over the bound of {limit:.3g}; lower --size, use a mesh with fewer or smaller "
-                         f"triangles, or a GL renderer (raycast, slicing3d) that rasterizes them")
+    limits.check_work(limits.Work(pairs, SURFACE_WORK, f"{rays} rays against the {triangles} triangles their "
+                                  "boxes cover", "lower --size, use a mesh with fewer or smaller triangles, or a GL "
+                                  "renderer (raycast, slicing3d) that rasterizes them"), "the surfaces")
 
 
 class HitPlan:

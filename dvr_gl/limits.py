@@ -102,6 +102,12 @@ BOUNDS["splat fragments"], RATES["splat fragments"] = 2e10, 5e6
 # fourier (dvr_gl.renderers.fourier.renderer): channels x M log2 M of its padded volume's transform, the
 # first frame's; 8e7-1.3e8 a second measured on two shared cores (240^3 to 800^3 spectra; 800^3: 113 s)
 BOUNDS["fft samples"], RATES["fft samples"] = 1e11, 1e8
+# surfaces in the CPU renderers (dvr_gl.geometry): ray-triangle tests the 2D bins allow; 1e7 a second
+# measured on two shared cores (docs/geometry.md)
+BOUNDS["ray-triangle tests"], RATES["ray-triangle tests"] = 3e10, 1e7
+# mesh resampling (dvr_gl.fields.mesh_resample): point-in-cell tests the locator's bins allow; 1.6e4 grid
+# points a second on the blunt fin at 128, about 2e6 tests a second on two shared cores
+BOUNDS["point-in-cell tests"], RATES["point-in-cell tests"] = 7e9, 2e6
 
 # Below this the converged reference's error estimates (differences of float64 sums of order 1,
 # ~1e-16 each, over ~1e3 pieces a ray) are rounding noise: refinement never meets them (measured:

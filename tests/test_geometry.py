@@ -489,6 +489,7 @@ def test_the_host_test_is_bounded_and_fast(tmp_path, monkeypatch):
     triangle).  The plan tests a few pairs a ray; its count is checked against the bound (lowered by
     --max-seconds) before any test, and the refusal names the count and what to change."""
     import dvr_gl.geometry as geometry
+    from dvr_gl import limits
     from dvr_gl.sandbox import Sandbox, active
 
     path = _sphere_stl(tmp_path, 5)  # 20480 triangles
@@ -497,12 +498,12 @@ def test_the_host_test_is_bounded_and_fast(tmp_path, monkeypatch):
     rays = scene.camera.pixel_rays(64, 64)
     plan = geometry.HitPlan(*rays, read_mesh(path).corners)
     assert plan.pairs < 50 * len(rays[0])  # about 21 a ray; brute force: 20480 a ray
-    monkeypatch.setattr(geometry, "PAIR_BOUND", plan.pairs / 2)
+    monkeypatch.setitem(limits.BOUNDS, geometry.SURFACE_WORK, plan.pairs / 2)
     with pytest.raises(DvrError, match=r"the surfaces would take .* ray-triangle tests \(4096 rays against the 20480 "
                                        r"triangles .*over the bound.*lower --size"):
         geometry.first_hits([(read_mesh(path), GREY)], *rays)
-    monkeypatch.setattr(geometry, "PAIR_BOUND", 3e10)
-    monkeypatch.setattr(geometry, "PAIR_RATE", plan.pairs / 20)  # --max-seconds 10 allows half the tests
+    monkeypatch.setitem(limits.BOUNDS, geometry.SURFACE_WORK, 3e10)
+    monkeypatch.setitem(limits.RATES, geometry.SURFACE_WORK, plan.pairs / 20)  # --max-seconds 10: half the tests
     with active(Sandbox(max_seconds=10)), pytest.raises(DvrError, match="over the bound of"):
         geometry.first_hits([(read_mesh(path), GREY)], *rays)
 

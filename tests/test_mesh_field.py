@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from dvr_gl import limits
 from dvr_gl.errors import SceneError, VolumeError
 from dvr_gl.fields.mesh import TetMesh
 from dvr_gl.fields.mesh_cells import hexahedra_of_grid, split_quads, tetrahedralize
@@ -287,7 +288,7 @@ def test_resampling_is_checked_before_anything_is_allocated(monkeypatch):
 
     monkeypatch.setattr(type(locator), "locate", counting)
     assert np.array_equal(mr.resample(mesh, 40).data, grid.data) and counted["n"] == work
-    monkeypatch.setattr(mr, "CANDIDATE_BOUND", work / 2)
+    monkeypatch.setitem(limits.BOUNDS, mr.RESAMPLE_WORK, work / 2)
     with pytest.raises(SceneError, match=r"would take .* point-in-cell tests .* over the bound of .*; lower "
                                          r"--resample"):
         mesh.resampled(40)

@@ -15,20 +15,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import progress
+from .. import limits, progress
 from ..errors import SceneError
-from ..sandbox import check_bytes, current
+from ..sandbox import check_bytes
 from .grid import Volume
 from .mesh_locate import BYTES_PER_CANDIDATE, CANDIDATES_PER_CHUNK
 
 MAX_SAMPLES = 1024  # along the longest axis
 POINTS_PER_SLAB = 1 << 18      # grid points located at once (their coordinates, cells and values)
 BYTES_PER_SLAB_POINT = 96      # a slab's float64 coordinates, cell indices, values and the mask
-#: Candidate tests (a grid point against a cell its bin lists) allowed in one resampling, about an hour
-#: at the rate measured on two shared cores (1.6e4 points a second on the blunt fin at 128, about 2e6
-#: candidates a second); a sandbox's max_seconds lowers it.
-CANDIDATE_BOUND = 7e9
-CANDIDATE_RATE = 2e6
+RESAMPLE_WORK = "point-in-cell tests"  # the unit of limits.BOUNDS resampling counts
 
 
 def outside_value(mesh) -> float:
@@ -66,7 +62,7 @@ def grid_of(mesh, samples: int):
 def check_resample(mesh, samples: int, locator=None) -> float:
     """Refuse, before anything is allocated, a resampling whose grid exceeds the memory budget (the
     float32 grid, a slab's temporaries and the locator's chunk) or whose candidate tests exceed
-    :data:`CANDIDATE_BOUND` (lowered by ``max_seconds``); the count of tests (0 without ``locator``)."""
+    the bound of ``limits.BOUNDS`` (lowered by ``max_seconds``); the count of tests (0 without ``locator``)."""
     _, _, dims = grid_of(mesh, samples)
     points = float(np.prod(dims.astype(np.float64)))
     size = "x".join(map(str, dims))
@@ -77,16 +73,9 @@ def check_resample(mesh, samples: int, locator=None) -> float:
         return 0.0
     lo, spacing, dims = grid_of(mesh, samples)
     work = locator.candidates_on_grid([lo[i] + spacing * np.arange(dims[i]) for i in range(3)])
-    seconds = current().max_seconds
-    limit = CANDIDATE_BOUND if seconds is None else min(CANDIDATE_BOUND, seconds * CANDIDATE_RATE)
-    if not work <= limit:
-        took = work / CANDIDATE_RATE
-        took = f"{took / 3600:.3g} hours" if took >= 7200 else (f"{took / 60:.3g} minutes" if took >= 120
-                                                                else f"{took:.3g} s")
-        raise SceneError(f"resampling {mesh.name} onto {size} points (volume.resample = {samples}) would take "
-                         f"{work:.3g} point-in-cell tests (about {took} at the rate measured on two CPU cores), over "
-                         f"the bound of {limit:.3g}; lower --resample (volume.resample), or render the mesh itself "
-                         "(projected-tetrahedra, cell-raycast)")
+    limits.check_work(limits.Work(work, RESAMPLE_WORK, f"{mesh.name} onto {size} points, volume.resample = "
+                                  f"{samples}", "lower --resample (volume.resample), or render the mesh itself "
+                                  "(projected-tetrahedra, cell-raycast)"), "resampling")
     return work
 
 
