@@ -13,6 +13,17 @@ REPO = Path(__file__).resolve().parent.parent
 SHARED_DATA = REPO.parent / "shared" / "data"
 
 
+@pytest.fixture(scope="session", autouse=True)
+def private_cache_folder(tmp_path_factory):
+    """``$XDG_CACHE_HOME`` in a temporary folder for the whole session (children inherit it): dvr-gl's
+    cache folder (the key that signs block-ranges sidecars, sidecars of read-only data, bench peers'
+    volumes) is never the user's own.  A test may set it again (monkeypatch) for a cache of its own."""
+    patch = pytest.MonkeyPatch()
+    patch.setenv("XDG_CACHE_HOME", str(tmp_path_factory.mktemp("xdg-cache")))
+    yield
+    patch.undo()
+
+
 @pytest.fixture(scope="session")
 def shared_data() -> Path:
     if not (SHARED_DATA / "README.md").is_file():

@@ -408,6 +408,13 @@ def _forge(path, **members):
     np.savez(path, **{k: v for k, v in kept.items() if v is not None})
 
 
+def _sign(path, secret):
+    """Sign the sidecar at ``path`` with ``secret`` as dvr-gl signs its own (over its key and ranges)."""
+    with np.load(path) as z:
+        key, mins, maxs, non_finite = json.loads(str(z["key"])), z["mins"], z["maxs"], int(z["non_finite"])
+    _forge(path, signature=np.frombuffer(ranges_module._signature(secret, key, mins, maxs, non_finite), np.uint8))
+
+
 def _cut(path):
     path.write_bytes(path.read_bytes()[:len(path.read_bytes()) // 2])
 
@@ -471,6 +478,7 @@ def test_a_sidecar_linked_out_of_the_sandbox_is_not_read(tmp_path):
     forged = tmp_path / "out" / "forged.npz"
     ranges = opened().ranges
     _forge(ranges.sidecar, mins=np.zeros_like(ranges.mins), maxs=np.zeros_like(ranges.maxs))
+    _sign(ranges.sidecar, ranges_module.signing_key())  # as if this user's dvr-gl had written it
     os.replace(ranges.sidecar, forged)
     (tmp_path / "box" / "v.raw.dvr-ranges.npz").symlink_to(forged)
     assert opened().value_range == (0, 0)  # the escape: without a sandbox the link is followed
@@ -502,6 +510,7 @@ def test_the_cache_folder_outside_the_sandbox_is_not_used(tmp_path, monkeypatch)
     assert cached.parent == tmp_path / "cache" / "dvr-gl" / "ranges"
     zeros = np.zeros_like(np.load(cached)["mins"])
     _forge(cached, mins=zeros, maxs=zeros)  # were it read, the range would be 0..0
+    _sign(cached, ranges_module.signing_key())  # as if this user's dvr-gl had written it
     with active(Sandbox(roots=(tmp_path / "box",))):
         assert opened().value_range == (DATA.min(), DATA.max())
     assert opened().value_range == (0, 0)  # without the sandbox, the cache folder's (forged) sidecar
@@ -562,3 +571,174 @@ def test_raw_source_checked_again_where_it_is_reopened(tmp_path):
     (tmp_path / "box" / "v.raw").symlink_to(tmp_path / "out" / "w.raw")
     with pytest.raises(SandboxError, match="v.raw: the volume file lies outside the allowed folders"):
         pickle.loads(pickle.dumps(source)).read((0, 0, 0), (1, 1, 1))
+
+
+# --- issue 40: only sidecars dvr-gl wrote for this user are trusted (signed with the user's key) --------
+
+def _write_forged(path, **members):
+    """A sidecar written from scratch with the key of the sidecar at ``path`` (the data's real size and
+    modification time) and every block's range 0..0: every brick would be skipped as empty."""
+    with np.load(path) as z:
+        key, shape = z["key"], z["mins"].shape
+    zeros = np.zeros(shape, DATA.dtype)
+    forged = {"mins": zeros, "maxs": zeros, "key": key, "non_finite": np.array(0), **members}
+    np.savez(path, **{k: v for k, v in forged.items() if v is not None})
+
+
+FORGERIES = {
+    "unsigned": lambda p: _write_forged(p),
+    "a stale signature": lambda p: _forge(p, mins=np.zeros_like(np.load(p)["mins"]),
+                                           maxs=np.zeros_like(np.load(p)["maxs"])),
+    "signed with another key": lambda p: (_write_forged(p), _sign(p, os.urandom(32))),
+    "a signature of another size": lambda p: _write_forged(p, signature=np.zeros(16, np.uint8)),
+    "a signature of another type": lambda p: _write_forged(p, signature=np.zeros(32, np.int64)),
+}
+
+
+@pytest.mark.parametrize("forgery", list(FORGERIES))
+def test_a_forged_sidecar_with_the_datas_key_is_not_used(tmp_path, monkeypatch, caplog, forgery):
+    """A sidecar that agrees with itself and with the data's key (its real size and modification time) but
+    holds false ranges (every block empty) is not used unless this user's key signed it: the ranges come
+    out right, with one warning line, and the rewritten sidecar is used next time without a word."""
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    path, opened = raw_volume(tmp_path)
+    sidecar = tmp_path / "v.raw.dvr-ranges.npz"
+    opened()
+    FORGERIES[forgery](sidecar)
+    computed = []
+    compute = BlockRanges.compute.__func__
+    monkeypatch.setattr(BlockRanges, "compute", classmethod(lambda cls, *a, **k: computed.append(1) or
+                                                            compute(cls, *a, **k)))
+    with caplog.at_level("WARNING", logger="dvr_gl"):
+        v = opened()
+    assert v.value_range == (DATA.min(), DATA.max()) and len(computed) == 1
+    np.testing.assert_array_equal(v.ranges.mins, compute(BlockRanges, ArraySource(DATA)).mins)
+    np.testing.assert_array_equal(v.ranges.maxs, compute(BlockRanges, ArraySource(DATA)).maxs)
+    warned = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert len(warned) == 1 and "\n" not in warned[0], warned
+    assert ("v.raw.dvr-ranges.npz: the block-ranges sidecar was not written by dvr-gl for this user" in warned[0]
+            and "computing the ranges again" in warned[0])
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="dvr_gl"):
+        again = opened()
+    assert again.ranges.sidecar == sidecar and len(computed) == 1 and not caplog.records  # rewritten signed
+    assert again.value_range == v.value_range
+
+
+def test_a_sidecar_we_wrote_is_used_and_signed_with_a_private_key(tmp_path, monkeypatch, caplog):
+    """The first read writes the key (32 random bytes, mode 0600, in the cache folder) and a signed sidecar;
+    the next read uses the sidecar without computing; another key (the sidecar came from another user, or
+    the key was deleted) makes it be computed again with a warning."""
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    path, opened = raw_volume(tmp_path)
+    computed = []
+    compute = BlockRanges.compute.__func__
+    monkeypatch.setattr(BlockRanges, "compute", classmethod(lambda cls, *a, **k: computed.append(1) or
+                                                            compute(cls, *a, **k)))
+    with caplog.at_level("WARNING", logger="dvr_gl"):
+        opened()
+        v = opened()
+    assert len(computed) == 1 and v.ranges.sidecar == tmp_path / "v.raw.dvr-ranges.npz" and not caplog.records
+    key = ranges_module.key_path()
+    assert key.parent == tmp_path / "cache" / "dvr-gl" / "ranges"
+    assert key.stat().st_size == 32 and key.stat().st_mode & 0o777 == 0o600
+    with np.load(v.ranges.sidecar) as z:
+        assert z["signature"].dtype == np.uint8 and z["signature"].shape == (32,)
+    key.write_bytes(os.urandom(32))  # another user's key
+    with caplog.at_level("WARNING", logger="dvr_gl"):
+        assert opened().value_range == (DATA.min(), DATA.max())
+    assert len(computed) == 2 and "not written by dvr-gl for this user" in caplog.text
+    key.unlink()  # created again: the sidecars signed with the lost one are computed again
+    assert opened().value_range == (DATA.min(), DATA.max()) and len(computed) == 3 and key.stat().st_size == 32
+    assert opened().value_range == (DATA.min(), DATA.max()) and len(computed) == 3
+
+
+def _not_a_folder(tmp_path):
+    (tmp_path / "file").write_bytes(b"")
+    return tmp_path / "file" / "cache"  # no folder can be made under a file, even by root
+
+
+def _key_of(size):
+    def make(tmp_path):
+        (tmp_path / "cache" / "dvr-gl" / "ranges").mkdir(parents=True)
+        (tmp_path / "cache" / "dvr-gl" / "ranges" / ranges_module.KEY_NAME).write_bytes(b"k" * size)
+        return tmp_path / "cache"
+    return make
+
+
+def _readable_key(tmp_path):
+    folder = _key_of(32)(tmp_path)
+    ranges_module.key_path().chmod(0o644)
+    return folder
+
+
+def _key_a_fifo(tmp_path):
+    (tmp_path / "cache" / "dvr-gl" / "ranges").mkdir(parents=True)
+    os.mkfifo(tmp_path / "cache" / "dvr-gl" / "ranges" / ranges_module.KEY_NAME)
+    return tmp_path / "cache"
+
+
+def _key_a_link(tmp_path):
+    (tmp_path / "cache" / "dvr-gl" / "ranges").mkdir(parents=True)
+    (tmp_path / "elsewhere").write_bytes(b"k" * 32)
+    (tmp_path / "cache" / "dvr-gl" / "ranges" / ranges_module.KEY_NAME).symlink_to(tmp_path / "elsewhere")
+    return tmp_path / "cache"
+
+
+UNUSABLE_KEYS = {"no folder can be made": _not_a_folder, "a key of 31 bytes": _key_of(31),
+                 "a key of 33 bytes": _key_of(33), "an empty key": _key_of(0),
+                 "a key others may read": _readable_key, "a FIFO": _key_a_fifo, "a link": _key_a_link}
+
+
+@pytest.mark.parametrize("case", list(UNUSABLE_KEYS))
+def test_without_a_usable_key_no_sidecar_is_trusted(tmp_path, monkeypatch, caplog, case):
+    """A key that cannot be created (a read-only home) or read as this user's 32 bytes: the ranges are
+    computed each time and come out right, no sidecar is written (a forged one beside the data is not read),
+    one warning line in all, nothing raised; the volume still renders its values."""
+    cache = UNUSABLE_KEYS[case](tmp_path)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(cache))
+    path, opened = raw_volume(tmp_path, name="u.raw")
+    sidecar = tmp_path / "u.raw.dvr-ranges.npz"
+    with caplog.at_level("WARNING", logger="dvr_gl"):
+        v = opened()
+        key = {**RawSource(path, DIMS, DATA.dtype).validity(), "block": 32, "nan_value": None,
+               "version": ranges_module.VERSION}
+        zeros = np.zeros_like(v.ranges.mins)
+        np.savez(sidecar, mins=zeros, maxs=zeros, key=np.array(json.dumps(key)), non_finite=np.array(0))
+        again = opened()
+    assert v.ranges.sidecar is None and again.ranges.sidecar is None
+    assert v.value_range == again.value_range == (DATA.min(), DATA.max())
+    np.testing.assert_array_equal(again.ranges.maxs, BlockRanges.compute(ArraySource(DATA)).maxs)
+    np.testing.assert_array_equal(again.read((0, 0, 0), DIMS), DATA)
+    warned = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert len(warned) == 1 and "\n" not in warned[0], warned
+    assert "the key that signs block-ranges sidecars cannot be used" in warned[0]
+    assert "the ranges are computed each time" in warned[0]
+    assert not list(tmp_path.rglob("*.dvr-ranges.npz.*.tmp"))
+
+
+def test_the_key_outside_the_sandbox_is_read_never_created(tmp_path, monkeypatch, caplog):
+    """Under a sandbox whose roots exclude the cache folder, the key (dvr-gl's own state, not input) is read
+    there: a sidecar beside the data, inside the roots, is verified and used, a forged one is not.  Where
+    there is no key yet, none is created outside the roots: the ranges are computed, nothing is written,
+    without a warning."""
+    from dvr_gl.sandbox import Sandbox, active
+
+    (tmp_path / "box").mkdir()
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    path, opened = raw_volume(tmp_path / "box")
+    sidecar = tmp_path / "box" / "v.raw.dvr-ranges.npz"
+    with caplog.at_level("WARNING", logger="dvr_gl"), active(Sandbox(roots=(tmp_path / "box",))):
+        assert opened().ranges.sidecar is None
+        assert not (tmp_path / "cache").exists() and not sidecar.exists() and not caplog.records
+    opened()  # outside the sandbox: the key is created, the sidecar written
+    computed = []
+    compute = BlockRanges.compute.__func__
+    monkeypatch.setattr(BlockRanges, "compute", classmethod(lambda cls, *a, **k: computed.append(1) or
+                                                            compute(cls, *a, **k)))
+    with active(Sandbox(roots=(tmp_path / "box",))):
+        assert opened().ranges.sidecar == sidecar and not computed
+        _write_forged(sidecar)
+        with caplog.at_level("WARNING", logger="dvr_gl"):
+            assert opened().value_range == (DATA.min(), DATA.max()) and len(computed) == 1
+        assert "not written by dvr-gl for this user" in caplog.text

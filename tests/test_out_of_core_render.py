@@ -304,3 +304,26 @@ def test_a_frame_whose_every_brick_is_empty(synthetic, raycaster):
     assert raycaster.stats["bricks"] == 0 and raycaster.stats["bricks_empty"] >= 1
     assert not image.any()
     assert not raycaster.render_state(scene, raycaster.brick_plan(scene)).any()
+
+
+def test_a_forged_sidecar_does_not_empty_the_picture(tmp_path, raycaster, caplog):
+    """Issue 40: a sidecar forged with the data's real key (size, modification time) and every block's
+    range 0..0 would have every brick skipped as empty, a blank picture with exit 0; unsigned by this
+    user's key, it is computed again (one warning) and the picture is the one from the true ranges."""
+    import json
+
+    nhdr = write_synthetic_raw(tmp_path / "s.raw", (70, 64, 60), "uint16")
+    volume = open_volume(nhdr, out_of_core=True, memory_budget_mb=1)
+    scene = scene_of(volume, size=(32, 24), transfer_function=BLOBS_ONLY, texture_budget_mb=0.05)
+    expected = raycaster.render(scene)
+    assert expected[..., 3].max() > 0.05
+    sidecar = volume.ranges.sidecar
+    with np.load(sidecar) as z:
+        zeros, key = np.zeros_like(z["mins"]), z["key"]
+    assert json.loads(str(key))["size"] == (tmp_path / "s.raw").stat().st_size
+    np.savez(sidecar, mins=zeros, maxs=zeros, key=key, non_finite=np.array(0))
+    with caplog.at_level("WARNING", logger="dvr_gl"):
+        forged = open_volume(nhdr, out_of_core=True, memory_budget_mb=1)
+        image = raycaster.render(scene.replace(volume=forged, camera=scene.camera))
+    assert np.array_equal(image, expected)
+    assert "not written by dvr-gl for this user" in caplog.text
