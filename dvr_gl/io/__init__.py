@@ -13,8 +13,8 @@ tiff       ``.tif`` pages, a folder, a glob       OpenImageIO
 dicom      a folder, a list of files, a glob      pydicom (extra ``dicom``)
 vti        ``.vti`` VTK XML image data            built-in reader (see its module)
 zarr       ``.zarr``, OME-Zarr (a chosen level)   zarr (extra ``zarr``)
-vtk        ``.vtk`` UNSTRUCTURED_GRID (a mesh)    meshio (extra ``mesh``)
-vtu        ``.vtu`` (a mesh)                      meshio (extra ``mesh``)
+vtk        ``.vtk`` UNSTRUCTURED_GRID (a mesh)    built-in strict reader (:mod:`.mesh_vtk`)
+vtu        ``.vtu`` (a mesh)                      built-in strict reader (:mod:`.mesh_vtk`)
 plot3d     ``.xyz`` grid + ``q`` solution (mesh)   built-in reader
 csv        ``.csv`` SPH particle table            built-in reader (csv module)
 npz        ``.npz`` SPH particle arrays           numpy
