@@ -13,7 +13,6 @@ from __future__ import annotations
 import contextlib
 import io
 import random
-import signal
 
 import numpy as np
 import pytest
@@ -30,7 +29,7 @@ from dvr_gl.errors import DvrError  # noqa: E402
 from dvr_gl.fields.mesh import TetMesh  # noqa: E402
 from dvr_gl.io import load_field  # noqa: E402
 from dvr_gl.sandbox import Sandbox, active  # noqa: E402
-from fuzz_inputs import BUDGET, TIMEOUT, mutate_bytes, mutate_lines  # noqa: E402
+from fuzz_inputs import BUDGET, TIMEOUT, mutate_bytes, mutate_lines, time_limit  # noqa: E402
 
 FUZZ = settings(max_examples=25, deadline=None, derandomize=True, database=None,
                 suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
@@ -44,25 +43,6 @@ SURFACE_SEEDS = {"s.obj": mi.obj, "s-ascii.ply": lambda: mi.ply(False), "s-bin.p
                  "s.vtu": lambda: mi.vtu("zlib", points=mi.CORNERS, cells=[(5, t) for t in mi.TRIANGLES.tolist()],
                                          point_values=np.zeros(4), cell_values=np.zeros(4))}
 TEXT = ("ascii", ".obj", "s-ascii", "4.2-ascii", "5.1-ascii")
-
-
-class MeshHang(BaseException):
-    """A reader ran past TIMEOUT: a BaseException, since the geometry reader turns every Exception out of
-    meshio (fuzz_inputs' Hang included) into a one-line error, which would hide the hang."""
-
-
-@contextlib.contextmanager
-def time_limit(seconds: float):
-    def alarm(signum, frame):
-        raise MeshHang(f"no result after {seconds} s")
-
-    previous = signal.signal(signal.SIGALRM, alarm)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
-    try:
-        yield
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
 
 
 @contextlib.contextmanager

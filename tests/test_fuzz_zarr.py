@@ -20,7 +20,6 @@ import json
 import math
 import random
 import shutil
-import signal
 from pathlib import Path
 
 import numpy as np
@@ -37,7 +36,7 @@ from dvr_gl.errors import DvrError  # noqa: E402
 from dvr_gl.io import load_volume  # noqa: E402
 from dvr_gl.out_of_core import open_volume  # noqa: E402
 from dvr_gl.sandbox import Sandbox, active  # noqa: E402
-from fuzz_inputs import BUDGET, TIMEOUT, mutate_bytes  # noqa: E402
+from fuzz_inputs import BUDGET, TIMEOUT, mutate_bytes, time_limit  # noqa: E402
 
 DATA = (np.arange(4 * 3 * 2, dtype=np.int16).reshape(2, 3, 4) * 37 - 300)  # [z, y, x]
 MARK = 4242  # every sample of the store outside the root: a volume holding it read outside
@@ -154,25 +153,6 @@ def mutate_store(files: dict[str, bytes], rnd: random.Random) -> tuple[dict[str,
 @pytest.fixture(autouse=True)
 def few_chunks(monkeypatch):
     monkeypatch.setattr(zarr_reader, "MAX_CHUNKS", FUZZ_CHUNKS)
-
-
-class Hang(BaseException):
-    """A read ran past TIMEOUT: a BaseException, as the sandbox's own timer, so that the reader's turning
-    of zarr's exceptions into one line does not hide it as a damaged chunk."""
-
-
-@contextlib.contextmanager
-def time_limit(seconds: float):
-    def alarm(signum, frame):
-        raise Hang(f"no result after {seconds} s")
-
-    previous = signal.signal(signal.SIGALRM, alarm)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
-    try:
-        yield
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
 
 
 def _pending() -> list:
