@@ -667,8 +667,8 @@ def _key_of(size):
 
 
 def _readable_key(tmp_path):
-    folder = _key_of(32)(tmp_path)
-    ranges_module.key_path().chmod(0o644)
+    folder = _key_of(32)(tmp_path)  # (the test points XDG_CACHE_HOME at it only after: key_path() is the session's)
+    (folder / "dvr-gl" / "ranges" / ranges_module.KEY_NAME).chmod(0o644)
     return folder
 
 
