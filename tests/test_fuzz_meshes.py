@@ -138,15 +138,19 @@ def test_surface_mesh_seeds_read(tmp_path, name):
     assert check_surface_mesh(path) == "mesh"
 
 
-@FUZZ
-@given(name=st.sampled_from(sorted(VOLUME_SEEDS)), rnd=st.randoms(use_true_random=False))
-def test_mutated_volume_meshes_are_user_errors_or_meshes(tmp_path, name, rnd):
-    blob = VOLUME_SEEDS[name]()
+def _mutated(tmp_path, name, blob, rnd):
+    """``blob`` mutated (its lines, half the time for a text format, else its bytes), written as ``name``."""
     blob, _ = mutate_lines(blob, rnd) if any(t in name for t in TEXT) and rnd.random() < 0.5 \
         else mutate_bytes(blob, rnd)
     path = tmp_path / name
     path.write_bytes(blob)
-    check_volume_mesh(path)
+    return path
+
+
+@FUZZ
+@given(name=st.sampled_from(sorted(VOLUME_SEEDS)), rnd=st.randoms(use_true_random=False))
+def test_mutated_volume_meshes_are_user_errors_or_meshes(tmp_path, name, rnd):
+    check_volume_mesh(_mutated(tmp_path, name, VOLUME_SEEDS[name](), rnd))
 
 
 @settings(FUZZ, max_examples=40)
@@ -161,9 +165,4 @@ def test_structurally_damaged_volume_meshes_are_user_errors_or_meshes(tmp_path, 
 @FUZZ
 @given(name=st.sampled_from(sorted(SURFACE_SEEDS)), rnd=st.randoms(use_true_random=False))
 def test_mutated_surface_meshes_are_user_errors_or_meshes(tmp_path, name, rnd):
-    blob = SURFACE_SEEDS[name]()
-    blob, _ = mutate_lines(blob, rnd) if any(t in name for t in TEXT) and rnd.random() < 0.5 \
-        else mutate_bytes(blob, rnd)
-    path = tmp_path / name
-    path.write_bytes(blob)
-    check_surface_mesh(path)
+    check_surface_mesh(_mutated(tmp_path, name, SURFACE_SEEDS[name](), rnd))
