@@ -190,6 +190,11 @@ def test_memory_budget_refuses_a_big_volume(box):
     (["--max-seconds", "nan"], "--max-seconds) must be in (0,"),
     (["--max-seconds", "inf"], "--max-seconds) must be in (0,"),
     (["--sandbox", "/no/such/folder"], "must be an existing folder"),
+    (["--max-seconds", "-1"], "--max-seconds) must be in (0,"),
+    (["--max-seconds", "1e400"], "--max-seconds) must be in (0,"),
+    (["--max-memory", "1e30"], "from 1 byte to 8 EiB"),
+    (["--max-memory", "-5"], "from 1 byte to 8 EiB"),
+    (["--max-memory", "8EiB"], "from 1 byte to 8 EiB"),
 ])
 def test_bad_sandbox_flags_are_one_line(tmp_path, capsys, argv, fragment):
     code = main(["render", "--demo", "--size", "8", *argv, "-o", str(tmp_path / "o.png")])
@@ -206,19 +211,6 @@ def test_a_deadline_passed_before_the_render_starts_is_one_line(tmp_path, capsys
     assert code == 1 and "ran past the time limit" in err and "\n" not in err, err
     assert signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)
     assert list(tmp_path.iterdir()) == []
-
-
-@pytest.mark.parametrize("argv, fragment", [
-    (["--max-seconds", "-1"], "--max-seconds) must be in (0,"),
-    (["--max-seconds", "1e400"], "--max-seconds) must be in (0,"),
-    (["--max-memory", "1e30"], "from 1 byte to 8 EiB"),
-    (["--max-memory", "-5"], "from 1 byte to 8 EiB"),
-    (["--max-memory", "8EiB"], "from 1 byte to 8 EiB"),
-])
-def test_absurd_limits_are_one_line(tmp_path, capsys, argv, fragment):
-    code = main(["render", "--demo", "--size", "8", *argv, "-o", str(tmp_path / "o.png")])
-    err = capsys.readouterr().err.strip()
-    assert code == 1 and fragment in err and "\n" not in err, err
 
 
 def test_a_sandbox_root_that_is_a_file_is_one_line(tmp_path, capsys):
