@@ -91,8 +91,8 @@ from dvr_gl.fields.mesh_rays import face_neighbours
 from dvr_gl.gl.context import make_current
 from dvr_gl.gl.shaders import shader_dir
 from dvr_gl.renderers import create_renderer
-from dvr_gl.renderers.mesh_gl import ROW
-from dvr_gl.renderers.mesh_gl import rows as _rows
+from dvr_gl.renderers.mesh.textures import ROW
+from dvr_gl.renderers.mesh.textures import rows as _rows
 from dvr_gl.scene import load_scene
 
 ENTRY_VS = """#version 430

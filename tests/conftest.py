@@ -92,7 +92,7 @@ def run_cli(capsys, *argv) -> tuple[int, str, str]:
 
     try:
         code = main([str(a) for a in argv])
-    except SystemExit as exc:  # argparse's own errors (one line, exit 1: apps/cli.py)
+    except SystemExit as exc:  # argparse's own errors (one line, exit 1: dvr_gl/apps/cli.py)
         code = exc.code
     out, err = capsys.readouterr()
     return code, out, err

@@ -47,7 +47,7 @@ def broken_shaders(tmp_path, monkeypatch):
     (tmp_path / "bad.frag").write_text('#version 330 core\n#include "common/bad.glsl"\nout vec4 c;\n'
                                        'void main() { c = vec4(broken()); }\n')
     (tmp_path / "noversion.frag").write_text("void main() {}\n")
-    monkeypatch.setattr(shaders, "shader_dir", lambda: tmp_path)
+    monkeypatch.setattr(shaders, "LIBRARY", tmp_path)
     return tmp_path
 
 

@@ -14,7 +14,7 @@ import time
 import numpy as np
 import pytest
 
-from apps import cli
+from dvr_gl.apps import cli
 from conftest import assert_close, small_scene
 from dvr_gl import limits
 from dvr_gl.errors import DvrError

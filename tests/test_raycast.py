@@ -153,9 +153,10 @@ def test_default_scene_features_and_program_cache(gpu):
         "TWO_SIDED": True, "GRADIENT_TEXTURE": True, "JITTER": True, "ACCELERATE": True, "NUM_LEVELS": 3,
         "RUNS_IN_CLASSES": True}
     from dvr_gl.gl.shaders import create_program
-    a = create_program(gpu.ctx, "fullscreen.vert", "raycast.frag", shader_features(plain))
+    from dvr_gl.renderers.raycast.renderer import SHADERS
+    a = create_program(gpu.ctx, "fullscreen.vert", "raycast.frag", shader_features(plain), roots=SHADERS)
     b = create_program(gpu.ctx, "fullscreen.vert", "raycast.frag",
-                       shader_features(small_scene({**NO_ERT, "renderer.acceleration": False})))
+                       shader_features(small_scene({**NO_ERT, "renderer.acceleration": False})), roots=SHADERS)
     assert a is b
     assert "u_light_dir" not in a and "u_gradient" not in a and "u_jitter_seed" not in a and "u_blocks0" not in a
 

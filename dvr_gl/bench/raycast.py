@@ -18,7 +18,7 @@ from . import tick
 CASES = [  # (label, overrides, fragment shader)
     ("emission, early termination off", {"renderer.ert_threshold": 1.0}, "raycast.frag"),
     ("emission, early termination 0.99", {"renderer.ert_threshold": 0.99}, "raycast.frag"),
-    ("  same, minimal hand-written shader", {"renderer.ert_threshold": 1.0}, "bench/minimal_raycast.frag"),
+    ("  same, minimal hand-written shader", {"renderer.ert_threshold": 1.0}, "minimal_raycast.frag"),
     ("emission, cubic B-spline (8 fetches)", {"renderer.filter": "cubic_bspline"}, "raycast.frag"),
     ("emission, cubic B-spline in shader (64)", {"renderer.filter": "cubic_bspline",
                                                  "renderer.filtering": "shader"}, "raycast.frag"),

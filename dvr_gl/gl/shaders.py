@@ -1,9 +1,12 @@
 """GLSL sources: found on disk, composed from snippets, specialized with defines.
 
-Shaders live in the top-level ``shaders/`` folder, installed as package data
-in ``dvr_gl/shaders/``.  A source may ``#include "snippet.glsl"`` (paths
-relative to the shaders folder, each file included once, as VTK composes its
-volume shaders from snippets); ``#define`` lines for the features a scene
+Each renderer keeps its GLSL in the ``shaders/`` folder of its own package (a kit shared by several
+renderers, in its own: :mod:`dvr_gl.renderers.grid`, :mod:`dvr_gl.renderers.mesh`), and passes that folder
+as ``roots``; what every renderer shares is the common library, this package's ``shaders/`` folder
+(``common/*.glsl``, ``fullscreen.vert``, ``geometry/``, ``scattering/``).  A name, of a program's source or
+of an ``#include "snippet.glsl"``, is looked up in the caller's roots in order and then in the library (each
+file included once, as VTK composes its volume shaders from snippets), so a renderer from another package
+brings its shaders the same way (docs/plugins.md).  ``#define`` lines for the features a scene
 uses are inserted after ``#version``, so one source specializes into many
 programs, each compiled once per context and feature set (the cache belongs to the context:
 :func:`program_cache`).  Compiler messages
@@ -23,13 +26,22 @@ from ..errors import ShaderError
 _INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
 
 
-def shader_dir() -> Path:
-    """The installed ``dvr_gl/shaders`` folder, or ``shaders/`` of a source checkout."""
-    here = Path(__file__).resolve().parent.parent
-    for candidate in (here / "shaders", here.parent / "shaders"):
-        if candidate.is_dir():
-            return candidate
-    raise ShaderError(f"the GLSL shaders folder was not found next to {here}; reinstall dvr-gl")
+#: The common GLSL library: searched after every caller's own roots.
+LIBRARY = Path(__file__).resolve().parent / "shaders"
+
+
+def shader_root(module_file: str) -> Path:
+    """The ``shaders/`` folder beside a module (``shader_root(__file__)``): a renderer's own root."""
+    return Path(module_file).resolve().parent / "shaders"
+
+
+def _find(name: str, roots: tuple) -> Path:
+    for root in (*roots, LIBRARY):
+        path = Path(root) / name
+        if path.is_file():
+            return path
+    where = ", ".join(str(r) for r in (*roots, LIBRARY))
+    raise ShaderError(f"shader file {name} not found in {where}; reinstall dvr-gl")
 
 
 @dataclass(frozen=True)
@@ -44,17 +56,15 @@ class ShaderSource:
         return f"line {line}"
 
 
-def _expand(name: str, root: Path, seen: set, lines: list, origins: list):
-    path = root / name
-    if not path.is_file():
-        raise ShaderError(f"shader file {name} not found in {root}; reinstall dvr-gl")
-    if name in seen:
+def _expand(name: str, roots: tuple, seen: set, lines: list, origins: list):
+    path = _find(name, roots)
+    if path in seen:
         return
-    seen.add(name)
+    seen.add(path)
     for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
         m = _INCLUDE.match(line)
         if m:
-            _expand(m.group(1), root, seen, lines, origins)
+            _expand(m.group(1), roots, seen, lines, origins)
         else:
             lines.append(line)
             origins.append((name, number))
@@ -69,15 +79,15 @@ def define_lines(defines: dict | None) -> list[str]:
     return out
 
 
-def load_shader(name: str, defines: dict | None = None) -> ShaderSource:
+def load_shader(name: str, defines: dict | None = None, roots: tuple = ()) -> ShaderSource:
     """The expanded source of ``name`` with ``defines`` after its ``#version`` line.
 
     ``defines`` maps names to values; ``True`` defines a flag, ``False``/``None`` omits it.
+    ``roots``: folders searched, in order, before the common library (:data:`LIBRARY`).
     """
-    root = shader_dir()
     lines: list[str] = []
     origins: list[tuple[str, int]] = []
-    _expand(name, root, set(), lines, origins)
+    _expand(name, tuple(roots), set(), lines, origins)
     if not lines or not lines[0].lstrip().startswith("#version"):
         raise ShaderError(f"shader {name} must start with a #version line")
     extra = define_lines(defines)
@@ -117,24 +127,26 @@ def program_cache(ctx: moderngl.Context) -> dict:
     return ctx.extra.setdefault(_CACHE_KEY, {})
 
 
-def create_program(ctx: moderngl.Context, vertex: str, fragment: str,
-                   defines: dict | None = None, geometry: str | None = None) -> moderngl.Program:
-    """Compile (or fetch from the context's cache) the program of these sources and defines."""
+def create_program(ctx: moderngl.Context, vertex: str, fragment: str, defines: dict | None = None,
+                   geometry: str | None = None, roots: tuple = ()) -> moderngl.Program:
+    """Compile (or fetch from the context's cache) the program of these sources and defines, the names
+    looked up in ``roots`` and then the common library."""
     cache = program_cache(ctx)
-    key = (vertex, fragment, geometry, tuple(sorted((defines or {}).items())))
+    roots = tuple(Path(r) for r in roots)
+    key = (vertex, fragment, geometry, roots, tuple(sorted((defines or {}).items())))
     program = cache.get(key)
     if program is not None:
         return program
-    sources = {"vertex": load_shader(vertex, defines), "fragment": load_shader(fragment, defines)}
+    sources = {"vertex": load_shader(vertex, defines, roots), "fragment": load_shader(fragment, defines, roots)}
     if geometry is not None:
-        sources["geometry"] = load_shader(geometry, defines)
+        sources["geometry"] = load_shader(geometry, defines, roots)
     try:
         program = ctx.program(vertex_shader=sources["vertex"].text, fragment_shader=sources["fragment"].text,
                               geometry_shader=sources["geometry"].text if geometry else None)
     except moderngl.Error as exc:
         raise ShaderError(f"GLSL compile failed in {_first_error(str(exc), sources)} "
                           f"(renderer {ctx.info['GL_RENDERER']}); the shader sources are "
-                          f"in {shader_dir()}") from exc
+                          f"in {', '.join(str(r) for r in (*roots, LIBRARY))}") from exc
     cache[key] = program
     return program
 

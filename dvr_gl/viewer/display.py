@@ -11,13 +11,13 @@ import moderngl
 import numpy as np
 
 from ..gl.context import make_current
-from ..gl.shaders import create_program
+from ..gl.shaders import create_program, shader_root
 
 
 class ImageDisplay:
     def __init__(self, ctx: moderngl.Context):
         self.ctx = ctx
-        self.program = create_program(ctx, "fullscreen.vert", "viewer/display.frag")
+        self.program = create_program(ctx, "fullscreen.vert", "display.frag", roots=(shader_root(__file__),))
         self.vao = ctx.vertex_array(self.program, [])
         self.texture: moderngl.Texture | None = None
 

@@ -16,7 +16,7 @@ import ctypes
 import moderngl
 
 from ..gl.context import make_current
-from ..gl.shaders import create_program
+from ..gl.shaders import create_program, shader_root
 
 
 def load_imgui():
@@ -33,7 +33,7 @@ class ImGuiRenderer:
 
     def __init__(self, imgui, ctx: moderngl.Context):
         self.imgui, self.ctx = imgui, ctx
-        self.program = create_program(ctx, "viewer/imgui.vert", "viewer/imgui.frag")
+        self.program = create_program(ctx, "imgui.vert", "imgui.frag", roots=(shader_root(__file__),))
         self.vbo = ctx.buffer(reserve=1 << 16, dynamic=True)
         self.ibo = ctx.buffer(reserve=1 << 16, dynamic=True)
         self.vao = ctx.vertex_array(self.program, [(self.vbo, "2f 2f 4f1", "in_position", "in_uv", "in_color")],

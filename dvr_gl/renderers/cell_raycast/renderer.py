@@ -4,7 +4,7 @@ A frame is two draws.  The mesh's boundary faces are drawn into per-pixel linked
 faces where each pixel's ray enters the mesh (``entry_lists.frag``: a node buffer, an image of
 list heads and an atomic counter); then one full-screen pass walks every pixel's ray from its
 nearest entry through the cells' face neighbours, on at the next entry beyond each exit
-(``walk.frag``).  The mesh's textures are those of projected tetrahedra (:mod:`..mesh_gl`), with
+(``walk.frag``).  The mesh's textures are those of projected tetrahedra (:mod:`..mesh.textures`), with
 the face neighbours beside them.
 """
 
@@ -18,8 +18,12 @@ import numpy as np
 from ...errors import SceneError
 from ...fields.mesh_rays import boundary_faces, face_neighbours
 from ...gl.context import make_current
-from ...gl.shaders import create_program
-from ..mesh_gl import MODES, ROW, MeshRenderer, rows
+from ...gl.shaders import create_program, shader_root
+from ..mesh import SHADERS as MESH_SHADERS
+from ..mesh.textures import MODES, ROW, MeshRenderer, rows
+
+#: Its own GLSL, then the kit's (before the common library).
+SHADERS = (shader_root(__file__), MESH_SHADERS)
 
 NODE_BYTES = 16          # a list node: cell, t, next, padding (entry_lists.frag)
 # The node buffer's first size, nodes a pixel; it grows to what a frame needed (the blunt fin at
@@ -142,9 +146,9 @@ class CellRaycastRenderer(MeshRenderer):
         if walk.boundary is None:
             heads.write(np.zeros((img.height, img.width), np.uint32).tobytes())
             return heads, 0
-        program = create_program(self.ctx, "cells/entry_lists.vert", "cells/entry_lists.frag",
+        program = create_program(self.ctx, "entry_lists.vert", "entry_lists.frag",
                                  {"CAMERA_ORTHOGRAPHIC": scene.camera.projection == "orthographic"},
-                                 geometry="cells/entry_lists.geom")
+                                 geometry="entry_lists.geom", roots=SHADERS)
         self._uniforms(program, scene, textures)
         vao = self.ctx.vertex_array(program, [(walk.boundary, "3f 1u 3f", "in_position", "in_cell", "in_normal")])
         try:
@@ -186,7 +190,7 @@ class CellRaycastRenderer(MeshRenderer):
         if mode == "emission_absorption":
             defines.update(ALPHA_MODEL=tf.opacity_model == "alpha", TF_COUNT=len(tf.points),
                            TF_POW2=1 << len(tf.points).bit_length())
-        program = create_program(self.ctx, "fullscreen.vert", "cells/walk.frag", defines)
+        program = create_program(self.ctx, "fullscreen.vert", "walk.frag", defines, roots=SHADERS)
         self._uniforms(program, scene, textures)
         for name, value in (("u_touching", walk.touching), ("u_opaque", r.ert_threshold)):
             if name in program:

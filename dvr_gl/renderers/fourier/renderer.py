@@ -17,11 +17,14 @@ import numpy as np
 
 from ... import limits
 from ...errors import SceneError
-from ...gl.shaders import create_program
+from ...gl.shaders import create_program, shader_root
 from ...sandbox import check_bytes
 from ..grid.gl_base import GLVolumeRenderer
 from .projection import Frame, Shell, channels, clips_exactly, finish, ghost_layers, weighted
 from .spectrum import KAISER_BETA, WINDOWED, Spectrum, kaiser_bessel_beta
+
+#: Its own GLSL (before the common library).
+SHADERS = (shader_root(__file__),)
 
 
 class SpectrumTextures:
@@ -132,8 +135,8 @@ class FourierRenderer(GLVolumeRenderer):
                    "WINDOWED_SINC": r.slice_interpolation == "windowed_sinc",
                    "KAISER_BESSEL": r.slice_interpolation == "kaiser_bessel", "DEPTH_CUE": cued}
         beta = KAISER_BETA if r.slice_interpolation == "windowed_sinc" else kaiser_bessel_beta(r.padding, taps)
-        program = create_program(self.ctx, "fullscreen.vert", "fourier/slice.frag",
-                                 {k: v for k, v in defines.items() if v})
+        program = create_program(self.ctx, "fullscreen.vert", "slice.frag",
+                                 {k: v for k, v in defines.items() if v}, roots=SHADERS)
         attachments = (4,) * (count * (2 if cued else 1))
         _, fbo = self.target("slice", wf, hf, attachments)
         fbo.use()
@@ -176,8 +179,8 @@ class FourierRenderer(GLVolumeRenderer):
             return None
         shell = texture.shell
         defines = {"NODES": str(shell.nodes), "CUBIC_BSPLINE": r.filter == "cubic_bspline"}
-        program = create_program(self.ctx, "fullscreen.vert", "fourier/shell.frag",
-                                 {k: v for k, v in defines.items() if v})
+        program = create_program(self.ctx, "fullscreen.vert", "shell.frag",
+                                 {k: v for k, v in defines.items() if v}, roots=SHADERS)
         _, fbo = self.target("shell", img.width, img.height)
         fbo.use()
         nodes, weights = np.polynomial.legendre.leggauss(shell.nodes)

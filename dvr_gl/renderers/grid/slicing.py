@@ -15,13 +15,16 @@ import moderngl
 import numpy as np
 
 from ...gl.geometry import clip_planes, gl_matrix, projection_matrix, slice_polygons, view_matrix
-from ...gl.shaders import create_program
+from ...gl.shaders import create_program, shader_root
 from ...half_angle import half_angle
 from ...reference import plans
 from ...reference.discrete import DiscreteReference
 from ..surfaces import with_surfaces
 from .bricking import visibility_order
 from .gl_base import GLVolumeRenderer, classification_features, light_volume_pass_defines, now
+
+#: The grid kit's GLSL (the slices' program), before the common library.
+SHADERS = (shader_root(__file__),)
 
 MAX_REACH = 64.0  # voxels: rays this close to parallel with the slices need more ghost than any brick has
 
@@ -90,7 +93,7 @@ class SlicingRenderer(GLVolumeRenderer):
         defines = classification_features(scene)
         if self.stack:
             defines["STACK"] = True
-        program = create_program(self.ctx, "slice.vert", "slice.frag", defines)
+        program = create_program(self.ctx, "slice.vert", "slice.frag", defines, roots=SHADERS)
         tables = {**self.table_textures(scene, defines, self.slab_length(scene)), **surfaces}
         views = self.grid_views(scene, defines)
         tables, light_seconds = self.scattering_tables(scene, defines, views, tables)
@@ -162,7 +165,7 @@ class SlicingRenderer(GLVolumeRenderer):
             meshes.append((tris[finite].reshape(-1, 3), np.concatenate([[0], np.cumsum(counts)[:-1]]), counts))
         (vertices, firsts, counts), (light_vertices, light_firsts, light_counts) = meshes
         light_defines = {k: v for k, v in light_volume_pass_defines(defines).items() if k != "SHADOWS"}
-        light_program = create_program(ctx, "slice.vert", "scattering/light_slice.frag", light_defines)
+        light_program = create_program(ctx, "slice.vert", "scattering/light_slice.frag", light_defines, roots=SHADERS)
         width, height = scene.image.width, scene.image.height
         (_,), eye_fbo = self.target("main", width, height)
         nx, ny = ha.size

@@ -18,9 +18,13 @@ import moderngl
 import numpy as np
 
 from ... import limits
-from ...gl.shaders import create_program
-from ..mesh_gl import MODES, ROW, MeshRenderer, rows
+from ...gl.shaders import create_program, shader_root
+from ..mesh import SHADERS as MESH_SHADERS
+from ..mesh.textures import MODES, ROW, MeshRenderer, rows
 from .order import VisibilityOrder
+
+#: Its own GLSL, then the kit's (before the common library).
+SHADERS = (shader_root(__file__), MESH_SHADERS)
 
 COVER_ALL = np.uint32(1 << 31)  # an order entry's flag: the cell reaches behind the eye's plane (pt.vert)
 #: Fragment work a pixel costs per cube root of the cells (a ray crosses a few times that many cells,
@@ -88,7 +92,7 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
         if self._count_fragments:
             defines = {"FRAGMENT_COUNT": True, "CAMERA_ORTHOGRAPHIC": defines["CAMERA_ORTHOGRAPHIC"]}
         defines.update(self._kept_part_defines(scene, surfaces))
-        program = create_program(self.ctx, "cells/pt.vert", "cells/pt.frag", defines, geometry="cells/pt.geom")
+        program = create_program(self.ctx, "pt.vert", "pt.frag", defines, geometry="pt.geom", roots=SHADERS)
         self._uniforms(program, scene, textures)
         slots = self._order_texture(self._flag_cover_all(order, scene))
         for unit, (name, tex) in enumerate([*textures.textures, ("u_order", slots), *surfaces.items()]):
@@ -144,7 +148,7 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
         gaps = np.zeros((img.height, img.width), bool)
         if buffer is None:
             return gaps.reshape(-1)
-        program = create_program(self.ctx, "cells/boundary.vert", "cells/boundary.frag")
+        program = create_program(self.ctx, "boundary.vert", "boundary.frag", roots=SHADERS)
         self._uniforms(program, scene, textures)
         fbo = self._count_target(img.width, img.height)
         vao = self.ctx.vertex_array(program, [(buffer, "3f", "in_position")])

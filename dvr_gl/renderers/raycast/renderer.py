@@ -22,7 +22,7 @@ from ... import limits
 from ... import rays as rays_mod
 from ...fields import diagonal
 from ...gl.geometry import gl_matrix, projection_matrix, view_matrix
-from ...gl.shaders import create_program
+from ...gl.shaders import create_program, shader_root
 from ...orientation import volume_frame_scene
 from ...settings import shadow_step
 from ..grid.bricking import ghost_width, plan_bricks, visibility_order
@@ -32,6 +32,9 @@ from ..surfaces import with_surfaces
 from . import acceleration as accel
 from . import out_of_core, ray_bounds
 from .acceleration import level_count
+
+#: The ray caster's own GLSL (before the common library).
+SHADERS = (shader_root(__file__),)
 
 # A one-pass frame estimated to take longer than this (seconds, at limits.RATES) is drawn in bands of
 # about this much work: the progress bar moves, and Ctrl-C or a sandbox's timer stop it between bands.
@@ -372,7 +375,7 @@ class RayCastRenderer(GLVolumeRenderer):
                                        {**tables, **blocks}, decided, resolve=partial is None)
         textures = {**self.view_textures(scene, defines, views[0], resident=True), **tables, **blocks}
         lut = textures["u_lut"].lut
-        program = create_program(self.ctx, "fullscreen.vert", self.fragment_shader, defines)
+        program = create_program(self.ctx, "fullscreen.vert", self.fragment_shader, defines, roots=SHADERS)
         uniforms = {**self.ray_uniforms(scene), **self.grid_uniforms(scene, views[0]),
                     **self.optics_uniforms(scene, lut)}
         self.bind(program, uniforms, textures)
@@ -437,8 +440,8 @@ class RayCastRenderer(GLVolumeRenderer):
         fbo.clear(3.0e38, 3.0e38, 0.0, 0.0)
         start = now()
         if faces.count:
-            program = create_program(self.ctx, "raycast/ray_bounds.vert", "raycast/ray_bounds.frag",
-                                     {"CAMERA_ORTHOGRAPHIC": "CAMERA_ORTHOGRAPHIC" in defines})
+            program = create_program(self.ctx, "ray_bounds.vert", "ray_bounds.frag",
+                                     {"CAMERA_ORTHOGRAPHIC": "CAMERA_ORTHOGRAPHIC" in defines}, roots=SHADERS)
             self.bind(program, self.ray_uniforms(scene), {})
             aspect = width / height
             program["u_view_projection"].write(gl_matrix(projection_matrix(scene.camera, aspect, *planes)
@@ -520,7 +523,7 @@ class RayCastRenderer(GLVolumeRenderer):
         (the whole volume's, shared by every pass); ``decided``: the stats of the skipping decision;
         ``resolve``: False returns the compositing state the passes left (:meth:`render_state`)."""
         r = scene.renderer
-        program = create_program(self.ctx, "fullscreen.vert", "raycast.frag", defines)
+        program = create_program(self.ctx, "fullscreen.vert", "raycast.frag", defines, roots=SHADERS)
         lut = tables["u_lut"].lut
         counting = "COUNT_SAMPLES" in defines
         width, height = scene.image.width, scene.image.height
@@ -569,8 +572,8 @@ class RayCastRenderer(GLVolumeRenderer):
         """The resolve pass (shaders/raycast_resolve.frag): the state texture ``state`` to the image."""
         lut = tables["u_lut"].lut
         width, height = scene.image.width, scene.image.height
-        resolve = create_program(self.ctx, "fullscreen.vert", "raycast_resolve.frag",
-                                 {k: v for k, v in defines.items() if k not in SKIPPING_DEFINES})
+        resolve = create_program(self.ctx, "fullscreen.vert", "resolve.frag",
+                                 {k: v for k, v in defines.items() if k not in SKIPPING_DEFINES}, roots=SHADERS)
         self.bind(resolve, {"u_unit_distance": scene.transfer_function.unit_distance,
                             **self.optics_uniforms(scene, lut)}, {**tables, "u_state": state})
         out = self.target("main", width, height)[1]

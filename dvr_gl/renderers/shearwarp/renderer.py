@@ -38,7 +38,7 @@ from ... import limits
 from ...clipping import ClipRegion
 from ...geometry import over_surface, surface_rgba
 from ...gl.geometry import depth_range
-from ...gl.shaders import create_program
+from ...gl.shaders import create_program, shader_root
 from ...rays import RayBatch, intersect_box
 from ...reference import plans
 from ...reference.discrete import DiscreteReference
@@ -46,6 +46,9 @@ from ..grid.gl_base import GLVolumeRenderer, now
 from .factorization import factorize, factorize_view, pixel_directions, pixel_pyramids
 from .run_length import RunLengthVolume, SliceClassifier, expand_runs
 from .shading import VoxelNormals, VoxelShadedModel, frame_table
+
+#: Its own GLSL (before the common library).
+SHADERS = (shader_root(__file__),)
 
 OPEN_REFRESH = 4  # slices between refreshes of the per-row count of open pixels (stale counts are safe)
 PIECE = 8         # voxels: runs are cut into pieces this long for skipping occluded ones
@@ -501,7 +504,8 @@ class ShearWarpRenderer(GLVolumeRenderer):
         pixels whose rays are its own (PYRAMID in warp.frag, :func:`pixel_owners`' rule)."""
         wi, hi = fact.size
         to_ndc = np.array([[2.0 / width, 0.0, -1.0], [0.0, -2.0 / height, 1.0], [0.0, 0.0, 1.0]])
-        program = create_program(self.ctx, "warp.vert", "warp.frag", {"PYRAMID": fact.pyramid is not None})
+        program = create_program(self.ctx, "warp.vert", "warp.frag", {"PYRAMID": fact.pyramid is not None},
+                                 roots=SHADERS)
         if fact.pyramid is not None:
             directions = pixel_directions(scene.camera, scene.volume, width, height)
             program["u_pixel_dirs"].write(directions.T.astype("f4").tobytes())  # GL: column-major

@@ -18,7 +18,7 @@ import numpy as np
 
 from ... import limits
 from ...clipping import ClipRegion
-from ...gl.shaders import create_program
+from ...gl.shaders import create_program, shader_root
 from ...model import GAUSSIAN_RADIUS
 from ...rays import chord_lengths
 from ...transfer_function import projected_rgba, xray_rgba
@@ -42,6 +42,9 @@ from .sheets import (
 )
 from .splats import Splats, ghost_layers, post_visibility
 from .work import splat_work
+
+#: Its own GLSL (before the common library).
+SHADERS = (shader_root(__file__),)
 
 # A frame estimated to take longer than this (seconds, at limits.RATES) reports its progress: per sheet, or,
 # without sheets, in draws of about this much work (at most MAX_STEPS): Ctrl-C and a sandbox's timer stop it
@@ -240,8 +243,8 @@ class SplattingRenderer(GLVolumeRenderer):
     def _splat_program(self, scene, **extra):
         # the low-pass widens the splats' kernels only (the sheets read what they summed)
         low = is_grid(scene) and scene.renderer.filter == "gaussian" and low_pass.enabled(scene)
-        return create_program(self.ctx, "splatting/splat.vert", "splatting/splat.frag",
-                              self._defines(scene, LOW_PASS=low, **extra))
+        return create_program(self.ctx, "splat.vert", "splat.frag",
+                              self._defines(scene, LOW_PASS=low, **extra), roots=SHADERS)
 
     def _splat_vao(self, program, buffers):
         vao = self.ctx.vertex_array(program, [])
@@ -307,7 +310,7 @@ class SplattingRenderer(GLVolumeRenderer):
         sheet_defines = self._defines(scene, **{sheets_kind: True, "XRAY": xray})
         if shaded:
             shading_defines(scene, sheet_defines)
-        sheet_program = create_program(ctx, "fullscreen.vert", "splatting/sheet.frag", sheet_defines)
+        sheet_program = create_program(ctx, "fullscreen.vert", "sheet.frag", sheet_defines, roots=SHADERS)
         lut = self._lut(scene)
         sheet_uniforms = {**uniforms, **{k: v for k, v in self.optics_uniforms(scene, lut.lut).items()
                                          if shaded or k.startswith("u_lut")}}

@@ -13,10 +13,10 @@
 // start (located on the host) is walked first.  CLIPPING and GEOMETRY: each piece is narrowed to
 // the ray's kept part [t_lo, t_hi] (kept_part.glsl), and the walk ends once it has passed t_hi.
 #include "common/camera_ray.glsl"
-#include "cells/mesh_fetch.glsl"
-#include "cells/kept_part.glsl"
+#include "mesh_fetch.glsl"
+#include "kept_part.glsl"
 #ifdef EMISSION
-#include "cells/transfer_segment.glsl"
+#include "transfer_segment.glsl"
 #endif
 
 uniform isampler2D u_neighbours;  // the cell across each face, -1: the boundary

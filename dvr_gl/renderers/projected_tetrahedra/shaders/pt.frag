@@ -11,8 +11,8 @@
 // Projections keep a coverage flag in .g; the host classifies the blended value.  CLIPPING and
 // GEOMETRY narrow the piece to the kept region and end it at the nearest surface (kept_part.glsl).
 #include "common/camera_ray.glsl"
-#include "cells/mesh_fetch.glsl"
-#include "cells/kept_part.glsl"
+#include "mesh_fetch.glsl"
+#include "kept_part.glsl"
 
 flat in uint g_cell;
 
@@ -22,7 +22,7 @@ uniform float u_depth_scale;  // ISOSURFACE: 1 / the farthest ray parameter (dep
 out vec4 frag;
 
 #ifdef EMISSION
-#include "cells/transfer_segment.glsl"
+#include "transfer_segment.glsl"
 #endif
 
 // Clip the ray against one face: inside is side * (n . p - h) >= 0.  Face k's plane comes from its

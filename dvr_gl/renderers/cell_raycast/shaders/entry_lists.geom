@@ -7,7 +7,7 @@
 layout(triangles) in;
 layout(triangle_strip, max_vertices = 6) out;
 
-#include "cells/grow.glsl"
+#include "grow.glsl"
 
 uniform vec2 u_image_size;
 uniform vec3 u_eye;      // centre-relative

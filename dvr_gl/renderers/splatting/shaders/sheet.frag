@@ -12,7 +12,7 @@
 #include "common/camera_ray.glsl"
 #include "common/optics.glsl"
 #include "common/transfer_function.glsl"
-#include "splatting/kernel.glsl"
+#include "kernel.glsl"
 #include "common/shading.glsl"
 
 uniform sampler2D u_sheet;

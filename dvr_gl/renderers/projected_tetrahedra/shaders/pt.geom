@@ -14,8 +14,8 @@
 layout(points) in;
 layout(triangle_strip, max_vertices = 8) out;
 
-#include "cells/mesh_fetch.glsl"
-#include "cells/grow.glsl"
+#include "mesh_fetch.glsl"
+#include "grow.glsl"
 
 uniform mat4 u_view_projection;  // centre-relative world -> clip
 uniform vec2 u_image_size;

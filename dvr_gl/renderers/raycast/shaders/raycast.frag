@@ -147,13 +147,13 @@ float sample_t(int k) {
 }
 
 #if defined(COMPOSITE_EMISSION) && defined(BACK_TO_FRONT)
-#include "raycast/emission_back_to_front.glsl"
+#include "emission_back_to_front.glsl"
 #elif defined(COMPOSITE_EMISSION)
-#include "raycast/emission.glsl"
+#include "emission.glsl"
 #elif defined(COMPOSITE_ISOSURFACE)
-#include "raycast/isosurface.glsl"
+#include "isosurface.glsl"
 #else
-#include "raycast/projection.glsl"
+#include "projection.glsl"
 #endif
 
 #ifdef BACK_TO_FRONT

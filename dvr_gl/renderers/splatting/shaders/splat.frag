@@ -6,12 +6,12 @@
 //   operator: opacity 1 - exp(-sigma integral), the voxel's colour.
 #include "common/camera_ray.glsl"
 #include "common/optics.glsl"
-#include "splatting/kernel.glsl"
+#include "kernel.glsl"
 #ifdef KERNEL_BSPLINE
-#include "splatting/bspline.glsl"
+#include "bspline.glsl"
 #endif
 #ifdef PARTICLES
-#include "splatting/m4.glsl"
+#include "m4.glsl"
 flat in vec4 v_particle;  // h, weight m / rho, sub-pixel (splat.vert)
 #endif
 

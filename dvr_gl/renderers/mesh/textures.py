@@ -11,19 +11,19 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from .. import limits
-from ..clipping import ClipRegion
-from ..errors import SceneError
-from ..fields.mesh_rays import FacePlanes
-from ..gl.context import create_context, make_current, release_context
-from ..gl.geometry import box_corners, clip_planes, gl_matrix, projection_matrix, view_matrix
-from ..gl.lights import set_uniform
-from ..gl.shaders import release_programs
-from ..rays import chord_lengths
-from ..reference.converged import collocation
-from ..transfer_function import extinction_from_alpha, segment_opacity
-from .base import Renderer
-from .surfaces import with_surfaces
+from ... import limits
+from ...clipping import ClipRegion
+from ...errors import SceneError
+from ...fields.mesh_rays import FacePlanes
+from ...gl.context import create_context, make_current, release_context
+from ...gl.geometry import box_corners, clip_planes, gl_matrix, projection_matrix, view_matrix
+from ...gl.lights import set_uniform
+from ...gl.shaders import release_programs
+from ...rays import chord_lengths
+from ...reference.converged import collocation
+from ...transfer_function import extinction_from_alpha, segment_opacity
+from ..base import Renderer
+from ..surfaces import with_surfaces
 
 ROW = 4096  # texels a row of the mesh textures (mesh_fetch.glsl)
 CELL_TEXELS = 6  # a cell's face planes, their sides and its scalar (mesh_fetch.glsl)

@@ -1,7 +1,7 @@
 #version 430
 // Projected tetrahedra: one point per cell in visibility order (no vertex buffer: point i is slot i
 // of u_order); the geometry shader draws the cell's footprint (dvr_gl/renderers/projected_tetrahedra).
-#include "cells/mesh_fetch.glsl"
+#include "mesh_fetch.glsl"
 
 uniform usampler2D u_order;  // slot -> cell (the high bit: COVER_ALL), 4096 a row
 
