@@ -39,7 +39,6 @@ def _digest(image) -> str:
 def cases(tmp):
     """(case id, scene thunk) for every renderer, closed form, mode, view and sweep value."""
     from closed_forms import CLOSED_FORMS, VIEWS, own_filter
-
     from dvr_gl.renderers import registry
     from dvr_gl.scene import load_scene
 

@@ -14,9 +14,9 @@ import time
 import numpy as np
 import pytest
 
-from dvr_gl.apps import cli
 from conftest import assert_close, small_scene
 from dvr_gl import limits
+from dvr_gl.apps import cli
 from dvr_gl.errors import DvrError
 from dvr_gl.renderers import create_renderer
 from dvr_gl.sandbox import Sandbox, SandboxError, active
