@@ -25,7 +25,7 @@ from pathlib import Path
 from dvr_gl.bench import peers
 from dvr_gl.renderers.raycast import renderer as raycast
 from dvr_gl.renderers.raycast.renderer import LOOKUP_COST, RayCastRenderer
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 
 DISTANCES = (0.5, 1.0, 2.0, 4.0, 8.0)
 

@@ -20,7 +20,7 @@ from pathlib import Path
 from dvr_gl.renderers.grid.bricking import Brick, ghost_width
 from dvr_gl.renderers.grid.gl_base import GridView
 from dvr_gl.renderers.raycast.renderer import RayCastRenderer
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 
 DATA = Path(__file__).resolve().parent.parent.parent / "shared" / "data"
 HU = {"transfer_function.rescale_intercept": -1024.0}

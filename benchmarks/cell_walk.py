@@ -93,7 +93,7 @@ from dvr_gl.gl.shaders import shader_dir
 from dvr_gl.renderers import create_renderer
 from dvr_gl.renderers.mesh.textures import ROW
 from dvr_gl.renderers.mesh.textures import rows as _rows
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 
 ENTRY_VS = """#version 430
 layout(location = 0) in vec3 in_position;

@@ -23,7 +23,7 @@ import numpy as np
 
 from dvr_gl.bench import cells
 from dvr_gl.renderers import create_renderer
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 
 
 def sparse_keys(path: Path, array, mesh) -> dict:

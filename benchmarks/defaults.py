@@ -26,7 +26,7 @@ from dvr_gl.bench.acceleration import DATASETS
 from dvr_gl.bench.tradeoff import converged_truth
 from dvr_gl.image import compare_images
 from dvr_gl.renderers.raycast.renderer import RayCastRenderer
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 
 DISTANCES = (0.25, 0.5, 1.0, 2.0)           # voxels
 THRESHOLDS = (0.99, 1.0 - 1.0 / 255.0, 0.999, 1.0)

@@ -17,7 +17,7 @@ from dvr_gl.bench.acceleration import DATASETS
 from dvr_gl.bench.tradeoff import converged_truth
 from dvr_gl.image import compare_images
 from dvr_gl.renderers import create_renderer
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 
 
 def cthead_bone(data: Path, size: int):

@@ -23,7 +23,7 @@ from pathlib import Path
 
 CHILD = r'''
 import json, sys, time
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 from dvr_gl.renderers.raycast.renderer import RayCastRenderer
 overrides = json.loads(sys.argv[1])
 scene = load_scene(None, overrides)

@@ -29,7 +29,7 @@ from dvr_gl.bench.splatting import shared_scenes  # noqa: E402
 from dvr_gl.image import side_by_side, write_image  # noqa: E402
 from dvr_gl.reference.converged import ConvergedReference  # noqa: E402
 from dvr_gl.renderers import create_renderer  # noqa: E402
-from dvr_gl.scene import load_scene  # noqa: E402
+from dvr_gl.scene.resolve import load_scene  # noqa: E402
 
 ROWS = [("CThead", "xray", {"renderer.slice_interpolation": "cubic_bspline", "renderer.slice_bandwidth": 0.0}, 10.0),
         ("bucky", "average", {"renderer.slice_interpolation": "trilinear", "renderer.padding": 1.25}, 50.0)]

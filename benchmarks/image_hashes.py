@@ -40,7 +40,7 @@ def cases(tmp):
     """(case id, scene thunk) for every renderer, closed form, mode, view and sweep value."""
     from closed_forms import CLOSED_FORMS, VIEWS, own_filter
     from dvr_gl.renderers import registry
-    from dvr_gl.scene import load_scene
+    from dvr_gl.scene.resolve import load_scene
 
     for name, plugin in registry.plugins().items():
         if plugin.reference:

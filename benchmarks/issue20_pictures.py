@@ -27,9 +27,9 @@ import numpy as np
 
 from dvr_gl.geometry import icosphere
 from dvr_gl.image import side_by_side, write_image
-from dvr_gl.model import GeometrySpec
 from dvr_gl.renderers import create_renderer
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.model import GeometrySpec
+from dvr_gl.scene.resolve import load_scene
 
 REPO = Path(__file__).resolve().parent.parent
 

@@ -61,7 +61,7 @@ def _measure(args) -> dict:
     import dvr_gl.gl.shaders as shaders
     from dvr_gl.bench.cells import MESHES, VIEWS, scene_keys
     from dvr_gl.renderers import create_renderer
-    from dvr_gl.scene import load_scene
+    from dvr_gl.scene.resolve import load_scene
 
     work = tempfile.TemporaryDirectory(prefix="dvr-pt-floor-")
     root = _shaders(args.variant, Path(work.name))
@@ -92,7 +92,7 @@ def _measure(args) -> dict:
 
 def _vtk_ms(name, data_dir, size, frames, python) -> float | None:
     from dvr_gl.bench import cells
-    from dvr_gl.scene import load_scene
+    from dvr_gl.scene.resolve import load_scene
 
     source, array = cells.MESHES[name]
     path = Path(data_dir) / source

@@ -13,7 +13,7 @@ import statistics
 import time
 
 from dvr_gl.renderers import create_renderer
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 
 CASES = [
     ("reference", "emission_absorption", "linear", False),

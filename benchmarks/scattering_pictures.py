@@ -27,7 +27,7 @@ from dvr_gl.image import side_by_side, write_image
 from dvr_gl.phantoms import demo_scene
 from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.renderers import create_renderer
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 
 REPO = Path(__file__).resolve().parent.parent
 DEMO_ROW = ({}, {"renderer.scattering.light_volume_size": 32}, {"renderer.scattering.method": "shadow_rays"})

@@ -24,7 +24,7 @@ REPO = Path(__file__).resolve().parent.parent
 from dvr_gl.image import side_by_side, write_image  # noqa: E402
 from dvr_gl.phantoms import demo_scene  # noqa: E402
 from dvr_gl.renderers import create_renderer  # noqa: E402
-from dvr_gl.scene import load_scene  # noqa: E402
+from dvr_gl.scene.resolve import load_scene  # noqa: E402
 
 SCHEMES = [("image_aligned", "post"), ("image_aligned", "pre"), ("axis_aligned", "post"), ("none", "pre")]
 

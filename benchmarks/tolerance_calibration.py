@@ -19,13 +19,13 @@ import math
 
 import numpy as np
 
-from dvr_gl import tolerance
 from dvr_gl.bench import format_table, tradeoff
 from dvr_gl.bench.quality import spike
 from dvr_gl.image import compare_images
 from dvr_gl.phantoms import demo_scene
 from dvr_gl.renderers import create_renderer
-from dvr_gl.scene import load_scene
+from dvr_gl.renderers.raycast import tolerance
+from dvr_gl.scene.resolve import load_scene
 
 DISTANCES = (4.0, 2.0, 1.0, 0.5, 0.25, 0.125)
 ML = {"volume.demo": "marschner-lobb", "volume.size": 41, "transfer_function.opacity_model": "extinction"}

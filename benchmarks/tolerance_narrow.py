@@ -17,12 +17,12 @@ import argparse
 import time
 from pathlib import Path
 
-from dvr_gl import tolerance
 from dvr_gl.bench import format_table, median_seconds
 from dvr_gl.bench.tradeoff import converged_truth
 from dvr_gl.image import compare_images
 from dvr_gl.renderers import create_renderer
-from dvr_gl.scene import load_scene
+from dvr_gl.renderers.raycast import tolerance
+from dvr_gl.scene.resolve import load_scene
 
 
 def tent(lo: float, hi: float, centre: float, width: float) -> list:

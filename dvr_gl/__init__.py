@@ -16,7 +16,7 @@ from .errors import DvrError, SceneError, VolumeError  # noqa: E402
 from .fields import Field, ParticleSet, SphereField, Volume  # noqa: E402
 from .io import load_field, load_volume  # noqa: E402
 from .renderers import create_renderer, registry  # noqa: E402
-from .scene import Scene, load_scene  # noqa: E402
+from .scene.resolve import Scene, load_scene  # noqa: E402
 from .transfer_function import PRESETS, TransferFunction, preset  # noqa: E402
 
 __all__ = ["Camera", "DvrError", "Field", "Image", "PRESETS", "ParticleSet", "Scene", "SceneError", "SphereField",

@@ -40,8 +40,8 @@ from .image import composite_over, encode_8bit, write_image
 from .orientation import view_orbit
 from .renderers import create_renderer, registry
 from .sandbox import Sandbox, active
-from .scene import Scene, apply_overrides, load_scene, parse_scene, resolve_scene
-from .scene_schema import ImageSpec, parse_table, spec_to_dict
+from .scene.resolve import Scene, apply_overrides, load_scene, parse_scene, resolve_scene
+from .scene.schema import ImageSpec, parse_table, spec_to_dict
 from .transfer_function import TransferFunction, preset
 
 _CAMERA_KEYS = ("azimuth", "elevation", "distance", "projection", "fov", "up", "view")

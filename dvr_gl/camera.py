@@ -15,7 +15,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .errors import SceneError
-from .settings import WORLD_RANGE, between, world_length
+from .scene.settings import WORLD_RANGE, between, world_length
 
 PROJECTIONS = ("perspective", "orthographic")
 #: What the lens keys allow, as scene-file checks (``[camera]`` in :mod:`dvr_gl.scene_schema` uses these too,

@@ -74,7 +74,7 @@ def _read(path: str, size: int, mtime: int) -> TriangleMesh:
     used = points[np.unique(triangles)]
     if not np.isfinite(used).all():
         raise SceneError(f"renderer.geometry: {name} has points that are not finite (NaN or Inf)")
-    from .settings import WORLD_RANGE
+    from .scene.settings import WORLD_RANGE
 
     reach = float(np.abs(used).max())
     if reach > WORLD_RANGE[1]:  # beyond, the float64 test's products overflow (and float32 GL's)

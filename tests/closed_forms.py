@@ -38,7 +38,7 @@ import numpy as np
 from dvr_gl.fields import SphereField
 from dvr_gl.rays import RayBatch, intersect_box
 from dvr_gl.renderers import registry
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 
 WIDTH, HEIGHT = 24, 20
 COLOUR = np.array([0.9, 0.5, 0.2])

@@ -2,7 +2,7 @@
 
 Shared by ``tests/test_fuzz_scenes.py`` (a bounded number of examples in CI) and
 ``benchmarks/fuzz_scenes.py`` (a longer run).  Scenes are built from the real schema: every table of
-:class:`dvr_gl.scene_schema.SceneSpec`, every ``[renderer]`` key the registry declares, the shading table
+:class:`dvr_gl.scene.schema.SceneSpec`, every ``[renderer]`` key the registry declares, the shading table
 and its lights; each key is absent, a value of its own type, or a wild one (another type, NaN,
 infinities, huge or negative numbers, random strings, lists, tables), and tables may be missing,
 replaced by a scalar or joined by unknown ones.
@@ -30,9 +30,9 @@ import numpy as np
 from hypothesis import strategies as st
 
 from dvr_gl.errors import DvrError
-from dvr_gl.model import ClippingSpec, GeometrySpec, ScatteringSpec, ShadingSpec
-from dvr_gl.scene import _FILE_KEYS as _SCENE_FILE_KEYS
-from dvr_gl.scene_schema import CameraSpec, ImageSpec, TransferFunctionSpec, VolumeSpec, renderer_spec_class
+from dvr_gl.scene.model import ClippingSpec, GeometrySpec, ScatteringSpec, ShadingSpec
+from dvr_gl.scene.resolve import _FILE_KEYS as _SCENE_FILE_KEYS
+from dvr_gl.scene.schema import CameraSpec, ImageSpec, TransferFunctionSpec, VolumeSpec, renderer_spec_class
 
 #: Numbers for keys whose large values are the resource bounds' business (another part of issue 14).
 BOUNDED = {
@@ -100,7 +100,7 @@ FILE_KEYS = tuple(dict.fromkeys(_SCENE_FILE_KEYS + ("header_bytes", "endian", "f
 def _accepted(cls, name: str, value) -> bool:
     """Whether the parser (and, for a renderer setting, its declared check) accepts ``value`` for key ``name``."""
     from dvr_gl.renderers import registry
-    from dvr_gl.scene_schema import parse_table
+    from dvr_gl.scene.schema import parse_table
 
     try:
         parsed = getattr(parse_table(cls, {name: value}, ""), name)
@@ -223,7 +223,7 @@ def scene_outcome(raw: dict, render: bool | str = False) -> tuple[str, BaseExcep
 
 def _scene_outcome(raw: dict, render: bool):
     from dvr_gl.renderers import create_renderer, registry
-    from dvr_gl.scene import load_scene
+    from dvr_gl.scene.resolve import load_scene
 
     try:
         scene = load_scene(None, base=raw)

@@ -7,7 +7,7 @@ import pytest
 from conftest import array_scene
 from dvr_gl.renderers.raycast import acceleration as accel
 from dvr_gl.renderers.raycast.renderer import AUTO_MIN_SKIPPABLE, RayCastRenderer
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 
 
 def _brute_reduce(key, reach, op):

@@ -10,7 +10,7 @@ import pytest
 
 from dvr_gl.apps.cli import main
 from dvr_gl.bench import peer_worker, peers
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 
 TINY = {"size": 16, "volume_size": 12, "rounds": 1, "frames": 1, "error_size": 12}
 

@@ -190,7 +190,7 @@ def test_the_oxygen_post_along_its_axis():
     tetrahedra, which the bench matches to the reference at 2.3e-7 here: largest pixel difference
     measured 4e-6, bound 1e-4."""
     from dvr_gl.bench.cells import MESHES, scene_keys
-    from dvr_gl.scene import load_scene
+    from dvr_gl.scene.resolve import load_scene
 
     source, array = MESHES["post"]
     path = SHARED_DATA / source

@@ -21,7 +21,7 @@ from dvr_gl.errors import SceneError
 from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.reference.discrete import DiscreteReference
 from dvr_gl.renderers import registry
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 
 COLOUR = np.array([0.9, 0.6, 0.3])
 SIGMA = 1.3

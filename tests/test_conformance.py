@@ -22,7 +22,7 @@ import pytest
 from closed_forms import CLOSED_FORMS, VIEWS, error_outside, own_filter
 from conftest import assert_close
 from dvr_gl.renderers import create_renderer, registry
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 
 PLUGINS = registry.plugins()
 

@@ -13,7 +13,7 @@ from dvr_gl.renderers import create_renderer
 from dvr_gl.renderers.grid.slicing import reference as slicer_reference
 from dvr_gl.renderers.shearwarp.renderer import reference as shearwarp_reference
 from dvr_gl.renderers.splatting.oracle import reference as splatting_reference
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 
 HU = {"transfer_function.preset": "ct-bone", "transfer_function.rescale_intercept": -1024.0}
 DATASETS = {

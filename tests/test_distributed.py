@@ -24,7 +24,7 @@ from dvr_gl.distributed.plan import bricks_for, check_method, check_scene, plan 
 from dvr_gl.distributed.worker import payload_of  # noqa: E402
 from dvr_gl.errors import DvrError, SceneError  # noqa: E402
 from dvr_gl.renderers.raycast.renderer import RayCastRenderer  # noqa: E402
-from dvr_gl.scene import load_scene  # noqa: E402
+from dvr_gl.scene.resolve import load_scene
 
 EXACT = 1e-6  # the bound with early termination off (see the module doc)
 W, H = 40, 32  # H divisible by 2 and 4: the bands (and so the bytes) are exact

@@ -4,15 +4,15 @@ is the front door (under 400 lines) and its links resolve."""
 import re
 
 from conftest import REPO
-from dvr_gl.scene_reference import reference_text
+from dvr_gl.scene.reference import reference_text
 
 
 def test_scene_format_reference_is_current():
     """docs/scene-files.md is generated from the schema and the renderers' declared settings; after
-    changing a key: python -m dvr_gl.scene_reference docs/scene-files.md"""
+    changing a key: python -m dvr_gl.scene.reference docs/scene-files.md"""
     page = (REPO / "docs" / "scene-files.md").read_text(encoding="utf-8")
     assert page == reference_text(), ("docs/scene-files.md is stale: "
-                                      "python -m dvr_gl.scene_reference docs/scene-files.md")
+                                      "python -m dvr_gl.scene.reference docs/scene-files.md")
 
 
 def test_reference_documents_every_key():

@@ -7,7 +7,7 @@ import pytest
 from conftest import REPO
 from dvr_gl.phantoms import demo_scene
 from dvr_gl.renderers import render
-from dvr_gl.scene import load_scene, read_scene_dict
+from dvr_gl.scene.resolve import load_scene, read_scene_dict
 
 EXAMPLES = sorted((REPO / "examples").glob("*.toml"))
 

@@ -7,11 +7,11 @@ import pytest
 
 from conftest import array_scene, small_scene
 from dvr_gl.fields.reconstruction import GAUSSIAN_DEGREE, GaussianKernel, SampledField
-from dvr_gl.model import GAUSSIAN_RADIUS
 from dvr_gl.rays import intersect_box
 from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.reference.discrete import DiscreteReference
 from dvr_gl.renderers import registry
+from dvr_gl.scene.model import GAUSSIAN_RADIUS
 
 
 def brute_force(values, spacing, origin, sigma, point):

@@ -19,7 +19,7 @@ from dvr_gl.geometry import first_hits, read_mesh
 from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.reference.discrete import DiscreteReference
 from dvr_gl.renderers import registry
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 
 meshio = pytest.importorskip("meshio", reason="meshes are read by meshio (the mesh extra)")
 

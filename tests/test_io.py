@@ -406,7 +406,7 @@ def test_tiff_folder_in_natural_order(tmp_path):
 def test_tiff_folder_and_glob_through_a_scene(tmp_path):
     """A scene's volume.path may name a TIFF folder or glob (the readers check each page they open;
     a check of the path itself as one regular file refused both)."""
-    from dvr_gl.scene import load_scene
+    from dvr_gl.scene.resolve import load_scene
 
     for i, s in enumerate(DATA.astype(np.uint16)):
         _write_tiff_pages(tmp_path / f"slice_{i}.tif", [s])

@@ -255,7 +255,7 @@ def test_choose_levels_eye_inside_a_brick_is_full_resolution():
 
 def test_level_errors_decrease_with_finer_levels(gl_context):
     from dvr_gl.phantoms import demo_scene
-    from dvr_gl.scene import load_scene
+    from dvr_gl.scene.resolve import load_scene
 
     scene = load_scene(None, {"volume.size": 40, "image.width": 40, "image.height": 40}, demo_scene("blobs"))
     levels = (scene.field, *build_levels(scene.field, count=2))

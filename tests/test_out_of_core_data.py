@@ -314,7 +314,7 @@ def test_lru_by_bytes():
 # --- volume.out_of_core in scenes -------------------------------------------------------------------------
 
 def test_scene_key_auto_true_false(tmp_path):
-    from dvr_gl.scene import _resolve_volume, parse_scene, resolve_scene
+    from dvr_gl.scene.resolve import _resolve_volume, parse_scene, resolve_scene
 
     path, _ = raw_volume(tmp_path)
     base = {"path": str(path), "dims": list(DIMS), "dtype": "uint16"}

@@ -13,7 +13,7 @@ from conftest import REPO
 from dvr_gl.apps.cli import main
 from dvr_gl.camera import Camera
 from dvr_gl.renderers import registry
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 from dvr_gl.toml_writer import dumps
 
 PYPROJECT = tomllib.loads((REPO / "pyproject.toml").read_text())

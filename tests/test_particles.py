@@ -22,7 +22,7 @@ from dvr_gl.renderers.splatting.oracle import reference as same_slabs
 from dvr_gl.renderers.splatting.oracle import subpixel_mask
 from dvr_gl.renderers.splatting.particles import SUBPIXEL_RADIUS
 from dvr_gl.renderers.splatting.renderer import SplattingRenderer, m4_tables
-from dvr_gl.scene import apply_overrides, parse_scene, resolve_scene
+from dvr_gl.scene.resolve import apply_overrides, parse_scene, resolve_scene
 
 TF = {"transfer_function.points": [[0, 0, 0, 0, 0], [0.05, 0.15, 0.25, 0.8, 0.05], [0.5, 0.9, 0.45, 0.15, 0.3],
                                    [4, 1, 0.85, 0.4, 0.6], [16, 1, 1, 1, 0.9]]}

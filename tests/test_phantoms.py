@@ -53,7 +53,7 @@ def test_the_demo_is_bright():
     0.026), and the cut shows the orange lesion (red above blue in an opaque pixel's
     colour by more than 0.6; before: 0.41, now 0.82)."""
     from dvr_gl.renderers import render
-    from dvr_gl.scene import load_scene
+    from dvr_gl.scene.resolve import load_scene
 
     scene = load_scene(None, {"volume.size": 48, "image.width": 64, "image.height": 64},
                        demo_scene("shepp-logan"))

@@ -89,7 +89,7 @@ def test_the_viewer_offers_it(site):
     registry, and switching to it is checked (emission-absorption refused, MIP accepted) before
     anything renders."""
     code = ("from dvr_gl.viewer import keys, settings\n"
-            "from dvr_gl.scene import load_scene\n"
+            "from dvr_gl.scene.resolve import load_scene\n"
             f"print([k for k in keys.key_table() if k[1] == 'renderer_{NAME}'])\n"
             "print(settings.choices('name'))\n"
             "scene = load_scene(None, {'volume.demo': 'shepp-logan', 'volume.size': 16})\n"

@@ -219,7 +219,7 @@ def test_fast_table_on_cthead_bone(shared_data):
     from dvr_gl.bench.tradeoff import converged_truth
     from dvr_gl.image import compare_images
     from dvr_gl.renderers import create_renderer
-    from dvr_gl.scene import load_scene
+    from dvr_gl.scene.resolve import load_scene
 
     _, path, overrides = next(d for d in DATASETS if d[0] == "CThead, bone")
     scene = load_scene(None, {"volume.path": str(shared_data / path), "image.width": 40, "image.height": 40,

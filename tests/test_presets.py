@@ -17,7 +17,7 @@ from dvr_gl.errors import SceneError
 from dvr_gl.presets import colormaps
 from dvr_gl.presets.property import COLOUR_TOLERANCE
 from dvr_gl.presets.slicer import PRESETS_FILE
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 from dvr_gl.transfer_function import PRESETS, linear_to_srgb, preset
 
 SLICER_NAMES = ["CT-AAA", "CT-AAA2", "CT-Bone", "CT-Bones", "CT-Cardiac", "CT-Cardiac2", "CT-Cardiac3",

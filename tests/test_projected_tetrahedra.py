@@ -18,7 +18,7 @@ from dvr_gl.fields.mesh import TetMesh
 from dvr_gl.fields.mesh_cells import hexahedra_of_grid, tetrahedralize
 from dvr_gl.renderers import create_renderer
 from dvr_gl.renderers.projected_tetrahedra.order import VisibilityOrder, topological
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 
 
 @pytest.fixture(scope="module")

@@ -27,7 +27,7 @@ from dvr_gl.errors import DvrError
 from dvr_gl.phantoms import shepp_logan
 from dvr_gl.reference.discrete import DiscreteReference
 from dvr_gl.renderers.raycast.renderer import RayCastRenderer, shader_features
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 
 PHANTOM = shepp_logan(32)
 POINTS = [[0.0, 0, 0, 0, 0], [0.12, 0.1, 0.2, 0.6, 0], [0.2, 0.2, 0.4, 0.9, 0.05],

@@ -14,7 +14,7 @@ import pytest
 import dvr_gl
 from dvr_gl.apps.cli import main
 from dvr_gl.sandbox import Sandbox, SandboxError, active, memory_budget, parse_bytes
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 
 SCENE = '[volume]\npath = "{path}"\n[image]\nwidth = 8\nheight = 8\n'
 

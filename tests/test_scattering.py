@@ -29,7 +29,7 @@ from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.reference.discrete import DiscreteReference
 from dvr_gl.reference.scattering import FOUR_PI, henyey_greenstein, isotropic, phase_maximum
 from dvr_gl.renderers import registry
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 from dvr_gl.transfer_function import TransferFunction
 
 COLOUR = np.array([0.9, 0.6, 0.3])

@@ -6,7 +6,7 @@ import pytest
 from conftest import small_scene
 from dvr_gl.errors import SceneError
 from dvr_gl.renderers import render
-from dvr_gl.scene import apply_overrides, load_scene
+from dvr_gl.scene.resolve import apply_overrides, load_scene
 from dvr_gl.toml_writer import dumps
 
 

@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 
 from conftest import array_scene, assert_close, small_scene
-from dvr_gl.model import GAUSSIAN_RADIUS
 from dvr_gl.rays import intersect_box
 from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.renderers import registry
 from dvr_gl.renderers.splatting.footprint import GaussianFootprint
 from dvr_gl.renderers.splatting.oracle import reference as same_slabs
 from dvr_gl.renderers.splatting.renderer import SplattingRenderer
+from dvr_gl.scene.model import GAUSSIAN_RADIUS
 
 GAUSSIAN = {"renderer.name": "splatting", "renderer.filter": "gaussian", "renderer.ert_threshold": 1.0}
 # opaque enough that slabs and splats overlap visibly

@@ -4,7 +4,6 @@ import numpy as np
 import pytest
 
 from conftest import array_scene
-from dvr_gl import tolerance
 from dvr_gl.apps.cli import main
 from dvr_gl.bench.quality import spike
 from dvr_gl.bench.tradeoff import converged_truth
@@ -12,7 +11,8 @@ from dvr_gl.errors import SceneError
 from dvr_gl.image import compare_images, read_image
 from dvr_gl.phantoms import marschner_lobb, shepp_logan
 from dvr_gl.renderers import create_renderer
-from dvr_gl.scene import load_scene
+from dvr_gl.renderers.raycast import tolerance
+from dvr_gl.scene.resolve import load_scene
 
 ML = {"volume.demo": "marschner-lobb", "volume.size": 33, "image.width": 48, "image.height": 48,
       "transfer_function.opacity_model": "extinction"}

@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 
 from conftest import array_scene
-from dvr_gl import sweeps
 from dvr_gl.apps.cli import main
 from dvr_gl.bench import plot, tradeoff
 from dvr_gl.image import read_image
 from dvr_gl.renderers import registry
-from dvr_gl.scene import load_scene
+from dvr_gl.scene import sweeps
+from dvr_gl.scene.resolve import load_scene
 
 SMALL = {"volume.demo": "shepp-logan", "volume.size": 24, "image.width": 24, "image.height": 24}
 

@@ -11,7 +11,7 @@ import pytest
 from conftest import small_scene
 from dvr_gl.camera import Camera
 from dvr_gl.errors import DvrError, SceneError
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 from dvr_gl.transfer_function import TransferFunction
 from dvr_gl.viewer import navigation, settings
 from dvr_gl.viewer.hud import FrameClock, FrameStats, hud_lines, nominal_samples

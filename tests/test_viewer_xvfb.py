@@ -26,7 +26,7 @@ import pytest
 
 from dvr_gl.image import composite_over, read_image
 from dvr_gl.renderers import create_renderer
-from dvr_gl.scene import load_scene
+from dvr_gl.scene.resolve import load_scene
 from dvr_gl.viewer.navigation import ORBIT_DEGREES_PER_PIXEL
 from dvr_gl.viewer.tf_editor import CanvasMapping, nice_opacity_max
 

@@ -412,7 +412,7 @@ def _tradeoff_scenes(args):
 
     from dvr_gl.errors import DvrError
     from dvr_gl.phantoms import demo_scene
-    from dvr_gl.scene import load_scene
+    from dvr_gl.scene.resolve import load_scene
 
     from .render import set_overrides
 

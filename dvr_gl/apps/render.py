@@ -31,13 +31,13 @@ from dvr_gl.image import (
     write_image,
     write_text,
 )
-from dvr_gl.model import SCATTERING_METHODS
 from dvr_gl.orientation import ANATOMICAL_VIEWS
 from dvr_gl.phantoms import DEMOS, demo_scene
 from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.sandbox import Sandbox, active, parse_bytes
-from dvr_gl.scene import is_volume_path, load_scene
-from dvr_gl.scene_schema import CameraSpec, VolumeSpec
+from dvr_gl.scene.model import SCATTERING_METHODS
+from dvr_gl.scene.resolve import is_volume_path, load_scene
+from dvr_gl.scene.schema import CameraSpec, VolumeSpec
 from dvr_gl.transfer_function import PRESETS, is_transfer_function_file
 
 log = logging.getLogger(__name__)
@@ -157,7 +157,7 @@ def add_arguments(p: argparse.ArgumentParser):
 
 
 def add_setting_arguments(g):
-    """A flag per renderer setting that asks for one (:attr:`dvr_gl.settings.Setting.flag`), from the
+    """A flag per renderer setting that asks for one (:attr:`dvr_gl.scene.settings.Setting.flag`), from the
     registry: ``--name-with-dashes``; booleans as ``--x/--no-x``; choices and types as declared."""
     for setting in registry.all_settings():
         if not setting.flag:

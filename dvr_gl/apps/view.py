@@ -16,7 +16,7 @@ from pathlib import Path
 from dvr_gl.errors import DvrError
 from dvr_gl.phantoms import demo_scene
 from dvr_gl.renderers import registry
-from dvr_gl.scene import load_scene, read_scene_dict
+from dvr_gl.scene.resolve import load_scene, read_scene_dict
 
 from . import render as render_cmd
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..renderers.raycast import acceleration as accel
 from ..renderers.raycast.renderer import RayCastRenderer
-from ..scene import load_scene
+from ..scene.resolve import load_scene
 from . import median_seconds, tick
 
 HU = {"transfer_function.rescale_intercept": -1024.0}

@@ -91,7 +91,7 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
     where measured, above 5x their differences from the reference)."""
     from ..fields.mesh_resample import resample, resampled_scene
     from ..renderers import create_renderer
-    from ..scene import load_scene
+    from ..scene.resolve import load_scene
     from . import peers
 
     have, missing = peers.available(python, ["vtk-pt"])

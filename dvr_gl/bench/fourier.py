@@ -16,7 +16,7 @@ import statistics
 from ..image import compare_images
 from ..reference.converged import ConvergedReference
 from ..renderers import create_renderer
-from ..scene import load_scene
+from ..scene.resolve import load_scene
 from . import converged, median_seconds
 
 DISTANCES = (2.0, 1.0, 0.5, 0.25, 0.125)

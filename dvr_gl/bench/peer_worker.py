@@ -525,7 +525,7 @@ class DvrGlPeer(Peer):
         super().__init__(scene, size)
         import dvr_gl
         from dvr_gl.renderers import create_renderer
-        from dvr_gl.scene import load_scene
+        from dvr_gl.scene.resolve import load_scene
 
         self.version = dvr_gl.__version__ if hasattr(dvr_gl, "__version__") else ""
         self.scene_ = load_scene(None, {**overrides, "image.width": size[0], "image.height": size[1]})

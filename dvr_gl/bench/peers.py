@@ -105,7 +105,7 @@ def volume_file(demo: str, n: int, folder: Path) -> Path:
 def dataset_file(name: str, data_dir: Path, folder: Path) -> tuple[Path, dict] | None:
     """A shared dataset as ``.npy`` in its own type (the peers' worker reads only ``.npy``) and the scene
     keys that go with it (its spacing, the camera's up); None where ``data_dir`` lacks it."""
-    from ..scene import load_scene
+    from ..scene.resolve import load_scene
 
     source, extra = DATASETS[name]
     if not (Path(data_dir) / source).exists():
@@ -136,7 +136,7 @@ def scene_keys(key: str, volume: Path, size: int, extra: dict | None = None) -> 
 
 def peer_scene(keys: dict, mode: str) -> dict:
     """The scene as the worker reads it, resolved by dvr-gl (camera eye, target and up; the box)."""
-    from ..scene import load_scene
+    from ..scene.resolve import load_scene
 
     scene = load_scene(None, keys)
     cam, vol = scene.camera, scene.volume
@@ -152,7 +152,7 @@ def peer_scene(keys: dict, mode: str) -> dict:
 def reference_image(keys: dict, error_size: int, cache: Path | None) -> tuple[np.ndarray, str]:
     """dvr-gl's converged reference of the scene at ``error_size`` (from ``cache`` when there), and where
     it came from."""
-    from ..scene import load_scene
+    from ..scene.resolve import load_scene
     from .tradeoff import converged_truth
 
     keys = {**keys, "image.width": error_size, "image.height": error_size}
@@ -179,7 +179,7 @@ def outline_mask(keys: dict, size: int) -> np.ndarray:
     renderer whose box differs from dvr-gl's by a fraction of a voxel (vispy's and pygfx's are
     cell-centred) or whose silhouette is softened differs the most, whatever its sampling."""
     from ..rays import intersect_box
-    from ..scene import load_scene
+    from ..scene.resolve import load_scene
 
     scene = load_scene(None, {**keys, "image.width": size, "image.height": size})
     origins, directions = scene.camera.pixel_rays(size, size)

@@ -27,7 +27,7 @@ from ..image import compare_images
 from ..preintegration import preintegrate
 from ..reference.converged import ConvergedReference
 from ..renderers import create_renderer
-from ..scene import load_scene
+from ..scene.resolve import load_scene
 from . import converged, tick
 
 WIDTHS = (0.02, 0.005)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import statistics
 
 from ..renderers.raycast.renderer import RayCastRenderer
-from ..scene import load_scene
+from ..scene.resolve import load_scene
 from . import tick
 
 CASES = [  # (label, overrides, fragment shader)

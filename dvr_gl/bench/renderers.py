@@ -16,7 +16,7 @@ from __future__ import annotations
 import statistics
 
 from ..renderers import create_renderer
-from ..scene import load_scene
+from ..scene.resolve import load_scene
 from . import tick
 
 RENDERERS = ("raycast", "slicing3d", "slicing2d")

@@ -76,7 +76,7 @@ def scene_for(folder: Path, volume_size: int, image_size: int):
     """The bench's scene: blobs at ``volume_size``^3 from a .npy file, early termination off (the
     same work in every split), ``image_size`` square."""
     from ..phantoms import blobs
-    from ..scene import load_scene
+    from ..scene.resolve import load_scene
 
     path = folder / f"blobs{volume_size}.npy"
     np.save(path, blobs(volume_size).astype(np.float32))

@@ -53,7 +53,7 @@ def marschner_lobb(points: np.ndarray) -> np.ndarray:
 def kernel_rows(size: int = 64, points: int = 20000, image: int = 128, seed: int = 1) -> list[dict]:
     """Each kernel on the Marschner-Lobb demo of ``size^3``: the columns of :data:`KERNEL_COLUMNS`."""
     from ..phantoms import demo_scene, demo_volume
-    from ..scene import load_scene
+    from ..scene.resolve import load_scene
 
     volume = demo_volume("marschner-lobb", size)
     half = (size - 1) / 2.0
@@ -92,7 +92,7 @@ def data_kernel_rows(cases, size: int) -> list[dict]:
     a level loses in a still picture, beside what one ray per pixel of the full data loses itself."""
     from ..multires.accuracy import level_scene
     from ..renderers import create_renderer
-    from ..scene import load_scene
+    from ..scene.resolve import load_scene
 
     rows, f = [], SUPERSAMPLE
     with create_renderer("raycast") as r:
@@ -135,7 +135,7 @@ def run(args) -> int:
     """Print the two tables (``args``: ``size``, the image side; ``data_dir``, the shared datasets;
     ``report``, a :class:`~dvr_gl.bench.Report`; all optional)."""
     from ..phantoms import demo_scene
-    from ..scene import load_scene
+    from ..scene.resolve import load_scene
 
     size = int(getattr(args, "size", None) or 256)
     report = getattr(args, "report", None) or Report()

@@ -19,7 +19,7 @@ from ..image import compare_images
 from ..phantoms import demo_scene
 from ..reference.converged import ConvergedReference
 from ..renderers import create_renderer
-from ..scene import load_scene
+from ..scene.resolve import load_scene
 from . import converged, median_seconds
 
 # Steps a factor of 4/3 apart below one voxel: with a factor of two, "the fastest setting as accurate"

@@ -30,7 +30,7 @@ import numpy as np
 from ..renderers import create_renderer
 from ..renderers.shearwarp.run_length import RunLengthVolume, SliceClassifier
 from ..renderers.shearwarp.shading import VoxelNormals
-from ..scene import load_scene
+from ..scene.resolve import load_scene
 from . import median_seconds
 
 DATASETS = [  # name, file under the data folder, scene overrides

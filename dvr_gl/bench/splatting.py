@@ -24,7 +24,7 @@ from ..image import compare_images
 from ..reference.converged import ConvergedReference
 from ..renderers import create_renderer, registry
 from ..renderers.splatting.oracle import reference as same_slabs
-from ..scene import load_scene
+from ..scene.resolve import load_scene
 from . import converged, median_seconds
 
 HU = {"transfer_function.preset": "ct-bone", "transfer_function.rescale_intercept": -1024.0}

@@ -155,7 +155,7 @@ TOLERANCE_COLUMNS = [("tolerance", "tolerance", "g"), ("choice", "chosen (raycas
 def tolerance_check(scene, rows: list[dict], truth, repeat: int = 5, tolerances=TOLERANCES):
     """For each tolerance: what the error model chooses, its measured error and frame time, and the
     fastest measured row (the front) that meets it.  Returns (rows, note or None)."""
-    from .. import tolerance as model
+    from ..renderers.raycast import tolerance as model
 
     out = []
     kind = getattr(scene.field, "kind", "grid")

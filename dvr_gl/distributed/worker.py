@@ -56,7 +56,7 @@ def scene_of(payload):
     scene = _SCENES.get(token)
     if scene is None:
         if kind == "dict":
-            from ..scene import parse_scene, resolve_scene
+            from ..scene.resolve import parse_scene, resolve_scene
 
             data, base_dir = rest
             scene = resolve_scene(parse_scene(data, None, base_dir), base_dir)

@@ -106,7 +106,7 @@ def resampled_scene(scene, samples: int, volume: ResampledMesh | None = None, **
     """``scene`` (of a mesh) with the mesh resampled (or ``volume``, its resampling made before), the
     transfer function made transparent at its outside value, the camera kept, and the renderer changed
     as asked (e.g. ``name="raycast"``)."""
-    from ..scene import resolve_scene
+    from ..scene.resolve import resolve_scene
 
     volume = resample(scene.field, samples) if volume is None else volume
     resolved = resolve_scene(scene.spec, field=volume, volume_source=scene.volume_source, camera=scene.camera,

@@ -38,7 +38,7 @@ import numpy as np
 from .. import progress
 from ..errors import SceneError, VolumeError
 from ..sandbox import check_bytes
-from ..settings import WORLD_RANGE
+from ..scene.settings import WORLD_RANGE
 from . import sph
 from .ragged import joined_knots, ranges, ranks
 

@@ -38,7 +38,7 @@ import math
 
 import numpy as np
 
-from ..model import DEFAULT_KERNEL_WIDTH, FILTERS, GAUSSIAN_RADIUS
+from ..scene.model import DEFAULT_KERNEL_WIDTH, FILTERS, GAUSSIAN_RADIUS
 from .ragged import joined_knots, ranges
 
 #: The degree of the polynomial the converged reference fits to a Gaussian field's piece (at most a

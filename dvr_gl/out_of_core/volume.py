@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import settings
 from ..errors import SceneError, VolumeError
 from ..fields.grid import IDENTITY, Volume, check_direction
+from ..scene import settings
 from .cache import ByteLRU
 from .ranges import BLOCK, BlockRanges
 from .sources import RawSource, ZarrSource

@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..fields import filter_parameters, gradient_epsilon, reconstruct
-from ..model import CLASSIFIED_ALONG_RAY
 from ..preintegration import preintegrate, shortened
+from ..scene.model import CLASSIFIED_ALONG_RAY
 from ..transfer_function import TransferFunction
 from .classification import PostClassifier, PreClassifier
 from .scattering import SingleScattering
@@ -92,7 +92,7 @@ class OpticalModel:
     """Colour (shaded, non-associated) and extinction at world points.
 
     Args:
-        scene: a resolved :class:`~dvr_gl.scene.Scene`; its field (:mod:`dvr_gl.fields`: a
+        scene: a resolved :class:`~dvr_gl.scene.resolve.Scene`; its field (:mod:`dvr_gl.fields`: a
             grid, or an analytic field for closed forms) reconstructed by the scene's filter.
         exact: evaluate the transfer function exactly (converged reference)
             instead of through the ``lut_size`` table (as the GPU does).
@@ -124,7 +124,7 @@ class OpticalModel:
         self.albedo_column = False
         scattering = getattr(r, "scattering", None)
         if scattering is not None and scattering.enabled and r.compositing == "emission_absorption":
-            from ..settings import albedo_column
+            from ..scene.settings import albedo_column
 
             self.albedo_column = albedo_column(r, self.tf)
             if exact:  # shadow rays integrated between the field's knots, to the pixel's budget; with
@@ -134,7 +134,7 @@ class OpticalModel:
                 self.scattering = SingleScattering(scene, self.extinction, pieces=self._shadow_pieces,
                                                    tolerance=r.converged_tolerance, nodes=nodes)
             else:  # marched at the shadow step, as the ray caster's shadow rays
-                from ..settings import shadow_step
+                from ..scene.settings import shadow_step
 
                 self.scattering = SingleScattering(scene, self.extinction, step=shadow_step(r, scene.field))
         self.hemispherical = None

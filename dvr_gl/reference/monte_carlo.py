@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..rays import RayBatch, intersect_box
-from ..settings import constant_albedo
+from ..scene.settings import constant_albedo
 from .model import OpticalModel
 from .scattering import FOUR_PI
 

@@ -15,7 +15,7 @@ Shared by both references (:class:`~dvr_gl.reference.model.OpticalModel` multipl
   bisecting until its error at each point is within the share of the pixel's budget that point can
   spend (see :meth:`SingleScattering._tolerances`).
 
-The model (:class:`dvr_gl.model.ScatteringSpec`, ``docs/scattering.md``): the source term at ``x``
+The model (:class:`dvr_gl.scene.model.ScatteringSpec`, ``docs/scattering.md``): the source term at ``x``
 seen along a ray of unit direction ``d`` is ``sigma c ((1 - a) + a F(x))`` with
 
     F(x) = sum over lights of 4 pi p(cos theta) E(x) T(x)
@@ -32,7 +32,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..rays import intersect_box
-from ..settings import constant_albedo
+from ..scene.settings import constant_albedo
 
 FOUR_PI = 4.0 * np.pi
 #: Bisection rounds of the converged optical depth before a piece is taken as it is.

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model import ShadingSpec
+from ..scene.model import ShadingSpec
 
 
 def normals_from_gradient(gradient: np.ndarray, epsilon: float = 0.0) -> np.ndarray:

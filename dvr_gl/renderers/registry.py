@@ -24,7 +24,7 @@ from importlib import metadata
 from typing import Any, Callable, Optional
 
 from ..errors import DvrError, SceneError
-from ..settings import MODEL_SETTINGS, Setting
+from ..scene.settings import MODEL_SETTINGS, Setting
 
 ENTRY_POINT_GROUP = "dvr_gl.renderers"
 
@@ -36,7 +36,7 @@ class RendererPlugin:
     name, description: as listed by ``dvr info`` and chosen with ``renderer.name``.
     renderer: the :class:`~dvr_gl.renderers.base.Renderer` subclass, or ``"module:Class"``
         (imported when first created, so that reading the registry stays cheap).
-    settings: the :class:`~dvr_gl.settings.Setting` s it reads beyond its ``name``:
+    settings: the :class:`~dvr_gl.scene.settings.Setting` s it reads beyond its ``name``:
         the model settings it supports (narrowed to its choices) and its own.
     data_kinds: the field kinds it renders (:mod:`dvr_gl.fields`); None: any field.
     needs_gl: it draws with OpenGL (it takes a moderngl context: ``ctx=``).
@@ -170,7 +170,8 @@ def _union(plugins: dict) -> tuple:
             known = out.get(s.name) or model.get(s.name)
             if known is not None and known.base != s.base:
                 raise DvrError(f"renderer {plugin.name!r} declares setting {s.name!r}, which "
-                               f"{owner.get(s.name, 'dvr_gl.settings')} declares differently; give it another name")
+                               f"{owner.get(s.name, 'dvr_gl.scene.settings')} declares differently; "
+                               f"give it another name")
             if s.name not in out:
                 out[s.name], owner[s.name] = s.base, plugin.name
     for s in MODEL_SETTINGS:

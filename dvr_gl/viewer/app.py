@@ -31,7 +31,7 @@ import numpy as np
 from ..errors import DvrError
 from ..image import composite_over
 from ..renderers import create_renderer
-from ..settings import with_sample_distance
+from ..scene.settings import with_sample_distance
 from . import navigation, settings
 from .display import ImageDisplay
 from .hud import FrameClock, FrameStats, hud_lines, nominal_samples

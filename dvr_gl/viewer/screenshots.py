@@ -2,7 +2,7 @@
 
 The image is written exactly as ``dvr render`` writes it (background composited once,
 :func:`dvr_gl.image.write_image`: sRGB 8-bit PNG, or linear float EXR/TIFF), and beside it the
-effective scene (:meth:`dvr_gl.scene.Scene.to_toml`, paths relative to the file), so
+effective scene (:meth:`dvr_gl.scene.resolve.Scene.to_toml`, paths relative to the file), so
 ``dvr render dvr_view_0001.toml -o again.png`` repeats the image.  Nothing is ever replaced.
 """
 

@@ -1,6 +1,6 @@
 """Switching renderer settings at run time (pure; no window), from the renderer registry.
 
-Every change returns a new :class:`~dvr_gl.scene.Scene` whose renderer settings passed the same
+Every change returns a new :class:`~dvr_gl.scene.resolve.Scene` whose renderer settings passed the same
 checks as a scene file's (``dvr render`` would accept them) and that its renderer can render (the
 registry's :func:`~dvr_gl.renderers.registry.check`: declared modes, classifications and filters,
 and the renderer's own check), or raises :class:`~dvr_gl.errors.SceneError` with the one-line
@@ -20,8 +20,8 @@ from ..errors import SceneError
 from ..fields import diagonal
 from ..orientation import direction_of
 from ..renderers import registry
-from ..scene import Scene
-from ..settings import with_sample_distance
+from ..scene.resolve import Scene
+from ..scene.settings import with_sample_distance
 
 MIN_SAMPLE_VOXELS, MAX_SAMPLE_VOXELS = 1.0 / 64, 8.0
 # The settings with named choices that keys and combo boxes cycle through.

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import DvrError, SceneError
 from ..image import write_text
-from ..scene_schema import TransferFunctionSpec, parse_table
+from ..scene.schema import TransferFunctionSpec, parse_table
 from ..toml_writer import dumps
 from ..transfer_function import TransferFunction
 

@@ -11,8 +11,8 @@ the renderer is :mod:`.renderer`.
 
 from __future__ import annotations
 
-from ... import settings as s
-from ... import sweeps
+from ...scene import settings as s
+from ...scene import sweeps
 from ..registry import RendererPlugin
 
 PLUGIN = RendererPlugin(

@@ -8,10 +8,10 @@ is :mod:`.renderer`, its same-slices reference :mod:`.oracle`.
 
 from __future__ import annotations
 
-from ... import settings as s
-from ... import sweeps
 from ...errors import SceneError
 from ...gl.geometry import box_corners
+from ...scene import settings as s
+from ...scene import sweeps
 from ..registry import RendererPlugin
 from .spectrum import INTERPOLATIONS, WINDOWED
 

@@ -27,9 +27,9 @@ import math
 import numpy as np
 
 from ...gl.geometry import box_corners
-from ...model import GAUSSIAN_RADIUS
 from ...rays import RayBatch
 from ...reference.model import gradient_magnitudes
+from ...scene.model import GAUSSIAN_RADIUS
 from ...transfer_function import projected_rgba, xray_rgba
 from .spectrum import padded_length
 

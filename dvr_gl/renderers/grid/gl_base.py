@@ -24,7 +24,7 @@ from ...gl.lights import set_uniform, shading_uniforms
 from ...gl.shaders import release_programs
 from ...preintegration import preintegrate
 from ...reference.scattering import light_volume_dims
-from ...settings import albedo_column, constant_albedo, shadow_step
+from ...scene.settings import albedo_column, constant_albedo, shadow_step
 from ..base import Renderer
 from .bricking import brick_size_for, ghost_width, plan_bricks
 from .textures import FORMATS, central_difference_gradients, upload_field, upload_table, upload_volume

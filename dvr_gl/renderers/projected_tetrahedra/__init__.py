@@ -9,8 +9,8 @@ cell's four faces and integrates the exact transfer function along the piece ins
 
 from __future__ import annotations
 
-from ... import settings as s
-from ... import sweeps
+from ...scene import settings as s
+from ...scene import sweeps
 from ..registry import RendererPlugin
 from .order import ORDERS
 

@@ -10,10 +10,10 @@ from __future__ import annotations
 
 from typing import Optional
 
-from ... import settings as s
-from ... import sweeps
 from ...errors import SceneError
-from ...model import SPLINE_FILTERS
+from ...scene import settings as s
+from ...scene import sweeps
+from ...scene.model import SPLINE_FILTERS
 from ..registry import RendererPlugin
 
 
@@ -64,7 +64,7 @@ PLUGIN = RendererPlugin(
     out_of_core=True,
     check=check,
     oracle="dvr_gl.reference.discrete:same_discretization",
-    resolve="dvr_gl.tolerance:resolve",
+    resolve="dvr_gl.renderers.raycast.tolerance:resolve",
     sweeps=(sweeps.POST, sweeps.PRE_CLASSIFIED, sweeps.PREINTEGRATED, sweeps.PREINTEGRATED_FAST, sweeps.NEAREST,
             sweeps.CUBIC_BSPLINE, sweeps.LUT_SIZE, sweeps.PREINTEGRATION_TABLE, sweeps.EARLY_TERMINATION,
             sweeps.BRICKED, sweeps.LIGHT_VOLUME),

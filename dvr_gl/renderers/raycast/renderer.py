@@ -24,7 +24,7 @@ from ...fields import diagonal
 from ...gl.geometry import gl_matrix, projection_matrix, view_matrix
 from ...gl.shaders import create_program, shader_root
 from ...orientation import volume_frame_scene
-from ...settings import shadow_step
+from ...scene.settings import shadow_step
 from ..grid.bricking import ghost_width, plan_bricks, visibility_order
 from ..grid.gl_base import GLVolumeRenderer, GridView, _same, classification_features, now
 from ..grid.textures import upload_field

@@ -8,7 +8,7 @@ transfer-function table.  It renders any field (:mod:`dvr_gl.fields`).  See
 
 from __future__ import annotations
 
-from ... import settings as s
+from ...scene import settings as s
 from ..registry import RendererPlugin
 
 PLUGIN = RendererPlugin(

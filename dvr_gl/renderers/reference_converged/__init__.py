@@ -9,7 +9,7 @@ field (:mod:`dvr_gl.fields`).  See ``docs/renderers/references.md``.
 
 from __future__ import annotations
 
-from ... import settings as s
+from ...scene import settings as s
 from ..registry import RendererPlugin
 
 CONVERGED_TOLERANCE = s.Setting("converged_tolerance", float, 1e-4, "error budget per pixel",

@@ -6,9 +6,9 @@ See ``docs/renderers/shearwarp.md``; the renderer is :mod:`.renderer`.
 
 from __future__ import annotations
 
-from ... import settings as s
-from ... import sweeps
 from ...errors import SceneError
+from ...scene import settings as s
+from ...scene import sweeps
 from ..registry import RendererPlugin
 
 OPACITY_THRESHOLD = s.Setting("opacity_threshold", float, 0.0, "voxels at most this opaque (over one "

@@ -6,9 +6,9 @@ See ``docs/renderers/slicing.md``; the renderer is :class:`Slicing2DRenderer` in
 
 from __future__ import annotations
 
-from ... import settings as s
-from ... import sweeps
 from ...errors import SceneError
+from ...scene import settings as s
+from ...scene import sweeps
 from ..registry import RendererPlugin
 
 

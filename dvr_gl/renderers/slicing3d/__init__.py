@@ -6,9 +6,9 @@ See ``docs/renderers/slicing.md``; the renderer is :class:`Slicing3DRenderer` in
 
 from __future__ import annotations
 
-from ... import settings as s
-from ... import sweeps
-from ...model import SPLINE_FILTERS
+from ...scene import settings as s
+from ...scene import sweeps
+from ...scene.model import SPLINE_FILTERS
 from ..registry import RendererPlugin
 
 PLUGIN = RendererPlugin(

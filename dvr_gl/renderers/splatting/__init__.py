@@ -22,11 +22,11 @@ See ``docs/renderers/splatting.md``; the renderer is :mod:`.renderer`, its same-
 
 from __future__ import annotations
 
-from ... import settings as s
-from ... import sweeps
 from ...clipping import clipping_in_use
 from ...errors import SceneError
-from ...model import CLASSIFIED_ALONG_RAY
+from ...scene import settings as s
+from ...scene import sweeps
+from ...scene.model import CLASSIFIED_ALONG_RAY
 from ..registry import RendererPlugin
 from .low_pass import SCREEN_LOW_PASS
 

@@ -13,7 +13,7 @@ A kernel ``K(r)`` radial in voxel units with support radius ``R``, met by a line
   ``sigma``: the second table.
 
 Both are computed once and serve every width: with ``R`` a fixed multiple of ``sigma``
-(:data:`dvr_gl.model.GAUSSIAN_RADIUS`), ``F`` in voxel units is ``F_1(q) / sigma^2``.  Their sizes come
+(:data:`dvr_gl.scene.model.GAUSSIAN_RADIUS`), ``F`` in voxel units is ``F_1(q) / sigma^2``.  Their sizes come
 from the shader's linear interpolation (``tests/test_splatting.py`` measures it): 16384 entries each
 (one texture row, GL 4's smallest maximum), at most 7e-8 of the peak for ``F`` and 1.1e-8 for
 ``Phi``: the sums of many splats carry the relative error of the tables, and a transfer function

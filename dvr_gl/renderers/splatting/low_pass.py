@@ -32,9 +32,9 @@ import math
 
 import numpy as np
 
-from ... import settings as s
 from ...gl.geometry import box_corners
-from ...model import GAUSSIAN_RADIUS
+from ...scene import settings as s
+from ...scene.model import GAUSSIAN_RADIUS
 
 SCREEN_LOW_PASS = s.Setting("screen_low_pass", float, 0.0, "EWA's screen-space low-pass against aliasing where "
                             "Gaussian splats are smaller than a pixel: its standard deviation (0: none, each pixel "

@@ -19,8 +19,8 @@ import numpy as np
 from ... import limits
 from ...clipping import ClipRegion
 from ...gl.shaders import create_program, shader_root
-from ...model import GAUSSIAN_RADIUS
 from ...rays import chord_lengths
+from ...scene.model import GAUSSIAN_RADIUS
 from ...transfer_function import projected_rgba, xray_rgba
 from ..grid.gl_base import GLVolumeRenderer, TableTexture, shading_defines
 from ..surfaces import with_surfaces

@@ -14,8 +14,8 @@ import numpy as np
 
 from ...fields.ragged import ranges
 from ...gl.geometry import box_corners
-from ...model import CLASSIFIED_ALONG_RAY, GAUSSIAN_RADIUS
 from ...reference.plans import stack_axis
+from ...scene.model import CLASSIFIED_ALONG_RAY, GAUSSIAN_RADIUS
 from . import low_pass
 from .splats import slabs, support_depth
 

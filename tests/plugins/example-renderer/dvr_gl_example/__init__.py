@@ -19,10 +19,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from dvr_gl import settings as s
-from dvr_gl import sweeps
 from dvr_gl.rays import RayBatch, segment_counts
 from dvr_gl.renderers import Renderer, RendererPlugin
+from dvr_gl.scene import settings as s
+from dvr_gl.scene import sweeps
 
 
 class ProjectionRenderer(Renderer):

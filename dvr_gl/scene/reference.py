@@ -5,7 +5,7 @@ dataclasses of :mod:`dvr_gl.scene_schema` and :mod:`dvr_gl.model` and the settin
 renderers declare (:mod:`dvr_gl.settings`), with the renderers that read each.  A test checks that
 the page in the repository is what this module writes; after changing a key, write it again::
 
-    python -m dvr_gl.scene_reference docs/scene-files.md
+    python -m dvr_gl.scene.reference docs/scene-files.md
 """
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ import sys
 import typing
 from pathlib import Path
 
+from ..renderers import registry
 from .model import LightSpec, ShadingSpec
-from .renderers import registry
-from .scene_schema import CameraSpec, ImageSpec, TransferFunctionSpec, VolumeSpec
+from .schema import CameraSpec, ImageSpec, TransferFunctionSpec, VolumeSpec
 
 INTRO = """\
 # Scene files
@@ -30,7 +30,7 @@ every key the demo sets). The rules the keys follow (indexing, units, opacity mo
 [Command line](cli.md).
 
 *This page is generated from the schema and the registered renderers' declarations
-(`python -m dvr_gl.scene_reference docs/scene-files.md`); `tests/test_docs.py` fails when it is not
+(`python -m dvr_gl.scene.reference docs/scene-files.md`); `tests/test_docs.py` fails when it is not
 current.*
 
 ```toml

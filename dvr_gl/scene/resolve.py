@@ -23,14 +23,23 @@ from pathlib import Path
 
 import numpy as np
 
-from . import phantoms
-from .camera import DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Camera, framing_distance, framing_view_height
-from .errors import DvrError, SceneError
-from .fields import diagonal
-from .io import load_field
-from .orientation import to_patient_frame, view_orbit
-from .sandbox import check_bytes, check_input_path
-from .scene_schema import (
+from .. import phantoms
+from ..camera import DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Camera, framing_distance, framing_view_height
+from ..errors import DvrError, SceneError
+from ..fields import diagonal
+from ..io import load_field
+from ..orientation import to_patient_frame, view_orbit
+from ..sandbox import check_bytes, check_input_path
+from ..toml_writer import dumps
+from ..transfer_function import (
+    PRESETS,
+    TransferFunction,
+    from_property,
+    preset,
+    preset_property,
+    read_transfer_function_file,
+)
+from .schema import (
     CameraSpec,
     ImageSpec,
     SceneSpec,
@@ -43,15 +52,6 @@ from .scene_schema import (
 )
 from .settings import FILTER, WORLD_RANGE, check_albedo
 from .settings import resolve_renderer as resolve_settings
-from .toml_writer import dumps
-from .transfer_function import (
-    PRESETS,
-    TransferFunction,
-    from_property,
-    preset,
-    preset_property,
-    read_transfer_function_file,
-)
 
 # Keys that replace one another when overridden (giving one drops the others).
 _EXCLUSIVE = {
@@ -141,7 +141,7 @@ def _resolve_volume(spec: VolumeSpec, base_dir: Path, memory_budget_mb: float | 
     solution = spec.solution
     if solution is not None and not Path(os.path.expanduser(solution)).is_absolute():
         solution = str(base_dir / os.path.expanduser(solution))
-    from .out_of_core import MEMORY_BUDGET_MB, open_for_scene
+    from ..out_of_core import MEMORY_BUDGET_MB, open_for_scene
 
     volume = open_for_scene(path, spec, MEMORY_BUDGET_MB if memory_budget_mb is None else memory_budget_mb)
     if volume is None:
@@ -220,7 +220,7 @@ def _with_preset_shading(raw: dict, base_dir: Path) -> dict:
     diffuse, specular, specular power) in the ``renderer.shading`` keys it does not set itself, where
     the renderer shades and scattering is off.  A dict this cannot read is returned as it is: parsing
     and resolution name what is wrong."""
-    from .renderers import registry
+    from ..renderers import registry
 
     tf, renderer = raw.get("transfer_function"), raw.get("renderer", {})
     if not isinstance(tf, dict) or not isinstance(renderer, dict) or tf.get("points") is not None:
@@ -287,8 +287,8 @@ def _check_image(spec: ImageSpec):
 
 def resolve_renderer(spec, field):
     """The renderer settings checked (the renderer exists; every setting as its declaration says) with
-    the data-dependent defaults made explicit (:func:`dvr_gl.settings.resolve_renderer`)."""
-    from .renderers import registry
+    the data-dependent defaults made explicit (:func:`dvr_gl.scene.settings.resolve_renderer`)."""
+    from ..renderers import registry
 
     if spec.name is None:
         spec = dataclasses.replace(spec, name=registry.default_for(getattr(field, "kind", "grid")))
@@ -326,7 +326,7 @@ class Scene:
     renderer: the renderer's settings, resolved (sample distance in world units, iso-value, ...).
     volume_source: where the field came from (a file or a demo), for the saved scene.
     spec: what was asked for (unresolved defaults), for re-resolution when the field changes.
-    tolerance_choice: what ``renderer.tolerance`` chose (:class:`dvr_gl.tolerance.Choice`), if given.
+    tolerance_choice: what ``renderer.tolerance`` chose (:class:`dvr_gl.renderers.raycast.tolerance.Choice`), if given.
     """
 
     field: object
@@ -434,7 +434,7 @@ class Scene:
 def effective_renderer_dict(renderer) -> dict:
     """The settings the scene's renderer reads, every one explicit, and any other setting that differs
     from its default (so that nothing the user gave is lost)."""
-    from .renderers import registry
+    from ..renderers import registry
 
     full = spec_to_dict(renderer)
     declared = set(registry.plugin(renderer.name).setting_names)
@@ -446,7 +446,7 @@ def resolve_scene(spec: SceneSpec, base_dir: Path | str = ".", field=None, volum
                   camera: Camera | None = None, transfer_function: TransferFunction | None = None) -> Scene:
     """Load the field (unless given) and turn presets and defaults into explicit values; then the
     scene's renderer resolves what is its own (the ray caster: a tolerance)."""
-    from .renderers import registry
+    from ..renderers import registry
 
     base_dir = Path(base_dir)
     _check_image(spec.image)
@@ -471,7 +471,7 @@ def _resolve_geometry(renderer, base_dir: Path):
     meshes = getattr(renderer, "geometry", None)
     if not meshes:
         return renderer
-    from .geometry import read_mesh
+    from ..geometry import read_mesh
 
     resolved = []
     for g in meshes:
@@ -498,8 +498,8 @@ def _relative_geometry(renderer: dict, relative_to: Path | None) -> dict:
 def is_volume_path(path) -> bool:
     """Whether a path names data (a volume, mesh or particle file, a folder of slices, a glob) rather than a
     scene file: anything but ``.toml`` whose suffix a reader knows."""
-    from .errors import VolumeError
-    from .io import detect_format
+    from ..errors import VolumeError
+    from ..io import detect_format
 
     p = Path(os.path.expanduser(str(path)))
     if p.suffix.lower() == ".toml":

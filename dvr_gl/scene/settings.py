@@ -26,8 +26,8 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import Any, Callable, Optional
 
-from .clipping import check_clipping, clipping_in_use
-from .errors import SceneError
+from ..clipping import check_clipping, clipping_in_use
+from ..errors import SceneError
 from .model import (
     CLASSIFICATIONS,
     CLASSIFIED_ALONG_RAY,

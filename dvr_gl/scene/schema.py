@@ -18,10 +18,10 @@ import typing
 from dataclasses import dataclass, field
 from typing import Optional, Union
 
-from .camera import LENS_CHECKS
-from .errors import SceneError
+from ..camera import LENS_CHECKS
+from ..errors import SceneError
+from ..orientation import ANATOMICAL_VIEWS
 from .model import choices, doc
-from .orientation import ANATOMICAL_VIEWS
 from .settings import at_least, between, world_coordinates, world_length
 
 Vec3 = tuple[float, float, float]
@@ -35,7 +35,7 @@ class RendererTable:
 
 def checked(default, text: str, check):
     """A documented field whose parsed value must pass ``check`` (a phrase completing "<key> ...", as
-    :class:`dvr_gl.settings.Setting` checks are; None when the value is fine)."""
+    :class:`dvr_gl.scene.settings.Setting` checks are; None when the value is fine)."""
     return dataclasses.field(default=default, metadata={"doc": text, "check": check})
 
 
@@ -55,7 +55,7 @@ def auto_or_bool(value) -> str | None:
 
 
 def renderer_spec_class():
-    from .renderers.registry import renderer_spec_class as build
+    from ..renderers.registry import renderer_spec_class as build
 
     return build()
 

@@ -46,9 +46,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import progress
-from .errors import SceneError
-from .fields import diagonal, reconstruct
+from ... import progress
+from ...errors import SceneError
+from ...fields import diagonal, reconstruct
 
 LINES = 192
 OVERSAMPLING = 8          # samples per voxel along the lines
@@ -278,7 +278,7 @@ def check(scene, choice: Choice, tolerance: float, renderer=None) -> Choice:
     """The choice with its sample distance halved until the Richardson estimate of its error (see the
     module doc) is at most ``MARGIN tolerance``, and that estimate recorded; hardware filtering
     becomes shader filtering where the two differ by more than ``FILTERING_SHARE tolerance``."""
-    from .renderers import create_renderer
+    from .. import create_renderer
 
     own = renderer is None
     renderer = renderer or create_renderer("raycast")
