@@ -2,7 +2,7 @@
 
     python benchmarks/fuzz_readers.py [--examples 4000] [--seed 0] [--no-shared]
 
-The same mutations as ``tests/test_fuzz_readers.py`` (``tests/fuzz_inputs.py``: byte and line
+The same mutations as ``tests/io/test_fuzz_readers.py`` (``tests/fuzz_inputs.py``: byte and line
 mutations of small generated files of every format, and of the real headers in
 ``../shared/data`` when that folder is there), drawn from a seeded ``random.Random`` and
 spread evenly over the inputs.  Prints a table per reader (examples, user errors, volumes,

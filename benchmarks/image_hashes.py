@@ -2,7 +2,7 @@
 
 For each renderer: the conformance suite's closed-form scenes (``tests/closed_forms.py``) in every mode and
 view it declares, its oracle scene (the 16^3 phantom), and every value of every trade-off family it declares
-(:mod:`dvr_gl.sweeps`) on that phantom.  Each image's float32 bytes are hashed (SHA-256); the output is one
+(:mod:`dvr_gl.scene.sweeps`) on that phantom.  Each image's float32 bytes are hashed (SHA-256); the output is one
 JSON object, ``{case: hash}``.  Run it before and after a change and compare the two files::
 
     python benchmarks/image_hashes.py > before.json      # on the old commit

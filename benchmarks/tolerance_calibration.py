@@ -1,4 +1,4 @@
-"""Fit the error law of ``dvr render --tolerance`` (dvr_gl/tolerance.py) to measured errors.
+"""Fit the error law of ``dvr render --tolerance`` (dvr_gl/renderers/raycast/tolerance.py) to measured errors.
 
     python benchmarks/tolerance_calibration.py [--size 96]
 

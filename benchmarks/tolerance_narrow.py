@@ -4,7 +4,7 @@
 
 For each dataset (a tent of alpha 0.6 over 0.5-5 % of the value range) and
 E = 1e-2, 3e-3, 1e-3: the a-priori model's choice alone and with the
-a-posteriori check (dvr_gl/tolerance.py), each one's RMS error against the
+a-posteriori check (dvr_gl/renderers/raycast/tolerance.py), each one's RMS error against the
 converged reference (computed once per dataset) divided by E; the seconds the
 check took; and the cost: the checked choice's frame time against the fastest
 sample distance (halving from 2 voxels, same classification and filtering)

@@ -18,7 +18,7 @@ from .errors import SceneError
 from .scene.settings import WORLD_RANGE, between, world_length
 
 PROJECTIONS = ("perspective", "orthographic")
-#: What the lens keys allow, as scene-file checks (``[camera]`` in :mod:`dvr_gl.scene_schema` uses these too,
+#: What the lens keys allow, as scene-file checks (``[camera]`` in :mod:`dvr_gl.scene.schema` uses these too,
 #: so a scene and a Camera built in Python are refused with the same words).
 LENS_CHECKS = {"fov": between(0, 180, open_lo=True, open_hi=True, what=" degrees"),
                "view_height": world_length, "near": between(0, WORLD_RANGE[1], what=" world units")}

@@ -5,7 +5,7 @@ coordinates: convex, so the part of a ray inside it is one interval, found exact
 box narrowed by each plane and the cropping box), and the renderers sample that interval as they
 sample the box's: whole segments from its entry, the last one shortened.  Points (shadow rays'
 samples, slices' fragments) test :meth:`ClipRegion.inside`.  The shaders do the same in
-``shaders/common/clipping.glsl``.
+``dvr_gl/gl/shaders/common/clipping.glsl``.
 """
 
 from __future__ import annotations
@@ -106,7 +106,7 @@ class ClipRegion:
         return ClipRegion(planes, self.lo - o, self.hi - o)
 
     def uniforms(self) -> dict:
-        """What ``shaders/common/clipping.glsl`` reads."""
+        """What ``dvr_gl/gl/shaders/common/clipping.glsl`` reads."""
         out = {}
         if len(self.planes):
             out["u_clip_planes"] = [tuple(p) for p in self.planes]

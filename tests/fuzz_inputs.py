@@ -6,7 +6,7 @@ DICOM series (issue 40) a tag the reader uses set to a bad token or deleted, wri
 unchecked; for ``.vti`` an XML attribute set to a bad token (extents among them) or an element
 dropped or duplicated.  A folder (DICOM series, TIFF slices) is a seed whose ``main`` is ``""``.
 
-Shared by ``tests/test_fuzz_readers.py`` (hypothesis draws the ``random.Random``, a bounded
+Shared by ``tests/io/test_fuzz_readers.py`` (hypothesis draws the ``random.Random``, a bounded
 number of examples in CI) and ``benchmarks/fuzz_readers.py`` (a long seeded run with a table).
 
 The property: reading a mutated file either raises a :class:`DvrError` (a user error, one line)
@@ -149,7 +149,7 @@ def _dicom_series() -> dict[str, bytes]:
 
 def _vti(fmt: str, compressed: bool = False, appended_encoding: str = "raw") -> bytes:
     """DATA as VTK XML image data (float32; header UInt32, little-endian) in one encoding, laid out as
-    VTK's vtkXMLWriter writes it (see tests/test_io_vti.py)."""
+    VTK's vtkXMLWriter writes it (see tests/io/test_io_vti.py)."""
     import base64
 
     raw = DATA.astype("<f4").tobytes()

@@ -1,5 +1,5 @@
 """Small valid mesh files, written by hand in every layout the mesh readers take, for the reader
-tests (``tests/test_mesh_io.py``) and the mesh fuzzing (``tests/test_fuzz_meshes.py``).
+tests (``tests/io/test_mesh_io.py``) and the mesh fuzzing (``tests/io/test_fuzz_meshes.py``).
 
 The volume mesh :data:`CELLS` holds one cell of each rendered type (tetrahedron, hexahedron, wedge,
 pyramid, quadratic tetrahedron) over :data:`POINTS`, with a point array ``s`` and a cell array ``c``.
@@ -9,9 +9,16 @@ from __future__ import annotations
 
 import base64
 import struct
+import tempfile
 import zlib
+from pathlib import Path
 
 import numpy as np
+import pytest
+
+from dvr_gl.fields.mesh import TetMesh
+from dvr_gl.fields.mesh_cells import hexahedra_of_grid, tetrahedralize
+from dvr_gl.scene.resolve import load_scene
 
 POINTS = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1],
                    [2, 0, 0], [2, 1, 0], [2, 0, 1], [2, 1, 1], [0.5, 0.5, -1],
@@ -152,3 +159,48 @@ def polydata(binary: bool = False) -> bytes:
     return b"".join([f"# vtk DataFile Version 3.0\ns\n{'BINARY' if binary else 'ASCII'}\nDATASET POLYDATA\n"
                      f"POINTS {len(CORNERS)} float\n".encode(), block(CORNERS, "f4"),
                      f"POLYGONS {len(TRIANGLES)} {len(counted)}\n".encode(), block(counted, "i4")])
+
+
+# --- meshes for the mesh renderers' tests (projected tetrahedra, cell ray casting, clipping) ---
+
+def jittered_mesh(n=(4, 3, 3), size=(1.0, 0.8, 0.9), seed=0):
+    """A box of hexahedra (interior points moved) split into tetrahedra, with a smooth point scalar."""
+    axes = [np.linspace(0.0, s, k) for s, k in zip(size, n)]
+    z, y, x = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
+    p = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
+    inner = np.all([(p[:, i] > 0) & (p[:, i] < size[i]) for i in range(3)], axis=0)
+    step = np.array(size) / (np.array(n) - 1)
+    p[inner] += np.random.default_rng(seed).uniform(-0.3, 0.3, (inner.sum(), 3)) * step
+    values = np.sin(3.0 * p[:, 0]) + p[:, 1] * p[:, 2] * 2.0
+    points, tets, _, v = tetrahedralize(p, [("hexahedron", hexahedra_of_grid(*n))], values)
+    return TetMesh(points, tets, v, name="jittered")
+
+
+# a narrow bright band (0.05 wide) that most cells span from one end to the other: a feature inside
+# cells, missed by anything that classifies only the cells' end values
+BAND_TF = [[-1.0, 0.2, 0.3, 0.9, 0.3], [0.40, 0.2, 0.3, 0.9, 0.3], [0.45, 1.0, 0.9, 0.2, 0.95],
+           [0.50, 0.2, 0.3, 0.9, 0.3], [2.0, 0.9, 0.3, 0.2, 0.6]]
+
+
+def mesh_scene(mesh, **keys):
+    """The scene of ``mesh`` written as a .vtu (read back through the scene's reader)."""
+    meshio = pytest.importorskip("meshio", reason="meshes are read with meshio (pip install 'dvr-gl[mesh]')")
+    path = Path(tempfile.mkdtemp(prefix="dvr-pt-")) / f"{mesh.name}.vtu"
+    data = {"point_data": {"s": mesh.values}} if mesh.association == "point" else {"cell_data": {"s": [mesh.values]}}
+    meshio.write(str(path), meshio.Mesh(mesh.points, [("tetra", mesh.tets)], **data))
+    base = {"volume.path": str(path), "image.width": 40, "image.height": 32,
+            "transfer_function.points": BAND_TF, "renderer.converged_tolerance": 1e-6}
+    return load_scene(None, {**base, **keys})
+
+
+# perspective and orthographic, oblique and along an axis (faces seen edge on)
+REFERENCE_VIEWS = [
+    {"camera.azimuth": 30.0, "camera.elevation": 20.0},
+    {"camera.azimuth": 0.0, "camera.elevation": 0.0},
+    {"camera.projection": "orthographic", "camera.azimuth": 90.0, "camera.elevation": 0.0},
+    {"camera.projection": "orthographic", "camera.azimuth": -50.0, "camera.elevation": 35.0},
+]
+
+
+def rms(a, b):
+    return float(np.sqrt(np.mean((np.asarray(a, float) - np.asarray(b, float)) ** 2)))

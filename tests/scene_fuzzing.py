@@ -1,6 +1,6 @@
 """Hypothesis strategies and outcome checks for fuzzing scenes and the command line (issue 14, item 5).
 
-Shared by ``tests/test_fuzz_scenes.py`` (a bounded number of examples in CI) and
+Shared by ``tests/scene/test_fuzz_scenes.py`` (a bounded number of examples in CI) and
 ``benchmarks/fuzz_scenes.py`` (a longer run).  Scenes are built from the real schema: every table of
 :class:`dvr_gl.scene.schema.SceneSpec`, every ``[renderer]`` key the registry declares, the shading table
 and its lights; each key is absent, a value of its own type, or a wild one (another type, NaN,

@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-# --- geometry and colour shared by every peer (pure numpy; tests/test_bench_peers.py checks them) ---
+# --- geometry and colour shared by every peer (pure numpy; tests/apps/test_bench_peers.py checks them) ---
 
 
 def _unit(v) -> np.ndarray:

@@ -1,7 +1,7 @@
 """``dvr bench tradeoff``: error against the converged reference versus frame time.
 
 For every registered renderer and every family of accuracy settings it declares
-(its plugin's ``sweeps``, :mod:`dvr_gl.sweeps`: one setting varied, the others at
+(its plugin's ``sweeps``, :mod:`dvr_gl.scene.sweeps`: one setting varied, the others at
 the scene's values), render, time the frame (median of ``repeat`` after a
 warm-up; the read-back finishes GL) and measure the error against the converged
 reference of the scene as given: RMS, maximum and PSNR through OpenImageIO, and
@@ -31,7 +31,7 @@ from . import acceleration, converged, median_seconds
 
 
 def sweeps(renderers=None, kind: str | None = None, projection: str | None = None) -> dict:
-    """renderer -> its trade-off families (:mod:`dvr_gl.sweeps`), as its plugin declares them: every
+    """renderer -> its trade-off families (:mod:`dvr_gl.scene.sweeps`), as its plugin declares them: every
     registered renderer with a sweep (``renderers``: only these; ``kind``, ``projection``: only those
     rendering that kind of data in that projection)."""
     out = {name: tuple(f for f in p.sweeps if f.applies_to(kind)) for name, p in registry.plugins().items()

@@ -1,7 +1,7 @@
 """Compositing partial images (the ray caster's compositing states) in numpy.
 
 A state is what :meth:`RayCastRenderer.render_state` returns for a subset of the bricks: a
-``(height, width, 4)`` float32 array per pixel (shaders/raycast.frag, BRICKED).  Two states of
+``(height, width, 4)`` float32 array per pixel (dvr_gl/renderers/raycast/shaders/raycast.frag, BRICKED).  Two states of
 bricks that follow each other along every ray (``front``, then ``back``) combine into the state
 of both, per compositing mode:
 

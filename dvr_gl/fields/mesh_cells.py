@@ -6,7 +6,7 @@
   coned to it: triangles as they are, quadrilaterals split in two along the diagonal through their
   vertex with the smallest global index.  The split of a shared quadrilateral depends only on its
   four global indices, so the two cells sharing it split it the same way and the tetrahedra meet
-  face to face (no cracks: ``tests/test_mesh_field.py``).  12 tetrahedra per hexahedron, 8 per
+  face to face (no cracks: ``tests/fields/test_mesh_field.py``).  12 tetrahedra per hexahedron, 8 per
   wedge.  (Splits without the added point, Dompierre et al. 1999, use 5 or 6 but need special
   cases where no consistent split exists; the cone needs none.)
 * ``pyramid``: its base split by the same rule, each half coned to the apex (2 tetrahedra).

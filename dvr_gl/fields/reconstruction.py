@@ -28,7 +28,7 @@ smooth everywhere but at its truncation spheres (jumps of at most
 ``exp(-GAUSSIAN_RADIUS^2 / 2)`` = 3.7e-6 of a kernel's peak); its knots are the
 voxel planes, which keep pieces to a voxel, the scale on which it varies, and its
 ``degree`` is that of the Chebyshev interpolant the converged reference fits to a
-piece (:data:`GAUSSIAN_DEGREE`, measured in ``tests/test_gaussian_filter.py``).
+piece (:data:`GAUSSIAN_DEGREE`, measured in ``tests/renderers/test_gaussian_filter.py``).
 
 """
 

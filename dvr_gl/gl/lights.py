@@ -1,4 +1,4 @@
-"""The uniforms of ``shaders/common/shading.glsl``: Blinn-Phong coefficients and the lights."""
+"""The uniforms of ``dvr_gl/gl/shaders/common/shading.glsl``: Blinn-Phong coefficients and the lights."""
 
 from __future__ import annotations
 

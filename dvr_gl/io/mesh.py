@@ -3,7 +3,7 @@
 
 meshio read the VTK files before issue 40; it reads the intact files in ``../shared/data/unstructured/``
 correctly but reinterprets damaged ones without a word (zeroed ``.vtu`` offsets give other cells, a
-multi-piece file keeps its last piece, short ``CELL_TYPES`` drop cells: ``tests/test_mesh_io.py``),
+multi-piece file keeps its last piece, short ``CELL_TYPES`` drop cells: ``tests/io/test_mesh_io.py``),
 so the cells, offsets, types, counts and arrays are now read and checked here.  meshio still reads
 the surface meshes of ``[[renderer.geometry]]`` (:mod:`dvr_gl.geometry`), which validates its result.
 

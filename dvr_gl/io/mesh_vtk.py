@@ -4,7 +4,7 @@ meshio read these before issue 40, and it misreads damaged files without a word:
 ``.vtu`` cell as the ``size`` entries of the connectivity that end at its offset, so offsets that
 are all zero (or not increasing, or short of the connectivity) give other cells, not an error; it
 keeps only the last ``<Piece>`` of a multi-piece file; a legacy file with fewer ``CELL_TYPES`` than
-``CELLS`` loses cells; decompression has no bound.  ``tests/test_mesh_io.py`` keeps these cases
+``CELLS`` loses cells; decompression has no bound.  ``tests/io/test_mesh_io.py`` keeps these cases
 against meshio, to show why this reader exists.
 
 Both readers return a :class:`RawGrid` (points, connectivity, offsets, types, arrays) and

@@ -4,7 +4,7 @@ pynrrd parses the vector fields (``space directions``, ``space origin``): their 
 spacing, their directions :attr:`Volume.direction`, turned from the header's ``space`` (RAS, LAS,
 LPS; the spaces without a patient frame as they are) into LPS.  The rest is
 done here, because pynrrd's header parser is lossy and its data reader is unbounded
-(``tests/test_io.py::test_why_not_pynrrd_alone`` shows both): it truncates
+(``tests/io/test_io.py::test_why_not_pynrrd_alone`` shows both): it truncates
 ``sizes: 32.5`` to 32 and casts ``sizes: 1e30`` to garbage, reads a ``line skip`` one
 line at a time (``line skip: 100000000`` runs for minutes), and decompresses the whole
 stream before comparing its size with the header.  Here each field must be what the

@@ -47,11 +47,11 @@ class RendererPlugin:
         match (None for the references, which are the judges); or ``"module:function"``.
     resolve: ``resolve(scene) -> scene``: resolves settings of its own when a scene is read
         (the ray caster turns a tolerance into settings); or ``"module:function"``.
-    sweeps: the trade-off families (:mod:`dvr_gl.sweeps`) that vary something it reads.
+    sweeps: the trade-off families (:mod:`dvr_gl.scene.sweeps`) that vary something it reads.
     tolerances: what it promises against the conformance tests' closed forms: the largest
         absolute error outside the exact bounds, per closed form (``"box"``, ``"ramp"``,
         ``"sphere"``, ``"analytic sphere"``) or per closed form and mode (``("ramp", "mip")``), at
-        the tests' resolution (``tests/test_conformance.py``, ``tests/closed_forms.py``).
+        the tests' resolution (``tests/renderers/test_conformance.py``, ``tests/closed_forms.py``).
     reference: a CPU float64 reference (a judge: no oracle, slow).
     projections: the camera projections it renders (Fourier rendering: parallel projections only).
     out_of_core: it renders a volume read out of core (:mod:`dvr_gl.out_of_core`), reading bricks

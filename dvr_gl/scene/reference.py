@@ -1,8 +1,8 @@
 """The scene-format reference (``docs/scene-files.md``), generated from the schema and the registry.
 
 Every key of every table, with its default, its choices and its one line of documentation, from the
-dataclasses of :mod:`dvr_gl.scene_schema` and :mod:`dvr_gl.model` and the settings the registered
-renderers declare (:mod:`dvr_gl.settings`), with the renderers that read each.  A test checks that
+dataclasses of :mod:`dvr_gl.scene.schema` and :mod:`dvr_gl.scene.model` and the settings the registered
+renderers declare (:mod:`dvr_gl.scene.settings`), with the renderers that read each.  A test checks that
 the page in the repository is what this module writes; after changing a key, write it again::
 
     python -m dvr_gl.scene.reference docs/scene-files.md
@@ -30,7 +30,7 @@ every key the demo sets). The rules the keys follow (indexing, units, opacity mo
 [Command line](cli.md).
 
 *This page is generated from the schema and the registered renderers' declarations
-(`python -m dvr_gl.scene.reference docs/scene-files.md`); `tests/test_docs.py` fails when it is not
+(`python -m dvr_gl.scene.reference docs/scene-files.md`); `tests/project/test_docs.py` fails when it is not
 current.*
 
 ```toml

@@ -4,9 +4,9 @@ Every table is a dataclass; its fields are the valid keys.  Parsing checks
 names and types and names the offending key; unknown keys list the valid
 ones.  ``choices`` in a field's metadata restrict string values.  The
 ``[renderer]`` table is the union of what the registered renderers declare
-(:mod:`dvr_gl.settings`, :mod:`dvr_gl.renderers.registry`);
+(:mod:`dvr_gl.scene.settings`, :mod:`dvr_gl.renderers.registry`);
 ``docs/scene-files.md`` is generated from these declarations
-(:mod:`dvr_gl.scene_reference`).
+(:mod:`dvr_gl.scene.reference`).
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """The rendered image on the window: a float texture drawn over the render area.
 
 The image (linear RGBA, background already composited, row 0 at the top, any size) is uploaded
-to an RGBA32F texture and drawn with ``shaders/viewer/display.frag``, which encodes it to sRGB
+to an RGBA32F texture and drawn with ``dvr_gl/viewer/shaders/display.frag``, which encodes it to sRGB
 as a PNG screenshot is encoded; a reduced-resolution frame is magnified bilinearly.
 """
 

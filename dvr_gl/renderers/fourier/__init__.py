@@ -1,6 +1,6 @@
 """``fourier``: Fourier volume rendering (Malzbender 1993; Totsuka and Levoy 1993).  The volume is
 pre-multiplied, zero-padded and transformed once (:mod:`.spectrum`); per view the central slice of
-its spectrum across the view direction is interpolated in GL (``shaders/fourier/slice.frag``) and
+its spectrum across the view direction is interpolated in GL (``shaders/slice.frag``) and
 inverse-transformed into the projection (:mod:`.projection`): line integrals, so the ``average`` and the
 ``xray`` of pre-classified voxels, orthographic only.  See ``docs/renderers/fourier.md``; the renderer
 is :mod:`.renderer`, its same-slices reference :mod:`.oracle`.

@@ -382,7 +382,7 @@ class Shell:
 def shell_integrals(scene, ghosted: np.ndarray, border: int) -> np.ndarray:
     """``(H, W, C)``: each pixel's whole line's integral of the ghosted channels outside the volume's box,
     the :func:`weighted` channels times the depth cue's ``a + b z``; in float64 (the GL shell pass,
-    ``shaders/fourier/shell.frag``, computes the same).  The field's pieces between the voxel planes
+    ``shaders/shell.frag``, computes the same).  The field's pieces between the voxel planes
     (:func:`smooth_pieces`), each by Gauss-Legendre (:data:`SHELL_NODES`)."""
     from ...fields.reconstruction import SampledField, smooth_pieces
     from ...rays import intersect_box

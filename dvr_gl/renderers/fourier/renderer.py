@@ -2,7 +2,7 @@
 
 Once per volume, transfer function (the X-ray's classified voxels) and settings: the spectra, uploaded
 as float32 3D textures, two complex channels a texture (:mod:`.spectrum`).  Per view: the central slice
-drawn as one full-screen pass over the slice's frequency grid (``shaders/fourier/slice.frag``), read
+drawn as one full-screen pass over the slice's frequency grid (``shaders/slice.frag``), read
 back, and turned into the image on the host (:func:`.projection.finish`: the filter, the phase, the
 inverse 2D transform, the compositing mode's classification).
 """
@@ -169,7 +169,7 @@ class FourierRenderer(GLVolumeRenderer):
         return image.astype(np.float32)
 
     def _shell(self, scene, frame, data, border) -> np.ndarray:
-        """The shell pass (``shaders/fourier/shell.frag``): ``(H, W, C)`` whole-line integrals beyond the box
+        """The shell pass (``shaders/shell.frag``): ``(H, W, C)`` whole-line integrals beyond the box
         (None when the ghosted field is zero there)."""
         from .projection import cue_line
 

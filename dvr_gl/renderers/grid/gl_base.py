@@ -38,7 +38,7 @@ FILTER = {"nearest": "FILTER_NEAREST", "linear": "FILTER_LINEAR", "cubic_bspline
 
 def classification_features(scene) -> dict:
     """Defines for filtering, classification, shading and gradients: what every renderer's
-    classify() (shaders/common/classify.glsl) needs.  Emission-absorption only."""
+    classify() (dvr_gl/gl/shaders/common/classify.glsl) needs.  Emission-absorption only."""
     r = scene.renderer
     defines = {FILTER[r.filter]: True}
     if r.filtering == "shader" and r.filter != "nearest":
@@ -59,7 +59,7 @@ def classification_features(scene) -> dict:
 
 
 def scattering_defines(scene, defines: dict):
-    """Single scattering (shaders/common/scattering.glsl), only where the scene enables it."""
+    """Single scattering (dvr_gl/gl/shaders/common/scattering.glsl), only where the scene enables it."""
     sc = getattr(scene.renderer, "scattering", None)
     if sc is None or not sc.enabled or scene.renderer.compositing != "emission_absorption":
         return
@@ -71,7 +71,7 @@ def scattering_defines(scene, defines: dict):
 
 
 def light_volume_pass_defines(defines: dict) -> dict:
-    """The light volume's pass (shaders/scattering/light_volume.frag): the frame's filtering and
+    """The light volume's pass (dvr_gl/gl/shaders/scattering/light_volume.frag): the frame's filtering and
     classification defines (the extinction its samples see; a pre-integrated frame's shadow rays
     classify points, post) and its lights, marching shadow rays."""
     keep = {k: v for k, v in defines.items() if k in PASS_KEYS or k.startswith("FILTER")}
@@ -131,7 +131,7 @@ def _release(value):
 class LightVolumeTexture:
     """Each light's optical depth at the light volume's nodes (a 32-bit float 3D texture with a channel
     per light, nearest; the shaders
-    interpolate), marched by shaders/scattering/light_volume.frag in slabs of nodes; ``seconds``: what
+    interpolate), marched by dvr_gl/gl/shaders/scattering/light_volume.frag in slabs of nodes; ``seconds``: what
     making it took (the recomputation a light or transfer-function change costs)."""
 
     MAX_ROWS = 8192  # a pass's target height: within every GL's texture limit

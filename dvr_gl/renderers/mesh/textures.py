@@ -1,7 +1,7 @@
 """What the GL renderers of tetrahedral meshes share (``projected-tetrahedra``, ``cell-raycast``):
 the mesh on the GPU, once, as textures of 4096 texels a row (points relative to the mesh's centre,
 so float32 keeps their precision; cells; each cell's four face planes, their sides and its scalar as
-``g . p + c``, computed in float64: ``shaders/cells/mesh_fetch.glsl``), the camera's and the exact
+``g . p + c``, computed in float64: ``shaders/mesh_fetch.glsl``), the camera's and the exact
 transfer function's uniforms, the limits, and the host's classification of projections (MIP,
 MinIP, average, isosurface) with the exact transfer function, as the converged reference does.
 """
@@ -177,7 +177,7 @@ class MeshRenderer(Renderer):
 
     @staticmethod
     def _kept_part_defines(scene, surfaces: dict) -> dict:
-        """``shaders/cells/kept_part.glsl``'s defines: the clipping region's, and GEOMETRY."""
+        """``shaders/kept_part.glsl``'s defines: the clipping region's, and GEOMETRY."""
         clip = ClipRegion.of(scene.renderer)
         return {**(clip.defines() if clip is not None else {}), "GEOMETRY": "u_geometry" in surfaces}
 

@@ -15,7 +15,7 @@ sample for it (the in-loop skipping of :mod:`.acceleration` pays a block lookup 
 Units and conventions: block ``b`` of size ``B`` voxels covers voxel coordinates
 ``[b B, (b + 1) B]`` clipped to the volume's ``[0, n - 1]`` (a sample at ``u`` belongs to block
 ``floor(u / B)``); world position = origin + voxel coordinate * spacing; ``t`` is the ray parameter
-of ``shaders/common/camera_ray.glsl`` (world units along the unit direction), computed per fragment
+of ``dvr_gl/gl/shaders/common/camera_ray.glsl`` (world units along the unit direction), computed per fragment
 from the face's plane, not interpolated.  Emission-absorption only: an empty block changes no
 other mode's result by being left out only in special cases (MIP of a ramp starting at zero, ...).
 """

@@ -569,7 +569,7 @@ class RayCastRenderer(GLVolumeRenderer):
                              decided, targets[current] if counting else None)
 
     def _resolve(self, scene, defines, tables, state, start, gpu_seconds, bricks, passes, decided, counted=None):
-        """The resolve pass (shaders/raycast_resolve.frag): the state texture ``state`` to the image."""
+        """The resolve pass (shaders/resolve.frag): the state texture ``state`` to the image."""
         lut = tables["u_lut"].lut
         width, height = scene.image.width, scene.image.height
         resolve = create_program(self.ctx, "fullscreen.vert", "resolve.frag",

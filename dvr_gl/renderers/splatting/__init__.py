@@ -32,7 +32,7 @@ from .low_pass import SCREEN_LOW_PASS
 
 SHEET_BUFFERS = ("image_aligned", "axis_aligned", "none")
 #: The kernels splatting splats a grid with: the Gaussian (tables) and the tensor cubic B-spline (exact
-#: piecewise quadrature, shaders/splatting/bspline.glsl).
+#: piecewise quadrature, shaders/bspline.glsl).
 GRID_KERNELS = ("gaussian", "cubic_bspline")
 
 SHEET_BUFFER = s.Setting("sheet_buffer", str, "image_aligned", "how splats are composited: image_aligned (slabs "

@@ -17,7 +17,7 @@ Both are computed once and serve every width: with ``R`` a fixed multiple of ``s
 from the shader's linear interpolation (``tests/test_splatting.py`` measures it): 16384 entries each
 (one texture row, GL 4's smallest maximum), at most 7e-8 of the peak for ``F`` and 1.1e-8 for
 ``Phi``: the sums of many splats carry the relative error of the tables, and a transfer function
-feature a fraction of a data step wide at values of 100 (``tests/test_extremes.py``) needs the field
+feature a fraction of a data step wide at values of 100 (``tests/renderers/test_extremes.py``) needs the field
 to 1e-7 of its value.
 """
 

@@ -4,7 +4,7 @@ Per frame: the splats' centres are sorted along the view axis on the host and up
 order, so that the splats of one slab are one contiguous range (one instanced draw), and
 ``sheet_buffer = none`` draws them back to front in one draw.  A splat's fragment takes its
 pixel's ray into the kernel's voxel space and reads the footprint tables
-(``shaders/splatting/kernel.glsl``), integrating over the part of the ray inside the box and the
+(``shaders/kernel.glsl``), integrating over the part of the ray inside the box and the
 slab.  Coordinates are relative to the box's centre (float32 keeps its precision there).
 """
 

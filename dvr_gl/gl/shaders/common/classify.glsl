@@ -50,7 +50,7 @@ vec4 classify(vec3 p, vec3 dir) {
 #ifdef SHADING
     colour = blinn_phong(colour, g, dir);
 #endif
-#if defined(SCATTERING) && defined(ALBEDO_TABLE)  // never with CLASSIFY_PRE (dvr_gl.settings.check_albedo)
+#if defined(SCATTERING) && defined(ALBEDO_TABLE)  // never with CLASSIFY_PRE (dvr_gl.scene.settings.check_albedo)
     colour *= scattering_factor(p, dir, albedo_table(value));
 #elif defined(SCATTERING)
     colour *= scattering_factor(p, dir, u_albedo);

@@ -8,7 +8,7 @@
 // (dvr_gl.reference.discrete's shadow rays); it stops once its optical depth passes
 // SHADOW_DEPTH_LIMIT (the light left is below float32's resolution of 1).
 // LIGHT_VOLUME: T from the light volume instead, each light's optical depth at the nodes of a grid
-// spanning the box (one channel per light; shaders/scattering/light_volume.frag marches the shadow
+// spanning the box (one channel per light; dvr_gl/gl/shaders/scattering/light_volume.frag marches the shadow
 // rays from the nodes), interpolated trilinearly with float weights (as dvr_gl.reference.scattering).
 // HALF_ANGLE: T from half-angle slicing's light buffer (dvr_gl.half_angle: one directional light; the
 // optical depth the slices nearer the light left, bilinear between its pixel centres, clamped).

@@ -1,4 +1,4 @@
-// The part of a fragment's ray the mesh renderers integrate (dvr_gl/renderers/mesh_gl.py):
+// The part of a fragment's ray the mesh renderers integrate (dvr_gl/renderers/mesh/textures.py):
 // CLIPPING narrows it to the clipping planes and the cropping box (common/clipping.glsl, the
 // region given relative to the mesh's centre, as the rays are); GEOMETRY ends it at the nearest
 // opaque surface (dvr_gl/renderers/surfaces.py: a = its t along the pixel's ray, 3e38: none).

@@ -15,7 +15,7 @@
 // composites the samples whose position lies in its brick's core, starting from the state the
 // previous pass left in u_state (emission: colour and optical depth; projections: the running
 // value; isosurface: the shaded hit, alpha 1, once found), and writes the new state;
-// shaders/raycast_resolve.frag turns the last into the image.  Bricks carry enough ghost voxels
+// shaders/resolve.frag turns the last into the image.  Bricks carry enough ghost voxels
 // for what a pass reads beyond its core (dvr_gl.bricking.ghost_width).  Rays longer than
 // llvmpipe's loop cap are composited the same way, in passes over windows of segments.
 // ACCELERATE with BRICKED: blocks are looked up in the whole volume's textures at global voxel

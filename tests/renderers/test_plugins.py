@@ -106,7 +106,7 @@ def test_the_viewer_offers_it(site):
 
 def test_dvr_view_runs_it(site, tmp_path):
     """The viewer renders with it in a window (Xvfb): the frame log names it at full quality."""
-    from test_viewer_xvfb import xvfb_display
+    from xvfb import xvfb_display
 
     with xvfb_display() as display:
         log = tmp_path / "frames.jsonl"

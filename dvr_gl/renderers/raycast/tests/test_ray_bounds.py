@@ -1,5 +1,5 @@
 """Ray bounds: the faces of the non-empty blocks, drawn per frame, bound each ray's segments
-(dvr_gl/renderers/raycast/ray_bounds.py, shaders/raycast/ray_bounds.*; docs/acceleration.md)."""
+(dvr_gl/renderers/raycast/ray_bounds.py, shaders/ray_bounds.*; docs/acceleration.md)."""
 
 import numpy as np
 import pytest

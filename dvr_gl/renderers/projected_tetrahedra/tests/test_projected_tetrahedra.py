@@ -1,6 +1,6 @@
 """Projected tetrahedra against the float64 mesh reference: transfer-function features inside a cell,
 views along an axis (edge-on faces), the camera inside the mesh, and the visibility order where the
-centroid order visibly fails.  (The closed forms on meshes run in tests/test_conformance.py.)"""
+centroid order visibly fails.  (The closed forms on meshes run in tests/renderers/test_conformance.py.)"""
 
 from __future__ import annotations
 
@@ -15,10 +15,10 @@ from conftest import SHARED_DATA
 from dvr_gl.camera import Camera
 from dvr_gl.errors import SceneError
 from dvr_gl.fields.mesh import TetMesh
-from dvr_gl.fields.mesh_cells import hexahedra_of_grid, tetrahedralize
 from dvr_gl.renderers import create_renderer
 from dvr_gl.renderers.projected_tetrahedra.order import VisibilityOrder, topological
 from dvr_gl.scene.resolve import load_scene
+from mesh_inputs import BAND_TF, REFERENCE_VIEWS, jittered_mesh, mesh_scene, rms
 
 
 @pytest.fixture(scope="module")
@@ -28,47 +28,14 @@ def pt():
     r.close()
 
 
-def jittered_mesh(n=(4, 3, 3), size=(1.0, 0.8, 0.9), seed=0):
-    """A box of hexahedra (interior points moved) split into tetrahedra, with a smooth point scalar."""
-    axes = [np.linspace(0.0, s, k) for s, k in zip(size, n)]
-    z, y, x = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
-    p = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
-    inner = np.all([(p[:, i] > 0) & (p[:, i] < size[i]) for i in range(3)], axis=0)
-    step = np.array(size) / (np.array(n) - 1)
-    p[inner] += np.random.default_rng(seed).uniform(-0.3, 0.3, (inner.sum(), 3)) * step
-    values = np.sin(3.0 * p[:, 0]) + p[:, 1] * p[:, 2] * 2.0
-    points, tets, _, v = tetrahedralize(p, [("hexahedron", hexahedra_of_grid(*n))], values)
-    return TetMesh(points, tets, v, name="jittered")
 
 
-# a narrow bright band (0.05 wide) that most cells span from one end to the other: a feature inside
-# cells, missed by anything that classifies only the cells' end values
-BAND_TF = [[-1.0, 0.2, 0.3, 0.9, 0.3], [0.40, 0.2, 0.3, 0.9, 0.3], [0.45, 1.0, 0.9, 0.2, 0.95],
-           [0.50, 0.2, 0.3, 0.9, 0.3], [2.0, 0.9, 0.3, 0.2, 0.6]]
 
 
-def mesh_scene(mesh, **keys):
-    """The scene of ``mesh`` written as a .vtu (read back through the scene's reader)."""
-    meshio = pytest.importorskip("meshio", reason="meshes are read with meshio (pip install 'dvr-gl[mesh]')")
-    path = Path(tempfile.mkdtemp(prefix="dvr-pt-")) / f"{mesh.name}.vtu"
-    data = {"point_data": {"s": mesh.values}} if mesh.association == "point" else {"cell_data": {"s": [mesh.values]}}
-    meshio.write(str(path), meshio.Mesh(mesh.points, [("tetra", mesh.tets)], **data))
-    base = {"volume.path": str(path), "image.width": 40, "image.height": 32,
-            "transfer_function.points": BAND_TF, "renderer.converged_tolerance": 1e-6}
-    return load_scene(None, {**base, **keys})
 
 
-# perspective and orthographic, oblique and along an axis (faces seen edge on)
-REFERENCE_VIEWS = [
-    {"camera.azimuth": 30.0, "camera.elevation": 20.0},
-    {"camera.azimuth": 0.0, "camera.elevation": 0.0},
-    {"camera.projection": "orthographic", "camera.azimuth": 90.0, "camera.elevation": 0.0},
-    {"camera.projection": "orthographic", "camera.azimuth": -50.0, "camera.elevation": 35.0},
-]
 
 
-def rms(a, b):
-    return float(np.sqrt(np.mean((np.asarray(a, float) - np.asarray(b, float)) ** 2)))
 
 
 @pytest.mark.parametrize("view", REFERENCE_VIEWS)
@@ -272,7 +239,7 @@ def test_the_cli_and_the_viewer_take_a_mesh(tmp_path):
     import sys
 
     from dvr_gl.image import read_image
-    from test_viewer_xvfb import xvfb_display
+    from xvfb import xvfb_display
 
     scene = mesh_scene(jittered_mesh((3, 3, 3)))
     volume = scene.volume_source.path

@@ -9,7 +9,7 @@ import pytest
 
 from dvr_gl.scene.resolve import load_scene
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parent
 SHARED_DATA = REPO.parent / "shared" / "data"
 
 

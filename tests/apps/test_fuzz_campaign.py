@@ -17,7 +17,7 @@ pytest.importorskip("zarr")
 pytest.importorskip("h5py")
 pytest.importorskip("pydicom")
 
-SCRIPT = Path(__file__).resolve().parent.parent / "benchmarks" / "fuzz_campaign.py"
+SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "fuzz_campaign.py"
 
 
 @pytest.fixture(scope="module")

@@ -10,12 +10,10 @@ why, where Xvfb or libXtst is missing (``.ci/run`` installs both).
 
 from __future__ import annotations
 
-import contextlib
 import ctypes
 import itertools
 import json
 import os
-import shutil
 import subprocess
 import sys
 import time
@@ -29,6 +27,7 @@ from dvr_gl.renderers import create_renderer
 from dvr_gl.scene.resolve import load_scene
 from dvr_gl.viewer.navigation import ORBIT_DEGREES_PER_PIXEL
 from dvr_gl.viewer.tf_editor import CanvasMapping, nice_opacity_max
+from xvfb import xvfb_display
 
 SIZE = 240          # render area, pixels (the window adds the side panel on the right)
 PASSES = 3          # jittered passes the viewer averages
@@ -122,31 +121,6 @@ class XDisplay:
 
 # --- fixtures: Xvfb, the viewer ---
 
-@contextlib.contextmanager
-def xvfb_display():
-    """A running Xvfb's display name (skips the test, saying why, without Xvfb or libXtst)."""
-    exe = shutil.which("Xvfb")
-    if exe is None:
-        pytest.skip("Xvfb not installed (Debian: apt install xvfb; .ci/run installs it)")
-    try:
-        ctypes.CDLL("libXtst.so.6")
-        ctypes.CDLL("libX11.so.6")
-    except OSError as exc:
-        pytest.skip(f"libX11/libXtst not found ({exc}; Debian: apt install libxtst6)")
-    read, write = os.pipe()
-    proc = subprocess.Popen([exe, "-displayfd", str(write), "-screen", "0", "1024x768x24", "-nolisten", "tcp"],
-                            pass_fds=(write,), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    os.close(write)
-    with os.fdopen(read) as fh:
-        number = fh.readline().strip()
-    if not number:
-        proc.kill()
-        pytest.skip("Xvfb did not start")
-    try:
-        yield f":{number}"
-    finally:
-        proc.terminate()
-        proc.wait(timeout=10)
 
 
 @pytest.fixture(scope="module")

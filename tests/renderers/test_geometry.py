@@ -367,7 +367,7 @@ def test_sphere_in_front_of_and_inside_a_slab(tmp_path, gl_context, name, height
     the silhouettes' band."""
     extra = {"renderer.shading.lights": [], "image.width": 24, "image.height": 20}
     geometry = [{"path": _sphere(tmp_path / "sphere.obj", height), "color": list(GREY)}]
-    if name == "projected-tetrahedra":  # the slab meshed into tetrahedra (tests/test_mesh_clipping.py)
+    if name == "projected-tetrahedra":  # the slab meshed into tetrahedra (tests/renderers/test_mesh_clipping.py)
         from test_mesh_clipping import slab_keys, slab_mesh
         from test_projected_tetrahedra import mesh_scene
 

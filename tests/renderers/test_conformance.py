@@ -13,7 +13,7 @@ orthographic views:
   error it measured, until it does.
 
 A renderer registered from another package is tested here the day it is installed
-(``tests/test_plugins.py`` shows it).
+(``tests/renderers/test_plugins.py`` shows it).
 """
 
 import numpy as np

@@ -27,7 +27,7 @@ def files(tmp_path_factory):
     np.save(folder / "small.npy", np.linspace(0, 1, 6 * 5 * 4, dtype=np.float32).reshape(6, 5, 4))
     (folder / "empty.raw").write_bytes(b"")
     # transfer-function files (Slicer's .vp, ParaView's JSON) and a mesh, for transfer_function.file and
-    # [[renderer.geometry]] (their own mutations are tests/test_fuzz_transfer_functions.py's business)
+    # [[renderer.geometry]] (their own mutations are tests/scene/test_fuzz_transfer_functions.py's business)
     from test_fuzz_transfer_functions import SEEDS
 
     (folder / "tf.vp").write_bytes(SEEDS["bone.vp"])

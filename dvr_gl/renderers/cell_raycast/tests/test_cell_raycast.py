@@ -2,7 +2,7 @@
 transfer-function feature inside cells from oblique and axis-aligned views, the camera inside the
 mesh, rays that leave and enter the mesh more often than the walk sorts at once and than the list
 nodes first reserved, and the walk's own accounting.  (The closed forms on meshes, every mode, run
-in tests/test_conformance.py.)"""
+in tests/renderers/test_conformance.py.)"""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from dvr_gl.fields.mesh_rays import boundary_faces, face_neighbours
 from dvr_gl.renderers import create_renderer
 from dvr_gl.renderers.cell_raycast import renderer as walk_module
 from dvr_gl.renderers.projected_tetrahedra.order import adjacency
-from test_projected_tetrahedra import REFERENCE_VIEWS, jittered_mesh, mesh_scene, rms
+from mesh_inputs import REFERENCE_VIEWS, jittered_mesh, mesh_scene, rms
 
 needs_data = pytest.mark.skipif(not (SHARED_DATA / "unstructured").is_dir(),
                                 reason=f"{SHARED_DATA / 'unstructured'} is absent (shared datasets)")
@@ -218,7 +218,7 @@ def test_the_cli_and_the_viewer_with_its_panel(tmp_path):
     import sys
 
     from dvr_gl.image import read_image
-    from test_viewer_xvfb import xvfb_display
+    from xvfb import xvfb_display
 
     volume = mesh_scene(jittered_mesh((3, 3, 3))).volume_source.path
     out = tmp_path / "mesh.exr"

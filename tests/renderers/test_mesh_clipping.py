@@ -1,8 +1,8 @@
 """Clipping and opaque meshes in the renderers of tetrahedral meshes (``projected-tetrahedra``,
 ``cell-raycast``): each fragment's (walk's) piece narrowed to the kept region and ended at the nearest
-surface (``shaders/cells/kept_part.glsl``), against closed forms and the float64 mesh reference.
+surface (``dvr_gl/renderers/mesh/shaders/kept_part.glsl``), against closed forms and the float64 mesh reference.
 
-The closed forms are tests/test_clipping.py's and tests/test_geometry.py's slab (Beer-Lambert on the
+The closed forms are tests/renderers/test_clipping.py's and tests/renderers/test_geometry.py's slab (Beer-Lambert on the
 kept chord; a square inside and above it), here as a mesh of hexahedra split into tetrahedra.
 """
 
@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_clipping import COLOUR, PLANE, SIGMA, _beer_lambert
+from test_geometry import GREY, _expected, _square
 
 from dvr_gl.fields.mesh import TetMesh
 from dvr_gl.fields.mesh_cells import hexahedra_of_grid, tetrahedralize
 from dvr_gl.renderers import create_renderer
-from test_clipping import COLOUR, PLANE, SIGMA, _beer_lambert
-from test_geometry import GREY, _expected, _square
-from test_projected_tetrahedra import jittered_mesh, mesh_scene, rms
+from mesh_inputs import jittered_mesh, mesh_scene, rms
 
 meshio = pytest.importorskip("meshio", reason="meshes are read by meshio (the mesh extra)")
 
@@ -40,7 +40,7 @@ def slab_mesh(n=(5, 5, 3)):
 
 
 def slab_keys(name, **extra):
-    """tests/test_clipping.py's view of the slab: orthographic along -z, x in [0.8, 3.2]."""
+    """tests/renderers/test_clipping.py's view of the slab: orthographic along -z, x in [0.8, 3.2]."""
     return {"renderer.name": name, "transfer_function.points": [[0.0, *COLOUR, SIGMA], [1.0, *COLOUR, SIGMA]],
             "transfer_function.opacity_model": "extinction", "image.width": 12, "image.height": 10,
             "camera.projection": "orthographic", "camera.eye": [2.0, 2.0, 10.0], "camera.target": [2.0, 2.0, 0.5],

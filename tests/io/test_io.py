@@ -167,7 +167,7 @@ def test_nifti(tmp_path, name):
     nib.save(nib.Nifti1Image(DATA.transpose(2, 1, 0), affine), str(tmp_path / name))  # nibabel is x-first
     v = load_volume(tmp_path / name)
     np.testing.assert_array_equal(v.data, DATA)
-    # the affine is RAS; the volume's frame is LPS (tests/test_io_orientation.py has the rest)
+    # the affine is RAS; the volume's frame is LPS (tests/io/test_io_orientation.py has the rest)
     assert v.spacing == (0.5, 1.0, 2.0) and v.origin == (10.0, -20.0, 30.0)
 
 
