@@ -6,9 +6,9 @@ shared grid machinery in :mod:`.grid`), and the float64 CPU references ``referen
 ``reference-converged`` (any field).
 """
 
+from ..scene.plugin import RendererPlugin
 from . import registry
 from .base import Renderer, available_renderers, create_renderer, render, renderer_class
-from .registry import RendererPlugin
 
 __all__ = ["Renderer", "RendererPlugin", "available_renderers", "create_renderer", "registry", "render",
            "renderer_class"]

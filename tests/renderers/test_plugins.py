@@ -134,7 +134,7 @@ def test_dvr_bench_tradeoff_sweeps_it(site, tmp_path):
 def test_conformance_tests_cover_it(site):
     """The conformance tests generate the plugin's cases (modes it declares x closed forms x views, and
     its oracle) from the registry, and it passes them."""
-    args = ["-m", "pytest", "-q", "-p", "no:cacheprovider", str(REPO / "tests" / "test_conformance.py"), "-k", NAME]
+    args = ["-m", "pytest", "-q", "-p", "no:cacheprovider", str(REPO / "tests" / "renderers" / "test_conformance.py"), "-k", NAME]
     listed = run(site, *args, "--collect-only", cwd=REPO)
     ids = [line for line in listed.stdout.splitlines() if NAME in line]
     assert len(ids) >= 20, listed.stdout[-2000:]

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from ...scene import settings as s
 from ...scene import sweeps
-from ..registry import RendererPlugin
+from ...scene.plugin import RendererPlugin
 
 PLUGIN = RendererPlugin(
     name="cell-raycast",

@@ -12,7 +12,7 @@ from ...errors import SceneError
 from ...gl.geometry import box_corners
 from ...scene import settings as s
 from ...scene import sweeps
-from ..registry import RendererPlugin
+from ...scene.plugin import RendererPlugin
 from .spectrum import INTERPOLATIONS, WINDOWED
 
 SLICE_INTERPOLATION = s.Setting("slice_interpolation", str, "kaiser_bessel", "how the central slice is "

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from ...scene import settings as s
 from ...scene import sweeps
-from ..registry import RendererPlugin
+from ...scene.plugin import RendererPlugin
 from .order import ORDERS
 
 CELL_ORDER = s.Setting("cell_order", str, "exact", "visibility order of the cells: exact (across shared faces "

@@ -14,7 +14,7 @@ from ...errors import SceneError
 from ...scene import settings as s
 from ...scene import sweeps
 from ...scene.model import SPLINE_FILTERS
-from ..registry import RendererPlugin
+from ...scene.plugin import RendererPlugin
 
 
 def _fitted_range(value):

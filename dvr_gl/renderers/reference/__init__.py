@@ -9,7 +9,7 @@ transfer-function table.  It renders any field (:mod:`dvr_gl.fields`).  See
 from __future__ import annotations
 
 from ...scene import settings as s
-from ..registry import RendererPlugin
+from ...scene.plugin import RendererPlugin
 
 PLUGIN = RendererPlugin(
     name="reference",

@@ -10,7 +10,7 @@ field (:mod:`dvr_gl.fields`).  See ``docs/renderers/references.md``.
 from __future__ import annotations
 
 from ...scene import settings as s
-from ..registry import RendererPlugin
+from ...scene.plugin import RendererPlugin
 
 CONVERGED_TOLERANCE = s.Setting("converged_tolerance", float, 1e-4, "error budget per pixel",
                                 check=s.positive, group="reference-converged")

@@ -9,7 +9,7 @@ from __future__ import annotations
 from ...errors import SceneError
 from ...scene import settings as s
 from ...scene import sweeps
-from ..registry import RendererPlugin
+from ...scene.plugin import RendererPlugin
 
 OPACITY_THRESHOLD = s.Setting("opacity_threshold", float, 0.0, "voxels at most this opaque (over one "
                               "unit_distance) are left out of the run-length encoding; 0 leaves the image "

@@ -9,7 +9,7 @@ from __future__ import annotations
 from ...errors import SceneError
 from ...scene import settings as s
 from ...scene import sweeps
-from ..registry import RendererPlugin
+from ...scene.plugin import RendererPlugin
 
 
 def check(scene):

@@ -9,7 +9,7 @@ from __future__ import annotations
 from ...scene import settings as s
 from ...scene import sweeps
 from ...scene.model import SPLINE_FILTERS
-from ..registry import RendererPlugin
+from ...scene.plugin import RendererPlugin
 
 PLUGIN = RendererPlugin(
     name="slicing3d",

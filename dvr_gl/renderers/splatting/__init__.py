@@ -27,7 +27,7 @@ from ...errors import SceneError
 from ...scene import settings as s
 from ...scene import sweeps
 from ...scene.model import CLASSIFIED_ALONG_RAY
-from ..registry import RendererPlugin
+from ...scene.plugin import RendererPlugin
 from .low_pass import SCREEN_LOW_PASS
 
 SHEET_BUFFERS = ("image_aligned", "axis_aligned", "none")

@@ -1,0 +1,94 @@
+"""What a renderer declares about itself: :class:`RendererPlugin`, the type every renderer's package
+exports as ``PLUGIN`` and registers in the entry-point group ``dvr_gl.renderers``.
+
+The declaration belongs to the scene contract: it is written in the scene's words (its settings, data
+kinds, projections, sweeps) and is read by everything above the renderers through
+:mod:`dvr_gl.renderers.registry`, which loads the registered plugins.
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from typing import Any, Optional
+
+from .settings import MODEL_SETTINGS, Setting
+
+
+@dataclass(frozen=True)
+class RendererPlugin:
+    """What a renderer declares about itself.
+
+    name, description: as listed by ``dvr info`` and chosen with ``renderer.name``.
+    renderer: the :class:`~dvr_gl.renderers.base.Renderer` subclass, or ``"module:Class"``
+        (imported when first created, so that reading the registry stays cheap).
+    settings: the :class:`~dvr_gl.scene.settings.Setting` s it reads beyond its ``name``:
+        the model settings it supports (narrowed to its choices) and its own.
+    data_kinds: the field kinds it renders (:mod:`dvr_gl.fields`); None: any field.
+    needs_gl: it draws with OpenGL (it takes a moderngl context: ``ctx=``).
+    fixed_planes: it samples fixed planes (the voxel planes), not a sample distance.
+    check: ``check(scene)`` raises SceneError with the reason it cannot render a scene,
+        beyond what its settings say (e.g. an eye inside the volume); or ``"module:function"``.
+    oracle: ``oracle(scene)``, the float64 same-discretization image ``(H, W, 4)`` it must
+        match (None for the references, which are the judges); or ``"module:function"``.
+    resolve: ``resolve(scene) -> scene``: resolves settings of its own when a scene is read
+        (the ray caster turns a tolerance into settings); or ``"module:function"``.
+    sweeps: the trade-off families (:mod:`dvr_gl.scene.sweeps`) that vary something it reads.
+    tolerances: what it promises against the conformance tests' closed forms: the largest
+        absolute error outside the exact bounds, per closed form (``"box"``, ``"ramp"``,
+        ``"sphere"``, ``"analytic sphere"``) or per closed form and mode (``("ramp", "mip")``), at
+        the tests' resolution (``tests/renderers/test_conformance.py``, ``tests/closed_forms.py``).
+    reference: a CPU float64 reference (a judge: no oracle, slow).
+    projections: the camera projections it renders (Fourier rendering: parallel projections only).
+    out_of_core: it renders a volume read out of core (:mod:`dvr_gl.out_of_core`), reading bricks
+        as it needs them; the others need the voxels in memory.
+    """
+
+    name: str
+    description: str
+    renderer: Any
+    settings: tuple[Setting, ...] = ()
+    data_kinds: Optional[tuple[str, ...]] = ("grid",)
+    needs_gl: bool = False
+    fixed_planes: bool = False
+    check: Any = None
+    oracle: Any = None
+    resolve: Any = None
+    sweeps: tuple = ()
+    tolerances: Any = None
+    reference: bool = False
+    projections: tuple[str, ...] = ("perspective", "orthographic")
+    out_of_core: bool = False
+
+    def declared(self, name: str) -> Optional[Setting]:
+        return next((s for s in self.settings if s.name == name), None)
+
+    @property
+    def setting_names(self) -> tuple[str, ...]:
+        return tuple(s.name for s in self.settings)
+
+    def choices(self, name: str) -> tuple:
+        """The values of a setting with choices that this renderer supports (none if it does not
+        declare the setting: then only the default)."""
+        own = self.declared(name)
+        if own is not None:
+            return own.choices
+        shared = next((s for s in MODEL_SETTINGS if s.name == name), None)
+        return (shared.default_value(),) if shared is not None else ()
+
+    def renderer_class(self):
+        return load(self.renderer)
+
+    def create(self, **kwargs):
+        return self.renderer_class()(**kwargs)
+
+    def oracle_image(self, scene):
+        return load(self.oracle)(scene)
+
+
+def load(obj):
+    """An object, or the one a ``"module:attribute"`` string names."""
+    if not isinstance(obj, str):
+        return obj
+    module, _, attribute = obj.partition(":")
+    return getattr(importlib.import_module(module), attribute)
