@@ -9,6 +9,9 @@ import pytest
 
 from dvr_gl.scene.resolve import load_scene
 
+# Every run prints its time per test folder (tests/folder_times.py): .ci/run shows it.
+pytest_plugins = ["folder_times"]
+
 REPO = Path(__file__).resolve().parent
 SHARED_DATA = REPO.parent / "shared" / "data"
 
