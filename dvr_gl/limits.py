@@ -97,7 +97,7 @@ def check_texture(what: str, size: tuple[int, int], limits: GLLimits, fix: str):
 BOUNDS = {"gpu samples": 1e12, "cpu samples": 3e10, "pieces": 1e10}
 RATES = {"gpu samples": 3e8, "cpu samples": 1e7, "pieces": 2e6}
 # splatting (dvr_gl.renderers.splatting.work): footprint fragments, instances and sheets; 5e6-1.3e7 a second
-# measured on llvmpipe with other work on the cores (docs/renderers/splatting.md)
+# measured on llvmpipe with other work on the cores (dvr_gl/renderers/splatting/README.md)
 BOUNDS["splat fragments"], RATES["splat fragments"] = 2e10, 5e6
 # fourier (dvr_gl.renderers.fourier.renderer): channels x M log2 M of its padded volume's transform, the
 # first frame's; 8e7-1.3e8 a second measured on two shared cores (240^3 to 800^3 spectra; 800^3: 113 s)

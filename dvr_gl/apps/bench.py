@@ -153,7 +153,7 @@ def add_arguments(p):
                                                       "dvr-gl, resampled ray casting and VTK, above 5x their errors")
     sp = sub.add_parser("splatting", help="splatting's schemes: frame time, splats drawn and culled, error against "
                                           "its oracle and the same kernel's converged reference, the ray caster at "
-                                          "equal error; the 45-degree study (docs/renderers/splatting.md)")
+                                          "equal error; the 45-degree study (dvr_gl/renderers/splatting/README.md)")
     sp.add_argument("--volume-size", type=int, default=64, help="phantom samples per axis (default 64; 0: no phantom)")
     sp.add_argument("--particles", type=int, default=4096, help="also an SPH set: a Plummer sphere of about this "
                     "many particles (default 4096; 0: none)")
@@ -169,7 +169,7 @@ def add_arguments(p):
                                                               "(default 48; 0 leaves it out)")
     fo = sub.add_parser("fourier", help="Fourier volume rendering against the ray caster: pre-processing and time "
                                          "per view against N, error against reference-converged, the ray caster at "
-                                         "equal error (docs/renderers/fourier.md)")
+                                         "equal error (dvr_gl/renderers/fourier/README.md)")
     fo.add_argument("--sizes", default="64,128,256", metavar="N,N", help="volume sizes, the blobs demo N^3 "
                                                                           "(default 64,128,256)")
     _timing_arguments(fo, size=512, error_size=128)

@@ -2,7 +2,7 @@
 pre-multiplied, zero-padded and transformed once (:mod:`.spectrum`); per view the central slice of
 its spectrum across the view direction is interpolated in GL (``shaders/slice.frag``) and
 inverse-transformed into the projection (:mod:`.projection`): line integrals, so the ``average`` and the
-``xray`` of pre-classified voxels, orthographic only.  See ``docs/renderers/fourier.md``; the renderer
+``xray`` of pre-classified voxels, orthographic only.  See ``dvr_gl/renderers/fourier/README.md``; the renderer
 is :mod:`.renderer`, its same-slices reference :mod:`.oracle`.
 """
 
@@ -85,7 +85,7 @@ PLUGIN = RendererPlugin(
     # and added back per chord: measured 3e-8).  The ramp's borders differ by its whole range and its grid is
     # 6-9 voxels: the box's clip is exact (the shell pass), what is left is the band limit at the ramp's
     # kinks (measured 4.9e-4 average, 1.6e-3 X-ray; 0.117 and 0.186 with the first-order ghost layer that
-    # the Gaussian filter and hemispherical shading still use; docs/renderers/fourier.md).
+    # the Gaussian filter and hemispherical shading still use; dvr_gl/renderers/fourier/README.md).
     tolerances={"box": 1e-6, ("ramp", "average"): 1e-3, ("ramp", "xray"): 4e-3},
     sweeps=(sweeps.Family("padding", "renderer.padding", (1.25, 1.5, 2.0, 3.0), (("renderer.compositing", "average"),)),
             sweeps.Family("slice bandwidth", "renderer.slice_bandwidth", (0.0, 1.0, 2.0, 4.0),

@@ -180,7 +180,7 @@ def with_ghosts(scene, values: np.ndarray, moments: int | None = None) -> tuple[
     (``sum_j c_j S_m(R + j) = -sum_n u_n S_m(n)``, ``S_m(n)`` the ``m``-th moment of a sample's profile
     beyond the face): with one, its integral.  Along the normal the spill is then zero; an oblique ray
     through the layers meets the field's variation along the face times the profile's first moment, an
-    error of first order in the obliquity (``docs/renderers/fourier.md``)."""
+    error of first order in the obliquity (``dvr_gl/renderers/fourier/README.md``)."""
     moments = MOMENTS if moments is None else moments
     profile, reach = _profile(scene)
     clamped = max(int(math.ceil(reach)) - 1, 0)

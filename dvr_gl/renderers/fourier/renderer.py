@@ -1,4 +1,4 @@
-"""The Fourier renderer in GL (see the package doc and ``docs/renderers/fourier.md``).
+"""The Fourier renderer in GL (see the package doc and ``dvr_gl/renderers/fourier/README.md``).
 
 Once per volume, transfer function (the X-ray's classified voxels) and settings: the spectra, uploaded
 as float32 3D textures, two complex channels a texture (:mod:`.spectrum`).  Per view: the central slice

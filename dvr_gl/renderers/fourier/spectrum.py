@@ -1,6 +1,6 @@
 """The spectrum Fourier volume rendering slices: pre-multiplied, zero-padded, transformed once.
 
-Conventions (``docs/renderers/fourier.md``).  The volume's samples ``u[n]`` (``n`` per axis ``0 .. N - 1``)
+Conventions (``dvr_gl/renderers/fourier/README.md``).  The volume's samples ``u[n]`` (``n`` per axis ``0 .. N - 1``)
 sit in a zero grid of ``M = padding x N`` samples (rounded up to an even length the FFT likes), at
 ``s = (M - N) // 2``; the padded grid's centre ``M / 2`` is the origin of the transform, the world point
 ``x_c = origin + (M / 2 - s) h``.  Its discrete transform, at a continuous index ``g`` per axis,

@@ -2,7 +2,7 @@
 
 Every compositing mode, filter and classification, shading, jitter, early termination,
 empty-space skipping (:mod:`.acceleration`), bricking, and rendering to a tolerance.
-See ``docs/renderers/raycast.md``.  The renderer itself is :mod:`.renderer` (imported when
+See ``dvr_gl/renderers/raycast/README.md``.  The renderer itself is :mod:`.renderer` (imported when
 first created).
 """
 

@@ -3,7 +3,7 @@
 The judge of "is the GPU code right?": every compositing mode, classification, filter and
 shading option, sampled exactly where the conventions put the samples, through the same
 transfer-function table.  It renders any field (:mod:`dvr_gl.fields`).  See
-``docs/renderers/references.md``.
+``dvr_gl/renderers/reference/README.md``.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """``shearwarp``: Lacroute and Levoy's shear-warp; run-length encoded slices composited on the
 host (:mod:`.run_length`, :mod:`.factorization`), the intermediate image warped in GL.
 
-See ``docs/renderers/shearwarp.md``; the renderer is :mod:`.renderer`.
+See ``dvr_gl/renderers/shearwarp/README.md``; the renderer is :mod:`.renderer`.
 """
 
 from __future__ import annotations

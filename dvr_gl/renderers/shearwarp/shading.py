@@ -26,7 +26,7 @@ from ...reference.shading import blinn_phong
 #: Octahedral cells per side: 16384 directions (15 bits with the "no normal" code; Lacroute used 13);
 #: a unit vector lies within 1.89 degrees of its code's direction, 0.67 on average (measured over 2e6
 #: random directions, tests/test_shearwarp.py); in the image that is RMS 1e-4 to 2.3e-4 against the
-#: voxels' own normals on the 64^3 demos (docs/renderers/shearwarp.md).
+#: voxels' own normals on the 64^3 demos (dvr_gl/renderers/shearwarp/README.md).
 NORMAL_GRID = 128
 NO_NORMAL = NORMAL_GRID * NORMAL_GRID
 

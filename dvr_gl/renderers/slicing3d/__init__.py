@@ -1,6 +1,6 @@
 """``slicing3d``: a 3D texture cut by view-aligned slices, blended back to front (GPU).
 
-See ``docs/renderers/slicing.md``; the renderer is :class:`Slicing3DRenderer` in
+See ``dvr_gl/renderers/slicing3d/README.md``; the renderer is :class:`Slicing3DRenderer` in
 :mod:`.renderer`, on the slicers' shared base (:mod:`dvr_gl.renderers.grid.slicing`).
 """
 

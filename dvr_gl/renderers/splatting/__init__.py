@@ -16,7 +16,7 @@ that are composited front to back.
 * ``none``: every splat composited alone, back to front (pre-classified only): the baseline that
   shows the error where splats overlap.
 
-See ``docs/renderers/splatting.md``; the renderer is :mod:`.renderer`, its same-slabs reference
+See ``dvr_gl/renderers/splatting/README.md``; the renderer is :mod:`.renderer`, its same-slabs reference
 :mod:`.oracle`.
 """
 
@@ -46,7 +46,7 @@ FOOTPRINT = s.Setting("footprint", str, "exact", "how a kernel's footprint is fo
                       "error)", choices=FOOTPRINTS, group="splatting")
 SLABS_PER_DRAW = s.Setting("slabs_per_draw", int, 1, "image-aligned slabs drawn at once, a render target each: "
                            "each splat drawn once per group of slabs instead of once per slab (on software GL "
-                           "1 is fastest, docs/renderers/splatting.md)", check=s.between(1, 8), group="splatting")
+                           "1 is fastest, dvr_gl/renderers/splatting/README.md)", check=s.between(1, 8), group="splatting")
 SLAB_WIDTH = s.Setting("slab_width", float, 1.0, "depth of an image-aligned sheet buffer's slab", check=s.positive,
                        units="voxels", group="splatting")
 

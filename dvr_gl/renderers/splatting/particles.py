@@ -18,7 +18,7 @@ from ...sandbox import check_bytes
 #: A particle whose support's radius is under this many pixels has its footprint averaged over the pixels
 #: it covers (shaders/m4.glsl): sampled at pixel centres, a footprint's sum over the pixels errs
 #: from its integral by up to 90 % at 1 pixel, 6 % at 1.5, 5.5e-4 at 2 and 1e-3 at 3 (measured over random
-#: offsets, docs/renderers/splatting.md), so from 2 on the pixels' own rays serve.
+#: offsets, dvr_gl/renderers/splatting/README.md), so from 2 on the pixels' own rays serve.
 SUBPIXEL_RADIUS = 2.0
 
 

@@ -1,4 +1,4 @@
-"""The splatting renderer in GL (see the package doc and ``docs/renderers/splatting.md``).
+"""The splatting renderer in GL (see the package doc and ``dvr_gl/renderers/splatting/README.md``).
 
 Per frame: the splats' centres are sorted along the view axis on the host and uploaded in that
 order, so that the splats of one slab are one contiguous range (one instanced draw), and

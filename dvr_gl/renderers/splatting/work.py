@@ -3,7 +3,7 @@
 once for every sheet it is drawn into), the instances drawn (every splat once per sheet whose range
 holds it, even where the vertex shader drops it) and, per sheet, compositing and clearing a sheet of
 the image's pixels plus the draw calls around it.  All three in one unit, "splat fragments", at the
-rates measured on llvmpipe (docs/renderers/splatting.md).
+rates measured on llvmpipe (dvr_gl/renderers/splatting/README.md).
 
 The footprint is each particle's own at its view depth, or for a grid the mean over an even sample
 of its samples' depths, each at most the whole image (a kernel at the eye); the count of kernels is

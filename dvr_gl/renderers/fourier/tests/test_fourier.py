@@ -132,7 +132,7 @@ def test_blob_against_the_converged_reference(tmp_path, fourier, interpolation, 
     default): 2.4e-4 / 2.7e-5 and 4.2e-3 / 5.0e-4.  The B-spline's transform vanishes at the integers, so
     the centre of the padded grid, where this blob lies, gets no replica from it, while the
     Kaiser-Bessel kernel ghosts 1.5e-4 of it there; near the grid's edges, where real data lies, it is
-    the other way round (1.2e-2 against 4e-4; docs/renderers/fourier.md).  Asserted the bound, RMS a tenth."""
+    the other way round (1.2e-2 against 4e-4; dvr_gl/renderers/fourier/README.md).  Asserted the bound, RMS a tenth."""
     data, _, _ = blob()
     scene = blob_scene(tmp_path, data, {"renderer.compositing": compositing, "renderer.classification": "pre",
                                         "renderer.converged_tolerance": 1e-6,
