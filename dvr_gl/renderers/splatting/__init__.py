@@ -46,7 +46,8 @@ FOOTPRINT = s.Setting("footprint", str, "exact", "how a kernel's footprint is fo
                       "error)", choices=FOOTPRINTS, group="splatting")
 SLABS_PER_DRAW = s.Setting("slabs_per_draw", int, 1, "image-aligned slabs drawn at once, a render target each: "
                            "each splat drawn once per group of slabs instead of once per slab (on software GL "
-                           "1 is fastest, dvr_gl/renderers/splatting/README.md)", check=s.between(1, 8), group="splatting")
+                           "1 is fastest, dvr_gl/renderers/splatting/README.md)", check=s.between(1, 8),
+                           group="splatting")
 SLAB_WIDTH = s.Setting("slab_width", float, 1.0, "depth of an image-aligned sheet buffer's slab", check=s.positive,
                        units="voxels", group="splatting")
 
