@@ -32,8 +32,10 @@ def test_readme_is_the_front_door():
 
 
 def test_relative_links_resolve():
-    """Every relative link in README.md and docs/ names a file that exists."""
-    pages = [REPO / "README.md", *sorted((REPO / "docs").rglob("*.md"))]
+    """Every relative link in README.md, docs/ and the pages in the package (each renderer's README.md in its
+    folder, benchmarks/README.md) names a file that exists."""
+    pages = [REPO / "README.md", *sorted((REPO / "docs").rglob("*.md")), *sorted((REPO / "dvr_gl").rglob("*.md")),
+             *sorted((REPO / "benchmarks").glob("*.md"))]
     broken = []
     for page in pages:
         for target in re.findall(r"\]\(([^)\s]+)\)", page.read_text(encoding="utf-8")):
