@@ -42,6 +42,9 @@ class RendererPlugin:
     projections: the camera projections it renders (Fourier rendering: parallel projections only).
     out_of_core: it renders a volume read out of core (:mod:`dvr_gl.out_of_core`), reading bricks
         as it needs them; the others need the voxels in memory.
+    bench: its ``dvr bench`` subcommands, ``"module:attribute"`` naming a
+        :class:`~dvr_gl.renderers.bench_command.BenchCommand` or a tuple of them (imported when ``dvr``
+        builds its flags: keep that module light; the measurement imports the bench harness when run).
     """
 
     name: str
@@ -59,6 +62,7 @@ class RendererPlugin:
     reference: bool = False
     projections: tuple[str, ...] = ("perspective", "orthographic")
     out_of_core: bool = False
+    bench: Any = None
 
     def declared(self, name: str) -> Optional[Setting]:
         return next((s for s in self.settings if s.name == name), None)
