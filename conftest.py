@@ -55,10 +55,12 @@ def gl_context(shared_gl_context):
 
 @pytest.fixture(scope="module")
 def converged():
-    """The float64 judge, ``reference-converged`` (a CPU renderer: nothing to release)."""
+    """The float64 judge of "how accurate?", the converged reference (a CPU renderer: nothing to release),
+    picked by what it declares (tests/judges.py)."""
     from dvr_gl.renderers import create_renderer
+    from judges import CONVERGED
 
-    return create_renderer("reference-converged")
+    return create_renderer(CONVERGED)
 
 
 def small_scene(overrides: dict | None = None, **kw):

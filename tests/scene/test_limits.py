@@ -2,7 +2,8 @@
 
 Limits are read from the real context where that is cheap (one past GL_MAX_TEXTURE_SIZE), and
 faked smaller (monkeypatching :func:`dvr_gl.limits.gl_limits`) to exercise each refusal and the
-bricking that handles a volume over a texture limit.
+bricking that handles a volume over a texture limit.  The renderers are picked by what they declare
+(``tests/judges.py``); one renderer's own limits are tested in its folder (``test_limits_NAME.py``).
 """
 
 from __future__ import annotations
@@ -18,15 +19,23 @@ from conftest import assert_close, small_scene
 from dvr_gl import limits
 from dvr_gl.apps import cli
 from dvr_gl.errors import DvrError
-from dvr_gl.renderers import create_renderer
+from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.sandbox import Sandbox, SandboxError, active
+from judges import CONVERGED, DISCRETE
+from judges import renderers as declaring
 
-GL_RENDERERS = ("raycast", "slicing3d", "slicing2d")
+#: the GL renderers that sample the grid kit's bricks (they declare a texture budget): a volume over a
+#: texture limit is bricked, and their tables are textures
+GL_RENDERERS = tuple(declaring("texture_budget_mb", gl=True))
+#: the GL renderers with a sample distance (a work estimate in GPU samples)
+SAMPLING = tuple(declaring("sample_distance", gl=True))
+#: the renderer a grid scene gets when it names none (the scene's default in small_scene)
+DEFAULT = registry.default_for("grid")
 
 
 @pytest.fixture(scope="module")
 def renderers(shared_gl_context):
-    made = {name: create_renderer(name, ctx=shared_gl_context) for name in (*GL_RENDERERS, "shearwarp")}
+    made = {name: create_renderer(name, ctx=shared_gl_context) for name in (*GL_RENDERERS, *SAMPLING, DEFAULT)}
     yield made
     for r in made.values():
         r.close()
@@ -76,7 +85,7 @@ def test_lut_at_a_faked_limit_renders_and_one_more_is_refused(renderers, gl_cont
         renderer.render(at.with_renderer(lut_size=65))
 
 
-@pytest.mark.parametrize("name", [*GL_RENDERERS, "shearwarp"])
+@pytest.mark.parametrize("name", GL_RENDERERS)
 def test_image_over_the_render_target_limit(renderers, gl_context, monkeypatch, name):
     fake(monkeypatch, gl_context, renderbuffer_size=24)
     scene = small_scene({"renderer.name": name, "volume.size": 16, "image.width": 25, "image.height": 8})
@@ -87,21 +96,25 @@ def test_image_over_the_render_target_limit(renderers, gl_context, monkeypatch, 
 
 def test_preintegration_table_over_the_texture_limit(renderers, gl_context, monkeypatch):
     fake(monkeypatch, gl_context, texture_size=100)
-    scene = small_scene({"renderer.classification": "preintegrated", "renderer.preintegration_size": 101,
-                         "renderer.lut_size": 64, "volume.size": 16, "image.width": 8, "image.height": 8})
+    scene = small_scene({"renderer.name": DEFAULT, "renderer.classification": "preintegrated",
+                         "renderer.preintegration_size": 101, "renderer.lut_size": 64, "volume.size": 16,
+                         "image.width": 8, "image.height": 8})
     with pytest.raises(DvrError, match="renderer.preintegration_size = 101 exceeds GL_MAX_TEXTURE_SIZE 100"):
-        renderers["raycast"].render(scene)
+        renderers[DEFAULT].render(scene)
 
 
-def test_shearwarp_intermediate_image_over_the_texture_limit(renderers, gl_context, monkeypatch):
-    fake(monkeypatch, gl_context, texture_size=20)  # a 32^3 volume's intermediate image is > 32 a side
-    scene = small_scene({"renderer.name": "shearwarp", "image.width": 16, "image.height": 16})
-    with pytest.raises(DvrError, match="shear-warp's intermediate image of .* exceeds GL_MAX_TEXTURE_SIZE 20"):
-        renderers["shearwarp"].render(scene)
+def brick_limits():
+    """Each bricking renderer with each texture limit its volume is held under: one 3D texture, or
+    (a renderer drawing fixed planes, the voxel planes) an array of 2D layers, each a 2D texture."""
+    for name in GL_RENDERERS:
+        if registry.plugin(name).fixed_planes:
+            yield name, {"array_layers": 20}
+            yield name, {"texture_size": 20}
+        else:
+            yield name, {"texture_3d_size": 20}
 
 
-@pytest.mark.parametrize("name, limit", [("raycast", {"texture_3d_size": 20}), ("slicing3d", {"texture_3d_size": 20}),
-                                         ("slicing2d", {"array_layers": 20}), ("slicing2d", {"texture_size": 20})])
+@pytest.mark.parametrize("name, limit", list(brick_limits()))
 def test_volume_over_a_texture_limit_is_bricked(renderers, gl_context, monkeypatch, name, limit):
     # image and table within the faked texture side, so only the volume exceeds a limit
     scene = small_scene({"renderer.name": name, "image.width": 16, "image.height": 16, "renderer.lut_size": 16})
@@ -117,15 +130,16 @@ def test_volume_over_a_texture_limit_is_bricked(renderers, gl_context, monkeypat
 # --- resource bounds: each absurd case refused at once, in one line ---------------------------
 
 ABSURD = [
-    ("raycast", {"renderer.sample_distance_voxels": 1e-7}, "raycast would take .* gpu samples .*sample_distance"),
-    ("slicing3d", {"renderer.sample_distance_voxels": 1e-7}, "slicing3d would take .* gpu samples"),
-    ("reference", {"renderer.sample_distance_voxels": 1e-7}, "reference would take .* cpu samples"),
-    ("reference-converged", {"renderer.converged_tolerance": 1e-300},
+    *[(name, {"renderer.sample_distance_voxels": 1e-7}, f"{name} would take .* gpu samples .*sample_distance")
+      for name in SAMPLING],
+    (DISCRETE, {"renderer.sample_distance_voxels": 1e-7}, f"{DISCRETE} would take .* cpu samples"),
+    (CONVERGED, {"renderer.converged_tolerance": 1e-300},
      "renderer.converged_tolerance = 1e-300 is below .* at least 1e-12"),
-    ("reference", {"renderer.lut_size": 1_000_000_000}, "renderer.lut_size = 1000000000 .* over the memory budget"),
-    ("reference", {"renderer.classification": "preintegrated", "renderer.preintegration_size": 100_000},
+    (DISCRETE, {"renderer.lut_size": 1_000_000_000}, "renderer.lut_size = 1000000000 .* over the memory budget"),
+    (DISCRETE, {"renderer.classification": "preintegrated", "renderer.preintegration_size": 100_000},
      "renderer.preintegration_size = 100000 .* over the memory budget"),
-    ("raycast", {"renderer.lut_size": 1_000_000_000}, "renderer.lut_size = 1000000000 exceeds GL_MAX_TEXTURE_SIZE"),
+    (GL_RENDERERS[0], {"renderer.lut_size": 1_000_000_000},
+     "renderer.lut_size = 1000000000 exceeds GL_MAX_TEXTURE_SIZE"),
 ]
 
 
@@ -156,16 +170,16 @@ def test_tiny_spacing_is_refused_by_the_work_estimate(renderers, tmp_path):
     scene = array_scene(tmp_path, np.zeros((8, 8, 8), np.float32), {"image.width": 8, "image.height": 8},
                         spacing=(1e-15, 1.0, 1.0))
     with pytest.raises(DvrError, match=r"0.5 voxels of the smallest spacing, 1e-15"):
-        renderers["raycast"].render(scene)
+        renderers[DEFAULT].render(scene)
 
 
 def test_a_sandbox_time_budget_lowers_the_work_bound(renderers):
     # 128^2 rays x about 2600 samples: 4e7, under the bound of an hour, over a tenth of a second's 3e7
     scene = small_scene({"volume.size": 16, "image.width": 128, "image.height": 128,
                          "renderer.sample_distance_voxels": 0.01})
-    renderers["raycast"].check_resources(scene)  # fine without a budget
+    renderers[DEFAULT].check_resources(scene)  # fine without a budget
     with active(Sandbox(max_seconds=0.1)), pytest.raises(DvrError, match="over the bound of 3e\\+07"):
-        renderers["raycast"].render(scene)
+        renderers[DEFAULT].render(scene)
 
 
 def test_a_sandbox_time_budget_stops_a_cpu_reference_mid_render(monkeypatch):
@@ -178,10 +192,10 @@ def test_a_sandbox_time_budget_stops_a_cpu_reference_mid_render(monkeypatch):
 
     monkeypatch.setattr(sandbox, "_time_limit", lambda seconds: contextlib.nullcontext())
     monkeypatch.setattr(discrete, "SAMPLES_PER_CHUNK", 64)  # several steps
-    scene = small_scene({"renderer.name": "reference", "volume.size": 16, "image.width": 16, "image.height": 16})
-    renderer = create_renderer("reference")
+    scene = small_scene({"renderer.name": DISCRETE, "volume.size": 16, "image.width": 16, "image.height": 16})
+    renderer = create_renderer(DISCRETE)
     renderer.progress = lambda done, total: time.sleep(0.05)  # a slow step
-    with pytest.raises(SandboxError, match=r"time limit of 0.01 s \(--max-seconds\) in reference") as caught:
+    with pytest.raises(SandboxError, match=rf"time limit of 0.01 s \(--max-seconds\) in {DISCRETE}") as caught:
         with active(Sandbox(max_seconds=0.01)):
             renderer.render(scene)
     done, total = map(int, re.search(r"(\d+) of (\d+) steps done", str(caught.value)).groups())
@@ -190,7 +204,7 @@ def test_a_sandbox_time_budget_stops_a_cpu_reference_mid_render(monkeypatch):
 
 # --- progress and Ctrl-C -----------------------------------------------------------------------
 
-@pytest.mark.parametrize("name", ["reference", "reference-converged"])
+@pytest.mark.parametrize("name", [DISCRETE, CONVERGED])
 def test_cpu_references_report_progress(name, monkeypatch):
     from dvr_gl.reference import converged, discrete
 
@@ -205,7 +219,7 @@ def test_cpu_references_report_progress(name, monkeypatch):
     assert all(a[0] <= b[0] for a, b in zip(seen, seen[1:]))
 
 
-def cli_args(tmp_path, name="reference", extra=()):
+def cli_args(tmp_path, name=DISCRETE, extra=()):
     return ["render", "--demo", "--set", "volume.size=16", "--size", "48", "--renderer", name,
             "-o", str(tmp_path / "out.exr"), *extra]
 
@@ -269,7 +283,7 @@ def test_ctrl_c_between_bricked_gl_passes(tmp_path, monkeypatch, capsys):
 
     monkeypatch.setattr(limits, "gl_limits", small)
     interrupting_task(monkeypatch, interrupt)
-    assert cli.main(cli_args(tmp_path, "raycast")) == 130
+    assert cli.main(cli_args(tmp_path, DEFAULT)) == 130
     assert passes == [1, 2]
     assert capsys.readouterr().err.strip() == "dvr render: interrupted"
     assert not list(tmp_path.iterdir())
@@ -295,31 +309,3 @@ def test_cli_lut_over_the_limit_on_a_real_volume(shared_data, tmp_path, capsys):
     else:
         assert status == 0
 
-
-def test_long_one_pass_frames_are_drawn_in_bands(renderers, monkeypatch):
-    """A frame estimated over BAND_SECONDS is drawn in scissored bands of rows, reporting each: the
-    image is bit-identical to the one-pass frame (each pixel's ray runs the same code), and a
-    KeyboardInterrupt raised between bands stops the frame there (no Python runs inside a draw)."""
-    from dvr_gl.renderers.raycast import renderer as raycast
-
-    scene = small_scene({"volume.size": 16, "image.width": 40, "image.height": 30})
-    one_pass = renderers["raycast"].render(scene)
-    monkeypatch.setattr(raycast, "BAND_SECONDS", 1e-9)  # a band a row
-    steps = []
-    renderers["raycast"].progress = lambda done, total: steps.append((done, total))
-    try:
-        banded = renderers["raycast"].render(scene)
-        assert steps == [(k, 30) for k in range(1, 31)]
-        np.testing.assert_array_equal(banded, one_pass)
-
-        def interrupt(done, total):
-            if done == 3:
-                raise KeyboardInterrupt
-
-        renderers["raycast"].progress = interrupt
-        with pytest.raises(KeyboardInterrupt):
-            renderers["raycast"].render(scene)
-        renderers["raycast"].progress = None
-        np.testing.assert_array_equal(renderers["raycast"].render(scene), one_pass)  # the GL state is clean after
-    finally:
-        renderers["raycast"].progress = None
