@@ -7,7 +7,15 @@ import pytest
 import dvr_gl
 from conftest import REPO, small_scene
 from dvr_gl.image import read_image
-from dvr_gl.renderers import create_renderer
+from dvr_gl.renderers import create_renderer, registry
+from judges import CONVERGED, DISCRETE
+from judges import renderers as declaring
+
+#: the renderer a grid gets when none is named, and another GL grid renderer
+DEFAULT = registry.default_for("grid")
+OTHER = next(n for n in declaring(kind="grid", gl=True) if n != DEFAULT)
+#: a renderer without maximum intensity projection among its compositing modes
+NO_MIP = next(n for n in registry.names() if "mip" not in registry.plugin(n).choices("compositing"))
 
 
 def blob(shape=(20, 16, 12)):
@@ -23,8 +31,8 @@ def test_the_top_level_exports_the_parts():
 
 
 def test_render_of_an_array_is_the_renderer_on_the_resolved_scene():
-    """The array with x-first spacing, a preset and the camera keywords: the same image as the ray caster
-    on the scene the API resolved, and that scene holds what was given."""
+    """The array with x-first spacing, a preset and the camera keywords: the same image as the default
+    renderer on the scene the API resolved, and that scene holds what was given."""
     data = blob()
     image = dvr_gl.render(data, spacing=(0.5, 1.0, 2.0), transfer_function="viridis", azimuth=40, elevation=10,
                           size=(40, 30), sample_distance_voxels=0.25)
@@ -32,19 +40,20 @@ def test_render_of_an_array_is_the_renderer_on_the_resolved_scene():
     assert scene.volume.dims == (12, 16, 20) and scene.volume.spacing == (0.5, 1.0, 2.0)
     assert scene.camera.orbit[:2] == (40.0, 10.0) and (scene.image.width, scene.image.height) == (40, 30)
     assert scene.renderer.sample_distance == pytest.approx(0.125)   # a quarter of the smallest spacing
-    with create_renderer("raycast") as r:
+    assert scene.renderer.name == DEFAULT
+    with create_renderer(DEFAULT) as r:
         np.testing.assert_array_equal(image.rgba, r.render(scene))
     assert image.rgba.shape == (30, 40, 4) and image.rgba.dtype == np.float32 and image.rgba[..., 3].max() > 0.05
 
 
 def test_keywords_reach_every_renderer_setting_and_unknown_ones_are_named():
-    image = dvr_gl.render(blob(), renderer="reference", compositing="mip", filter="nearest", size=16)
+    image = dvr_gl.render(blob(), renderer=DISCRETE, compositing="mip", filter="nearest", size=16)
     assert (image.scene.renderer.name, image.scene.renderer.compositing, image.scene.renderer.filter) == (
-        "reference", "mip", "nearest")
+        DISCRETE, "mip", "nearest")
     with pytest.raises(dvr_gl.SceneError, match="unknown keyword 'sample_distanse'; renderer settings are"):
         dvr_gl.render(blob(), sample_distanse=0.5)
-    with pytest.raises(dvr_gl.SceneError, match="slicing2d does not support renderer.compositing = 'mip'"):
-        dvr_gl.render(blob(), renderer="slicing2d", compositing="mip", size=8)
+    with pytest.raises(dvr_gl.SceneError, match=f"{NO_MIP} does not support renderer.compositing = 'mip'"):
+        dvr_gl.render(blob(), renderer=NO_MIP, compositing="mip", size=8)
 
 
 def test_shading_keyword_and_transfer_function_points():
@@ -70,9 +79,9 @@ def test_scattering_keyword():
 def test_clipping_keyword():
     """clipping={...} gives [renderer.clipping]'s keys: a plane through the blob's middle (z = 9.5) keeps its
     upper half."""
-    cut = dvr_gl.render(blob(), size=12, renderer="reference", clipping={"planes": [[0.0, 0.0, 1.0, -9.5]]})
+    cut = dvr_gl.render(blob(), size=12, renderer=DISCRETE, clipping={"planes": [[0.0, 0.0, 1.0, -9.5]]})
     assert cut.scene.renderer.clipping.planes == [(0.0, 0.0, 1.0, -9.5)]
-    whole = dvr_gl.render(blob(), size=12, renderer="reference")
+    whole = dvr_gl.render(blob(), size=12, renderer=DISCRETE)
     assert 0.0 < cut.rgba[..., 3].sum() < 0.9 * whole.rgba[..., 3].sum()
     with pytest.raises(dvr_gl.SceneError, match="zero normal"):
         dvr_gl.render(blob(), size=8, clipping={"planes": [[0.0, 0.0, 0.0, 1.0]]})
@@ -86,10 +95,10 @@ def test_render_of_files_and_of_scenes(tmp_path):
     from_array = dvr_gl.render(blob(), spacing=(1, 1, 2), size=16)
     np.testing.assert_array_equal(from_file.rgba, from_array.rgba)
     scene_file = REPO / "examples" / "shepp-logan.toml"
-    from_toml = dvr_gl.render(scene_file, size=16, renderer="slicing3d")
-    assert from_toml.scene.renderer.name == "slicing3d" and from_toml.scene.volume.name == "shepp-logan"
-    again = dvr_gl.render(from_toml.scene, renderer="raycast", azimuth=0)
-    assert again.scene.renderer.name == "raycast" and again.scene.camera.orbit[0] == 0.0
+    from_toml = dvr_gl.render(scene_file, size=16, renderer=OTHER)
+    assert from_toml.scene.renderer.name == OTHER and from_toml.scene.volume.name == "shepp-logan"
+    again = dvr_gl.render(from_toml.scene, renderer=DEFAULT, azimuth=0)
+    assert again.scene.renderer.name == DEFAULT and again.scene.camera.orbit[0] == 0.0
     assert again.scene.volume is from_toml.scene.volume
 
 
@@ -105,7 +114,7 @@ def test_image_pixels_and_files(tmp_path):
     with pytest.raises(dvr_gl.DvrError, match="exists"):
         image.save(png)
     assert image._repr_png_()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert repr(image).startswith("Image(24x24, raycast")
+    assert repr(image).startswith(f"Image(24x24, {DEFAULT}")
 
 
 def test_replacing_the_volume_reframes_and_re_resolves():
@@ -141,17 +150,18 @@ def test_any_field_renders_with_the_renderers_that_declare_its_kind():
     renderer named, the first of them), the grid renderers refuse it in one line naming those that do."""
     sphere = dvr_gl.SphereField((0.0, 0.0, 0.0), 2.0)
     points = [[0.0, 1, 1, 1, 0.0], [1.0, 1, 1, 1, 0.5]]
-    image = dvr_gl.render(sphere, renderer="reference-converged", transfer_function=points, size=16)
+    image = dvr_gl.render(sphere, renderer=CONVERGED, transfer_function=points, size=16)
     o, d = image.scene.camera.pixel_rays(16, 16)
     b = np.linalg.norm(np.cross(-o, d), axis=1)                    # each ray's distance from the centre
     chord = 2.0 * np.sqrt(np.maximum(4.0 - b * b, 0.0)).reshape(16, 16)
     sigma = -np.log1p(-0.5)                                         # alpha 0.5 per unit distance
     # measured 1.9e-8 (float32 output)
     np.testing.assert_allclose(image.rgba[..., 3], -np.expm1(-sigma * chord), atol=1e-6)
-    with pytest.raises(dvr_gl.SceneError, match="raycast renders grid data, not analytic; use reference or "
-                                                "reference-converged"):
-        dvr_gl.render(sphere, renderer="raycast", transfer_function=points, size=16)
-    assert dvr_gl.render(sphere, transfer_function=points, size=8).scene.renderer.name == "reference"
+    judges = " or ".join(n for n in registry.names() if registry.plugin(n).data_kinds is None)
+    with pytest.raises(dvr_gl.SceneError, match=f"{DEFAULT} renders grid data, not analytic; use {judges}"):
+        dvr_gl.render(sphere, renderer=DEFAULT, transfer_function=points, size=16)
+    assert dvr_gl.render(sphere, transfer_function=points, size=8).scene.renderer.name == registry.default_for(
+        "analytic")
 
 
 @pytest.mark.parametrize("keywords, fragment", [
@@ -167,5 +177,5 @@ def test_any_field_renders_with_the_renderers_that_declare_its_kind():
 def test_bad_keywords_name_the_key(keywords, fragment):
     """Keywords are checked as scene keys are: a DvrError naming them, never a ValueError (issue 14)."""
     with pytest.raises(dvr_gl.DvrError) as caught:
-        dvr_gl.render(np.zeros((8, 8, 8), np.float32), renderer="reference", **{"size": 8, **keywords})
+        dvr_gl.render(np.zeros((8, 8, 8), np.float32), renderer=DISCRETE, **{"size": 8, **keywords})
     assert fragment in str(caught.value)
