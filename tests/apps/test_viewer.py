@@ -11,6 +11,7 @@ import pytest
 from conftest import small_scene
 from dvr_gl.camera import Camera
 from dvr_gl.errors import DvrError, SceneError
+from dvr_gl.renderers import registry
 from dvr_gl.scene.resolve import load_scene
 from dvr_gl.transfer_function import TransferFunction
 from dvr_gl.viewer import navigation, settings
@@ -39,6 +40,7 @@ from dvr_gl.viewer.tf_editor import (
     load_points,
     nice_opacity_max,
 )
+from judges import renderers as declaring
 
 
 def project(camera: Camera, point, height: int = 200) -> tuple[float, float]:
@@ -242,12 +244,25 @@ def test_nice_opacity_axis():
     assert nice_opacity_max([30.0], "extinction") == 100.0
 
 
+
+#: the GL grid renderers, in the registry's order (the viewer's keys)
+GRID_GL = declaring(kind="grid", gl=True)
+
+
+def next_rendering(scene, step: int) -> str:
+    """The renderer after (``step`` 1) or before (-1) the scene's, in the registry's order, that can
+    render the scene: the one the viewer's renderer key cycles to."""
+    names = settings.renderer_names()
+    i = names.index(scene.renderer.name)
+    around = [names[(i + step * k) % len(names)] for k in range(1, len(names))]
+    return next(n for n in around if settings.refusal(scene, name=n) is None)
+
 # --- settings, HUD, keys ---
 
 def test_settings_switch_and_refuse():
     scene = small_scene()
     assert settings.cycle(scene, "compositing").renderer.compositing == "isosurface"
-    assert settings.cycle(scene, "name", -1).renderer.name == "reference-converged"
+    assert settings.cycle(scene, "name", -1).renderer.name == next_rendering(scene, -1)
     jittered = settings.toggle_jitter(scene)
     with pytest.raises(SceneError, match="jitter"):
         settings.change(jittered, classification="preintegrated")  # the scene file's own check
@@ -265,10 +280,12 @@ def test_settings_switch_and_refuse():
     before = np.asarray(lit.renderer.scattering.lights[0].direction)
     assert np.dot(tilted, up) != pytest.approx(np.dot(before, up))
     assert np.linalg.norm(tilted) == pytest.approx(np.linalg.norm(before))
-    with pytest.raises(SceneError, match="slicing2d does not support renderer.scattering"):
-        settings.change(lit, name="slicing2d")
-    assert "voxel plane" in settings.sampling_text(settings.change(scene, name="slicing2d"))
-    assert "slices" in settings.sampling_text(settings.change(scene, name="slicing3d"))
+    unlit = next(n for n in GRID_GL if registry.plugin(n).declared("scattering") is None)
+    with pytest.raises(SceneError, match=f"{unlit} does not support renderer.scattering"):
+        settings.change(lit, name=unlit)
+    for name in GRID_GL:  # the fixed planes' text; a sample distance's renderers in their folders
+        if registry.plugin(name).fixed_planes:
+            assert "voxel plane" in settings.sampling_text(settings.change(scene, name=name))
 
 
 def test_clip_plane_keys_cut_the_volume_along_the_view():
@@ -293,12 +310,18 @@ def test_clip_plane_keys_cut_the_volume_along_the_view():
     assert not settings.toggle_clip_plane(cut).renderer.clipping.planes
     with pytest.raises(SceneError, match="no plane to move"):
         settings.move_clip_plane(scene, 0.05)
-    # splatting of grids clips since e632bf3; Fourier rendering cannot (a line integral has no per-sample cut)
+    # a renderer that does not declare clipping refuses the plane (Fourier rendering: a line integral has
+    # no per-sample cut); one that declares it takes it, with any filter it declares (the cubic B-spline)
     radiograph = settings.toggle_clip_plane(small_scene({"camera.projection": "orthographic",
                                                          "renderer.compositing": "xray",
                                                          "renderer.classification": "pre"}))
-    assert "fourier does not support renderer.clipping" in settings.refusal(radiograph, name="fourier")
-    assert settings.refusal(settings.change(cut, filter="cubic_bspline"), name="splatting") is None
+    uncut = [n for n in GRID_GL if registry.plugin(n).declared("clipping") is None]
+    assert uncut
+    for name in uncut:
+        assert f"{name} does not support renderer.clipping" in settings.refusal(radiograph, name=name)
+    for name in declaring("clipping", value="cubic_bspline", kind="grid", gl=True):
+        if "cubic_bspline" in registry.plugin(name).choices("filter"):
+            assert settings.refusal(settings.change(cut, filter="cubic_bspline"), name=name) is None
 
 
 def test_hud_lines_and_nominal_samples():
@@ -488,14 +511,24 @@ def test_a_display_that_cannot_be_opened_is_one_line():
 
 
 def test_refusals_are_known_before_rendering():
-    """The panel greys out what the renderer refuses, asking the registry (no rendering): shear-warp with
-    pre-integration, MIP for the slicers; cycling skips a refused choice to the next one that renders."""
+    """The panel greys out what the renderer refuses, asking the registry (no rendering): pre-integration
+    where a renderer does not declare it, MIP likewise; cycling skips a refused choice to the next one that
+    renders."""
     shaded = small_scene({"renderer.shading.enabled": True, "renderer.classification": "preintegrated"})
-    assert ("shearwarp does not support renderer.classification = 'preintegrated'"
-            in settings.refusal(shaded, name="shearwarp"))
-    assert settings.refusal(shaded, name="slicing3d") is None
-    sliced = settings.change(shaded, name="slicing2d")
-    assert settings.refusal(sliced, compositing="mip").startswith("slicing2d does not support renderer.compositing")
-    assert settings.cycle(sliced, "name").renderer.name == "reference"     # shearwarp skipped: no pre-integration
+    perspective = [n for n in GRID_GL if "perspective" in registry.plugin(n).projections]
+    for name in perspective:
+        why = settings.refusal(shaded, name=name)
+        if "preintegrated" in registry.plugin(name).choices("classification"):
+            assert why is None, why
+        else:
+            assert f"{name} does not support renderer.classification = 'preintegrated'" in why
+    assert any(settings.refusal(shaded, name=n) for n in perspective)  # one is skipped below
+    no_mip = next(n for n in perspective if "mip" not in registry.plugin(n).choices("compositing")
+                  and settings.refusal(shaded, name=n) is None)
+    sliced = settings.change(shaded, name=no_mip)
+    assert settings.refusal(sliced, compositing="mip").startswith(f"{no_mip} does not support renderer.compositing")
+    after = settings.cycle(sliced, "name").renderer.name
+    assert after == next_rendering(sliced, 1)
     assert settings.choices("name") == tuple(settings.renderer_names())
-    assert settings.fixed_planes("shearwarp") and not settings.fixed_planes("raycast")
+    for name in settings.renderer_names():
+        assert settings.fixed_planes(name) == registry.plugin(name).fixed_planes
