@@ -14,8 +14,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .checks import WORLD_RANGE, between, world_length
 from .errors import SceneError
-from .scene.settings import WORLD_RANGE, between, world_length
 
 PROJECTIONS = ("perspective", "orthographic")
 #: What the lens keys allow, as scene-file checks (``[camera]`` in :mod:`dvr_gl.scene.schema` uses these too,

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import SceneError
+from .rays import intersect_box
 
 
 def clipping_in_use(spec) -> bool:
@@ -84,8 +85,6 @@ class ClipRegion:
         d = np.asarray(directions, dtype=np.float64)
         t0, t1 = np.array(t0, dtype=np.float64), np.array(t1, dtype=np.float64)
         if self.has_box:
-            from .rays import intersect_box
-
             enter, leave = intersect_box(o, d, self.lo, self.hi)
             t0, t1 = np.maximum(t0, enter), np.minimum(t1, leave)
         for n, offset in zip(self.planes[:, :3], self.planes[:, 3]):

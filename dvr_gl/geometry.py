@@ -20,8 +20,12 @@ from pathlib import Path
 import numpy as np
 
 from . import limits, progress
+from .checks import WORLD_RANGE
+from .clipping import ClipRegion
 from .errors import SceneError
+from .rays import RayBatch
 from .sandbox import check_bytes, check_input_path
+from .shading import blinn_phong
 
 #: Memory while reading a mesh file, per byte of the file (meshio's peak, with a margin).
 BYTES_PER_FILE_BYTE = 10
@@ -74,8 +78,6 @@ def _read(path: str, size: int, mtime: int) -> TriangleMesh:
     used = points[np.unique(triangles)]
     if not np.isfinite(used).all():
         raise SceneError(f"renderer.geometry: {name} has points that are not finite (NaN or Inf)")
-    from .scene.settings import WORLD_RANGE
-
     reach = float(np.abs(used).max())
     if reach > WORLD_RANGE[1]:  # beyond, the float64 test's products overflow (and float32 GL's)
         raise SceneError(f"renderer.geometry: {name} has points {reach:.3g} world units from the origin, beyond "
@@ -450,8 +452,6 @@ def surface_rgba(scene, rays) -> np.ndarray | None:
     meshes = scene_meshes(scene.renderer)
     if not meshes:
         return None
-    from .reference.shading import blinn_phong
-
     t, normal, colour = first_hits(meshes, rays.origins, rays.directions)
     seen = np.isfinite(t)
     shading = scene.renderer.shading
@@ -468,6 +468,15 @@ def over_surface(rgba: np.ndarray, surface: np.ndarray | None) -> np.ndarray:
         return rgba
     surface = surface.reshape(rgba.shape)
     return rgba + (1.0 - rgba[..., 3:4]) * surface
+
+
+def chord_lengths(scene) -> np.ndarray:
+    """``(H, W)``: each pixel's ray's length inside the field's box (from the near plane, inside the
+    clipped region, before a mesh; 0 for a miss), the length an average divides by (world units)."""
+    rays = RayBatch.for_camera(scene.camera, scene.image.width, scene.image.height, scene.field.bounds,
+                               clip=ClipRegion.of(scene.renderer))
+    surface_rgba(scene, rays)  # meshes end the chords
+    return np.maximum(rays.t1 - rays.t0, 0.0).reshape(scene.image.height, scene.image.width)
 
 
 def icosphere(centre, radius: float, subdivisions: int = 3) -> tuple[np.ndarray, np.ndarray]:

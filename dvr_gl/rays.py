@@ -109,14 +109,3 @@ class RayBatch:
         """World points at parameters ``t`` (``(len(rows), m)``) along rays ``rows``, as ``(-1, 3)``."""
         return (self.origins[rows, None, :] + t[..., None] * self.directions[rows, None, :]).reshape(-1, 3)
 
-
-def chord_lengths(scene) -> np.ndarray:
-    """``(H, W)``: each pixel's ray's length inside the field's box (from the near plane, inside the
-    clipped region, before a mesh; 0 for a miss), the length an average divides by."""
-    from .clipping import ClipRegion
-    from .geometry import surface_rgba
-
-    rays = RayBatch.for_camera(scene.camera, scene.image.width, scene.image.height, scene.field.bounds,
-                               clip=ClipRegion.of(scene.renderer))
-    surface_rgba(scene, rays)  # meshes end the chords
-    return np.maximum(rays.t1 - rays.t0, 0.0).reshape(scene.image.height, scene.image.width)

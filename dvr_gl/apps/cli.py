@@ -105,6 +105,7 @@ def _main(argv: list[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(joined_negative_axes(sys.argv[1:] if argv is None else argv))
     args.command_line = "dvr " + " ".join(sys.argv[1:] if argv is None else argv)
+    args.parser = parser  # what dvr completion describes
     args.started = started
     args.quiet = getattr(args, "quiet", False)
     args.verbose = getattr(args, "verbose", 0)

@@ -19,17 +19,16 @@ def add_arguments(p):
     p.add_argument("shell", choices=SHELLS, help="the shell to complete in")
 
 
-def script(shell: str) -> str:
-    """The completion script for ``shell``, generated from :func:`dvr_gl.apps.cli.build_parser`."""
+def script(parser, shell: str) -> str:
+    """The completion script for ``shell`` of ``parser`` (dvr's, from :func:`dvr_gl.apps.cli.build_parser`, which
+    hands itself in: the command line imports its subcommands, never the other way round)."""
     try:
         import shtab
     except ImportError:
         raise DvrError("shell completion needs shtab: pip install 'dvr-gl[completion]'") from None
-    from .cli import build_parser
-
-    return shtab.complete(build_parser(), shell=shell)
+    return shtab.complete(parser, shell=shell)
 
 
 def run(args) -> int:
-    print(script(args.shell))
+    print(script(args.parser, args.shell))
     return 0

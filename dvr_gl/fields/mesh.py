@@ -24,6 +24,7 @@ import functools
 
 import numpy as np
 
+from ..checks import WORLD_RANGE
 from ..errors import SceneError, VolumeError
 from .mesh_locate import CellLocator
 from .mesh_rays import FacePlanes, ray_pieces
@@ -121,12 +122,10 @@ class TetMesh:
 
 
 def check_reach(name: str, used: np.ndarray) -> None:
-    """The points the cells use lie within the world range (:data:`dvr_gl.scene.settings.WORLD_RANGE`) and
+    """The points the cells use lie within the world range (:data:`dvr_gl.checks.WORLD_RANGE`) and
     span more than its least length: beyond it the volumes and edge lengths that judge degenerate
     cells overflow or underflow (a point at 1e300 made every cell touching it 'of zero volume', left
     out without a word; a mesh scaled by 1e-300 was 'all zero volume')."""
-    from ..scene.settings import WORLD_RANGE
-
     small, large = WORLD_RANGE
     reach = float(np.abs(used).max())
     if reach > large:

@@ -105,10 +105,9 @@ def resample(mesh, samples: int) -> ResampledMesh:
 def resampled_scene(scene, samples: int, volume: ResampledMesh | None = None, **renderer_changes):
     """``scene`` (of a mesh) with the mesh resampled (or ``volume``, its resampling made before), the
     transfer function made transparent at its outside value, the camera kept, and the renderer changed
-    as asked (e.g. ``name="raycast"``)."""
-    from ..scene.resolve import resolve_scene
-
+    as asked (e.g. ``name="raycast"``).  The scene re-resolves itself around the new field
+    (:meth:`dvr_gl.scene.resolve.Scene.replace`): the fields sit below the scene contract and import none of it."""
     volume = resample(scene.field, samples) if volume is None else volume
-    resolved = resolve_scene(scene.spec, field=volume, volume_source=scene.volume_source, camera=scene.camera,
+    resolved = scene.replace(field=volume, volume_source=scene.volume_source, camera=scene.camera,
                              transfer_function=volume.transparent_outside(scene.transfer_function))
     return resolved.with_renderer(**renderer_changes) if renderer_changes else resolved

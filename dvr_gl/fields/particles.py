@@ -36,9 +36,9 @@ import math
 import numpy as np
 
 from .. import progress
+from ..checks import WORLD_RANGE
 from ..errors import SceneError, VolumeError
 from ..sandbox import check_bytes
-from ..scene.settings import WORLD_RANGE
 from . import sph
 from .ragged import joined_knots, ranges, ranks
 

@@ -11,10 +11,10 @@ import numpy as np
 from ..fields import filter_parameters, gradient_epsilon, reconstruct
 from ..preintegration import preintegrate, shortened
 from ..scene.model import CLASSIFIED_ALONG_RAY
+from ..shading import blinn_phong, normals_from_gradient
 from ..transfer_function import TransferFunction
 from .classification import PostClassifier, PreClassifier
 from .scattering import SingleScattering
-from .shading import blinn_phong, normals_from_gradient
 
 
 def depth_cue(scene):

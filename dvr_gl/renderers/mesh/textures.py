@@ -15,11 +15,11 @@ from ... import limits
 from ...clipping import ClipRegion
 from ...errors import SceneError
 from ...fields.mesh_rays import FacePlanes
+from ...geometry import chord_lengths
 from ...gl.context import create_context, make_current, release_context
 from ...gl.geometry import box_corners, clip_planes, gl_matrix, projection_matrix, view_matrix
 from ...gl.lights import set_uniform
 from ...gl.shaders import release_programs
-from ...rays import chord_lengths
 from ...reference.converged import collocation
 from ...transfer_function import extinction_from_alpha, segment_opacity
 from ..base import Renderer

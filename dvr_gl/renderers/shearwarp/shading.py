@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...fields import gradient_epsilon
-from ...reference.shading import blinn_phong
+from ...shading import blinn_phong
 
 #: Octahedral cells per side: 16384 directions (15 bits with the "no normal" code; Lacroute used 13);
 #: a unit vector lies within 1.89 degrees of its code's direction, 0.67 on average (measured over 2e6

@@ -42,7 +42,7 @@ from ...fields.ragged import ranks
 from ...fields.reconstruction import GaussianKernel, _erf
 from ...geometry import over_surface, surface_rgba
 from ...rays import RayBatch
-from ...reference.shading import blinn_phong, normals_from_gradient
+from ...shading import blinn_phong, normals_from_gradient
 from ...transfer_function import projected_rgba, segment_opacity, xray_rgba
 from . import low_pass
 from .particles import SUBPIXEL_RADIUS, ParticleSplats

@@ -18,8 +18,8 @@ import numpy as np
 
 from ... import limits
 from ...clipping import ClipRegion
+from ...geometry import chord_lengths
 from ...gl.shaders import create_program, shader_root
-from ...rays import chord_lengths
 from ...scene.model import GAUSSIAN_RADIUS
 from ...transfer_function import projected_rgba, xray_rgba
 from ..grid.gl_base import GLVolumeRenderer, TableTexture, shading_defines

@@ -1,4 +1,4 @@
-// Blinn-Phong from the gradient (dvr_gl.reference.shading): normal = -gradient / |gradient|;
+// Blinn-Phong from the gradient (dvr_gl.shading): normal = -gradient / |gradient|;
 // a gradient weaker than u_gradient_epsilon (rounding noise in homogeneous regions) gives a
 // zero normal, hence ambient light only; TWO_SIDED flips the normal toward the viewer.
 // Light i: xyz = direction toward the light (world), w = 1 for a headlight (toward the eye).

@@ -1,4 +1,5 @@
-"""Blinn-Phong shading from the gradient, in float64 (the reference's version).
+"""Blinn-Phong shading from the gradient, in float64 (the references' and the CPU paths' version; the
+shaders' is ``dvr_gl/gl/shaders/common/shading.glsl``).
 
 ``normal = -gradient / |gradient|`` (pointing toward lower values, i.e. out of
 bright structures).  A gradient weaker than ``Volume.gradient_epsilon`` (1e-5 of
@@ -18,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..scene.model import ShadingSpec
+from .scene.model import ShadingSpec
 
 
 def normals_from_gradient(gradient: np.ndarray, epsilon: float = 0.0) -> np.ndarray:
