@@ -19,6 +19,9 @@ import dvr_gl
 from dvr_gl import Volume
 from dvr_gl.errors import DvrError, SceneError
 from dvr_gl.orientation import ANATOMICAL_VIEWS, axis_letters, to_patient_frame, to_volume_frame
+from dvr_gl.renderers import registry
+from judges import DISCRETE
+from judges import renderers as declaring
 
 RNG = np.random.default_rng(7)
 DATA = np.zeros((12, 10, 8), np.float32)  # [z, y, x]
@@ -55,21 +58,29 @@ def image(volume, renderer, **camera):
     return np.asarray(dvr_gl.render(volume, renderer=renderer, size=SIZE, transfer_function=TF, **camera))
 
 
+#: the GL renderers whose samples are points along the rays or on planes (a sample distance, or the
+#: voxel planes), which both storages put at the same places (splatting's kernels are not)
+SAMPLED = [n for n in declaring(kind="grid", gl=True)
+           if registry.plugin(n).fixed_planes or registry.plugin(n).declared("sample_distance") is not None]
+
+
 @pytest.mark.parametrize("pair", [mirrored_pair, permuted_pair], ids=["mirrored", "permuted"])
-@pytest.mark.parametrize("renderer", ["reference", "raycast", "shearwarp", "slicing3d", "slicing2d"])
+@pytest.mark.parametrize("renderer", [DISCRETE, *SAMPLED])
 @pytest.mark.parametrize("camera", [{}, {"azimuth": 50.0, "elevation": -70.0, "projection": "orthographic"}],
                          ids=["default", "below"])
 def test_a_stored_orientation_renders_as_the_same_patient_stored_plainly(pair, renderer, camera):
-    if renderer == "shearwarp" and pair is permuted_pair and camera:
-        # Shear-warp resamples voxel slices: seen in parallel along the index x axis it differs from the
-        # same view along the index z axis of the transposed storage by up to 0.06 here (one sample more
-        # or less at slice edges; both 0.27 from the reference on this 8x10x12 volume), so the storages
-        # are not interchangeable for it.  Perspective views agree exactly, as does the mirrored storage.
-        pytest.skip("shear-warp's parallel views depend on which index axis is principal (see comment)")
     a, b = pair()
     ia, ib = image(a, renderer, **camera), image(b, renderer, **camera)
     assert ia[..., 3].max() > 0.3  # the markers are in view
-    tolerance = 0.0 if renderer == "reference" else GL_TOLERANCE
+    plugin = registry.plugin(renderer)
+    tolerance = 0.0 if plugin.reference else GL_TOLERANCE
+    if plugin.fixed_planes and pair is permuted_pair and camera:
+        # A renderer of fixed planes resamples voxel slices along the principal index axis: seen in
+        # parallel along the index x axis, shear-warp differs from the same view along the index z axis
+        # of the transposed storage by up to 0.06 here (one sample more or less at slice edges; both 0.27
+        # from the reference on this 8x10x12 volume).  Its images agree within what it declares on the
+        # closed forms' smooth sphere (0.07); the 2D slicer's within GL_TOLERANCE.
+        tolerance = max(tolerance, plugin.tolerances["sphere"])
     assert np.abs(ia - ib).max() <= tolerance
 
 
@@ -80,8 +91,8 @@ def test_an_oblique_orientation_is_the_camera_turned_the_other_way():
     d = np.array([[math.cos(t), -math.sin(t), 0.0], [math.sin(t), math.cos(t), 0.0], [0.0, 0.0, 1.0]])
     turned = Volume(DATA, spacing=SPACING, origin=ORIGIN, direction=d)
     plain = Volume(DATA, spacing=SPACING, origin=ORIGIN)
-    ia = image(turned, "reference", azimuth=40.0, elevation=15.0)
-    ib = image(plain, "reference", azimuth=10.0, elevation=15.0)
+    ia = image(turned, DISCRETE, azimuth=40.0, elevation=15.0)
+    ib = image(plain, DISCRETE, azimuth=10.0, elevation=15.0)
     assert ia[..., 3].max() > 0.3
     assert np.abs(ia - ib).max() < 1e-9  # float64 throughout: the same rays up to rounding
 
@@ -125,7 +136,7 @@ def marked_head(storage: str) -> Volume:
     ("inferior", True, True),     # from the feet, anterior at the top: their left on the image's right
 ])
 def test_anatomical_views_show_the_patient_upright(storage, view, right, top):
-    rgba = np.asarray(dvr_gl.render(marked_head(storage), renderer="reference", size=(32, 32), view=view,
+    rgba = np.asarray(dvr_gl.render(marked_head(storage), renderer=DISCRETE, size=(32, 32), view=view,
                                     projection="orthographic", transfer_function=[[0, 0, 0, 0, 0], [1, 1, 1, 1, 1]]))
     col, row = centroid(rgba)
     assert (col > 0.5) == right and abs(col - 0.5) > 0.15
@@ -175,8 +186,8 @@ def test_a_volume_file_where_the_scene_goes_and_view_and_up(tmp_path):
 def test_up_flag_turns_the_image_over(tmp_path):
     """--up=-z shows what --up z shows, upside down and mirrored (the eye is the same, up reversed)."""
     vol = marked_head("lps")
-    a = np.asarray(dvr_gl.render(vol, renderer="reference", size=(20, 20), up=(0, 0, 1), view="anterior"))
-    b = np.asarray(dvr_gl.render(vol, renderer="reference", size=(20, 20), up=(0, 0, -1), view="anterior"))
+    a = np.asarray(dvr_gl.render(vol, renderer=DISCRETE, size=(20, 20), up=(0, 0, 1), view="anterior"))
+    b = np.asarray(dvr_gl.render(vol, renderer=DISCRETE, size=(20, 20), up=(0, 0, -1), view="anterior"))
     # with up reversed at azimuth 0 the eye moves to +y (the orbit's front is built from up): compare the
     # marker's row instead of the whole image
     assert (centroid(a)[1] < 0.5) != (centroid(b)[1] < 0.5)
