@@ -54,8 +54,9 @@ def permuted_pair():
     return a, b
 
 
-def image(volume, renderer, **camera):
-    return np.asarray(dvr_gl.render(volume, renderer=renderer, size=SIZE, transfer_function=TF, **camera))
+def image(volume, renderer, ctx=None, **camera):
+    """The rendered RGBA; a GL renderer draws in ``ctx`` (the session's context), else in one of its own."""
+    return np.asarray(dvr_gl.render(volume, renderer=renderer, size=SIZE, transfer_function=TF, ctx=ctx, **camera))
 
 
 #: the GL renderers whose samples are points along the rays or on planes (a sample distance, or the
@@ -68,9 +69,9 @@ SAMPLED = [n for n in declaring(kind="grid", gl=True)
 @pytest.mark.parametrize("renderer", [DISCRETE, *SAMPLED])
 @pytest.mark.parametrize("camera", [{}, {"azimuth": 50.0, "elevation": -70.0, "projection": "orthographic"}],
                          ids=["default", "below"])
-def test_a_stored_orientation_renders_as_the_same_patient_stored_plainly(pair, renderer, camera):
+def test_a_stored_orientation_renders_as_the_same_patient_stored_plainly(gl_context, pair, renderer, camera):
     a, b = pair()
-    ia, ib = image(a, renderer, **camera), image(b, renderer, **camera)
+    ia, ib = image(a, renderer, gl_context, **camera), image(b, renderer, gl_context, **camera)
     assert ia[..., 3].max() > 0.3  # the markers are in view
     plugin = registry.plugin(renderer)
     tolerance = 0.0 if plugin.reference else GL_TOLERANCE
