@@ -15,6 +15,7 @@ import math
 import os
 import time
 import tomllib
+import types
 import typing
 from pathlib import Path
 
@@ -31,20 +32,19 @@ from dvr_gl.image import (
     write_image,
     write_text,
 )
-from dvr_gl.orientation import ANATOMICAL_VIEWS
 from dvr_gl.phantoms import DEMOS, demo_scene
 from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.sandbox import Sandbox, active, parse_bytes
-from dvr_gl.scene.model import SCATTERING_METHODS
 from dvr_gl.scene.resolve import is_volume_path, load_scene
-from dvr_gl.scene.schema import CameraSpec, VolumeSpec
+from dvr_gl.scene.schema import RendererTable, SceneSpec, renderer_spec_class
 from dvr_gl.transfer_function import PRESETS, is_transfer_function_file
 
 log = logging.getLogger(__name__)
 
 HELP = "render a scene, a volume file or the demo to an image (.png .exr .tif)"
 
-# flag destination -> scene key, for the flags of the other tables (the renderer's come from the registry)
+# The scene key each scene flag sets (flag destination -> key); the flag's type, choices and on/off form are
+# the key's own, read from the schema (scene_flag).  The renderer settings' flags come from the registry.
 _SCENE_KEYS = {
     "renderer": "renderer.name", "shading": "renderer.shading.enabled",
     "scattering": "renderer.scattering.enabled", "scattering_method": "renderer.scattering.method",
@@ -60,9 +60,34 @@ SETTING_DEST = "setting_"
 MAX_FRAMES = 10_000  # a renderer setting's flag stores into setting_<name>
 
 
-def _choices(spec, key: str) -> tuple:
-    """The choices a scene-file key allows (from the schema)."""
-    return next(f.metadata["choices"] for f in dataclasses.fields(spec) if f.name == key)
+def scene_flag(group, flag: str, **options):
+    """Add ``flag``, which sets the scene key :data:`_SCENE_KEYS` names for it, typed as the schema types that
+    key: a number, an integer or a name (with its choices), three of them, or true/false as ``--x/--no-x``;
+    ``options``: its help, a metavar, or a parser of its own (``--up``), which takes the value whole."""
+    kind, allowed = _schema_type(_SCENE_KEYS[flag[2:].replace("-", "_")])
+    if kind is bool:
+        return group.add_argument(flag, action=argparse.BooleanOptionalAction, default=None, **options)
+    if typing.get_origin(kind) is tuple and "type" not in options:
+        options = {"nargs": len(typing.get_args(kind)), "type": typing.get_args(kind)[0], **options}
+    elif kind in (int, float):
+        options = {"type": kind, **options}
+    if allowed:
+        options = {"choices": allowed, **options}
+    return group.add_argument(flag, **options)
+
+
+def _schema_type(key: str):
+    """(the type, the choices) of a dotted scene key, from the schema's tables (Optional stripped)."""
+    table = SceneSpec
+    *path, name = key.split(".")
+    for part in path:
+        table = typing.get_type_hints(table)[part]
+        table = renderer_spec_class() if table is RendererTable else table
+    kind = typing.get_type_hints(table)[name]
+    inner = [t for t in typing.get_args(kind) if t is not type(None)] if typing.get_origin(kind) in (
+        typing.Union, types.UnionType) else [kind]
+    field = next(f for f in dataclasses.fields(table) if f.name == name)
+    return inner[0], field.metadata.get("choices")
 
 
 def renderers_epilog() -> str:
@@ -87,7 +112,7 @@ def add_arguments(p: argparse.ArgumentParser):
                         "--frames in one file, 8-bit sRGB): .gif, or .mp4, .webm, .webp with the extra 'video'")
     p.add_argument("--demo", nargs="?", const="shepp-logan", choices=list(DEMOS),
                    help="render a built-in phantom (default shepp-logan)")
-    p.add_argument("--volume", metavar="FILE", help="volume file (overrides the scene's)")
+    scene_flag(p, "--volume", metavar="FILE", help="volume file (overrides the scene's)")
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
     p.add_argument("--save-scene", metavar="FILE", help="also write the effective scene (TOML)")
     p.add_argument("--frames", type=int, metavar="N",
@@ -111,49 +136,47 @@ def add_arguments(p: argparse.ArgumentParser):
                    "(default: half the physical memory)")
     g = p.add_argument_group("scene overrides")
     g.add_argument("--size", metavar="WxH", help="image size, e.g. 512x512 (or 512)")
-    g.add_argument("--renderer", metavar="NAME",
-                   help="renderer: " + "; ".join(f"{n} ({q.description})" for n, q in registry.plugins().items()))
-    g.add_argument("--shading", action=argparse.BooleanOptionalAction, default=None,
-                   help="Blinn-Phong shading from the gradient")
-    g.add_argument("--scattering", action=argparse.BooleanOptionalAction, default=None,
-                   help="single scattering of [renderer.scattering]'s lights, with shadows, instead of gradient "
-                        "shading (docs/scattering.md)")
-    g.add_argument("--scattering-method", choices=SCATTERING_METHODS,
-                   help="how the GPU finds the light's transmittance: a shadow ray per sample, or a light volume")
+    scene_flag(g, "--renderer", metavar="NAME",
+               help="renderer: " + "; ".join(f"{n} ({q.description})" for n, q in registry.plugins().items()))
+    scene_flag(g, "--shading", help="Blinn-Phong shading from the gradient")
+    scene_flag(g, "--scattering", help="single scattering of [renderer.scattering]'s lights, with shadows, instead "
+                                       "of gradient shading (docs/scattering.md)")
+    scene_flag(g, "--scattering-method",
+               help="how the GPU finds the light's transmittance: a shadow ray per sample, or a light volume")
     g.add_argument("--mesh", action="append", default=[], metavar="FILE[:R,G,B]",
                    help="an opaque mesh (OBJ, PLY, STL, VTK) in the volume's world, optionally its linear colour; "
                         "repeatable (docs/geometry.md)")
-    g.add_argument("--azimuth", type=float, help="degrees about the up axis")
-    g.add_argument("--elevation", type=float, help="degrees above the horizontal plane")
-    g.add_argument("--distance", type=float, help="eye to target, world units")
-    g.add_argument("--projection", choices=_choices(CameraSpec, "projection"))
-    g.add_argument("--fov", type=float, help="vertical field of view, degrees")
-    g.add_argument("--view", choices=list(ANATOMICAL_VIEWS),
-                   help="an anatomical view, patient upright (the file's orientation applied; docs/orientation.md)")
-    g.add_argument("--up", metavar="X,Y,Z|[-]x|y|z", type=parse_up,
-                   help="the up direction (world; default +z, superior): an axis, e.g. -z, or 0,0,-1")
-    g.add_argument("--transfer-function", metavar="NAME|FILE",
-                   help=f"a preset, any case ({', '.join(list(PRESETS)[:5])}, 3D Slicer's: CT-AAA, CT-Bone, "
-                        f"MR-Default, ...), a matplotlib colour map (inferno, ...), or a Slicer .vp/.xml or ParaView "
-                        f".json file (docs/transfer-functions.md)")
-    g.add_argument("--rescale-intercept", type=float, help="CT presets: HU = data + intercept")
+    scene_flag(g, "--azimuth", help="degrees about the up axis")
+    scene_flag(g, "--elevation", help="degrees above the horizontal plane")
+    scene_flag(g, "--distance", help="eye to target, world units")
+    scene_flag(g, "--projection")
+    scene_flag(g, "--fov", help="vertical field of view, degrees")
+    scene_flag(g, "--view",
+               help="an anatomical view, patient upright (the file's orientation applied; docs/orientation.md)")
+    scene_flag(g, "--up", metavar="X,Y,Z|[-]x|y|z", type=parse_up,
+               help="the up direction (world; default +z, superior): an axis, e.g. -z, or 0,0,-1")
+    scene_flag(g, "--transfer-function", metavar="NAME|FILE",
+               help=f"a preset, any case ({', '.join(list(PRESETS)[:5])}, 3D Slicer's: CT-AAA, CT-Bone, "
+                    f"MR-Default, ...), a matplotlib colour map (inferno, ...), or a Slicer .vp/.xml or ParaView "
+                    f".json file (docs/transfer-functions.md)")
+    scene_flag(g, "--rescale-intercept", help="CT presets: HU = data + intercept")
     g.add_argument("--background", metavar="R,G,B[,A]", help="background colour, linear, 0..1")
     g.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="set any scene key, e.g. renderer.shading.shininess=20 (value in TOML syntax)")
     add_setting_arguments(p.add_argument_group("renderer settings (docs/scene-files.md; which renderer reads "
                                                "which: dvr info)"))
     v = p.add_argument_group("volume file options (raw files need --dims and --dtype)")
-    v.add_argument("--format", choices=_choices(VolumeSpec, "format"), help="reader (default: by suffix)")
-    v.add_argument("--dims", type=int, nargs=3, metavar=("NX", "NY", "NZ"))
-    v.add_argument("--dtype", help="raw sample type: uint8, int16, uint16, float32, ...")
-    v.add_argument("--endian", choices=_choices(VolumeSpec, "endian"))
-    v.add_argument("--header-bytes", type=int)
-    v.add_argument("--spacing", type=float, nargs=3, metavar=("SX", "SY", "SZ"))
-    v.add_argument("--nan-value", type=float, help="replace NaN/Inf in the data by this value")
-    v.add_argument("--array", metavar="NAME", help="meshes: the scalar array to render")
-    v.add_argument("--solution", metavar="FILE", help="PLOT3D grids: the q (solution) file")
-    v.add_argument("--resample", type=int, metavar="N", help="meshes: resample onto a grid of N points along the "
-                                                             "longest axis, for the grid renderers")
+    scene_flag(v, "--format", help="reader (default: by suffix)")
+    scene_flag(v, "--dims", metavar=("NX", "NY", "NZ"))
+    scene_flag(v, "--dtype", help="raw sample type: uint8, int16, uint16, float32, ...")
+    scene_flag(v, "--endian")
+    scene_flag(v, "--header-bytes")
+    scene_flag(v, "--spacing", metavar=("SX", "SY", "SZ"))
+    scene_flag(v, "--nan-value", help="replace NaN/Inf in the data by this value")
+    scene_flag(v, "--array", metavar="NAME", help="meshes: the scalar array to render")
+    scene_flag(v, "--solution", metavar="FILE", help="PLOT3D grids: the q (solution) file")
+    scene_flag(v, "--resample", metavar="N", help="meshes: resample onto a grid of N points along the longest "
+                                                   "axis, for the grid renderers")
 
 
 def add_setting_arguments(g):
@@ -223,9 +246,10 @@ def overrides_from(args) -> dict:
         value = getattr(args, dest, None)
         if value is not None:
             out[key] = list(value) if isinstance(value, tuple | list) else value
-    for dest, value in vars(args).items():
-        if dest.startswith(SETTING_DEST) and value is not None:
-            out["renderer." + dest.removeprefix(SETTING_DEST)] = value
+    for setting in registry.all_settings():  # each flag stored its value under its setting's name
+        value = getattr(args, SETTING_DEST + setting.name, None)
+        if value is not None:
+            out[setting.key] = value
     if is_transfer_function_file(out.get("transfer_function.preset")):
         # absolute, relative to where dvr runs (links are followed when it is read: a link loop is one line there)
         out["transfer_function.file"] = os.path.abspath(os.path.expanduser(out.pop("transfer_function.preset")))

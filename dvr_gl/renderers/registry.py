@@ -166,6 +166,10 @@ def _meta(s: Setting) -> dict:
     meta = {"choices": s.choices, "doc": s.doc} if s.choices else {"doc": s.doc}
     if s.aliases:
         meta["aliases"] = s.aliases
+    if s.excludes:  # read by dvr_gl.scene.model.exclusive_keys, as the other tables' exclusions
+        meta["excludes"] = s.excludes
+    if s.owner:  # a renderer's own key, also written [renderer.OWNER] (dvr_gl.scene.schema.owned_keys)
+        meta["owner"] = s.owner
     return meta
 
 

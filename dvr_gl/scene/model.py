@@ -7,6 +7,7 @@ use these; the model never imports the schema (the schema imports the model).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Optional, Union
 
@@ -41,16 +42,34 @@ Vec3 = tuple[float, float, float]
 Vec4 = tuple[float, float, float, float]
 
 
-def choices(*values, default, doc: str = ""):
-    """A dataclass field restricted to ``values`` (scene parsing checks them), with one line of documentation."""
-    return field(default=default, metadata={"choices": values, "doc": doc})
+def choices(*values, default, doc: str = "", excludes: tuple = ()):
+    """A dataclass field restricted to ``values`` (scene parsing checks them), with one line of documentation
+    (``excludes``: as :func:`doc`'s)."""
+    return field(default=default, metadata=_metadata(doc, excludes, choices=values))
 
 
-def doc(default, text: str, factory=None):
-    """A dataclass field with one line of documentation (the scene-format reference shows it)."""
+def doc(default, text: str, factory=None, excludes: tuple = ()):
+    """A dataclass field with one line of documentation (the scene-format reference shows it).
+
+    excludes: the keys of the same table that this one replaces (:func:`exclusive_keys`)."""
     if factory is not None:
-        return field(default_factory=factory, metadata={"doc": text})
-    return field(default=default, metadata={"doc": text})
+        return field(default_factory=factory, metadata=_metadata(text, excludes))
+    return field(default=default, metadata=_metadata(text, excludes))
+
+
+def _metadata(text: str, excludes: tuple, **more) -> dict:
+    return {**more, "doc": text, **({"excludes": tuple(excludes)} if excludes else {})}
+
+
+def exclusive_keys(table, key: str) -> tuple[str, ...]:
+    """The keys of dataclass ``table`` (a class or an instance) that ``key`` excludes: those it declares
+    (its field's ``excludes`` metadata) and those that declare it.  Giving one of a scene's keys (an
+    override, a setting changed at run time) drops the others; giving two at once is refused.  The one
+    reading of the exclusions that scene files, flags, the API and the viewer share."""
+    fields = dataclasses.fields(table)
+    own = [k for f in fields if f.name == key for k in f.metadata.get("excludes", ())]
+    others = [f.name for f in fields if key in f.metadata.get("excludes", ())]
+    return tuple(dict.fromkeys(k for k in own + others if k != key))
 
 
 @dataclass

@@ -16,7 +16,7 @@ import typing
 from pathlib import Path
 
 from ..renderers import registry
-from .model import LightSpec, ShadingSpec
+from .model import LightSpec, ShadingSpec, exclusive_keys
 from .schema import CameraSpec, ImageSpec, TransferFunctionSpec, VolumeSpec
 
 INTRO = """\
@@ -72,6 +72,8 @@ camera as the orbit or eye it used, the volume path relative to the saved file, 
 Rendering it again repeats the image.
 """
 
+#: The titles of the shared settings' groups (:data:`dvr_gl.scene.settings.SHARED_GROUPS`); any other group
+#: is a renderer's own.
 GROUPS = {"model": "The model: what the picture should be (every renderer reads these; one that supports fewer "
                    "choices refuses the others)",
           "sampling": "Sampling: how closely a renderer approaches the picture",
@@ -112,6 +114,12 @@ def _type(tp) -> str:
     return {float: "number", int: "integer", bool: "true/false", str: "string"}.get(tp, str(tp))
 
 
+def _replaces(cls, key: str, prefix: str) -> str:
+    """The keys that ``key`` excludes (:func:`dvr_gl.scene.model.exclusive_keys`), as the page says it."""
+    others = exclusive_keys(cls, key)
+    return f"; replaces {', '.join(f'`{prefix}{k}`' for k in others)}" if others else ""
+
+
 def _table_rows(cls, prefix: str) -> list[str]:
     hints = typing.get_type_hints(cls)
     rows = []
@@ -121,6 +129,7 @@ def _table_rows(cls, prefix: str) -> list[str]:
         meaning = f.metadata.get("doc", "")
         if choices:
             meaning += f" (one of {', '.join(f'`{c}`' for c in choices)})"
+        meaning += _replaces(cls, f.name, prefix)
         rows.append(f"| `{prefix}{f.name}` | {_type(hints[f.name])} | {_default(default)} | {_cell(meaning)} |")
     return rows
 
@@ -146,7 +155,11 @@ def _renderer_tables() -> list[str]:
            + ", ".join(f"`{n}` ({_cell(p.description)})" for n, p in plugins.items())
            + ". The other keys are the settings the registered renderers declare; each renderer reads those "
              "listed as read by it and ignores the others, except that it refuses, with the reason, a model "
-             "setting it does not support (`dvr info` lists what each renderer reads).", ""]
+             "setting it does not support (`dvr info` lists what each renderer reads). A renderer's own settings "
+             "(the tables *read by one renderer only*) may also be written in its own table, e.g. "
+             "`[renderer.raycast]` with `tolerance = 0.01`: that spelling is accepted only where `renderer.name` "
+             "is that renderer, and refuses a key it does not own. The flat spelling (`renderer.tolerance`) is the "
+             "canonical one: the flags set it and `--save-scene` writes it; a key given in both is refused.", ""]
     groups: dict[str, list] = {}
     for s in registry.all_settings():
         if s.group == "model" or any(p.declared(s.name) is not None for p in plugins.values()):
@@ -154,7 +167,11 @@ def _renderer_tables() -> list[str]:
     order = [g for g in GROUPS if g in groups] + sorted(g for g in groups if g not in GROUPS)
     for group in order:
         title = GROUPS.get(group, f"Read by `{group}` only")
-        out += [f"### {title}", "", "| key | type | default | meaning | read by |", "|---|---|---|---|---|"]
+        out += [f"### {title}", ""]
+        if group not in GROUPS:  # a renderer's own settings (dvr_gl.scene.settings.Setting.owner)
+            out += [f"Also written `[renderer.{group}]` (`renderer.{group}.{groups[group][0].name}`), where "
+                    f"`renderer.name = \"{group}\"`.", ""]
+        out += ["| key | type | default | meaning | read by |", "|---|---|---|---|---|"]
         for s in groups[group]:
             readers = [n for n, p in plugins.items() if p.declared(s.name) is not None]
             meaning = s.doc + (f" ({s.units})" if s.units else "")
@@ -164,6 +181,7 @@ def _renderer_tables() -> list[str]:
                         if p.declared(s.name) is not None and p.declared(s.name).choices != s.choices]
             if narrowed:
                 meaning += f" (supported: {'; '.join(narrowed)})"
+            meaning += _replaces(registry.renderer_spec_class(), s.name, "renderer.")
             read_by = "all" if len(readers) == len(plugins) else ", ".join(readers) or "-"
             out.append(f"| `renderer.{s.name}` | {_type(s.type)} | {_default(s.default_value())} | "
                        f"{_cell(meaning)} | {read_by} |")

@@ -18,6 +18,7 @@ import copy
 import dataclasses
 import os
 import tomllib
+import typing
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,6 +26,7 @@ import numpy as np
 
 from .. import phantoms
 from ..camera import DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Camera, framing_distance, framing_view_height
+from ..checks import WORLD_RANGE
 from ..errors import DvrError, SceneError
 from ..fields import diagonal
 from ..io import load_field
@@ -39,32 +41,23 @@ from ..transfer_function import (
     preset_property,
     read_transfer_function_file,
 )
+from .model import exclusive_keys
 from .schema import (
     CameraSpec,
     ImageSpec,
+    RendererTable,
     SceneSpec,
     TransferFunctionSpec,
     VolumeSpec,
+    own_settings,
+    owned_keys,
     parse_table,
     renderer_spec_class,
     spec_to_dict,
     tables_as_specs,
 )
-from .settings import FILTER, WORLD_RANGE, check_albedo
+from .settings import FILTER, check_albedo
 from .settings import resolve_renderer as resolve_settings
-
-# Keys that replace one another when overridden (giving one drops the others).
-_EXCLUSIVE = {
-    ("volume", "path"): ("demo",), ("volume", "demo"): ("path",),
-    ("transfer_function", "preset"): ("points", "file", "name", "stretch"),
-    ("transfer_function", "points"): ("preset", "file", "name", "stretch"),
-    ("transfer_function", "file"): ("points", "preset"),
-    ("camera", "view"): ("azimuth", "elevation"), ("camera", "azimuth"): ("view",),
-    ("camera", "elevation"): ("view",),
-    ("renderer", "sample_distance"): ("sample_distance_voxels", "tolerance"),
-    ("renderer", "sample_distance_voxels"): ("sample_distance", "tolerance"),
-    ("renderer", "tolerance"): ("sample_distance", "sample_distance_voxels"),
-}
 
 
 def read_scene_dict(path: Path) -> dict:
@@ -85,24 +78,66 @@ def read_scene_dict(path: Path) -> dict:
 
 
 def apply_overrides(raw: dict, overrides: dict[str, object]) -> dict:
-    """A copy of the scene dict with dotted keys (``"renderer.filter"``) set."""
+    """A copy of the scene dict with dotted keys (``"renderer.filter"``, ``"renderer.raycast.tolerance"``) set.
+    A key replaces its other spelling and the keys it excludes (:func:`dvr_gl.scene.model.exclusive_keys`:
+    ``camera.view`` the orbit's angles, a sample distance a tolerance); two that exclude each other given
+    together are refused."""
     out = copy.deepcopy(raw)
     for dotted, value in overrides.items():
         parts = dotted.split(".")
         if len(parts) < 2 or not all(parts):
             raise SceneError(f"override {dotted!r}: use section.key, e.g. renderer.filter")
+        table, key = _overridden(parts)
+        if key is not None:
+            _drop(out, parts[0], key, table, keep=parts)
         node = out
         for p in parts[:-1]:
             node = node.setdefault(p, {})
             if not isinstance(node, dict):
                 raise SceneError(f"override {dotted!r}: {p} is not a table")
         node[parts[-1]] = copy.deepcopy(value)  # a later dotted key must not change the caller's table
-        for other in _EXCLUSIVE.get((parts[0], parts[-1]), ()) if len(parts) == 2 else ():
-            if overrides.get(f"{parts[0]}.{other}") is not None and value is not None:
+        for other in exclusive_keys(table, key) if key is not None else ():
+            given = [k for k in overrides if _overridden(k.split("."))[1] == other and k.startswith(parts[0] + ".")]
+            if value is not None and any(overrides[k] is not None for k in given):
                 raise SceneError(f"{dotted} and {parts[0]}.{other} were both given; they exclude each other: "
                                  "give one")
-            out.get(parts[0], {}).pop(other, None)
+            _drop(out, parts[0], other, table)
     return out
+
+
+def _overridden(parts: list[str]):
+    """(the table's dataclass, the key) that dotted ``parts`` set: ``section.key``, or a renderer's own key
+    in its namespace (``renderer.raycast.tolerance``); (None, None) for a key inside a sub-table."""
+    table = _table_class(parts[0])
+    if table is None:
+        return None, None
+    if len(parts) == 2:
+        return table, parts[1]
+    if parts[0] == "renderer" and len(parts) == 3 and owned_keys(table).get(parts[2]) == parts[1]:
+        return table, parts[2]
+    return None, None
+
+
+def _table_class(section: str):
+    """The dataclass of scene table ``section`` (None for an unknown one: parsing names it)."""
+    tp = typing.get_type_hints(SceneSpec).get(section)
+    return renderer_spec_class() if tp is RendererTable else tp
+
+
+def _drop(raw: dict, section: str, key: str, table, keep=()) -> None:
+    """Remove ``key`` from ``raw[section]`` in every spelling (a renderer's own key also in its namespace),
+    except the one at dotted ``keep``."""
+    node = raw.get(section, {})
+    if not isinstance(node, dict):
+        return
+    if [section, key] != list(keep):
+        node.pop(key, None)
+    owner = owned_keys(table).get(key) if section == "renderer" else None
+    space = node.get(owner)
+    if isinstance(space, dict) and [section, owner, key] != list(keep):
+        space.pop(key, None)
+        if not space:
+            node.pop(owner)
 
 
 def parse_scene(raw: dict, source: str | None = None, base_dir: Path | str | None = None) -> SceneSpec:
@@ -352,6 +387,12 @@ class Scene:
     def sample_distance(self) -> float:
         return self.renderer.sample_distance
 
+    @property
+    def own(self):
+        """The settings the scene's renderer owns (declared in its folder), as its namespace:
+        ``scene.own.block_size`` for the ray caster (:func:`dvr_gl.scene.schema.own_settings`)."""
+        return own_settings(self.renderer)
+
     def replace(self, **changes) -> "Scene":
         """The scene with parts replaced.  A new field (``field=`` or ``volume=``) re-frames the camera
         (same view direction and lens, the new box) and re-resolves what depended on the old data
@@ -387,11 +428,9 @@ class Scene:
         """The scene with renderer settings changed, checked as a scene file's would be.  A sample
         distance given here replaces one in voxels and a tolerance (and the other way round)."""
         changes = tables_as_specs(self.renderer, changes, "renderer")
-        for key, others in _EXCLUSIVE.items():
-            if key[0] == "renderer" and key[1] in changes:
-                for other in others:
-                    if hasattr(self.renderer, other):
-                        changes.setdefault(other, None)
+        for key in list(changes):
+            for other in exclusive_keys(self.renderer, key):
+                changes.setdefault(other, None)
         requested = dataclasses.replace(self.spec.renderer if self.spec else self.renderer, **changes)
         resolved = resolve_renderer(dataclasses.replace(self.renderer, **changes), self.field)
         spec = dataclasses.replace(self.spec or SceneSpec(), renderer=requested)

@@ -19,10 +19,10 @@ from dataclasses import dataclass, field
 from typing import Optional, Union
 
 from ..camera import LENS_CHECKS
+from ..checks import at_least, between, world_coordinates, world_length
 from ..errors import SceneError
 from ..orientation import ANATOMICAL_VIEWS
 from .model import choices, doc
-from .settings import at_least, between, world_coordinates, world_length
 
 Vec3 = tuple[float, float, float]
 Vec4 = tuple[float, float, float, float]
@@ -68,7 +68,7 @@ def default_renderer_spec():
 class VolumeSpec:
     """Where the volume comes from: a file (``path``) or a built-in phantom (``demo``)."""
 
-    path: Optional[str] = doc(None, "a volume file (relative to the scene file); or give `demo`")
+    path: Optional[str] = doc(None, "a volume file (relative to the scene file); or give `demo`", excludes=("demo",))
     demo: Optional[str] = doc(None, "a built-in phantom: `shepp-logan`, `marschner-lobb`, `blobs`, or `plummer` "
                                     "(SPH particles)")
     size: int = checked(64, "samples per axis of a demo phantom (`plummer`: (size / 2)^3 particles)", at_least(2))
@@ -110,15 +110,17 @@ class TransferFunctionSpec:
 
     preset: Optional[str] = doc(None, "a name, any case: `grayscale`, `viridis`, `ct-bone`, `ct-skin`, `shepp-logan`, "
                                       "3D Slicer's presets (`CT-AAA`, `MR-Default`, ...), a matplotlib colour map "
-                                      "(default `grayscale`; `shepp-logan` for that demo; docs/transfer-functions.md)")
+                                      "(default `grayscale`; `shepp-logan` for that demo; docs/transfer-functions.md)",
+                                excludes=("points", "file", "name", "stretch"))
     file: Optional[str] = doc(None, "a Slicer `.vp` or presets `.xml`, or a ParaView colour-map `.json` "
-                                    "(relative to the scene file)")
+                                    "(relative to the scene file)", excludes=("points", "preset"))
     name: Optional[str] = doc(None, "with `file`: which of the file's maps or presets (any case)")
     stretch: Optional[bool] = doc(None, "stretch the file's values onto the data's value range (default: "
                                         "ParaView JSON yes, Slicer files no)")
     points: Optional[list[list[float]]] = doc(None, "`[[value, r, g, b, opacity], ...]`, values strictly "
                                                     "increasing, data units; or give `preset`; a sixth column "
-                                                    "is scattering's albedo (docs/scattering.md)")
+                                                    "is scattering's albedo (docs/scattering.md)",
+                                              excludes=("preset", "file", "name", "stretch"))
     unit_distance: float = checked(1.0, "world length that `alpha` refers to", world_length)
     opacity_model: str = choices("alpha", "extinction", default="alpha",
                                  doc="what the 5th column means: `alpha` per `unit_distance`, or `extinction` sigma")
@@ -145,7 +147,8 @@ class CameraSpec:
     elevation: Optional[float] = doc(None, "orbit elevation, degrees (default 20)")
     view: Optional[str] = choices(*ANATOMICAL_VIEWS, default=None,
                                   doc="an anatomical view (sets azimuth and elevation about `up`; with the "
-                                      "default up, superior, it shows the patient upright: docs/orientation.md)")
+                                      "default up, superior, it shows the patient upright: docs/orientation.md)",
+                                  excludes=("azimuth", "elevation"))
     distance: Optional[float] = checked(None, "eye to target, world units (default: frames the data)",
                                         world_length)
     near: float = checked(0.0, "near plane distance from the eye; rays start there or at the data",
@@ -235,6 +238,7 @@ def _convert(value, tp, where: str):
         return [_convert(v, args[0], f"{where}[{i}]") for i, v in enumerate(value)]
     if tp is RendererTable:
         tp = renderer_spec_class()
+        value = flat_renderer_table(value, tp) if isinstance(value, dict) else value
     if dataclasses.is_dataclass(tp):
         if not isinstance(value, dict):
             raise bad
@@ -265,6 +269,48 @@ def parse_table(cls, table: dict, where: str):
             raise SceneError(f"{here} {problem}, got {shown!r}")
         kwargs[key] = converted
     return cls(**kwargs)
+
+
+# --- a renderer's own keys ---------------------------------------------------------------------
+
+def owned_keys(renderer_table) -> dict[str, str]:
+    """The ``[renderer]`` keys that a renderer owns (declared in its own folder), each with its owner:
+    ``{"tolerance": "raycast", ...}`` (``renderer_table``: the RendererSpec class or one of them)."""
+    return {f.name: f.metadata["owner"] for f in dataclasses.fields(renderer_table) if f.metadata.get("owner")}
+
+
+def own_settings(renderer) -> types.SimpleNamespace:
+    """Renderer settings ``renderer``'s own renderer owns, as its namespace (``scene.own.block_size``)."""
+    return types.SimpleNamespace(**{k: getattr(renderer, k) for k, owner in owned_keys(renderer).items()
+                                    if owner == renderer.name})
+
+
+def flat_renderer_table(table: dict, cls) -> dict:
+    """A ``[renderer]`` table with its renderers' own tables (``[renderer.raycast] tolerance = 0.01``)
+    read as the flat keys they spell (``renderer.tolerance``, the canonical spelling).  Refused, in
+    one line: a key the table's renderer does not own, one owned by another renderer than the scene's
+    ``renderer.name``, and a key given in both spellings."""
+    owners = owned_keys(cls)
+    spaces = set(owners.values())
+    out = {k: v for k, v in table.items() if not (k in spaces and isinstance(v, dict))}
+    for space, keys in table.items():
+        if space not in spaces or not isinstance(keys, dict):
+            continue
+        for key, value in keys.items():
+            where = f"renderer.{space}.{key}"
+            if owners.get(key) != space:
+                whose = (f"it is {owners[key]}'s: renderer.{owners[key]}.{key}" if key in owners else
+                         f"write renderer.{key}" if key in {f.name for f in dataclasses.fields(cls)} else
+                         f"its own are {', '.join(k for k, o in owners.items() if o == space)}")
+                raise SceneError(f"{where}: {key!r} is not a setting of {space}'s own; {whose}")
+            if table.get("name") != space:
+                named = f"is {table['name']!r}" if table.get("name") is not None else "is not named (renderer.name)"
+                raise SceneError(f"{where} is {space}'s own setting, and the scene's renderer {named}: remove it "
+                                 f"or set renderer.name = {space!r}")
+            if key in table:
+                raise SceneError(f"renderer.{key} and {where} were both given: give one")
+            out[key] = value
+    return out
 
 
 def tables_as_specs(spec, changes: dict, where: str) -> dict:

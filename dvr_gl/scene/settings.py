@@ -26,8 +26,10 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import Any, Callable, Optional
 
+from ..checks import at_least, between, positive, world_coordinates
 from ..clipping import check_clipping, clipping_in_use
 from ..errors import SceneError
+from ..out_of_core import volume as out_of_core
 from .model import (
     CLASSIFICATIONS,
     CLASSIFIED_ALONG_RAY,
@@ -40,9 +42,16 @@ from .model import (
     GeometrySpec,
     ScatteringSpec,
     ShadingSpec,
+    exclusive_keys,
 )
 
 DEFAULT_SAMPLE_DISTANCE_VOXELS = 0.5
+#: The sample distances, in voxels, that a choice made for the user stays within (the viewer's slider and keys;
+#: finer costs more than 64 samples a voxel, coarser skips features of 8 voxels).
+SAMPLE_DISTANCE_VOXELS_RANGE = (1.0 / 64, 8.0)
+#: The groups of the settings every renderer may read (:attr:`Setting.group`); any other group is the name of
+#: the renderer that owns the setting.
+SHARED_GROUPS = ("model", "sampling", "gpu")
 
 
 @dataclass(frozen=True)
@@ -62,9 +71,13 @@ class Setting:
     in_use: whether a value uses the feature (default: it differs from the default).
     applies: whether the setting changes the picture, given the others (``applies(spec)``; shading
         and classification do not change a maximum intensity projection); default: always.
-    group: where the reference lists it ("model", "sampling", "gpu", or a renderer's name).
+    group: where the reference lists it: one of :data:`SHARED_GROUPS`, or the name of the renderer that owns
+        it (a setting of its own, declared in its folder: :attr:`owner`).
     aliases: ``(old, new)`` pairs: a scene's ``old`` value (of another type, as earlier versions wrote
         it) is read as ``new``.
+    excludes: the settings this one replaces (a sample distance in world units or in voxels): giving it drops
+        them, giving both at once is refused (:func:`dvr_gl.scene.model.exclusive_keys`, which also reads the
+        exclusions the other way: a renderer's own setting may exclude shared ones).
     """
 
     name: str
@@ -82,10 +95,16 @@ class Setting:
     applies: Optional[Callable[[Any], bool]] = None
     origin: Optional["Setting"] = field(default=None, compare=False)
     aliases: tuple = ()
+    excludes: tuple = ()
 
     @property
     def key(self) -> str:
         return f"renderer.{self.name}"
+
+    @property
+    def owner(self) -> Optional[str]:
+        """The renderer whose own setting this is (its ``group``), or None for a shared one."""
+        return None if self.group in SHARED_GROUPS else self.group
 
     @property
     def base(self) -> "Setting":
@@ -120,40 +139,6 @@ class Setting:
 
 
 # --- checks ----------------------------------------------------------------------------------
-
-def positive(value) -> Optional[str]:
-    return None if value > 0 else "must be positive"
-
-
-def at_least(n):
-    return lambda value: None if value >= n else f"must be at least {n}"
-
-
-#: World lengths (voxel spacing, box extent, coordinates, camera distances) must lie in this range: GL
-#: shaders work in float32, whose squared lengths leave the normal range (1.2e-38 .. 3.4e38) beyond it.
-WORLD_RANGE = (1e-18, 1e18)
-
-
-def world_coordinates(values) -> Optional[str]:
-    """A point (world units) within :data:`WORLD_RANGE` of the origin."""
-    return None if all(abs(v) <= WORLD_RANGE[1] for v in values) else f"must be within {WORLD_RANGE[1]:g} of the origin"
-
-
-def world_length(value) -> Optional[str]:
-    """A length (world units) in :data:`WORLD_RANGE`."""
-    lo, hi = WORLD_RANGE
-    return None if lo <= value <= hi else f"must be in [{lo:g}, {hi:g}] world units"
-
-
-def between(lo, hi, open_lo=False, open_hi=False, what=""):
-    text = f"must be in {'(' if open_lo else '['}{lo:g}, {hi:g}{')' if open_hi else ']'}{what}"
-
-    def check(value):
-        ok_lo = value > lo if open_lo else value >= lo
-        ok_hi = value < hi if open_hi else value <= hi
-        return None if ok_lo and ok_hi else text
-    return check
-
 
 def _check_shading(sh: ShadingSpec) -> None:
     """The [renderer.shading] table's values, each named by its own key."""
@@ -303,10 +288,10 @@ GEOMETRY = Setting("geometry", list[GeometrySpec], None, "opaque triangle meshes
 # --- sampling: how closely a renderer approaches the picture ---------------------------------
 
 SAMPLE_DISTANCE = Setting("sample_distance", Optional[float], None, "segment length (default 0.5 voxel)",
-                          check=positive, units="world units")
+                          check=positive, units="world units", excludes=("sample_distance_voxels",))
 SAMPLE_DISTANCE_VOXELS = Setting("sample_distance_voxels", Optional[float], None,
                                  "segment length in voxels of the smallest spacing", check=positive,
-                                 units="voxels")
+                                 units="voxels", excludes=("sample_distance",))
 ORDER = Setting("order", str, "front_to_back", "compositing order (back_to_front: the over operator; the same "
                 "image within rounding)", choices=ORDERS)
 ISO_REFINEMENT = Setting("iso_refinement", int, 8, "bisection steps refining the isosurface's first hit",
@@ -335,8 +320,9 @@ GRADIENT = Setting("gradient", str, "central_differences", "shading gradients on
                    "texture (12 bytes per voxel, faster)", choices=("central_differences", "texture"), group="gpu")
 TEXTURE_BUDGET_MB = Setting("texture_budget_mb", float, 2048.0, "GPU texture memory allowed; larger volumes are "
                             "rendered in bricks", check=positive, units="MB", group="gpu", flag=False)
-MEMORY_BUDGET_MB = Setting("memory_budget_mb", float, 4096.0, "host memory allowed for the volume's resident voxels; "
-                           "larger volumes are read out of core (volume.out_of_core, docs/out-of-core.md)",
+MEMORY_BUDGET_MB = Setting("memory_budget_mb", float, out_of_core.MEMORY_BUDGET_MB,
+                           "host memory allowed for the volume's resident voxels; larger volumes are read out of "
+                           "core (volume.out_of_core, docs/out-of-core.md)",
                            check=positive, units="MB", group="gpu", flag=False)
 
 #: Every renderer reads these (narrowed where it supports fewer choices).
@@ -443,12 +429,12 @@ def with_sample_distance(renderer_spec, field, world: float | None = None, voxel
     """Renderer settings with another sample distance (world units, voxels, or a factor of the
     current one), checked as a scene file's would be."""
     if voxels is not None:
-        world = voxels * field.sample_spacing
+        world = resolve_sample_distance(dataclasses.replace(renderer_spec, sample_distance=None,
+                                                            sample_distance_voxels=voxels), field)
     elif factor is not None:
         world = renderer_spec.sample_distance * factor
     if world is None or not world > 0:
         raise SceneError(f"renderer.sample_distance must be positive, got {world}")
-    changes = {"sample_distance": float(world), "sample_distance_voxels": None}
-    if getattr(renderer_spec, "tolerance", None) is not None:
-        changes["tolerance"] = None  # a distance given by hand replaces the one a tolerance chose
-    return dataclasses.replace(renderer_spec, **changes)
+    # a distance given by hand replaces what excludes it (one in voxels; a tolerance, which chose one)
+    dropped = dict.fromkeys(exclusive_keys(renderer_spec, SAMPLE_DISTANCE.name))
+    return dataclasses.replace(renderer_spec, **dropped, sample_distance=float(world))

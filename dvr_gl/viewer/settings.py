@@ -21,11 +21,9 @@ from ..fields import diagonal
 from ..orientation import direction_of
 from ..renderers import registry
 from ..scene.resolve import Scene
-from ..scene.settings import with_sample_distance
+from ..scene.settings import SAMPLE_DISTANCE_VOXELS_RANGE, with_sample_distance
 
-MIN_SAMPLE_VOXELS, MAX_SAMPLE_VOXELS = 1.0 / 64, 8.0
-# The settings with named choices that keys and combo boxes cycle through.
-CYCLED = ("compositing", "classification", "filter")
+MIN_SAMPLE_VOXELS, MAX_SAMPLE_VOXELS = SAMPLE_DISTANCE_VOXELS_RANGE
 
 
 def renderer_names() -> list[str]:

@@ -25,7 +25,8 @@ def _fitted_range(value):
 
 TOLERANCE = s.Setting("tolerance", Optional[float], None, "RMS error to meet against the converged reference "
                       "(5e-4 to 0.1): chooses the sample distance, classification and early termination "
-                      "(docs/tolerance.md)", check=_fitted_range, must_support=True, group="raycast")
+                      "(docs/tolerance.md)", check=_fitted_range, must_support=True, group="raycast",
+                      excludes=("sample_distance", "sample_distance_voxels"))  # it chooses the sample distance
 ACCELERATION = s.Setting("acceleration", str, "auto", "jump empty and constant blocks (the image is unchanged): "
                          "auto (where the frame's block statistics say it pays), on, off",
                          choices=("auto", "on", "off"), aliases=((True, "on"), (False, "off")), group="raycast")

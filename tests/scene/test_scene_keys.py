@@ -1,0 +1,116 @@
+"""The scene contract's keys: exclusions declared on the keys, a renderer's own keys in its namespace, and the
+flags typed by the schema (dvr_gl.scene.model.exclusive_keys, dvr_gl.scene.schema.flat_renderer_table,
+dvr_gl.apps.render.scene_flag)."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+
+import pytest
+
+from dvr_gl.apps import render as render_cmd
+from dvr_gl.errors import SceneError
+from dvr_gl.renderers import registry
+from dvr_gl.scene.model import exclusive_keys
+from dvr_gl.scene.resolve import apply_overrides, load_scene, parse_scene
+from dvr_gl.scene.schema import CameraSpec, TransferFunctionSpec, VolumeSpec, owned_keys
+from dvr_gl.scene.settings import SHARED_GROUPS, with_sample_distance
+
+SMALL = {"volume.demo": "blobs", "volume.size": 12, "image.width": 8, "image.height": 8}
+
+
+def _owned():
+    """(a renderer, one of its own keys, another renderer that does not own it) from the registry."""
+    owners = owned_keys(registry.renderer_spec_class())
+    key, owner = next((k, o) for k, o in owners.items() if registry.setting(k).default_value() is not None)
+    other = next(n for n in registry.names() if n != owner)
+    return owner, key, other
+
+
+def test_exclusions_are_read_both_ways_from_the_declarations():
+    """A key excludes what it declares and what declares it (a tolerance declares the sample distances it
+    chooses; the shared sample distance does not name it)."""
+    spec = registry.renderer_spec_class()
+    tolerance = next(s for s in registry.all_settings() if "sample_distance" in s.excludes and s.owner)
+    assert tolerance.name in exclusive_keys(spec, "sample_distance")
+    assert set(exclusive_keys(spec, tolerance.name)) == {"sample_distance", "sample_distance_voxels"}
+    assert exclusive_keys(VolumeSpec, "demo") == ("path",)
+    assert exclusive_keys(CameraSpec, "azimuth") == ("view",)
+    assert exclusive_keys(TransferFunctionSpec, "file") == ("points", "preset")
+    assert exclusive_keys(CameraSpec, "fov") == ()
+
+
+def test_an_override_drops_what_it_excludes_in_either_spelling():
+    raw = {"renderer": {"name": "raycast", "raycast": {"tolerance": 0.01}, "sample_distance_voxels": 1.0}}
+    out = apply_overrides(raw, {"renderer.sample_distance": 0.1})
+    assert out["renderer"] == {"name": "raycast", "sample_distance": 0.1}
+    assert raw["renderer"]["raycast"] == {"tolerance": 0.01}  # the caller's dict is left as it was
+    # the namespaced spelling replaces the flat one (and the other way round)
+    assert apply_overrides({"renderer": {"tolerance": 0.01}}, {"renderer.raycast.tolerance": 0.02}) == {
+        "renderer": {"raycast": {"tolerance": 0.02}}}
+    with pytest.raises(SceneError, match="renderer.sample_distance and renderer.tolerance were both given"):
+        apply_overrides({}, {"renderer.sample_distance": 0.1, "renderer.raycast.tolerance": 0.01})
+
+
+def test_with_renderer_and_the_viewer_drop_the_excluded_settings():
+    scene = load_scene(None, {**SMALL, "renderer.name": "raycast", "renderer.sample_distance_voxels": 1.0})
+    changed = scene.with_renderer(sample_distance=0.25)
+    assert changed.renderer.sample_distance == 0.25 and changed.spec.renderer.sample_distance_voxels is None
+    requested = dataclasses.replace(scene.renderer, tolerance=0.01)
+    finer = with_sample_distance(requested, scene.field, voxels=0.25)
+    assert finer.tolerance is None and finer.sample_distance == 0.25 * scene.field.sample_spacing
+
+
+def test_a_renderers_own_keys_read_in_its_namespace():
+    owner, key, _ = _owned()
+    default = registry.setting(key).default_value()
+    flat = parse_scene({"renderer": {"name": owner, key: default}}).renderer
+    spaced = parse_scene({"renderer": {"name": owner, owner: {key: default}}}).renderer
+    assert flat == spaced
+    scene = load_scene(None, {**SMALL, "renderer.name": "raycast", "renderer.raycast.block_size": 16})
+    assert scene.renderer.block_size == 16 and scene.own.block_size == 16
+    assert set(vars(scene.own)) == {k for k, o in owned_keys(scene.renderer).items() if o == "raycast"}
+
+
+@pytest.mark.parametrize("case", ["other renderer", "unnamed", "not its own", "shared", "both spellings"])
+def test_a_namespaced_key_is_refused_in_one_line(case):
+    owner, key, other = _owned()
+    value = registry.setting(key).default_value()
+    tables = {"other renderer": {"name": other, owner: {key: value}},
+              "unnamed": {owner: {key: value}},
+              "not its own": {"name": owner, owner: {"no_such_key": 1}},
+              "shared": {"name": owner, owner: {"filter": "linear"}},
+              "both spellings": {"name": owner, key: value, owner: {key: value}}}
+    expected = {"other renderer": f"is {owner}'s own setting, and the scene's renderer is '{other}'",
+                "unnamed": "the scene's renderer is not named", "not its own": "its own are",
+                "shared": "write renderer.filter", "both spellings": "were both given: give one"}
+    with pytest.raises(SceneError, match=expected[case]) as info:
+        parse_scene({"renderer": tables[case]})
+    assert "\n" not in str(info.value)
+
+
+def test_flat_keys_of_another_renderer_keep_working():
+    """The flat spelling is read as before: a renderer ignores another's own key (the conformance scenes
+    give the converged reference's tolerance to every renderer)."""
+    scene = load_scene(None, {**SMALL, "renderer.name": "raycast", "renderer.converged_tolerance": 1e-3})
+    assert scene.renderer.converged_tolerance == 1e-3 and not hasattr(scene.own, "converged_tolerance")
+
+
+def test_owners_are_the_groups_that_name_a_renderer():
+    for s in registry.all_settings():
+        assert (s.owner is None) == (s.group in SHARED_GROUPS)
+        if s.owner is not None:
+            assert registry.plugin(s.owner).declared(s.name) is not None
+
+
+def test_scene_flags_take_their_type_and_choices_from_the_schema():
+    p = argparse.ArgumentParser()
+    render_cmd.add_arguments(p)
+    actions = {a.dest: a for a in p._actions}
+    assert actions["projection"].choices == dataclasses.fields(CameraSpec)[0].metadata["choices"]
+    assert actions["azimuth"].type is float and actions["header_bytes"].type is int
+    assert actions["spacing"].nargs == 3 and actions["spacing"].type is float
+    assert isinstance(actions["shading"], argparse.BooleanOptionalAction)
+    args = p.parse_args(["-o", "x.png", "--sample-distance", "0.5", "--azimuth", "10"])
+    assert render_cmd.overrides_from(args) == {"camera.azimuth": 10.0, "renderer.sample_distance": 0.5}
