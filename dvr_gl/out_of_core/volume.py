@@ -16,13 +16,13 @@ import numpy as np
 
 from ..errors import SceneError, VolumeError
 from ..fields.grid import IDENTITY, Volume, check_direction
-from ..scene import settings
 from .cache import ByteLRU
 from .ranges import BLOCK, BlockRanges
 from .sources import RawSource, ZarrSource
 
-#: renderer.memory_budget_mb's default (MB): the host memory allowed for a volume's resident voxels.
-MEMORY_BUDGET_MB = settings.MEMORY_BUDGET_MB.default
+#: renderer.memory_budget_mb's default (MB): the host memory allowed for a volume's resident voxels (the scene
+#: contract's setting reads it here, where the budget is spent).
+MEMORY_BUDGET_MB = 4096.0
 #: The share of the budget the cache of read boxes may hold; the rest is for what is read at the moment
 #: (a brick, a mapped window, the block-range pass's tile) and for the renderer's staging.
 CACHE_SHARE = 0.5
