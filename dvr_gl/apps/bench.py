@@ -1,121 +1,121 @@
 """Benchmarks that print a table (speed and memory targets live here, not in unit tests).
 
-  dvr bench raycast    frame time and samples per ray of the GPU ray caster
-  dvr bench accel      what early termination and empty-space skipping save, on real data
+A renderer's own benches are declared by its plugin (``RendererPlugin.bench``) and listed from the
+registry; these measure across renderers, which they pick by what the plugins declare:
+
   dvr bench quality    error against the converged reference versus samples: post-classified and
                        pre-integrated, for a narrow transfer-function spike
-  dvr bench renderers  frame time of the ray caster and both slicers, post-classified and
-                       pre-integrated, from one texture and from bricks
-  dvr bench slicing    2D texture stacks against view-aligned slices across view angles: error, the
-                       jump when the stack switches, and pictures
-  dvr bench shearwarp  run-length encoding build and frame time of shear-warp on real data with
-                       50, 90 and 99 % transparent voxels, against the GPU ray caster
+  dvr bench renderers  frame time of the GPU grid renderers, post-classified and pre-integrated,
+                       from one texture and from bricks
   dvr bench tradeoff   every renderer x accuracy setting: frame time against error (RMS, max, PSNR,
                        FLIP) versus the converged reference, the Pareto front; CSV, JSON and a plot
-  dvr bench cells      projected tetrahedra on the shared meshes, beside VTK's: time, cells/s, error
-  dvr bench fourier    Fourier volume rendering against the ray caster: pre-processing, time per view, error
-  dvr bench splatting  splatting's sheet buffers and classifications: frame time, splats, error against
-                       the same kernel's converged reference, the ray caster at equal error; the
-                       45-degree study
   dvr bench scattering single scattering: shadow rays, the light volume and half-angle slicing, frame
                        time and error against reference-converged, the speed-up at equal error
   dvr bench scale      frame time against Dask workers (and a model to N), time and memory against the
                        volume's size, the multi-resolution error
   dvr bench peers      dvr-gl against VTK, vispy and pygfx (from a separate benchmark environment) on
                        the same scenes: frame time, error against the converged reference, ratios
+
+The measurements are the optional extra ``bench`` (``pip install 'dvr-gl[bench]'``: plots and FLIP);
+they are imported only when a bench runs.
 """
 
 from __future__ import annotations
 
-import argparse
 import logging
-import math
 
 from dvr_gl.phantoms import DEMOS
-from dvr_gl.transfer_function import PRESETS
+from dvr_gl.renderers import registry
+from dvr_gl.renderers.bench_command import (
+    SHARED_DATA,
+    chosen_datasets,
+    commands,
+    count,
+    fraction,
+    shared_data_arguments,
+    timing_arguments,
+    wrote,
+)
 
 HELP = "run a benchmark and print its table"
 
 log = logging.getLogger(__name__)
 
-
-def count(text: str) -> int:
-    """A flag's whole number of at least 1 (frames, repeats)."""
-    try:
-        n = int(text)
-    except ValueError:
-        n = 0
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"give a whole number of at least 1, got {text!r}")
-    return n
-
-
-def fraction(text: str) -> float:
-    """A flag's fraction of the value range, in (0, 1]."""
-    try:
-        x = float(text)
-    except ValueError:
-        x = math.nan
-    if not 0 < x <= 1:
-        raise argparse.ArgumentTypeError(f"give a fraction of the value range in (0, 1], got {text!r}")
-    return x
+SCATTERING_SHARED = ("bucky", "nucleon", "neghip", "ironProt")
+SCATTERING_DATASETS = ("bucky", "nucleon", "neghip", "ironProt", "headsq", "hydrogen", "brainsmall", "lobster",
+                       "CThead", "MNI152")  # dvr_gl.bench.datasets.REGULAR's names (a test checks)
 
 
 def add_arguments(p):
     sub = p.add_subparsers(dest="benchmark", metavar="BENCHMARK", required=True)
-    rc = sub.add_parser("raycast", help="GPU ray caster: frame time, samples per ray, samples per second")
-    rc.add_argument("--volume", metavar="FILE", help="a volume file (default: the Shepp-Logan phantom)")
-    rc.add_argument("--volume-size", type=int, default=256, help="phantom samples per axis (default 256)")
-    rc.add_argument("--size", type=int, default=512, help="square image size (default 512)")
-    rc.add_argument("--repeat", type=count, default=5, help="timed frames per case, after a warm-up (default 5)")
-    rc.add_argument("--transfer-function", choices=list(PRESETS), help="preset (default: the volume's)")
-    rc.add_argument("--rescale-intercept", type=float, default=0.0)
-    rc.add_argument("--up", type=float, nargs=3, metavar=("X", "Y", "Z"), help="camera up (default +z)")
-    ac = sub.add_parser("accel", help="acceleration on the datasets in ../shared/data: samples, frame time, error; "
-                        "and what skipping costs on dense data (on and auto against off, alternating views)")
-    _shared_data_arguments(ac)
-    ac.add_argument("--views", type=count, default=6, help="azimuths of the alternating comparison (default 6)")
-    ac.add_argument("--volume-size", type=int, default=256,
-                    help="phantom samples per axis of the dense scenes (default 256)")
-    ac.add_argument("--part", choices=("datasets", "overhead", "both"), default="both",
-                    help="the shared datasets' table, the alternating comparison, or both (default)")
-    qu = sub.add_parser("quality", help="error versus sample spacing, post-classified and pre-integrated")
+    for command in renderer_benches():
+        parser = sub.add_parser(command.name, help=command.help)
+        command.add_arguments(parser)
+        parser.set_defaults(bench=command.run)
+    for name, (help_, arguments, run_) in HARNESS.items():
+        parser = sub.add_parser(name, help=help_)
+        arguments(parser)
+        parser.set_defaults(bench=run_)
+    for parser in sub.choices.values():
+        parser.add_argument("--markdown", metavar="FILE", help="also write the tables as Markdown to FILE (the "
+                                                               "measured tables in docs/ are written this way)")
+        if "--overwrite" not in parser._option_string_actions:
+            parser.add_argument("--overwrite", action="store_true", help="replace FILE if it exists")
+    _feedback_arguments(sub)
+
+
+def renderer_benches() -> list:
+    """The ``dvr bench`` subcommands the registered renderers declare (``RendererPlugin.bench``), in the
+    registry's order; a plugin whose bench does not load is left out with a warning (as a broken plugin)."""
+    found, names = [], set(HARNESS)
+    for plugin in registry.plugins().values():
+        if plugin.bench is None:
+            continue
+        try:
+            declared = commands(plugin.bench)
+        except Exception as exc:  # a broken third-party bench must not take dvr down
+            log.warning("%s: its bench %s failed to load (%s: %s)", plugin.name, plugin.bench, type(exc).__name__, exc)
+            continue
+        for command in declared:
+            if command.name in names:
+                log.warning("%s: a bench named %r exists already; its own is left out", plugin.name, command.name)
+                continue
+            names.add(command.name)
+            found.append(command)
+    return found
+
+
+def _quality_arguments(qu):
     qu.add_argument("--size", type=int, default=128, help="square image size (default 128)")
     qu.add_argument("--volume-size", type=int, default=41, help="Marschner-Lobb samples per axis (default 41)")
     qu.add_argument("--spike-width", type=fraction, metavar="W",
                     help="only this spike width, a fraction of the value range (default: 0.02 and 0.005)")
-    rn = sub.add_parser("renderers", help="frame time of raycast, slicing3d and slicing2d, whole and bricked")
+
+
+def _renderers_arguments(rn):
     rn.add_argument("--volume", metavar="FILE", help="a volume file (default: the Shepp-Logan phantom)")
     rn.add_argument("--volume-size", type=int, default=256, help="phantom samples per axis (default 256)")
     rn.add_argument("--size", type=int, default=512, help="square image size (default 512)")
     rn.add_argument("--repeat", type=count, default=5, help="timed frames per case, after a warm-up (default 5)")
     rn.add_argument("--budget", type=float, default=48.0, metavar="MB",
                     help="texture budget of the bricked runs, MB (default 48)")
-    sw = sub.add_parser("shearwarp", help="shear-warp on the datasets in ../shared/data: encoding, frame time, "
-                                          "voxels skipped, against raycast")
-    _shared_data_arguments(sw)
-    to = sub.add_parser("tradeoff", help="error against frame time for every renderer and accuracy setting; "
-                                         "CSV, JSON and a log-log plot with the Pareto front")
+
+
+def _tradeoff_arguments(to):
     to.add_argument("scene", nargs="?", metavar="SCENE.toml", help="the scene (or --demo, or --shared)")
     to.add_argument("--demo", choices=list(DEMOS), help="a built-in demo scene")
     to.add_argument("--volume-size", type=int, default=64, help="demo samples per axis (default 64)")
     to.add_argument("--shared", action="store_true", help="the datasets in ../shared/data (see --data-dir, --only)")
-    _shared_data_arguments(to, size=128)
+    shared_data_arguments(to, size=128)
     to.add_argument("--renderers", metavar="A,B", help="only these renderers (default: every one with a sweep)")
     to.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="set any scene key")
     to.add_argument("--output", default="tradeoff", metavar="PREFIX",
                     help="write PREFIX.csv, PREFIX.json and PREFIX.png (default: tradeoff)")
     to.add_argument("--overwrite", action="store_true", help="replace output files that exist")
     to.add_argument("--no-plot", action="store_true", help="skip the PNG plot")
-    sl = sub.add_parser("slicing", help="slicing2d against slicing3d across azimuths: error, stack-switch jump, "
-                                        "pictures")
-    sl.add_argument("--volume", metavar="FILE", help="a volume file (default: the Shepp-Logan phantom)")
-    sl.add_argument("--volume-size", type=int, default=64, help="phantom samples per axis (default 64; 0: no phantom)")
-    sl.add_argument("--size", type=int, default=128, help="square image size (default 128)")
-    sl.add_argument("--pictures", metavar="DIR", help="write slicing_sweep.png and slicing_jump.png into DIR")
-    sl.add_argument("--overwrite", action="store_true", help="replace pictures that exist")
-    pe = sub.add_parser("peers", help="dvr-gl against VTK, vispy and pygfx on the same scenes (the peers from a "
-                                      "separate environment, docs/peers.md): frame time, error, speed ratios")
+
+
+def _peers_arguments(pe):
     pe.add_argument("--size", type=int, default=512, help="square image size of the timed frames (default 512)")
     pe.add_argument("--error-size", type=int, default=128,
                     help="square image size of the error measurement against the converged reference (default 128)")
@@ -137,51 +137,10 @@ def add_arguments(p):
     pe.add_argument("--pictures", metavar="DIR", help="write each scene's images side by side into DIR (PNG)")
     pe.add_argument("--plot", metavar="FILE", help="draw each peer against dvr-gl's error-time curve (PNG; "
                                                    "needs matplotlib)")
-    ce = sub.add_parser("cells", help="projected tetrahedra on the shared meshes: order and draw time, cells per "
-                                      "second, error against the mesh reference; VTK's projected tetrahedra beside "
-                                      "it when the peers' environment has VTK (docs/meshes.md)")
-    ce.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder (default ../shared/data)")
-    ce.add_argument("--meshes", metavar="A,B", help="only these (bluntfin, comb, post, jaw, notch, tetraMesh; "
-                                                   "default all)")
-    ce.add_argument("--size", type=int, default=512, help="square image size of the timed frames (default 512)")
-    ce.add_argument("--error-size", type=int, default=256,
-                    help="square image size of the error against reference-converged (default 256)")
-    ce.add_argument("--frames", type=count, default=3, help="timed frames per case, after one untimed (default 3)")
-    ce.add_argument("--peers-python", metavar="PYTHON",
-                    help="the peers environment's interpreter, for VTK (default .venv-peers/bin/python if it exists)")
-    ce.add_argument("--pictures", metavar="DIR", help="write cells-MESH.png into DIR: the first view's reference, "
-                                                      "dvr-gl, resampled ray casting and VTK, above 5x their errors")
-    sp = sub.add_parser("splatting", help="splatting's schemes: frame time, splats drawn and culled, error against "
-                                          "its oracle and the same kernel's converged reference, the ray caster at "
-                                          "equal error; the 45-degree study (dvr_gl/renderers/splatting/README.md)")
-    sp.add_argument("--volume-size", type=int, default=64, help="phantom samples per axis (default 64; 0: no phantom)")
-    sp.add_argument("--particles", type=int, default=4096, help="also an SPH set: a Plummer sphere of about this "
-                    "many particles (default 4096; 0: none)")
-    sp.add_argument("--size", type=int, default=128, help="square image size (default 128)")
-    sp.add_argument("--repeat", type=count, default=3, help="timed frames per case, after a warm-up (default 3)")
-    sp.add_argument("--shared", action="store_true", help="the regular datasets in --data-dir instead of the "
-                                                          "phantom (long: a converged reference each)")
-    sp.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder (default ../shared/data)")
-    sp.add_argument("--only", metavar="TEXT", help="with --shared: only datasets whose name contains TEXT")
-    sp.add_argument("--no-shaded", action="store_true", help="leave out the shaded row (its converged reference "
-                    "computes gradients at every sample: over an hour on CThead)")
-    sp.add_argument("--study-size", type=int, default=48, help="square image size of the 45-degree study "
-                                                              "(default 48; 0 leaves it out)")
-    fo = sub.add_parser("fourier", help="Fourier volume rendering against the ray caster: pre-processing and time "
-                                         "per view against N, error against reference-converged, the ray caster at "
-                                         "equal error (dvr_gl/renderers/fourier/README.md)")
-    fo.add_argument("--sizes", default="64,128,256", metavar="N,N", help="volume sizes, the blobs demo N^3 "
-                                                                          "(default 64,128,256)")
-    _timing_arguments(fo, size=512, error_size=128)
-    fo.add_argument("--shared", action="store_true", help="the accuracy study instead: every regular dataset in "
-                                                          "--data-dir at --error-size, against reference-converged")
-    fo.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder (default ../shared/data)")
-    fo.add_argument("--only", metavar="TEXT", help="with --shared: only datasets whose name contains TEXT")
-    sc = sub.add_parser("scattering", help="single scattering: the ray caster's shadow rays and light volume and "
-                                           "slicing3d's half-angle slicing at several settings, frame time and RMS "
-                                           "against reference-converged, the speed-up at equal error "
-                                           "(docs/scattering.md)")
-    _timing_arguments(sc, size=256, error_size=64)
+
+
+def _scattering_arguments(sc):
+    timing_arguments(sc, size=256, error_size=64)
     sc.add_argument("--tolerance", type=float, default=1e-4, help="reference-converged's budget (default 1e-4)")
     sc.add_argument("--demo-size", type=int, default=64, help="the shadow demo's samples per axis (default 64)")
     sc.add_argument("--light-volume-sizes", default="32,64,128,256", metavar="N,N",
@@ -193,14 +152,14 @@ def add_arguments(p):
                     + ", ".join(SCATTERING_DATASETS) + "), lit by the same light")
     sc.add_argument("--shadow-ray-distances", default="2,1,0.75,0.5,0.375,0.25", metavar="D,D",
                     help="the shadow rays' sample distances swept, voxels (default 2,1,0.75,0.5,0.375,0.25)")
-    sc.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder (default ../shared/data)")
+    sc.add_argument("--data-dir", default=SHARED_DATA, help=f"the shared datasets folder (default {SHARED_DATA})")
     sc.add_argument("--only", metavar="TEXT", help="only scenes whose name contains TEXT")
     sc.add_argument("--paths", type=int, default=64, help="Monte Carlo paths per pixel of the multiple-scattering "
                                                           "table (default 64; 0 leaves it out)")
     sc.add_argument("--paths-size", type=int, default=32, help="square image size of that table (default 32)")
-    sa = sub.add_parser("scale", help="scaling: frame time against the number of Dask workers (and a model to N "
-                                      "workers), time and peak memory against the volume's size, multi-resolution "
-                                      "error (docs/distributed.md, docs/out-of-core.md)")
+
+
+def _scale_arguments(sa):
     sa.add_argument("--part", choices=("workers", "sizes", "levels", "all"), default="all",
                     help="which measurement (default all)")
     sa.add_argument("--out", dest="markdown", metavar="FILE", help="also write the tables as Markdown to FILE")
@@ -208,18 +167,6 @@ def add_arguments(p):
                     help="sizes: the volumes' sizes in GiB (default 1,2,4,8,16)")
     sa.add_argument("--data-dir", metavar="DIR", help="sizes: where the synthetic volumes are written once and "
                                                      "kept (default: the temporary folder)")
-    for parser in sub.choices.values():
-        parser.add_argument("--markdown", metavar="FILE", help="also write the tables as Markdown to FILE (the "
-                                                               "measured tables in docs/ are written this way)")
-        if "--overwrite" not in parser._option_string_actions:
-            parser.add_argument("--overwrite", action="store_true", help="replace FILE if it exists")
-    _feedback_arguments(sub)
-
-
-def _wrote(args, what):
-    """The files a bench wrote, on stdout with its tables (not with -q)."""
-    if not getattr(args, "quiet", False):
-        print(f"wrote {what}")
 
 
 def _feedback_arguments(sub):
@@ -228,21 +175,6 @@ def _feedback_arguments(sub):
 
     for parser in sub.choices.values():
         add_arguments(parser)
-
-
-def _timing_arguments(p, size: int, error_size: int):
-    """``--size`` (timings), ``--error-size`` (errors against reference-converged) and ``--repeat``."""
-    p.add_argument("--size", type=int, default=size, help=f"square image size of the timings (default {size})")
-    p.add_argument("--error-size", type=int, default=error_size, help="square image size of the errors against "
-                                                                      f"reference-converged (default {error_size})")
-    p.add_argument("--repeat", type=count, default=3, help="timed frames per case, after a warm-up (default 3)")
-
-
-def _shared_data_arguments(p, size: int = 512):
-    p.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder (default ../shared/data)")
-    p.add_argument("--size", type=int, default=size, help=f"square image size (default {size})")
-    p.add_argument("--repeat", type=count, default=5, help="timed frames per case, after a warm-up (default 5)")
-    p.add_argument("--only", metavar="TEXT", help="only datasets whose name contains TEXT")
 
 
 def run(args) -> int:
@@ -254,16 +186,11 @@ def run(args) -> int:
     if args.markdown:  # before measuring: fail fast, overwrite nothing unasked
         check_writable(Path(args.markdown), args.overwrite)
     args.report = Report()
-    bench = {"raycast": run_raycast, "accel": run_accel, "quality": run_quality,
-             "slicing": run_slicing, "renderers": run_renderers, "shearwarp": run_shearwarp,
-             "tradeoff": run_tradeoff, "peers": run_peers, "cells": run_cells,
-             "splatting": run_splatting, "fourier": run_fourier, "scattering": run_scattering,
-             "scale": run_scale}[args.benchmark]
     with counting(f"dvr bench {args.benchmark}"):  # a bar of the frames measured, after a second
-        code = bench(args)
+        code = args.bench(args)
     if args.markdown:
         write_text(Path(args.markdown), args.report.markdown(args.command_line), args.overwrite)
-        _wrote(args, args.markdown)
+        wrote(args, args.markdown)
     return code
 
 
@@ -306,106 +233,6 @@ def run_renderers(args) -> int:
     return 0
 
 
-def run_slicing(args) -> int:
-    from pathlib import Path
-
-    from dvr_gl.bench import slicing
-    from dvr_gl.errors import DvrError
-
-    pictures = Path(args.pictures) if args.pictures else None
-    if pictures is not None:
-        if not pictures.is_dir():
-            raise DvrError(f"{pictures}: no such folder for the pictures; create it first")
-        slicing.check_pictures(pictures, args.overwrite)
-    base = slicing.base_scene(args.volume_size, args.size, args.volume)
-    what = args.volume or f"Shepp-Logan {args.volume_size}^3"
-    args.report.text(f"dvr bench slicing: {what}, {args.size}x{args.size}, elevation 0, one slice per voxel, RMS error "
-          f"against the converged reference")
-    rows, jumps, written = slicing.run(base, pictures=pictures, overwrite=args.overwrite)
-    args.report.table(rows, slicing.COLUMNS)
-    args.report.text(f"\nimage change (RMS) between azimuth - {slicing.JUMP_STEP:g} and + {slicing.JUMP_STEP:g} "
-                     f"degrees; the stacks switch at 45")
-    args.report.table(jumps, slicing.JUMP_COLUMNS)
-    for path in written:
-        _wrote(args, path)
-    return 0
-
-
-def _chosen_datasets(args, datasets):
-    """The shared datasets folder (checked) and the entries of ``datasets`` that ``--only`` keeps."""
-    from pathlib import Path
-
-    from dvr_gl.errors import DvrError
-
-    data_dir = Path(args.data_dir)
-    if not data_dir.is_dir():
-        raise DvrError(f"{data_dir}: the shared datasets folder was not found; pass --data-dir")
-    return data_dir, [d for d in datasets if not args.only or args.only.lower() in d[0].lower()]
-
-
-def _on_shared_data(args, module, title: str) -> int:
-    """Run a benchmark over the shared datasets (``module.DATASETS``, filtered by ``--only``)."""
-    data_dir, datasets = _chosen_datasets(args, module.DATASETS)
-    args.report.text(title)
-    rows, notes = module.run(data_dir, args.size, args.repeat, datasets)
-    args.report.table(rows, module.COLUMNS, notes)
-    return 0
-
-
-def run_accel(args) -> int:
-    from dvr_gl.bench import acceleration
-
-    if args.part in ("datasets", "both"):
-        _on_shared_data(args, acceleration, f"dvr bench accel: {args.size}x{args.size} images, sample distance "
-                        f"0.5 voxel, 8^3 blocks, {args.repeat} timed frames per case after a warm-up")
-    if args.part in ("overhead", "both"):
-        from pathlib import Path
-
-        data_dir = Path(args.data_dir)  # the datasets join the phantoms where the folder is there
-        scenes = [(name, {"volume.path": str(data_dir / path), **overrides})
-                  for name, path, overrides in acceleration.DATASETS
-                  if (data_dir / path).exists() and (not args.only or args.only.lower() in name.lower())]
-        scenes = [s for s in acceleration.dense_scenes(args.volume_size)
-                  if not args.only or args.only.lower() in s[0].lower()] + scenes
-        args.report.text()
-        args.report.text(f"What skipping costs and saves, one process: {args.size}x{args.size} images, "
-                         f"elevation 20, {args.views} azimuths from 30 degrees; per azimuth off, on and auto "
-                         f"alternate, 2 rounds, the fastest frame of each (draw to glFinish); ratios to off per "
-                         f"azimuth, median and worst. Phantoms at 1 voxel per sample, the demo at 0.25, the datasets "
-                         f"at 0.5; early termination at the default 1 - 1/255")
-        args.report.table(acceleration.overhead(scenes, args.size, args.views), acceleration.OVERHEAD_COLUMNS)
-    return 0
-
-
-def run_shearwarp(args) -> int:
-    from dvr_gl.bench import shearwarp
-
-    return _on_shared_data(args, shearwarp, f"dvr bench shearwarp: {args.size}x{args.size} images, pre-classified "
-                           f"opacity ramps from the 50, 90 and 99 % quantiles, default view, {args.repeat} timed "
-                           f"frames per case after a warm-up; raycast at 0.5-voxel steps with early termination "
-                           f"and empty-space skipping")
-
-
-def run_raycast(args) -> int:
-    from dvr_gl.bench import raycast
-
-    base = {"image.width": args.size, "image.height": args.size, "renderer.name": "raycast",
-            "renderer.acceleration": False}  # the core loop; dvr bench accel measures acceleration
-    if args.volume:
-        base["volume.path"] = args.volume
-    else:
-        base.update({"volume.demo": "shepp-logan", "volume.size": args.volume_size})
-    if args.transfer_function:
-        base["transfer_function.preset"] = args.transfer_function
-        base["transfer_function.rescale_intercept"] = args.rescale_intercept
-    if args.up:
-        base["camera.up"] = list(args.up)
-    args.report.text(f"dvr bench raycast: {args.repeat} timed frames per case after a warm-up, sample distance "
-                     f"0.5 voxel, acceleration structures off")
-    args.report.table(raycast.run(base, repeat=args.repeat), raycast.COLUMNS)
-    return 0
-
-
 def _tradeoff_scenes(args):
     """(name, scene) pairs to sweep: the SCENE file, the demo, or the shared datasets."""
     from pathlib import Path
@@ -427,7 +254,7 @@ def _tradeoff_scenes(args):
         return [(args.demo, load_scene(None, overrides, demo_scene(args.demo)))]
     from dvr_gl.bench.tradeoff import DATASETS
 
-    data_dir, chosen = _chosen_datasets(args, DATASETS)
+    data_dir, chosen = chosen_datasets(args, DATASETS)
     scenes = []
     for name, path, extra in chosen:
         if not (data_dir / path).exists():
@@ -474,7 +301,7 @@ def run_tradeoff(args) -> int:
         else:
             args.report.text(note)
         if rows and rows[0]["flip"] is None:
-            args.report.text("FLIP: not measured (install the optional extra: pip install 'dvr-gl[perceptual]')")
+            args.report.text("FLIP: not measured (install the optional extra: pip install 'dvr-gl[bench]')")
         args.report.text()
         meta["scenes"][name] = {"notes": notes, "tolerance": checks, "scene": scene.to_dict()}
         all_rows += rows
@@ -489,111 +316,16 @@ def run_tradeoff(args) -> int:
         atomic_write(outputs["png"], lambda tmp: plot.tradeoff_plot(all_rows, tmp), args.overwrite)
         written.append(outputs["png"])
     elif not args.no_plot:
-        log.warning("no plot: install the optional extra for plots (pip install 'dvr-gl[plot]')")
-    _wrote(args, ", ".join(map(str, written)))
+        log.warning("no plot: install the optional extra for plots (pip install 'dvr-gl[bench]')")
+    wrote(args, ", ".join(map(str, written)))
     return 0
-
-
-def run_cells(args) -> int:
-    from pathlib import Path
-
-    from dvr_gl.bench import cells, peers
-    from dvr_gl.errors import DvrError
-
-    names = args.meshes.split(",") if args.meshes else list(cells.MESHES)
-    unknown = [x for x in names if x not in cells.MESHES]
-    if unknown:
-        raise DvrError(f"--meshes: unknown {', '.join(unknown)}; choose from {', '.join(cells.MESHES)}")
-    for flag, value in (("--size", args.size), ("--error-size", args.error_size)):
-        if not 8 <= value <= 4096:
-            raise DvrError(f"{flag} must be 8 to 4096 pixels, got {value}")
-    if not Path(args.data_dir).is_dir():
-        raise DvrError(f"--data-dir {args.data_dir}: no such folder (the shared datasets)")
-    if args.peers_python and not Path(args.peers_python).exists():
-        raise DvrError(f"--peers-python {args.peers_python}: no such interpreter")
-    python = args.peers_python or peers.default_peers_python()
-    if args.pictures and not Path(args.pictures).is_dir():
-        raise DvrError(f"{args.pictures}: no such folder for the pictures; create it first")
-    args.report.text(f"dvr bench cells: the shared meshes, {args.size}x{args.size}, perspective 30 degrees, framed, "
-                     f"views azimuth/elevation {', '.join(f'{a:g}/{e:g}' for a, e in cells.VIEWS)}; median of "
-                     f"{args.frames} frames after one untimed (dvr-gl: order and draw of the median frame, every "
-                     f"frame sorted again); RMS against reference-converged at {args.error_size}x{args.error_size}")
-    rows, notes = cells.run(names, Path(args.data_dir), args.size, args.error_size, args.frames, python,
-                            pictures=Path(args.pictures) if args.pictures else None,
-                            progress=lambda r: print(f"{r['mesh']} {r['view']} {r['renderer']}: {r['ms']:.0f} ms, "
-                                                     f"RMS {r['rms']:.2e}", flush=True))
-    args.report.text()
-    args.report.table(rows, cells.COLUMNS, notes)
-    return 0
-
-
-def _shared_regular_scenes(args):
-    """The regular shared datasets in ``--data-dir`` (``--only``), as the splatting bench lists them, with
-    notes on those left out; one line if the folder or the choice is empty."""
-    from pathlib import Path
-
-    from dvr_gl.bench.splatting import shared_scenes
-    from dvr_gl.errors import DvrError
-
-    if not Path(args.data_dir).is_dir():
-        raise DvrError(f"--data-dir {args.data_dir}: no such folder (the shared datasets)")
-    scenes, notes = shared_scenes(Path(args.data_dir), args.only)
-    if not scenes:
-        raise DvrError(f"--only {args.only}: no shared dataset matches")
-    return scenes, notes
-
-
-def run_splatting(args) -> int:
-    from dvr_gl.bench import splatting
-    from dvr_gl.errors import DvrError
-
-    for flag, value, low, high in (("--size", args.size, 8, 4096), ("--volume-size", args.volume_size, 0, 4096),
-                                   ("--study-size", args.study_size, 0, 4096),
-                                   ("--particles", args.particles, 0, 10 ** 7)):
-        if not low <= value <= high:
-            raise DvrError(f"{flag} must be {low} to {high}, got {value}")
-    demo = {"volume.demo": "shepp-logan", "volume.size": args.volume_size}
-    notes = []
-    if args.shared:
-        scenes, notes = _shared_regular_scenes(args)
-    elif args.volume_size:
-        scenes = [(f"Shepp-Logan {args.volume_size}^3", demo)]
-    else:
-        scenes = []
-    if args.volume_size == 1:
-        raise DvrError("--volume-size must be 0 (no phantom) or 2 to 4096, got 1")
-    if args.particles:
-        scenes.append(splatting.plummer_scene(args.particles))
-    if not scenes:
-        raise DvrError("nothing to measure: --volume-size 0 and --particles 0")
-    args.report.text(f"dvr bench splatting: {args.size}x{args.size}, the Gaussian of width 0.7 (particles: their "
-                     f"cubic spline), default camera and "
-                     f"transfer function, "
-                     f"{'no shading (the shaded row left out)' if args.no_shaded else 'no shading but the shaded row'}"
-                     f"; median of {args.repeat} frames after a warm-up; "
-                     f"RMS against reference-converged of the same kernel and classification (tolerance 1e-4)")
-    rows = splatting.run(scenes, args.size, args.repeat, shaded=not args.no_shaded, progress=lambda r: print(
-        f"{r['dataset']} {r['scheme']} {r['classification']}: {r['ms']:.0f} ms, RMS {r['rms']:.2e}", flush=True))
-    args.report.text()
-    args.report.table(rows, splatting.COLUMNS, notes)
-    if args.study_size and args.volume_size:
-        args.report.text(f"\nthe 45-degree study: Shepp-Logan {args.volume_size}^3 at {args.study_size}x"
-                         f"{args.study_size}, elevation 0, post-classified; the largest change of each image between "
-                         f"azimuth - {splatting.STUDY_STEP:g} and + {splatting.STUDY_STEP:g} degrees")
-        args.report.table(splatting.study(demo, args.study_size), splatting.STUDY_COLUMNS)
-    return 0
-
-
-SCATTERING_SHARED = ("bucky", "nucleon", "neghip", "ironProt")
-SCATTERING_DATASETS = ("bucky", "nucleon", "neghip", "ironProt", "headsq", "hydrogen", "brainsmall", "lobster",
-                       "CThead", "MNI152")  # dvr_gl.bench.splatting.DATASETS' names (a test checks)
 
 
 def run_scattering(args) -> int:
     from pathlib import Path
 
     from dvr_gl.bench import scattering
-    from dvr_gl.bench.splatting import shared_scenes
+    from dvr_gl.bench.datasets import shared_scenes
     from dvr_gl.errors import DvrError
 
     for flag, value, low, high in (("--size", args.size, 8, 4096), ("--error-size", args.error_size, 8, 4096),
@@ -661,45 +393,6 @@ def run_scattering(args) -> int:
     return 0
 
 
-def run_fourier(args) -> int:
-    from dvr_gl.bench import fourier
-    from dvr_gl.errors import DvrError
-
-    try:
-        sizes = [int(s) for s in args.sizes.split(",")]
-    except ValueError:
-        raise DvrError(f"--sizes: a comma-separated list of volume sizes, got {args.sizes!r}") from None
-    for flag, values, low, high in (("--sizes", sizes, 4, 1024), ("--size", [args.size], 8, 4096),
-                                    ("--error-size", [args.error_size], 8, 4096)):
-        if not all(low <= v <= high for v in values):
-            raise DvrError(f"{flag} must be {low} to {high}, got {', '.join(map(str, values))}")
-    if args.shared:
-        scenes, notes = _shared_regular_scenes(args)
-        from dvr_gl.renderers import fourier as fourier_plugin
-
-        defaults = ", ".join(f"{setting.name} {setting.default:g}" if isinstance(setting.default, float)
-                             else f"{setting.name} {setting.default}" for setting in
-                             (fourier_plugin.SLICE_INTERPOLATION, fourier_plugin.SLICE_TAPS, fourier_plugin.PADDING,
-                              fourier_plugin.SLICE_BANDWIDTH))
-        args.report.text(f"dvr bench fourier --shared: each regular dataset at {args.error_size}x{args.error_size}, "
-                         f"orthographic, default camera and transfer function, the defaults (trilinear field, "
-                         f"{defaults}), against reference-converged (tolerance 1e-4); the last column with "
-                         f"slice_taps 6 and slice_bandwidth 2")
-        rows = fourier.shared(scenes, args.error_size, progress=lambda r: print(
-            f"{r['dataset']} {r['mode']}: RMS / max {r['rms_rel']:.2e}", flush=True))
-        args.report.text()
-        args.report.table(rows, fourier.SHARED_COLUMNS, notes)
-        return 0
-    args.report.text(f"dvr bench fourier: the blobs demo N^3, orthographic, the average and the pre-classified X-ray; "
-                     f"times at {args.size}x{args.size} (median of {args.repeat} after a warm-up), RMS against "
-                     f"reference-converged at {args.error_size}x{args.error_size} (tolerance 1e-4)")
-    rows = fourier.run(sizes, args.size, args.error_size, args.repeat, progress=lambda r: print(
-        f"{r['n']}^3 {r['mode']}: {r['view_ms']:.1f} ms a view, the ray caster {r['raycast_ms']:.1f} ms", flush=True))
-    args.report.text()
-    args.report.table(rows, fourier.COLUMNS)
-    return 0
-
-
 def run_peers(args) -> int:
     from pathlib import Path
 
@@ -761,10 +454,28 @@ def run_peers(args) -> int:
     if pictures is not None:
         references = images.pop("references")
         for path in peers.write_pictures(images, references, pictures):
-            _wrote(args, path)
+            wrote(args, path)
     if drawing:
         atomic_write(Path(args.plot), lambda tmp: plot.peers_plot(rows, tmp), args.overwrite)
-        _wrote(args, args.plot)
+        wrote(args, args.plot)
     elif args.plot:
-        log.warning("no plot: install the optional extra for plots (pip install 'dvr-gl[plot]')")
+        log.warning("no plot: install the optional extra for plots (pip install 'dvr-gl[bench]')")
     return 0
+
+
+# The benches across renderers: name: (help, add_arguments, run).
+HARNESS = {
+    "quality": ("error versus sample spacing, post-classified and pre-integrated", _quality_arguments, run_quality),
+    "renderers": ("frame time of raycast, slicing3d and slicing2d, whole and bricked", _renderers_arguments,
+                  run_renderers),
+    "tradeoff": ("error against frame time for every renderer and accuracy setting; CSV, JSON and a log-log plot "
+                 "with the Pareto front", _tradeoff_arguments, run_tradeoff),
+    "peers": ("dvr-gl against VTK, vispy and pygfx on the same scenes (the peers from a separate environment, "
+              "docs/peers.md): frame time, error, speed ratios", _peers_arguments, run_peers),
+    "scattering": ("single scattering: the ray caster's shadow rays and light volume and slicing3d's half-angle "
+                   "slicing at several settings, frame time and RMS against reference-converged, the speed-up at "
+                   "equal error (docs/scattering.md)", _scattering_arguments, run_scattering),
+    "scale": ("scaling: frame time against the number of Dask workers (and a model to N workers), time and peak "
+              "memory against the volume's size, multi-resolution error (docs/distributed.md, "
+              "docs/out-of-core.md)", _scale_arguments, run_scale),
+}

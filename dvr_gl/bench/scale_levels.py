@@ -19,18 +19,11 @@ import numpy as np
 from ..multires import KERNELS, build_levels, level_errors
 from ..multires.downsample import TENT
 from . import Report, tick
+from .datasets import STUDIES
 
 ML_F_M, ML_ALPHA = 6.0, 0.25  # the Marschner-Lobb parameters of dvr_gl.phantoms
-HU = {"transfer_function.rescale_intercept": -1024.0}
-# name, file under the data folder, scene overrides (as dvr bench accel's)
-DATASETS = [
-    ("CThead, skin", "regular/cthead.nhdr", {"transfer_function.preset": "ct-skin", **HU, "camera.up": [0, 0, -1]}),
-    ("lobster, shell", "regular/lobster.nhdr", {"transfer_function.points": [
-        [0, 0, 0, 0, 0], [100, 0.9, 0.4, 0.2, 0], [120, 0.9, 0.4, 0.2, 0.6], [140, 0.9, 0.5, 0.3, 0],
-        [255, 0, 0, 0, 0]]}),
-    ("hydrogen, narrow shell", "regular/hydrogen_atom.nhdr", {"transfer_function.points": [
-        [0, 0, 0, 0, 0], [55, 0.2, 0.6, 1, 0], [60, 0.2, 0.6, 1, 0.5], [65, 0.2, 0.6, 1, 0], [255, 0, 0, 0, 0]]}),
-]
+# name, file under the data folder, scene overrides: three of dvr bench accel's
+DATASETS = [d for name in ("CThead, skin", "lobster, shell", "hydrogen, narrow shell") for d in STUDIES if d[0] == name]
 DEMOS = ("blobs", "marschner-lobb")
 KERNEL_COLUMNS = [("kernel", "kernel", ""), ("alias", "kept at 0.375 (aliases)", ".3f"),
                   ("pass", "kept at 0.125", ".3f"), ("box", "level box vs level 0's", ""),

@@ -27,7 +27,8 @@ from ..image import compare_images, composite_over
 from ..reference.converged import ConvergedReference
 from ..renderers import create_renderer, registry
 from ..transfer_function import linear_to_srgb
-from . import acceleration, converged, median_seconds
+from . import converged, median_seconds
+from .datasets import STUDIES
 
 
 def sweeps(renderers=None, kind: str | None = None, projection: str | None = None) -> dict:
@@ -189,9 +190,9 @@ def cheapest_meeting(rows: list[dict], tolerance: float, error: str = "rms") -> 
     return min(meeting, key=lambda r: r["ms"]) if meeting else None
 
 
-# The shared datasets (../shared/data) as scenes: those of ``dvr bench accel`` (name, file, overrides).
+# The shared datasets (../shared/data) as scenes: four of ``dvr bench accel``'s (name, file, overrides).
 DATASETS = [d for name in ("CThead, bone", "lobster, shell", "hydrogen, narrow shell", "CT bunny, bone")
-            for d in acceleration.DATASETS if d[0] == name]
+            for d in STUDIES if d[0] == name]
 
 
 def csv_text(rows: list[dict]) -> str:

@@ -300,8 +300,8 @@ JITTER = Setting("jitter", bool, False, "per-pixel sample offset against wood-gr
 JITTER_SEED = Setting("jitter_seed", int, 0, "seed of the jitter offsets (32 bits: the shaders' hash)",
                       check=lambda v: None if 0 <= v < 2**32 else "must be in [0, 4294967295]")
 # What early termination drops from a pixel is at most 1 - threshold: at 1 - 1/255, one step of an 8-bit
-# display.  Chosen from the error-vs-time grid of benchmarks/defaults.py (docs/tradeoff.md, "Why these
-# defaults"): 3-9 dB less error than 0.99 on opaque scenes for 0-12 % more time.
+# display.  Chosen from the error-vs-time grid of the ray caster's benchmarks/defaults.py (docs/tradeoff.md,
+# "Why these defaults"): 3-9 dB less error than 0.99 on opaque scenes for 0-12 % more time.
 ERT_DEFAULT = 1.0 - 1.0 / 255.0
 ERT_THRESHOLD = Setting("ert_threshold", float, ERT_DEFAULT, "early ray termination at this accumulated opacity "
                         "(1: off; the default 1 - 1/255 drops at most one 8-bit display step)",

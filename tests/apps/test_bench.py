@@ -1,38 +1,15 @@
-"""The benchmarks run and report sensible numbers (their timings are not asserted)."""
+"""The benchmarks across renderers run and report sensible numbers (their timings are not asserted); ``dvr bench``
+lists the benches the plugins declare; the harness stays out of the core import path.
+
+A renderer's own bench is tested in its folder (``dvr_gl/renderers/NAME/tests/test_NAME_bench.py``)."""
 
 import math
 
-import numpy as np
 import pytest
 
-from conftest import SHARED_DATA, small_scene
+from conftest import SHARED_DATA
 from dvr_gl.apps.cli import main
 from dvr_gl.bench import format_table
-from dvr_gl.renderers.raycast.renderer import RayCastRenderer
-
-
-def test_minimal_shader_renders_the_emission_only_image():
-    """The benchmark's hand-written shader does the same work as the specialized program."""
-    scene = small_scene({"renderer.ert_threshold": 1.0})
-    with RayCastRenderer() as ours, RayCastRenderer(fragment_shader="bench/minimal_raycast.frag") as minimal:
-        a, b = ours.render(scene), minimal.render(scene)
-    assert a[..., 3].max() > 0.3
-    assert np.abs(a - b).max() <= 1e-5  # the same arithmetic but 1 - exp(-tau) for small tau
-
-
-def test_bench_raycast_prints_a_table(capsys, tmp_path):
-    """It prints the table, and with --markdown writes it for the docs (never over a file unasked)."""
-    md = tmp_path / "raycast.md"
-    assert main(["bench", "raycast", "--volume-size", "16", "--size", "16", "--repeat", "1",
-                 "--markdown", str(md)]) == 0
-    out = capsys.readouterr().out
-    assert "samples/ray" in out and "minimal hand-written shader" in out and "16x16x16" in out
-    text = md.read_text()
-    assert text.startswith("<!-- written by `dvr bench raycast --volume-size 16")
-    assert "| case | volume | image | samples/ray | frame ms (median) | Msamples/s | of the minimal loop |" in text
-    assert text.count("| emission") == 9
-    assert main(["bench", "raycast", "--volume-size", "16", "--markdown", str(md)]) == 1  # exists: refused first
-    assert "exists" in capsys.readouterr().err
 
 
 def test_format_table_aligns_columns():
@@ -40,32 +17,6 @@ def test_format_table_aligns_columns():
     lines = text.splitlines()
     assert lines[0].startswith("A") and lines[2].endswith("1.50") and lines[3].endswith("-")
     assert len({len(line) for line in lines}) == 1
-
-
-def test_bench_accel_prints_a_table(shared_data, capsys):
-    assert main(["bench", "accel", "--data-dir", str(shared_data), "--size", "24", "--repeat", "1",
-                 "--only", "hydrogen", "--part", "datasets"]) == 0
-    out = capsys.readouterr().out
-    assert "empty-space skipping" in out and "block classes" in out and "hydrogen" in out
-    skipping = next(line for line in out.splitlines() if "empty-space skipping" in line)
-    assert skipping.split()[-1] == "0.0e+00"  # skipping leaves the image unchanged
-
-
-def test_bench_accel_overhead_on_the_phantoms(tmp_path, capsys):
-    """The alternating comparison runs on the phantoms without the datasets; on the dense phantom
-    nothing is skippable (estimate and count 0) and auto does not skip."""
-    assert main(["bench", "accel", "--data-dir", str(tmp_path / "absent"), "--part", "overhead", "--only",
-                 "marschner-lobb", "--volume-size", "24", "--size", "16", "--views", "1"]) == 0
-    rows = [line.split() for line in capsys.readouterr().out.splitlines() if line.startswith("marschner-lobb")]
-    assert len(rows) == 2  # composite and MIP
-    composite = rows[0]
-    # outside bounds and skippable estimates, samples saved
-    assert composite[3:6] == ["0.00", "0.00", "0.00"], composite
-
-
-def test_bench_accel_needs_the_data(tmp_path, capsys):
-    assert main(["bench", "accel", "--data-dir", str(tmp_path / "absent"), "--part", "datasets"]) == 1
-    assert "shared datasets folder was not found" in capsys.readouterr().err
 
 
 def test_bench_quality_prints_the_study(capsys):
@@ -90,26 +41,6 @@ def test_spacing_for_interpolates_log_log():
     assert spacing_for(rows, "r", "c", 0.01) is None
 
 
-def test_bench_slicing_shows_the_stack_switch(tmp_path, capsys):
-    args = ["bench", "slicing", "--size", "24", "--volume-size", "16", "--pictures", str(tmp_path)]
-    assert main(args) == 0
-    out = capsys.readouterr().out
-    sweep, jump = out.split("image change")
-    jumps = {float(line.split()[0]): [float(x) for x in line.split()[1:]] for line in jump.splitlines()
-             if line.startswith(("30 ", "45 "))}
-    stacks = {line.split()[0]: line.split()[1] for line in sweep.splitlines() if line[:3] in ("44 ", "46 ")}
-    assert stacks == {"44": "y", "46": "x"}
-    # the 2D stack's image jumps where it switches; view-aligned slices do not care
-    assert jumps[45.0][0] > 5 * jumps[30.0][0]
-    assert jumps[45.0][2] < 3 * jumps[30.0][2]
-    for name in ("slicing_sweep.png", "slicing_jump.png"):
-        assert (tmp_path / name).stat().st_size > 0
-    before = (tmp_path / "slicing_jump.png").read_bytes()
-    assert main(args) == 1                                   # no --overwrite: refused before any work
-    assert "exists; pass --overwrite" in capsys.readouterr().err
-    assert (tmp_path / "slicing_jump.png").read_bytes() == before
-
-
 def test_bench_renderers_times_whole_and_bricked(capsys):
     assert main(["bench", "renderers", "--volume-size", "24", "--size", "16", "--repeat", "1",
                  "--budget", "0.03"]) == 0
@@ -119,56 +50,6 @@ def test_bench_renderers_times_whole_and_bricked(capsys):
     bricks = [int(r[2]) for r in rows]
     assert bricks[0::2] == [1] * 6 and min(bricks[1::2]) > 1  # the budget run really is bricked
     assert all(float(r[3]) > 0 and float(r[4]) >= float(r[3]) for r in rows)  # a frame includes its draws
-
-
-def test_bench_shearwarp_prints_a_table(shared_data, capsys):
-    from dvr_gl.bench import shearwarp
-
-    rows, notes = shearwarp.run(shared_data, size=24, repeat=1, datasets=shearwarp.DATASETS[1:2], fractions=(0.9,))
-    assert not notes and len(rows) == 1
-    row = rows[0]
-    # the ramp starts at the 90 % quantile: about 90 % of the lobster's voxels are transparent (ties in
-    # uint8 data move it), and at least those are never read
-    assert 0.85 <= row["transparent"] <= 0.95 and row["skipped"] >= row["transparent"] - 1e-12
-    assert row["build_s"] > 0 and row["ms"] > 0 and row["raycast_ms"] > 0 and row["rle_mb"] > 0
-    assert row["normals_s"] > 0 and row["shaded_ms"] > 0
-
-
-def test_bench_shearwarp_needs_the_data(tmp_path, capsys):
-    assert main(["bench", "shearwarp", "--data-dir", str(tmp_path / "absent")]) == 1
-    assert "shared datasets folder was not found" in capsys.readouterr().err
-
-
-def test_bench_splatting_prints_the_schemes_and_the_study(tmp_path, capsys):
-    md = tmp_path / "splatting.md"
-    assert main(["bench", "splatting", "--volume-size", "12", "--size", "16", "--repeat", "1", "--study-size", "16",
-                 "--particles", "216", "--markdown", str(md)]) == 0
-    out = capsys.readouterr().out
-    table, study = out.split("the 45-degree study")
-    rows = [line.split() for line in table.splitlines() if line.startswith("Shepp-Logan") and ":" not in line]
-    assert [(r[2], r[3]) for r in rows] == [("image_aligned", "post"), ("image_aligned", "pre"),
-                                            ("axis_aligned", "post"), ("none", "pre"), ("image_aligned", "post-shaded")]
-    assert all(float(r[9]) < 1e-4 for r in rows)          # against its oracle: float32
-    particles = [line.split() for line in table.splitlines() if line.startswith("Plummer,") and ":" not in line]
-    assert [(r[4], r[5]) for r in particles] == [("image_aligned", "post"), ("image_aligned", "pre"), ("none", "pre"),
-                                                 ("image_aligned", "post-shaded")]
-    assert all(float(r[11]) < 1e-4 for r in particles)
-    changes = {line.split()[0]: [float(x) for x in line.split()[1:]] for line in study.splitlines()
-               if line.startswith(("30 ", "45 "))}
-    # axis-aligned sheets jump where their axis switches; image-aligned ones follow the converged image
-    assert changes["45"][1] > 5 * changes["45"][2] and changes["45"][0] < 3 * changes["45"][2]
-    assert "| dataset |" in md.read_text()
-    assert main(["bench", "splatting", "--shared", "--data-dir", str(tmp_path / "absent")]) == 1
-    assert "no such folder" in capsys.readouterr().err
-
-
-def test_bench_splatting_leaves_the_shaded_row_out(capsys):
-    assert main(["bench", "splatting", "--volume-size", "8", "--size", "8", "--repeat", "1", "--study-size", "0",
-                 "--particles", "0", "--no-shaded"]) == 0
-    out = capsys.readouterr().out
-    rows = [line.split() for line in out.splitlines() if line.startswith("Shepp-Logan") and ":" not in line]
-    assert [r[3] for r in rows] == ["post", "pre", "post", "pre"]
-    assert "the shaded row left out" in out
 
 
 def test_bench_scattering_prints_methods_equal_error_and_multiple_scattering(tmp_path, capsys):
@@ -196,9 +77,9 @@ def test_bench_scattering_datasets_and_shadow_ray_distances(tmp_path, capsys):
     """``--datasets`` names any shared dataset the other benches know (the larger ones too), and the
     shadow rays' distances are chosen (a large dataset's 0.25-voxel rows take minutes a frame)."""
     from dvr_gl.apps.bench import SCATTERING_DATASETS
-    from dvr_gl.bench.splatting import DATASETS
+    from dvr_gl.bench.datasets import REGULAR
 
-    assert set(SCATTERING_DATASETS) == {name for name, _, _ in DATASETS}
+    assert set(SCATTERING_DATASETS) == {name for name, _, _ in REGULAR}
     if not (SHARED_DATA / "regular" / "bucky.nhdr").exists():
         pytest.skip("the shared datasets are absent")
     assert main(["bench", "scattering", "--demo-size", "8", "--size", "12", "--error-size", "8", "--repeat", "1",
@@ -210,26 +91,67 @@ def test_bench_scattering_datasets_and_shadow_ray_distances(tmp_path, capsys):
     assert sum(r[0] == "bucky" and r[2] == "light_volume" for r in rows) == 6
 
 
-def test_bench_fourier_prints_times_and_errors(tmp_path, capsys):
-    md = tmp_path / "fourier.md"
-    assert main(["bench", "fourier", "--sizes", "16", "--size", "24", "--error-size", "16", "--repeat", "1",
-                 "--markdown", str(md)]) == 0
-    out = capsys.readouterr().out
-    rows = [line.split() for line in out.splitlines() if line.startswith("16 ")]
-    assert [r[1] for r in rows] == ["average", "xray"]
-    for r in rows:
-        assert float(r[2]) >= 0 and float(r[5]) > 0 and float(r[6]) > 0   # pre-processing, ms per view, ray caster
-        assert 0 < float(r[8]) < 1e-2                                      # RMS against the converged reference
-    assert "| N |" in md.read_text()
-    assert main(["bench", "fourier", "--sizes", "16,x"]) == 1
-    assert "--sizes" in capsys.readouterr().err
+def test_every_declared_bench_is_a_subcommand():
+    """``dvr bench NAME`` for each bench a registered plugin declares, beside the harness's own."""
+    from dvr_gl.apps import bench
+    from dvr_gl.renderers import registry
+    from dvr_gl.renderers.bench_command import commands
+
+    declared = [c.name for p in registry.plugins().values() if p.bench is not None for c in commands(p.bench)]
+    assert {"raycast", "accel", "shearwarp", "slicing", "cells", "splatting", "fourier"} <= set(declared)
+    assert [c.name for c in bench.renderer_benches()] == declared
+    assert not set(declared) & set(bench.HARNESS)  # a renderer's bench never shadows the harness's
 
 
-def test_bench_fourier_shared_accuracy_study(shared_data, capsys):
-    assert main(["bench", "fourier", "--shared", "--data-dir", str(shared_data), "--only", "nucleon",
-                 "--error-size", "16"]) == 0
-    rows = [line.split() for line in capsys.readouterr().out.splitlines()
-            if line.startswith("nucleon ") and ":" not in line]
-    assert [r[1] for r in rows] == ["average", "xray"]
-    assert all(0 < float(r[4]) < 1e-2 for r in rows)  # RMS over the image's maximum
-    assert main(["bench", "fourier", "--shared", "--data-dir", str(shared_data), "--only", "nothing-like-this"]) == 1
+def test_a_plugins_bench_is_generated_from_the_registry(monkeypatch, capsys, caplog, tmp_path):
+    """A third-party plugin's bench gets its subcommand, flags, table and ``--markdown`` with no edit to dvr."""
+    import dataclasses
+
+    from dvr_gl.renderers import registry
+    from dvr_gl.renderers.bench_command import BenchCommand
+
+    def arguments(parser):
+        parser.add_argument("--frames", type=int, default=2)
+
+    def run(args):
+        args.report.table([{"frame": i} for i in range(args.frames)], [("frame", "frame", "d")])
+        return 0
+
+    plugin = dataclasses.replace(registry.plugin("raycast"), name="toy",
+                                 bench=(BenchCommand("toy", "a toy bench", arguments, run),))
+    monkeypatch.setattr(registry, "plugins", lambda: {"toy": plugin})
+    md = tmp_path / "toy.md"
+    assert main(["bench", "toy", "--frames", "3", "--markdown", str(md)]) == 0
+    assert capsys.readouterr().out.split("\n")[:5] == ["frame", "-----", "0    ", "1    ", "2    "]
+    assert "| frame |" in md.read_text()
+    broken = dataclasses.replace(plugin, bench="dvr_gl.no_such_module:COMMANDS")
+    monkeypatch.setattr(registry, "plugins", lambda: {"toy": broken})
+    from dvr_gl.apps.cli import build_parser
+
+    benches = build_parser()._subparsers._group_actions[0].choices["bench"]._subparsers._group_actions[0].choices
+    assert "toy" not in benches and "quality" in benches  # a bench that does not load leaves dvr working
+    assert "toy: its bench dvr_gl.no_such_module:COMMANDS failed to load" in caplog.text
+
+
+def test_the_harness_stays_out_of_the_core_import_path(tmp_path):
+    """``import dvr_gl``, ``dvr_gl.render(...)`` and ``dvr render`` import neither the bench harness nor a
+    renderer's measurement (only its light command module, for the flags), nor matplotlib."""
+    import subprocess
+    import sys
+
+    script = f"""
+import sys
+import numpy as np
+import dvr_gl
+dvr_gl.render(np.zeros((4, 4, 4), np.float32), size=(8, 8), renderer="reference")
+from dvr_gl.apps.cli import main
+assert main(["render", "--demo", "blobs", "--set", "volume.size=8", "--size", "8",
+             "--output", {str(tmp_path / "blobs.png")!r}]) == 0
+harness = [m for m in sys.modules if m == "dvr_gl.bench" or m.startswith("dvr_gl.bench.")
+           or (".bench." in m and m.startswith("dvr_gl.renderers.")) or m.split(".")[0] == "matplotlib"]
+print("imported:", harness)
+"""
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert "imported: []" in out.stdout
+    assert (tmp_path / "blobs.png").stat().st_size > 0

@@ -215,7 +215,7 @@ def test_fast_table_on_cthead_bone(shared_data):
     """Optically thick segments on real data: CThead bone at 1 voxel (40x40).  Unnormalized, the fast
     table measured RMS 0.17 against the converged reference (128x128) and colours up to 1.96; now
     3.1e-3 here (the exact table: 3.8e-3; both within 1e-2, the error of 1-voxel steps)."""
-    from dvr_gl.bench.acceleration import DATASETS
+    from dvr_gl.bench.datasets import STUDIES as DATASETS
     from dvr_gl.bench.tradeoff import converged_truth
     from dvr_gl.image import compare_images
     from dvr_gl.renderers import create_renderer

@@ -92,4 +92,5 @@ PLUGIN = RendererPlugin(
                           (("renderer.compositing", "xray"),)),
             sweeps.Family("slice bandwidth, 6 taps", "renderer.slice_bandwidth", (1.0, 2.0, 3.0),
                           (("renderer.compositing", "xray"), ("renderer.slice_taps", 6)))),
+    bench="dvr_gl.renderers.fourier.bench:COMMANDS",
 )

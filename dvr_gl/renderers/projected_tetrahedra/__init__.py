@@ -30,4 +30,5 @@ PLUGIN = RendererPlugin(
     # quadrature against float64 (measured below 2e-6; emission-absorption's Gauss-Legendre on
     # pieces of optical depth at most one is exact to float32 for these linear transfer functions).
     tolerances={"mesh boxes": 1e-5, "mesh ramp": 1e-5},
+    bench="dvr_gl.renderers.projected_tetrahedra.bench:COMMANDS",
 )

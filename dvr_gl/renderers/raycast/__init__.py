@@ -74,4 +74,5 @@ PLUGIN = RendererPlugin(
     # *sample*, up to half a segment (0.11 world units here) inside the chord's end, where the
     # extinction differs by 0.25 x 0.11: measured 0.015 in opacity.
     tolerances={"box": 1e-5, "ramp": 1e-5, ("ramp", "mip"): 0.02, ("ramp", "minip"): 0.02, "sphere": 1e-5},
+    bench="dvr_gl.renderers.raycast.bench:COMMANDS",
 )

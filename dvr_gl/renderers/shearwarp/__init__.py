@@ -43,4 +43,5 @@ PLUGIN = RendererPlugin(
     # then the warp), which blur the sphere's gradient: measured 0.06.  (Against its own slices: the
     # oracle test, float32 only.)
     tolerances={"box": 0.5, "ramp": 0.45, "sphere": 0.07},
+    bench="dvr_gl.renderers.shearwarp.bench:COMMANDS",
 )

@@ -39,4 +39,5 @@ PLUGIN = RendererPlugin(
     # 0.45 (box) and 0.31 (ramp); the sphere's density is zero at the box's faces: measured 0.
     # (The stacks against their own planes: the oracle test, float32 only.)
     tolerances={"box": 0.5, "ramp": 0.35, "sphere": 1e-5},
+    bench="dvr_gl.renderers.slicing2d.bench:COMMANDS",
 )

@@ -114,4 +114,5 @@ PLUGIN = RendererPlugin(
     # (the oracle) is off the bounds by the same amounts, to 1e-5: the model's difference, not the GL's.
     tolerances={"box": 1e-5, ("ramp", "emission_absorption"): 0.01, ("ramp", "xray"): 0.01, ("ramp", "average"): 0.025,
                 "sphere": 0.04},
+    bench="dvr_gl.renderers.splatting.bench:COMMANDS",
 )

@@ -189,7 +189,8 @@ def test_the_oxygen_post_along_its_axis():
     cells: 3 pixels off by up to 0.08 at 256x256, RMS 3.4e-4).  The walk matches projected
     tetrahedra, which the bench matches to the reference at 2.3e-7 here: largest pixel difference
     measured 4e-6, bound 1e-4."""
-    from dvr_gl.bench.cells import MESHES, scene_keys
+    from dvr_gl.bench.datasets import MESHES
+    from dvr_gl.bench.datasets import mesh_scene_keys as scene_keys
     from dvr_gl.scene.resolve import load_scene
 
     source, array = MESHES["post"]

@@ -204,7 +204,8 @@ def test_the_jaw_from_above_in_the_exact_order(pt, converged):
     by up to 3.3e-3, before cells were placed by depth in the sort), largest pixel error 3.1e-4,
     bound 1e-3 (the float32 clipping's rounding in those planes, the same in the centroid order)."""
     pytest.importorskip("meshio")
-    from dvr_gl.bench.cells import MESHES, scene_keys
+    from dvr_gl.bench.datasets import MESHES
+    from dvr_gl.bench.datasets import mesh_scene_keys as scene_keys
 
     source, array = MESHES["jaw"]
     path = SHARED_DATA / source
@@ -285,7 +286,7 @@ def test_dvr_bench_cells(tmp_path, monkeypatch, capsys):
     errors against the reference (the exact one at float32 level), VTK listed as absent when the peers'
     interpreter lacks it; bad arguments are one line."""
     from dvr_gl.apps.cli import main
-    from dvr_gl.bench import cells
+    from dvr_gl.renderers.projected_tetrahedra.bench import measure as cells
 
     meshio = pytest.importorskip("meshio", reason="meshes are read with meshio (pip install 'dvr-gl[mesh]')")
     mesh = jittered_mesh()

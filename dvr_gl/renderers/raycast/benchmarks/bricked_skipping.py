@@ -18,11 +18,11 @@ import statistics
 from pathlib import Path
 
 from dvr_gl.renderers.grid.bricking import Brick, ghost_width
-from dvr_gl.renderers.grid.gl_base import GridView
+from dvr_gl.renderers.grid.views import GridView
 from dvr_gl.renderers.raycast.renderer import RayCastRenderer
 from dvr_gl.scene.resolve import load_scene
 
-DATA = Path(__file__).resolve().parent.parent.parent / "shared" / "data"
+DATA = Path(__file__).resolve().parents[5] / "shared" / "data"
 HU = {"transfer_function.rescale_intercept": -1024.0}
 SCENES = [
     ("CThead, bone", {"volume.path": str(DATA / "regular/cthead.nhdr"), "transfer_function.preset": "ct-bone",

@@ -21,14 +21,15 @@ from pathlib import Path
 
 import numpy as np
 
-from dvr_gl.bench import cells
+from dvr_gl.bench import datasets
 from dvr_gl.renderers import create_renderer
+from dvr_gl.renderers.projected_tetrahedra.bench import measure as cells
 from dvr_gl.scene.resolve import load_scene
 
 
 def sparse_keys(path: Path, array, mesh) -> dict:
     """The bench's scene keys with the narrow band for a transfer function."""
-    keys = cells.scene_keys(path, array, mesh)
+    keys = datasets.mesh_scene_keys(path, array, mesh)
     lo, mid, hi = (float(q) for q in np.quantile(mesh.values, [0.75, 0.8, 0.85]))
     keys["transfer_function.points"] = [[lo, 0.2, 0.5, 0.9, 0.0], [mid, 0.9, 0.8, 0.3, 0.8], [hi, 0.9, 0.3, 0.2, 0.0]]
     return {**keys, "camera.azimuth": 30.0, "camera.elevation": 20.0}
@@ -36,7 +37,7 @@ def sparse_keys(path: Path, array, mesh) -> dict:
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data-dir", type=Path, default=Path(__file__).resolve().parents[2] / "shared" / "data")
+    parser.add_argument("--data-dir", type=Path, default=Path(__file__).resolve().parents[5] / "shared" / "data")
     parser.add_argument("--meshes", default="bluntfin,comb,post,jaw")
     parser.add_argument("--size", type=int, default=512)
     parser.add_argument("--peers-python", default=None, help="the peers' interpreter, for VTK (docs/peers.md)")
@@ -48,7 +49,7 @@ def main(argv=None):
     print("| mesh | cells with opacity | `cell-raycast` ms | RMS | `projected-tetrahedra` ms | RMS | VTK ms | VTK RMS |"
           " VTK ms / `cell-raycast` ms |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for name in args.meshes.split(","):
-        source, array = cells.MESHES[name]
+        source, array = datasets.MESHES[name]
         path = args.data_dir / source
         if not path.exists():
             print(f"{name}: {path} not found (--data-dir)", file=sys.stderr)

@@ -22,41 +22,16 @@ from pathlib import Path
 
 import numpy as np
 
-from ..fields import diagonal
-from ..progress import task as progress_task
+from ....bench import peers
+from ....bench.datasets import MESHES
+from ....bench.datasets import mesh_scene_keys as scene_keys
+from ....progress import task as progress_task
 
-MESHES = {  # name: (file under the data folder, scalar array or None for the reader's default)
-    "bluntfin": ("unstructured/bluntfin_tets.vtk", "density"),
-    "comb": ("unstructured/comb_tets.vtk", "density"),
-    "post": ("unstructured/post_tets.vtk", "q4_energy"),
-    "jaw": ("unstructured/kiefer_jaw_tet10.vtu", None),
-    "notch": ("unstructured/notch_stress.vtk", None),
-    "tetraMesh": ("unstructured/tetraMesh.vtk", None),
-}
 VIEWS = ((30.0, 20.0), (120.0, -10.0), (0.0, 90.0))  # azimuth, elevation
 RESAMPLE = 128  # grid points along the longest axis for the resampled ray-casting rows
-COLOURS = ((0.27, 0.0, 0.33, 0.0), (0.23, 0.32, 0.55, 0.15), (0.13, 0.57, 0.55, 0.3), (0.37, 0.79, 0.38, 0.5),
-           (0.99, 0.91, 0.14, 0.8))
 COLUMNS = [("mesh", "mesh", ""), ("view", "view", ""), ("renderer", "renderer", ""), ("cells", "cells", ""),
            ("order_ms", "order ms", ".0f"), ("draw_ms", "draw ms", ".0f"), ("ms", "frame ms", ".0f"),
            ("mtets", "M cells/s", ".3f"), ("rms", "RMS", ".2e"), ("cycles", "cycles broken", "")]
-
-
-def transfer_function(values: np.ndarray) -> list[list[float]]:
-    """Control points at the scalar's quintiles (strictly increasing), colours of viridis, alpha 0..0.8."""
-    q = np.quantile(values, np.linspace(0.0, 1.0, len(COLOURS)))
-    span = max(float(q[-1] - q[0]), 1e-30)
-    for i in range(1, len(q)):  # repeated quantiles (a constant stretch): nudge apart
-        q[i] = max(q[i], q[i - 1] + 1e-6 * span)
-    return [[float(v), *c] for v, c in zip(q, COLOURS)]
-
-
-def scene_keys(path: Path, array: str | None, mesh) -> dict:
-    keys = {"volume.path": str(path), "transfer_function.points": transfer_function(mesh.values),
-            "transfer_function.unit_distance": diagonal(mesh) / 10.0, "renderer.converged_tolerance": 1e-5}
-    if array:
-        keys["volume.array"] = array
-    return keys
 
 
 def write_vtu(mesh, path: Path):
@@ -89,10 +64,9 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
     """Rows (one per mesh, view and renderer) and notes.  ``pictures``: a folder for ``cells-MESH.png``
     (the first view at the error size: the reference, dvr-gl exact, cell-raycast, resampled ray casting and VTK
     where measured, above 5x their differences from the reference)."""
-    from ..fields.mesh_resample import resample, resampled_scene
-    from ..renderers import create_renderer
-    from ..scene.resolve import load_scene
-    from . import peers
+    from ....fields.mesh_resample import resample, resampled_scene
+    from ....scene.resolve import load_scene
+    from ... import create_renderer
 
     have, missing = peers.available(python, ["vtk-pt"])
     notes = [f"vtk-pt: {why}" for why in missing.values()]
@@ -176,8 +150,7 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
 
 
 def _vtk_row(name, view, mesh, scene, vtu, python, size, error_size, frames, truth, folder, timeout, notes):
-    from ..gl.geometry import clip_planes
-    from . import peers
+    from ....gl.geometry import clip_planes
 
     cam = scene.camera
     job_scene = {"mesh": str(vtu), "transfer_function": scene.transfer_function.points.tolist(),
@@ -197,7 +170,7 @@ def _vtk_row(name, view, mesh, scene, vtu, python, size, error_size, frames, tru
 
 def _picture(path: Path, tiles: list):
     """The reference and each image in a row, above 5x their differences from it (over black)."""
-    from ..image import write_image
+    from ....image import write_image
 
     truth = np.asarray(tiles[0], np.float64)
     top = np.concatenate([np.asarray(t, np.float64) for t in tiles], axis=1)

@@ -17,23 +17,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..renderers.raycast import acceleration as accel
-from ..renderers.raycast.renderer import RayCastRenderer
-from ..scene.resolve import load_scene
-from . import median_seconds, tick
+from ....bench import median_seconds, tick
+from ....bench.datasets import STUDIES
+from ....scene.resolve import load_scene
+from .. import acceleration as accel
+from ..renderer import RayCastRenderer
 
-HU = {"transfer_function.rescale_intercept": -1024.0}
-# name, file under the data folder, scene overrides (transfer function, camera)
-DATASETS = [
-    ("CThead, bone", "regular/cthead.nhdr", {"transfer_function.preset": "ct-bone", **HU, "camera.up": [0, 0, -1]}),
-    ("CThead, skin", "regular/cthead.nhdr", {"transfer_function.preset": "ct-skin", **HU, "camera.up": [0, 0, -1]}),
-    ("CT bunny, bone", "large/bunny_ct.nhdr", {"transfer_function.preset": "ct-bone", **HU}),
-    ("lobster, shell", "regular/lobster.nhdr", {"transfer_function.points": [
-        [0, 0, 0, 0, 0], [100, 0.9, 0.4, 0.2, 0], [120, 0.9, 0.4, 0.2, 0.6], [140, 0.9, 0.5, 0.3, 0],
-        [255, 0, 0, 0, 0]]}),
-    ("hydrogen, narrow shell", "regular/hydrogen_atom.nhdr", {"transfer_function.points": [
-        [0, 0, 0, 0, 0], [55, 0.2, 0.6, 1, 0], [60, 0.2, 0.6, 1, 0.5], [65, 0.2, 0.6, 1, 0], [255, 0, 0, 0, 0]]}),
-]
+DATASETS = STUDIES  # the shared datasets it measures, each with a transfer function
 CONFIGS = [  # label, overrides
     ("none", {"renderer.ert_threshold": 1.0, "renderer.acceleration": "off"}),
     ("early termination", {"renderer.ert_threshold": 0.99, "renderer.acceleration": "off"}),

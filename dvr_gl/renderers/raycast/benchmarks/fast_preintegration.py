@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from dvr_gl.bench.acceleration import DATASETS
+from dvr_gl.bench.datasets import STUDIES as DATASETS
 from dvr_gl.bench.tradeoff import converged_truth
 from dvr_gl.image import compare_images
 from dvr_gl.renderers import create_renderer
@@ -39,7 +39,7 @@ def measure(scene, truth) -> dict:
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=Path(__file__).resolve().parents[1].parent / "shared" / "data")
+    parser.add_argument("--data", type=Path, default=Path(__file__).resolve().parents[5] / "shared" / "data")
     parser.add_argument("--size", type=int, default=128, help="square image size (default 128)")
     args = parser.parse_args()
     scene = cthead_bone(args.data, args.size)

@@ -3,7 +3,8 @@
 Issue 16 asks for as many cells per second as VTK's ``vtkProjectedTetrahedraMapper``.  This bench
 renders each shared mesh (first view of ``dvr bench cells``, 512x512) with ``projected-tetrahedra``
 as shipped and with two cut-down fragment shaders, each in a process of its own (the program cache
-belongs to a context; the cut-down shaders are written to a temporary copy of ``shaders/``):
+belongs to a context; the cut-down shaders are written to a temporary copy of the renderer's ``shaders/``,
+searched before its own):
 
 * ``shipped``: the exact order and the exact transfer-function integral per fragment;
 * ``no integral``: the fragment still clips its ray against the cell's planes, and the integral is
@@ -40,12 +41,13 @@ VARIANTS = {
 
 
 def _shaders(variant: str, into: Path) -> Path:
-    from dvr_gl.gl.shaders import shader_dir
+    """A copy of projected tetrahedra's own shader folder with ``pt.frag`` cut down to ``variant``."""
+    from dvr_gl.renderers.projected_tetrahedra import renderer
 
     root = into / "shaders"
-    shutil.copytree(shader_dir(), root)
+    shutil.copytree(renderer.SHADERS[0], root)
     change = VARIANTS[variant]
-    frag = root / "cells" / "pt.frag"
+    frag = root / "pt.frag"
     text = frag.read_text()
     if change == "flat":
         text = text[:text.index("void main() {")] + "void main() { frag = vec4(0.01); }\n"
@@ -58,14 +60,16 @@ def _shaders(variant: str, into: Path) -> Path:
 
 def _measure(args) -> dict:
     """One variant, one mesh, both orders (run in a child process)."""
-    import dvr_gl.gl.shaders as shaders
-    from dvr_gl.bench.cells import MESHES, VIEWS, scene_keys
+    from dvr_gl.bench.datasets import MESHES
+    from dvr_gl.bench.datasets import mesh_scene_keys as scene_keys
     from dvr_gl.renderers import create_renderer
+    from dvr_gl.renderers.projected_tetrahedra import renderer
+    from dvr_gl.renderers.projected_tetrahedra.bench.measure import VIEWS
     from dvr_gl.scene.resolve import load_scene
 
     work = tempfile.TemporaryDirectory(prefix="dvr-pt-floor-")
-    root = _shaders(args.variant, Path(work.name))
-    shaders.shader_dir = lambda: root
+    # the cut copy first: the renderer's programs find pt.frag there, the rest in its own roots
+    renderer.SHADERS = (_shaders(args.variant, Path(work.name)), *renderer.SHADERS)
     source, array = MESHES[args.mesh]
     path = Path(args.data_dir) / source
     mesh = load_scene(None, {"volume.path": str(path), **({"volume.array": array} if array else {})}).field
@@ -91,15 +95,17 @@ def _measure(args) -> dict:
 
 
 def _vtk_ms(name, data_dir, size, frames, python) -> float | None:
-    from dvr_gl.bench import cells
+    from dvr_gl.bench import datasets
+    from dvr_gl.renderers.projected_tetrahedra.bench import measure as cells
     from dvr_gl.scene.resolve import load_scene
 
-    source, array = cells.MESHES[name]
+    source, array = datasets.MESHES[name]
     path = Path(data_dir) / source
     mesh = load_scene(None, {"volume.path": str(path), **({"volume.array": array} if array else {})}).field
     az, el = cells.VIEWS[0]
-    scene = load_scene(None, {**cells.scene_keys(path, array, mesh), "camera.azimuth": az, "camera.elevation": el,
-                              "image.width": size, "image.height": size})
+    keys = datasets.mesh_scene_keys(path, array, mesh)
+    scene = load_scene(None, {**keys, "camera.azimuth": az, "camera.elevation": el, "image.width": size,
+                              "image.height": size})
     with tempfile.TemporaryDirectory(prefix="dvr-pt-floor-vtk-") as work:
         vtu = Path(work) / f"{name}.vtu"
         cells.write_vtu(mesh, vtu)

@@ -27,11 +27,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..renderers import create_renderer
-from ..renderers.shearwarp.run_length import RunLengthVolume, SliceClassifier
-from ..renderers.shearwarp.shading import VoxelNormals
-from ..scene.resolve import load_scene
-from . import median_seconds
+from ....bench import median_seconds
+from ....scene.resolve import load_scene
+from ... import create_renderer
+from ..run_length import RunLengthVolume, SliceClassifier
+from ..shading import VoxelNormals
 
 DATASETS = [  # name, file under the data folder, scene overrides
     ("CThead", "regular/cthead.nhdr", {"camera.up": [0, 0, -1]}),

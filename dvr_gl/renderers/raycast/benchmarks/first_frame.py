@@ -61,7 +61,7 @@ def scenes(data_dir: Path, size: int, work: Path):
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--data-dir", default=str(Path(__file__).resolve().parents[2] / "shared" / "data"))
+    p.add_argument("--data-dir", default=str(Path(__file__).resolve().parents[5] / "shared" / "data"))
     p.add_argument("--size", type=int, default=512)
     p.add_argument("--runs", type=int, default=3)
     p.add_argument("--cold", action="store_true", help="an empty Mesa shader cache for every run")

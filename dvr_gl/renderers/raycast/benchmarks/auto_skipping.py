@@ -83,7 +83,7 @@ def measure(renderer, scene, repeat: int) -> dict:
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--data-dir", default=str(Path(__file__).resolve().parents[2] / "shared" / "data"))
+    p.add_argument("--data-dir", default=str(Path(__file__).resolve().parents[5] / "shared" / "data"))
     p.add_argument("--size", type=int, default=512)
     p.add_argument("--repeat", type=int, default=5)
     p.add_argument("--only", help="scenes whose name contains this")

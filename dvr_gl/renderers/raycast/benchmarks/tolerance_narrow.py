@@ -83,7 +83,7 @@ def run(data: Path, size: int):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=Path(__file__).resolve().parents[1].parent / "shared" / "data")
+    parser.add_argument("--data", type=Path, default=Path(__file__).resolve().parents[5] / "shared" / "data")
     parser.add_argument("--size", type=int, default=64, help="square image size (default 64)")
     args = parser.parse_args()
     print(format_table(run(args.data, args.size), COLUMNS))

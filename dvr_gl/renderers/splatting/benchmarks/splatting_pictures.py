@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[4]  # the repository
 
 from dvr_gl.image import side_by_side, write_image  # noqa: E402
 from dvr_gl.phantoms import demo_scene  # noqa: E402

@@ -86,11 +86,13 @@ from pathlib import Path
 import moderngl
 import numpy as np
 
-from dvr_gl.bench.cells import MESHES, scene_keys
+from dvr_gl.bench.datasets import MESHES
+from dvr_gl.bench.datasets import mesh_scene_keys as scene_keys
 from dvr_gl.fields.mesh_rays import face_neighbours
 from dvr_gl.gl.context import make_current
-from dvr_gl.gl.shaders import shader_dir
+from dvr_gl.gl.shaders import LIBRARY
 from dvr_gl.renderers import create_renderer
+from dvr_gl.renderers.mesh import SHADERS as MESH_SHADERS
 from dvr_gl.renderers.mesh.textures import ROW
 from dvr_gl.renderers.mesh.textures import rows as _rows
 from dvr_gl.scene.resolve import load_scene
@@ -243,13 +245,14 @@ def walk_source(tf, main=None) -> str:
     defines = [f"#define TF_COUNT {len(tf.points)}", f"#define TF_POW2 {1 << len(tf.points).bit_length()}"]
     if tf.opacity_model == "alpha":
         defines.append("#define ALPHA_MODEL")
-    parts = [(shader_dir() / p).read_text() for p in
-             ("common/camera_ray.glsl", "cells/mesh_fetch.glsl", "cells/transfer_segment.glsl")]
+    parts = [(root / p).read_text() for root, p in
+             ((LIBRARY, "common/camera_ray.glsl"), (MESH_SHADERS, "mesh_fetch.glsl"),
+              (MESH_SHADERS, "transfer_segment.glsl"))]
     return "\n".join(["#version 430", *defines, *parts, WALK_STEPS, main or WALK_MAIN])
 
 
 def entry_source(main=ENTRY_FS_MAIN) -> str:
-    return "\n".join(["#version 430", (shader_dir() / "common/camera_ray.glsl").read_text(), main])
+    return "\n".join(["#version 430", (LIBRARY / "common/camera_ray.glsl").read_text(), main])
 
 
 def measure(name: str, data_dir: Path, size: int, passes: int, lists: bool = False) -> dict:
@@ -262,7 +265,8 @@ def measure(name: str, data_dir: Path, size: int, passes: int, lists: bool = Fal
     exact = pt.render(scene).astype(np.float64)
     ctx = pt.ctx
     make_current(ctx)
-    textures, orders = pt._mesh[1], pt._mesh[2]
+    kept = pt._cache["mesh"][1]  # the rendered mesh's textures and visibility order
+    textures, orders = kept.textures, kept.extra
     texels = _rows(face_neighbours(mesh.tets), np.int32)
     nb = ctx.texture((ROW, texels.shape[0]), 4, texels.tobytes(), dtype="i4")
     nb.filter = (moderngl.NEAREST, moderngl.NEAREST)
@@ -378,7 +382,7 @@ def measure(name: str, data_dir: Path, size: int, passes: int, lists: bool = Fal
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data-dir", type=Path, default=Path(__file__).resolve().parents[2] / "shared" / "data")
+    parser.add_argument("--data-dir", type=Path, default=Path(__file__).resolve().parents[5] / "shared" / "data")
     parser.add_argument("--meshes", default="bluntfin,comb,post")
     parser.add_argument("--size", type=int, default=512)
     parser.add_argument("--passes", type=int, default=4, help="walks: the first entry and re-entries")

@@ -16,26 +16,16 @@ axis-aligned sheets switch axes) and 30 +- 0.01 (no switch), beside the converge
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 
-from ..image import compare_images
-from ..reference.converged import ConvergedReference
-from ..renderers import create_renderer, registry
-from ..renderers.splatting.oracle import reference as same_slabs
-from ..scene.resolve import load_scene
-from . import converged, median_seconds
+from ....bench import converged, median_seconds
+from ....image import compare_images
+from ....reference.converged import ConvergedReference
+from ....scene.resolve import load_scene
+from ... import create_renderer, registry
+from ..oracle import oracle as same_slabs
 
-HU = {"transfer_function.preset": "ct-bone", "transfer_function.rescale_intercept": -1024.0}
-DATASETS = [  # name, file under the data folder, scene overrides
-    ("bucky", "regular/bucky.nhdr", {}), ("nucleon", "regular/nucleon.nhdr", {}),
-    ("neghip", "regular/neghip.nhdr", {}), ("ironProt", "regular/ironProt.nhdr", {}),
-    ("headsq", "regular/headsq_quarter.nhdr", HU), ("hydrogen", "regular/hydrogen_atom.nhdr", {}),
-    ("brainsmall", "regular/brainsmall.nhdr", {}), ("lobster", "regular/lobster.nhdr", {}),
-    ("CThead", "regular/cthead.nhdr", {**HU, "camera.up": [0, 0, -1]}),
-    ("MNI152", "regular/MNI152_2009_template.nii.gz", {}),
-]
 SCHEMES = [("image_aligned", "post"), ("image_aligned", "pre"), ("axis_aligned", "post"), ("none", "pre"),
            ("image_aligned", "post-shaded")]  # shaded: the default lights, screen-space gradients of the slab means
 RAYCAST_DISTANCES = (4.0, 2.0, 1.0, 0.5, 0.25, 0.125)
@@ -137,23 +127,10 @@ def study(overrides: dict, size: int = 48):
 
 def plummer_scene(particles: int) -> tuple[str, dict]:
     """The Plummer demo of about ``particles`` particles, with its transfer function."""
-    from ..phantoms import demo_scene
+    from ....phantoms import demo_scene
 
     size = max(2, 2 * round(particles ** (1.0 / 3.0)))
     demo = demo_scene("plummer")
     return (f"Plummer, {(size // 2) ** 3} SPH particles",
             {"volume.demo": "plummer", "volume.size": size,
              "transfer_function.points": demo["transfer_function"]["points"]})
-
-
-def shared_scenes(data_dir: Path, only: str | None = None):
-    """The shared datasets found (``(name, overrides)``) and notes on those left out."""
-    scenes, notes = [], []
-    for name, path, overrides in DATASETS:
-        if only and only not in name:
-            continue
-        if not (data_dir / path).exists():
-            notes.append(f"{name}: {data_dir / path} not found, left out")
-            continue
-        scenes.append((name, {"volume.path": str(data_dir / path), **overrides}))
-    return scenes, notes

@@ -20,12 +20,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..image import check_writable, compare_images, composite_over, write_image
-from ..reference.converged import ConvergedReference
-from ..reference.plans import stack_axis
-from ..renderers import create_renderer
-from ..scene.resolve import load_scene
-from . import converged, tick
+from ....bench import converged, tick
+from ....image import check_writable, compare_images, composite_over, write_image
+from ....reference.converged import ConvergedReference
+from ....reference.plans import stack_axis
+from ....scene.resolve import load_scene
+from ... import create_renderer
 
 AZIMUTHS = (0.0, 15.0, 30.0, 40.0, 44.0, 46.0, 50.0, 60.0, 75.0, 90.0)
 JUMP_ANGLES = (30.0, 45.0)

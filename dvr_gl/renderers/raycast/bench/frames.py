@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import statistics
 
-from ..renderers.raycast.renderer import RayCastRenderer
-from ..scene.resolve import load_scene
-from . import tick
+from ....bench import tick
+from ....scene.resolve import load_scene
+from ..renderer import RayCastRenderer
 
 CASES = [  # (label, overrides, fragment shader)
     ("emission, early termination off", {"renderer.ert_threshold": 1.0}, "raycast.frag"),

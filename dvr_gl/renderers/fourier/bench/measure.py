@@ -13,11 +13,11 @@ from __future__ import annotations
 
 import statistics
 
-from ..image import compare_images
-from ..reference.converged import ConvergedReference
-from ..renderers import create_renderer
-from ..scene.resolve import load_scene
-from . import converged, median_seconds
+from ....bench import converged, median_seconds
+from ....image import compare_images
+from ....reference.converged import ConvergedReference
+from ....scene.resolve import load_scene
+from ... import create_renderer
 
 DISTANCES = (2.0, 1.0, 0.5, 0.25, 0.125)
 COLUMNS = [("n", "N", "d"), ("mode", "mode", ""), ("pre_s", "pre-processing s", ".2f"),
@@ -80,7 +80,7 @@ def shared(scenes, size: int = 128, progress=None) -> list[dict]:
     voxels' Nyquist limit, the Kaiser-Bessel kernel six taps a side."""
     import numpy as np
 
-    from ..rays import RayBatch
+    from ....rays import RayBatch
 
     rows = []
     with create_renderer("fourier") as fourier:

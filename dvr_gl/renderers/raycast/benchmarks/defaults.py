@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dvr_gl.bench.acceleration import DATASETS
+from dvr_gl.bench.datasets import STUDIES as DATASETS
 from dvr_gl.bench.tradeoff import converged_truth
 from dvr_gl.image import compare_images
 from dvr_gl.renderers.raycast.renderer import RayCastRenderer
@@ -56,7 +56,7 @@ def truth(scene, cache: Path, name: str) -> np.ndarray:
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--data-dir", default=str(Path(__file__).resolve().parents[2] / "shared" / "data"))
+    p.add_argument("--data-dir", default=str(Path(__file__).resolve().parents[5] / "shared" / "data"))
     p.add_argument("--cache", default=str(Path.home() / ".cache" / "dvr-gl" / "converged"))
     p.add_argument("--size", type=int, default=512)
     p.add_argument("--error-size", type=int, default=128)

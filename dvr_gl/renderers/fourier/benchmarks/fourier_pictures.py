@@ -23,9 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[4]  # the repository
 
-from dvr_gl.bench.splatting import shared_scenes  # noqa: E402
+from dvr_gl.bench.datasets import shared_scenes  # noqa: E402
 from dvr_gl.image import side_by_side, write_image  # noqa: E402
 from dvr_gl.reference.converged import ConvergedReference  # noqa: E402
 from dvr_gl.renderers import create_renderer  # noqa: E402

@@ -1,0 +1,78 @@
+"""Splatting's bench: ``dvr bench splatting``, its sheet buffers and classifications: frame time, splats,
+error against the same kernel's converged reference, the ray caster at equal error; the 45-degree study
+(:mod:`.measure`).  Declared by the plugin (``bench=``); the measurement is imported when run.
+"""
+
+from __future__ import annotations
+
+from ...bench_command import SHARED_DATA, BenchCommand, check_ranges, count, shared_regular_scenes
+
+
+def _arguments(p):
+    p.add_argument("--volume-size", type=int, default=64, help="phantom samples per axis (default 64; 0: no phantom)")
+    p.add_argument("--particles", type=int, default=4096, help="also an SPH set: a Plummer sphere of about this "
+                   "many particles (default 4096; 0: none)")
+    p.add_argument("--size", type=int, default=128, help="square image size (default 128)")
+    p.add_argument("--repeat", type=count, default=3, help="timed frames per case, after a warm-up (default 3)")
+    p.add_argument("--shared", action="store_true", help="the regular datasets in --data-dir instead of the "
+                                                         "phantom (long: a converged reference each)")
+    p.add_argument("--data-dir", default=SHARED_DATA, help=f"the shared datasets folder (default {SHARED_DATA})")
+    p.add_argument("--only", metavar="TEXT", help="with --shared: only datasets whose name contains TEXT")
+    p.add_argument("--no-shaded", action="store_true", help="leave out the shaded row (its converged reference "
+                   "computes gradients at every sample: over an hour on CThead)")
+    p.add_argument("--study-size", type=int, default=48, help="square image size of the 45-degree study "
+                                                             "(default 48; 0 leaves it out)")
+
+
+def _scenes(args) -> tuple[list, list]:
+    """The scenes measured (``(name, overrides)``) and notes on the shared datasets left out."""
+    from ....errors import DvrError
+    from . import measure
+
+    check_ranges((("--size", args.size, 8, 4096), ("--volume-size", args.volume_size, 0, 4096),
+                  ("--study-size", args.study_size, 0, 4096), ("--particles", args.particles, 0, 10 ** 7)))
+    notes = []
+    if args.shared:
+        scenes, notes = shared_regular_scenes(args)
+    elif args.volume_size:
+        scenes = [(f"Shepp-Logan {args.volume_size}^3", _phantom(args))]
+    else:
+        scenes = []
+    if args.volume_size == 1:
+        raise DvrError("--volume-size must be 0 (no phantom) or 2 to 4096, got 1")
+    if args.particles:
+        scenes.append(measure.plummer_scene(args.particles))
+    if not scenes:
+        raise DvrError("nothing to measure: --volume-size 0 and --particles 0")
+    return scenes, notes
+
+
+def _phantom(args) -> dict:
+    return {"volume.demo": "shepp-logan", "volume.size": args.volume_size}
+
+
+def _run(args) -> int:
+    from . import measure
+
+    scenes, notes = _scenes(args)
+    args.report.text(f"dvr bench splatting: {args.size}x{args.size}, the Gaussian of width 0.7 (particles: their "
+                     f"cubic spline), default camera and "
+                     f"transfer function, "
+                     f"{'no shading (the shaded row left out)' if args.no_shaded else 'no shading but the shaded row'}"
+                     f"; median of {args.repeat} frames after a warm-up; "
+                     f"RMS against reference-converged of the same kernel and classification (tolerance 1e-4)")
+    rows = measure.run(scenes, args.size, args.repeat, shaded=not args.no_shaded, progress=lambda r: print(
+        f"{r['dataset']} {r['scheme']} {r['classification']}: {r['ms']:.0f} ms, RMS {r['rms']:.2e}", flush=True))
+    args.report.text()
+    args.report.table(rows, measure.COLUMNS, notes)
+    if args.study_size and args.volume_size:
+        args.report.text(f"\nthe 45-degree study: Shepp-Logan {args.volume_size}^3 at {args.study_size}x"
+                         f"{args.study_size}, elevation 0, post-classified; the largest change of each image between "
+                         f"azimuth - {measure.STUDY_STEP:g} and + {measure.STUDY_STEP:g} degrees")
+        args.report.table(measure.study(_phantom(args), args.study_size), measure.STUDY_COLUMNS)
+    return 0
+
+
+COMMANDS = (BenchCommand("splatting", "splatting's schemes: frame time, splats drawn and culled, error against its "
+                         "oracle and the same kernel's converged reference, the ray caster at equal error; the "
+                         "45-degree study (docs/renderers/splatting.md)", _arguments, _run),)
