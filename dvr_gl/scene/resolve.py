@@ -36,6 +36,7 @@ from ..toml_writer import dumps
 from ..transfer_function import (
     PRESETS,
     TransferFunction,
+    find_preset,
     from_property,
     preset,
     preset_property,
@@ -140,12 +141,14 @@ def _drop(raw: dict, section: str, key: str, table, keep=()) -> None:
             node.pop(owner)
 
 
-def parse_scene(raw: dict, source: str | None = None, base_dir: Path | str | None = None) -> SceneSpec:
+def parse_scene(raw: dict, source: str | None = None, base_dir: Path | str | None = None,
+                lookup: "Lookup | None" = None) -> SceneSpec:
     """The checked spec of a scene dict; errors name the key, after ``source`` (the file) if given.
     A Slicer preset's (or file's) shading fills the ``renderer.shading`` keys the dict does not give
-    (``base_dir``: where a relative ``transfer_function.file`` lies; default the working folder)."""
+    (``base_dir``: where a relative ``transfer_function.file`` lies; default the working folder;
+    ``lookup``: the preset or file already looked up, :func:`look_up_preset`)."""
     try:
-        return parse_table(SceneSpec, _with_preset_shading(raw, Path(base_dir or Path.cwd())), "")
+        return parse_table(SceneSpec, _with_preset_shading(raw, Path(base_dir or Path.cwd()), lookup), "")
     except SceneError as exc:
         if source is None:
             raise
@@ -219,7 +222,7 @@ def _source_name(field, spec: VolumeSpec) -> str:
 
 
 def _resolve_transfer_function(spec: TransferFunctionSpec, field, demo: str | None,
-                               base_dir: Path = Path(".")) -> TransferFunction:
+                               base_dir: Path = Path("."), lookup: "Lookup | None" = None) -> TransferFunction:
     if spec.points is not None and (spec.preset is not None or spec.file is not None):
         raise SceneError(f"transfer_function: give {'preset' if spec.preset is not None else 'file'} or points, "
                          f"not both")
@@ -235,10 +238,10 @@ def _resolve_transfer_function(spec: TransferFunctionSpec, field, demo: str | No
         if spec.opacity_model != "alpha":
             raise SceneError("transfer_function: presets and files are written in alpha; use opacity_model = 'alpha'")
         if spec.file is not None:
-            prop = read_transfer_function_file(_tf_path(spec.file, base_dir), spec.name, spec.stretch)
+            prop = _look_up(_source(None, spec.file, spec.name, spec.stretch, base_dir), lookup)
             tf = from_property(prop, field.value_range, spec.rescale_intercept, spec.unit_distance)
         else:
-            name = spec.preset or _default_preset(VolumeSpec(demo=demo))
+            name = _look_up(_source(spec.preset or _default_preset(VolumeSpec(demo=demo))), lookup)
             tf = preset(name, field.value_range, spec.rescale_intercept, spec.unit_distance)
     # a field with a value standing for "no material" (a mesh resampled onto a grid, outside its cells)
     outside = getattr(field, "transparent_outside", None)
@@ -250,7 +253,56 @@ def _tf_path(file: str, base_dir: Path) -> Path:
     return path if path.is_absolute() else Path(base_dir) / path
 
 
-def _with_preset_shading(raw: dict, base_dir: Path) -> dict:
+@dataclass(frozen=True)
+class Lookup:
+    """A transfer function's preset or file, looked up once for a scene (:func:`load_scene`): the preset's
+    shading (:func:`parse_scene`) and the transfer function (:func:`resolve_scene`) both read it.
+
+    source: what was looked up (:func:`_source`); found: the preset's name as found
+    (:func:`~dvr_gl.transfer_function.find_preset`) or the file's VolumeProperty; error: why it could not be
+    (raised where the transfer function is resolved, as if looked up there)."""
+
+    source: tuple
+    found: object = None
+    error: Exception | None = None
+
+
+def _source(preset_name, file=None, name=None, stretch=None, base_dir: Path = Path(".")) -> tuple | None:
+    """What a transfer function names: ``("file", path, name, stretch)`` or ``("preset", name)``; None if neither
+    (values of the wrong type are left to parsing, which names them)."""
+    if isinstance(file, str):
+        return ("file", str(_tf_path(file, base_dir)), name if isinstance(name, str) else None,
+                stretch if isinstance(stretch, bool) else None)
+    return ("preset", preset_name) if isinstance(preset_name, str) else None
+
+
+def _look_up(source: tuple, lookup: Lookup | None = None):
+    """The preset's name as found, or the file's VolumeProperty: ``lookup``'s if it looked up the same source."""
+    if lookup is not None and lookup.source == source:
+        if lookup.error is not None:
+            raise lookup.error
+        return lookup.found
+    if source[0] == "file":
+        return read_transfer_function_file(Path(source[1]), source[2], source[3])
+    return find_preset(source[1])
+
+
+def look_up_preset(raw: dict, base_dir: Path) -> Lookup | None:
+    """The preset or file that scene dict ``raw``'s transfer function names, looked up (None if it names
+    none, or gives points)."""
+    tf = raw.get("transfer_function")
+    if not isinstance(tf, dict) or tf.get("points") is not None:
+        return None
+    source = _source(tf.get("preset"), tf.get("file"), tf.get("name"), tf.get("stretch"), base_dir)
+    if source is None:
+        return None
+    try:
+        return Lookup(source, _look_up(source))
+    except (DvrError, TypeError, ValueError, OSError) as exc:
+        return Lookup(source, error=exc)
+
+
+def _with_preset_shading(raw: dict, base_dir: Path, lookup: Lookup | None = None) -> dict:
     """``raw`` with the shading of its transfer function's preset or file (Slicer's ``shade``, ambient,
     diffuse, specular, specular power) in the ``renderer.shading`` keys it does not set itself, where
     the renderer shades and scattering is off.  A dict this cannot read is returned as it is: parsing
@@ -260,18 +312,14 @@ def _with_preset_shading(raw: dict, base_dir: Path) -> dict:
     tf, renderer = raw.get("transfer_function"), raw.get("renderer", {})
     if not isinstance(tf, dict) or not isinstance(renderer, dict) or tf.get("points") is not None:
         return raw
-    name, file = tf.get("name") if "file" in tf else tf.get("preset"), tf.get("file")
+    source = _source(tf.get("preset"), tf.get("file"), tf.get("name"), tf.get("stretch"), base_dir)
     shading = renderer.get("shading", {})
     scattering = renderer.get("scattering", {})
-    if not isinstance(shading, dict) or (isinstance(scattering, dict) and scattering.get("enabled")):
+    if source is None or not isinstance(shading, dict) or (isinstance(scattering, dict) and scattering.get("enabled")):
         return raw
     try:
-        if isinstance(file, str):
-            prop = read_transfer_function_file(_tf_path(file, base_dir), name if isinstance(name, str) else None)
-        elif isinstance(name, str):
-            prop = preset_property(name)
-        else:
-            return raw
+        found = _look_up(source, lookup)
+        prop = found if source[0] == "file" else preset_property(found)
         plugin = registry.plugin(renderer.get("name") or registry.default_for("grid"))
     except (DvrError, TypeError, ValueError, OSError):
         return raw
@@ -482,9 +530,11 @@ def effective_renderer_dict(renderer) -> dict:
 
 
 def resolve_scene(spec: SceneSpec, base_dir: Path | str = ".", field=None, volume_source: VolumeSpec | None = None,
-                  camera: Camera | None = None, transfer_function: TransferFunction | None = None) -> Scene:
+                  camera: Camera | None = None, transfer_function: TransferFunction | None = None,
+                  lookup: Lookup | None = None) -> Scene:
     """Load the field (unless given) and turn presets and defaults into explicit values; then the
-    scene's renderer resolves what is its own (the ray caster: a tolerance)."""
+    scene's renderer resolves what is its own (the ray caster: a tolerance).  ``lookup``: the transfer
+    function's preset or file, already looked up (:func:`look_up_preset`)."""
     from ..renderers import registry
 
     base_dir = Path(base_dir)
@@ -493,7 +543,8 @@ def resolve_scene(spec: SceneSpec, base_dir: Path | str = ".", field=None, volum
         budget = getattr(spec.renderer, "memory_budget_mb", None)  # declared by the renderers that read out of core
         field, volume_source = _resolve_volume(spec.volume, base_dir, budget)
     _check_extent(field, volume_source or spec.volume)
-    tf = transfer_function or _resolve_transfer_function(spec.transfer_function, field, spec.volume.demo, base_dir)
+    tf = transfer_function or _resolve_transfer_function(spec.transfer_function, field, spec.volume.demo, base_dir,
+                                                         lookup)
     if spec.transfer_function.file is not None:  # absolute, so that a new field re-resolves it from anywhere
         spec = dataclasses.replace(spec, transfer_function=dataclasses.replace(
             spec.transfer_function, file=str(_tf_path(spec.transfer_function.file, base_dir).resolve())))
@@ -557,8 +608,10 @@ def load_scene(path: Path | str | None = None, overrides: dict | None = None, ba
     raw = read_scene_dict(Path(path)) if path is not None else copy.deepcopy(base or {})
     if overrides:
         raw = apply_overrides(raw, overrides)
-    spec = parse_scene(raw, str(path) if path is not None else None, Path(path).parent if path is not None else None)
-    return resolve_scene(spec, Path(path).parent if path is not None else Path.cwd())
+    base_dir = Path(path).parent if path is not None else Path.cwd()
+    lookup = look_up_preset(raw, base_dir)  # once: the preset's shading and the transfer function read it
+    spec = parse_scene(raw, str(path) if path is not None else None, base_dir, lookup)
+    return resolve_scene(spec, base_dir, lookup=lookup)
 
 
 def available_presets() -> list[str]:

@@ -114,3 +114,27 @@ def test_scene_flags_take_their_type_and_choices_from_the_schema():
     assert isinstance(actions["shading"], argparse.BooleanOptionalAction)
     args = p.parse_args(["-o", "x.png", "--sample-distance", "0.5", "--azimuth", "10"])
     assert render_cmd.overrides_from(args) == {"camera.azimuth": 10.0, "renderer.sample_distance": 0.5}
+
+
+@pytest.mark.parametrize("name", ["ct-aaa", "no-such-preset"])
+def test_a_preset_is_looked_up_once(monkeypatch, name):
+    """The preset's shading (parsing) and its transfer function (resolution) read one lookup of the name as
+    written (an unknown one: one line, from the one lookup)."""
+    from dvr_gl.scene import resolve
+
+    spellings = []
+
+    def counting(text):
+        spellings.append(text)
+        return find_preset(text)
+
+    find_preset = resolve.find_preset
+    monkeypatch.setattr(resolve, "find_preset", counting)
+    overrides = {**SMALL, "transfer_function.preset": name}
+    if name == "ct-aaa":
+        scene = load_scene(None, overrides)
+        assert scene.renderer.shading.enabled  # Slicer's CT-AAA shades: its shading was read from the lookup
+    else:
+        with pytest.raises(SceneError, match="unknown transfer function preset 'no-such-preset'"):
+            load_scene(None, overrides)
+    assert spellings == [name]
