@@ -1,8 +1,8 @@
-"""Clipping and opaque meshes in the renderers of tetrahedral meshes (``projected-tetrahedra``,
-``cell-raycast``): each fragment's (walk's) piece narrowed to the kept region and ended at the nearest
+"""Clipping and opaque meshes in the GL renderers of tetrahedral meshes (those that declare the ``mesh``
+data kind): each fragment's (walk's) piece narrowed to the kept region and ended at the nearest
 surface (``dvr_gl/renderers/mesh/shaders/kept_part.glsl``), against closed forms and the float64 mesh reference.
 
-The closed forms are tests/renderers/test_clipping.py's and tests/renderers/test_geometry.py's slab (Beer-Lambert on the
+The closed forms are tests/slab_scenes.py's slab (Beer-Lambert on the
 kept chord; a square inside and above it), here as a mesh of hexahedra split into tetrahedra.
 """
 
@@ -10,41 +10,25 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_clipping import COLOUR, PLANE, SIGMA, _beer_lambert
-from test_geometry import GREY, _expected, _square
 
-from dvr_gl.fields.mesh import TetMesh
-from dvr_gl.fields.mesh_cells import hexahedra_of_grid, tetrahedralize
-from dvr_gl.renderers import create_renderer
+from dvr_gl.gl.context import make_current
+from dvr_gl.renderers import create_renderer, registry
+from judges import CONVERGED, renderers
 from mesh_inputs import jittered_mesh, mesh_scene, rms
+from slab_scenes import GREY, PLANE, beer_lambert, slab_keys, slab_mesh, square, square_expected
 
 meshio = pytest.importorskip("meshio", reason="meshes are read by meshio (the mesh extra)")
 
-MESH_RENDERERS = ["projected-tetrahedra", "cell-raycast"]
+# the GL renderers of volume meshes
+MESH_RENDERERS = renderers(kind="mesh", gl=True)
 
 
 @pytest.fixture(scope="module", params=MESH_RENDERERS)
-def renderer(request):
-    r = create_renderer(request.param)
+def renderer(request, shared_gl_context):
+    """One renderer per module on the session's context (made current: an earlier test may have left none)."""
+    r = create_renderer(request.param, ctx=make_current(shared_gl_context))
     yield r
     r.close()
-
-
-def slab_mesh(n=(5, 5, 3)):
-    """The slab 0 <= x, y <= 4, 0 <= z <= 1 as hexahedra (split into tetrahedra), the value 0.5."""
-    axes = [np.linspace(0.0, 4.0, n[0]), np.linspace(0.0, 4.0, n[1]), np.linspace(0.0, 1.0, n[2])]
-    z, y, x = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
-    p = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
-    points, tets, _, values = tetrahedralize(p, [("hexahedron", hexahedra_of_grid(*n))], np.full(len(p), 0.5))
-    return TetMesh(points, tets, values, name="slab")
-
-
-def slab_keys(name, **extra):
-    """tests/renderers/test_clipping.py's view of the slab: orthographic along -z, x in [0.8, 3.2]."""
-    return {"renderer.name": name, "transfer_function.points": [[0.0, *COLOUR, SIGMA], [1.0, *COLOUR, SIGMA]],
-            "transfer_function.opacity_model": "extinction", "image.width": 12, "image.height": 10,
-            "camera.projection": "orthographic", "camera.eye": [2.0, 2.0, 10.0], "camera.target": [2.0, 2.0, 0.5],
-            "camera.up": [0.0, 1.0, 0.0], "camera.view_height": 2.0, "renderer.ert_threshold": 1.0, **extra}
 
 
 # The box's faces lie between pixel centres (x = 1.5 would hold one: float32 would decide it).
@@ -63,7 +47,7 @@ def test_a_clipped_mesh_slab_is_beer_lambert(renderer, case):
     clipping, chord = CASES[case]
     scene = mesh_scene(slab_mesh(), **slab_keys(renderer.name, **{"renderer.clipping": clipping}))
     image = renderer.render(scene)
-    expected = _beer_lambert(scene, chord)
+    expected = beer_lambert(scene, chord)
     assert expected[..., 3].max() > 0.3 and np.abs(image - expected).max() < 2e-6
 
 
@@ -71,10 +55,10 @@ def test_a_clipped_mesh_slab_is_beer_lambert(renderer, case):
 def test_a_square_in_and_above_a_mesh_slab(tmp_path, renderer, height):
     """Pieces end at the square's depth (the surface layer's t), the square shows behind: float32,
     measured 4.8e-7."""
-    geometry = [{"path": _square(tmp_path / "square.obj", height), "color": list(GREY)}]
+    geometry = [{"path": square(tmp_path / "square.obj", height), "color": list(GREY)}]
     scene = mesh_scene(slab_mesh(), **slab_keys(renderer.name, **{"renderer.geometry": geometry}))
     image = renderer.render(scene)
-    assert np.abs(image - _expected(scene, height)).max() < 2e-6
+    assert np.abs(image - square_expected(scene, height)).max() < 2e-6
 
 
 def _crossing(tmp_path):
@@ -106,12 +90,12 @@ def test_mesh_renderers_clip_and_stop_at_meshes_as_the_reference(tmp_path, rende
         keys["renderer.clipping"] = CLIP
     if what in ("geometry", "both"):
         keys["renderer.geometry"] = _crossing(tmp_path)
-    if renderer.name == "cell-raycast":
+    if registry.plugin(renderer.name).declared("ert_threshold") is not None:  # no early termination
         keys["renderer.ert_threshold"] = 1.0
     scene = mesh_scene(jittered_mesh(), **keys)
     image = renderer.render(scene)
-    truth = converged.render(scene.with_renderer(name="reference-converged"))
-    plain = converged.render(scene.with_renderer(name="reference-converged", clipping=None, geometry=[]))
+    truth = converged.render(scene.with_renderer(name=CONVERGED))
+    plain = converged.render(scene.with_renderer(name=CONVERGED, clipping=None, geometry=[]))
     assert rms(truth, plain) > 0.03  # the region and the surfaces change the picture
     bound = 1e-4 if mode == "emission_absorption" else 1e-5
     assert rms(image, truth) < bound, rms(image, truth)
@@ -127,8 +111,8 @@ def test_camera_inside_a_clipped_mesh(tmp_path, renderer, converged, lens):
             "renderer.geometry": _crossing(tmp_path), "renderer.ert_threshold": 1.0, **lens}
     scene = mesh_scene(jittered_mesh(), **keys)
     image = renderer.render(scene)
-    truth = converged.render(scene.with_renderer(name="reference-converged"))
-    plain = converged.render(scene.with_renderer(name="reference-converged", clipping=None, geometry=[]))
+    truth = converged.render(scene.with_renderer(name=CONVERGED))
+    plain = converged.render(scene.with_renderer(name=CONVERGED, clipping=None, geometry=[]))
     assert rms(truth, plain) > 0.03
     assert rms(image, truth) < 1e-4, rms(image, truth)
 

@@ -1,5 +1,6 @@
 """Single scattering with shadows (``[renderer.scattering]``): the phase functions, the references
-against closed forms, and what a scene without scattering keeps.
+against closed forms, and what a scene without scattering keeps (each GL renderer's own methods are
+tested in its folder: ``dvr_gl/renderers/NAME/tests/test_scattering_NAME.py``).
 
 The closed forms (orthographic views along -z, a homogeneous medium of extinction ``S``, colour ``C``,
 albedo ``a``, one directional light of irradiance ``E``; ``q = 4 pi p(cos theta)``):
@@ -31,9 +32,13 @@ from dvr_gl.reference.scattering import FOUR_PI, henyey_greenstein, isotropic, p
 from dvr_gl.renderers import registry
 from dvr_gl.scene.resolve import load_scene
 from dvr_gl.transfer_function import TransferFunction
+from judges import CONVERGED, DISCRETE, renderers
+from scattering_scenes import COLUMN_LIT, LIT, SMALL, with_column
 
 COLOUR = np.array([0.9, 0.6, 0.3])
 SIGMA, ALBEDO, INTENSITY = 1.3, 0.7, 1.5
+# the renderer that turns a tolerance into its settings (it refuses a tolerance with scattering)
+TOLERANT = renderers("tolerance")[0]
 
 
 # --- the phase functions -------------------------------------------------------------------------
@@ -120,7 +125,7 @@ def test_slab_lit_by_a_directional_light(tmp_path, front, phase):
     cos_scatter = direction[2]
     q = 1.0 if not phase else FOUR_PI * henyey_greenstein(np.array([cos_scatter]), 0.6)[0]
     colour, alpha = _slab_expected(front, theta, q)
-    scene = _slab_scene(tmp_path, "reference-converged", [_light(direction)], **phase)
+    scene = _slab_scene(tmp_path, CONVERGED, [_light(direction)], **phase)
     assert scene.field.bounds[1][2] - scene.field.bounds[0][2] == pytest.approx(1.0)
     image = ConvergedReference(scene).render_float64()
     # every pixel's shadow rays leave through the lit face: the image is within 1 of the slab's middle
@@ -128,7 +133,7 @@ def test_slab_lit_by_a_directional_light(tmp_path, front, phase):
     assert np.abs(image[..., 3] - alpha).max() < 1e-12
     # the same discretization at a fine step: midpoint sampling of e^(-S t / mu) errs by about
     # (S d / mu)^2 / 24 relatively (2.8e-7 at d = 0.002); the shadow march of a constant medium is exact
-    fine = DiscreteReference(scene.with_renderer(name="reference", sample_distance=0.002)).render_float64()
+    fine = DiscreteReference(scene.with_renderer(name=DISCRETE, sample_distance=0.002)).render_float64()
     assert np.abs(fine[..., :3] - colour).max() < 1e-6
 
 
@@ -151,7 +156,7 @@ def test_ball_lit_along_the_view(toward_eye):
     (lit from behind, forward scattering through Henyey-Greenstein)."""
     g = 0.5
     direction = (0.0, 0.0, 1.0 if toward_eye else -1.0)
-    scene, radius = _ball_scene("reference-converged", [_light(direction)], phase="henyey_greenstein", g=g)
+    scene, radius = _ball_scene(CONVERGED, [_light(direction)], phase="henyey_greenstein", g=g)
     q = FOUR_PI * henyey_greenstein(np.array([direction[2]]), g)[0]
     o, d = scene.camera.pixel_rays(scene.image.width, scene.image.height)
     b2 = np.sum(o[:, :2] ** 2, axis=1)
@@ -174,7 +179,7 @@ def test_point_light_on_the_axis_against_a_direct_quadrature():
     -R) the light is ``Z - z`` away and its path inside the ball ``R - z``, so the scattered light is
     ``a q I S int e^(-2 S (R - z)) / (Z - z)^2 dz`` (q for backscattering, isotropic: 1)."""
     z_light = 3.0
-    scene, radius = _ball_scene("reference-converged", [{"type": "point", "position": [0.0, 0.0, z_light],
+    scene, radius = _ball_scene(CONVERGED, [{"type": "point", "position": [0.0, 0.0, z_light],
                                                           "intensity": INTENSITY}])
     x, w = np.polynomial.legendre.leggauss(200)
     z = radius * x
@@ -187,10 +192,8 @@ def test_point_light_on_the_axis_against_a_direct_quadrature():
 
 # --- identities and what a scene without scattering keeps -----------------------------------------
 
-SMALL = {"volume.demo": "shepp-logan", "volume.size": 12, "image.width": 14, "image.height": 12}
 
-
-@pytest.mark.parametrize("name", ["reference", "reference-converged"])
+@pytest.mark.parametrize("name", [DISCRETE, CONVERGED])
 def test_unshadowed_isotropic_unit_light_is_emission_absorption(name):
     """With no shadows, isotropic phase and one light of intensity 1, ``F = 1`` everywhere: the image is
     emission-absorption's, whatever the albedo; albedo 0 is emission-absorption with any light."""
@@ -216,14 +219,14 @@ def test_shadows_darken_and_the_discrete_reference_converges():
     assert (unshadowed[..., :3] - truth[..., :3]).max() > 0.05
     errors = []
     for voxels in (1.0, 0.5, 0.25):
-        scene = load_scene(None, {**over, "renderer.name": "reference", "renderer.sample_distance_voxels": voxels})
+        scene = load_scene(None, {**over, "renderer.name": DISCRETE, "renderer.sample_distance_voxels": voxels})
         errors.append(float(np.sqrt(np.mean((DiscreteReference(scene).render_float64() - truth) ** 2))))
     assert errors[0] > errors[1] > errors[2]
     assert errors[2] < 0.35 * errors[0]  # second order: a quarter per halving, with rounding of knots
 
 
 def test_scene_file_round_trip_and_defaults(tmp_path):
-    scene = load_scene(None, {**SMALL, "renderer.name": "reference",
+    scene = load_scene(None, {**SMALL, "renderer.name": DISCRETE,
                               "renderer.scattering": {"enabled": True, "phase": "henyey_greenstein", "g": 0.4,
                                                       "lights": [{"type": "point", "position": [1.0, 2.0, 3.0]}]}})
     path = tmp_path / "scene.toml"
@@ -245,11 +248,11 @@ def test_scene_file_round_trip_and_defaults(tmp_path):
     ({"renderer.scattering.phase": "rayleigh"}, "is not one of isotropic, henyey_greenstein"),
     ({"renderer.compositing": "mip"}, "emission-absorption only, not compositing = 'mip'"),
     ({"renderer.shading.enabled": True}, "turn one off"),
-    ({"renderer.name": "raycast", "renderer.tolerance": 0.01}, "modelled without shading, scattering"),
+    ({"renderer.name": TOLERANT, "renderer.tolerance": 0.01}, "modelled without shading, scattering"),
 ])
 def test_bad_scattering_is_one_line(overrides, words):
     with pytest.raises(SceneError) as info:
-        load_scene(None, {**SMALL, "renderer.name": "reference", "renderer.scattering.enabled": True, **overrides})
+        load_scene(None, {**SMALL, "renderer.name": DISCRETE, "renderer.scattering.enabled": True, **overrides})
     assert words in str(info.value) and "\n" not in str(info.value)
 
 
@@ -265,127 +268,10 @@ def test_renderers_without_scattering_refuse_it():
         scene = load_scene(None, {**SMALL, "renderer.scattering.enabled": True,
                                   "renderer.filter": "linear" if "linear" in filters else filters[0]})
         problem = registry.refusal(scene, name)
-        assert problem is not None and "scattering" in problem and "reference" in problem, name
+        assert problem is not None and "scattering" in problem and DISCRETE in problem, name
 
 
-# --- the ray caster's shadow rays ------------------------------------------------------------------
-
-LIT = {**SMALL, "renderer.ert_threshold": 1.0,
-       "renderer.scattering": {"enabled": True, "albedo": 0.9, "lights": [{"direction": [1.0, 0.3, -0.2],
-                                                                          "intensity": 3.0}]},
-       "transfer_function.points": [[0.0, 1.0, 0.8, 0.6, 0.0], [0.3, 1.0, 0.8, 0.6, 0.6],
-                                    [1.0, 0.6, 0.8, 1.0, 0.9]]}
-
-
-@pytest.mark.parametrize("extra", [
-    {}, {"renderer.ert_threshold": 0.99}, {"camera.projection": "orthographic"},
-    {"renderer.scattering.phase": "henyey_greenstein", "renderer.scattering.g": -0.4},
-    {"renderer.scattering.lights": [{"type": "point", "position": [3.0, 20.0, 10.0], "intensity": 300.0},
-                                    {"direction": [0.0, 0.0, -1.0], "color": [0.5, 0.7, 1.0]}]},
-    {"renderer.scattering.lights": [{"type": "point", "position": [6.0, 6.0, 6.0], "intensity": 4.0}]},  # inside
-    {"renderer.classification": "pre"}, {"renderer.classification": "preintegrated"},
-    {"renderer.gradient_opacity": True}, {"renderer.scattering.shadows": False}, {"renderer.acceleration": "on"},
-    {"renderer.filter": "cubic_bspline"},
-], ids=lambda e: ",".join(f"{k.split('.')[-1]}={v}" if not isinstance(v, list) else k.split('.')[-1]
-                          for k, v in e.items()) or "default")
-def test_raycast_shadow_rays_match_the_same_discretization(gl_context, extra):
-    """The ray caster's shadow rays against the reference's (same segments on both rays): float32
-    against float64, measured at most 6e-6 (the conftest's bound: 1e-4 for 0.5 % of values)."""
-    from conftest import assert_close
-
-    scene = load_scene(None, {**LIT, "renderer.name": "raycast", **extra})
-    with registry.plugin("raycast").create(ctx=gl_context) as renderer:
-        image = renderer.render(scene)
-        assert renderer.stats["defines"]["SCATTERING"]
-    reference = DiscreteReference(scene).render_float64()
-    assert image[..., :3].max() > 0.1  # lit, not black
-    assert_close(image, reference)
-
-
-def test_raycast_shadow_rays_longer_than_the_loop_cap_go_in_passes(gl_context):
-    """A shadow ray per sample multiplies a ray's loop iterations; llvmpipe stops a shader's loops after
-    65535 in all, so the frame is drawn in windows of segments (here 3): without them the far half of
-    every ray would be missing."""
-    from conftest import assert_close
-    from dvr_gl.renderers.raycast.renderer import segment_windows
-
-    scene = load_scene(None, {**LIT, "renderer.name": "raycast", "renderer.sample_distance_voxels": 0.05,
-                              "image.width": 6, "image.height": 5})
-    assert len(segment_windows(scene)) >= 3
-    with registry.plugin("raycast").create(ctx=gl_context) as renderer:
-        image = renderer.render(scene)
-        assert renderer.stats["passes"] >= 3
-    assert_close(image, DiscreteReference(scene).render_float64())
-
-
-def test_a_scene_without_scattering_compiles_none_and_is_unchanged(gl_context):
-    """``enabled = false`` (whatever else the table holds) is the scene without the table: no scattering
-    define, the same image to the bit."""
-    plain = load_scene(None, {**SMALL, "renderer.name": "raycast"})
-    off = load_scene(None, {**SMALL, "renderer.name": "raycast",
-                            "renderer.scattering": {"enabled": False, "albedo": 0.3, "shadows": True,
-                                                    "lights": [{"type": "point", "intensity": 9.0}]}})
-    with registry.plugin("raycast").create(ctx=gl_context) as renderer:
-        a = renderer.render(plain)
-        defines = dict(renderer.stats["defines"])
-        b = renderer.render(off)
-        assert renderer.stats["defines"] == defines
-    assert not any(k in defines for k in ("SCATTERING", "SHADOWS", "NUM_SCATTER_LIGHTS", "PHASE_HG"))
-    assert np.array_equal(a, b)
-
-
-def test_raycast_refuses_other_methods_and_bricks(gl_context):
-    scene = load_scene(None, {**LIT, "renderer.name": "raycast", "renderer.scattering.method": "half_angle"})
-    assert "not by renderer.scattering.method = 'half_angle'" in registry.refusal(scene)
-    bricked = load_scene(None, {**LIT, "renderer.name": "raycast", "renderer.texture_budget_mb": 0.002})
-    with registry.plugin("raycast").create(ctx=gl_context) as renderer:
-        with pytest.raises(SceneError, match="the lights. rays cross bricks"):
-            renderer.render(bricked)
-
-
-# --- the light volume ------------------------------------------------------------------------------
-
-VOLUME_LIT = {**LIT, "renderer.scattering.method": "light_volume", "renderer.scattering.light_volume_size": 20}
-
-
-@pytest.mark.parametrize("extra", [
-    {}, {"renderer.scattering.lights": [{"type": "point", "position": [3.0, 20.0, 10.0], "intensity": 300.0},
-                                        {"direction": [0.0, 0.0, -1.0], "color": [0.5, 0.7, 1.0]}]},
-    {"renderer.classification": "pre"}, {"renderer.classification": "preintegrated"},
-    {"renderer.gradient_opacity": True}, {"renderer.filter": "cubic_bspline"},
-    {"renderer.scattering.light_volume_size": 5},
-], ids=lambda e: ",".join(f"{k.split('.')[-1]}={v}" if not isinstance(v, list) else k.split('.')[-1]
-                          for k, v in e.items()) or "default")
-def test_raycast_light_volume_matches_the_same_discretization(gl_context, extra):
-    """The light volume marched in GL from its nodes and interpolated in the shader, against the
-    reference marching the same rays in float64: measured at most 6e-6, the conftest's bound."""
-    from conftest import assert_close
-
-    scene = load_scene(None, {**VOLUME_LIT, "renderer.name": "raycast", **extra})
-    with registry.plugin("raycast").create(ctx=gl_context) as renderer:
-        image = renderer.render(scene)
-        assert renderer.stats["defines"]["LIGHT_VOLUME"] and "SHADOWS" not in renderer.stats["defines"]
-    assert image[..., :3].max() > 0.1
-    assert_close(image, DiscreteReference(scene).render_float64())
-
-
-def test_light_volume_is_made_once_per_light_and_transfer_function(gl_context):
-    scene = load_scene(None, {**VOLUME_LIT, "renderer.name": "raycast"})
-    with registry.plugin("raycast").create(ctx=gl_context) as renderer:
-        renderer.render(scene)
-        assert renderer.stats["light_volume_seconds"] > 0
-        assert renderer._cache["light volume"][1].texture.components == 1  # a channel per light, no more
-        renderer.render(scene.replace(camera=scene.camera.orbited(azimuth=80.0)))  # a new view: kept
-        assert renderer.stats["light_volume_seconds"] == 0
-        moved = scene.with_renderer(scattering=dataclasses.replace(
-            scene.renderer.scattering, lights=[dataclasses.replace(scene.renderer.scattering.lights[0],
-                                                                   direction=(0.0, 1.0, -1.0))]))
-        renderer.render(moved)
-        assert renderer.stats["light_volume_seconds"] > 0
-        plain = load_scene(None, {**SMALL, "renderer.name": "raycast"})
-        with registry.plugin("raycast").create(ctx=gl_context) as fresh:
-            fresh.render(plain)
-            assert "light volume" not in fresh._cache  # nothing of scattering uploaded
+# --- the light volume, in the reference -------------------------------------------------------------------------
 
 
 def test_light_volume_converges_to_the_shadow_rays():
@@ -395,7 +281,7 @@ def test_light_volume_converges_to_the_shadow_rays():
     truth = ConvergedReference(load_scene(None, {**over, "renderer.converged_tolerance": 1e-5})).render_float64()
 
     def rms(extra):
-        scene = load_scene(None, {**over, "renderer.name": "reference", **extra})
+        scene = load_scene(None, {**over, "renderer.name": DISCRETE, **extra})
         return float(np.sqrt(np.mean((DiscreteReference(scene).render_float64() - truth) ** 2)))
     rays = rms({})
     errors = [rms({"renderer.scattering.method": "light_volume", "renderer.scattering.light_volume_size": n})
@@ -459,71 +345,7 @@ def test_henyey_greenstein_sampling_has_mean_cosine_g():
         assert abs(np.mean(np.sum(new * d, axis=1)) - g) < 4.0 * np.sqrt(0.5 / len(d))
 
 
-@pytest.mark.parametrize("method", ["shadow_rays", "light_volume"])
-def test_shadow_step_of_its_own(gl_context, method):
-    """renderer.scattering.shadow_step_voxels marches shadow rays at their own step (the view rays keep
-    theirs): the GPU within float32 of the reference at that step, and a coarser step changes the image."""
-    from conftest import assert_close
-
-    over = {**LIT, "renderer.name": "raycast", "renderer.scattering.method": method,
-            "renderer.scattering.light_volume_size": 12}
-    coarse = load_scene(None, {**over, "renderer.scattering.shadow_step_voxels": 2.0})
-    with registry.plugin("raycast").create(ctx=gl_context) as renderer:
-        image = renderer.render(coarse)
-        fine = renderer.render(load_scene(None, over))
-    assert_close(image, DiscreteReference(coarse).render_float64())
-    assert np.abs(image - fine).max() > 1e-3
-
-
-# --- slicing3d: half-angle slicing, and the ray caster's methods on slices --------------------------
-
-HALF = {**LIT, "renderer.name": "slicing3d", "renderer.scattering.method": "half_angle",
-        "renderer.scattering.light_buffer_size": 32, "image.width": 28, "image.height": 24}  # a pixel: 0.15 %
-
-
-@pytest.mark.parametrize("extra", [
-    {}, {"renderer.scattering.lights": [{"direction": [-0.5, 0.9, 0.3], "intensity": 2.0}]},  # behind: over
-    {"camera.projection": "orthographic"}, {"renderer.classification": "pre"},
-    {"renderer.classification": "preintegrated"}, {"renderer.gradient_opacity": True},
-    {"renderer.scattering.light_buffer_size": 100}, {"renderer.scattering.shadows": False},
-    {"renderer.scattering.method": "shadow_rays"}, {"renderer.scattering.method": "light_volume"},
-], ids=lambda e: ",".join(f"{k.split('.')[-1]}={v}" if not isinstance(v, list) else k.split('.')[-1]
-                          for k, v in e.items()) or "default")
-def test_slicing3d_scattering_matches_its_planes(gl_context, extra):
-    """Half-angle slicing against the reference of the same planes and the same light buffer (its
-    slices accumulated per pixel, looked up bilinearly): float32 against float64 on all but a
-    silhouette pixel or so, where the rasterizer and the reference's clipping decide a slice's edge
-    apart (measured at most 2 pixels, 0.3 % of values off by more than 1e-4; conftest's bound 0.5 %);
-    the ray caster's methods on view-aligned slices to 3e-6."""
-    from conftest import assert_close
-    from dvr_gl.renderers.grid.slicing import same_planes_3d
-
-    scene = load_scene(None, {**HALF, **extra})
-    with registry.plugin("slicing3d").create(ctx=gl_context) as renderer:
-        image = renderer.render(scene)
-    assert image[..., :3].max() > 0.1
-    assert_close(image, same_planes_3d(scene))
-
-
-def test_half_angle_converges_to_the_converged_reference(gl_context):
-    """Half-angle slicing's error against reference-converged falls at first order as the slices get
-    finer and the light buffer larger (a slice's light is what the slices before it left: measured
-    5.4e-2, 2.8e-2, 1.4e-2 at 1, 0.5, 0.25 voxel with 16, 32, 64 pixels)."""
-    truth = ConvergedReference(load_scene(None, {**HALF, "renderer.converged_tolerance": 1e-5})).render_float64()
-    errors = []
-    with registry.plugin("slicing3d").create(ctx=gl_context) as renderer:
-        for voxels, pixels in ((1.0, 16), (0.5, 32), (0.25, 64)):
-            scene = load_scene(None, {**HALF, "renderer.sample_distance_voxels": voxels,
-                                      "renderer.scattering.light_buffer_size": pixels})
-            errors.append(float(np.sqrt(np.mean((renderer.render(scene) - truth) ** 2))))
-    assert errors[0] > 1.6 * errors[1] > 1.6 ** 2 * errors[2]
-
-
-@pytest.mark.parametrize("lights", [[{"type": "point", "position": [0.0, 0.0, 30.0]}],
-                                    [{"direction": [1.0, 0.0, 0.0]}, {"direction": [0.0, 1.0, 0.0]}]])
-def test_half_angle_takes_one_directional_light(lights):
-    with pytest.raises(SceneError, match="one directional light"):
-        load_scene(None, {**HALF, "renderer.scattering.lights": lights})
+# --- half-angle slicing's geometry ---------------------------------------------------------------
 
 
 def test_half_angle_geometry():
@@ -555,7 +377,7 @@ def test_slab_with_the_albedo_column_against_its_closed_form(tmp_path):
     theta = math.radians(40.0)
     direction = (math.sin(theta), 0.0, -math.cos(theta))
     colour, alpha = _slab_expected(True, theta, 1.0, albedo=0.65)
-    scene = _slab_scene(tmp_path, "reference-converged", [_light(direction)])
+    scene = _slab_scene(tmp_path, CONVERGED, [_light(direction)])
     column = scene.replace(transfer_function=TransferFunction(
         [[0.0, *COLOUR, SIGMA, 0.3], [1.0, *COLOUR, SIGMA, 1.0]], opacity_model="extinction"))
     column = column.with_renderer(scattering=dataclasses.replace(column.renderer.scattering, albedo=None))
@@ -564,72 +386,19 @@ def test_slab_with_the_albedo_column_against_its_closed_form(tmp_path):
     assert np.abs(image[..., 3] - alpha).max() < 1e-12
 
 
-def _with_column(overrides: dict, column) -> dict:
-    """``overrides`` with its transfer function's points given a sixth column."""
-    points = [[*row, a] for row, a in zip(overrides["transfer_function.points"], column)]
-    return {**overrides, "transfer_function.points": points}
-
-
-@pytest.mark.parametrize("name", ["reference", "reference-converged"])
+@pytest.mark.parametrize("name", [DISCRETE, CONVERGED])
 def test_a_constant_albedo_column_is_the_number(name):
     """A column holding 0.9 at every point renders as ``albedo = 0.9``; a number given overrides the
     column (the default reads it)."""
     plain = load_scene(None, {**LIT, "renderer.name": name})
-    column = load_scene(None, {**_with_column(LIT, [0.9] * 3), "renderer.name": name,
+    column = load_scene(None, {**with_column(LIT, [0.9] * 3), "renderer.name": name,
                                "renderer.scattering.albedo": "transfer_function"})
     renderer = registry.plugin(name).create()
     expected = renderer.render(plain)
     assert np.abs(renderer.render(column) - expected).max() < 1e-12
-    overridden = load_scene(None, {**_with_column(LIT, [0.1] * 3), "renderer.name": name,
+    overridden = load_scene(None, {**with_column(LIT, [0.1] * 3), "renderer.name": name,
                                    "renderer.scattering.albedo": 0.9})
     assert np.abs(renderer.render(overridden) - expected).max() < 1e-12
-
-
-COLUMN_LIT = _with_column(LIT, [0.1, 1.0, 0.4])
-ALBEDO_BY_DEFAULT = {"renderer.scattering": {k: v for k, v in LIT["renderer.scattering"].items() if k != "albedo"}}
-
-
-@pytest.mark.parametrize("extra", [
-    {}, {"renderer.classification": "preintegrated"},
-    {"renderer.scattering.method": "light_volume", "renderer.scattering.light_volume_size": 20},
-], ids=["post", "preintegrated", "light_volume"])
-def test_raycast_albedo_column_matches_the_same_discretization(gl_context, extra):
-    """The ray caster looks the albedo up in its own table beside the transfer function's, as the
-    reference does: float32 against float64 to the conftest's bound, and unlike one number's image."""
-    from conftest import assert_close
-
-    scene = load_scene(None, {**COLUMN_LIT, "renderer.name": "raycast", **ALBEDO_BY_DEFAULT, **extra})
-    with registry.plugin("raycast").create(ctx=gl_context) as renderer:
-        image = renderer.render(scene)
-        assert renderer.stats["defines"]["ALBEDO_TABLE"]
-        number = renderer.render(load_scene(None, {**LIT, "renderer.name": "raycast", **extra}))
-    assert_close(image, DiscreteReference(scene).render_float64())
-    assert np.abs(image - number).max() > 0.05
-
-
-@pytest.mark.parametrize("method", ["half_angle", "light_volume"])
-def test_slicing3d_albedo_column_matches_its_planes(gl_context, method):
-    from conftest import assert_close
-    from dvr_gl.renderers.grid.slicing import same_planes_3d
-
-    scene = load_scene(None, {**_with_column(HALF, [0.1, 1.0, 0.4]), **ALBEDO_BY_DEFAULT,
-                              "renderer.name": "slicing3d", "renderer.scattering.method": method,
-                              "renderer.scattering.light_buffer_size": 32})
-    with registry.plugin("slicing3d").create(ctx=gl_context) as renderer:
-        image = renderer.render(scene)
-        assert renderer.stats["defines"]["ALBEDO_TABLE"]
-    assert_close(image, same_planes_3d(scene))
-
-
-def test_an_albedo_column_without_scattering_is_not_uploaded(gl_context):
-    """Without scattering the column is ignored: no define, no table, the five-column image to the bit."""
-    plain = load_scene(None, {**LIT, "renderer.name": "raycast", "renderer.scattering.enabled": False})
-    column = load_scene(None, {**COLUMN_LIT, "renderer.name": "raycast", "renderer.scattering.enabled": False})
-    with registry.plugin("raycast").create(ctx=gl_context) as renderer:
-        a = renderer.render(plain)
-        b = renderer.render(column)
-        assert "ALBEDO_TABLE" not in renderer.stats["defines"] and "albedo lut" not in renderer._cache
-    assert np.array_equal(a, b)
 
 
 def test_monte_carlo_reads_the_albedo_column():
@@ -638,10 +407,10 @@ def test_monte_carlo_reads_the_albedo_column():
     from dvr_gl.reference.monte_carlo import MonteCarloReference
 
     scene = load_scene(None, MC_SCENE)
-    column = load_scene(None, {**_with_column(MC_SCENE, [0.9] * 3), "renderer.scattering.albedo": "transfer_function"})
+    column = load_scene(None, {**with_column(MC_SCENE, [0.9] * 3), "renderer.scattering.albedo": "transfer_function"})
     assert np.array_equal(MonteCarloReference(scene, paths=40, seed=2).render()[0],
                           MonteCarloReference(column, paths=40, seed=2).render()[0])
-    dark = load_scene(None, {**_with_column(MC_SCENE, [0.0] * 3), "renderer.scattering.albedo": "transfer_function"})
+    dark = load_scene(None, {**with_column(MC_SCENE, [0.0] * 3), "renderer.scattering.albedo": "transfer_function"})
     a, _ = MonteCarloReference(dark, paths=30, seed=5).render()
     b, _ = MonteCarloReference(dark, paths=30, seed=5, max_collisions=1).render()
     assert np.array_equal(a, b) and a[..., :3].max() > 0
@@ -652,7 +421,7 @@ def test_monte_carlo_with_a_varying_albedo_column_agrees_with_the_converged_refe
     the differences over their standard errors are standard normal."""
     from dvr_gl.reference.monte_carlo import MonteCarloReference
 
-    scene = load_scene(None, {**_with_column(MC_SCENE, [0.1, 1.0, 0.4]), "image.width": 8, "image.height": 6,
+    scene = load_scene(None, {**with_column(MC_SCENE, [0.1, 1.0, 0.4]), "image.width": 8, "image.height": 6,
                               "renderer.scattering.albedo": "transfer_function"})
     truth = ConvergedReference(scene).render_float64()
     image, error = MonteCarloReference(scene, paths=1500, seed=1, max_collisions=1).render()
@@ -673,14 +442,14 @@ def test_monte_carlo_with_a_varying_albedo_column_agrees_with_the_converged_refe
 ])
 def test_bad_albedo_column_is_one_line(overrides, words):
     with pytest.raises(SceneError) as info:
-        load_scene(None, {**SMALL, "renderer.name": "reference", "renderer.scattering.enabled": True, **overrides})
+        load_scene(None, {**SMALL, "renderer.name": DISCRETE, "renderer.scattering.enabled": True, **overrides})
     assert words in str(info.value) and "\n" not in str(info.value)
 
 
 def test_albedo_column_round_trips_and_survives_edits(tmp_path):
     from dvr_gl.viewer.tf_editor import TransferFunctionEditor
 
-    scene = load_scene(None, {**COLUMN_LIT, "renderer.name": "reference"})
+    scene = load_scene(None, {**COLUMN_LIT, "renderer.name": DISCRETE})
     path = tmp_path / "scene.toml"
     path.write_text(scene.to_toml())
     again = load_scene(path)

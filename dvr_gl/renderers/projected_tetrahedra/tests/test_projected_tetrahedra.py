@@ -15,10 +15,11 @@ from conftest import SHARED_DATA
 from dvr_gl.camera import Camera
 from dvr_gl.errors import SceneError
 from dvr_gl.fields.mesh import TetMesh
-from dvr_gl.renderers import create_renderer
+from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.renderers.projected_tetrahedra.order import VisibilityOrder, topological
 from dvr_gl.scene.resolve import load_scene
 from mesh_inputs import BAND_TF, REFERENCE_VIEWS, jittered_mesh, mesh_scene, rms
+from slab_scenes import SPHERE_HEIGHTS, SPHERE_KEYS, assert_within_sphere_bounds, slab_keys, slab_mesh, sphere_geometry
 
 
 @pytest.fixture(scope="module")
@@ -382,3 +383,14 @@ def test_projected_tetrahedra_estimates_its_work_and_reports_progress(monkeypatc
         monkeypatch.setitem(limits.BOUNDS, "gpu samples", work.count / 2)
         with pytest.raises(DvrError, match=r"projected-tetrahedra would take .* gpu samples .*fragment samples for"):
             renderer.render(scene)
+
+
+@pytest.mark.parametrize("height", list(SPHERE_HEIGHTS.values()), ids=list(SPHERE_HEIGHTS))
+def test_sphere_in_front_of_and_inside_a_slab(tmp_path, gl_context, height):
+    """tests/slab_scenes.py's sphere in or above the slab meshed into tetrahedra: float32, every clear pixel
+    within 2e-6 of the true and inscribed spheres' forms."""
+    keys = {"renderer.geometry": sphere_geometry(tmp_path, height), **SPHERE_KEYS}
+    scene = mesh_scene(slab_mesh(), **slab_keys("projected-tetrahedra", **keys))
+    with registry.plugin("projected-tetrahedra").create(ctx=gl_context) as renderer:
+        image = renderer.render(scene)
+    assert_within_sphere_bounds(image, scene, height, 2e-6)

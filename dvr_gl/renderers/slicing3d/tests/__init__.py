@@ -1,0 +1,1 @@
+"""The tests of this folder's renderer (collected by pytest from the repository root; not installed)."""
