@@ -10,6 +10,11 @@ import dvr_gl
 from dvr_gl import progress
 from dvr_gl.apps.cli import main
 from dvr_gl.io import compression
+from dvr_gl.renderers import registry
+from judges import DISCRETE
+
+#: the renderer of a grid that names none (its bench measures frames)
+DEFAULT = registry.default_for("grid")
 
 SMALL = ["--size", "12", "--set", "volume.size=12"]
 
@@ -49,7 +54,7 @@ def test_decompressing_reports_the_bytes(tmp_path, compress, encoding):
 def test_api_render_tells_the_reference_steps():
     volume = np.linspace(0, 1, 8 ** 3, dtype=np.float32).reshape(8, 8, 8)
     calls = []
-    image = dvr_gl.render(volume, size=16, renderer="reference", progress=lambda d, t: calls.append((d, t)))
+    image = dvr_gl.render(volume, size=16, renderer=DISCRETE, progress=lambda d, t: calls.append((d, t)))
     assert image.shape == (16, 16, 4)
     assert calls and calls[-1][0] == calls[-1][1]  # the last step: all done
 
@@ -64,13 +69,13 @@ def test_tolerance_search_reports_its_renders():
 
 
 def test_short_work_prints_no_bar(tmp_path, capsys):
-    assert main(["render", "--demo", "-o", str(tmp_path / "x.png"), *SMALL, "--renderer", "reference"]) == 0
+    assert main(["render", "--demo", "-o", str(tmp_path / "x.png"), *SMALL, "--renderer", DISCRETE]) == 0
     assert capsys.readouterr().err == ""  # done within progress.DELAY: nothing drawn
 
 
 def test_long_work_shows_a_bar_unless_quiet(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(progress, "DELAY", 0.0)  # every task is "long"
-    argv = ["render", "--demo", "-o", str(tmp_path / "x.png"), *SMALL, "--renderer", "reference"]
+    argv = ["render", "--demo", "-o", str(tmp_path / "x.png"), *SMALL, "--renderer", DISCRETE]
     assert main(argv) == 0
     assert "rendering" in capsys.readouterr().err
     assert main(["-q", *argv, "--overwrite"]) == 0
@@ -79,9 +84,9 @@ def test_long_work_shows_a_bar_unless_quiet(tmp_path, capsys, monkeypatch):
 
 def test_every_bench_has_a_bar(capsys, monkeypatch):
     monkeypatch.setattr(progress, "DELAY", 0.0)
-    assert main(["bench", "raycast", "--volume-size", "12", "--size", "12", "--repeat", "1"]) == 0
+    assert main(["bench", DEFAULT, "--volume-size", "12", "--size", "12", "--repeat", "1"]) == 0
     out, err = capsys.readouterr()
-    assert "dvr bench raycast" in err and "frame" in err  # the bar counts the frames measured
-    assert "dvr bench raycast" in out  # the table stays on stdout
-    assert main(["bench", "raycast", "-q", "--volume-size", "12", "--size", "12", "--repeat", "1"]) == 0
+    assert f"dvr bench {DEFAULT}" in err and "frame" in err  # the bar counts the frames measured
+    assert f"dvr bench {DEFAULT}" in out  # the table stays on stdout
+    assert main(["bench", DEFAULT, "-q", "--volume-size", "12", "--size", "12", "--repeat", "1"]) == 0
     assert capsys.readouterr().err == ""

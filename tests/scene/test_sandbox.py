@@ -15,6 +15,7 @@ import dvr_gl
 from dvr_gl.apps.cli import main
 from dvr_gl.sandbox import Sandbox, SandboxError, active, memory_budget, parse_bytes
 from dvr_gl.scene.resolve import load_scene
+from judges import DISCRETE
 
 SCENE = '[volume]\npath = "{path}"\n[image]\nwidth = 8\nheight = 8\n'
 
@@ -108,7 +109,7 @@ def test_time_limit_stops_a_slow_render(unbounded_work):
     between numpy operations."""
     start = time.perf_counter()
     with pytest.raises(SandboxError, match="time limit of 0.3 s"):
-        dvr_gl.render(np.random.default_rng(0).random((24, 24, 24)), size=32, renderer="reference",
+        dvr_gl.render(np.random.default_rng(0).random((24, 24, 24)), size=32, renderer=DISCRETE,
                       sample_distance_voxels=0.0005, sandbox=Sandbox(max_seconds=0.3))
     assert time.perf_counter() - start < 2.0
     assert signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)  # the timer is disarmed after
@@ -125,7 +126,7 @@ def test_a_nested_time_limit_leaves_the_outer_one_running():
 
 
 def test_time_limit_on_the_command_line_is_one_line(tmp_path, capsys, unbounded_work):
-    code = main(["render", "--demo", "--set", "volume.size=24", "--size", "32", "--renderer", "reference",
+    code = main(["render", "--demo", "--set", "volume.size=24", "--size", "32", "--renderer", DISCRETE,
                  "--sample-distance-voxels", "0.0005", "--max-seconds", "0.3", "-o", str(tmp_path / "o.png")])
     err = capsys.readouterr().err.strip()
     assert code == 1 and "ran past the time limit of 0.3 s (--max-seconds)" in err and "\n" not in err
@@ -135,7 +136,7 @@ def test_time_limit_on_the_command_line_is_one_line(tmp_path, capsys, unbounded_
 def test_work_over_the_time_limit_is_refused_before_it_starts(tmp_path, capsys):
     """Without faked rates, the same render is refused at once by the work estimate (at the rate
     measured here it would take longer than the limit), in one line, writing nothing."""
-    code = main(["render", "--demo", "--set", "volume.size=24", "--size", "32", "--renderer", "reference",
+    code = main(["render", "--demo", "--set", "volume.size=24", "--size", "32", "--renderer", DISCRETE,
                  "--sample-distance-voxels", "0.0005", "--max-seconds", "0.3", "-o", str(tmp_path / "o.png")])
     err = capsys.readouterr().err.strip()
     assert code == 1 and "reference would take" in err and "over the bound of 3e+06" in err and "\n" not in err
@@ -247,7 +248,7 @@ def test_every_path_a_scene_names_is_confined(box, key, how):
     (root / ("link" + name)).symlink_to(outside / name)
     target = {"absolute": outside / name, "dot-dot": f"../outside/{name}", "symlink": "link" + name}[how]
     table = {"transfer_function": '[transfer_function]\nfile = "{p}"\n',
-             "geometry": '[renderer]\nname = "raycast"\n[[renderer.geometry]]\npath = "{p}"\n'}[key]
+             "geometry": '[[renderer.geometry]]\npath = "{p}"\n'}[key]  # the grid's default renderer
     scene = root / "s.toml"
     with active(Sandbox((root,))):
         scene.write_text(SCENE.format(path="v.npy") + table.format(p=name))
