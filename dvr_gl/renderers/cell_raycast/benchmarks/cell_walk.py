@@ -4,8 +4,8 @@ one fragment shader (Weiler et al. 2003's hardware-assisted ray casting, HARC), 
 (``dvr_gl/renderers/cell_raycast``: its lists, with the boundary's faces grown by a twentieth of a
 pixel, fixed the crease fault below); kept for the record of what was measured on the way.
 
-    python benchmarks/cell_walk.py [--data-dir ../shared/data] [--meshes bluntfin,comb,post] [--size 512]
-                                   [--passes 4 | --lists]
+    python dvr_gl/renderers/cell_raycast/benchmarks/cell_walk.py [--data-dir ../shared/data]
+        [--meshes bluntfin,comb,post] [--size 512] [--passes 4 | --lists]
 
 Each pass, a pixel's ray enters the mesh where the boundary's entering faces beyond its last exit
 are nearest (the boundary drawn with the depth test, each face carrying its cell and its outward

@@ -1,6 +1,7 @@
 """Pictures of Fourier rendering's accuracy for the docs (docs/images/fourier-study.png).
 
-    python benchmarks/fourier_pictures.py [--size 160] [--data-dir ../shared/data] [--out docs/images]
+    python dvr_gl/renderers/fourier/benchmarks/fourier_pictures.py [--size 160] [--data-dir ../shared/data]
+        [--out docs/images]
 
 Each row, left to right: reference-converged, ``fourier`` at its defaults, ``fourier`` with a cheaper
 setting, then each one's absolute error (summed over RGBA, times the gain printed) in grey.

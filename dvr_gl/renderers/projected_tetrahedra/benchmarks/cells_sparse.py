@@ -2,8 +2,8 @@
 (its 75th to 85th percentile, peaked at the 80th), so that most cells are transparent, beside the
 dense one of ``dvr bench cells`` (opacity over the whole range).
 
-    python benchmarks/cells_sparse.py [--data-dir ../shared/data] [--meshes bluntfin,comb,post,jaw]
-                                      [--size 512] [--peers-python PY]
+    python dvr_gl/renderers/projected_tetrahedra/benchmarks/cells_sparse.py [--data-dir ../shared/data]
+        [--meshes bluntfin,comb,post,jaw] [--size 512] [--peers-python PY]
 
 For each mesh, the first view of ``dvr bench cells`` (azimuth 30, elevation 20), one process for
 dvr-gl: ``cell-raycast`` and ``projected-tetrahedra`` (exact order; transparent cells ordered but not

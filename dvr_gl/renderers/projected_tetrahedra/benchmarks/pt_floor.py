@@ -15,7 +15,8 @@ each with the exact order and with the centroid order (frame, order and draw ms)
 projected tetrahedra in the same run (``.venv-peers``, as ``dvr bench cells``).  If ``flat`` with the
 centroid order is slower than VTK, no change to the fragment work can reach VTK's rate here.
 
-    python benchmarks/pt_floor.py --data-dir ../shared/data [--meshes bluntfin,comb,post,jaw]
+    python dvr_gl/renderers/projected_tetrahedra/benchmarks/pt_floor.py --data-dir ../shared/data
+        [--meshes bluntfin,comb,post,jaw]
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Is "auto" empty-space skipping on the faster side?  Block skipping on against off over sample distances.
 
-    python benchmarks/auto_skipping.py [--data-dir ../shared/data] [--size 512] [--repeat 5]
+    python dvr_gl/renderers/raycast/benchmarks/auto_skipping.py [--data-dir ../shared/data] [--size 512] [--repeat 5]
 
 For each scene and sample distance (0.5 to 8 voxels): the frame time without acceleration (off),
 with the ray bounds alone where they apply (emission-absorption; elsewhere this is off), and with

@@ -2,7 +2,7 @@
 one pass and in 8 bricks (2 x 2 x 2, resident: no uploads per frame), on CThead with the bone
 preset (sparse) and the Marschner-Lobb demo with the viridis preset (dense: no block skippable).
 
-    python benchmarks/bricked_skipping.py [--size 512] [--views 4] [--repeat 3] [--markdown]
+    python dvr_gl/renderers/raycast/benchmarks/bricked_skipping.py [--size 512] [--views 4] [--repeat 3] [--markdown]
 
 Per view (azimuths 30 + 360 i / views, elevation 20) the settings alternate ``repeat`` rounds and the
 fastest draw of each counts (draw calls to glFinish, no read-back); ratios are taken per view, the

@@ -2,7 +2,8 @@
 the converged reference and frame time over a grid of sample distance x early-termination threshold,
 on the shared datasets and the peers' phantoms.
 
-    python benchmarks/defaults.py [--data-dir ../shared/data] [--cache DIR] [--size 512] [--error-size 128]
+    python dvr_gl/renderers/raycast/benchmarks/defaults.py [--data-dir ../shared/data] [--cache DIR] [--size 512]
+        [--error-size 128]
 
 Error: RMS and PSNR of a ``--error-size`` image against ``reference-converged`` of the same scene
 (cached in ``--cache`` by scene, since it takes minutes).  Time: the draw of a ``--size`` image

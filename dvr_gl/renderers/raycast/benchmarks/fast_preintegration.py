@@ -1,6 +1,6 @@
 """The fast pre-integration table on optically thick segments: CThead bone at 1 voxel.
 
-    python benchmarks/fast_preintegration.py [--data ../shared/data] [--size 128]
+    python dvr_gl/renderers/raycast/benchmarks/fast_preintegration.py [--data ../shared/data] [--size 128]
 
 Renders the ray caster with the exact and the fast table at a sample distance of
 one voxel and prints each one's RMS error against the converged reference (the

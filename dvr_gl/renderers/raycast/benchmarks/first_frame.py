@@ -1,6 +1,6 @@
 """First frame against later frames of the ray caster (issue 15, item 6), each scene in a fresh process.
 
-    python benchmarks/first_frame.py [--data-dir ../shared/data] [--size 512] [--runs 3]
+    python dvr_gl/renderers/raycast/benchmarks/first_frame.py [--data-dir ../shared/data] [--size 512] [--runs 3]
 
 A child process loads the scene (not timed), then times ``render()`` (wall clock, read-back
 included) of the first frame and of 5 later ones; it also reports what the first frame built

@@ -1,6 +1,6 @@
 """``--tolerance E`` on narrow transfer-function features of real data: measured RMS / E and cost.
 
-    python benchmarks/tolerance_narrow.py [--data ../shared/data] [--size 64]
+    python dvr_gl/renderers/raycast/benchmarks/tolerance_narrow.py [--data ../shared/data] [--size 64]
 
 For each dataset (a tent of alpha 0.6 over 0.5-5 % of the value range) and
 E = 1e-2, 3e-3, 1e-3: the a-priori model's choice alone and with the

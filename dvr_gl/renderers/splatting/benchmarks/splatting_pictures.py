@@ -1,6 +1,6 @@
 """Pictures of splatting's schemes for the docs (docs/images/splatting-schemes.png, splatting-particles.png).
 
-    python benchmarks/splatting_pictures.py [--size 192] [--out docs/images]
+    python dvr_gl/renderers/splatting/benchmarks/splatting_pictures.py [--size 192] [--out docs/images]
 
 Row 1, the 64^3 Shepp-Logan phantom under its preset (azimuth 40, elevation 20, perspective, no
 shading): image-aligned sheets post-classified, pre-classified, axis-aligned sheets, every splat
