@@ -65,7 +65,7 @@ void mode_gap() {
 void mode_run(int k) {
 #ifdef CLASSIFY_PREINTEGRATED
     if (!front_known) {
-        front = sample_scalar(o + (t0 + float(k) * u_sample_distance) * d);
+        front = sample_scalar(o + segment(k).start * d);
         front_known = true;
     }
 #endif

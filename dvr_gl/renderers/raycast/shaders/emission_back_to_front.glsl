@@ -47,8 +47,8 @@ void mode_gap() {
 void mode_run(int k) {
 #ifdef CLASSIFY_PREINTEGRATED
     if (!back_known) {
-        float start = t0 + float(k) * u_sample_distance;
-        back = sample_scalar(o + (start + min(u_sample_distance, t1 - start)) * d);
+        Segment s = segment(k);
+        back = sample_scalar(o + (s.start + s.len) * d);
         back_known = true;
     }
 #endif
