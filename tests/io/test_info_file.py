@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from conftest import run_cli
+from judges import DISCRETE
 
 DATA = (np.arange(6 * 5 * 4, dtype=np.int16).reshape(4, 5, 6) * 7 - 300)  # [z, y, x]: -300 .. 533
 
@@ -36,7 +37,7 @@ def test_suggested_command_runs_as_printed(tmp_path, capsys):
     # the samples above the minimum (-300) span -293 .. 533: their 2nd and 99.8th percentiles, rounded
     # (-276.48 and 531.3)
     assert "transfer_function.points=[[-276, 0, 0, 0, 0], [531, 1, 1, 1, 0.05]]" in command
-    code, _, err = run(capsys, *argv, "--size", "16", "--renderer", "reference")
+    code, _, err = run(capsys, *argv, "--size", "16", "--renderer", DISCRETE)
     assert code == 0, err
     assert (tmp_path / "out.png").is_file()
 
