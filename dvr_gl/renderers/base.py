@@ -11,6 +11,11 @@ refusal is the same one-line reason whether it comes from here, the CLI or the v
 then :meth:`Renderer.check_resources` refuses what would exceed a GL limit, the memory
 budget or the work bound (:mod:`dvr_gl.limits`), before anything is allocated or drawn.
 Renderers that work in steps (the CPU references) report them to :attr:`Renderer.progress`.
+
+Every GL renderer is a :class:`GLRenderer`: the GL frame kit (:class:`dvr_gl.gl.frame.GLFrame`: the
+context, cached resources, render targets, read-back, binding, release) with this interface, and the
+limits every GL frame shares (the image as a render target, its memory) checked before the renderer's
+own (:meth:`GLRenderer.check_textures`).
 """
 
 from __future__ import annotations
@@ -21,6 +26,7 @@ from typing import ClassVar
 import numpy as np
 
 from .. import limits
+from ..gl.frame import GLFrame
 from ..orientation import volume_frame_scene
 from ..sandbox import current, time_limit_error
 from . import registry
@@ -89,6 +95,29 @@ class Renderer:
 
     def __exit__(self, *exc):
         self.close()
+
+
+class GLRenderer(GLFrame, Renderer):
+    """A renderer that draws with OpenGL: ``ctx``, a moderngl context to draw with (borrowed), or None
+    for a headless one of its own (see :class:`GLFrame`)."""
+
+    def __init__(self, ctx=None):
+        Renderer.__init__(self)
+        GLFrame.__init__(self, ctx)
+
+    def check_resources(self, scene):
+        """The work bound, then the image against the render-target limit and the memory budget, then
+        what the renderer puts on the GPU (:meth:`check_textures`)."""
+        super().check_resources(scene)
+        self.activate()
+        gl = limits.gl_limits(self.ctx)
+        limits.check_image(scene, gl)
+        limits.check_image_memory(scene, "gpu")
+        self.check_textures(scene, gl)
+
+    def check_textures(self, scene, gl: "limits.GLLimits"):
+        """Refuse, in one line, textures (tables, volumes, meshes) beyond the GL limits ``gl`` or the memory
+        budget, before anything is made; nothing to check by default."""
 
 
 def available_renderers() -> list[str]:

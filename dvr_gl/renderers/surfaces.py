@@ -11,7 +11,6 @@ import numpy as np
 
 from .. import limits
 from ..geometry import over_surface, scene_meshes
-from ..gl.context import make_current
 from ..gl.geometry import box_corners, clip_planes, gl_matrix, projection_matrix, view_matrix
 from ..gl.lights import set_uniform, shading_uniforms
 from ..gl.shaders import create_program
@@ -125,12 +124,12 @@ class SurfaceLayer:
 
 
 def with_surfaces(renderer, scene, draw_volume) -> np.ndarray:
-    """A GL renderer's frame with the scene's meshes: ``draw_volume(scene, textures)`` draws the volume
-    (``textures``: ``u_geometry``, the layer its samples end at, or none without meshes), composited
-    over the layer.  A scene without meshes draws nothing more."""
+    """A GL renderer's (:class:`~dvr_gl.renderers.base.GLRenderer`) frame with the scene's meshes:
+    ``draw_volume(scene, textures)`` draws the volume (``textures``: ``u_geometry``, the layer its
+    samples end at, or none without meshes), composited over the layer.  A scene without meshes draws nothing more."""
     if not getattr(scene.renderer, "geometry", None):
         return draw_volume(scene, {})
-    make_current(renderer.ctx)
+    renderer.activate()
     layer = SurfaceLayer(renderer.ctx, scene, renderer.name)
     try:
         image = draw_volume(scene, {"u_geometry": layer.texture})

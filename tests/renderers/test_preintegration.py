@@ -182,7 +182,7 @@ def test_table_is_rebuilt_only_when_the_transfer_function_or_length_changes(monk
     """A new camera reuses the table; a new transfer function or sample distance rebuilds it."""
     import dataclasses
 
-    import dvr_gl.renderers.grid.gl_base as gl_base
+    import dvr_gl.renderers.grid.tables as tables
     from conftest import small_scene
     from dvr_gl.renderers import create_renderer
 
@@ -192,7 +192,7 @@ def test_table_is_rebuilt_only_when_the_transfer_function_or_length_changes(monk
         builds.append(args[1])
         return preintegrate(*args, **kwargs)
 
-    monkeypatch.setattr(gl_base, "preintegrate", counting)
+    monkeypatch.setattr(tables, "preintegrate", counting)
     scene = small_scene({"renderer.classification": "preintegrated", "renderer.preintegration_size": 16,
                          "image.width": 8, "image.height": 8})
     other_tf = small_scene({"transfer_function.preset": "viridis"}).transfer_function

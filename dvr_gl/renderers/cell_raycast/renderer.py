@@ -17,7 +17,6 @@ import numpy as np
 
 from ...errors import SceneError
 from ...fields.mesh_rays import boundary_faces, face_neighbours
-from ...gl.context import make_current
 from ...gl.shaders import create_program, shader_root
 from ..mesh import SHADERS as MESH_SHADERS
 from ..mesh.textures import MODES, ROW, MeshRenderer, rows
@@ -97,15 +96,9 @@ class CellRaycastRenderer(MeshRenderer):
         def make(size):
             heads = self.ctx.texture(size, 1, dtype="u4")
             unused = self.ctx.texture(size, 1, dtype="f1")
-            return heads, unused, self.ctx.framebuffer([unused])
-        fbo = self._sized("lists", width, height, make)
-        return self._targets["lists"][1], fbo
-
-    def _framebuffer(self, width: int, height: int):
-        def make(size):
-            colour = self.ctx.texture(size, 4, dtype="f4")
-            return colour, self.ctx.framebuffer([colour])
-        return self._sized("image", width, height, make)
+            return [heads, unused], self.ctx.framebuffer([unused])
+        (heads, _), fbo = self.framebuffer("lists", width, height, make)
+        return heads, fbo
 
     # --- a frame ---
 
@@ -192,36 +185,29 @@ class CellRaycastRenderer(MeshRenderer):
                            TF_POW2=1 << len(tf.points).bit_length())
         program = create_program(self.ctx, "fullscreen.vert", "walk.frag", defines, roots=SHADERS)
         self._uniforms(program, scene, textures)
-        for name, value in (("u_touching", walk.touching), ("u_opaque", r.ert_threshold)):
-            if name in program:
-                program[name].value = value
         start_tex = None
-        bound = [*textures.textures, ("u_neighbours", walk.neighbours), *surfaces.items()]
+        bound = {**dict(textures.textures), "u_neighbours": walk.neighbours, **surfaces}
         if starts is not None:
             start_tex = self.ctx.texture((img.width, img.height), 1, np.ascontiguousarray(starts).tobytes(), dtype="u4")
             start_tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
-            bound.append(("u_start", start_tex))
-        for unit, (name, tex) in enumerate(bound):
-            tex.use(location=unit)
-            if name in program:
-                program[name].value = unit
+            bound["u_start"] = start_tex
+        self.bind(program, {"u_touching": walk.touching, "u_opaque": r.ert_threshold}, bound)
         self._nodes[1].bind_to_storage_buffer(0)
         heads.bind_to_image(0, read=True, write=False)
-        fbo = self._framebuffer(img.width, img.height)
+        (_,), fbo = self.target("image", img.width, img.height)
         fbo.use()
         fbo.viewport = (0, 0, img.width, img.height)
         vao = self.ctx.vertex_array(program, [])
         try:
             vao.render(moderngl.TRIANGLES, vertices=3)
-            raw = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32).reshape(img.height, img.width, 4)
+            return self.read(fbo, img.width, img.height)
         finally:
             vao.release()
             if start_tex is not None:
                 start_tex.release()
-        return raw[::-1]
 
     def close(self):
-        make_current(self.ctx)
+        self.activate()
         for obj in ((self._nodes[1] if self._nodes else None), self._counter):
             if obj is not None:
                 obj.release()

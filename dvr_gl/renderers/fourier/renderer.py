@@ -19,7 +19,7 @@ from ... import limits
 from ...errors import SceneError
 from ...gl.shaders import create_program, shader_root
 from ...sandbox import check_bytes
-from ..grid.gl_base import GLVolumeRenderer
+from ..base import GLRenderer
 from .projection import Frame, Shell, channels, clips_exactly, finish, ghost_layers, weighted
 from .spectrum import KAISER_BETA, WINDOWED, Spectrum, kaiser_bessel_beta
 
@@ -68,10 +68,10 @@ class ShellTexture:
         self.texture.release()
 
 
-class FourierRenderer(GLVolumeRenderer):
+class FourierRenderer(GLRenderer):
     name = "fourier"
 
-    def check_tables(self, scene, gl):
+    def check_textures(self, scene, gl):
         """The spectrum's textures and the slice's target against the GL limits (before any transform)."""
         from .spectrum import padded_length
 
@@ -153,7 +153,7 @@ class FourierRenderer(GLVolumeRenderer):
         quad.release()
         read = []
         for i in range(len(attachments)):
-            raw = np.frombuffer(fbo.read(components=4, dtype="f4", attachment=i), np.float32).reshape(hf, wf, 4)
+            raw = self.read(fbo, wf, hf, attachment=i, flip=False)  # fragment row j: the slice's row j
             read += [raw[..., 0] + 1j * raw[..., 1], raw[..., 2] + 1j * raw[..., 3]]
         # the values (two channels a texture, the last pair padded), then their derivatives
         slices = read[:len(spectrum.spectra)]
@@ -204,6 +204,6 @@ class FourierRenderer(GLVolumeRenderer):
         quad.release()
         channels = data.shape[-1]
         # fragment row j is the image's row j from the top: read back as stored, not flipped
-        raw = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32).reshape(img.height, img.width, 4)
+        raw = self.read(fbo, img.width, img.height, flip=False)
         return raw[..., :channels].astype(np.float64)
 

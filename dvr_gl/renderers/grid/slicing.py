@@ -11,17 +11,21 @@ samples the same planes, clipped by the same near plane: :func:`reference`.
 
 from __future__ import annotations
 
+from time import perf_counter as now
+
 import moderngl
 import numpy as np
 
 from ...gl.geometry import clip_planes, gl_matrix, projection_matrix, slice_polygons, view_matrix
+from ...gl.scattering import light_volume_pass_defines
 from ...gl.shaders import create_program, shader_root
 from ...half_angle import half_angle
 from ...reference import plans
 from ...reference.discrete import DiscreteReference
 from ..surfaces import with_surfaces
 from .bricking import visibility_order
-from .gl_base import GLVolumeRenderer, classification_features, light_volume_pass_defines, now
+from .classification import classification_features
+from .sampling import GridRenderer
 
 #: The grid kit's GLSL (the slices' program), before the common library.
 SHADERS = (shader_root(__file__),)
@@ -65,7 +69,7 @@ def same_planes_2d(scene) -> np.ndarray:
     return reference(scene, "slicing2d").render_float64()
 
 
-class SlicingRenderer(GLVolumeRenderer):
+class SlicingRenderer(GridRenderer):
     stack = False  # 2D texture stacks instead of a 3D texture
 
     def slab_length(self, scene) -> float:

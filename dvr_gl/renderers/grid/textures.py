@@ -38,6 +38,10 @@ class VolumeTexture:
     value_offset: float
     nbytes: int
 
+    def uniforms(self) -> dict:
+        """What turns its texels back into data values (bound with it: :meth:`dvr_gl.gl.frame.GLFrame.bind`)."""
+        return {"u_value_scale": self.value_scale, "u_value_offset": self.value_offset}
+
 
 def volume_bytes(volume) -> int:
     return volume.data.size * FORMATS[volume.data.dtype][3]

@@ -1,9 +1,11 @@
-"""What the GL renderers of tetrahedral meshes share (``projected-tetrahedra``, ``cell-raycast``):
-the mesh on the GPU, once, as textures of 4096 texels a row (points relative to the mesh's centre,
-so float32 keeps their precision; cells; each cell's four face planes, their sides and its scalar as
-``g . p + c``, computed in float64: ``shaders/mesh_fetch.glsl``), the camera's and the exact
+"""What the GL renderers of tetrahedral meshes share: the mesh on the GPU, once, as textures of 4096
+texels a row (points relative to the mesh's centre, so float32 keeps their precision; cells; each
+cell's four face planes, their sides and its scalar as ``g . p + c``, computed in float64:
+``shaders/mesh_fetch.glsl``), the camera's and the exact
 transfer function's uniforms, the limits, and the host's classification of projections (MIP,
 MinIP, average, isosurface) with the exact transfer function, as the converged reference does.
+The frame around them (context, targets, read-back, binding, release) is the GL frame kit's
+(:class:`~dvr_gl.renderers.base.GLRenderer`).
 """
 
 from __future__ import annotations
@@ -16,13 +18,10 @@ from ...clipping import ClipRegion
 from ...errors import SceneError
 from ...fields.mesh_rays import FacePlanes
 from ...geometry import chord_lengths
-from ...gl.context import create_context, make_current, release_context
 from ...gl.geometry import box_corners, clip_planes, gl_matrix, projection_matrix, view_matrix
-from ...gl.lights import set_uniform
-from ...gl.shaders import release_programs
 from ...reference.converged import collocation
 from ...transfer_function import extinction_from_alpha, segment_opacity
-from ..base import Renderer
+from ..base import GLRenderer
 from ..surfaces import with_surfaces
 
 ROW = 4096  # texels a row of the mesh textures (mesh_fetch.glsl)
@@ -127,35 +126,37 @@ class MeshTextures:
             self._boundary[0].release()
 
 
+class _KeptMesh:
+    """A mesh's textures and what its renderer built beside them (:meth:`MeshRenderer._mesh_extra`),
+    kept and released together."""
 
-class MeshRenderer(Renderer):
-    """A GL renderer of a tetrahedral mesh: the context, the mesh's textures (with what the renderer
-    builds beside them per mesh: :meth:`_mesh_extra`), targets kept per size, uniforms, limits."""
+    def __init__(self, textures: MeshTextures, extra):
+        self.textures, self.extra = textures, extra
+
+    def release(self):
+        self.textures.release()
+        if hasattr(self.extra, "release"):
+            self.extra.release()
+
+
+class MeshRenderer(GLRenderer):
+    """A GL renderer of a tetrahedral mesh: the mesh's textures (with what the renderer builds beside
+    them per mesh: :meth:`_mesh_extra`), uniforms, limits."""
 
     folded_planes = False  # the mesh's textures: the planes folded, no points (MeshTextures)
 
-    def __init__(self, ctx=None):
-        super().__init__()
-        self.ctx = ctx or create_context()
-        self._owns_context = ctx is None
-        self._mesh = None        # (mesh, MeshTextures, what _mesh_extra built)
-        self._targets = {}       # name: (size, GL objects..., framebuffer last): see _sized
-
     # --- limits ---
 
-    def check_resources(self, scene):
-        super().check_resources(scene)
-        make_current(self.ctx)
-        gl = limits.gl_limits(self.ctx)
-        limits.check_image(scene, gl)
-        limits.check_image_memory(scene, "gpu")
+    def check_textures(self, scene, gl):
+        """The mesh's textures against the texture limit, the exact transfer function's control points
+        against the fragment shader's uniforms."""
         mesh = scene.field
         texels = FOLDED_TEXELS if self.folded_planes else CELL_TEXELS
         rows = -(-max(len(mesh.points), texels * len(mesh.tets)) // ROW)
         limits.check_texture("the mesh", (ROW, rows), gl, "use a smaller mesh")
         points = len(scene.transfer_function.points)
         if scene.renderer.compositing == "emission_absorption" and points > self.max_tf_points():
-            raise SceneError(f"transfer_function.points: {points} control points; projected-tetrahedra keeps them "
+            raise SceneError(f"transfer_function.points: {points} control points; {self.name} keeps them "
                              f"in uniforms and this GL holds at most {self.max_tf_points()}: use fewer points")
 
     def max_tf_points(self) -> int:
@@ -168,7 +169,7 @@ class MeshRenderer(Renderer):
     def draw(self, scene) -> np.ndarray:
         """The frame; with ``[[renderer.geometry]]`` the meshes are drawn first (:mod:`.surfaces`), each
         ray's integration ends at them and the frame is composited over them."""
-        make_current(self.ctx)
+        self.activate()
         return with_surfaces(self, scene, self._draw_volume)
 
     def _draw_volume(self, scene, surfaces: dict) -> np.ndarray:
@@ -185,33 +186,16 @@ class MeshRenderer(Renderer):
 
     def _mesh_resources(self, mesh):
         """The mesh's textures and what :meth:`_mesh_extra` builds beside them, once per mesh."""
-        if self._mesh is None or self._mesh[0] is not mesh:
-            self._release_mesh()
+        def make():
             textures = MeshTextures(self.ctx, mesh, self.folded_planes)
-            self._mesh = (mesh, textures, self._mesh_extra(mesh, textures))
-        return self._mesh[1], self._mesh[2]
+            return _KeptMesh(textures, self._mesh_extra(mesh, textures))
+
+        kept = self._cached("mesh", (mesh,), make)
+        return kept.textures, kept.extra
 
     def _mesh_extra(self, mesh, textures):
         """What the renderer keeps per mesh beside its textures (released with them if it has ``release``)."""
         return None
-
-    def _release_mesh(self):
-        if self._mesh is not None:
-            self._mesh[1].release()
-            if hasattr(self._mesh[2], "release"):
-                self._mesh[2].release()
-        self._mesh = None
-
-    def _sized(self, name: str, width: int, height: int, make):
-        """The framebuffer of target ``name``, made by ``make(size)`` (GL objects, the framebuffer last)
-        and kept while the size holds."""
-        entry = self._targets.get(name)
-        if entry is None or entry[0] != (width, height):
-            if entry is not None:
-                for obj in entry[1:]:
-                    obj.release()
-            entry = self._targets[name] = ((width, height), *make((width, height)))
-        return entry[-1]
 
     @staticmethod
     def _near_plane(scene) -> tuple[float, np.ndarray]:
@@ -246,13 +230,10 @@ class MeshRenderer(Renderer):
                   "u_depth_scale": 1.0 / self._far(scene),
                   "u_unit_distance": scene.transfer_function.unit_distance,
                   "u_gauss_x": tuple(0.5 * (x + 1.0)), "u_gauss_w": tuple(0.5 * w)}
-        for name, value in values.items():
-            if name in program:
-                program[name].value = value
         clip = ClipRegion.of(r)
         if clip is not None:  # the rays are relative to the mesh's centre (u_eye), the region too
-            for name, value in clip.shifted(textures.centre).uniforms().items():
-                set_uniform(program, name, value)
+            values.update(clip.shifted(textures.centre).uniforms())
+        self.bind(program, values, {})
         if "u_view_projection" in program:
             program["u_view_projection"].write(gl_matrix(vp))
         if "u_gauss_s" in program:
@@ -289,14 +270,3 @@ class MeshRenderer(Renderer):
         out[covered, :3] = colour * np.reshape(alpha, (-1, 1))
         out[covered, 3] = alpha
         return out
-
-    def close(self):
-        make_current(self.ctx)
-        self._release_mesh()
-        for entry in self._targets.values():
-            for obj in entry[1:]:
-                obj.release()
-        self._targets = {}
-        if self._owns_context:
-            release_programs(self.ctx)
-            release_context(self.ctx)

@@ -55,19 +55,6 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
     def _mesh_extra(self, mesh, textures):
         return VisibilityOrder(mesh)
 
-    def _count_target(self, width: int, height: int):
-        """A one-channel float framebuffer for the boundary's crossing counts."""
-        def make(size):
-            counts = self.ctx.texture(size, 1, dtype="f4")
-            return counts, self.ctx.framebuffer([counts])
-        return self._sized("counts", width, height, make)
-
-    def _framebuffer(self, width: int, height: int):
-        def make(size):
-            colour, depth = self.ctx.texture(size, 4, dtype="f4"), self.ctx.depth_texture(size)
-            return colour, depth, self.ctx.framebuffer([colour], depth)
-        return self._sized("image", width, height, make)
-
     # --- a frame ---
 
     def _draw_volume(self, scene, surfaces: dict) -> np.ndarray:
@@ -95,11 +82,8 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
         program = create_program(self.ctx, "pt.vert", "pt.frag", defines, geometry="pt.geom", roots=SHADERS)
         self._uniforms(program, scene, textures)
         slots = self._order_texture(self._flag_cover_all(order, scene))
-        for unit, (name, tex) in enumerate([*textures.textures, ("u_order", slots), *surfaces.items()]):
-            tex.use(location=unit)
-            if name in program:
-                program[name].value = unit
-        fbo = self._framebuffer(img.width, img.height)
+        self.bind(program, {}, {**dict(textures.textures), "u_order": slots, **surfaces})
+        _, fbo = self.target("image", img.width, img.height, depth=True)  # the isosurface's nearest hit
         fbo.use()
         fbo.viewport = (0, 0, img.width, img.height)
         clear = {"mip": (-3.0e38, 0.0), "minip": (3.0e38, 0.0)}.get(mode, (0.0, 0.0))
@@ -112,12 +96,11 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
                 vao.render(moderngl.POINTS, vertices=min(step, len(order) - first), first=first)
                 self.ctx.finish()
                 self.report(min(first + step, len(order)), len(order))
-            raw = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32).reshape(img.height, img.width, 4)
+            image = self.read(fbo, img.width, img.height).astype(np.float64)
         finally:
             vao.release()
             slots.release()
             self._blending(None)
-        image = raw[::-1].astype(np.float64)
         now = time.perf_counter()
         self.stats = {**stats, "draw_seconds": now - drawn, "seconds": now - start, "cells": textures.cells,
                       "cells_drawn": len(order),
@@ -150,7 +133,7 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
             return gaps.reshape(-1)
         program = create_program(self.ctx, "boundary.vert", "boundary.frag", roots=SHADERS)
         self._uniforms(program, scene, textures)
-        fbo = self._count_target(img.width, img.height)
+        (_,), fbo = self.target("counts", img.width, img.height, (1,))
         vao = self.ctx.vertex_array(program, [(buffer, "3f", "in_position")])
         try:
             fbo.use()
@@ -159,11 +142,11 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
             self._blending("average")  # additive
             self.ctx.disable(moderngl.CULL_FACE)  # both ways: every crossing counts
             vao.render(moderngl.TRIANGLES, vertices=3 * count)
-            crossings = np.frombuffer(fbo.read(components=1, dtype="f4"), np.float32).reshape(img.height, img.width)
+            crossings = self.read(fbo, img.width, img.height, components=1)[..., 0]  # rows from the top
         finally:
             self._blending(None)
             vao.release()
-        many = crossings[::-1] >= 3  # rows from the top, as Camera.pixel_rays
+        many = crossings >= 3  # rows from the top, as Camera.pixel_rays
         grown = many.copy()  # and the eight neighbours
         grown[1:] |= many[:-1]
         grown[:-1] |= many[1:]

@@ -4,7 +4,8 @@ The scene decides the program: :func:`shader_features` turns it into defines
 (compositing mode, filter, classification, shading, jitter, early termination,
 acceleration), so a feature the scene does not use is not compiled, computed
 or uploaded; programs are cached per feature set, textures per what they were
-made from (:mod:`..grid.gl_base`).  A volume beyond the GL texture limit or the
+made from (:mod:`dvr_gl.gl.frame`).  It samples the grid through the grid kit
+(:mod:`..grid.sampling`).  A volume beyond the GL texture limit or the
 texture budget is rendered in bricks: one pass per brick, front to back (back
 to front for that order), each continuing the compositing state of the last,
 so the image is the one a single texture would give.
@@ -14,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from time import perf_counter as now
 
 import moderngl
 import numpy as np
@@ -21,13 +23,16 @@ import numpy as np
 from ... import limits
 from ... import rays as rays_mod
 from ...fields import diagonal
+from ...gl.frame import same_key
 from ...gl.geometry import gl_matrix, projection_matrix, view_matrix
 from ...gl.shaders import create_program, shader_root
 from ...orientation import volume_frame_scene
 from ...scene.settings import shadow_step
 from ..grid.bricking import ghost_width, plan_bricks, visibility_order
-from ..grid.gl_base import GLVolumeRenderer, GridView, _same, classification_features, now
+from ..grid.classification import classification_features
+from ..grid.sampling import GridRenderer
 from ..grid.textures import upload_field
+from ..grid.views import GridView
 from ..surfaces import with_surfaces
 from . import acceleration as accel
 from . import out_of_core, ray_bounds
@@ -217,7 +222,7 @@ def whole_volume_brick(volume):
     return plan_bricks(volume.dims, max(volume.dims) + 1, ghost=0)[0]
 
 
-class RayCastRenderer(GLVolumeRenderer):
+class RayCastRenderer(GridRenderer):
     name = "raycast"
     description = "GPU ray casting in a GLSL fragment loop"
 
@@ -483,7 +488,7 @@ class RayCastRenderer(GLVolumeRenderer):
         # host data only, not in the texture cache: one entry bounded, one not (a frame may ask for both)
         cache = self.__dict__.setdefault("_estimates", {})
         last = cache.get(bounded)
-        if last is None or not _same(last[0], key):
+        if last is None or not same_key(last[0], key):
             cache[bounded] = (key, accel.skip_estimate(blocks.level0, mode, r.block_size, scene.volume,
                                                        scene.camera, img.width / img.height,
                                                        iso_value=r.iso_value, bounded=bounded))

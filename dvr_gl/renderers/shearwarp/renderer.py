@@ -30,6 +30,7 @@ reference of the final image (:func:`reference`).
 from __future__ import annotations
 
 import math
+from time import perf_counter as now
 
 import moderngl
 import numpy as np
@@ -42,7 +43,7 @@ from ...gl.shaders import create_program, shader_root
 from ...rays import RayBatch, intersect_box
 from ...reference import plans
 from ...reference.discrete import DiscreteReference
-from ..grid.gl_base import GLVolumeRenderer, now
+from ..base import GLRenderer
 from .factorization import factorize, factorize_view, pixel_directions, pixel_pyramids
 from .run_length import RunLengthVolume, SliceClassifier, expand_runs
 from .shading import VoxelNormals, VoxelShadedModel, frame_table
@@ -443,7 +444,7 @@ def warp_reference(fact, intermediate: np.ndarray, width: int, height: int) -> n
     return np.einsum("tp,tpc->pc", weights, taps).reshape(height, width, 4)
 
 
-class ShearWarpRenderer(GLVolumeRenderer):
+class ShearWarpRenderer(GLRenderer):
     name = "shearwarp"
     description = "shear-warp: run-length encoded slices composited on the host, warped in GL"
 
@@ -467,7 +468,7 @@ class ShearWarpRenderer(GLVolumeRenderer):
         return self._cached("voxel normals", (scene.volume, reference),
                             lambda: VoxelNormals(scene.volume, reference))
 
-    def check_tables(self, scene, gl):
+    def check_textures(self, scene, gl):
         """Classification runs on the host: the table is no texture, only its memory counts; the
         intermediate image is one (one pixel per voxel of the front slice, plus the shear)."""
         limits.check_lut_memory(scene.renderer.lut_size)

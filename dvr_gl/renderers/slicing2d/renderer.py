@@ -48,12 +48,6 @@ class Slicing2DRenderer(SlicingRenderer):
         return {"u_stack": self._cached(tag, (volume, view.tex_lo, view.dims, axis),
                                         lambda: _StackTexture(self.ctx, data, axis))}
 
-    def bind(self, program, uniforms, textures):
-        stack = textures.get("u_stack")
-        if stack is not None:
-            uniforms = {**uniforms, "u_value_scale": stack.value_scale, "u_value_offset": stack.value_offset}
-        super().bind(program, uniforms, textures)
-
     def geometry(self, scene, view) -> np.ndarray:
         """A quad per voxel plane across the stack's axis (within this view's core), back to front."""
         volume, cam = scene.volume, scene.camera
@@ -89,3 +83,7 @@ class _StackTexture:
         self.texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
         self.texture.repeat_x = self.texture.repeat_y = False
         self.value_scale, self.value_offset = scale, offset
+
+    def uniforms(self) -> dict:
+        """What turns its texels back into data values (bound with it: :meth:`dvr_gl.gl.frame.GLFrame.bind`)."""
+        return {"u_value_scale": self.value_scale, "u_value_offset": self.value_offset}

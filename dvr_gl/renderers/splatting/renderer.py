@@ -22,7 +22,9 @@ from ...geometry import chord_lengths
 from ...gl.shaders import create_program, shader_root
 from ...scene.model import GAUSSIAN_RADIUS
 from ...transfer_function import projected_rgba, xray_rgba
-from ..grid.gl_base import GLVolumeRenderer, TableTexture, shading_defines
+from ..base import GLRenderer
+from ..grid.classification import classified_voxels, optics_uniforms, shading_defines
+from ..grid.tables import check_tables, lookup_table
 from ..surfaces import with_surfaces
 from . import low_pass
 from .footprint import GaussianFootprint, M4Footprint
@@ -133,12 +135,16 @@ class Occlusion:
         self.scratch = None
 
 
-class SplattingRenderer(GLVolumeRenderer):
+class SplattingRenderer(GLRenderer):
     name = "splatting"
 
     def work(self, scene):
         """Fragments of footprints, instances and sheets (:mod:`.work`), checked before the frame."""
         return splat_work(scene)
+
+    def check_textures(self, scene, gl):
+        """The transfer function's table the sheets and culling read (:func:`..grid.tables.check_tables`)."""
+        check_tables(scene, gl)
 
     def _steps(self, scene) -> int:
         """Draws to split an unsheeted frame into, for progress: about :data:`STEP_SECONDS` of estimated
@@ -163,7 +169,7 @@ class SplattingRenderer(GLVolumeRenderer):
             culling = culled_post(scene)
             splats = self._cached("splats", (field, radius, pre, scene.transfer_function if pre or culling else None,
                                              culling and (r.lut_size, part_voxels(scene))),
-                                  lambda: Splats(field, radius, centre, self._classified_voxels(scene) if pre else None,
+                                  lambda: Splats(field, radius, centre, classified_voxels(self, scene) if pre else None,
                                                  self._visibility(scene) if culling else None))
         else:
             splats = self._cached("splats", (field, pre, scene.transfer_function if pre else None),
@@ -198,14 +204,10 @@ class SplattingRenderer(GLVolumeRenderer):
 
     def _visibility(self, scene):
         r, tf = scene.renderer, scene.transfer_function
-        lo, hi = self._lut(scene).lut.domain
+        lo, hi = lookup_table(self, scene).lut.domain
         radius = kernel_reach(scene)
         return post_visibility(scene.volume, tf, radius, kernel_sigma(scene), (hi - lo) / (r.lut_size - 1),
                                ghost_layers(radius), part_voxels(scene))
-
-    def _lut(self, scene) -> TableTexture:
-        r, tf = scene.renderer, scene.transfer_function
-        return self._cached("lut", (tf, r.lut_size), lambda: TableTexture(self.ctx, tf.tabulate(r.lut_size)))
 
     # --- passes ---
 
@@ -311,8 +313,8 @@ class SplattingRenderer(GLVolumeRenderer):
         if shaded:
             shading_defines(scene, sheet_defines)
         sheet_program = create_program(ctx, "fullscreen.vert", "sheet.frag", sheet_defines, roots=SHADERS)
-        lut = self._lut(scene)
-        sheet_uniforms = {**uniforms, **{k: v for k, v in self.optics_uniforms(scene, lut.lut).items()
+        lut = lookup_table(self, scene)
+        sheet_uniforms = {**uniforms, **{k: v for k, v in optics_uniforms(scene, lut.lut).items()
                                          if shaded or k.startswith("u_lut")}}
         # shaded, a sheet is composited once the one behind it is drawn (its gradient along the view): a ring
         # of three sheets, and a cleared one standing for the slabs beyond the first and the last

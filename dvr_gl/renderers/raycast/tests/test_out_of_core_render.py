@@ -12,7 +12,7 @@ import types
 import numpy as np
 import pytest
 
-from dvr_gl.renderers.grid.gl_base import TextureLRU
+from dvr_gl.renderers.grid.lru import TextureLRU
 from dvr_gl.renderers.raycast import acceleration as accel
 from dvr_gl.renderers.raycast.out_of_core import transparent
 from dvr_gl.transfer_function import TransferFunction
