@@ -406,7 +406,7 @@ def resolve_renderer(spec, field, settings):
     for setting in settings:
         setting.validate(getattr(spec, setting.name))
     d = resolve_sample_distance(spec, field)
-    if not d > 0:
+    if not d > 0:  # each factor was checked positive; their product can still underflow to 0
         raise SceneError(f"renderer.sample_distance must be positive, got {d}")
     if spec.classification == "preintegrated" and spec.compositing == "xray":
         raise SceneError("renderer.classification = preintegrated does not apply to xray (its tables attenuate "
