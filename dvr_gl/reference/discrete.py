@@ -277,5 +277,6 @@ class DiscreteReference:
 
 
 def same_discretization(scene) -> np.ndarray:
-    """The ray caster's oracle: the float64 image ``(H, W, 4)`` of the conventions' segments."""
+    """The float64 image ``(H, W, 4)`` of the conventions' segments: the oracle of a renderer that samples
+    where the conventions put the samples (a plugin may declare it as it is)."""
     return DiscreteReference(scene).render_float64()

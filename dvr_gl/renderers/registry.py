@@ -67,27 +67,23 @@ def _registry() -> _Registry:
     if not plugins and not broken:
         raise DvrError("no renderers are registered: dvr-gl's entry points are missing; install it "
                        "(pip install -e . in the repository) rather than running it from the source tree")
-    return _Registry(_builtin_first(plugins), broken, _union(plugins))
+    return _Registry(_in_order(plugins), broken, _union(plugins))
 
 
-BUILTIN_ORDER = ("raycast", "slicing3d", "slicing2d", "shearwarp", "reference", "reference-converged",
-                 "projected-tetrahedra", "cell-raycast", "splatting")
-
-
-def _builtin_first(plugins: dict) -> dict:
-    """The built-in renderers in their documented order (viewer keys 1-6), then the others by name."""
-    names = [n for n in BUILTIN_ORDER if n in plugins] + sorted(n for n in plugins if n not in BUILTIN_ORDER)
-    return {n: plugins[n] for n in names}
+def _in_order(plugins: dict) -> dict:
+    """The renderers in their declared order (``RendererPlugin.order``: the viewer's number keys), equal
+    ones by name."""
+    return {n: plugins[n] for n in sorted(plugins, key=lambda n: (plugins[n].order, n))}
 
 
 def _union(plugins: dict) -> tuple:
-    """Every declared setting once, in declaration order (the built-in renderers first), then the model
+    """Every declared setting once, in declaration order (the renderers in their order), then the model
     settings no renderer declares; a name declared differently by two plugins (or differently from
     the model's) is an error: rename one."""
     model = {s.name: s for s in MODEL_SETTINGS}
     out: dict[str, Setting] = {}
     owner: dict[str, str] = {}
-    for plugin in _builtin_first(plugins).values():
+    for plugin in _in_order(plugins).values():
         for s in plugin.settings:
             known = out.get(s.name) or model.get(s.name)
             if known is not None and known.base != s.base:
@@ -104,7 +100,7 @@ def _union(plugins: dict) -> tuple:
 # --- queries -----------------------------------------------------------------------------------
 
 def plugins() -> dict[str, RendererPlugin]:
-    """The registered renderers by name (built-ins first)."""
+    """The registered renderers by name, in their declared order."""
     return dict(_registry().plugins)
 
 
@@ -234,8 +230,22 @@ def check(scene, name: str | None = None):
                              + (f" or use {_either(others)}" if others else ""))
         raise SceneError(f"{p.name} does not support renderer.{s.name} = {value!r} (it takes "
                          f"{_either(own.choices)})" + (f"; use {_either(others)}" if others else ""))
+    _check_scattering(p, spec, renders)
     if p.check is not None:
         _load(p.check)(scene)
+
+
+def _check_scattering(p: RendererPlugin, spec, renders):
+    """Scattering's transmittance found in a way ``p`` implements (``RendererPlugin.scattering_methods``)."""
+    sc = getattr(spec, "scattering", None)
+    if sc is None or not sc.enabled or sc.method in p.scattering_methods or p.declared("scattering") is None:
+        return
+    others = renderers_with(lambda q: renders(q) and q.declared("scattering") is not None
+                            and sc.method in q.scattering_methods)
+    raise SceneError(f"{p.name} finds scattering's transmittance by {_either(p.scattering_methods)}, not by "
+                     f"renderer.scattering.method = {sc.method!r}: set method = "
+                     f"{_either(repr(m) for m in p.scattering_methods)}"
+                     + (f", or use {_either(others)}" if others else ""))
 
 
 def _unsupported(p: RendererPlugin, spec):

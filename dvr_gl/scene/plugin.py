@@ -12,6 +12,7 @@ import importlib
 from dataclasses import dataclass
 from typing import Any, Optional
 
+from .model import SCATTERING_METHODS
 from .settings import MODEL_SETTINGS, Setting
 
 
@@ -29,8 +30,11 @@ class RendererPlugin:
     fixed_planes: it samples fixed planes (the voxel planes), not a sample distance.
     check: ``check(scene)`` raises SceneError with the reason it cannot render a scene,
         beyond what its settings say (e.g. an eye inside the volume); or ``"module:function"``.
-    oracle: ``oracle(scene)``, the float64 same-discretization image ``(H, W, 4)`` it must
-        match (None for the references, which are the judges); or ``"module:function"``.
+    oracle: ``"dvr_gl.renderers.NAME.oracle:oracle"``, every renderer's in the same place and shape:
+        ``oracle(scene) -> np.ndarray``, the float64 image ``(H, W, 4)`` (premultiplied linear RGBA, rows
+        from the top) of the same discretization that it must match to float32 rounding; where a
+        shared judge of :mod:`dvr_gl.reference` serves, the module is the adapter that says which and
+        why.  None for the references, which are the judges.
     resolve: ``resolve(scene) -> scene``: resolves settings of its own when a scene is read
         (the ray caster turns a tolerance into settings); or ``"module:function"``.
     sweeps: the trade-off families (:mod:`dvr_gl.scene.sweeps`) that vary something it reads.
@@ -42,6 +46,14 @@ class RendererPlugin:
     projections: the camera projections it renders (Fourier rendering: parallel projections only).
     out_of_core: it renders a volume read out of core (:mod:`dvr_gl.out_of_core`), reading bricks
         as it needs them; the others need the voxels in memory.
+    order: its place where the renderers are listed (``dvr info``, ``--renderer``'s choices, the viewer's
+        number keys, the default renderer of a data kind): lower first, equal ones by name.
+    sort_last: it renders a subset of a volume's bricks as a compositing state (``brick_plan(scene)``,
+        ``render_state(scene, bricks)``), which :mod:`dvr_gl.distributed` composites across workers.
+    view_aligned_slices: its sample distance is the spacing of slices facing the eye (the viewer calls
+        it the slice spacing and counts the slices).
+    scattering_methods: the ways it finds ``renderer.scattering``'s transmittance toward the lights
+        (:data:`dvr_gl.scene.model.SCATTERING_METHODS`), where it declares scattering.
     bench: its ``dvr bench`` subcommands, ``"module:attribute"`` naming a
         :class:`~dvr_gl.renderers.bench_command.BenchCommand` or a tuple of them (imported when ``dvr``
         builds its flags: keep that module light; the measurement imports the bench harness when run).
@@ -62,6 +74,10 @@ class RendererPlugin:
     reference: bool = False
     projections: tuple[str, ...] = ("perspective", "orthographic")
     out_of_core: bool = False
+    order: int = 1000
+    sort_last: bool = False
+    view_aligned_slices: bool = False
+    scattering_methods: tuple[str, ...] = SCATTERING_METHODS
     bench: Any = None
 
     def declared(self, name: str) -> Optional[Setting]:

@@ -19,6 +19,7 @@ PLUGIN = RendererPlugin(
     name="cell-raycast",
     description="ray casting from cell to cell through meshes in GL, no visibility order",
     renderer="dvr_gl.renderers.cell_raycast.renderer:CellRaycastRenderer",
+    order=80,
     settings=(s.COMPOSITING.only(*s.COMPOSITING_BEFORE_XRAY), s.ISO_VALUE, s.ERT_THRESHOLD, s.CLIPPING, s.GEOMETRY),
     data_kinds=("mesh",),
     needs_gl=True,

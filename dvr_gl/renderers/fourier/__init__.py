@@ -73,6 +73,7 @@ PLUGIN = RendererPlugin(
     name="fourier",
     description="Fourier volume rendering: projections from central slices of the volume's spectrum",
     renderer="dvr_gl.renderers.fourier.renderer:FourierRenderer",
+    order=100,
     # the X-ray transforms classified voxels
     settings=(s.COMPOSITING.only("average", "xray"), s.CLASSIFICATION.only("pre"),
               s.FILTER.only("linear", "cubic_bspline", "gaussian"), s.KERNEL_WIDTH, s.DEPTH_CUE,
@@ -80,7 +81,7 @@ PLUGIN = RendererPlugin(
     needs_gl=True,
     projections=("orthographic",),  # the projection-slice theorem: parallel projections
     check=check,
-    oracle="dvr_gl.renderers.fourier.oracle:reference",
+    oracle="dvr_gl.renderers.fourier.oracle:oracle",
     # Against the closed forms (tests/closed_forms.py): the box is exact (the border's constant is taken out
     # and added back per chord: measured 3e-8).  The ramp's borders differ by its whole range and its grid is
     # 6-9 voxels: the box's clip is exact (the shell pass), what is left is the band limit at the ramp's

@@ -71,7 +71,7 @@ def interpolate(half: np.ndarray, dims, g: np.ndarray, interpolation: str, direc
     return out
 
 
-def reference(scene) -> np.ndarray:
+def oracle(scene) -> np.ndarray:
     """The image ``(H, W, 4)`` float64 that ``fourier`` must match."""
     r = scene.renderer
     data, offsets, border = channels(scene)

@@ -1,12 +1,12 @@
-"""Texture slicing, shared by ``slicing3d`` and ``slicing2d``: proxy slices drawn back to front and
-blended with the over operator.
+"""Texture slicing, shared by the slicers: proxy slices drawn back to front and blended with the over
+operator.
 
-:class:`SlicingRenderer` draws a renderer's slices (its ``geometry``) brick by brick; the
-plugins :mod:`dvr_gl.renderers.slicing3d` (view-aligned planes through a 3D texture) and
-:mod:`dvr_gl.renderers.slicing2d` (object-aligned 2D stacks) supply the geometry.  Both composite
-emission-absorption with post-, pre- (3D only) or pre-integrated classification, shading and
-gradient opacity; every slice is blended (no early termination).  The same-discretization reference
-samples the same planes, clipped by the same near plane: :func:`reference`.
+:class:`SlicingRenderer` draws a renderer's slices (its ``geometry``) brick by brick; each slicer
+supplies the geometry (view-aligned planes through a 3D texture, or object-aligned 2D stacks with
+``stack = True``).  They composite emission-absorption with post-, pre- (3D textures only) or
+pre-integrated classification, shading and gradient opacity; every slice is blended (no early
+termination).  The same-discretization reference samples the same planes, clipped by the same near
+plane: :func:`reference`, given the slicer's planes (its oracle says which).
 """
 
 from __future__ import annotations
@@ -33,12 +33,16 @@ SHADERS = (shader_root(__file__),)
 MAX_REACH = 64.0  # voxels: rays this close to parallel with the slices need more ghost than any brick has
 
 
-def reference_plan(scene, kind: str):
-    """The sample plan of ``slicing3d`` or ``slicing2d`` for :class:`~dvr_gl.reference.discrete.DiscreteReference`."""
-    if kind == "slicing3d":
-        ha = half_angle_of(scene)
-        return lambda rays: plans.view_planes(rays, scene.camera, scene.volume.box, scene.renderer.sample_distance,
-                                              None if ha is None else ha.normal)
+def view_planes(scene):
+    """The sample plan (:mod:`dvr_gl.reference.plans`) of planes ``renderer.sample_distance`` apart facing
+    the eye, or half-way to the light where half-angle slicing lights them (:func:`half_angle_of`)."""
+    ha = half_angle_of(scene)
+    return lambda rays: plans.view_planes(rays, scene.camera, scene.volume.box, scene.renderer.sample_distance,
+                                          None if ha is None else ha.normal)
+
+
+def voxel_planes(scene):
+    """The sample plan of the voxel planes across the axis that faces the eye most squarely."""
     return lambda rays: plans.axis_planes(rays, scene.camera, scene.volume)
 
 
@@ -52,21 +56,12 @@ def half_angle_of(scene):
                       sc.light_buffer_size)
 
 
-def reference(scene, kind: str) -> DiscreteReference:
-    """The same-discretization reference of a slicer: its planes, and its near clip plane."""
+def reference(scene, planes) -> DiscreteReference:
+    """The same-discretization reference of a slicer: its planes (``planes(scene)``, a sample plan:
+    :func:`view_planes`, :func:`voxel_planes`), clipped by its near clip plane."""
     near, _ = clip_planes(scene.camera, *scene.volume.box)
     clipped = scene.replace(camera=scene.camera.with_(near=near))
-    return DiscreteReference(clipped, plan=reference_plan(clipped, kind))
-
-
-def same_planes_3d(scene) -> np.ndarray:
-    """``slicing3d``'s oracle: the float64 image of the same view-aligned planes."""
-    return reference(scene, "slicing3d").render_float64()
-
-
-def same_planes_2d(scene) -> np.ndarray:
-    """``slicing2d``'s oracle: the float64 image of the same voxel planes."""
-    return reference(scene, "slicing2d").render_float64()
+    return DiscreteReference(clipped, plan=planes(clipped))
 
 
 class SlicingRenderer(GridRenderer):

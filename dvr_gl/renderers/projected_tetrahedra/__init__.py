@@ -22,6 +22,7 @@ PLUGIN = RendererPlugin(
     name="projected-tetrahedra",
     description="projected tetrahedra in GL for meshes, exact visibility order",
     renderer="dvr_gl.renderers.projected_tetrahedra.renderer:ProjectedTetrahedraRenderer",
+    order=70,
     settings=(s.COMPOSITING.only(*s.COMPOSITING_BEFORE_XRAY), s.ISO_VALUE, CELL_ORDER, s.CLIPPING, s.GEOMETRY),
     data_kinds=("mesh",),
     needs_gl=True,

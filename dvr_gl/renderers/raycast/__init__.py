@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from typing import Optional
 
-from ...errors import SceneError
 from ...scene import settings as s
 from ...scene import sweeps
 from ...scene.model import SPLINE_FILTERS
@@ -41,15 +40,6 @@ SCREEN_SPACE_ERROR = s.Setting("screen_space_error", float, 1.0, "volumes with c
                                check=s.at_least(0), group="raycast")
 
 
-def check(scene):
-    """Scattering by shadow rays or the light volume (half-angle slicing is slicing3d's)."""
-    sc = scene.renderer.scattering
-    if sc.enabled and sc.method not in ("shadow_rays", "light_volume"):
-        raise SceneError(f"raycast finds scattering's transmittance by shadow rays or a light volume, not by "
-                         f"renderer.scattering.method = {sc.method!r}: set method = 'shadow_rays' or "
-                         f"'light_volume'")
-
-
 PLUGIN = RendererPlugin(
     name="raycast",
     description="GPU ray casting in a GLSL fragment loop",
@@ -63,8 +53,11 @@ PLUGIN = RendererPlugin(
     data_kinds=("grid",),
     needs_gl=True,
     out_of_core=True,
-    check=check,
-    oracle="dvr_gl.reference.discrete:same_discretization",
+    order=10,
+    sort_last=True,
+    # shadow rays march from each sample; the light volume interpolates them (half-angle slicing needs slices)
+    scattering_methods=("shadow_rays", "light_volume"),
+    oracle="dvr_gl.renderers.raycast.oracle:oracle",
     resolve="dvr_gl.renderers.raycast.tolerance:resolve",
     sweeps=(sweeps.POST, sweeps.PRE_CLASSIFIED, sweeps.PREINTEGRATED, sweeps.PREINTEGRATED_FAST, sweeps.NEAREST,
             sweeps.CUBIC_BSPLINE, sweeps.LUT_SIZE, sweeps.PREINTEGRATION_TABLE, sweeps.EARLY_TERMINATION,

@@ -15,6 +15,7 @@ PLUGIN = RendererPlugin(
     name="reference",
     description="CPU float64, same discretization as the GPU (samples, LUT)",
     renderer="dvr_gl.renderers.reference.renderer:DiscreteReferenceRenderer",
+    order=50,
     settings=(s.SAMPLE_DISTANCE, s.SAMPLE_DISTANCE_VOXELS, s.COMPOSITING, s.ORDER, s.CLASSIFICATION,
               s.ASSOCIATED_COLORS, s.PREINTEGRATION, s.PREINTEGRATION_SIZE, s.FILTER, s.KERNEL_WIDTH,
               s.GRADIENT_OPACITY, s.GRADIENT_OPACITY_REFERENCE, s.ISO_VALUE, s.ISO_REFINEMENT, s.JITTER, s.JITTER_SEED,

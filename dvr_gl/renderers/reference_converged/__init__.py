@@ -19,6 +19,7 @@ PLUGIN = RendererPlugin(
     name="reference-converged",
     description="CPU float64, exact transfer function, integrated to a tolerance",
     renderer="dvr_gl.renderers.reference_converged.renderer:ConvergedReferenceRenderer",
+    order=60,
     settings=(s.COMPOSITING, s.CLASSIFICATION, s.ASSOCIATED_COLORS, s.FILTER, s.KERNEL_WIDTH, s.GRADIENT_OPACITY,
               s.GRADIENT_OPACITY_REFERENCE, s.ISO_VALUE, s.JITTER, s.SHADING, s.SCATTERING, s.CLIPPING, s.GEOMETRY,
               s.DEPTH_CUE, s.HEMISPHERICAL_SHADING, CONVERGED_TOLERANCE),

@@ -28,6 +28,7 @@ PLUGIN = RendererPlugin(
     name="shearwarp",
     description="shear-warp: run-length encoded slices composited on the host, warped in GL",
     renderer="dvr_gl.renderers.shearwarp.renderer:ShearWarpRenderer",
+    order=40,
     settings=(s.COMPOSITING.only("emission_absorption"), s.CLASSIFICATION.only("post", "pre"), s.ASSOCIATED_COLORS,
               s.FILTER.only("linear"), s.ERT_THRESHOLD, s.LUT_SIZE, OPACITY_THRESHOLD, s.SHADING, s.GRADIENT_OPACITY,
               s.GRADIENT_OPACITY_REFERENCE, s.CLIPPING, s.GEOMETRY),
@@ -35,7 +36,7 @@ PLUGIN = RendererPlugin(
     needs_gl=True,
     fixed_planes=True,
     check=check,
-    oracle="dvr_gl.renderers.shearwarp.renderer:reference",
+    oracle="dvr_gl.renderers.shearwarp.oracle:oracle",
     sweeps=(sweeps.CLASSIFICATION, sweeps.LUT_SIZE, sweeps.EARLY_TERMINATION,
             sweeps.Family("opacity threshold", "renderer.opacity_threshold", (0.0, 1e-3, 1e-2, 3e-2))),
     # Against the closed forms (tests/closed_forms.py), by design: the voxel planes' slabs as for 2D

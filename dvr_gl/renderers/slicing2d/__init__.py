@@ -23,6 +23,7 @@ PLUGIN = RendererPlugin(
     name="slicing2d",
     description="three stacks of 2D slices, the most view-aligned one blended back to front (GPU)",
     renderer="dvr_gl.renderers.slicing2d.renderer:Slicing2DRenderer",
+    order=30,
     settings=(s.COMPOSITING.only("emission_absorption"), s.CLASSIFICATION.only("post", "preintegrated"),
               s.PREINTEGRATION, s.PREINTEGRATION_SIZE, s.FILTER.only("nearest", "linear"), s.FILTERING, s.GRADIENT,
               s.GRADIENT_OPACITY, s.GRADIENT_OPACITY_REFERENCE, s.LUT_SIZE, s.TEXTURE_BUDGET_MB, s.SHADING, s.CLIPPING,
@@ -31,7 +32,7 @@ PLUGIN = RendererPlugin(
     needs_gl=True,
     fixed_planes=True,
     check=check,
-    oracle="dvr_gl.renderers.grid.slicing:same_planes_2d",
+    oracle="dvr_gl.renderers.slicing2d.oracle:oracle",
     sweeps=(sweeps.CLASSIFICATION, sweeps.LUT_SIZE),
     # Against the closed forms (tests/closed_forms.py), by design: every voxel plane is drawn, each
     # standing for the slab to the next plane (spacing / |cos| along the ray, up to 1.2 world units at

@@ -15,6 +15,8 @@ PLUGIN = RendererPlugin(
     name="slicing3d",
     description="3D texture, view-aligned slices blended back to front (GPU)",
     renderer="dvr_gl.renderers.slicing3d.renderer:Slicing3DRenderer",
+    order=20,
+    view_aligned_slices=True,
     settings=(s.SAMPLE_DISTANCE, s.SAMPLE_DISTANCE_VOXELS, s.COMPOSITING.only("emission_absorption"),
               s.CLASSIFICATION, s.ASSOCIATED_COLORS, s.PREINTEGRATION, s.PREINTEGRATION_SIZE,
               s.FILTER.only(*SPLINE_FILTERS), s.FILTERING, s.GRADIENT, s.GRADIENT_OPACITY,
@@ -22,7 +24,7 @@ PLUGIN = RendererPlugin(
               s.GEOMETRY),
     data_kinds=("grid",),
     needs_gl=True,
-    oracle="dvr_gl.renderers.grid.slicing:same_planes_3d",
+    oracle="dvr_gl.renderers.slicing3d.oracle:oracle",
     sweeps=(sweeps.POST, sweeps.PRE_CLASSIFIED, sweeps.PREINTEGRATED, sweeps.NEAREST, sweeps.LUT_SIZE,
             sweeps.PREINTEGRATION_TABLE, sweeps.BRICKED),
     # Against the closed forms (tests/closed_forms.py), by design: each slice stands for the slab to the

@@ -93,6 +93,7 @@ PLUGIN = RendererPlugin(
     name="splatting",
     description="splatting: each sample's kernel integrated into footprints, sheet buffers in GL",
     renderer="dvr_gl.renderers.splatting.renderer:SplattingRenderer",
+    order=90,
     settings=(s.COMPOSITING.only("emission_absorption", "average", "xray"), s.CLASSIFICATION.only("post", "pre"),
               s.ASSOCIATED_COLORS, s.FILTER.only("gaussian", "cubic_bspline", "m4"), s.KERNEL_WIDTH, SHEET_BUFFER,
               SLAB_WIDTH, SLABS_PER_DRAW, FOOTPRINT, SCREEN_LOW_PASS, s.ERT_THRESHOLD, s.LUT_SIZE, s.SHADING,
@@ -100,7 +101,7 @@ PLUGIN = RendererPlugin(
     data_kinds=("grid", "particles"),
     needs_gl=True,
     check=check,
-    oracle="dvr_gl.renderers.splatting.oracle:reference",
+    oracle="dvr_gl.renderers.splatting.oracle:oracle",
     # the slab width, with each kind's kernel (a grid's default filter, linear, is not splatted)
     sweeps=(sweeps.Family("slab width", "renderer.slab_width", (2.0, 1.0, 0.5, 0.25),
                           (("renderer.filter", "gaussian"),), data_kinds=("grid",)),

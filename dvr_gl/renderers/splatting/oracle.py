@@ -54,7 +54,7 @@ PIECE_VOXELS = 0.5   # the longest piece, voxels of the smallest spacing
 CHUNK = 20000        # (ray, part) pairs or splats per batch
 
 
-def reference(scene) -> np.ndarray:
+def oracle(scene) -> np.ndarray:
     """The image ``(H, W, 4)`` float64 that ``splatting`` must match (see the module doc)."""
     r, img = scene.renderer, scene.image
     rays = RayBatch.for_camera(scene.camera, img.width, img.height, scene.field.bounds,

@@ -12,7 +12,7 @@ from dvr_gl.rays import intersect_box
 from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.renderers import registry
 from dvr_gl.renderers.fourier import spectrum as spectrum_module
-from dvr_gl.renderers.fourier.oracle import reference as same_slices
+from dvr_gl.renderers.fourier.oracle import oracle as same_slices
 from dvr_gl.renderers.fourier.renderer import FourierRenderer
 
 ORTHO = {"renderer.name": "fourier", "camera.projection": "orthographic", "camera.azimuth": 31.0,

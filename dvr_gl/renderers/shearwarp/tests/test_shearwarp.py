@@ -27,13 +27,8 @@ from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.reference.discrete import DiscreteReference
 from dvr_gl.renderers import create_renderer
 from dvr_gl.renderers.shearwarp.factorization import factorize, factorize_view, pixel_directions, pyramid_of
-from dvr_gl.renderers.shearwarp.renderer import (
-    ShearWarpRenderer,
-    composite,
-    intermediate_reference,
-    reference,
-    warp_reference,
-)
+from dvr_gl.renderers.shearwarp.oracle import intermediate_reference, oracle, same_slices, warp_reference
+from dvr_gl.renderers.shearwarp.renderer import ShearWarpRenderer, composite
 from dvr_gl.renderers.shearwarp.run_length import RunLengthVolume, SliceClassifier, encode_scanlines, expand_runs
 from dvr_gl.renderers.shearwarp.shading import NO_NORMAL, decode_normals, encode_normals, frame_table, voxel_gradients
 
@@ -394,7 +389,7 @@ def test_quantization_error_against_unquantized_normals():
     directions against the voxels' own normals (measured RMS 1.3e-4, max 2.5e-3 on the 64^3 demo at
     128^2; at this size RMS 4.9e-5, max 9.1e-4)."""
     scene = small_scene({**SHADED, "volume.size": 24})
-    quantized, exact = reference(scene), reference(scene, quantized=False)
+    quantized, exact = oracle(scene), same_slices(scene, quantized=False)
     rms = float(np.sqrt(np.mean((quantized - exact) ** 2)))
     assert 0 < rms < 5e-4 and np.abs(quantized - exact).max() < 5e-3
 
@@ -418,7 +413,7 @@ def test_shaded_demo_renders_close_to_its_reference(shearwarp):
     final pixels: the warp's float32 bound (measured 2.0e-6)."""
     scene = small_scene(SHADED)
     image = shearwarp.render(scene)
-    assert np.abs(image - reference(scene)).max() < 1e-5
+    assert np.abs(image - oracle(scene)).max() < 1e-5
 
 
 # --- what it refuses ---
@@ -486,7 +481,7 @@ def test_an_eye_inside_is_factored_by_pyramids_as_the_same_rays_reference(shearw
         assert np.abs(image - truth).max() <= (5e-8 if scene.renderer.classification == "pre" else 1e-12)
     frame = shearwarp.render(scene)
     assert shearwarp.stats["factorizations"] == len(facts)
-    assert np.abs(frame - reference(scene)).max() < 1e-5
+    assert np.abs(frame - oracle(scene)).max() < 1e-5
 
 
 def test_pyramids_cover_every_pixel_once_and_see_beyond_the_eye(shearwarp):

@@ -18,7 +18,7 @@ from dvr_gl.io.particles import write_npz
 from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.renderers import registry
 from dvr_gl.renderers.splatting.footprint import M4Footprint
-from dvr_gl.renderers.splatting.oracle import reference as same_slabs
+from dvr_gl.renderers.splatting.oracle import oracle as same_slabs
 from dvr_gl.renderers.splatting.oracle import subpixel_mask
 from dvr_gl.renderers.splatting.particles import SUBPIXEL_RADIUS
 from dvr_gl.renderers.splatting.renderer import SplattingRenderer, m4_tables

@@ -11,7 +11,7 @@ from dvr_gl.rays import intersect_box
 from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.renderers import registry
 from dvr_gl.renderers.splatting.footprint import GaussianFootprint
-from dvr_gl.renderers.splatting.oracle import reference as same_slabs
+from dvr_gl.renderers.splatting.oracle import oracle as same_slabs
 from dvr_gl.renderers.splatting.renderer import SplattingRenderer
 from dvr_gl.scene.model import GAUSSIAN_RADIUS
 
