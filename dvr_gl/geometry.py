@@ -222,7 +222,8 @@ def first_hits(meshes, origins: np.ndarray, directions: np.ndarray):
     """The nearest surface along each ray at ``t > 0``: ``(t (N,), normal (N, 3), colour (N, 3))``,
     ``t`` infinite where a ray meets none; ``normal`` the face's unit normal turned toward the ray's
     origin.  Moller and Trumbore's test in float64, edges and corners included, of the pairs that
-    :class:`HitPlan` finds can meet (the work is refused over :func:`surface_bound`, with progress)."""
+    :class:`HitPlan` finds can meet (the work is refused over ``limits.bound`` by :func:`check_surface_work`, with
+    progress)."""
     o = np.asarray(origins, dtype=np.float64)
     d = np.asarray(directions, dtype=np.float64)
     best = np.full(len(o), np.inf)
@@ -291,11 +292,6 @@ PAIR_CHUNK = 1 << 17
 BYTES_PER_PAIR = 480
 BYTES_PER_HOST_TRIANGLE = 640   # corners, edges, normals, projected boxes and their bins (measured 610)
 SURFACE_WORK = "ray-triangle tests"  # the unit of limits.BOUNDS the host test counts
-def surface_bound() -> float:
-    """The most ray-triangle tests a frame may make (``limits.BOUNDS``, lowered by ``max_seconds``)."""
-    return limits.bound(SURFACE_WORK)
-
-
 def check_surface_work(pairs: float, rays: int, triangles: int) -> None:
     limits.check_work(limits.Work(pairs, SURFACE_WORK, f"{rays} rays against the {triangles} triangles their "
                                   "boxes cover", "lower --size, use a mesh with fewer or smaller triangles, or a GL "

@@ -40,7 +40,6 @@ ANATOMICAL_VIEWS = {
     "anterior": (0.0, 0.0), "posterior": (180.0, 0.0), "left": (90.0, 0.0), "right": (-90.0, 0.0),
     "superior": (180.0, 90.0), "inferior": (0.0, -90.0),
 }
-SUPERIOR = (0.0, 0.0, 1.0)
 
 _LETTERS = (("L", "R"), ("P", "A"), ("S", "I"))  # LPS axes: + letter, - letter
 

@@ -162,10 +162,6 @@ class SampledField:
         self.degree = DEGREE[kind]
         self.kernel = GaussianKernel(kernel_width or DEFAULT_KERNEL_WIDTH) if kind == "gaussian" else None
 
-    @classmethod
-    def of_volume(cls, volume, kind: str = "linear", kernel_width: float | None = None) -> "SampledField":
-        return cls(volume.data, volume.spacing, volume.origin, kind, kernel_width)
-
     def sample(self, points: np.ndarray) -> np.ndarray:
         """Field values at world points ``(N, 3)``: ``(N,)`` or ``(N, C)`` float64."""
         u = (np.asarray(points, dtype=np.float64) - self.origin) / self.spacing
@@ -250,4 +246,3 @@ def smooth_pieces(field: SampledField, origins, directions, t0, t1):
     local, t = local[order], t[order]
     keep = (local[1:] == local[:-1]) & (t[1:] > t[:-1])
     return local[:-1][keep], t[:-1][keep], t[1:][keep]
-

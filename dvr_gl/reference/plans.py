@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..rays import RayBatch, segment_counts
+from ..rays import RayBatch, segment_bounds, segment_counts
 
 
 class SegmentGrid:
@@ -58,9 +58,9 @@ class RaySegments:
 
     def grid(self, rows, k: int, m: int) -> SegmentGrid:
         ks = k + np.arange(m)[None, :]
-        start = self.rays.t0[rows, None] + ks * self.d
+        start, length = segment_bounds(self.rays.t0[rows, None], self.rays.t1[rows, None], ks, self.d)
         valid = ks < self.count[rows, None]
-        length = np.where(valid, np.minimum(self.d, self.rays.t1[rows, None] - start), 0.0)
+        length = np.where(valid, length, 0.0)
         t = start + self.rays.offset[rows, None] * length
         return SegmentGrid(self.rays, t, start, length, valid, rows)
 

@@ -261,10 +261,6 @@ def _unsupported(p: RendererPlugin, spec):
     return None
 
 
-def _allows(s: Setting | None, value) -> bool:
-    return s is not None and (not s.choices or value in s.choices)
-
-
 def _describe(s: Setting, value) -> str:
     """The setting in use, as a refusal names it: a switch or a table by name, a value with it."""
     if isinstance(value, bool) or s.in_use is not None:

@@ -34,7 +34,6 @@ from ..orientation import to_patient_frame, view_orbit
 from ..sandbox import check_bytes, check_input_path
 from ..toml_writer import dumps
 from ..transfer_function import (
-    PRESETS,
     TransferFunction,
     find_preset,
     from_property,
@@ -612,7 +611,3 @@ def load_scene(path: Path | str | None = None, overrides: dict | None = None, ba
     lookup = look_up_preset(raw, base_dir)  # once: the preset's shading and the transfer function read it
     spec = parse_scene(raw, str(path) if path is not None else None, base_dir, lookup)
     return resolve_scene(spec, base_dir, lookup=lookup)
-
-
-def available_presets() -> list[str]:
-    return list(PRESETS)

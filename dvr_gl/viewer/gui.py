@@ -90,10 +90,6 @@ class ViewerGui:
         self._logged_layout: dict | None = None
 
     @property
-    def tf_dragging(self) -> bool:
-        return self.dragging is not None
-
-    @property
     def busy(self) -> bool:
         """A gesture in the panel is going on: a point or a slider is being dragged."""
         return self.dragging is not None or self.any_active

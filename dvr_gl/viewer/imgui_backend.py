@@ -170,9 +170,5 @@ class ImGuiInput:
             self.io.add_input_character(codepoint)
 
     @property
-    def wants_mouse(self) -> bool:
-        return self.io.want_capture_mouse
-
-    @property
     def wants_text(self) -> bool:
         return self.io.want_text_input

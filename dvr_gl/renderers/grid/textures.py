@@ -21,8 +21,6 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from ...errors import DvrError
-
 FORMATS = {
     np.dtype(np.uint8): ("f1", 255.0, 0.0, 1),
     np.dtype(np.uint16): ("nu2", 65535.0, 0.0, 2),
@@ -41,10 +39,6 @@ class VolumeTexture:
     def uniforms(self) -> dict:
         """What turns its texels back into data values (bound with it: :meth:`dvr_gl.gl.frame.GLFrame.bind`)."""
         return {"u_value_scale": self.value_scale, "u_value_offset": self.value_offset}
-
-
-def volume_bytes(volume) -> int:
-    return volume.data.size * FORMATS[volume.data.dtype][3]
 
 
 def _texture3d(ctx, data: np.ndarray, components: int, dtype: str) -> moderngl.Texture3D:
@@ -97,19 +91,6 @@ def upload_table(ctx, table: np.ndarray) -> moderngl.Texture:
     tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
     tex.repeat_x = tex.repeat_y = False
     return tex
-
-
-def check_fits(ctx, volume, nbytes: int, budget_mb: int, what: str):
-    """Refuse volumes larger than the GL limit or the texture-memory budget, with advice."""
-    limit = ctx.info["GL_MAX_3D_TEXTURE_SIZE"]
-    if max(volume.dims) > limit:
-        nx, ny, nz = volume.dims
-        raise DvrError(f"{volume.name}: {nx}x{ny}x{nz} exceeds GL_MAX_3D_TEXTURE_SIZE {limit} of this GPU; "
-                       f"bricking is not available yet: crop or downsample the volume")
-    if nbytes > budget_mb * 2 ** 20:
-        raise DvrError(f"{volume.name}: {what} need {nbytes / 2 ** 20:.0f} MB of textures, over the budget of "
-                       f"{budget_mb} MB (renderer.texture_budget_mb); raise the budget, use post-classification "
-                       f"and on-the-fly gradients, or downsample the volume")
 
 
 def central_difference_gradients(volume) -> np.ndarray:

@@ -307,16 +307,6 @@ def test_budget_too_small_even_for_bricks(gpu):
                                 "renderer.shading.enabled": True}).with_renderer(texture_budget_mb=1e-6))
 
 
-def test_volume_over_the_gl_size_limit():
-    from dvr_gl.renderers.grid.textures import check_fits
-
-    class TinyGL:
-        info = {"GL_MAX_3D_TEXTURE_SIZE": 16}
-
-    with pytest.raises(DvrError, match="32x32x32 exceeds GL_MAX_3D_TEXTURE_SIZE 16"):
-        check_fits(TinyGL(), small_scene().volume, 1, 100, "the volume")
-
-
 def test_int16_upload_in_slabs_keeps_every_value(gl_context, monkeypatch):
     """int16 volumes reach the GPU a slab of slices at a time (flipped sign bit, one small buffer):
     with a slab of 2 slices and 7 slices (a short last slab), every voxel's texel is x + 32768."""
