@@ -94,14 +94,9 @@ def check_texture(what: str, size: tuple[int, int], limits: GLLimits, fix: str):
 # seconds into work and the estimate into hours in the message.  Each bound is about an hour
 # there (seconds on a real GPU); legitimate heavy work stays inside: a 0.05-voxel step through a
 # 512^3 volume at 1024^2 is 2e10 samples, a converged reference of it at 1024^2 5e9 pieces.
+# A renderer with a unit of its own declares it beside its estimate (:func:`work_unit`).
 BOUNDS = {"gpu samples": 1e12, "cpu samples": 3e10, "pieces": 1e10}
 RATES = {"gpu samples": 3e8, "cpu samples": 1e7, "pieces": 2e6}
-# splatting (dvr_gl.renderers.splatting.work): footprint fragments, instances and sheets; 5e6-1.3e7 a second
-# measured on llvmpipe with other work on the cores (dvr_gl/renderers/splatting/README.md)
-BOUNDS["splat fragments"], RATES["splat fragments"] = 2e10, 5e6
-# fourier (dvr_gl.renderers.fourier.renderer): channels x M log2 M of its padded volume's transform, the
-# first frame's; 8e7-1.3e8 a second measured on two shared cores (240^3 to 800^3 spectra; 800^3: 113 s)
-BOUNDS["fft samples"], RATES["fft samples"] = 1e11, 1e8
 # surfaces in the CPU renderers (dvr_gl.geometry): ray-triangle tests the 2D bins allow; 1e7 a second
 # measured on two shared cores (docs/geometry.md)
 BOUNDS["ray-triangle tests"], RATES["ray-triangle tests"] = 3e10, 1e7
@@ -113,6 +108,14 @@ BOUNDS["point-in-cell tests"], RATES["point-in-cell tests"] = 7e9, 2e6
 # ~1e-16 each, over ~1e3 pieces a ray) are rounding noise: refinement never meets them (measured:
 # 1e-14 converges on a 32^3 phantom, 1e-15 still runs after 2 minutes).
 MIN_CONVERGED_TOLERANCE = 1e-12
+
+
+def work_unit(unit: str, bound: float, rate: float) -> str:
+    """Declare a unit of work (``bound``: the largest a frame may take; ``rate``: units a second on the
+    slowest machine, as above) for a renderer that counts its own; returns ``unit``, for its
+    :class:`Work`."""
+    BOUNDS[unit], RATES[unit] = bound, rate
+    return unit
 
 
 @dataclass(frozen=True)

@@ -193,7 +193,7 @@ def demo_scene(name: str) -> dict:
         "renderer": {"sample_distance_voxels": 0.25, "shading": {"enabled": True}},
     }
     if name == "shepp-logan":  # seen from higher up through the translucent skull: the inside shows.  Not cut
-        # open with a clipping plane: the demo must render with every renderer, and some cannot clip (fourier)
+        # open with a clipping plane: the demo must render with every renderer, and some declare no clipping
         scene["camera"].update(elevation=45.0, distance=2.3 * size)
         scene["renderer"] = {"sample_distance_voxels": 0.25, "shading": SHEPP_LOGAN_DEMO_SHADING}
     if points:

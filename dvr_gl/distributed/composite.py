@@ -1,13 +1,14 @@
-"""Compositing partial images (the ray caster's compositing states) in numpy.
+"""Compositing partial images (the compositing states of a renderer that composites sort-last) in numpy.
 
-A state is what :meth:`RayCastRenderer.render_state` returns for a subset of the bricks: a
-``(height, width, 4)`` float32 array per pixel (dvr_gl/renderers/raycast/shaders/raycast.frag, BRICKED).  Two states of
+A state is what a sort-last renderer's ``render_state`` returns for a subset of the bricks
+(``RendererPlugin.sort_last``; the ray caster's is its fragment loop's BRICKED output): a
+``(height, width, 4)`` float32 array per pixel.  Two states of
 bricks that follow each other along every ray (``front``, then ``back``) combine into the state
 of both, per compositing mode:
 
 * emission-absorption, front to back: (colour reaching the eye, optical depth tau); the over
   operator in optical-depth form: ``C = C_front + exp(-tau_front) C_back``, ``tau = tau_front +
-  tau_back`` (exactly what the ray caster's next pass would do, starting from the front's state);
+  tau_back`` (exactly what the renderer's next pass would do, starting from the front's state);
 * back-to-front emission and the isosurface: a premultiplied RGBA image, the over operator
   ``C = C_front + (1 - alpha_front) C_back`` for all four channels;
 * MIP and MinIP: the running maximum (minimum) in x, the other channels zero;
@@ -23,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-EMPTY = {"mip": -3.0e38, "minip": 3.0e38}  # the x channel of a ray before any sample (raycast/projection.glsl)
+EMPTY = {"mip": -3.0e38, "minip": 3.0e38}  # the x channel of a ray before any sample, as the GPU's state starts
 
 
 def operator_of(compositing: str, order: str = "front_to_back") -> str:

@@ -12,7 +12,7 @@ from .plan import check_scene
 
 def render_frames(client, scene, cameras: list, ahead: int | None = None) -> Iterator:
     """``(image, seconds)`` for each camera, in order (image: the renderer's premultiplied RGBA,
-    as :meth:`RayCastRenderer.render`'s; seconds: the worker's render time).  At most ``ahead``
+    as the scene's renderer's ``render``; seconds: the worker's render time).  At most ``ahead``
     frames (default two per worker) are in flight or waiting to be taken, so a long animation
     never holds all its frames in memory."""
     check_scene(scene)

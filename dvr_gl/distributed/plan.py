@@ -11,6 +11,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..orientation import volume_frame_scene
+from ..renderers import registry
 from . import kd
 from .composite import operator_of
 
@@ -20,9 +21,10 @@ METHODS = ("direct_send", "binary_swap")
 def check_scene(scene) -> None:
     """One line for a scene whose image is not the composite of its bricks' partial images."""
     r = scene.renderer
-    if r.name != "raycast":
-        raise SceneError(f"distributed rendering composites the ray caster's partial images; renderer "
-                         f"{r.name!r} has none: use renderer raycast")
+    if not registry.plugin(r.name).sort_last:
+        others = registry.renderers_with(lambda p: p.sort_last)
+        raise SceneError(f"distributed rendering composites partial images of the volume's bricks; renderer "
+                         f"{r.name!r} makes none: use renderer {' or '.join(others)}")
     if getattr(r, "geometry", None):
         raise SceneError("distributed rendering with [[renderer.geometry]]: the meshes end the rays before "
                          "the bricks are composited (each worker would need every mesh's depth); "

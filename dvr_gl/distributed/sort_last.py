@@ -25,16 +25,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..renderers import registry
 from . import worker as w
 from .cluster import place, results, transfers, workers_of
-from .plan import check_method, plan
+from .plan import check_method, check_scene, plan
 
 BYTES_PER_PIXEL = 16  # a state is 4 float32 per pixel
 
 
 @dataclass
 class Result:
-    image: np.ndarray          # (h, w, 4) float32 premultiplied, as RayCastRenderer.render's
+    image: np.ndarray          # (h, w, 4) float32 premultiplied, as a renderer's render
     state: np.ndarray          # the composited state, before the resolve
     method: str
     workers: int
@@ -52,21 +53,19 @@ def bands(height: int, count: int) -> list[tuple[int, int]]:
 
 def render(client, scene, method: str = "direct_send", renderer=None) -> Result:
     """The frame of ``scene`` rendered on ``client``'s workers (see the module doc).  ``renderer``:
-    the client's RayCastRenderer for the plan and the resolve (default: one made and closed here)."""
-    from ..renderers.raycast.renderer import RayCastRenderer
-
+    the client's renderer of the scene (one that composites sort-last, ``RendererPlugin.sort_last``)
+    for the plan and the resolve (default: one made and closed here)."""
     addresses = workers_of(client)
     n = len(addresses)
     check_method(method, n)
+    check_scene(scene)  # before a renderer is made for it
     from distributed import get_task_stream
 
     own = renderer is None
-    renderer = renderer or RayCastRenderer()
+    renderer = renderer or registry.plugin(scene.renderer.name).create()
     stack = contextlib.ExitStack()
     try:
-        from ..renderers import registry
-
-        registry.check(scene, "raycast")
+        registry.check(scene)
         started = time.perf_counter()
         p = plan(renderer, scene, n)
         tag = uuid.uuid4().hex[:10]

@@ -1,6 +1,7 @@
-"""What runs in a Dask worker process: one ray caster per process (its EGL context created on the
-first task and kept for the next ones), the scene reloaded once per payload, and the small steps
-of compositing (a band of rows cut from a state, states combined).
+"""What runs in a Dask worker process: one renderer per process and renderer name (its EGL context
+created on the first task and kept for the next ones; only renderers that composite sort-last come
+here), the scene reloaded once per payload, and the small steps of compositing (a band of rows cut
+from a state, states combined).
 
 A scene reaches the workers as a *payload*: ``(token, "dict", scene_dict, base_dir)`` for a scene
 whose volume is a file (the worker reads the file itself; only the scene's few kilobytes travel)
@@ -21,7 +22,7 @@ import numpy as np
 from .composite import combine_all, empty_state
 
 _LOCK = threading.Lock()  # one GL context per process: its tasks draw one at a time
-_RENDERER = None
+_RENDERERS: dict = {}  # renderer name -> this process's renderer
 _SCENES: OrderedDict = OrderedDict()
 _KEEP_SCENES = 2
 
@@ -69,14 +70,13 @@ def scene_of(payload):
     return scene
 
 
-def renderer():
-    """This process's ray caster (created on first use)."""
-    global _RENDERER
-    if _RENDERER is None:
-        from ..renderers.raycast.renderer import RayCastRenderer
+def renderer(name: str):
+    """This process's renderer ``name`` (created on first use)."""
+    if name not in _RENDERERS:
+        from ..renderers import registry
 
-        _RENDERER = RayCastRenderer()
-    return _RENDERER
+        _RENDERERS[name] = registry.plugin(name).create()
+    return _RENDERERS[name]
 
 
 def render_part(payload, bricks: list, operator: str) -> tuple:
@@ -86,7 +86,7 @@ def render_part(payload, bricks: list, operator: str) -> tuple:
         scene = scene_of(payload)
         if not bricks:
             return empty_state(operator, scene.image.height, scene.image.width), 0.0
-        r = renderer()
+        r = renderer(scene.renderer.name)
         state = r.render_state(scene, bricks)
         return state, float(r.stats.get("seconds", 0.0))
 
@@ -97,7 +97,7 @@ def render_frame(payload, camera) -> tuple:
         scene = scene_of(payload)
         if camera is not None:
             scene = scene.replace(camera=camera)
-        r = renderer()
+        r = renderer(scene.renderer.name)
         image = r.render(scene)
         return image, float(r.stats.get("seconds", 0.0))
 

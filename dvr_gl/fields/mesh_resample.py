@@ -75,7 +75,7 @@ def check_resample(mesh, samples: int, locator=None) -> float:
     work = locator.candidates_on_grid([lo[i] + spacing * np.arange(dims[i]) for i in range(3)])
     limits.check_work(limits.Work(work, RESAMPLE_WORK, f"{mesh.name} onto {size} points, volume.resample = "
                                   f"{samples}", "lower --resample (volume.resample), or render the mesh itself "
-                                  "(projected-tetrahedra, cell-raycast)"), "resampling")
+                                  "(with a renderer of meshes)"), "resampling")
     return work
 
 
@@ -105,7 +105,7 @@ def resample(mesh, samples: int) -> ResampledMesh:
 def resampled_scene(scene, samples: int, volume: ResampledMesh | None = None, **renderer_changes):
     """``scene`` (of a mesh) with the mesh resampled (or ``volume``, its resampling made before), the
     transfer function made transparent at its outside value, the camera kept, and the renderer changed
-    as asked (e.g. ``name="raycast"``).  The scene re-resolves itself around the new field
+    as asked (e.g. ``name=`` a renderer of grids).  The scene re-resolves itself around the new field
     (:meth:`dvr_gl.scene.resolve.Scene.replace`): the fields sit below the scene contract and import none of it."""
     volume = resample(scene.field, samples) if volume is None else volume
     resolved = scene.replace(field=volume, volume_source=scene.volume_source, camera=scene.camera,

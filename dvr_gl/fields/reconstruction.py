@@ -10,9 +10,9 @@ CLAMP_TO_EDGE), so the field is defined on and slightly beyond the box.
   approximating, smoothing, C2 filter; the GPU evaluates it with 8 trilinear
   fetches, Sigg & Hadwiger 2005).
 * ``catmull_rom``: the interpolating Catmull-Rom cubic (C1; may overshoot).
-* ``gaussian``: the splatting kernel.  Each sample carries a 3D Gaussian of standard
-  deviation ``kernel_width`` voxels (per axis, so an ellipsoid in world units where the
-  spacing is anisotropic), truncated at :data:`GAUSSIAN_RADIUS` standard deviations (a sphere
+* ``gaussian``: a footprint kernel (object-order renderers integrate it along rays).  Each sample
+  carries a 3D Gaussian of standard deviation ``kernel_width`` voxels (per axis, so an ellipsoid in
+  world units where the spacing is anisotropic), truncated at :data:`GAUSSIAN_RADIUS` standard deviations (a sphere
   in voxel units) and scaled to unit integral, and the field is the sum of the kernels
   ``sum_i v_i K(u - i)`` with the taps clamped like the others' (beyond the grid the border
   samples repeat), so that a splatter's footprints add up to it: linear in the samples, the
@@ -103,7 +103,7 @@ class GaussianKernel:
     def footprint(self, rho2: np.ndarray) -> np.ndarray:
         """The kernel's integral along a line at squared distance ``rho2`` from its centre (voxels):
         a 2D Gaussian cut by the sphere, ``exp(-rho^2 / 2 sigma^2) erf(sqrt(R^2 - rho^2) / (sigma
-        sqrt 2)) / (2 pi sigma^2)``, over the truncated mass (the splatting footprint)."""
+        sqrt 2)) / (2 pi sigma^2)``, over the truncated mass (the kernel's footprint)."""
         rho2 = np.asarray(rho2, dtype=np.float64)
         half = np.sqrt(np.maximum(self.radius ** 2 - rho2, 0.0)) / (self.sigma * math.sqrt(2.0))
         # scale * sqrt(2 pi) sigma: the 3D kernel's peak times the full 1D Gaussian's integral
@@ -246,3 +246,4 @@ def smooth_pieces(field: SampledField, origins, directions, t0, t1):
     local, t = local[order], t[order]
     keep = (local[1:] == local[:-1]) & (t[1:] > t[:-1])
     return local[:-1][keep], t[:-1][keep], t[1:][keep]
+

@@ -1,5 +1,5 @@
 """The SPH kernel in float64: the M4 cubic spline (Monaghan and Lattanzio 1985), and the integrals
-splatting tabulates from it.
+that footprint tables are made from (a particle's kernel integrated along a line and over a square).
 
 Conventions (SPLASH's, Monaghan's): smoothing length ``h``, support radius ``2h``,
 
@@ -147,8 +147,8 @@ def quadrant(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     48 x 48 Gauss-Legendre rule on the rectangle, the footprint from a 200001-entry table in ``q``
     (linear, 1e-10 of its peak): the float64 judge of a particle smaller than a pixel, whose pixel holds
     ``quadrant(x1, y1) - quadrant(x0, y1) - quadrant(x1, y0) + quadrant(x0, y0)`` of it.  Measured
-    within 2e-7 of :func:`box_integral`, and its whole 2.3e-8 off one
-    (``dvr_gl/renderers/splatting/tests/test_particles.py``)."""
+    within 2e-7 of :func:`box_integral`, and its whole 2.3e-8 off one (the tests of the renderer that
+    splats particles)."""
     x = np.clip(np.asarray(x, dtype=np.float64), -SUPPORT, SUPPORT)
     y = np.clip(np.asarray(y, dtype=np.float64), -SUPPORT, SUPPORT)
     x, y = np.broadcast_arrays(x, y)

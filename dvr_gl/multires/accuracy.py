@@ -25,12 +25,12 @@ def level_scene(scene, level):
     return scene.replace(volume=level, camera=scene.camera).with_renderer(sample_distance=d)
 
 
-def level_errors(scene, levels, renderer: str = "raycast", ctx=None) -> list[dict]:
+def level_errors(scene, levels, renderer: str | None = None, ctx=None) -> list[dict]:
     """For each of ``levels`` (level 0, the scene's full resolution, first): ``level``, ``dims``,
     ``bytes``, ``voxel_px`` (one voxel projected at the box's point nearest the eye), ``rms`` and
     ``max`` (its image against level 0's; 0 for level 0) and ``predicted`` (:func:`predicted_error`).
-    ``renderer``: a registered renderer's name (``raycast``, the GPU ray caster; ``reference``, the
-    float64 CPU integrator with the same samples)."""
+    ``renderer``: a registered renderer's name (default: the scene's; a judge, ``RendererPlugin.reference``,
+    tells the model's error from the GPU's)."""
     from ..orientation import volume_frame_scene
     from ..renderers import create_renderer
 
@@ -38,7 +38,7 @@ def level_errors(scene, levels, renderer: str = "raycast", ctx=None) -> list[dic
     distance = nearest_distance(levels[0].box, camera.eye)
     height = scene.image.height
     rows, images = [], []
-    with create_renderer(renderer, ctx=ctx) as r:
+    with create_renderer(renderer or scene.renderer.name, ctx=ctx) as r:
         for index, level in enumerate(levels):
             image = np.asarray(r.render(level_scene(scene, level)), dtype=np.float64)
             images.append(image)

@@ -135,8 +135,8 @@ def setting(name: str) -> Setting:
 def renderer_spec_class():
     """The ``[renderer]`` table as a dataclass: ``name`` and every registered setting."""
     fields = [("name", Optional[str], dataclasses.field(default=None, metadata={
-        "doc": "the renderer (default: the first that renders the data: `raycast` for grids, "
-               "`projected-tetrahedra` for meshes)"}))]
+        "doc": f"the renderer (default: the first that renders the data: `{default_for('grid')}` for grids, "
+               f"`{default_for('mesh')}` for meshes)"}))]
     for s in all_settings():
         default = (dataclasses.field(default_factory=s.default_factory, metadata=_meta(s)) if s.default_factory
                    else dataclasses.field(default=s.default, metadata=_meta(s)))

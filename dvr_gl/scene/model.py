@@ -20,12 +20,12 @@ CLASSIFIED_ALONG_RAY = ("emission_absorption", "xray")
 CLASSIFICATIONS = ("post", "pre", "preintegrated")
 FILTERS = ("nearest", "linear", "cubic_bspline", "catmull_rom", "gaussian", "m4")
 #: The filters a texture unit helps with: splines on the voxel grid, evaluated from a few taps (the GPU
-#: grid renderers); ``gaussian`` is a splatting kernel (``dvr_gl/fields/reconstruction.py``); ``m4``, the SPH
+#: grid renderers); ``gaussian`` is a footprint kernel (``dvr_gl/fields/reconstruction.py``); ``m4``, the SPH
 #: cubic spline, is the kernel of particle sets (``dvr_gl/fields/particles.py``), their only filter.
 SPLINE_FILTERS = ("nearest", "linear", "cubic_bspline", "catmull_rom")
 #: Where the Gaussian is cut, in standard deviations: its value there is exp(-5^2 / 2) = 3.7e-6 of its
 #: peak and its mass beyond 1.5e-5, so the X-ray of one kernel (scaled to unit integral: its footprint
-#: gains that mass) is a 2D Gaussian within 2e-5 of its peak, below the 1e-4 the splatting tests ask; at
+#: gains that mass) is a 2D Gaussian within 2e-5 of its peak, below the 1e-4 the footprint tests ask; at
 #: 4.5 the mass beyond is 1.5e-4, and every tenth of a radius costs splats and taps.
 GAUSSIAN_RADIUS = 5.0
 #: The Gaussian's default standard deviation, voxels: about the smallest whose sum of kernels is flat to a
@@ -132,7 +132,7 @@ class ScatteringSpec:
     method: str = choices(*SCATTERING_METHODS, default="shadow_rays",
                           doc="how a GPU renderer finds the transmittance: a shadow ray per sample, the "
                               "light_volume's grid of shadow rays interpolated, or half_angle slicing's light "
-                              "buffer (slicing3d; reference-converged integrates it)")
+                              "buffer (the renderers that declare each: dvr info)")
     light_volume_size: int = doc(64, "light_volume: the grid's nodes along the box's longest axis (2 .. 256)")
     light_buffer_size: int = doc(256, "half_angle: the light buffer's pixels along its longer side (8 .. 4096)")
     shadow_step_voxels: Optional[float] = doc(None, "shadow rays' segment length in voxels of the smallest "

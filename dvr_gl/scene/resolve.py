@@ -408,7 +408,7 @@ class Scene:
     renderer: the renderer's settings, resolved (sample distance in world units, iso-value, ...).
     volume_source: where the field came from (a file or a demo), for the saved scene.
     spec: what was asked for (unresolved defaults), for re-resolution when the field changes.
-    tolerance_choice: what ``renderer.tolerance`` chose (:class:`dvr_gl.renderers.raycast.tolerance.Choice`), if given.
+    tolerance_choice: what ``renderer.tolerance`` chose (set by the declaring renderer's ``resolve``), if given.
     """
 
     field: object

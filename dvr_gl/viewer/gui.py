@@ -264,7 +264,7 @@ class ViewerGui:
             v.options.passes = passes
             v.controller.set_passes(v._passes(v.scene))
         voxels = settings.sample_distance_voxels(v.scene)
-        label = "slice spacing, voxels" if r.name == "slicing3d" else "sample distance, voxels"
+        label = "slice spacing, voxels" if plugin.view_aligned_slices else "sample distance, voxels"
         fixed = settings.fixed_planes(r.name)
         if fixed:
             imgui.begin_disabled(True)

@@ -6,7 +6,8 @@ Keys are named as GLFW names them (``glfw.KEY_<NAME>``); ``shift+`` marks a shif
 from __future__ import annotations
 
 # (key, action, description); Viewer.action (app.py) carries out the actions by name.  The keys 1 to 9
-# and 0 choose the registered renderers in the registry's order (renderer_keys); these are the rest.
+# and 0, then shifted, choose the registered renderers in the registry's order (renderer_keys); these are
+# the rest.
 SETTING_KEYS = (
     ("C", "next_compositing", "compositing: emission-absorption, isosurface, average, MIP, MinIP"),
     ("K", "next_classification", "classification: post, pre, pre-integrated"),
@@ -36,12 +37,13 @@ SETTING_KEYS = (
 
 
 def renderer_keys() -> tuple:
-    """1 to 9, then 0: the first ten registered renderers (a renderer installed from another package
-    included)."""
+    """1 to 9, then 0: the first ten registered renderers in their declared order; shift+1 to shift+0 the
+    next ten (a renderer installed from another package comes after the built-in ones)."""
     from ..renderers import registry
 
-    return tuple((str(i % 10), f"renderer_{name}", f"renderer: {name} ({plugin.description})")
-                 for i, (name, plugin) in enumerate(list(registry.plugins().items())[:10], start=1))
+    return tuple((("shift+" if i > 10 else "") + str(i % 10), f"renderer_{name}",
+                  f"renderer: {name} ({plugin.description})")
+                 for i, (name, plugin) in enumerate(list(registry.plugins().items())[:20], start=1))
 
 
 def key_table() -> tuple:

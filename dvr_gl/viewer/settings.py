@@ -27,7 +27,7 @@ MIN_SAMPLE_VOXELS, MAX_SAMPLE_VOXELS = SAMPLE_DISTANCE_VOXELS_RANGE
 
 
 def renderer_names() -> list[str]:
-    """Every registered renderer, in the registry's order (built-ins first: keys 1 to 6)."""
+    """Every registered renderer, in the registry's order (the declared ``order``: the number keys)."""
     return registry.names()
 
 
@@ -157,7 +157,7 @@ def sample_distance_voxels(scene: Scene) -> float:
 
 
 def set_sample_distance_voxels(scene: Scene, voxels: float) -> Scene:
-    """The sample distance (slice spacing for ``slicing3d``) in voxels, clamped to
+    """The sample distance (the slice spacing, for view-aligned slices) in voxels, clamped to
     [:data:`MIN_SAMPLE_VOXELS`, :data:`MAX_SAMPLE_VOXELS`]."""
     voxels = min(MAX_SAMPLE_VOXELS, max(MIN_SAMPLE_VOXELS, float(voxels)))
     return scene.replace(renderer=with_sample_distance(scene.renderer, scene.field, voxels=voxels))
@@ -173,7 +173,7 @@ def sampling_text(scene: Scene) -> str:
     if fixed_planes(r.name):
         return "one slice per voxel plane"
     voxels = sample_distance_voxels(scene)
-    if r.name == "slicing3d":
+    if registry.plugin(r.name).view_aligned_slices:
         count = math.ceil(diagonal(scene.field) / r.sample_distance)
         return f"slice spacing {voxels:.3g} voxel (up to {count} slices)"
     return f"sample distance {voxels:.3g} voxel"

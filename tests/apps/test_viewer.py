@@ -394,13 +394,16 @@ def test_window_sizes_at_start():
 
 
 def test_every_key_has_an_action_and_help():
-    """Keys 1 to 9, then 0, choose the first ten registered renderers, from the registry."""
+    """Keys 1 to 9, then 0, choose the first ten registered renderers, from the registry; shifted, the
+    next ten."""
     table = key_table()
     names = {k for k, _, _ in table}
     assert {"S", "R", "P", "F1", "1"} <= names
     from dvr_gl.renderers import registry
     chosen = [action.removeprefix("renderer_") for _, action, _ in table if action.startswith("renderer_")]
-    assert chosen == registry.names()[:10]
+    assert chosen == registry.names()[:20]
+    keys = [k for k, action, _ in table if action.startswith("renderer_")]
+    assert keys[:11] == [*"1234567890", "shift+1"][:len(keys[:11])]
     assert any("screenshot" in line for line in help_lines())
 
 

@@ -6,31 +6,9 @@ code right?".
 
 from __future__ import annotations
 
-import time
-
-import numpy as np
-
 from ... import limits
 from ...reference.discrete import DiscreteReference
-from ..base import Renderer
-
-
-class ReferenceRenderer(Renderer):
-    """A float64 integrator (``integrator(scene).render()``) behind the renderer interface."""
-
-    integrator: type
-
-    def check_resources(self, scene):
-        super().check_resources(scene)
-        limits.check_image_memory(scene, "cpu")
-
-    def draw(self, scene) -> np.ndarray:
-        start = time.perf_counter()
-        ref = self.integrator(scene)
-        ref.progress = self.report
-        image = ref.render()
-        self.stats = {"seconds": time.perf_counter() - start, **ref.stats}
-        return image
+from ..judge import ReferenceRenderer
 
 
 class DiscreteReferenceRenderer(ReferenceRenderer):

@@ -4,7 +4,7 @@ The judge of "how accurate is this setting?": the rendering integral of the cont
 (the scene's filter, classification and shading, the exact transfer function), to a per-pixel
 error budget.  It has no sampling grid, so the sample distance and jitter do not change it
 (pre-integrated classification is the exact integral it computes anyway).  It renders any
-field (:mod:`dvr_gl.fields`).  See ``dvr_gl/renderers/reference/README.md``.
+field (:mod:`dvr_gl.fields`).  See ``dvr_gl/renderers/reference_converged/README.md``.
 """
 
 from __future__ import annotations

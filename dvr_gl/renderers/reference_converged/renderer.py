@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from ... import limits
 from ...reference.converged import ConvergedReference
-from ..reference.renderer import ReferenceRenderer
+from ..judge import ReferenceRenderer
 
 
 class ConvergedReferenceRenderer(ReferenceRenderer):

@@ -1,6 +1,6 @@
 """``slicing2d``: three stacks of 2D slices, the most view-aligned one blended back to front (GPU).
 
-See ``dvr_gl/renderers/slicing3d/README.md``; the renderer is :class:`Slicing2DRenderer` in
+See ``dvr_gl/renderers/slicing2d/README.md``; the renderer is :class:`Slicing2DRenderer` in
 :mod:`.renderer`, on the slicers' shared base (:mod:`dvr_gl.renderers.grid.slicing`).
 """
 

@@ -28,6 +28,9 @@ from .splats import ghost_layers
 FRAGMENTS_PER_INSTANCE = 32.0
 #: A sheet's draw calls, state changes and read-backs, in fragments (about a millisecond on llvmpipe).
 FRAGMENTS_PER_SHEET = 2e4
+#: Footprint fragments, instances and sheets: 5e6-1.3e7 a second measured on llvmpipe with other work on the
+#: cores (README.md); the bound, about an hour there.
+SPLAT_FRAGMENTS = limits.work_unit("splat fragments", bound=2e10, rate=5e6)
 FIX = {True: "raise renderer.slab_width (--slab-width), narrow the kernel (renderer.kernel_width), lower --size, or "
              "use a smaller volume",
        False: "raise renderer.slab_width (--slab-width), lower --size, or use fewer particles"}
@@ -109,7 +112,7 @@ def splat_work(scene) -> limits.Work:
     count = kernels * per_kernel * (footprint + FRAGMENTS_PER_INSTANCE) + sheets * (3.0 * pixels + FRAGMENTS_PER_SHEET)
     how = (f"{what} x {per_kernel:.3g} sheets each x {footprint:.3g} pixels a footprint, and {sheets:.3g} sheets of "
            f"{img.width}x{img.height}")
-    return limits.Work(count if math.isfinite(count) else math.inf, "splat fragments", how, FIX[is_grid(scene)])
+    return limits.Work(count if math.isfinite(count) else math.inf, SPLAT_FRAGMENTS, how, FIX[is_grid(scene)])
 
 
 __all__ = ["splat_work"]
