@@ -30,11 +30,11 @@ class RendererPlugin:
     fixed_planes: it samples fixed planes (the voxel planes), not a sample distance.
     check: ``check(scene)`` raises SceneError with the reason it cannot render a scene,
         beyond what its settings say (e.g. an eye inside the volume); or ``"module:function"``.
-    oracle: ``"dvr_gl.renderers.NAME.oracle:oracle"``, every renderer's in the same place and shape:
-        ``oracle(scene) -> np.ndarray``, the float64 image ``(H, W, 4)`` (premultiplied linear RGBA, rows
-        from the top) of the same discretization that it must match to float32 rounding; where a
-        shared judge of :mod:`dvr_gl.reference` serves, the module is the adapter that says which and
-        why.  None for the references, which are the judges.
+    oracle: ``"PACKAGE.oracle:oracle"`` (the built-ins': ``dvr_gl.renderers.NAME.oracle``), every
+        renderer's in the same place and shape: ``oracle(scene) -> np.ndarray``, the float64 image
+        ``(H, W, 4)`` (premultiplied linear RGBA, rows from the top) of the same discretization that it
+        must match to float32 rounding; where a shared judge of :mod:`dvr_gl.reference` serves, the
+        module is the adapter that says which and why.  None for the references, which are the judges.
     resolve: ``resolve(scene) -> scene``: resolves settings of its own when a scene is read
         (the ray caster turns a tolerance into settings); or ``"module:function"``.
     sweeps: the trade-off families (:mod:`dvr_gl.scene.sweeps`) that vary something it reads.
