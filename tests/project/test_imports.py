@@ -177,6 +177,17 @@ def test_every_module_has_a_layer():
     assert [m for m in modules() if layers.rank(m) is None] == []
 
 
+def test_every_entry_of_the_layering_places_a_module():
+    """A module moved or removed leaves no entry behind that would place a later module of that name."""
+    layers, names = Layers.read(), modules()
+    unused = []
+    for pattern in layers.entries:
+        single = Layers({pattern: 0}, ["one"])
+        if not any(single.rank(m) is not None for m in names):
+            unused.append(".".join(pattern) or PACKAGE)
+    assert unused == []
+
+
 def test_no_import_goes_up_the_layers():
     found = upward(graph(), Layers.read())
     assert not found, "imports against tests/project/layers.toml:\n" + "\n".join(found)
