@@ -4,10 +4,10 @@ Everything else asks the registry for declared traits (``dvr_gl.scene.plugin.Ren
 a third-party renderer is served by the same code.  Read with :mod:`ast` from every ``.py`` file of
 the repository (the package, the tests, the benchmarks, ``conftest.py``):
 
-* a string constant equal to a registered renderer's name (``"raycast"``), docstrings included;
+* a string constant equal to a registered renderer's name, docstrings included;
 * an import of a registered renderer's package or of a module in it, relative imports resolved;
-* a string naming that package as a module or a path (``"dvr_gl.renderers.raycast.renderer"``,
-  ``dvr_gl/renderers/raycast/shaders``), docstrings included.
+* a string naming that package as a module or a path (``"dvr_gl.renderers.NAME.renderer"``,
+  ``dvr_gl/renderers/NAME/shaders`` for a renderer whose package is ``NAME``), docstrings included.
 
 The names and packages come from the registered entry points, so a renderer installed from another
 distribution is covered too.  Docs pages that list the renderers and ``pyproject.toml``'s entry
