@@ -26,14 +26,12 @@ import numpy as np
 from ..image import compare_images
 from ..preintegration import preintegrate
 from ..reference.converged import ConvergedReference
-from ..renderers import create_renderer
+from ..renderers import create_renderer, registry
 from ..scene.resolve import load_scene
-from . import converged, tick
+from . import converged, picks, tick
 
 WIDTHS = (0.02, 0.005)
 SPACINGS = (4.0, 2.0, 1.0, 0.5, 0.25, 0.125, 0.0625, 0.03125)
-METHODS = (("raycast", "post"), ("raycast", "preintegrated"), ("raycast", "preintegrated fast"),
-           ("slicing3d", "post"), ("slicing3d", "preintegrated"))
 LEVELS = (3e-2, 1e-2, 3e-3)
 COLUMNS = [("renderer", "renderer", ""), ("classification", "classification", ""),
            ("spacing", "spacing (voxels)", "g"), ("rms", "RMS error", ".2e"), ("psnr", "PSNR dB", ".1f"),
@@ -61,16 +59,28 @@ def base_scene(size: int, volume_size: int, width: float = WIDTHS[0]) -> dict:
             "renderer.preintegration_size": table_size(width), "camera.azimuth": 30.0, "camera.elevation": 25.0}
 
 
-def run(size: int = 128, volume_size: int = 41, width: float = WIDTHS[0], spacings=SPACINGS, methods=METHODS,
+def methods() -> list[tuple[str, str]]:
+    """(renderer, classification): the GPU grid renderers with a sample distance and pre-integration (the ray
+    caster, 3D slicing), post-classified and pre-integrated; the baseline also with the fast table."""
+    out = []
+    for name in picks.renderers("sample_distance", kind="grid", gl=True):
+        if "preintegrated" in registry.plugin(name).choices("classification"):
+            fast = [(name, "preintegrated fast")] if name == picks.baseline() else []
+            out += [(name, "post"), (name, "preintegrated"), *fast]
+    return out
+
+
+def run(size: int = 128, volume_size: int = 41, width: float = WIDTHS[0], spacings=SPACINGS, methods=methods,
         tolerance: float = 1e-5):
-    """Rows of the table, the summary lines and the table build times for one spike width."""
+    """Rows of the table, the summary lines and the table build times for one spike width (``methods``: the
+    (renderer, classification) pairs, or a function giving them)."""
     base = base_scene(size, volume_size, width)
     truth = ConvergedReference(load_scene(None, {**base, "renderer.converged_tolerance": tolerance}))
     truth = converged(truth, float64=True).astype(np.float32)
     rows = []
     renderers = {}
     try:
-        for name, classification in methods:
+        for name, classification in (methods() if callable(methods) else methods):
             if name not in renderers:
                 renderers[name] = create_renderer(name)
             fast = classification.endswith("fast")

@@ -17,12 +17,18 @@ import statistics
 
 from ..renderers import create_renderer
 from ..scene.resolve import load_scene
-from . import tick
+from . import picks, tick
 
-RENDERERS = ("raycast", "slicing3d", "slicing2d")
 CLASSIFICATIONS = ("post", "preintegrated")
 COLUMNS = [("renderer", "renderer", ""), ("classification", "classification", ""), ("bricks", "bricks", "d"),
            ("ms", "draw ms", ".1f"), ("frame_ms", "frame ms", ".1f")]
+
+
+def measured() -> list[str]:
+    """The GPU grid renderers that brick under a texture budget and pre-integrate (the ray caster, both
+    slicers), in the registry's order."""
+    bricked = set(picks.renderers("texture_budget_mb"))
+    return [n for n in picks.renderers("classification", "preintegrated", kind="grid", gl=True) if n in bricked]
 
 
 def run(base: dict, repeat: int = 5, budget_mb: float = 48.0) -> list[dict]:
@@ -30,7 +36,7 @@ def run(base: dict, repeat: int = 5, budget_mb: float = 48.0) -> list[dict]:
     base = {**base, "renderer.acceleration": False, "renderer.ert_threshold": 1.0}
     volume = load_scene(None, base).volume
     rows = []
-    for name in RENDERERS:
+    for name in measured():
         with create_renderer(name) as r:
             for classification in CLASSIFICATIONS:
                 for budget in (None, budget_mb):

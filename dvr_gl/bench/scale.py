@@ -27,6 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
+from . import picks
+
 PARTS = ("workers", "sizes", "levels")
 STATE_BYTES = 16  # per pixel: 4 float32
 MODEL_WORKERS = (1, 2, 4, 8, 16, 32, 64, 128, 256)
@@ -81,7 +83,7 @@ def scene_for(folder: Path, volume_size: int, image_size: int):
     path = folder / f"blobs{volume_size}.npy"
     np.save(path, blobs(volume_size).astype(np.float32))
     return load_scene(None, {"volume.path": str(path), "image.width": image_size, "image.height": image_size,
-                             "renderer.name": "raycast", "renderer.ert_threshold": 1.0})
+                             "renderer.name": picks.baseline(), "renderer.ert_threshold": 1.0})
 
 
 def brick_costs(renderer, scene, bricks, repeat: int) -> list[float]:
@@ -115,7 +117,7 @@ def combine_cost(pixels: int, repeat: int = 5) -> float:
 def run_workers(args) -> list[dict]:
     from ..distributed import connect, render
     from ..distributed.plan import bricks_for
-    from ..renderers.raycast.renderer import RayCastRenderer
+    from ..renderers import create_renderer
 
     size = getattr(args, "size", None) or 512
     volume_size = getattr(args, "volume_size", None) or 256
@@ -126,7 +128,7 @@ def run_workers(args) -> list[dict]:
     counts = getattr(args, "workers", None) or sorted({1, 2, cores()})
     report = args.report
     rows, transfers = [], []
-    with tempfile.TemporaryDirectory(prefix="dvr-scale-") as folder, RayCastRenderer() as r:
+    with tempfile.TemporaryDirectory(prefix="dvr-scale-") as folder, create_renderer(picks.baseline()) as r:
         scene = scene_for(Path(folder), volume_size, size)
         single = []
         r.render(scene)

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..multires import KERNELS, build_levels, level_errors
 from ..multires.downsample import TENT
-from . import Report, tick
+from . import Report, picks, tick
 from .datasets import STUDIES
 
 ML_F_M, ML_ALPHA = 6.0, 0.25  # the Marschner-Lobb parameters of dvr_gl.phantoms
@@ -32,7 +32,7 @@ KERNEL_COLUMNS = [("kernel", "kernel", ""), ("alias", "kept at 0.375 (aliases)",
 COLUMNS = [("case", "case", ""), ("level", "level", "d"), ("dims", "dims", ""), ("spacing", "spacing", ""),
            ("bytes", "bytes", ","), ("voxel_px", "voxel px", ".2f"), ("rms", "RMS vs full", ".4f"),
            ("max", "max vs full", ".3f"), ("predicted", "predicted RMS", ".4f"),
-           ("reference", "RMS float64 ref.", ".4f")]
+           ("judged", "RMS float64 ref.", ".4f")]
 
 
 def marschner_lobb(points: np.ndarray) -> np.ndarray:
@@ -88,7 +88,7 @@ def data_kernel_rows(cases, size: int) -> list[dict]:
     from ..scene.resolve import load_scene
 
     rows, f = [], SUPERSAMPLE
-    with create_renderer("raycast") as r:
+    with create_renderer(picks.baseline()) as r:
         for name, overrides in cases:
             scene = load_scene(None, {"image.width": size, "image.height": size, **overrides})
             big = load_scene(None, {"image.width": size * f, "image.height": size * f, **overrides})
@@ -116,8 +116,8 @@ def level_rows(case: str, scene, reference: bool = False, count: int | None = No
     rows = level_errors(scene, levels)
     tick()
     if reference:
-        for row, ref in zip(rows, level_errors(scene, levels, renderer="reference")):
-            row["reference"] = ref["rms"]
+        for row, ref in zip(rows, level_errors(scene, levels, renderer=picks.discrete())):
+            row["judged"] = ref["rms"]  # the same-discretization judge: the model's error, not the GPU's
     for row, level in zip(rows, levels):
         row["case"] = case
         row["spacing"] = ", ".join(f"{s:g}" for s in level.spacing)

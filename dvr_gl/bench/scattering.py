@@ -18,9 +18,9 @@ import numpy as np
 from ..image import compare_images
 from ..phantoms import demo_scene
 from ..reference.converged import ConvergedReference
-from ..renderers import create_renderer
+from ..renderers import create_renderer, registry
 from ..scene.resolve import load_scene
-from . import converged, median_seconds
+from . import converged, median_seconds, picks
 
 # Steps a factor of 4/3 apart below one voxel: with a factor of two, "the fastest setting as accurate"
 # often had to take the next finer step at twice the cost (the hard shadow: the light volume at 0.5 voxel
@@ -48,17 +48,29 @@ def shadow_demo(size: int = 64) -> tuple[str, dict]:
     return "shadow demo", {**overrides, **camera}
 
 
+def measuring(method: str) -> str:
+    """The renderer whose ``method`` the bench measures: the first GL grid renderer (in the registry's order)
+    that finds scattering's transmittance that way (it refuses no scene for it: the ray caster's shadow rays
+    and light volume, 3D slicing's half-angle slicing)."""
+    probe = _scene(shadow_demo(4)[1], 8, {"renderer.scattering.method": method})
+    found = [n for n in picks.renderers("scattering", kind="grid", gl=True) if registry.refusal(probe, n) is None]
+    if not found:
+        raise LookupError(f"no GL grid renderer finds scattering by {method}")
+    return found[0]
+
+
 def settings(light_volume_sizes=LIGHT_VOLUME_SIZES,
              shadow_ray_distances=SHADOW_RAY_DISTANCES) -> list[tuple[str, str, str, dict]]:
     """(renderer, method, setting's label, renderer overrides) of the rows."""
-    out = [("raycast", "shadow_rays", f"{d:g} voxel", {"renderer.scattering.method": "shadow_rays",
+    rays, volume, half_angle = (measuring(m) for m in ("shadow_rays", "light_volume", "half_angle"))
+    out = [(rays, "shadow_rays", f"{d:g} voxel", {"renderer.scattering.method": "shadow_rays",
                                                        "renderer.sample_distance_voxels": d})
            for d in shadow_ray_distances]
-    out += [("raycast", "light_volume", f"{n} nodes, {d:g} voxel", {"renderer.scattering.method": "light_volume",
+    out += [(volume, "light_volume", f"{n} nodes, {d:g} voxel", {"renderer.scattering.method": "light_volume",
                                                                     "renderer.scattering.light_volume_size": n,
                                                                     "renderer.sample_distance_voxels": d})
             for n in light_volume_sizes for d in LIGHT_VOLUME_DISTANCES]
-    out += [("slicing3d", "half_angle", f"{n} pixels, {d:g} voxel", {"renderer.scattering.method": "half_angle",
+    out += [(half_angle, "half_angle", f"{n} pixels, {d:g} voxel", {"renderer.scattering.method": "half_angle",
                                                                      "renderer.scattering.light_buffer_size": n,
                                                                      "renderer.sample_distance_voxels": d})
             for n in LIGHT_BUFFER_SIZES for d in LIGHT_VOLUME_DISTANCES]
@@ -66,7 +78,7 @@ def settings(light_volume_sizes=LIGHT_VOLUME_SIZES,
 
 
 def _scene(overrides: dict, size: int, extra: dict):
-    base = {"renderer.name": "raycast", "renderer.shading.enabled": False, "image.width": size,
+    base = {"renderer.name": picks.baseline(), "renderer.shading.enabled": False, "image.width": size,
             "image.height": size}
     if "renderer.scattering" not in overrides:
         base["renderer.scattering"] = DEFAULT_LIGHT
@@ -78,12 +90,13 @@ def run(scenes, size: int = 256, error_size: int = 64, repeat: int = 3, toleranc
         shadow_ray_distances=SHADOW_RAY_DISTANCES) -> list[dict]:
     """Rows of the methods' table for ``scenes`` (``(name, overrides)``)."""
     rows = []
-    renderers = {name: create_renderer(name) for name in ("raycast", "slicing3d")}
+    rows_settings = settings(light_volume_sizes, shadow_ray_distances)
+    renderers = {name: create_renderer(name) for name in dict.fromkeys(r for r, *_ in rows_settings)}
     try:
         for name, overrides in scenes:
             truth = converged(ConvergedReference(_scene(overrides, error_size, {
-                "renderer.converged_tolerance": tolerance, "renderer.name": "reference-converged"})))
-            for renderer_name, method, label, extra in settings(light_volume_sizes, shadow_ray_distances):
+                "renderer.converged_tolerance": tolerance, "renderer.name": picks.converged()})))
+            for renderer_name, method, label, extra in rows_settings:
                 renderer = renderers[renderer_name]
                 extra = {**extra, "renderer.name": renderer_name}
                 scene = _scene(overrides, size, extra)
@@ -136,7 +149,7 @@ def multiple(scenes, size: int = 32, paths: int = 64, tolerance: float = 1e-4, p
     rows = []
     for name, overrides in scenes:
         scene = _scene(overrides, size, {"renderer.converged_tolerance": tolerance,
-                                         "renderer.name": "reference-converged"})
+                                         "renderer.name": picks.converged()})
         single = converged(ConvergedReference(scene), float64=True)
         start = time.perf_counter()
         full, error = MonteCarloReference(scene, paths=paths, seed=0).render()

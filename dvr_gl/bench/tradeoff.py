@@ -27,7 +27,7 @@ from ..image import compare_images, composite_over
 from ..reference.converged import ConvergedReference
 from ..renderers import create_renderer, registry
 from ..transfer_function import linear_to_srgb
-from . import converged, median_seconds
+from . import converged, median_seconds, picks
 from .datasets import STUDIES
 
 
@@ -156,20 +156,25 @@ TOLERANCE_COLUMNS = [("tolerance", "tolerance", "g"), ("choice", "chosen (raycas
 def tolerance_check(scene, rows: list[dict], truth, repeat: int = 5, tolerances=TOLERANCES):
     """For each tolerance: what the error model chooses, its measured error and frame time, and the
     fastest measured row (the front) that meets it.  Returns (rows, note or None)."""
-    from ..renderers.raycast import tolerance as model
+    import importlib
+
+    from ..scene.plugin import load
 
     out = []
     kind = getattr(scene.field, "kind", "grid")
     if kind != "grid":
         return out, (f"--tolerance not checked: it chooses the ray caster's settings, and the ray caster renders "
                      f"grids, not {kind}")
-    scene = scene.with_renderer(name="raycast")
+    name = picks.renderers("tolerance")[0]  # the renderer that declares renderer.tolerance (the ray caster)
+    # its error model is where its resolve (tolerance -> settings) lives: check_tolerance, sampling_model, apply
+    model = importlib.import_module(load(registry.plugin(name).resolve).__module__)
+    scene = scene.with_renderer(name=name)
     try:
         model.check_tolerance(scene, tolerances[0])
     except SceneError as exc:
         return out, f"--tolerance not checked: {exc}"
     bandwidths = model.sampling_model(scene)
-    with create_renderer("raycast") as renderer:
+    with create_renderer(name) as renderer:
         for e in tolerances:
             chosen, choice = model.apply(scene, e, bandwidths)
             ms = 1e3 * median_seconds(renderer, chosen, repeat)

@@ -14,17 +14,19 @@ from __future__ import annotations
 import statistics
 
 from ....bench import converged, median_seconds
+from ....bench.picks import baseline
 from ....image import compare_images
 from ....reference.converged import ConvergedReference
 from ....scene.resolve import load_scene
 from ... import create_renderer
 
 DISTANCES = (2.0, 1.0, 0.5, 0.25, 0.125)
+BASELINE = baseline()  # the renderer set beside (the ray caster): the default renderer of grids
 COLUMNS = [("n", "N", "d"), ("mode", "mode", ""), ("pre_s", "pre-processing s", ".2f"),
            ("spectrum_mb", "spectrum MB", ".0f"), ("fft", "transform", ""), ("view_ms", "fourier ms/view", ".1f"),
-           ("raycast_ms", "raycast ms (defaults)", ".1f"), ("speedup", "speed-up", ".1f"),
-           ("rms", "fourier RMS", ".2e"), ("raycast_rms", "raycast RMS (defaults)", ".2e"),
-           ("equal", "raycast at fourier's RMS", "")]
+           ("raycast_ms", f"{BASELINE} ms (defaults)", ".1f"), ("speedup", "speed-up", ".1f"),
+           ("rms", "fourier RMS", ".2e"), ("raycast_rms", f"{BASELINE} RMS (defaults)", ".2e"),
+           ("equal", f"{BASELINE} at fourier's RMS", "")]
 
 
 def scene_for(n: int, mode: str, size: int):
@@ -36,7 +38,7 @@ def scene_for(n: int, mode: str, size: int):
 
 def run(sizes, size: int = 512, error_size: int = 128, repeat: int = 3, progress=None) -> list[dict]:
     rows = []
-    fourier, raycast = create_renderer("fourier"), create_renderer("raycast")
+    fourier, raycast = create_renderer("fourier"), create_renderer(BASELINE)
     try:
         for n in sizes:
             for mode in ("average", "xray"):
@@ -50,14 +52,14 @@ def run(sizes, size: int = 512, error_size: int = 128, repeat: int = 3, progress
                     fourier.render(scene)
                     views.append(fourier.stats["view_seconds"])
                 row["view_ms"] = 1e3 * statistics.median(views)
-                ray = scene.with_renderer(name="raycast")
+                ray = scene.with_renderer(name=BASELINE)
                 row["raycast_ms"] = 1e3 * median_seconds(raycast, ray, repeat)
                 row["speedup"] = row["raycast_ms"] / row["view_ms"]
                 small = scene_for(n, mode, error_size)
                 truth = converged(ConvergedReference(small.with_renderer(converged_tolerance=1e-4)))
                 row["rms"] = compare_images(fourier.render(small), truth)["rms"]
-                row["raycast_rms"] = compare_images(raycast.render(small.with_renderer(name="raycast")), truth)["rms"]
-                row["equal"] = _raycast_at(raycast, ray, small.with_renderer(name="raycast"), truth, row["rms"], repeat)
+                row["raycast_rms"] = compare_images(raycast.render(small.with_renderer(name=BASELINE)), truth)["rms"]
+                row["equal"] = _raycast_at(raycast, ray, small.with_renderer(name=BASELINE), truth, row["rms"], repeat)
                 rows.append(row)
                 if progress:
                     progress(row)

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ....bench import peers
+from ....bench import peers, picks
 from ....bench.datasets import MESHES
 from ....bench.datasets import mesh_scene_keys as scene_keys
 from ....progress import task as progress_task
@@ -73,9 +73,11 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
     rows = []
     work = tempfile.TemporaryDirectory(prefix="dvr-cells-")
     pt = create_renderer("projected-tetrahedra")
-    walk = create_renderer("cell-raycast", ctx=pt.ctx)
-    raycast = create_renderer("raycast")
-    reference = create_renderer("reference-converged")
+    # beside it: the other GL mesh renderers (cell-raycast) on its context, the default grid renderer (the ray
+    # caster) on the mesh resampled, all against the converged reference
+    walkers = [create_renderer(n, ctx=pt.ctx) for n in picks.renderers(kind="mesh", gl=True) if n != pt.name]
+    raycast = create_renderer(picks.baseline("grid"))
+    reference = create_renderer(picks.converged())
     try:
         for name in names:
             source, array = MESHES[name]
@@ -96,7 +98,7 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
                 small = load_scene(None, {**at, "image.width": error_size, "image.height": error_size})
                 with progress_task("converged reference", unit="step") as step:
                     reference.progress = step
-                    truth = reference.render(small.with_renderer(name="reference-converged")).astype(np.float64)
+                    truth = reference.render(small.with_renderer(name=reference.name)).astype(np.float64)
                 tiles = [truth]
                 for order in ("exact", "centroid"):
                     row = {"mesh": name, "view": view, "renderer": f"dvr-gl {order}", "cells": len(mesh.tets),
@@ -109,25 +111,26 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
                     rows.append(row)
                     if progress:
                         progress(row)
-                row = {"mesh": name, "view": view, "renderer": "dvr-gl cell-raycast", "cells": len(mesh.tets),
-                       **_timed(walk, scene.with_renderer(name="cell-raycast"), frames)}
-                row["mtets"] = row["cells"] / row["ms"] / 1e3
-                image = walk.render(small.with_renderer(name="cell-raycast"))
-                row["rms"] = _rms(image, truth)
-                tiles.append(image)
-                rows.append(row)
-                if progress:
-                    progress(row)
-                rs = resampled_scene(scene, RESAMPLE, grid, name="raycast")
+                for walk in walkers:
+                    row = {"mesh": name, "view": view, "renderer": f"dvr-gl {walk.name}", "cells": len(mesh.tets),
+                           **_timed(walk, scene.with_renderer(name=walk.name), frames)}
+                    row["mtets"] = row["cells"] / row["ms"] / 1e3
+                    image = walk.render(small.with_renderer(name=walk.name))
+                    row["rms"] = _rms(image, truth)
+                    tiles.append(image)
+                    rows.append(row)
+                    if progress:
+                        progress(row)
+                rs = resampled_scene(scene, RESAMPLE, grid, name=raycast.name)
                 raycast.render(rs)
                 seconds = []
                 for _ in range(frames):
                     raycast.render(rs)
                     seconds.append(raycast.stats["seconds"])
                 ms = 1e3 * statistics.median(seconds)
-                image = raycast.render(resampled_scene(small, RESAMPLE, grid, name="raycast"))
+                image = raycast.render(resampled_scene(small, RESAMPLE, grid, name=raycast.name))
                 tiles.append(image)
-                rows.append({"mesh": name, "view": view, "renderer": f"raycast, resampled {RESAMPLE}",
+                rows.append({"mesh": name, "view": view, "renderer": f"{raycast.name}, resampled {RESAMPLE}",
                              "cells": len(mesh.tets), "order_ms": None, "draw_ms": None, "ms": ms,
                              "mtets": len(mesh.tets) / ms / 1e3, "cycles": "", "rms": _rms(image, truth)})
                 if progress:
@@ -143,7 +146,8 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
                     _picture(Path(pictures) / f"cells-{name}.png", tiles)
         return [r for r in rows if r], notes
     finally:
-        walk.close()
+        for walk in walkers:
+            walk.close()
         pt.close()
         raycast.close()
         work.cleanup()

@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ....bench import median_seconds
+from ....bench.picks import baseline
 from ....scene.resolve import load_scene
 from ... import create_renderer
 from ..run_length import RunLengthVolume, SliceClassifier
@@ -57,7 +58,7 @@ def ramp(data: np.ndarray, fraction: float) -> list[list[float]]:
 def run(data_dir: Path, size: int = 512, repeat: int = 5, datasets=DATASETS, fractions=TRANSPARENT):
     """Rows for the table, and notes (datasets not found)."""
     rows, notes = [], []
-    with create_renderer("shearwarp") as shearwarp, create_renderer("raycast") as raycast:
+    with create_renderer("shearwarp") as shearwarp, create_renderer(baseline()) as raycast:
         for name, path, overrides in datasets:
             if not (data_dir / path).exists():
                 notes.append(f"{name}: {data_dir / path} not found, skipped")
@@ -74,7 +75,7 @@ def run(data_dir: Path, size: int = 512, repeat: int = 5, datasets=DATASETS, fra
                     scene.transfer_function, "pre", scene.renderer.lut_size, 0.0)) for axis in range(3)]
                 ms = 1e3 * median_seconds(shearwarp, scene, repeat)
                 stats = dict(shearwarp.stats)
-                raycast_ms = 1e3 * median_seconds(raycast, scene.with_renderer(name="raycast"), repeat)
+                raycast_ms = 1e3 * median_seconds(raycast, scene.with_renderer(name=raycast.name), repeat)
                 start = time.perf_counter()
                 VoxelNormals(volume, None)
                 normals_s = time.perf_counter() - start

@@ -20,12 +20,14 @@ import dataclasses
 import numpy as np
 
 from ....bench import converged, median_seconds
+from ....bench.picks import baseline
 from ....image import compare_images
 from ....reference.converged import ConvergedReference
 from ....scene.resolve import load_scene
 from ... import create_renderer, registry
 from ..oracle import oracle as same_slabs
 
+BASELINE = baseline()  # the renderer set beside at equal error (the ray caster): the default renderer of grids
 SCHEMES = [("image_aligned", "post"), ("image_aligned", "pre"), ("axis_aligned", "post"), ("none", "pre"),
            ("image_aligned", "post-shaded")]  # shaded: the default lights, screen-space gradients of the slab means
 RAYCAST_DISTANCES = (4.0, 2.0, 1.0, 0.5, 0.25, 0.125)
@@ -35,7 +37,7 @@ COLUMNS = [("dataset", "dataset", ""), ("scheme", "sheet buffer", ""), ("classif
            ("ms", "frame ms", ".0f"), ("drawn", "splats drawn", ",d"), ("culled", "culled", ",d"),
            ("skipped", "skipped", ",d"),
            ("sheets", "sheets", "d"), ("oracle", "max vs oracle", ".1e"), ("rms", "RMS vs converged", ".2e"),
-           ("raycast", "raycast at equal RMS", "")]
+           ("baseline", f"{BASELINE} at equal RMS", "")]
 STUDY_COLUMNS = [("angle", "azimuth", "g"), ("image_aligned", "image-aligned change", ".2e"),
                  ("axis_aligned", "axis-aligned change", ".2e"), ("converged", "converged change", ".2e")]
 
@@ -49,7 +51,7 @@ def run(scenes, size: int = 128, repeat: int = 3, progress=None, shaded: bool = 
     """Rows of the schemes' table for ``scenes`` (``(name, overrides)``); ``shaded=False`` leaves out the
     shaded scheme, whose converged reference is the slowest by far."""
     rows = []
-    splatting, raycast = create_renderer("splatting"), create_renderer("raycast")
+    splatting, raycast = create_renderer("splatting"), create_renderer(BASELINE)
     try:
         for name, overrides in scenes:
             base = load_scene(None, {**base_overrides(size), **overrides})
@@ -75,7 +77,7 @@ def run(scenes, size: int = 128, repeat: int = 3, progress=None, shaded: bool = 
                        "oracle": float(np.abs(_unterminated(splatting, scene) - same_slabs(scene)).max()),
                        "rms": compare_images(image, truth[label])["rms"]}
                 if (scheme, label) == ("image_aligned", "post"):
-                    row["raycast"] = "-" if particles else _raycast_at(raycast, base, row["rms"], repeat)
+                    row["baseline"] = "-" if particles else _raycast_at(raycast, base, row["rms"], repeat)
                 rows.append(row)
                 if progress:
                     progress(row)
@@ -96,11 +98,11 @@ def _unterminated(splatting, scene) -> np.ndarray:
 def _raycast_at(raycast, scene, rms: float, repeat: int) -> str:
     """The ray caster's frame time at the largest sample distance whose RMS against its own (trilinear)
     converged reference is at most ``rms``."""
-    linear = scene.with_renderer(name="raycast", filter="linear")
+    linear = scene.with_renderer(name=BASELINE, filter="linear")
     truth = converged(ConvergedReference(linear.with_renderer(converged_tolerance=1e-4)))
     for d in RAYCAST_DISTANCES:
         case = linear.with_renderer(sample_distance_voxels=d)
-        if registry.refusal(case, "raycast"):
+        if registry.refusal(case, BASELINE):
             return "-"
         if compare_images(raycast.render(case), truth)["rms"] <= rms:
             return f"{1e3 * median_seconds(raycast, case, repeat):.0f} ms at {d:g} voxel"
