@@ -111,7 +111,8 @@ def render(data, *, spacing=None, origin=None, transfer_function=None, rescale_i
     be read from, memory, time), for loading and rendering both.
     ``progress``: ``True`` (a bar), a callable ``callback(done, total)``, or ``None`` (as the caller's
     :func:`dvr_gl.progress.reporting` block says; silent outside one).
-    ``dask``: render on Dask workers (the extra ``dask``; renderer raycast): ``"local:N"`` (a local
+    ``dask``: render on Dask workers (the extra ``dask``; a renderer that composites sort-last, as the
+    ray caster does: ``RendererPlugin.sort_last``): ``"local:N"`` (a local
     cluster of N processes, closed after), a scheduler's address, or a ``distributed.Client``; the
     bricks are composited sort-last by ``compositing_method`` (``"direct_send"`` or ``"binary_swap"``,
     which needs a power-of-two number of workers); see docs/distributed.md."""

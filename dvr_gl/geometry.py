@@ -295,7 +295,7 @@ SURFACE_WORK = "ray-triangle tests"  # the unit of limits.BOUNDS the host test c
 def check_surface_work(pairs: float, rays: int, triangles: int) -> None:
     limits.check_work(limits.Work(pairs, SURFACE_WORK, f"{rays} rays against the {triangles} triangles their "
                                   "boxes cover", "lower --size, use a mesh with fewer or smaller triangles, or a GL "
-                                  "renderer (raycast, slicing3d) that rasterizes them"), "the surfaces")
+                                  "renderer that rasterizes them"), "the surfaces")
 
 
 class HitPlan:

@@ -1,5 +1,5 @@
-"""Half-angle slicing's geometry (Kniss et al. 2003): the slices and the light buffer, shared by
-``slicing3d`` and its same-discretization reference.
+"""Half-angle slicing's geometry (Kniss et al. 2003): the slices and the light buffer, shared by the
+renderers that slice half-way to the light and their same-discretization reference.
 
 One directional light travels along ``w``; ``l = -w`` points toward it, ``v`` toward the eye (from the
 box's centre).  The slices are planes perpendicular to the half-angle vector ``h``, ``spacing`` apart,

@@ -124,7 +124,7 @@ def add_arguments(p: argparse.ArgumentParser):
     d.add_argument("--dask", metavar="ADDRESS|local:N",
                    help="render on Dask workers: a scheduler's address, or local:N (a local cluster of N worker "
                         "processes, closed after); one frame: its bricks, composited sort-last; --frames: one "
-                        "frame per task (renderer raycast)")
+                        f"frame per task (renderer {' or '.join(registry.renderers_with(lambda q: q.sort_last))})")
     d.add_argument("--compositing-method", choices=("direct_send", "binary_swap"), default="direct_send",
                    help="--dask, one frame: how the workers composite their partial images (binary_swap needs "
                         "a power-of-two number of workers; default direct_send)")

@@ -9,7 +9,7 @@ Shared by both references (:class:`~dvr_gl.reference.model.OpticalModel` multipl
   "light_volume"`` it marches them from the nodes of the light volume (:func:`light_volume_nodes`)
   instead and interpolates their optical depths trilinearly, as the GPU samples its light volume; with
   ``"half_angle"`` it accumulates the light buffer of half-angle slicing (:mod:`dvr_gl.half_angle`)
-  slice by slice as ``slicing3d`` does, and looks a point up bilinearly in the buffer the slices
+  slice by slice as a half-angle slicer does, and looks a point up bilinearly in the buffer the slices
   nearer the light than it left;
 * ``reference-converged`` integrates the optical depth between the field's knots by Gauss-Legendre,
   bisecting until its error at each point is within the share of the pixel's budget that point can
