@@ -61,8 +61,8 @@ class HemisphericalShading:
     the X-ray's emission ``sigma c``), ``G`` the samples' gradient magnitudes (central differences)
     reconstructed by the same filter, ``grad`` the central differences of the reconstructed field one
     sample apart along each axis (as :meth:`SampledField.gradient`), ``L`` toward the light, ``h`` the
-    smallest spacing (so the terms keep the value's units): linear in the samples, so that Fourier
-    rendering can take it into the frequency domain."""
+    smallest spacing (so the terms keep the value's units): linear in the samples, so that a renderer
+    working in the frequency domain can take it there."""
 
     def __init__(self, scene, field, samples: np.ndarray):
         from ..fields.reconstruction import SampledField

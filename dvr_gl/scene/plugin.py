@@ -43,7 +43,8 @@ class RendererPlugin:
         ``"sphere"``, ``"analytic sphere"``) or per closed form and mode (``("ramp", "mip")``), at
         the tests' resolution (``tests/renderers/test_conformance.py``, ``tests/closed_forms.py``).
     reference: a CPU float64 reference (a judge: no oracle, slow).
-    projections: the camera projections it renders (Fourier rendering: parallel projections only).
+    projections: the camera projections it renders (one built on the projection-slice theorem:
+        parallel projections only).
     out_of_core: it renders a volume read out of core (:mod:`dvr_gl.out_of_core`), reading bricks
         as it needs them; the others need the voxels in memory.
     order: its place where the renderers are listed (``dvr info``, ``--renderer``'s choices, the viewer's

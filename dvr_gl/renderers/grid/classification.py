@@ -3,7 +3,7 @@ defines of filtering, classification, shading, gradients, clipping and scatterin
 (:func:`classification_features`), the uniforms of the transfer function, shading and lights
 (:func:`optics_uniforms`), and the pre-classified voxels (:func:`classified_voxels`).
 
-The ray caster and the slicers build their programs on these; splatting's sheets shade and classify
+The ray caster and the slicers build their programs on these; a splatter's sheets shade and classify
 with the same uniforms and shading defines.  Emission-absorption only: a compositing mode's own
 defines are its renderer's.
 """

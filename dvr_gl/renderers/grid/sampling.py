@@ -7,8 +7,8 @@ each with the view's textures (:mod:`.textures`: scalar volume, pre-classified c
 in the frame's cache or, for bricks read apart, in the texture budget's LRU cache (:mod:`.lru`); with
 the tables (:mod:`.tables`), the defines and uniforms of classification (:mod:`.classification`) and,
 where the scene scatters light, the light volume (:mod:`dvr_gl.gl.scattering`).  Renderers that
-sample no grid on the GPU (shear-warp, splatting, fourier, the mesh renderers) are GL renderers
-without it.
+sample no grid on the GPU (compositing on the host, splatting kernels, slicing a spectrum, drawing
+meshes) are GL renderers without it.
 """
 
 from __future__ import annotations

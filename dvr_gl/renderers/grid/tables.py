@@ -3,7 +3,7 @@ domain), scattering's albedo column beside it, and the pre-integration table (N 
 back value); checked against the GL limits before they are made (:func:`check_tables`) and kept in the
 frame's cache by what they were made from (:func:`table_textures`).
 
-Used by the grid renderers (:mod:`.sampling`) and by splatting's sheets (the lookup table).
+Used by the grid renderers (:mod:`.sampling`) and by a splatter's sheets (the lookup table).
 """
 
 from __future__ import annotations
