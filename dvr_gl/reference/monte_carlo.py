@@ -13,7 +13,7 @@ over tentative collisions to the box's exit, or to a point light), then continue
 times ``a c(x)`` in a direction drawn from the phase function (the angle between the old and the new
 path direction, which light travels in reverse), Russian roulette ending weak paths after the third
 collision.  With ``max_collisions = 1`` this estimates exactly what the single-scattering references
-compute (``tests/renderers/test_scattering.py`` checks it against ``reference-converged``); unlimited, it adds
+compute (``tests/renderers/test_scattering.py`` checks it against the converged one); unlimited, it adds
 the light scattered more than once, so the difference measures what single scattering leaves out.
 
 Each pixel's value is the mean over its paths and its error estimate the standard error of that mean

@@ -1,9 +1,11 @@
 """Renderers: one package each, registered as plugins (:mod:`.registry`), behind one interface
 (:class:`Renderer`: a scene in, an image out).
 
-Built in: ``raycast``, ``slicing3d``, ``slicing2d``, ``shearwarp`` (GL, regular grids; their
-shared grid machinery in :mod:`.grid`), and the float64 CPU references ``reference`` and
-``reference-converged`` (any field).
+Each renderer's package holds everything that is only its own (its plugin declaration in
+``__init__.py``, code, ``shaders/``, ``oracle.py``, bench, ``tests/``, ``README.md``); the kits its
+users share live beside them (:mod:`.grid` for renderers that sample grids, :mod:`.mesh` for those
+of meshes, :mod:`.judge` for the CPU references), and everything else asks the registry for what
+a renderer declares, never for a name (``dvr info`` lists them).
 """
 
 from ..scene.plugin import RendererPlugin

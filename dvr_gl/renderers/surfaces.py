@@ -1,7 +1,7 @@
 """Opaque meshes drawn by GL (``[[renderer.geometry]]``, :mod:`dvr_gl.geometry`): every triangle
 rasterized with a depth buffer into one RGBA32F target, the nearest surface's shaded colour in rgb and
-its distance along the pixel's ray in a (:data:`NO_SURFACE` where there is none).  The ray caster ends
-its rays there (``GEOMETRY`` in raycast.frag) and the frame is composited over the layer on the host.
+its distance along the pixel's ray in a (:data:`NO_SURFACE` where there is none).  A GL renderer ends
+its rays or slices there (its shaders' ``GEOMETRY``) and the frame is composited over the layer on the host.
 """
 
 from __future__ import annotations

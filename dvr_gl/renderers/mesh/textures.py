@@ -79,7 +79,7 @@ def interval_sigma_max(tf) -> np.ndarray:
 
 class MeshTextures:
     """One mesh on the GPU.  ``folded``: only the cells' planes, folded (:func:`cell_texels`), for a
-    renderer that never looks at the points (cell-raycast)."""
+    renderer that never looks at the points (one walking from cell to cell by their planes)."""
 
     def __init__(self, ctx, mesh, folded: bool = False):
         lo, hi = (np.asarray(b, float) for b in mesh.bounds)
