@@ -66,7 +66,14 @@ def test_bench_help_keeps_one_bench_a_line(capsys):
     with pytest.raises(SystemExit):
         main(["bench", "--help"])
     out = capsys.readouterr().out
-    for bench in ("raycast", "accel", "tradeoff", "scattering"):
+    from dvr_gl.renderers.bench_command import commands
+
+    # the renderers' own benches, read from the registry, one a line among the subcommands
+    declared = [c.name for p in registry.plugins().values() if p.bench for c in commands(p.bench)]
+    assert declared
+    for bench in declared:
+        assert f"\n    {bench} " in out, bench
+    for bench in ("tradeoff", "scattering"):  # the benches across renderers, in the description
         assert f"\n  dvr bench {bench} " in out, bench
 
 

@@ -17,6 +17,7 @@ from dvr_gl.multires import KERNELS, TENT, build_levels, choose_levels, downsamp
 from dvr_gl.multires import pyramid as pyramid_module
 from dvr_gl.multires.downsample import halved_axes, level_geometry
 from dvr_gl.renderers.grid.bricking import plan_bricks
+from judges import DISCRETE
 
 
 def ramp(shape, slope=(0.5, -1.25, 2.0), offset=3.0, dtype=np.float32):
@@ -265,6 +266,6 @@ def test_level_errors_decrease_with_finer_levels(gl_context):
     # 1e-3 so that the GPU's float32 noise (1e-6) cannot pass for a level's error
     assert 1e-3 < rows[1]["rms"] < rows[2]["rms"]
     assert rows[2]["voxel_px"] == pytest.approx(2 * rows[1]["voxel_px"]) == pytest.approx(4 * rows[0]["voxel_px"])
-    reference = level_errors(scene, levels, renderer="reference")  # the float64 integrator agrees
+    reference = level_errors(scene, levels, renderer=DISCRETE)  # the float64 integrator agrees
     for gpu, ref in zip(rows[1:], reference[1:]):
         assert gpu["rms"] == pytest.approx(ref["rms"], rel=0.05)  # same samples; float32 and texture filtering

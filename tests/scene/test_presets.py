@@ -282,20 +282,20 @@ def ct_phantom(n: int = 20) -> np.ndarray:
 
 
 def test_slicer_preset_rendered_against_the_reference(tmp_path, gl_context):
-    """CT-AAA (shaded, opacity per mm) on the phantom: the GPU ray caster against the float64
-    same-discretization reference with assert_close's bounds (at most 0.5 % of values off by more
-    than 1e-4, mean 2e-6 over the rest).  Measured: max 1.4e-4 (0.03 % of values above
-    1e-4), mean 2.9e-7: the usual float32-against-float64 error, well inside."""
-    from dvr_gl.reference.discrete import DiscreteReference
-    from dvr_gl.renderers.raycast.renderer import RayCastRenderer
+    """CT-AAA (shaded, opacity per mm) on the phantom: the grid's default GPU renderer (the ray caster)
+    against its oracle, the float64 same-discretization reference, with assert_close's bounds (at most
+    0.5 % of values off by more than 1e-4, mean 2e-6 over the rest).  Measured: max 1.4e-4 (0.03 % of
+    values above 1e-4), mean 2.9e-7: the usual float32-against-float64 error, well inside."""
+    from dvr_gl.renderers import create_renderer, registry
 
+    default = registry.default_for("grid")
     scene = array_scene(tmp_path, ct_phantom(), {"transfer_function.preset": "CT-AAA", "image.width": 40,
                                                  "image.height": 40, "renderer.ert_threshold": 1.0},
                         spacing=(0.8, 0.8, 1.0))
     assert scene.renderer.shading.enabled
-    reference = DiscreteReference(scene).render_float64()
+    reference = registry.plugin(default).oracle_image(scene)
     assert reference[..., 3].max() > 0.9 and reference[..., 3].min() == 0.0  # the bone shows, air does not
-    gpu = RayCastRenderer()
+    gpu = create_renderer(default, ctx=gl_context)
     try:
         image = gpu.render(scene)
     finally:
