@@ -15,6 +15,8 @@ import shlex
 import sys
 from pathlib import Path
 
+from dvr_gl.bench import picks
+
 REPO = Path(__file__).resolve().parent.parent
 DATA = "../shared/data"  # how the commands name the data folder: beside the repository, from its root
 SIZE = 512
@@ -25,6 +27,8 @@ LOBSTER = "[[0,0,0,0,0],[100,0.9,0.4,0.2,0],[120,0.9,0.4,0.2,0.6],[140,0.9,0.5,0
 # the slow flow faint; opacity per 2.4 units (a tenth of the mesh's diagonal).
 BLUNTFIN = ("[[0.19,0.27,0.0,0.33,0],[0.9,0.13,0.57,0.55,0.02],[1.3,0.37,0.79,0.38,0.15],"
             "[3.2,0.99,0.91,0.14,0.6],[4.98,1,1,0.6,0.8]]")
+# the default mesh renderer (projected tetrahedra), named in the command so that the page says which drew it
+MESH_RENDERER = picks.baseline("mesh")
 
 # name, caption, data file (under DATA; None: a built-in demo), the command's other arguments
 PICTURES = [
@@ -52,7 +56,7 @@ PICTURES = [
      "regular/MNI152_2009_template.nii.gz", ["--view", "left", "--shading", "--distance", "480"]),
     ("bluntfin", "NASA's blunt fin as 187,395 tetrahedra, rendered by `projected-tetrahedra` (exact visibility "
      "order): the density's shock ahead of the fin.",
-     "unstructured/bluntfin_tets.vtk", ["--renderer", "projected-tetrahedra", "--azimuth", "30", "--elevation",
+     "unstructured/bluntfin_tets.vtk", ["--renderer", MESH_RENDERER, "--azimuth", "30", "--elevation",
                                         "35", "--set", f"transfer_function.points={BLUNTFIN}",
                                         "--set", "transfer_function.unit_distance=2.4"]),
 ]

@@ -12,22 +12,25 @@ import argparse
 import statistics
 import time
 
+from dvr_gl.bench import picks
 from dvr_gl.renderers import create_renderer
 from dvr_gl.scene.resolve import load_scene
 
+# (judge, compositing, filter, shading): "discrete" is the same-discretization reference, "converged" the
+# converged one (dvr_gl.bench.picks tells them apart by what they declare)
 CASES = [
-    ("reference", "emission_absorption", "linear", False),
-    ("reference", "emission_absorption", "linear", True),
-    ("reference", "emission_absorption", "cubic_bspline", False),
-    ("reference", "emission_absorption", "gaussian", False),
-    ("reference", "isosurface", "linear", True),
-    ("reference", "average", "linear", False),
-    ("reference", "mip", "linear", False),
-    ("reference-converged", "emission_absorption", "linear", False),
-    ("reference-converged", "emission_absorption", "linear", True),
-    ("reference-converged", "emission_absorption", "gaussian", False),
-    ("reference-converged", "isosurface", "linear", True),
-    ("reference-converged", "mip", "linear", False),
+    ("discrete", "emission_absorption", "linear", False),
+    ("discrete", "emission_absorption", "linear", True),
+    ("discrete", "emission_absorption", "cubic_bspline", False),
+    ("discrete", "emission_absorption", "gaussian", False),
+    ("discrete", "isosurface", "linear", True),
+    ("discrete", "average", "linear", False),
+    ("discrete", "mip", "linear", False),
+    ("converged", "emission_absorption", "linear", False),
+    ("converged", "emission_absorption", "linear", True),
+    ("converged", "emission_absorption", "gaussian", False),
+    ("converged", "isosurface", "linear", True),
+    ("converged", "mip", "linear", False),
 ]
 
 
@@ -41,9 +44,10 @@ def main():
     print(f"image {args.size}x{args.size}, Shepp-Logan {args.volume}^3, sample distance 0.5 voxel, "
           f"median of {args.repeat}")
     print(f"{'renderer':20s} {'compositing':20s} {'filter':14s} {'shading':7s} {'seconds':>8s} {'samples/s':>10s}")
-    for name, mode, filt, shading in CASES:
+    for judge, mode, filt, shading in CASES:
         if args.filter and filt != args.filter:
             continue
+        name = getattr(picks, judge)()
         scene = load_scene(None, {"volume.demo": "shepp-logan", "volume.size": args.volume,
                                   "image.width": args.size, "image.height": args.size,
                                   "renderer.compositing": mode, "renderer.filter": filt,

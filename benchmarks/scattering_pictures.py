@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dvr_gl.bench.scattering import measuring
 from dvr_gl.image import side_by_side, write_image
 from dvr_gl.phantoms import demo_scene
 from dvr_gl.reference.converged import ConvergedReference
@@ -31,9 +32,11 @@ from dvr_gl.scene.resolve import load_scene
 
 REPO = Path(__file__).resolve().parent.parent
 DEMO_ROW = ({}, {"renderer.scattering.light_volume_size": 32}, {"renderer.scattering.method": "shadow_rays"})
-METHODS = (("raycast", {"renderer.scattering.method": "shadow_rays"}),
-           ("raycast", {}),
-           ("slicing3d", {"renderer.scattering.method": "half_angle", "renderer.scattering.light_buffer_size": 256}))
+# each method on the renderer dvr bench scattering measures it with (the ray caster's shadow rays and light
+# volume, the demo's method, and 3D slicing's half-angle slicing)
+METHODS = (("shadow_rays", {"renderer.scattering.method": "shadow_rays"}),
+           ("light_volume", {}),
+           ("half_angle", {"renderer.scattering.method": "half_angle", "renderer.scattering.light_buffer_size": 256}))
 
 
 def _scene(size: int, extra: dict):
@@ -56,7 +59,7 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     out = Path(args.out)
     print("the shadow demo:")
-    with create_renderer("raycast") as raycast:
+    with create_renderer(measuring("light_volume")) as raycast:
         pictures = [_timed(raycast, _scene(args.size, extra)) for extra in DEMO_ROW]
     write_image(out / "scattering-shadow.png", side_by_side(pictures), overwrite=True)
     print("the methods beside reference-converged:")
@@ -64,7 +67,8 @@ def main(argv=None) -> int:
     truth = ConvergedReference(_scene(args.reference_size, {"renderer.converged_tolerance": args.tolerance})).render()
     print(f"  reference-converged: {time.perf_counter() - start:.0f} s")
     top, bottom = [truth], [np.zeros_like(truth)]
-    for name, extra in METHODS:
+    for method, extra in METHODS:
+        name = measuring(method)
         with create_renderer(name) as renderer:
             image = _timed(renderer, _scene(args.reference_size, {"renderer.name": name, **extra}))
         print(f"    RMS against the reference {np.sqrt(np.mean((image - truth) ** 2)):.2e}")

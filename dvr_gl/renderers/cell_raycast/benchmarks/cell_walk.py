@@ -86,6 +86,7 @@ from pathlib import Path
 import moderngl
 import numpy as np
 
+from dvr_gl.bench import picks
 from dvr_gl.bench.datasets import MESHES
 from dvr_gl.bench.datasets import mesh_scene_keys as scene_keys
 from dvr_gl.fields.mesh_rays import face_neighbours
@@ -261,7 +262,7 @@ def measure(name: str, data_dir: Path, size: int, passes: int, lists: bool = Fal
     mesh = load_scene(None, {"volume.path": str(path), **({"volume.array": array} if array else {})}).field
     scene = load_scene(None, {**scene_keys(path, array, mesh), "camera.azimuth": 30.0, "camera.elevation": 20.0,
                               "image.width": size, "image.height": size})
-    pt = create_renderer("projected-tetrahedra")
+    pt = create_renderer(picks.baseline("mesh"))  # projected tetrahedra, the default mesh renderer
     exact = pt.render(scene).astype(np.float64)
     ctx = pt.ctx
     make_current(ctx)

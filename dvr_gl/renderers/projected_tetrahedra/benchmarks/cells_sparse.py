@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dvr_gl.bench import datasets
+from dvr_gl.bench import datasets, picks
 from dvr_gl.renderers import create_renderer
 from dvr_gl.renderers.projected_tetrahedra.bench import measure as cells
 from dvr_gl.scene.resolve import load_scene
@@ -44,8 +44,9 @@ def main(argv=None):
     args = parser.parse_args(argv)
     work = Path(tempfile.mkdtemp(prefix="dvr-cells-sparse-"))
     pt = create_renderer("projected-tetrahedra")
-    walk = create_renderer("cell-raycast", ctx=pt.ctx)
-    reference = create_renderer("reference-converged")
+    # the other GL mesh renderer (cell-raycast) on its context, both against the converged reference
+    walk = create_renderer(next(n for n in picks.renderers(kind="mesh", gl=True) if n != pt.name), ctx=pt.ctx)
+    reference = create_renderer(picks.converged())
     print("| mesh | cells with opacity | `cell-raycast` ms | RMS | `projected-tetrahedra` ms | RMS | VTK ms | VTK RMS |"
           " VTK ms / `cell-raycast` ms |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for name in args.meshes.split(","):
@@ -58,7 +59,7 @@ def main(argv=None):
         keys = sparse_keys(path, array, mesh)
         scene = load_scene(None, {**keys, "image.width": args.size, "image.height": args.size})
         small = load_scene(None, {**keys, "image.width": args.size // 2, "image.height": args.size // 2})
-        truth = reference.render(small.with_renderer(name="reference-converged")).astype(np.float64)
+        truth = reference.render(small.with_renderer(name=reference.name)).astype(np.float64)
         measured = {}
         for renderer in (walk, pt):
             timed = cells._timed(renderer, scene.with_renderer(name=renderer.name), 3)
@@ -74,7 +75,7 @@ def main(argv=None):
                                  truth, work / name, 1800, notes)
             for note in notes:
                 print(note, file=sys.stderr)
-        (cr_ms, cr_rms), (pt_ms, pt_rms) = measured["cell-raycast"], measured["projected-tetrahedra"]
+        (cr_ms, cr_rms), (pt_ms, pt_rms) = measured[walk.name], measured[pt.name]
         vtk_cells = f"{vtk['ms']:.0f} | {vtk['rms']:.1e} | {vtk['ms'] / cr_ms:.2f}" if vtk else "- | - | -"
         print(f"| {name} | {drawn:,} of {len(mesh.tets):,} | {cr_ms:.0f} | {cr_rms:.1e} | {pt_ms:.0f} | {pt_rms:.1e} | "
               f"{vtk_cells} |", flush=True)

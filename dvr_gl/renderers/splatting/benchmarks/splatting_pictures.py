@@ -21,6 +21,7 @@ import numpy as np
 
 REPO = Path(__file__).resolve().parents[4]  # the repository
 
+from dvr_gl.bench import picks  # noqa: E402
 from dvr_gl.image import side_by_side, write_image  # noqa: E402
 from dvr_gl.phantoms import demo_scene  # noqa: E402
 from dvr_gl.renderers import create_renderer  # noqa: E402
@@ -65,8 +66,8 @@ def _reference(base: dict, name: str) -> np.ndarray:
     """The CPU reference of the same kernel sampled every tenth of a voxel (the converged one took over
     20 minutes on the phantom under its preset, whose narrow peaks it cuts at)."""
     t = time.perf_counter()
-    with create_renderer("reference") as reference:
-        image = reference.render(load_scene(None, {**base, "renderer.name": "reference",
+    with create_renderer(picks.discrete()) as reference:
+        image = reference.render(load_scene(None, {**base, "renderer.name": reference.name,
                                                    "renderer.sample_distance_voxels": 0.1}))
     print(f"{name} reference: {time.perf_counter() - t:.1f} s", flush=True)
     return image
