@@ -67,7 +67,7 @@ PLUGIN = RendererPlugin(
     settings=(s.SAMPLE_DISTANCE, s.SAMPLE_DISTANCE_VOXELS, s.COMPOSITING.only("mip", "minip", "average"),
               s.FILTER, s.LUT_SIZE),
     data_kinds=("grid", "analytic"),  # fields defined everywhere in their box (a mesh's scalar is NaN in its gaps)
-    oracle="dvr_gl.reference.discrete:same_discretization",
+    oracle="dvr_gl_example.oracle:oracle",
     sweeps=(sweeps.POST, sweeps.NEAREST, sweeps.LUT_SIZE),
     # Against the closed forms (measured as dvr-gl's own same-discretization reference, float64): 3e-8;
     # MIP and MinIP of the ramp take the extreme sample, half a segment inside the chord's end: 0.015.
