@@ -1,4 +1,14 @@
-"""Shared fixtures: the shared datasets folder, small scenes, a GL context."""
+"""Shared fixtures, written once for every test folder (the renderers' own tests included).
+
+- ``shared_data``: the shared datasets folder (skips without it); ``shared_volumes``: ``load(name)``, a
+  dataset's volume, the last one kept.
+- ``shared_gl_context``: one headless GL context for the whole run; ``gl_context``: the same, made current
+  for a test (a module of GL tests: ``pytestmark = pytest.mark.usefixtures("gl_context")``).  A test of
+  context creation or release keeps a context of its own.
+- ``xvfb``: one Xvfb display for the whole run (the viewer's tests and the renderers' viewer checks).
+- ``converged``: the converged judge; the judges and renderers by trait are in ``tests/judges.py``.
+- Helpers: ``small_scene``, ``array_scene``, ``assert_close``, ``run_cli``.
+"""
 
 from __future__ import annotations
 
@@ -32,6 +42,30 @@ def shared_data() -> Path:
     if not (SHARED_DATA / "README.md").is_file():
         pytest.skip(f"shared datasets not found at {SHARED_DATA} (they live beside the repository)")
     return SHARED_DATA
+
+
+@pytest.fixture(scope="module")
+def shared_volumes(shared_data):
+    """``load(name)``: the volume of a file under the shared data folder, the last one kept (one at a
+    time: the CT bunny is large)."""
+    cache = {}
+
+    def load(name):
+        if name not in cache:
+            cache.clear()
+            cache[name] = load_scene(None, {"volume.path": str(shared_data / name)}).volume
+        return cache[name]
+    return load
+
+
+@pytest.fixture(scope="session")
+def xvfb():
+    """A running Xvfb's display name (``":N"``), one for the whole run: each test opens its own windows in
+    it and closes them (skips, saying why, without Xvfb or libXtst)."""
+    from xvfb import xvfb_display
+
+    with xvfb_display() as display:
+        yield display
 
 
 @pytest.fixture(scope="session")

@@ -23,11 +23,13 @@ import numpy as np
 import pytest
 
 from dvr_gl.image import composite_over, read_image
-from dvr_gl.renderers import create_renderer
+from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.scene.resolve import load_scene
 from dvr_gl.viewer.navigation import ORBIT_DEGREES_PER_PIXEL
 from dvr_gl.viewer.tf_editor import CanvasMapping, nice_opacity_max
-from xvfb import xvfb_display
+
+#: the renderer of a grid that names none (the demo's)
+DEFAULT = registry.default_for("grid")
 
 SIZE = 240          # render area, pixels (the window adds the side panel on the right)
 PASSES = 3          # jittered passes the viewer averages
@@ -119,15 +121,7 @@ class XDisplay:
         return raw.reshape(h, im.bytes_per_line)[:, :w * 4].reshape(h, w, 4)[..., 2::-1]
 
 
-# --- fixtures: Xvfb, the viewer ---
-
-
-
-@pytest.fixture(scope="module")
-def xvfb():
-    with xvfb_display() as display:
-        yield display
-
+# --- fixtures: the viewer (in the run's Xvfb display: conftest.py's xvfb) ---
 
 class ViewerProcess:
     """``dvr view`` running in Xvfb, with its frame log and screenshot folder."""
@@ -337,20 +331,22 @@ def test_editing_a_control_point_changes_the_rendering(viewer):
 
 
 def test_a_refused_setting_is_shown_and_the_previous_kept(viewer):
-    """Fourier rendering (key 0) refuses the demo's perspective view: the registry's reason is logged (and
-    shown in the HUD) before anything renders, and the ray caster stays: the next change (shading off)
-    renders with it."""
+    """The tenth renderer (key 0, Fourier rendering) refuses the demo's perspective view: the registry's
+    reason is logged (and shown in the HUD) before anything renders, and the default renderer stays: the
+    next change (shading off) renders with it."""
+    tenth = registry.names()[9]
+    assert "perspective" not in registry.plugin(tenth).projections  # what the test is about
     frame = viewer.last_frame()
     viewer.x.move(SIZE / 2, SIZE / 2)
     viewer.x.key("0")
     message = viewer.wait(lambda rs: next((r for r in rs if r.get("event") == "message" and r["error"]), None),
                           "the refusal")
-    assert "fourier renders orthographic views, not perspective" in message["text"]
-    assert "keeping raycast" in message["text"]
+    assert f"{tenth} renders orthographic views, not perspective" in message["text"]
+    assert f"keeping {DEFAULT}" in message["text"]
     assert viewer.last_frame() == frame  # refused before rendering: no shear-warp frame was drawn
     viewer.x.key("L")
     last = viewer.wait_full(frame)
-    assert last["renderer"] == "raycast"
+    assert last["renderer"] == DEFAULT
 
 
 def layouts(v: ViewerProcess) -> list[dict]:
@@ -448,20 +444,25 @@ def test_without_the_gui_keys_still_work(xvfb, tmp_path):
 
 
 def test_a_refused_scene_is_one_line_before_a_window_opens(xvfb, tmp_path):
-    """dvr view on settings its renderer refuses (shear-warp does not pre-integrate): the registry's
-    one-line reason and exit 1, as dvr render gives, and no window."""
-    out = subprocess.run([sys.executable, "-m", "dvr_gl.apps.cli", "view", "--demo", "--renderer", "shearwarp",
+    """dvr view on settings its renderer refuses (the first GL grid renderer that does not pre-integrate):
+    the registry's one-line reason and exit 1, as dvr render gives, and no window."""
+    grid = [n for n, p in registry.plugins().items() if p.data_kinds is None or "grid" in p.data_kinds]
+    refusing = next(n for n in grid if registry.plugin(n).needs_gl
+                    and "preintegrated" not in registry.plugin(n).choices("classification"))
+    taking = [n for n in grid if "preintegrated" in registry.plugin(n).choices("classification")]
+    out = subprocess.run([sys.executable, "-m", "dvr_gl.apps.cli", "view", "--demo", "--renderer", refusing,
                           "--classification", "preintegrated"],
                          env=dict(os.environ, DISPLAY=xvfb), capture_output=True, text=True, cwd=tmp_path, timeout=60)
     assert out.returncode == 1
-    assert out.stderr.strip() == ("dvr view: error: shearwarp does not support renderer.classification = "
-                                  "'preintegrated' (it takes post or pre); use raycast, slicing3d, slicing2d, "
-                                  "reference or reference-converged")
+    choices = " or ".join(registry.plugin(refusing).choices("classification"))
+    assert out.stderr.strip() == (f"dvr view: error: {refusing} does not support renderer.classification = "
+                                  f"'preintegrated' (it takes {choices}); use {', '.join(taking[:-1])} or "
+                                  f"{taking[-1]}")
 
 
 @pytest.mark.parametrize("flags, reason", [
     (["--set", "renderer.lut_size=16385"], "exceeds GL_MAX_TEXTURE_SIZE"),  # a GL limit: known once a context exists
-    (["--sample-distance-voxels", "1e-7"], "raycast would take"),             # the work estimate
+    (["--sample-distance-voxels", "1e-7"], f"{DEFAULT} would take"),          # the work estimate
 ])
 def test_a_scene_whose_first_frame_is_refused_ends_the_viewer(xvfb, tmp_path, flags, reason):
     """A refusal that only rendering can find (a GL limit, the work bound), with nothing rendered yet to
@@ -480,7 +481,7 @@ def test_a_tolerance_opens_the_viewer(xvfb, tmp_path):
                           "--size", "96x96", "--no-shading", "--tolerance", "1e-2", "--benchmark", "0.5"],
                          env=dict(os.environ, DISPLAY=xvfb), capture_output=True, text=True, cwd=tmp_path, timeout=120)
     assert out.returncode == 0, out.stderr
-    assert "dvr view benchmark: shepp-logan 32x32x32, raycast" in out.stdout and "interactive: " in out.stdout
+    assert f"dvr view benchmark: shepp-logan 32x32x32, {DEFAULT}" in out.stdout and "interactive: " in out.stdout
 
 
 def test_a_volume_read_out_of_core_opens_in_the_viewer(xvfb, tmp_path):
@@ -493,4 +494,4 @@ def test_a_volume_read_out_of_core_opens_in_the_viewer(xvfb, tmp_path):
                           "volume.out_of_core=true", "--size", "96x96", "--benchmark", "0.5"],
                          env=dict(os.environ, DISPLAY=xvfb), capture_output=True, text=True, cwd=tmp_path, timeout=120)
     assert out.returncode == 0, out.stderr
-    assert "dvr view benchmark: s.nhdr 40x36x32, raycast" in out.stdout and "interactive: " in out.stdout
+    assert f"dvr view benchmark: s.nhdr 40x36x32, {DEFAULT}" in out.stdout and "interactive: " in out.stdout
