@@ -44,7 +44,9 @@ import numpy as np
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO / "tests"))  # the byte and line mutations are shared with the tests
 
+from dvr_gl.renderers import registry  # noqa: E402
 from fuzz_inputs import mutate_bytes, mutate_lines  # noqa: E402
+from judges import DISCRETE  # noqa: E402
 
 DVR = [sys.executable, "-m", "dvr_gl"]
 SIZE = ["--size", "32x32"]
@@ -378,23 +380,35 @@ def mutated_case(folder: Path, kind: str, rnd: random.Random) -> Case:
     return Case("mutated", f"{kind}: {what}", folder, args)
 
 
-GENERAL = ("raycast", "slicing3d", "slicing2d", "shearwarp", "reference", "splatting", "fourier")
+def _general() -> tuple[str, ...]:
+    """The renderers a settings case draws from: every GL renderer of grids, and the same-discretization
+    judge (the converged one is the slow judge of accuracy, not an input surface of its own)."""
+    gl = [n for n, p in registry.plugins().items() if p.needs_gl and p.data_kinds and "grid" in p.data_kinds]
+    return (*gl, DISCRETE)
+
+
+def _taking(setting: str) -> tuple[str, ...]:
+    """The renderers of :data:`GENERAL` that declare ``setting``."""
+    return tuple(n for n in GENERAL if registry.plugin(n).declared(setting) is not None)
+
+
+GENERAL = _general()
 SETTINGS = {  # flag -> (absurd or extreme values, the renderers that take it)
-    "--kernel-width": (["1e6", "1e-9", "0", "-1", "nan", "1e300", "50"], ("splatting", "fourier")),
-    "--slab-width": (["1e9", "1e-5", "0", "inf", "1e-3"], ("splatting",)),
-    "--screen-low-pass": (["1e6", "-1", "0", "1e-9"], ("splatting",)),
-    "--padding": (["1e6", "0", "-2", "1e-9", "16"], ("fourier",)),
-    "--slice-bandwidth": (["1e6", "0", "-1"], ("fourier",)),
+    "--kernel-width": (["1e6", "1e-9", "0", "-1", "nan", "1e300", "50"], _taking("kernel_width")),
+    "--slab-width": (["1e9", "1e-5", "0", "inf", "1e-3"], _taking("slab_width")),
+    "--screen-low-pass": (["1e6", "-1", "0", "1e-9"], _taking("screen_low_pass")),
+    "--padding": (["1e6", "0", "-2", "1e-9", "16"], _taking("padding")),
+    "--slice-bandwidth": (["1e6", "0", "-1"], _taking("slice_bandwidth")),
     "--sample-distance-voxels": (["1e-7", "1e9", "-0", "1e-4"], GENERAL),
     "--lut-size": (["1", "0", "16385", "1000000000"], GENERAL),
     "--rescale-intercept": (["1e300", "-1e300", "nan", "1e30"], GENERAL),
     "--max-seconds": (["1e-9", "0", "-1", "nan", "inf", "1e400", "0.5"], GENERAL),
     "--max-memory": (["1", "0", "4MiB", "-5", "1e30"], GENERAL),
     "--size": (["1x1", "0x0", "20000x2000", "16384x16384", "2048x2048"], GENERAL),
-    "--iso-value": (["1e300", "nan"], ("raycast", "reference")),
-    "--ert-threshold": (["0", "1", "2"], ("raycast",)),
+    "--iso-value": (["1e300", "nan"], _taking("iso_value")),
+    "--ert-threshold": (["0", "1", "2"], _taking("ert_threshold")),
     "--dask": (["ucx://127.0.0.1:1", "tls://127.0.0.1:1", "tcp://", "127.0.0.1:1", "local:0", "local:1000"],
-               ("raycast",)),
+               tuple(n for n in GENERAL if registry.plugin(n).sort_last)),
 }
 
 
@@ -413,7 +427,8 @@ def settings_case(folder: Path, rnd: random.Random) -> Case:
     values, renderers = SETTINGS[flag]
     renderer = rnd.choice(renderers)
     volume = rnd.choice([_nrrd(folder), _volume(folder, rnd.choice([16, 64, 128]))]) \
-        if renderer != "splatting" or rnd.random() < 0.7 else _particles(folder, "csv")
+        if "particles" not in (registry.plugin(renderer).data_kinds or ()) or rnd.random() < 0.7 \
+        else _particles(folder, "csv")
     extra = ["--renderer", renderer, flag, rnd.choice(values)]
     second = rnd.choice([f for f, (_, r) in SETTINGS.items() if renderer in r and f != flag])
     if rnd.random() < 0.5:

@@ -22,7 +22,10 @@ def test_regular_install_finds_shaders(tmp_path):
     assert sorted(p.name for p in target.iterdir() if not p.name.endswith(".dist-info")) == ["bin", "dvr_gl"]
     assert (target / "dvr_gl" / "apps" / "cli.py").is_file()
     assert (target / "dvr_gl" / "gl" / "shaders" / "common" / "pixel.glsl").is_file()
-    assert (target / "dvr_gl" / "renderers" / "raycast" / "shaders" / "raycast.frag").is_file()
+    shaders = list((REPO / "dvr_gl" / "renderers").glob("*/shaders/**/*.*"))
+    assert shaders  # each renderer's own shaders, in its folder, installed with it
+    for path in shaders:
+        assert (target / path.relative_to(REPO)).is_file(), path
     assert not list(target.rglob("test_*.py")), "the tests are not installed"
     assert (target / "dvr_gl" / "py.typed").is_file()  # type checkers read the package's annotations
     metadata = next(target.glob("dvr_gl-*.dist-info")) / "METADATA"
