@@ -33,6 +33,7 @@ from dvr_gl.errors import DvrError
 from dvr_gl.scene.model import ClippingSpec, GeometrySpec, ScatteringSpec, ShadingSpec
 from dvr_gl.scene.resolve import _FILE_KEYS as _SCENE_FILE_KEYS
 from dvr_gl.scene.schema import CameraSpec, ImageSpec, TransferFunctionSpec, VolumeSpec, renderer_spec_class
+from judges import DISCRETE
 
 #: Numbers for keys whose large values are the resource bounds' business (another part of issue 14).
 BOUNDED = {
@@ -231,7 +232,7 @@ def _scene_outcome(raw: dict, render: bool):
             return "loaded", None
         scene = scene.replace(image=ImageSpec(16, 16, scene.image.background))
         if render != "own":
-            scene = scene.with_renderer(name="reference")
+            scene = scene.with_renderer(name=DISCRETE)
         registry.check(scene)
         with create_renderer(scene.renderer.name) as renderer:
             rgba = renderer.render(scene)
