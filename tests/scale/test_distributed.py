@@ -1,6 +1,7 @@
 """Sort-last rendering and whole frames on a Dask LocalCluster of processes (dvr_gl.distributed).
 
-The distributed image is compared with the single-process ray caster's by the largest absolute
+The distributed image is compared with the single-process one of the renderer that renders sort-last
+(it declares ``sort_last``: the ray caster) by the largest absolute
 difference over every channel of the premultiplied RGBA image.  With early termination off
 (renderer.ert_threshold = 1) both composite the same samples with the same operator, once per
 brick on the GPU and once per worker in numpy (float64, rounded to float32), so they differ by
@@ -23,15 +24,20 @@ from dvr_gl.distributed import connect, kd, render, render_frames  # noqa: E402
 from dvr_gl.distributed.plan import bricks_for, check_method, check_scene, plan  # noqa: E402
 from dvr_gl.distributed.worker import payload_of  # noqa: E402
 from dvr_gl.errors import DvrError, SceneError  # noqa: E402
-from dvr_gl.renderers.raycast.renderer import RayCastRenderer  # noqa: E402
-from dvr_gl.scene.resolve import load_scene
+from dvr_gl.renderers import create_renderer, registry  # noqa: E402
+from dvr_gl.scene.resolve import load_scene  # noqa: E402
+from judges import renderers as declaring  # noqa: E402
+
+#: the renderer that renders a subset of bricks as a compositing state; a GL grid renderer that does not
+SORT_LAST = registry.renderers_with(lambda p: p.sort_last)[0]
+WHOLE_ONLY = next(n for n in declaring(kind="grid", gl=True) if not registry.plugin(n).sort_last)
 
 EXACT = 1e-6  # the issue's bound with early termination off (see the module doc)
 W, H = 40, 32  # H divisible by 2 and 4: the bands (and so the bytes) are exact
 
 
 def scene(**overrides):
-    return load_scene(None, {"volume.demo": "blobs", "image.width": W, "image.height": H, "renderer.name": "raycast",
+    return load_scene(None, {"volume.demo": "blobs", "image.width": W, "image.height": H, "renderer.name": SORT_LAST,
                              "renderer.ert_threshold": 1.0, **overrides})
 
 
@@ -43,7 +49,7 @@ def client():
 
 @pytest.fixture(scope="module")
 def single():
-    with RayCastRenderer() as r:
+    with create_renderer(SORT_LAST) as r:
         yield r
 
 
@@ -121,7 +127,7 @@ def test_scene_from_a_file_travels_as_its_dict(client, single, tmp_path):
     """A scene whose volume is a file reaches the workers as its scene dict and is reloaded there."""
     np.save(tmp_path / "v.npy", dvr_gl.phantoms.blobs(24).astype(np.float32))
     (tmp_path / "s.toml").write_text('[volume]\npath = "v.npy"\n[image]\nwidth = 40\nheight = 32\n'
-                                     '[renderer]\nname = "raycast"\nert_threshold = 1.0\ncompositing = "mip"\n')
+                                     f'[renderer]\nname = "{SORT_LAST}"\nert_threshold = 1.0\ncompositing = "mip"\n')
     s = load_scene(tmp_path / "s.toml")
     assert payload_of(s)[1] == "dict"
     assert np.abs(render(client, s, "binary_swap", single).image - single.render(s)).max() <= EXACT
@@ -129,8 +135,8 @@ def test_scene_from_a_file_travels_as_its_dict(client, single, tmp_path):
 
 def test_api_dask_keyword(client):
     volume = dvr_gl.phantoms.blobs(24).astype(np.float32)
-    expected = dvr_gl.render(volume, renderer="raycast", size=(W, H), ert_threshold=1.0)
-    got = dvr_gl.render(volume, renderer="raycast", size=(W, H), ert_threshold=1.0, dask=client,
+    expected = dvr_gl.render(volume, renderer=SORT_LAST, size=(W, H), ert_threshold=1.0)
+    got = dvr_gl.render(volume, renderer=SORT_LAST, size=(W, H), ert_threshold=1.0, dask=client,
                         compositing_method="binary_swap")
     assert np.abs(got.rgba - expected.rgba).max() <= EXACT
     assert got.stats["workers"] == 2
@@ -139,7 +145,7 @@ def test_api_dask_keyword(client):
 def test_kd_split_boxes_and_order():
     """Every brick goes to one worker, each worker's bricks fill a box of the grid, and the eye's
     side of the root's plane comes first (the images' equality above checks the order as a whole)."""
-    with RayCastRenderer() as r:
+    with create_renderer(SORT_LAST) as r:
         s = scene()
         for n in (1, 2, 3, 5, 8):
             p = plan(r, s, n)
@@ -165,8 +171,8 @@ def one_line(excinfo) -> str:
 
 def test_refusals_one_line():
     with pytest.raises(SceneError) as e:
-        check_scene(scene(**{"renderer.name": "slicing3d"}))
-    assert "raycast" in one_line(e)
+        check_scene(scene(**{"renderer.name": WHOLE_ONLY}))
+    assert SORT_LAST in one_line(e)
     with pytest.raises(SceneError) as e:
         check_scene(scene(**{"renderer.scattering.enabled": True}))
     assert "scattering" in one_line(e)
@@ -191,8 +197,8 @@ def test_dask_missing_names_the_extra(monkeypatch):
 
 def test_cli_dask(capsys, tmp_path):
     code, _, err = run_cli(capsys, "render", "--demo", "blobs", "--size", "40x32", "-o", tmp_path / "x.png",
-                           "--dask", "local:2", "--renderer", "slicing3d")
-    assert code == 1 and "raycast" in err and len(err.strip().splitlines()) == 1
+                           "--dask", "local:2", "--renderer", WHOLE_ONLY)
+    assert code == 1 and SORT_LAST in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "x.png").exists()
     code, _, err = run_cli(capsys, "render", "--demo", "blobs", "--size", "40x32", "-o", tmp_path / "y.png",
                            "--dask", "local:two")
