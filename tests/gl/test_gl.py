@@ -11,6 +11,10 @@ from dvr_gl.errors import GLUnavailableError, ShaderError
 from dvr_gl.gl import shaders
 from dvr_gl.gl.context import create_context, gl_info
 from dvr_gl.gl.selftest import VALUE, render_selftest, selftest
+from judges import renderers
+
+# the GL grid renderers that pre-integrate (and classify after sampling): they cache lookup tables
+PREINTEGRATING = renderers("classification", "preintegrated", kind="grid", gl=True)
 
 
 def test_context_and_info(gl_context):
@@ -90,7 +94,7 @@ def test_renderers_with_their_own_contexts_interleave():
 
     scenes = [small_scene({"camera.azimuth": a, "renderer.classification": c, "image.width": 16,
                            "image.height": 16}) for a, c in [(0.0, "post"), (0.0, "preintegrated"), (30.0, "post")]]
-    names = ["slicing2d", "slicing3d", "raycast"]
+    names = list(reversed(PREINTEGRATING))
     alone = {}
     for name in names:
         with create_renderer(name) as r:
@@ -110,9 +114,9 @@ def test_renderers_with_their_own_contexts_interleave():
             r.close()
 
 
-@pytest.mark.parametrize("name", ["raycast", "slicing3d", "slicing2d"])
+@pytest.mark.parametrize("name", PREINTEGRATING)
 @pytest.mark.parametrize("budget", [None, 0.2])
-def test_a_new_view_uploads_nothing(name, budget):
+def test_a_new_view_uploads_nothing(gl_context, name, budget):
     """Textures and tables are cached across frames (a tuple in a cache key once missed every time,
     re-uploading the volume each frame).  Bricks that do not all fit the budget take turns in one
     texture; the tables stay."""
@@ -126,7 +130,7 @@ def test_a_new_view_uploads_nothing(name, budget):
         overrides["renderer.texture_budget_mb"] = budget   # 48^3 float32 is 0.42 MB
     scene = small_scene(overrides)
     moved = scene.replace(camera=dataclasses.replace(scene.camera, eye=tuple(np.add(scene.camera.eye, 0.5))))
-    with create_renderer(name) as r:
+    with create_renderer(name, ctx=gl_context) as r:
         r.render(scene)
         assert (r.stats["bricks"] == 1) == (budget is None)
         before = {what: entry[1] for what, entry in r._cache.items()}

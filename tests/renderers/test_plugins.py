@@ -19,6 +19,7 @@ from pathlib import Path
 import pytest
 
 from conftest import REPO
+from judges import DISCRETE
 
 PLUGIN_SOURCE = REPO / "tests" / "plugins" / "example-renderer"
 NAME = "cpu-projection"
@@ -68,7 +69,7 @@ def test_dvr_render_renders_with_it_and_refuses_in_one_line(site, tmp_path):
     assert out.returncode == 0, out.stderr
     assert f"{NAME}" in out.stdout and image.is_file()
     same = tmp_path / "reference.exr"
-    assert dvr(site, "render", *SMALL, "--renderer", "reference", "--compositing", "mip",
+    assert dvr(site, "render", *SMALL, "--renderer", DISCRETE, "--compositing", "mip",
                "-o", str(same)).returncode == 0
     from dvr_gl.image import read_image
 
@@ -134,7 +135,8 @@ def test_dvr_bench_tradeoff_sweeps_it(site, tmp_path):
 def test_conformance_tests_cover_it(site):
     """The conformance tests generate the plugin's cases (modes it declares x closed forms x views, and
     its oracle) from the registry, and it passes them."""
-    args = ["-m", "pytest", "-q", "-p", "no:cacheprovider", str(REPO / "tests" / "renderers" / "test_conformance.py"), "-k", NAME]
+    args = ["-m", "pytest", "-q", "-p", "no:cacheprovider", str(REPO / "tests" / "renderers" / "test_conformance.py"),
+            "-k", NAME]
     listed = run(site, *args, "--collect-only", cwd=REPO)
     ids = [line for line in listed.stdout.splitlines() if NAME in line]
     assert len(ids) >= 20, listed.stdout[-2000:]

@@ -9,7 +9,9 @@ from conftest import array_scene
 from dvr_gl.errors import SceneError
 from dvr_gl.preintegration import preintegrate, shortened
 from dvr_gl.reference.converged import ConvergedReference
+from dvr_gl.renderers import registry
 from dvr_gl.transfer_function import TransferFunction
+from judges import renderers
 
 SIZE = 33          # table nodes: value = index / 32
 REFINEMENT = 257   # fine nodes: 8 per table interval
@@ -177,8 +179,8 @@ def test_thin_piece_series_equals_the_quadrature(length):
     assert np.allclose(series[1], quadrature[1], rtol=1e-14, atol=0)
 
 
-@pytest.mark.parametrize("renderer_name", ["raycast", "slicing3d", "slicing2d"])
-def test_table_is_rebuilt_only_when_the_transfer_function_or_length_changes(monkeypatch, renderer_name):
+@pytest.mark.parametrize("renderer_name", renderers("classification", "preintegrated", kind="grid", gl=True))
+def test_table_is_rebuilt_only_when_the_transfer_function_or_length_changes(gl_context, monkeypatch, renderer_name):
     """A new camera reuses the table; a new transfer function or sample distance rebuilds it."""
     import dataclasses
 
@@ -196,22 +198,23 @@ def test_table_is_rebuilt_only_when_the_transfer_function_or_length_changes(monk
     scene = small_scene({"renderer.classification": "preintegrated", "renderer.preintegration_size": 16,
                          "image.width": 8, "image.height": 8})
     other_tf = small_scene({"transfer_function.preset": "viridis"}).transfer_function
-    with create_renderer(renderer_name) as r:
+    planes = registry.plugin(renderer_name).fixed_planes  # its slabs are the voxel planes, whatever the distance
+    with create_renderer(renderer_name, ctx=gl_context) as r:
         r.render(scene)
         moved = dataclasses.replace(scene.camera, eye=tuple(np.add(scene.camera.eye, (1.0, -2.0, 0.5))))
         r.render(scene.replace(camera=moved))
         assert len(builds) == 1
         finer = dataclasses.replace(scene.renderer, sample_distance=scene.renderer.sample_distance / 2)
         r.render(scene.replace(renderer=finer))
-        if renderer_name == "slicing2d":  # its slabs are the voxel planes, whatever the sample distance
+        if planes:
             assert len(builds) == 1
         else:
             assert len(builds) == 2 and builds[1] == builds[0] / 2
         r.render(scene.replace(renderer=finer, transfer_function=other_tf))
-        assert len(builds) == (2 if renderer_name == "slicing2d" else 3)
+        assert len(builds) == (2 if planes else 3)
 
 
-def test_fast_table_on_cthead_bone(shared_data):
+def test_fast_table_on_cthead_bone(shared_data, gl_context):
     """Optically thick segments on real data: CThead bone at 1 voxel (40x40).  Unnormalized, the fast
     table measured RMS 0.17 against the converged reference (128x128) and colours up to 1.96; now
     3.1e-3 here (the exact table: 3.8e-3; both within 1e-2, the error of 1-voxel steps)."""
@@ -225,7 +228,9 @@ def test_fast_table_on_cthead_bone(shared_data):
     scene = load_scene(None, {"volume.path": str(shared_data / path), "image.width": 40, "image.height": 40,
                               **overrides})
     truth = converged_truth(scene)
-    with create_renderer("raycast") as renderer:
+    # a GL renderer that pre-integrates at the sample distance it is given
+    name = next(n for n in renderers("preintegration", gl=True) if registry.plugin(n).declared("sample_distance"))
+    with create_renderer(name, ctx=gl_context) as renderer:
         for method in ("exact", "fast"):
             image = renderer.render(scene.with_renderer(classification="preintegrated", preintegration=method,
                                                         sample_distance=scene.field.sample_spacing))

@@ -12,6 +12,7 @@ import types
 import numpy as np
 import pytest
 
+from dvr_gl.renderers import registry
 from dvr_gl.renderers.grid.lru import TextureLRU
 from dvr_gl.renderers.raycast import acceleration as accel
 from dvr_gl.renderers.raycast.out_of_core import transparent
@@ -152,8 +153,9 @@ def test_out_of_core_refusals_are_one_line(synthetic):
     import dvr_gl
 
     out_of_core, _ = synthetic
-    with pytest.raises(SceneError, match=r"slicing3d needs the voxels in memory.*use raycast") as err:
-        dvr_gl.render(out_of_core, renderer="slicing3d", size=(16, 16))
+    in_memory = next(n for n, p in registry.plugins().items() if p.needs_gl and not p.out_of_core)
+    with pytest.raises(SceneError, match=rf"{in_memory} needs the voxels in memory.*use raycast") as err:
+        dvr_gl.render(out_of_core, renderer=in_memory, size=(16, 16))
     assert "\n" not in str(err.value)
     with pytest.raises(SceneError, match="gradient = 'central'"):
         dvr_gl.render(out_of_core, size=(16, 16), shading=True, gradient="texture")

@@ -263,7 +263,7 @@ def test_very_long_rays_are_not_truncated(tmp_path, gpu):
     np.testing.assert_allclose(jumped[..., 3], -math.expm1(-0.03 * 79.0), atol=2e-5)
 
 
-@pytest.mark.parametrize("renderer", ["gpu", "reference"])
+@pytest.mark.parametrize("renderer", ["gpu", "judge"])
 def test_associated_colours_do_not_bleed(tmp_path, gpu, renderer):
     """Pre-classification of an opaque red region beside empty space whose transfer-function colour
     is green: interpolating non-associated colours mixes the invisible green into the edge;

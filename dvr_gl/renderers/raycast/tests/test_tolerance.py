@@ -10,7 +10,7 @@ from dvr_gl.bench.tradeoff import converged_truth
 from dvr_gl.errors import SceneError
 from dvr_gl.image import compare_images, read_image
 from dvr_gl.phantoms import marschner_lobb, shepp_logan
-from dvr_gl.renderers import create_renderer
+from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.renderers.raycast import tolerance
 from dvr_gl.scene.resolve import load_scene
 
@@ -136,10 +136,11 @@ def test_scene_key_cli_and_effective_scene(tmp_path, capsys):
 
 def test_bad_tolerances_are_one_line_errors(tmp_path, capsys):
     out = tmp_path / "x.png"
+    other = next(n for n, p in registry.plugins().items() if p.needs_gl and p.declared("tolerance") is None)
     for extra, message in ((["--tolerance", "1e-6", "--no-shading"], "outside the range"),
                            (["--tolerance", "1e-2"], "without shading"),
-                           (["--tolerance", "1e-2", "--no-shading", "--renderer", "slicing3d"],
-                            "slicing3d does not support renderer.tolerance"),
+                           (["--tolerance", "1e-2", "--no-shading", "--renderer", other],
+                            f"{other} does not support renderer.tolerance"),
                            (["--tolerance", "1e-2", "--no-shading", "--compositing", "mip"], "emission_absorption")):
         assert main(["render", "--demo", "shepp-logan", "--set", "volume.size=16", *extra, "-o", str(out)]) == 1
         err = capsys.readouterr().err

@@ -9,11 +9,7 @@ import pytest
 from conftest import assert_close
 from dvr_gl.renderers import registry
 from dvr_gl.scene.resolve import load_scene
-from slab_scenes import (
-    TILTED,
-    degenerate_mesh_renders_as_none,
-    tilted,
-)
+from slab_scenes import TILTED, degenerate_mesh_renders_as_none, tilted
 
 
 @pytest.mark.parametrize("extra", [{}, {"camera.projection": "orthographic"}, {"renderer.shading.enabled": True},

@@ -8,10 +8,7 @@ import pytest
 from conftest import assert_close
 from dvr_gl.renderers import registry
 from dvr_gl.scene.resolve import load_scene
-from slab_scenes import (
-    TILTED,
-    tilted,
-)
+from slab_scenes import TILTED, tilted
 
 
 @pytest.mark.parametrize("extra", [{}, {"camera.projection": "orthographic"}, {"renderer.shading.enabled": True},

@@ -8,11 +8,7 @@ import pytest
 from conftest import assert_close
 from dvr_gl.renderers import registry
 from dvr_gl.scene.resolve import load_scene
-from slab_scenes import (
-    TILTED,
-    degenerate_mesh_renders_as_none,
-    tilted,
-)
+from slab_scenes import TILTED, degenerate_mesh_renders_as_none, tilted
 
 
 def test_half_angle_slicing_with_a_mesh(tmp_path, gl_context):

@@ -8,9 +8,7 @@ import pytest
 from conftest import assert_close
 from dvr_gl.renderers import registry
 from dvr_gl.scene.resolve import load_scene
-from slab_scenes import (
-    tilted,
-)
+from slab_scenes import tilted
 
 
 @pytest.mark.parametrize("extra", [{}, {"renderer.sheet_buffer": "axis_aligned"}, {"renderer.classification": "pre"},

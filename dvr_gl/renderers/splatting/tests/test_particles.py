@@ -23,6 +23,7 @@ from dvr_gl.renderers.splatting.oracle import subpixel_mask
 from dvr_gl.renderers.splatting.particles import SUBPIXEL_RADIUS
 from dvr_gl.renderers.splatting.renderer import SplattingRenderer, m4_tables
 from dvr_gl.scene.resolve import apply_overrides, parse_scene, resolve_scene
+from judges import CONVERGED, DISCRETE
 
 TF = {"transfer_function.points": [[0, 0, 0, 0, 0], [0.05, 0.15, 0.25, 0.8, 0.05], [0.5, 0.9, 0.45, 0.15, 0.3],
                                    [4, 1, 0.85, 0.4, 0.6], [16, 1, 1, 1, 0.9]]}
@@ -372,26 +373,31 @@ def test_the_quadrant_integral_is_float64():
     assert sph.quadrant(2.0, 2.0) == pytest.approx(1.0, abs=1e-7)  # measured 2.3e-8
 
 
+# a GL renderer of grids only
+GRID_ONLY = next(n for n, p in registry.plugins().items()
+                 if p.needs_gl and p.data_kinds and "particles" not in p.data_kinds)
+
+
 @pytest.mark.parametrize("name, extra, words", [
     ("splatting", {"renderer.sheet_buffer": "axis_aligned"}, "voxel planes"),
     ("splatting", {"renderer.filter": "gaussian"}, "renderer.filter = m4"),
-    ("raycast", {}, "particles"),
+    (GRID_ONLY, {}, "particles"),
 ])
 def test_refusals_in_one_line(name, extra, words):
-    scene = small_scene({**PLUMMER, "renderer.name": "reference", **extra})
+    scene = small_scene({**PLUMMER, "renderer.name": DISCRETE, **extra})
     reason = registry.refusal(scene, name)
     assert reason is not None and words in reason and "\n" not in reason
 
 
 def test_a_grid_refuses_the_particles_kernel():
     with pytest.raises(SceneError, match="m4 is the SPH kernel of particle sets"):
-        small_scene({"renderer.name": "reference", "renderer.filter": "m4"}).field.reconstruct("m4")
+        small_scene({"renderer.name": DISCRETE, "renderer.filter": "m4"}).field.reconstruct("m4")
 
 
 def test_average_matches_the_converged_reference(splatting):
     """The average has no slabs: the splatted sums are the integral of the same interpolant, which the
     converged reference cuts at the knots and integrates; measured 3e-6 (asserted 2e-5: float32 sums)."""
-    scene = scene_of(blob(), {**BLOB, "renderer.compositing": "average", "renderer.name": "reference-converged"})
+    scene = scene_of(blob(), {**BLOB, "renderer.compositing": "average", "renderer.name": CONVERGED})
     converged = ConvergedReference(scene).render_float64()
     scene = scene_of(blob(), {**BLOB, "renderer.compositing": "average"})
     assert np.abs(splatting.render(scene) - converged).max() < 2e-5
@@ -613,5 +619,5 @@ def test_the_converged_reference_counts_a_particle_sets_knots():
     p = plummer_sphere(50, seed=5)
     far = ParticleSet(np.r_[p.positions, [[1e17, 0.0, 0.0]]], np.r_[p.smoothing_lengths, 1.0], np.r_[p.masses, 1.0],
                       np.r_[p.densities, 1.0])
-    scene = scene_of(far, {"image.width": 16, "image.height": 16, "renderer.name": "reference-converged"})
+    scene = scene_of(far, {"image.width": 16, "image.height": 16, "renderer.name": CONVERGED})
     assert limits.converged_pieces(scene).count <= 16 * 16 * (2 * 51 + 1) * 2
