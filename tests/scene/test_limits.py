@@ -123,7 +123,8 @@ def test_volume_over_a_texture_limit_is_bricked(renderers, gl_context, monkeypat
     bricked = renderers[name].render(scene)
     assert renderers[name].stats["bricks"] > 1
     # the same samples from other textures: float32 rounding of the compositing order only
-    # (dvr_gl/renderers/grid/tests/test_bricking.py measures bricked against the reference at the same tolerance)
+    # (dvr_gl/renderers/raycast/tests/test_bricking_raycast.py measures bricked against the reference at the same
+    # tolerance)
     assert_close(bricked, whole.astype(np.float64))
 
 

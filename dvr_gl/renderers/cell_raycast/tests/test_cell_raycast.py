@@ -13,11 +13,13 @@ from conftest import SHARED_DATA
 from dvr_gl.errors import SceneError
 from dvr_gl.fields.mesh import TetMesh
 from dvr_gl.fields.mesh_cells import hexahedra_of_grid, tetrahedralize
-from dvr_gl.fields.mesh_rays import boundary_faces, face_neighbours
-from dvr_gl.renderers import create_renderer
+from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.renderers.cell_raycast import renderer as walk_module
-from dvr_gl.renderers.projected_tetrahedra.order import adjacency
+from judges import CONVERGED, renderers
 from mesh_inputs import REFERENCE_VIEWS, jittered_mesh, mesh_scene, rms
+
+# the GL renderer of meshes that sorts its cells and projects them (the walk's comparison: the same pieces)
+SORTED = renderers("cell_order", kind="mesh", gl=True)[0]
 
 needs_data = pytest.mark.skipif(not (SHARED_DATA / "unstructured").is_dir(),
                                 reason=f"{SHARED_DATA / 'unstructured'} is absent (shared datasets)")
@@ -42,7 +44,7 @@ def test_emission_absorption_matches_the_mesh_reference(walker, converged, view)
     (float32 planes and values, as projected tetrahedra); bound 1e-4.  No walk is given up."""
     scene = mesh_scene(jittered_mesh(), **view)
     image = walker.render(exact(scene))
-    truth = converged.render(scene.with_renderer(name="reference-converged"))
+    truth = converged.render(scene.with_renderer(name=CONVERGED))
     assert truth[..., 3].max() > 0.3
     assert rms(image, truth) < 1e-4, rms(image, truth)
     stats = walker.walk_stats(exact(scene))
@@ -56,7 +58,7 @@ def test_early_termination_drops_at_most_what_it_promises(walker, converged):
     2.2e-5 there, float32 as in the other tests; bound 1e-3)."""
     scene = mesh_scene(jittered_mesh(), **{"camera.azimuth": 30.0, "camera.elevation": 20.0,
                                            "transfer_function.unit_distance": 0.02})
-    truth = converged.render(scene.with_renderer(name="reference-converged"))
+    truth = converged.render(scene.with_renderer(name=CONVERGED))
     image = walker.render(scene.with_renderer(name="cell-raycast"))
     assert truth[..., 3].max() > 0.999, "some rays reach the threshold"
     error = np.abs(image.astype(float) - truth).max(axis=2)
@@ -74,7 +76,7 @@ def test_camera_inside_the_mesh(walker, converged, lens):
     scene = mesh_scene(jittered_mesh(), **keys)
     image = walker.render(exact(scene))
     assert walker.stats["start_cells"] is True
-    truth = converged.render(scene.with_renderer(name="reference-converged"))
+    truth = converged.render(scene.with_renderer(name=CONVERGED))
     assert truth[..., 3].min() > 0.05, "every ray starts inside"
     assert rms(image, truth) < 1e-4, rms(image, truth)
 
@@ -112,31 +114,10 @@ def test_rays_entering_many_times(walker, converged, monkeypatch, projection):
     image = walker.render(exact(scene))
     w, h = scene.image.width, scene.image.height
     assert walker.stats["entries"] > 4 * w * h, "the first lists overflowed"
-    truth = converged.render(scene.with_renderer(name="reference-converged"))
+    truth = converged.render(scene.with_renderer(name=CONVERGED))
     assert rms(image, truth) < 1e-5, rms(image, truth)
     walks = walker.walk_stats(exact(scene))[..., 1]
     assert walks.max() >= 40
-
-
-def test_face_neighbours():
-    """The cell across face k (opposite vertex k) of each cell, -1 on the boundary: two tetrahedra
-    sharing a face, and the neighbours symmetric on a real split; the boundary faces from them."""
-    tets = np.array([[0, 1, 2, 3], [4, 1, 2, 3]])
-    assert face_neighbours(tets).tolist() == [[1, -1, -1, -1], [0, -1, -1, -1]]
-    mesh = jittered_mesh()
-    nb = face_neighbours(mesh.tets)
-    cell, face = np.nonzero(nb >= 0)
-    back = nb[nb[cell, face]]
-    assert np.all(np.any(back == cell[:, None], axis=1))
-    # 3x2x2 hexahedra: boundary quads 2 (2x2) + 2 (3x2) + 2 (3x2), two triangles each
-    assert (nb < 0).sum() == 2 * (2 * 4 + 2 * 6 + 2 * 6)
-    # the boundary from them: the visibility order's boundary faces, normals pointing out of their cells
-    cell, corners, normal = boundary_faces(mesh.points, mesh.tets, nb)
-    adj = adjacency(mesh.points, mesh.tets)
-    key = lambda c, pts: sorted(zip(c.tolist(), np.round(np.sort(pts.reshape(len(c), -1), axis=1), 9).tolist()))  # noqa: E731
-    assert key(cell, corners) == key(adj.boundary_cell, adj.boundary_corners)
-    centroid = mesh.points[mesh.tets[cell]].mean(axis=1)
-    assert np.all(np.einsum("ij,ij->i", normal, corners[:, 0] - centroid) > 0)
 
 
 def test_too_many_transfer_function_points_are_refused(walker):
@@ -171,12 +152,12 @@ def test_rays_through_edges_and_faces_along_an_axis(walker, converged, projectio
             "image.width": 48, "image.height": 48}
     scene = mesh_scene(grid_mesh(), **keys)
     image = walker.render(exact(scene))
-    pt = create_renderer("projected-tetrahedra", ctx=walker.ctx)
+    pt = create_renderer(SORTED, ctx=walker.ctx)
     try:
-        drawn = pt.render(scene.with_renderer(name="projected-tetrahedra"))
+        drawn = pt.render(scene.with_renderer(name=SORTED))
     finally:
         pt.close()
-    truth = converged.render(scene.with_renderer(name="reference-converged"))
+    truth = converged.render(scene.with_renderer(name=CONVERGED))
     assert truth[..., 3].max() > 0.3
     assert np.abs(image.astype(float) - drawn).max() < 1e-5
     assert rms(image, truth) < 1e-4, rms(image, truth)
@@ -199,10 +180,10 @@ def test_the_oxygen_post_along_its_axis():
     scene = load_scene(None, {**scene_keys(path, array, mesh), "camera.azimuth": 0.0, "camera.elevation": 90.0,
                               "image.width": 256, "image.height": 256})
     walker = create_renderer("cell-raycast")
-    pt = create_renderer("projected-tetrahedra", ctx=walker.ctx)
+    pt = create_renderer(SORTED, ctx=walker.ctx)
     try:
         image = walker.render(scene.with_renderer(name="cell-raycast", ert_threshold=1.0)).astype(float)
-        drawn = pt.render(scene.with_renderer(name="projected-tetrahedra", cell_order="exact")).astype(float)
+        drawn = pt.render(scene.with_renderer(name=SORTED, cell_order="exact")).astype(float)
     finally:
         pt.close()
         walker.close()
@@ -258,7 +239,7 @@ def test_more_entries_than_the_gl_holds_are_refused(monkeypatch):
         r.close()
 
 
-@pytest.mark.parametrize("name", ["cell-raycast", "projected-tetrahedra"])
+@pytest.mark.parametrize("name", renderers(kind="mesh", gl=True))
 def test_many_control_points(converged, name):
     """Past 16 control points the integral finds a value's control interval by binary search instead
     of counting (transfer_segment.glsl): 40 points, both mesh renderers, against the reference
@@ -270,9 +251,10 @@ def test_many_control_points(converged, name):
                                            "camera.azimuth": 30.0, "camera.elevation": 20.0})
     r = create_renderer(name)
     try:
-        image = r.render(scene.with_renderer(ert_threshold=1.0) if name == "cell-raycast" else scene)
+        image = r.render(scene.with_renderer(ert_threshold=1.0) if registry.plugin(name).declared("ert_threshold")
+                         else scene)
     finally:
         r.close()
-    truth = converged.render(scene.with_renderer(name="reference-converged"))
+    truth = converged.render(scene.with_renderer(name=CONVERGED))
     assert truth[..., 3].max() > 0.3
     assert rms(image, truth) < 1e-5, rms(image, truth)

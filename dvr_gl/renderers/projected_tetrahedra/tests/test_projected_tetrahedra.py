@@ -15,11 +15,17 @@ from conftest import SHARED_DATA
 from dvr_gl.camera import Camera
 from dvr_gl.errors import SceneError
 from dvr_gl.fields.mesh import TetMesh
+from dvr_gl.fields.mesh_rays import boundary_faces, face_neighbours
 from dvr_gl.renderers import create_renderer, registry
-from dvr_gl.renderers.projected_tetrahedra.order import VisibilityOrder, topological
+from dvr_gl.renderers.projected_tetrahedra.order import VisibilityOrder, adjacency, topological
 from dvr_gl.scene.resolve import load_scene
+from judges import CONVERGED, renderers
 from mesh_inputs import BAND_TF, REFERENCE_VIEWS, jittered_mesh, mesh_scene, rms
 from slab_scenes import SPHERE_HEIGHTS, SPHERE_KEYS, assert_within_sphere_bounds, slab_keys, slab_mesh, sphere_geometry
+
+# the other GL renderer of meshes (it walks the cells), and the grid renderer a resampled mesh gets
+WALKER = next(n for n in renderers(kind="mesh", gl=True) if n != "projected-tetrahedra")
+GRID = registry.default_for("grid")
 
 
 @pytest.fixture(scope="module")
@@ -48,7 +54,7 @@ def test_emission_absorption_matches_the_mesh_reference(pt, converged, view):
     mesh = jittered_mesh()
     scene = mesh_scene(mesh, **{"renderer.name": "projected-tetrahedra", **view})
     image = pt.render(scene)
-    truth = converged.render(scene.with_renderer(name="reference-converged"))
+    truth = converged.render(scene.with_renderer(name=CONVERGED))
     assert truth[..., 3].max() > 0.3
     assert rms(image, truth) < 1e-4, rms(image, truth)
     assert pt.stats["cycles_broken"] == 0 and pt.stats["order"] == "exact"
@@ -89,7 +95,7 @@ def test_camera_inside_the_mesh(pt, converged, lens):
     keys = {"camera.eye": [0.45, 0.35, 0.4], "camera.target": [1.0, 0.8, 0.9], "camera.up": [0, 0, 1], **lens}
     scene = mesh_scene(mesh, **{"renderer.name": "projected-tetrahedra", **keys})
     image = pt.render(scene)
-    truth = converged.render(scene.with_renderer(name="reference-converged"))
+    truth = converged.render(scene.with_renderer(name=CONVERGED))
     assert truth[..., 3].min() > 0.05, "every ray starts inside"
     assert rms(image, truth) < 1e-4, rms(image, truth)
 
@@ -131,7 +137,7 @@ def test_exact_order_where_the_centroid_order_fails(pt, converged):
             "transfer_function.points": tf, "transfer_function.opacity_model": "extinction",
             "image.width": 24, "image.height": 24}
     scene = mesh_scene(mesh, **keys)
-    truth = converged.render(scene.with_renderer(name="reference-converged"))
+    truth = converged.render(scene.with_renderer(name=CONVERGED))
     exact = pt.render(scene)
     assert np.abs(exact - truth).max() < 1e-5, np.abs(exact - truth).max()  # measured 7e-7
     # only the rays crossing the boundary three times or more (A then B), and their neighbours, are cast
@@ -151,7 +157,7 @@ def test_transparent_cells_are_not_drawn(pt, converged):
           [1.2, 0.3, 0.9, 0.2, 0.0], [1.4, 0.3, 0.9, 0.2, 0.0], [2.0, 0.9, 0.2, 0.2, 0.5]]
     scene = mesh_scene(mesh, **{"renderer.name": "projected-tetrahedra", "transfer_function.points": tf})
     image = pt.render(scene)
-    truth = converged.render(scene.with_renderer(name="reference-converged"))
+    truth = converged.render(scene.with_renderer(name=CONVERGED))
     # measured 1.0e-7; the bound is the band test's (float32 planes and values against float64)
     assert rms(image, truth) < 1e-4, rms(image, truth)
     values = mesh.values[mesh.tets]
@@ -213,7 +219,7 @@ def test_the_jaw_from_above_in_the_exact_order(pt, converged):
     mesh = load_scene(None, {"volume.path": str(path)}).field
     scene = load_scene(None, {**scene_keys(path, array, mesh), "camera.azimuth": 0.0, "camera.elevation": 90.0,
                               "image.width": 128, "image.height": 128})
-    truth = converged.render(scene.with_renderer(name="reference-converged"))
+    truth = converged.render(scene.with_renderer(name=CONVERGED))
     exact = pt.render(scene.with_renderer(cell_order="exact"))
     centroid = pt.render(scene.with_renderer(cell_order="centroid"))
     assert truth[..., 3].max() > 0.3
@@ -227,7 +233,7 @@ def test_projections_match_the_mesh_reference(pt, converged, mode):
     scene = mesh_scene(mesh, **{"renderer.name": "projected-tetrahedra", "renderer.compositing": mode,
                                 "renderer.iso_value": 0.6, "camera.azimuth": 40.0, "camera.elevation": 25.0})
     image = pt.render(scene)
-    truth = converged.render(scene.with_renderer(name="reference-converged"))
+    truth = converged.render(scene.with_renderer(name=CONVERGED))
     assert truth[..., 3].max() > 0.3
     # float32 values and planes against float64: measured RMS 6e-7 (MIP) to 3e-6 (average), the
     # isosurface exact (its colour is the iso-value's; a grazing ray could flip, none here)
@@ -262,7 +268,7 @@ def test_the_cli_and_the_viewer_take_a_mesh(tmp_path):
     done = subprocess.run([*cli, "render", "--volume", volume, "--resample", "16", "--size", "32", "-o", str(grid)],
                           capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
-    assert "raycast" in done.stdout and read_image(grid)[..., 3].max() > 0.1
+    assert registry.default_for("grid") in done.stdout and read_image(grid)[..., 3].max() > 0.1
 
 
 def test_the_tradeoff_bench_sweeps_a_mesh_through_the_registry():
@@ -275,7 +281,7 @@ def test_the_tradeoff_bench_sweeps_a_mesh_through_the_registry():
     rows, notes = tradeoff.run(scene, repeat=1)
     assert {(r["renderer"], r["setting"]) for r in rows} >= {("projected-tetrahedra", "centroid"),
                                                              ("projected-tetrahedra", "exact")}
-    assert {r["renderer"] for r in rows} == {"projected-tetrahedra", "cell-raycast"}
+    assert {r["renderer"] for r in rows} == set(renderers(kind="mesh", gl=True))
     exact = next(r for r in rows if r["setting"] == "exact")
     assert exact["rms"] < 1e-4 and exact["rms"] <= next(r for r in rows if r["setting"] == "centroid")["rms"]
     checks, note = tradeoff.tolerance_check(scene, rows, None)
@@ -306,12 +312,12 @@ def test_dvr_bench_cells(tmp_path, monkeypatch, capsys):
     rows = [line.split() for line in out.splitlines() if line.startswith("tiny ") and ":" not in line]  # the table
     assert [(r[1], r[2], r[3]) for r in rows] == [(v, *w) for v in ("30/20", "120/-10", "0/90")
                                                   for w in (("dvr-gl", "exact"), ("dvr-gl", "centroid"),
-                                                            ("dvr-gl", "cell-raycast"), ("raycast,", "resampled"))]
+                                                            ("dvr-gl", WALKER), (f"{GRID},", "resampled"))]
     assert all(float(r[-2]) < 1e-4 for r in rows if r[3] == "exact"), rows  # RMS against the reference
     # cell-raycast at its defaults: early termination drops at most 1/255 where a ray gets that opaque
-    assert all(float(r[-1]) < 1e-3 for r in rows if r[3] == "cell-raycast"), rows  # (no cycles column)
+    assert all(float(r[-1]) < 1e-3 for r in rows if r[3] == WALKER), rows  # (no cycles column)
     # resampling: its own error (no cycles column)
-    assert all(1e-4 < float(r[-1]) < 0.05 for r in rows if r[2] == "raycast,"), rows
+    assert all(1e-4 < float(r[-1]) < 0.05 for r in rows if r[2] == f"{GRID},"), rows
     assert "vtk-pt: not installed" in out
     from dvr_gl.image import read_image
 
@@ -326,9 +332,9 @@ def test_a_resampled_mesh_renders_with_the_grid_renderers():
     from dvr_gl.fields.mesh_resample import resampled_scene
 
     scene = mesh_scene(jittered_mesh(), **{"renderer.name": "projected-tetrahedra"})
-    truth = create_renderer("reference-converged").render(scene.with_renderer(name="reference-converged"))
-    with create_renderer("raycast") as raycast:
-        errors = [rms(raycast.render(resampled_scene(scene, n, name="raycast", sample_distance_voxels=0.25)), truth)
+    truth = create_renderer(CONVERGED).render(scene.with_renderer(name=CONVERGED))
+    with create_renderer(GRID) as grid:
+        errors = [rms(grid.render(resampled_scene(scene, n, name=GRID, sample_distance_voxels=0.25)), truth)
                   for n in (16, 64)]
     assert errors[1] < errors[0] / 3 and errors[1] < 5e-3, errors
 
@@ -346,7 +352,7 @@ def test_volume_resample_in_a_scene():
     assert tf.opacity([lo - 1.0, lo])[1] == 0.0 and tf.opacity([lo - 1.0])[0] == 0.0  # no material outside
     inside = np.linspace(hi, 2.5, 50)  # the given transfer function over the mesh's values
     assert np.allclose(tf.opacity(inside), given.opacity(inside)) and np.allclose(tf.color(inside), given.color(inside))
-    assert scene.renderer.name == "raycast"
+    assert scene.renderer.name == GRID
     with pytest.raises(SceneError, match="volume.resample applies to meshes"):
         load_scene(None, {"volume.path": str(_grid_file()), "volume.resample": 24})
     with pytest.raises(SceneError, match="volume.resample"):
@@ -394,3 +400,25 @@ def test_sphere_in_front_of_and_inside_a_slab(tmp_path, gl_context, height):
     with registry.plugin("projected-tetrahedra").create(ctx=gl_context) as renderer:
         image = renderer.render(scene)
     assert_within_sphere_bounds(image, scene, height, 2e-6)
+
+
+def test_face_neighbours():
+    """The cell across face k (opposite vertex k) of each cell, -1 on the boundary: two tetrahedra
+    sharing a face, and the neighbours symmetric on a real split; the boundary faces from them, as the
+    visibility order's adjacency finds them (the cell walk's boundary and this renderer's are one)."""
+    tets = np.array([[0, 1, 2, 3], [4, 1, 2, 3]])
+    assert face_neighbours(tets).tolist() == [[1, -1, -1, -1], [0, -1, -1, -1]]
+    mesh = jittered_mesh()
+    nb = face_neighbours(mesh.tets)
+    cell, face = np.nonzero(nb >= 0)
+    back = nb[nb[cell, face]]
+    assert np.all(np.any(back == cell[:, None], axis=1))
+    # 3x2x2 hexahedra: boundary quads 2 (2x2) + 2 (3x2) + 2 (3x2), two triangles each
+    assert (nb < 0).sum() == 2 * (2 * 4 + 2 * 6 + 2 * 6)
+    # the boundary from them: the visibility order's boundary faces, normals pointing out of their cells
+    cell, corners, normal = boundary_faces(mesh.points, mesh.tets, nb)
+    adj = adjacency(mesh.points, mesh.tets)
+    key = lambda c, pts: sorted(zip(c.tolist(), np.round(np.sort(pts.reshape(len(c), -1), axis=1), 9).tolist()))  # noqa: E731
+    assert key(cell, corners) == key(adj.boundary_cell, adj.boundary_corners)
+    centroid = mesh.points[mesh.tets[cell]].mean(axis=1)
+    assert np.all(np.einsum("ij,ij->i", normal, corners[:, 0] - centroid) > 0)
