@@ -2,7 +2,7 @@
 
 A test's time is its setup, call and teardown together (wall seconds, as pytest reports them), so a
 module- or session-scoped fixture counts in the folder of the first test that needs it.  A folder is
-the test file's folder relative to the rootdir (``tests/apps``, ``dvr_gl/renderers/raycast/tests``).
+the test file's folder relative to the rootdir (``tests/apps``, ``dvr_gl/renderers/NAME/tests``).
 ``conftest.py`` loads it for every run; ``.ci/run`` runs the README's command, which shows the table.
 """
 

@@ -15,7 +15,7 @@ def test_the_root_conftest_loads_the_plugin():
 
 def test_folder_of_a_node_id():
     assert folder_times.folder_of("tests/apps/test_cli.py::test_x[a/b::c]") == "tests/apps"
-    assert folder_times.folder_of("dvr_gl/renderers/raycast/tests/test_x.py::t") == "dvr_gl/renderers/raycast/tests"
+    assert folder_times.folder_of("dvr_gl/renderers/NAME/tests/test_x.py::t") == "dvr_gl/renderers/NAME/tests"
     assert folder_times.folder_of("test_top.py::t") == "."
 
 
