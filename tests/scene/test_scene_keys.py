@@ -28,6 +28,19 @@ def _owned():
     return owner, key, other
 
 
+def _tolerance():
+    """(the renderer that owns a key choosing the sample distance, that key): the ray caster's tolerance."""
+    s = next(s for s in registry.all_settings() if "sample_distance" in s.excludes and s.owner)
+    return s.owner, s.name
+
+
+def _owned_choice():
+    """(a grid renderer, one of its own keys with choices, a choice other than the default)."""
+    s = next(s for s in registry.all_settings() if s.owner and len(s.choices) > 1
+             and "grid" in (registry.plugin(s.owner).data_kinds or ("grid",)))
+    return s.owner, s.name, next(c for c in s.choices if c != s.default_value())
+
+
 def test_exclusions_are_read_both_ways_from_the_declarations():
     """A key excludes what it declares and what declares it (a tolerance declares the sample distances it
     chooses; the shared sample distance does not name it)."""
@@ -42,24 +55,26 @@ def test_exclusions_are_read_both_ways_from_the_declarations():
 
 
 def test_an_override_drops_what_it_excludes_in_either_spelling():
-    raw = {"renderer": {"name": "raycast", "raycast": {"tolerance": 0.01}, "sample_distance_voxels": 1.0}}
+    owner, tol = _tolerance()
+    raw = {"renderer": {"name": owner, owner: {tol: 0.01}, "sample_distance_voxels": 1.0}}
     out = apply_overrides(raw, {"renderer.sample_distance": 0.1})
-    assert out["renderer"] == {"name": "raycast", "sample_distance": 0.1}
-    assert raw["renderer"]["raycast"] == {"tolerance": 0.01}  # the caller's dict is left as it was
+    assert out["renderer"] == {"name": owner, "sample_distance": 0.1}
+    assert raw["renderer"][owner] == {tol: 0.01}  # the caller's dict is left as it was
     # the namespaced spelling replaces the flat one (and the other way round)
-    assert apply_overrides({"renderer": {"tolerance": 0.01}}, {"renderer.raycast.tolerance": 0.02}) == {
-        "renderer": {"raycast": {"tolerance": 0.02}}}
-    with pytest.raises(SceneError, match="renderer.sample_distance and renderer.tolerance were both given"):
-        apply_overrides({}, {"renderer.sample_distance": 0.1, "renderer.raycast.tolerance": 0.01})
+    assert apply_overrides({"renderer": {tol: 0.01}}, {f"renderer.{owner}.{tol}": 0.02}) == {
+        "renderer": {owner: {tol: 0.02}}}
+    with pytest.raises(SceneError, match=f"renderer.sample_distance and renderer.{tol} were both given"):
+        apply_overrides({}, {"renderer.sample_distance": 0.1, f"renderer.{owner}.{tol}": 0.01})
 
 
 def test_with_renderer_and_the_viewer_drop_the_excluded_settings():
-    scene = load_scene(None, {**SMALL, "renderer.name": "raycast", "renderer.sample_distance_voxels": 1.0})
+    owner, tol = _tolerance()
+    scene = load_scene(None, {**SMALL, "renderer.name": owner, "renderer.sample_distance_voxels": 1.0})
     changed = scene.with_renderer(sample_distance=0.25)
     assert changed.renderer.sample_distance == 0.25 and changed.spec.renderer.sample_distance_voxels is None
-    requested = dataclasses.replace(scene.renderer, tolerance=0.01)
+    requested = dataclasses.replace(scene.renderer, **{tol: 0.01})
     finer = with_sample_distance(requested, scene.field, voxels=0.25)
-    assert finer.tolerance is None and finer.sample_distance == 0.25 * scene.field.sample_spacing
+    assert getattr(finer, tol) is None and finer.sample_distance == 0.25 * scene.field.sample_spacing
 
 
 def test_a_renderers_own_keys_read_in_its_namespace():
@@ -68,9 +83,10 @@ def test_a_renderers_own_keys_read_in_its_namespace():
     flat = parse_scene({"renderer": {"name": owner, key: default}}).renderer
     spaced = parse_scene({"renderer": {"name": owner, owner: {key: default}}}).renderer
     assert flat == spaced
-    scene = load_scene(None, {**SMALL, "renderer.name": "raycast", "renderer.raycast.block_size": 16})
-    assert scene.renderer.block_size == 16 and scene.own.block_size == 16
-    assert set(vars(scene.own)) == {k for k, o in owned_keys(scene.renderer).items() if o == "raycast"}
+    chooser, choice_key, value = _owned_choice()
+    scene = load_scene(None, {**SMALL, "renderer.name": chooser, f"renderer.{chooser}.{choice_key}": value})
+    assert getattr(scene.renderer, choice_key) == value and getattr(scene.own, choice_key) == value
+    assert set(vars(scene.own)) == {k for k, o in owned_keys(scene.renderer).items() if o == chooser}
 
 
 @pytest.mark.parametrize("case", ["other renderer", "unnamed", "not its own", "shared", "both spellings"])
@@ -93,7 +109,8 @@ def test_a_namespaced_key_is_refused_in_one_line(case):
 def test_flat_keys_of_another_renderer_keep_working():
     """The flat spelling is read as before: a renderer ignores another's own key (the conformance scenes
     give the converged reference's tolerance to every renderer)."""
-    scene = load_scene(None, {**SMALL, "renderer.name": "raycast", "renderer.converged_tolerance": 1e-3})
+    scene = load_scene(None, {**SMALL, "renderer.name": registry.default_for("grid"),
+                              "renderer.converged_tolerance": 1e-3})
     assert scene.renderer.converged_tolerance == 1e-3 and not hasattr(scene.own, "converged_tolerance")
 
 
