@@ -13,6 +13,16 @@ from dvr_gl.image import read_image
 from dvr_gl.renderers import registry
 from dvr_gl.scene import sweeps
 from dvr_gl.scene.resolve import load_scene
+from judges import renderers
+
+# The renderers these tests sweep, chosen by what they declare: the one that turns a tolerance into
+# its settings (it prints --tolerance; its samples get denser down a family), a GL grid renderer that
+# does not scatter, one that samples fixed planes (no sample distance: a short sweep), and the one
+# that takes particles.
+TOLERANT = renderers("tolerance")[0]
+UNLIT = next(n for n in renderers(kind="grid", gl=True) if registry.plugin(n).declared("scattering") is None)
+FIXED = [n for n in renderers(kind="grid", gl=True) if registry.plugin(n).fixed_planes][-1]
+SPLATS = next(n for n, p in registry.plugins().items() if p.data_kinds and "particles" in p.data_kinds)
 
 SMALL = {"volume.demo": "shepp-logan", "volume.size": 24, "image.width": 24, "image.height": 24}
 
@@ -41,27 +51,29 @@ def test_pareto_front():
 def test_variant_converts_voxels_and_keeps_the_volume(tmp_path):
     scene = array_scene(tmp_path, np.zeros((4, 4, 4), np.float32), {}, spacing=(0.5, 0.5, 2.0))
     family = sweeps.PREINTEGRATED
-    v = tradeoff.variant(scene, "slicing3d", family, 2.0)
-    assert v.renderer.name == "slicing3d" and v.renderer.classification == "preintegrated"
+    name = next(n for n in renderers("sample_distance_voxels", gl=True) if family in registry.plugin(n).sweeps)
+    v = tradeoff.variant(scene, name, family, 2.0)
+    assert v.renderer.name == name and v.renderer.classification == "preintegrated"
     assert v.renderer.sample_distance == pytest.approx(1.0)   # 2 voxels of the smallest spacing
     assert v.volume is scene.volume                           # no reload, no re-upload
 
 
 def test_light_volume_family_only_where_the_scene_scatters():
     """The light volume's family varies a key of [renderer.scattering] and sweeps only a scene that
-    scatters; its error falls with the resolution (on the ray caster; the other renderers refuse)."""
+    scatters; its error falls with the resolution (on the renderer that sweeps it; the others refuse)."""
     lit = load_scene(None, {**SMALL, "volume.size": 16, "image.width": 16, "image.height": 16,
                             "renderer.shading.enabled": False, "renderer.scattering.enabled": True})
-    v = tradeoff.variant(lit, "raycast", sweeps.LIGHT_VOLUME, 32)
+    lighter = next(n for n, p in registry.plugins().items() if sweeps.LIGHT_VOLUME in p.sweeps)
+    v = tradeoff.variant(lit, lighter, sweeps.LIGHT_VOLUME, 32)
     assert v.renderer.scattering.method == "light_volume" and v.renderer.scattering.light_volume_size == 32
     assert v.renderer.scattering.lights == lit.renderer.scattering.lights
     assert sweeps.LIGHT_VOLUME.applies_to_scene(lit)
     assert not sweeps.LIGHT_VOLUME.applies_to_scene(load_scene(None, SMALL))
-    rows, notes = tradeoff.run(lit, repeat=1, renderers=["raycast", "slicing2d"])
+    rows, notes = tradeoff.run(lit, repeat=1, renderers=[lighter, UNLIT])
     curve = [r["rms"] for r in rows if r["family"] == "light volume"]
     assert len(curve) == len(sweeps.LIGHT_VOLUME.values) and curve[0] > curve[2]
-    assert not any(r["renderer"] == "slicing2d" for r in rows)
-    assert any("slicing2d" in n and "scattering" in n for n in notes)
+    assert not any(r["renderer"] == UNLIT for r in rows)
+    assert any(UNLIT in n and "scattering" in n for n in notes)
 
 
 def test_sweep_measures_every_renderer():
@@ -75,17 +87,21 @@ def test_sweep_measures_every_renderer():
     for r in rows:
         assert np.isfinite(r["rms"]) and r["ms"] > 0 and r["max"] >= r["rms"] >= 0
         assert r["flip"] is None or 0.0 <= r["flip"] <= 1.0
-    curve = [r["rms"] for r in rows if r["renderer"] == "raycast" and r["family"] == "post, linear"]
+    curve = [r["rms"] for r in rows if r["renderer"] == TOLERANT and r["family"] == "post, linear"]
     assert all(a > b for a, b in zip(curve, curve[1:])) and curve[0] > 10 * curve[-1]
     assert any(r["pareto"] for r in rows)
-    assert any(n.startswith("slicing2d: refused classification pre") for n in notes)
-    assert not any(r["renderer"] == "slicing2d" and r["setting"] == "pre" for r in rows)
+    without_pre = [n for n in tradeoff.sweeps(kind="grid", projection="perspective")
+                   if "pre" not in registry.plugin(n).choices("classification")]
+    assert without_pre
+    for name in without_pre:
+        assert any(n.startswith(f"{name}: refused classification pre") for n in notes)
+        assert not any(r["renderer"] == name and r["setting"] == "pre" for r in rows)
 
 
 def test_cli_writes_csv_json_plot_and_refuses_to_overwrite(tmp_path, capsys):
     prefix = tmp_path / "to"
     args = ["bench", "tradeoff", "--demo", "shepp-logan", "--volume-size", "20", "--size", "16", "--repeat", "1",
-            "--renderers", "raycast,shearwarp", "--set", "renderer.shading.enabled=false", "--output", str(prefix)]
+            "--renderers", f"{TOLERANT},{FIXED}", "--set", "renderer.shading.enabled=false", "--output", str(prefix)]
     assert main(args) == 0
     out = capsys.readouterr().out
     assert "--tolerance E" in out and "front" in out
@@ -93,7 +109,7 @@ def test_cli_writes_csv_json_plot_and_refuses_to_overwrite(tmp_path, capsys):
         rows = list(csv.DictReader(fh))
     data = json.loads((tmp_path / "to.json").read_text())
     assert len(rows) == len(data["rows"]) > 20
-    assert {r["renderer"] for r in rows} == {"raycast", "shearwarp"}
+    assert {r["renderer"] for r in rows} == {TOLERANT, FIXED}
     assert float(rows[0]["rms"]) == pytest.approx(data["rows"][0]["rms"])
     assert data["meta"]["scenes"]["shepp-logan"]["tolerance"]
     if plot.have_matplotlib():
@@ -119,15 +135,15 @@ def test_particles_sweep_the_families_made_for_them(tmp_path, capsys):
     """A particle set: only the renderers and families that take particles (splatting's slab width with
     the particles' own kernel, m4), and the ray caster's --tolerance is said not to apply."""
     assert {name: [f.fixed for f in fams] for name, fams in tradeoff.sweeps(kind="particles").items()} == {
-        "splatting": [(("renderer.filter", "m4"),)]}
-    assert all(f.fixed != (("renderer.filter", "m4"),) for f in tradeoff.sweeps(kind="grid")["splatting"])
+        SPLATS: [(("renderer.filter", "m4"),)]}
+    assert all(f.fixed != (("renderer.filter", "m4"),) for f in tradeoff.sweeps(kind="grid")[SPLATS])
     prefix = tmp_path / "sph"
     args = ["bench", "tradeoff", "--demo", "plummer", "--volume-size", "8", "--size", "16", "--repeat", "1",
             "--no-plot", "--output", str(prefix)]
     assert main(args) == 0
     with open(f"{prefix}.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
-    assert [(r["renderer"], r["setting"]) for r in rows] == [("splatting", w) for w in ("2", "1", "0.5", "0.25")]
+    assert [(r["renderer"], r["setting"]) for r in rows] == [(SPLATS, w) for w in ("2", "1", "0.5", "0.25")]
     assert all(np.isfinite(float(r["rms"])) for r in rows)
     assert "--tolerance not checked" in capsys.readouterr().out
 
@@ -137,10 +153,10 @@ def test_nothing_measured_is_an_error_and_writes_nothing(tmp_path, capsys):
     no files."""
     prefix = tmp_path / "none"
     args = ["bench", "tradeoff", "--demo", "plummer", "--volume-size", "8", "--size", "16", "--repeat", "1",
-            "--renderers", "raycast", "--no-plot", "--output", str(prefix)]
+            "--renderers", TOLERANT, "--no-plot", "--output", str(prefix)]
     assert main(args) == 1
     captured = capsys.readouterr()
     err = captured.err.strip()
     assert "no renderer measured" in err and "\n" not in err
-    assert "no sweep for particles data in perspective views: raycast" in captured.out
+    assert f"no sweep for particles data in perspective views: {TOLERANT}" in captured.out
     assert not list(tmp_path.iterdir())
