@@ -1,4 +1,4 @@
-// Blocks of the acceleration structure (dvr_gl.acceleration), one texture per level:
+// Blocks of the acceleration structure (dvr_gl.renderers.raycast.acceleration), one texture per level:
 // emission-absorption reads (colour, sigma) of constant blocks and sigma = -1 elsewhere;
 // isosurface, MIP and MinIP read (min, max) of the values the filter can produce in a block.
 // Level l blocks are u_block_size << l voxels wide; a sample at voxel coordinate u is in block
