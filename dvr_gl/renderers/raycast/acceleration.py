@@ -267,7 +267,7 @@ def minmax_textures(pyramid: MinMaxPyramid, filter_kind: str) -> list[np.ndarray
     return [np.stack(widened(mins, maxs, filter_kind), axis=-1).astype(np.float32) for mins, maxs in pyramid.levels]
 
 
-# Neighbourhood radii of the runs texture, in level-0 blocks (dvr_gl/gl/shaders/common/blocks.glsl's dense_reach).
+# Neighbourhood radii of the runs texture, in level-0 blocks (shaders/blocks.glsl's dense_reach).
 RUN_RADII = (1, 2, 4, 8)
 
 

@@ -42,8 +42,8 @@
 //                            whose body llvmpipe runs whole at every sample): what a run needs
 //                            first (pre-integration: the value at the run's first segment end)
 //   bool mode_skippable(vec4 block)   ACCELERATE: can no sample in the block change the result
-//                            (for the state so far)?  common/blocks.glsl's SKIPPABLE
-//   bool mode_dense(float key)   ACCELERATE without RUNS_IN_CLASSES: common/blocks.glsl's RUN_DENSE
+//                            (for the state so far)?  blocks.glsl's SKIPPABLE
+//   bool mode_dense(float key)   ACCELERATE without RUNS_IN_CLASSES: blocks.glsl's RUN_DENSE
 //   bool mode_jump(vec4 block, inout int m)   ACCELERATE: composite the next m segments, which
 //                            lie in the block, without sampling them (mode_gap follows); may
 //                            shorten m to where the ray is done, and returns whether it is

@@ -1,5 +1,5 @@
 // Stage 3 of raycast.frag under ACCELERATE: marching with empty-space skipping.  It jumps runs of
-// segments whose samples cannot change the result (common/blocks.glsl; the blocks are
+// segments whose samples cannot change the result (blocks.glsl; the blocks are
 // dvr_gl.renderers.raycast.acceleration's) without moving any sample, so the image stays the same to
 // rounding.  BRICKED: blocks are looked up in the whole volume's textures at global voxel
 // coordinates; a pass jumps only segments whose samples (pre-integrated: whole segments) lie
@@ -8,7 +8,7 @@
 
 #define SKIPPABLE(b, bound) mode_skippable(b)  // on the mode's own state: no bound needed
 #define RUN_DENSE(key) mode_dense(key)
-#include "common/blocks.glsl"
+#include "blocks.glsl"
 
 vec3 du;       // voxels (of block_voxel's coordinates) per world unit along d
 
@@ -54,7 +54,7 @@ float block_end(float t, int level, vec3 u) {
 // segments (which must lie in it whole), around the end of segment k met first.  Never the
 // shortened last segment.  Where segment k is to be sampled, `run` is how many segments from k on
 // may be sampled before the next lookup: those whose check point lies in the largest neighbourhood
-// of blocks around it that has none to skip (common/blocks.glsl's dense_reach).  Reads the ray and du.
+// of blocks around it that has none to skip (blocks.glsl's dense_reach).  Reads the ray and du.
 int segments_to_jump(int k, out vec4 block, out int run) {
     Segment s = segment(k);
 #if !defined(CLASSIFY_PREINTEGRATED)

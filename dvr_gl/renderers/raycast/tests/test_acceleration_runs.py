@@ -1,4 +1,4 @@
-"""Runs and the "auto" decision of empty-space skipping (dvr_gl/gl/shaders/common/blocks.glsl's dense_reach,
+"""Runs and the "auto" decision of empty-space skipping (shaders/blocks.glsl's dense_reach,
 acceleration.run_keys and skippable_fraction; docs/acceleration.md)."""
 
 import numpy as np

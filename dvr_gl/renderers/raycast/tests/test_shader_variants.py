@@ -184,7 +184,6 @@ def test_every_define_combination_compiles(shared_gl_context, folder):
     make_current(shared_gl_context)
     axes = {**setting_axes(), "geometry": ({}, {"renderer.geometry": [{"path": str(folder / "triangle.obj")}]})}
     every = {**axes, **FRAME_AXES}
-    check = registry.plugin("raycast").check
     scenes = {}
 
     def scene(case: dict):
@@ -197,7 +196,7 @@ def test_every_define_combination_compiles(shared_gl_context, folder):
                 overrides.update(values[v])
             try:
                 scenes[key] = load_scene(None, overrides)
-                check(scenes[key])
+                registry.check(scenes[key], "raycast")  # its settings, traits and own check
             except SceneError:
                 scenes[key] = None
         return scenes[key]

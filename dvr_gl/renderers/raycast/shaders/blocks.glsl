@@ -1,4 +1,4 @@
-// Blocks of the acceleration structure (dvr_gl.renderers.raycast.acceleration), one texture per level:
+// Blocks of the acceleration structure (acceleration.py beside this folder), one texture per level:
 // emission-absorption reads (colour, sigma) of constant blocks and sigma = -1 elsewhere;
 // isosurface, MIP and MinIP read (min, max) of the values the filter can produce in a block.
 // Level l blocks are u_block_size << l voxels wide; a sample at voxel coordinate u is in block
@@ -85,7 +85,7 @@ int segments_after(float t_entry, float t0, float offset, int k) {
     return clamp(int(ceil((t_entry - t0) / u_sample_distance - offset)) + 1, 0, k);
 }
 
-// Runs (dvr_gl.renderers.raycast.acceleration.run_keys): where a ray may sample on without another
+// Runs (acceleration.run_keys): where a ray may sample on without another
 // lookup.  Around each level-0 block, the neighbourhoods of Chebyshev radius RUN_RADII - 1 = 0, 1,
 // 3, 7 blocks: where no block of one can be skipped, the ray samples on to its edge.  On dense data
 // the loop then looks up once per ray or so instead of once per block.
