@@ -1,16 +1,15 @@
-"""Pictures of clipping and of shaded shear-warp for the docs.
+"""Pictures of clipping and of opaque meshes in a volume for the docs (shear-warp's own pictures:
+dvr_gl/renderers/shearwarp/benchmarks/shearwarp_pictures.py).
 
-    python benchmarks/issue20_pictures.py [--size 256] [--data-dir ../shared/data] [--out docs/images]
+    python benchmarks/docs_pictures.py [--size 256] [--data-dir ../shared/data] [--out docs/images]
 
 * ``clipping.png``: CThead (the skin preset, shaded; from the shared data when present, else the
   Marschner-Lobb demo) cut by a plane facing the default eye through the centre and cropped by a box
-  below its top fifth, left to right: the ray caster, slicing3d and shear-warp.
-* ``shearwarp-shaded.png``: CThead with the bone preset, left to right: the ray caster shaded per
-  sample, shear-warp shaded by its tables over quantized normals, shear-warp unshaded.
-* ``shearwarp-inside.png``: the eye inside CThead (bone preset, shaded, a 100-degree view), by the ray
-  caster and by shear-warp factored by pyramids of rays (three here).
+  below its top fifth, left to right: every GL renderer of grids that declares clipping, in the registry's
+  order (today the ray caster, slicing3d, slicing2d, shear-warp and splatting).
 * ``geometry.png``: CThead with the bone preset and two opaque meshes (``[[renderer.geometry]]``): a
-  sphere through the skull and a plate beyond it, by the ray caster and slicing3d.
+  sphere through the skull and a plate beyond it, by the default grid renderer (the ray caster) and the
+  renderer of view-aligned slices (slicing3d).
 
 The frame times are printed: one frame each on this machine, after a first one that makes the
 encodings, normals and textures.
@@ -25,9 +24,10 @@ from pathlib import Path
 
 import numpy as np
 
+from dvr_gl.bench import picks
 from dvr_gl.geometry import icosphere
 from dvr_gl.image import side_by_side, write_image
-from dvr_gl.renderers import create_renderer
+from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.scene.model import GeometrySpec
 from dvr_gl.scene.resolve import load_scene
 
@@ -66,51 +66,17 @@ def clipping(size: int, data_dir: Path) -> np.ndarray:
     scene = base.with_renderer(clipping=type(base.renderer.clipping)(planes=[plane], box=box))
     print(f"clipping ({label}):")
     top = []
-    for name in ("raycast", "slicing3d", "shearwarp"):
+    for name in picks.renderers("clipping", kind="grid", gl=True):
+        filters = registry.plugin(name).choices("filter")  # a kernel renderer takes its own first kernel
+        own = scene.with_renderer(name=name, **({} if scene.renderer.filter in filters else {"filter": filters[0]}))
         with create_renderer(name) as renderer:
-            top.append(_timed(renderer, scene.with_renderer(name=name), name))
+            top.append(_timed(renderer, own, name))
     return side_by_side(top)
 
 
-def shaded_shearwarp(size: int, data_dir: Path) -> np.ndarray:
-    scene, label = _head(size, data_dir, "ct-bone")
-    print(f"shear-warp shaded ({label}):")
-    with create_renderer("raycast") as raycast, create_renderer("shearwarp") as shearwarp:
-        pictures = [_timed(raycast, scene.with_renderer(name="raycast"), "raycast, shaded"),
-                    _timed(shearwarp, scene.with_renderer(name="shearwarp"), "shearwarp, shaded by tables"),
-                    _timed(shearwarp, scene.with_renderer(name="shearwarp", shading=type(scene.renderer.shading)(
-                        enabled=False)), "shearwarp, unshaded")]
-    return side_by_side(pictures)
-
-
-def inside_shearwarp(size: int, data_dir: Path) -> np.ndarray:
-    scene, label = _head(size, data_dir, "ct-bone")
-    lo, hi = (np.asarray(b, dtype=np.float64) for b in scene.field.bounds)
-    centre, span = (lo + hi) / 2.0, hi - lo
-    eye = centre + np.array([0.05, -0.1, 0.05]) * span  # inside the skull, looking out at an angle
-    target = eye + np.array([0.6, -1.0, 0.45]) * span.max()
-    scene = load_scene(None, {**_head_keys(scene), "camera.eye": list(eye), "camera.target": list(target),
-                              "camera.fov": 100.0, "camera.up": [0, 0, -1]})
-    print(f"eye inside ({label}):")
-    with create_renderer("raycast") as raycast, create_renderer("shearwarp") as shearwarp:
-        pictures = [_timed(raycast, scene.with_renderer(name="raycast"), "raycast"),
-                    _timed(shearwarp, scene.with_renderer(name="shearwarp"), "shearwarp")]
-        print(f"  shear-warp's factorizations: {shearwarp.stats['factorizations']}")
-    return side_by_side(pictures)
-
-
-def _head_keys(scene) -> dict:
-    """The scene-file keys of :func:`_head`'s scene (its data, transfer function, image, shading)."""
-    source = scene.volume_source
-    keys = {"image.width": scene.image.width, "image.height": scene.image.height, "renderer.shading.enabled": True}
-    if source.path:
-        return {**keys, "volume.path": source.path, "transfer_function.preset": "ct-bone",
-                "transfer_function.rescale_intercept": -1024.0}
-    return {**keys, "volume.demo": source.demo, "volume.size": source.size}
-
-
 def geometry(size: int, data_dir: Path, folder: Path) -> np.ndarray:
-    """A sphere through the skull and a floor below it, with the ray caster and slicing3d."""
+    """A sphere through the skull and a floor below it, with the default grid renderer and the renderer of
+    view-aligned slices."""
     import meshio
 
     scene, label = _head(size, data_dir, "ct-bone")
@@ -128,7 +94,8 @@ def geometry(size: int, data_dir: Path, folder: Path) -> np.ndarray:
     scene = scene.with_renderer(geometry=meshes)
     print(f"geometry ({label}):")
     pictures = []
-    for name in ("raycast", "slicing3d"):
+    sliced = [n for n, p in registry.plugins().items() if p.view_aligned_slices]
+    for name in (picks.baseline(), *sliced[:1]):
         with create_renderer(name) as renderer:
             pictures.append(_timed(renderer, scene.with_renderer(name=name), name))
     return side_by_side(pictures)
@@ -142,11 +109,9 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     out = Path(args.out)
     write_image(out / "clipping.png", clipping(args.size, Path(args.data_dir)), overwrite=True)
-    write_image(out / "shearwarp-shaded.png", shaded_shearwarp(args.size, Path(args.data_dir)), overwrite=True)
-    write_image(out / "shearwarp-inside.png", inside_shearwarp(args.size, Path(args.data_dir)), overwrite=True)
     with tempfile.TemporaryDirectory() as folder:
         write_image(out / "geometry.png", geometry(args.size, Path(args.data_dir), Path(folder)), overwrite=True)
-    print(f"wrote clipping.png, shearwarp-shaded.png, shearwarp-inside.png and geometry.png in {out}")
+    print(f"wrote clipping.png and geometry.png in {out}")
     return 0
 
 
