@@ -27,14 +27,14 @@ def _draw(ctx, program):
     return np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32).reshape(2, 2, 4)
 
 
-def test_a_program_from_a_root_outside_the_package(shared_gl_context, tmp_path):
+def test_a_program_from_a_root_outside_the_package(gl_context, tmp_path):
     first, second = _own_root(tmp_path, 0.25), _own_root(tmp_path, 0.75)
-    a = shaders.create_program(shared_gl_context, "fullscreen.vert", "mine.frag", roots=(first,))
-    image = _draw(shared_gl_context, a)
+    a = shaders.create_program(gl_context, "fullscreen.vert", "mine.frag", roots=(first,))
+    image = _draw(gl_context, a)
     assert np.allclose(image[..., 0], 0.25) and np.allclose(image[..., 1], [[0.5, 1.5], [0.5, 1.5]])
     # the same names in two roots: the first root's, and a program of its own (the cache keys the roots)
-    b = shaders.create_program(shared_gl_context, "fullscreen.vert", "mine.frag", roots=(second, first))
-    assert b is not a and np.allclose(_draw(shared_gl_context, b)[..., 0], 0.75)
+    b = shaders.create_program(gl_context, "fullscreen.vert", "mine.frag", roots=(second, first))
+    assert b is not a and np.allclose(_draw(gl_context, b)[..., 0], 0.75)
 
 
 def test_a_missing_name_lists_every_root(tmp_path):
