@@ -5,6 +5,7 @@ import pytest
 
 from conftest import array_scene, small_scene
 from dvr_gl.fields.reconstruction import SampledField
+from dvr_gl.gl.context import make_current
 from dvr_gl.renderers.raycast import acceleration as accel
 from dvr_gl.renderers.raycast.renderer import RayCastRenderer
 from dvr_gl.transfer_function import TransferFunction
@@ -78,8 +79,10 @@ def test_block_classes_bound_every_sample(filter_kind):
 
 
 @pytest.fixture(scope="module")
-def gpu():
-    renderer = RayCastRenderer(count_samples=True)
+def gpu(shared_gl_context):
+    """A counting ray caster on the session's context (borrowed: closing it releases its own objects,
+    not the context, whose cache keeps the programs compiled here for the rest of the run)."""
+    renderer = RayCastRenderer(count_samples=True, ctx=make_current(shared_gl_context))
     yield renderer
     renderer.close()
 
