@@ -1,5 +1,5 @@
-"""Pictures of clipping and of opaque meshes in a volume for the docs (shear-warp's own pictures:
-dvr_gl/renderers/shearwarp/benchmarks/shearwarp_pictures.py).
+"""Pictures of clipping and of opaque meshes in a volume for the docs (a renderer's own pictures are made
+by a script in its folder's benchmarks/, listed in benchmarks/README.md).
 
     python benchmarks/docs_pictures.py [--size 256] [--data-dir ../shared/data] [--out docs/images]
 
