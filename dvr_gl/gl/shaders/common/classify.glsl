@@ -1,4 +1,4 @@
-// Classification shared by the ray caster and the slicers: what a sample (or a pre-integrated
+// Classification shared by the renderers that sample a grid in their shaders: what a sample (or a pre-integrated
 // slab) emits and absorbs, shaded, with gradient-magnitude opacity, as dvr_gl.reference.model.
 // Needs: u_gradient_reference, and u_slab_length: the pre-integration table's segment length.
 

@@ -1,12 +1,12 @@
 #version 330 core
-// One fragment of one slice of the texture-slicing renderers (dvr_gl/renderers/slicing.py):
+// One fragment of one slice of the texture-slicing renderers (the grid kit's slicing.py):
 // the slices are drawn back to front and blended with the over operator on premultiplied colour
 // (GL_ONE, GL_ONE_MINUS_SRC_ALPHA).  A slice stands for the slab to the next slice along this
 // pixel's ray, of length spacing / |cos| (per fragment: under perspective every pixel's ray meets
 // the slices at its own angle): opacity correction for that length; pre-integrated slabs read the
 // scalar here and where the ray meets the next slice.
 //   STACK: 2D texture stacks (object-aligned slices of a texture array); else 3D texture slicing.
-//   classification and options as in raycast.frag; CLIPPING: fragments outside the kept region
+//   classification and options as in common/classify.glsl; CLIPPING: fragments outside the kept region
 //   are discarded (common/clipping.glsl); GEOMETRY: so are those behind an opaque mesh.
 
 #if defined(SHADING) || defined(GRADIENT_OPACITY)
