@@ -19,43 +19,22 @@ from __future__ import annotations
 
 import argparse
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
 
 from dvr_gl.bench import picks
+from dvr_gl.bench.pictures import head, timed
 from dvr_gl.geometry import icosphere
 from dvr_gl.image import side_by_side, write_image
 from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.scene.model import GeometrySpec
-from dvr_gl.scene.resolve import load_scene
 
 REPO = Path(__file__).resolve().parent.parent
 
 
-def _timed(renderer, scene, label: str) -> np.ndarray:
-    renderer.render(scene)  # the encodings, normals and textures are made once, not counted
-    start = time.perf_counter()
-    image = renderer.render(scene)
-    print(f"  {label}: {time.perf_counter() - start:.2f} s")
-    return image
-
-
-def _head(size: int, data_dir: Path, preset: str):
-    """CThead with a CT preset (HU = data - 1024), shaded, from the shared data; else the Marschner-Lobb
-    demo.  ``(scene, label)``."""
-    path = data_dir / "regular" / "cthead.nhdr"
-    if path.exists():
-        return load_scene(None, {"volume.path": str(path), "transfer_function.preset": preset,
-                                 "transfer_function.rescale_intercept": -1024.0, "camera.up": [0, 0, -1],
-                                 "image.width": size, "image.height": size, "renderer.shading.enabled": True}), "CThead"
-    return load_scene(None, {"volume.demo": "marschner-lobb", "volume.size": 64, "image.width": size,
-                             "image.height": size, "renderer.shading.enabled": True}), "Marschner-Lobb 64^3"
-
-
 def clipping(size: int, data_dir: Path) -> np.ndarray:
-    base, label = _head(size, data_dir, "ct-skin")
+    base, label = head(size, data_dir, "ct-skin")
     forward = np.asarray(base.camera.basis()[0])
     lo, hi = (np.asarray(b, dtype=np.float64) for b in base.field.bounds)
     centre = (lo + hi) / 2.0
@@ -71,7 +50,7 @@ def clipping(size: int, data_dir: Path) -> np.ndarray:
     interpolating = set(picks.renderers("filter", "linear", kind="grid", gl=True))
     for name in (n for n in picks.renderers("clipping", kind="grid", gl=True) if n in interpolating):
         with create_renderer(name) as renderer:
-            top.append(_timed(renderer, scene.with_renderer(name=name), name))
+            top.append(timed(renderer, scene.with_renderer(name=name), name))
     return side_by_side(top)
 
 
@@ -80,7 +59,7 @@ def geometry(size: int, data_dir: Path, folder: Path) -> np.ndarray:
     view-aligned slices."""
     import meshio
 
-    scene, label = _head(size, data_dir, "ct-bone")
+    scene, label = head(size, data_dir, "ct-bone")
     lo, hi = (np.asarray(b, dtype=np.float64) for b in scene.field.bounds)
     centre, span = (lo + hi) / 2.0, hi - lo
     points, faces = icosphere(centre + [0.25 * span[0], 0.0, 0.0], 0.3 * span.min())
@@ -98,7 +77,7 @@ def geometry(size: int, data_dir: Path, folder: Path) -> np.ndarray:
     sliced = [n for n, p in registry.plugins().items() if p.view_aligned_slices]
     for name in (picks.baseline(), *sliced[:1]):
         with create_renderer(name) as renderer:
-            pictures.append(_timed(renderer, scene.with_renderer(name=name), name))
+            pictures.append(timed(renderer, scene.with_renderer(name=name), name))
     return side_by_side(pictures)
 
 

@@ -15,12 +15,12 @@ encodings, normals and textures.
 from __future__ import annotations
 
 import argparse
-import time
 from pathlib import Path
 
 import numpy as np
 
 from dvr_gl.bench.picks import baseline
+from dvr_gl.bench.pictures import head, timed
 from dvr_gl.image import side_by_side, write_image
 from dvr_gl.renderers import create_renderer
 from dvr_gl.scene.resolve import load_scene
@@ -28,39 +28,19 @@ from dvr_gl.scene.resolve import load_scene
 REPO = Path(__file__).resolve().parents[4]
 
 
-def _timed(renderer, scene, label: str) -> np.ndarray:
-    renderer.render(scene)  # the encodings, normals and textures are made once, not counted
-    start = time.perf_counter()
-    image = renderer.render(scene)
-    print(f"  {label}: {time.perf_counter() - start:.2f} s")
-    return image
-
-
-def _head(size: int, data_dir: Path, preset: str):
-    """CThead with a CT preset (HU = data - 1024), shaded, from the shared data; else the Marschner-Lobb
-    demo.  ``(scene, label)``."""
-    path = data_dir / "regular" / "cthead.nhdr"
-    if path.exists():
-        return load_scene(None, {"volume.path": str(path), "transfer_function.preset": preset,
-                                 "transfer_function.rescale_intercept": -1024.0, "camera.up": [0, 0, -1],
-                                 "image.width": size, "image.height": size, "renderer.shading.enabled": True}), "CThead"
-    return load_scene(None, {"volume.demo": "marschner-lobb", "volume.size": 64, "image.width": size,
-                             "image.height": size, "renderer.shading.enabled": True}), "Marschner-Lobb 64^3"
-
-
 def shaded_shearwarp(size: int, data_dir: Path) -> np.ndarray:
-    scene, label = _head(size, data_dir, "ct-bone")
+    scene, label = head(size, data_dir, "ct-bone")
     print(f"shear-warp shaded ({label}):")
     with create_renderer(baseline()) as raycast, create_renderer("shearwarp") as shearwarp:
-        pictures = [_timed(raycast, scene.with_renderer(name=baseline()), f"{baseline()}, shaded"),
-                    _timed(shearwarp, scene.with_renderer(name="shearwarp"), "shearwarp, shaded by tables"),
-                    _timed(shearwarp, scene.with_renderer(name="shearwarp", shading=type(scene.renderer.shading)(
+        pictures = [timed(raycast, scene.with_renderer(name=baseline()), f"{baseline()}, shaded"),
+                    timed(shearwarp, scene.with_renderer(name="shearwarp"), "shearwarp, shaded by tables"),
+                    timed(shearwarp, scene.with_renderer(name="shearwarp", shading=type(scene.renderer.shading)(
                         enabled=False)), "shearwarp, unshaded")]
     return side_by_side(pictures)
 
 
 def inside_shearwarp(size: int, data_dir: Path) -> np.ndarray:
-    scene, label = _head(size, data_dir, "ct-bone")
+    scene, label = head(size, data_dir, "ct-bone")
     lo, hi = (np.asarray(b, dtype=np.float64) for b in scene.field.bounds)
     centre, span = (lo + hi) / 2.0, hi - lo
     eye = centre + np.array([0.05, -0.1, 0.05]) * span  # inside the skull, looking out at an angle
@@ -69,14 +49,14 @@ def inside_shearwarp(size: int, data_dir: Path) -> np.ndarray:
                               "camera.fov": 100.0, "camera.up": [0, 0, -1]})
     print(f"eye inside ({label}):")
     with create_renderer(baseline()) as raycast, create_renderer("shearwarp") as shearwarp:
-        pictures = [_timed(raycast, scene.with_renderer(name=baseline()), baseline()),
-                    _timed(shearwarp, scene.with_renderer(name="shearwarp"), "shearwarp")]
+        pictures = [timed(raycast, scene.with_renderer(name=baseline()), baseline()),
+                    timed(shearwarp, scene.with_renderer(name="shearwarp"), "shearwarp")]
         print(f"  shear-warp's factorizations: {shearwarp.stats['factorizations']}")
     return side_by_side(pictures)
 
 
 def _head_keys(scene) -> dict:
-    """The scene-file keys of :func:`_head`'s scene (its data, transfer function, image, shading)."""
+    """The scene-file keys of :func:`dvr_gl.bench.pictures.head`'s scene (its data, transfer function, image, shading)."""
     source = scene.volume_source
     keys = {"image.width": scene.image.width, "image.height": scene.image.height, "renderer.shading.enabled": True}
     if source.path:
