@@ -56,7 +56,8 @@ def inside_shearwarp(size: int, data_dir: Path) -> np.ndarray:
 
 
 def _head_keys(scene) -> dict:
-    """The scene-file keys of :func:`dvr_gl.bench.pictures.head`'s scene (its data, transfer function, image, shading)."""
+    """The scene-file keys of :func:`dvr_gl.bench.pictures.head`'s scene (its data, transfer function, image,
+    shading)."""
     source = scene.volume_source
     keys = {"image.width": scene.image.width, "image.height": scene.image.height, "renderer.shading.enabled": True}
     if source.path:
