@@ -142,8 +142,23 @@ def _render(data, *, ctx=None, dask=None, compositing_method="direct_send", **ke
 
 def scene_of(data, *, spacing=None, origin=None, transfer_function=None, rescale_intercept=None,
              camera: Camera | None = None, renderer: str | None = None, size=None, background=None,
+             channel_axis: int | None = None, time_axis: int | None = None, time: int | None = None,
              **keywords) -> Scene:
     """The :class:`Scene` :func:`render` would render (same arguments, no rendering)."""
+    if isinstance(data, (str, os.PathLike)) and (channel_axis is not None or time_axis is not None):
+        raise SceneError("channel_axis and time_axis apply to arrays; a file's header says its axes (pick with "
+                         "volume.channel and time=)")
+    if isinstance(data, (str, os.PathLike)) and time is not None:
+        keywords_time = {"volume.time": int(time)}
+    else:
+        keywords_time = {}
+        data = _time_step(data, time_axis, time)
+    if channel_axis is not None or isinstance(data, (list, tuple)):
+        data = _several(data, channel_axis, spacing, origin)
+        spacing = origin = None
+    if isinstance(transfer_function, (list, tuple)) and transfer_function and not _is_points(transfer_function):
+        return _with_transfer_functions(data, transfer_function, rescale_intercept, camera=camera, renderer=renderer,
+                                        size=size, background=background, **keywords)
     camera_keys = {k: keywords.pop(k) for k in _CAMERA_KEYS if k in keywords}
     settings = _renderer_settings(renderer, keywords)
     if isinstance(data, Scene):
@@ -152,6 +167,7 @@ def scene_of(data, *, spacing=None, origin=None, transfer_function=None, rescale
         return _changed(data, transfer_function, camera, camera_keys, settings, size, background,
                         rescale_intercept or 0.0)
     overrides = {f"camera.{k}": (list(v) if k == "up" else v) for k, v in camera_keys.items()}
+    overrides.update(keywords_time)
     overrides.update({f"renderer.{k}": v for k, v in settings.items()})
     overrides.update(_image_overrides(size, background))
     tf = None
@@ -183,6 +199,82 @@ def scene_of(data, *, spacing=None, origin=None, transfer_function=None, rescale
     return resolve_scene(spec, field=field, camera=camera, transfer_function=tf)
 
 
+def _is_points(tf) -> bool:
+    """Whether a list is one transfer function's control points (rows of numbers), not one per field."""
+    try:
+        a = np.asarray(tf, dtype=np.float64)
+    except (TypeError, ValueError):
+        return False
+    return a.ndim == 2
+
+
+def _time_step(data, time_axis, time):
+    """Step ``time`` of an array with a ``time_axis`` (exactly ``np.take(data, time, time_axis)``: what
+    rendering that 3D array alone gives); the data itself without one."""
+    if time_axis is None:
+        if time is not None:
+            raise SceneError("time: give time_axis too (the array's axis of time steps)")
+        return data
+    from .fields.series import from_array
+
+    return from_array(np.asarray(data), time_axis).step(0 if time is None else time)
+
+
+def _several(data, channel_axis, spacing, origin):
+    """Several fields: the channels of one array along ``channel_axis`` (one grid), or a list of arrays,
+    volumes and :class:`~dvr_gl.fields.layers.Member` s (each its own grid: ``spacing``/``origin`` one triple
+    for all arrays or one per array)."""
+    from .fields.layers import FieldSet, Member, as_data
+
+    if channel_axis is not None:
+        if isinstance(data, (list, tuple)):
+            raise SceneError("channel_axis applies to one array; a list is several fields already")
+        array = np.asarray(data)
+        if array.ndim != 4 or not -4 <= channel_axis < 4:
+            raise SceneError(f"channel_axis = {channel_axis}: expected a 4D array (three axes z, y, x and one of "
+                             f"channels), got shape {array.shape}")
+        items = [np.take(array, k, axis=channel_axis % 4) for k in range(array.shape[channel_axis])]
+        names = [f"channel {k}" for k in range(len(items))]
+        spacings, origins = [spacing] * len(items), [origin] * len(items)
+    else:
+        items, names = list(data), [f"field {k}" for k in range(len(data))]
+        per = lambda v: list(v) if v is not None and np.ndim(v) == 2 else [v] * len(items)  # noqa: E731
+        spacings, origins = per(spacing), per(origin)
+        if len(spacings) != len(items) or len(origins) != len(items):
+            raise SceneError(f"spacing/origin: give one triple, or one per field ({len(items)})")
+    if not items:
+        raise SceneError("data: an empty list; give one or more arrays or volumes")
+    members = []
+    for item, name, sp, og in zip(items, names, spacings, origins):
+        if isinstance(item, Member):
+            members.append(item)
+        elif isinstance(item, FieldSet):
+            members += item.members
+        else:
+            field = _field_of(item, sp, og)
+            members.append(Member(field, "scalar", field.name if field.name not in ("array", "volume") else name))
+    return as_data(members)
+
+
+def _with_transfer_functions(data, tfs, rescale_intercept, **keywords) -> Scene:
+    """The scene of several fields with one transfer function each (a preset's name, control points or a
+    transfer function; None: the field's default)."""
+    scene = scene_of(data, **keywords)
+    layers = scene.layers
+    if len(tfs) != len(layers):
+        raise SceneError(f"transfer_function: {len(tfs)} given for {len(layers)} field{'s' * (len(layers) != 1)}; "
+                         f"give one per field (channel), None for a field's default")
+    out = []
+    for tf, layer in zip(tfs, layers):
+        if tf is None or not isinstance(tf, (str, list, tuple, np.ndarray)):
+            out.append(layer.transfer_function if tf is None else tf)
+        elif isinstance(tf, str):
+            out.append(preset(tf, layer.field.value_range, rescale_intercept or 0.0))
+        else:
+            out.append(TransferFunction(np.asarray(tf, dtype=np.float64)))
+    return dataclasses.replace(scene, transfer_function=out[0], transfer_functions=tuple(out) if len(out) > 1 else ())
+
+
 def _field_of(data, spacing, origin):
     from .io.labelled import is_data_array
 
@@ -193,7 +285,7 @@ def _field_of(data, spacing, origin):
         if array.ndim != 3:
             raise SceneError(f"data: expected a 3D array indexed [z, y, x], got shape {array.shape}")
         return Volume(array, spacing=spacing or (1.0, 1.0, 1.0), origin=origin or (0.0, 0.0, 0.0), name="array")
-    if isinstance(data, Field):
+    if isinstance(data, Field) or getattr(data, "kind", None) == "fields":
         if spacing is not None or origin is not None:
             raise SceneError("spacing and origin apply to arrays; a field has its own")
         return data

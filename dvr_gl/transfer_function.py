@@ -373,6 +373,22 @@ def preset_property(name: str):
     return colormaps.matplotlib_map(found)
 
 
+#: The colours a scene's channels get by default, in order (after napari's and ImageJ's composite
+#: palettes: magenta and green read apart for most people with a colour-vision deficiency).
+CHANNEL_COLORS = ((1.0, 0.0, 1.0), (0.0, 1.0, 0.0), (0.0, 1.0, 1.0), (1.0, 1.0, 0.0), (1.0, 0.0, 0.0),
+                  (0.0, 0.0, 1.0))
+
+
+def channel_transfer_function(k: int, value_range: tuple[float, float], unit_distance: float = 1.0):
+    """The default transfer function of channel ``k`` of several: black to :data:`CHANNEL_COLORS` ``[k]``
+    (cycling) over ``value_range``, opacity 0 to 0.1 per ``unit_distance`` as the ``grayscale`` preset's."""
+    lo, hi = value_range
+    hi = hi if hi > lo else lo + 1.0
+    r, g, b = CHANNEL_COLORS[k % len(CHANNEL_COLORS)]
+    return TransferFunction(np.array([[lo, 0, 0, 0, 0], [hi, r, g, b, 0.1]], dtype=np.float64),
+                            unit_distance=unit_distance)
+
+
 def preset(name: str, value_range: tuple[float, float], rescale_intercept: float = 0.0,
            unit_distance: float = 1.0) -> TransferFunction:
     """A named preset as a :class:`TransferFunction` in data units (names: :func:`find_preset`).

@@ -128,6 +128,10 @@ def _read(path: Path, fmt: str, raw_options: dict, readers: dict = _READERS) -> 
     for key in chosen:
         if key not in _OPTIONS.get(fmt, ()):
             users = ", ".join(f for f, keys in _OPTIONS.items() if key in keys)
+            if key in ("channel", "time"):
+                what = "channels" if key == "channel" else "time steps"
+                raise VolumeError(f"{path}: volume.{key}: this {fmt} file has no {what}"
+                                  + (f" ({users} files may)" if users else "") + ": remove it")
             raise VolumeError(f"{path}: volume.{key} applies to {users}; this is {fmt}: remove it")
     return reader(path, **chosen)
 
@@ -188,7 +192,8 @@ def _load_particles(path: Path, fmt: str, array, solution, grid_options):
 
 def load_volume(path, format: str = "auto", *, dims=None, dtype=None, endian: str = "little",
                 header_bytes: int = 0, spacing=None, origin=None, nan_value: float | None = None,
-                array: str | None = None, series: str | None = None, level: int | None = None) -> Volume:
+                array: str | None = None, series: str | None = None, level: int | None = None,
+                channel: int | None = None, time: int | None = None) -> Volume:
     """Load a volume file.
 
     Args:
@@ -201,10 +206,13 @@ def load_volume(path, format: str = "auto", *, dims=None, dtype=None, endian: st
         array: ``.vti``: the point-data array (default the first); zarr: the array's path in a group.
         series: DICOM: the SeriesInstanceUID or SeriesNumber when the files hold several series.
         level: OME-Zarr: the resolution level (0, the default, is the full resolution).
+        channel, time: a file with channels or time steps: the channel (default: every channel, a
+            :class:`~dvr_gl.fields.layers.FieldSet`) and the step (default 0) to read.
     """
     if isinstance(path, (list, tuple)):
         return _load_series(list(path), format, spacing=spacing, origin=origin, nan_value=nan_value,
-                            series=series, dims=dims, dtype=dtype, array=array, level=level)
+                            series=series, dims=dims, dtype=dtype, array=array, level=level, channel=channel,
+                            time=time)
     path = Path(os.path.expanduser(str(path)))
     is_pattern = any(c in str(path) for c in "*?[")
     if not is_pattern and not path.is_dir() and not exists_or_split(path):
@@ -212,7 +220,8 @@ def load_volume(path, format: str = "auto", *, dims=None, dtype=None, endian: st
     if not is_pattern and os.path.lexists(path) and not path.is_dir():
         check_input_path(path, "volume file")  # before its suffix is judged: a FIFO, a path outside the roots
     fmt = detect_format(path) if format == "auto" else format
-    options = {"dims": dims, "dtype": dtype, "array": array, "series": series, "level": level}
+    options = {"dims": dims, "dtype": dtype, "array": array, "series": series, "level": level, "channel": channel,
+               "time": time}
     if fmt == "raw":
         options.update(endian=endian, header_bytes=header_bytes)
     if spacing is not None:

@@ -204,6 +204,11 @@ def check(scene, name: str | None = None):
         others = renderers_with(lambda q: q.data_kinds is None or kind in q.data_kinds)
         raise SceneError(f"{p.name} renders {', '.join(p.data_kinds)} data, not {kind}"
                          + (f"; use {_either(others)}" if others else ""))
+    roles = {m.role for m in getattr(scene.field, "members", ())}
+    if roles - set(p.field_roles):
+        role = sorted(roles - set(p.field_roles))[0]
+        others = renderers_with(lambda q: (q.data_kinds is None or kind in q.data_kinds) and role in q.field_roles)
+        raise SceneError(f"{p.name} does not classify {role} fields" + (f"; use {_either(others)}" if others else ""))
     if getattr(scene.field, "out_of_core", False) and not p.out_of_core:
         others = renderers_with(lambda q: q.out_of_core)
         budget = getattr(scene.renderer, "memory_budget_mb", None)

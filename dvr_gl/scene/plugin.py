@@ -55,6 +55,8 @@ class RendererPlugin:
         it the slice spacing and counts the slices).
     scattering_methods: the ways it finds ``renderer.scattering``'s transmittance toward the lights
         (:data:`dvr_gl.scene.model.SCATTERING_METHODS`), where it declares scattering.
+    field_roles: with ``"fields"`` among its data kinds (several fields composited per sample:
+        :mod:`dvr_gl.fields.layers`), the roles of fields it classifies (``"scalar"``, ``"label"``, ``"rgb"``).
     bench: its ``dvr bench`` subcommands, ``"module:attribute"`` naming a
         :class:`~dvr_gl.renderers.bench_command.BenchCommand` or a tuple of them (imported when ``dvr``
         builds its flags: keep that module light; the measurement imports the bench harness when run).
@@ -80,6 +82,7 @@ class RendererPlugin:
     view_aligned_slices: bool = False
     scattering_methods: tuple[str, ...] = SCATTERING_METHODS
     bench: Any = None
+    field_roles: tuple[str, ...] = ("scalar", "label", "rgb")
 
     def declared(self, name: str) -> Optional[Setting]:
         return next((s for s in self.settings if s.name == name), None)

@@ -51,6 +51,7 @@ from .schema import (
     VolumeSpec,
     own_settings,
     owned_keys,
+    split_volume_tables,
     parse_table,
     renderer_spec_class,
     spec_to_dict,
@@ -147,6 +148,7 @@ def parse_scene(raw: dict, source: str | None = None, base_dir: Path | str | Non
     (``base_dir``: where a relative ``transfer_function.file`` lies; default the working folder;
     ``lookup``: the preset or file already looked up, :func:`look_up_preset`)."""
     try:
+        raw = split_volume_tables(raw)
         return parse_table(SceneSpec, _with_preset_shading(raw, Path(base_dir or Path.cwd()), lookup), "")
     except SceneError as exc:
         if source is None:
@@ -184,7 +186,8 @@ def _resolve_volume(spec: VolumeSpec, base_dir: Path, memory_budget_mb: float | 
     if volume is None:
         volume = load_field(path, spec.format, array=spec.array, solution=solution, dims=spec.dims, dtype=spec.dtype,
                             endian=spec.endian, header_bytes=spec.header_bytes, spacing=spec.spacing,
-                            origin=spec.origin, nan_value=spec.nan_value, series=spec.series, level=spec.level)
+                            origin=spec.origin, nan_value=spec.nan_value, series=spec.series, level=spec.level,
+                            **_selection(spec))
     if spec.resample is not None:
         if not hasattr(volume, "resampled"):
             raise SceneError(f"volume.resample applies to meshes; {path.name} is a {getattr(volume, 'kind', 'grid')}: "
@@ -193,7 +196,29 @@ def _resolve_volume(spec: VolumeSpec, base_dir: Path, memory_budget_mb: float | 
     return volume, dataclasses.replace(spec, path=str(path.resolve()))
 
 
-_FILE_KEYS = ("dims", "dtype", "spacing", "origin", "nan_value", "array", "solution", "resample", "series", "level")
+_FILE_KEYS = ("dims", "dtype", "spacing", "origin", "nan_value", "array", "solution", "resample", "series", "level",
+              "channel", "time")
+
+
+def _selection(spec: VolumeSpec) -> dict:
+    """The channel and time step a volume table picks, as the readers take them (only those given, so that a
+    reader of files without channels or time need not know the keys)."""
+    return {k: getattr(spec, k) for k in ("channel", "time") if getattr(spec, k) is not None}
+
+
+def _members(field, spec: VolumeSpec) -> tuple:
+    """The members a volume table gives: a file's channels (each a scalar field), or its one field in the
+    table's role (:mod:`dvr_gl.fields.layers`)."""
+    from ..fields.layers import FieldSet, Member, members_of
+
+    if isinstance(field, FieldSet):
+        if spec.role != "scalar":
+            raise SceneError(f"volume.role = {spec.role}: {_source_name(field, spec)} has {len(field)} channels; "
+                             f"pick one with volume.channel")
+        return field.members
+    if spec.role == "scalar":
+        return members_of(field)
+    return (Member(field, spec.role, getattr(field, "name", "")),)
 
 def _check_extent(field, spec: VolumeSpec):
     """Refuse a field whose voxels, box or position are out of :data:`WORLD_RANGE`, naming where the
@@ -419,9 +444,20 @@ class Scene:
     volume_source: VolumeSpec = dataclasses.field(default_factory=VolumeSpec)
     spec: SceneSpec | None = None
     tolerance_choice: object = None
+    transfer_functions: tuple = ()
+    sources: tuple = ()
 
     def __post_init__(self):
         check_albedo(self.renderer, self.transfer_function)
+
+    @property
+    def layers(self) -> tuple:
+        """Every field with its classification: ``(Layer(field, role, name, transfer_function), ...)``, one for
+        a scene of one field (:mod:`dvr_gl.fields.layers`)."""
+        from ..fields.layers import Layer, members_of
+
+        tfs = self.transfer_functions or (self.transfer_function,)
+        return tuple(Layer(m.field, m.role, m.name, tf) for m, tf in zip(members_of(self.field), tfs))
 
     @property
     def volume(self):
@@ -495,14 +531,32 @@ class Scene:
             except ValueError:  # another drive on Windows
                 pass
         tf = self.transfer_function
+        if self.sources:  # several fields: every [[volume]] table with its transfer function
+            return {"volume": [{**spec_to_dict(self._relative(s, relative_to)),
+                                "transfer_function": _tf_dict(layer.transfer_function)}
+                               for s, layer in zip(self.sources, self.layers)],
+                    "camera": self.camera.to_dict(),
+                    "image": spec_to_dict(self.image),
+                    "renderer": _relative_geometry(effective_renderer_dict(self.renderer), relative_to)}
         return {
             "volume": spec_to_dict(source),
-            "transfer_function": {"points": tf.points.tolist(), "unit_distance": tf.unit_distance,
-                                  "opacity_model": tf.opacity_model},
+            "transfer_function": _tf_dict(tf),
             "camera": self.camera.to_dict(),
             "image": spec_to_dict(self.image),
             "renderer": _relative_geometry(effective_renderer_dict(self.renderer), relative_to),
         }
+
+    @staticmethod
+    def _relative(source: VolumeSpec, relative_to) -> VolumeSpec:
+        if not source.path and not source.demo:
+            raise SceneError("this scene's data is in memory, so a scene file cannot name it; save it "
+                             "(e.g. numpy.save('data.npy', array)) and load the scene from volume.path")
+        if source.path and relative_to is not None:
+            try:
+                return dataclasses.replace(source, path=os.path.relpath(source.path, relative_to))
+            except ValueError:  # another drive on Windows
+                pass
+        return source
 
     def to_toml(self, relative_to: Path | None = None) -> str:
         return dumps(self.to_dict(relative_to),
@@ -515,6 +569,13 @@ class Scene:
         lo, hi = tf.domain
         return (f"Scene({self.field!r}, transfer_function=<{len(tf.points)} points, {lo:g}..{hi:g}>, "
                 f"camera={self.camera!r}, image={self.image.width}x{self.image.height}, renderer={r.name!r})")
+
+
+def _tf_dict(tf) -> dict:
+    """A resolved transfer function as its scene table (a label table's own when it has one)."""
+    if hasattr(tf, "to_table"):
+        return tf.to_table()
+    return {"points": tf.points.tolist(), "unit_distance": tf.unit_distance, "opacity_model": tf.opacity_model}
 
 
 def effective_renderer_dict(renderer) -> dict:
@@ -536,22 +597,90 @@ def resolve_scene(spec: SceneSpec, base_dir: Path | str = ".", field=None, volum
     function's preset or file, already looked up (:func:`look_up_preset`)."""
     from ..renderers import registry
 
+    from ..fields.layers import as_data, members_of
+
     base_dir = Path(base_dir)
     _check_image(spec.image)
+    tfs = None
+    if isinstance(transfer_function, (list, tuple)):  # one per field (the API's several fields)
+        tfs, transfer_function = tuple(transfer_function), None
     if field is None:
         budget = getattr(spec.renderer, "memory_budget_mb", None)  # declared by the renderers that read out of core
-        field, volume_source = _resolve_volume(spec.volume, base_dir, budget)
-    _check_extent(field, volume_source or spec.volume)
-    tf = transfer_function or _resolve_transfer_function(spec.transfer_function, field, spec.volume.demo, base_dir,
-                                                         lookup)
+        field, sources, tf_specs = _resolve_volumes(spec, base_dir, budget)
+        volume_source = sources[0]
+    else:
+        sources = (volume_source or VolumeSpec(),) * len(members_of(field))
+        tf_specs = (spec.transfer_function,) * len(sources)
+    members = members_of(field)
+    for m, source in zip(members, sources):
+        _check_extent(m.field, source)
+    if tfs is not None and len(tfs) != len(members):
+        raise SceneError(f"transfer_function: {len(tfs)} given for {len(members)} field"
+                         f"{'s' * (len(members) != 1)}; give one per field (channel)")
+    if tfs is None:
+        tfs = tuple(transfer_function if transfer_function is not None and i == 0 else
+                    _member_transfer_function(tf_specs[i], m, i, len(members), spec.volume.demo, base_dir,
+                                              lookup if i == 0 else None)
+                    for i, m in enumerate(members))
+    tf = tfs[0]
     if spec.transfer_function.file is not None:  # absolute, so that a new field re-resolves it from anywhere
         spec = dataclasses.replace(spec, transfer_function=dataclasses.replace(
             spec.transfer_function, file=str(_tf_path(spec.transfer_function.file, base_dir).resolve())))
     camera = camera or _resolve_camera(spec.camera, field, spec.image)
     renderer = _resolve_geometry(resolve_renderer(spec.renderer, field), base_dir)
-    scene = Scene(field, tf, camera, spec.image, renderer, volume_source or VolumeSpec(), spec)
+    scene = Scene(field, tf, camera, spec.image, renderer, volume_source or VolumeSpec(), spec,
+                  transfer_functions=tfs if len(tfs) > 1 else (), sources=tuple(sources) if len(tfs) > 1 else ())
     hook = registry.plugin(renderer.name).resolve
     return registry._load(hook)(scene) if hook is not None else scene
+
+
+def _resolve_volumes(spec: SceneSpec, base_dir: Path, budget):
+    """The scene's data from its volume tables (``[volume]``, or every ``[[volume]]``): one field, or a
+    :class:`~dvr_gl.fields.layers.FieldSet`; with each member's source (its table, a file's channel named) and
+    transfer-function spec."""
+    from ..fields.layers import FieldSet, as_data
+
+    members, sources, tf_specs = [], [], []
+    for table in [spec.volume, *spec.volumes]:
+        field, source = _resolve_volume(table, base_dir, budget)
+        these = _members(field, table)
+        members += these
+        channels = isinstance(field, FieldSet)
+        sources += [dataclasses.replace(_as_volume_spec(source), channel=k) if channels else _as_volume_spec(source)
+                    for k in range(len(these))]
+        tf_specs += [getattr(table, "transfer_function", spec.transfer_function)] * len(these)
+    return as_data(members), tuple(sources), tuple(tf_specs)
+
+
+def _as_volume_spec(table) -> VolumeSpec:
+    """A ``[[volume]]`` table's volume keys (without its transfer function)."""
+    if type(table) is VolumeSpec:
+        return table
+    return VolumeSpec(**{f.name: getattr(table, f.name) for f in dataclasses.fields(VolumeSpec)})
+
+
+def _unset(tf: TransferFunctionSpec) -> bool:
+    return tf.preset is None and tf.points is None and tf.file is None
+
+
+def _member_transfer_function(tf_spec, member, k: int, count: int, demo, base_dir: Path, lookup):
+    """The transfer function of member ``k`` of ``count``: its table's; a channel of several that names none
+    gets a colour of its own (:func:`~dvr_gl.transfer_function.channel_transfer_function`); a label map a
+    colour table (:mod:`dvr_gl.labels`), an RGB volume an opacity of its fourth component
+    (:mod:`dvr_gl.fields.color`)."""
+    if member.role == "label":
+        from ..labels import label_transfer_function
+
+        return label_transfer_function(tf_spec, member.field, base_dir)
+    if member.role == "rgb":
+        from ..fields.color import rgb_transfer_function
+
+        return rgb_transfer_function(tf_spec, member.field)
+    if count > 1 and _unset(tf_spec):
+        from ..transfer_function import channel_transfer_function
+
+        return channel_transfer_function(k, member.field.value_range, tf_spec.unit_distance)
+    return _resolve_transfer_function(tf_spec, member.field, demo, base_dir, lookup)
 
 
 def _resolve_geometry(renderer, base_dir: Path):
@@ -605,6 +734,7 @@ def is_volume_path(path) -> bool:
 def load_scene(path: Path | str | None = None, overrides: dict | None = None, base: dict | None = None) -> Scene:
     """Read a scene file (or start from ``base``, or an empty scene), apply overrides, resolve."""
     raw = read_scene_dict(Path(path)) if path is not None else copy.deepcopy(base or {})
+    raw = split_volume_tables(raw)  # [[volume]]: several fields
     if overrides:
         raw = apply_overrides(raw, overrides)
     base_dir = Path(path).parent if path is not None else Path.cwd()

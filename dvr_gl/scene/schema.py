@@ -102,6 +102,14 @@ class VolumeSpec:
                                             "`renderer.memory_budget_mb` and the format is read in part (raw, NRRD "
                                             "and MetaImage uncompressed, zarr), `true` always, `false` never",
                                             auto_or_bool)
+    channel: Optional[int] = checked(None, "a file with channels (OME-Zarr `c`, an ImageJ/OME hyperstack, NIfTI "
+                                           "4D/5D): the one to render (0 first); default: every channel, each a "
+                                           "field composited per sample (docs/several-fields.md)", at_least(0))
+    time: Optional[int] = checked(None, "a time series (OME-Zarr `t`, a hyperstack's frames, NIfTI 4D, a glob of "
+                                        "files): the step to render (0 first; default 0)", at_least(0))
+    role: str = choices("scalar", "label", "rgb", default="scalar",
+                        doc="how a sample is classified: a value through the transfer function, a `label` map "
+                            "through a colour table (docs/labels.md), or an `rgb` colour volume")
 
 
 @dataclass
@@ -164,12 +172,47 @@ class ImageSpec:
 
 
 @dataclass
+class LayerSpec(VolumeSpec):
+    """A further field of a scene of several (the second and later ``[[volume]]`` tables): a volume's keys and
+    its own ``[volume.transfer_function]``."""
+
+    transfer_function: TransferFunctionSpec = field(default_factory=TransferFunctionSpec)
+
+
+@dataclass
 class SceneSpec:
     volume: VolumeSpec = field(default_factory=VolumeSpec)
     transfer_function: TransferFunctionSpec = field(default_factory=TransferFunctionSpec)
     camera: CameraSpec = field(default_factory=CameraSpec)
     image: ImageSpec = field(default_factory=ImageSpec)
     renderer: RendererTable = field(default_factory=default_renderer_spec)
+    #: the second and later ``[[volume]]`` tables (:func:`split_volume_tables`); a scene file writes them all as
+    #: ``[[volume]]``, the first one's transfer function in it
+    volumes: list[LayerSpec] = field(default_factory=list)
+
+
+def split_volume_tables(raw: dict) -> dict:
+    """A scene dict whose ``volume`` is an array of tables (``[[volume]]``: several fields, each with its own
+    ``transfer_function`` table) as the schema reads it: the first as ``volume`` (its transfer function as the
+    scene's ``transfer_function``), the others as ``volumes``.  Other dicts unchanged."""
+    tables = raw.get("volume")
+    if not isinstance(tables, list):
+        return raw
+    if not tables or not all(isinstance(t, dict) for t in tables):
+        raise SceneError("volume: expected a table, or an array of tables ([[volume]]) each naming a field")
+    if "volumes" in raw:
+        raise SceneError("volumes: write every field as a [[volume]] table")
+    out = dict(raw)
+    first = dict(tables[0])
+    tf = first.pop("transfer_function", None)
+    if tf is not None:
+        if "transfer_function" in raw:
+            raise SceneError("transfer_function and volume[0].transfer_function were both given: give the first "
+                             "field's transfer function in its [[volume]] table")
+        out["transfer_function"] = tf
+    out["volume"] = first
+    out["volumes"] = [dict(t) for t in tables[1:]]
+    return out
 
 
 # --- parsing ------------------------------------------------------------------------------------

@@ -1,0 +1,186 @@
+"""Several fields in one scene (data kind ``"fields"``): :class:`FieldSet`, the channels of a microscope,
+a CT with its segmentation, a fusion of CT and PET, composited *per sample* in depth order.
+
+Each member is a regular grid (:class:`~dvr_gl.fields.grid.Volume`) with its own dims, spacing and origin
+and a *role* that says how a sample of it is classified:
+
+* ``"scalar"``: a value, through its own transfer function;
+* ``"label"``: an integer label map, through a categorical table (colour and opacity per label), never
+  interpolated between labels (:mod:`dvr_gl.labels`);
+* ``"rgb"``: a colour volume (:mod:`dvr_gl.fields.color`): colour from the data, opacity from a transfer
+  function of its fourth component (luminance or alpha).
+
+The mixture at a point (docs/several-fields.md): extinctions add and emissions add,
+``sigma = sum_i sigma_i``, ``sigma c = sum_i sigma_i c_i``, each member contributing only inside its own
+box (:attr:`Member.bounds`); the ray's extent is the union of the boxes (:attr:`FieldSet.bounds`).
+The members share one orientation (the direction matrix of the first; others must match): the renderers
+work in that frame.
+
+A single scalar grid is never a FieldSet: it stays a :class:`Volume` (kind ``"grid"``), so that a scene
+of one field renders exactly as it always did.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from ..errors import SceneError
+
+ROLES = ("scalar", "label", "rgb")
+
+
+@dataclass(frozen=True)
+class Member:
+    """One field of a :class:`FieldSet`: a grid, its role (:data:`ROLES`) and a name for messages and
+    legends (a channel's name from its file, else ``"channel k"``)."""
+
+    field: object
+    role: str = "scalar"
+    name: str = ""
+
+    def __post_init__(self):
+        if self.role not in ROLES:
+            raise SceneError(f"{self.name or 'field'}: role must be one of {', '.join(ROLES)}, got {self.role!r}")
+        if getattr(self.field, "kind", None) != "grid":
+            raise SceneError(f"{self.name or 'field'}: several fields in one scene must each be a regular grid; "
+                             f"this one is {getattr(self.field, 'kind', type(self.field).__name__)}: resample it "
+                             f"(volume.resample) or render it alone")
+
+    @property
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.field.bounds
+
+
+def same_grid(a, b) -> bool:
+    """Whether two grids sample the same points (dims, spacing, origin, direction): channels of one array,
+    which travel in one texture."""
+    return (a.dims == b.dims and np.allclose(a.spacing, b.spacing, rtol=1e-9, atol=0)
+            and np.allclose(a.origin, b.origin, rtol=0, atol=1e-9 * max(a.spacing))
+            and np.allclose(a.direction, b.direction, atol=1e-9))
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class FieldSet:
+    """Several grids in one scene, composited per sample (see the module doc).  ``members`` in the scene's
+    order (that of its ``[[volume]]`` tables and of a file's channels)."""
+
+    members: tuple
+
+    kind = "fields"
+    out_of_core = False
+
+    def __post_init__(self):
+        members = tuple(m if isinstance(m, Member) else Member(m, "scalar", getattr(m, "name", "")) for m in
+                        self.members)
+        if not members:
+            raise SceneError("a scene of several fields needs at least one field")
+        for m in members:
+            if getattr(m.field, "kind", None) != "grid":
+                Member(m.field, m.role, m.name)  # refused there, in one line
+        first = members[0].field.direction
+        for m in members[1:]:
+            if not np.allclose(m.field.direction, first, atol=1e-6):
+                raise SceneError(f"{m.name}: its direction matrix differs from {members[0].name}'s; several fields "
+                                 f"are rendered in one frame: resample it into the first field's orientation")
+        object.__setattr__(self, "members", members)
+
+    @property
+    def fields(self) -> tuple:
+        return tuple(m.field for m in self.members)
+
+    @property
+    def name(self) -> str:
+        return " + ".join(m.name or m.field.name for m in self.members)
+
+    @property
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The union of the members' boxes (world units, the volume frame)."""
+        los, his = zip(*(m.bounds for m in self.members))
+        return np.min(los, axis=0), np.max(his, axis=0)
+
+    box = bounds
+
+    @property
+    def value_range(self) -> tuple[float, float]:
+        """The first member's (what a single transfer function would span)."""
+        return self.members[0].field.value_range
+
+    @property
+    def sample_spacing(self) -> float:
+        """One voxel: the smallest spacing of any member (world units)."""
+        return min(m.field.sample_spacing for m in self.members)
+
+    @property
+    def direction(self):
+        return self.members[0].field.direction
+
+    @property
+    def origin(self):
+        """The first member's origin: the point the orientation turns about (:mod:`dvr_gl.orientation`)."""
+        return self.members[0].field.origin
+
+    @property
+    def nbytes(self) -> int:
+        return sum(m.field.nbytes for m in self.members)
+
+    def groups(self, per_texture: int = 4) -> list[list[int]]:
+        """Member indices grouped as they travel to a GPU: scalar and label members on the same grid share
+        a texture, up to ``per_texture`` each; an RGB member fills one of its own."""
+        out: list[list[int]] = []
+        for i, m in enumerate(self.members):
+            if m.role != "rgb":
+                for g in out:
+                    first = self.members[g[0]]
+                    if (first.role != "rgb" and len(g) < per_texture and first.field.dtype == m.field.dtype
+                            and same_grid(first.field, m.field)):
+                        g.append(i)
+                        break
+                else:
+                    out.append([i])
+            else:
+                out.append([i])
+        return out
+
+    def describe(self) -> str:
+        return "; ".join(f"[{m.role}] {m.field.describe()}" for m in self.members)
+
+    def __len__(self) -> int:
+        return len(self.members)
+
+    def __repr__(self) -> str:
+        return f"FieldSet({', '.join(f'{m.name or m.field.name}:{m.role}' for m in self.members)})"
+
+
+class Layer(NamedTuple):
+    """A field of a scene with its classification (:attr:`dvr_gl.scene.resolve.Scene.layers`)."""
+
+    field: object
+    role: str
+    name: str
+    transfer_function: object
+
+
+def as_data(members) -> object:
+    """One scalar member: its field alone (kind ``"grid"``); otherwise a :class:`FieldSet`."""
+    members = tuple(members)
+    if len(members) == 1 and members[0].role == "scalar":
+        return members[0].field
+    return FieldSet(members)
+
+
+def members_of(field) -> tuple:
+    """The members of a scene's data: a FieldSet's, or the field itself as one scalar member."""
+    if isinstance(field, FieldSet):
+        return field.members
+    return (_single(field),)
+
+
+def _single(field) -> Member:
+    m = object.__new__(Member)  # no checks: a single field of any kind is one scalar member
+    object.__setattr__(m, "field", field)
+    object.__setattr__(m, "role", "scalar")
+    object.__setattr__(m, "name", getattr(field, "name", ""))
+    return m
