@@ -161,6 +161,7 @@ class Layer(NamedTuple):
     role: str
     name: str
     transfer_function: object
+    iso_value: float | None = None  # isosurface: where this field's surface is (data units)
 
 
 def as_data(members) -> object:

@@ -457,7 +457,16 @@ class Scene:
         from ..fields.layers import Layer, members_of
 
         tfs = self.transfer_functions or (self.transfer_function,)
-        return tuple(Layer(m.field, m.role, m.name, tf) for m, tf in zip(members_of(self.field), tfs))
+        isos = [self.renderer.iso_value] + [None] * (len(tfs) - 1)
+        for i, source in enumerate(self.sources):
+            if source.iso_value is not None:
+                isos[i] = source.iso_value
+        for i, m in enumerate(members_of(self.field)):
+            if isos[i] is None:
+                lo, hi = m.field.value_range
+                isos[i] = (lo + hi) / 2.0
+        return tuple(Layer(m.field, m.role, m.name, tf, iso)
+                     for m, tf, iso in zip(members_of(self.field), tfs, isos))
 
     @property
     def volume(self):

@@ -107,6 +107,9 @@ class VolumeSpec:
                                            "field composited per sample (docs/several-fields.md)", at_least(0))
     time: Optional[int] = checked(None, "a time series (OME-Zarr `t`, a hyperstack's frames, NIfTI 4D, a glob of "
                                         "files): the step to render (0 first; default 0)", at_least(0))
+    iso_value: Optional[float] = doc(None, "isosurface of several fields: this field's iso-value, data units "
+                                           "(default: `renderer.iso_value` for the first field, the middle of "
+                                           "its value range for the others)")
     role: str = choices("scalar", "label", "rgb", default="scalar",
                         doc="how a sample is classified: a value through the transfer function, a `label` map "
                             "through a colour table (docs/labels.md), or an `rgb` colour volume")
