@@ -51,10 +51,10 @@ from .schema import (
     VolumeSpec,
     own_settings,
     owned_keys,
-    split_volume_tables,
     parse_table,
     renderer_spec_class,
     spec_to_dict,
+    split_volume_tables,
     tables_as_specs,
 )
 from .settings import FILTER, check_albedo
@@ -604,9 +604,8 @@ def resolve_scene(spec: SceneSpec, base_dir: Path | str = ".", field=None, volum
     """Load the field (unless given) and turn presets and defaults into explicit values; then the
     scene's renderer resolves what is its own (the ray caster: a tolerance).  ``lookup``: the transfer
     function's preset or file, already looked up (:func:`look_up_preset`)."""
+    from ..fields.layers import members_of
     from ..renderers import registry
-
-    from ..fields.layers import as_data, members_of
 
     base_dir = Path(base_dir)
     _check_image(spec.image)
