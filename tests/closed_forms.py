@@ -19,6 +19,9 @@ exactly known bounds), for every compositing mode.
 * ``mesh boxes`` (data kind ``mesh``): two boxes of hexahedra (split into tetrahedra when read)
   with a gap between them, one constant cell scalar: Beer-Lambert on the sum of the two chords (a
   non-convex mesh: nothing in the gap); the projections as for ``box``.
+* ``two channels`` (data kind ``fields``): two constant channels on one grid, each with its own colour and
+  extinction, composited per sample: ``exp(-(s1 + s2) L)`` and the extinction-weighted colour; the
+  per-channel projections add each channel's classified colour.
 * ``mesh ramp`` (``mesh``): a box of hexahedra with its interior points moved, point scalar ``= x``
   (linear, so every tetrahedron holds it exactly): the closed forms of ``ramp``.
 
@@ -347,6 +350,47 @@ def _mesh_ramp_scene(tmp_path, mode, view, renderer):
     return _mesh_scene(path, tf, mode, view, renderer, {"renderer.iso_value": RAMP_ISO})
 
 
+# --- two channels (data kind "fields") -----------------------------------------------------------
+
+CHANNELS = ((0.6, np.array([0.9, 0.5, 0.2]), 0.9), (0.3, np.array([0.1, 0.4, 0.9]), 0.5))  # value, colour, sigma
+
+
+def _channels_scene(tmp_path, mode, view, renderer):
+    """Two constant channels on one grid, each with its own colour and extinction: per sample the extinctions
+    add and the emissions add (docs/several-fields.md).  The second channel's iso-value lies above its value,
+    so the isosurface is the first channel's, hit at the entry point."""
+    tables = []
+    for k, (value, colour, sigma) in enumerate(CHANNELS):
+        path = _save(tmp_path, f"channel{k}", np.full((5, 6, 7), value, np.float32))
+        tables.append({"path": path, "spacing": [0.5, 0.6, 0.7], "iso_value": 0.3 if k == 0 else 0.9,
+                       "transfer_function": {"points": [[0.0, *colour, sigma], [1.0, *colour, sigma]],
+                                             "opacity_model": "extinction"}})
+    overrides = {**own_filter(renderer, mode), "image.width": WIDTH, "image.height": HEIGHT,
+                 "renderer.name": renderer, "renderer.compositing": mode, "renderer.ert_threshold": 1.0,
+                 "renderer.converged_tolerance": 1e-6, **VIEWS[view]}
+    return load_scene(None, overrides, base={"volume": tables})
+
+
+def _channels_bounds(scene):
+    """Emission-absorption and the radiograph: transmittance ``exp(-(s1 + s2) L)`` and the extinction-weighted
+    colour; the per-channel projections: each constant classified alone (opacity of one unit distance), colours
+    added, alpha ``1 - (1 - a1)(1 - a2)``; the isosurface: the first channel's colour, opaque."""
+    mode = scene.renderer.compositing
+    _, _, t0, t1 = _rays(scene)
+    length = t1 - t0
+    hit = (length > 0)[:, None]
+    (_, c1, s1), (_, c2, s2) = CHANNELS
+    if mode in ("emission_absorption", "xray"):
+        rgba = _rgba((s1 * c1 + s2 * c2) / (s1 + s2), -np.expm1(-(s1 + s2) * length))
+    elif mode == "isosurface":
+        rgba = np.where(hit, np.append(c1, 1.0), 0.0)
+    else:
+        a1, a2 = -np.expm1(-s1), -np.expm1(-s2)
+        rgba = np.where(hit, np.append(a1 * c1 + a2 * c2, 1.0 - (1.0 - a1) * (1.0 - a2)), 0.0)
+    image = _image(rgba, scene)
+    return image, image, _margin_mask(scene, 0.05)
+
+
 CLOSED_FORMS = {cf.name: cf for cf in (
     ClosedForm("box", "grid", ALL_MODES, _box_scene, _box_bounds),
     ClosedForm("ramp", "grid", ALL_MODES, _ramp_scene, _ramp_bounds),
@@ -354,6 +398,7 @@ CLOSED_FORMS = {cf.name: cf for cf in (
     ClosedForm("analytic sphere", "analytic", ("emission_absorption",), _analytic_scene, _analytic_bounds),
     ClosedForm("mesh boxes", "mesh", ALL_MODES, _mesh_boxes_scene, _mesh_boxes_bounds),
     ClosedForm("mesh ramp", "mesh", ALL_MODES, _mesh_ramp_scene, _ramp_bounds),
+    ClosedForm("two channels", "fields", ALL_MODES, _channels_scene, _channels_bounds),
 )}
 
 
