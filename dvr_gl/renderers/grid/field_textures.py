@@ -1,0 +1,197 @@
+"""Several fields (:class:`~dvr_gl.fields.layers.FieldSet`) as textures, for the grid renderers' shaders
+(``dvr_gl/gl/shaders/common/fields.glsl``).
+
+* :func:`upload_fields`: one 3D texture per group of :meth:`FieldSet.groups` (members on the same grid, of
+  the same dtype, up to four: channels R, RG, RGB, RGBA; an RGB member alone, RGBA), each in the members'
+  own precision (:mod:`.textures`: uint8 as unorm8, uint16 and int16 as unorm16, float32 as float32) with
+  its own world-to-voxel transform, dims and box.  Member ``i`` is channel :attr:`FieldTextures.channel`
+  ``[i]`` of texture :attr:`FieldTextures.group` ``[i]``; its data value is ``texel * scale + offset``.
+* :func:`table_atlas`: the members' transfer-function tables, one row each (N x members, RGBA32F), with each
+  row's value domain and unit distance; :func:`preintegration_atlas`: their pre-integration tables stacked
+  (N x N per member, member ``i`` in rows ``i N`` to ``(i + 1) N - 1``).
+
+What the shaders read: :meth:`FieldTextures.textures` (samplers ``u_field_group[g]``),
+:meth:`FieldTextures.uniforms` and :meth:`FieldTextures.defines`; the atlases' own ``uniforms()``.
+World coordinates are the volume frame's (the members share one direction matrix), in world units.
+Every per-member uniform is a float array indexed by member; per group, vec3 arrays indexed by group.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import moderngl
+import numpy as np
+
+from ...errors import SceneError
+from ...preintegration import preintegrate
+from .textures import FORMATS
+
+#: Textures of one FieldSet a shader samples at most (GL guarantees 16 units a fragment shader; the tables,
+#: block textures and targets take others).
+MAX_GROUPS = 6
+
+
+@dataclass
+class FieldGroup:
+    """One texture of several fields on one grid: ``members`` (indices) in channel order."""
+
+    members: tuple
+    texture: moderngl.Texture3D
+    dims: tuple            # (nx, ny, nz) voxels
+    scale: np.ndarray      # voxel = world * scale + offset (voxel i at its centre, i)
+    offset: np.ndarray
+    spacing: np.ndarray    # world units per voxel along x, y, z
+    box: tuple             # (lo, hi) world units: where its members contribute (closed)
+    nbytes: int
+
+
+class FieldTextures:
+    """A FieldSet's textures (:func:`upload_fields`): ``groups``, and per member ``group`` and ``channel``,
+    ``value_scale`` and ``value_offset`` (data value = texel * scale + offset)."""
+
+    def __init__(self, groups: list, group: tuple, channel: tuple, value_scale: tuple, value_offset: tuple):
+        self.groups, self.group, self.channel = groups, group, channel
+        self.value_scale, self.value_offset = value_scale, value_offset
+
+    @property
+    def nbytes(self) -> int:
+        return sum(g.nbytes for g in self.groups)
+
+    def defines(self) -> dict:
+        """``FIELDS``, ``NUM_FIELDS`` (members), ``NUM_FIELD_GROUPS`` (textures) and the members' texture and
+        channel as constant lists (``FIELD_GROUP_OF``, ``FIELD_CHANNEL_OF``: compile-time, so samplers are
+        indexed by constants as GLSL 3.30 requires)."""
+        return {"FIELDS": True, "NUM_FIELDS": len(self.group), "NUM_FIELD_GROUPS": len(self.groups),
+                "FIELD_GROUP_OF": ", ".join(str(g) for g in self.group),
+                "FIELD_CHANNEL_OF": ", ".join(str(c) for c in self.channel)}
+
+    def textures(self) -> dict:
+        return {f"u_field_group[{g}]": group.texture for g, group in enumerate(self.groups)}
+
+    def uniforms(self) -> dict:
+        """Per group (vec3 arrays): world to voxel (``u_field_scale``, ``u_field_offset``), dims as floats
+        (``u_field_dims``), spacing and box; per member (float arrays): ``u_field_value_scale``,
+        ``u_field_value_offset``."""
+        def vec3s(name):
+            return [float(x) for g in self.groups for x in np.asarray(getattr(g, name), dtype=np.float64)]
+
+        return {"u_field_scale": vec3s("scale"), "u_field_offset": vec3s("offset"),
+                "u_field_dims": [float(x) for g in self.groups for x in g.dims],
+                "u_field_spacing": vec3s("spacing"),
+                "u_field_box_lo": [float(x) for g in self.groups for x in g.box[0]],
+                "u_field_box_hi": [float(x) for g in self.groups for x in g.box[1]],
+                "u_field_value_scale": list(self.value_scale), "u_field_value_offset": list(self.value_offset)}
+
+    def release(self):
+        for g in self.groups:
+            g.texture.release()
+
+
+def upload_fields(ctx, fieldset, per_texture: int = 4) -> FieldTextures:
+    """The FieldSet's members as textures, grouped by :meth:`FieldSet.groups` (``per_texture`` channels at
+    most; an RGB member is one RGBA texture of its own: :mod:`dvr_gl.fields.color`)."""
+    groups = fieldset.groups(per_texture)
+    if len(groups) > MAX_GROUPS:
+        raise SceneError(f"{len(fieldset)} fields travel in {len(groups)} textures, more than the {MAX_GROUPS} a "
+                         f"frame samples; put fields on a shared grid (channels of one array travel four to a "
+                         f"texture) or render fewer")
+    n = len(fieldset.members)
+    group, channel = [0] * n, [0] * n
+    scale, offset = [1.0] * n, [0.0] * n
+    out = []
+    for g, indices in enumerate(groups):
+        fields = [fieldset.members[i].field for i in indices]
+        texture, nbytes, value_scale, value_offset = _group_texture(ctx, fields)
+        for c, i in enumerate(indices):
+            group[i], channel[i], scale[i], offset[i] = g, c, value_scale, value_offset
+        first = fields[0]
+        spacing = np.asarray(first.spacing, dtype=np.float64)
+        lo, hi = first.box
+        out.append(FieldGroup(tuple(indices), texture, tuple(int(x) for x in first.dims), 1.0 / spacing,
+                              -np.asarray(first.origin, dtype=np.float64) / spacing, spacing,
+                              (np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)), nbytes))
+    return FieldTextures(out, tuple(group), tuple(channel), tuple(scale), tuple(offset))
+
+
+def _group_texture(ctx, fields: list):
+    """One texture of ``fields`` (same grid and dtype) as channels, and (nbytes, value scale, offset).
+    A colour volume (4 components, ``data`` of shape (nz, ny, nx, 4)) is one RGBA32F texture."""
+    data = [np.asarray(f.data) for f in fields]
+    if data[0].ndim == 4:  # a colour volume: linear components, already float (dvr_gl.fields.color)
+        stacked = np.ascontiguousarray(data[0], dtype=np.float32)
+        return _texture(ctx, stacked, stacked.shape[3], "f4"), stacked.nbytes, 1.0, 0.0
+    dtype = data[0].dtype
+    if dtype not in FORMATS:
+        raise SceneError(f"{fields[0].name}: data type {dtype} has no texture format; convert it to uint8, uint16, "
+                         f"int16 or float32")
+    kind, value_scale, value_offset, size = FORMATS[dtype]
+    stacked = np.stack(data, axis=-1) if len(data) > 1 else data[0][..., None]
+    if dtype == np.int16:  # unorm16 of x + 32768: x's bits with the sign flipped (.textures)
+        stacked = np.bitwise_xor(stacked.view(np.uint16), np.uint16(0x8000))
+    stacked = np.ascontiguousarray(stacked)
+    return _texture(ctx, stacked, stacked.shape[3], kind), stacked.size * size, value_scale, value_offset
+
+
+def _texture(ctx, data: np.ndarray, components: int, kind: str) -> moderngl.Texture3D:
+    nz, ny, nx = data.shape[:3]
+    tex = ctx.texture3d((nx, ny, nz), components, data, dtype=kind)
+    tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+    tex.repeat_x = tex.repeat_y = tex.repeat_z = False
+    return tex
+
+
+class TableAtlas:
+    """The members' transfer-function tables (``luts``: :meth:`TransferFunction.tabulate` of each), one row
+    of N texels each (RGBA32F, fetched, not filtered): ``(r, g, b, sigma)`` at N evenly spaced values of the
+    row's domain."""
+
+    def __init__(self, ctx, luts: list, unit_distances: list):
+        self.luts, self.unit_distances = luts, unit_distances
+        table = np.stack([np.asarray(lut.table, dtype=np.float32) for lut in luts])  # (members, N, 4)
+        self.size = table.shape[1]
+        self.texture = ctx.texture((self.size, len(luts)), 4, np.ascontiguousarray(table).tobytes(), dtype="f4")
+        self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.texture.repeat_x = self.texture.repeat_y = False
+
+    def uniforms(self) -> dict:
+        """Per member: the row's value of texel 0 (``u_field_lut_lo``), texels per data unit
+        (``u_field_lut_scale``) and the transfer function's unit distance (world units); the row length."""
+        lo = [float(lut.domain[0]) for lut in self.luts]
+        scale = [(self.size - 1) / float(lut.domain[1] - lut.domain[0]) for lut in self.luts]
+        return {"u_field_lut_lo": lo, "u_field_lut_scale": scale, "u_field_lut_size": self.size,
+                "u_field_unit_distance": [float(u) for u in self.unit_distances]}
+
+
+def table_atlas(ctx, transfer_functions, lut_size: int) -> TableAtlas:
+    """The members' tables (one transfer function per member, in order), ``lut_size`` texels a row."""
+    return TableAtlas(ctx, [tf.tabulate(lut_size) for tf in transfer_functions],
+                      [tf.unit_distance for tf in transfer_functions])
+
+
+class PreintegrationAtlas:
+    """The members' pre-integration tables (:func:`dvr_gl.preintegration.preintegrate`, N x N each: x the
+    front value, y the back value), member ``i`` in rows ``i N`` to ``(i + 1) N - 1`` of one RGBA32F texture."""
+
+    def __init__(self, ctx, tables: list):
+        self.tables = tables
+        self.size = tables[0].size
+        data = np.concatenate([np.asarray(t.table, dtype=np.float32).transpose(1, 0, 2) for t in tables])
+        self.texture = ctx.texture((self.size, self.size * len(tables)), 4, np.ascontiguousarray(data).tobytes(),
+                                   dtype="f4")
+        self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.texture.repeat_x = self.texture.repeat_y = False
+
+    def uniforms(self) -> dict:
+        """Per member: the value of node 0 (``u_field_preint_lo``) and nodes per data unit
+        (``u_field_preint_scale``); the table's size."""
+        return {"u_field_preint_size": self.size,
+                "u_field_preint_lo": [float(t.domain[0]) for t in self.tables],
+                "u_field_preint_scale": [(self.size - 1) / float(t.domain[1] - t.domain[0]) for t in self.tables]}
+
+
+def preintegration_atlas(ctx, transfer_functions, slab_length: float, size: int, method: str,
+                         lut_size: int) -> PreintegrationAtlas:
+    """The members' pre-integration tables for segments ``slab_length`` long (world units)."""
+    return PreintegrationAtlas(ctx, [preintegrate(tf, slab_length, size, method, lut_size)
+                                     for tf in transfer_functions])
