@@ -216,6 +216,8 @@ def _members(field, spec: VolumeSpec) -> tuple:
             raise SceneError(f"volume.role = {spec.role}: {_source_name(field, spec)} has {len(field)} channels; "
                              f"pick one with volume.channel")
         return field.members
+    if getattr(field, "role", None) == "rgb" and spec.role == "scalar":  # a file whose header says colour
+        return (Member(field, "rgb", field.name),)
     if spec.role == "scalar":
         return members_of(field)
     return (Member(field, spec.role, getattr(field, "name", "")),)
@@ -256,6 +258,9 @@ def _resolve_transfer_function(spec: TransferFunctionSpec, field, demo: str | No
     for key in ("stretch", "name"):
         if getattr(spec, key) is not None and spec.file is None:
             raise SceneError(f"transfer_function.{key} applies to a file (transfer_function.file); remove it")
+    if getattr(spec, "labels", None) is not None:
+        raise SceneError("transfer_function.labels applies to a label map (volume.role = \"label\", docs/labels.md); "
+                         "this field is scalar: give points, a preset or a file")
     if spec.points is not None:
         tf = TransferFunction(spec.points, spec.unit_distance, spec.opacity_model)
     else:
@@ -575,8 +580,10 @@ class Scene:
     def __repr__(self) -> str:
         r = self.renderer
         tf = self.transfer_function
-        lo, hi = tf.domain
-        return (f"Scene({self.field!r}, transfer_function=<{len(tf.points)} points, {lo:g}..{hi:g}>, "
+        if hasattr(tf, "points"):
+            lo, hi = tf.domain
+            tf = f"<{len(tf.points)} points, {lo:g}..{hi:g}>"
+        return (f"Scene({self.field!r}, transfer_function={tf}, "
                 f"camera={self.camera!r}, image={self.image.width}x{self.image.height}, renderer={r.name!r})")
 
 
@@ -683,7 +690,7 @@ def _member_transfer_function(tf_spec, member, k: int, count: int, demo, base_di
     if member.role == "rgb":
         from ..fields.color import rgb_transfer_function
 
-        return rgb_transfer_function(tf_spec, member.field)
+        return rgb_transfer_function(tf_spec, member.field, base_dir)
     if count > 1 and _unset(tf_spec):
         from ..transfer_function import channel_transfer_function
 

@@ -124,7 +124,9 @@ class TransferFunctionSpec:
                                       "(default `grayscale`; `shepp-logan` for that demo; docs/transfer-functions.md)",
                                 excludes=("points", "file", "name", "stretch"))
     file: Optional[str] = doc(None, "a Slicer `.vp` or presets `.xml`, or a ParaView colour-map `.json` "
-                                    "(relative to the scene file)", excludes=("points", "preset"))
+                                    "(relative to the scene file); a label map (`volume.role = \"label\"`): a "
+                                    "colour table, Slicer `.ctbl`/`.txt`, ITK-SNAP `.txt`/`.label` or a Slicer "
+                                    "`.seg.nrrd` (docs/labels.md)", excludes=("points", "preset"))
     name: Optional[str] = doc(None, "with `file`: which of the file's maps or presets (any case)")
     stretch: Optional[bool] = doc(None, "stretch the file's values onto the data's value range (default: "
                                         "ParaView JSON yes, Slicer files no)")
@@ -132,6 +134,10 @@ class TransferFunctionSpec:
                                                     "increasing, data units; or give `preset`; a sixth column "
                                                     "is scattering's albedo (docs/scattering.md)",
                                               excludes=("preset", "file", "name", "stretch"))
+    labels: Optional[list[list[float]]] = doc(None, "a label map (`volume.role = \"label\"`): `[[label, r, g, b, "
+                                                    "opacity], ...]`, colour linear; labels not listed (and 0 unless "
+                                                    "listed) are transparent (docs/labels.md)",
+                                              excludes=("points", "preset", "file", "name", "stretch"))
     unit_distance: float = checked(1.0, "world length that `alpha` refers to", world_length)
     opacity_model: str = choices("alpha", "extinction", default="alpha",
                                  doc="what the 5th column means: `alpha` per `unit_distance`, or `extinction` sigma")

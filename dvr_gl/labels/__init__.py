@@ -1,0 +1,50 @@
+"""Label maps (a member of role ``"label"``, :mod:`dvr_gl.fields.layers`): integer voxels classified by a
+categorical table, sampled without ever inventing a label (docs/labels.md).
+
+* :class:`~dvr_gl.labels.table.LabelTable`: colour and opacity per label; label 0 and labels it does not list
+  are transparent; its GPU form (an RGBA32F table, :meth:`~dvr_gl.labels.table.LabelTable.upload`).
+* :func:`~dvr_gl.labels.sampling.label_sample`: the float64 rule (the indicator of each of the 8 taps' labels,
+  argmax, ties to the smaller label; or the nearest voxel's) and the indicator's gradient; the GPU's is
+  ``dvr_gl/gl/shaders/common/labels.glsl``.
+* :func:`~dvr_gl.labels.readers.read_color_table`: Slicer's and ITK-SNAP's colour tables, Slicer's
+  ``.seg.nrrd`` segment metadata.
+* :func:`label_transfer_function`: a scene's ``[volume.transfer_function]`` of a label map, resolved.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..errors import SceneError
+from .readers import is_color_table, read_color_table
+from .sampling import indicator, label_sample
+from .table import DEFAULT_OPACITY, LabelTable, check_label_data, default_colors, default_table, labels_present
+
+__all__ = ["DEFAULT_OPACITY", "LabelTable", "check_label_data", "default_colors", "default_table", "indicator",
+           "is_color_table", "label_sample", "label_transfer_function", "labels_present", "read_color_table"]
+
+
+def label_transfer_function(tf_spec, field, base_dir: Path | str = ".") -> LabelTable:
+    """The :class:`LabelTable` of a label map ``field`` (a Volume) from its transfer-function spec: the rows of
+    ``labels``, a colour table ``file`` (relative to ``base_dir``), or by default every label present but 0 in
+    a colour of its own (:func:`default_table`).  Anything else (points, a preset) is refused in one line."""
+    check_label_data(field.data, getattr(field, "name", "label map"))
+    for key in ("points", "preset", "name", "stretch"):
+        if getattr(tf_spec, key, None) is not None:
+            raise SceneError(f"transfer_function.{key} does not apply to a label map ({getattr(field, 'name', '')}, "
+                             f"volume.role = \"label\"): give transfer_function.labels = [[label, r, g, b, opacity], "
+                             f"...] or a colour table file (.ctbl, ITK-SNAP .txt, .seg.nrrd), or neither for the "
+                             f"default colours (docs/labels.md)")
+    unit, model = tf_spec.unit_distance, tf_spec.opacity_model
+    rows, file = getattr(tf_spec, "labels", None), tf_spec.file
+    if rows is not None and file is not None:
+        raise SceneError("transfer_function: give labels or file, not both")
+    if rows is not None:
+        return LabelTable.from_rows(rows, unit, model)
+    if model != "alpha":
+        raise SceneError("transfer_function.opacity_model = \"extinction\" applies to transfer_function.labels; "
+                         "colour tables and the default colours are written in alpha")
+    if file is not None:
+        path = Path(file).expanduser()
+        return read_color_table(path if path.is_absolute() else Path(base_dir) / path, unit)
+    return default_table(field.data, unit)
