@@ -252,6 +252,9 @@ def _several(data, channel_axis, spacing, origin):
             members += item.members
         else:
             field = _field_of(item, sp, og)
+            if isinstance(field, FieldSet):  # a colour volume: its one rgb member
+                members += field.members
+                continue
             members.append(Member(field, "scalar", field.name if field.name not in ("array", "volume") else name))
     return as_data(members)
 
@@ -276,6 +279,7 @@ def _with_transfer_functions(data, tfs, rescale_intercept, **keywords) -> Scene:
 
 
 def _field_of(data, spacing, origin):
+    from .fields.layers import Member, as_data
     from .io.labelled import is_data_array
 
     if is_data_array(data):  # its dims name the axes and its coordinates give the geometry (Volume does it)
@@ -285,9 +289,11 @@ def _field_of(data, spacing, origin):
         if array.ndim != 3:
             raise SceneError(f"data: expected a 3D array indexed [z, y, x], got shape {array.shape}")
         return Volume(array, spacing=spacing or (1.0, 1.0, 1.0), origin=origin or (0.0, 0.0, 0.0), name="array")
-    if isinstance(data, Field) or getattr(data, "kind", None) == "fields":
+    if isinstance(data, Field) or getattr(data, "kind", None) == "fields" or isinstance(data, Member):
         if spacing is not None or origin is not None:
             raise SceneError("spacing and origin apply to arrays; a field has its own")
+        if isinstance(data, Member) or getattr(data, "role", "scalar") != "scalar":  # one member: rgb, label
+            return as_data([data if isinstance(data, Member) else Member(data, data.role, data.name)])
         return data
     raise SceneError(f"data: expected a numpy array [z, y, x], a field, a file path or a Scene, "
                      f"got {type(data).__name__}")

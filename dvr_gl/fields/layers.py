@@ -48,6 +48,12 @@ class Member:
             raise SceneError(f"{self.name or 'field'}: several fields in one scene must each be a regular grid; "
                              f"this one is {getattr(self.field, 'kind', type(self.field).__name__)}: resample it "
                              f"(volume.resample) or render it alone")
+        colour = getattr(self.field, "role", None) == "rgb"  # a ColorVolume: its voxels are colour, not values
+        if colour != (self.role == "rgb"):
+            raise SceneError(f"{self.name or self.field.name}: role {self.role} " + (
+                "takes scalars; this is a colour volume: give it role rgb" if colour else
+                "needs a colour volume (dvr_gl.fields.color.ColorVolume, e.g. ColorVolume.from_srgb(array)); "
+                "this field holds scalars"))
 
     @property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
@@ -73,8 +79,9 @@ class FieldSet:
     out_of_core = False
 
     def __post_init__(self):
-        members = tuple(m if isinstance(m, Member) else Member(m, "scalar", getattr(m, "name", "")) for m in
-                        self.members)
+        # a bare field: a scalar member, or an rgb one where the field is colour (its own role)
+        members = tuple(m if isinstance(m, Member) else Member(m, getattr(m, "role", "scalar"), getattr(m, "name", ""))
+                        for m in self.members)
         if not members:
             raise SceneError("a scene of several fields needs at least one field")
         for m in members:
