@@ -37,7 +37,7 @@ def view_planes(scene):
     """The sample plan (:mod:`dvr_gl.reference.plans`) of planes ``renderer.sample_distance`` apart facing
     the eye, or half-way to the light where half-angle slicing lights them (:func:`half_angle_of`)."""
     ha = half_angle_of(scene)
-    return lambda rays: plans.view_planes(rays, scene.camera, scene.volume.box, scene.renderer.sample_distance,
+    return lambda rays: plans.view_planes(rays, scene.camera, scene.field.box, scene.renderer.sample_distance,
                                           None if ha is None else ha.normal)
 
 
@@ -52,14 +52,14 @@ def half_angle_of(scene):
     sc = scene.renderer.scattering
     if not (sc.enabled and sc.shadows and sc.method == "half_angle"):
         return None
-    return half_angle(scene.camera, scene.volume.box, sc.lights[0].direction, scene.renderer.sample_distance,
+    return half_angle(scene.camera, scene.field.box, sc.lights[0].direction, scene.renderer.sample_distance,
                       sc.light_buffer_size)
 
 
 def reference(scene, planes) -> DiscreteReference:
     """The same-discretization reference of a slicer: its planes (``planes(scene)``, a sample plan:
     :func:`view_planes`, :func:`voxel_planes`), clipped by its near clip plane."""
-    near, _ = clip_planes(scene.camera, *scene.volume.box)
+    near, _ = clip_planes(scene.camera, *scene.field.box)
     clipped = scene.replace(camera=scene.camera.with_(near=near))
     return DiscreteReference(clipped, plan=planes(clipped))
 
@@ -103,6 +103,24 @@ class SlicingRenderer(GridRenderer):
         if len(views) > 1:
             order = visibility_order([v.brick for v in views], scene.volume, scene.camera, front_to_back=False)
             views = [next(v for v in views if v.brick is b) for b in order]
+        common = {**self.camera_uniforms(scene), **self.optics_uniforms(scene, tables["u_lut"].lut)}
+
+        def passes():
+            for view in views:
+                tris = self.geometry(scene, view)
+                if len(tris):
+                    textures = {**self.volume_textures(scene, defines, view, resident), **tables}
+                    yield {**common, **self.grid_uniforms(scene, view), **self.view_uniforms(scene)}, textures, tris
+
+        image, gpu_seconds, triangles = self.blend_passes(scene, program, passes())
+        self.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines,
+                      "bricks": len(views), "triangles": triangles, "light_volume_seconds": light_seconds}
+        return image
+
+    def blend_passes(self, scene, program, passes) -> tuple[np.ndarray, float, int]:
+        """Draw each pass's slices, ``(uniforms, textures, triangles)``, into the frame's image with the
+        over operator on premultiplied colour, in the order given (back to front); the image, the seconds
+        spent drawing (uploads excluded) and the triangles drawn."""
         width, height = scene.image.width, scene.image.height
         (_,), fbo = self.target("main", width, height)
         fbo.use()
@@ -111,16 +129,10 @@ class SlicingRenderer(GridRenderer):
         self.ctx.disable(self.ctx.DEPTH_TEST | self.ctx.CULL_FACE)
         self.ctx.enable(self.ctx.BLEND)
         self.ctx.blend_func = (self.ctx.ONE, self.ctx.ONE_MINUS_SRC_ALPHA)  # over, premultiplied
-        common = {**self.camera_uniforms(scene), **self.optics_uniforms(scene, tables["u_lut"].lut)}
         gpu_seconds, triangles = 0.0, 0
         try:
-            for view in views:
-                tris = self.geometry(scene, view)
-                if not len(tris):
-                    continue
-                textures = {**self.volume_textures(scene, defines, view, resident), **tables}
-                self.bind(program, {**common, **self.grid_uniforms(scene, view), **self.view_uniforms(scene)},
-                          textures)
+            for uniforms, textures, tris in passes:
+                self.bind(program, uniforms, textures)
                 vbo = self.ctx.buffer(np.ascontiguousarray(tris, dtype=np.float32).tobytes())
                 vao = self.ctx.vertex_array(program, [(vbo, "3f", "position")])
                 try:
@@ -135,10 +147,7 @@ class SlicingRenderer(GridRenderer):
                 triangles += len(tris) // 3
         finally:
             self.ctx.disable(self.ctx.BLEND)
-        image = self.read(fbo, width, height)
-        self.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines,
-                      "bricks": len(views), "triangles": triangles, "light_volume_seconds": light_seconds}
-        return image
+        return self.read(fbo, width, height), gpu_seconds, triangles
 
     def _draw_half_angle(self, scene, defines, program, tables, view, start) -> np.ndarray:
         """Half-angle slicing (:mod:`dvr_gl.half_angle`): the slices in order from the light, each drawn
@@ -227,13 +236,13 @@ class SlicingRenderer(GridRenderer):
 
     def view_uniforms(self, scene) -> dict:
         f, _, _ = scene.camera.basis()
-        lo, hi = scene.volume.box
+        lo, hi = scene.field.box
         return {"u_slice_normal": f, "u_slab_length": self.slab_length(scene), "u_box_lo": lo, "u_box_hi": hi}
 
     @staticmethod
     def camera_uniforms(scene) -> dict:
-        cam, img, vol = scene.camera, scene.image, scene.volume
-        near, far = clip_planes(cam, *vol.box)
+        cam, img = scene.camera, scene.image
+        near, far = clip_planes(cam, *scene.field.box)
         vp = projection_matrix(cam, img.width / img.height, near, far) @ view_matrix(cam)
         f, _, _ = cam.basis()
         return {"u_view_projection": _Matrix(vp), "u_eye": cam.eye, "u_forward": f}
@@ -264,5 +273,5 @@ def _light_matrix(ha) -> np.ndarray:
 def core_box(scene, view):
     """The world box of what a grid view owns: the volume's, or its brick's core."""
     if view.brick is None:
-        return scene.volume.box
+        return scene.field.box
     return view.brick.world_box(scene.volume)

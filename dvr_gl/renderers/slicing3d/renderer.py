@@ -33,7 +33,7 @@ class Slicing3DRenderer(SlicingRenderer):
         """Triangles of the slices within this view's box, back to front, as a flat (N * 3, 3) array."""
         cam = scene.camera
         f, right, up = cam.basis()
-        lo, hi = scene.volume.box
+        lo, hi = scene.field.box
         d = scene.renderer.sample_distance
         centre = float(((lo + hi) / 2.0 - np.asarray(cam.eye)) @ f)
         near_depth, far_depth = depth_range(cam, *core_box(scene, view))
