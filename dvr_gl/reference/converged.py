@@ -40,6 +40,7 @@ from ..geometry import over_surface, surface_rgba
 from ..rays import RayBatch
 from ..sandbox import check_bytes
 from ..transfer_function import xray_rgba
+from . import fields
 from .model import OpticalModel
 
 RAYS_PER_BATCH = 2048
@@ -78,17 +79,19 @@ class ConvergedReference:
         """``scene``: any field (:mod:`dvr_gl.fields`) with the scene's filter; ``nodes``: Gauss-Legendre
         points per piece."""
         self.scene = scene
-        self.model = OpticalModel(scene, exact=True)
+        self.several = fields.several(scene)  # several fields: the members' models mixed (.fields)
+        self.model = fields.Mixture(scene, exact=True) if self.several else OpticalModel(scene, exact=True)
         self.rays = RayBatch.for_camera(scene.camera, scene.image.width, scene.image.height,
                                         scene.field.bounds, clip=ClipRegion.of(scene.renderer))
         self.surface = surface_rgba(scene, self.rays)  # opaque meshes end the rays (and show behind)
         self.tol = scene.renderer.converged_tolerance
-        self.by_cell = hasattr(self.model.scalar, "pieces")  # a mesh: pieces know their cells
+        self.by_cell = hasattr(getattr(self.model, "scalar", None), "pieces")  # a mesh: pieces know their cells
         self.x, self.w, self.S = collocation(nodes)
         self.stats = {"pieces": 0, "evaluations": 0, "converged": True}
         # emission-absorption attenuates within and between pieces; the X-ray only sums
         self.attenuate = scene.renderer.compositing != "xray"
         self.progress = None  # progress(done, total) per batch of rays
+        self.hit_t = np.full(len(self.rays), np.inf)  # the isosurface's first hit per ray (inf: none)
 
     def render(self) -> np.ndarray:
         """Premultiplied linear RGBA ``(H, W, 4)`` float32."""
@@ -96,7 +99,14 @@ class ConvergedReference:
 
     def render_float64(self) -> np.ndarray:
         """The image before rounding to float32 (for closed-form checks)."""
+        rgba = self.volume_rgba()
+        return over_surface(rgba, self.surface).reshape(self.scene.image.height, self.scene.image.width, 4)
+
+    def volume_rgba(self) -> np.ndarray:
+        """The volume's premultiplied ``(N, 4)`` per ray, before the surfaces behind it."""
         mode = self.scene.renderer.compositing
+        if self.several and mode not in ("emission_absorption", "xray"):
+            return fields.per_channel(self)
         hit = np.nonzero(self.rays.t1 > self.rays.t0)[0]
         rgba = np.zeros((len(self.rays), 4))
         method = {"emission_absorption": self._emission_absorption, "xray": self._emission_absorption,
@@ -108,7 +118,7 @@ class ConvergedReference:
             rgba[rows] = method(rows)
             if self.progress is not None:
                 self.progress(min(i + RAYS_PER_BATCH, len(hit)), len(hit))
-        return over_surface(rgba, self.surface).reshape(self.scene.image.height, self.scene.image.width, 4)
+        return rgba
 
     # --- pieces ------------------------------------------------------------------------------
 
@@ -117,6 +127,8 @@ class ConvergedReference:
         in its cells (``cell``: the cell, the field is linear there); a grid's rays cut at the
         filter's knots (``cell`` 0, unused)."""
         r = self.rays
+        if self.several:
+            return fields.mixture_pieces(self.model, r, rows)
         if self.by_cell:
             ray, a, b, cell = self.model.scalar.pieces(r.origins[rows], r.directions[rows], r.t0[rows], r.t1[rows])
             return rows[ray], a, b, cell
@@ -134,15 +146,20 @@ class ConvergedReference:
         p = idx[:-1][keep]
         return ray[p], at[:-1][keep], at[1:][keep], cell[p]
 
-    def _breakpoint_cuts(self, ray, a, b, cell):
+    def _breakpoint_cuts(self, ray, a, b, cell, model=None):
         """Where the field crosses a transfer-function breakpoint inside a piece, as ``(piece, t)``:
         kinks in colour or extinction there would make quadrature converge erratically (and its
         error estimate unreliable), so pieces are cut at them.  Found on each piece's exact
-        polynomial: sign changes on a 64-point grid, then bisection to float64 resolution."""
-        breaks = self.model.breakpoints()
-        if not len(breaks) or self.model.scalar.degree == 0:  # constant pieces cross nothing
+        polynomial: sign changes on a 64-point grid, then bisection to float64 resolution.  ``model``: the
+        single-field model whose field and transfer function are meant (default: the scene's; several fields
+        cut at each member's, :func:`.fields.mixture_cuts`)."""
+        if self.several and model is None:
+            return fields.mixture_cuts(self, ray, a, b, cell)
+        model = model or self.model
+        breaks = model.breakpoints()
+        if not len(breaks) or model.scalar.degree == 0:  # constant pieces cross nothing
             return None
-        coeffs = self._fit(ray, a, b, cell)
+        coeffs = self._fit(ray, a, b, cell, model)
         grid = np.linspace(-1.0, 1.0, GRID_PER_PIECE + 1)
         values = self._horner(coeffs, np.broadcast_to(grid, (len(ray), len(grid))))
         lo, hi = values.min(axis=1), values.max(axis=1)
@@ -286,16 +303,17 @@ class ConvergedReference:
 
     # --- exact extrema and first hits on the pieces' polynomials ------------------------------
 
-    def _fit(self, ray, a, b, cell):
+    def _fit(self, ray, a, b, cell, model=None):
         """Monomial coefficients ``(N, D + 1)`` of the field along pieces ``[a, b]``, in the variable
         ``x`` in [-1, 1] across each (the field is a polynomial of degree D between knots, so D + 1
-        samples determine it exactly)."""
-        degree = self.model.scalar.degree
+        samples determine it exactly).  ``model``: as :meth:`_breakpoint_cuts`'s."""
+        model = model or self.model
+        degree = model.scalar.degree
         nodes = np.cos(np.pi * (np.arange(degree + 1) + 0.5) / (degree + 1))  # Chebyshev points
         half = 0.5 * (b - a)
         t = a[:, None] + half[:, None] * (nodes[None, :] + 1.0)
         pts, _, cells = self._points(ray, t, cell)
-        values = self.model.values(pts, cells).reshape(len(ray), degree + 1)
+        values = model.values(pts, cells).reshape(len(ray), degree + 1)
         self.stats["evaluations"] += values.size
         return values @ np.linalg.inv(nodes[:, None] ** np.arange(degree + 1)[None, :]).T
 
@@ -362,6 +380,7 @@ class ConvergedReference:
             x_lo, x_hi = np.where(up, x_lo, m), np.where(up, m, x_hi)
         x = 0.5 * (x_lo + x_hi)
         t = a[p] + 0.5 * (b[p] - a[p]) * (x + 1.0)
+        self.hit_t[rows[hit]] = t
         out = np.zeros((len(rows), 4))
         colour, _ = self.model.classify_value(np.full(len(p), iso))
         if self.model.shading is not None:

@@ -44,6 +44,7 @@ from ..clipping import ClipRegion
 from ..geometry import over_surface, surface_rgba
 from ..rays import RayBatch
 from ..transfer_function import xray_rgba
+from . import fields
 from .model import OpticalModel
 from .plans import RaySegments, SegmentGrid
 
@@ -88,7 +89,9 @@ class DiscreteReference:
             r.jitter_seed if r.jitter else None, ClipRegion.of(r))
         self.surface = surface_rgba(scene, self.rays)  # opaque meshes end the rays (and show behind)
         self.plan = plan(self.rays) if plan is not None else RaySegments(self.rays, r.sample_distance)
-        self.model = OpticalModel(scene, exact=False, segment_length=self.plan.slab_length)
+        # several fields: the members' models mixed per sample (.fields); one field: its own model
+        model = fields.Mixture if fields.several(scene) else OpticalModel
+        self.model = model(scene, exact=False, segment_length=self.plan.slab_length)
         self.n_seg = self.plan.count
         self.samples = 0
         self.progress = None  # progress(done, total) per chunk: segments done of the longest ray's
@@ -118,11 +121,11 @@ class DiscreteReference:
         if mode == "emission_absorption":
             rgba = self._back_to_front() if r.order == "back_to_front" else self._front_to_back()
         elif mode == "isosurface":
-            rgba = self._isosurface()
+            rgba = fields.first_hit(self) if fields.several(self.scene) else self._isosurface()
         elif mode == "xray":
             rgba = self._xray()
         else:
-            rgba = self._projection(mode)
+            rgba = fields.project(self, mode) if fields.several(self.scene) else self._projection(mode)
         rows, cols = shape or (self.scene.image.height, self.scene.image.width)
         return over_surface(rgba, self.surface).reshape(rows, cols, 4)
 

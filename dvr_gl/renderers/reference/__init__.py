@@ -8,6 +8,7 @@ transfer-function table.  It renders any field (:mod:`dvr_gl.fields`).  See
 
 from __future__ import annotations
 
+from ...reference.fields import ROLES
 from ...scene import settings as s
 from ...scene.plugin import RendererPlugin
 
@@ -22,6 +23,10 @@ PLUGIN = RendererPlugin(
               s.ERT_THRESHOLD, s.LUT_SIZE, s.SHADING, s.SCATTERING, s.CLIPPING, s.GEOMETRY),
     data_kinds=None,
     reference=True,
+    # several fields: the members' models mixed per sample (dvr_gl/reference/fields.py), which refuses in one
+    # line what the mixture does not define (a projection of a label, scattering through the mixture)
+    field_roles=ROLES,
+    check="dvr_gl.reference.fields:check",
     # Against the closed forms (tests/closed_forms.py): float64, measured 3e-8 (rounding of the float32
     # data and the output).  MIP and MinIP of the ramp: the extreme sample, up to half a segment inside
     # the chord's end (measured 0.015, as the ray caster).  The analytic sphere has a sharp boundary

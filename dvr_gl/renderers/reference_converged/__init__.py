@@ -9,6 +9,7 @@ field (:mod:`dvr_gl.fields`).  See ``dvr_gl/renderers/reference_converged/README
 
 from __future__ import annotations
 
+from ...reference.fields import ROLES
 from ...scene import settings as s
 from ...scene.plugin import RendererPlugin
 
@@ -25,6 +26,10 @@ PLUGIN = RendererPlugin(
               s.DEPTH_CUE, s.HEMISPHERICAL_SHADING, CONVERGED_TOLERANCE),
     data_kinds=None,
     reference=True,
+    # several fields: the members' models mixed per sample (dvr_gl/reference/fields.py), which refuses in one
+    # line what the mixture does not define (a projection of a label, scattering through the mixture)
+    field_roles=ROLES,
+    check="dvr_gl.reference.fields:check",
     # Against the closed forms (tests/closed_forms.py), at converged_tolerance 1e-6: measured 5e-8.
     tolerances={"box": 1e-6, "ramp": 1e-6, "sphere": 1e-6, "analytic sphere": 1e-6, "mesh boxes": 1e-6,
                 "mesh ramp": 1e-6},

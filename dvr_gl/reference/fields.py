@@ -1,0 +1,351 @@
+"""Several fields in the references (data kind ``"fields"``, :mod:`dvr_gl.fields.layers`): the mixture of the
+members' optical models, in float64.
+
+Each member is classified by a single-field :class:`~dvr_gl.reference.model.OpticalModel` of its own scene
+(its grid, its transfer function, its iso-value; the scene's filter, classification, shading and gradient
+opacity), and contributes only inside its own box (closed; world units, the volume frame).  The rays and
+their segments span the union of the boxes.  The mixture at a point (docs/several-fields.md):
+
+* emission-absorption and the X-ray: extinctions add and emissions add, ``sigma = sum_i sigma_i`` and
+  ``sigma c = sum_i sigma_i c_i`` (so ``c`` is their ratio, 0 where ``sigma = 0``); each ``c_i`` shaded by
+  member i's own gradient, each ``sigma_i`` scaled by its own gradient opacity, before mixing;
+* pre-integrated classification: each member's own table gives ``(C_i, tau_i)`` for a segment whose sample
+  lies in its box; ``tau = sum_i tau_i`` and ``C = sum_i C_i g(tau_i) / g(tau)`` with
+  ``g(x) = x / (1 - exp(-x))`` (``g(0) = 1``): exact for constant fields, where ``C_i = c_i (1 - exp(-tau_i))``;
+* per-channel projections (MIP, MinIP, average; scalar members only): each member's own projection over its
+  samples inside its box (the converged reference: over its chord of the box), classified by its own transfer
+  function with the opacity of one ``unit_distance`` (``a_i``, ``c_i``); the pixel's premultiplied colour
+  ``sum_i a_i c_i``, its alpha ``1 - prod_i (1 - a_i)``;
+* isosurface: the first sample of any member with ``v_i >= iso_i`` (ties: the member listed first), refined
+  by bisection on that member alone; its transfer function's colour at its iso-value, shaded by its gradient.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ..errors import SceneError
+from ..rays import intersect_box
+from .model import OpticalModel, depth_cue
+
+#: the roles the references classify (:data:`dvr_gl.fields.layers.ROLES`)
+ROLES = ("scalar",)
+PROJECTIONS = ("mip", "minip", "average")
+
+
+def several(scene) -> bool:
+    """Whether the scene's data is several fields (a :class:`~dvr_gl.fields.layers.FieldSet`)."""
+    return getattr(scene.field, "kind", None) == "fields"
+
+
+def check(scene) -> None:
+    """Refuse, in one line, a scene of several fields the references cannot render as the contract says."""
+    if not several(scene):
+        return
+    r = scene.renderer
+    for layer in scene.layers:
+        if layer.role not in ROLES:
+            raise SceneError(f"{layer.name}: the CPU references do not classify {layer.role} fields yet; render it "
+                             f"as a scalar field (volume.role = \"scalar\") or leave it out")
+        if r.compositing in PROJECTIONS and layer.role != "scalar":
+            raise SceneError(f"{layer.name}: renderer.compositing = {r.compositing} projects each scalar field; a "
+                             f"{layer.role} field has no value to project: use emission_absorption or isosurface")
+    scattering = getattr(r, "scattering", None)
+    if scattering is not None and scattering.enabled:
+        raise SceneError("several fields: the CPU references do not light the mixture by scattering; set "
+                         "renderer.scattering.enabled = false or render one field")
+
+
+def member_scene(scene, layer):
+    """The single-field scene of one member: its grid, transfer function and iso-value, the scene's camera,
+    image and every other setting."""
+    renderer = scene.renderer
+    if hasattr(renderer, "iso_value"):
+        renderer = dataclasses.replace(renderer, iso_value=float(layer.iso_value))
+    return dataclasses.replace(scene, field=layer.field, transfer_function=layer.transfer_function,
+                               transfer_functions=(), sources=(), renderer=renderer)
+
+
+class MemberOptics:
+    """One member: its single-field optical model and its box (closed, widened by 1e-9 of the box to absorb
+    the rounding of points computed on its faces)."""
+
+    def __init__(self, scene, layer, exact: bool, segment_length: float | None):
+        self.layer = layer
+        self.scene = member_scene(scene, layer)
+        self.model = OpticalModel(self.scene, exact=exact, segment_length=segment_length)
+        lo, hi = (np.asarray(b, np.float64) for b in layer.field.box)
+        slack = 1e-9 * float(np.max(hi - lo) + max(layer.field.spacing))
+        self.box = (lo, hi)
+        self.lo, self.hi = lo - slack, hi + slack
+
+    def inside(self, points: np.ndarray) -> np.ndarray:
+        return np.all((points >= self.lo) & (points <= self.hi), axis=1)
+
+    def chord(self, origins, directions, t0, t1) -> tuple[np.ndarray, np.ndarray]:
+        """Each ray's parameters ``[a, b]`` inside the box, within ``[t0, t1]`` (``b <= a``: none)."""
+        a, b = intersect_box(origins, directions, *self.box)
+        return np.maximum(a, t0), np.minimum(b, t1)
+
+
+def mean_colour(emitted: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    """``sigma c / sigma``, 0 where nothing absorbs."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(sigma[:, None] > 0, emitted / sigma[:, None], 0.0)
+
+
+def opacity_ratio(tau: np.ndarray) -> np.ndarray:
+    """``g(tau) = tau / (1 - exp(-tau))``, 1 at ``tau = 0`` (its limit), by ``expm1``."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(tau > 1e-300, tau / -np.expm1(-np.maximum(tau, 1e-300)), 1.0)
+
+
+class Mixture:
+    """The optical model of several fields: what the references call on a single field's
+    :class:`OpticalModel` (emission, the X-ray's emission, pre-integrated segments), mixed over the members.
+
+    Args:
+        scene: a resolved scene whose field is a :class:`~dvr_gl.fields.layers.FieldSet`.
+        exact, segment_length: as :class:`OpticalModel`'s, for every member.
+    """
+
+    def __init__(self, scene, exact: bool = False, segment_length: float | None = None):
+        check(scene)
+        self.members = [MemberOptics(scene, layer, exact, segment_length) for layer in scene.layers]
+        first = self.members[0].model
+        self.preintegration = first.preintegration  # every member has a table or none (one setting)
+        self.shading = first.shading
+        if first.depth_cue is not None:  # the cue spans the union box, as the rays do
+            cue = depth_cue(scene)
+            for m in self.members:
+                m.model.depth_cue = cue
+
+    def _mixed(self, points, *arguments, call):
+        """``(sum_i sigma_i c_i, sum_i sigma_i)`` of ``call(member, inside, points, *arguments)``, which
+        gives member i's ``(sigma_i c_i, sigma_i)`` at the points inside its box."""
+        emitted = np.zeros((len(points), 3))
+        sigma = np.zeros(len(points))
+        for m in self.members:
+            inside = m.inside(points)
+            if not inside.any():
+                continue
+            e, s = call(m, points[inside], *(a[inside] for a in arguments))
+            emitted[inside] += e
+            sigma[inside] += s
+        return emitted, sigma
+
+    def emission(self, points: np.ndarray, directions: np.ndarray, cells=None):
+        """``(colour (N, 3), sigma (N,))``: the extinction-weighted mean of the members' shaded colours."""
+        def member(m, p, d):
+            colour, sigma = m.model.emission(p, d)
+            return colour * sigma[:, None], sigma
+        emitted, sigma = self._mixed(points, directions, call=member)
+        return mean_colour(emitted, sigma), sigma
+
+    def xray_emission(self, points: np.ndarray, directions: np.ndarray, cells=None):
+        """``(sigma c (N, 3), sigma (N,))`` of the X-ray: the members' emissions and extinctions summed."""
+        return self._mixed(points, directions, call=lambda m, p, d: m.model.xray_emission(p, d))
+
+    def preintegrated(self, front, back, middle, directions, fraction):
+        """Associated colour and optical depth of segments: each member's table where the segment's sample
+        (``middle``) lies in its box, mixed by ``C = sum_i C_i g(tau_i) / g(tau)`` (see the module doc)."""
+        def member(m, f, b, mid, d, frac):
+            premult, tau = m.model.preintegrated(f, b, mid, d, frac)
+            return premult * opacity_ratio(tau)[:, None], tau
+        weighted, tau = self._mixed(middle, front, back, middle, directions, fraction,
+                                    call=lambda m, mid, *rest: member(m, *rest))
+        return weighted / opacity_ratio(tau)[:, None], tau
+
+
+# --- the same-discretization reference's per-channel modes ------------------------------------------------
+
+def project(ref, mode: str) -> np.ndarray:
+    """Per-channel MIP, MinIP or average of :class:`~dvr_gl.reference.discrete.DiscreteReference` ``ref``
+    over the union's segments: each member over its samples inside its box, then mixed (module doc)."""
+    n = len(ref.rays)
+    members = ref.model.members
+    start = {"average": 0.0, "mip": -np.inf, "minip": np.inf}[mode]
+    acc = np.full((len(members), n), start)
+    length = np.zeros((len(members), n))
+    seen = np.zeros((len(members), n), bool)
+    for rows, k, m in ref._steps(ref.n_seg > 0):
+        grid = ref.plan.grid(rows, k, m)
+        for i, member in enumerate(members):
+            inside = member.inside(grid.points)
+            if not inside.any():
+                continue
+            s = np.full(len(inside), start)
+            s[inside] = member.model.scalar.sample(grid.points[inside])
+            into = grid.scatter(inside, False)
+            seen[i, rows] |= into.any(axis=1)
+            if mode == "average":
+                acc[i, rows] += np.sum(grid.scatter(s) * grid.length, axis=1)
+                length[i, rows] += np.sum(np.where(into, grid.length, 0.0), axis=1)
+            elif mode == "mip":
+                acc[i, rows] = np.maximum(acc[i, rows], grid.scatter(s, -np.inf).max(axis=1))
+            else:
+                acc[i, rows] = np.minimum(acc[i, rows], grid.scatter(s, np.inf).min(axis=1))
+        ref.samples += int(grid.valid.sum())
+    if mode == "average":
+        acc = acc / np.where(length > 0, length, 1.0)
+    return combine_projections([m.model for m in members], acc, seen)
+
+
+def combine_projections(models, values: np.ndarray, seen: np.ndarray) -> np.ndarray:
+    """Each member's projected ``values[i]`` (where ``seen[i]``) classified by its own model; the pixel's
+    premultiplied colour ``sum_i a_i c_i``, alpha ``1 - prod_i (1 - a_i)``."""
+    rgba = np.zeros((values.shape[1], 4))
+    clear = np.ones(values.shape[1])
+    for model, v, has in zip(models, values, seen):
+        colour, alpha = model.classify_value(v[has])
+        rgba[has, :3] += colour * alpha[:, None]
+        clear[has] *= 1.0 - alpha
+    rgba[:, 3] = 1.0 - clear
+    return rgba
+
+
+def first_hit(ref) -> np.ndarray:
+    """The isosurface of :class:`~dvr_gl.reference.discrete.DiscreteReference` ``ref`` on several fields: the
+    first of the entry point and the samples where any member reaches its iso-value (inside its box), bisection
+    on that member alone, its colour at its iso-value, shaded by its gradient, opaque."""
+    members = ref.model.members
+    n = len(ref.rays)
+    isos = np.array([m.layer.iso_value for m in members])
+    has = ref.n_seg > 0
+    entry = ref.rays.points(np.arange(n), ref.rays.t0[:, None])
+    prev_s = np.stack([_values(m, entry) for m in members])  # (members, rays); -inf outside a box
+    prev_t = ref.rays.t0.copy()
+    above = prev_s >= isos[:, None]
+    hit = has & above.any(axis=0)
+    which = np.where(hit, np.argmax(above, axis=0), -1)
+    bracket = np.zeros((n, 4))  # t_a, s_a, t_b, s_b of the member hit, s_a < iso <= s_b
+    rows = np.nonzero(hit)[0]
+    s_hit = prev_s[which[rows], rows]
+    bracket[rows] = np.stack([prev_t[rows], s_hit, prev_t[rows], s_hit], axis=1)
+    active = has & ~hit
+    for rows, k, m in ref._steps(active):
+        grid = ref.plan.grid(rows, k, m)
+        s = np.stack([grid.scatter(_values(member, grid.points), fill=-np.inf) for member in members])
+        up = grid.valid[None] & (s >= isos[:, None, None])  # (members, rows, m)
+        first = np.where(up.any(axis=2), np.argmax(up, axis=2), m)  # each member's first sample
+        j = first.min(axis=0)
+        found = j < m
+        ref.samples += int(np.where(found, j + 1, grid.valid.sum(axis=1)).sum())
+        member = np.argmax(first == j[None], axis=0)  # the first member listed at that sample
+        fr, jf, mf = rows[found], j[found], member[found]
+        idx = np.nonzero(found)[0]
+        t_b, s_b = grid.t[idx, jf], s[mf, idx, jf]
+        t_a = np.where(jf > 0, grid.t[idx, np.maximum(jf - 1, 0)], prev_t[fr])
+        s_a = np.where(jf > 0, s[mf, idx, np.maximum(jf - 1, 0)], prev_s[mf, fr])
+        bracket[fr] = np.stack([t_a, s_a, t_b, s_b], axis=1)
+        which[fr] = mf
+        hit[fr] = True
+        active[fr] = False
+        last = np.maximum(grid.valid.sum(axis=1) - 1, 0)
+        prev_t[rows] = grid.t[np.arange(len(rows)), last]
+        prev_s[:, rows] = s[:, np.arange(len(rows)), last]
+    rgba = np.zeros((n, 4))
+    for i, member in enumerate(members):
+        rows = np.nonzero(hit & (which == i))[0]
+        if not len(rows):
+            continue
+        t = _refine(ref.rays, member, rows, bracket[rows], isos[i], ref.scene.renderer.iso_refinement)
+        colour, _ = member.model.classify_value(np.full(len(rows), isos[i]))
+        if member.model.shading is not None:
+            colour = member.model.shade(colour, ref.rays.points(rows, t[:, None]), ref.rays.directions[rows])
+        rgba[rows, :3] = colour
+        rgba[rows, 3] = 1.0
+    return rgba
+
+
+def _values(member: MemberOptics, points: np.ndarray) -> np.ndarray:
+    """The member's scalar at points, ``-inf`` outside its box (no hit there)."""
+    out = np.full(len(points), -np.inf)
+    inside = member.inside(points)
+    out[inside] = member.model.scalar.sample(points[inside])
+    return out
+
+
+def _refine(rays, member, rows, bracket, iso, steps: int) -> np.ndarray:
+    """Bisection on ``[t_a, t_b]`` keeping ``s(t_a) < iso <= s(t_b)`` on the member alone, then linear
+    interpolation (to ``t_b`` where ``s(t_a)`` lies outside the box: the hit is on its face)."""
+    t_a, s_a, t_b, s_b = bracket.T.copy()
+    for _ in range(steps):
+        t_m = 0.5 * (t_a + t_b)
+        s_m = _values(member, rays.points(rows, t_m[:, None]))
+        up = s_m >= iso
+        t_b, s_b = np.where(up, t_m, t_b), np.where(up, s_m, s_b)
+        t_a, s_a = np.where(up, t_a, t_m), np.where(up, s_a, s_m)
+    span = s_b - s_a
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = np.where((span > 0) & np.isfinite(span), (iso - s_a) / span, 1.0)
+    return t_a + np.clip(w, 0.0, 1.0) * (t_b - t_a)
+
+
+# --- the converged reference -------------------------------------------------------------------------------
+
+def mixture_pieces(mixture: Mixture, rays, rows: np.ndarray):
+    """Pieces ``(ray, a, b, cell)`` of rays ``rows`` on which every member is smooth, sorted along each ray: cut
+    where a ray enters and leaves a member's box (the mixture jumps there) and at each member's filter knots
+    inside its box (:meth:`~dvr_gl.fields.reconstruction.SampledField.knots`); ``cell`` 0 (grids)."""
+    o, d, t0, t1 = rays.origins[rows], rays.directions[rows], rays.t0[rows], rays.t1[rows]
+    every = np.arange(len(rows))
+    local, ts = [every, every], [t0, t1]
+    for m in mixture.members:
+        a, b = m.chord(o, d, t0, t1)
+        idx = np.nonzero(b > a)[0]
+        k_ray, k_t = m.model.scalar.knots(o[idx], d[idx], a[idx], b[idx])
+        local += [idx, idx, idx[k_ray]]
+        ts += [a[idx], b[idx], k_t]
+    local, t = np.concatenate(local), np.concatenate(ts)
+    order = np.lexsort((t, local))
+    local, t = local[order], t[order]
+    keep = (local[1:] == local[:-1]) & (t[1:] > t[:-1])
+    return rows[local[:-1][keep]], t[:-1][keep], t[1:][keep], np.zeros(int(keep.sum()), np.int64)
+
+
+def mixture_cuts(ref, ray, a, b, cell):
+    """Where a member's field crosses one of its transfer function's breakpoints inside a piece that lies in its
+    box, ``(piece, t)`` (as :meth:`~dvr_gl.reference.converged.ConvergedReference._breakpoint_cuts` for one
+    field), or None."""
+    middle = ref.rays.origins[ray] + (0.5 * (a + b))[:, None] * ref.rays.directions[ray]
+    pieces, ts = [], []
+    for m in ref.model.members:
+        inside = np.nonzero(m.inside(middle))[0]
+        found = ref._breakpoint_cuts(ray[inside], a[inside], b[inside], cell[inside], m.model) if len(inside) else None
+        if found is not None:
+            pieces.append(inside[found[0]])
+            ts.append(found[1])
+    return (np.concatenate(pieces), np.concatenate(ts)) if pieces else None
+
+
+def per_channel(ref) -> np.ndarray:
+    """The converged reference's per-channel modes (``(N, 4)`` per ray, before surfaces): each member's own
+    converged image over its chord of its box (exact in its own model), mixed: MIP, MinIP and average
+    additively (:func:`combine_projections`), the isosurface by the nearest first hit (ties: the member listed
+    first)."""
+    mode = ref.scene.renderer.compositing
+    members = ref.model.members
+    n = len(ref.rays)
+    rgba = np.zeros((len(members), n, 4))
+    hit_t = np.full((len(members), n), np.inf)
+    for i, m in enumerate(members):
+        sub = type(ref)(m.scene, nodes=len(ref.x))
+        if sub.model.depth_cue is not None:  # the cue spans the union box
+            sub.model.depth_cue = depth_cue(ref.scene)
+        if ref.progress is not None:
+            sub.progress = lambda done, total, i=i: ref.progress(i * total + done, len(members) * total)
+        rgba[i] = sub.volume_rgba()
+        hit_t[i] = sub.hit_t
+        for key in ("pieces", "evaluations"):
+            ref.stats[key] += sub.stats[key]
+        ref.stats["converged"] &= sub.stats["converged"]
+    if mode == "isosurface":
+        which = np.argmin(hit_t, axis=0)
+        return np.where(np.isfinite(hit_t.min(axis=0))[:, None], rgba[which, np.arange(n)], 0.0)
+    out = np.zeros((n, 4))
+    out[:, :3] = rgba[..., :3].sum(axis=0)
+    out[:, 3] = 1.0 - np.prod(1.0 - rgba[..., 3], axis=0)
+    return out
