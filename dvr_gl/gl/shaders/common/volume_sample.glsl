@@ -13,13 +13,22 @@ vec3 voxel_coord(vec3 p) {
     return p * u_world_to_voxel_scale + u_world_to_voxel_offset;
 }
 
+// The _in variants take the texture's dims (several fields: each texture its own grid); the others read u_dims.
+vec4 texel_in(sampler3D tex, ivec3 i, ivec3 dims) {
+    return texelFetch(tex, clamp(i, ivec3(0), dims - 1), 0);
+}
+
 vec4 texel(sampler3D tex, ivec3 i) {
-    return texelFetch(tex, clamp(i, ivec3(0), u_dims - 1), 0);
+    return texel_in(tex, i, u_dims);
 }
 
 // Hardware linear fetch at voxel coordinate u (between texel centres).
+vec4 linear_fetch_in(sampler3D tex, vec3 u, ivec3 dims) {
+    return texture(tex, (u + 0.5) / vec3(dims));
+}
+
 vec4 linear_fetch(sampler3D tex, vec3 u) {
-    return texture(tex, (u + 0.5) / vec3(u_dims));
+    return linear_fetch_in(tex, u, u_dims);
 }
 
 void cubic_weights(vec3 f, out vec3 w0, out vec3 w1, out vec3 w2, out vec3 w3) {
@@ -39,21 +48,21 @@ void cubic_weights(vec3 f, out vec3 w0, out vec3 w1, out vec3 w2, out vec3 w3) {
 #endif
 }
 
-vec4 sample_texture(sampler3D tex, vec3 u) {
+vec4 sample_texture_in(sampler3D tex, vec3 u, ivec3 dims) {
 #if defined(FILTER_NEAREST)
-    return texel(tex, ivec3(floor(u + 0.5)));
+    return texel_in(tex, ivec3(floor(u + 0.5)), dims);
 #elif defined(FILTER_LINEAR)
-    vec3 uc = clamp(u, vec3(0.0), vec3(u_dims - 1));
+    vec3 uc = clamp(u, vec3(0.0), vec3(dims - 1));
   #ifdef FILTER_IN_SHADER
-    ivec3 i0 = clamp(ivec3(floor(uc)), ivec3(0), max(u_dims - 2, ivec3(0)));
+    ivec3 i0 = clamp(ivec3(floor(uc)), ivec3(0), max(dims - 2, ivec3(0)));
     vec3 f = uc - vec3(i0);
-    vec4 c00 = mix(texel(tex, i0), texel(tex, i0 + ivec3(1, 0, 0)), f.x);
-    vec4 c10 = mix(texel(tex, i0 + ivec3(0, 1, 0)), texel(tex, i0 + ivec3(1, 1, 0)), f.x);
-    vec4 c01 = mix(texel(tex, i0 + ivec3(0, 0, 1)), texel(tex, i0 + ivec3(1, 0, 1)), f.x);
-    vec4 c11 = mix(texel(tex, i0 + ivec3(0, 1, 1)), texel(tex, i0 + ivec3(1, 1, 1)), f.x);
+    vec4 c00 = mix(texel_in(tex, i0, dims), texel_in(tex, i0 + ivec3(1, 0, 0), dims), f.x);
+    vec4 c10 = mix(texel_in(tex, i0 + ivec3(0, 1, 0), dims), texel_in(tex, i0 + ivec3(1, 1, 0), dims), f.x);
+    vec4 c01 = mix(texel_in(tex, i0 + ivec3(0, 0, 1), dims), texel_in(tex, i0 + ivec3(1, 0, 1), dims), f.x);
+    vec4 c11 = mix(texel_in(tex, i0 + ivec3(0, 1, 1), dims), texel_in(tex, i0 + ivec3(1, 1, 1), dims), f.x);
     return mix(mix(c00, c10, f.y), mix(c01, c11, f.y), f.z);
   #else
-    return linear_fetch(tex, uc);
+    return linear_fetch_in(tex, uc, dims);
   #endif
 #else
     vec3 i = floor(u);
@@ -66,7 +75,7 @@ vec4 sample_texture(sampler3D tex, vec3 u) {
     for (int c = 0; c < 4; ++c)
         for (int b = 0; b < 4; ++b)
             for (int a = 0; a < 4; ++a)
-                sum += w[a].x * w[b].y * w[c].z * texel(tex, base + ivec3(a, b, c));
+                sum += w[a].x * w[b].y * w[c].z * texel_in(tex, base + ivec3(a, b, c), dims);
     return sum;
   #elif defined(FILTER_CUBIC_BSPLINE)
     // Sigg & Hadwiger (GPU Gems 2, ch. 20): all weights are positive, so each pair of taps
@@ -81,7 +90,7 @@ vec4 sample_texture(sampler3D tex, vec3 u) {
             for (int a = 0; a < 2; ++a) {
                 vec3 h = vec3(a == 0 ? h0.x : h1.x, b == 0 ? h0.y : h1.y, c == 0 ? h0.z : h1.z);
                 float g = (a == 0 ? g0.x : g1.x) * (b == 0 ? g0.y : g1.y) * (c == 0 ? g0.z : g1.z);
-                sum += g * linear_fetch(tex, h);
+                sum += g * linear_fetch_in(tex, h, dims);
             }
     return sum;
   #else
@@ -95,10 +104,14 @@ vec4 sample_texture(sampler3D tex, vec3 u) {
     for (int c = 0; c < 3; ++c)
         for (int b = 0; b < 3; ++b)
             for (int a = 0; a < 3; ++a)
-                sum += wt[a].x * wt[b].y * wt[c].z * linear_fetch(tex, vec3(pos[a].x, pos[b].y, pos[c].z));
+                sum += wt[a].x * wt[b].y * wt[c].z * linear_fetch_in(tex, vec3(pos[a].x, pos[b].y, pos[c].z), dims);
     return sum;
   #endif
 #endif
+}
+
+vec4 sample_texture(sampler3D tex, vec3 u) {
+    return sample_texture_in(tex, u, u_dims);
 }
 
 // ---- the scalar field, in data units ----
