@@ -1,7 +1,7 @@
 """Print versions, the volume readers, the registered renderers (what each renders and reads), and
 what the OpenGL context offers; with a FILE (or a folder, a glob, several DICOM files), what the data
-holds: dims, type, spacing, origin, orientation, the value range, a histogram and a transfer function
-to start from."""
+holds: its channels (names) and time steps, dims, type, spacing, origin, orientation, the value range, a
+histogram and a transfer function to start from (each channel's)."""
 
 from __future__ import annotations
 
@@ -97,7 +97,8 @@ def run(args) -> int:
 
 def file_info(args) -> int:
     """``dvr info FILE``: the data's facts (:func:`dvr_gl.io.summary.summary_lines`)."""
-    from dvr_gl.io import load_field
+    from dvr_gl.fields.layers import FieldSet
+    from dvr_gl.io import file_axes, load_field
     from dvr_gl.io.summary import summary_lines
 
     files = args.file
@@ -110,9 +111,35 @@ def file_info(args) -> int:
     if field is None:
         field = load_field(source, args.format or "auto", series=args.series, **options)
     shown = " ".join(_quoted(f) for f in files)
-    for line in summary_lines(field, shown):
+    axes = file_axes(source, args.format or "auto", array=args.array, level=args.level) if len(files) == 1 else None
+    for line in axes_lines(axes, shown):
         print(line)
+    if not isinstance(field, FieldSet):
+        for line in summary_lines(field, shown):
+            print(line)
+        return 0
+    for k, member in enumerate(field.members):  # each channel's facts, its suggestion for it alone
+        print(f"channel {k} ({member.name}):")
+        for line in summary_lines(member.field, f"{shown} --channel {k}"):
+            print("  " + line)
     return 0
+
+
+def axes_lines(axes, shown: str) -> list[str]:
+    """What a file holds beyond its three space axes (:class:`dvr_gl.io.channels.Axes`): its channels with
+    their names, and its time steps with their interval; nothing for a file of one 3D field."""
+    if axes is None:
+        return []
+    lines = []
+    if axes.channels:
+        names = ", ".join(axes.names) if axes.names else "unnamed"
+        lines.append(f"channels: {axes.channels} ({names}); each a field composited per sample "
+                     f"(dvr render {shown} --channel K renders channel K alone)")
+    if axes.steps > 1:
+        every = f", every {axes.interval:g} s" if axes.interval else ""
+        lines.append(f"time steps: {axes.steps}{every}; the facts below are step 0's (dvr render {shown} --time K "
+                     f"renders step K; --animate time every step)")
+    return lines
 
 
 def open_for_info(path, fmt: str, options: dict):

@@ -1,6 +1,8 @@
 """Render a scene (a TOML file, a volume file, or the built-in demo) to an image.
 
-Flags override the scene's keys; ``--set section.key=value`` reaches any key.
+Flags override the scene's keys; ``--set section.key=value`` reaches any key.  Several volume files (and
+``--labels``, ``--rgb``) are fields of one scene, composited per sample; ``--time K`` renders a step of a time
+series, ``--animate time`` every step (docs/cli.md).
 Output is written to a temporary file and renamed, so a failed render leaves
 no partial file; an existing file is replaced only with ``--overwrite``.
 """
@@ -32,12 +34,14 @@ from dvr_gl.image import (
     write_image,
     write_text,
 )
-from dvr_gl.phantoms import DEMOS, demo_scene
+from dvr_gl.phantoms import DEMOS
 from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.sandbox import Sandbox, active, parse_bytes
-from dvr_gl.scene.resolve import is_volume_path, load_scene
 from dvr_gl.scene.schema import RendererTable, SceneSpec, renderer_spec_class
 from dvr_gl.transfer_function import PRESETS, is_transfer_function_file
+
+from . import fields as cli_fields
+from .animation import Animation, Frames, parse_animate
 
 log = logging.getLogger(__name__)
 
@@ -54,7 +58,7 @@ _SCENE_KEYS = {
     "volume": "volume.path", "format": "volume.format", "dims": "volume.dims", "dtype": "volume.dtype",
     "endian": "volume.endian", "header_bytes": "volume.header_bytes", "spacing": "volume.spacing",
     "nan_value": "volume.nan_value", "array": "volume.array", "solution": "volume.solution",
-    "resample": "volume.resample",
+    "resample": "volume.resample", "channel": "volume.channel", "time": "volume.time",
 }
 SETTING_DEST = "setting_"
 MAX_FRAMES = 10_000  # a renderer setting's flag stores into setting_<name>
@@ -104,9 +108,17 @@ def renderers_epilog() -> str:
 
 def add_arguments(p: argparse.ArgumentParser):
     p.epilog = renderers_epilog()
-    p.add_argument("scene", nargs="?", metavar="SCENE_OR_VOLUME",
-                   help="a scene file (.toml), or a volume, mesh or particle file (any suffix dvr info lists; a "
-                        "folder of slices)")
+    several = cli_fields.add_arguments(
+        p, "a scene file (.toml), or a volume, mesh or particle file (any suffix dvr info lists; a folder of "
+           "slices); several volume files: one field each, composited per sample (each file's channels: a field "
+           "each)")
+    scene_flag(several, "--channel", metavar="K", help="a file with channels: render channel K alone (0 first; "
+                                                         "default: every channel, each a field)")
+    scene_flag(several, "--time", metavar="K", help="a time series: render step K (0 first, the default), exactly "
+                                                      "as that step alone")
+    several.add_argument("--animate", type=parse_animate, metavar="orbit|time|time,orbit",
+                         help="what --frames animates: orbit (the default), time (frame i of N shows step "
+                              "floor(i*S/N) of the S steps; without --frames N = S, one frame a step) or both")
     p.add_argument("-o", "--output", required=True,
                    help="output image: .png (8-bit sRGB), .exr or .tif (float); an animation (every frame of "
                         "--frames in one file, 8-bit sRGB): .gif, or .mp4, .webm, .webp with the extra 'video'")
@@ -116,8 +128,8 @@ def add_arguments(p: argparse.ArgumentParser):
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
     p.add_argument("--save-scene", metavar="FILE", help="also write the effective scene (TOML)")
     p.add_argument("--frames", type=int, metavar="N",
-                   help="render an orbit of N frames: into one animation (.gif .mp4 .webm .webp), or to "
-                        "OUTPUT_0000.ext, OUTPUT_0001.ext, ...")
+                   help="render an animation of N frames (an orbit; --animate time: the time steps): into one "
+                        "animation (.gif .mp4 .webm .webp), or to OUTPUT_0000.ext, OUTPUT_0001.ext, ...")
     p.add_argument("--fps", type=float, default=DEFAULT_FPS,
                    help=f"an animation's frames per second (default {DEFAULT_FPS:g})")
     d = p.add_argument_group("on a Dask cluster, with the extra 'dask' (docs/distributed.md)")
@@ -155,8 +167,9 @@ def add_arguments(p: argparse.ArgumentParser):
                help="an anatomical view, patient upright (the file's orientation applied; docs/orientation.md)")
     scene_flag(g, "--up", metavar="X,Y,Z|[-]x|y|z", type=parse_up,
                help="the up direction (world; default +z, superior): an axis, e.g. -z, or 0,0,-1")
-    scene_flag(g, "--transfer-function", metavar="NAME|FILE",
-               help=f"a preset, any case ({', '.join(list(PRESETS)[:5])}, 3D Slicer's: CT-AAA, CT-Bone, "
+    scene_flag(g, "--transfer-function", metavar="NAME|FILE", action="append",
+               help="repeatable: the k-th for the k-th volume file (one given: the first field's); a preset, any "
+                    f"case ({', '.join(list(PRESETS)[:5])}, 3D Slicer's: CT-AAA, CT-Bone, "
                     f"MR-Default, ...), a matplotlib colour map (inferno, ...), or a Slicer .vp/.xml or ParaView "
                     f".json file (docs/transfer-functions.md)")
     scene_flag(g, "--rescale-intercept", help="CT presets: HU = data + intercept")
@@ -213,11 +226,9 @@ def parse_up(text: str) -> list[float]:
 
 
 def positional_volume(args):
-    """A volume file given where the scene file goes (``dvr render head.nhdr``) is read as ``--volume``."""
-    if args.scene and is_volume_path(args.scene):
-        if args.volume or args.demo:
-            raise DvrError(f"{args.scene} is a volume file; give it once, without --volume or --demo")
-        args.volume, args.scene = args.scene, None
+    """The files given where the scene file goes: one volume file (``dvr render head.nhdr``) is read as
+    ``--volume``; several, or ``--labels``/``--rgb``, are fields of one scene (:func:`.fields.sort_files`)."""
+    cli_fields.sort_files(args)
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -244,6 +255,8 @@ def overrides_from(args) -> dict:
     out = {}
     for dest, key in _SCENE_KEYS.items():
         value = getattr(args, dest, None)
+        if dest == "transfer_function" and value:  # repeatable: the first field's (source_of: the others')
+            value = value[0]
         if value is not None:
             out[key] = list(value) if isinstance(value, tuple | list) else value
     for setting in registry.all_settings():  # each flag stored its value under its setting's name
@@ -309,7 +322,7 @@ def frame_paths(output: Path, frames: int | None) -> list[Path]:
     if frames is None:
         return [output]
     if not 1 <= frames <= MAX_FRAMES:
-        raise DvrError(f"--frames must be in [1, {MAX_FRAMES}] (the images of the orbit, numbered with 4 "
+        raise DvrError(f"--frames must be in [1, {MAX_FRAMES}] (the images of the animation, numbered with 4 "
                        f"digits), got {frames}")
     if output.suffix.lower() in MOVIE_FORMATS:
         return [output]
@@ -327,12 +340,42 @@ def sandbox_of(args) -> Sandbox:
     return Sandbox(tuple(args.sandbox or ()), memory, args.max_seconds)
 
 
-def frame_scene(scene, i: int, count: int):
-    """Frame ``i`` of an orbit of ``count`` frames (frame 0: the scene's own camera)."""
-    if not i:
-        return scene
-    az0 = scene.camera.orbited().orbit[0]
-    return scene.replace(camera=scene.camera.orbited(azimuth=az0 + 360.0 * i / count))
+def check_data_given(args, verb: str = "render"):
+    """One scene: a scene file, volume files or the demo (the files sorted: :func:`positional_volume`)."""
+    if not args.scene and not args.demo and not args.volume and not args.field_files:
+        raise DvrError(f"nothing to {verb}: give a scene file, --volume FILE or --demo")
+    if args.demo and args.volume:
+        raise DvrError("give --demo or --volume, not both")
+
+
+def source_of(args, verb: str = "render") -> cli_fields.Source:
+    """What the command line's scene is made of (:class:`.fields.Source`), its files sorted
+    (:func:`positional_volume`, called first) and checked."""
+    check_data_given(args, verb)
+    return cli_fields.source_of(args, overrides_from(args), args.transfer_function or [])
+
+
+def animation_of(args, source: cli_fields.Source, scene) -> Animation | None:
+    """The animation ``--frames`` and ``--animate`` ask for (None: one image); a time animation finds its files'
+    steps (:func:`.fields.timed_files`)."""
+    kinds = args.animate or (frozenset({"orbit"}) if args.frames is not None else frozenset())
+    if not kinds:
+        return None
+    steps = 1
+    if "time" in kinds:
+        if args.time is not None:
+            raise DvrError(f"--time {args.time} renders one step; --animate time renders every step: give one")
+        if getattr(args, "dask", None):
+            raise DvrError("--animate time with --dask: the steps are read one at a time in this process; "
+                           "render a time animation without --dask")
+        source.timed, steps, _ = cli_fields.timed_files(source, scene)
+    frames = args.frames if args.frames is not None else steps
+    if "time" not in kinds and args.frames is None:
+        raise DvrError("--animate orbit needs --frames N (the frames of the turn)")
+    if not 1 <= frames <= MAX_FRAMES:
+        raise DvrError(f"--frames must be in [1, {MAX_FRAMES}] (the images of the animation, numbered with 4 "
+                       f"digits), got {frames}")
+    return Animation(frames, "orbit" in kinds, steps)
 
 
 def run(args) -> int:
@@ -342,16 +385,14 @@ def run(args) -> int:
 
 def render(args) -> int:
     positional_volume(args)
-    if not args.scene and not args.demo and not args.volume:
-        raise DvrError("nothing to render: give a scene file, --volume FILE or --demo")
-    if args.demo and args.volume:
-        raise DvrError("give --demo or --volume, not both")
-    base = demo_scene(args.demo) if args.demo and not args.scene else None
+    source = source_of(args)
     begun = time.perf_counter()
-    scene = load_scene(args.scene, overrides_from(args), base)
+    scene = source.load()
     log.debug("scene loaded and resolved in %.2f s", time.perf_counter() - begun)
-    outputs = frame_paths(Path(args.output), args.frames)
-    count = args.frames or 1
+    animation = animation_of(args, source, scene)
+    outputs = frame_paths(Path(args.output), animation.frames if animation else None)
+    count = animation.frames if animation else 1
+    frame_scene = Frames(scene, animation or Animation(1, False), lambda k: source.load(k).field)
     for path in outputs:  # before rendering: fail fast, and never half-overwrite a sequence
         check_output_path(path, args.overwrite)
     movie = outputs[0].suffix.lower() in MOVIE_FORMATS
@@ -381,14 +422,14 @@ def render(args) -> int:
             if getattr(args, "dask", None):  # the same frames, drawn by Dask workers
                 from dvr_gl.distributed.session import frames_on
 
-                remote = stack.enter_context(frames_on(args.dask, [frame_scene(scene, i, count) for i in range(count)],
+                remote = stack.enter_context(frames_on(args.dask, [frame_scene(i) for i in range(count)],
                                                        args.compositing_method, renderer))
-            if args.frames is not None:  # a bar over the frames, at once: the orbit is long work by request
+            if animation is not None:  # a bar over the frames, at once: an animation is long work by request
                 step = stack.enter_context(progress.task("frames", count, "frame", delay=0.0, leave=True))
             elif remote is None:  # a long frame's steps (the CPU references'), shown after progress.DELAY seconds
                 renderer.progress = stack.enter_context(progress.task("rendering"))  # (Dask's workers report none)
             for i in range(count):
-                frame = frame_scene(scene, i, count)
+                frame = frame_scene(i)
                 begun = time.perf_counter()
                 image = composite_over(next(remote) if remote is not None else renderer.render(frame),
                                        scene.image.background)
@@ -405,7 +446,7 @@ def render(args) -> int:
                 if renderer.stats.get("converged") is False:
                     log.warning("%s did not reach renderer.converged_tolerance %g in every pixel",
                                 f"frame {i}" if movie else outputs[i], scene.renderer.converged_tolerance)
-                if args.frames is not None:
+                if animation is not None:
                     step(i + 1)
         for temporary, final in staged:
             os.replace(temporary, final)
@@ -424,7 +465,7 @@ def render(args) -> int:
     if not args.quiet:
         if movie:
             what = f"{outputs[0]} ({count} frame{'s' * (count > 1)} at {args.fps:g} fps, "
-        elif args.frames is not None:
+        elif animation is not None:
             what = f"{count} frames to {outputs[0]} .. {outputs[-1].name} ("
         else:
             what = f"{outputs[0]} ("

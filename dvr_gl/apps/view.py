@@ -14,9 +14,8 @@ import argparse
 from pathlib import Path
 
 from dvr_gl.errors import DvrError
-from dvr_gl.phantoms import demo_scene
 from dvr_gl.renderers import registry
-from dvr_gl.scene.resolve import load_scene, read_scene_dict
+from dvr_gl.scene.resolve import read_scene_dict
 
 from . import render as render_cmd
 
@@ -24,7 +23,7 @@ HELP = "explore a scene, a volume file or the demo in a window (orbit, renderers
 
 # What `dvr render`'s parser has and the viewer uses: the scene and its overrides.  Its other
 # flags (output, frames, ...) are hidden here and refused if given.
-_SCENE_DESTS = {"scene", "demo", "volume", "size", "background", "set", "help", *render_cmd._SCENE_KEYS}
+_SCENE_DESTS = {"scene", "fields", "demo", "volume", "size", "background", "set", "help", *render_cmd._SCENE_KEYS}
 
 
 def _is_scene_dest(dest: str) -> bool:
@@ -73,13 +72,10 @@ def run(args) -> int:
     # refused rather than silently ignored (a scene one did not write would be read unconfined)
     defaults = {"output": None, "overwrite": False, "save_scene": None, "frames": None,
                 "fps": render_cmd.DEFAULT_FPS, "sandbox": None, "max_seconds": None, "max_memory": None,
-                "dask": None, "compositing_method": "direct_send"}
+                "dask": None, "compositing_method": "direct_send", "animate": None}
     _refuse_render_only(args, defaults)
     render_cmd.positional_volume(args)
-    if not args.scene and not args.demo and not args.volume:
-        raise DvrError("nothing to view: give a scene file, --volume FILE or --demo")
-    if args.demo and args.volume:
-        raise DvrError("give --demo or --volume, not both")
+    render_cmd.check_data_given(args, "view")
     if args.passes < 1 or args.budget <= 0:
         raise DvrError("--passes must be at least 1 and --budget positive")
     check_display()  # before loading a volume that may be large
@@ -88,9 +84,9 @@ def run(args) -> int:
     fit = bool(args.scene) and not args.size
     if not args.scene and not args.size:
         args.size = DEFAULT_SIZE
-    overrides = render_cmd.overrides_from(args)
-    base = demo_scene(args.demo) if args.demo and not args.scene else None
-    scene = load_scene(args.scene, overrides, base)
+    source = render_cmd.source_of(args, "view")
+    overrides = source.overrides
+    scene = source.load()
     registry.check(scene)  # the renderer's one-line refusal, before a window opens
     shots = Path(args.screenshot_dir)
     if not shots.is_dir():

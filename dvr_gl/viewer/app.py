@@ -25,6 +25,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -41,6 +42,7 @@ from .layout import Layout, layout, window_size
 from .refinement import FramePlan, RefinementController
 from .screenshots import write_screenshot
 from .tf_editor import TransferFunctionEditor
+from .timeline import Player, at_step, next_editable, with_transfer_function
 
 imgui = load_imgui()  # before glfw: imgui-bundle points pyGLFW at the GLFW library it ships
 import glfw  # noqa: E402
@@ -66,6 +68,8 @@ class ViewerOptions:
     fit: keep the scene's image size (a scene file's) and draw the image scaled to fit the render
         area, which is at least :data:`.layout.MIN_AREA` pixels high at start; False: the image
         size follows the render area (the demo, a volume file, ``--size``).
+    time_steps, read_step: a time series: its number of steps and ``read_step(k)``, the scene at step ``k``
+        (:mod:`.timeline`); one step: no time.
     """
 
     budget_ms: float = 100.0
@@ -77,6 +81,8 @@ class ViewerOptions:
     rescale_intercept: float = 0.0
     benchmark: float | None = None
     fit: bool = False
+    time_steps: int = 1
+    read_step: Callable[[int], object] | None = None
     frames: list = field(default_factory=list)  # filled with the frame records (benchmarks, tests)
 
 
@@ -177,8 +183,10 @@ class Viewer:
         self.display = ImageDisplay(self.ctx)
         self.scene = self.good_scene = scene
         self.initial_camera = scene.camera
+        self.field_index = 0                  # the field whose transfer function the editor edits
         self.editor = TransferFunctionEditor(scene.transfer_function)
         self.tf_version = self.editor.version
+        self.player = Player(options.time_steps, options.read_step) if options.time_steps > 1 else None
         self.controller = RefinementController(options.budget_ms / 1e3, self._passes(scene))
         self.renderers: dict = {}
         self.stats = FrameStats()             # the last frame presented, complete: what the HUD shows
@@ -259,7 +267,65 @@ class Viewer:
             self.notify(str(exc), error=True)
             return
         dragging = self.gui is not None and self.gui.busy
-        self.set_scene(self.scene.replace(transfer_function=tf), interactive=dragging)
+        self.set_scene(with_transfer_function(self.scene, self.field_index, tf), interactive=dragging)
+
+    @property
+    def edited_field(self):
+        """The field whose transfer function the editor edits (its values: the histogram, the presets' range)."""
+        return self.scene.layers[self.field_index].field
+
+    def next_field(self):
+        """Edit the next field's transfer function (several fields; a label map's table is not a curve)."""
+        layers = self.scene.layers
+        i = next_editable(layers, self.field_index)
+        if i == self.field_index:
+            self.notify("no other field's transfer function to edit" if len(layers) > 1 else
+                        "one field: its transfer function is the one edited", error=len(layers) > 1)
+            return
+        self._sync_editor()  # the edits made so far go to the field they were made for
+        self.field_index = i
+        self.editor = TransferFunctionEditor(layers[i].transfer_function)
+        self.tf_version = self.editor.version
+        self.notify(f"editing field {i + 1} of {len(layers)}: {layers[i].name or layers[i].field.name} "
+                    f"({layers[i].role})")
+
+    # --- time ---
+
+    def time_step(self, delta: int):
+        """Show the step ``delta`` steps on (wrapping), read now; a step that cannot be read is shown as an
+        error and the step shown stays."""
+        if self.player is None:
+            self.notify("no time steps: the data is one 3D field", error=True)
+            return
+        before = self.player.step
+        try:
+            stepped = self.options.read_step(self.player.go(delta))
+        except DvrError as exc:
+            self.notify(f"time step {self.player.step}: {exc}; showing step {before}", error=True)
+            self.player.step, self.player.presented, self.player.playing = before, True, False
+            return
+        self.set_scene(at_step(self.scene, stepped), interactive=self.player.playing)
+        self.log.write(event="time_step", step=self.player.step, steps=self.player.steps)
+
+    def toggle_play(self):
+        if self.player is None:
+            self.notify("no time steps: the data is one 3D field", error=True)
+            return
+        playing = self.player.toggle(time.perf_counter())
+        self.log.write(event="play" if playing else "pause", step=self.player.step)
+
+    def _sync_time(self, now: float):
+        if self.player is not None and self.player.tick(now):
+            self.time_step(1)
+
+    def status(self) -> str:
+        """The HUD's time step and edited field, where there are several."""
+        parts = [self.player.describe()] if self.player is not None else []
+        layers = self.scene.layers
+        if len(layers) > 1:
+            layer = layers[self.field_index]
+            parts.append(f"editing {layer.name or layer.field.name} (N: next field)")
+        return " | ".join(parts)
 
     # --- window geometry ---
 
@@ -359,7 +425,7 @@ class Viewer:
             return
         shift = bool(mods & glfw.MOD_SHIFT)
         name = self.keys.get((key, shift)) or self.keys.get((key, False))
-        repeatable = ("finer", "coarser")
+        repeatable = ("finer", "coarser", "next_step", "previous_step")
         if name and (action == glfw.PRESS or name in repeatable):
             self.action(name)
 
@@ -390,6 +456,10 @@ class Viewer:
             "finer": lambda: self.apply(lambda s: settings.scale_sample_distance(s, 1 / 1.5)),
             "coarser": lambda: self.apply(lambda s: settings.scale_sample_distance(s, 1.5)),
             "toggle_projection": lambda: self.move_camera(navigation.toggle_projection(self.scene.camera), False),
+            "toggle_play": self.toggle_play,
+            "next_step": lambda: self.time_step(1),
+            "previous_step": lambda: self.time_step(-1),
+            "next_field": self.next_field,
             "reset_view": lambda: self.move_camera(self.initial_camera, False),
             "screenshot": self.screenshot,
             "toggle_hud": lambda: setattr(self, "show_hud", not self.show_hud),
@@ -455,6 +525,8 @@ class Viewer:
             self._refused(exc)
             return None
         self.good_scene = self.scene
+        if self.player is not None:
+            self.player.presented = True
         if plan.level.full and plan.jitter_pass and self.accum is not None:
             self.accum += (rgba - self.accum) / (plan.jitter_pass + 1)
         else:
@@ -516,7 +588,7 @@ class Viewer:
         """One pass of the loop: events, at most one rendered frame, the window redrawn."""
         start = time.perf_counter()
         busy = ((self.controller.next_frame() is not None and self.stalled != self.version) or self.gesture is not None
-                or self.benchmark is not None)
+                or self.benchmark is not None or (self.player is not None and self.player.playing))
         if busy or start - self.last_event < 1.0:
             glfw.poll_events()
         else:
@@ -530,6 +602,7 @@ class Viewer:
             self.end_gesture()
         self._sync_size()
         self._sync_editor()
+        self._sync_time(start)
         plan = self.controller.next_frame() if self.stalled != self.version else None
         seconds = self.render(plan) if plan is not None else None
         self.draw()   # the HUD shows self.stats: the last frame presented before this one
@@ -574,7 +647,7 @@ class Viewer:
 
     def hud_lines(self) -> list[str]:
         message = self.current_message()
-        return hud_lines(self.scene, self.stats, message[0] if message else None)
+        return hud_lines(self.scene, self.stats, message[0] if message else None, self.status())
 
     def current_message(self) -> tuple[str, bool] | None:
         if self.message and time.perf_counter() < self.message_until:

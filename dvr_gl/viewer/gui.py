@@ -304,19 +304,35 @@ class ViewerGui:
         if imgui.button("screenshot (S)"):
             v.action("screenshot")
         imgui.text_disabled(f"screenshots: {v.options.screenshot_dir}/dvr_view_NNNN{v.options.screenshot_format}")
+        if v.player is not None:
+            self.time_controls()
+
+    def time_controls(self):
+        """Play, pause and step through a time series (the keys Space, Left, Right)."""
+        imgui, v = self.imgui, self.viewer
+        if imgui.button("pause (Space)" if v.player.playing else "play (Space)"):
+            v.action("toggle_play")
+        imgui.same_line()
+        if imgui.button("<"):
+            v.action("previous_step")
+        imgui.same_line()
+        if imgui.button(">"):
+            v.action("next_step")
+        imgui.same_line()
+        imgui.text(f"step {v.player.step} of 0..{v.player.steps - 1}")
 
     # --- transfer-function editor ---
 
     def _value_range(self) -> tuple[float, float]:
         v = self.viewer
-        lo, hi = v.scene.field.value_range
+        lo, hi = v.edited_field.value_range
         lo, hi = min(lo, v.editor.points[0, 0]), max(hi, v.editor.points[-1, 0])
         return (lo, hi) if hi > lo else (lo, lo + 1.0)
 
     def _heights_for(self, value_range) -> np.ndarray:
-        key = (id(self.viewer.scene.field), value_range)
+        key = (id(self.viewer.edited_field), value_range)
         if key != self._histogram_key:
-            field = self.viewer.scene.field
+            field = self.viewer.edited_field
             # a grid's samples, a mesh's values (point or cell): what the transfer function maps
             values = value_sample(field)  # out of core: an even subsample
             self._histogram_key, self._heights = key, histogram(values, value_range)
@@ -333,6 +349,13 @@ class ViewerGui:
     def transfer_function_section(self):
         imgui, v = self.imgui, self.viewer
         editor = v.editor
+        layers = v.scene.layers
+        if len(layers) > 1:  # several fields: whose transfer function this is
+            layer = layers[v.field_index]
+            imgui.text(f"field {v.field_index + 1} of {len(layers)}: {layer.name or layer.field.name}")
+            imgui.same_line()
+            if imgui.button("next field (N)"):
+                v.action("next_field")
         value_range = self._value_range()
         pos = imgui.get_cursor_screen_pos()
         width = max(imgui.get_content_region_avail().x, 50.0)
@@ -350,7 +373,7 @@ class ViewerGui:
         _, self.preset_choice = imgui.combo("preset", self.preset_choice, names)
         imgui.same_line()
         if imgui.button("apply"):
-            volume = v.scene.field
+            volume = v.edited_field
             editor.replace(preset(names[self.preset_choice], volume.value_range, v.options.rescale_intercept,
                                   editor.unit_distance))
         _, self.tf_path = imgui.input_text("file", self.tf_path)

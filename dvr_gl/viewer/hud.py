@@ -86,14 +86,15 @@ class FrameClock:
         return (self.render_seconds or 0.0), frame
 
 
-def hud_lines(scene, stats: FrameStats, message: str | None = None) -> list[str]:
-    """The status bar's two lines: the settings (or, while there is one, the last message), then
-    the refinement state, the image's size and level, the last frame's times and samples per second."""
+def hud_lines(scene, stats: FrameStats, message: str | None = None, status: str = "") -> list[str]:
+    """The status bar's two lines: the settings and ``status`` (the time step, the field edited; or, while there
+    is one, the last message), then the refinement state, the image's size and level, the last frame's times
+    and samples per second."""
     sps = stats.samples_per_second
     kind = "" if stats.measured_samples else " (nominal)"
     level = f" {stats.level_text}" if stats.level_text else ""
     return [
-        message if message else describe(scene),
+        message if message else describe(scene) + (f" | {status}" if status else ""),
         (f"{stats.state} | {stats.size[0]}x{stats.size[1]}{level} | frame {stats.frame_seconds * 1e3:.1f} ms = "
          f"render {stats.render_seconds * 1e3:.1f} + display {stats.other_seconds * 1e3:.1f} ms | "
          f"{sps / 1e6:.1f} M samples/s{kind} | F1: help"),

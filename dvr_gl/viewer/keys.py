@@ -25,6 +25,10 @@ SETTING_KEYS = (
     ("RIGHT_BRACKET", "finer", "finer sampling: sample distance or slice spacing / 1.5"),
     ("LEFT_BRACKET", "coarser", "coarser sampling: sample distance or slice spacing x 1.5"),
     ("P", "toggle_projection", "perspective / orthographic"),
+    ("SPACE", "toggle_play", "time series: play / pause (one step read at a time)"),
+    ("RIGHT", "next_step", "time series: the next step (left arrow: the previous)"),
+    ("LEFT", "previous_step", ""),
+    ("N", "next_field", "several fields: the transfer-function editor edits the next field's"),
     ("R", "reset_view", "reset the view"),
     ("S", "screenshot", "screenshot: image and effective scene (.toml), numbered"),
     ("H", "toggle_hud", "status bar (HUD) on/off"),
@@ -71,4 +75,4 @@ def help_lines() -> list[str]:
 
 def _label(key: str) -> str:
     return {"RIGHT_BRACKET": "]", "LEFT_BRACKET": "[", "TAB": "Tab", "ESCAPE": "Esc", "COMMA": ",",
-            "shift+COMMA": "<"}.get(key, key)
+            "shift+COMMA": "<", "SPACE": "Space", "RIGHT": "Right", "LEFT": "Left"}.get(key, key)

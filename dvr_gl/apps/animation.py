@@ -1,0 +1,71 @@
+"""What frame ``i`` of ``dvr render --frames N --animate orbit|time|time,orbit`` shows (docs/cli.md).
+
+* ``orbit`` (the default of ``--frames``): the camera turns 360 degrees about the up axis over the N frames;
+  frame 0 is the scene's own camera.
+* ``time``: frame ``i`` of N shows step ``floor(i S / N)`` of the S steps: N = S (the default when ``--frames``
+  is not given) is one frame per step; more frames hold each step N/S frames; fewer skip steps evenly, always
+  starting at step 0.  Steps are read one at a time, when a frame first needs one, so a series larger than memory
+  animates within the memory budget.  Every frame keeps the first step's transfer functions, camera and
+  sampling, so that a colour means the same value in every frame (a frame of step k is the image of ``--time
+  k`` wherever the transfer functions are given in data units, as points or a file: a preset stretched over the
+  data's range is stretched over step 0's).
+* ``time,orbit``: both at once.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+from dataclasses import dataclass
+from typing import Callable
+
+ANIMATIONS = ("orbit", "time")
+
+
+def parse_animate(text: str) -> frozenset:
+    """``--animate``: ``orbit``, ``time`` or both, comma-separated."""
+    parts = frozenset(p.strip().lower() for p in text.split(",") if p.strip())
+    if not parts or not parts <= set(ANIMATIONS):
+        raise argparse.ArgumentTypeError(f"{text!r}: give orbit, time, or time,orbit")
+    return parts
+
+
+def orbit_scene(scene, i: int, count: int):
+    """Frame ``i`` of an orbit of ``count`` frames (frame 0: the scene's own camera)."""
+    if not i:
+        return scene
+    az0 = scene.camera.orbited().orbit[0]
+    return scene.replace(camera=scene.camera.orbited(azimuth=az0 + 360.0 * i / count))
+
+
+@dataclass(frozen=True)
+class Animation:
+    """``frames`` frames; the camera orbits if ``orbit``; ``steps`` > 1: the time steps walked."""
+
+    frames: int
+    orbit: bool = True
+    steps: int = 1
+
+    def step(self, i: int) -> int:
+        """The time step frame ``i`` shows: ``floor(i steps / frames)``, exact in integers."""
+        return i * self.steps // self.frames
+
+
+class Frames:
+    """The scene of each frame of ``animation``, from ``scene`` (step 0's); ``read_step(k)`` gives the data at
+    step ``k`` (:meth:`dvr_gl.apps.fields.Source.load`'s field), called once per step shown, in order."""
+
+    def __init__(self, scene, animation: Animation, read_step: Callable[[int], object] | None = None):
+        self.scene, self.animation, self.read_step = scene, animation, read_step
+        self.shown, self.field = 0, scene.field
+
+    def __call__(self, i: int):
+        scene = self.scene
+        if self.animation.steps > 1:
+            k = self.animation.step(i)
+            if k != self.shown:  # the previous step's data is dropped here: one step in memory at a time
+                self.field = None
+                self.field = self.read_step(k)
+                self.shown = k
+            scene = dataclasses.replace(scene, field=self.field)
+        return orbit_scene(scene, i, self.animation.frames) if self.animation.orbit else scene
