@@ -1,29 +1,46 @@
-"""TIFF stacks through OpenImageIO: a multi-page TIFF, a folder of slices, or a glob.
+"""TIFF stacks through OpenImageIO: a multi-page TIFF, a folder of slices, or a glob; ImageJ and OME-TIFF
+hyperstacks of several channels and time points.
 
-Each page (or file, in natural sort order) is one z slice; all must have the
-same size and one channel.
+A plain stack: each page (or file, in natural sort order) is one z slice; all must have the same size and
+one sample per pixel.
 
-A file is checked against what it says of itself before its pages are trusted, since OpenImageIO stops
-at the first page it cannot reach without a word (a 30-page stack cut at 30 % read as 9 slices):
+A hyperstack is one file whose description says how its pages are laid out:
+
+* ImageJ (``ImageJ=`` descriptions): ``channels=C``, ``slices=Z``, ``frames=T``, ``images=C*Z*T`` pages
+  in ImageJ's order, channels fastest, then slices, then frames (page ``c + C (z + Z t)``); the voxel size
+  from its calibration where it names a ``unit``: x and y the inverse of the XResolution and YResolution
+  tags (pixels per unit), z its ``spacing``; the seconds between frames its ``finterval`` (in ``tunit``,
+  default seconds).  ImageJ names no channel: they are ``channel k``.
+* OME-TIFF (an OME-XML description of one image): ``SizeZ``, ``SizeC``, ``SizeT`` planes in the order
+  ``DimensionOrder`` gives (``XYZCT``: z fastest), or as its ``TiffData`` elements map planes to pages
+  (``IFD``, ``PlaneCount``, ``FirstZ``/``FirstC``/``FirstT``); the voxel size from ``PhysicalSizeX/Y/Z``
+  (in micrometres where their units differ), the interval from ``TimeIncrement``; channel names from its
+  ``Channel`` elements.
+
+``volume.channel`` and ``volume.time`` (:mod:`.channels`) choose; only the pages of the chosen time step
+(and channel) are read.  A file is checked against what it says of itself before its pages are trusted,
+since OpenImageIO stops at the first page it cannot reach without a word (a 30-page stack cut at 30 % read
+as 9 slices):
 
 * its chain of pages (IFDs) is walked here: every page and every strip or tile of its pixels must lie
-  inside the file (a cut file is refused, naming the first page past its end), and OpenImageIO must
-  find as many pages as the chain holds;
-* an ImageJ description's ``images=`` (else ``slices=``), or an OME-XML description's
-  ``SizeZ x SizeC x SizeT``, must equal the pages found; an ImageJ hyperstack of several channels or
-  time points (``channels=``, ``frames=``), or OME ``SizeC``/``SizeT`` above 1, is refused, as its
-  pages are not one z stack.  Every file is checked (a FIFO named ``x.tif`` is refused)
-and each page's size counts against the memory budget before it is read.  TIFF resolution tags rarely hold the voxel
-spacing, so spacing defaults to 1 and is set in the scene (``volume.spacing``).
+  inside the file (a cut file is refused, naming the first page past its end);
+* an ImageJ description's ``images=`` (else ``channels x slices x frames``), or an OME-XML description's
+  ``SizeZ x SizeC x SizeT``, must equal the pages found; a count of zero, below zero, not a number, or one
+  that does not match the others is refused in one line.  Every file is checked (a FIFO named ``x.tif``
+  is refused)
+and each page's size counts against the memory budget before it is read.  A plain TIFF's resolution tags
+rarely hold the voxel spacing, so without an ImageJ or OME calibration spacing defaults to 1 and is set in
+the scene (``volume.spacing``).
 """
 
 from __future__ import annotations
 
-import glob
+import math
 import os
 import re
 import struct
 import xml.etree.ElementTree as ET
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -31,13 +48,18 @@ import numpy as np
 from .. import progress
 from ..errors import VolumeError
 from ..sandbox import check_bytes, check_input_path
+from .channels import MAX_COUNT, Axes, RawChannels, channel_names, pick_channel, pick_step, seconds
 from .common import RawArray, show
+from .series import natural_key
 
-# tag -> what it holds: the pixels' offsets and byte counts, in strips or tiles
+# tag -> what it holds: the pixels' offsets and byte counts, in strips or tiles; the resolution (pixels per unit)
 STRIP_OFFSETS, STRIP_COUNTS, TILE_OFFSETS, TILE_COUNTS, DESCRIPTION = 273, 279, 324, 325, 270
-# TIFF field type -> (struct code, bytes): BYTE, ASCII, SHORT, LONG, LONG8 (the ones these tags use)
-FIELD_TYPES = {1: ("B", 1), 2: ("B", 1), 3: ("H", 2), 4: ("I", 4), 16: ("Q", 8)}
+X_RESOLUTION, Y_RESOLUTION = 282, 283
+# TIFF field type -> (struct code, bytes): BYTE, ASCII, SHORT, LONG, RATIONAL (two LONGs), LONG8
+FIELD_TYPES = {1: ("B", 1), 2: ("B", 1), 3: ("H", 2), 4: ("I", 4), 5: ("I", 4), 16: ("Q", 8)}
 MAX_DESCRIPTION = 16 << 20  # bytes of ImageDescription read: a longer one is not checked
+#: OME's length units in micrometres (where PhysicalSizeX, Y and Z state different units).
+MICROMETRES = {"m": 1e6, "cm": 1e4, "mm": 1e3, "µm": 1.0, "um": 1.0, "nm": 1e-3, "Å": 1e-4, "pm": 1e-6}
 
 
 class _Chain:
@@ -96,11 +118,12 @@ class _Chain:
         return self.read(struct.unpack(self.order + ("Q" if self.big else "I"), value)[0], count)
 
     def values(self, field) -> list[int]:
-        """A field's numbers (inline, or where its offset points)."""
+        """A field's numbers (inline, or where its offset points); a RATIONAL's as numerator, denominator."""
         kind, count, value = field
         if kind not in FIELD_TYPES:
             return []
         code, size = FIELD_TYPES[kind]
+        count *= 2 if kind == 5 else 1
         inline = len(value)
         blob = value[:count * size] if count * size <= inline else \
             self.read(struct.unpack(self.order + ("Q" if self.big else "I"), value)[0], count * size)
@@ -114,39 +137,65 @@ class _Cut(Exception):
         self.end = end
 
 
-def check_pages(path: Path) -> tuple[int, str | None]:
-    """The pages of the TIFF at ``path`` (its chain walked, every page's pixels inside the file) and the
-    first page's ImageDescription; a cut or damaged file is refused in one line."""
+class _Cut(Exception):
+    """Something the chain points at lies past the end of the file."""
+
+    def __init__(self, end):
+        self.end = end
+
+
+@dataclass
+class _Pages:
+    """What the chain of pages holds: the page count, the first page's description and resolution
+    (pixels per unit, x and y; None where not stated)."""
+
+    count: int
+    description: str | None = None
+    resolution: tuple | None = None
+
+
+def check_pages(path: Path) -> _Pages:
+    """The pages of the TIFF at ``path`` (its chain walked, every page's pixels inside the file), the first
+    page's ImageDescription and resolution; a cut or damaged file is refused in one line."""
     with open(path, "rb") as fh:
         chain = _Chain(fh, path)
-        pages, description = 0, None
+        found = _Pages(0)
         try:
             for at, tags in chain.pages():
-                if pages == 0 and DESCRIPTION in tags:
-                    description = chain.read_field(tags[DESCRIPTION]).split(b"\0")[0].decode("latin-1")
+                if found.count == 0:
+                    _first_page(chain, tags, found)
                 offsets = chain.values(tags.get(STRIP_OFFSETS) or tags.get(TILE_OFFSETS) or (0, 0, b""))
                 counts = chain.values(tags.get(STRIP_COUNTS) or tags.get(TILE_COUNTS) or (0, 0, b""))
                 if len(offsets) != len(counts) or not offsets:
-                    raise VolumeError(f"{path}: page {pages} gives {len(offsets)} strip or tile offsets and "
+                    raise VolumeError(f"{path}: page {found.count} gives {len(offsets)} strip or tile offsets and "
                                       f"{len(counts)} byte counts; the file is damaged")
                 end = max(o + c for o, c in zip(offsets, counts))
                 if end > chain.size:
                     raise _Cut(end)
-                pages += 1
+                found.count += 1
         except _Cut as cut:
-            raise VolumeError(f"{path}: page {pages} reaches past the end of the file (to byte {cut.end} of "
+            raise VolumeError(f"{path}: page {found.count} reaches past the end of the file (to byte {cut.end} of "
                               f"{chain.size}); the file is truncated: copy or write it again") from None
         except struct.error:
-            raise VolumeError(f"{path}: page {pages}'s header is damaged; the file is corrupt") from None
-    return pages, description
+            raise VolumeError(f"{path}: page {found.count}'s header is damaged; the file is corrupt") from None
+    return found
 
 
-def _natural_key(p: Path):
-    return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", p.name)]
+def _first_page(chain: _Chain, tags: dict, found: _Pages) -> None:
+    if DESCRIPTION in tags:
+        found.description = chain.read_field(tags[DESCRIPTION]).split(b"\0")[0].decode("latin-1")
+    ratios = []
+    for tag in (X_RESOLUTION, Y_RESOLUTION):
+        pair = chain.values(tags[tag]) if tag in tags and tags[tag][0] == 5 and tags[tag][1] == 1 else []
+        ratios.append(pair[0] / pair[1] if len(pair) == 2 and pair[0] > 0 and pair[1] > 0 else None)
+    if ratios[0] is not None:
+        found.resolution = (ratios[0], ratios[1] or ratios[0])
 
 
 def stack_files(path: Path) -> list[Path]:
     """The slice files that ``path`` names: itself, the TIFFs in a folder, or a glob's matches."""
+    import glob
+
     text = str(path)
     if any(c in text for c in "*?["):
         files = [Path(p) for p in glob.glob(text)]
@@ -156,78 +205,250 @@ def stack_files(path: Path) -> list[Path]:
         files = [path]
     if not files:
         raise VolumeError(f"{path}: no TIFF files found (nor DICOM files, which are found by content)")
-    return [check_input_path(f, "TIFF file") for f in sorted(files, key=_natural_key)]
+    return [check_input_path(f, "TIFF file") for f in sorted(files, key=natural_key)]
 
 
-def promised_pages(description: str | None, path: Path) -> int | None:
-    """The pages an ImageJ or OME-XML ImageDescription promises (None: it says nothing), refusing the
-    stacks whose pages are not one z stack (several channels, time points or images)."""
-    if not description:
-        return None
-    if description.startswith("ImageJ="):
-        fields = dict(line.partition("=")[::2] for line in description.splitlines())
-        numbers = {}
-        for key in ("images", "slices", "channels", "frames"):
-            if key in fields:
-                if not re.fullmatch(r"\d{1,9}", fields[key].strip()) or int(fields[key]) < 1:
-                    raise VolumeError(f"{path}: its ImageJ description has {key}={show(fields[key])}; "
-                                      f"it must be a count >= 1: fix the description")
-                numbers[key] = int(fields[key])
-        _one_stack(path, "ImageJ hyperstack", numbers.get("channels", 1), numbers.get("frames", 1))
-        return numbers.get("images", numbers.get("slices"))
-    if "<OME" not in description[:4096]:
-        return None
+# --- the layout a description states ---------------------------------------------------------------
+
+@dataclass
+class Layout:
+    """How a file's pages make a volume: ``pages[t, c, z]`` the page of each plane; ``channels`` 0 for a
+    plain stack (no channel axis); names, spacing (x, y, z) and interval (seconds) where stated."""
+
+    pages: np.ndarray
+    channels: int = 0
+    names: tuple = ()
+    spacing: tuple | None = None
+    interval: float | None = None
+
+    @property
+    def axes(self) -> Axes:
+        return Axes(self.channels, self.names, self.pages.shape[0], self.interval)
+
+
+def plain(count: int) -> Layout:
+    """A stack of ``count`` z slices, one time point, no channel axis."""
+    return Layout(np.arange(count).reshape(1, 1, count))
+
+
+def layout(found: _Pages, path: Path) -> Layout:
+    """The layout the first page's description states (a plain stack where it says nothing), checked
+    against the pages found."""
+    text = found.description
+    if text and text.startswith("ImageJ="):
+        return _imagej(text, found, path)
+    if text and "<OME" in text[:4096]:
+        return _ome(text, found, path)
+    return plain(found.count)
+
+
+def _count(fields: dict, key: str, path, what: str, default=None):
+    if key not in fields:
+        return default
+    text = fields[key].strip()
+    if not re.fullmatch(r"\d{1,9}", text) or not 1 <= int(text) <= MAX_COUNT:
+        raise VolumeError(f"{path}: its {what} has {key}={show(fields[key])}; it must be a count from 1 to "
+                          f"{MAX_COUNT}: fix the description")
+    return int(text)
+
+
+def _promised(path, kind: str, found: int, promised: int) -> VolumeError:
+    contiguous = " (ImageJ writes a stack over 4 GiB as one page with the others' pixels after it, which is " \
+        "not read: save it as a folder of slices)" if found == 1 and kind == "ImageJ" else ""
+    return VolumeError(f"{path}: holds {found} pages, its {kind} description promises {promised}{contiguous}; the "
+                       f"file is truncated or its description is wrong")
+
+
+def _imagej(text: str, found: _Pages, path: Path) -> Layout:
+    fields = dict(line.partition("=")[::2] for line in text.splitlines())
+    what = "ImageJ description"
+    images = _count(fields, "images", path, what)
+    c, t = _count(fields, "channels", path, what, 1), _count(fields, "frames", path, what, 1)
+    z = _count(fields, "slices", path, what)
+    if z is None:
+        z = (images if images is not None else found.count) // (c * t) or 1
+    if images is None:
+        images = c * z * t
+    if c * z * t != images:
+        raise VolumeError(f"{path}: its ImageJ description has images={images} but channels={c} x slices={z} x "
+                          f"frames={t} = {c * z * t}; fix the description")
+    if images != found.count:
+        raise _promised(path, "ImageJ", found.count, images)
+    pages = np.arange(images).reshape(t, z, c).transpose(0, 2, 1)  # channels fastest, then slices, then frames
+    spacing = None
+    unit = fields.get("unit", "").strip().lower()
+    if unit and unit not in ("pixel", "pixels") and found.resolution is not None:
+        spacing = (1 / found.resolution[0], 1 / found.resolution[1], _number(fields.get("spacing"), 1.0))
+    interval = seconds(fields.get("finterval"), fields.get("tunit", "s")) if t > 1 else None
+    return Layout(pages, c if "channels" in fields else 0, (), _finite(spacing), interval)
+
+
+def _number(text, default: float) -> float:
     try:
-        root = ET.fromstring(description)
+        value = float(text)
+    except (TypeError, ValueError):
+        return default
+    return value if math.isfinite(value) and value > 0 else default
+
+
+def _finite(spacing):
+    return spacing if spacing is not None and all(math.isfinite(v) and v > 0 for v in spacing) else None
+
+
+def _ome(text: str, found: _Pages, path: Path) -> Layout:
+    try:
+        root = ET.fromstring(text)
     except ET.ParseError as exc:
         raise VolumeError(f"{path}: its OME-XML description is not valid XML ({exc}); fix it") from None
-    if any(e.tag.endswith("}UUID") or e.tag == "UUID" for e in root.iter()):
-        return None  # a multi-file OME-TIFF: its pages lie in several files
-    pixels = [e for e in root.iter() if e.tag.rpartition("}")[2] == "Pixels"]
+    if any(_tag(e) == "UUID" for e in root.iter()):
+        return plain(found.count)  # a multi-file OME-TIFF: its pages lie in several files, read as slices
+    pixels = [e for e in root.iter() if _tag(e) == "Pixels"]
     if len(pixels) != 1:
         raise VolumeError(f"{path}: its OME-XML describes {len(pixels)} images; a volume is one: save one "
                           f"image (series) per file")
-    sizes = {}
-    for key in ("SizeZ", "SizeC", "SizeT"):
-        text = pixels[0].get(key, "1")
-        if not re.fullmatch(r"\d{1,9}", text.strip()) or int(text) < 1:
-            raise VolumeError(f"{path}: its OME-XML {key}={show(text)} must be a count >= 1; fix it")
-        sizes[key] = int(text)
-    _one_stack(path, "OME-TIFF", sizes["SizeC"], sizes["SizeT"])
-    return sizes["SizeZ"]
+    px = pixels[0]
+    sizes = {k: _count(px.attrib, f"Size{k}", path, "OME-XML", 1) for k in "ZCT"}
+    if sizes["Z"] * sizes["C"] * sizes["T"] > found.count:
+        raise _promised(path, "OME-XML", found.count, sizes["Z"] * sizes["C"] * sizes["T"])
+    order = px.get("DimensionOrder", "XYZCT")
+    if sorted(order) != sorted("XYZCT") or not order.startswith("XY"):
+        raise VolumeError(f"{path}: its OME-XML DimensionOrder={show(order)} is not XY followed by Z, C and T in "
+                          f"some order; fix it")
+    pages = _ome_pages(px, order[2:], sizes, found.count, path)
+    names = [c.get("Name", "") for c in px if _tag(c) == "Channel"]
+    return Layout(pages, sizes["C"], tuple(channel_names(names, sizes["C"])), _ome_spacing(px),
+                  seconds(px.get("TimeIncrement"), px.get("TimeIncrementUnit", "s")) if sizes["T"] > 1 else None)
 
 
-def _one_stack(path, what, channels, frames) -> None:
-    if channels > 1 or frames > 1:
-        raise VolumeError(f"{path}: an {what} of {channels} channel{'s' * (channels != 1)} and {frames} time "
-                          f"point{'s' * (frames != 1)}; a volume is one "
-                          f"channel at one time: save that z stack alone (e.g. ImageJ's Image > Hyperstacks > "
-                          f"Reduce Dimensionality)")
+def _tag(element) -> str:
+    return element.tag.rpartition("}")[2]
 
 
-def _read_pages(path: Path, budget: list[int]) -> list[np.ndarray]:
-    """The pages of one file; ``budget[0]`` counts the bytes of all pages read so far."""
+def _ome_pages(px, order: str, sizes: dict, count: int, path: Path) -> np.ndarray:
+    """``pages[t, c, z]``: the planes in ``order`` (fastest first) from page 0, or as the TiffData map them."""
+    total = sizes["Z"] * sizes["C"] * sizes["T"]
+    strides, step = {}, 1
+    for axis in order:
+        strides[axis], step = step, step * sizes[axis]
+    planes = np.full(total, -1, dtype=np.int64)
+    mappings = [e for e in px if _tag(e) == "TiffData"]
+    if not mappings:
+        if total != count:
+            raise _promised(path, "OME-XML", count, total)
+        planes[:] = np.arange(total)
+    for m in mappings:
+        first = sum(_attr(m, f"First{a}", 0, sizes[a] - 1, path) * strides[a] for a in "ZCT")
+        ifd = _attr(m, "IFD", 0, count - 1, path)
+        n = _attr(m, "PlaneCount", 1, total, path) if "PlaneCount" in m.attrib or len(mappings) > 1 \
+            else min(total - first, count - ifd)
+        if first + n > total or ifd + n > count:
+            raise VolumeError(f"{path}: an OME-XML TiffData maps {n} planes from IFD {ifd}, past the {count} pages "
+                              f"or {total} planes; fix the description")
+        planes[first:first + n] = np.arange(ifd, ifd + n)
+    if (planes < 0).any():
+        raise VolumeError(f"{path}: its OME-XML TiffData map {int((planes >= 0).sum())} of its {total} planes to "
+                          f"pages; fix the description")
+    index = np.arange(total)
+    t, c, z = (index // strides[a] % sizes[a] for a in "TCZ")
+    pages = np.empty((sizes["T"], sizes["C"], sizes["Z"]), dtype=np.int64)
+    pages[t, c, z] = planes
+    return pages
+
+
+def _attr(element, key: str, low: int, high: int, path) -> int:
+    text = element.get(key, str(low))
+    if not re.fullmatch(r"\d{1,9}", text.strip()) or not low <= int(text) <= high:
+        raise VolumeError(f"{path}: an OME-XML TiffData has {key}={show(text)}; it must be an integer from {low} to "
+                          f"{high}: fix the description")
+    return int(text)
+
+
+def _ome_spacing(px):
+    """PhysicalSizeX/Y/Z (Y defaults to X, Z to 1): as stated where their units agree, else in micrometres."""
+    if "PhysicalSizeX" not in px.attrib:
+        return None
+    keys = ("PhysicalSizeX", "PhysicalSizeY", "PhysicalSizeZ")
+    values = [_number(px.get(keys[0]), 1.0), _number(px.get(keys[1], px.get(keys[0])), 1.0),
+              _number(px.get(keys[2]), 1.0)]
+    units = [px.get(k + "Unit", "µm") for k in keys]
+    if len(set(units)) > 1 and all(u in MICROMETRES for u in units):
+        values = [v * MICROMETRES[u] for v, u in zip(values, units)]
+    return _finite(tuple(values))
+
+
+# --- reading -------------------------------------------------------------------------------------------
+
+def tiff_axes(path: Path) -> Axes:
+    """A file's channels and time steps as its description states them (a folder or glob of slices: none)."""
+    files = stack_files(Path(path))
+    if len(files) != 1:
+        return Axes()
+    return layout(check_pages(files[0]), files[0]).axes
+
+
+def read_tiff_stack(path: Path, channel: int | None = None, time: int | None = None):
+    path = Path(path)
+    files = stack_files(path)
+    if len(files) == 1:
+        return _read_file(files[0], channel, time)
+    slices: list[np.ndarray] = []
+    budget = [0]
+    pick_channel(channel, Axes(), str(path))
+    pick_step(time, Axes(), str(path))
+    with progress.task("reading TIFF slices", len(files), "file") as step:
+        for number, f in enumerate(files, 1):
+            found = check_pages(f)
+            pages = layout(found, f)
+            if pages.pages.shape[:2] != (1, 1):
+                raise VolumeError(f"{f}: a hyperstack of {pages.pages.shape[1]} channels and {pages.pages.shape[0]} "
+                                  f"time points in a folder or glob of slices; read the file alone")
+            slices.extend(_read_pages(f, list(pages.pages.ravel()), budget))
+            step(number)
+    return RawArray(_stack(slices, path))
+
+
+def _read_file(path: Path, channel, time):
+    """One file: a plain stack, or the chosen step (and channel) of a hyperstack."""
+    pages = layout(check_pages(path), path)
+    axes = pages.axes
+    chosen, step = pick_channel(channel, axes, str(path)), pick_step(time, axes, str(path))
+    wanted = range(pages.pages.shape[1]) if chosen is None else [chosen]
+    budget = [0]
+    volumes = [_stack(_read_pages(path, list(pages.pages[step, c]), budget), path) for c in wanted]
+    arrays = [RawArray(v, pages.spacing) for v in volumes]
+    if chosen is not None or pages.channels == 0:
+        return arrays[0]
+    return RawChannels(arrays, channel_names(pages.names, len(arrays)))
+
+
+def _stack(slices: list[np.ndarray], path: Path) -> np.ndarray:
+    shapes = {s.shape for s in slices}
+    if len(shapes) != 1:
+        raise VolumeError(f"{path}: slices differ in size {sorted(shapes)}; all slices must match")
+    types = {s.dtype for s in slices}
+    if len(types) != 1:
+        raise VolumeError(f"{path}: slices differ in pixel type {sorted(map(str, types))}")
+    return np.stack(slices, axis=0)
+
+
+def _read_pages(path: Path, wanted: list[int], budget: list[int]) -> list[np.ndarray]:
+    """The pages ``wanted`` of one file, in that order; ``budget[0]`` counts the bytes of all pages read so far."""
     import OpenImageIO as oiio
 
-    found, description = check_pages(path)
-    promised = promised_pages(description, path)
-    if promised is not None and promised != found:
-        kind = "ImageJ" if description.startswith("ImageJ") else "OME-XML"
-        contiguous = " (ImageJ writes a stack over 4 GiB as one page with the others' pixels after it, which is " \
-            "not read: save it as a folder of slices)" if found == 1 and kind == "ImageJ" else ""
-        raise VolumeError(f"{path}: holds {found} pages, its {kind} description promises {promised}{contiguous}; the "
-                          f"file is truncated or its description is wrong")
     inp = oiio.ImageInput.open(str(path))
     if inp is None:
         raise VolumeError(f"{path}: cannot open as TIFF ({oiio.geterror().strip()})")
     pages = []
     try:
-        sub = 0
-        while inp.seek_subimage(sub, 0):
+        for sub in wanted:
+            sub = int(sub)
+            if not inp.seek_subimage(sub, 0):
+                raise VolumeError(f"{path}: OpenImageIO cannot reach page {sub}, which the file's chain of pages "
+                                  f"holds; the file is damaged")
             spec = inp.spec()
             if spec.nchannels != 1:
-                raise VolumeError(f"{path}: page {sub} has {spec.nchannels} channels; "
-                                  f"a volume slice needs 1 (grey)")
+                raise VolumeError(f"{path}: page {sub} has {spec.nchannels} samples per pixel; a volume slice needs "
+                                  f"1 (grey)")
             budget[0] += spec.image_bytes()
             check_bytes(budget[0], f"{path}: the TIFF pages up to page {sub}",
                         "read fewer slices, or raise the memory budget")
@@ -235,28 +456,6 @@ def _read_pages(path: Path, budget: list[int]) -> list[np.ndarray]:
             if pixels is None:
                 raise VolumeError(f"{path}: page {sub} is truncated or corrupt ({inp.geterror().strip()})")
             pages.append(np.asarray(pixels).reshape(spec.height, spec.width))
-            sub += 1
     finally:
         inp.close()
-    if len(pages) != found:
-        raise VolumeError(f"{path}: OpenImageIO reads {len(pages)} pages, the file's chain of pages holds {found}; "
-                          f"the file is damaged")
     return pages
-
-
-def read_tiff_stack(path: Path) -> RawArray:
-    path = Path(path)
-    slices: list[np.ndarray] = []
-    budget = [0]
-    files = stack_files(path)
-    with progress.task("reading TIFF slices", len(files), "file") as step:
-        for number, f in enumerate(files, 1):
-            slices.extend(_read_pages(f, budget))
-            step(number)
-    shapes = {s.shape for s in slices}
-    if len(shapes) != 1:
-        raise VolumeError(f"{path}: slices differ in size {sorted(shapes)}; all slices must match")
-    types = {s.dtype for s in slices}
-    if len(types) != 1:
-        raise VolumeError(f"{path}: slices differ in pixel type {sorted(map(str, types))}")
-    return RawArray(np.stack(slices, axis=0))

@@ -1,0 +1,173 @@
+"""Channels and time steps of volume files (issue 42): ImageJ and OME-TIFF hyperstacks, the shared
+microscopy files, a glob of 3D files as a series, dvr_gl.io.time_steps; refusals in one line."""
+
+import numpy as np
+import pytest
+
+from dvr_gl.errors import VolumeError
+from dvr_gl.fields.layers import FieldSet
+from dvr_gl.io import file_axes, load_volume, time_steps
+
+T, Z, C, H, W = 3, 4, 2, 5, 6
+# every voxel its own value: 1000 t + 100 z + 10 c + (y * W + x) % 10 (distinct per plane, never 0)
+HYPER = (1000 * np.arange(T)[:, None, None, None, None] + 100 * np.arange(Z)[None, :, None, None, None]
+         + 10 * np.arange(C)[None, None, :, None, None] + (np.arange(H * W).reshape(H, W) % 10) + 1).astype(np.uint16)
+
+
+def write_pages(path, pages, description=None, resolution=None):
+    """A multi-page grey TIFF of ``pages`` (a list of 2D uint16), the description on every page."""
+    import OpenImageIO as oiio
+
+    specs = []
+    for p in pages:
+        specs.append(oiio.ImageSpec(p.shape[1], p.shape[0], 1, oiio.UINT16))
+        if description:
+            specs[-1].attribute("ImageDescription", description)
+        if resolution:
+            specs[-1].attribute("XResolution", float(resolution[0]))
+            specs[-1].attribute("YResolution", float(resolution[1]))
+            specs[-1].attribute("ResolutionUnit", "none")
+    out = oiio.ImageOutput.create(str(path))
+    assert out.open(str(path), specs)
+    for i, p in enumerate(pages):
+        if i:
+            assert out.open(str(path), specs[i], "AppendSubimage")
+        assert out.write_image(np.ascontiguousarray(p[..., None]))
+    out.close()
+
+
+def imagej_hyperstack(path, data=HYPER, extra=""):
+    """``data[t, z, c, y, x]`` as ImageJ writes it: channels fastest, then slices, then frames."""
+    t, z, c = data.shape[:3]
+    text = (f"ImageJ=1.54f\nimages={t * z * c}\nchannels={c}\nslices={z}\nframes={t}\nhyperstack=true\n"
+            f"unit=micron\nspacing=0.75\nfinterval=2.5\n{extra}")
+    # OpenImageIO writes one resolution for x and y
+    write_pages(path, list(data.reshape(-1, *data.shape[3:])), text, resolution=(4.0, 4.0))
+    return path
+
+
+def test_imagej_hyperstack_channels_and_time(tmp_path):
+    """Every channel of the chosen step, each a scalar member, its voxels exactly the step's pages."""
+    path = imagej_hyperstack(tmp_path / "h.tif")
+    for step in range(T):
+        fields = load_volume(path, time=step)
+        assert isinstance(fields, FieldSet) and [m.name for m in fields.members] == ["channel 0", "channel 1"]
+        for c, m in enumerate(fields.members):
+            np.testing.assert_array_equal(m.field.data, HYPER[step, :, c])
+            assert m.field.spacing == (0.25, 0.25, 0.75) and m.role == "scalar"
+    one = load_volume(path, channel=1, time=2)
+    np.testing.assert_array_equal(one.data, HYPER[2, :, 1])
+    np.testing.assert_array_equal(load_volume(path, channel=0).data, HYPER[0, :, 0])  # time defaults to 0
+    assert time_steps(path) == (T, 2.5)
+    assert file_axes(path).channels == C
+
+
+def test_hyperstack_reads_only_the_pages_of_its_step(tmp_path, monkeypatch):
+    """Step k reads the C x Z pages of that step, never another's."""
+    from dvr_gl.io import tiff
+
+    path = imagej_hyperstack(tmp_path / "h.tif")
+    read = []
+    real = tiff._read_pages
+    monkeypatch.setattr(tiff, "_read_pages", lambda p, wanted, budget: read.extend(wanted) or real(p, wanted, budget))
+    load_volume(path, time=1)
+    assert sorted(read) == list(range(Z * C, 2 * Z * C))
+    read.clear()
+    load_volume(path, time=2, channel=1)
+    assert read == [2 * Z * C + z * C + 1 for z in range(Z)]
+
+
+@pytest.mark.parametrize("order", ["XYZCT", "XYCZT", "XYTZC", "XYZTC"])
+def test_ome_tiff_dimension_orders_and_names(tmp_path, order):
+    """The planes in DimensionOrder (fastest first); channel names from the Channel elements; the voxel size
+    in micrometres where the units differ; TimeIncrement in its unit."""
+    sizes = {"Z": Z, "C": C, "T": T}
+    index = {"Z": 1, "C": 2, "T": 0}  # HYPER's axes
+    stored = np.transpose(HYPER, [index[a] for a in reversed(order[2:])] + [3, 4])  # slowest axis first
+    xml = (f'<OME xmlns="http://www.openmicroscopy.org/Schemas/OME/2016-06"><Image ID="Image:0"><Pixels '
+           f'DimensionOrder="{order}" SizeX="{W}" SizeY="{H}" SizeZ="{Z}" SizeC="{C}" SizeT="{T}" Type="uint16" '
+           f'PhysicalSizeX="0.5" PhysicalSizeY="0.5" PhysicalSizeZ="2" PhysicalSizeZUnit="nm" TimeIncrement="250" '
+           f'TimeIncrementUnit="ms"><Channel Name="DAPI"/><Channel Name=""/></Pixels></Image></OME>')
+    path = tmp_path / "o.ome.tif"
+    write_pages(path, list(stored.reshape(-1, H, W)), xml)
+    assert sizes and time_steps(path) == (T, 0.25)
+    fields = load_volume(path, time=2)
+    assert [m.name for m in fields.members] == ["DAPI", "channel 1"]
+    for c, m in enumerate(fields.members):
+        np.testing.assert_array_equal(m.field.data, HYPER[2, :, c])
+        assert m.field.spacing == pytest.approx((0.5, 0.5, 0.002))
+
+
+def test_ome_tiff_data_maps_planes_to_pages(tmp_path):
+    """TiffData elements, one a plane (as Bio-Formats writes them), in an order of their own."""
+    planes = [(t, c, z) for t in range(T) for c in range(C) for z in range(Z)][::-1]  # the pages hold them reversed
+    tiffdata = "".join(f'<TiffData FirstZ="{z}" FirstC="{c}" FirstT="{t}" IFD="{i}" PlaneCount="1"/>'
+                       for i, (t, c, z) in enumerate(planes))
+    xml = (f'<OME><Image><Pixels DimensionOrder="XYZCT" SizeZ="{Z}" SizeC="{C}" SizeT="{T}">{tiffdata}'
+           f'</Pixels></Image></OME>')
+    path = tmp_path / "o.ome.tif"
+    write_pages(path, [HYPER[t, z, c] for t, c, z in planes], xml)
+    np.testing.assert_array_equal(load_volume(path, channel=1, time=1).data, HYPER[1, :, 1])
+
+
+@pytest.mark.parametrize("options, message", [
+    (dict(channel=2), r"volume.channel = 2 is past the last channel; the file has 2 \(0 to 1\)"),
+    (dict(time=3), r"volume.time = 3 is past the end; the file has 3 time steps \(0 to 2\)"),
+])
+def test_hyperstack_choice_out_of_range(tmp_path, options, message):
+    with pytest.raises(VolumeError, match=message):
+        load_volume(imagej_hyperstack(tmp_path / "h.tif"), **options)
+
+
+def test_plain_stack_has_no_channels_and_one_step(tmp_path):
+    path = tmp_path / "s.tif"
+    write_pages(path, list(HYPER[0, :, 0]))
+    np.testing.assert_array_equal(load_volume(path, time=0).data, HYPER[0, :, 0])
+    assert time_steps(path) == (1, None)
+    with pytest.raises(VolumeError, match="volume.channel = 0: this file has no channels; remove it"):
+        load_volume(path, channel=0)
+    with pytest.raises(VolumeError, match=r"volume.time = 1 is past the end; the file has one time step \(0\)"):
+        load_volume(path, time=1)
+
+
+def test_hyperstack_in_a_folder_of_slices_is_refused(tmp_path):
+    imagej_hyperstack(tmp_path / "a.tif")
+    write_pages(tmp_path / "b.tif", list(HYPER[0, :, 0]))
+    with pytest.raises(VolumeError, match="a hyperstack of 2 channels and 3 time points in a folder or glob"):
+        load_volume(tmp_path)
+
+
+# --- the shared microscopy files (../shared/data/microscopy/README.md) ------------------------------------
+
+def _shared(shared_data, name):
+    path = shared_data / "microscopy" / name
+    if not path.is_file():
+        pytest.skip(f"the shared microscopy file {name} is not here")
+    return path
+
+
+def test_shared_confocal_widefield_nucleus(shared_data):
+    """Big-endian ZCYX, 2 channels: the README's shape, value ranges and voxel size."""
+    path = _shared(shared_data, "xyzc_16bit__dna_conf_wf.tif")
+    fields = load_volume(path)
+    assert isinstance(fields, FieldSet) and len(fields) == 2
+    ranges = [(0, 61711), (608, 7480)]  # C0 confocal, C1 widefield (camera offset 608)
+    for m, (lo, hi) in zip(fields.members, ranges):
+        assert m.field.dims == (133, 130, 45) and m.field.data.dtype == np.uint16
+        assert (int(m.field.data.min()), int(m.field.data.max())) == (lo, hi)
+        assert m.field.spacing == pytest.approx((0.51188, 0.51188, 0.49941), rel=1e-4)
+    assert time_steps(path) == (1, None)
+    np.testing.assert_array_equal(load_volume(path, channel=1).data, fields.members[1].field.data)
+
+
+def test_shared_dividing_cell_time_series(shared_data):
+    """TZCYX, 3 steps of 2 channels: each step read alone; over the steps the README's value ranges, spacing and
+    frame interval."""
+    path = _shared(shared_data, "CellDivision_T3_Z5_CH2_X240_Y170_TZCYX.tif")
+    assert time_steps(path) == (3, pytest.approx(60.075))
+    steps = [load_volume(path, time=t) for t in range(3)]
+    for c, (lo, hi) in enumerate([(0, 4820), (0, 21118)]):
+        values = np.stack([s.members[c].field.data for s in steps])
+        assert values.shape == (3, 5, 170, 240) and (int(values.min()), int(values.max())) == (lo, hi)
+    assert steps[0].members[0].field.spacing == pytest.approx((0.0905767, 0.0905767, 0.32), rel=1e-6)
+    assert not np.array_equal(steps[0].members[1].field.data, steps[2].members[1].field.data)
