@@ -111,14 +111,47 @@ def _dtype(fields, name, encoding) -> np.dtype:
     return check_sample_type(np.dtype((">" if endian == "big" else "<") + code), name, "type", written)
 
 
+# NRRD's colour kinds (the kinds of an axis of colour components) and how many components each has; any
+# case.  3-color and 4-color say no colour space: nearly every writer means RGB(A).  HSV and XYZ are refused.
+COLOUR_KINDS = {"rgb-color": 3, "rgba-color": 4, "3-color": 3, "4-color": 4}
+OTHER_COLOUR_KINDS = ("hsv-color", "xyz-color")
+# The kinds of a space axis: never a colour axis.
+SPACE_KINDS = ("domain", "space", "time")
+
+
+def _colour_axis(fields, sizes, name, color: bool) -> int | None:
+    """The axis of colour components (read as a colour volume: :mod:`dvr_gl.fields.color`), or None: the axis
+    whose kind is a colour kind (RGB-color, RGBA-color, 3-color, 4-color), or, when colour is asked
+    (``volume.role = "rgb"``), a first axis of 3 or 4 that is not a space axis."""
+    kinds = [k.lower() for k in fields.get("kinds", "").split()]
+    for axis, kind in enumerate(kinds):
+        if kind in OTHER_COLOUR_KINDS:
+            raise VolumeError(f"{name}: kinds gives axis {axis} as {kind}; colour volumes are read as RGB(A): "
+                              f"convert it to RGB (e.g. with teem's unu or 3D Slicer)")
+        if kind in COLOUR_KINDS:
+            if sizes[axis] != COLOUR_KINDS[kind]:
+                raise VolumeError(f"{name}: kinds gives axis {axis} as {kind}, but sizes gives it {sizes[axis]} "
+                                  f"components, not {COLOUR_KINDS[kind]}; fix the header")
+            return axis
+    if not color:
+        return None
+    if len(sizes) == 4 and sizes[0] in (3, 4) and (not kinds or kinds[0] not in SPACE_KINDS):
+        return 0
+    raise VolumeError(f"{name}: volume.role = rgb, but sizes {' '.join(map(str, sizes))} has no colour axis: "
+                      f"colour is a first axis of 3 (RGB) or 4 (RGBA) components (kinds RGB-color or "
+                      f"RGBA-color), then x, y, z; or give the field role scalar")
+
+
 def _axes(sizes, name) -> list[int]:
     """The three axes that form the volume: all of them, or those left after dropping leading
     axes of size 1 (a one-valued "list" axis, for example)."""
     ones = next((i for i, s in enumerate(sizes) if s != 1), len(sizes))
     axes = list(range(min(ones, max(len(sizes) - 3, 0)), len(sizes)))
     if len(axes) != 3:
+        colour = " (a first axis of colour components: set volume.role = rgb)" if (
+            len(sizes) == 4 and sizes[0] in (3, 4)) else ""
         raise VolumeError(f"{name}: sizes {' '.join(map(str, sizes))} do not form a 3D volume; a volume "
-                          f"needs dimension 3 (or extra leading axes of size 1)")
+                          f"needs dimension 3 (or extra leading axes of size 1){colour}")
     return axes
 
 
@@ -213,6 +246,9 @@ def nrrd_layout(path: Path):
     path = check_input_path(Path(path), "NRRD file")
     name = str(path)
     fields, header_size = read_header(path)
+    if _perhaps_colour(fields):  # read_nrrd says whether it is and what is wrong with it
+        return RawLayout(path, 0, (1, 1, 1), np.dtype(np.uint8), refusal=f"{name}: a colour volume (or a 4D "
+                         f"NRRD) is read whole, not in part: set volume.out_of_core = 'auto'")
     dim, sizes, encoding, dtype, axes, geometry = _header(fields, name)
     volume_dims = tuple(sizes[a] for a in axes)  # x, y, z: the leading axes dropped have size 1
     if encoding != "raw":
@@ -230,9 +266,10 @@ def nrrd_layout(path: Path):
                          origin=geometry[2])
 
 
-def _header(fields, name):
+def _header(fields, name, color: bool = False):
     """The checked fields that say what the voxels are: dimension, sizes, encoding, sample type, the three
-    volume axes and the geometry ``(spacing, direction, origin)``."""
+    volume axes and the geometry ``(spacing, direction, origin)``; ``color``: read a first axis of 3 or 4
+    components as colour (:func:`_colour_axis`)."""
     dim = integer(_required(fields, "dimension", name), name, "dimension", minimum=1)
     sizes = integers(_required(fields, "sizes", name), name, "sizes", dim, minimum=1)
     encoding = ENCODINGS.get(_required(fields, "encoding", name))
@@ -243,16 +280,35 @@ def _header(fields, name):
     if "kinds" in fields and len(fields["kinds"].split()) != dim:
         raise VolumeError(f"{name}: kinds {show(fields['kinds'])} has {len(fields['kinds'].split())} entries "
                           f"for dimension {dim}; give one kind per axis")
-    axes = _axes(sizes, name)
+    colour = _colour_axis(fields, sizes, name, color)
+    axes = _axes(sizes, name) if colour is None else _space_axes(sizes, colour, name)
     (spacing, direction), origin = _geometry(fields, name, dim, axes), _origin(fields, name)
     return dim, sizes, encoding, dtype, axes, (spacing, direction, origin)
 
 
-def read_nrrd(path: Path) -> RawArray:
+def _perhaps_colour(fields) -> bool:
+    """Whether a header may hold colour: a colour kind, or a first axis of 3 or 4 of four."""
+    sizes = fields.get("sizes", "").split()
+    kinds = fields.get("kinds", "").lower().split()
+    colour_kind = any(k in COLOUR_KINDS or k in OTHER_COLOUR_KINDS for k in kinds)
+    return colour_kind or (len(sizes) == 4 and sizes[0] in ("3", "4"))
+
+
+def _space_axes(sizes, colour: int, name) -> list[int]:
+    """The three space axes beside the colour axis (leading axes of size 1 dropped, as :func:`_axes`)."""
+    others = [a for a in range(len(sizes)) if a != colour]
+    return [others[a] for a in _axes([sizes[a] for a in others], name)]
+
+
+def read_nrrd(path: Path, color: bool = False) -> RawArray:
+    """An NRRD file's voxels ``[z, y, x]`` and geometry; a colour volume's ``[z, y, x, 3|4]`` (an axis of
+    kind RGB-color or RGBA-color, or with ``color`` (``volume.role = "rgb"``) a first axis of 3 or 4
+    components), which :func:`dvr_gl.io.load_volume` makes a :class:`~dvr_gl.fields.color.ColorVolume`."""
     path = check_input_path(Path(path), "NRRD file")
     name = str(path)
     fields, header_size = read_header(path)
-    dim, sizes, encoding, dtype, axes, (spacing, direction, origin) = _header(fields, name)
+    dim, sizes, encoding, dtype, axes, (spacing, direction, origin) = _header(fields, name, color)
+    colour = _colour_axis(fields, sizes, name, color)
     line_skip = integer(_get(fields, "line skip", "lineskip", default="0"), name, "line skip", minimum=0)
     byte_skip = integer(_get(fields, "byte skip", "byteskip", default="0"), name, "byte skip", minimum=-1)
     target, start = _data_file(fields, path)
@@ -267,6 +323,11 @@ def read_nrrd(path: Path) -> RawArray:
         flat = np.frombuffer(blob, dtype=dtype)
     # NRRD lists the fastest axis first: sizes "nx ny nz" is the array [z, y, x]; the leading axes left out
     # have size 1 (and there may be more of them than numpy's 64 dimensions)
+    if colour is not None:  # the components last, wherever the file keeps them
+        kept = sorted([*axes, colour])
+        data = flat.reshape(tuple(sizes[a] for a in reversed(kept)))
+        data = np.moveaxis(data, len(kept) - 1 - kept.index(colour), -1)
+        return RawArray(np.ascontiguousarray(data), spacing, origin, direction)
     data = flat.reshape(tuple(sizes[a] for a in reversed(axes)))
     return RawArray(data, spacing, origin, direction)
 

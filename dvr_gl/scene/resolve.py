@@ -202,8 +202,9 @@ _FILE_KEYS = ("dims", "dtype", "spacing", "origin", "nan_value", "array", "solut
 
 def _selection(spec: VolumeSpec) -> dict:
     """The channel and time step a volume table picks, as the readers take them (only those given, so that a
-    reader of files without channels or time need not know the keys)."""
-    return {k: getattr(spec, k) for k in ("channel", "time") if getattr(spec, k) is not None}
+    reader of files without channels or time need not know the keys); ``role = "rgb"``: read colour."""
+    chosen = {k: getattr(spec, k) for k in ("channel", "time") if getattr(spec, k) is not None}
+    return {**chosen, "role": "rgb"} if spec.role == "rgb" else chosen
 
 
 def _members(field, spec: VolumeSpec) -> tuple:
