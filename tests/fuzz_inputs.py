@@ -25,6 +25,7 @@ import io
 import math
 import os
 import random
+import re
 import signal
 import zlib
 from dataclasses import dataclass, field
@@ -460,3 +461,61 @@ def check_reader(path: Path, seed: Seed) -> str:
     assert len(volume.spacing) == 3 and all(math.isfinite(s) and s > 0 for s in volume.spacing)
     assert all(math.isfinite(o) for o in volume.origin)
     return "volume"
+
+
+# --- colour tables of label maps (dvr_gl/labels/readers.py) -------------------------------------------
+
+#: A valid table of each format a label map's ``transfer_function.file`` reads, by file name.
+COLOR_TABLES = {
+    "labels.ctbl": b"# Color table file /tmp/labels.ctbl\n# 4 values\n0 Background 0 0 0 0\n1 tissue 128 174 128 255\n"
+                   b"2 bone 241 214 145 255\n7 vessel 216 101 79 128\n",
+    "slicer.txt": b"0 Background 0 0 0 0\n1 tissue 128 174 128 255\n2 bone 241 214 145 255\n7 vessel 216 101 79 128\n",
+    "itksnap.txt": b"################################################\n# ITK-SnAP Label Description File\n"
+                   b"# IDX   -R-  -G-  -B-  -A--  VIS MSH  LABEL\n################################################\n"
+                   b'    0     0    0    0        0  0  0    "Clear Label"\n'
+                   b'    1   255    0    0        1  1  1    "Label 1 (liver)"\n'
+                   b'    2     0  255    0      0.5  1  1    "Label 2"\n'
+                   b'    3     0    0  255        1  0  1    "Hidden"\n',
+    "seg.seg.nrrd": b"NRRD0004\n# Complete NRRD file format specification at:\ntype: unsigned char\ndimension: 3\n"
+                    b"space: left-posterior-superior\nsizes: 2 2 2\nspace directions: (1,0,0) (0,1,0) (0,0,1)\n"
+                    b"kinds: domain domain domain\nencoding: raw\nspace origin: (0,0,0)\n"
+                    b"Segment0_Color:=0.2 0.6 0.3\nSegment0_ID:=Segment_1\nSegment0_LabelValue:=1\nSegment0_Layer:=0\n"
+                    b"Segment0_Name:=kidney\nSegment1_Color:=0.9 0.5 0.1\nSegment1_ID:=Segment_2\n"
+                    b"Segment1_LabelValue:=4\nSegment1_Layer:=0\nSegment1_Name:=tumour\n\n"
+                    + bytes([0, 1, 1, 4, 0, 0, 4, 1]),
+}
+
+
+def mutate_color_table(blob: bytes, rnd: random.Random) -> tuple[bytes, str]:
+    """A byte-level change, or a line's word replaced by a bad token (or a line dropped, duplicated,
+    swapped, the text cut: :func:`mutate_lines`)."""
+    if rnd.random() < 0.4:
+        return mutate_bytes(blob, rnd)
+    if rnd.random() < 0.5:
+        return mutate_lines(blob, rnd)
+    words = list(re.finditer(rb"[^\s:=]+", blob))
+    m = rnd.choice(words)
+    token = rnd.choice(BAD_TOKENS + ["256", "-1", "1.5", "99999999999999999999", '"', "16777217"]).encode("utf-8")
+    return blob[:m.start()] + token + blob[m.end():], f"word at {m.start()} -> {token!r}"
+
+
+def check_color_table(path: Path) -> str:
+    """``user error`` or ``table`` (labels distinct integers, colours and opacities in [0, 1]); any other
+    exception (or a hang) propagates."""
+    from dvr_gl.labels import read_color_table
+
+    printed = io.StringIO()
+    try:
+        with active(Sandbox(max_bytes=BUDGET)), time_limit(TIMEOUT), \
+                contextlib.redirect_stderr(printed), contextlib.redirect_stdout(printed):
+            table = read_color_table(path)
+    except DvrError as exc:
+        message = str(exc)
+        assert message and "\n" not in message
+        return "user error"
+    finally:
+        assert not printed.getvalue(), f"printed {printed.getvalue()[:200]!r}"
+    assert len(table) > 0 and np.all(np.diff(table.labels) > 0)
+    assert np.all((table.colors >= 0) & (table.colors <= 1)) and np.all((table.opacity >= 0) & (table.opacity <= 1))
+    assert np.isfinite(table.texture_table()).all()
+    return "table"

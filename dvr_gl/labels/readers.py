@@ -24,7 +24,7 @@ import numpy as np
 from ..errors import SceneError
 from ..presets.colour import srgb_to_linear
 from ..sandbox import check_input_path
-from .table import DEFAULT_OPACITY, LabelTable
+from .table import DEFAULT_OPACITY, MAX_FLOAT_LABEL, LabelTable
 
 #: The largest colour-table file read (bytes): FreeSurfer's and Slicer's largest tables are under 1 MiB.
 MAX_TABLE_BYTES = 16 << 20
@@ -98,7 +98,7 @@ def _slicer_row(path: Path, number: int, line: str):
                          f"0..255, a name without spaces): {_show(line)}")
     label, name, *rgba = m.groups()
     rgba = [_byte(path, number, v) for v in rgba]
-    return int(label), [c / 255.0 for c in rgba[:3]], rgba[3] / 255.0, name
+    return _label(path, number, label), [c / 255.0 for c in rgba[:3]], rgba[3] / 255.0, name
 
 
 def _itksnap_row(path: Path, number: int, line: str):
@@ -114,7 +114,16 @@ def _itksnap_row(path: Path, number: int, line: str):
     if not 0.0 <= a <= 1.0:
         raise SceneError(f"{path}: line {number}: the opacity A {alpha!r} is not a number in 0..1")
     rgb = [_byte(path, number, v) / 255.0 for v in (r, g, b)]
-    return int(label), rgb, a * int(visible), name
+    return _label(path, number, label), rgb, a * int(visible), name
+
+
+def _label(path: Path, number, text: str) -> int:
+    """A label value, within what a label map holds (+-2^24: float32's exact integers)."""
+    v = int(text)
+    if abs(v) > MAX_FLOAT_LABEL:
+        raise SceneError(f"{path}: {'line ' if isinstance(number, int) else ''}{number}: label {_show(text)} is "
+                         f"beyond +-2^24, more than a label map holds")
+    return v
 
 
 def _byte(path: Path, number: int, value: str) -> int:
@@ -144,8 +153,9 @@ def _segment_rows(path: Path) -> list:
                              f"later)")
         colour = _segment_colour(path, i, fields.get(f"Segment{i}_Color", ""))
         layer = fields.get(f"Segment{i}_Layer", "0").strip()
-        layers.setdefault(layer, set()).add(int(value))
-        rows.append((int(value), colour, DEFAULT_OPACITY, fields.get(f"Segment{i}_Name", "").strip()))
+        layers.setdefault(layer, set()).add(int(value.strip()))
+        label = _label(path, f"Segment{i}_LabelValue", value.strip())
+        rows.append((label, colour, DEFAULT_OPACITY, fields.get(f"Segment{i}_Name", "").strip()))
     if len(layers) > 1 and len(set.union(*layers.values())) < len(rows):
         raise SceneError(f"{path}: its segments overlap in {len(layers)} layers, which reuse label values; export "
                          f"the segmentation as one label map (Slicer: Export to labelmap) and its colour table")
