@@ -120,7 +120,8 @@ class Source:
         scene's one volume (found once the scene is loaded: :func:`timed_files`)."""
         if not self.is_tables:
             return []
-        return [(t["path"], {k: t[k] for k in ("format", "array", "level") if k in t}) for t in self.base["volume"]]
+        keys = ("format", "array", "level", "fourth_axis")
+        return [(t["path"], {k: t[k] for k in keys if t.get(k) is not None}) for t in self.base["volume"]]
 
 
 def source_of(args, overrides: dict, transfer_functions: list[str]) -> Source:
@@ -160,28 +161,33 @@ def steps_of(path: str, options: dict | None = None) -> tuple[int, float | None]
     return time_steps(path, **(options or {}))
 
 
-def timed_files(source: Source, scene) -> tuple[list[int], int, float | None]:
-    """The tables that walk their steps in a time animation, the number of steps and the interval (seconds or
-    None): every file with more than one step; they must have the same number.  A scene file or one volume: the
-    first table's file (its ``volume.time`` is what the overrides set)."""
+def timed_files(source: Source, scene, required: bool = True) -> tuple[int, float | None] | None:
+    """The number of time steps the scene's files walk together and the seconds between them (or None), with
+    ``source.timed`` set to the tables that walk them: every file with more than one step; they must have the
+    same number.  A scene file or one volume: the first table's file (its ``volume.time`` is what the
+    overrides set).  None where no file has time steps, unless ``required`` (then one line)."""
     if source.is_tables:
         files = source.files()
-        indices = range(len(files))
     else:
         first = scene.sources[0] if scene.sources else scene.volume_source
         if not first.path:
+            if not required:
+                return None
             raise DvrError("--animate time: the scene's data is not a file with time steps (a demo phantom); "
                            "give a volume file with time steps")
-        options = {k: getattr(first, k) for k in ("format", "array", "level") if getattr(first, k) is not None}
-        files, indices = [(first.path, options)], [0]
-    counted = [(i, *steps_of(path, options)) for i, (path, options) in zip(indices, files)]
+        keys = ("format", "array", "level", "fourth_axis")
+        files = [(first.path, {k: getattr(first, k) for k in keys if getattr(first, k, None) is not None})]
+    counted = [(i, *steps_of(path, options)) for i, (path, options) in enumerate(files)]
     timed = [(i, n, dt) for i, n, dt in counted if n > 1]
     if not timed:
+        if not required:
+            return None
         raise DvrError(f"--animate time: {os.path.basename(files[0][0])} has one time step; dvr info FILE lists a "
                        f"file's steps")
     lengths = {n for _, n, _ in timed}
     if len(lengths) > 1:
         named = ", ".join(f"{os.path.basename(files[i][0])}: {n}" for i, n, _ in timed)
-        raise DvrError(f"--animate time: the files have different numbers of time steps ({named}); animate files "
-                       f"of one length")
-    return [i for i, _, _ in timed], lengths.pop(), timed[0][2]
+        raise DvrError(f"time steps: the files have different numbers of them ({named}); give files of one "
+                       f"length")
+    source.timed = [i for i, _, _ in timed]
+    return lengths.pop(), timed[0][2]

@@ -368,7 +368,7 @@ def animation_of(args, source: cli_fields.Source, scene) -> Animation | None:
         if getattr(args, "dask", None):
             raise DvrError("--animate time with --dask: the steps are read one at a time in this process; "
                            "render a time animation without --dask")
-        source.timed, steps, _ = cli_fields.timed_files(source, scene)
+        steps, _ = cli_fields.timed_files(source, scene)
     frames = args.frames if args.frames is not None else steps
     if "time" not in kinds and args.frames is None:
         raise DvrError("--animate orbit needs --frames N (the frames of the turn)")

@@ -5,7 +5,9 @@ wheel; switch renderers and settings with keys or the side panel; edit the trans
 the panel; S writes a screenshot and the scene that reproduces it with ``dvr render``; F1 lists
 the keys.  The scene flags are those of ``dvr render``.  While you drag, frames are rendered at
 reduced resolution and sampling to hold the frame-time budget; when you stop, the view refines
-to full quality (with jitter, by averaging passes).
+to full quality (with jitter, by averaging passes).  A time series plays and pauses with Space and
+steps with the arrow keys, read one step at a time; with several fields, N chooses the field whose
+transfer function the editor edits.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from dvr_gl.renderers import registry
 from dvr_gl.scene.resolve import read_scene_dict
 
 from . import render as render_cmd
+from .fields import timed_files
 
 HELP = "explore a scene, a volume file or the demo in a window (orbit, renderers, transfer-function editor)"
 
@@ -87,6 +90,7 @@ def run(args) -> int:
     source = render_cmd.source_of(args, "view")
     overrides = source.overrides
     scene = source.load()
+    series = timed_files(source, scene, required=False)  # a time series: the viewer reads one step at a time
     registry.check(scene)  # the renderer's one-line refusal, before a window opens
     shots = Path(args.screenshot_dir)
     if not shots.is_dir():
@@ -95,5 +99,6 @@ def run(args) -> int:
                             screenshot_format="." + args.screenshot_format, gui=not args.no_gui,
                             frame_log=Path(args.frame_log) if args.frame_log else None,
                             rescale_intercept=_rescale_intercept(args, overrides), benchmark=args.benchmark,
-                            fit=fit)
+                            fit=fit, time_steps=series[0] if series else 1, read_step=source.load,
+                            time_step=args.time or 0)
     return run_viewer(scene, options)

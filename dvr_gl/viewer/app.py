@@ -68,8 +68,8 @@ class ViewerOptions:
     fit: keep the scene's image size (a scene file's) and draw the image scaled to fit the render
         area, which is at least :data:`.layout.MIN_AREA` pixels high at start; False: the image
         size follows the render area (the demo, a volume file, ``--size``).
-    time_steps, read_step: a time series: its number of steps and ``read_step(k)``, the scene at step ``k``
-        (:mod:`.timeline`); one step: no time.
+    time_steps, read_step, time_step: a time series: its number of steps, ``read_step(k)``, the scene at step
+        ``k`` (:mod:`.timeline`), and the step the scene shows at start; one step: no time.
     """
 
     budget_ms: float = 100.0
@@ -83,6 +83,7 @@ class ViewerOptions:
     fit: bool = False
     time_steps: int = 1
     read_step: Callable[[int], object] | None = None
+    time_step: int = 0
     frames: list = field(default_factory=list)  # filled with the frame records (benchmarks, tests)
 
 
@@ -186,7 +187,8 @@ class Viewer:
         self.field_index = 0                  # the field whose transfer function the editor edits
         self.editor = TransferFunctionEditor(scene.transfer_function)
         self.tf_version = self.editor.version
-        self.player = Player(options.time_steps, options.read_step) if options.time_steps > 1 else None
+        self.player = (Player(options.time_steps, options.read_step, step=options.time_step)
+                       if options.time_steps > 1 else None)
         self.controller = RefinementController(options.budget_ms / 1e3, self._passes(scene))
         self.renderers: dict = {}
         self.stats = FrameStats()             # the last frame presented, complete: what the HUD shows
