@@ -4,9 +4,13 @@
 * A group holding one array (or the one ``volume.array`` names, by its path in the group).
 * An OME-Zarr image (NGFF 0.4, ``multiscales`` in the group's attributes, or 0.5, under ``ome``): the
   level ``volume.level`` chooses (0, the default, is the full resolution); its ``axes`` name the z, y
-  and x axes (in any order: the array is transposed by name, never guessed), a time or channel axis of
-  size 1 is dropped and a longer one refused; the ``coordinateTransformations``, the dataset's then the
-  multiscale's, give the spacing (``scale``) and origin (``translation``) in the axes' units.
+  and x axes (in any order: the array is transposed by name, never guessed); the ``coordinateTransformations``,
+  the dataset's then the multiscale's, give the spacing (``scale``) and origin (``translation``) in the axes'
+  units.  The channel axis (type ``channel``, else named ``c``) gives every channel, each a field
+  (:mod:`.channels`; names from the ``omero`` metadata's channel ``label``), or ``volume.channel``'s alone;
+  the time axis (type ``time``, else named ``t``) gives step ``volume.time`` (default 0), its chunks alone
+  read, the seconds between steps from its scale and unit; another axis of size 1 is dropped and a longer one
+  refused.  Out of core (:func:`zarr_layout`) reads one channel of one step: with several channels, name one.
 
 What is checked, before any voxel is read (each a one-line :class:`VolumeError`):
 
@@ -42,6 +46,7 @@ import numpy as np
 from .. import progress
 from ..errors import DvrError, VolumeError
 from ..sandbox import SandboxError, check_bytes, current
+from .channels import Axes, RawChannels, channel_names, check_count, pick_channel, pick_step, seconds
 from .common import RawArray, check_sample_type, check_spacing, require, show
 
 SPATIAL = ("z", "y", "x")
@@ -66,37 +71,131 @@ SETTLE_SECONDS = 10.0
 log = logging.getLogger(__name__)
 
 
-def read_zarr(path: Path, array: str | None = None, level: int | None = None) -> RawArray:
-    target, axes, transforms, name = open_zarr(path, array, level)
-    check_bytes(math.prod(target.shape) * np.dtype(target.dtype).itemsize,
-                f"{name}: the zarr array of shape {tuple(target.shape)}",
-                "choose a coarser level (volume.level), read it out of core (volume.out_of_core), or raise the "
-                "memory budget")
+def read_zarr(path: Path, array: str | None = None, level: int | None = None, channel: int | None = None,
+              time: int | None = None):
+    """The chosen array's volume; an OME-Zarr image of several channels with none chosen, a
+    :class:`.channels.RawChannels` of them all; of a time series, step ``time`` alone."""
+    target, axes, transforms, name, attrs, _ = _open(path, array, level)
+    info = _image_axes(target.shape, axes, transforms, attrs, name)
+    axes = chosen_axes(axes, info, channel, time, name)
+    index, order, spacing, origin = zarr_plan(target.shape, axes, transforms, name, keep_channels=True)
+    kept = [n for n, i in zip(target.shape, index) if isinstance(i, slice)]
+    several = "several channels: pick one (volume.channel) to read it out of core, " if len(kept) > 3 else ""
+    check_bytes(math.prod(kept) * np.dtype(target.dtype).itemsize,
+                f"{name}: the zarr array of shape {tuple(kept)}" + (f" read from {tuple(target.shape)}" if
+                                                                    len(kept) < len(target.shape) else ""),
+                f"choose a coarser level (volume.level), {several}read it out of core (volume.out_of_core), or "
+                f"raise the memory budget")
     check_array(target, name)
-    index, order, spacing, origin = zarr_plan(target.shape, axes, transforms, name)
-    data = read_all(target, name)
-    return RawArray(np.ascontiguousarray(np.transpose(data[index], order)), spacing, origin)
+    data = read_all(target, name, index)
+    if len(kept) == 3:
+        return RawArray(np.ascontiguousarray(np.transpose(data, order)), spacing, origin)
+    at = [k for k, i in zip(range(len(index)), index) if isinstance(i, slice)].index(_channel_axis(axes))
+    arrays = [RawArray(np.ascontiguousarray(np.transpose(np.take(data, c, axis=at), order)), spacing, origin)
+              for c in range(data.shape[at])]
+    return RawChannels(arrays, list(info.names))
 
 
-def read_all(target, name: str) -> np.ndarray:
-    """The whole array, read ``SLAB_CHUNKS`` chunks at a time along its first axis (a progress step each)."""
+def read_all(target, name: str, index: tuple | None = None) -> np.ndarray:
+    """The array's samples that ``index`` selects (default all; a slice or an integer per axis), read
+    ``SLAB_CHUNKS`` chunks at a time along the first axis it slices (a progress step each): the chunks outside
+    the selection (another time step's) are never read."""
     shape, chunks = tuple(target.shape), tuple(target.chunks)
     if not shape:
         return np.asarray(target[...])
-    out = np.empty(shape, dtype=target.dtype)
-    per_layer = math.prod(-(-n // c) for n, c in zip(shape[1:], chunks[1:]))
-    step_rows = chunks[0] * max(1, SLAB_CHUNKS // max(per_layer, 1))
+    index = tuple(index) if index is not None else (slice(None),) * len(shape)
+    kept = [k for k, i in enumerate(index) if isinstance(i, slice)]
+    out = np.empty([shape[k] for k in kept], dtype=target.dtype)
+    first = kept[0]
+    per_layer = math.prod(-(-shape[k] // chunks[k]) for k in kept[1:])
+    step_rows = chunks[first] * max(1, SLAB_CHUNKS // max(per_layer, 1))
     with progress.task(f"reading {Path(name).name}", out.nbytes, "B") as step, reading(name, CHUNK):
-        for start in range(0, shape[0], step_rows):
-            out[start:start + step_rows] = target[start:start + step_rows]
+        for start in range(0, shape[first], step_rows):
+            selection = list(index)
+            selection[first] = slice(start, start + step_rows)
+            out[start:start + step_rows] = target[tuple(selection)]
             step(out[:start + step_rows].nbytes)
     return out
+
+
+def zarr_axes(path: Path, array: str | None = None, level: int | None = None) -> Axes:
+    """The channels and time steps of the chosen array (:class:`.channels.Axes`), nothing read but metadata."""
+    target, axes, transforms, name, attrs, _ = _open(path, array, level)
+    return _image_axes(target.shape, axes, transforms, attrs, name)
+
+
+def _kind_of(axis) -> str | None:
+    """``"channel"``, ``"time"`` or None for an axis ``(name, type[, pick])``: by its type, else its name."""
+    name, kind = axis[0].lower(), axis[1]
+    if kind in ("channel", "time"):
+        return kind
+    return {"c": "channel", "t": "time"}.get(name) if kind in (None, "") else None
+
+
+def _channel_axis(axes) -> int | None:
+    found = [k for k, a in enumerate(axes or ()) if _kind_of(a) == "channel" and a[0].lower() not in SPATIAL]
+    return found[0] if found else None
+
+
+def _image_axes(shape, axes, transforms, attrs: dict, name: str) -> Axes:
+    """What an OME-Zarr image holds beyond space: its channel axis (with the omero labels), its time axis
+    (with the seconds between steps, from the axis' scale and unit); a bare array: none."""
+    if axes is None or len(axes) != len(shape):
+        return Axes()
+    kinds = [_kind_of(a) if a[0].lower() not in SPATIAL else None for a in axes]
+    for kind in ("channel", "time"):
+        if kinds.count(kind) > 1:
+            raise VolumeError(f"{name}: the axes name {kinds.count(kind)} {kind} axes; an image has at most one: fix "
+                              f"the metadata")
+    channels, names, steps, interval = 0, (), 1, None
+    if "channel" in kinds:
+        channels = check_count(shape[kinds.index("channel")], name, "channels")
+        names = tuple(channel_names(_omero_labels(attrs), channels))
+    if "time" in kinds:
+        at = kinds.index("time")
+        steps = check_count(shape[at], name, "time steps")
+        scale = np.ones(len(axes))
+        for kind, values in _as_pairs(transforms, len(axes), name):
+            scale = scale * values if kind == "scale" else scale
+        interval = seconds(scale[at], attrs.get("_units", {}).get(axes[at][0]) or "") if steps > 1 else None
+    return Axes(channels, names, steps, interval)
+
+
+def _omero_labels(attrs: dict) -> list:
+    """The omero metadata's channel labels (0.4 at the top, 0.5 under ``ome``); [] where absent or malformed."""
+    omero = attrs.get("omero", (attrs.get("ome") or {}).get("omero") if isinstance(attrs.get("ome"), dict) else None)
+    channels = omero.get("channels") if isinstance(omero, dict) else None
+    if not isinstance(channels, list):
+        return []
+    return [c.get("label") if isinstance(c, dict) and isinstance(c.get("label"), str) else "" for c in channels]
+
+
+def chosen_axes(axes, info: Axes, channel, time, name: str):
+    """``axes`` with the chosen entries picked, ``(name, type, index)``: the time axis' step (default 0), the
+    channel axis' channel where one is chosen (every channel otherwise); each checked against the file."""
+    chosen = pick_channel(channel, info, name)
+    step = pick_step(time, info, name)
+    if axes is None:
+        return None
+    picked = []
+    for axis in axes:
+        kind = _kind_of(axis) if axis[0].lower() not in SPATIAL else None
+        pick = step if kind == "time" else chosen if kind == "channel" else None
+        picked.append((axis[0], axis[1], pick) if pick is not None else tuple(axis[:2]))
+    return picked
 
 
 def open_zarr(path: Path, array: str | None = None, level: int | None = None, with_levels: bool = False):
     """The zarr array chosen (see the module doc) without reading it: ``(array, axes, transforms, name)``;
     ``axes`` is None for an array without OME metadata.  ``with_levels``: a fifth item, the
     ``(array, transforms)`` of each coarser OME-Zarr level after the chosen one, fine to coarse."""
+    found = _open(path, array, level, with_levels)
+    return found[:4] + ((found[5],) if with_levels else ())
+
+
+def _open(path: Path, array: str | None = None, level: int | None = None, with_levels: bool = False):
+    """:func:`open_zarr`'s four items, the group's attributes (with ``_units``: each axis' unit) and the
+    coarser levels."""
     zarr = require("zarr", "zarr", "zarr")
     path = Path(path)
     if not current().allows(path):
@@ -106,15 +205,17 @@ def open_zarr(path: Path, array: str | None = None, level: int | None = None, wi
     name = str(path)
     with reading(name, "not a zarr store, or its metadata is not valid ({}); check the path, or fix the store"):
         node = zarr.open(store=open_store(path), mode="r")
-    axes, transforms, coarser = None, [], []
+    axes, transforms, coarser, attrs = None, [], [], {}
     if isinstance(node, zarr.Array):
         if array is not None or level is not None:
             raise VolumeError(f"{name}: a single zarr array; volume.array and volume.level apply to groups: "
                               f"remove them")
         target = node
     else:
-        image = ome_image(dict(node.attrs), name)
+        attrs = dict(node.attrs)
+        image = ome_image(attrs, name)
         if image is not None:
+            attrs["_units"] = _units(attrs)
             datasets, axes, common = image
             chosen = _level_index(level, len(datasets), name)
             target, transforms = _dataset(node, datasets[chosen], name), datasets[chosen][1] + common
@@ -125,13 +226,35 @@ def open_zarr(path: Path, array: str | None = None, level: int | None = None, wi
                 raise VolumeError(f"{name}: volume.level applies to OME-Zarr multiscale images; this group has no "
                                   f"multiscales metadata")
             target = _member(node, array, name)
-    return (target, axes, transforms, name, coarser) if with_levels else (target, axes, transforms, name)
+    return target, axes, transforms, name, attrs, coarser
 
 
-def zarr_layout(path: Path, array: str | None = None, level: int | None = None):
+def _units(attrs: dict) -> dict:
+    """Each named axis' unit (a string) in the first multiscale image (checked already by :func:`ome_image`)."""
+    ome = attrs.get("ome") if isinstance(attrs.get("ome"), dict) else attrs
+    axes = ome["multiscales"][0].get("axes") or []
+    return {a["name"]: a["unit"] for a in axes if isinstance(a, dict) and isinstance(a.get("unit"), str)}
+
+
+class ZarrLayout(tuple):
+    """:func:`zarr_layout`'s ``(array, axes, transforms, name, coarser)``; ``refusal`` says why it cannot be read
+    in part (several channels, none chosen), None where it can."""
+
+    refusal = None
+
+
+def zarr_layout(path: Path, array: str | None = None, level: int | None = None, channel: int | None = None,
+                time: int | None = None) -> ZarrLayout:
     """The chosen array and its coarser levels, unread (:func:`open_zarr` ``with_levels``), for reading in part
-    (each checked by :func:`check_array`)."""
-    found = open_zarr(path, array, level, with_levels=True)
+    (each checked by :func:`check_array`); the axes carry the chosen channel and step (:func:`chosen_axes`), so
+    that only their chunks are read.  Several channels with none chosen: its ``refusal`` says to choose one."""
+    target, axes, transforms, name, attrs, coarser = _open(path, array, level, with_levels=True)
+    info = _image_axes(target.shape, axes, transforms, attrs, name)
+    found = ZarrLayout((target, chosen_axes(axes, info, channel, time, name), transforms, name, coarser))
+    if channel is None and info.channels > 1:
+        found.refusal = (f"{name}: {info.channels} channels; out of core reads one channel at a time: choose it "
+                         f"(volume.channel, one [[volume]] table a channel) or read it in memory")
+        return found
     for target in [found[0], *(a for a, _ in found[4])]:
         check_array(target, found[3])
     return found
@@ -158,11 +281,13 @@ def check_array(target, name: str) -> None:
                           f"on two cores); rewrite the store in larger chunks (e.g. 64^3)")
 
 
-def zarr_plan(shape, axes, transforms, name):
+def zarr_plan(shape, axes, transforms, name, keep_channels: bool = False):
     """How to turn an array of ``shape`` into the volume ``[z, y, x]``: ``(index, order, spacing, origin)``:
-    ``array[index]`` drops the axes of size 1 that are not spatial, ``np.transpose(_, order)`` orders the
-    spatial ones z, y, x; spacing and origin (x first) come from the OME transforms (None without
-    ``axes``: a bare array's leading axes of size 1 are dropped, nothing is transposed)."""
+    ``array[index]`` drops the axes of size 1 that are not spatial and takes the entry an axis
+    ``(name, type, index)`` picks (:func:`chosen_axes`), ``np.transpose(_, order)`` orders the spatial ones
+    z, y, x; spacing and origin (x first) come from the OME transforms (None without ``axes``: a bare array's
+    leading axes of size 1 are dropped, nothing is transposed).  ``keep_channels``: the channel axis, unpicked,
+    is kept (a slice; ``order`` then orders the spatial axes of one channel taken from it)."""
     if axes is None:
         drop = 0
         while len(shape) - drop > 3 and shape[drop] == 1:
@@ -170,7 +295,7 @@ def zarr_plan(shape, axes, transforms, name):
         if len(shape) - drop != 3:
             raise VolumeError(f"{name}: the array has shape {tuple(shape)}; a volume needs 3 dimensions (z, y, x)")
         return (0,) * drop + (slice(None),) * 3, (0, 1, 2), None, None
-    return _by_axes(shape, axes, transforms, name)
+    return _by_axes(shape, axes, transforms, name, keep_channels)
 
 
 # --- the store: every file checked before it is opened --------------------------------------------
@@ -533,13 +658,13 @@ def _member(group, array, name):
     return next(iter(arrays.values()))
 
 
-def _by_axes(shape, axes, transforms, name):
+def _by_axes(shape, axes, transforms, name, keep_channels=False):
     if len(axes) != len(shape):
         raise VolumeError(f"{name}: {len(axes)} axes for an array of {len(shape)} dimensions; fix the metadata")
-    names = [n.lower() for n, _ in axes]
+    names = [a[0].lower() for a in axes]
     missing = [a for a in SPATIAL if a not in names]
     if missing:
-        raise VolumeError(f"{name}: the axes are named {', '.join(n for n, _ in axes)}; a volume needs axes named "
+        raise VolumeError(f"{name}: the axes are named {', '.join(a[0] for a in axes)}; a volume needs axes named "
                           f"z, y and x (type 'space', in any order; others, such as t and c, of size 1): rename the "
                           f"axes in the multiscales metadata")
     scale, shift = np.ones(len(axes)), np.zeros(len(axes))
@@ -550,16 +675,23 @@ def _by_axes(shape, axes, transforms, name):
         else:
             shift = shift + values
     index = []
-    for (axis, kind), size in zip(axes, shape):
+    for entry, size in zip(axes, shape):
+        axis, kind = entry[0], entry[1]
+        pick = entry[2] if len(entry) > 2 else None
         if axis.lower() in SPATIAL:
             index.append(slice(None))
+        elif pick is not None and 0 <= int(pick) < size:
+            index.append(int(pick))
         elif size == 1:
             index.append(0)
+        elif keep_channels and _kind_of(entry) == "channel":
+            index.append(slice(None))
         else:
-            what = "channel" if kind == "channel" or axis.lower() == "c" else "time" if kind == "time" or \
-                axis.lower() == "t" else kind or "other"
+            what = _kind_of(entry) or kind or "other"
+            key = {"channel": " (volume.channel)", "time": " (volume.time)"}.get(what, "")
             raise VolumeError(f"{name}: the {what} axis {axis!r} has {size} entries; a volume is one scalar field: "
-                              f"write one {what} to its own array (e.g. with zarr) and read that")
+                              f"choose one{key}, or write one {what} to its own array (e.g. with zarr) and read "
+                              f"that")
     kept = [n for n in names if n in SPATIAL]
     order = tuple(kept.index(a) for a in SPATIAL)  # by name: [z, y, x]
     at = {n: i for i, n in enumerate(names)}

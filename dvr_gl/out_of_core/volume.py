@@ -233,13 +233,15 @@ def _open_in_part(path: Path, fmt: str, options: dict, budget_mb: float, block_s
     raw_options = {k: options[k] for k in ("dims", "dtype", "endian", "header_bytes", "array", "level")}
     if fmt != "raw":
         raw_options = {k: v for k, v in raw_options.items() if k not in ("endian", "header_bytes")}
+    # the channel and time step a file's reader picks (dvr_gl.io.channels): zarr reads only their chunks
+    raw_options.update({k: options[k] for k in ("channel", "time") if options.get(k) is not None})
     found = voxel_layout(path, fmt, raw_options)
     nan_value = options["nan_value"]
+    if getattr(found, "refusal", None):  # a raw encoding not read in part; a zarr image of channels, none chosen
+        if required:
+            raise VolumeError(found.refusal)
+        return None
     if isinstance(found, RawLayout):
-        if found.refusal:
-            if required:
-                raise VolumeError(found.refusal)
-            return None
         endian = "big" if found.dtype.byteorder == ">" else "little"
         source = RawSource(found.path, found.dims, found.dtype, found.offset, endian, nan_value, name=path.name)
         geometry, coarser = (found.spacing, found.origin, found.direction), []
@@ -283,5 +285,9 @@ def open_for_scene(path: Path, spec, memory_budget_mb: float):
         return None
     options = {"dims": spec.dims, "dtype": spec.dtype, "endian": spec.endian, "header_bytes": spec.header_bytes,
                "spacing": spec.spacing, "origin": spec.origin, "nan_value": spec.nan_value, "array": spec.array,
-               "level": spec.level}
+               "level": spec.level, "channel": getattr(spec, "channel", None), "time": getattr(spec, "time", None)}
+    from ..io.series import VOLUME_FORMATS, is_pattern, step_file
+
+    if is_pattern(path) and fmt in VOLUME_FORMATS:  # a time series of files: the chosen step's file, read in part
+        path, options["time"] = step_file(path, options["time"]), None
     return _open_in_part(path, fmt, options, memory_budget_mb, BLOCK, True, required=choice is True)

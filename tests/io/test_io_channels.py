@@ -171,3 +171,64 @@ def test_shared_dividing_cell_time_series(shared_data):
         assert values.shape == (3, 5, 170, 240) and (int(values.min()), int(values.max())) == (lo, hi)
     assert steps[0].members[0].field.spacing == pytest.approx((0.0905767, 0.0905767, 0.32), rel=1e-6)
     assert not np.array_equal(steps[0].members[1].field.data, steps[2].members[1].field.data)
+
+
+# --- OME-Zarr: the c and t axes ---------------------------------------------------------------------------
+
+def write_ome_tczyx(path, data=HYPER, labels=("DNA", None), unit="millisecond", chunks=None):
+    """An OME-Zarr 0.4 image of ``data[t, z, c, y, x]`` stored TCZYX, one chunk per (t, c) by default; omero
+    labels; the t axis' scale 500 in ``unit``."""
+    zarr = pytest.importorskip("zarr", reason="zarr reads zarr stores (extra 'zarr')")
+    group = zarr.open_group(str(path), mode="w")
+    stored = np.ascontiguousarray(data.transpose(0, 2, 1, 3, 4))
+    group.create_array("0", data=stored, chunks=chunks or (1, 1) + stored.shape[2:])
+    axes = [{"name": "t", "type": "time", "unit": unit}, {"name": "c", "type": "channel"}] + \
+        [{"name": a, "type": "space", "unit": "micrometer"} for a in "zyx"]
+    scale = {"type": "scale", "scale": [500.0, 1.0, 2.0, 0.5, 0.25]}
+    group.attrs["multiscales"] = [{"version": "0.4", "axes": axes,
+                                   "datasets": [{"path": "0", "coordinateTransformations": [scale]}]}]
+    group.attrs["omero"] = {"channels": [{"label": label} if label else {} for label in labels]}
+    return path
+
+
+def test_ome_zarr_channels_and_time(tmp_path):
+    path = write_ome_tczyx(tmp_path / "i.ome.zarr")
+    assert time_steps(path) == (T, 0.5)
+    fields = load_volume(path, time=2)
+    assert [m.name for m in fields.members] == ["DNA", "channel 1"]
+    for c, m in enumerate(fields.members):
+        np.testing.assert_array_equal(m.field.data, HYPER[2, :, c])
+        assert m.field.spacing == (0.25, 0.5, 2.0)
+    np.testing.assert_array_equal(load_volume(path, channel=1, time=1).data, HYPER[1, :, 1])
+    with pytest.raises(VolumeError, match=r"volume.time = 3 is past the end; the file has 3 time steps"):
+        load_volume(path, time=3)
+    with pytest.raises(VolumeError, match=r"volume.channel = 5 is past the last channel; the file has 2"):
+        load_volume(path, channel=5)
+
+
+def test_ome_zarr_reads_only_the_chunks_of_its_step(tmp_path):
+    """The chunks of every other step are made unreadable: reading step 1 (a channel of it, or all) never
+    touches them."""
+    path = write_ome_tczyx(tmp_path / "i.ome.zarr")
+    for chunk in (path / "0" / "c").rglob("*"):
+        if chunk.is_file() and chunk.relative_to(path / "0" / "c").parts[0] != "1":
+            chunk.write_bytes(b"not a chunk")
+    np.testing.assert_array_equal(load_volume(path, time=1).members[0].field.data, HYPER[1, :, 0])
+    np.testing.assert_array_equal(load_volume(path, time=1, channel=1).data, HYPER[1, :, 1])
+    with pytest.raises(VolumeError, match="a chunk of the zarr array cannot be read"):
+        load_volume(path, time=0)
+
+
+def test_ome_zarr_out_of_core_one_channel_of_one_step(tmp_path):
+    """Out of core reads the chosen channel and step in part; several channels with none chosen: one line."""
+    from dvr_gl.scene.resolve import load_scene
+
+    path = write_ome_tczyx(tmp_path / "i.ome.zarr")
+    keys = {"volume.path": str(path), "volume.out_of_core": True, "image.width": 8, "image.height": 8}
+    scene = load_scene(None, {**keys, "volume.channel": 1, "volume.time": 2})
+    assert getattr(scene.volume, "out_of_core", False)
+    np.testing.assert_array_equal(scene.volume.read((0, 0, 0), scene.volume.dims), HYPER[2, :, 1])
+    with pytest.raises(VolumeError, match="2 channels; out of core reads one channel at a time: choose it"):
+        load_scene(None, keys)
+    auto = load_scene(None, {**keys, "volume.out_of_core": "auto", "volume.time": 1})  # small: read in memory
+    np.testing.assert_array_equal(auto.field.members[1].field.data, HYPER[1, :, 1])

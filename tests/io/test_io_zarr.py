@@ -74,9 +74,13 @@ def test_singleton_time_and_channel_are_dropped(tmp_path):
     np.testing.assert_array_equal(v.data, DATA)
 
 
-def test_several_channels_are_refused(tmp_path):
-    with pytest.raises(VolumeError, match="the channel axis 'c' has 3 entries"):
-        load_volume(write_ome(tmp_path / "i.zarr", extra=(("c", 3),)))
+def test_several_channels_are_each_a_field(tmp_path):
+    """Issue 42: a channel axis of 3 gives 3 scalar members on one grid (tests/io/test_io_channels.py has more)."""
+    fields = load_volume(write_ome(tmp_path / "i.zarr", extra=(("c", 3),)))
+    assert [m.name for m in fields.members] == ["channel 0", "channel 1", "channel 2"]
+    for m in fields.members:
+        np.testing.assert_array_equal(m.field.data, DATA)
+        assert m.field.spacing == (0.5, 0.75, 2.0) and m.field.origin == (30.0, 20.0, 10.0)
 
 
 def test_level_on_a_plain_group_is_refused(tmp_path):
