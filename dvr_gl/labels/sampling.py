@@ -34,19 +34,32 @@ def _axis(u: np.ndarray, n: int, spacing: float):
 
 
 def _taps(volume, points: np.ndarray):
-    """The 8 taps' labels ``(8, N)``, weights ``(8, N)`` and weight gradients ``(8, N, 3)`` (per world unit),
-    in the order x fastest."""
+    """The 8 taps' labels ``(8, N)`` and weights ``(8, N)``, in the order x fastest, and the axes' tap
+    weights and derivatives (for :func:`_gradient`)."""
     u = volume.world_to_index(points)
     axes = [_axis(u[:, a], volume.dims[a], volume.spacing[a]) for a in range(3)]
-    (ix, wx, dx), (iy, wy, dy), (iz, wz, dz) = axes
-    labels, weights, grads = [], [], []
-    for c in range(2):
-        for b in range(2):
-            for a in range(2):
-                labels.append(volume.data[iz[c], iy[b], ix[a]])
-                weights.append(wx[a] * wy[b] * wz[c])
-                grads.append(np.stack([dx[a] * wy[b] * wz[c], wx[a] * dy[b] * wz[c], wx[a] * wy[b] * dz[c]], -1))
-    return np.stack(labels).astype(np.int64), np.stack(weights), np.stack(grads)
+    (ix, wx, _), (iy, wy, _), (iz, wz, _) = axes
+    labels = np.empty((8, len(points)), np.int64)
+    weights = np.empty((8, len(points)))
+    for j, (a, b, c) in enumerate(_CORNERS):
+        labels[j] = volume.data[iz[c], iy[b], ix[a]]
+        weights[j] = wx[a] * wy[b] * wz[c]
+    return labels, weights, axes
+
+
+_CORNERS = [(a, b, c) for c in range(2) for b in range(2) for a in range(2)]
+
+
+def _gradient(axes, labels: np.ndarray, chosen: np.ndarray) -> np.ndarray:
+    """The gradient ``(N, 3)`` per world unit of the trilinear indicator of ``chosen`` (a label per point)."""
+    (_, wx, dx), (_, wy, dy), (_, wz, dz) = axes
+    out = np.zeros((labels.shape[1], 3))
+    for j, (a, b, c) in enumerate(_CORNERS):
+        mine = labels[j] == chosen
+        out[:, 0] += np.where(mine, dx[a] * wy[b] * wz[c], 0.0)
+        out[:, 1] += np.where(mine, wx[a] * dy[b] * wz[c], 0.0)
+        out[:, 2] += np.where(mine, wx[a] * wy[b] * dz[c], 0.0)
+    return out
 
 
 def _nearest(volume, points: np.ndarray) -> np.ndarray:
@@ -57,7 +70,15 @@ def _nearest(volume, points: np.ndarray) -> np.ndarray:
 
 def _argmax_indicator(labels: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """``argmax_L I_L`` over the taps' labels, ties to the smaller label; each ``I_L`` summed over the taps
-    in their order (as the GLSL does)."""
+    in their order (as the GLSL does).  Where the 8 taps agree (inside a region: most samples) that label."""
+    chosen = labels[0].copy()
+    mixed = np.nonzero(np.any(labels != labels[0], axis=0))[0]
+    if mixed.size:
+        chosen[mixed] = _argmax_mixed(labels[:, mixed], weights[:, mixed])
+    return chosen
+
+
+def _argmax_mixed(labels: np.ndarray, weights: np.ndarray) -> np.ndarray:
     best_label = labels[0]
     best = np.full(labels.shape[1], -1.0)
     for j in range(8):
@@ -79,11 +100,15 @@ def label_sample(volume, points, filter: str = "linear") -> tuple[np.ndarray, np
     out_grad = np.empty((len(points), 3))
     for start in range(0, len(points), CHUNK):
         chunk = points[start:start + CHUNK]
-        labels, weights, grads = _taps(volume, chunk)
+        labels, weights, axes = _taps(volume, chunk)
         chosen = _nearest(volume, chunk) if filter == "nearest" else _argmax_indicator(labels, weights)
-        mine = labels == chosen[None, :]
         out_labels[start:start + len(chunk)] = chosen
-        out_grad[start:start + len(chunk)] = np.where(mine[..., None], grads, 0.0).sum(axis=0)
+        # where the 8 taps agree the indicator is 1 around the point: no gradient (most samples)
+        mixed = np.nonzero(np.any(labels != labels[0], axis=0))[0]
+        grad = np.zeros((len(chunk), 3))
+        grad[mixed] = _gradient([(i[:, mixed], w[:, mixed], d[:, mixed]) for i, w, d in axes], labels[:, mixed],
+                                chosen[mixed])
+        out_grad[start:start + len(chunk)] = grad
     return out_labels, out_grad
 
 

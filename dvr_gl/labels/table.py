@@ -32,6 +32,9 @@ MAX_FLOAT_LABEL = 2 ** 24
 #: Texels per row of the GPU table (:meth:`LabelTable.texture_table`): within every GL's smallest maximum
 #: texture width (4096), so a table of 65536 labels is 16 rows.
 TABLE_ROW = 4096
+#: Voxels counted at a time by :func:`labels_present` (a cache-sized int64 copy: 0.67 s for the frog's 32
+#: million voxels where one whole-volume bincount takes 1.5 s and a sort 2.3 s).
+COUNT_CHUNK = 1 << 19
 #: The widest span of labels a table may list (largest - smallest + 1): its GPU table holds a texel for each
 #: (16 MiB at this span), and every 16-bit label map spans at most 98304.
 MAX_SPAN = 1 << 20
@@ -65,9 +68,13 @@ def labels_present(data: np.ndarray) -> np.ndarray:
     """The distinct labels in ``data``, sorted (int64): counted in one pass for 8- and 16-bit voxels (a sort
     of a large volume costs seconds)."""
     if data.dtype.kind in "iu" and data.dtype.itemsize <= 2:
-        offset = -int(np.iinfo(data.dtype).min)
+        info = np.iinfo(data.dtype)
+        offset = -int(info.min)
+        counts = np.zeros(int(info.max) + offset + 1, np.int64)
         flat = data.ravel()
-        counts = np.bincount(flat.astype(np.int64) + offset if offset else flat)
+        for start in range(0, flat.size, COUNT_CHUNK):  # cache-sized: bincount widens each chunk to int64
+            chunk = flat[start:start + COUNT_CHUNK]
+            counts += np.bincount(chunk.astype(np.int64) + offset if offset else chunk, minlength=len(counts))
         return np.nonzero(counts)[0].astype(np.int64) - offset
     return np.unique(data).astype(np.int64)
 
