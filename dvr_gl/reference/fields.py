@@ -22,17 +22,22 @@ their segments span the union of the boxes.  The mixture at a point (docs/severa
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 
 from ..errors import SceneError
+from ..fields.reconstruction import smooth_pieces
 from ..rays import intersect_box
-from .model import OpticalModel, depth_cue
+from .members import member_scene, optics
+from .model import depth_cue
 
-#: the roles the references classify (:data:`dvr_gl.fields.layers.ROLES`)
-ROLES = ("scalar",)
+#: the roles the references classify (:data:`dvr_gl.fields.layers.ROLES`; each as :mod:`.members` says)
+ROLES = ("scalar", "label", "rgb")
 PROJECTIONS = ("mip", "minip", "average")
+#: where a label member's isosurface is: its visibility (0 or 1) reaching one half
+LABEL_ISO = 0.5
+#: points per piece where the converged reference looks for a label's boundaries (as for breakpoints)
+LABEL_GRID = 64
+RAYS_PER_BATCH = 2048
 
 
 def several(scene) -> bool:
@@ -46,36 +51,31 @@ def check(scene) -> None:
         return
     r = scene.renderer
     for layer in scene.layers:
-        if layer.role not in ROLES:
-            raise SceneError(f"{layer.name}: the CPU references do not classify {layer.role} fields yet; render it "
-                             f"as a scalar field (volume.role = \"scalar\") or leave it out")
         if r.compositing in PROJECTIONS and layer.role != "scalar":
             raise SceneError(f"{layer.name}: renderer.compositing = {r.compositing} projects each scalar field; a "
                              f"{layer.role} field has no value to project: use emission_absorption or isosurface")
+        if layer.role == "rgb" and r.compositing == "isosurface":
+            raise SceneError(f"{layer.name}: a colour volume has no iso-value of its own; use emission_absorption, "
+                             f"or give its opacity source as a scalar field")
+        if layer.role == "rgb" and getattr(r, "hemispherical_shading", False):
+            raise SceneError(f"{layer.name}: hemispherical shading shades a transfer function's emission, and a "
+                             f"colour volume's is its data's: turn renderer.hemispherical_shading off")
     scattering = getattr(r, "scattering", None)
     if scattering is not None and scattering.enabled:
         raise SceneError("several fields: the CPU references do not light the mixture by scattering; set "
                          "renderer.scattering.enabled = false or render one field")
 
 
-def member_scene(scene, layer):
-    """The single-field scene of one member: its grid, transfer function and iso-value, the scene's camera,
-    image and every other setting."""
-    renderer = scene.renderer
-    if hasattr(renderer, "iso_value"):
-        renderer = dataclasses.replace(renderer, iso_value=float(layer.iso_value))
-    return dataclasses.replace(scene, field=layer.field, transfer_function=layer.transfer_function,
-                               transfer_functions=(), sources=(), renderer=renderer)
-
-
 class MemberOptics:
-    """One member: its single-field optical model and its box (closed, widened by 1e-9 of the box to absorb
-    the rounding of points computed on its faces)."""
+    """One member: its model (:func:`.members.optics`, its role's) and its box (closed, widened by 1e-9 of the
+    box to absorb the rounding of points computed on its faces)."""
 
     def __init__(self, scene, layer, exact: bool, segment_length: float | None):
         self.layer = layer
+        self.label = layer.role == "label"
+        self.iso = LABEL_ISO if self.label else layer.iso_value
         self.scene = member_scene(scene, layer)
-        self.model = OpticalModel(self.scene, exact=exact, segment_length=segment_length)
+        self.model = optics(self.scene, layer, exact, segment_length)
         lo, hi = (np.asarray(b, np.float64) for b in layer.field.box)
         slack = 1e-9 * float(np.max(hi - lo) + max(layer.field.spacing))
         self.box = (lo, hi)
@@ -114,10 +114,10 @@ class Mixture:
     def __init__(self, scene, exact: bool = False, segment_length: float | None = None):
         check(scene)
         self.members = [MemberOptics(scene, layer, exact, segment_length) for layer in scene.layers]
-        first = self.members[0].model
-        self.preintegration = first.preintegration  # every member has a table or none (one setting)
-        self.shading = first.shading
-        if first.depth_cue is not None:  # the cue spans the union box, as the rays do
+        # every member with a table has one (one setting); a label has none (its segments as post-classified)
+        self.preintegration = next((m.model.preintegration for m in self.members
+                                    if m.model.preintegration is not None), None)
+        if any(m.model.depth_cue is not None for m in self.members):  # the cue spans the union box, as the rays
             cue = depth_cue(scene)
             for m in self.members:
                 m.model.depth_cue = cue
@@ -212,7 +212,7 @@ def first_hit(ref) -> np.ndarray:
     on that member alone, its colour at its iso-value, shaded by its gradient, opaque."""
     members = ref.model.members
     n = len(ref.rays)
-    isos = np.array([m.layer.iso_value for m in members])
+    isos = np.array([m.iso for m in members])
     has = ref.n_seg > 0
     entry = ref.rays.points(np.arange(n), ref.rays.t0[:, None])
     prev_s = np.stack([_values(m, entry) for m in members])  # (members, rays); -inf outside a box
@@ -251,26 +251,32 @@ def first_hit(ref) -> np.ndarray:
         rows = np.nonzero(hit & (which == i))[0]
         if not len(rows):
             continue
-        t = _refine(ref.rays, member, rows, bracket[rows], isos[i], ref.scene.renderer.iso_refinement)
-        colour, _ = member.model.classify_value(np.full(len(rows), isos[i]))
-        if member.model.shading is not None:
-            colour = member.model.shade(colour, ref.rays.points(rows, t[:, None]), ref.rays.directions[rows])
+        t, t_b = _refine(ref.rays, member, rows, bracket[rows], isos[i], ref.scene.renderer.iso_refinement)
+        directions = ref.rays.directions[rows]
+        if member.label:  # the label on the bracket's visible side, shaded by its indicator
+            colour = member.model.hit_colour(ref.rays.points(rows, t_b[:, None]), directions)
+        else:
+            colour, _ = member.model.classify_value(np.full(len(rows), isos[i]))
+            if member.model.shading is not None:
+                colour = member.model.shade(colour, ref.rays.points(rows, t[:, None]), directions)
         rgba[rows, :3] = colour
         rgba[rows, 3] = 1.0
     return rgba
 
 
 def _values(member: MemberOptics, points: np.ndarray) -> np.ndarray:
-    """The member's scalar at points, ``-inf`` outside its box (no hit there)."""
+    """What the member's isosurface is a level of at points: its scalar, a label's visibility (0 or 1);
+    ``-inf`` outside its box (no hit there)."""
     out = np.full(len(points), -np.inf)
     inside = member.inside(points)
-    out[inside] = member.model.scalar.sample(points[inside])
+    sample = member.model.visible if member.label else member.model.scalar.sample
+    out[inside] = sample(points[inside])
     return out
 
 
-def _refine(rays, member, rows, bracket, iso, steps: int) -> np.ndarray:
+def _refine(rays, member, rows, bracket, iso, steps: int) -> tuple[np.ndarray, np.ndarray]:
     """Bisection on ``[t_a, t_b]`` keeping ``s(t_a) < iso <= s(t_b)`` on the member alone, then linear
-    interpolation (to ``t_b`` where ``s(t_a)`` lies outside the box: the hit is on its face)."""
+    interpolation (to ``t_b`` where ``s(t_a)`` lies outside the box: the hit is on its face): ``(t, t_b)``."""
     t_a, s_a, t_b, s_b = bracket.T.copy()
     for _ in range(steps):
         t_m = 0.5 * (t_a + t_b)
@@ -281,7 +287,7 @@ def _refine(rays, member, rows, bracket, iso, steps: int) -> np.ndarray:
     span = s_b - s_a
     with np.errstate(invalid="ignore", divide="ignore"):
         w = np.where((span > 0) & np.isfinite(span), (iso - s_a) / span, 1.0)
-    return t_a + np.clip(w, 0.0, 1.0) * (t_b - t_a)
+    return t_a + np.clip(w, 0.0, 1.0) * (t_b - t_a), t_b
 
 
 # --- the converged reference -------------------------------------------------------------------------------
@@ -308,17 +314,76 @@ def mixture_pieces(mixture: Mixture, rays, rows: np.ndarray):
 
 def mixture_cuts(ref, ray, a, b, cell):
     """Where a member's field crosses one of its transfer function's breakpoints inside a piece that lies in its
-    box, ``(piece, t)`` (as :meth:`~dvr_gl.reference.converged.ConvergedReference._breakpoint_cuts` for one
-    field), or None."""
+    box (as :meth:`~dvr_gl.reference.converged.ConvergedReference._breakpoint_cuts` for one field), or a label
+    member's label changes (:func:`label_cuts`): ``(piece, t)``, or None."""
     middle = ref.rays.origins[ray] + (0.5 * (a + b))[:, None] * ref.rays.directions[ray]
     pieces, ts = [], []
     for m in ref.model.members:
         inside = np.nonzero(m.inside(middle))[0]
-        found = ref._breakpoint_cuts(ray[inside], a[inside], b[inside], cell[inside], m.model) if len(inside) else None
+        if not len(inside):
+            continue
+        if m.label:
+            found = label_cuts(ref.rays, m, ray[inside], a[inside], b[inside])
+        else:
+            found = ref._breakpoint_cuts(ray[inside], a[inside], b[inside], cell[inside], m.model)
         if found is not None:
             pieces.append(inside[found[0]])
             ts.append(found[1])
     return (np.concatenate(pieces), np.concatenate(ts)) if pieces else None
+
+
+def label_cuts(rays, member, ray, a, b):
+    """Where a label member's label changes inside pieces ``[a, b]`` of rays ``ray``, ``(piece, t)`` or None: the
+    sample's colour and extinction jump there.  Found as the breakpoints are: changes between
+    :data:`LABEL_GRID` + 1 points per piece, then bisection to float64 resolution (a label region thinner
+    than 1/64 of a piece could be missed)."""
+    grid = np.linspace(0.0, 1.0, LABEL_GRID + 1)
+    t = a[:, None] + (b - a)[:, None] * grid[None, :]
+
+    def labels(ray_, t_):
+        points = rays.origins[ray_, None, :] + t_[..., None] * rays.directions[ray_, None, :]
+        return member.model.labels(points.reshape(-1, 3))[0].reshape(t_.shape)
+    along = labels(ray, t)
+    piece, j = np.nonzero(along[:, 1:] != along[:, :-1])
+    if not len(piece):
+        return None
+    lo, hi, left = t[piece, j], t[piece, j + 1], along[piece, j]
+    for _ in range(60):
+        m = 0.5 * (lo + hi)
+        same = labels(ray[piece], m[:, None])[:, 0] == left
+        lo, hi = np.where(same, m, lo), np.where(same, hi, m)
+    return piece, 0.5 * (lo + hi)
+
+
+def label_first_hit(ref, member) -> tuple[np.ndarray, np.ndarray]:
+    """A label member's isosurface in the converged reference: per ray, ``(t, rgba)`` of the first point of
+    its chord where the label is visible (``t`` inf where none), exact to float64 resolution: pieces between
+    the cells' faces cut where the label changes (:func:`label_cuts`) hold one label each."""
+    rays = ref.rays
+    n = len(rays)
+    hit_t, rgba = np.full(n, np.inf), np.zeros((n, 4))
+    todo = np.nonzero(rays.t1 > rays.t0)[0]
+    for start in range(0, len(todo), RAYS_PER_BATCH):
+        rows = todo[start:start + RAYS_PER_BATCH]
+        o, d = rays.origins[rows], rays.directions[rows]
+        a, b = member.chord(o, d, rays.t0[rows], rays.t1[rows])
+        local, pa, pb = smooth_pieces(member.model.scalar, o, d, a, b)
+        ray, cell = rows[local], np.zeros(len(local), np.int64)
+        cuts = label_cuts(rays, member, ray, pa, pb) if len(ray) else None
+        if cuts is not None:
+            ray, pa, pb, cell = ref._split(ray, pa, pb, cell, *cuts)
+        middle = rays.origins[ray] + (0.5 * (pa + pb))[:, None] * rays.directions[ray]
+        visible = np.nonzero(member.model.visible(middle) > 0)[0]
+        first = np.full(n, len(ray))
+        np.minimum.at(first, ray[visible], visible)  # pieces are sorted along each ray
+        hit = np.nonzero(first < len(ray))[0]
+        p = first[hit]
+        hit_t[hit] = pa[p]
+        # the colour just inside the piece: its label, shaded by that label's indicator at the boundary
+        inside = rays.origins[hit] + (pa[p] + 1e-9 * (pb[p] - pa[p]))[:, None] * rays.directions[hit]
+        rgba[hit, :3] = member.model.hit_colour(inside, rays.directions[hit])
+        rgba[hit, 3] = 1.0
+    return hit_t, rgba
 
 
 def per_channel(ref) -> np.ndarray:
@@ -332,6 +397,9 @@ def per_channel(ref) -> np.ndarray:
     rgba = np.zeros((len(members), n, 4))
     hit_t = np.full((len(members), n), np.inf)
     for i, m in enumerate(members):
+        if m.label:  # isosurface only (check)
+            hit_t[i], rgba[i] = label_first_hit(ref, m)
+            continue
         sub = type(ref)(m.scene, nodes=len(ref.x))
         if sub.model.depth_cue is not None:  # the cue spans the union box
             sub.model.depth_cue = depth_cue(ref.scene)
@@ -343,6 +411,7 @@ def per_channel(ref) -> np.ndarray:
             ref.stats[key] += sub.stats[key]
         ref.stats["converged"] &= sub.stats["converged"]
     if mode == "isosurface":
+        ref.hit_t = hit_t.min(axis=0)
         which = np.argmin(hit_t, axis=0)
         return np.where(np.isfinite(hit_t.min(axis=0))[:, None], rgba[which, np.arange(n)], 0.0)
     out = np.zeros((n, 4))
