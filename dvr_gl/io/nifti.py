@@ -8,10 +8,18 @@ translation the origin.  NIfTI states both in RAS; they are turned into LPS by n
 the first two rows.  With both codes 0 (method 1) the file states no orientation: spacing
 from ``pixdim[1..3]``, origin 0, identity direction.
 
-Before nibabel reads the voxels the header is checked here: 3 dimensions of at
-least 1 voxel, a scalar ``datatype``, finite positive ``pixdim`` (nibabel would
-silently take the absolute value of a negative one), the promised bytes against the
-memory budget and, uncompressed, against the file's size.  nibabel's log messages
+A 4D or 5D file (:mod:`.channels`): the 4th axis (``dim[4]``) is time, or channels where the header's
+``intent_code`` says each voxel holds a vector (:data:`VECTOR_INTENTS`: NIFTI_INTENT_DISPVECT 1006,
+NIFTI_INTENT_VECTOR 1007, NIFTI_INTENT_RGB_VECTOR 2003, NIFTI_INTENT_RGBA_VECTOR 2004); ``volume.fourth_axis``
+(``auto``, ``channel``, ``time``) overrides the intent.  A 5D file's 5th axis (``dim[5]``, NIfTI's place for
+a vector's components) is channels and its 4th time.  The seconds between steps are ``pixdim[4]`` in the
+time unit of ``xyzt_units`` (none where the unit is not one of time).  Only the chosen step (and channel) is
+read, through nibabel's array proxy (a ``.nii.gz`` is decompressed up to it, never kept whole).
+
+Before nibabel reads the voxels the header is checked here: 3 to 5 dimensions of at
+least 1 voxel (a 6th or 7th of more than one is refused), a scalar ``datatype``, finite positive ``pixdim``
+(nibabel would silently take the absolute value of a negative one), the bytes read against the
+memory budget and, uncompressed, the promised bytes against the file's size.  nibabel's log messages
 about headers it repairs are kept off the terminal.
 """
 
@@ -26,12 +34,21 @@ import numpy as np
 
 from ..errors import VolumeError
 from ..sandbox import check_bytes, check_input_path
+from .channels import Axes, RawChannels, channel_names, check_count, pick_channel, pick_step, seconds
 from .common import RAS_TO_LPS, RawArray, axes_geometry, check_sample_type, check_spacing, require
 
 MAX_GZIP_OFFSET = 64 << 20  # bytes: header and extensions; seeking a .nii.gz decodes all of them
+#: The intent codes that make a 4D file's 4th axis the components of a vector (channels), not time.
+VECTOR_INTENTS = {1006: "NIFTI_INTENT_DISPVECT", 1007: "NIFTI_INTENT_VECTOR", 2003: "NIFTI_INTENT_RGB_VECTOR",
+                  2004: "NIFTI_INTENT_RGBA_VECTOR"}
+FOURTH_AXIS = ("auto", "channel", "time")
+#: xyzt_units' time bits (0x38) -> seconds per unit (Hz, ppm and rad/s are not time).
+TIME_UNITS = {8: 1.0, 16: 1e-3, 24: 1e-6}
 
 
-def read_nifti(path: Path) -> RawArray:
+def read_nifti(path: Path, channel: int | None = None, time: int | None = None, fourth_axis: str | None = None):
+    """The volume, or the chosen step of a 4D/5D file: its chosen channel, or a
+    :class:`.channels.RawChannels` of every channel."""
     nib = require("nibabel", "nibabel", "nifti")
     path = check_input_path(Path(path), "NIfTI file")
     errors = (EOFError, zlib.error, OSError, ValueError, OverflowError, TypeError, IndexError, KeyError,
@@ -39,21 +56,99 @@ def read_nifti(path: Path) -> RawArray:
     try:
         with _quiet(nib.imageglobals.logger):
             img = nib.load(str(path))
-            shape, scaled, spacing = _check_header(nib, img, path)
+            axes, where = _layout(img.header, path, fourth_axis)
+            chosen, step = pick_channel(channel, axes, str(path)), pick_step(time, axes, str(path))
+            reads = 1 if axes.channels == 0 or chosen is not None else axes.channels
+            shape, scaled, spacing = _check_header(nib, img, path, reads)
             proxy = img.dataobj
-            arr = np.asarray(proxy) if scaled else np.asarray(proxy.get_unscaled())
+            if where is None:  # a 3D file, read as always
+                arrays = [np.asarray(proxy) if scaled else np.asarray(proxy.get_unscaled())]
+            else:
+                arrays = _read_step(proxy, where, step, chosen, axes.channels)
             affine, field = _patient_affine(img.header)
     except errors as exc:
         raise VolumeError(f"{path}: NIfTI file is truncated or corrupt ({exc})") from None
-    data = np.ascontiguousarray(arr.reshape(shape).transpose(2, 1, 0))  # nibabel indexes (i, j, k): x first
+    # nibabel indexes (i, j, k): x first
+    volumes = [np.ascontiguousarray(np.asarray(a).reshape(shape).transpose(2, 1, 0)) for a in arrays]
+    geometry = _geometry(affine, field, spacing, path)
+    if axes.channels == 0 or chosen is not None:
+        return RawArray(volumes[0], *geometry)
+    return RawChannels([RawArray(v, *geometry) for v in volumes], channel_names((), axes.channels))
+
+
+def _geometry(affine, field, spacing, path) -> tuple:
+    """(spacing, origin, direction) from the affine that places the voxels (none: pixdim, origin 0)."""
     if affine is None:
-        return RawArray(data, spacing, (0.0, 0.0, 0.0))
+        return spacing, (0.0, 0.0, 0.0), None
     lps = RAS_TO_LPS @ affine[:3]
     origin = tuple(float(v) for v in lps[:, 3])
     if not all(math.isfinite(v) for v in origin):
         raise VolumeError(f"{path}: the {field} offsets give origin {origin}; they must be finite")
     spacing, direction = axes_geometry(lps[:, :3].T, str(path), field)
-    return RawArray(data, spacing, origin, direction)
+    return spacing, origin, direction
+
+
+def nifti_axes(path: Path, fourth_axis: str | None = None) -> Axes:
+    """The channels and time steps the header states (no voxel read)."""
+    nib = require("nibabel", "nibabel", "nifti")
+    path = check_input_path(Path(path), "NIfTI file")
+    try:
+        with _quiet(nib.imageglobals.logger):
+            header = nib.load(str(path)).header
+    except (EOFError, zlib.error, OSError, ValueError, OverflowError, TypeError, IndexError, KeyError,
+            nib.filebasedimages.ImageFileError, nib.spatialimages.HeaderDataError) as exc:
+        raise VolumeError(f"{path}: NIfTI file is truncated or corrupt ({exc})") from None
+    return _layout(header, path, fourth_axis)[0]
+
+
+def _layout(header, path: Path, fourth_axis) -> tuple[Axes, tuple | None]:
+    """What the 4th and 5th axes hold: ``(Axes, where)`` with ``where`` ``(time axis, channel axis)`` of
+    nibabel's array (None each where absent), or None for a 3D file."""
+    if fourth_axis not in (None, *FOURTH_AXIS):
+        raise VolumeError(f"{path}: volume.fourth_axis must be one of {', '.join(FOURTH_AXIS)}, got {fourth_axis!r}")
+    shape = tuple(int(s) for s in header.get_data_shape())
+    if len(shape) < 3 or min(shape) < 1 or any(s != 1 for s in shape[5:]):
+        raise VolumeError(f"{path}: dim gives shape {shape}; a volume needs 3 dimensions of at least 1 voxel, a 4th of "
+                          f"time or channels and a 5th of channels at most (extract one 3D volume first)")
+    fourth, fifth = (list(shape[3:5]) + [1, 1])[:2]
+    if len(shape) <= 3 or fourth == fifth == 1:
+        if fourth_axis not in (None, "auto"):
+            raise VolumeError(f"{path}: volume.fourth_axis = {fourth_axis}: this NIfTI file is 3D; remove it")
+        return Axes(), None
+    if fifth > 1:  # 5D: dim[5] the vector's components, dim[4] time
+        if fourth_axis == "channel" and fourth > 1:
+            raise VolumeError(f"{path}: volume.fourth_axis = channel: this 5D file holds its channels in dim[5] and "
+                              f"time in dim[4]; remove it")
+        return Axes(check_count(fifth, str(path), "channels (dim[5])"), (), check_count(fourth, str(path),
+                    "time steps (dim[4])"), _interval(header) if fourth > 1 else None), (3, 4)
+    intent = int(header.get("intent_code", 0))
+    as_channels = fourth_axis == "channel" or fourth_axis in (None, "auto") and intent in VECTOR_INTENTS
+    count = check_count(fourth, str(path), "channels (dim[4])" if as_channels else "time steps (dim[4])")
+    if as_channels:
+        return Axes(count), (None, 3)
+    return Axes(steps=count, interval=_interval(header)), (3, None)
+
+
+def _interval(header) -> float | None:
+    """pixdim[4] in the time unit of xyzt_units, in seconds (None: no time unit)."""
+    factor = TIME_UNITS.get(int(header.get("xyzt_units", 0)) & 0x38)
+    return None if factor is None else seconds(float(header["pixdim"][4]) * factor, "s")
+
+
+def _read_step(proxy, where, step: int, chosen, channels: int) -> list:
+    """The arrays ``[i, j, k]`` of step ``step``: the chosen channel, or each channel, sliced from the proxy
+    (only that part read)."""
+    time_axis, channel_axis = where
+    index = [slice(None)] * 3 + [0] * (len(proxy.shape) - 3)
+    if time_axis is not None:
+        index[time_axis] = step
+    wanted = range(channels) if chosen is None and channel_axis is not None else [chosen or 0]
+    arrays = []
+    for c in wanted:
+        if channel_axis is not None:
+            index[channel_axis] = c
+        arrays.append(np.asarray(proxy[tuple(index)]))
+    return arrays
 
 
 def _patient_affine(header):
@@ -77,14 +172,12 @@ def _quiet(logger):
         logger.disabled = disabled
 
 
-def _check_header(nib, img, path: Path) -> tuple[tuple, bool, tuple]:
-    """The 3D shape, whether the data is scaled and the spacing, after the header's checks."""
+def _check_header(nib, img, path: Path, reads: int = 1) -> tuple[tuple, bool, tuple]:
+    """The 3D shape, whether the data is scaled and the spacing, after the header's checks (``reads``: the 3D
+    volumes read, each counted against the memory budget)."""
     header = img.header
-    shape = tuple(int(s) for s in header.get_data_shape())
-    if len(shape) < 3 or any(s != 1 for s in shape[3:]) or min(shape) < 1:
-        raise VolumeError(f"{path}: dim gives shape {shape}; a volume needs 3 dimensions of at least 1 voxel "
-                          f"(extract one 3D volume first)")
-    shape = shape[:3]
+    whole = tuple(int(s) for s in header.get_data_shape())
+    shape = whole[:3]
     dtype = header.get_data_dtype()
     check_sample_type(dtype, str(path), "datatype", str(dtype))
     # nibabel's loaded header has negative pixdim already made positive: check the stored one
@@ -94,9 +187,10 @@ def _check_header(nib, img, path: Path) -> tuple[tuple, bool, tuple]:
     proxy = img.dataobj
     slope, inter = getattr(proxy, "slope", 1.0), getattr(proxy, "inter", 0.0)
     scaled = not (np.isnan(slope) or slope in (0.0, 1.0)) or not (np.isnan(inter) or inter == 0.0)
-    count = math.prod(shape)
-    nbytes = count * dtype.itemsize
-    check_bytes(nbytes + 8 * count * scaled, f"{path}: the {shape} volume its header promises",
+    count = math.prod(shape) * reads
+    nbytes = math.prod(whole) * dtype.itemsize  # what the file must hold
+    check_bytes(count * dtype.itemsize + 8 * count * scaled,
+                f"{path}: the {shape} volume{f's of {reads} channels' if reads > 1 else ''} its header promises",
                 "check dim in the header, or raise the memory budget")
     offset = int(proxy.offset)  # after nibabel's repair of a vox_offset of 0
     if path.name.lower().endswith(".gz"):

@@ -232,3 +232,136 @@ def test_ome_zarr_out_of_core_one_channel_of_one_step(tmp_path):
         load_scene(None, keys)
     auto = load_scene(None, {**keys, "volume.out_of_core": "auto", "volume.time": 1})  # small: read in memory
     np.testing.assert_array_equal(auto.field.members[1].field.data, HYPER[1, :, 1])
+
+
+# --- NIfTI 4D and 5D --------------------------------------------------------------------------------------
+
+def write_nifti(path, data_ijk, intent=0, units=(2, 8), pixdim4=2.0, slope=None):
+    """A NIfTI-1 of ``data_ijk`` (nibabel's order: x first, then the 4th and 5th axes), spacing (0.5, 1, 2)."""
+    nib = pytest.importorskip("nibabel")
+    img = nib.Nifti1Image(data_ijk, np.diag([0.5, 1.0, 2.0, 1.0]))
+    img.header.set_intent(intent) if intent else None
+    img.header.set_xyzt_units(*units)
+    zooms = list(img.header.get_zooms())
+    if len(zooms) > 3:
+        zooms[3] = pixdim4
+    img.header.set_zooms(zooms)
+    if slope is not None:
+        img.header.set_slope_inter(slope, 0.0)
+    nib.save(img, str(path))
+    return path
+
+
+def _ijk(data_tzcyx):
+    """HYPER-like ``[t, z, c, y, x]`` as nibabel's ``[x, y, z, t, c]``."""
+    return np.ascontiguousarray(data_tzcyx.transpose(4, 3, 1, 0, 2))
+
+
+@pytest.mark.parametrize("suffix", [".nii", ".nii.gz"])
+def test_nifti_4d_is_time(tmp_path, suffix):
+    path = write_nifti(tmp_path / f"t{suffix}", _ijk(HYPER)[..., 0])
+    assert time_steps(path) == (T, 2.0)
+    for step in range(T):
+        v = load_volume(path, time=step)
+        np.testing.assert_array_equal(v.data, HYPER[step, :, 0])
+        assert v.spacing == (0.5, 1.0, 2.0)
+    with pytest.raises(VolumeError, match="volume.channel = 0: this file has no channels"):
+        load_volume(path, channel=0)
+    with pytest.raises(VolumeError, match=r"volume.time = 3 is past the end; the file has 3 time steps"):
+        load_volume(path, time=3)
+
+
+@pytest.mark.parametrize("intent", ["vector", "rgb vector"])
+def test_nifti_4d_vector_intent_is_channels(tmp_path, intent):
+    path = write_nifti(tmp_path / "v.nii", _ijk(HYPER)[:, :, :, 1, :], intent=intent)
+    fields = load_volume(path)
+    assert [m.name for m in fields.members] == ["channel 0", "channel 1"] and time_steps(path) == (1, None)
+    for c, m in enumerate(fields.members):
+        np.testing.assert_array_equal(m.field.data, HYPER[1, :, c])
+    np.testing.assert_array_equal(load_volume(path, channel=1).data, HYPER[1, :, 1])
+    as_time = load_volume(path, fourth_axis="time", time=1)  # the key overrides the intent
+    np.testing.assert_array_equal(as_time.data, HYPER[1, :, 1])
+
+
+def test_nifti_fourth_axis_overrides_and_5d(tmp_path):
+    path = write_nifti(tmp_path / "t.nii", _ijk(HYPER)[..., 0])
+    fields = load_volume(path, fourth_axis="channel")
+    assert len(fields) == T
+    np.testing.assert_array_equal(fields.members[2].field.data, HYPER[2, :, 0])
+    five = write_nifti(tmp_path / "f.nii.gz", _ijk(HYPER), units=(2, 16), pixdim4=250.0)  # dim[5]: channels
+    assert time_steps(five) == (T, 0.25)
+    fields = load_volume(five, time=2)
+    for c, m in enumerate(fields.members):
+        np.testing.assert_array_equal(m.field.data, HYPER[2, :, c])
+    np.testing.assert_array_equal(load_volume(five, time=1, channel=0).data, HYPER[1, :, 0])
+    with pytest.raises(VolumeError, match="fourth_axis = channel: this 5D file holds its channels in dim"):
+        load_volume(five, fourth_axis="channel")
+    with pytest.raises(VolumeError, match="fourth_axis must be one of auto, channel, time, got 'space'"):
+        load_volume(path, fourth_axis="space")
+
+
+def test_nifti_scaled_step(tmp_path):
+    """scl_slope applies to the step read alone as to a 3D file."""
+    path = write_nifti(tmp_path / "s.nii", _ijk(HYPER)[..., 0], slope=0.5)
+    np.testing.assert_allclose(load_volume(path, time=2).data, HYPER[2, :, 0] * 0.5)
+
+
+def test_fourth_axis_applies_to_nifti_only(tmp_path):
+    path = tmp_path / "s.tif"
+    write_pages(path, list(HYPER[0, :, 0]))
+    with pytest.raises(VolumeError, match="volume.fourth_axis applies to nifti; this is tiff"):
+        load_volume(path, fourth_axis="time")
+
+
+def test_scene_key_fourth_axis(tmp_path):
+    from dvr_gl.scene.resolve import load_scene
+
+    path = write_nifti(tmp_path / "t.nii", _ijk(HYPER)[..., 0])
+    keys = {"volume.path": str(path), "image.width": 8, "image.height": 8}
+    np.testing.assert_array_equal(load_scene(None, {**keys, "volume.time": 1}).volume.data, HYPER[1, :, 0])
+    scene = load_scene(None, {**keys, "volume.fourth_axis": "channel"})
+    assert [layer.name for layer in scene.layers] == ["channel 0", "channel 1", "channel 2"]
+
+
+# --- a glob of 3D files: a time series --------------------------------------------------------------------
+
+def test_glob_of_volumes_is_a_time_series_in_natural_order(tmp_path):
+    """step_2 before step_10; each step one file read alone; the scene's time picks it, in part too."""
+    from dvr_gl.scene.resolve import load_scene
+
+    steps = [HYPER[0, :, 0] + k for k in range(12)]
+    for k, data in enumerate(steps):
+        np.save(tmp_path / f"step_{k}.npy", data)
+    pattern = tmp_path / "step_*.npy"
+    assert time_steps(pattern) == (12, None)
+    for k in (0, 2, 10, 11):
+        np.testing.assert_array_equal(load_volume(pattern, time=k).data, steps[k])
+    with pytest.raises(VolumeError, match=r"volume.time = 12 is past the end; the glob matches 12 files"):
+        load_volume(pattern, time=12)
+    scene = load_scene(None, {"volume.path": str(pattern), "volume.time": 10, "image.width": 8, "image.height": 8})
+    np.testing.assert_array_equal(scene.volume.data, steps[10])
+
+
+def test_glob_series_of_raw_read_in_part(tmp_path):
+    """A series of raw files out of core: the chosen step's file read in part."""
+    from dvr_gl.scene.resolve import load_scene
+
+    for k in range(3):
+        (tmp_path / f"s{k}.raw").write_bytes((HYPER[k, :, 0]).astype("<u2").tobytes())
+    keys = {"volume.path": str(tmp_path / "s*.raw"), "volume.dims": [W, H, Z], "volume.dtype": "uint16",
+            "volume.out_of_core": True, "volume.time": 2, "image.width": 8, "image.height": 8}
+    scene = load_scene(None, keys)
+    np.testing.assert_array_equal(scene.volume.read((0, 0, 0), scene.volume.dims), HYPER[2, :, 0])
+
+
+def test_glob_of_tiff_stays_slices_and_mixed_globs_are_not_series(tmp_path):
+    from dvr_gl.io import detect_format
+
+    for k in range(2):
+        write_pages(tmp_path / f"s{k}.tif", [HYPER[0, k, 0]])
+    assert detect_format(tmp_path / "s*.tif") == "tiff"
+    np.testing.assert_array_equal(load_volume(tmp_path / "s*.tif").data, HYPER[0, :2, 0])
+    np.save(tmp_path / "s9.npy", HYPER[0, :, 0])
+    assert detect_format(tmp_path / "s*") == "tiff"  # two formats: not a series (read as slices, which refuse)
+    with pytest.raises(VolumeError):
+        load_volume(tmp_path / "s*")
