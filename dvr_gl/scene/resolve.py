@@ -197,13 +197,13 @@ def _resolve_volume(spec: VolumeSpec, base_dir: Path, memory_budget_mb: float | 
 
 
 _FILE_KEYS = ("dims", "dtype", "spacing", "origin", "nan_value", "array", "solution", "resample", "series", "level",
-              "channel", "time")
+              "channel", "time", "fourth_axis")
 
 
 def _selection(spec: VolumeSpec) -> dict:
     """The channel and time step a volume table picks, as the readers take them (only those given, so that a
     reader of files without channels or time need not know the keys); ``role = "rgb"``: read colour."""
-    chosen = {k: getattr(spec, k) for k in ("channel", "time") if getattr(spec, k) is not None}
+    chosen = {k: getattr(spec, k) for k in ("channel", "time", "fourth_axis") if getattr(spec, k) is not None}
     return {**chosen, "role": "rgb"} if spec.role == "rgb" else chosen
 
 

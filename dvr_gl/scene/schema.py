@@ -107,6 +107,10 @@ class VolumeSpec:
                                            "field composited per sample (docs/several-fields.md)", at_least(0))
     time: Optional[int] = checked(None, "a time series (OME-Zarr `t`, a hyperstack's frames, NIfTI 4D, a glob of "
                                         "files): the step to render (0 first; default 0)", at_least(0))
+    fourth_axis: Optional[str] = choices("auto", "channel", "time", default=None,
+                                         doc="NIfTI 4D: what the 4th axis (dim[4]) holds: `auto` (the default) by "
+                                             "the header's intent (a vector: channels; otherwise time), or "
+                                             "`channel` or `time` (docs/formats.md)")
     iso_value: Optional[float] = doc(None, "isosurface of several fields: this field's iso-value, data units "
                                            "(default: `renderer.iso_value` for the first field, the middle of "
                                            "its value range for the others)")
