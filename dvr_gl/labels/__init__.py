@@ -13,6 +13,7 @@ categorical table, sampled without ever inventing a label (docs/labels.md).
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 from ..errors import SceneError
@@ -21,7 +22,8 @@ from .sampling import indicator, label_sample
 from .table import DEFAULT_OPACITY, LabelTable, check_label_data, default_colors, default_table, labels_present
 
 __all__ = ["DEFAULT_OPACITY", "LabelTable", "check_label_data", "default_colors", "default_table", "indicator",
-           "is_color_table", "label_sample", "label_transfer_function", "labels_present", "read_color_table"]
+           "is_color_table", "label_sample", "label_transfer_function", "labels_present", "read_color_table",
+           "segment_colours"]
 
 
 def label_transfer_function(tf_spec, field, base_dir: Path | str = ".") -> LabelTable:
@@ -48,3 +50,14 @@ def label_transfer_function(tf_spec, field, base_dir: Path | str = ".") -> Label
         path = Path(file).expanduser()
         return read_color_table(path if path.is_absolute() else Path(base_dir) / path, unit)
     return default_table(field.data, unit)
+
+
+def segment_colours(tf_spec, path):
+    """``tf_spec``, or where it names no table and ``path`` is a Slicer segmentation (``.seg.nrrd``), the
+    spec of that file's own segment colours (:func:`read_color_table`): a segmentation given as a label map
+    brings its colours.  ``path`` as the volume table gives it (relative to the scene file, as a table's file)."""
+    if not (isinstance(path, str) and path.lower().endswith(".seg.nrrd")):
+        return tf_spec
+    if any(getattr(tf_spec, key, None) is not None for key in ("labels", "file", "points", "preset")):
+        return tf_spec
+    return dataclasses.replace(tf_spec, file=path)

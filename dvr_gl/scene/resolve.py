@@ -664,7 +664,12 @@ def _resolve_volumes(spec: SceneSpec, base_dir: Path, budget):
         channels = isinstance(field, FieldSet)
         sources += [dataclasses.replace(_as_volume_spec(source), channel=k) if channels else _as_volume_spec(source)
                     for k in range(len(these))]
-        tf_specs += [getattr(table, "transfer_function", spec.transfer_function)] * len(these)
+        tf = getattr(table, "transfer_function", spec.transfer_function)
+        if table.role == "label":  # a Slicer segmentation names its segments' colours in its header
+            from ..labels import segment_colours
+
+            tf = segment_colours(tf, table.path)
+        tf_specs += [tf] * len(these)
     return as_data(members), tuple(sources), tuple(tf_specs)
 
 

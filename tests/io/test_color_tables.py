@@ -139,3 +139,18 @@ def test_a_label_volume_of_fractions_is_refused(tmp_path):
     (tmp_path / "s.toml").write_text('[volume]\npath = "seg.npy"\nrole = "label"\n')
     with pytest.raises(DvrError, match="whole numbers"):
         load_scene(tmp_path / "s.toml")
+
+
+def test_a_segmentation_as_the_label_map_brings_its_colours(tmp_path):
+    """A single-layer .seg.nrrd is a 3D label map; given as a volume of role label with no table of its own,
+    its header's segments colour it."""
+    _write(tmp_path, "seg.seg.nrrd")
+    (tmp_path / "s.toml").write_text('[volume]\npath = "seg.seg.nrrd"\nrole = "label"\n[image]\nwidth = 8\n'
+                                     'height = 8\n')
+    layer = load_scene(tmp_path / "s.toml").layers[0]
+    assert layer.field.data.tolist() == [[[0, 1], [1, 4]], [[0, 0], [4, 1]]]
+    assert layer.transfer_function.labels.tolist() == [1, 4]
+    np.testing.assert_allclose(layer.transfer_function.colors[0], srgb_to_linear([0.2, 0.6, 0.3]), rtol=1e-15)
+    (tmp_path / "s.toml").write_text('[volume]\npath = "seg.seg.nrrd"\nrole = "label"\n[transfer_function]\n'
+                                     'labels = [[4, 1, 1, 1, 1]]\n')
+    assert load_scene(tmp_path / "s.toml").layers[0].transfer_function.labels.tolist() == [4]
