@@ -36,10 +36,14 @@ class FieldFiles(argparse.Action):
             namespace.scene = None  # set by sort_files
 
 
-def add_arguments(p, files_help: str):
-    """The files where the scene goes (``SCENE_OR_VOLUME ...``) and the flags that add fields in a role."""
+def add_files(p, files_help: str):
+    """The files where the scene goes (``SCENE_OR_VOLUME ...``)."""
     p.add_argument("scene", nargs="*", action=FieldFiles, metavar="SCENE_OR_VOLUME", help=files_help)
     p.set_defaults(fields=[], field_files=[])
+
+
+def add_role_flags(p):
+    """The group of the flags of several fields and time, with those that add a field in a role."""
     f = p.add_argument_group("several fields and time (docs/cli.md)")
     f.add_argument("--labels", action=FieldFiles, dest="fields", default=[], metavar="FILE",
                    help="a label map as a further field (colour and opacity per label from its colour table; "

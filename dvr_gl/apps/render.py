@@ -108,10 +108,14 @@ def renderers_epilog() -> str:
 
 def add_arguments(p: argparse.ArgumentParser):
     p.epilog = renderers_epilog()
-    several = cli_fields.add_arguments(
+    cli_fields.add_files(
         p, "a scene file (.toml), or a volume, mesh or particle file (any suffix dvr info lists; a folder of "
            "slices); several volume files: one field each, composited per sample (each file's channels: a field "
            "each)")
+    p.add_argument("-o", "--output", required=True,
+                   help="output image: .png (8-bit sRGB), .exr or .tif (float); an animation (every frame of "
+                        "--frames in one file, 8-bit sRGB): .gif, or .mp4, .webm, .webp with the extra 'video'")
+    several = cli_fields.add_role_flags(p)
     scene_flag(several, "--channel", metavar="K", help="a file with channels: render channel K alone (0 first; "
                                                          "default: every channel, each a field)")
     scene_flag(several, "--time", metavar="K", help="a time series: render step K (0 first, the default), exactly "
@@ -119,9 +123,6 @@ def add_arguments(p: argparse.ArgumentParser):
     several.add_argument("--animate", type=parse_animate, metavar="orbit|time|time,orbit",
                          help="what --frames animates: orbit (the default), time (frame i of N shows step "
                               "floor(i*S/N) of the S steps; without --frames N = S, one frame a step) or both")
-    p.add_argument("-o", "--output", required=True,
-                   help="output image: .png (8-bit sRGB), .exr or .tif (float); an animation (every frame of "
-                        "--frames in one file, 8-bit sRGB): .gif, or .mp4, .webm, .webp with the extra 'video'")
     p.add_argument("--demo", nargs="?", const="shepp-logan", choices=list(DEMOS),
                    help="render a built-in phantom (default shepp-logan)")
     scene_flag(p, "--volume", metavar="FILE", help="volume file (overrides the scene's)")
