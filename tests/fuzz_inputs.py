@@ -112,6 +112,104 @@ DICOM_TAGS = {"Rows": "US", "Columns": "US", "SamplesPerPixel": "US", "NumberOfF
               "SeriesInstanceUID": "UI", "SeriesNumber": "IS"}
 
 
+# --- channels and time steps (issue 42): hyperstacks and NIfTI 4D/5D --------------------------------------
+
+# A hyperstack of 2 time points, 2 slices, 2 channels of 4 x 3 pixels: ImageJ's and OME-TIFF's descriptions.
+HYPERSTACK = {
+    "h.tif": "ImageJ=1.54f\nimages=8\nchannels=2\nslices=2\nframes=2\nhyperstack=true\nunit=micron\nspacing=2\n"
+             "finterval=1.5\n",
+    "o.tif": '<OME><Image ID="Image:0"><Pixels DimensionOrder="XYCZT" SizeX="4" SizeY="3" SizeZ="2" SizeC="2" '
+             'SizeT="2" PhysicalSizeX="0.5" PhysicalSizeZ="2" TimeIncrement="3"><Channel Name="a"/><Channel '
+             'Name="b"/><TiffData IFD="0" PlaneCount="8"/></Pixels></Image></OME>',
+}
+# NIfTI files of 4 or 5 dimensions: the extra axes and the intent code (1007: a vector, so channels).
+NIFTI_ND = {"t.nii": ((3,), 0), "v.nii": ((2,), 1007), "f.nii.gz": ((2, 2), 0)}
+
+
+def _hyperstack(description: str, pages: int = 8) -> bytes:
+    """``pages`` grey 4 x 3 pages (value 100 k + the pixel's index) with ``description`` on each."""
+    import tempfile
+
+    import OpenImageIO as oiio
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "h.tif")
+        specs = []
+        for _ in range(pages):
+            specs.append(oiio.ImageSpec(4, 3, 1, oiio.UINT16))
+            specs[-1].attribute("ImageDescription", description)
+            specs[-1].attribute("XResolution", 2.0)
+            specs[-1].attribute("YResolution", 2.0)
+        out = oiio.ImageOutput.create(path)
+        out.open(path, specs)
+        for k in range(pages):
+            if k:
+                out.open(path, specs[k], "AppendSubimage")
+            out.write_image(np.ascontiguousarray((100 * k + np.arange(12, dtype=np.uint16)).reshape(3, 4, 1)))
+        out.close()
+        return Path(path).read_bytes()
+
+
+def _nifti_nd(extra: tuple, intent: int, gz: bool) -> bytes:
+    import nibabel as nib
+
+    data = DATA.transpose(2, 1, 0).reshape(4, 3, 2, *(1,) * len(extra)) + np.zeros((1, 1, 1) + extra, np.int16)
+    for k in range(int(np.prod(extra))):  # each step and channel its own values
+        np.reshape(data, (4, 3, 2, -1))[..., k] += k
+    img = nib.Nifti1Image(data, np.diag([0.5, 1.0, 2.0, 1.0]))
+    if intent:
+        img.header["intent_code"] = intent
+    img.header.set_xyzt_units(2, 8)
+    blob = img.to_bytes()
+    return gzip.compress(blob, mtime=0) if gz else blob
+
+
+def mutate_description(name: str, rnd: random.Random) -> tuple[bytes, str]:
+    """A hyperstack written again with its description's count, order or map set to a bad token (a count of
+    zero, below zero, huge, not a number) or a line dropped, or with pages that do not match it."""
+    import re
+
+    text = HYPERSTACK[name]
+    tokens = BAD_TOKENS + ["0", "-3", "3", "16", "999999999", "1048577", "XYZCT", "XYZZT", "YXZCT"]
+    found = list(re.finditer(r'(\w+)="([^"]*)"', text)) if text.startswith("<") else \
+        list(re.finditer(r"^(\w+)=(.*)$", text, re.M))
+    m = rnd.choice(found)
+    token = rnd.choice(tokens)
+    if rnd.random() < 0.15:
+        text, what = text[:m.start()] + text[m.end():], f"drop {m.group(1)}"
+    else:
+        text, what = text[:m.start(2)] + token + text[m.end(2):], f"{m.group(1)} -> {token!r}"
+    pages = rnd.choice([8, 8, 8, 1, 7, 9, 16])
+    return _hyperstack(text, pages), f"{what}, {pages} pages"
+
+
+def mutate_nifti_header(blob: bytes, rnd: random.Random) -> tuple[bytes, str]:
+    """A NIfTI-1 header's dim[k], intent_code, pixdim[4] or xyzt_units set to a bad value."""
+    import struct
+
+    gz = blob[:2] == b"\x1f\x8b"
+    raw = bytearray(gzip.decompress(blob) if gz else blob)
+    field = rnd.choice(["dim", "dim", "intent", "pixdim4", "units"])
+    if field == "dim":
+        k, value = rnd.randrange(8), rnd.choice([0, -1, 1, 2, 3, 5, 6, 7, 8, 32767, -32768])
+        struct.pack_into("<h", raw, 40 + 2 * k, value)
+        what = f"dim[{k}] = {value}"
+    elif field == "intent":
+        value = rnd.choice([0, 1006, 1007, 2001, 2003, 2004, 9999, -1])
+        struct.pack_into("<h", raw, 68, value)
+        what = f"intent_code = {value}"
+    elif field == "pixdim4":
+        value = rnd.choice([0.0, -1.0, float("nan"), float("inf"), 1e30, 1e-30])
+        struct.pack_into("<f", raw, 76 + 16, value)
+        what = f"pixdim[4] = {value}"
+    else:
+        value = rnd.randrange(256)
+        raw[123] = value
+        what = f"xyzt_units = {value}"
+    out = bytes(raw)
+    return (gzip.compress(out, mtime=0) if gz else out), what
+
+
 def _dicom_slice(pixels: np.ndarray, z: float, uid: str, slope=1.0, intercept=0.0) -> bytes:
     from pydicom.dataset import Dataset, FileMetaDataset
     from pydicom.uid import CTImageStorage, ExplicitVRLittleEndian
@@ -255,6 +353,11 @@ def seeds() -> list[Seed]:
         Seed("nifti", {"v.nii": _nifti(False)}, "v.nii"),
         Seed("nifti", {"v.nii.gz": _nifti(True)}, "v.nii.gz"),
         Seed("tiff", {"s.tif": _tiff()}, "s.tif"),
+        Seed("tiff", {"h.tif": _hyperstack(HYPERSTACK["h.tif"])}, "h.tif", dict(time=1)),
+        Seed("tiff", {"o.tif": _hyperstack(HYPERSTACK["o.tif"])}, "o.tif"),
+        Seed("tiff", {"o.tif": _hyperstack(HYPERSTACK["o.tif"])}, "o.tif", dict(channel=1, time=1)),
+        *[Seed("nifti", {name: _nifti_nd(extra, intent, name.endswith(".gz"))}, name,
+               dict(time=1) if len(extra) == 2 or not intent else {}) for name, (extra, intent) in NIFTI_ND.items()],
         Seed("tiff", _tiff_slices(), ""),
         Seed("vti", {"v.vti": _vti("ascii")}, "v.vti"),
         Seed("vti", {"v.vti": _vti("binary")}, "v.vti"),
@@ -397,6 +500,10 @@ def mutate(seed: Seed, rnd: random.Random) -> tuple[dict[str, bytes], str]:
     name = rnd.choice(sorted(files))
     if seed.reader in ("dicom", "vti") and rnd.random() < 0.6:
         files[name], what = (mutate_dicom if seed.reader == "dicom" else mutate_xml)(files[name], rnd)
+    elif name in HYPERSTACK and rnd.random() < 0.6:
+        files[name], what = mutate_description(name, rnd)
+    elif name in NIFTI_ND and rnd.random() < 0.6:
+        files[name], what = mutate_nifti_header(files[name], rnd)
     elif name in seed.text and rnd.random() < 0.7:
         files[name], what = mutate_lines(files[name], rnd)
     else:
@@ -455,12 +562,19 @@ def check_reader(path: Path, seed: Seed) -> str:
         assert len(volume) > 0 and np.isfinite(volume.positions).all() and np.isfinite(volume.values).all()
         assert (volume.smoothing_lengths > 0).all() and (volume.densities > 0).all()
         return "volume"
+    for member in getattr(volume, "members", ()):  # a file's channels: each a valid volume
+        _check_grid(member.field)
+    if volume.kind != "fields":
+        _check_grid(volume)
+    return "volume"
+
+
+def _check_grid(volume) -> None:
     data = volume.data
     assert data.ndim == 3 and data.size > 0
     assert data.dtype.kind != "f" or np.isfinite(data).all()
     assert len(volume.spacing) == 3 and all(math.isfinite(s) and s > 0 for s in volume.spacing)
     assert all(math.isfinite(o) for o in volume.origin)
-    return "volume"
 
 
 # --- colour tables of label maps (dvr_gl/labels/readers.py) -------------------------------------------

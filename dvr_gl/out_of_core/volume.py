@@ -188,6 +188,7 @@ def _size(nbytes: int) -> str:
 def open_volume(path, out_of_core=True, memory_budget_mb: float = MEMORY_BUDGET_MB, format: str = "auto", *,
                 dims=None, dtype=None, endian: str = "little", header_bytes: int = 0, spacing=None, origin=None,
                 nan_value: float | None = None, array: str | None = None, level: int | None = None,
+                channel: int | None = None, time: int | None = None,
                 block_size: int = BLOCK, sidecar: bool = True):
     """Open a volume file, out of core or in memory.
 
@@ -198,7 +199,7 @@ def open_volume(path, out_of_core=True, memory_budget_mb: float = MEMORY_BUDGET_
             part); ``"auto"``: out of core when the voxels exceed ``memory_budget_mb`` and the file can be
             read in part, else in memory; False: in memory (a :class:`~dvr_gl.fields.grid.Volume`).
         memory_budget_mb: renderer.memory_budget_mb (MB).
-        format, dims, dtype, endian, header_bytes, spacing, origin, nan_value, array, level: as
+        format, dims, dtype, endian, header_bytes, spacing, origin, nan_value, array, level, channel, time: as
             :func:`dvr_gl.io.load_volume` takes them.
         block_size, sidecar: the block ranges' block side and whether they are kept in a sidecar file.
     """
@@ -207,7 +208,8 @@ def open_volume(path, out_of_core=True, memory_budget_mb: float = MEMORY_BUDGET_
     if out_of_core not in (True, False, "auto"):
         raise VolumeError(f"volume.out_of_core must be auto, true or false, got {out_of_core!r}")
     options = {"dims": dims, "dtype": dtype, "endian": endian, "header_bytes": header_bytes, "spacing": spacing,
-               "origin": origin, "nan_value": nan_value, "array": array, "level": level}
+               "origin": origin, "nan_value": nan_value, "array": array, "level": level, "channel": channel,
+               "time": time}
     path = Path(os.path.expanduser(str(path)))
     if out_of_core is not False:
         opened = _open_in_part(path, format if format != "auto" else detect_format(path), options,
@@ -224,7 +226,11 @@ def _open_in_part(path: Path, fmt: str, options: dict, budget_mb: float, block_s
     from ..io import PARTIAL_FORMATS, voxel_layout
     from ..io.common import check_spacing
     from ..io.raw import RawLayout
+    from ..io.series import VOLUME_FORMATS, is_pattern, step_file
     from ..sandbox import check_input_path
+
+    if is_pattern(path) and fmt in VOLUME_FORMATS:  # a time series of files: the chosen step's file, read in part
+        path, options = step_file(path, options.get("time")), {**options, "time": None}
 
     if fmt not in PARTIAL_FORMATS and not required:
         return None
@@ -286,8 +292,4 @@ def open_for_scene(path: Path, spec, memory_budget_mb: float):
     options = {"dims": spec.dims, "dtype": spec.dtype, "endian": spec.endian, "header_bytes": spec.header_bytes,
                "spacing": spec.spacing, "origin": spec.origin, "nan_value": spec.nan_value, "array": spec.array,
                "level": spec.level, "channel": getattr(spec, "channel", None), "time": getattr(spec, "time", None)}
-    from ..io.series import VOLUME_FORMATS, is_pattern, step_file
-
-    if is_pattern(path) and fmt in VOLUME_FORMATS:  # a time series of files: the chosen step's file, read in part
-        path, options["time"] = step_file(path, options["time"]), None
     return _open_in_part(path, fmt, options, memory_budget_mb, BLOCK, True, required=choice is True)
