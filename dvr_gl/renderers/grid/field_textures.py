@@ -10,7 +10,7 @@
   row's value domain and unit distance; :func:`preintegration_atlas`: their pre-integration tables stacked
   (N x N per member, member ``i`` in rows ``i N`` to ``(i + 1) N - 1``).
 
-What the shaders read: :meth:`FieldTextures.textures` (samplers ``u_field_group[g]``),
+What the shaders read: :meth:`FieldTextures.bind` (the sampler array ``u_field_group``),
 :meth:`FieldTextures.uniforms` and :meth:`FieldTextures.defines`; the atlases' own ``uniforms()``.
 World coordinates are the volume frame's (the members share one direction matrix), in world units.
 Every per-member uniform is a float array indexed by member; per group, vec3 arrays indexed by group.
@@ -66,8 +66,16 @@ class FieldTextures:
                 "FIELD_GROUP_OF": ", ".join(str(g) for g in self.group),
                 "FIELD_CHANNEL_OF": ", ".join(str(c) for c in self.channel)}
 
-    def textures(self) -> dict:
-        return {f"u_field_group[{g}]": group.texture for g, group in enumerate(self.groups)}
+    def bind(self, program, first_unit: int) -> int:
+        """Bind the group textures to units ``first_unit``, ``first_unit + 1``, ... and the sampler array
+        ``u_field_group`` to them (after :meth:`dvr_gl.gl.frame.GLFrame.bind` of the frame's other textures,
+        which took the units below ``first_unit``); returns the next free unit."""
+        units = list(range(first_unit, first_unit + len(self.groups)))
+        for unit, group in zip(units, self.groups):
+            group.texture.use(location=unit)
+        if "u_field_group" in program:  # a sampler array: ints, which set_uniform's lists are not
+            program["u_field_group"].write(np.asarray(units, dtype=np.int32).tobytes())
+        return first_unit + len(self.groups)
 
     def uniforms(self) -> dict:
         """Per group (vec3 arrays): world to voxel (``u_field_scale``, ``u_field_offset``), dims as floats

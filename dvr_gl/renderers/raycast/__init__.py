@@ -50,7 +50,10 @@ PLUGIN = RendererPlugin(
               s.JITTER_SEED, s.ERT_THRESHOLD, s.LUT_SIZE, s.TEXTURE_BUDGET_MB, s.MEMORY_BUDGET_MB, ACCELERATION,
               BLOCK_SIZE, HOMOGENEITY_TOLERANCE, SCREEN_SPACE_ERROR, s.SHADING, s.SCATTERING, s.CLIPPING,
               s.GEOMETRY),
-    data_kinds=("grid",),
+    data_kinds=("grid", "fields"),
+    field_roles=("scalar",),
+    transfer_function_2d=("grid",),
+    check="dvr_gl.renderers.raycast.fields_check:check",
     needs_gl=True,
     out_of_core=True,
     order=10,
@@ -66,6 +69,8 @@ PLUGIN = RendererPlugin(
     # measured 1.4e-6 (box, ramp), 2.4e-8 (sphere).  MIP and MinIP of the ramp take the extreme
     # *sample*, up to half a segment (0.11 world units here) inside the chord's end, where the
     # extinction differs by 0.25 x 0.11: measured 0.015 in opacity.
-    tolerances={"box": 1e-5, "ramp": 1e-5, ("ramp", "mip"): 0.02, ("ramp", "minip"): 0.02, "sphere": 1e-5},
+    # Two constant channels (several fields, every mode): measured 1.6e-6, float32 arithmetic only.
+    tolerances={"box": 1e-5, "ramp": 1e-5, ("ramp", "mip"): 0.02, ("ramp", "minip"): 0.02, "sphere": 1e-5,
+                "two channels": 1e-5},
     bench="dvr_gl.renderers.raycast.bench:COMMANDS",
 )

@@ -28,6 +28,7 @@ from ...gl.geometry import gl_matrix, projection_matrix, view_matrix
 from ...gl.shaders import create_program, shader_root
 from ...orientation import volume_frame_scene
 from ...scene.settings import shadow_step
+from ...transfer_function_2d import is_2d
 from ..grid.bricking import ghost_width, plan_bricks, visibility_order
 from ..grid.classification import classification_features
 from ..grid.sampling import GridRenderer
@@ -37,6 +38,7 @@ from ..surfaces import with_surfaces
 from . import acceleration as accel
 from . import out_of_core, ray_bounds
 from .acceleration import level_count
+from .fields import draw_fields
 
 #: The ray caster's own GLSL (before the common library).
 SHADERS = (shader_root(__file__),)
@@ -86,6 +88,7 @@ def shader_features(scene, count_samples: bool = False, bricked: bool = False) -
     xray = r.compositing == "xray"
     emission = r.compositing == "emission_absorption" or xray
     defines = classification_features(scene)
+    defines["TRANSFER_FUNCTION_2D"] = scene.field.kind == "grid" and is_2d(scene.transfer_function)
     defines[COMPOSITING[r.compositing]] = True
     if xray:  # absorption only: no shading, no gradient opacity (dvr_gl.reference.model), nothing terminates
         for key in ("SHADING", "NUM_LIGHTS", "TWO_SIDED", "GRADIENT_TEXTURE", "GRADIENT_OPACITY", "SCATTERING",
@@ -106,7 +109,7 @@ def shader_features(scene, count_samples: bool = False, bricked: bool = False) -
     defines["JITTER"] = r.jitter
     # every sample counts in an average; pre-classified blocks of a volume read out of core would need
     # a pass over all its voxels
-    out_of_core_pre = scene.volume.out_of_core and "CLASSIFY_PRE" in defines
+    out_of_core_pre = scene.field.out_of_core and "CLASSIFY_PRE" in defines
     if acceleration_mode(r.acceleration) != "off" and r.compositing != "average" and not out_of_core_pre:
         defines.update(ACCELERATE=True, NUM_LEVELS=level_count(scene.volume.dims, r.block_size),
                        RUNS_IN_CLASSES=emission)
@@ -225,6 +228,7 @@ def whole_volume_brick(volume):
 class RayCastRenderer(GridRenderer):
     name = "raycast"
     description = "GPU ray casting in a GLSL fragment loop"
+    shaders = SHADERS
 
     def __init__(self, ctx=None, count_samples: bool = False, fragment_shader: str = "raycast.frag"):
         """``ctx``: a moderngl context to render with (default: a new headless EGL context).
@@ -276,7 +280,7 @@ class RayCastRenderer(GridRenderer):
 
     @staticmethod
     def ray_uniforms(scene) -> dict:
-        r, cam, vol, img = scene.renderer, scene.camera, scene.volume, scene.image
+        r, cam, vol, img = scene.renderer, scene.camera, scene.field, scene.image  # a FieldSet: the union box
         f, right, up = cam.basis()
         half = cam.half_extent(img.width / img.height)
         lo, hi = vol.box
@@ -352,6 +356,8 @@ class RayCastRenderer(GridRenderer):
 
     def _draw_volume(self, scene, surfaces: dict) -> np.ndarray:
         self.activate()
+        if scene.field.kind == "fields":  # several fields: one pass of their mixture (.fields)
+            return draw_fields(self, scene, surfaces, shader_features)
         start = now()
         if scene.volume.out_of_core:  # its blocks are the ranges' (dvr_gl.out_of_core): no pass over the voxels
             scene = dataclasses.replace(scene, renderer=dataclasses.replace(

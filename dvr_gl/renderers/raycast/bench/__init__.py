@@ -1,6 +1,7 @@
 """The ray caster's benches: ``dvr bench raycast`` (frame time and samples per ray of the core loop,
-:mod:`.frames`) and ``dvr bench accel`` (what early termination and empty-space skipping save and cost,
-:mod:`.acceleration`).  Declared by the plugin (``bench=``); the measurement is imported when run.
+:mod:`.frames`) ``dvr bench accel`` (what early termination and empty-space skipping save and cost,
+:mod:`.acceleration`) and ``dvr bench channels`` (several fields against one, :mod:`.channels`).
+Declared by the plugin (``bench=``); the measurement is imported when run.
 """
 
 from __future__ import annotations
@@ -73,10 +74,28 @@ def _accel(args) -> int:
     return 0
 
 
+def _channels_arguments(p):
+    p.add_argument("--volume-size", type=int, default=128, help="phantom samples per axis (default 128)")
+    p.add_argument("--size", type=int, default=512, help="square image size (default 512)")
+    p.add_argument("--repeat", type=count, default=5, help="timed rounds after a warm-up (default 5)")
+
+
+def _channels(args) -> int:
+    from . import channels
+
+    args.report.text(f"dvr bench channels: several fields against one field's frame, {args.volume_size}^3 "
+                     f"phantom channels, {args.size}x{args.size}, acceleration off, {args.repeat} interleaved "
+                     f"rounds after a warm-up, median draw-to-glFinish time")
+    args.report.table(channels.run(args.volume_size, args.size, args.repeat), channels.COLUMNS)
+    return 0
+
+
 COMMANDS = (
     BenchCommand("raycast", "GPU ray caster: frame time, samples per ray, samples per second", _frame_arguments,
                  _frames),
     BenchCommand("accel", "acceleration on the datasets in ../shared/data: samples, frame time, error; and what "
                  "skipping costs on dense data (on and auto against off, alternating views)", _accel_arguments,
                  _accel),
+    BenchCommand("channels", "several fields: 1-4 channels on one grid and 2 on separate grids against one "
+                 "field's frame", _channels_arguments, _channels),
 )

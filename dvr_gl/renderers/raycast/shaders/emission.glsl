@@ -6,7 +6,7 @@
 vec3 colour;   // the light of the samples so far that reaches the eye
 float depth;   // their optical depth: the transmittance to the next sample is exp(-depth)
 #ifdef CLASSIFY_PREINTEGRATED
-float front;        // the front value of segment k is the back value of segment k - 1
+SegmentValue front;  // the front value of segment k is the back value of segment k - 1
 bool front_known;
 #endif
 
@@ -24,7 +24,9 @@ bool mode_init(vec4 state) {
     colour = state.rgb;
     depth = state.a;
 #ifdef CLASSIFY_PREINTEGRATED
+#ifndef FIELDS
     front = 0.0;
+#endif
     front_known = false;
 #endif
     return terminated();  // BRICKED: in an earlier pass
@@ -33,9 +35,9 @@ bool mode_init(vec4 state) {
 bool mode_sample(int k, float start, float len, float t, vec3 p) {
 #ifdef CLASSIFY_PREINTEGRATED
 #ifdef BRICKED
-    if (!front_known) front = sample_scalar(o + start * d);
+    if (!front_known) front = segment_value(o + start * d);
 #endif
-    float back = sample_scalar(o + (start + len) * d);
+    SegmentValue back = segment_value(o + (start + len) * d);
     vec4 e = preintegrated_segment(front, back, len, p, d);
     front = back;
     front_known = true;
@@ -65,7 +67,7 @@ void mode_gap() {
 void mode_run(int k) {
 #ifdef CLASSIFY_PREINTEGRATED
     if (!front_known) {
-        front = sample_scalar(o + segment(k).start * d);
+        front = segment_value(o + segment(k).start * d);
         front_known = true;
     }
 #endif

@@ -3,7 +3,7 @@
 
 vec4 acc;   // the segments behind the next one, composited
 #ifdef CLASSIFY_PREINTEGRATED
-float back;        // the back value of segment k is the front value of segment k + 1
+SegmentValue back;  // the back value of segment k is the front value of segment k + 1
 bool back_known;
 #endif
 
@@ -12,7 +12,9 @@ const vec4 EMPTY_STATE = vec4(0.0);
 bool mode_init(vec4 state) {
     acc = state;
 #ifdef CLASSIFY_PREINTEGRATED
+#ifndef FIELDS
     back = 0.0;
+#endif
     back_known = false;
 #endif
     return false;
@@ -21,9 +23,9 @@ bool mode_init(vec4 state) {
 bool mode_sample(int k, float start, float len, float t, vec3 p) {
 #ifdef CLASSIFY_PREINTEGRATED
 #ifdef BRICKED
-    if (!back_known) back = sample_scalar(o + (start + len) * d);
+    if (!back_known) back = segment_value(o + (start + len) * d);
 #endif
-    float front = sample_scalar(o + start * d);
+    SegmentValue front = segment_value(o + start * d);
     vec4 e = preintegrated_segment(front, back, len, p, d);
     back = front;
     back_known = true;
@@ -48,7 +50,7 @@ void mode_run(int k) {
 #ifdef CLASSIFY_PREINTEGRATED
     if (!back_known) {
         Segment s = segment(k);
-        back = sample_scalar(o + (s.start + s.len) * d);
+        back = segment_value(o + (s.start + s.len) * d);
         back_known = true;
     }
 #endif

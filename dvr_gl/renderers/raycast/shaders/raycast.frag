@@ -9,6 +9,8 @@
 //                    EARLY_TERMINATION, SCATTERING (common/scattering.glsl), CLIPPING, GEOMETRY,
 //                    ACCELERATE (NUM_LEVELS, RUNS_IN_CLASSES), RAY_BOUNDS, COUNT_SAMPLES,
 //                    CAMERA_ORTHOGRAPHIC, BRICKED (one pass per brick, see below)
+//   several fields:  FIELDS (NUM_FIELDS, NUM_FIELD_GROUPS, ...: common/fields.glsl), the mixture per sample;
+//                    their own isosurface and per-channel projections (fields_*.glsl); never BRICKED
 // Segments and samples follow the conventions exactly as dvr_gl.reference.discrete places them.
 //
 // The program runs in stages, each a function with its own inputs and outputs (in these files):
@@ -49,7 +51,7 @@
 //                            shorten m to where the ray is done, and returns whether it is
 //   vec4 mode_finish(vec4 state)   after the loop: the new state (`state` as given to mode_init)
 
-#if defined(SHADING) || defined(GRADIENT_OPACITY)
+#if defined(SHADING) || defined(GRADIENT_OPACITY) || defined(TRANSFER_FUNCTION_2D)
 #define NEEDS_GRADIENT
 #endif
 
@@ -84,14 +86,28 @@ layout(location = 0) out vec4 frag_color;
 layout(location = 1) out vec4 frag_samples;   // volume samples, block jumps, block lookups, segments jumped
 #endif
 
+#ifdef FIELDS
+  #ifdef CLASSIFY_PREINTEGRATED
+#include "common/preintegration.glsl"
+  #endif
+#include "common/fields.glsl"
+#else
 #include "common/classify.glsl"
+// A segment's end value (pre-integration): one field's; several fields' is every member's (fields.glsl).
+#define SegmentValue float
+#define segment_value sample_scalar
+#endif
 
 #if defined(COMPOSITE_EMISSION) && defined(BACK_TO_FRONT)
 #include "emission_back_to_front.glsl"
 #elif defined(COMPOSITE_EMISSION)
 #include "emission.glsl"
+#elif defined(COMPOSITE_ISOSURFACE) && defined(FIELDS)
+#include "fields_isosurface.glsl"
 #elif defined(COMPOSITE_ISOSURFACE)
 #include "isosurface.glsl"
+#elif defined(FIELDS)
+#include "fields_projection.glsl"
 #else
 #include "projection.glsl"
 #endif
@@ -122,6 +138,8 @@ void main() {
     }
 #ifdef BRICKED
     frag_color = state;  // resolve.frag finishes it
+#elif defined(FIELDS) && !defined(COMPOSITE_EMISSION)
+    frag_color = state;  // several fields' projections and isosurface finish the pixel in mode_finish
 #else
   #include "common/resolve.glsl"
 #endif

@@ -1,0 +1,245 @@
+// Several fields (dvr_gl.fields.layers): every member sampled in its own grid and classified by its own
+// transfer function, then mixed per sample (docs/several-fields.md): extinctions add, emissions add,
+// sigma = sum_i sigma_i, sigma c = sum_i sigma_i c_i, each member only inside its own box (closed).
+// Replaces classify() of common/classify.glsl (same signature), and gives the per-member values the
+// compositing modes need.  The textures and their uniforms: dvr_gl/renderers/grid/field_textures.py.
+//   NUM_FIELDS (members), NUM_FIELD_GROUPS (textures), FIELD_GROUP_OF and FIELD_CHANNEL_OF (each member's
+//   texture and channel, constant lists: GLSL 3.30 indexes samplers by constants only)
+// Needs: volume_sample.glsl (sample_texture_in), transfer_function.glsl's neighbours optics.glsl and
+// shading.glsl, and u_gradient_reference (GRADIENT_OPACITY).  Gradients are central differences one voxel
+// of the member's grid apart (world units), as dvr_gl.reference takes them; gradient = "texture" gives the
+// same field (the filters are linear in the samples), so several fields always take them here.
+
+uniform sampler3D u_field_group[NUM_FIELD_GROUPS];
+uniform vec3 u_field_scale[NUM_FIELD_GROUPS];    // group voxel = world * scale + offset
+uniform vec3 u_field_offset[NUM_FIELD_GROUPS];
+uniform vec3 u_field_dims[NUM_FIELD_GROUPS];     // voxels along x, y, z (as floats)
+uniform vec3 u_field_spacing[NUM_FIELD_GROUPS];  // world units per voxel
+uniform vec3 u_field_box_lo[NUM_FIELD_GROUPS];   // where the group's members contribute (world units)
+uniform vec3 u_field_box_hi[NUM_FIELD_GROUPS];
+uniform float u_field_value_scale[NUM_FIELDS];   // member's data value = texel * scale + offset
+uniform float u_field_value_offset[NUM_FIELDS];
+
+uniform sampler2D u_field_lut;                   // one row per member: (r, g, b, sigma) at N values
+uniform int u_field_lut_size;
+uniform float u_field_lut_lo[NUM_FIELDS];        // data value of the row's texel 0
+uniform float u_field_lut_scale[NUM_FIELDS];     // texels per data unit
+uniform float u_field_unit_distance[NUM_FIELDS]; // projections: opacity over this length (world units)
+#ifdef SHADING
+// u_gradient_epsilon / member i's own (dvr_gl.fields.gradient_epsilon of its grid): its gradient, so scaled,
+// meets blinn_phong's one threshold where it meets its own (the normal's direction is the same)
+uniform float u_field_epsilon_scale[NUM_FIELDS];
+#endif
+
+const int FIELD_GROUP[NUM_FIELDS] = int[NUM_FIELDS](FIELD_GROUP_OF);
+const int FIELD_CHANNEL[NUM_FIELDS] = int[NUM_FIELDS](FIELD_CHANNEL_OF);
+
+// The texels of every group at p (each in its own grid) and whether p lies in each group's box.
+struct FieldTexels {
+    vec4 t[NUM_FIELD_GROUPS];
+    bool inside[NUM_FIELD_GROUPS];
+};
+
+#define FIELD_GROUP_TEXEL(G, P) sample_texture_in(u_field_group[G], (P) * u_field_scale[G] + u_field_offset[G], \
+                                                  ivec3(u_field_dims[G]))
+
+// Whether p lies in group g's box (closed), give or take FIELD_BOX_MARGIN voxels: a ray's entry point, on the
+// face in float64, falls on either side of it in float32 (the union box's entry point is every member's whose
+// box shares that face); the margin is far below a sample's spacing and far above float32 rounding.
+const float FIELD_BOX_MARGIN = 1e-4;
+
+bool field_group_inside(int g, vec3 p) {
+    vec3 margin = FIELD_BOX_MARGIN * u_field_spacing[g];
+    return all(greaterThanEqual(p, u_field_box_lo[g] - margin)) && all(lessThanEqual(p, u_field_box_hi[g] + margin));
+}
+
+// Group g's texels at world point p + the world offset `shift` (g a constant after unrolling).
+vec4 field_group_texels(int g, vec3 p) {
+    // samplers by constant indices: one branch per group, the rest compiled out
+    if (g == 0) return FIELD_GROUP_TEXEL(0, p);
+#if NUM_FIELD_GROUPS > 1
+    if (g == 1) return FIELD_GROUP_TEXEL(1, p);
+#endif
+#if NUM_FIELD_GROUPS > 2
+    if (g == 2) return FIELD_GROUP_TEXEL(2, p);
+#endif
+#if NUM_FIELD_GROUPS > 3
+    if (g == 3) return FIELD_GROUP_TEXEL(3, p);
+#endif
+#if NUM_FIELD_GROUPS > 4
+    if (g == 4) return FIELD_GROUP_TEXEL(4, p);
+#endif
+#if NUM_FIELD_GROUPS > 5
+    if (g == 5) return FIELD_GROUP_TEXEL(5, p);
+#endif
+    return vec4(0.0);
+}
+
+FieldTexels field_texels(vec3 p) {
+    FieldTexels s;
+    for (int g = 0; g < NUM_FIELD_GROUPS; ++g) {
+        s.t[g] = field_group_texels(g, p);
+        s.inside[g] = field_group_inside(g, p);
+    }
+    return s;
+}
+
+// Member i's data value from its group's texels.
+float field_value(int i, vec4 texels) {
+    return texels[FIELD_CHANNEL[i]] * u_field_value_scale[i] + u_field_value_offset[i];
+}
+
+float field_value_at(int i, FieldTexels s) {
+    return field_value(i, s.t[FIELD_GROUP[i]]);
+}
+
+bool field_inside(int i, FieldTexels s) {
+    return s.inside[FIELD_GROUP[i]];
+}
+
+// Member i's (non-associated colour, extinction per world unit) at a data value: its table's row,
+// interpolated with a float weight as transfer_function() does.
+vec4 field_transfer_function(int i, float value) {
+    float x = clamp((value - u_field_lut_lo[i]) * u_field_lut_scale[i], 0.0, float(u_field_lut_size - 1));
+    int i0 = min(int(floor(x)), u_field_lut_size - 2);
+    return mix(texelFetch(u_field_lut, ivec2(i0, i), 0), texelFetch(u_field_lut, ivec2(i0 + 1, i), 0),
+               x - float(i0));
+}
+
+#ifdef NEEDS_GRADIENT
+// Every group's channels' gradients at p (data units per world unit): central differences one voxel of
+// the group's grid apart, x, y and z components of all four channels at once.
+struct FieldGradients {
+    vec4 x[NUM_FIELD_GROUPS];
+    vec4 y[NUM_FIELD_GROUPS];
+    vec4 z[NUM_FIELD_GROUPS];
+};
+
+FieldGradients field_gradients(vec3 p) {
+    FieldGradients g;
+    for (int k = 0; k < NUM_FIELD_GROUPS; ++k) {
+        vec3 h = u_field_spacing[k];
+        g.x[k] = (field_group_texels(k, p + vec3(h.x, 0.0, 0.0)) - field_group_texels(k, p - vec3(h.x, 0.0, 0.0)))
+                 / (2.0 * h.x);
+        g.y[k] = (field_group_texels(k, p + vec3(0.0, h.y, 0.0)) - field_group_texels(k, p - vec3(0.0, h.y, 0.0)))
+                 / (2.0 * h.y);
+        g.z[k] = (field_group_texels(k, p + vec3(0.0, 0.0, h.z)) - field_group_texels(k, p - vec3(0.0, 0.0, h.z)))
+                 / (2.0 * h.z);
+    }
+    return g;
+}
+
+vec3 field_gradient(int i, FieldGradients g) {
+    int k = FIELD_GROUP[i];
+    int c = FIELD_CHANNEL[i];
+    return vec3(g.x[k][c], g.y[k][c], g.z[k][c]) * u_field_value_scale[i];
+}
+
+// Member i's gradient alone at p (the isosurface's hit).
+vec3 field_gradient_at(int i, vec3 p) {
+    return field_gradient(i, field_gradients(p));
+}
+#endif
+
+// Member i's (colour, sigma) at its value: gradient opacity scales sigma and shading shades the colour by
+// its own gradient, as classify() does for one field.
+vec4 field_classify_member(int i, float value, vec3 grad, vec3 dir) {
+    vec4 tf = field_transfer_function(i, value);
+#ifdef GRADIENT_OPACITY
+    tf.a *= min(1.0, length(grad) / u_gradient_reference);
+#endif
+#ifdef SHADING
+    tf.rgb = blinn_phong(tf.rgb, grad * u_field_epsilon_scale[i], dir);
+#endif
+    return tf;
+}
+
+// The mixture's (non-associated colour, extinction) at p: extinctions add, emissions add.
+vec4 classify(vec3 p, vec3 dir) {
+    FieldTexels s = field_texels(p);
+#ifdef NEEDS_GRADIENT
+    FieldGradients g = field_gradients(p);
+#endif
+    vec3 emitted = vec3(0.0);
+    float sigma = 0.0;
+    for (int i = 0; i < NUM_FIELDS; ++i) {
+        if (!field_inside(i, s)) continue;
+#ifdef NEEDS_GRADIENT
+        vec4 cs = field_classify_member(i, field_value_at(i, s), field_gradient(i, g), dir);
+#else
+        vec4 cs = field_classify_member(i, field_value_at(i, s), vec3(0.0), dir);
+#endif
+        emitted += cs.a * cs.rgb;
+        sigma += cs.a;
+    }
+    return vec4(sigma > 0.0 ? emitted / sigma : vec3(0.0), sigma);
+}
+
+// ---- pre-integrated classification (CLASSIFY_PREINTEGRATED) ----
+
+#ifdef CLASSIFY_PREINTEGRATED
+// The values of every member at a point: a segment's end.
+struct SegmentValue {
+    float v[NUM_FIELDS];
+};
+
+SegmentValue segment_value(vec3 p) {
+    FieldTexels s = field_texels(p);
+    SegmentValue out_value;
+    for (int i = 0; i < NUM_FIELDS; ++i) out_value.v[i] = field_value_at(i, s);
+    return out_value;
+}
+
+uniform sampler2D u_field_preint;     // member i's N x N table in rows i N .. (i + 1) N - 1
+uniform int u_field_preint_size;
+uniform float u_field_preint_lo[NUM_FIELDS];
+uniform float u_field_preint_scale[NUM_FIELDS];
+
+// Member i's table entry (associated colour, optical depth) by the segment's end values.
+vec4 field_preintegrated(int i, float front, float back) {
+    float last = float(u_field_preint_size - 1);
+    vec2 x = clamp((vec2(front, back) - u_field_preint_lo[i]) * u_field_preint_scale[i], 0.0, last);
+    ivec2 i0 = min(ivec2(floor(x)), ivec2(u_field_preint_size - 2));
+    vec2 f = x - vec2(i0);
+    ivec2 row = ivec2(0, i * u_field_preint_size);
+    vec4 a = mix(texelFetch(u_field_preint, row + i0, 0), texelFetch(u_field_preint, row + i0 + ivec2(1, 0), 0), f.x);
+    vec4 b = mix(texelFetch(u_field_preint, row + i0 + ivec2(0, 1), 0),
+                 texelFetch(u_field_preint, row + i0 + ivec2(1, 1), 0), f.x);
+    return mix(a, b, f.y);
+}
+
+// x / (1 - exp(-x)), 1 at x = 0: what turns a member's segment colour back into its emission weight.
+float depth_per_opacity(float tau) {
+    return tau > 0.0 ? tau / opacity_of_depth(tau) : 1.0;
+}
+
+// The mixture's segment of length len (associated colour, optical depth): each member's own table entry
+// (C_i, tau_i), shortened, gradient opacity and shading at the midpoint p as for one field, for members
+// whose box holds p; tau = sum tau_i, C = (1 - e^-tau) / tau sum_i C_i tau_i / (1 - e^-tau_i) (exact for
+// constant fields).
+vec4 preintegrated_segment(SegmentValue front, SegmentValue back, float len, vec3 p, vec3 dir) {
+    FieldTexels s = field_texels(p);
+#ifdef NEEDS_GRADIENT
+    FieldGradients g = field_gradients(p);
+#endif
+    vec3 weighted = vec3(0.0);
+    float tau = 0.0;
+    for (int i = 0; i < NUM_FIELDS; ++i) {
+        if (!field_inside(i, s)) continue;
+        vec4 e = shorten(field_preintegrated(i, front.v[i], back.v[i]), len / u_slab_length);
+#ifdef NEEDS_GRADIENT
+        vec3 grad = field_gradient(i, g);
+#endif
+#ifdef GRADIENT_OPACITY
+        e = shorten(e, min(1.0, length(grad) / u_gradient_reference));
+#endif
+#ifdef SHADING
+        float alpha = opacity_of_depth(e.a);
+        e.rgb = blinn_phong(alpha > 0.0 ? e.rgb / alpha : vec3(0.0), grad * u_field_epsilon_scale[i], dir) * alpha;
+#endif
+        weighted += e.rgb * depth_per_opacity(e.a);
+        tau += e.a;
+    }
+    return vec4(weighted / depth_per_opacity(tau), tau);
+}
+#endif
