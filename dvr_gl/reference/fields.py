@@ -51,14 +51,15 @@ def check(scene) -> None:
         return
     r = scene.renderer
     for layer in scene.layers:
+        name = layer.name or getattr(layer.field, "name", "") or layer.role
         if r.compositing in PROJECTIONS and layer.role != "scalar":
-            raise SceneError(f"{layer.name}: renderer.compositing = {r.compositing} projects each scalar field; a "
+            raise SceneError(f"{name}: renderer.compositing = {r.compositing} projects each scalar field; a "
                              f"{layer.role} field has no value to project: use emission_absorption or isosurface")
         if layer.role == "rgb" and r.compositing == "isosurface":
-            raise SceneError(f"{layer.name}: a colour volume has no iso-value of its own; use emission_absorption, "
+            raise SceneError(f"{name}: a colour volume has no iso-value of its own; use emission_absorption, "
                              f"or give its opacity source as a scalar field")
         if layer.role == "rgb" and getattr(r, "hemispherical_shading", False):
-            raise SceneError(f"{layer.name}: hemispherical shading shades a transfer function's emission, and a "
+            raise SceneError(f"{name}: hemispherical shading shades a transfer function's emission, and a "
                              f"colour volume's is its data's: turn renderer.hemispherical_shading off")
     scattering = getattr(r, "scattering", None)
     if scattering is not None and scattering.enabled:
@@ -129,11 +130,14 @@ class Mixture:
         sigma = np.zeros(len(points))
         for m in self.members:
             inside = m.inside(points)
-            if not inside.any():
-                continue
-            e, s = call(m, points[inside], *(a[inside] for a in arguments))
-            emitted[inside] += e
-            sigma[inside] += s
+            if inside.all():  # channels of one grid: no copies
+                e, s = call(m, points, *arguments)
+                emitted += e
+                sigma += s
+            elif inside.any():
+                e, s = call(m, points[inside], *(a[inside] for a in arguments))
+                emitted[inside] += e
+                sigma[inside] += s
         return emitted, sigma
 
     def emission(self, points: np.ndarray, directions: np.ndarray, cells=None):
