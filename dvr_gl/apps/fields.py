@@ -186,8 +186,8 @@ def timed_files(source: Source, scene, required: bool = True) -> tuple[int, floa
     if not timed:
         if not required:
             return None
-        raise DvrError(f"--animate time: {os.path.basename(files[0][0])} has one time step; dvr info FILE lists a "
-                       f"file's steps")
+        which = f"{os.path.basename(files[0][0])} has" if len(files) == 1 else "none of the files has more than"
+        raise DvrError(f"--animate time: {which} one time step; dvr info FILE lists a file's steps")
     lengths = {n for _, n, _ in timed}
     if len(lengths) > 1:
         named = ", ".join(f"{os.path.basename(files[i][0])}: {n}" for i, n, _ in timed)

@@ -142,7 +142,9 @@ def test_animate_time_and_orbit_into_one_gif(files, tmp_path, capsys):
 @pytest.mark.parametrize("argv, fragment", [
     (["{a}", "--transfer-function", "inferno", "--transfer-function", "viridis"], "given 2 times for 1 file"),
     (["{a}", "{b}", "--time", "1"], "none of the files has time steps"),
-    (["{a}", "--animate", "time"], "has one time step"),
+    (["{a}", "--animate", "time"], "a.npy has one time step"),
+    (["{a}", "{b}", "--animate", "time"], "none of the files has more than one time step"),
+    (["--rgb", "{a}"], "role scalar"),
     (["{series}", "--animate", "orbit"], "needs --frames"),
     (["{series}", "--animate", "time", "--time", "1"], "give one"),
     (["{series}", "--animate", "spin"], "give orbit, time, or time,orbit"),
