@@ -162,6 +162,21 @@ class LabelTable:
         """Whether each label is in the table with some opacity (where an isosurface of labels is hit)."""
         return self.lookup(labels)[1] > 0
 
+    @property
+    def domain(self) -> tuple[float, float]:
+        """The smallest and largest listed label (0, 0 for an empty table)."""
+        return (float(self.labels[0]), float(self.labels[-1])) if len(self.labels) else (0.0, 0.0)
+
+    def opaque_somewhere(self, lo, hi, margin: float = 0.0) -> np.ndarray:
+        """Whether some label with opacity lies in each range ``[lo - margin, hi + margin]`` (arrays), as
+        :meth:`TransferFunction.opaque_somewhere <dvr_gl.transfer_function.TransferFunction.opaque_somewhere>`
+        answers for values: a sample's label is always one of its 8 taps', so a block whose voxels (with the
+        apron its taps reach) hold labels in ``[lo, hi]`` is empty when this is False."""
+        shown = self.labels[self.extinction > 0].astype(np.float64)
+        lo = np.asarray(lo, dtype=np.float64) - margin
+        hi = np.asarray(hi, dtype=np.float64) + margin
+        return np.searchsorted(shown, hi, "right") > np.searchsorted(shown, lo, "left")
+
     # --- the scene table --------------------------------------------------------------------------
 
     def to_table(self) -> dict:

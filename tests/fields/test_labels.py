@@ -63,6 +63,15 @@ def test_table_lookup_alpha_model_and_transparent_labels():
     assert ext.lookup([1])[1][0] == 3.5
 
 
+def test_table_says_where_blocks_are_empty():
+    """A range of labels is empty when no label with opacity lies in it (0 here is unlisted, 9 transparent)."""
+    t = LabelTable([2, 5, 9], [[1, 0, 0]] * 3, [0.5, 1.0, 0.0])
+    lo, hi = np.array([0, 0, 3, 6, 5, -4]), np.array([1, 2, 4, 9, 5, 0])
+    assert t.opaque_somewhere(lo, hi).tolist() == [False, True, False, False, True, False]
+    assert t.opaque_somewhere([3], [4], margin=1.0).tolist() == [True]
+    assert t.domain == (2.0, 9.0)
+
+
 def test_table_round_trips_its_scene_table():
     t = LabelTable([1, 4], [[0.25, 0.5, 1.0], [1, 0, 0]], [0.3, 0.9], unit_distance=0.5)
     again = LabelTable.from_rows(t.to_table()["labels"], t.to_table()["unit_distance"])
