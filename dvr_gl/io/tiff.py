@@ -2,7 +2,8 @@
 hyperstacks of several channels and time points.
 
 A plain stack: each page (or file, in natural sort order) is one z slice; all must have the same size and
-one sample per pixel.
+one sample per pixel, or with ``volume.role = "rgb"`` 3 or 4 (r, g, b and alpha; a colour volume,
+:mod:`dvr_gl.fields.color`, its codes sRGB-decoded there).
 
 A hyperstack is one file whose description says how its pages are laid out:
 
@@ -386,11 +387,13 @@ def tiff_axes(path: Path) -> Axes:
     return layout(check_pages(files[0]), files[0]).axes
 
 
-def read_tiff_stack(path: Path, channel: int | None = None, time: int | None = None):
+def read_tiff_stack(path: Path, channel: int | None = None, time: int | None = None, color: bool = False):
+    """The stack, or the chosen step (and channel) of a hyperstack; ``color``: pages of 3 or 4 samples, the
+    data ``[z, y, x, 3|4]``."""
     path = Path(path)
     files = stack_files(path)
     if len(files) == 1:
-        return _read_file(files[0], channel, time)
+        return _read_file(files[0], channel, time, bool(color))
     slices: list[np.ndarray] = []
     budget = [0]
     pick_channel(channel, Axes(), str(path))
@@ -402,19 +405,22 @@ def read_tiff_stack(path: Path, channel: int | None = None, time: int | None = N
             if pages.pages.shape[:2] != (1, 1):
                 raise VolumeError(f"{f}: a hyperstack of {pages.pages.shape[1]} channels and {pages.pages.shape[0]} "
                                   f"time points in a folder or glob of slices; read the file alone")
-            slices.extend(_read_pages(f, list(pages.pages.ravel()), budget))
+            slices.extend(_read_pages(f, list(pages.pages.ravel()), budget, bool(color)))
             step(number)
     return RawArray(_stack(slices, path))
 
 
-def _read_file(path: Path, channel, time):
+def _read_file(path: Path, channel, time, color: bool):
     """One file: a plain stack, or the chosen step (and channel) of a hyperstack."""
     pages = layout(check_pages(path), path)
     axes = pages.axes
     chosen, step = pick_channel(channel, axes, str(path)), pick_step(time, axes, str(path))
     wanted = range(pages.pages.shape[1]) if chosen is None else [chosen]
+    if color and len(wanted) > 1:
+        raise VolumeError(f"{path}: volume.role = rgb: the hyperstack has {len(wanted)} channels; a colour volume is "
+                          f"one: choose it (volume.channel)")
     budget = [0]
-    volumes = [_stack(_read_pages(path, list(pages.pages[step, c]), budget), path) for c in wanted]
+    volumes = [_stack(_read_pages(path, list(pages.pages[step, c]), budget, color), path) for c in wanted]
     arrays = [RawArray(v, pages.spacing) for v in volumes]
     if chosen is not None or pages.channels == 0:
         return arrays[0]
@@ -431,8 +437,9 @@ def _stack(slices: list[np.ndarray], path: Path) -> np.ndarray:
     return np.stack(slices, axis=0)
 
 
-def _read_pages(path: Path, wanted: list[int], budget: list[int]) -> list[np.ndarray]:
-    """The pages ``wanted`` of one file, in that order; ``budget[0]`` counts the bytes of all pages read so far."""
+def _read_pages(path: Path, wanted: list[int], budget: list[int], color: bool = False) -> list[np.ndarray]:
+    """The pages ``wanted`` of one file, in that order; ``budget[0]`` counts the bytes of all pages read so far;
+    ``color``: pages of 3 or 4 samples, each ``[y, x, 3|4]``."""
     import OpenImageIO as oiio
 
     inp = oiio.ImageInput.open(str(path))
@@ -446,16 +453,22 @@ def _read_pages(path: Path, wanted: list[int], budget: list[int]) -> list[np.nda
                 raise VolumeError(f"{path}: OpenImageIO cannot reach page {sub}, which the file's chain of pages "
                                   f"holds; the file is damaged")
             spec = inp.spec()
-            if spec.nchannels != 1:
+            if color and spec.nchannels not in (3, 4):
+                raise VolumeError(f"{path}: volume.role = rgb: page {sub} has {spec.nchannels} samples per pixel; a "
+                                  f"colour volume's pages have 3 (r, g, b) or 4 (and alpha): give it the role scalar")
+            if not color and spec.nchannels != 1:
+                colour = " (set volume.role = rgb to read colour pages as a colour volume)" \
+                    if spec.nchannels in (3, 4) else ""
                 raise VolumeError(f"{path}: page {sub} has {spec.nchannels} samples per pixel; a volume slice needs "
-                                  f"1 (grey)")
+                                  f"1 (grey){colour}")
             budget[0] += spec.image_bytes()
             check_bytes(budget[0], f"{path}: the TIFF pages up to page {sub}",
                         "read fewer slices, or raise the memory budget")
-            pixels = inp.read_image(sub, 0, 0, 1, oiio.UNKNOWN)
+            pixels = inp.read_image(sub, 0, 0, spec.nchannels if color else 1, oiio.UNKNOWN)
             if pixels is None:
                 raise VolumeError(f"{path}: page {sub} is truncated or corrupt ({inp.geterror().strip()})")
-            pages.append(np.asarray(pixels).reshape(spec.height, spec.width))
+            shape = (spec.height, spec.width) + ((spec.nchannels,) if color else ())
+            pages.append(np.asarray(pixels).reshape(shape))
     finally:
         inp.close()
     return pages

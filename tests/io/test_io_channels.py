@@ -365,3 +365,31 @@ def test_glob_of_tiff_stays_slices_and_mixed_globs_are_not_series(tmp_path):
     assert detect_format(tmp_path / "s*") == "tiff"  # two formats: not a series (read as slices, which refuse)
     with pytest.raises(VolumeError):
         load_volume(tmp_path / "s*")
+
+
+# --- TIFF pages of colour: a colour volume with volume.role = "rgb" ---------------------------------------
+
+def test_rgb_tiff_pages_are_a_colour_volume_by_role(tmp_path):
+    """Pages of 3 samples: refused as scalars (naming the role that reads them), a ColorVolume with role rgb whose
+    colour is the sRGB-decoded codes (dvr_gl.fields.color)."""
+    import OpenImageIO as oiio
+
+    from dvr_gl.fields.color import ColorVolume, srgb_decode
+
+    rgb = (np.arange(2 * 3 * 4 * 3, dtype=np.uint8).reshape(2, 3, 4, 3) * 3)  # [z, y, x, rgb]
+    path = tmp_path / "c.tif"
+    specs = [oiio.ImageSpec(4, 3, 3, oiio.UINT8) for _ in range(2)]
+    out = oiio.ImageOutput.create(str(path))
+    assert out.open(str(path), specs)
+    for k in range(2):
+        if k:
+            assert out.open(str(path), specs[k], "AppendSubimage")
+        assert out.write_image(np.ascontiguousarray(rgb[k]))
+    out.close()
+    with pytest.raises(VolumeError, match=r"page 0 has 3 samples per pixel; .* \(set volume.role = rgb to read"):
+        load_volume(path)
+    colour = load_volume(path, role="rgb")
+    assert isinstance(colour, ColorVolume) and colour.dims == (4, 3, 2)
+    np.testing.assert_allclose(colour.colour, srgb_decode(rgb), atol=1e-6)
+    with pytest.raises(VolumeError, match="volume.role = rgb: page 0 has 1 samples per pixel"):
+        load_volume(imagej_hyperstack(tmp_path / "h.tif"), role="rgb", channel=0)
