@@ -117,10 +117,11 @@ class SlicingRenderer(GridRenderer):
                       "bricks": len(views), "triangles": triangles, "light_volume_seconds": light_seconds}
         return image
 
-    def blend_passes(self, scene, program, passes) -> tuple[np.ndarray, float, int]:
+    def blend_passes(self, scene, program, passes, bind_more=None) -> tuple[np.ndarray, float, int]:
         """Draw each pass's slices, ``(uniforms, textures, triangles)``, into the frame's image with the
         over operator on premultiplied colour, in the order given (back to front); the image, the seconds
-        spent drawing (uploads excluded) and the triangles drawn."""
+        spent drawing (uploads excluded) and the triangles drawn.  ``bind_more(program, unit)`` binds what
+        :meth:`bind` cannot (a sampler array) from texture unit ``unit`` on, after each pass's textures."""
         width, height = scene.image.width, scene.image.height
         (_,), fbo = self.target("main", width, height)
         fbo.use()
@@ -133,6 +134,8 @@ class SlicingRenderer(GridRenderer):
         try:
             for uniforms, textures, tris in passes:
                 self.bind(program, uniforms, textures)
+                if bind_more is not None:
+                    bind_more(program, len(textures))
                 vbo = self.ctx.buffer(np.ascontiguousarray(tris, dtype=np.float32).tobytes())
                 vao = self.ctx.vertex_array(program, [(vbo, "3f", "position")])
                 try:

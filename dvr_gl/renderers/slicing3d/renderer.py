@@ -13,6 +13,8 @@ from ... import limits
 from ...gl.geometry import clip_planes, depth_range, slice_polygons
 from ...sandbox import check_bytes
 from ..grid.slicing import SlicingRenderer, core_box
+from ..surfaces import with_surfaces
+from . import fields
 
 BYTES_PER_SLICE = 2048  # a slice's polygon (up to 4 triangles, float64) and its clipping's temporaries
 
@@ -20,6 +22,13 @@ BYTES_PER_SLICE = 2048  # a slice's polygon (up to 4 triangles, float64) and its
 class Slicing3DRenderer(SlicingRenderer):
     name = "slicing3d"
     description = "3D texture, view-aligned slices blended back to front (GPU)"
+
+    def draw(self, scene) -> np.ndarray:
+        """The frame; several fields through :mod:`.fields` (one pass over the union box, every field sampled
+        at each slice's fragment and mixed)."""
+        if fields.several(scene):
+            return with_surfaces(self, scene, lambda s, surfaces: fields.draw_fields(self, s, surfaces))
+        return super().draw(scene)
 
     def work(self, scene):
         return limits.slice_fragments(scene)

@@ -8,6 +8,8 @@
 //   STACK: 2D texture stacks (object-aligned slices of a texture array); else 3D texture slicing.
 //   classification and options as in common/classify.glsl; CLIPPING: fragments outside the kept region
 //   are discarded (common/clipping.glsl); GEOMETRY: so are those behind an opaque mesh.
+//   FIELDS (3D only): several fields, each sampled in its own texture and grid at the fragment, classified
+//   and mixed (common/fields.glsl: NUM_FIELDS, NUM_FIELD_GROUPS, ...); the slices span the union box.
 
 #if defined(SHADING) || defined(GRADIENT_OPACITY)
 #define NEEDS_GRADIENT
@@ -31,9 +33,20 @@ uniform float u_gradient_reference;
 uniform vec3 u_box_lo;             // SCATTERING: where the lights' rays enter the volume
 uniform vec3 u_box_hi;
 
-// box.glsl here, not first inside an #ifdef: a file is expanded once, where it is first named
+// box.glsl and preintegration.glsl here, not first inside #ifdef FIELDS: a file is expanded once, where it
+// is first named (classify.glsl names preintegration.glsl too)
 #include "common/box.glsl"
+#ifdef CLASSIFY_PREINTEGRATED
+#include "common/preintegration.glsl"
+#endif
+#ifdef FIELDS
+#include "common/fields.glsl"
+#else
 #include "common/classify.glsl"
+// A slab's end value (pre-integration): one field's; several fields' is every member's (fields.glsl).
+#define SegmentValue float
+#define segment_value sample_scalar
+#endif
 #ifdef CLIPPING
 #include "common/clipping.glsl"
 #endif
@@ -63,7 +76,7 @@ void main() {
 #endif
     float len = u_slab_length / abs(dot(dir, u_slice_normal));
 #ifdef CLASSIFY_PREINTEGRATED
-    vec4 e = preintegrated_segment(sample_scalar(world), sample_scalar(world + len * dir), len, world, dir);
+    vec4 e = preintegrated_segment(segment_value(world), segment_value(world + len * dir), len, world, dir);
     frag_color = vec4(e.rgb, opacity_of_depth(e.a));
 #else
     vec4 cs = classify(world, dir);

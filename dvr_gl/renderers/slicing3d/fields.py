@@ -1,0 +1,113 @@
+"""``slicing3d`` on several fields (:class:`~dvr_gl.fields.layers.FieldSet`, docs/several-fields.md).
+
+The view-aligned slices span the union of the fields' boxes; at each slice's fragment every field is sampled
+in its own 3D texture (fields on one grid travel together, up to four channels a texture:
+:mod:`dvr_gl.renderers.grid.field_textures`), classified by its own transfer function, shaded by its own
+gradient, and mixed (extinctions add, emissions add; a field contributes only inside its box,
+``common/fields.glsl``); the slabs are blended back to front with the over operator, as for one field.
+Pre-integrated classification mixes the fields' own tables by the contract's rule.
+
+What the mixture cannot take here is refused in one line (:func:`check`): pre-classified voxels, scattering
+(half-angle slicing and the light volume march one field), and fields whose textures exceed the texture budget
+(several fields are not bricked).
+"""
+
+from __future__ import annotations
+
+from time import perf_counter as now
+
+import numpy as np
+
+from ... import limits
+from ...errors import SceneError
+from ...fields import gradient_epsilon
+from ...gl.shaders import create_program
+from ..grid.classification import classification_features
+from ..grid.field_textures import preintegration_atlas, table_atlas, upload_fields
+from ..grid.slicing import SHADERS
+
+
+def several(scene) -> bool:
+    return getattr(scene.field, "kind", None) == "fields"
+
+
+def check(scene):
+    """Refuse, in one line, a scene of several fields the slicer does not mix (see the module doc)."""
+    if not several(scene):
+        return
+    r = scene.renderer
+    if r.classification == "pre":
+        raise SceneError("slicing3d classifies several fields per sample (each by its own transfer function, then "
+                         "mixed), not per voxel: set renderer.classification to post or preintegrated")
+    if r.scattering.enabled:
+        raise SceneError("slicing3d lights one field by scattering, not a mixture of several: set "
+                         "renderer.scattering.enabled = false, or render one field")
+    budget = r.texture_budget_mb * 2 ** 20
+    if scene.field.nbytes > budget:
+        raise SceneError(f"{scene.field.name}: several fields are drawn from whole textures, "
+                         f"{scene.field.nbytes / 2 ** 20:.1f} MB, over renderer.texture_budget_mb = "
+                         f"{r.texture_budget_mb:g}: raise it, or render fewer fields")
+
+
+# One field's paths a frame of several never takes: gradients come from central differences in each field's
+# grid (a gradient texture holds the same values: the filters are linear in the samples), and pre-classified
+# voxels are refused (:func:`check`).
+NOT_FOR_FIELDS = ("GRADIENT_TEXTURE", "CLASSIFY_PRE", "ASSOCIATED_COLORS")
+
+
+def fields_defines(scene, textures) -> dict:
+    """The defines of the fields' program: the single field's classification features (filter, shading,
+    gradient opacity, clipping, geometry) but :data:`NOT_FOR_FIELDS`, and the fields' own
+    (:meth:`FieldTextures.defines`)."""
+    defines = {k: v for k, v in classification_features(scene).items() if k not in NOT_FOR_FIELDS}
+    return {**defines, **textures.defines()}
+
+
+def epsilon_scales(scene) -> list:
+    """Per member: the scene's gradient epsilon (the first member's, ``u_gradient_epsilon``) over the member's
+    own (:func:`dvr_gl.fields.gradient_epsilon`); fields.glsl scales a member's gradient by it for shading, so
+    each member meets its own threshold."""
+    first = gradient_epsilon(scene.field)
+    return [first / gradient_epsilon(layer.field) for layer in scene.layers]
+
+
+def draw_fields(renderer, scene, surfaces: dict) -> np.ndarray:
+    """The frame of several fields (``renderer``: a :class:`~dvr_gl.renderers.slicing3d.renderer.Slicing3DRenderer`;
+    ``surfaces``: the meshes' layer, :mod:`dvr_gl.renderers.surfaces`)."""
+    renderer.activate()
+    start = now()
+    r, ctx = scene.renderer, renderer.ctx
+    side = limits.gl_limits(ctx).texture_3d_size
+    for m in scene.field.members:
+        if max(m.field.dims) > side:
+            raise SceneError(f"{m.name}: {max(m.field.dims)} voxels along an axis, more than this GL's 3D textures "
+                             f"hold ({side}); several fields are not bricked: resample it or render it alone")
+    textures = renderer._cached("field textures", (scene.field,), lambda: upload_fields(ctx, scene.field))
+    tfs = tuple(layer.transfer_function for layer in scene.layers)
+    defines = fields_defines(scene, textures)
+    program = create_program(ctx, "slice.vert", "slice.frag", defines, roots=SHADERS)
+    tables = {"u_field_lut": renderer._cached("field luts", (tfs, r.lut_size),
+                                              lambda: table_atlas(ctx, tfs, r.lut_size))}
+    slab = renderer.slab_length(scene)
+    if "CLASSIFY_PREINTEGRATED" in defines:
+        tables["u_field_preint"] = renderer._cached(
+            "field preintegration", (tfs, slab, r.preintegration_size, r.preintegration, r.lut_size),
+            lambda: preintegration_atlas(ctx, tfs, slab, r.preintegration_size, r.preintegration, r.lut_size))
+    uniforms = {**renderer.camera_uniforms(scene), **renderer.optics_uniforms(scene, tables["u_field_lut"].luts[0]),
+                **renderer.view_uniforms(scene), **textures.uniforms(),
+                "u_field_epsilon_scale": epsilon_scales(scene)}
+    tris = renderer.geometry(scene, _WHOLE)
+    passes = [(uniforms, {**tables, **surfaces}, tris)] if len(tris) else []
+    image, gpu_seconds, triangles = renderer.blend_passes(scene, program, passes, bind_more=textures.bind)
+    renderer.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines, "bricks": 1,
+                      "triangles": triangles, "light_volume_seconds": 0.0, "field_textures": len(textures.groups)}
+    return image
+
+
+class _Whole:
+    """The grid view of the whole union box (several fields are not bricked)."""
+
+    brick = None
+
+
+_WHOLE = _Whole()
