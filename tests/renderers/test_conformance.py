@@ -19,7 +19,7 @@ A renderer registered from another package is tested here the day it is installe
 import numpy as np
 import pytest
 
-from closed_forms import CLOSED_FORMS, VIEWS, error_outside, own_filter
+from closed_forms import CLOSED_FORMS, HEIGHT, VIEWS, WIDTH, error_outside, own_filter
 from conftest import assert_close
 from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.scene.resolve import load_scene
@@ -99,3 +99,84 @@ def test_every_renderer_declares_what_it_renders():
         assert plugin.choices("compositing"), name
         assert plugin.data_kinds is None or plugin.data_kinds, name
         assert plugin.renderer_class().name == name
+
+
+# --- several fields: labels and time, for every renderer that declares them --------------------------------
+
+def _takes(plugin, kind: str) -> bool:
+    return plugin.data_kinds is None or kind in plugin.data_kinds
+
+
+def _label_cases():
+    for name, plugin in PLUGINS.items():
+        if _takes(plugin, "fields") and "label" in plugin.field_roles and "isosurface" in plugin.choices("compositing"):
+            for view in (v for v in VIEWS if v in plugin.projections):
+                yield pytest.param(name, view, id=f"{name}-{view}")
+
+
+@pytest.mark.parametrize("name, view", list(_label_cases()))
+def test_labels_show_only_their_table(renderers, name, view):
+    """A label map of three labels in blocks (two of them touching, so that an interpolation of the values would
+    invent the one between): the unshaded isosurface of a label map shows, at every pixel it hits, exactly one
+    colour of its table, never a mixture and never a label the voxels do not hold (float32 rounding of the
+    colour only)."""
+    labels = np.zeros((10, 12, 14), np.uint8)
+    labels[2:8, 2:10, 2:7] = 1
+    labels[2:8, 2:10, 7:12] = 3  # touching label 1: linear interpolation of the values would make 2 there
+    labels[4:6, 4:8, 4:10] = 5
+    rows = [[1, 0.9, 0.1, 0.1, 1.0], [2, 0.1, 0.9, 0.1, 1.0], [3, 0.1, 0.2, 0.9, 1.0], [5, 0.9, 0.9, 0.1, 1.0]]
+    scene = load_scene(None, {"image.width": WIDTH, "image.height": HEIGHT, "renderer.name": name,
+                              "renderer.compositing": "isosurface", **VIEWS[view]},
+                       base={"volume": [{"path": _saved_labels(labels), "role": "label",
+                                         "transfer_function": {"labels": rows}}]})
+    image = np.asarray(renderers(name).render(scene), np.float64)
+    hit = image[..., 3] > 0.5
+    assert hit.mean() > 0.1, "the view sees the labels"
+    assert np.allclose(image[hit, 3], 1.0, atol=1e-6), "an isosurface is opaque"
+    present = np.array([r[1:4] for r in rows if r[0] in (1, 3, 5)])
+    nearest = np.abs(image[hit, None, :3] - present[None]).max(axis=2).min(axis=1)
+    assert nearest.max() < 1e-5, f"{name}: a colour outside the labels' table ({nearest.max():.3g} from the nearest)"
+    assert not np.any(np.abs(image[hit, :3] - [0.1, 0.9, 0.1]).max(axis=1) < 1e-3), "label 2 is not in the data"
+
+
+_LABEL_DIR = []
+
+
+def _saved_labels(labels) -> str:
+    import tempfile
+
+    if not _LABEL_DIR:
+        _LABEL_DIR.append(tempfile.mkdtemp(prefix="conformance-labels-"))
+    path = f"{_LABEL_DIR[0]}/labels.npy"
+    np.save(path, labels)
+    return path
+
+
+def _time_cases():
+    for name, plugin in PLUGINS.items():
+        if _takes(plugin, "grid"):
+            yield pytest.param(name, id=name)
+
+
+@pytest.mark.parametrize("name", list(_time_cases()))
+def test_a_time_step_renders_as_that_step_alone(renderers, name):
+    """Step k of a time series is exactly the 3D volume of that step: bit-identical images (the API's time_axis;
+    the readers' volume.time is tested with the files in tests/io and tests/apps)."""
+    import dvr_gl
+
+    rng = np.random.default_rng(11)
+    series = rng.random((3, 8, 9, 10)).astype(np.float32)
+    keys = {"size": (WIDTH, HEIGHT), "renderer": name, "transfer_function": [[0, 0.2, 0.4, 0.9, 0.1],
+                                                                             [1, 1.0, 0.8, 0.3, 0.6]]}
+    keys.update(own_filter_keywords(name), projection=PLUGINS[name].projections[0],
+                compositing=PLUGINS[name].choices("compositing")[0])
+    step = dvr_gl.scene_of(series, time_axis=0, time=1, **keys)
+    alone = dvr_gl.scene_of(series[1], **keys)
+    a, b = renderers(name).render(step), renderers(name).render(alone)
+    assert np.array_equal(a, b)
+    assert np.asarray(a)[..., 3].max() > 1e-3
+
+
+def own_filter_keywords(name) -> dict:
+    """:func:`closed_forms.own_filter`'s settings as the API's keywords."""
+    return {k.removeprefix("renderer."): v for k, v in own_filter(name).items()}
