@@ -55,9 +55,6 @@ def check(scene) -> None:
         if r.compositing in PROJECTIONS and layer.role != "scalar":
             raise SceneError(f"{name}: renderer.compositing = {r.compositing} projects each scalar field; a "
                              f"{layer.role} field has no value to project: use emission_absorption or isosurface")
-        if layer.role == "rgb" and r.compositing == "isosurface":
-            raise SceneError(f"{name}: a colour volume has no iso-value of its own; use emission_absorption, "
-                             f"or give its opacity source as a scalar field")
         if layer.role == "rgb" and getattr(r, "hemispherical_shading", False):
             raise SceneError(f"{name}: hemispherical shading shades a transfer function's emission, and a "
                              f"colour volume's is its data's: turn renderer.hemispherical_shading off")
@@ -259,6 +256,8 @@ def first_hit(ref) -> np.ndarray:
         directions = ref.rays.directions[rows]
         if member.label:  # the label on the bracket's visible side, shaded by its indicator
             colour = member.model.hit_colour(ref.rays.points(rows, t_b[:, None]), directions)
+        elif member.layer.role == "rgb":  # the data's colour where x reaches the iso-value
+            colour = member.model.hit_colour(ref.rays.points(rows, t[:, None]), directions)
         else:
             colour, _ = member.model.classify_value(np.full(len(rows), isos[i]))
             if member.model.shading is not None:
@@ -405,12 +404,15 @@ def per_channel(ref) -> np.ndarray:
             hit_t[i], rgba[i] = label_first_hit(ref, m)
             continue
         sub = type(ref)(m.scene, nodes=len(ref.x))
-        if sub.model.depth_cue is not None:  # the cue spans the union box
-            sub.model.depth_cue = depth_cue(ref.scene)
+        sub.model = m.model  # its role's (an rgb member's reads x), the depth cue over the union box
         if ref.progress is not None:
             sub.progress = lambda done, total, i=i: ref.progress(i * total + done, len(members) * total)
         rgba[i] = sub.volume_rgba()
         hit_t[i] = sub.hit_t
+        if m.layer.role == "rgb" and mode == "isosurface":  # the data's colour at the hit
+            rows = np.nonzero(np.isfinite(sub.hit_t))[0]
+            points = ref.rays.origins[rows] + sub.hit_t[rows, None] * ref.rays.directions[rows]
+            rgba[i, rows, :3] = m.model.hit_colour(points, ref.rays.directions[rows])
         for key in ("pieces", "evaluations"):
             ref.stats[key] += sub.stats[key]
         ref.stats["converged"] &= sub.stats["converged"]

@@ -7,7 +7,8 @@
   a scalar's, or exact), gradient opacity and shading from the gradient of ``x``.  Pre-classification classifies
   the voxels to ``(sigma r, sigma g, sigma b, sigma)`` (associated) and filters those.  Pre-integration: ``tau``
   from the member's table of ``x`` (exact for ``x`` linear along the segment), the colour the data's at the
-  segment's sample (exact for constant colour): ``C = rgb (1 - exp(-tau))``.
+  segment's sample (exact for constant colour): ``C = rgb (1 - exp(-tau))``.  Its isosurface is a level of ``x``
+  (the member's iso-value), coloured by the data's colour there, shaded by the gradient of ``x``.
 * ``label`` (:mod:`dvr_gl.labels`): the label ``L*`` of the indicator rule (or the nearest voxel's), its colour
   and extinction from the member's :class:`~dvr_gl.labels.LabelTable` (exact: a table has no interpolation);
   shaded with the normal ``-grad I_L* / |grad I_L*|`` (zero below 1e-5 per voxel); no gradient opacity (the
@@ -93,6 +94,13 @@ def colour_model(model: OpticalModel, scene) -> None:
         model.classify = ColourClassifier(reconstruction, model.table)
     if model.preintegration is not None:
         model.preintegrated = lambda *a: _colour_segments(model, reconstruction, *a)
+    model.hit_colour = lambda points, directions: _surface_colour(model, reconstruction, points, directions)
+
+
+def _surface_colour(model, reconstruction, points, directions) -> np.ndarray:
+    """An rgb member's isosurface colour at points on it: the data's, shaded by the gradient of ``x``."""
+    colour = np.clip(reconstruction.sample(points)[:, :3], 0.0, None)
+    return colour if model.shading is None else model.shade(colour, points, directions)
 
 
 def _colour_segments(model, reconstruction, front, back, middle, directions, fraction):

@@ -328,3 +328,32 @@ def test_a_colour_volume_beside_a_scalar_channel(judge, classification):
         assert err.max() < 1e-9
     else:
         assert err.max() < 0.02 and err.mean() < 5e-4
+
+
+@pytest.mark.parametrize("judge", [DISCRETE, CONVERGED])
+def test_colour_volume_isosurface_is_a_level_of_its_opacity_source(judge):
+    """A colour volume of constant colour whose alpha ramps along x (iso 0.5: the plane x = 3.5) beside a scalar
+    channel reaching its iso-value (0.5, the middle of its range) only beyond, at x = 6.5: the hit takes the
+    data's colour (unshaded: exactly the stored colour), on the plane (converged: measured 1.0e-7 off it, the
+    float32 rounding of the alpha samples; asserted 1e-6)."""
+    from dvr_gl.fields.color import ColorVolume
+
+    colour = tuple(float(np.float32(c)) for c in (0.2, 0.5, 0.9))
+    alpha = np.broadcast_to((np.arange(8) / 7.0)[None, None, :], (8, 8, 8))
+    rgba = np.concatenate([np.broadcast_to(np.array(colour), (8, 8, 8, 3)), alpha[..., None]], axis=3)
+    rgb = ColorVolume.from_linear(rgba.astype(np.float32))
+    far = np.zeros((8, 8, 8), np.float32)
+    far[:, :, 7] = 1.0
+    scalar = Volume(far)
+    tfs = [TransferFunction([[0.0, 1, 1, 1, 0.0], [1.0, 1, 1, 1, 0.6]]), constant_tf(GREEN, 0.3)]
+    s = scene([Member(rgb, "rgb"), scalar], tfs, judge, compositing="isosurface", iso_value=0.5, azimuth=-90.0,
+              elevation=0.0, projection="orthographic")
+    ref = (DiscreteReference if judge == DISCRETE else ConvergedReference)(s)
+    image = ref.render_float64()
+    hit = image[..., 3] == 1.0
+    assert hit.sum() > 20
+    np.testing.assert_allclose(image[hit][:, :3], np.broadcast_to(colour, (hit.sum(), 3)), rtol=0, atol=1e-12)
+    if judge == CONVERGED:
+        rays = np.nonzero(hit.reshape(-1))[0]
+        x = ref.rays.origins[rays, 0] + ref.hit_t[rays] * ref.rays.directions[rays, 0]
+        np.testing.assert_allclose(x, 3.5, atol=1e-6)
