@@ -56,6 +56,9 @@ def read_color_table(path, unit_distance: float = 1.0) -> LabelTable:
     if not rows:
         raise SceneError(f"{path}: the colour table lists no label; give a table with at least one")
     labels, colors, opacity, names = zip(*rows)
+    if not any(opacity):  # FreeSurfer's LUTs write A = 0 for every label: read as Slicer's, nothing would show
+        raise SceneError(f"{path}: every label in the table is transparent (opacity 0), so nothing would show; "
+                         f"give the opacities (transfer_function.labels = [[label, r, g, b, opacity], ...])")
     seen = set()
     for label in labels:
         if label in seen:

@@ -54,6 +54,7 @@ def test_slicer_segmentation_header(tmp_path):
     ("a.ctbl", b"1 a 0 0 0 255\n1 b 0 0 0 255\n", "label 1 is listed twice"),
     ("a.ctbl", b"99999999999999999999 a 0 0 0 255\n", "beyond"),
     ("a.ctbl", b"# only a comment\n", "lists no label"),
+    ("FreeSurferColorLUT.txt", b"0 Unknown 0 0 0 0\n2 Left-Cerebral-White-Matter 245 245 245 0\n", "transparent"),
     ("a.txt", b"# Color procedural file /x\n0 0 0 0\n", "procedural"),
     ("a.txt", b'1 255 0 0 1.5 1 1 "x"\n', "opacity A"),
     ("a.label", b"1 255 0 0 1 1 1 x\n", "ITK-SNAP label line"),
