@@ -78,6 +78,11 @@ def _valid(tp, key: str, choices: tuple):
         return st.text(max_size=12)
     if origin is tuple:
         return st.tuples(*(_valid(a, key, ()) for a in args)).map(list)
+    if origin is list and args[0] in (int, float):  # ranges and sizes (2D transfer functions)
+        return st.lists(_valid(args[0], key, ()), max_size=3)
+    if origin is list and typing.get_origin(typing.get_args(args[0])[0] if typing.get_args(args[0]) else None) is list:
+        node = st.lists(st.one_of(st.floats(0, 1), st.floats(-0.5, 1.5)), min_size=3, max_size=5)
+        return st.lists(st.lists(node, max_size=3), max_size=3)  # a 2D table's nodes: value x gradient x rgba
     if origin is list and typing.get_origin(args[0]) is list:  # control points
         colour = st.one_of(st.floats(0, 1), st.floats(0, 1), st.floats(0, 1), st.floats(-0.5, 1.5))
         point = st.one_of(st.lists(colour, min_size=4, max_size=4), st.lists(colour, max_size=6))

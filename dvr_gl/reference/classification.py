@@ -52,3 +52,17 @@ class PreClassifier:
         with np.errstate(invalid="ignore", divide="ignore"):
             colour = np.where(sigma[:, None] > 0, first / sigma[:, None], 0.0)
         return colour, sigma
+
+
+class GradientClassifier:
+    def __init__(self, scalar, table):
+        """Post-classification by a 2D transfer function (:mod:`dvr_gl.transfer_function_2d`): the scalar and
+        its gradient magnitude (central differences one voxel apart, value units per world unit: the ray
+        caster's) looked up in ``table``, a :class:`~dvr_gl.transfer_function_2d.TransferFunction2DLUT` (as the
+        GPU) or the :class:`~dvr_gl.transfer_function_2d.TransferFunction2D` itself (exact)."""
+        self.scalar = scalar
+        self.lookup = table.lookup if hasattr(table, "lookup") else table.evaluate_2d
+
+    def __call__(self, points: np.ndarray, scalars: np.ndarray | None = None):
+        s = self.scalar.sample(points) if scalars is None else scalars
+        return self.lookup(s, np.linalg.norm(self.scalar.gradient(points), axis=1))

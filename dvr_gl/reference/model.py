@@ -13,7 +13,8 @@ from ..preintegration import preintegrate, shortened
 from ..scene.model import CLASSIFIED_ALONG_RAY
 from ..shading import blinn_phong, normals_from_gradient
 from ..transfer_function import TransferFunction
-from .classification import PostClassifier, PreClassifier
+from ..transfer_function_2d import check_scene, is_2d
+from .classification import GradientClassifier, PostClassifier, PreClassifier
 from .scattering import SingleScattering
 
 
@@ -105,7 +106,11 @@ class OpticalModel:
         self.tf: TransferFunction = scene.transfer_function
         self.scalar = reconstruct(scene.field, r)
         self.table = self.tf if exact else self.tf.tabulate(r.lut_size)
-        if r.classification == "pre" and r.compositing in CLASSIFIED_ALONG_RAY:
+        if is_2d(self.tf):  # by value and gradient magnitude: its own table, post-classified
+            check_scene(scene)
+            self.table = self.tf if exact else self.tf.tabulate_2d()
+            self.classify = GradientClassifier(self.scalar, self.table)
+        elif r.classification == "pre" and r.compositing in CLASSIFIED_ALONG_RAY:
             self.classify = PreClassifier(scene.field, self.tf, r.filter, r.associated_colors,
                                           **filter_parameters(r))
         else:

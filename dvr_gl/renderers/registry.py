@@ -26,6 +26,8 @@ from ..errors import DvrError, SceneError
 from ..scene.plugin import RendererPlugin
 from ..scene.plugin import load as _load
 from ..scene.settings import MODEL_SETTINGS, Setting
+from ..transfer_function_2d import check_scene as check_transfer_function_2d
+from ..transfer_function_2d import is_2d
 
 ENTRY_POINT_GROUP = "dvr_gl.renderers"
 
@@ -209,6 +211,12 @@ def check(scene, name: str | None = None):
         role = sorted(roles - set(p.field_roles))[0]
         others = renderers_with(lambda q: (q.data_kinds is None or kind in q.data_kinds) and role in q.field_roles)
         raise SceneError(f"{p.name} does not classify {role} fields" + (f"; use {_either(others)}" if others else ""))
+    if any(is_2d(tf) for tf in scene.transfer_functions or (scene.transfer_function,)):
+        if kind not in p.transfer_function_2d:
+            others = renderers_with(lambda q: kind in q.transfer_function_2d)
+            raise SceneError(f"{p.name} classifies {kind} data by value alone, not with a 2D transfer function "
+                             f"(value and gradient magnitude)" + (f"; use {_either(others)}" if others else ""))
+        check_transfer_function_2d(scene)
     if getattr(scene.field, "out_of_core", False) and not p.out_of_core:
         others = renderers_with(lambda q: q.out_of_core)
         budget = getattr(scene.renderer, "memory_budget_mb", None)

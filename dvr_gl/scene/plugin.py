@@ -57,6 +57,8 @@ class RendererPlugin:
         (:data:`dvr_gl.scene.model.SCATTERING_METHODS`), where it declares scattering.
     field_roles: with ``"fields"`` among its data kinds (several fields composited per sample:
         :mod:`dvr_gl.fields.layers`), the roles of fields it classifies (``"scalar"``, ``"label"``, ``"rgb"``).
+    transfer_function_2d: the data kinds it classifies by value and gradient magnitude with a 2D transfer
+        function (:mod:`dvr_gl.transfer_function_2d`); with any other, a 2D transfer function is refused.
     bench: its ``dvr bench`` subcommands, ``"module:attribute"`` naming a
         :class:`~dvr_gl.renderers.bench_command.BenchCommand` or a tuple of them (imported when ``dvr``
         builds its flags: keep that module light; the measurement imports the bench harness when run).
@@ -83,6 +85,7 @@ class RendererPlugin:
     scattering_methods: tuple[str, ...] = SCATTERING_METHODS
     bench: Any = None
     field_roles: tuple[str, ...] = ("scalar", "label", "rgb")
+    transfer_function_2d: tuple[str, ...] = ()
 
     def declared(self, name: str) -> Optional[Setting]:
         return next((s for s in self.settings if s.name == name), None)

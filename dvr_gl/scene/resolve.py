@@ -41,6 +41,8 @@ from ..transfer_function import (
     preset_property,
     read_transfer_function_file,
 )
+from ..transfer_function_2d import from_spec as transfer_function_2d
+from ..transfer_function_2d import is_2d
 from .model import exclusive_keys
 from .schema import (
     CameraSpec,
@@ -250,6 +252,9 @@ def _source_name(field, spec: VolumeSpec) -> str:
 
 def _resolve_transfer_function(spec: TransferFunctionSpec, field, demo: str | None,
                                base_dir: Path = Path("."), lookup: "Lookup | None" = None) -> TransferFunction:
+    tf_2d = transfer_function_2d(spec, field, base_dir)  # table_2d, boxes_2d or a ParaView state file
+    if tf_2d is not None:
+        return tf_2d
     if spec.points is not None and (spec.preset is not None or spec.file is not None):
         raise SceneError(f"transfer_function: give {'preset' if spec.preset is not None else 'file'} or points, "
                          f"not both")
@@ -503,8 +508,9 @@ class Scene:
             spec = dataclasses.replace(spec, camera=camera_spec_of(changes["camera"]))
         if "transfer_function" in changes:
             tf = changes["transfer_function"]
-            spec = dataclasses.replace(spec, transfer_function=TransferFunctionSpec(
-                points=tf.points.tolist(), unit_distance=tf.unit_distance, opacity_model=tf.opacity_model))
+            spec = dataclasses.replace(spec, transfer_function=TransferFunctionSpec(**tf.to_table()) if is_2d(tf) else
+                                       TransferFunctionSpec(points=tf.points.tolist(), unit_distance=tf.unit_distance,
+                                                            opacity_model=tf.opacity_model))
         if "image" in changes:
             spec = dataclasses.replace(spec, image=changes["image"])
         if "renderer" in changes:

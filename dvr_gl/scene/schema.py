@@ -147,6 +147,23 @@ class TransferFunctionSpec:
                                  doc="what the 5th column means: `alpha` per `unit_distance`, or `extinction` sigma")
     rescale_intercept: float = doc(0.0, "CT presets and Slicer files: HU = data + intercept (-1024 for CT "
                                         "stored as unsigned HU + 1024)")
+    table_2d: Optional[list[list[list[float]]]] = doc(
+        None, "a 2D transfer function over value and gradient magnitude: NV x NG nodes `[r, g, b, opacity]` "
+              "(rows over value), bilinear between them (docs/transfer-functions.md); a ParaView state `.pvsm` "
+              "as `file` gives one too", excludes=("points", "preset", "file", "name", "stretch", "boxes_2d"))
+    boxes_2d: Optional[list[list[float]]] = doc(
+        None, "a 2D transfer function as ParaView's boxes `[value, gradient, width, height, r, g, b, alpha]`, "
+              "drawn on a table of `size_2d` nodes", excludes=("points", "preset", "file", "name", "stretch",
+                                                              "table_2d"))
+    value_range_2d: Optional[list[float]] = doc(None, "a 2D transfer function's value axis `[lo, hi]` (default: "
+                                                      "the data's range; a .pvsm file's Range)",
+                                                excludes=("points", "preset"))
+    gradient_range_2d: Optional[list[float]] = doc(None, "a 2D transfer function's gradient-magnitude axis `[lo, "
+                                                         "hi]`, value units per world unit (default: 0 to the "
+                                                         "boxes' top; 0 to 1 for table_2d)",
+                                                   excludes=("points", "preset"))
+    size_2d: Optional[list[int]] = doc(None, "the nodes boxes are drawn on, `[NV, NG]` (default [256, 64])",
+                                       excludes=("points", "preset"))
 
 
 @dataclass

@@ -50,7 +50,7 @@ def test_exclusions_are_read_both_ways_from_the_declarations():
     assert set(exclusive_keys(spec, tolerance.name)) == {"sample_distance", "sample_distance_voxels"}
     assert exclusive_keys(VolumeSpec, "demo") == ("path",)
     assert exclusive_keys(CameraSpec, "azimuth") == ("view",)
-    assert exclusive_keys(TransferFunctionSpec, "file") == ("points", "preset")
+    assert exclusive_keys(TransferFunctionSpec, "file") == ("points", "preset", "labels", "table_2d", "boxes_2d")
     assert exclusive_keys(CameraSpec, "fov") == ()
 
 

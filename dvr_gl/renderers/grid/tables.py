@@ -24,6 +24,21 @@ class TableTexture:
         self.texture = upload_table(ctx, lut.table)
 
 
+class TransferFunction2DTexture:
+    """A 2D transfer function's table (:class:`~dvr_gl.transfer_function_2d.TransferFunction2DLUT`) as an NV x NG
+    RGBA32F texture, fetched (``common/transfer_function_2d.glsl``); it brings the uniforms that map to it."""
+
+    def __init__(self, ctx, table):
+        self.table = table
+        nv, ng = table.table.shape[:2]
+        self.texture = ctx.texture((nv, ng), 4, table.texels().tobytes(), dtype="f4")
+        self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.texture.repeat_x = self.texture.repeat_y = False
+
+    def uniforms(self) -> dict:
+        return self.table.uniforms()
+
+
 class PreintegrationTexture:
     """A pre-integration table and its N x N RGBA32F texture (x: front value, y: back value)."""
 
@@ -64,6 +79,9 @@ def table_textures(frame, scene, defines: dict, slab_length: float) -> dict:
     and the pre-integration table ``u_preint`` of slabs ``slab_length`` long (world units)."""
     r, tf = scene.renderer, scene.transfer_function
     out = {"u_lut": lookup_table(frame, scene)}
+    if defines.get("TRANSFER_FUNCTION_2D"):  # classified by value and gradient magnitude
+        out["u_tf2d"] = frame._cached("transfer function 2d", (tf,),
+                                      lambda: TransferFunction2DTexture(frame.ctx, tf.tabulate_2d()))
     if defines.get("ALBEDO_TABLE"):  # scattering's albedo column, at the same nodes (r; gba unused)
         albedo = out["u_lut"].lut.albedo_table
         out["u_albedo_lut"] = frame._cached("albedo lut", (tf, r.lut_size), lambda: upload_table(

@@ -26,6 +26,7 @@ PLUGIN = RendererPlugin(
     # several fields: the members' models mixed per sample (dvr_gl/reference/fields.py), which refuses in one
     # line what the mixture does not define (a projection of a label, scattering through the mixture)
     field_roles=ROLES,
+    transfer_function_2d=("grid", "fields"),
     check="dvr_gl.reference.fields:check",
     # Against the closed forms (tests/closed_forms.py): float64, measured 3e-8 (rounding of the float32
     # data and the output).  MIP and MinIP of the ramp: the extreme sample, up to half a segment inside

@@ -29,6 +29,7 @@ PLUGIN = RendererPlugin(
     # several fields: the members' models mixed per sample (dvr_gl/reference/fields.py), which refuses in one
     # line what the mixture does not define (a projection of a label, scattering through the mixture)
     field_roles=ROLES,
+    transfer_function_2d=("grid", "fields"),
     check="dvr_gl.reference.fields:check",
     # Against the closed forms (tests/closed_forms.py), at converged_tolerance 1e-6: measured 5e-8.
     tolerances={"box": 1e-6, "ramp": 1e-6, "sphere": 1e-6, "analytic sphere": 1e-6, "mesh boxes": 1e-6,

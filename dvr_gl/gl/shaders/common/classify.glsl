@@ -1,5 +1,6 @@
 // Classification shared by the renderers that sample a grid in their shaders: what a sample (or a pre-integrated
-// slab) emits and absorbs, shaded, with gradient-magnitude opacity, as dvr_gl.reference.model.
+// slab) emits and absorbs, shaded, with gradient-magnitude opacity, as dvr_gl.reference.model; TRANSFER_FUNCTION_2D:
+// classified by value and gradient magnitude (common/transfer_function_2d.glsl).
 // Needs: u_gradient_reference, and u_slab_length: the pre-integration table's segment length.
 
 #ifdef CLASSIFY_PRE
@@ -7,6 +8,9 @@ uniform sampler3D u_classified;      // (sigma c, sigma), or (c, sigma) without 
 #endif
 #ifdef CLASSIFY_PREINTEGRATED
 #include "common/preintegration.glsl"
+#endif
+#ifdef TRANSFER_FUNCTION_2D  // by value and gradient magnitude (post-classification alone; needs gradient())
+#include "common/transfer_function_2d.glsl"
 #endif
 
 #ifdef SCATTERING
@@ -37,11 +41,16 @@ vec4 classify(vec3 p, vec3 dir) {
     float sigma = c.a;
 #else
     float value = sample_scalar(p);
+  #ifdef TRANSFER_FUNCTION_2D
+    vec3 g = gradient(p);  // what shading and gradient opacity read too
+    vec4 tf = transfer_function_2d(value, length(g));
+  #else
     vec4 tf = transfer_function(value);
+  #endif
     vec3 colour = tf.rgb;
     float sigma = tf.a;
 #endif
-#ifdef NEEDS_GRADIENT
+#if defined(NEEDS_GRADIENT) && !defined(TRANSFER_FUNCTION_2D)
     vec3 g = gradient(p);
 #endif
 #ifdef GRADIENT_OPACITY
