@@ -17,7 +17,7 @@ import os
 from dataclasses import dataclass, field
 
 from dvr_gl.errors import DvrError
-from dvr_gl.scene.resolve import is_volume_path, load_scene
+from dvr_gl.scene.resolve import effective_renderer_dict, is_volume_path, load_scene
 from dvr_gl.transfer_function import is_transfer_function_file
 
 #: the flags that add a field in a role other than scalar (the files where the scene goes are scalar)
@@ -104,9 +104,14 @@ class Source:
     base: dict | None = None
     timed: list[int] = field(default_factory=list)  # set by timed_files
 
-    def load(self, time: int | None = None):
-        """The scene, at step ``time`` of the timed files if given."""
+    def load(self, time: int | None = None, renderer=None):
+        """The scene, at step ``time`` of the timed files if given; with the settings of ``renderer`` (the first
+        step's, resolved: a tolerance's chosen sample distance), so that a step is read without resolving them
+        again (the ray caster's tolerance renders a check)."""
         overrides, base = self.overrides, self.base
+        if renderer is not None:
+            pinned = {f"renderer.{k}": v for k, v in effective_renderer_dict(renderer).items()}
+            overrides = {**{k: v for k, v in overrides.items() if not k.startswith("renderer.")}, **pinned}
         if time is not None and self.is_tables:
             base = copy.deepcopy(base)
             for i in self.timed:

@@ -393,7 +393,7 @@ def render(args) -> int:
     animation = animation_of(args, source, scene)
     outputs = frame_paths(Path(args.output), animation.frames if animation else None)
     count = animation.frames if animation else 1
-    frame_scene = Frames(scene, animation or Animation(1, False), lambda k: source.load(k).field)
+    frame_scene = Frames(scene, animation or Animation(1, False), lambda k: source.load(k, scene.renderer).field)
     for path in outputs:  # before rendering: fail fast, and never half-overwrite a sequence
         check_output_path(path, args.overwrite)
     movie = outputs[0].suffix.lower() in MOVIE_FORMATS

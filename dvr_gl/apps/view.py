@@ -99,6 +99,6 @@ def run(args) -> int:
                             screenshot_format="." + args.screenshot_format, gui=not args.no_gui,
                             frame_log=Path(args.frame_log) if args.frame_log else None,
                             rescale_intercept=_rescale_intercept(args, overrides), benchmark=args.benchmark,
-                            fit=fit, time_steps=series[0] if series else 1, read_step=source.load,
-                            time_step=args.time or 0)
+                            fit=fit, time_steps=series[0] if series else 1, time_step=args.time or 0,
+                            read_step=lambda k: source.load(k, scene.renderer))
     return run_viewer(scene, options)
