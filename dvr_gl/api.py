@@ -37,6 +37,7 @@ from .errors import SceneError
 from .fields import Field
 from .fields.grid import Volume
 from .image import composite_over, encode_8bit, write_image
+from .labels import as_label_table
 from .orientation import view_orbit
 from .renderers import create_renderer, registry
 from .sandbox import Sandbox, active
@@ -261,7 +262,7 @@ def _several(data, channel_axis, spacing, origin):
 
 def _with_transfer_functions(data, tfs, rescale_intercept, **keywords) -> Scene:
     """The scene of several fields with one transfer function each (a preset's name, control points or a
-    transfer function; None: the field's default)."""
+    transfer function; a label map's: a LabelTable, rows or a colour table file; None: the field's default)."""
     scene = scene_of(data, **keywords)
     layers = scene.layers
     if len(tfs) != len(layers):
@@ -269,7 +270,9 @@ def _with_transfer_functions(data, tfs, rescale_intercept, **keywords) -> Scene:
                          f"give one per field (channel), None for a field's default")
     out = []
     for tf, layer in zip(tfs, layers):
-        if tf is None or not isinstance(tf, (str, list, tuple, np.ndarray)):
+        if layer.role == "label" and tf is not None:  # a categorical table, never control points
+            out.append(as_label_table(tf, layer.name))
+        elif tf is None or not isinstance(tf, (str, list, tuple, np.ndarray)):
             out.append(layer.transfer_function if tf is None else tf)
         elif isinstance(tf, str):
             out.append(preset(tf, layer.field.value_range, rescale_intercept or 0.0))

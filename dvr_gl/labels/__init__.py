@@ -23,7 +23,7 @@ from .table import DEFAULT_OPACITY, LabelTable, check_label_data, default_colors
 
 __all__ = ["DEFAULT_OPACITY", "LabelTable", "check_label_data", "default_colors", "default_table", "indicator",
            "is_color_table", "label_sample", "label_transfer_function", "labels_present", "read_color_table",
-           "segment_colours"]
+           "segment_colours", "as_label_table"]
 
 
 def label_transfer_function(tf_spec, field, base_dir: Path | str = ".") -> LabelTable:
@@ -61,3 +61,17 @@ def segment_colours(tf_spec, path):
     if any(getattr(tf_spec, key, None) is not None for key in ("labels", "file", "points", "preset")):
         return tf_spec
     return dataclasses.replace(tf_spec, file=path)
+
+
+def as_label_table(value, name: str = "label map") -> LabelTable:
+    """A label map's table as the Python API takes it: a :class:`LabelTable`, rows ``[[label, r, g, b, opacity],
+    ...]`` (colour linear) or a colour table file's path; anything else (a preset's name, a transfer function)
+    is refused in one line."""
+    if isinstance(value, LabelTable):
+        return value
+    if isinstance(value, (str, Path)) and (is_color_table(str(value)) or Path(value).expanduser().is_file()):
+        return read_color_table(value)
+    if isinstance(value, (list, tuple)) or getattr(value, "ndim", None) == 2:
+        return LabelTable.from_rows(value)
+    raise SceneError(f"{name}: a label map takes a LabelTable, rows [[label, r, g, b, opacity], ...] or a colour "
+                     f"table file (.ctbl, ITK-SNAP .txt, .seg.nrrd), not {str(value)[:40]!r} (docs/labels.md)")

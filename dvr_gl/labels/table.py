@@ -191,7 +191,7 @@ class LabelTable:
         """From ``[[label, r, g, b, opacity], ...]`` (the scene key ``transfer_function.labels``, colour linear)."""
         try:
             table = np.array(rows, dtype=np.float64).reshape(len(rows), -1) if len(rows) else np.zeros((0, 5))
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):  # not a list, ragged rows, non-numbers
             table = np.empty((0, 0))
         if table.ndim != 2 or table.shape[1] != 5 or not np.isfinite(table).all():
             raise SceneError("transfer_function.labels must be a list of [label, r, g, b, opacity] rows of finite "

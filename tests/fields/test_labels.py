@@ -310,3 +310,23 @@ def test_glsl_reads_its_channel_of_a_shared_texture_and_its_table(gl_context):
     assert np.array_equal(got[:, 0].astype(np.int64), want)
     colour, sigma = table.lookup(want)
     np.testing.assert_allclose(classes, np.concatenate([colour, sigma[:, None]], axis=1), rtol=1e-7, atol=0)
+
+
+def test_the_api_takes_a_label_table_per_label_map(tmp_path):
+    """render([ct, Member(seg, "label")], transfer_function=[tf, rows or a file]): the label map's is a
+    LabelTable; a preset's name for it is one line."""
+    from dvr_gl.api import scene_of
+    from dvr_gl.errors import DvrError
+
+    seg = _label_volume()
+    ct = Volume(np.zeros(seg.data.shape, np.float32))
+    rows = [[3, 1, 0, 0, 1], [5, 0, 1, 0, 0.5]]
+    scene = scene_of([ct, Member(seg, "label")], transfer_function=[None, rows])
+    assert isinstance(scene.transfer_functions[1], LabelTable) and scene.transfer_functions[1].labels.tolist() == [3, 5]
+    (tmp_path / "t.ctbl").write_text("3 a 255 0 0 255\n")
+    scene = scene_of([ct, Member(seg, "label")], transfer_function=[None, str(tmp_path / "t.ctbl")])
+    assert scene.transfer_functions[1].labels.tolist() == [3]
+    default = scene_of([ct, Member(seg, "label")]).transfer_functions[1]
+    assert default.labels.tolist() == [3, 5, 7]
+    with pytest.raises(DvrError, match="a label map takes"):
+        scene_of([ct, Member(seg, "label")], transfer_function=[None, "viridis"])
