@@ -56,28 +56,39 @@ FUZZ = settings(max_examples=20, deadline=None, derandomize=True, database=None,
 
 def write_store(path: Path, kind: str, data=DATA):
     """A store of ``kind``: "v2" or "v3" (a bare array in chunks of one plane), "ome-0.4" (zarr v2) or
-    "ome-0.5" (zarr v3): two levels, axes z, y, x, a scale and a translation."""
+    "ome-0.5" (zarr v3): two levels, axes z, y, x, a scale and a translation; "ome-tc" (issue 42, zarr v2): t and
+    c axes of 2 each in front (step t, channel c holding DATA + 10 (2 t + c)), omero channel labels."""
     if kind in ("v2", "v3"):
         zarr.create_array(str(path), shape=data.shape, chunks=(1, 3, 4), dtype=data.dtype,
                           zarr_format=int(kind[1]))[...] = data
         return
-    fmt = 2 if kind == "ome-0.4" else 3
+    fmt = 3 if kind == "ome-0.5" else 2
     group = zarr.open_group(str(path), mode="w", zarr_format=fmt)
     datasets = []
+    tc = (2, 2) if kind == "ome-tc" else ()
     for level in range(2):
         level_data = np.ascontiguousarray(data[:, ::2 ** level, ::2 ** level])
-        group.create_array(str(level), shape=level_data.shape, chunks=(1, 2, 2), dtype=data.dtype)[...] = level_data
+        if tc:
+            level_data = level_data + 10 * np.arange(4, dtype=data.dtype).reshape(2, 2, 1, 1, 1)
+        group.create_array(str(level), shape=level_data.shape, chunks=(1,) * len(tc) + (1, 2, 2),
+                           dtype=data.dtype)[...] = level_data
         datasets.append({"path": str(level), "coordinateTransformations": [
-            {"type": "scale", "scale": [2.0, 0.75 * 2 ** level, 0.5 * 2 ** level]},
-            {"type": "translation", "translation": [1.0, 2.0, 3.0]}]})
-    image = {"axes": [{"name": a, "type": "space", "unit": "micrometer"} for a in "zyx"], "datasets": datasets}
+            {"type": "scale", "scale": [60.0, 1.0][:len(tc)] + [2.0, 0.75 * 2 ** level, 0.5 * 2 ** level]},
+            {"type": "translation", "translation": [0.0] * len(tc) + [1.0, 2.0, 3.0]}]})
+    axes = [{"name": "t", "type": "time", "unit": "second"}, {"name": "c", "type": "channel"}][:len(tc)]
+    image = {"axes": axes + [{"name": a, "type": "space", "unit": "micrometer"} for a in "zyx"], "datasets": datasets}
+    if tc:
+        group.attrs["omero"] = {"channels": [{"label": "DNA"}, {"label": "tubulin"}]}
     if fmt == 2:
         group.attrs["multiscales"] = [{"version": "0.4", **image}]
     else:
         group.attrs["ome"] = {"version": "0.5", "multiscales": [image]}
 
 
-KINDS = ["v2", "v3", "ome-0.4", "ome-0.5"]
+KINDS = ["v2", "v3", "ome-0.4", "ome-0.5", "ome-tc"]
+#: How a kind is read (load_volume's and open_volume's keywords): the image of channels and steps at step 1,
+#: every channel whole, channel 1 out of core.
+READS = {"ome-tc": ({"time": 1}, {"time": 1, "channel": 1})}
 
 
 @pytest.fixture(scope="module")
@@ -163,7 +174,7 @@ def _pending() -> list:
     return [] if loop is None or loop.is_closed() else [t for t in asyncio.all_tasks(loop) if not t.done()]
 
 
-def check_store(path: Path, capfd, whole: bool) -> str:
+def check_store(path: Path, capfd, whole: bool, kind: str = "") -> str:
     """``user error`` or ``volume`` for the store read whole (``load_volume``) or out of core (every voxel
     read); any other exception (or a hang) propagates."""
     printed = io.StringIO()
@@ -172,10 +183,13 @@ def check_store(path: Path, capfd, whole: bool) -> str:
         with active(Sandbox(roots=roots, max_bytes=BUDGET)), time_limit(TIMEOUT), \
                 contextlib.redirect_stderr(printed), contextlib.redirect_stdout(printed):
             if whole:
-                volume = load_volume(path)
+                volume = load_volume(path, **READS.get(kind, ({}, {}))[0])
+                for member in getattr(volume, "members", ())[1:]:  # the channels: each checked as the first is
+                    _check_volume(member.field, member.field.data)
+                volume = volume.members[0].field if volume.kind == "fields" else volume
                 data = volume.data
             else:
-                volume = open_volume(path, out_of_core=True, sidecar=False)
+                volume = open_volume(path, out_of_core=True, sidecar=False, **READS.get(kind, ({}, {}))[1])
                 data = volume.read((0, 0, 0), volume.dims)
                 for level in volume.levels:
                     level.read((0, 0, 0), level.dims)
@@ -187,20 +201,29 @@ def check_store(path: Path, capfd, whole: bool) -> str:
         out, err = capfd.readouterr()
         assert not printed.getvalue() and not out and not err, (printed.getvalue() + out + err)[:300]
         assert not _pending(), "zarr reads left running"
+    _check_volume(volume, data)
+    return "volume"
+
+
+def _check_volume(volume, data) -> None:
     assert data.ndim == 3 and data.size > 0 and data.shape == tuple(reversed(volume.dims))
     assert data.dtype.kind != "f" or np.isfinite(data).all()
     assert not (data == MARK).any(), "a sample of the store outside the sandbox's root"
     assert len(volume.spacing) == 3 and all(math.isfinite(s) and s > 0 for s in volume.spacing)
     assert all(math.isfinite(o) for o in volume.origin)
-    return "volume"
 
 
 @pytest.mark.parametrize("kind", KINDS)
 def test_seed_is_a_valid_volume(tmp_path, capfd, templates, kind):
     """The unmutated stores load, whole and out of core (the mutations start from something that works)."""
     for whole in (True, False):
-        assert check_store(write_case(tmp_path, templates[kind]), capfd, whole) == "volume"
-    np.testing.assert_array_equal(load_volume(write_case(tmp_path, templates[kind])).data, DATA)
+        assert check_store(write_case(tmp_path, templates[kind]), capfd, whole, kind) == "volume"
+    read = load_volume(write_case(tmp_path, templates[kind]), **READS.get(kind, ({}, {}))[0])
+    for c, member in enumerate(getattr(read, "members", ())):  # step 1's channels
+        np.testing.assert_array_equal(member.field.data, DATA + 10 * (2 + c))
+        assert member.name == ["DNA", "tubulin"][c]
+    if read.kind != "fields":
+        np.testing.assert_array_equal(read.data, DATA)
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -208,7 +231,7 @@ def test_seed_is_a_valid_volume(tmp_path, capfd, templates, kind):
 @given(rnd=st.randoms(use_true_random=False), whole=st.booleans())
 def test_mutated_store_is_a_user_error_or_a_volume(tmp_path, capfd, templates, kind, rnd, whole):
     files, _ = mutate_store(templates[kind], rnd)
-    check_store(write_case(tmp_path, files), capfd, whole)
+    check_store(write_case(tmp_path, files), capfd, whole, kind)
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -224,4 +247,4 @@ def test_members_linked_out_of_the_root_are_never_read(tmp_path, capfd, template
         target = outside / (Path(name).name if (outside / Path(name).name).is_file() else "0.0.0")
         (store / name).unlink()
         (store / name).symlink_to(target)
-    check_store(store, capfd, rnd.random() < 0.5)
+    check_store(store, capfd, rnd.random() < 0.5, kind)
