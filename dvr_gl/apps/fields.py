@@ -85,10 +85,10 @@ def sort_files(args):
         args.field_files = data
 
 
-def transfer_function_table(value: str) -> dict:
+def transfer_function_table(value: str, role: str = "scalar") -> dict:
     """A ``--transfer-function`` value as a transfer-function table: a file (made absolute: relative to where dvr
-    runs) or a preset's name."""
-    if is_transfer_function_file(value) or os.path.isfile(os.path.expanduser(value)):
+    runs; a label map's is always a colour table file) or a preset's name."""
+    if role == "label" or is_transfer_function_file(value) or os.path.isfile(os.path.expanduser(value)):
         return {"file": os.path.abspath(os.path.expanduser(value))}
     return {"preset": value}
 
@@ -150,9 +150,10 @@ def source_of(args, overrides: dict, transfer_functions: list[str]) -> Source:
     time = volume_keys.pop("time", None)
     tables = [{**copy.deepcopy(volume_keys), "path": os.path.abspath(os.path.expanduser(path)), "role": role}
               for path, role in files]
-    for table, tf in zip(tables[1:], transfer_functions[1:]):
-        table["transfer_function"] = transfer_function_table(tf)
-    rest = {k: v for k, v in overrides.items() if not k.startswith("volume.")}
+    for table, tf in zip(tables, transfer_functions):  # each in its table (a label map's: its colour table)
+        table["transfer_function"] = transfer_function_table(tf, table["role"])
+    given = ("transfer_function.preset", "transfer_function.file")  # the first's, now in its table
+    rest = {k: v for k, v in overrides.items() if not k.startswith("volume.") and k not in given}
     source = Source(None, rest, {"volume": tables})
     if time is not None:  # the files with time steps (a file without them beside a series stays as it is)
         timed = [i for i, (path, options) in enumerate(source.files()) if steps_of(path, options)[0] > 1]

@@ -92,6 +92,24 @@ def test_labels_flag_adds_a_label_field(files, tmp_path, capsys):
     assert [layer.role for layer in scene.layers] == ["scalar", "label"]
 
 
+def test_a_label_maps_colour_table_from_the_command_line(files, tmp_path):
+    """--transfer-function per file: the label map's is its colour table file (Slicer .ctbl); the CT's a
+    preset."""
+    from dvr_gl.apps import render as render_cmd
+    from dvr_gl.apps.cli import build_parser
+
+    folder, *_ = files
+    (tmp_path / "seg.ctbl").write_text("0 Background 0 0 0 0\n1 one 255 0 0 255\n2 two 0 255 0 255\n")
+    args = build_parser().parse_args(["render", str(folder / "a.npy"), "--labels", str(folder / "seg.npy"),
+                                      "--transfer-function", "ct-bone", "--transfer-function",
+                                      str(tmp_path / "seg.ctbl"), "-o", "x.png"])
+    render_cmd.positional_volume(args)
+    scene = render_cmd.source_of(args).load()
+    rows = {int(r[0]): list(r[1:]) for r in scene.layers[1].transfer_function.to_table()["labels"]}
+    assert rows[1] == [1.0, 0.0, 0.0, 1.0] and rows[2] == [0.0, 1.0, 0.0, 1.0]
+    assert scene.layers[0].transfer_function is scene.transfer_function
+
+
 def test_time_k_renders_step_k_alone(files, tmp_path, capsys):
     """--time K on a series (a glob of 3D files) is step K's file rendered alone, bit for bit; and the API's
     time_axis/time is that step's array alone."""
