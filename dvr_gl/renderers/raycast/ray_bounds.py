@@ -98,3 +98,46 @@ def clip_depths(boxes: tuple[np.ndarray, np.ndarray], camera, box) -> tuple[floa
         return None
     near = max(camera.near, 0.5 * least)  # a perspective projection needs near > 0
     return near, max(far, near) * 1.01 + margin
+
+
+class BoundsFaces:
+    """The non-empty blocks' faces (:func:`boundary_faces`) in a vertex buffer, with a
+    vertex array per program; ``count``: triangles' vertices."""
+
+    def __init__(self, ctx, occ: np.ndarray, rows: np.ndarray, block_size: int, volume):
+        self.setup(ctx, rows, block_boxes(occ, block_size, volume.dims, volume.spacing, volume.origin),
+                   volume.box)
+
+    def setup(self, ctx, rows: np.ndarray, boxes: tuple, box: tuple):
+        """From the faces' rows, the non-empty blocks' world boxes ``(lo, hi)`` and the box the rays span
+        (several fields: every member's faces and blocks, the union box)."""
+        self.ctx, self.count = ctx, len(rows)
+        self.buffer = ctx.buffer(rows.tobytes()) if self.count else None
+        self._arrays = {}
+        self._boxes = boxes
+        self._box = box
+        self._planes = None  # (camera, depth range) of the last frame
+
+    @classmethod
+    def of(cls, ctx, rows: np.ndarray, boxes: tuple, box: tuple) -> "BoundsFaces":
+        faces = cls.__new__(cls)
+        faces.setup(ctx, rows, boxes, box)
+        return faces
+
+    def vertex_array(self, program):
+        if program not in self._arrays:
+            self._arrays[program] = self.ctx.vertex_array(program, [(self.buffer, "3f 2f", "in_position",
+                                                                     "in_plane")])
+        return self._arrays[program]
+
+    def clip_depths(self, camera) -> tuple[float, float] | None:
+        """:func:`.clip_depths` for this camera (cached for the last one)."""
+        if self._planes is None or self._planes[0] is not camera:
+            self._planes = (camera, clip_depths(self._boxes, camera, self._box))
+        return self._planes[1]
+
+    def release(self):
+        for array in self._arrays.values():
+            array.release()
+        if self.buffer is not None:
+            self.buffer.release()

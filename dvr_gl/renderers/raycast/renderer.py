@@ -28,7 +28,6 @@ from ...gl.geometry import gl_matrix, projection_matrix, view_matrix
 from ...gl.shaders import create_program, shader_root
 from ...orientation import volume_frame_scene
 from ...scene.settings import shadow_step
-from ...transfer_function_2d import is_2d
 from ..grid.bricking import ghost_width, plan_bricks, visibility_order
 from ..grid.classification import classification_features
 from ..grid.sampling import GridRenderer
@@ -39,6 +38,7 @@ from . import acceleration as accel
 from . import out_of_core, ray_bounds
 from .acceleration import level_count
 from .fields import draw_fields
+from .ray_bounds import BoundsFaces
 
 #: The ray caster's own GLSL (before the common library).
 SHADERS = (shader_root(__file__),)
@@ -88,7 +88,6 @@ def shader_features(scene, count_samples: bool = False, bricked: bool = False) -
     xray = r.compositing == "xray"
     emission = r.compositing == "emission_absorption" or xray
     defines = classification_features(scene)
-    defines["TRANSFER_FUNCTION_2D"] = scene.field.kind == "grid" and is_2d(scene.transfer_function)
     defines[COMPOSITING[r.compositing]] = True
     if xray:  # absorption only: no shading, no gradient opacity (dvr_gl.reference.model), nothing terminates
         for key in ("SHADING", "NUM_LIGHTS", "TWO_SIDED", "GRADIENT_TEXTURE", "GRADIENT_OPACITY", "SCATTERING",
@@ -149,37 +148,6 @@ class BlockTextures(list):
     def release(self):
         for tex in self + ([self.runs] if self.runs else []):
             tex.release()
-
-
-class BoundsFaces:
-    """The non-empty blocks' faces (:func:`.ray_bounds.boundary_faces`) in a vertex buffer, with a
-    vertex array per program; ``count``: triangles' vertices."""
-
-    def __init__(self, ctx, occ: np.ndarray, rows: np.ndarray, block_size: int, volume):
-        self.ctx, self.count = ctx, len(rows)
-        self.buffer = ctx.buffer(rows.tobytes()) if self.count else None
-        self._arrays = {}
-        self._boxes = ray_bounds.block_boxes(occ, block_size, volume.dims, volume.spacing, volume.origin)
-        self._box = volume.box
-        self._planes = None  # (camera, depth range) of the last frame
-
-    def vertex_array(self, program):
-        if program not in self._arrays:
-            self._arrays[program] = self.ctx.vertex_array(program, [(self.buffer, "3f 2f", "in_position",
-                                                                     "in_plane")])
-        return self._arrays[program]
-
-    def clip_depths(self, camera) -> tuple[float, float] | None:
-        """:func:`.ray_bounds.clip_depths` for this camera (cached for the last one)."""
-        if self._planes is None or self._planes[0] is not camera:
-            self._planes = (camera, ray_bounds.clip_depths(self._boxes, camera, self._box))
-        return self._planes[1]
-
-    def release(self):
-        for array in self._arrays.values():
-            array.release()
-        if self.buffer is not None:
-            self.buffer.release()
 
 
 # llvmpipe stops a shader invocation's loops after 65535 iterations in all (gallivm's

@@ -146,3 +146,23 @@ def test_four_channels_travel_in_one_texture(gl_context):
             np.testing.assert_allclose(values, data[k], atol=1e-6)
     finally:
         textures.release()
+
+
+@pytest.mark.parametrize("mode", [{}, {"classification": "preintegrated"}, {"compositing": "xray"},
+                                  {"order": "back_to_front"}], ids=["post", "preintegrated", "xray", "back"])
+def test_rays_bounded_by_every_members_blocks_change_no_pixel(gpu, mode):
+    """Two balls on different grids, most blocks empty: the rays bounded by the union of both members'
+    non-empty blocks give the image of unbounded rays, bit for bit (the segments left out add zero)."""
+    z, y, x = np.mgrid[0:24, 0:24, 0:24].astype(np.float32)
+    a = Volume(np.maximum(0, 1 - ((x - 6) ** 2 + (y - 8) ** 2 + (z - 12) ** 2) / 20), spacing=(1, 1, 1))
+    b = Volume(np.maximum(0, 1 - ((x - 16) ** 2 + (y - 14) ** 2 + (z - 10) ** 2) / 16), spacing=(1, 1, 1),
+               origin=(3.0, 0.0, 0.0))
+    tfs = [TransferFunction([[0, *c, 0.0], [0.05, *c, 0.0], [1, *c, 0.8]]) for c in ((1, 0, 1), (0, 1, 0))]
+    images = []
+    for acceleration in ("off", "on"):
+        scene = scene_of([a, b], transfer_function=tfs, renderer="raycast", size=(24, 24),
+                         acceleration=acceleration, **mode)
+        images.append(gpu.render(scene))
+        assert gpu.stats["ray_bounds"] == (acceleration == "on")
+    assert images[1][..., 3].max() > 0.1
+    np.testing.assert_array_equal(images[0], images[1])
