@@ -86,10 +86,12 @@ layout(location = 0) out vec4 frag_color;
 layout(location = 1) out vec4 frag_samples;   // volume samples, block jumps, block lookups, segments jumped
 #endif
 
-#ifdef FIELDS
-  #ifdef CLASSIFY_PREINTEGRATED
+// preintegration.glsl here, not first inside #ifdef FIELDS: a file is expanded once, where it is first named
+// (classify.glsl names it too; inside the #ifdef, one field's pre-integrated program would lose it)
+#ifdef CLASSIFY_PREINTEGRATED
 #include "common/preintegration.glsl"
-  #endif
+#endif
+#ifdef FIELDS
 #include "common/fields.glsl"
 #else
 #include "common/classify.glsl"
