@@ -152,7 +152,8 @@ def source_of(args, overrides: dict, transfer_functions: list[str]) -> Source:
               for path, role in files]
     for table, tf in zip(tables, transfer_functions):  # each in its table (a label map's: its colour table)
         table["transfer_function"] = transfer_function_table(tf, table["role"])
-    given = ("transfer_function.preset", "transfer_function.file")  # the first's, now in its table
+    # the first's, now in its table (a --set of these keys without --transfer-function stays the first's)
+    given = ("transfer_function.preset", "transfer_function.file") if transfer_functions else ()
     rest = {k: v for k, v in overrides.items() if not k.startswith("volume.") and k not in given}
     source = Source(None, rest, {"volume": tables})
     if time is not None:  # the files with time steps (a file without them beside a series stays as it is)
