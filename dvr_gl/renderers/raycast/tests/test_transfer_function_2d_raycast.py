@@ -26,7 +26,8 @@ def gpu():
                                    {"renderer.order": "back_to_front", "renderer.acceleration": "off"}])
 def test_gradient_opacity_is_one_case_within_float32(gpu, extra):
     """``tf(v) min(1, g / ref)`` as a 2D table (the 1D table's value nodes by gradient nodes 0 and ref) renders
-    what ``renderer.gradient_opacity`` does: the same products in another order, measured at most 1.2e-7."""
+    what ``renderer.gradient_opacity`` does: the same products in another order, measured at most 1.2e-7 (one
+    float32 step at 1), asserted 1e-6."""
     base = {**BASE, "transfer_function.points": POINTS, **extra}
     one = small_scene({**base, "renderer.gradient_opacity": True, "renderer.gradient_opacity_reference": 3.0})
     two = small_scene(base).replace(
@@ -41,7 +42,8 @@ def test_gradient_opacity_is_one_case_within_float32(gpu, extra):
                                    {"renderer.filter": "cubic_bspline"}])
 def test_boxes_match_the_reference(gpu, extra):
     """ParaView's boxes on a 64 x 32 table: the ray caster within float32 of the discrete reference (measured
-    largest error 8e-6 on the plain scene; the project's float32 criterion, conftest.assert_close)."""
+    largest errors 4.0e-6 to 6.5e-6 over these four, none above 1e-4: the project's float32 criterion,
+    conftest.assert_close)."""
     scene = small_scene({**BASE, "transfer_function.boxes_2d": BOXES, "transfer_function.size_2d": [64, 32],
                          **extra})
     reference = DiscreteReference(scene).render_float64()
