@@ -57,8 +57,18 @@ void label_taps(sampler3D tex, LabelGrid g, vec3 p, out int labels[8], out float
     }
 }
 
+// Whether the 8 taps hold one label (inside a region: most samples): that label, no gradient.
+bool label_uniform(int labels[8]) {
+    bool same = true;
+    for (int k = 1; k < 8; ++k)
+        same = same && labels[k] == labels[0];
+    return same;
+}
+
 vec3 label_indicator_gradient(int labels[8], vec3 dw[8], int label) {
     vec3 sum = vec3(0.0);
+    if (label_uniform(labels))
+        return sum;
     for (int k = 0; k < 8; ++k)
         sum += labels[k] == label ? dw[k] : vec3(0.0);
     return sum;
@@ -69,6 +79,10 @@ int label_linear(sampler3D tex, LabelGrid g, vec3 p, out vec3 gradient) {
     float w[8];
     vec3 dw[8];
     label_taps(tex, g, p, labels, w, dw);
+    if (label_uniform(labels)) {
+        gradient = vec3(0.0);
+        return labels[0];
+    }
     int best_label = labels[0];
     float best = -1.0;
     for (int j = 0; j < 8; ++j) {
