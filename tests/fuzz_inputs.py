@@ -290,9 +290,18 @@ def _vti_pieces() -> bytes:
     return (blob[:start] + two + blob[end:]).encode()
 
 
-def _npy() -> bytes:
+#: a colour volume's voxels [z, y, x, rgb] (8-bit sRGB codes)
+RGB = (np.arange(2 * 3 * 4 * 3) * 11 % 256).astype(np.uint8).reshape(2, 3, 4, 3)
+
+
+def _rgba16() -> bytes:
+    alpha = np.full(RGB.shape[:3] + (1,), 40000, "<u2")
+    return np.concatenate([RGB.astype("<u2") * 257, alpha], axis=3).tobytes()
+
+
+def _npy(data=None) -> bytes:
     buf = io.BytesIO()
-    np.save(buf, DATA)
+    np.save(buf, DATA if data is None else data)
     return buf.getvalue()
 
 
@@ -327,6 +336,8 @@ def seeds() -> list[Seed]:
     """One small valid file set per reader and encoding (4x3x2 int16 samples)."""
     be, le = DATA.astype(">i2").tobytes(), DATA.astype("<i2").tobytes()
     nrrd = "NRRD0004\ntype: int16\ndimension: 3\nsizes: 4 3 2\nspacings: 0.5 1 2\nendian: {}\nencoding: {}\n"
+    colour = ("NRRD0004\ntype: {}\ndimension: 4\nsizes: {} 4 3 2\nkinds: {} domain domain domain\nendian: little\n"
+              "encoding: raw\nspacings: nan 0.5 1 2\n")
     mhd = ("ObjectType = Image\nNDims = 3\nBinaryData = True\nBinaryDataByteOrderMSB = False\n"
            "CompressedData = {}\nElementSpacing = 0.5 1 2\nOffset = 1 2 3\nDimSize = 4 3 2\n"
            "ElementType = MET_SHORT\nHeaderSize = 0\nElementDataFile = {}\n")
@@ -350,6 +361,14 @@ def seeds() -> list[Seed]:
         Seed("vtk", {"v.vtk": (vtk.format("ASCII") + " ".join(map(str, DATA.ravel())) + "\n").encode()},
              "v.vtk", text=("v.vtk",)),
         Seed("npy", {"v.npy": _npy()}, "v.npy"),
+        # colour volumes (dvr_gl/fields/color.py): by the header's kind, by the role, RGBA 16-bit, an npy
+        Seed("nrrd", {"c.nrrd": colour.format("uint8", "3", "RGB-color").encode() + b"\n" + RGB.tobytes()}, "c.nrrd",
+             text=("c.nrrd",)),
+        Seed("nrrd", {"c.nrrd": colour.format("uint8", "3", "vector").encode() + b"\n" + RGB.tobytes()}, "c.nrrd",
+             dict(role="rgb"), text=("c.nrrd",)),
+        Seed("nrrd", {"c.nrrd": colour.format("uint16", "4", "RGBA-color").encode() + b"\n" + _rgba16()}, "c.nrrd",
+             text=("c.nrrd",)),
+        Seed("npy", {"c.npy": _npy(RGB)}, "c.npy", dict(role="rgb")),
         Seed("nifti", {"v.nii": _nifti(False)}, "v.nii"),
         Seed("nifti", {"v.nii.gz": _nifti(True)}, "v.nii.gz"),
         Seed("tiff", {"s.tif": _tiff()}, "s.tif"),
@@ -571,6 +590,9 @@ def check_reader(path: Path, seed: Seed) -> str:
 
 def _check_grid(volume) -> None:
     data = volume.data
+    if getattr(volume, "role", None) == "rgb":  # a colour volume: four components in [0, 1]
+        assert data.ndim == 4 and data.shape[3] == 4 and np.all((data >= 0) & (data <= 1))
+        data = data[..., 3]
     assert data.ndim == 3 and data.size > 0
     assert data.dtype.kind != "f" or np.isfinite(data).all()
     assert len(volume.spacing) == 3 and all(math.isfinite(s) and s > 0 for s in volume.spacing)
