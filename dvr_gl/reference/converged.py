@@ -26,6 +26,11 @@ cut there first; then
   64 points per piece and then to float64 resolution.  Only features narrower
   than 1/64 of a voxel along a ray could be missed.
 
+Several fields (a :class:`~dvr_gl.fields.layers.FieldSet`): the exact mixture of the fields' own models
+(:mod:`.fields`), rays cut at every field's knots and breakpoints inside its box, at its box's faces and where a
+label map's label changes; MIP, MinIP, average and isosurface per field, each over its chord of its box.  A
+single field never takes that path.
+
 Rays are processed in batches, pieces as flat arrays; per-ray compositing
 uses row-wise cumulative sums, so no optical depth is accumulated across rays.
 """

@@ -30,6 +30,11 @@ Compositing modes:
   (maximum and minimum sample): the value is classified once, with the
   opacity of one ``unit_distance``.
 
+Several fields (a :class:`~dvr_gl.fields.layers.FieldSet`): the segments span the union of the fields' boxes;
+each sample mixes the fields' own models (:mod:`.fields`: extinctions and emissions add, pre-integrated
+segments by the mixture rule); the projections and the isosurface are per field (:func:`.fields.project`,
+:func:`.fields.first_hit`).  A single field never takes that path.
+
 Rays that miss the volume are transparent black.  A mesh's scalar is NaN outside its cells
 (:mod:`dvr_gl.fields.mesh`): samples there emit and absorb nothing, add nothing to an average
 (whose length is still the ray's in the box) and are no extremum; a ray with no sample inside
