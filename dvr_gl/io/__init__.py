@@ -113,8 +113,8 @@ _READERS = {
 ZARR_METADATA = ("zarr.json", ".zarray", ".zgroup")
 # the options a reader takes beyond the path (the scene's volume.<key>)
 _OPTIONS = {"dicom": ("series",), "vti": ("array",), "zarr": ("array", "level", "channel", "time"),
-            "tiff": ("channel", "time", "color"), "nifti": ("channel", "time", "fourth_axis"), "nrrd": ("color",),
-            "npy": ("color",)}
+            "tiff": ("channel", "time", "color"), "nifti": ("channel", "time", "fourth_axis", "color"),
+            "nrrd": ("color",), "npy": ("color",)}
 # format -> (module, function) telling a file's channels and time steps without reading its voxels
 _AXES = {"tiff": (".tiff", "tiff_axes"), "zarr": (".zarr", "zarr_axes"), "nifti": (".nifti", "nifti_axes")}
 
@@ -244,7 +244,8 @@ def load_volume(path, format: str = "auto", *, dims=None, dtype=None, endian: st
         fourth_axis: NIfTI 4D: ``"auto"`` (the header's intent: channels for a vector, else time),
             ``"channel"`` or ``"time"``.
         role: ``"rgb"``: the file holds colour, a :class:`~dvr_gl.fields.color.ColorVolume` (NRRD: a first
-            axis of 3 or 4 components; ``.npy``: ``[z, y, x, 3|4]``; TIFF: pages of 3 or 4 samples); an NRRD
+            axis of 3 or 4 components; ``.npy``: ``[z, y, x, 3|4]``; TIFF: pages of 3 or 4 samples; NIfTI: RGB24,
+            RGBA32 or a vector of 3 or 4 components); an NRRD
             whose kinds say RGB-color or RGBA-color is colour without it.  Other roles are the scene's
             (:mod:`dvr_gl.fields.layers`).
 

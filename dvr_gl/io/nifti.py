@@ -16,6 +16,10 @@ a vector's components) is channels and its 4th time.  The seconds between steps 
 time unit of ``xyzt_units`` (none where the unit is not one of time).  Only the chosen step (and channel) is
 read, through nibabel's array proxy (a ``.nii.gz`` is decompressed up to it, never kept whole).
 
+A colour volume (``volume.role = "rgb"``, :mod:`dvr_gl.fields.color`): a ``datatype`` of RGB24 or RGBA32
+(its components), or a vector of 3 or 4 components along the channel axis above, read together as
+``[z, y, x, 3|4]`` (integer codes sRGB-decoded there, floats taken as linear).
+
 Before nibabel reads the voxels the header is checked here: 3 to 5 dimensions of at
 least 1 voxel (a 6th or 7th of more than one is refused), a scalar ``datatype``, finite positive ``pixdim``
 (nibabel would silently take the absolute value of a negative one), the bytes read against the
@@ -46,9 +50,10 @@ FOURTH_AXIS = ("auto", "channel", "time")
 TIME_UNITS = {8: 1.0, 16: 1e-3, 24: 1e-6}
 
 
-def read_nifti(path: Path, channel: int | None = None, time: int | None = None, fourth_axis: str | None = None):
+def read_nifti(path: Path, channel: int | None = None, time: int | None = None, fourth_axis: str | None = None,
+               color: bool = False):
     """The volume, or the chosen step of a 4D/5D file: its chosen channel, or a
-    :class:`.channels.RawChannels` of every channel."""
+    :class:`.channels.RawChannels` of every channel; ``color``: the step's colour ``[z, y, x, 3|4]``."""
     nib = require("nibabel", "nibabel", "nifti")
     path = check_input_path(Path(path), "NIfTI file")
     errors = (EOFError, zlib.error, OSError, ValueError, OverflowError, TypeError, IndexError, KeyError,
@@ -57,6 +62,11 @@ def read_nifti(path: Path, channel: int | None = None, time: int | None = None, 
         with _quiet(nib.imageglobals.logger):
             img = nib.load(str(path))
             axes, where = _layout(img.header, path, fourth_axis)
+            if color:
+                return _read_colour(nib, img, path, axes, where, channel, time)
+            if img.header.get_data_dtype().names:
+                raise VolumeError(f"{path}: datatype {img.header.get_data_dtype().names} holds a colour a voxel "
+                                  f"(RGB24/RGBA32); read it as a colour volume: volume.role = rgb")
             chosen, step = pick_channel(channel, axes, str(path)), pick_step(time, axes, str(path))
             reads = 1 if axes.channels == 0 or chosen is not None else axes.channels
             shape, scaled, spacing = _check_header(nib, img, path, reads)
@@ -74,6 +84,31 @@ def read_nifti(path: Path, channel: int | None = None, time: int | None = None, 
     if axes.channels == 0 or chosen is not None:
         return RawArray(volumes[0], *geometry)
     return RawChannels([RawArray(v, *geometry) for v in volumes], channel_names((), axes.channels))
+
+
+def _read_colour(nib, img, path: Path, axes: Axes, where, channel, time) -> RawArray:
+    """A colour volume's step: RGB24/RGBA32 voxels, or a vector of 3 or 4 components, as ``[z, y, x, 3|4]``."""
+    names = img.header.get_data_dtype().names
+    components = len(names) if names else axes.channels
+    if channel is not None:
+        raise VolumeError(f"{path}: volume.role = rgb reads a colour's components together; remove volume.channel")
+    if components not in (3, 4) or names and axes.channels:
+        raise VolumeError(f"{path}: volume.role = rgb: a NIfTI colour volume has a datatype of RGB24 or RGBA32, or a "
+                          f"vector of 3 or 4 components (intent_code 1007 or 2003/2004, or volume.fourth_axis = "
+                          f"channel); this one has {components or 'no'} components: give it the role scalar")
+    step = pick_step(time, axes, str(path))
+    shape, _, spacing = _check_header(nib, img, path, 1 if names else components)
+    proxy = img.dataobj
+    if names:
+        index = [slice(None)] * 3 + [0] * (len(proxy.shape) - 3)
+        if where is not None and where[0] is not None:
+            index[where[0]] = step
+        voxels = np.asarray(proxy[tuple(index)]).reshape(shape)
+        parts = [voxels[n] for n in names]
+    else:
+        parts = [np.asarray(a).reshape(shape) for a in _read_step(proxy, where, step, None, components)]
+    data = np.ascontiguousarray(np.stack(parts, axis=-1).transpose(2, 1, 0, 3))  # [z, y, x, component]
+    return RawArray(data, *_geometry(*_patient_affine(img.header), spacing, path))
 
 
 def _geometry(affine, field, spacing, path) -> tuple:
@@ -179,7 +214,8 @@ def _check_header(nib, img, path: Path, reads: int = 1) -> tuple[tuple, bool, tu
     whole = tuple(int(s) for s in header.get_data_shape())
     shape = whole[:3]
     dtype = header.get_data_dtype()
-    check_sample_type(dtype, str(path), "datatype", str(dtype))
+    if not dtype.names or any(dtype[n] != np.uint8 for n in dtype.names):  # RGB24, RGBA32: a colour's codes
+        check_sample_type(dtype, str(path), "datatype", str(dtype))
     # nibabel's loaded header has negative pixdim already made positive: check the stored one
     with nib.openers.ImageOpener(str(path)) as stored:
         pixdim = type(header).from_fileobj(stored, check=False)["pixdim"]

@@ -393,3 +393,26 @@ def test_rgb_tiff_pages_are_a_colour_volume_by_role(tmp_path):
     np.testing.assert_allclose(colour.colour, srgb_decode(rgb), atol=1e-6)
     with pytest.raises(VolumeError, match="volume.role = rgb: page 0 has 1 samples per pixel"):
         load_volume(imagej_hyperstack(tmp_path / "h.tif"), role="rgb", channel=0)
+
+
+def test_nifti_colour_by_role(tmp_path):
+    """RGB24 voxels, and an RGB vector (intent 2003) in dim[4], read as a colour volume with volume.role = rgb;
+    RGB24 without the role, and a vector of 2, refused in one line."""
+    nib = pytest.importorskip("nibabel")
+    from dvr_gl.fields.color import ColorVolume, srgb_decode
+
+    codes = (np.arange(4 * 3 * 2 * 3).reshape(4, 3, 2, 3) * 3).astype(np.uint8)  # [i, j, k, rgb]
+    rgb24 = np.zeros((4, 3, 2), dtype=[("R", "u1"), ("G", "u1"), ("B", "u1")])
+    for k, n in enumerate("RGB"):
+        rgb24[n] = codes[..., k]
+    nib.save(nib.Nifti1Image(rgb24, np.eye(4)), str(tmp_path / "c.nii"))
+    vector = write_nifti(tmp_path / "v.nii", codes, intent="rgb vector")
+    expected = srgb_decode(codes.transpose(2, 1, 0, 3))
+    for path in (tmp_path / "c.nii", vector):
+        colour = load_volume(path, role="rgb")
+        assert isinstance(colour, ColorVolume) and colour.dims == (4, 3, 2)
+        np.testing.assert_allclose(colour.colour, expected, atol=1e-6)
+    with pytest.raises(VolumeError, match="holds a colour a voxel .* volume.role = rgb"):
+        load_volume(tmp_path / "c.nii")
+    with pytest.raises(VolumeError, match="this one has 2 components: give it the role scalar"):
+        load_volume(write_nifti(tmp_path / "two.nii", codes[..., :2], intent="vector"), role="rgb")
