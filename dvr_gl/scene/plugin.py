@@ -56,7 +56,8 @@ class RendererPlugin:
     scattering_methods: the ways it finds ``renderer.scattering``'s transmittance toward the lights
         (:data:`dvr_gl.scene.model.SCATTERING_METHODS`), where it declares scattering.
     field_roles: with ``"fields"`` among its data kinds (several fields composited per sample:
-        :mod:`dvr_gl.fields.layers`), the roles of fields it classifies (``"scalar"``, ``"label"``, ``"rgb"``).
+        :mod:`dvr_gl.fields.layers`), the roles of fields it classifies (``"scalar"``, ``"label"``, ``"rgb"``;
+        default: scalars only).
     transfer_function_2d: the data kinds it classifies by value and gradient magnitude with a 2D transfer
         function (:mod:`dvr_gl.transfer_function_2d`); with any other, a 2D transfer function is refused.
     bench: its ``dvr bench`` subcommands, ``"module:attribute"`` naming a
@@ -84,7 +85,7 @@ class RendererPlugin:
     view_aligned_slices: bool = False
     scattering_methods: tuple[str, ...] = SCATTERING_METHODS
     bench: Any = None
-    field_roles: tuple[str, ...] = ("scalar", "label", "rgb")
+    field_roles: tuple[str, ...] = ("scalar",)
     transfer_function_2d: tuple[str, ...] = ()
 
     def declared(self, name: str) -> Optional[Setting]:
