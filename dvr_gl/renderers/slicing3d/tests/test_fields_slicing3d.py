@@ -21,6 +21,7 @@ from dvr_gl.fields.layers import Member
 from dvr_gl.rays import intersect_box
 from dvr_gl.renderers import registry
 from dvr_gl.transfer_function import TransferFunction
+from slab_scenes import tilted
 
 NAME = "slicing3d"
 EXACT = 2e-6  # float32 compositing of 21 slabs: measured 3.0e-7 (different grids), 1.2e-7 (one grid)
@@ -191,3 +192,32 @@ def test_a_label_member_is_refused_until_labels_are_wired():
     labels = Volume(np.ones((4, 4, 4), np.uint8), name="labels")
     scene = scene_of([a, Member(labels, "label")], renderer=NAME, size=(8, 8))
     assert registry.refusal(scene) is not None and "label" in registry.refusal(scene)
+
+
+def _centred_fields():
+    """Two channels on one grid and a third field on its own, about the origin (where the tilted mesh lies)."""
+    rng = np.random.default_rng(11)
+    data = rng.random((2, 12, 13, 14)).astype(np.float32)
+    centre = (-6.5, -6.0, -5.5)
+    other = Volume(rng.random((7, 8, 9)).astype(np.float32), spacing=(1.3, 1.1, 1.2), origin=(-4.0, -3.0, -6.0),
+                   name="other")
+    tfs = [[[0, 1, 0, 1, 0], [1, 1, 0, 1, 0.5]], [[0, 0, 1, 0, 0.1], [1, 0, 1, 0, 0.3]],
+           [[0, 0, 1, 1, 0], [0.5, 0, 1, 1, 0.7], [1, 0, 0.5, 1, 0.2]]]
+    return [Volume(data[0], origin=centre, name="c0"), Volume(data[1], origin=centre, name="c1"), other], tfs
+
+
+@pytest.mark.parametrize("extra", [
+    {"clipping": {"planes": [[1.0, 0.4, -0.3, 1.0]], "box": [[-9.0, -4.0, -9.0], [9.0, 5.0, 6.0]]}},
+    {"geometry": "tilted"},
+    {"geometry": "tilted", "classification": "preintegrated", "shading": True},
+], ids=["clipping", "geometry", "geometry-preintegrated-shaded"])
+def test_several_fields_clipped_and_with_meshes_as_the_same_planes(tmp_path, slicer, extra):
+    """Clipping drops a fragment outside the kept region, an opaque mesh the fragments behind it, for every
+    field alike, as the oracle drops its plane crossings (measured: max 8.6e-7)."""
+    fields, tfs = _centred_fields()
+    if extra.get("geometry") == "tilted":
+        extra = {**extra, "geometry": tilted(tmp_path)}
+    scene = scene_of(fields, transfer_function=tfs, renderer=NAME, size=(20, 16), ert_threshold=1.0, **extra)
+    reference = checks.same_planes(scene, NAME)
+    assert reference[..., 3].max() > 0.1
+    assert_close(slicer.render(scene), reference)
