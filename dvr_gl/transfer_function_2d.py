@@ -44,7 +44,7 @@ from .transfer_function import TransferFunction, extinction_from_alpha
 BOX_SIGMA = 0.3
 #: the nodes a box table has by default (value x gradient magnitude)
 BOX_TABLE_SIZE = (256, 64)
-_MAX_NODES = 4096 * 4096  # a table of RGBA32F nodes: 256 MiB
+_MAX_NODES = 1 << 20  # nodes: 16 MiB as RGBA32F, a few times that in float64 while drawing boxes
 
 
 @dataclass(frozen=True, eq=False, repr=False, init=False)
@@ -135,8 +135,10 @@ class TransferFunction2D(TransferFunction):
         v, g = np.meshgrid(np.linspace(*vr, nv), np.linspace(*gr, ng), indexing="ij")
         emitted, alpha = np.zeros((nv, ng, 3)), np.zeros((nv, ng))
         for x, y, w, h, r, gg, bb, a in b:
-            u, t = (v - x) / w, (g - y) / h
+            with np.errstate(over="ignore"):  # a box far from a node, or thinner than float64 steps: not inside
+                u, t = (v - x) / w, (g - y) / h
             inside = (u >= 0) & (u <= 1) & (t >= 0) & (t <= 1)
+            u, t = np.where(inside, u, 0.5), np.where(inside, t, 0.5)
             box_alpha = np.where(inside, a * np.exp(-((u - 0.5) ** 2 + (t - 0.5) ** 2) / (2 * BOX_SIGMA ** 2)), 0.0)
             emitted = box_alpha[..., None] * np.array([r, gg, bb]) + (1.0 - box_alpha[..., None]) * emitted
             alpha = box_alpha + (1.0 - box_alpha) * alpha
@@ -406,8 +408,11 @@ def _checked_range(r, key: str, lowest_floor: int) -> tuple[float, float]:
         lo, hi = (float(x) for x in r)
     except (TypeError, ValueError):
         raise SceneError(f"transfer_function.{key} must be [lo, hi], two numbers, got {r!r}") from None
-    if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi and np.isfinite(hi - lo)):
-        raise SceneError(f"transfer_function.{key} [{lo:g}, {hi:g}]: give finite numbers, lo below hi")
+    if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi and max(abs(lo), abs(hi)) <= 1e38):
+        raise SceneError(f"transfer_function.{key} [{lo:g}, {hi:g}]: give finite numbers within +-1e38 (the "
+                         f"shader's float32), lo below hi")
+    if hi - lo < max(1e-30, 1e-6 * max(abs(lo), abs(hi))):  # the shader maps it to texels in float32
+        raise SceneError(f"transfer_function.{key} [{lo:g}, {hi:g}] is too narrow to look up in float32; widen it")
     if lowest_floor and lo < 0:
         raise SceneError(f"transfer_function.{key} starts at {lo:g}; a gradient magnitude is never negative")
     return lo, hi
@@ -421,8 +426,10 @@ def _checked_boxes(boxes) -> np.ndarray:
     if b.ndim != 2 or b.shape[1] != 8 or len(b) < 1 or len(b) > 4096:
         raise SceneError("transfer_function.boxes_2d must be 1 to 4096 boxes [value, gradient, width, height, r, "
                          "g, b, alpha] (ParaView's)")
-    if not np.isfinite(b).all() or not np.isfinite(b[:, 1] + b[:, 3]).all():
-        raise SceneError("transfer_function.boxes_2d must hold finite numbers")
+    with np.errstate(over="ignore"):
+        tops = b[:, 1] + b[:, 3] if b.ndim == 2 and b.shape[1:] == (8,) else b
+    if not np.isfinite(b).all() or not np.isfinite(tops).all():
+        raise SceneError("transfer_function.boxes_2d must hold finite numbers (each box's top too)")
     bad = np.nonzero((b[:, 2] <= 0) | (b[:, 3] <= 0) | (b[:, 4:] < 0).any(axis=1) | (b[:, 4:] > 1).any(axis=1))[0]
     if bad.size:
         raise SceneError(f"transfer_function.boxes_2d[{bad[0]}] = {b[bad[0]].tolist()}: width and height must be "
