@@ -309,6 +309,11 @@ def _ome(text: str, found: _Pages, path: Path) -> Layout:
                           f"image (series) per file")
     px = pixels[0]
     sizes = {k: _count(px.attrib, f"Size{k}", path, "OME-XML", 1) for k in "ZCT"}
+    channels = [c for c in px if _tag(c) == "Channel"]
+    samples = [int(c.get("SamplesPerPixel", "1")) if re.fullmatch(r"\d{1,2}", c.get("SamplesPerPixel", "1").strip())
+               else 1 for c in channels]
+    if channels and max(samples) > 1 and sum(samples) == sizes["C"]:  # RGB: SizeC counts samples, a page holds 3
+        sizes["C"] = len(channels)
     if sizes["Z"] * sizes["C"] * sizes["T"] > found.count:
         raise _promised(path, "OME-XML", found.count, sizes["Z"] * sizes["C"] * sizes["T"])
     order = px.get("DimensionOrder", "XYZCT")
@@ -316,7 +321,7 @@ def _ome(text: str, found: _Pages, path: Path) -> Layout:
         raise VolumeError(f"{path}: its OME-XML DimensionOrder={show(order)} is not XY followed by Z, C and T in "
                           f"some order; fix it")
     pages = _ome_pages(px, order[2:], sizes, found.count, path)
-    names = [c.get("Name", "") for c in px if _tag(c) == "Channel"]
+    names = [c.get("Name", "") for c in channels]
     return Layout(pages, sizes["C"], tuple(channel_names(names, sizes["C"])), _ome_spacing(px),
                   seconds(px.get("TimeIncrement"), px.get("TimeIncrementUnit", "s")) if sizes["T"] > 1 else None)
 
@@ -422,7 +427,7 @@ def _read_file(path: Path, channel, time, color: bool):
     budget = [0]
     volumes = [_stack(_read_pages(path, list(pages.pages[step, c]), budget, color), path) for c in wanted]
     arrays = [RawArray(v, pages.spacing) for v in volumes]
-    if chosen is not None or pages.channels == 0:
+    if chosen is not None or pages.channels == 0 or color:
         return arrays[0]
     return RawChannels(arrays, channel_names(pages.names, len(arrays)))
 

@@ -416,3 +416,28 @@ def test_nifti_colour_by_role(tmp_path):
         load_volume(tmp_path / "c.nii")
     with pytest.raises(VolumeError, match="this one has 2 components: give it the role scalar"):
         load_volume(write_nifti(tmp_path / "two.nii", codes[..., :2], intent="vector"), role="rgb")
+
+
+def test_ome_tiff_of_rgb_pages(tmp_path):
+    """OME's SizeC counts samples: an RGB OME-TIFF (one Channel of SamplesPerPixel 3, SizeC 3) is one plane a
+    slice, read as a colour volume with volume.role = rgb."""
+    import OpenImageIO as oiio
+
+    from dvr_gl.fields.color import ColorVolume
+
+    xml = ('<OME><Image><Pixels DimensionOrder="XYCZT" SizeX="4" SizeY="3" SizeZ="2" SizeC="3" SizeT="1">'
+           '<Channel SamplesPerPixel="3"/></Pixels></Image></OME>')
+    path = tmp_path / "rgb.ome.tif"
+    specs = []
+    for _ in range(2):
+        specs.append(oiio.ImageSpec(4, 3, 3, oiio.UINT8))
+        specs[-1].attribute("ImageDescription", xml)
+    out = oiio.ImageOutput.create(str(path))
+    assert out.open(str(path), specs)
+    for k in range(2):
+        if k:
+            assert out.open(str(path), specs[k], "AppendSubimage")
+        assert out.write_image(np.full((3, 4, 3), 40 * k, np.uint8))
+    out.close()
+    colour = load_volume(path, role="rgb")
+    assert isinstance(colour, ColorVolume) and colour.dims == (4, 3, 2)
