@@ -661,6 +661,8 @@ class Viewer:
         if state == "accumulating":
             state = f"accumulating {self.controller.passes_done}/{self.controller.passes}"
         title = f"dvr view: {self.scene.field.name} | {self.scene.renderer.name} | {state}"
+        if self.player is not None:
+            title += f" | {self.player.describe()}"
         if self.gui is None:
             title += f" | {self.stats.frame_seconds * 1e3:.0f} ms"
         if title != getattr(self, "_title", None):
