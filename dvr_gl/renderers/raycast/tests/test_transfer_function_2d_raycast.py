@@ -39,10 +39,11 @@ def test_gradient_opacity_is_one_case_within_float32(gpu, extra):
 
 
 @pytest.mark.parametrize("extra", [{}, {"renderer.shading.enabled": True}, {"renderer.compositing": "xray"},
-                                   {"renderer.filter": "cubic_bspline"}])
+                                   {"renderer.filter": "cubic_bspline"}, {"renderer.gradient_opacity": True},
+                                   {"renderer.shading.enabled": True, "renderer.gradient": "texture"}])
 def test_boxes_match_the_reference(gpu, extra):
     """ParaView's boxes on a 64 x 32 table: the ray caster within float32 of the discrete reference (measured
-    largest errors 4.0e-6 to 6.5e-6 over these four, none above 1e-4: the project's float32 criterion,
+    largest errors 4.0e-6 to 6.5e-6 over these six, none above 1e-4: the project's float32 criterion,
     conftest.assert_close)."""
     scene = small_scene({**BASE, "transfer_function.boxes_2d": BOXES, "transfer_function.size_2d": [64, 32],
                          **extra})
