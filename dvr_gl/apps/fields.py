@@ -6,7 +6,8 @@ Files given where the scene file goes are scalar fields (a file with channels: e
 the scene's ``[volume]``, as it always was (the same image, bit for bit); several files, or a role, make one
 ``[[volume]]`` table per file, in that order.  The volume file options (``--format``, ``--spacing``,
 ``--channel``, ...) apply to every file, ``--time K`` to every file with time steps.  ``--transfer-function``
-given once is the first field's; given once per file, the k-th is the k-th file's.
+given once is the first field's; given once per file, the k-th is the k-th file's; one file with C channels and
+C transfer functions: one table per channel, the k-th function channel k's.
 """
 
 from __future__ import annotations
@@ -138,11 +139,16 @@ def source_of(args, overrides: dict, transfer_functions: list[str]) -> Source:
     ``--transfer-function`` given, the first already in ``overrides``."""
     from dvr_gl.phantoms import demo_scene
 
-    files = args.field_files
+    files, channels = args.field_files, []
+    if not files and args.volume and len(transfer_functions) > 1 and "volume.channel" not in overrides:
+        count = channels_of(args.volume, overrides)  # one file's channels, a transfer function each
+        if count == len(transfer_functions):
+            files, channels = [(args.volume, "scalar")] * count, list(range(count))
     if len(transfer_functions) > max(1, len(files)):
         raise DvrError(f"--transfer-function was given {len(transfer_functions)} times for "
                        f"{max(1, len(files))} file{'s' * (len(files) > 1)}: give one per volume file, in their "
-                       f"order (a scene file's [[volume]] tables each take their own)")
+                       f"order, or one per channel of a file with channels (a scene file's [[volume]] tables each "
+                       f"take their own)")
     if not files:
         base = demo_scene(args.demo) if args.demo and not args.scene else None
         return Source(args.scene, overrides, base)
@@ -150,6 +156,8 @@ def source_of(args, overrides: dict, transfer_functions: list[str]) -> Source:
     time = volume_keys.pop("time", None)
     tables = [{**copy.deepcopy(volume_keys), "path": os.path.abspath(os.path.expanduser(path)), "role": role}
               for path, role in files]
+    for table, k in zip(tables, channels):
+        table["channel"] = k
     for table, tf in zip(tables, transfer_functions):  # each in its table (a label map's: its colour table)
         table["transfer_function"] = transfer_function_table(tf, table["role"])
     # the first's, now in its table (a --set of these keys without --transfer-function stays the first's)
@@ -163,6 +171,15 @@ def source_of(args, overrides: dict, transfer_functions: list[str]) -> Source:
         for i in timed:
             tables[i]["time"] = time
     return source
+
+
+def channels_of(path: str, overrides: dict) -> int:
+    """The channels of a data file (0: none), read from its header with the reader options the overrides give."""
+    from dvr_gl.io import file_axes
+
+    keys = ("format", "array", "level", "fourth_axis")
+    options = {k: overrides[f"volume.{k}"] for k in keys if overrides.get(f"volume.{k}") is not None}
+    return file_axes(path, **options).channels
 
 
 def steps_of(path: str, options: dict | None = None) -> tuple[int, float | None]:

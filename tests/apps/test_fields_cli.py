@@ -205,3 +205,24 @@ def test_info_lists_channels_with_names(shared_data, capsys):
     code, out, err = run_cli(capsys, "info", str(path))
     assert code == 0, err
     assert "channels: 2" in out and "channel 0 (" in out and "channel 1 (" in out and "--channel 1" in out
+
+
+def test_one_transfer_function_per_channel_of_one_file(shared_data, tmp_path, capsys):
+    """One file with C channels and C --transfer-function: a [[volume]] table per channel (volume.channel = k),
+    the k-th function channel k's (the two-channel nucleus, ImageJ hyperstack)."""
+    from dvr_gl.apps import render as render_cmd
+    from dvr_gl.apps.cli import build_parser
+
+    path = shared_data / "microscopy" / "xyzc_16bit__dna_conf_wf.tif"
+    if not path.is_file():
+        pytest.skip(f"{path.name} not in the shared data")
+    args = build_parser().parse_args(["render", str(path), "--transfer-function", "inferno",
+                                      "--transfer-function", "viridis", "-o", "x.png"])
+    render_cmd.positional_volume(args)
+    source = render_cmd.source_of(args)
+    assert [(t["channel"], t["transfer_function"]) for t in source.base["volume"]] == [
+        (0, {"preset": "inferno"}), (1, {"preset": "viridis"})]
+    scene = source.load()
+    assert len(scene.layers) == 2 and scene.sources[1].channel == 1
+    err = one_line_error(capsys, path, *["--transfer-function", "inferno"] * 3, "-o", tmp_path / "x.png")
+    assert "one per channel" in err
