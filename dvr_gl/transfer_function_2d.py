@@ -203,6 +203,34 @@ def bilinear(table, value_range, gradient_range, values, gradients) -> np.ndarra
     return low * (1.0 - fj) + high * fj
 
 
+def voxel_gradient_magnitudes(data, spacing) -> np.ndarray:
+    """``|grad|`` at the voxels of ``data[z, y, x]`` (float64): central differences one voxel apart along each
+    axis, the taps clamped to the edge, in value units per world unit (``spacing``: x, y, z), which is the
+    gradient the renderers classify with, at the voxel centres.  Differences are taken in the samples' own
+    float type (integers in float64), squares summed in float64."""
+    d = np.asarray(data)
+    d = d if np.issubdtype(d.dtype, np.floating) else d.astype(np.float64)
+    out = np.zeros(d.shape)
+    for axis, h in zip((2, 1, 0), spacing):
+        n = d.shape[axis]
+        up = np.take(d, np.minimum(np.arange(n) + 1, n - 1), axis=axis)
+        down = np.take(d, np.maximum(np.arange(n) - 1, 0), axis=axis)
+        out += ((up - down) / (2.0 * h)) ** 2
+    return np.sqrt(out)
+
+
+def histogram_2d(data, spacing, bins=(256, 64), value_range=None, gradient_range=None):
+    """The joint histogram of value and gradient magnitude over the voxels (what a 2D transfer function is drawn
+    over, as in Kniss et al.): ``(counts (NV, NG), value_range, gradient_range)``; the ranges default to the data's
+    (gradient magnitude: 0 to its 99.9th percentile, so that a few steep voxels do not squeeze the rest)."""
+    d = np.asarray(data, np.float64)
+    g = voxel_gradient_magnitudes(d, spacing)
+    vr = _range_or(value_range, (float(d.min()), float(d.max())))
+    gr = _range_or(gradient_range, (0.0, float(np.percentile(g, 99.9))), "gradient_range_2d")
+    counts, _, _ = np.histogram2d(d.ravel(), g.ravel(), bins=_checked_size(bins), range=(vr, gr))
+    return counts, vr, gr
+
+
 def is_2d(tf) -> bool:
     """Whether a transfer function classifies by value and gradient magnitude."""
     return bool(getattr(tf, "is_2d", False))

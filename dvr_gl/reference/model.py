@@ -13,7 +13,7 @@ from ..preintegration import preintegrate, shortened
 from ..scene.model import CLASSIFIED_ALONG_RAY
 from ..shading import blinn_phong, normals_from_gradient
 from ..transfer_function import TransferFunction
-from ..transfer_function_2d import check_scene, is_2d
+from ..transfer_function_2d import check_scene, is_2d, voxel_gradient_magnitudes
 from .classification import GradientClassifier, PostClassifier, PreClassifier
 from .scattering import SingleScattering
 
@@ -44,16 +44,9 @@ def toward_light(scene) -> np.ndarray:
     return d / np.linalg.norm(d)
 
 
-def gradient_magnitudes(samples: np.ndarray, spacing) -> np.ndarray:
-    """``|grad|`` at the samples ``(nz, ny, nx[, C])`` by central differences one sample apart along each
-    axis, the border samples repeated beyond the grid (as the clamped taps)."""
-    out = np.zeros(samples.shape)
-    for axis, h in zip((2, 1, 0), spacing):  # x, y, z: numpy axes 2, 1, 0
-        n = samples.shape[axis]
-        up = np.take(samples, np.minimum(np.arange(n) + 1, n - 1), axis=axis)
-        down = np.take(samples, np.maximum(np.arange(n) - 1, 0), axis=axis)
-        out += ((up - down) / (2.0 * h)) ** 2
-    return np.sqrt(out)
+#: ``|grad|`` at a grid's samples ``(nz, ny, nx[, C])``: central differences one sample apart along each axis, the
+#: border samples repeated beyond the grid (as the clamped taps); shared with the 2D transfer functions' histogram
+gradient_magnitudes = voxel_gradient_magnitudes
 
 
 class HemisphericalShading:

@@ -202,3 +202,17 @@ def test_each_field_of_several_takes_its_own_2d_transfer_function():
     x, y = DiscreteReference(one).render_float64(), DiscreteReference(two).render_float64()
     assert x[..., 3].max() > 0.1
     np.testing.assert_allclose(y, x, rtol=0, atol=1e-14)
+
+
+def test_the_2d_histogram_of_a_ramp():
+    """A ramp along x (value = x voxel index * 0.5, spacing 2): |grad| = 0.25 everywhere but the two clamped
+    faces (0.125); every voxel counted once, in the value and gradient bins it falls in."""
+    from dvr_gl.transfer_function_2d import histogram_2d, voxel_gradient_magnitudes
+
+    data = np.broadcast_to(np.arange(8) * 0.5, (3, 4, 8))
+    g = voxel_gradient_magnitudes(data, (2.0, 1.0, 1.0))
+    np.testing.assert_allclose(g[..., 1:-1], 0.25, rtol=1e-15)
+    np.testing.assert_allclose(g[..., [0, -1]], 0.125, rtol=1e-15)
+    counts, vr, gr = histogram_2d(data, (2.0, 1.0, 1.0), bins=(8, 2), gradient_range=(0.0, 0.3))
+    assert counts.sum() == data.size and vr == (0.0, 3.5) and gr == (0.0, 0.3)
+    assert counts[:, 1].tolist() == [0, 12, 12, 12, 12, 12, 12, 0] and counts[[0, -1], 0].tolist() == [12, 12]
