@@ -25,7 +25,11 @@ import numpy as np
 
 from ...errors import SceneError
 from ...preintegration import preintegrate
+from ...transfer_function import TransferFunction
 from .textures import FORMATS
+
+#: A member's role in the shaders' FIELD_ROLE_OF.
+ROLE_CODES = {"scalar": 0, "label": 1, "rgb": 2}
 
 #: Textures of one FieldSet a shader samples at most (GL guarantees 16 units a fragment shader; the tables,
 #: block textures and targets take others).
@@ -50,21 +54,31 @@ class FieldTextures:
     """A FieldSet's textures (:func:`upload_fields`): ``groups``, and per member ``group`` and ``channel``,
     ``value_scale`` and ``value_offset`` (data value = texel * scale + offset)."""
 
-    def __init__(self, groups: list, group: tuple, channel: tuple, value_scale: tuple, value_offset: tuple):
+    def __init__(self, groups: list, group: tuple, channel: tuple, value_scale: tuple, value_offset: tuple,
+                 roles: tuple = ()):
         self.groups, self.group, self.channel = groups, group, channel
         self.value_scale, self.value_offset = value_scale, value_offset
+        self.roles = roles or ("scalar",) * len(group)
 
     @property
     def nbytes(self) -> int:
         return sum(g.nbytes for g in self.groups)
 
     def defines(self) -> dict:
-        """``FIELDS``, ``NUM_FIELDS`` (members), ``NUM_FIELD_GROUPS`` (textures) and the members' texture and
-        channel as constant lists (``FIELD_GROUP_OF``, ``FIELD_CHANNEL_OF``: compile-time, so samplers are
-        indexed by constants as GLSL 3.30 requires)."""
-        return {"FIELDS": True, "NUM_FIELDS": len(self.group), "NUM_FIELD_GROUPS": len(self.groups),
-                "FIELD_GROUP_OF": ", ".join(str(g) for g in self.group),
-                "FIELD_CHANNEL_OF": ", ".join(str(c) for c in self.channel)}
+        """``FIELDS``, ``NUM_FIELDS`` (members), ``NUM_FIELD_GROUPS`` (textures) and the members' texture,
+        channel and role (:data:`ROLE_CODES`) as constant lists (``FIELD_GROUP_OF``, ``FIELD_CHANNEL_OF``,
+        ``FIELD_ROLE_OF``: compile-time, so samplers are indexed by constants as GLSL 3.30 requires); with
+        ``FIELD_LABELS`` and ``FIELD_RGB`` where a member has that role.  An rgb member's channel is 3, its
+        ``x`` (the value its transfer function reads); its colour is the texture's r, g, b."""
+        out = {"FIELDS": True, "NUM_FIELDS": len(self.group), "NUM_FIELD_GROUPS": len(self.groups),
+               "FIELD_GROUP_OF": ", ".join(str(g) for g in self.group),
+               "FIELD_CHANNEL_OF": ", ".join(str(c) for c in self.channel),
+               "FIELD_ROLE_OF": ", ".join(str(ROLE_CODES[r]) for r in self.roles)}
+        if "label" in self.roles:
+            out["FIELD_LABELS"] = True
+        if "rgb" in self.roles:
+            out["FIELD_RGB"] = True
+        return out
 
     def bind(self, program, first_unit: int) -> int:
         """Bind the group textures to units ``first_unit``, ``first_unit + 1``, ... and the sampler array
@@ -112,14 +126,16 @@ def upload_fields(ctx, fieldset, per_texture: int = 4) -> FieldTextures:
         fields = [fieldset.members[i].field for i in indices]
         texture, nbytes, value_scale, value_offset = _group_texture(ctx, fields)
         for c, i in enumerate(indices):
-            group[i], channel[i], scale[i], offset[i] = g, c, value_scale, value_offset
+            rgb = fieldset.members[i].role == "rgb"
+            group[i], channel[i], scale[i], offset[i] = g, 3 if rgb else c, value_scale, value_offset
         first = fields[0]
         spacing = np.asarray(first.spacing, dtype=np.float64)
         lo, hi = first.box
         out.append(FieldGroup(tuple(indices), texture, tuple(int(x) for x in first.dims), 1.0 / spacing,
                               -np.asarray(first.origin, dtype=np.float64) / spacing, spacing,
                               (np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)), nbytes))
-    return FieldTextures(out, tuple(group), tuple(channel), tuple(scale), tuple(offset))
+    return FieldTextures(out, tuple(group), tuple(channel), tuple(scale), tuple(offset),
+                         tuple(m.role for m in fieldset.members))
 
 
 def _group_texture(ctx, fields: list):
@@ -171,10 +187,50 @@ class TableAtlas:
                 "u_field_unit_distance": [float(u) for u in self.unit_distances]}
 
 
+class _NoTable:
+    """A label member's row of the table atlas: zeros (its colour table is :class:`LabelAtlas`'s)."""
+
+    def __init__(self, size: int):
+        self.table, self.domain = np.zeros((size, 4)), (0.0, 1.0)
+
+
 def table_atlas(ctx, transfer_functions, lut_size: int) -> TableAtlas:
-    """The members' tables (one transfer function per member, in order), ``lut_size`` texels a row."""
-    return TableAtlas(ctx, [tf.tabulate(lut_size) for tf in transfer_functions],
+    """The members' tables (one transfer function per member, in order), ``lut_size`` texels a row; a label
+    member's (a :class:`dvr_gl.labels.LabelTable`) row is zeros."""
+    labels = [getattr(tf, "kind", None) == "labels" for tf in transfer_functions]
+    return TableAtlas(ctx, [_NoTable(lut_size) if label else tf.tabulate(lut_size)
+                            for tf, label in zip(transfer_functions, labels)],
                       [tf.unit_distance for tf in transfer_functions])
+
+
+class LabelAtlas:
+    """The label members' colour tables (:meth:`dvr_gl.labels.LabelTable.texture_table`: ``(r, g, b, sigma)``
+    of label ``L`` at texel ``L - first``), each laid out in rows of one common width and stacked: member
+    ``i``'s texel ``k`` at column ``k % width``, row ``row[i] + k // width``.  A scalar member has no rows."""
+
+    def __init__(self, ctx, transfer_functions):
+        tables = [tf if getattr(tf, "kind", None) == "labels" else None for tf in transfer_functions]
+        self.width = max(t.texture_table().shape[1] for t in tables if t is not None)
+        blocks, self.first, self.count, self.row = [], [], [], []
+        rows = 0
+        for t in tables:
+            flat = t.texture_table().reshape(-1, 4)[:t.count] if t is not None else np.zeros((0, 4), np.float32)
+            n = -(-len(flat) // self.width)
+            blocks.append(np.concatenate([flat, np.zeros((n * self.width - len(flat), 4), np.float32)]))
+            self.first.append(float(t.first) if t is not None else 0.0)
+            self.count.append(float(t.count) if t is not None else 0.0)
+            self.row.append(float(rows))
+            rows += n
+        data = np.concatenate(blocks).reshape(rows, self.width, 4).astype(np.float32)
+        self.texture = ctx.texture((self.width, rows), 4, np.ascontiguousarray(data).tobytes(), dtype="f4")
+        self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.texture.repeat_x = self.texture.repeat_y = False
+
+    def uniforms(self) -> dict:
+        """Per member: its first label, texel count and first row (floats: labels within +-2^24 are exact);
+        the common row width."""
+        return {"u_field_label_first": self.first, "u_field_label_count": self.count,
+                "u_field_label_row": self.row, "u_field_label_width": self.width}
 
 
 class PreintegrationAtlas:
@@ -201,5 +257,8 @@ class PreintegrationAtlas:
 def preintegration_atlas(ctx, transfer_functions, slab_length: float, size: int, method: str,
                          lut_size: int) -> PreintegrationAtlas:
     """The members' pre-integration tables for segments ``slab_length`` long (world units)."""
-    return PreintegrationAtlas(ctx, [preintegrate(tf, slab_length, size, method, lut_size)
+    # a label member's rows: transparent (its segments are classified at their middle: fields.glsl)
+    transparent = TransferFunction([[0.0, 0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0, 0.0]])
+    return PreintegrationAtlas(ctx, [preintegrate(transparent if getattr(tf, "kind", None) == "labels" else tf,
+                                                  slab_length, size, method, lut_size)
                                      for tf in transfer_functions])

@@ -51,7 +51,7 @@ PLUGIN = RendererPlugin(
               BLOCK_SIZE, HOMOGENEITY_TOLERANCE, SCREEN_SPACE_ERROR, s.SHADING, s.SCATTERING, s.CLIPPING,
               s.GEOMETRY),
     data_kinds=("grid", "fields"),
-    field_roles=("scalar",),
+    field_roles=("scalar", "label", "rgb"),
     transfer_function_2d=("grid",),
     check="dvr_gl.renderers.raycast.fields_check:check",
     needs_gl=True,

@@ -18,9 +18,12 @@ import numpy as np
 
 from ...fields import gradient_epsilon
 from ...gl.shaders import create_program
-from ..grid.field_textures import preintegration_atlas, table_atlas, upload_fields
+from ..grid.field_textures import LabelAtlas, preintegration_atlas, table_atlas, upload_fields
 from . import acceleration as accel
 from . import ray_bounds
+
+# A label member's isosurface: its visibility (0 or 1) reaching one half (as dvr_gl.reference.fields has it).
+LABEL_ISO = 0.5
 
 # "auto" bounds the rays of several fields by their members' non-empty blocks (the ray bounds of one field,
 # .ray_bounds) where at least this fraction of the blocks, every member's counted, is empty: drawing the faces
@@ -49,6 +52,8 @@ def field_textures(frame, scene, defines: dict) -> dict:
     fields = frame._cached("field textures", (fieldset,), lambda: upload_fields(frame.ctx, fieldset))
     out = {"u_field_lut": frame._cached("field lut", (tfs, r.lut_size),
                                                                lambda: table_atlas(frame.ctx, tfs, r.lut_size))}
+    if any(layer.role == "label" for layer in scene.layers):
+        out["u_field_labels"] = frame._cached("field labels", tfs, lambda: LabelAtlas(frame.ctx, tfs))
     if "CLASSIFY_PREINTEGRATED" in defines:
         out["u_field_preint"] = frame._cached(
             "field preintegration", (tfs, r.sample_distance, r.preintegration_size, r.preintegration, r.lut_size),
@@ -60,10 +65,18 @@ def field_textures(frame, scene, defines: dict) -> dict:
 def member_occupancy(frame, scene, i: int, lut, snap) -> np.ndarray:
     """Member ``i``'s non-empty level-0 blocks ``(nbz, nby, nbx)`` under its table ``lut`` (``snap``: the
     pre-integration table's (domain, nodes), as one field's blocks take them), its pyramid kept in ``frame``."""
-    r, volume = scene.renderer, scene.layers[i].field
-    support = accel.SUPPORT[r.filter]
+    r, layer = scene.renderer, scene.layers[i]
+    volume = layer.field
+    label = layer.role == "label"
+    support = (0, 1) if label else accel.SUPPORT[r.filter]  # a label's sample reads its 8 taps alone
+    # an rgb member's extinction is its x's (the fourth component)
+    values = (lambda: volume.data[..., 3]) if layer.role == "rgb" else (lambda: volume.data)
     pyramid = frame._cached(f"field pyramid {i}", (volume, support, r.block_size),
-                            lambda: accel.MinMaxPyramid.build(volume.data, r.block_size, support))
+                            lambda: accel.MinMaxPyramid.build(values(), r.block_size, support))
+    if label:  # empty where no label between the block's least and greatest has opacity
+        table = layer.transfer_function
+        return frame._cached(f"field occupancy {i}", (pyramid, table), lambda: np.asarray(
+            table.opaque_somewhere(*pyramid.levels[0]), dtype=bool))
     return frame._cached(f"field occupancy {i}", (pyramid, lut, r.filter, snap), lambda: ray_bounds.occupied(
         accel.table_classes(pyramid, lut, r.filter, volume.spacing, 0.0, False, snap)[0]))
 
@@ -114,9 +127,12 @@ def _faces(renderer, scene, occupancy) -> ray_bounds.BoundsFaces:
 
 def epsilon_scales(scene) -> list:
     """Per member: the scene's gradient epsilon (the first member's) over the member's own
-    (:func:`dvr_gl.fields.gradient_epsilon`), by which fields.glsl scales its gradient for shading."""
+    (:func:`dvr_gl.fields.gradient_epsilon`; a label's: 1e-5 per voxel), by which fields.glsl scales its
+    gradient for shading."""
     first = gradient_epsilon(scene.field)
-    return [first / gradient_epsilon(layer.field) for layer in scene.layers]
+    # a label's indicator runs from 0 to 1 (dvr_gl.reference.members.LabelOptics)
+    return [first / (1e-5 / layer.field.sample_spacing if layer.role == "label" else gradient_epsilon(layer.field))
+            for layer in scene.layers]
 
 
 def draw_fields(renderer, scene, surfaces: dict, shader_features):
@@ -131,7 +147,8 @@ def draw_fields(renderer, scene, surfaces: dict, shader_features):
                              roots=renderer.shaders)
     lut = textures["u_field_lut"].luts[0]
     uniforms = {**renderer.ray_uniforms(scene), **renderer.optics_uniforms(scene, lut), **fields.uniforms(),
-                "u_field_iso": [float(layer.iso_value) for layer in scene.layers],
+                "u_field_iso": [LABEL_ISO if layer.role == "label" else float(layer.iso_value)
+                                for layer in scene.layers],
                 "u_field_epsilon_scale": epsilon_scales(scene)}
     textures = {**textures, **surfaces, **bounds}
     renderer.bind(program, uniforms, textures)

@@ -19,6 +19,12 @@ def check(scene):
     if getattr(field, "kind", None) != "fields":
         return
     r = scene.renderer
+    roles = {m.role for m in field.members} - {"scalar"}
+    if roles and r.compositing in ("mip", "minip", "average"):
+        role = sorted(roles)[0]
+        raise SceneError(f"renderer.compositing = {r.compositing!r} projects each field's values, and "
+                         f"{'an' if role == 'rgb' else 'a'} {role} field has none to project: use "
+                         f"emission_absorption, xray or isosurface")
     if r.classification == "pre" and r.compositing == "emission_absorption":
         raise SceneError("renderer.classification = 'pre' classifies one field's voxels; several fields are "
                          "classified per sample: use 'post' or 'preintegrated'")

@@ -32,7 +32,8 @@ uniform float u_field_epsilon_scale[NUM_FIELDS];
 #endif
 
 const int FIELD_GROUP[NUM_FIELDS] = int[NUM_FIELDS](FIELD_GROUP_OF);
-const int FIELD_CHANNEL[NUM_FIELDS] = int[NUM_FIELDS](FIELD_CHANNEL_OF);
+const int FIELD_CHANNEL[NUM_FIELDS] = int[NUM_FIELDS](FIELD_CHANNEL_OF);  // an rgb member's: 3, its x
+const int FIELD_ROLE[NUM_FIELDS] = int[NUM_FIELDS](FIELD_ROLE_OF);  // 0 scalar, 1 label, 2 rgb
 
 // The texels of every group at p (each in its own grid) and whether p lies in each group's box.
 struct FieldTexels {
@@ -106,6 +107,72 @@ vec4 field_transfer_function(int i, float value) {
                x - float(i0));
 }
 
+#ifdef FIELD_LABELS
+// Label members (common/labels.glsl: the label rule, never a label no tap holds) and their colour tables
+// (dvr_gl/renderers/grid/field_textures.py's LabelAtlas: member i's label L at texel k = L - first, column
+// k % width, row row_i + k / width).
+#include "common/labels.glsl"
+
+uniform sampler2D u_field_labels;
+uniform int u_field_label_width;
+uniform float u_field_label_first[NUM_FIELDS];
+uniform float u_field_label_count[NUM_FIELDS];
+uniform float u_field_label_row[NUM_FIELDS];
+
+#define FIELD_LABEL_SAMPLE(G) label_sample(u_field_group[G], lg, p, gradient)
+
+// Member i's label at p and its indicator's gradient (per world unit, pointing into the label).
+int field_label(int i, vec3 p, out vec3 gradient) {
+    int g = FIELD_GROUP[i];
+    LabelGrid lg = label_grid(FIELD_CHANNEL[i], u_field_value_scale[i], u_field_value_offset[i],
+                              ivec3(u_field_dims[g]), u_field_scale[g], u_field_offset[g]);
+    if (g == 0) return FIELD_LABEL_SAMPLE(0);
+#if NUM_FIELD_GROUPS > 1
+    if (g == 1) return FIELD_LABEL_SAMPLE(1);
+#endif
+#if NUM_FIELD_GROUPS > 2
+    if (g == 2) return FIELD_LABEL_SAMPLE(2);
+#endif
+#if NUM_FIELD_GROUPS > 3
+    if (g == 3) return FIELD_LABEL_SAMPLE(3);
+#endif
+#if NUM_FIELD_GROUPS > 4
+    if (g == 4) return FIELD_LABEL_SAMPLE(4);
+#endif
+#if NUM_FIELD_GROUPS > 5
+    if (g == 5) return FIELD_LABEL_SAMPLE(5);
+#endif
+    gradient = vec3(0.0);
+    return 0;
+}
+
+// (colour, sigma per world unit) of label L in member i's table; zero for a label the table does not list.
+vec4 field_label_class(int i, int label) {
+    int k = label - int(u_field_label_first[i]);
+    if (k < 0 || k >= int(u_field_label_count[i])) return vec4(0.0);
+    return texelFetch(u_field_labels, ivec2(k % u_field_label_width, int(u_field_label_row[i]) + k / u_field_label_width),
+                      0);
+}
+
+// Member i's label classified at p, shaded by its indicator's gradient (no gradient opacity: a label map has
+// no value to take a gradient of).
+vec4 field_label_classify(int i, vec3 p, vec3 dir) {
+    vec3 gradient;
+    vec4 cs = field_label_class(i, field_label(i, p, gradient));
+  #ifdef SHADING
+    cs.rgb = blinn_phong(cs.rgb, gradient * u_field_epsilon_scale[i], dir);
+  #endif
+    return cs;
+}
+
+// 1 where member i's label at p is visible (listed with some opacity), else 0: what its isosurface is a
+// level of (at one half).
+float field_label_visible(int i, vec3 p) {
+    vec3 gradient;
+    return field_label_class(i, field_label(i, p, gradient)).a > 0.0 ? 1.0 : 0.0;
+}
+#endif
+
 #ifdef NEEDS_GRADIENT
 // Every group's channels' gradients at p (data units per world unit): central differences one voxel of
 // the group's grid apart, x, y and z components of all four channels at once.
@@ -141,10 +208,14 @@ vec3 field_gradient_at(int i, vec3 p) {
 }
 #endif
 
-// Member i's (colour, sigma) at its value: gradient opacity scales sigma and shading shades the colour by
-// its own gradient, as classify() does for one field.
-vec4 field_classify_member(int i, float value, vec3 grad, vec3 dir) {
-    vec4 tf = field_transfer_function(i, value);
+// Member i's (colour, sigma) at its value (an rgb member's: its x, the colour the data's, never negative):
+// gradient opacity scales sigma and shading shades the colour by its own gradient, as classify() does for one
+// field.
+vec4 field_classify_member(int i, vec4 texels, vec3 grad, vec3 dir) {
+    vec4 tf = field_transfer_function(i, field_value(i, texels));
+#ifdef FIELD_RGB
+    if (FIELD_ROLE[i] == 2) tf.rgb = max(texels.rgb, 0.0);
+#endif
 #ifdef GRADIENT_OPACITY
     tf.a *= min(1.0, length(grad) / u_gradient_reference);
 #endif
@@ -165,9 +236,15 @@ vec4 classify(vec3 p, vec3 dir) {
     for (int i = 0; i < NUM_FIELDS; ++i) {
         if (!field_inside(i, s)) continue;
 #ifdef NEEDS_GRADIENT
-        vec4 cs = field_classify_member(i, field_value_at(i, s), field_gradient(i, g), dir);
+        vec3 grad = field_gradient(i, g);
 #else
-        vec4 cs = field_classify_member(i, field_value_at(i, s), vec3(0.0), dir);
+        vec3 grad = vec3(0.0);
+#endif
+#ifdef FIELD_LABELS
+        vec4 cs = FIELD_ROLE[i] == 1 ? field_label_classify(i, p, dir)
+                                     : field_classify_member(i, s.t[FIELD_GROUP[i]], grad, dir);
+#else
+        vec4 cs = field_classify_member(i, s.t[FIELD_GROUP[i]], grad, dir);
 #endif
         emitted += cs.a * cs.rgb;
         sigma += cs.a;
@@ -213,6 +290,30 @@ float depth_per_opacity(float tau) {
     return tau > 0.0 ? tau / opacity_of_depth(tau) : 1.0;
 }
 
+// Member i's segment of length len (associated colour, optical depth): its table entry by the end values,
+// shortened, gradient opacity and shading at the midpoint p as for one field; an rgb member's colour the
+// data's at p; a label member's segment its class at p over the whole segment (no values to pre-integrate).
+vec4 field_segment(int i, float front, float back, float len, vec3 p, FieldTexels s, vec3 grad, vec3 dir) {
+#ifdef FIELD_LABELS
+    if (FIELD_ROLE[i] == 1) {
+        vec4 cs = field_label_classify(i, p, dir);
+        return vec4(cs.rgb * opacity_of_depth(cs.a * len), cs.a * len);
+    }
+#endif
+    vec4 e = shorten(field_preintegrated(i, front, back), len / u_slab_length);
+#ifdef GRADIENT_OPACITY
+    e = shorten(e, min(1.0, length(grad) / u_gradient_reference));
+#endif
+#ifdef FIELD_RGB
+    if (FIELD_ROLE[i] == 2) e.rgb = max(s.t[FIELD_GROUP[i]].rgb, 0.0) * opacity_of_depth(e.a);
+#endif
+#ifdef SHADING
+    float alpha = opacity_of_depth(e.a);
+    e.rgb = blinn_phong(alpha > 0.0 ? e.rgb / alpha : vec3(0.0), grad * u_field_epsilon_scale[i], dir) * alpha;
+#endif
+    return e;
+}
+
 // The mixture's segment of length len (associated colour, optical depth): each member's own table entry
 // (C_i, tau_i), shortened, gradient opacity and shading at the midpoint p as for one field, for members
 // whose box holds p; tau = sum tau_i, C = (1 - e^-tau) / tau sum_i C_i tau_i / (1 - e^-tau_i) (exact for
@@ -226,17 +327,13 @@ vec4 preintegrated_segment(SegmentValue front, SegmentValue back, float len, vec
     float tau = 0.0;
     for (int i = 0; i < NUM_FIELDS; ++i) {
         if (!field_inside(i, s)) continue;
-        vec4 e = shorten(field_preintegrated(i, front.v[i], back.v[i]), len / u_slab_length);
+        vec4 e = field_segment(i, front.v[i], back.v[i], len, p, s,
 #ifdef NEEDS_GRADIENT
-        vec3 grad = field_gradient(i, g);
+                               field_gradient(i, g),
+#else
+                               vec3(0.0),
 #endif
-#ifdef GRADIENT_OPACITY
-        e = shorten(e, min(1.0, length(grad) / u_gradient_reference));
-#endif
-#ifdef SHADING
-        float alpha = opacity_of_depth(e.a);
-        e.rgb = blinn_phong(alpha > 0.0 ? e.rgb / alpha : vec3(0.0), grad * u_field_epsilon_scale[i], dir) * alpha;
-#endif
+                               dir);
         weighted += e.rgb * depth_per_opacity(e.a);
         tau += e.a;
     }

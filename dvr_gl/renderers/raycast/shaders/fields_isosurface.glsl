@@ -2,7 +2,10 @@
 // among the entry point and the samples, where any member inside its box reaches its own iso-value
 // (v_i >= iso_i; ties: the member listed first), refined by bisection on that member alone between it and
 // the point looked at before; coloured by that member's transfer function at its iso-value, shaded by its
-// own gradient, opaque.  Never bricked: the state is the finished pixel (mode_finish).
+// own gradient, opaque.  A label member's level is its visibility (1 where its label is listed with some
+// opacity, else 0) at one half (its u_field_iso), coloured by the label on the hit's visible side, shaded by
+// its indicator; an rgb member's a level of its x, coloured by the data there.  Never bricked: the state is
+// the finished pixel (mode_finish).
 
 uniform float u_field_iso[NUM_FIELDS];
 
@@ -19,7 +22,11 @@ int first_reaching(vec3 p, out float values[NUM_FIELDS]) {
     FieldTexels s = field_texels(p);
     int hit = -1;
     for (int i = 0; i < NUM_FIELDS; ++i) {
+#ifdef FIELD_LABELS
+        values[i] = FIELD_ROLE[i] == 1 ? field_label_visible(i, p) : field_value_at(i, s);
+#else
         values[i] = field_value_at(i, s);
+#endif
         if (hit < 0 && field_inside(i, s) && values[i] >= u_field_iso[i]) hit = i;
     }
     return hit;
@@ -68,8 +75,11 @@ bool mode_jump(vec4 block, inout int m) {
     return false;
 }
 
-// Member i's value at world point p alone.
+// Member i's value at world point p alone (a label member's visibility).
 float member_value(int i, vec3 p) {
+#ifdef FIELD_LABELS
+    if (FIELD_ROLE[i] == 1) return field_label_visible(i, p);
+#endif
     return field_value(i, field_group_texels(FIELD_GROUP[i], p));
 }
 
@@ -84,7 +94,13 @@ vec4 mode_finish(vec4 state) {
     }
     float w = sb > sa ? clamp((iso - sa) / (sb - sa), 0.0, 1.0) : 1.0;
     vec3 p = o + (ta + w * (tb - ta)) * d;
+#ifdef FIELD_LABELS
+    if (FIELD_ROLE[member] == 1) return vec4(field_label_classify(member, o + tb * d, d).rgb, 1.0);
+#endif
     vec3 colour = field_transfer_function(member, iso).rgb;
+#ifdef FIELD_RGB
+    if (FIELD_ROLE[member] == 2) colour = max(field_group_texels(FIELD_GROUP[member], p).rgb, 0.0);
+#endif
 #ifdef SHADING
     colour = blinn_phong(colour, field_gradient_at(member, p) * u_field_epsilon_scale[member], d);
 #endif
