@@ -42,6 +42,7 @@ DEFAULT_OPACITY = 0.1
 #: The colour columns of a colour volume's transfer functions: not used (the colour is the data's).
 UNUSED_COLOUR = (1.0, 1.0, 1.0)
 CODE_BITS = {np.dtype(np.uint8): 8, np.dtype(np.uint16): 16}
+SLAB_VOXELS = 1 << 20  # voxels decoded at a time (their float64 copy: 32 MiB)
 
 
 def srgb_decode(codes: np.ndarray) -> np.ndarray:
@@ -52,7 +53,7 @@ def srgb_decode(codes: np.ndarray) -> np.ndarray:
     if bits is None:
         return srgb_to_linear(codes)
     table = srgb_to_linear(np.arange(2 ** bits, dtype=np.float64) / (2 ** bits - 1))
-    return table[codes.astype(np.intp)]
+    return np.take(table, codes)
 
 
 def luminance(rgb: np.ndarray) -> np.ndarray:
@@ -128,8 +129,7 @@ class ColorVolume:
                               f"convert it (e.g. array.astype(numpy.uint8)) or give linear floats (from_linear)")
         bits = CODE_BITS.get(array.dtype.newbyteorder("="))
         encoding = f"sRGB {bits}-bit" if bits else "sRGB float"
-        rgb = srgb_decode(array[..., :3])
-        return cls._assemble(rgb, _alpha(array, alpha, name, bits), encoding, geometry)
+        return cls._assemble(array, srgb_decode, _alpha(array, alpha, name, bits), encoding, geometry)
 
     @classmethod
     def from_linear(cls, array, *, alpha=None, **geometry) -> "ColorVolume":
@@ -139,8 +139,9 @@ class ColorVolume:
         if array.dtype.kind != "f":
             raise VolumeError(f"{name}: linear colour must be floats in [0, 1]; got {array.dtype} (integer colour "
                               f"is sRGB-encoded: use ColorVolume.from_srgb)")
-        rgb = _unit_range(array[..., :3], name, "linear colour").astype(np.float64)
-        return cls._assemble(rgb, _alpha(array, alpha, name, None), "linear", geometry)
+        _unit_range(array[..., :3], name, "linear colour")
+        linear = lambda slab: slab.astype(np.float64)  # noqa: E731
+        return cls._assemble(array, linear, _alpha(array, alpha, name, None), "linear", geometry)
 
     @classmethod
     def from_stored(cls, array, *, alpha=None, **geometry) -> "ColorVolume":
@@ -151,9 +152,16 @@ class ColorVolume:
         return make(array, alpha=alpha, **geometry)
 
     @classmethod
-    def _assemble(cls, rgb: np.ndarray, alpha: np.ndarray | None, encoding: str, geometry: dict) -> "ColorVolume":
-        x = luminance(rgb) if alpha is None else alpha
-        data = np.concatenate([rgb, x[..., None]], axis=3).astype(np.float32)
+    def _assemble(cls, array: np.ndarray, decode, alpha, encoding: str, geometry: dict) -> "ColorVolume":
+        """The components from colour ``array`` ``(z, y, x, 3|4)``: ``decode`` turns its ``(..., 3)`` into linear
+        float64, ``alpha`` is ``(alpha, its largest value)`` or None (the luminance); a slab of z at a time, so
+        that no float64 copy of the whole volume is ever made."""
+        data = np.empty(array.shape[:3] + (4,), np.float32)
+        step = max(1, SLAB_VOXELS // max(1, array.shape[1] * array.shape[2]))
+        for z in range(0, array.shape[0], step):
+            rgb = decode(array[z:z + step, ..., :3])
+            data[z:z + step, ..., :3] = rgb
+            data[z:z + step, ..., 3] = luminance(rgb) if alpha is None else alpha[0][z:z + step] / alpha[1]
         source = "luminance" if alpha is None else "alpha"
         return cls(data, opacity_source=source, encoding=encoding, **geometry)
 
@@ -245,8 +253,9 @@ def _components(array, name: str) -> tuple[np.ndarray, str]:
     return array.astype(array.dtype.newbyteorder("="), copy=False), name
 
 
-def _alpha(array: np.ndarray, alpha, name: str, bits: int | None) -> np.ndarray | None:
-    """The straight alpha in [0, 1] (float64) the constructors were given, or None for the luminance."""
+def _alpha(array: np.ndarray, alpha, name: str, bits: int | None) -> tuple[np.ndarray, float] | None:
+    """The straight alpha the constructors were given and the value that stands for 1 (its largest code:
+    alpha is stored linearly; 1 for floats), checked; None for the luminance."""
     if alpha is False or (alpha is None and array.shape[3] == 3):
         return None
     if alpha is None:
@@ -259,16 +268,15 @@ def _alpha(array: np.ndarray, alpha, name: str, bits: int | None) -> np.ndarray 
         if alpha.shape != array.shape[:3]:
             raise VolumeError(f"{name}: alpha must have the colour's shape (z, y, x) = {array.shape[:3]}; got "
                               f"{alpha.shape}")
-    alpha = alpha.astype(np.float64)
-    if bits is not None:  # alpha is stored linearly: the code over its largest
-        alpha = alpha / (2 ** bits - 1)
-    return _unit_range(alpha, name, "alpha")
+    top = 1.0 if bits is None else float(2 ** bits - 1)
+    return _unit_range(alpha, name, "alpha", top), top
 
 
-def _unit_range(values: np.ndarray, name: str, what: str) -> np.ndarray:
-    """``values`` if every one is finite and in [0, 1]; else one line saying how many are not."""
+def _unit_range(values: np.ndarray, name: str, what: str, top: float = 1.0) -> np.ndarray:
+    """``values`` if every one is finite and in [0, ``top``] (``top`` stands for 1); else one line saying how
+    many are not."""
     with np.errstate(invalid="ignore"):
-        bad = ~((values >= 0) & (values <= 1))
+        bad = ~((values >= 0) & (values <= top))
     if bad.any():
         count = int(np.count_nonzero(bad))
         nonfinite = not np.isfinite(values[bad]).all()

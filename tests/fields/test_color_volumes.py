@@ -76,6 +76,19 @@ def test_alpha_is_linear_and_replaces_luminance():
     np.testing.assert_allclose(wide.data, cv.data, rtol=0, atol=0)
 
 
+def test_decoding_a_slab_at_a_time_changes_nothing(monkeypatch):
+    import dvr_gl.fields.color as color
+
+    def both():
+        linear = ColorVolume.from_linear(srgb_decode(CODES), alpha=CODES[..., 0] / 255)
+        return ColorVolume.from_srgb(CODES).data, linear.data
+
+    whole = both()
+    monkeypatch.setattr(color, "SLAB_VOXELS", 7)  # one z at a time (20 voxels a slice)
+    for a, b in zip(both(), whole):
+        np.testing.assert_array_equal(a, b)
+
+
 def test_linear_floats_are_taken_as_they_are():
     colour = RNG.random((2, 3, 4, 3))
     cv = ColorVolume.from_linear(colour)
