@@ -16,6 +16,8 @@ from time import perf_counter as now
 
 import numpy as np
 
+from ... import limits
+from ...errors import SceneError
 from ...fields import gradient_epsilon
 from ...gl.shaders import create_program
 from ..grid.field_textures import LabelAtlas, preintegration_atlas, table_atlas, upload_fields
@@ -139,6 +141,12 @@ def draw_fields(renderer, scene, surfaces: dict, shader_features):
     """The frame of a scene of several fields (``renderer``: the :class:`.renderer.RayCastRenderer`;
     ``surfaces``: the geometry layer's texture, if any)."""
     start = now()
+    side = limits.gl_limits(renderer.ctx).texture_3d_size
+    for layer in scene.layers:
+        if max(layer.field.dims) > side:
+            raise SceneError(f"{layer.name or layer.field.name}: {max(layer.field.dims)} voxels along an axis, more "
+                             f"than this GL's 3D textures hold ({side}); several fields are not bricked: resample "
+                             f"it or render it alone")
     defines = fields_features(scene, shader_features)
     textures, fields = field_textures(renderer, scene, defines)
     defines.update(fields.defines())

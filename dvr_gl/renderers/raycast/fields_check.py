@@ -34,7 +34,7 @@ def check(scene):
     budget = r.texture_budget_mb * 2 ** 20
     if field.nbytes > budget:
         raise SceneError(f"several fields are drawn from whole textures (no bricks), and {field.name} takes "
-                         f"{field.nbytes / 2 ** 20:.0f} MB, over renderer.texture_budget_mb = "
+                         f"{field.nbytes / 2 ** 20:.3g} MB, over renderer.texture_budget_mb = "
                          f"{r.texture_budget_mb:g}: raise it, or render the fields apart")
     if math.ceil(diagonal(field) / r.sample_distance) > ONE_PASS_SEGMENTS - r.iso_refinement:
         raise SceneError(f"several fields are composited in one pass of at most {ONE_PASS_SEGMENTS} segments a "
