@@ -237,6 +237,10 @@ class ZarrSource(Source):
         root = getattr(getattr(array, "store", None), "root", None)
         self.store = Path(store) if store is not None else (Path(root) if root is not None else None)
         self.index, self.order, self.spacing, self.origin = zarr_plan(array.shape, axes, list(transforms), self.name)
+        # the entries a channel or time axis picks (dvr_gl.io.channels): each pick is its own field, with its own
+        # block ranges and sidecar (axes of one entry, dropped, are not picks)
+        self.picks = [[k, int(i)] for k, (i, n) in enumerate(zip(self.index, array.shape))
+                      if not isinstance(i, slice) and n > 1]
         kept = [n for n, i in zip(array.shape, self.index) if isinstance(i, slice)]
         nz, ny, nx = (kept[o] for o in self.order)
         self.dims = (int(nx), int(ny), int(nz))
@@ -297,16 +301,18 @@ class ZarrSource(Source):
             return None
         st = meta.stat()
         # rewriting chunks in place changes neither: delete the sidecar then (docs/out-of-core.md)
-        return {"array": self.array_path, "metadata_size": st.st_size, "metadata_mtime_ns": st.st_mtime_ns,
-                "folder_mtime_ns": meta.parent.stat().st_mtime_ns, "dims": list(self.dims),
-                "dtype": self.stored.str, "chunks": list(self.chunks)}
+        key = {"array": self.array_path, "metadata_size": st.st_size, "metadata_mtime_ns": st.st_mtime_ns,
+               "folder_mtime_ns": meta.parent.stat().st_mtime_ns, "dims": list(self.dims),
+               "dtype": self.stored.str, "chunks": list(self.chunks)}
+        return {**key, "picks": self.picks} if getattr(self, "picks", None) else key
 
     def sidecar_base(self) -> Path | None:
         if self._metadata() is None:
             return None
-        if not self.array_path:
-            return self.store
-        return self.store.with_name(f"{self.store.name}.{self.array_path.replace('/', '_')}")
+        base = self.store if not self.array_path else \
+            self.store.with_name(f"{self.store.name}.{self.array_path.replace('/', '_')}")
+        picks = getattr(self, "picks", None)  # a channel's or step's own: axis-entry pairs
+        return base.with_name(f"{base.name}.pick{'_'.join(f'{k}-{i}' for k, i in picks)}") if picks else base
 
     def __repr__(self) -> str:
         return f"ZarrSource({self.name!r}, dims={self.dims}, dtype={self.stored.str!r}, chunks={self.chunks})"

@@ -441,3 +441,17 @@ def test_ome_tiff_of_rgb_pages(tmp_path):
     out.close()
     colour = load_volume(path, role="rgb")
     assert isinstance(colour, ColorVolume) and colour.dims == (4, 3, 2)
+
+
+def test_ome_zarr_each_channel_and_step_has_its_own_block_ranges(tmp_path):
+    """Out of core, each channel and step keeps its own block ranges and sidecar: channel 1 never takes channel
+    0's (whose values are lower: a block would be skipped as empty where it is not)."""
+    from dvr_gl.out_of_core import open_volume
+
+    path = write_ome_tczyx(tmp_path / "i.ome.zarr")
+    for t, c in [(0, 0), (0, 1), (2, 1), (2, 0), (0, 1)]:  # the last reads the sidecar channel 1 wrote
+        v = open_volume(path, out_of_core=True, channel=c, time=t)
+        step = HYPER[t, :, c]
+        assert v.value_range == (float(step.min()), float(step.max()))
+    sidecars = sorted(p.name for p in tmp_path.glob("*dvr-ranges*"))
+    assert len(sidecars) == 4 and all(".pick" in name for name in sidecars), sidecars
