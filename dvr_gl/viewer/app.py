@@ -42,7 +42,7 @@ from .layout import Layout, layout, window_size
 from .refinement import FramePlan, RefinementController
 from .screenshots import write_screenshot
 from .tf_editor import TransferFunctionEditor
-from .timeline import Player, at_step, next_editable, with_transfer_function
+from .timeline import Player, at_step, editable, next_editable, with_transfer_function
 
 imgui = load_imgui()  # before glfw: imgui-bundle points pyGLFW at the GLFW library it ships
 import glfw  # noqa: E402
@@ -184,9 +184,11 @@ class Viewer:
         self.display = ImageDisplay(self.ctx)
         self.scene = self.good_scene = scene
         self.initial_camera = scene.camera
-        self.field_index = 0                  # the field whose transfer function the editor edits
-        self.editor = TransferFunctionEditor(scene.transfer_function)
-        self.tf_version = self.editor.version
+        # the field whose transfer function the editor edits: the first that has a curve (None: only label maps)
+        fields = editable(scene.layers)
+        self.field_index = fields[0] if fields else 0
+        self.editor = TransferFunctionEditor(scene.layers[self.field_index].transfer_function) if fields else None
+        self.tf_version = self.editor.version if self.editor is not None else 0
         self.player = (Player(options.time_steps, options.read_step, step=options.time_step)
                        if options.time_steps > 1 else None)
         self.controller = RefinementController(options.budget_ms / 1e3, self._passes(scene))
@@ -260,7 +262,7 @@ class Viewer:
         self.log.write(event="message", error=error, text=text)
 
     def _sync_editor(self):
-        if self.editor.version == self.tf_version:
+        if self.editor is None or self.editor.version == self.tf_version:
             return
         self.tf_version = self.editor.version
         try:

@@ -188,10 +188,13 @@ class ViewerGui:
         imgui.push_style_var(imgui.StyleVar_.window_rounding, 0.0)
         imgui.begin("dvr view", None, flags)
         imgui.push_item_width(-130)
-        if imgui.collapsing_header("Transfer function", imgui.TreeNodeFlags_.default_open):
+        if imgui.collapsing_header("Transfer function", imgui.TreeNodeFlags_.default_open) and \
+                self.viewer.editor is not None:
             self.transfer_function_section()
         else:
             self._set_canvas(None)
+            if self.viewer.editor is None:  # label maps only: colour tables, not curves
+                imgui.text_disabled("label maps: colours from their tables (transfer_function.labels or a file)")
         if imgui.collapsing_header("Rendering", imgui.TreeNodeFlags_.default_open):
             self.rendering_section()
         if imgui.collapsing_header("View", imgui.TreeNodeFlags_.default_open):

@@ -29,6 +29,7 @@ def series(tmp_path_factory):
     for k in range(3):
         np.save(folder / f"step_{k}.npy", blob(2.0 + 3 * k))
     np.save(folder / "other.npy", blob(5.0))
+    np.save(folder / "seg.npy", (blob(5.0) > 0.5).astype(np.uint8))
     return folder
 
 
@@ -85,3 +86,12 @@ def test_the_editor_edits_the_chosen_fields_transfer_function(series):
 def test_the_help_lists_the_time_and_field_keys():
     text = "\n".join(help_lines())
     assert "play / pause" in text and "next step" in text and "next field" in text
+
+
+def test_a_label_maps_table_is_not_edited_as_a_curve(series):
+    """A label map first, an image second: the editor starts on the image; a label map alone has nothing to edit
+    (the viewer shows its table's colours, and no editor)."""
+    labels_first = source("--labels", series / "seg.npy", series / "other.npy").load().layers
+    assert [layer.role for layer in labels_first] == ["label", "scalar"]
+    assert editable(labels_first) == [1] and next_editable(labels_first, 1) == 1
+    assert editable(source("--labels", series / "seg.npy").load().layers) == []

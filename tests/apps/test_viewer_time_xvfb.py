@@ -127,3 +127,21 @@ def test_n_edits_the_next_fields_transfer_function(xvfb, tmp_path):
     finally:
         v.close()
     assert v.proc.returncode == 0, (tmp_path / "viewer.out").read_text()[-2000:]
+
+
+def test_the_panel_on_a_series_and_on_a_label_map_alone(xvfb, tmp_path):
+    """With the side panel: a series (its play and step buttons) and a label map alone (no curve to edit: the
+    panel says so) open, refine and close (--benchmark)."""
+    from dvr_gl.renderers import registry
+
+    labels = next(n for n, p in registry.plugins().items() if "label" in p.field_roles
+                  and (p.data_kinds is None or "fields" in p.data_kinds))
+    for k in range(2):
+        np.save(tmp_path / f"step_{k}.npy", blob(4.0 + 3 * k))
+    np.save(tmp_path / "seg.npy", (blob(6.0) > 0.5).astype(np.uint8))
+    for argv in ([tmp_path / "step_*.npy"], ["--labels", tmp_path / "seg.npy", "--renderer", labels]):
+        out = subprocess.run([sys.executable, "-m", "dvr_gl.apps.cli", "view", *map(str, argv), "--size", "64x64",
+                              "--benchmark", "0.3"], env=dict(os.environ, DISPLAY=xvfb), capture_output=True,
+                             text=True, cwd=tmp_path, timeout=120)
+        assert out.returncode == 0, out.stderr
+        assert "dvr view benchmark: " in out.stdout and "interactive: " in out.stdout
