@@ -470,7 +470,7 @@ def read_transfer_function_file(path, name: str | None = None, stretch: bool | N
     return prop
 
 
-FILE_SUFFIXES = (".vp", ".xml", ".mrml", ".json")
+FILE_SUFFIXES = (".vp", ".xml", ".mrml", ".json", ".pvsm")  # .pvsm: a 2D transfer function (transfer_function_2d)
 
 
 def is_transfer_function_file(name) -> bool:

@@ -216,3 +216,18 @@ def test_the_2d_histogram_of_a_ramp():
     counts, vr, gr = histogram_2d(data, (2.0, 1.0, 1.0), bins=(8, 2), gradient_range=(0.0, 0.3))
     assert counts.sum() == data.size and vr == (0.0, 3.5) and gr == (0.0, 0.3)
     assert counts[:, 1].tolist() == [0, 12, 12, 12, 12, 12, 12, 0] and counts[[0, -1], 0].tolist() == [12, 12]
+
+
+def test_the_command_line_reads_a_paraview_state(tmp_path, capsys):
+    from conftest import run_cli
+    from judges import DISCRETE
+
+    elements = "".join(f'<Element index="{i}" value="{v}"/>' for i, v in enumerate(BOXES[0]))
+    path = _state(tmp_path, STATE.format(boxes=elements))
+    out = tmp_path / "out.png"
+    code, _, err = run_cli(capsys, "render", "--demo", "shepp-logan", "--transfer-function", path, "--renderer",
+                           DISCRETE, "--size", "8x8", "-o", out)
+    assert code == 0 and out.exists(), err
+    code, _, err = run_cli(capsys, "render", "--demo", "shepp-logan", "--transfer-function", path, "--renderer",
+                           DISCRETE, "--compositing", "mip", "--size", "8x8", "-o", tmp_path / "mip.png")
+    assert code == 1 and "no gradient magnitude" in err and len(err.strip().splitlines()) == 1
