@@ -182,7 +182,8 @@ def names_the_shaders_test() -> set[str]:
 
 def test_every_define_combination_compiles(shared_gl_context, folder):
     make_current(shared_gl_context)
-    axes = {**setting_axes(), "geometry": ({}, {"renderer.geometry": [{"path": str(folder / "triangle.obj")}]})}
+    axes = {**setting_axes(), "geometry": ({}, {"renderer.geometry": [{"path": str(folder / "triangle.obj")}]}),
+            "transfer function 2d": ({}, {"transfer_function.boxes_2d": [[0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.5]]})}
     every = {**axes, **FRAME_AXES}
     scenes = {}
 
