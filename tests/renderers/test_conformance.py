@@ -92,6 +92,33 @@ def test_against_its_oracle(renderers, name, mode, view):
     assert_close(image, oracle)
 
 
+def _cases_2d():
+    """Every renderer with an oracle that classifies grids with a 2D transfer function, in the modes that
+    classify samples along a ray (the others are refused with one)."""
+    for name, plugin in PLUGINS.items():
+        if plugin.oracle is None or "grid" not in plugin.transfer_function_2d:
+            continue
+        for mode in (m for m in plugin.choices("compositing") if m in ("emission_absorption", "xray")):
+            for view in (v for v in VIEWS if v in plugin.projections):
+                yield pytest.param(name, mode, view, id=f"{name}-{mode}-{view}")
+
+
+@pytest.mark.parametrize("name, mode, view", list(_cases_2d()))
+def test_a_2d_transfer_function_against_its_oracle(renderers, name, mode, view):
+    """ParaView's boxes over value and gradient magnitude (docs/transfer-functions.md), shaded, on the phantom."""
+    boxes = [[0.0, 0.0, 0.3, 4.0, 1.0, 0.3, 0.1, 0.9], [0.15, 1.0, 0.9, 8.0, 0.2, 0.4, 1.0, 0.6]]
+    scene = load_scene(None, {"volume.demo": "shepp-logan", "volume.size": 16, "image.width": 20,
+                              "image.height": 20, "renderer.name": name, "renderer.compositing": mode,
+                              "transfer_function.boxes_2d": boxes, "transfer_function.size_2d": [64, 32],
+                              "renderer.shading.enabled": mode == "emission_absorption",
+                              "renderer.ert_threshold": 1.0, **own_filter(name, mode), **VIEWS[view]})
+    registry.check(scene)
+    image = renderers(name).render(scene)
+    oracle = PLUGINS[name].oracle_image(scene)
+    assert np.abs(oracle[..., 3]).max() > 1e-3, "the oracle sees the phantom"
+    assert_close(image, oracle)
+
+
 def test_every_renderer_declares_what_it_renders():
     """What the registry reports about each renderer is consistent: choices among the model's, at least
     one compositing mode, a data kind, a renderer class named as registered."""
