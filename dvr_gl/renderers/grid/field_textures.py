@@ -24,6 +24,7 @@ import moderngl
 import numpy as np
 
 from ...errors import SceneError
+from ...fields import gradient_epsilon
 from ...preintegration import preintegrate
 from ...transfer_function import TransferFunction
 from .textures import FORMATS
@@ -262,3 +263,35 @@ def preintegration_atlas(ctx, transfer_functions, slab_length: float, size: int,
     return PreintegrationAtlas(ctx, [preintegrate(transparent if getattr(tf, "kind", None) == "labels" else tf,
                                                   slab_length, size, method, lut_size)
                                      for tf in transfer_functions])
+
+
+# --- what a frame of several fields binds (the ray caster's and the slicer's) -----------------------------------
+
+def frame_field_textures(frame, scene, defines: dict, slab_length: float) -> tuple[dict, FieldTextures]:
+    """The frame's textures of several fields, kept in ``frame``'s cache (a :class:`~dvr_gl.gl.frame.GLFrame`):
+    the table atlas ``u_field_lut``, the label atlas ``u_field_labels`` (a label member), the pre-integration
+    atlas ``u_field_preint`` of segments ``slab_length`` long (CLASSIFY_PREINTEGRATED); and the members' group
+    textures (:class:`FieldTextures`, bound by its own :meth:`FieldTextures.bind`)."""
+    r, fieldset = scene.renderer, scene.field
+    tfs = tuple(layer.transfer_function for layer in scene.layers)
+    fields = frame._cached("field textures", (fieldset,), lambda: upload_fields(frame.ctx, fieldset))
+    out = {"u_field_lut": frame._cached("field lut", (tfs, r.lut_size), lambda: table_atlas(frame.ctx, tfs,
+                                                                                            r.lut_size))}
+    if any(layer.role == "label" for layer in scene.layers):
+        out["u_field_labels"] = frame._cached("field labels", tfs, lambda: LabelAtlas(frame.ctx, tfs))
+    if "CLASSIFY_PREINTEGRATED" in defines:
+        out["u_field_preint"] = frame._cached(
+            "field preintegration", (tfs, slab_length, r.preintegration_size, r.preintegration, r.lut_size),
+            lambda: preintegration_atlas(frame.ctx, tfs, slab_length, r.preintegration_size, r.preintegration,
+                                         r.lut_size))
+    return out, fields
+
+
+def epsilon_scales(scene) -> list:
+    """Per member: the scene's gradient epsilon (the first member's, ``u_gradient_epsilon``) over the member's
+    own (:func:`dvr_gl.fields.gradient_epsilon`; a label's indicator runs from 0 to 1: 1e-5 per voxel, as
+    :class:`dvr_gl.reference.members.LabelOptics` has it): fields.glsl scales a member's gradient by it for
+    shading (``u_field_epsilon_scale``), so each member meets its own threshold."""
+    first = gradient_epsilon(scene.field)
+    return [first / (1e-5 / layer.field.sample_spacing if layer.role == "label" else gradient_epsilon(layer.field))
+            for layer in scene.layers]

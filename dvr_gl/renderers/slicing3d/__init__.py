@@ -23,7 +23,7 @@ PLUGIN = RendererPlugin(
               s.GRADIENT_OPACITY_REFERENCE, s.LUT_SIZE, s.TEXTURE_BUDGET_MB, s.SHADING, s.SCATTERING, s.CLIPPING,
               s.GEOMETRY),
     data_kinds=("grid", "fields"),
-    field_roles=("scalar",),
+    field_roles=("scalar", "label", "rgb"),
     check="dvr_gl.renderers.slicing3d.fields:check",
     needs_gl=True,
     oracle="dvr_gl.renderers.slicing3d.oracle:oracle",

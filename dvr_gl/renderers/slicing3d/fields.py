@@ -20,10 +20,9 @@ import numpy as np
 
 from ... import limits
 from ...errors import SceneError
-from ...fields import gradient_epsilon
 from ...gl.shaders import create_program
 from ..grid.classification import classification_features
-from ..grid.field_textures import preintegration_atlas, table_atlas, upload_fields
+from ..grid.field_textures import epsilon_scales, frame_field_textures
 from ..grid.slicing import SHADERS
 
 
@@ -55,20 +54,10 @@ def check(scene):
 NOT_FOR_FIELDS = ("GRADIENT_TEXTURE", "CLASSIFY_PRE", "ASSOCIATED_COLORS")
 
 
-def fields_defines(scene, textures) -> dict:
-    """The defines of the fields' program: the single field's classification features (filter, shading,
-    gradient opacity, clipping, geometry) but :data:`NOT_FOR_FIELDS`, and the fields' own
-    (:meth:`FieldTextures.defines`)."""
-    defines = {k: v for k, v in classification_features(scene).items() if k not in NOT_FOR_FIELDS}
-    return {**defines, **textures.defines()}
-
-
-def epsilon_scales(scene) -> list:
-    """Per member: the scene's gradient epsilon (the first member's, ``u_gradient_epsilon``) over the member's
-    own (:func:`dvr_gl.fields.gradient_epsilon`); fields.glsl scales a member's gradient by it for shading, so
-    each member meets its own threshold."""
-    first = gradient_epsilon(scene.field)
-    return [first / gradient_epsilon(layer.field) for layer in scene.layers]
+def fields_defines(scene) -> dict:
+    """The single field's classification features (filter, shading, gradient opacity, clipping, geometry) but
+    :data:`NOT_FOR_FIELDS`: what the fields' program takes beside the fields' own (:meth:`FieldTextures.defines`)."""
+    return {k: v for k, v in classification_features(scene).items() if k not in NOT_FOR_FIELDS}
 
 
 def draw_fields(renderer, scene, surfaces: dict) -> np.ndarray:
@@ -76,23 +65,16 @@ def draw_fields(renderer, scene, surfaces: dict) -> np.ndarray:
     ``surfaces``: the meshes' layer, :mod:`dvr_gl.renderers.surfaces`)."""
     renderer.activate()
     start = now()
-    r, ctx = scene.renderer, renderer.ctx
+    ctx = renderer.ctx
     side = limits.gl_limits(ctx).texture_3d_size
     for m in scene.field.members:
         if max(m.field.dims) > side:
             raise SceneError(f"{m.name}: {max(m.field.dims)} voxels along an axis, more than this GL's 3D textures "
                              f"hold ({side}); several fields are not bricked: resample it or render it alone")
-    textures = renderer._cached("field textures", (scene.field,), lambda: upload_fields(ctx, scene.field))
-    tfs = tuple(layer.transfer_function for layer in scene.layers)
-    defines = fields_defines(scene, textures)
+    defines = fields_defines(scene)
+    tables, textures = frame_field_textures(renderer, scene, defines, renderer.slab_length(scene))
+    defines.update(textures.defines())
     program = create_program(ctx, "slice.vert", "slice.frag", defines, roots=SHADERS)
-    tables = {"u_field_lut": renderer._cached("field luts", (tfs, r.lut_size),
-                                              lambda: table_atlas(ctx, tfs, r.lut_size))}
-    slab = renderer.slab_length(scene)
-    if "CLASSIFY_PREINTEGRATED" in defines:
-        tables["u_field_preint"] = renderer._cached(
-            "field preintegration", (tfs, slab, r.preintegration_size, r.preintegration, r.lut_size),
-            lambda: preintegration_atlas(ctx, tfs, slab, r.preintegration_size, r.preintegration, r.lut_size))
     uniforms = {**renderer.camera_uniforms(scene), **renderer.optics_uniforms(scene, tables["u_field_lut"].luts[0]),
                 **renderer.view_uniforms(scene), **textures.uniforms(),
                 "u_field_epsilon_scale": epsilon_scales(scene)}

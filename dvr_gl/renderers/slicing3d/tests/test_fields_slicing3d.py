@@ -16,8 +16,10 @@ import slice_checks as checks
 from conftest import assert_close
 from dvr_gl.api import scene_of
 from dvr_gl.errors import SceneError
+from dvr_gl.fields.color import ColorVolume
 from dvr_gl.fields.grid import Volume
 from dvr_gl.fields.layers import Member
+from dvr_gl.labels import LabelTable
 from dvr_gl.rays import intersect_box
 from dvr_gl.renderers import registry
 from dvr_gl.transfer_function import TransferFunction
@@ -187,11 +189,35 @@ def test_several_fields_refuse_what_slicing_cannot_mix(keywords, message):
         registry.check(scene)
 
 
-def test_a_label_member_is_refused_until_labels_are_wired():
-    a = _constant(0.5, (0, 0, 0), (3, 3, 3), (4, 4, 4), "a")
-    labels = Volume(np.ones((4, 4, 4), np.uint8), name="labels")
-    scene = scene_of([a, Member(labels, "label")], renderer=NAME, size=(8, 8))
-    assert registry.refusal(scene) is not None and "label" in registry.refusal(scene)
+# A label map beside a scalar field (an image with its segmentation) and a colour volume on its own grid.
+_Z, _Y, _X = np.mgrid[0:10, 0:11, 0:12].astype(np.float32)
+WAVES = Volume((0.5 + 0.5 * np.sin(_X / 2.0) * np.cos(_Y / 3.0) * np.cos(_Z / 2.5)).astype(np.float32), name="waves")
+WAVES_TF = [[0, 0.9, 0.6, 0.2, 0.0], [0.5, 0.9, 0.6, 0.2, 0.3], [1, 0.3, 0.3, 1.0, 0.6]]
+LABELS = np.zeros((10, 11, 12), np.uint8)
+LABELS[3:8, 2:9, 4:10], LABELS[5:10, 6:11, 2:7], LABELS[1:4, 1:5, 8:12] = 1, 2, 3
+TABLE = LabelTable([1, 2, 3], [[1, 0.2, 0.2], [0.2, 1, 0.2], [0.2, 0.2, 1]], [0.5, 0.8, 0.0])  # 3: transparent
+COLOUR = ColorVolume(np.stack([_X / 12, _Y / 11, _Z / 10, np.clip((_X + _Y) / 23, 0, 1)], -1).astype(np.float32),
+                     spacing=(1.1, 0.9, 1.0), origin=(1.0, 0.5, 0.0))
+COLOUR_TF = TransferFunction(np.array([[0, 1, 1, 1, 0.0], [1, 1, 1, 1, 0.5]]))
+ROLES = {"scalar and label": ([WAVES, Member(Volume(LABELS), "label")], [WAVES_TF, TABLE]),
+         "scalar and rgb": ([WAVES, Member(COLOUR, "rgb")], [WAVES_TF, COLOUR_TF]),
+         "label and rgb": ([Member(Volume(LABELS), "label"), Member(COLOUR, "rgb")], [TABLE, COLOUR_TF])}
+ROLE_MODES = [{}, {"shading": True}, {"classification": "preintegrated"}, {"filter": "nearest"},
+              {"projection": "orthographic", "gradient_opacity": True}]
+
+
+@pytest.mark.parametrize("mode", ROLE_MODES, ids=["-".join(map(str, m.values())) or "post" for m in ROLE_MODES])
+@pytest.mark.parametrize("fields", list(ROLES), ids=list(ROLES))
+def test_label_and_rgb_members_match_the_same_plane_reference(slicer, fields, mode):
+    """Label members by the label rule (common/labels.glsl: never a label no tap holds; pre-integrated: the
+    class at the slice over its slab), shaded by their indicator; rgb members' colour from the data, extinction
+    from their x.  Measured max 1.1e-6, but for one pixel of the 320 in perspective, off by 0.02: the scalar
+    field rendered alone (one field, the old path) shows the same pixel."""
+    data, tfs = ROLES[fields]
+    scene = scene_of(data, transfer_function=tfs, renderer=NAME, size=(20, 16), ert_threshold=1.0, **mode)
+    reference = checks.same_planes(scene, NAME)
+    assert reference[..., 3].max() > 0.1
+    assert_close(slicer.render(scene), reference)
 
 
 def _centred_fields():
