@@ -55,9 +55,10 @@ def check(scene) -> None:
         if r.compositing in PROJECTIONS and layer.role != "scalar":
             raise SceneError(f"{name}: renderer.compositing = {r.compositing} projects each scalar field; a "
                              f"{layer.role} field has no value to project: use emission_absorption or isosurface")
-        if layer.role == "rgb" and getattr(r, "hemispherical_shading", False):
-            raise SceneError(f"{name}: hemispherical shading shades a transfer function's emission, and a "
-                             f"colour volume's is its data's: turn renderer.hemispherical_shading off")
+        if layer.role != "scalar" and getattr(r, "hemispherical_shading", False):
+            raise SceneError(f"{name}: hemispherical shading shades a transfer function's emission over a scalar "
+                             f"grid, and a {layer.role} field's is its data's or its table's: turn "
+                             f"renderer.hemispherical_shading off")
     scattering = getattr(r, "scattering", None)
     if scattering is not None and scattering.enabled:
         raise SceneError("several fields: the CPU references do not light the mixture by scattering; set "

@@ -252,6 +252,10 @@ def test_what_the_mixture_does_not_define_is_refused_in_one_line(judge):
         render(judge, scene([box_volume(), labels], [tfs[0], LabelTable.from_rows([[3, *RED, 0.5]])], judge,
                             compositing="mip"))
     assert "\n" not in str(refused.value)
+    if judge == CONVERGED:  # the X-ray's hemispherical shading (a converged reference's option)
+        with pytest.raises(SceneError, match="hemispherical shading"):
+            render(judge, scene([box_volume(), labels], [tfs[0], LabelTable.from_rows([[3, *RED, 0.5]])], judge,
+                                compositing="xray", hemispherical_shading=True))
 
 
 def test_back_to_front_equals_front_to_back_on_several_fields():
