@@ -1,9 +1,10 @@
 """Several fields in the references (data kind ``"fields"``, :mod:`dvr_gl.fields.layers`): the mixture of the
 members' optical models, in float64.
 
-Each member is classified by a single-field :class:`~dvr_gl.reference.model.OpticalModel` of its own scene
-(its grid, its transfer function, its iso-value; the scene's filter, classification, shading and gradient
-opacity), and contributes only inside its own box (closed; world units, the volume frame).  The rays and
+Each member is classified by its role's model in its own scene (:mod:`.members`: a scalar's single-field
+:class:`~dvr_gl.reference.model.OpticalModel` of its grid, transfer function and iso-value with the scene's
+filter, classification, shading and gradient opacity; a label map's table; a colour volume's data), and
+contributes only inside its own box (closed; world units, the volume frame).  The rays and
 their segments span the union of the boxes.  The mixture at a point (docs/several-fields.md):
 
 * emission-absorption and the X-ray: extinctions add and emissions add, ``sigma = sum_i sigma_i`` and
@@ -122,8 +123,8 @@ class Mixture:
                 m.model.depth_cue = cue
 
     def _mixed(self, points, *arguments, call):
-        """``(sum_i sigma_i c_i, sum_i sigma_i)`` of ``call(member, inside, points, *arguments)``, which
-        gives member i's ``(sigma_i c_i, sigma_i)`` at the points inside its box."""
+        """``(sum_i sigma_i c_i, sum_i sigma_i)`` of ``call(member, points, *arguments)``, which gives member
+        i's ``(sigma_i c_i, sigma_i)`` at the points (and arguments) inside its box."""
         emitted = np.zeros((len(points), 3))
         sigma = np.zeros(len(points))
         for m in self.members:
