@@ -481,7 +481,8 @@ def is_transfer_function_file(name) -> bool:
 def _warn_unmodelled(prop) -> None:
     if not gradient_opacity_is_constant(prop):
         warnings.warn(f"{prop.source}: its gradient opacity is not modelled and is dropped (the image shows "
-                      f"more of the flat regions than in Slicer; docs/transfer-functions.md)", stacklevel=3)
+                      f"more of the flat regions than in Slicer; a 2D transfer function models it: "
+                      f"TransferFunction2D.from_gradient_factor, docs/transfer-functions.md)", stacklevel=3)
     if prop.interpolation == 0:
         warnings.warn(f"{prop.source}: nearest-neighbour interpolation is not applied from the file; set "
                       f"renderer.filter = \"nearest\" for it", stacklevel=3)

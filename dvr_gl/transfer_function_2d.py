@@ -160,6 +160,29 @@ class TransferFunction2D(TransferFunction):
         none = np.column_stack([full[:, :3], np.zeros(len(full))])
         return cls(np.stack([none, full], axis=1), lut.domain, (0.0, ref), tf.unit_distance, "extinction")
 
+    @classmethod
+    def from_gradient_factor(cls, tf: TransferFunction, factor, size: int = 4096, gradient_nodes: int = 64):
+        """VTK's and Slicer's gradient opacity: ``tf``'s alpha times a piecewise-linear factor of ``g``, ``factor``
+        rows ``(|gradient|, factor in [0, 1])`` (a Slicer preset's ``gradient_opacity``; constant beyond the
+        rows), as a table of ``size`` value nodes (the 1D table's) by ``gradient_nodes`` evenly spaced over the
+        rows' span (the factor is exact where its knots fall on nodes, linear between them otherwise).
+        ``tf`` in the alpha model: the product is of opacities, as VTK's."""
+        f = np.array(factor, np.float64)
+        if f.ndim != 2 or f.shape[1] != 2 or len(f) < 1 or not np.isfinite(f).all() or np.any(np.diff(f[:, 0]) < 0) \
+                or f[:, 1].min() < 0 or f[:, 1].max() > 1:
+            raise SceneError("a gradient opacity must be rows (|gradient|, factor): finite, |gradient| increasing, "
+                             "factor in [0, 1]")
+        if tf.opacity_model != "alpha":
+            raise SceneError("from_gradient_factor multiplies alpha by the factor: give a transfer function in alpha")
+        lo, hi = max(float(f[0, 0]), 0.0), float(f[-1, 0])
+        hi = hi if hi > lo else lo + 1.0
+        g = np.linspace(lo, hi, int(gradient_nodes))
+        values = np.linspace(*tf.tabulate(2).domain, int(size))
+        alpha = tf.opacity(values)[:, None] * np.interp(g, f[:, 0], f[:, 1])[None, :]
+        colour = np.broadcast_to(tf.color(values)[:, None, :], alpha.shape + (3,))
+        return cls(np.concatenate([colour, alpha[..., None]], axis=-1), (values[0], values[-1]), (lo, hi),
+                   tf.unit_distance, "alpha")
+
 
 @dataclass(frozen=True, eq=False)
 class TransferFunction2DLUT:

@@ -231,3 +231,17 @@ def test_the_command_line_reads_a_paraview_state(tmp_path, capsys):
     code, _, err = run_cli(capsys, "render", "--demo", "shepp-logan", "--transfer-function", path, "--renderer",
                            DISCRETE, "--compositing", "mip", "--size", "8x8", "-o", tmp_path / "mip.png")
     assert code == 1 and "no gradient magnitude" in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_slicer_gradient_opacity_is_one_case_too():
+    """Slicer's and VTK's gradient opacity (alpha times a factor of |gradient|) as a table: at the nodes, the
+    1D alpha times the factor exactly; with the factor's knots on gradient nodes, exact between them too."""
+    tf = TransferFunction(np.array(POINTS, float))
+    factor = [[0.0, 0.0], [2.0, 0.5], [4.0, 1.0]]  # knots at 0, 2 and 4: on the nodes of 0..4 by 5
+    two = TransferFunction2D.from_gradient_factor(tf, factor, size=11, gradient_nodes=5)
+    v, g = np.array([0.1, 0.35, 0.9, 0.5]), np.array([1.0, 3.0, 9.0, 0.5])
+    _, sigma = two.evaluate_2d(v, g)
+    alpha = tf.opacity(v) * np.interp(g, [0, 2, 4], [0, 0.5, 1.0])
+    np.testing.assert_allclose(sigma, -np.log1p(-alpha), rtol=1e-12)  # the 1D points are on the value nodes
+    with pytest.raises(SceneError, match="factor in"):
+        TransferFunction2D.from_gradient_factor(tf, [[0, 2.0]])
