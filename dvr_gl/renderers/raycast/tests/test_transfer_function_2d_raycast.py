@@ -50,3 +50,20 @@ def test_boxes_match_the_reference(gpu, extra):
     reference = DiscreteReference(scene).render_float64()
     assert reference[..., 3].max() > 0.1
     assert_close(gpu.render(scene), reference)
+
+
+def test_several_fields_with_a_2d_transfer_function_are_refused_in_one_line():
+    """The ray caster's several-fields path classifies members by value alone (for now): a 2D member is refused,
+    naming the renderers that take it, never rendered by its value marginal."""
+    from dvr_gl.api import scene_of
+    from dvr_gl.errors import SceneError
+    from dvr_gl.renderers import registry
+    from dvr_gl.transfer_function import TransferFunction
+
+    a = np.random.default_rng(0).random((8, 8, 8)).astype(np.float32)
+    tf = TransferFunction(np.array(POINTS, float))
+    scene = scene_of([a, a], transfer_function=[tf, TransferFunction2D.from_gradient_opacity(tf, 2.0, 64)],
+                     renderer="raycast", size=(8, 8))
+    with pytest.raises(SceneError, match="by value alone.*use reference") as info:
+        registry.check(scene)
+    assert "\n" not in str(info.value)
