@@ -18,9 +18,8 @@ import numpy as np
 
 from ... import limits
 from ...errors import SceneError
-from ...fields import gradient_epsilon
 from ...gl.shaders import create_program
-from ..grid.field_textures import LabelAtlas, preintegration_atlas, table_atlas, upload_fields
+from ..grid.field_textures import epsilon_scales, frame_field_textures
 from . import acceleration as accel
 from . import ray_bounds
 
@@ -44,24 +43,6 @@ def fields_features(scene, shader_features) -> dict:
     off = dataclasses.replace(scene, renderer=dataclasses.replace(scene.renderer, acceleration="off"))
     defines = {k: v for k, v in shader_features(off).items() if k not in NOT_FOR_FIELDS}
     return defines
-
-
-def field_textures(frame, scene, defines: dict) -> dict:
-    """The frame's textures of several fields, kept in ``frame``'s cache: the members' group textures, their
-    table atlas and (CLASSIFY_PREINTEGRATED) pre-integration atlas."""
-    r, fieldset = scene.renderer, scene.field
-    tfs = tuple(layer.transfer_function for layer in scene.layers)
-    fields = frame._cached("field textures", (fieldset,), lambda: upload_fields(frame.ctx, fieldset))
-    out = {"u_field_lut": frame._cached("field lut", (tfs, r.lut_size),
-                                                               lambda: table_atlas(frame.ctx, tfs, r.lut_size))}
-    if any(layer.role == "label" for layer in scene.layers):
-        out["u_field_labels"] = frame._cached("field labels", tfs, lambda: LabelAtlas(frame.ctx, tfs))
-    if "CLASSIFY_PREINTEGRATED" in defines:
-        out["u_field_preint"] = frame._cached(
-            "field preintegration", (tfs, r.sample_distance, r.preintegration_size, r.preintegration, r.lut_size),
-            lambda: preintegration_atlas(frame.ctx, tfs, r.sample_distance, r.preintegration_size,
-                                         r.preintegration, r.lut_size))
-    return out, fields
 
 
 def member_occupancy(frame, scene, i: int, lut, snap) -> np.ndarray:
@@ -127,16 +108,6 @@ def _faces(renderer, scene, occupancy) -> ray_bounds.BoundsFaces:
                           scene.field.box)
 
 
-def epsilon_scales(scene) -> list:
-    """Per member: the scene's gradient epsilon (the first member's) over the member's own
-    (:func:`dvr_gl.fields.gradient_epsilon`; a label's: 1e-5 per voxel), by which fields.glsl scales its
-    gradient for shading."""
-    first = gradient_epsilon(scene.field)
-    # a label's indicator runs from 0 to 1 (dvr_gl.reference.members.LabelOptics)
-    return [first / (1e-5 / layer.field.sample_spacing if layer.role == "label" else gradient_epsilon(layer.field))
-            for layer in scene.layers]
-
-
 def draw_fields(renderer, scene, surfaces: dict, shader_features):
     """The frame of a scene of several fields (``renderer``: the :class:`.renderer.RayCastRenderer`;
     ``surfaces``: the geometry layer's texture, if any)."""
@@ -148,7 +119,7 @@ def draw_fields(renderer, scene, surfaces: dict, shader_features):
                              f"than this GL's 3D textures hold ({side}); several fields are not bricked: resample "
                              f"it or render it alone")
     defines = fields_features(scene, shader_features)
-    textures, fields = field_textures(renderer, scene, defines)
+    textures, fields = frame_field_textures(renderer, scene, defines, scene.renderer.sample_distance)
     defines.update(fields.defines())
     defines, bounds = bound_rays(renderer, scene, defines, textures)
     program = create_program(renderer.ctx, "fullscreen.vert", renderer.fragment_shader, defines,
