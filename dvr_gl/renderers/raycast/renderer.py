@@ -28,6 +28,7 @@ from ...gl.geometry import gl_matrix, projection_matrix, view_matrix
 from ...gl.shaders import create_program, shader_root
 from ...orientation import volume_frame_scene
 from ...scene.settings import shadow_step
+from ...transfer_function_2d import is_2d
 from ..grid.bricking import ghost_width, plan_bricks, visibility_order
 from ..grid.classification import classification_features
 from ..grid.sampling import GridRenderer
@@ -88,6 +89,7 @@ def shader_features(scene, count_samples: bool = False, bricked: bool = False) -
     xray = r.compositing == "xray"
     emission = r.compositing == "emission_absorption" or xray
     defines = classification_features(scene)
+    defines["TRANSFER_FUNCTION_2D"] = scene.field.kind == "grid" and is_2d(scene.transfer_function)
     defines[COMPOSITING[r.compositing]] = True
     if xray:  # absorption only: no shading, no gradient opacity (dvr_gl.reference.model), nothing terminates
         for key in ("SHADING", "NUM_LIGHTS", "TWO_SIDED", "GRADIENT_TEXTURE", "GRADIENT_OPACITY", "SCATTERING",
