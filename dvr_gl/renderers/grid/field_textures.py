@@ -66,20 +66,8 @@ class FieldTextures:
         return sum(g.nbytes for g in self.groups)
 
     def defines(self) -> dict:
-        """``FIELDS``, ``NUM_FIELDS`` (members), ``NUM_FIELD_GROUPS`` (textures) and the members' texture,
-        channel and role (:data:`ROLE_CODES`) as constant lists (``FIELD_GROUP_OF``, ``FIELD_CHANNEL_OF``,
-        ``FIELD_ROLE_OF``: compile-time, so samplers are indexed by constants as GLSL 3.30 requires); with
-        ``FIELD_LABELS`` and ``FIELD_RGB`` where a member has that role.  An rgb member's channel is 3, its
-        ``x`` (the value its transfer function reads); its colour is the texture's r, g, b."""
-        out = {"FIELDS": True, "NUM_FIELDS": len(self.group), "NUM_FIELD_GROUPS": len(self.groups),
-               "FIELD_GROUP_OF": ", ".join(str(g) for g in self.group),
-               "FIELD_CHANNEL_OF": ", ".join(str(c) for c in self.channel),
-               "FIELD_ROLE_OF": ", ".join(str(ROLE_CODES[r]) for r in self.roles)}
-        if "label" in self.roles:
-            out["FIELD_LABELS"] = True
-        if "rgb" in self.roles:
-            out["FIELD_RGB"] = True
-        return out
+        """:func:`field_defines` of these textures."""
+        return field_defines(self.group, self.channel, self.roles)
 
     def bind(self, program, first_unit: int) -> int:
         """Bind the group textures to units ``first_unit``, ``first_unit + 1``, ... and the sampler array
@@ -109,6 +97,32 @@ class FieldTextures:
     def release(self):
         for g in self.groups:
             g.texture.release()
+
+
+def field_defines(group, channel, roles) -> dict:
+    """``FIELDS``, ``NUM_FIELDS`` (members), ``NUM_FIELD_GROUPS`` (textures) and the members' texture,
+    channel and role (:data:`ROLE_CODES`) as constant lists (``FIELD_GROUP_OF``, ``FIELD_CHANNEL_OF``,
+    ``FIELD_ROLE_OF``: compile-time, so samplers are indexed by constants as GLSL 3.30 requires); with
+    ``FIELD_LABELS`` and ``FIELD_RGB`` where a member has that role.  An rgb member's channel is 3, its
+    ``x`` (the value its transfer function reads); its colour is the texture's r, g, b."""
+    out = {"FIELDS": True, "NUM_FIELDS": len(group), "NUM_FIELD_GROUPS": max(group) + 1,
+           "FIELD_GROUP_OF": ", ".join(str(g) for g in group),
+           "FIELD_CHANNEL_OF": ", ".join(str(c) for c in channel),
+           "FIELD_ROLE_OF": ", ".join(str(ROLE_CODES[r]) for r in roles)}
+    if "label" in roles:
+        out["FIELD_LABELS"] = True
+    if "rgb" in roles:
+        out["FIELD_RGB"] = True
+    return out
+
+
+def fieldset_defines(fieldset, per_texture: int = 4) -> dict:
+    """:func:`field_defines` of a FieldSet as :func:`upload_fields` would upload it (nothing uploaded)."""
+    group, channel = [0] * len(fieldset), [0] * len(fieldset)
+    for g, indices in enumerate(fieldset.groups(per_texture)):
+        for c, i in enumerate(indices):
+            group[i], channel[i] = g, 3 if fieldset.members[i].role == "rgb" else c
+    return field_defines(group, channel, [m.role for m in fieldset.members])
 
 
 def upload_fields(ctx, fieldset, per_texture: int = 4) -> FieldTextures:

@@ -19,7 +19,7 @@ import numpy as np
 from ... import limits
 from ...errors import SceneError
 from ...gl.shaders import create_program
-from ..grid.field_textures import epsilon_scales, frame_field_textures
+from ..grid.field_textures import epsilon_scales, fieldset_defines, frame_field_textures
 from . import acceleration as accel
 from . import ray_bounds
 
@@ -38,10 +38,20 @@ NOT_FOR_FIELDS = ("GRADIENT_TEXTURE", "CLASSIFY_PRE", "ASSOCIATED_COLORS")
 
 
 def fields_features(scene, shader_features) -> dict:
-    """The defines of a frame of several fields: the single-field ones of the same settings (``shader_features``
-    of the scene with acceleration off) without :data:`NOT_FOR_FIELDS`, with the fields' own."""
+    """The defines of a frame of several fields before its textures' (:meth:`FieldTextures.defines`) and the
+    ray bounds: the single-field ones of the same settings (``shader_features`` of the scene with acceleration
+    off) without :data:`NOT_FOR_FIELDS`."""
     off = dataclasses.replace(scene, renderer=dataclasses.replace(scene.renderer, acceleration="off"))
     defines = {k: v for k, v in shader_features(off).items() if k not in NOT_FOR_FIELDS}
+    return defines
+
+
+def frame_features(scene, shader_features, bounded: bool) -> dict:
+    """Every define a frame of several fields may have, without uploading anything (the shader-variant
+    tests): :func:`fields_features`, the fields' own, and RAY_BOUNDS where ``bounded`` (emission and X-ray)."""
+    defines = {**fields_features(scene, shader_features), **fieldset_defines(scene.field)}
+    if bounded and "COMPOSITE_EMISSION" in defines:
+        defines["RAY_BOUNDS"] = True
     return defines
 
 

@@ -37,6 +37,7 @@ from dvr_gl.gl.context import make_current
 from dvr_gl.gl.shaders import create_program
 from dvr_gl.renderers import registry
 from dvr_gl.renderers.raycast.acceleration import MAX_LEVELS
+from dvr_gl.renderers.raycast.fields import frame_features
 from dvr_gl.renderers.raycast.renderer import BLOCK_SKIPPING_DEFINES, SHADERS, SKIPPING_DEFINES, shader_features
 from dvr_gl.scene.model import PHASE_FUNCTIONS, SCATTERING_METHODS
 from dvr_gl.scene.resolve import load_scene
@@ -75,8 +76,25 @@ FRAME_AXES = {"count_samples": (False, True), "bricked": (False, True),
               "skipping": ("blocks", "blocks and bounds", "bounds only"), "levels": tuple(range(1, MAX_LEVELS + 1))}
 
 
+# The axis of several fields (dvr_gl/renderers/raycast/fields.py): none, two channels on one grid, a scalar, a
+# label map and a colour volume; their frames are never bricked, count nothing and bound their rays or not.
+FIELDS = "several fields"
+
+
+def field_tables(folder: Path, which: str | None) -> list:
+    """The [[volume]] tables of a case of several fields (none: one field)."""
+    if which is None:
+        return []
+    if which == "two channels":
+        return [{"path": str(folder / "volume.npy")}, {"path": str(folder / "volume.npy")}]
+    return [{"path": str(folder / "volume.npy")}, {"path": str(folder / "labels.npy"), "role": "label"},
+            {"path": str(folder / "colour.npy"), "role": "rgb"}]
+
+
 def frame_defines(scene, count_samples: bool, bricked: bool, skipping: str, levels: int) -> dict:
     """The defines of a frame of ``scene`` that decided so (a define it cannot add is left out)."""
+    if scene.field.kind == "fields":
+        return frame_features(scene, shader_features, skipping != "blocks")
     defines = shader_features(scene, count_samples, bricked)
     if "ACCELERATE" in defines:
         defines["NUM_LEVELS"] = levels
@@ -145,9 +163,13 @@ class Cases:
 
 @pytest.fixture(scope="module")
 def folder(tmp_path_factory) -> Path:
-    """An 8^3 volume (saved once: no phantom to build per case) and a one-triangle mesh."""
+    """An 8^3 volume (saved once: no phantom to build per case), a label map and a colour volume beside it,
+    and a one-triangle mesh."""
     folder = tmp_path_factory.mktemp("variants")
-    np.save(folder / "volume.npy", np.random.default_rng(1).random((8, 8, 8), dtype=np.float32))
+    rng = np.random.default_rng(1)
+    np.save(folder / "volume.npy", rng.random((8, 8, 8), dtype=np.float32))
+    np.save(folder / "labels.npy", (rng.random((8, 8, 8)) * 3).astype(np.uint8))
+    np.save(folder / "colour.npy", rng.random((8, 8, 8, 4), dtype=np.float32))
     (folder / "triangle.obj").write_text("v 1 1 1\nv 6 1 1\nv 1 6 6\nf 1 2 3\n")
     return folder
 
@@ -183,7 +205,8 @@ def names_the_shaders_test() -> set[str]:
 def test_every_define_combination_compiles(shared_gl_context, folder):
     make_current(shared_gl_context)
     axes = {**setting_axes(), "geometry": ({}, {"renderer.geometry": [{"path": str(folder / "triangle.obj")}]}),
-            "transfer function 2d": ({}, {"transfer_function.boxes_2d": [[0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.5]]})}
+            "transfer function 2d": ({}, {"transfer_function.boxes_2d": [[0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.5]]}),
+            "fields": ({}, {FIELDS: "two channels"}, {FIELDS: "three roles"})}
     every = {**axes, **FRAME_AXES}
     scenes = {}
 
@@ -195,8 +218,11 @@ def test_every_define_combination_compiles(shared_gl_context, folder):
             overrides = {"volume.path": str(folder / "volume.npy"), "image.width": 8, "image.height": 8}
             for values, v in zip(axes.values(), key):
                 overrides.update(values[v])
+            tables = field_tables(folder, overrides.pop(FIELDS, None))
+            if tables:
+                del overrides["volume.path"]
             try:
-                scenes[key] = load_scene(None, overrides)
+                scenes[key] = load_scene(None, overrides, base={"volume": tables} if tables else None)
                 registry.check(scenes[key], "raycast")  # its settings, traits and own check
             except SceneError:
                 scenes[key] = None
