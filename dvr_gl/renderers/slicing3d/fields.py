@@ -5,7 +5,10 @@ in its own 3D texture (fields on one grid travel together, up to four channels a
 :mod:`dvr_gl.renderers.grid.field_textures`), classified by its own transfer function, shaded by its own
 gradient, and mixed (extinctions add, emissions add; a field contributes only inside its box,
 ``common/fields.glsl``); the slabs are blended back to front with the over operator, as for one field.
-Pre-integrated classification mixes the fields' own tables by the contract's rule.
+Pre-integrated classification mixes the fields' own tables by the contract's rule.  A label member is
+classified by the label rule (``common/labels.glsl``) and its colour table, an rgb member by the data's colour
+and its transfer function of ``x``, as in the ray caster (the same GLSL, the same tables:
+:func:`~dvr_gl.renderers.grid.field_textures.frame_field_textures`).
 
 What the mixture cannot take here is refused in one line (:func:`check`): pre-classified voxels, scattering
 (half-angle slicing and the light volume march one field), and fields whose textures exceed the texture budget
