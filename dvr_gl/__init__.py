@@ -4,8 +4,9 @@ The Python API in one line: ``dvr_gl.render(data, ...)`` (:func:`render`) takes 
 ``[z, y, x]``, a field, a volume or scene file, or a :class:`Scene`, and returns an :class:`Image`
 (inline in Jupyter; ``.rgba``, ``.srgb8()``, ``.save()``).  The parts: :class:`Scene` and
 :func:`load_scene`; the fields (:class:`Volume`, a regular grid; :class:`Field`, the protocol every
-data kind implements); :class:`TransferFunction` (and :class:`TransferFunction2D`, over value and gradient
-magnitude); :class:`Camera`; the renderers
+data kind implements; several fields in one scene: :class:`FieldSet` of :class:`Member` s, a label map's
+:class:`LabelTable`, a :class:`ColorVolume`); :class:`TransferFunction` (and :class:`TransferFunction2D`, over
+value and gradient magnitude); :class:`Camera`; the renderers
 (:func:`create_renderer`, and :mod:`dvr_gl.renderers.registry` for what is registered).
 """
 
@@ -15,12 +16,16 @@ from .api import Image, render, scene_of  # noqa: E402
 from .camera import Camera  # noqa: E402
 from .errors import DvrError, SceneError, VolumeError  # noqa: E402
 from .fields import Field, ParticleSet, SphereField, Volume  # noqa: E402
+from .fields.color import ColorVolume  # noqa: E402
+from .fields.layers import FieldSet, Member  # noqa: E402
 from .io import load_field, load_volume  # noqa: E402
+from .labels import LabelTable  # noqa: E402
 from .renderers import create_renderer, registry  # noqa: E402
 from .scene.resolve import Scene, load_scene  # noqa: E402
 from .transfer_function import PRESETS, TransferFunction, preset  # noqa: E402
 from .transfer_function_2d import TransferFunction2D  # noqa: E402
 
-__all__ = ["Camera", "DvrError", "Field", "Image", "PRESETS", "ParticleSet", "Scene", "SceneError", "SphereField",
-           "TransferFunction", "TransferFunction2D", "Volume", "VolumeError", "create_renderer", "load_field",
-           "load_scene", "load_volume", "preset", "registry", "render", "scene_of", "__version__"]
+__all__ = ["Camera", "ColorVolume", "DvrError", "Field", "FieldSet", "Image", "LabelTable", "Member", "PRESETS",
+           "ParticleSet", "Scene", "SceneError", "SphereField", "TransferFunction", "TransferFunction2D", "Volume",
+           "VolumeError", "create_renderer", "load_field", "load_scene", "load_volume", "preset", "registry", "render",
+           "scene_of", "__version__"]
