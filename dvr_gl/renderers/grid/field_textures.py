@@ -67,7 +67,7 @@ class FieldTextures:
 
     def defines(self) -> dict:
         """:func:`field_defines` of these textures."""
-        return field_defines(self.group, self.channel, self.roles)
+        return field_defines(self.group, self.channel, self.roles, _same_boxes([g.box for g in self.groups]))
 
     def bind(self, program, first_unit: int) -> int:
         """Bind the group textures to units ``first_unit``, ``first_unit + 1``, ... and the sampler array
@@ -99,12 +99,21 @@ class FieldTextures:
             g.texture.release()
 
 
-def field_defines(group, channel, roles) -> dict:
+def _same_boxes(boxes) -> bool:
+    lo0, hi0 = boxes[0]
+    scale = float(np.max(np.abs(np.subtract(hi0, lo0)))) or 1.0
+    return all(np.allclose(lo, lo0, rtol=0, atol=1e-9 * scale) and np.allclose(hi, hi0, rtol=0, atol=1e-9 * scale)
+               for lo, hi in boxes)
+
+
+def field_defines(group, channel, roles, share_box: bool = False) -> dict:
     """``FIELDS``, ``NUM_FIELDS`` (members), ``NUM_FIELD_GROUPS`` (textures) and the members' texture,
     channel and role (:data:`ROLE_CODES`) as constant lists (``FIELD_GROUP_OF``, ``FIELD_CHANNEL_OF``,
     ``FIELD_ROLE_OF``: compile-time, so samplers are indexed by constants as GLSL 3.30 requires); with
     ``FIELD_LABELS`` and ``FIELD_RGB`` where a member has that role.  An rgb member's channel is 3, its
-    ``x`` (the value its transfer function reads); its colour is the texture's r, g, b."""
+    ``x`` (the value its transfer function reads); its colour is the texture's r, g, b.  ``FIELDS_SHARE_BOX``
+    where every group's box is the same (channels of one file): the samples, in the union box, are in every
+    member's, and the shaders test no box."""
     out = {"FIELDS": True, "NUM_FIELDS": len(group), "NUM_FIELD_GROUPS": max(group) + 1,
            "FIELD_GROUP_OF": ", ".join(str(g) for g in group),
            "FIELD_CHANNEL_OF": ", ".join(str(c) for c in channel),
@@ -113,6 +122,8 @@ def field_defines(group, channel, roles) -> dict:
         out["FIELD_LABELS"] = True
     if "rgb" in roles:
         out["FIELD_RGB"] = True
+    if share_box:
+        out["FIELDS_SHARE_BOX"] = True
     return out
 
 
@@ -122,7 +133,9 @@ def fieldset_defines(fieldset, per_texture: int = 4) -> dict:
     for g, indices in enumerate(fieldset.groups(per_texture)):
         for c, i in enumerate(indices):
             group[i], channel[i] = g, 3 if fieldset.members[i].role == "rgb" else c
-    return field_defines(group, channel, [m.role for m in fieldset.members])
+    return field_defines(group, channel, [m.role for m in fieldset.members],
+                         _same_boxes([tuple(np.asarray(b, dtype=np.float64) for b in m.field.box)
+                                      for m in fieldset.members]))
 
 
 def upload_fields(ctx, fieldset, per_texture: int = 4) -> FieldTextures:

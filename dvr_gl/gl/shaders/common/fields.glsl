@@ -50,6 +50,9 @@ struct FieldTexels {
 const float FIELD_BOX_MARGIN = 1e-4;
 
 bool field_group_inside(int g, vec3 p) {
+#ifdef FIELDS_SHARE_BOX
+    return true;  // every member's box is the union box, which the samples lie in
+#endif
     vec3 margin = FIELD_BOX_MARGIN * u_field_spacing[g];
     return all(greaterThanEqual(p, u_field_box_lo[g] - margin)) && all(lessThanEqual(p, u_field_box_hi[g] + margin));
 }

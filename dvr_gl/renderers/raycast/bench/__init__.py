@@ -75,6 +75,7 @@ def _accel(args) -> int:
 
 
 def _channels_arguments(p):
+    p.add_argument("--volume", metavar="FILE", help="a multichannel file (default: phantom channels)")
     p.add_argument("--volume-size", type=int, default=128, help="phantom samples per axis (default 128)")
     p.add_argument("--size", type=int, default=512, help="square image size (default 512)")
     p.add_argument("--repeat", type=count, default=5, help="timed rounds after a warm-up (default 5)")
@@ -83,10 +84,11 @@ def _channels_arguments(p):
 def _channels(args) -> int:
     from . import channels
 
-    args.report.text(f"dvr bench channels: several fields against one field's frame, {args.volume_size}^3 "
-                     f"phantom channels, {args.size}x{args.size}, acceleration off, {args.repeat} interleaved "
-                     f"rounds after a warm-up, median draw-to-glFinish time")
-    args.report.table(channels.run(args.volume_size, args.size, args.repeat), channels.COLUMNS)
+    data = args.volume or f"{args.volume_size}^3 phantom channels"
+    args.report.text(f"dvr bench channels: several fields against one field's frame, {data}, {args.size}x"
+                     f"{args.size}, acceleration off, {args.repeat} interleaved rounds after a warm-up, median "
+                     f"draw-to-glFinish time")
+    args.report.table(channels.run(args.volume_size, args.size, args.repeat, args.volume), channels.COLUMNS)
     return 0
 
 

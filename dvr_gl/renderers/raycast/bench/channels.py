@@ -48,9 +48,26 @@ def cases(size: int) -> list:
     return out
 
 
-def run(size: int = 128, image: int = 512, repeat: int = 5) -> list[dict]:
+def file_cases(path: str) -> list:
+    """The cases of a multichannel file (``dvr_gl.io.load_field``): its first channel alone (the single-field
+    path), and its first 1 to 4 channels on their grid, each with its default channel transfer function."""
+    from ....io import load_field
+    from ....transfer_function import channel_transfer_function
+
+    field = load_field(path)
+    members = getattr(field, "members", None)
+    if not members:
+        raise SystemExit(f"{path}: one channel; dvr bench channels needs a file of several")
+    tfs = [channel_transfer_function(k, m.field.value_range) for k, m in enumerate(members)]
+    out = [("one field (channel 0)", members[0].field, tfs[0])]
+    for n in range(1, min(len(members), 4) + 1):
+        out.append((f"{n} channel{'s' * (n > 1)}, one grid", FieldSet(tuple(members[:n])), tfs[:n]))
+    return out
+
+
+def run(size: int = 128, image: int = 512, repeat: int = 5, path: str | None = None) -> list[dict]:
     scenes = []
-    for label, data, tfs in cases(size):
+    for label, data, tfs in (file_cases(path) if path else cases(size)):
         scenes.append((label, scene_of(data, transfer_function=tfs, renderer="raycast", size=(image, image),
                                        acceleration="off")))
     times = {label: [] for label, _ in scenes}
@@ -62,6 +79,6 @@ def run(size: int = 128, image: int = 512, repeat: int = 5) -> list[dict]:
                 textures[label] = renderer.stats.get("field_textures", 1)
                 if round_:
                     times[label].append(renderer.stats["gpu_seconds"])
-    one = statistics.median(times["one field"])
+    one = statistics.median(times[scenes[0][0]])
     return [{"case": label, "textures": textures[label], "ms": 1e3 * statistics.median(times[label]),
              "ratio": statistics.median(times[label]) / one} for label, _ in scenes]
