@@ -1,5 +1,5 @@
-"""The ray caster's benches (``dvr bench raycast``, ``dvr bench accel``) run and report sensible numbers
-(their timings are not asserted)."""
+"""The ray caster's benches (``dvr bench raycast``, ``dvr bench accel``, ``dvr bench channels``) run and
+report sensible numbers (their timings are not asserted)."""
 
 import numpy as np
 
@@ -56,3 +56,13 @@ def test_bench_accel_overhead_on_the_phantoms(tmp_path, capsys):
 def test_bench_accel_needs_the_data(tmp_path, capsys):
     assert main(["bench", "accel", "--data-dir", str(tmp_path / "absent"), "--part", "datasets"]) == 1
     assert "shared datasets folder was not found" in capsys.readouterr().err
+
+
+def test_bench_channels_prints_a_table(capsys):
+    """One field, 1 to 4 channels on one grid and 2 on separate grids, each with its ratio to one field."""
+    assert main(["bench", "channels", "--volume-size", "16", "--size", "16", "--repeat", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "of one field" in out and "4 channels, one grid" in out and "2 fields, separate grids" in out
+    rows = [line.split() for line in out.splitlines() if "grid" in line or line.startswith("one field")]
+    assert len(rows) == 6 and rows[0][-1] == "1.00"
+    assert rows[-1][4] == "2"  # separate grids: two textures
