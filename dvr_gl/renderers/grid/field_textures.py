@@ -29,6 +29,10 @@ from ...preintegration import preintegrate
 from ...transfer_function import TransferFunction
 from .textures import FORMATS
 
+#: How far (voxels) a member's box faces on the union box's are moved out (:meth:`FieldTextures._boxes`): far
+#: below a sample's spacing, far above float32 rounding.
+BOX_MARGIN = 1e-4
+
 #: A member's role in the shaders' FIELD_ROLE_OF.
 ROLE_CODES = {"scalar": 0, "label": 1, "rgb": 2}
 
@@ -69,6 +73,18 @@ class FieldTextures:
         """:func:`field_defines` of these textures."""
         return field_defines(self.group, self.channel, self.roles, _same_boxes([g.box for g in self.groups]))
 
+    def _boxes(self) -> dict:
+        """``u_field_box_lo``, ``u_field_box_hi``: each group's box, its faces on the union box's moved out by
+        :data:`BOX_MARGIN` voxels.  A ray's entry and exit points lie on the union box's faces in float64 and
+        on either side of them in float32: a member whose box shares the face must count them in, as the
+        reference does (closed boxes); faces inside the union are tested exactly."""
+        lo = np.array([g.box[0] for g in self.groups])
+        hi = np.array([g.box[1] for g in self.groups])
+        margin = BOX_MARGIN * np.array([g.spacing for g in self.groups])
+        lo = np.where(lo <= lo.min(axis=0), lo - margin, lo)
+        hi = np.where(hi >= hi.max(axis=0), hi + margin, hi)
+        return {"u_field_box_lo": [float(x) for x in lo.ravel()], "u_field_box_hi": [float(x) for x in hi.ravel()]}
+
     def bind(self, program, first_unit: int) -> int:
         """Bind the group textures to units ``first_unit``, ``first_unit + 1``, ... and the sampler array
         ``u_field_group`` to them (after :meth:`dvr_gl.gl.frame.GLFrame.bind` of the frame's other textures,
@@ -90,8 +106,7 @@ class FieldTextures:
         return {"u_field_scale": vec3s("scale"), "u_field_offset": vec3s("offset"),
                 "u_field_dims": [float(x) for g in self.groups for x in g.dims],
                 "u_field_spacing": vec3s("spacing"),
-                "u_field_box_lo": [float(x) for g in self.groups for x in g.box[0]],
-                "u_field_box_hi": [float(x) for g in self.groups for x in g.box[1]],
+                **self._boxes(),
                 "u_field_value_scale": list(self.value_scale), "u_field_value_offset": list(self.value_offset)}
 
     def release(self):

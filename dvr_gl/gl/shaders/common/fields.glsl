@@ -44,17 +44,13 @@ struct FieldTexels {
 #define FIELD_GROUP_TEXEL(G, P) sample_texture_in(u_field_group[G], (P) * u_field_scale[G] + u_field_offset[G], \
                                                   ivec3(u_field_dims[G]))
 
-// Whether p lies in group g's box (closed), give or take FIELD_BOX_MARGIN voxels: a ray's entry point, on the
-// face in float64, falls on either side of it in float32 (the union box's entry point is every member's whose
-// box shares that face); the margin is far below a sample's spacing and far above float32 rounding.
-const float FIELD_BOX_MARGIN = 1e-4;
-
+// Whether p lies in group g's box (closed; the box's faces on the union box's moved out by a margin on the host:
+// FieldTextures.uniforms).
 bool field_group_inside(int g, vec3 p) {
 #ifdef FIELDS_SHARE_BOX
     return true;  // every member's box is the union box, which the samples lie in
 #endif
-    vec3 margin = FIELD_BOX_MARGIN * u_field_spacing[g];
-    return all(greaterThanEqual(p, u_field_box_lo[g] - margin)) && all(lessThanEqual(p, u_field_box_hi[g] + margin));
+    return all(greaterThanEqual(p, u_field_box_lo[g])) && all(lessThanEqual(p, u_field_box_hi[g]));
 }
 
 // Group g's texels at world point p + the world offset `shift` (g a constant after unrolling).
