@@ -197,6 +197,12 @@ def refusal(scene, name: str | None = None) -> str | None:
     return None
 
 
+def _kinds_text(kinds) -> str:
+    """Data kinds in words: ``grid data or several fields``."""
+    words = [f"{k} data" for k in kinds if k != "fields"] + (["several fields"] if "fields" in kinds else [])
+    return " or ".join(words)
+
+
 def check(scene, name: str | None = None):
     """Raise SceneError with the reason renderer ``name`` (default: the scene's) cannot render
     ``scene``: a data kind it does not render, a setting it does not support, or its own check."""
@@ -204,7 +210,7 @@ def check(scene, name: str | None = None):
     kind = getattr(scene.field, "kind", "?")
     if p.data_kinds is not None and kind not in p.data_kinds:
         others = renderers_with(lambda q: q.data_kinds is None or kind in q.data_kinds)
-        raise SceneError(f"{p.name} renders {', '.join(p.data_kinds)} data, not {kind}"
+        raise SceneError(f"{p.name} renders {_kinds_text(p.data_kinds)}, not {_kinds_text((kind,))}"
                          + (f"; use {_either(others)}" if others else ""))
     roles = {m.role for m in getattr(scene.field, "members", ())}
     if roles - set(p.field_roles):

@@ -158,7 +158,8 @@ def test_any_field_renders_with_the_renderers_that_declare_its_kind():
     # measured 1.9e-8 (float32 output)
     np.testing.assert_allclose(image.rgba[..., 3], -np.expm1(-sigma * chord), atol=1e-6)
     judges = " or ".join(n for n in registry.names() if registry.plugin(n).data_kinds is None)
-    with pytest.raises(dvr_gl.SceneError, match=f"{DEFAULT} renders grid data, not analytic; use {judges}"):
+    refusal = f"{DEFAULT} renders grid data or several fields, not analytic data; use {judges}"
+    with pytest.raises(dvr_gl.SceneError, match=refusal):
         dvr_gl.render(sphere, renderer=DEFAULT, transfer_function=points, size=16)
     assert dvr_gl.render(sphere, transfer_function=points, size=8).scene.renderer.name == registry.default_for(
         "analytic")
