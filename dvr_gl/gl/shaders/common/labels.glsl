@@ -38,20 +38,26 @@ int label_at(sampler3D tex, LabelGrid g, ivec3 i) {
     return int(floor(t[g.channel] * g.value_scale + g.value_offset + 0.5));
 }
 
-// The 8 taps around p, x fastest: labels, trilinear weights and the weights' gradients per world unit
-// (zero along an axis where u lies outside [0, n - 1], where the clamp holds the weights constant).
-void label_taps(sampler3D tex, LabelGrid g, vec3 p, out int labels[8], out float w[8], out vec3 dw[8]) {
-    vec3 u = p * g.scale + g.offset;
-    vec3 last = vec3(g.dims - 1);
-    vec3 uc = clamp(u, vec3(0.0), last);
+// The 8 taps around p, x fastest: their labels, and the lowest tap's voxel i0 and fraction f (taps clamped
+// to the edge, as the linear filter's).  The weights come after (label_weights), only where the taps differ:
+// where they agree (most samples) none is needed (a few % of a frame; docs/labels.md, "Cost").
+void label_fetch(sampler3D tex, LabelGrid g, vec3 p, out int labels[8], out vec3 u, out vec3 f) {
+    u = p * g.scale + g.offset;
+    vec3 uc = clamp(u, vec3(0.0), vec3(g.dims - 1));
     ivec3 i0 = clamp(ivec3(floor(uc)), ivec3(0), max(g.dims - 2, ivec3(0)));
-    vec3 f = uc - vec3(i0);
-    vec3 du = vec3(greaterThanEqual(u, vec3(0.0))) * vec3(lessThanEqual(u, last)) * g.scale;
+    f = uc - vec3(i0);
+    for (int j = 0; j < 8; ++j)
+        labels[j] = label_at(tex, g, min(i0 + ivec3(j & 1, (j >> 1) & 1, j >> 2), g.dims - 1));
+}
+
+// The taps' trilinear weights and the weights' gradients per world unit (zero along an axis where u lies
+// outside [0, n - 1], where the clamp holds the weights constant).
+void label_weights(LabelGrid g, vec3 u, vec3 f, out float w[8], out vec3 dw[8]) {
+    vec3 du = vec3(greaterThanEqual(u, vec3(0.0))) * vec3(lessThanEqual(u, vec3(g.dims - 1))) * g.scale;
     for (int j = 0; j < 8; ++j) {
-        ivec3 o = ivec3(j & 1, (j >> 1) & 1, j >> 2);
-        vec3 wa = mix(1.0 - f, f, vec3(o));
-        vec3 da = mix(-du, du, vec3(o));
-        labels[j] = label_at(tex, g, min(i0 + o, g.dims - 1));
+        vec3 o = vec3(j & 1, (j >> 1) & 1, j >> 2);
+        vec3 wa = mix(1.0 - f, f, o);
+        vec3 da = mix(-du, du, o);
         w[j] = wa.x * wa.y * wa.z;
         dw[j] = vec3(da.x * wa.y * wa.z, wa.x * da.y * wa.z, wa.x * wa.y * da.z);
     }
@@ -76,13 +82,15 @@ vec3 label_indicator_gradient(int labels[8], vec3 dw[8], int label) {
 
 int label_linear(sampler3D tex, LabelGrid g, vec3 p, out vec3 gradient) {
     int labels[8];
-    float w[8];
-    vec3 dw[8];
-    label_taps(tex, g, p, labels, w, dw);
+    vec3 u, f;
+    label_fetch(tex, g, p, labels, u, f);
     if (label_uniform(labels)) {
         gradient = vec3(0.0);
         return labels[0];
     }
+    float w[8];
+    vec3 dw[8];
+    label_weights(g, u, f, w, dw);
     int best_label = labels[0];
     float best = -1.0;
     for (int j = 0; j < 8; ++j) {
@@ -100,10 +108,16 @@ int label_linear(sampler3D tex, LabelGrid g, vec3 p, out vec3 gradient) {
 
 int label_nearest(sampler3D tex, LabelGrid g, vec3 p, out vec3 gradient) {
     int labels[8];
+    vec3 u, f;
+    label_fetch(tex, g, p, labels, u, f);
+    int label = label_at(tex, g, ivec3(floor(p * g.scale + g.offset + 0.5)));
+    if (label_uniform(labels)) {
+        gradient = vec3(0.0);
+        return label;
+    }
     float w[8];
     vec3 dw[8];
-    label_taps(tex, g, p, labels, w, dw);
-    int label = label_at(tex, g, ivec3(floor(p * g.scale + g.offset + 0.5)));
+    label_weights(g, u, f, w, dw);
     gradient = label_indicator_gradient(labels, dw, label);
     return label;
 }
