@@ -44,3 +44,22 @@ def test_trait_decides_the_mode():
     declared = {n for n, p in plugins().items() if "grid" in p.transfer_function_2d}
     assert declared, "some renderer declares a 2D transfer function on grids"
     assert all(renders_2d(n) == (n in declared) for n in plugins())
+
+
+def test_the_editors_scene_is_checked_as_a_scene_files(data):
+    """The viewer's path for an edit (with_transfer_function, then the registry's check): a renderer with the trait
+    takes the 2D function; one without it refuses in one line naming those that take it."""
+    from dvr_gl.api import scene_of
+    from dvr_gl.errors import SceneError
+    from dvr_gl.renderers.registry import check
+    from dvr_gl.viewer.timeline import with_transfer_function
+
+    ed = BoxEditor2D(data.astype(np.float32), (1.0, 1.0, 1.0), bins=(32, 16))
+    ed.add(4.0, 0.5)
+    scene = with_transfer_function(scene_of(data.astype(np.float32)), 0, ed.transfer_function)
+    for name in plugins():
+        if renders_2d(name):
+            check(scene, name)
+        elif plugins()[name].data_kinds is None or "grid" in plugins()[name].data_kinds:
+            with pytest.raises(SceneError, match="2D transfer function"):
+                check(scene, name)
