@@ -240,9 +240,8 @@ vec4 classify(vec3 p, vec3 dir) {
         vec3 grad = vec3(0.0);
 #endif
 #ifdef FIELD_LABELS
-        vec4 cs;  // an if, not ?: (which may evaluate both sides: a label's 8 taps read for every member)
-        if (FIELD_ROLE[i] == 1) cs = field_label_classify(i, p, dir);
-        else cs = field_classify_member(i, s.t[FIELD_GROUP[i]], grad, dir);
+        vec4 cs = FIELD_ROLE[i] == 1 ? field_label_classify(i, p, dir)
+                                     : field_classify_member(i, s.t[FIELD_GROUP[i]], grad, dir);
 #else
         vec4 cs = field_classify_member(i, s.t[FIELD_GROUP[i]], grad, dir);
 #endif
