@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 import dvr_gl
+from dvr_gl.bench.pictures import timed
 from dvr_gl.fields.grid import Volume
 from dvr_gl.fields.layers import Member
 from dvr_gl.image import side_by_side, write_image
@@ -33,14 +34,6 @@ from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.scene.resolve import load_scene
 
 REPO = Path(__file__).resolve().parent.parent
-
-
-def _render(renderer, scene, label: str) -> np.ndarray:
-    renderer.render(scene)
-    start = time.perf_counter()
-    image = renderer.render(scene)
-    print(f"  {label}: {time.perf_counter() - start:.3f} s")
-    return image
 
 
 def _over(front: np.ndarray, back: np.ndarray) -> np.ndarray:
@@ -64,8 +57,8 @@ def depth_order(size: int) -> tuple[np.ndarray, dict]:
     both = dvr_gl.scene_of(balls, transfer_function=tfs, **keys)
     alone = [dvr_gl.scene_of(data, transfer_function=tf, camera=both.camera, **keys) for data, tf in zip(balls, tfs)]
     with create_renderer(name) as r:
-        mixed = _render(r, both, "per sample")
-        front, back = (_render(r, s, f"channel {k} alone") for k, s in enumerate(alone))
+        mixed = timed(r, both, "per sample")
+        front, back = (timed(r, s, f"channel {k} alone") for k, s in enumerate(alone))
     added = np.clip(front + back, 0.0, 1.0)
     layered = _over(back, front)  # the layer order fixed (green over magenta): right only from the other side
     errors = {"added": float(np.abs(added - mixed).max()), "layered": float(np.abs(layered - mixed).max()),
@@ -86,7 +79,7 @@ def nucleus(size: int, data_dir: Path) -> np.ndarray | None:
                                       "camera.elevation": 25.0, "renderer.name": r.name,
                                       "renderer.compositing": mode})
             scene = scene.replace(camera=scene.camera.orbited(None, None, 0.45 * scene.camera.orbit[2]))
-            pictures.append(_render(r, scene, f"nucleus, {mode}"))
+            pictures.append(timed(r, scene, f"nucleus, {mode}"))
     return side_by_side(pictures)
 
 
@@ -107,7 +100,7 @@ def ct_labels(size: int, data_dir: Path) -> np.ndarray | None:
               dvr_gl.scene_of([Member(seg, "label")], transfer_function=[table], **keys),
               dvr_gl.scene_of([ct, Member(seg, "label")], transfer_function=[skin, table], **keys)]
     with create_renderer(keys["renderer"]) as r:
-        return side_by_side([_render(r, s, label) for s, label in zip(scenes, ("CT", "labels", "CT + labels"))])
+        return side_by_side([timed(r, s, label) for s, label in zip(scenes, ("CT", "labels", "CT + labels"))])
 
 
 def time_series(size: int, data_dir: Path, out: Path) -> None:

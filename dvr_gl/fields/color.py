@@ -174,6 +174,7 @@ class ColorVolume:
     world_to_texture = Volume.world_to_texture
     voxels_to_world = Volume.voxels_to_world
     reconstruct_values = Volume.reconstruct_values
+    read = Volume.read  # the voxel box as a [z, y, x, 4] array: the slice keeps the components' axis
 
     @property
     def dims(self) -> tuple[int, int, int]:
@@ -199,12 +200,6 @@ class ColorVolume:
     def samples(self) -> np.ndarray:
         """``x`` ``(nz, ny, nx)``: the value the transfer function reads (histograms, suggested opacities)."""
         return self.data[..., 3]
-
-    def read(self, lo, dims) -> np.ndarray:
-        """The components of the voxel box ``lo .. lo + dims - 1`` (x, y, z order) as a ``[z, y, x, 4]``
-        C-contiguous array the caller owns (a brick's texture)."""
-        (x0, y0, z0), (nx, ny, nz) = lo, dims
-        return np.array(self.data[z0:z0 + nz, y0:y0 + ny, x0:x0 + nx], order="C")
 
     def reconstruct(self, filter: str = "linear", kernel_width: float | None = None) -> "ColorReconstruction":
         """The four components under a reconstruction filter, filtered alike: ``sample`` gives ``(N, 4)``,
