@@ -59,7 +59,7 @@ def geometry(size: int, data_dir: Path, folder: Path) -> np.ndarray:
     view-aligned slices."""
     import meshio
 
-    scene, label = head(size, data_dir, "ct-bone")
+    scene, label = head(size, data_dir, "ct-bone-ivory")
     lo, hi = (np.asarray(b, dtype=np.float64) for b in scene.field.bounds)
     centre, span = (lo + hi) / 2.0, hi - lo
     points, faces = icosphere(centre + [0.25 * span[0], 0.0, 0.0], 0.3 * span.min())

@@ -35,16 +35,16 @@ PICTURES = [
     ("demo", "The built-in demo (`dvr render --demo`, no data needed): the 3D Shepp-Logan head phantom seen from "
      "above through its translucent skull, the brain blue with its two ventricles hollow, the lesions "
      "orange.", None, ["--demo"]),
-    ("cthead", "CThead (University of North Carolina; Stanford volume archive), the `ct-bone` preset. "
+    ("cthead", "CThead (University of North Carolina; Stanford volume archive), the `ct-bone-ivory` preset. "
      "Its slices are stored from the top of the head down, so `--up=-z` stands it upright.",
-     "regular/cthead.nhdr", ["--transfer-function", "ct-bone", "--rescale-intercept", "-1024", "--up=-z",
+     "regular/cthead.nhdr", ["--transfer-function", "ct-bone-ivory", "--rescale-intercept", "-1024", "--up=-z",
                              "--shading"]),
     ("cthead-skin", "CThead again, the `ct-skin` preset: skin and soft tissue over faint bone.",
      "regular/cthead.nhdr", ["--transfer-function", "ct-skin", "--rescale-intercept", "-1024", "--up=-z",
                              "--shading"]),
-    ("bunny", "The Stanford CT bunny (512 x 512 x 361, int16), `ct-bone`; the scanner's table cut away by a "
+    ("bunny", "The Stanford CT bunny (512 x 512 x 361, int16), `ct-bone-ivory`; the scanner's table cut away by a "
      "cropping box (`renderer.clipping.box`, world units).",
-     "large/bunny_ct.nhdr", ["--transfer-function", "ct-bone", "--rescale-intercept", "-1024", "--up=-z",
+     "large/bunny_ct.nhdr", ["--transfer-function", "ct-bone-ivory", "--rescale-intercept", "-1024", "--up=-z",
                              "--azimuth", "300", "--shading",
                              "--set", "renderer.clipping.box=[[0,0,0],[173,125,181]]"]),
     ("lobster", "The lobster CT (VolVis; The Volume Library, non-commercial use only), its shell as a tent "

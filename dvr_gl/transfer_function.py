@@ -284,7 +284,8 @@ class TransferFunctionLUT:
 # A preset is found by name (docs/transfer-functions.md): one of dvr-gl's own (PRESETS' first five),
 # one of 3D Slicer's volume-rendering presets (shipped as Slicer's own XML), or a matplotlib colour
 # map; or read from a file (Slicer .vp or presets XML, ParaView colour-map JSON).  Names match without
-# regard to case; an exact spelling wins (`ct-bone` is dvr-gl's, `CT-Bone` Slicer's).
+# regard to case, and no two names differ only by case (tests/scene/test_presets.py): dvr-gl's bone
+# preset, once `ct-bone` beside Slicer's `CT-Bone`, is `ct-bone-ivory`; `ct-bone` is now Slicer's.
 
 
 def _grayscale(lo, hi, intercept):
@@ -326,7 +327,7 @@ def _slicer(name):
 PRESETS = {
     "grayscale": (_grayscale, "grey ramp over the volume's value range"),
     "viridis": (_viridis, "matplotlib's viridis over the value range, opacity ramp 0 to 0.1"),
-    "ct-bone": (_ct_bone, "CT bone (Hounsfield units, see rescale_intercept)"),
+    "ct-bone-ivory": (_ct_bone, "CT bone, ivory (Hounsfield units, see rescale_intercept)"),
     "ct-skin": (_ct_skin, "CT skin and soft tissue (Hounsfield units, see rescale_intercept)"),
     "shepp-logan": (_shepp_logan, "the built-in Shepp-Logan phantom"),
     **{n: (_slicer(n), "3D Slicer's preset (data units: Hounsfield units for CT, see rescale_intercept)")
@@ -335,13 +336,11 @@ PRESETS = {
 
 
 def find_preset(name: str) -> str:
-    """The preset's name as :data:`PRESETS` or matplotlib spells it: the exact spelling first, then
-    any case; an unknown name is one line with the close matches."""
+    """The preset's name as :data:`PRESETS` or matplotlib spells it, found in any case (no two
+    names differ only by case); an unknown name is one line with the close matches."""
     if name in PRESETS:
         return name
-    # any other spelling of `ct-bone` is Slicer's `CT-Bone`: its mixed-case names win when folded
-    folded = {n.lower(): n for n in PRESETS if n.islower()}
-    folded.update({n.lower(): n for n in PRESETS if not n.islower()})
+    folded = {n.lower(): n for n in PRESETS}
     key = str(name).lower()
     if len(key) > 200:  # no name is that long: no close matches to look for (difflib is quadratic in it)
         key = key[:200]

@@ -11,7 +11,7 @@ from __future__ import annotations
 from dvr_gl.orientation import volume_frame_scene
 
 #: CT values in Hounsfield units (stored as HU + 1024) and the bone preset
-HU = {"transfer_function.preset": "ct-bone", "transfer_function.rescale_intercept": -1024.0}
+HU = {"transfer_function.preset": "ct-bone-ivory", "transfer_function.rescale_intercept": -1024.0}
 #: dataset file under the shared data folder -> scene overrides
 DATASETS = {
     "regular/cthead.nhdr": HU, "regular/hydrogen_atom.nhdr": {}, "regular/neghip.nhdr": {},

@@ -15,7 +15,7 @@ from ..fields import diagonal
 
 # CT data in Hounsfield units stored as unsigned (the files' rescale intercept)
 _HU = {"transfer_function.rescale_intercept": -1024.0}
-_HU_BONE = {"transfer_function.preset": "ct-bone", **_HU}
+_HU_BONE = {"transfer_function.preset": "ct-bone-ivory", **_HU}
 
 #: Every regular dataset: name, file under the data folder, scene overrides (default transfer functions).
 REGULAR = [
@@ -30,9 +30,10 @@ REGULAR = [
 #: Datasets with a transfer function chosen to be hard or easy to skip (``dvr bench accel``, ``dvr bench
 #: tradeoff``): name, file under the data folder, scene overrides (transfer function, camera).
 STUDIES = [
-    ("CThead, bone", "regular/cthead.nhdr", {"transfer_function.preset": "ct-bone", **_HU, "camera.up": [0, 0, -1]}),
+    ("CThead, bone", "regular/cthead.nhdr", {"transfer_function.preset": "ct-bone-ivory", **_HU,
+                                             "camera.up": [0, 0, -1]}),
     ("CThead, skin", "regular/cthead.nhdr", {"transfer_function.preset": "ct-skin", **_HU, "camera.up": [0, 0, -1]}),
-    ("CT bunny, bone", "large/bunny_ct.nhdr", {"transfer_function.preset": "ct-bone", **_HU}),
+    ("CT bunny, bone", "large/bunny_ct.nhdr", {"transfer_function.preset": "ct-bone-ivory", **_HU}),
     ("lobster, shell", "regular/lobster.nhdr", {"transfer_function.points": [
         [0, 0, 0, 0, 0], [100, 0.9, 0.4, 0.2, 0], [120, 0.9, 0.4, 0.2, 0.6], [140, 0.9, 0.5, 0.3, 0],
         [255, 0, 0, 0, 0]]}),

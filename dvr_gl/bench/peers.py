@@ -41,7 +41,7 @@ COMPOSITE_TF = {
     "blobs": [[0, 0.2, 0.3, 0.9, 0.0], [64, 0.2, 0.5, 0.9, 0.0], [160, 0.9, 0.8, 0.3, 0.015],
               [255, 0.9, 0.3, 0.1, 0.04]],
 }
-#: CT with a bone transfer function (issue 15's "CT data with a bone TF"): dvr-gl's ``ct-bone`` preset
+#: CT with a bone transfer function (issue 15's "CT data with a bone TF"): dvr-gl's ``ct-bone-ivory`` preset
 #: in the file's own units (HU + 1024), opacity per mm.
 COMPOSITE_TF["cthead"] = [[h + 1024.0, r, g, b, a] for h, r, g, b, a in (
     (-1024, 0, 0, 0, 0), (150, 0.55, 0.25, 0.15, 0), (300, 0.85, 0.7, 0.55, 0.25), (700, 0.95, 0.9, 0.8, 0.8),

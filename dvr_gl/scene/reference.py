@@ -38,7 +38,7 @@ current.*
 path = "../../shared/data/regular/cthead.nhdr"   # or: demo = "shepp-logan" (and size = 96)
 
 [transfer_function]
-preset = "ct-bone"              # or points = [[value, r, g, b, opacity], ...]
+preset = "ct-bone-ivory"              # or points = [[value, r, g, b, opacity], ...]
 rescale_intercept = -1024.0     # CT presets are in Hounsfield units: HU = data + intercept
 
 [camera]

@@ -123,9 +123,10 @@ class VolumeSpec:
 class TransferFunctionSpec:
     """A preset by name, a file, or explicit ``points = [[value, r, g, b, opacity], ...]``."""
 
-    preset: Optional[str] = doc(None, "a name, any case: `grayscale`, `viridis`, `ct-bone`, `ct-skin`, `shepp-logan`, "
-                                      "3D Slicer's presets (`CT-AAA`, `MR-Default`, ...), a matplotlib colour map "
-                                      "(default `grayscale`; `shepp-logan` for that demo; docs/transfer-functions.md)",
+    preset: Optional[str] = doc(None, "a name, any case: `grayscale`, `viridis`, `ct-bone-ivory`, `ct-skin`, "
+                                      "`shepp-logan`, 3D Slicer's presets (`CT-AAA`, `MR-Default`, ...), a matplotlib "
+                                      "colour map (default `grayscale`; `shepp-logan` for that demo; "
+                                      "docs/transfer-functions.md)",
                                 excludes=("points", "file", "name", "stretch"))
     file: Optional[str] = doc(None, "a Slicer `.vp` or presets `.xml`, or a ParaView colour-map `.json` "
                                     "(relative to the scene file); a label map (`volume.role = \"label\"`): a "

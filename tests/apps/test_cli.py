@@ -112,7 +112,7 @@ def test_render_a_volume_file_with_a_preset(tmp_path, capsys):
     path = tmp_path / "ct.raw.gz"
     path.write_bytes(gzip.compress(data.tobytes()))
     code, _, err = run(capsys, "render", "--volume", path, "--dims", 16, 16, 16, "--dtype", "int16",
-                       "--endian", "big", "--transfer-function", "ct-bone", "--rescale-intercept", "-1024",
+                       "--endian", "big", "--transfer-function", "ct-bone-ivory", "--rescale-intercept", "-1024",
                        "--size", "16", "-o", tmp_path / "ct.png")
     assert code == 0, err
     assert read_image(tmp_path / "ct.png")[..., :3].max() > 0.1
@@ -416,8 +416,8 @@ def test_negative_numbers_in_scientific_notation_are_values_not_flags():
 
 
 def test_a_huge_negative_rescale_intercept_names_the_flag(tmp_path, capsys):
-    code, _, err = run(capsys, "render", "--demo", "-o", tmp_path / "x.png", *SMALL, "--transfer-function", "ct-bone",
-                       "--rescale-intercept", "-1e300")
+    code, _, err = run(capsys, "render", "--demo", "-o", tmp_path / "x.png", *SMALL,
+                       "--transfer-function", "ct-bone-ivory", "--rescale-intercept", "-1e300")
     assert_one_line_error(code, err, "(--rescale-intercept)", "within +-1e+12")
     assert "points" not in err
 

@@ -101,7 +101,7 @@ def test_a_label_maps_colour_table_from_the_command_line(files, tmp_path):
     folder, *_ = files
     (tmp_path / "seg.ctbl").write_text("0 Background 0 0 0 0\n1 one 255 0 0 255\n2 two 0 255 0 255\n")
     args = build_parser().parse_args(["render", str(folder / "a.npy"), "--labels", str(folder / "seg.npy"),
-                                      "--transfer-function", "ct-bone", "--transfer-function",
+                                      "--transfer-function", "ct-bone-ivory", "--transfer-function",
                                       str(tmp_path / "seg.ctbl"), "-o", "x.png"])
     render_cmd.positional_volume(args)
     scene = render_cmd.source_of(args).load()

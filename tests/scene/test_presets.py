@@ -18,7 +18,7 @@ from dvr_gl.presets import colormaps
 from dvr_gl.presets.property import COLOUR_TOLERANCE
 from dvr_gl.presets.slicer import PRESETS_FILE
 from dvr_gl.scene.resolve import load_scene
-from dvr_gl.transfer_function import PRESETS, linear_to_srgb, preset
+from dvr_gl.transfer_function import PRESETS, find_preset, linear_to_srgb, preset
 
 SLICER_NAMES = ["CT-AAA", "CT-AAA2", "CT-Bone", "CT-Bones", "CT-Cardiac", "CT-Cardiac2", "CT-Cardiac3",
                 "CT-Chest-Contrast-Enhanced", "CT-Chest-Vessels", "CT-Coronary-Arteries", "CT-Coronary-Arteries-2",
@@ -92,10 +92,20 @@ def test_values_read_off_the_source_by_hand():
 def test_names_in_any_case_and_the_old_five():
     for a, b in [("CT-AAA", "ct-aaa"), ("MR-Default", "mr-DEFAULT"), ("CT-Bone", "CT-BONE")]:
         np.testing.assert_array_equal(preset(a, (0, 1)).points, preset(b, (0, 1)).points)
-    assert len(preset("ct-bone", (0, 1)).points) == 5  # dvr-gl's own, spelled exactly
-    assert len(preset("CT-Bone", (0, 1)).points) > 5   # Slicer's
-    for name in ("grayscale", "viridis", "ct-bone", "ct-skin", "shepp-logan", "GrayScale"):
+    assert len(preset("ct-bone-ivory", (0, 1)).points) == 5  # dvr-gl's own
+    np.testing.assert_array_equal(preset("ct-bone", (0, 1)).points, preset("CT-Bone", (0, 1)).points)  # Slicer's
+    assert len(preset("ct-bone", (0, 1)).points) > 5
+    for name in ("grayscale", "viridis", "ct-bone-ivory", "ct-skin", "shepp-logan", "GrayScale"):
         assert preset(name, (0, 100)).points[:, 4].max() > 0
+
+
+def test_no_two_preset_names_differ_only_by_case():
+    """One namespace without regard to case: every spelling of a name finds the same preset."""
+    folded = {}
+    for name in PRESETS:
+        assert name.lower() not in folded, f"{name} and {folded[name.lower()]} differ only by case"
+        folded[name.lower()] = name
+        assert find_preset(name.upper()) == find_preset(name.lower()) == name
 
 
 def test_rescale_intercept_places_hounsfield_units():

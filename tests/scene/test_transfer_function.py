@@ -122,8 +122,8 @@ def test_presets_are_valid(name):
 
 
 def test_ct_presets_are_in_hounsfield_units_shifted_by_the_intercept():
-    hu = preset("ct-bone", (0, 4095))
-    shifted = preset("ct-bone", (0, 4095), rescale_intercept=-1024)
+    hu = preset("ct-bone-ivory", (0, 4095))
+    shifted = preset("ct-bone-ivory", (0, 4095), rescale_intercept=-1024)
     np.testing.assert_allclose(shifted.points[:, 0], hu.points[:, 0] + 1024)
     with pytest.raises(SceneError, match="unknown transfer function preset 'bones'"):
         preset("bones", (0, 1))

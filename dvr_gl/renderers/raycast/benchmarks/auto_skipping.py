@@ -37,7 +37,7 @@ def scenes(data_dir: Path, size: int, work: Path) -> list[tuple[str, dict]]:
     found = peers.dataset_file("cthead", data_dir, work)
     if found:
         out.append(("cthead-bone", peers.scene_keys("cthead-bone", found[0], size, found[1])))
-    hu = {"transfer_function.preset": "ct-bone", "transfer_function.rescale_intercept": -1024.0,
+    hu = {"transfer_function.preset": "ct-bone-ivory", "transfer_function.rescale_intercept": -1024.0,
           "image.width": size, "image.height": size, "camera.azimuth": 30.0, "camera.elevation": 20.0}
     for name, path in (("bunny-bone", "large/bunny_ct.nhdr"), ("lobster", "regular/lobster.nhdr")):
         if (data_dir / path).exists():

@@ -25,10 +25,10 @@ from dvr_gl.scene.resolve import load_scene
 DATA = Path(__file__).resolve().parents[5] / "shared" / "data"
 HU = {"transfer_function.rescale_intercept": -1024.0}
 SCENES = [
-    ("CThead, bone", {"volume.path": str(DATA / "regular/cthead.nhdr"), "transfer_function.preset": "ct-bone",
+    ("CThead, bone", {"volume.path": str(DATA / "regular/cthead.nhdr"), "transfer_function.preset": "ct-bone-ivory",
                       **HU, "camera.up": [0, 0, -1], "renderer.ert_threshold": 1.0}),
     ("CThead, bone, ERT 0.99", {"volume.path": str(DATA / "regular/cthead.nhdr"),
-                                "transfer_function.preset": "ct-bone", **HU, "camera.up": [0, 0, -1],
+                                "transfer_function.preset": "ct-bone-ivory", **HU, "camera.up": [0, 0, -1],
                                 "renderer.ert_threshold": 0.99}),
     ("Marschner-Lobb 128^3, viridis", {"volume.demo": "marschner-lobb", "volume.size": 128,
                                        "transfer_function.preset": "viridis", "renderer.ert_threshold": 1.0}),

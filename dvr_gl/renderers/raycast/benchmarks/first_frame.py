@@ -54,7 +54,7 @@ def scenes(data_dir: Path, size: int, work: Path):
     for name, path, extra in [("CThead, bone", "regular/cthead.nhdr", {"camera.up": [0, 0, -1]}),
                               ("CT bunny, bone", "large/bunny_ct.nhdr", {})]:
         if (data_dir / path).exists():
-            out.append((name, {"volume.path": str(data_dir / path), "transfer_function.preset": "ct-bone", **hu,
+            out.append((name, {"volume.path": str(data_dir / path), "transfer_function.preset": "ct-bone-ivory", **hu,
                                **common, **extra}))
     return out
 

@@ -29,7 +29,7 @@ REPO = Path(__file__).resolve().parents[4]
 
 
 def shaded_shearwarp(size: int, data_dir: Path) -> np.ndarray:
-    scene, label = head(size, data_dir, "ct-bone")
+    scene, label = head(size, data_dir, "ct-bone-ivory")
     print(f"shear-warp shaded ({label}):")
     with create_renderer(baseline()) as raycast, create_renderer("shearwarp") as shearwarp:
         pictures = [timed(raycast, scene.with_renderer(name=baseline()), f"{baseline()}, shaded"),
@@ -40,7 +40,7 @@ def shaded_shearwarp(size: int, data_dir: Path) -> np.ndarray:
 
 
 def inside_shearwarp(size: int, data_dir: Path) -> np.ndarray:
-    scene, label = head(size, data_dir, "ct-bone")
+    scene, label = head(size, data_dir, "ct-bone-ivory")
     lo, hi = (np.asarray(b, dtype=np.float64) for b in scene.field.bounds)
     centre, span = (lo + hi) / 2.0, hi - lo
     eye = centre + np.array([0.05, -0.1, 0.05]) * span  # inside the skull, looking out at an angle
@@ -61,7 +61,7 @@ def _head_keys(scene) -> dict:
     source = scene.volume_source
     keys = {"image.width": scene.image.width, "image.height": scene.image.height, "renderer.shading.enabled": True}
     if source.path:
-        return {**keys, "volume.path": source.path, "transfer_function.preset": "ct-bone",
+        return {**keys, "volume.path": source.path, "transfer_function.preset": "ct-bone-ivory",
                 "transfer_function.rescale_intercept": -1024.0}
     return {**keys, "volume.demo": source.demo, "volume.size": source.size}
 
