@@ -91,6 +91,9 @@ layout(location = 1) out vec4 frag_samples;   // volume samples, block jumps, bl
 #ifdef CLASSIFY_PREINTEGRATED
 #include "common/preintegration.glsl"
 #endif
+#if defined(TRANSFER_FUNCTION_2D) || defined(FIELD_TABLES_2D)  // likewise: classify.glsl and fields.glsl name it
+#include "common/transfer_function_2d.glsl"
+#endif
 #ifdef FIELDS
 #include "common/fields.glsl"
 #else
