@@ -78,10 +78,23 @@ class Image:
         """8-bit sRGB ``(H, W, 4)`` uint8 over the background: what a PNG file holds and a screen shows."""
         return encode_8bit(self.composited())
 
-    def save(self, path, overwrite: bool = False) -> Path:
+    def annotated(self, colorbar: bool = False, scalebar: bool = False, axes: bool = False,
+                  caption: str | None = None, length_unit: str | None = None,
+                  value_unit: str | None = None) -> np.ndarray:
+        """:meth:`srgb8` with annotations drawn over it (:mod:`dvr_gl.annotations`): the transfer function's
+        colour bar in the data's units, a scale bar in world units, the orientation axes (anatomical letters
+        where the file states an orientation), a caption.  8-bit only: :attr:`rgba` is never touched;
+        ``save(path, annotations=...)`` writes it to .png or .jpg."""
+        from .annotations import Annotations, annotate
+
+        spec = Annotations(colorbar, scalebar, axes, caption, length_unit, value_unit)
+        return annotate(self.srgb8(), self.scene, spec)
+
+    def save(self, path, overwrite: bool = False, annotations=None) -> Path:
         """Write ``.png``/``.jpg`` (8-bit sRGB) or ``.exr``/``.tif`` (linear float), never replacing a
-        file unless ``overwrite``."""
-        write_image(path, self.composited(), overwrite)
+        file unless ``overwrite``; ``annotations``: a dict of :meth:`annotated`'s keywords (8-bit formats
+        only)."""
+        write_image(path, self.annotated(**annotations) if annotations else self.composited(), overwrite)
         return Path(path)
 
     def _repr_png_(self) -> bytes:

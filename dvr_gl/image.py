@@ -146,6 +146,12 @@ def atomic_write(path: Path, write, overwrite: bool = False):
 def _encode(rgba: np.ndarray, suffix: str):
     import OpenImageIO as oiio
 
+    if rgba.dtype == np.uint8:  # already 8-bit sRGB (an annotated picture: dvr_gl.annotations)
+        if suffix not in EIGHT_BIT_FORMATS:
+            raise DvrError(f"an 8-bit picture (annotated) is written to {', '.join(EIGHT_BIT_FORMATS)} or an "
+                           f"animation, not {suffix}: the float formats hold the unannotated image")
+        channels = (0, 1, 2) if suffix in (".jpg", ".jpeg") else tuple(range(rgba.shape[2]))
+        return oiio.ImageBuf(np.ascontiguousarray(rgba[..., list(channels)])), oiio.UINT8
     buf = oiio.ImageBuf(np.ascontiguousarray(rgba, dtype=np.float32))
     if suffix in EIGHT_BIT_FORMATS:
         # Linear to sRGB; unpremult so colours of partly transparent pixels are converted right.
@@ -159,21 +165,26 @@ def _encode(rgba: np.ndarray, suffix: str):
 
 
 def encode_8bit(rgba: np.ndarray) -> np.ndarray:
-    """Linear RGBA (background composited) as the 8-bit sRGB pixels a PNG file holds, ``(H, W, 4)`` uint8."""
+    """Linear RGBA (background composited) as the 8-bit sRGB pixels a PNG file holds, ``(H, W, 4)`` uint8
+    (uint8 pixels are taken as already encoded and returned as they are)."""
     import OpenImageIO as oiio
 
+    if rgba.dtype == np.uint8:
+        return rgba
     buf, _ = _encode(rgba, ".png")
     return np.asarray(buf.get_pixels(oiio.UINT8))
 
 
 def write_image(path, rgba: np.ndarray, overwrite: bool = False):
-    """Write linear RGBA (background already composited) to ``path``, atomically."""
+    """Write linear RGBA (background already composited) to ``path``, atomically; uint8 ``rgba`` is 8-bit
+    sRGB already (an annotated picture), for the 8-bit formats only."""
     path = Path(path)
     suffix = path.suffix.lower()
     check_output_path(path, overwrite)
     if suffix in MOVIE_FORMATS:  # an animation of one frame: 8-bit sRGB as every animation
         height, width = rgba.shape[:2]
-        check_movie(path, width, height, DEFAULT_FPS, (0.0, 0.0, 0.0, float(np.min(rgba[..., 3]))))
+        opacity = float(np.min(rgba[..., 3])) / (255.0 if rgba.dtype == np.uint8 else 1.0)
+        check_movie(path, width, height, DEFAULT_FPS, (0.0, 0.0, 0.0, opacity))
         with Movie(path, 1, overwrite=overwrite) as movie:
             movie.add(rgba)
         return
@@ -239,7 +250,7 @@ class Movie:
         return self
 
     def add(self, rgba: np.ndarray):
-        """Append a frame (linear RGBA over the background, ``(H, W, 4)``)."""
+        """Append a frame (linear RGBA over the background, ``(H, W, 4)``; or uint8, 8-bit sRGB already)."""
         if self.added >= self.frames:
             raise ValueError(f"{self.path}: all {self.frames} frames were added")
         rgb = encode_8bit(rgba)[..., :3]

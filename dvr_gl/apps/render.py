@@ -25,12 +25,14 @@ from dvr_gl import progress
 from dvr_gl.errors import DvrError
 from dvr_gl.image import (
     DEFAULT_FPS,
+    FLOAT_FORMATS,
     MOVIE_FORMATS,
     Movie,
     check_movie,
     check_output_path,
     check_writable,
     composite_over,
+    encode_8bit,
     write_image,
     write_text,
 )
@@ -126,6 +128,10 @@ def add_arguments(p: argparse.ArgumentParser):
     p.add_argument("--demo", nargs="?", const="shepp-logan", choices=list(DEMOS),
                    help="render a built-in phantom (default shepp-logan)")
     scene_flag(p, "--volume", metavar="FILE", help="volume file (overrides the scene's)")
+    p.add_argument("--annotate", type=annotate_flag, metavar="colorbar,scalebar,axes[,caption=TEXT]",
+                   help="draw annotations over the 8-bit picture (.png .jpg or an animation; never into the float "
+                        "image): colorbar, scalebar, axes, all, unit=TEXT, value_unit=TEXT, caption=TEXT (last: "
+                        "the rest of the text); docs/annotations.md")
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
     p.add_argument("--save-scene", metavar="FILE", help="also write the effective scene (TOML)")
     p.add_argument("--frames", type=int, metavar="N",
@@ -209,6 +215,16 @@ def add_setting_arguments(g):
             g.add_argument(flag, dest=dest, type=kind, choices=setting.choices, help=text)
         else:
             g.add_argument(flag, dest=dest, type=kind, metavar=kind.__name__.upper(), help=text)
+
+
+def annotate_flag(text: str):
+    """``--annotate``: :func:`dvr_gl.annotations.parse_annotate`, refused as argparse refuses a bad value."""
+    from dvr_gl.annotations import parse_annotate
+
+    try:
+        return parse_annotate(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix("--annotate ")) from None
 
 
 def parse_up(text: str) -> list[float]:
@@ -397,6 +413,10 @@ def render(args) -> int:
     for path in outputs:  # before rendering: fail fast, and never half-overwrite a sequence
         check_output_path(path, args.overwrite)
     movie = outputs[0].suffix.lower() in MOVIE_FORMATS
+    annotations = getattr(args, "annotate", None)
+    if annotations and outputs[0].suffix.lower() in FLOAT_FORMATS:
+        raise DvrError(f"--annotate draws on the 8-bit picture: write .png, .jpg or an animation, not "
+                       f"{outputs[0].suffix} (the float image is never annotated)")
     if movie:
         check_movie(outputs[0], scene.image.width, scene.image.height, args.fps, scene.image.background)
     if args.save_scene:
@@ -434,6 +454,10 @@ def render(args) -> int:
                 begun = time.perf_counter()
                 image = composite_over(next(remote) if remote is not None else renderer.render(frame),
                                        scene.image.background)
+                if annotations:
+                    from dvr_gl.annotations import annotate
+
+                    image = annotate(encode_8bit(image), frame, annotations)
                 log.debug("frame %d rendered in %.2f s%s", i, time.perf_counter() - begun,
                           " (compiling the shaders included)" if i == 0 and registry.plugin(
                               scene.renderer.name).needs_gl else "")
