@@ -20,12 +20,13 @@ from .fields.color import ColorVolume  # noqa: E402
 from .fields.layers import FieldSet, Member  # noqa: E402
 from .io import load_field, load_volume  # noqa: E402
 from .labels import LabelTable  # noqa: E402
+from .picking import Pick, pick  # noqa: E402
 from .renderers import create_renderer, registry  # noqa: E402
 from .scene.resolve import Scene, load_scene  # noqa: E402
 from .transfer_function import PRESETS, TransferFunction, preset  # noqa: E402
 from .transfer_function_2d import TransferFunction2D  # noqa: E402
 
 __all__ = ["Camera", "ColorVolume", "DvrError", "Field", "FieldSet", "Image", "LabelTable", "Member", "PRESETS",
-           "ParticleSet", "Scene", "SceneError", "SphereField", "TransferFunction", "TransferFunction2D", "Volume",
-           "VolumeError", "create_renderer", "load_field", "load_scene", "load_volume", "preset", "registry", "render",
-           "scene_of", "__version__"]
+           "ParticleSet", "Pick", "Scene", "SceneError", "SphereField", "TransferFunction", "TransferFunction2D",
+           "Volume", "VolumeError", "create_renderer", "load_field", "load_scene", "load_volume", "pick", "preset",
+           "registry", "render", "scene_of", "__version__"]

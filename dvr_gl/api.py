@@ -55,12 +55,16 @@ class Image:
         renderers return).
     scene: the effective scene it was rendered from (``scene.to_toml()`` repeats it, for file data).
     stats: what the renderer reported (``seconds``, ``samples``, ...).
+    depth: with ``render(..., depth=True)``, ``(H, W)`` float32: the distance along the view axis from the
+        eye's plane (world units) where the ray's opacity crosses one half (MIP/MinIP: the extremum's sample;
+        isosurface: the hit), ``inf`` where it never does (docs/picking.md); else None.
     """
 
-    def __init__(self, rgba: np.ndarray, scene: Scene, stats: dict | None = None):
+    def __init__(self, rgba: np.ndarray, scene: Scene, stats: dict | None = None, depth: np.ndarray | None = None):
         self.rgba = rgba
         self.scene = scene
         self.stats = dict(stats or {})
+        self.depth = depth
 
     @property
     def background(self) -> tuple:
@@ -117,7 +121,7 @@ class Image:
 def render(data, *, spacing=None, origin=None, transfer_function=None, rescale_intercept=None,
            camera: Camera | None = None, renderer: str | None = None, size=None, background=None, ctx=None,
            sandbox: Sandbox | None = None, progress=None, dask=None, compositing_method: str = "direct_send",
-           **keywords) -> Image:
+           depth: bool = False, **keywords) -> Image:
     """Render ``data`` (see the module doc): a numpy array indexed ``[z, y, x]``, a field
     (:mod:`dvr_gl.fields`), a path (a ``.toml`` scene file or a volume file), or a :class:`Scene`.
     ``ctx``: a moderngl context for GL renderers (default: a new headless one, released after).
@@ -129,18 +133,25 @@ def render(data, *, spacing=None, origin=None, transfer_function=None, rescale_i
     ray caster does: ``RendererPlugin.sort_last``): ``"local:N"`` (a local
     cluster of N processes, closed after), a scheduler's address, or a ``distributed.Client``; the
     bricks are composited sort-last by ``compositing_method`` (``"direct_send"`` or ``"binary_swap"``,
-    which needs a power-of-two number of workers); see docs/distributed.md."""
+    which needs a power-of-two number of workers); see docs/distributed.md.
+    ``depth``: also draw the depth image (:attr:`Image.depth`; renderers that declare
+    ``RendererPlugin.depth_output``: the ray caster and the reference)."""
     with (active(sandbox) if sandbox is not None else contextlib.nullcontext(),
           _progress.reporting(progress) if progress is not None else contextlib.nullcontext()):
         return _render(data, spacing=spacing, origin=origin, transfer_function=transfer_function,
                        rescale_intercept=rescale_intercept, camera=camera, renderer=renderer, size=size,
                        background=background, ctx=ctx, dask=dask, compositing_method=compositing_method,
-                       **keywords)
+                       depth=depth, **keywords)
 
 
-def _render(data, *, ctx=None, dask=None, compositing_method="direct_send", **keywords) -> Image:
+def _render(data, *, ctx=None, dask=None, compositing_method="direct_send", depth=False, **keywords) -> Image:
     scene = scene_of(data, **keywords)
     registry.check(scene)
+    if depth:
+        problem = registry.depth_refusal(scene) or (dask is not None and "depth images are drawn on one "
+                                                    "machine, not on Dask workers: leave out dask=")
+        if problem:
+            raise SceneError(problem)
     if dask is not None:
         from .distributed.session import check_request, render_image
 
@@ -150,8 +161,9 @@ def _render(data, *, ctx=None, dask=None, compositing_method="direct_send", **ke
         return Image(rgba, scene, stats)
     with create_renderer(scene.renderer.name, ctx=ctx) as r, _progress.task("rendering") as step:
         r.progress = step  # the CPU references' steps
+        r.want_depth = depth
         rgba = r.render(scene)
-        return Image(rgba, scene, r.stats)
+        return Image(rgba, scene, r.stats, r.depth if depth else None)
 
 
 def scene_of(data, *, spacing=None, origin=None, transfer_function=None, rescale_intercept=None,

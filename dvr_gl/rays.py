@@ -91,10 +91,11 @@ class RayBatch:
 
     @classmethod
     def for_camera(cls, camera, width: int, height: int, box, jitter_seed: int | None = None,
-                   clip=None) -> "RayBatch":
+                   clip=None, pixels=None) -> "RayBatch":
         """The pixels' rays inside ``box`` past the near plane, and inside ``clip`` (a
-        :class:`dvr_gl.clipping.ClipRegion`) where given."""
-        o, d = camera.pixel_rays(width, height)
+        :class:`dvr_gl.clipping.ClipRegion`) where given; only those of ``pixels`` (flat indices, row-major
+        from the top) where given (picking traces one)."""
+        o, d = camera.pixel_rays(width, height, pixels)
         t_enter, t_exit = intersect_box(o, d, *box)
         if clip is not None:
             t_enter, t_exit = clip.interval(o, d, t_enter, t_exit)
@@ -103,6 +104,8 @@ class RayBatch:
         t0 = np.where(hit, t0, 0.0)
         t1 = np.where(hit, t_exit, 0.0)
         offset = np.full(len(t0), 0.5) if jitter_seed is None else jitter_offsets(width, height, jitter_seed)
+        if pixels is not None and jitter_seed is not None:
+            offset = offset[np.asarray(pixels)]
         return cls(o, d, t0, t1, offset)
 
     def points(self, rows: np.ndarray, t: np.ndarray) -> np.ndarray:

@@ -197,6 +197,18 @@ class DiscreteReference:
         return rgba
 
     def _isosurface(self) -> np.ndarray:
+        rows, t = self.iso_hits()
+        points = self.rays.points(rows, t[:, None])
+        colour, _ = self.model.classify_value(np.full(len(rows), self.scene.renderer.iso_value))
+        if self.model.shading is not None:
+            colour = self.model.shade(colour, points, self.rays.directions[rows])
+        rgba = np.zeros((len(self.rays), 4))
+        rgba[rows, :3] = colour
+        rgba[rows, 3] = 1.0
+        return rgba
+
+    def iso_hits(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(rows, t)``: the rays that meet the isosurface and the ray parameter of each hit (world units)."""
         r = self.scene.renderer
         iso = r.iso_value
         n = len(self.rays)
@@ -228,15 +240,7 @@ class DiscreteReference:
             prev_t[rows] = grid.t[np.arange(len(rows)), last]
             prev_s[rows] = s[np.arange(len(rows)), last]
         rows = np.nonzero(hit)[0]
-        t = self._refine(rows, bracket[rows], iso, r.iso_refinement)
-        points = self.rays.points(rows, t[:, None])
-        colour, _ = self.model.classify_value(np.full(len(rows), iso))
-        if self.model.shading is not None:
-            colour = self.model.shade(colour, points, self.rays.directions[rows])
-        rgba = np.zeros((n, 4))
-        rgba[rows, :3] = colour
-        rgba[rows, 3] = 1.0
-        return rgba
+        return rows, self._refine(rows, bracket[rows], iso, r.iso_refinement)
 
     def _refine(self, rows, bracket, iso, steps: int) -> np.ndarray:
         """Bisection on ``[t_a, t_b]`` keeping ``s(t_a) < iso <= s(t_b)``, then linear interpolation."""

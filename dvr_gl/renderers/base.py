@@ -37,6 +37,11 @@ class Renderer:
     description: ClassVar[str] = ""
 
     progress = None   # progress(done, total) after each step of a frame (a progress bar), or None
+    # A depth image beside the colour (RendererPlugin.depth_output renderers; docs/picking.md): asked for by
+    # setting want_depth before render(), left in depth: (H, W) float32, the distance along the view axis
+    # (world units), inf where the ray has no depth
+    want_depth = False
+    depth = None
     _started = 0.0    # when the frame began (perf_counter seconds), for the sandbox's time budget
 
     def __init__(self):
@@ -57,12 +62,15 @@ class Renderer:
         registry.check(scene, self.name)
         self.check_resources(scene)
         self.stats = {}
+        self.depth = None
         start = self._started = time.perf_counter()
         # the camera is stated in the patient frame; renderers draw in the volume's own (dvr_gl.orientation)
         local, mirrored = volume_frame_scene(scene)
         image = draw(local)
         if mirrored:
             image = np.ascontiguousarray(image[:, ::-1])
+            if self.depth is not None:
+                self.depth = np.ascontiguousarray(self.depth[:, ::-1])
         self.stats.setdefault("seconds", time.perf_counter() - start)
         return image
 

@@ -26,5 +26,6 @@ class ReferenceRenderer(Renderer):
         ref = self.integrator(scene)
         ref.progress = self.report
         image = ref.render()
+        self.integrated = ref  # what a renderer may read beyond the image (the reference's depth)
         self.stats = {"seconds": time.perf_counter() - start, **ref.stats}
         return image

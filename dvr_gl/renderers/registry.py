@@ -23,6 +23,7 @@ from importlib import metadata
 from typing import Callable, Optional
 
 from ..errors import DvrError, SceneError
+from ..scene.model import DEPTH_MODES
 from ..scene.plugin import RendererPlugin
 from ..scene.plugin import load as _load
 from ..scene.settings import MODEL_SETTINGS, Setting
@@ -194,6 +195,22 @@ def refusal(scene, name: str | None = None) -> str | None:
         check(scene, name)
     except SceneError as exc:
         return str(exc)
+    return None
+
+
+def depth_refusal(scene, name: str | None = None) -> str | None:
+    """Why renderer ``name`` (default: the scene's) cannot draw a depth image of ``scene`` beside its colour
+    (``RendererPlugin.depth_output``; the compositing mode must have a depth), in one line; None if it can
+    (the renderer may still refuse a combination of its own when it draws)."""
+    p = plugin(name or scene.renderer.name)
+    if not p.depth_output:
+        others = renderers_with(lambda q: q.depth_output and refusal(scene, q.name) is None)
+        return (f"{p.name} draws no depth image" + (f"; render with {_either(others)}" if others else "")
+                + ", or ask for no depth")
+    mode = scene.renderer.compositing
+    if mode not in DEPTH_MODES:
+        return (f"renderer.compositing = {mode!r} has no depth (a mean along the whole ray has no place); depth "
+                f"is defined for {_either(DEPTH_MODES)}")
     return None
 
 

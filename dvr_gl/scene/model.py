@@ -17,6 +17,8 @@ COMPOSITING_MODES = ("emission_absorption", "isosurface", "average", "mip", "min
 #: colour (the line integral of ``sigma c`` over that of ``sigma``); classified post or pre.
 #: The modes that classify every point along the ray (where classification, post or pre, matters).
 CLASSIFIED_ALONG_RAY = ("emission_absorption", "xray")
+# The compositing modes with a depth (docs/picking.md): the opacity's one-half crossing, the extremum, the hit
+DEPTH_MODES = ("emission_absorption", "xray", "mip", "minip", "isosurface")
 CLASSIFICATIONS = ("post", "pre", "preintegrated")
 FILTERS = ("nearest", "linear", "cubic_bspline", "catmull_rom", "gaussian", "m4")
 #: The filters a texture unit helps with: splines on the voxel grid, evaluated from a few taps (the GPU

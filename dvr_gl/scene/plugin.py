@@ -60,6 +60,8 @@ class RendererPlugin:
         default: scalars only).
     transfer_function_2d: the data kinds it classifies by value and gradient magnitude with a 2D transfer
         function (:mod:`dvr_gl.transfer_function_2d`); with any other, a 2D transfer function is refused.
+    depth_output: it draws a depth image beside the colour when asked (``Renderer.want_depth``; the depth
+        :mod:`dvr_gl.reference.depth` defines; docs/picking.md).
     bench: its ``dvr bench`` subcommands, ``"module:attribute"`` naming a
         :class:`~dvr_gl.renderers.bench_command.BenchCommand` or a tuple of them (imported when ``dvr``
         builds its flags: keep that module light; the measurement imports the bench harness when run).
@@ -87,6 +89,7 @@ class RendererPlugin:
     bench: Any = None
     field_roles: tuple[str, ...] = ("scalar",)
     transfer_function_2d: tuple[str, ...] = ()
+    depth_output: bool = False
 
     def declared(self, name: str) -> Optional[Setting]:
         return next((s for s in self.settings if s.name == name), None)

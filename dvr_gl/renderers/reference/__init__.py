@@ -23,6 +23,7 @@ PLUGIN = RendererPlugin(
               s.ERT_THRESHOLD, s.LUT_SIZE, s.SHADING, s.SCATTERING, s.CLIPPING, s.GEOMETRY),
     data_kinds=None,
     reference=True,
+    depth_output=True,  # the judge of depth images (dvr_gl.reference.depth)
     # several fields: the members' models mixed per sample (dvr_gl/reference/fields.py), which refuses in one
     # line what the mixture does not define (a projection of a label, scattering through the mixture)
     field_roles=ROLES,

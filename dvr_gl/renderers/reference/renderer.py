@@ -7,6 +7,7 @@ code right?".
 from __future__ import annotations
 
 from ... import limits
+from ...reference.depth import depth_image
 from ...reference.discrete import DiscreteReference
 from ..judge import ReferenceRenderer
 
@@ -19,6 +20,12 @@ class DiscreteReferenceRenderer(ReferenceRenderer):
     def check_resources(self, scene):
         super().check_resources(scene)
         limits.check_lut_memory(scene.renderer.lut_size)
+
+    def draw(self, scene):
+        image = super().draw(scene)
+        if self.want_depth:  # the judge of depth images: dvr_gl.reference.depth
+            self.depth = depth_image(self.integrated)
+        return image
 
     def work(self, scene):
         return limits.ray_samples(scene, "cpu samples")
