@@ -7,6 +7,12 @@ non-zero; everything else is a bug and keeps its traceback.
 """
 
 
+def install_hint(extra: str) -> str:
+    """How to install the optional extra ``extra`` (``"video"``, ``"plot"``, ...), in words every message
+    shares: from a checkout of the repository (how dvr-gl is installed today) or from a package index."""
+    return f"pip install -e '.[{extra}]' in the dvr-gl checkout (or pip install 'dvr-gl[{extra}]')"
+
+
 class DvrError(Exception):
     """A problem with the user's input or environment, explained in one line."""
 

@@ -22,7 +22,7 @@ import numpy as np
 from . import limits, progress
 from .checks import WORLD_RANGE
 from .clipping import ClipRegion
-from .errors import SceneError
+from .errors import SceneError, install_hint
 from .rays import RayBatch
 from .sandbox import check_bytes, check_input_path
 from .shading import blinn_phong
@@ -132,7 +132,7 @@ def _meshio_faces(path: str):
     try:
         import meshio
     except ImportError:
-        raise SceneError("renderer.geometry: reading meshes needs meshio: pip install 'dvr-gl[mesh]'") from None
+        raise SceneError(f"renderer.geometry: reading meshes needs meshio: {install_hint('mesh')}") from None
     from .io.mesh import UnreadableMesh, quiet_read
 
     name = os.path.basename(path)

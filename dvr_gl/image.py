@@ -27,13 +27,13 @@ from pathlib import Path
 import numpy as np
 
 from . import sandbox
-from .errors import DvrError
+from .errors import DvrError, install_hint
 
 log = logging.getLogger(__name__)
 
 FLOAT_FORMATS = (".exr", ".tif", ".tiff")
 EIGHT_BIT_FORMATS = (".png", ".jpg", ".jpeg")
-VIDEO_FORMATS = (".mp4", ".webm", ".webp")  # through PyAV (pip install 'dvr-gl[video]')
+VIDEO_FORMATS = (".mp4", ".webm", ".webp")  # through PyAV (the optional extra 'video')
 MOVIE_FORMATS = (".gif",) + VIDEO_FORMATS   # every frame of --frames in one file
 FORMATS = FLOAT_FORMATS + EIGHT_BIT_FORMATS + MOVIE_FORMATS
 DEFAULT_FPS = 25.0  # frames per second: exact in GIF, whose frame delays are whole hundredths of a second
@@ -218,7 +218,7 @@ def check_movie(path: Path, width: int, height: int, fps: float, background=(0.0
                        f"frames shorter than 0.02 s; use --fps 50 or less, or .mp4")
     if suffix in VIDEO_FORMATS and not have_video():
         raise DvrError(f"{path}: writing {suffix} needs PyAV, the optional extra 'video': "
-                       f"pip install 'dvr-gl[video]' (or write .gif, or frames as .png)")
+                       f"{install_hint('video')}; or write .gif, or frames as .png")
     if suffix == ".mp4" and (width % 2 or height % 2):
         raise DvrError(f"{path}: H.264 (4:2:0) needs an even width and height, got {width}x{height}; "
                        f"use e.g. --size {width + width % 2}x{height + height % 2}")

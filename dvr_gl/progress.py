@@ -50,14 +50,27 @@ def _ignore(done: int, total: int | None = None):
     pass
 
 
+def _tqdm():
+    """tqdm's bar class: its notebook widget in a Jupyter kernel with ipywidgets, its text bar elsewhere.
+    Without (a usable) ipywidgets, tqdm.auto falls back to the text bar but warns "IProgress not found":
+    the text bar is a fine bar, so the fallback is silent."""
+    import warnings
+
+    from tqdm import TqdmWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", TqdmWarning)
+        from tqdm.auto import tqdm
+    return tqdm
+
+
 class Bar:
     """A tqdm bar on stderr, drawn after ``delay`` seconds; ``bar(done, total)`` moves it."""
 
     def __init__(self, label: str, total: int | None = None, unit: str = "step", delay: float | None = None,
                  leave: bool = False):
         delay = DELAY if delay is None else delay
-        from tqdm.auto import tqdm
-
+        tqdm = _tqdm()
         stream = sys.stderr
         tty = getattr(stream, "isatty", lambda: False)()
         # Not a terminal (a log, a pipe): redraws become lines, so fewer of them.

@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import SceneError
+from .errors import SceneError, install_hint
 from .presets import colormaps, paraview, slicer
 from .presets.colour import linear_to_srgb, srgb_to_linear  # noqa: F401  (the names other modules import)
 from .presets.property import gradient_opacity_is_constant
@@ -353,7 +353,7 @@ def find_preset(name: str) -> str:
     close = difflib.get_close_matches(key, known, n=4, cutoff=0.6)
     hint = f"did you mean {', '.join(folded.get(c) or mpl[c] for c in close)}? " if close else ""
     extra = ("" if mpl is not None else "; matplotlib colour maps by name (inferno, magma, ...) need matplotlib: "
-             "pip install 'dvr-gl[plot]'")
+             f"{install_hint('plot')}")
     text = str(name)
     shown = repr(text) if len(text) <= 80 else f"{text[:60]!r} (and {len(text) - 60} more characters)"
     raise SceneError(f"unknown transfer function preset {shown}: {hint}give a preset ({', '.join(list(PRESETS)[:5])}, "

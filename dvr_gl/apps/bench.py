@@ -16,7 +16,7 @@ registry; these measure across renderers, which they pick by what the plugins de
   dvr bench peers      dvr-gl against VTK, vispy and pygfx (from a separate benchmark environment) on
                        the same scenes: frame time, error against the converged reference, ratios
 
-The measurements are the optional extra ``bench`` (``pip install 'dvr-gl[bench]'``: plots and FLIP);
+The measurements are the optional extra ``bench`` (plots and FLIP);
 they are imported only when a bench runs.
 """
 
@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import logging
 
+from dvr_gl.errors import install_hint
 from dvr_gl.phantoms import DEMOS
 from dvr_gl.renderers import registry
 from dvr_gl.renderers.bench_command import (
@@ -301,7 +302,7 @@ def run_tradeoff(args) -> int:
         else:
             args.report.text(note)
         if rows and rows[0]["flip"] is None:
-            args.report.text("FLIP: not measured (install the optional extra: pip install 'dvr-gl[bench]')")
+            args.report.text(f"FLIP: not measured (install the optional extra: {install_hint('bench')})")
         args.report.text()
         meta["scenes"][name] = {"notes": notes, "tolerance": checks, "scene": scene.to_dict()}
         all_rows += rows
@@ -316,7 +317,7 @@ def run_tradeoff(args) -> int:
         atomic_write(outputs["png"], lambda tmp: plot.tradeoff_plot(all_rows, tmp), args.overwrite)
         written.append(outputs["png"])
     elif not args.no_plot:
-        log.warning("no plot: install the optional extra for plots (pip install 'dvr-gl[bench]')")
+        log.warning(f"no plot: install the optional extra for plots: {install_hint('bench')}")
     wrote(args, ", ".join(map(str, written)))
     return 0
 
@@ -459,7 +460,7 @@ def run_peers(args) -> int:
         atomic_write(Path(args.plot), lambda tmp: plot.peers_plot(rows, tmp), args.overwrite)
         wrote(args, args.plot)
     elif args.plot:
-        log.warning("no plot: install the optional extra for plots (pip install 'dvr-gl[bench]')")
+        log.warning(f"no plot: install the optional extra for plots: {install_hint('bench')}")
     return 0
 
 

@@ -5,11 +5,11 @@
   tcsh:  dvr completion tcsh > ~/.dvr.completion.csh   (then: source ~/.dvr.completion.csh)
 
 The script is static: regenerate it after upgrading dvr-gl.  It needs the completion extra
-(pip install 'dvr-gl[completion]')."""
+(:func:`dvr_gl.errors.install_hint` says how)."""
 
 from __future__ import annotations
 
-from dvr_gl.errors import DvrError
+from dvr_gl.errors import DvrError, install_hint
 
 HELP = "print a shell completion script (bash, zsh, tcsh)"
 SHELLS = ("bash", "zsh", "tcsh")  # shtab's shells
@@ -25,7 +25,7 @@ def script(parser, shell: str) -> str:
     try:
         import shtab
     except ImportError:
-        raise DvrError("shell completion needs shtab: pip install 'dvr-gl[completion]'") from None
+        raise DvrError(f"shell completion needs shtab: {install_hint('completion')}") from None
     return shtab.complete(parser, shell=shell)
 
 

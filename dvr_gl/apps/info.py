@@ -10,6 +10,7 @@ import platform
 from pathlib import Path
 
 from dvr_gl import __version__
+from dvr_gl.errors import install_hint
 from dvr_gl.gl.context import create_context, gl_info
 from dvr_gl.gl.selftest import selftest
 from dvr_gl.renderers import registry
@@ -76,7 +77,7 @@ def run(args) -> int:
           "particle tables (CSV, npz) built in;")
     for fmt, module, package, extra in READERS:
         v = _version(module)
-        print(f"  {fmt:10s} {(package + ' ' + v) if v else f'not available: pip install dvr-gl[{extra}]'}")
+        print(f"  {fmt:10s} {(package + ' ' + v) if v else f'not available: {install_hint(extra)}'}")
     print("renderers (plugins in the entry-point group dvr_gl.renderers):")
     for line in renderer_lines():
         print("  " + line)

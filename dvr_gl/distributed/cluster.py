@@ -10,7 +10,7 @@ import re
 import uuid
 import warnings
 
-from ..errors import DvrError
+from ..errors import DvrError, install_hint
 
 EXTRA = "dask"
 
@@ -19,8 +19,7 @@ def _distributed():
     try:
         import distributed
     except ImportError:
-        raise DvrError(f"--dask needs Dask's distributed scheduler: install the extra {EXTRA!r} "
-                       f"(pip install 'dvr-gl[{EXTRA}]')") from None
+        raise DvrError(f"--dask needs Dask's distributed scheduler: {install_hint(EXTRA)}") from None
     return distributed
 
 

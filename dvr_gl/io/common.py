@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import VolumeError
+from ..errors import VolumeError, install_hint
 
 # Sample types a reader accepts: bool and integers of any width, floats of any width
 # (Volume converts them to uint8, uint16, int16 or float32).  Complex, strings, records: no.
@@ -38,7 +38,7 @@ def require(module: str, package: str, extra: str):
         return importlib.import_module(module)
     except ImportError as exc:
         raise VolumeError(f"reading this format needs the {package} package: "
-                          f"pip install 'dvr-gl[{extra}]' (or pip install {package})") from exc
+                          f"{install_hint(extra)}, or pip install {package}") from exc
 
 
 def show(text) -> str:

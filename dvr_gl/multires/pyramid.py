@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import VolumeError
+from ..errors import VolumeError, install_hint
 from ..fields.grid import IDENTITY, Volume
 from .downsample import TENT, Kernel, downsample, downsample_block, fine_span, level_geometry, to_type
 
@@ -186,7 +186,7 @@ def _zarr():
     try:
         import zarr
     except ImportError:
-        raise VolumeError("writing an OME-Zarr pyramid needs the zarr package: pip install dvr-gl[zarr]") from None
+        raise VolumeError(f"writing an OME-Zarr pyramid needs the zarr package: {install_hint('zarr')}") from None
     return zarr
 
 

@@ -105,7 +105,7 @@ def test_video_without_the_extra_is_refused(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(image, "have_video", lambda: False)
     out = tmp_path / "orbit.mp4"
     code, _, err = run(capsys, "render", "--demo", "-o", out, *SMALL, "--frames", 2)
-    one_line_error(code, err, "pip install 'dvr-gl[video]'")
+    one_line_error(code, err, "pip install -e '.[video]'")
     assert list(tmp_path.iterdir()) == []
 
 

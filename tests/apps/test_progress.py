@@ -90,3 +90,29 @@ def test_every_bench_has_a_bar(capsys, monkeypatch):
     assert f"dvr bench {DEFAULT}" in out  # the table stays on stdout
     assert main(["bench", DEFAULT, "-q", "--volume-size", "12", "--size", "12", "--repeat", "1"]) == 0
     assert capsys.readouterr().err == ""
+
+
+def test_a_notebook_without_ipywidgets_gets_the_text_bar_silently():
+    """In a Jupyter kernel without ipywidgets, tqdm.auto warns "IProgress not found" and falls back to
+    its text bar; ours falls back without the warning (a fresh interpreter: tqdm decides on import)."""
+    import os
+    import subprocess
+    import sys
+
+    code = """
+import sys, types, warnings
+warnings.simplefilter("always")   # shown on stderr (as error, tqdm would catch it)
+shell = type("ZMQInteractiveShell", (), {})()
+sys.modules["ipykernel.zmqshell"] = types.ModuleType("ipykernel.zmqshell")
+ipython = types.ModuleType("IPython"); ipython.get_ipython = lambda: shell
+sys.modules["IPython"] = ipython
+sys.modules["ipywidgets"] = None          # import ipywidgets raises ImportError
+from dvr_gl import progress
+bar = progress.Bar("work", 3, delay=0.0)
+bar(2); bar.close()
+print(type(bar.bar).__module__)
+"""
+    env = {k: v for k, v in os.environ.items() if k != "QT_API" and not k.startswith("SPYDER")}  # tqdm: a console
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env=env)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip() in ("tqdm.std", "tqdm.asyncio") and "IProgress" not in run.stderr

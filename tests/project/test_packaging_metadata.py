@@ -93,7 +93,7 @@ def test_completion_without_shtab_is_one_line(capsys, monkeypatch):
     monkeypatch.setitem(sys.modules, "shtab", None)  # import shtab now raises ImportError
     assert main(["completion", "bash"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "pip install 'dvr-gl[completion]'" in err[0]
+    assert len(err) == 1 and "pip install -e '.[completion]'" in err[0]
 
 
 def test_toml_writer_makes_numpy_values_plain():
@@ -134,3 +134,21 @@ def test_gallery_page_is_current_and_its_pictures_exist():
     for name, *_ in gallery.PICTURES:
         picture = REPO / "docs" / "images" / f"gallery-{name}.png"
         assert picture.is_file() and picture.stat().st_size < 300_000, picture
+
+
+def test_install_hints_come_from_one_helper():
+    """Every message that says how to install an optional extra says it through
+    dvr_gl.errors.install_hint: from a checkout (``pip install -e '.[extra]'``) or a package index."""
+    import re
+    from pathlib import Path
+
+    import dvr_gl
+    from dvr_gl.errors import install_hint
+
+    assert install_hint("plot") == "pip install -e '.[plot]' in the dvr-gl checkout (or pip install 'dvr-gl[plot]')"
+    root = Path(dvr_gl.__file__).parent
+    sources = [p for p in root.rglob("*.py") if p.name != "errors.py" and "tests" not in p.parts]
+    spelled = [f"{p.relative_to(root)}:{n}" for p in sources
+               for n, line in enumerate(p.read_text().splitlines(), 1)
+               if re.search(r"pip install '?dvr-gl\[", line)]
+    assert not spelled, f"spell install hints with dvr_gl.errors.install_hint: {spelled}"

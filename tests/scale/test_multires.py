@@ -203,7 +203,7 @@ def test_dvr_pyramid_without_zarr(tmp_path, capsys, monkeypatch):
     np.save(tmp_path / "v.npy", np.zeros((4, 4, 4), np.float32))
     monkeypatch.setitem(sys.modules, "zarr", None)  # import zarr raises ImportError
     code, _, err = run_cli(capsys, "pyramid", tmp_path / "v.npy", tmp_path / "v.zarr")
-    assert code == 1 and "pip install dvr-gl[zarr]" in err and len(err.strip().splitlines()) == 1
+    assert code == 1 and "pip install -e '.[zarr]'" in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "v.zarr").exists()
 
 

@@ -151,7 +151,7 @@ def test_matplotlib_map_by_name():
 
 def test_matplotlib_missing_says_which_extra(monkeypatch):
     monkeypatch.setattr(colormaps, "matplotlib_names", lambda: None)
-    with pytest.raises(SceneError, match=r"pip install 'dvr-gl\[plot\]'"):
+    with pytest.raises(SceneError, match=r"pip install -e '\.\[plot\]'"):
         preset("inferno", (0, 1))
     assert preset("viridis", (0, 1)).points.shape == (256, 5)  # the shipped table needs no matplotlib
 
