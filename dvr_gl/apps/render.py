@@ -133,6 +133,10 @@ def add_arguments(p: argparse.ArgumentParser):
                         "image): colorbar, scalebar, axes, all, unit=TEXT, value_unit=TEXT, caption=TEXT (last: "
                         "the rest of the text); docs/annotations.md")
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
+    p.add_argument("--depth", action="store_true",
+                   help="also write the depth (distance along the view axis, world units; inf where the opacity "
+                        "never reaches one half): a Z channel of an .exr output, else NAME.depth.exr beside it; "
+                        "docs/picking.md")
     p.add_argument("--save-scene", metavar="FILE", help="also write the effective scene (TOML)")
     p.add_argument("--frames", type=int, metavar="N",
                    help="render an animation of N frames (an orbit; --animate time: the time steps): into one "
@@ -395,6 +399,30 @@ def animation_of(args, source: cli_fields.Source, scene) -> Animation | None:
     return Animation(frames, "orbit" in kinds, steps)
 
 
+def check_depth(args, scene, outputs: list[Path]):
+    """``--depth``: refuse, in one line before any work, what cannot give or hold a depth image (the renderer asked
+    through its declared trait, ``RendererPlugin.depth_output``; the outputs through :mod:`dvr_gl.depth_image`)."""
+    from dvr_gl import depth_image
+
+    problem = registry.depth_refusal(scene)
+    if problem:
+        raise DvrError(f"--depth: {problem}")
+    if getattr(args, "dask", None):
+        raise DvrError("--depth: depth images are drawn on one machine, not on Dask workers; leave out --dask")
+    for path in outputs:
+        depth_image.check_output(path, args.overwrite, sequence=len(outputs) > 1)
+
+
+def write_frame(path: Path, image, depth, overwrite: bool):
+    """One image file, with its depth where one was drawn (:func:`dvr_gl.depth_image.write`)."""
+    if depth is None:
+        write_image(path, image, overwrite)
+        return
+    from dvr_gl import depth_image
+
+    depth_image.write(path, image, depth, overwrite)
+
+
 def run(args) -> int:
     with active(sandbox_of(args)):
         return render(args)
@@ -419,6 +447,9 @@ def render(args) -> int:
                        f"{outputs[0].suffix} (the float image is never annotated)")
     if movie:
         check_movie(outputs[0], scene.image.width, scene.image.height, args.fps, scene.image.background)
+    depth = getattr(args, "depth", False)
+    if depth:
+        check_depth(args, scene, outputs)
     if args.save_scene:
         check_writable(Path(args.save_scene), args.overwrite)
     registry.check(scene)  # before rendering: the renderer's one-line refusal, if any
@@ -434,6 +465,7 @@ def render(args) -> int:
             raise DvrError("--dask with the sandbox's flags: the limits hold in this process, not in the Dask "
                            "workers; render scenes you did not write without --dask")
     renderer = create_renderer(scene.renderer.name)
+    renderer.want_depth = depth
     start = time.perf_counter()
     staged = []  # a sequence's frames under temporary names, renamed into place once every frame is drawn
     try:
@@ -465,9 +497,9 @@ def render(args) -> int:
                     sink.add(image)
                 elif len(outputs) > 1:  # a run stopped at frame k (the time limit, Ctrl-C) leaves no frames
                     staged.append((_staged_name(outputs[i]), outputs[i]))
-                    write_image(staged[-1][0], image, True)
+                    write_frame(staged[-1][0], image, renderer.depth, True)
                 else:
-                    write_image(outputs[i], image, args.overwrite)
+                    write_frame(outputs[i], image, renderer.depth, args.overwrite)
                 if renderer.stats.get("converged") is False:
                     log.warning("%s did not reach renderer.converged_tolerance %g in every pixel",
                                 f"frame {i}" if movie else outputs[i], scene.renderer.converged_tolerance)

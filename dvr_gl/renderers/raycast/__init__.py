@@ -56,6 +56,7 @@ PLUGIN = RendererPlugin(
     check="dvr_gl.renderers.raycast.fields_check:check",
     needs_gl=True,
     out_of_core=True,
+    depth_output=True,  # shaders/depth.glsl, one pass (bricked frames and several fields refuse it)
     order=10,
     sort_last=True,
     # shadow rays march from each sample; the light volume interpolates them (half-angle slicing needs slices)

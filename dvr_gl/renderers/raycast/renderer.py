@@ -22,6 +22,7 @@ import numpy as np
 
 from ... import limits
 from ... import rays as rays_mod
+from ...errors import SceneError
 from ...fields import diagonal
 from ...gl.frame import same_key
 from ...gl.geometry import gl_matrix, projection_matrix, view_matrix
@@ -82,9 +83,10 @@ COMPOSITING = {"emission_absorption": "COMPOSITE_EMISSION", "isosurface": "COMPO
                "xray": "COMPOSITE_EMISSION"}  # the X-ray: emission's sums unattenuated (XRAY)
 
 
-def shader_features(scene, count_samples: bool = False, bricked: bool = False) -> dict:
+def shader_features(scene, count_samples: bool = False, bricked: bool = False, depth: bool = False) -> dict:
     """The defines for exactly the features this scene uses (computed once per frame; the bricked
-    passes' program is :func:`bricked_features` of the same)."""
+    passes' program is :func:`bricked_features` of the same); ``depth``: the depth image too (DEPTH: the
+    location of its output, after the counts')."""
     r = scene.renderer
     xray = r.compositing == "xray"
     emission = r.compositing == "emission_absorption" or xray
@@ -115,8 +117,19 @@ def shader_features(scene, count_samples: bool = False, bricked: bool = False) -
         defines.update(ACCELERATE=True, NUM_LEVELS=level_count(scene.volume.dims, r.block_size),
                        RUNS_IN_CLASSES=emission)
     defines["COUNT_SAMPLES"] = count_samples
+    defines["DEPTH"] = (2 if count_samples else 1) if depth else False
     defines = {k: v for k, v in defines.items() if v is not False}
     return bricked_features(defines) if bricked else defines
+
+
+def check_depth(scene):
+    """Refuse, in one line, a depth image the ray caster does not draw (beyond the registry's check)."""
+    if scene.field.kind == "fields":
+        raise SceneError("the ray caster draws no depth image of several fields yet: use renderer reference for "
+                         "the depth, or leave it out")
+    if scene.renderer.order == "back_to_front" and scene.renderer.compositing == "emission_absorption":
+        raise SceneError("a depth image needs the opacity accumulated from the eye: set renderer.order = "
+                         "front_to_back (the same image)")
 
 
 def acceleration_mode(value) -> str:
@@ -326,13 +339,16 @@ class RayCastRenderer(GridRenderer):
 
     def _draw_volume(self, scene, surfaces: dict) -> np.ndarray:
         self.activate()
+        if self.want_depth:
+            check_depth(scene)
         if scene.field.kind == "fields":  # several fields: one pass of their mixture (.fields)
             return draw_fields(self, scene, surfaces, shader_features)
         start = now()
         if scene.volume.out_of_core:  # its blocks are the ranges' (dvr_gl.out_of_core): no pass over the voxels
             scene = dataclasses.replace(scene, renderer=dataclasses.replace(
                 scene.renderer, block_size=scene.volume.ranges.block_size))
-        defines = shader_features(scene, self.count_samples)
+        depth = self.want_depth and getattr(self, "_partial", None) is None  # not in sort-last's partial states
+        defines = shader_features(scene, self.count_samples, depth=depth)
         views = self.grid_views(scene, defines)
         tables = {**self.table_textures(scene, defines, scene.renderer.sample_distance), **surfaces}
         tables, light_seconds = self.scattering_tables(scene, defines, views, tables)
@@ -349,6 +365,11 @@ class RayCastRenderer(GridRenderer):
         if bricked:  # empty bricks left out (all of them, maybe), levels chosen
             views, frame = out_of_core.frame_views(self, scene, defines, views)
             decided.update(frame)
+        if (bricked or len(windows) > 1) and "DEPTH" in defines:
+            raise SceneError(f"the ray caster draws a depth image in one pass, and this frame takes "
+                             f"{'bricks' if bricked else 'passes over windows of its long rays'}: use renderer "
+                             f"reference for the depth, raise renderer.sample_distance or "
+                             f"renderer.texture_budget_mb, or leave out the depth")
         if bricked or len(windows) > 1:
             if not bricked:  # long rays: the whole volume as one brick, in passes over segment windows
                 views = [GridView((0, 0, 0), scene.volume.dims, whole_volume_brick(scene.volume))]
@@ -361,9 +382,13 @@ class RayCastRenderer(GridRenderer):
                     **self.optics_uniforms(scene, lut)}
         self.bind(program, uniforms, textures)
         width, height = scene.image.width, scene.image.height
-        (colour, *counts), fbo = self.target("main", width, height, (4, 4) if self.count_samples else (4,))
+        components = (4,) + ((4,) if self.count_samples else ()) + ((1,) if "DEPTH" in defines else ())
+        _, fbo = self.target("main", width, height, components)
         gpu_seconds = self.bounds_seconds + self._draw(program, fbo, width, height, self.bands(scene))
         image = self.read(fbo, width, height)
+        if "DEPTH" in defines:  # 3e38: no depth (float32 has no infinity to write from GLSL 3.30)
+            z = self.read(fbo, width, height, 1, attachment=defines["DEPTH"])[..., 0]
+            self.depth = np.where(z >= 1e38, np.inf, z).astype(np.float32)
         self.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines, "bricks": 1,
                       **decided}
         if self.count_samples:

@@ -12,6 +12,16 @@ bool front_known;
 
 const vec4 EMPTY_STATE = vec4(0.0);
 
+#ifdef DEPTH
+const float HALF_OPACITY_DEPTH = 0.69314718;  // ln 2: the optical depth of opacity one half
+// Before a stretch from `start` of optical depth `tau` at extinction `sigma` is added: where in it the
+// optical depth reaches ln 2, if it does (linear within: one extinction per segment, as the reference).
+void note_half_opacity(float start, float tau, float sigma) {
+    if (depth_t < 0.0 && tau > 0.0 && depth < HALF_OPACITY_DEPTH && depth + tau >= HALF_OPACITY_DEPTH)
+        depth_t = start + (HALF_OPACITY_DEPTH - depth) / sigma;
+}
+#endif
+
 bool terminated() {
 #ifdef EARLY_TERMINATION
     return depth >= u_ert_depth;
@@ -39,6 +49,9 @@ bool mode_sample(int k, float start, float len, float t, vec3 p) {
 #endif
     SegmentValue back = segment_value(o + (start + len) * d);
     vec4 e = preintegrated_segment(front, back, len, p, d);
+#ifdef DEPTH
+    note_half_opacity(start, e.a, e.a / len);
+#endif
     front = back;
     front_known = true;
     colour += exp(-depth) * e.rgb;
@@ -46,6 +59,9 @@ bool mode_sample(int k, float start, float len, float t, vec3 p) {
 #else
     vec4 cs = classify(p, d);
     float tau = cs.a * len;
+#ifdef DEPTH
+    note_half_opacity(start, tau, cs.a);
+#endif
 #ifdef XRAY
     colour += tau * cs.rgb;
 #else
@@ -86,6 +102,9 @@ bool mode_jump(vec4 block, inout int m) {
     float tau = block.a * u_sample_distance;
 #ifdef EARLY_TERMINATION
     if (tau > 0.0) count = min(count, ceil((u_ert_depth - depth) / tau));
+#endif
+#ifdef DEPTH
+    note_half_opacity(segment(jump_from).start, tau * count, block.a);
 #endif
 #ifdef XRAY
     colour += tau * count * block.rgb;

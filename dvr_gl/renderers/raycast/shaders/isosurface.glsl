@@ -81,6 +81,9 @@ vec4 mode_finish(vec4 state) {
         if (sm >= u_iso_value) { tb = tm; sb = sm; } else { ta = tm; sa = sm; }
     }
     float w = sb > sa ? clamp((u_iso_value - sa) / (sb - sa), 0.0, 1.0) : 1.0;
+#ifdef DEPTH
+    depth_t = ta + w * (tb - ta);
+#endif
     vec3 p = o + (ta + w * (tb - ta)) * d;
     vec3 colour = transfer_function(u_iso_value).rgb;
 #ifdef SHADING

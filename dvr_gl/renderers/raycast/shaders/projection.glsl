@@ -25,8 +25,14 @@ bool mode_sample(int k, float start, float len, float t, vec3 p) {
     value += s * len;
     total += len;
 #elif defined(COMPOSITE_MIP)
+#ifdef DEPTH
+    if (s > value) depth_t = t;  // the first sample holding the maximum
+#endif
     value = max(value, s);
 #else
+#ifdef DEPTH
+    if (s < value) depth_t = t;
+#endif
     value = min(value, s);
 #endif
     return false;

@@ -8,7 +8,8 @@
 //   options:         SHADING (NUM_LIGHTS, TWO_SIDED), GRADIENT_TEXTURE, GRADIENT_OPACITY, JITTER,
 //                    EARLY_TERMINATION, SCATTERING (common/scattering.glsl), CLIPPING, GEOMETRY,
 //                    ACCELERATE (NUM_LEVELS, RUNS_IN_CLASSES), RAY_BOUNDS, COUNT_SAMPLES,
-//                    CAMERA_ORTHOGRAPHIC, BRICKED (one pass per brick, see below)
+//                    CAMERA_ORTHOGRAPHIC, BRICKED (one pass per brick, see below),
+//                    DEPTH (= the output's location: the depth image, depth.glsl; never BRICKED)
 //   several fields:  FIELDS (NUM_FIELDS, NUM_FIELD_GROUPS, ...: common/fields.glsl), the mixture per sample;
 //                    their own isosurface and per-channel projections (fields_*.glsl); never BRICKED
 // Segments and samples follow the conventions exactly as dvr_gl.reference.discrete places them.
@@ -85,6 +86,11 @@ layout(location = 0) out vec4 frag_color;
 #ifdef COUNT_SAMPLES
 layout(location = 1) out vec4 frag_samples;   // volume samples, block jumps, block lookups, segments jumped
 #endif
+#ifdef DEPTH
+layout(location = DEPTH) out float frag_depth;  // depth.glsl
+float depth_t = -1.0;  // the ray parameter of the pixel's depth, set by the mode parts (< 0: none yet)
+int jump_from;         // ACCELERATE: the first segment of the run mode_jump composites
+#endif
 
 // preintegration.glsl here, not first inside #ifdef FIELDS: a file is expanded once, where it is first named
 // (classify.glsl names it too; inside the #ifdef, one field's pre-integrated program would lose it)
@@ -118,6 +124,9 @@ layout(location = 1) out vec4 frag_samples;   // volume samples, block jumps, bl
 #endif
 
 #include "march.glsl"
+#ifdef DEPTH
+#include "depth.glsl"
+#endif
 #ifdef ACCELERATE
 #include "skipping.glsl"
 #endif
@@ -150,5 +159,8 @@ void main() {
 #endif
 #ifdef COUNT_SAMPLES
     frag_samples = vec4(samples, jumps, lookups, jumped);
+#endif
+#ifdef DEPTH
+    frag_depth = pixel_depth();
 #endif
 }

@@ -140,6 +140,9 @@ void march_skipping(ivec2 window, bool done) {
         if (m > 0) {  // m segments in a skippable block: no samples
             // not past the pass's window or the ray bounds (the core's are clipped already)
             m = min(m, segments_left(k, window));
+#ifdef DEPTH
+            jump_from = k;
+#endif
             done = mode_jump(block, m);
             mode_gap();
             k += STEP * m;
