@@ -68,3 +68,15 @@ def test_render_of_an_array_shows_a_centred_picture(executed, tmp_path):
 def test_the_refusal_prints_one_line(executed):
     printed = [o["text"] for c in executed.cells for o in c.get("outputs", []) if o.get("output_type") == "stream"]
     assert any("slicing3d does not support renderer.compositing = 'mip'" in t for t in printed)
+
+
+def test_the_notebook_is_committed_with_its_pictures():
+    """Read online (GitHub renders the file as it is), the notebook shows its pictures: the committed file
+    holds each code cell's outputs, at least the four images, and stays small (small images: under 200 kB)."""
+    import json
+
+    notebook = json.loads(NOTEBOOK.read_text())
+    code = [c for c in notebook["cells"] if c["cell_type"] == "code"]
+    assert all(c.get("execution_count") for c in code)
+    pictures = [o for c in code for o in c.get("outputs", []) if "image/png" in o.get("data", {})]
+    assert len(pictures) >= 4 and NOTEBOOK.stat().st_size < 200_000
