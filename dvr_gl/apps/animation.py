@@ -10,6 +10,10 @@
   k`` wherever the transfer functions are given in data units, as points or a file: a preset stretched over the
   data's range is stretched over step 0's).
 * ``time,orbit``: both at once.
+* ``path`` (the default of ``--frames`` when the scene has ``[[camera.keyframe]]`` tables): the camera follows
+  the keyframes' path (:class:`dvr_gl.camera_path.CameraPath`), frame ``i`` of N at time
+  ``start + i (end - start) / (N - 1)``: the first and last keyframes are the first and last frames.
+  ``time,path``: with the time steps too.
 """
 
 from __future__ import annotations
@@ -19,14 +23,15 @@ import dataclasses
 from dataclasses import dataclass
 from typing import Callable
 
-ANIMATIONS = ("orbit", "time")
+ANIMATIONS = ("orbit", "time", "path")
 
 
 def parse_animate(text: str) -> frozenset:
     """``--animate``: ``orbit``, ``time`` or both, comma-separated."""
     parts = frozenset(p.strip().lower() for p in text.split(",") if p.strip())
-    if not parts or not parts <= set(ANIMATIONS):
-        raise argparse.ArgumentTypeError(f"{text!r}: give orbit, time, or time,orbit")
+    if not parts or not parts <= set(ANIMATIONS) or {"orbit", "path"} <= parts:
+        raise argparse.ArgumentTypeError(f"{text!r}: give orbit, time, or time,orbit; or path or time,path (the "
+                                         f"scene's [[camera.keyframe]] tables)")
     return parts
 
 
@@ -45,6 +50,7 @@ class Animation:
     frames: int
     orbit: bool = True
     steps: int = 1
+    path: object = None  # a CameraPath the camera follows (instead of an orbit)
 
     def step(self, i: int) -> int:
         """The time step frame ``i`` shows: ``floor(i steps / frames)``, exact in integers."""
@@ -68,4 +74,11 @@ class Frames:
                 self.field = self.read_step(k)
                 self.shown = k
             scene = dataclasses.replace(scene, field=self.field)
+        if self.animation.path is not None:
+            return scene.replace(camera=self.animation.path.camera_at(self.times[i]))
         return orbit_scene(scene, i, self.animation.frames) if self.animation.orbit else scene
+
+    @property
+    def times(self):
+        """The path's time at each frame (seconds)."""
+        return self.animation.path.frame_times(self.animation.frames)

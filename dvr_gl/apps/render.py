@@ -122,9 +122,11 @@ def add_arguments(p: argparse.ArgumentParser):
                                                          "default: every channel, each a field)")
     scene_flag(several, "--time", metavar="K", help="a time series: render step K (0 first, the default), exactly "
                                                       "as that step alone")
-    several.add_argument("--animate", type=parse_animate, metavar="orbit|time|time,orbit",
-                         help="what --frames animates: orbit (the default), time (frame i of N shows step "
-                              "floor(i*S/N) of the S steps; without --frames N = S, one frame a step) or both")
+    several.add_argument("--animate", type=parse_animate, metavar="orbit|path|time|time,orbit",
+                         help="what --frames animates: orbit (the default), path (the scene's [[camera.keyframe]] "
+                              "tables: the default when it has them), time (frame i of N shows step "
+                              "floor(i*S/N) of the S steps; without --frames N = S, one frame a step) or time "
+                              "with either")
     p.add_argument("--demo", nargs="?", const="shepp-logan", choices=list(DEMOS),
                    help="render a built-in phantom (default shepp-logan)")
     scene_flag(p, "--volume", metavar="FILE", help="volume file (overrides the scene's)")
@@ -379,9 +381,12 @@ def source_of(args, verb: str = "render") -> cli_fields.Source:
 def animation_of(args, source: cli_fields.Source, scene) -> Animation | None:
     """The animation ``--frames`` and ``--animate`` ask for (None: one image); a time animation finds its files'
     steps (:func:`.fields.timed_files`)."""
-    kinds = args.animate or (frozenset({"orbit"}) if args.frames is not None else frozenset())
+    path = scene.camera_path()
+    kinds = args.animate or (frozenset({"path" if path else "orbit"}) if args.frames is not None else frozenset())
     if not kinds:
         return None
+    if "path" in kinds and path is None:
+        raise DvrError("--animate path: the scene has no [[camera.keyframe]] tables (docs/scene-files.md)")
     steps = 1
     if "time" in kinds:
         if args.time is not None:
@@ -392,11 +397,12 @@ def animation_of(args, source: cli_fields.Source, scene) -> Animation | None:
         steps, _ = cli_fields.timed_files(source, scene)
     frames = args.frames if args.frames is not None else steps
     if "time" not in kinds and args.frames is None:
-        raise DvrError("--animate orbit needs --frames N (the frames of the turn)")
+        raise DvrError(f"--animate {'path' if 'path' in kinds else 'orbit'} needs --frames N (the frames of the "
+                       f"{'path' if 'path' in kinds else 'turn'})")
     if not 1 <= frames <= MAX_FRAMES:
         raise DvrError(f"--frames must be in [1, {MAX_FRAMES}] (the images of the animation, numbered with 4 "
                        f"digits), got {frames}")
-    return Animation(frames, "orbit" in kinds, steps)
+    return Animation(frames, "orbit" in kinds, steps, path if "path" in kinds else None)
 
 
 def check_depth(args, scene, outputs: list[Path]):

@@ -26,6 +26,7 @@ import numpy as np
 
 from .. import phantoms
 from ..camera import DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Camera, framing_distance, framing_view_height
+from ..camera_path import CameraPath
 from ..checks import WORLD_RANGE
 from ..errors import DvrError, SceneError
 from ..fields import diagonal
@@ -397,6 +398,33 @@ def _resolve_camera(spec: CameraSpec, field, image: ImageSpec) -> Camera:
                              distance, **common)
 
 
+def camera_path_of(spec: CameraSpec, field, image: ImageSpec):
+    """The :class:`~dvr_gl.camera_path.CameraPath` of ``spec``'s ``[[camera.keyframe]]`` tables (None when it
+    has none): each keyframe's keys replace the ``[camera]`` table's and resolve as that table does (a
+    keyframe that gives ``eye`` drops the table's orbit keys; ``view`` and ``azimuth``/``elevation`` replace
+    each other); refused in one line naming the keyframe."""
+    if not spec.keyframe:
+        return None
+    cameras = []
+    for k, key in enumerate(spec.keyframe):
+        if key.time is None:
+            raise SceneError(f"camera.keyframe[{k}]: give its time (seconds along the path)")
+        given = {f.name: getattr(key, f.name) for f in dataclasses.fields(key)
+                 if f.name != "time" and getattr(key, f.name) is not None}
+        base = dataclasses.replace(spec, keyframe=[])
+        if "eye" in given:
+            base = dataclasses.replace(base, azimuth=None, elevation=None, view=None, distance=None)
+        if "view" in given:
+            base = dataclasses.replace(base, azimuth=None, elevation=None)
+        if "azimuth" in given or "elevation" in given:
+            base = dataclasses.replace(base, view=None)
+        try:
+            cameras.append(_resolve_camera(dataclasses.replace(base, **given), field, image))
+        except SceneError as exc:
+            raise SceneError(f"camera.keyframe[{k}]: {exc}") from None
+    return CameraPath(cameras, [key.time for key in spec.keyframe])
+
+
 def _check_image(spec: ImageSpec):
     """What the schema cannot check key by key (each key's own range is checked by parsing)."""
     if spec.width * spec.height > 64_000_000:
@@ -496,6 +524,10 @@ class Scene:
         ``scene.own.block_size`` for the ray caster (:func:`dvr_gl.scene.schema.own_settings`)."""
         return own_settings(self.renderer)
 
+    def camera_path(self):
+        """The scene's ``[[camera.keyframe]]`` path (:class:`~dvr_gl.camera_path.CameraPath`), or None."""
+        return camera_path_of(self.spec.camera, self.field, self.image) if self.spec else None
+
     def replace(self, **changes) -> "Scene":
         """The scene with parts replaced.  A new field (``field=`` or ``volume=``) re-frames the camera
         (same view direction and lens, the new box) and re-resolves what depended on the old data
@@ -556,16 +588,21 @@ class Scene:
             return {"volume": [{**spec_to_dict(self._relative(s, relative_to)),
                                 "transfer_function": _tf_dict(layer.transfer_function)}
                                for s, layer in zip(self.sources, self.layers)],
-                    "camera": self.camera.to_dict(),
+                    "camera": self._camera_dict(),
                     "image": spec_to_dict(self.image),
                     "renderer": _relative_geometry(effective_renderer_dict(self.renderer), relative_to)}
         return {
             "volume": spec_to_dict(source),
             "transfer_function": _tf_dict(tf),
-            "camera": self.camera.to_dict(),
+            "camera": self._camera_dict(),
             "image": spec_to_dict(self.image),
             "renderer": _relative_geometry(effective_renderer_dict(self.renderer), relative_to),
         }
+
+    def _camera_dict(self) -> dict:
+        """The camera's table, with the keyframes of a path as they were given (relative to that table)."""
+        keyframes = self.spec.camera.keyframe if self.spec else []
+        return {**self.camera.to_dict(), **({"keyframe": [spec_to_dict(k) for k in keyframes]} if keyframes else {})}
 
     @staticmethod
     def _relative(source: VolumeSpec, relative_to) -> VolumeSpec:
@@ -649,6 +686,7 @@ def resolve_scene(spec: SceneSpec, base_dir: Path | str = ".", field=None, volum
         spec = dataclasses.replace(spec, transfer_function=dataclasses.replace(
             spec.transfer_function, file=str(_tf_path(spec.transfer_function.file, base_dir).resolve())))
     camera = camera or _resolve_camera(spec.camera, field, spec.image)
+    camera_path_of(spec.camera, field, spec.image)  # keyframes refused here, before any rendering
     renderer = _resolve_geometry(resolve_renderer(spec.renderer, field), base_dir)
     scene = Scene(field, tf, camera, spec.image, renderer, volume_source or VolumeSpec(), spec,
                   transfer_functions=tfs if len(tfs) > 1 else (), sources=tuple(sources) if len(tfs) > 1 else ())
@@ -687,7 +725,8 @@ def _as_volume_spec(table) -> VolumeSpec:
 
 
 def _unset(tf: TransferFunctionSpec) -> bool:
-    return tf.preset is None and tf.points is None and tf.file is None
+    """Whether a transfer-function table names no function (points, preset, file, or a 2D table or boxes)."""
+    return tf.preset is None and tf.points is None and tf.file is None and tf.table_2d is None and tf.boxes_2d is None
 
 
 def _member_transfer_function(tf_spec, member, k: int, count: int, demo, base_dir: Path, lookup):

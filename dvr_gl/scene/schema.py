@@ -168,6 +168,28 @@ class TransferFunctionSpec:
 
 
 @dataclass
+class KeyframeSpec:
+    """A camera of a path (``[[camera.keyframe]]``): the ``[camera]`` table's keys it gives replace that table's
+    (one that gives ``eye`` is a look-at: the table's orbit keys are dropped), at ``time`` seconds; between
+    keyframes the camera turns on the sphere (docs/cli.md, Camera paths; :mod:`dvr_gl.camera_path`)."""
+
+    time: Optional[float] = checked(None, "seconds along the path (required; increasing from one keyframe to the "
+                                          "next)", between(-1e9, 1e9))
+    eye: Optional[Vec3] = checked(None, "look-at: the eye (world)", world_coordinates)
+    target: Optional[Vec3] = checked(None, "what the camera looks at (default: the `[camera]` table's)",
+                                     world_coordinates)
+    up: Optional[Vec3] = checked(None, "the up direction (default: the `[camera]` table's)", non_zero)
+    azimuth: Optional[float] = checked(None, "orbit about the target, degrees", between(-1e6, 1e6))
+    elevation: Optional[float] = checked(None, "orbit elevation, degrees", between(-90, 90))
+    view: Optional[str] = choices(*ANATOMICAL_VIEWS, default=None, doc="an anatomical view (sets azimuth and "
+                                                                       "elevation)", excludes=("azimuth", "elevation"))
+    distance: Optional[float] = checked(None, "eye to target, world units", world_length)
+    fov: Optional[float] = checked(None, "vertical field of view, degrees (perspective)", LENS_CHECKS["fov"])
+    view_height: Optional[float] = checked(None, "view height, world units (orthographic)",
+                                           LENS_CHECKS["view_height"])
+
+
+@dataclass
 class CameraSpec:
     """Look-at (``eye``) and/or orbit (``azimuth``, ``elevation``, ``distance``) about ``target``.
 
@@ -192,6 +214,8 @@ class CameraSpec:
                                         world_length)
     near: float = checked(0.0, "near plane distance from the eye; rays start there or at the data",
                          LENS_CHECKS["near"])
+    keyframe: list[KeyframeSpec] = doc(None, "`[[camera.keyframe]]` tables: a camera path that `--frames` "
+                                             "renders (at least two; see below)", factory=list)
 
 
 @dataclass
