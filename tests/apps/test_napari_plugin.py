@@ -1,0 +1,214 @@
+"""The napari plugin (dvr_gl/napari, docs/napari.md): its manifest validates, its readers place the voxels where
+dvr-gl does, and its dock widget renders napari's 3D view of an image and a labels layer as dvr_gl.render renders
+the same scene built directly, lying as napari's own canvas does.  One napari viewer for the module, in the
+run's Xvfb display (napari's canvas needs a display: Qt's offscreen platform has no OpenGL widget)."""
+
+import importlib.metadata
+import os
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+napari = pytest.importorskip("napari")
+npe2 = pytest.importorskip("npe2")
+
+from dvr_gl import Camera, LabelTable, Member, TransferFunction, Volume, render  # noqa: E402
+from dvr_gl.napari import readers  # noqa: E402
+from dvr_gl.presets.colour import srgb_to_linear  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[2]
+MANIFEST = ROOT / "dvr_gl" / "napari" / "napari.yaml"
+
+
+# --- the manifest -------------------------------------------------------------------------------------------
+
+def test_the_manifest_validates_and_the_entry_point_finds_it():
+    manifest = npe2.PluginManifest.from_file(MANIFEST)
+    manifest.validate_imports()  # every python_name imports and exists
+    assert manifest.name == "dvr-gl"
+    assert {w.display_name for w in manifest.contributions.widgets} == {"dvr-gl render"}
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    value = project["project"]["entry-points"]["napari.manifest"]["dvr-gl"]
+    entry = importlib.metadata.EntryPoint("dvr-gl", value, "napari.manifest")
+    found = npe2.PluginManifest._from_entrypoint(entry, importlib.metadata.distribution("dvr-gl"))
+    assert found.name == manifest.name  # npe2's own reading of "package:file", checked against the package's name
+    assert "napari.yaml" in project["tool"]["setuptools"]["package-data"]["dvr_gl.napari"]  # installed with it
+
+
+# --- the readers ---------------------------------------------------------------------------------------------
+
+DATA = np.arange(24, dtype=np.float32).reshape(2, 3, 4)  # [z, y, x]
+
+
+def _nrrd(path, directions, origin):
+    vectors = " ".join("(" + ",".join(map(repr, map(float, d))) + ")" for d in directions)
+    path.write_bytes((f"NRRD0004\ntype: float\ndimension: 3\nsizes: 4 3 2\nendian: little\nencoding: raw\n"
+                      f"space: left-posterior-superior\nspace directions: {vectors}\n"
+                      f"space origin: ({','.join(map(str, origin))})\n\n").encode() + DATA.astype("<f4").tobytes())
+    return path
+
+
+def _mhd(folder):
+    (folder / "v.raw").write_bytes(DATA.astype("<f4").tobytes())
+    (folder / "v.mhd").write_text("ObjectType = Image\nNDims = 3\nBinaryData = True\nBinaryDataByteOrderMSB = False\n"
+                                  "Offset = 1 2 3\nElementSpacing = 0.5 0.25 2\nDimSize = 4 3 2\n"
+                                  "ElementType = MET_FLOAT\nElementDataFile = v.raw\n")
+    return folder / "v.mhd"
+
+
+def _vti(path):
+    values = " ".join(repr(float(v)) for v in DATA.ravel())
+    path.write_text('<?xml version="1.0"?>\n<VTKFile type="ImageData" version="1.0" byte_order="LittleEndian">\n'
+                    '<ImageData WholeExtent="0 3 0 2 0 1" Origin="1 2 3" Spacing="0.5 0.25 2">\n'
+                    '<Piece Extent="0 3 0 2 0 1"><PointData Scalars="d">'
+                    f'<DataArray type="Float32" Name="d" format="ascii">\n{values}\n</DataArray>'
+                    '</PointData><CellData/></Piece></ImageData>\n</VTKFile>\n')
+    return path
+
+
+@pytest.mark.parametrize("write", [lambda f: _nrrd(f / "v.nrrd", np.diag([0.5, 0.25, 2.0]), (1, 2, 3)), _mhd,
+                                   lambda f: _vti(f / "v.vti")], ids=["nrrd", "metaimage", "vti"])
+def test_a_volume_reads_with_its_spacing_and_origin(tmp_path, write):
+    path = write(tmp_path)
+    reader = readers.get_reader(str(path))
+    [(data, attributes, kind)] = reader(str(path))
+    assert kind == "image"
+    np.testing.assert_array_equal(data, DATA)
+    assert attributes["scale"] == (2.0, 0.25, 0.5)  # (z, y, x): the spacing reversed
+    assert attributes["translate"] == (3.0, 2.0, 1.0)
+
+
+def test_an_oriented_volume_is_placed_where_dvr_gl_places_it(tmp_path):
+    # index axes x -> world -y (1.5 apart), y -> world +x (0.5), z -> world -z (2): a rotation with a mirror
+    directions = [(0, -1.5, 0), (0.5, 0, 0), (0, 0, -2)]
+    path = _nrrd(tmp_path / "o.nrrd", directions, (4, 5, 6))
+    [(data, attributes, _)] = readers.get_reader(str(path))(str(path))
+    layer = napari.layers.Image(data, **attributes)
+    for index_xyz in [(0, 0, 0), (3, 0, 0), (0, 2, 1), (3, 2, 1)]:
+        expected = np.array([4, 5, 6]) + np.array(directions).T @ np.array(index_xyz, dtype=float)
+        np.testing.assert_allclose(layer.data_to_world(index_xyz[::-1]), expected[::-1], atol=1e-9)
+
+
+def test_meshes_read_as_surfaces(tmp_path):
+    tet = tmp_path / "t.vtk"
+    tet.write_text("# vtk DataFile Version 3.0\ntet\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 float\n"
+                   "0 0 0 1 0 0 0 1 0 0 0 1\nCELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\nPOINT_DATA 4\n"
+                   "SCALARS s float 1\nLOOKUP_TABLE default\n0 1 2 3\n")
+    [((vertices, faces, values), _, kind)] = readers.get_reader(str(tet))(str(tet))
+    assert kind == "surface" and faces.shape == (4, 3)  # one tetrahedron: four boundary triangles
+    np.testing.assert_array_equal(vertices[:, ::-1], [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    np.testing.assert_array_equal(values, [0, 1, 2, 3])
+    obj = tmp_path / "m.obj"
+    obj.write_text("v 0 0 0\nv 1 0 0\nv 0 2 0\nf 1 2 3\n")
+    [((vertices, faces), _, kind)] = readers.get_reader(str(obj))(str(obj))
+    assert kind == "surface" and faces.tolist() == [[0, 1, 2]]
+    np.testing.assert_array_equal(vertices[2], [0, 2, 0])  # (z, y, x) of x = 0, y = 2
+    assert readers.get_reader(str(tmp_path / "picture.png")) is None
+
+
+# --- the dock widget ------------------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def viewer(xvfb):
+    with pytest.MonkeyPatch.context() as env:
+        env.setenv("DISPLAY", xvfb)
+        env.setenv("QT_QPA_PLATFORM", "xcb")
+        v = napari.Viewer(show=False)
+        yield v
+        v.close()
+
+
+def _scene(viewer):
+    """An asymmetric image (a bright block at large x, small y, small z) and a label block, in 3D."""
+    viewer.layers.clear()
+    image = np.zeros((12, 16, 20), np.float32)
+    image[1:4, 2:5, 14:19] = 1.0
+    labels = np.zeros((12, 16, 20), np.int32)
+    labels[6:10, 9:14, 3:8] = 2
+    viewer.add_image(image, scale=(2.0, 1.0, 1.0), translate=(1.0, 0.0, 0.0), name="image", gamma=1.0)
+    viewer.add_labels(labels, scale=(2.0, 1.0, 1.0), translate=(1.0, 0.0, 0.0), name="labels", opacity=0.8)
+    viewer.dims.ndisplay = 3
+    viewer.reset_view()
+    return image, labels
+
+
+def _expected(viewer, image, labels, camera, renderer, size):
+    """dvr_gl.render of the same scene built directly from the documented mapping (docs/napari.md)."""
+    grid = dict(spacing=(1.0, 1.0, 2.0), origin=(0.0, 0.0, 1.0))
+    s = np.linspace(0.0, 1.0, 64)  # the grey colormap, contrast limits 0..1, gamma 1, opacity 1, depth 10 voxels
+    tf = TransferFunction(np.column_stack([s, srgb_to_linear(np.stack([s] * 3, axis=1)), s]), unit_distance=10.0)
+    rgba = np.asarray(viewer.layers["labels"].colormap.map(np.array([2])))[0]
+    table = LabelTable([2], [srgb_to_linear(rgba[:3])], [0.8 * rgba[3]], unit_distance=1.0)
+    members = [Member(Volume(image, name="image", **grid), "scalar", "image"),
+               Member(Volume(labels.astype(np.uint8), name="labels", **grid), "label", "labels")]
+    picture = render(members, transfer_function=[tf, table], camera=camera, renderer=renderer, size=size,
+                     background=(0, 0, 0, 1))
+    return picture.srgb8()[:, ::-1, :3]  # napari's default orientation mirrors (x, y, z): columns flipped
+
+
+def test_the_widget_renders_napari_view_of_an_image_and_labels(viewer):
+    from dvr_gl.napari.widget import RenderWidget
+
+    image, labels = _scene(viewer)
+    camera = viewer.camera
+    widget = RenderWidget(viewer)
+    widget.width_box.setValue(96)
+    layer = widget.render_layer()
+    picture = np.asarray(layer.data)
+    h, w = (float(x) for x in viewer.canvas.viewbox_size(viewer.layers))
+    assert picture.shape == (round(96 * h / w), 96, 3)
+    # napari at angles (0, 0, 0), orthographic, default orientation: looking down -z from +z, +y down the
+    # screen: eye above the centre, up = -y, the view canvas_height / zoom world units high
+    centre = np.array(camera.center)[::-1]
+    height = h / camera.zoom
+    expected_camera = Camera(tuple(centre + (0, 0, height)), tuple(centre), (0, -1, 0), projection="orthographic",
+                             view_height=height)
+    expected = _expected(viewer, image, labels, expected_camera, layer.name.removeprefix("dvr-gl "),
+                         picture.shape[1::-1])
+    np.testing.assert_array_equal(picture, expected)  # the same renderer on the same scene: the same bytes
+    # orientation in words: the bright grey block (large x, small y) is right of centre and above it
+    grey = (picture.min(axis=2) > 100) & (np.ptp(picture, axis=2) < 8)  # the labels are blue
+    ys, xs = np.nonzero(grey)
+    assert xs.mean() > 0.6 * picture.shape[1] and ys.mean() < 0.4 * picture.shape[0]
+
+
+def test_the_picture_lies_as_napari_canvas_shows_it(viewer):
+    """napari's own canvas (drawn in the window, shown for this test) and the widget's picture at the canvas's
+    size put the bright block's centre at the same pixel, in an oblique perspective view and an oblique
+    orthographic one (measured: within 0.2 pixels; 1 allowed for napari's sampling at the block's edges)."""
+    from dvr_gl.napari.scene import render_view
+
+    _scene(viewer)
+    viewer.layers["labels"].visible = False
+    viewer.layers["image"].rendering = "mip"
+    viewer.window.show()
+    try:
+        for angles, perspective in (((0, 30, 60), 30.0), ((20, -40, 10), 0.0)):
+            viewer.camera.angles, viewer.camera.perspective = angles, perspective
+            shot = viewer.screenshot(canvas_only=True)[..., 0]
+            mine = render_view(viewer).srgb8()[..., 0]
+            assert shot.shape == mine.shape
+            where = [np.argwhere(a > 100).mean(axis=0) for a in (shot, mine)]
+            np.testing.assert_allclose(where[1], where[0], atol=1.0)
+    finally:
+        viewer.window._qt_window.hide()
+        viewer.layers["labels"].visible = True
+
+
+def test_a_refused_view_says_why_in_the_status_line(viewer):
+    from dvr_gl.napari.widget import RenderWidget
+
+    _scene(viewer)
+    viewer.dims.ndisplay = 2
+    widget = RenderWidget(viewer)
+    widget.run()
+    assert "3D" in widget.status.text() and "\n" not in widget.status.text()
+    viewer.dims.ndisplay = 3
+    widget.output.setCurrentText("orbit")
+    widget.frames.setValue(3)
+    widget.width_box.setValue(32)
+    widget.run()
+    assert viewer.layers[-1].data.shape[0] == 3, widget.status.text()
+    assert os.environ.get("QT_QPA_PLATFORM") == "xcb"
