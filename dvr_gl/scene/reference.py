@@ -17,7 +17,7 @@ from pathlib import Path
 
 from ..renderers import registry
 from .model import LightSpec, ShadingSpec, exclusive_keys
-from .schema import CameraSpec, ImageSpec, TransferFunctionSpec, VolumeSpec
+from .schema import CameraSpec, ImageSpec, KeyframeSpec, TransferFunctionSpec, VolumeSpec
 
 INTRO = """\
 # Scene files
@@ -60,6 +60,33 @@ enabled = true
 
 [[renderer.shading.lights]]
 type = "headlight"
+```
+"""
+
+CAMERA_PATHS = """\
+A camera path: two or more keyframes at increasing `time` (seconds), each a camera whose keys replace the
+`[camera]` table's (one that gives `eye` is a look-at and drops the table's orbit keys; `view` and
+`azimuth`/`elevation` replace each other). `dvr render scene.toml --frames N -o path.gif` renders N frames
+evenly over the keyframes' span, the first and last keyframes being the first and last frames
+(`--animate path`, the default of `--frames` for such a scene; `time,path` with a time series). Between
+keyframes the camera's rotation moves on the sphere of rotations (Shoemake's SQUAD: through every keyframe,
+smooth; between two keyframes, slerp: the view turns about one axis at a constant rate), the eye-to-target
+distance and an orthographic view height in log space, the target and the field of view along a cubic
+(Catmull-Rom slopes; with two keyframes, straight lines); up stays orthogonal to the view. In Python:
+`dvr_gl.CameraPath(cameras, times).camera_at(t)`, or `scene.camera_path()`. Refused in one line: fewer than
+two keyframes, a keyframe without `time`, times that do not increase, an eye on the target, a look-at
+keyframe whose up is parallel to its view.
+
+```toml
+[[camera.keyframe]]
+time = 0.0
+azimuth = 0.0
+
+[[camera.keyframe]]
+time = 2.0
+azimuth = 120.0
+elevation = 30.0
+distance = 400.0
 ```
 """
 
@@ -198,6 +225,7 @@ def reference_text() -> str:
     lines += _table(None, TransferFunctionSpec, "transfer_function.")
     lines += _table(None, CameraSpec, "camera.", "With `eye` and orbit keys both given, the orbit keys replace "
                                                  "the matching parameters of the eye's orbit.")
+    lines += _table("`[[camera.keyframe]]`", KeyframeSpec, "", CAMERA_PATHS.rstrip())
     lines += _table(None, ImageSpec, "image.")
     lines += _renderer_tables()
     lines.append(SAVE_SCENE)
