@@ -73,12 +73,13 @@ def test_programs_are_cached_per_feature_set(gl_context):
 
 def test_missing_egl_library_names_the_package():
     with pytest.raises(GLUnavailableError, match="could not be loaded; install .*apt install libegl1"):
-        create_context(libegl="libEGL_does_not_exist.so.1")
+        create_context("egl", libegl="libEGL_does_not_exist.so.1")
 
 
 def test_no_egl_driver_is_one_line_and_nonzero_exit():
-    """With no EGL vendor driver visible, `dvr info` explains in one line what to install."""
-    env = dict(os.environ, __EGL_VENDOR_LIBRARY_FILENAMES="/nonexistent/egl_vendor.json")
+    """With no EGL vendor driver visible and EGL asked for, `dvr info` explains in one line what to install
+    (with the backend left to choose, OSMesa renders: tests/gl/test_backends.py)."""
+    env = dict(os.environ, __EGL_VENDOR_LIBRARY_FILENAMES="/nonexistent/egl_vendor.json", DVR_GL_BACKEND="egl")
     proc = subprocess.run([sys.executable, "-m", "dvr_gl.apps", "info"], env=env, capture_output=True, text=True)
     assert proc.returncode == 1
     last = proc.stderr.strip().splitlines()
