@@ -12,8 +12,10 @@ value and gradient magnitude); :class:`Camera`; the renderers
 
 __version__ = "0.1.0"
 
+from .annotations import Annotations, annotate  # noqa: E402
 from .api import Image, render, scene_of  # noqa: E402
 from .camera import Camera  # noqa: E402
+from .camera_path import CameraPath  # noqa: E402
 from .errors import DvrError, SceneError, VolumeError  # noqa: E402
 from .fields import Field, ParticleSet, SphereField, Volume  # noqa: E402
 from .fields.color import ColorVolume  # noqa: E402
@@ -30,3 +32,4 @@ __all__ = ["Camera", "ColorVolume", "DvrError", "Field", "FieldSet", "Image", "L
            "ParticleSet", "Pick", "Scene", "SceneError", "SphereField", "TransferFunction", "TransferFunction2D",
            "Volume", "VolumeError", "create_renderer", "load_field", "load_scene", "load_volume", "pick", "preset",
            "registry", "render", "scene_of", "__version__"]
+__all__ += ["Annotations", "CameraPath", "annotate"]  # issue 43: annotations and camera paths
