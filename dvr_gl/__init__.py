@@ -7,7 +7,8 @@ The Python API in one line: ``dvr_gl.render(data, ...)`` (:func:`render`) takes 
 data kind implements; several fields in one scene: :class:`FieldSet` of :class:`Member` s, a label map's
 :class:`LabelTable`, a :class:`ColorVolume`); :class:`TransferFunction` (and :class:`TransferFunction2D`, over
 value and gradient magnitude); :class:`Camera`; the renderers
-(:func:`create_renderer`, and :mod:`dvr_gl.renderers.registry` for what is registered).
+(:func:`create_renderer`, and :mod:`dvr_gl.renderers.registry` for what is registered); in Jupyter,
+:func:`widget` (an interactive view: orbit, pan, zoom and controls, rendered on the kernel's side).
 """
 
 __version__ = "0.1.0"
@@ -28,8 +29,16 @@ from .scene.resolve import Scene, load_scene  # noqa: E402
 from .transfer_function import PRESETS, TransferFunction, preset  # noqa: E402
 from .transfer_function_2d import TransferFunction2D  # noqa: E402
 
+
+def widget(data, **options):
+    """An interactive notebook view of ``data`` (:func:`dvr_gl.jupyter.widget`; the extra ``widget``)."""
+    from .jupyter import widget as make
+
+    return make(data, **options)
+
+
 __all__ = ["Camera", "ColorVolume", "DvrError", "Field", "FieldSet", "Image", "LabelTable", "Member", "PRESETS",
            "ParticleSet", "Pick", "Scene", "SceneError", "SphereField", "TransferFunction", "TransferFunction2D",
            "Volume", "VolumeError", "create_renderer", "load_field", "load_scene", "load_volume", "pick", "preset",
-           "registry", "render", "scene_of", "__version__"]
+           "registry", "render", "scene_of", "widget", "__version__"]
 __all__ += ["Annotations", "CameraPath", "annotate"]  # issue 43: annotations and camera paths

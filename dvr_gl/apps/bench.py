@@ -15,6 +15,8 @@ registry; these measure across renderers, which they pick by what the plugins de
                        volume's size, the multi-resolution error
   dvr bench peers      dvr-gl against VTK, vispy and pygfx (from a separate benchmark environment) on
                        the same scenes: frame time, error against the converged reference, ratios
+  dvr bench widget     the notebook widget under simulated pointer events: frames per second while
+                       dragging, the time from release to the full image
 
 The measurements are the optional extra ``bench`` (plots and FLIP);
 they are imported only when a bench runs.
@@ -170,6 +172,12 @@ def _scale_arguments(sa):
                                                      "kept (default: the temporary folder)")
 
 
+def _widget_arguments(wi):
+    from dvr_gl.bench import widget
+
+    widget.add_arguments(wi)
+
+
 def _feedback_arguments(sub):
     """``-q``/``-v`` after the benchmark's name too (``dvr bench tradeoff -q``)."""
     from .progress import add_arguments
@@ -199,6 +207,12 @@ def run_scale(args) -> int:
     from dvr_gl.bench import scale
 
     return scale.run(args)
+
+
+def run_widget(args) -> int:
+    from dvr_gl.bench import widget
+
+    return widget.run(args)
 
 
 def run_quality(args) -> int:
@@ -479,4 +493,6 @@ HARNESS = {
     "scale": ("scaling: frame time against the number of Dask workers (and a model to N workers), time and peak "
               "memory against the volume's size, multi-resolution error (docs/distributed.md, "
               "docs/out-of-core.md)", _scale_arguments, run_scale),
+    "widget": ("the notebook widget driven by simulated pointer events: frames per second while dragging, the time "
+               "from release to the full image (docs/widget.md)", _widget_arguments, run_widget),
 }

@@ -1,0 +1,215 @@
+"""The notebook widget (``dvr_gl.widget``, dvr_gl/jupyter): a picture, pointer and wheel navigation with
+progressive refinement, the controls, the scene and snapshot, and the same in a real Jupyter kernel.
+
+Events are jupyter_rfb's own dicts, given to ``handle_event`` (in-process) or to the widget's comm handler (in
+the kernel), as a browser would send them.  After a gesture the frame shown is compared with
+``dvr_gl.render`` of the widget's scene: bit-identical, as measured (the same renderer on the same scene and
+GL; a coarse frame is never left on screen).  The extra ``widget`` (jupyter_rfb, ipywidgets) is needed; the
+kernel test also needs the extra ``notebook`` (nbclient, ipykernel); each is skipped, saying why, without them.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import numpy as np
+import pytest
+
+import dvr_gl
+
+pytest.importorskip("jupyter_rfb", reason="jupyter_rfb: pip install -e '.[widget]'")
+pytest.importorskip("ipywidgets", reason="ipywidgets: pip install -e '.[widget]'")
+pytestmark = pytest.mark.usefixtures("gl_context")
+
+SIZE = 48
+
+
+def blob(n=20):
+    z, y, x = np.mgrid[-1:1:n * 1j, -1:1:n * 1j, -1:1:n * 1j]
+    return (np.exp(-4 * ((x - 0.35) ** 2 + y ** 2 + z ** 2)) + 0.6 * np.exp(-12 * (x ** 2 + (y - 0.4) ** 2 + z ** 2))
+            ).astype(np.float32)
+
+
+def event(kind, x=SIZE / 2, y=SIZE / 2, button=1, modifiers=(), **more):
+    return {"type": kind, "x": x, "y": y, "button": button, "buttons": [button], "modifiers": list(modifiers),
+            "timestamp": 0.0, **more}
+
+
+def drag(view, dx, dy=0, steps=4, **press):
+    """Press, move in ``steps`` and release; the frames drawn while moving (their plans)."""
+    view.handle_event(event("pointer_down", **press))
+    plans = []
+    for k in range(1, steps + 1):
+        view.handle_event(event("pointer_move", SIZE / 2 + dx * k / steps, SIZE / 2 + dy * k / steps, **press))
+        view.get_frame()
+        plans.append(view.last_plan)
+    view.handle_event(event("pointer_up", SIZE / 2 + dx, SIZE / 2 + dy, **press))
+    return plans
+
+
+def full(view):
+    """The frames after a gesture, until the picture is final (the last one)."""
+    for _ in range(20):
+        frame = view.get_frame()
+        if view.refined:
+            return frame
+    raise AssertionError("the widget never refined to full quality")
+
+
+def rendered(scene):
+    return dvr_gl.render(scene).srgb8()[..., :3]
+
+
+@pytest.fixture
+def view():
+    w = dvr_gl.widget(blob(), size=SIZE)
+    yield w
+    w.close()
+
+
+def test_a_picture_that_turns_and_refines_to_the_rendered_image(view):
+    first = view.get_frame()
+    assert first.shape == (SIZE, SIZE, 3) and first.dtype == np.uint8
+    background = np.round(255 * np.asarray(view.scene.image.background[:3]) ** (1 / 2.2))
+    assert (np.abs(first.astype(int) - background).max(axis=-1) > 8).mean() > 0.05  # the blob covers the middle
+    np.testing.assert_array_equal(first, rendered(view.scene))
+    azimuth = view.scene.camera.orbit[0]
+    plans = drag(view, dx=30)
+    assert all(p.interactive for p in plans) and not plans[0].level.full  # coarse while dragging
+    assert view.scene.camera.orbit[0] == pytest.approx(azimuth - 30 * 0.4)  # the viewer's 0.4 degree a pixel
+    final = full(view)
+    assert view.last_plan.level.full and not np.array_equal(final, first)
+    np.testing.assert_array_equal(final, rendered(view.scene))  # measured: identical
+    np.testing.assert_array_equal(view.snapshot().srgb8()[..., :3], final)
+
+
+def test_pan_and_wheel(view):
+    target = np.array(view.scene.camera.target)
+    drag(view, dx=10, button=2)
+    assert np.linalg.norm(np.array(view.scene.camera.target) - target) > 0
+    distance = view.scene.camera.orbit[2]
+    view.handle_event(event("wheel", dx=0, dy=-100))  # one notch away from the user: nearer, as the viewer
+    assert view.scene.camera.orbit[2] == pytest.approx(0.9 * distance)
+    np.testing.assert_array_equal(full(view), rendered(view.scene))  # no event loop: the wheel gesture ends at once
+
+
+def test_the_controls_change_the_scene(view):
+    c = view.controls
+    tf = view.scene.transfer_function
+    c.opacity.value = 2.0
+    np.testing.assert_allclose(view.scene.transfer_function.points[:, 4], np.minimum(2 * tf.points[:, 4], 1))
+    c.opacity.value = 1.0
+    c.level.value = c.level.value + 0.1
+    np.testing.assert_allclose(view.scene.transfer_function.points[:, 0], tf.points[:, 0] + 0.1)
+    c.preset.value = "viridis"
+    assert len(view.scene.transfer_function.points) > 10
+    others = [n for n in c.renderer.options if n != view.scene.renderer.name]
+    kinds = {n: dvr_gl.registry.plugin(n).data_kinds for n in dvr_gl.registry.names()}
+    assert list(c.renderer.options) == [n for n, k in kinds.items() if k is None or "grid" in k]  # those taking grids
+    c.renderer.value = others[0]
+    assert view.scene.renderer.name == others[0]
+    c.sample.value = 1.0
+    assert view.scene.renderer.sample_distance == pytest.approx(view.scene.field.sample_spacing)
+    if c.clip in c.panel.children:
+        c.clip.value = True
+        assert len(view.scene.renderer.clipping.planes) == 1
+        d = view.scene.renderer.clipping.planes[0][3]
+        c.clip_at.value = 0.2
+        assert view.scene.renderer.clipping.planes[0][3] < d
+    np.testing.assert_array_equal(full(view), rendered(view.scene))
+
+
+def test_a_refused_setting_keeps_the_scene_and_says_why(view):
+    def refuse(scene):
+        raise dvr_gl.SceneError("renderer.x: refused")
+
+    before = view.scene
+    assert not view.apply(refuse)
+    assert view.scene is before and "refused" in view.message and "refused" in view.controls.status.value
+
+
+def test_time_and_channels():
+    series = np.stack([blob(), blob()[:, ::-1].copy()])
+    w = dvr_gl.widget(series, time_axis=0, size=24)
+    w.controls.time.value = 1
+    np.testing.assert_array_equal(w.scene.field.data, series[1])
+    w.close()
+    channels = np.stack([blob(), blob()[::-1].copy()], axis=-1)
+    w = dvr_gl.widget(channels, channel_axis=3, size=24)
+    assert w.controls.field in w.controls.panel.children
+    w.controls.field.value = 1
+    w.controls.opacity.value = 3.0
+    tfs = w.scene.transfer_functions
+    assert tfs[1].points[:, 4].max() > tfs[0].points[:, 4].max()
+    w.close()
+
+
+def test_the_scene_is_savable(tmp_path):
+    scene = dvr_gl.load_scene(None, {"volume.demo": "shepp-logan", "volume.size": 24, "image.width": 24,
+                                     "image.height": 24})
+    w = dvr_gl.widget(scene)
+    w.handle_event(event("wheel", dx=0, dy=-200))
+    path = tmp_path / "view.toml"
+    path.write_text(w.scene.to_toml())
+    np.testing.assert_array_equal(rendered(dvr_gl.load_scene(path)), full(w))
+    w.close()
+
+
+def test_without_the_extra_one_line_says_how_to_install(monkeypatch):
+    monkeypatch.setitem(sys.modules, "jupyter_rfb", None)
+    with pytest.raises(dvr_gl.DvrError, match=r"pip install -e '\.\[widget\]'"):
+        dvr_gl.widget(blob())
+
+
+KERNEL_CELLS = [
+    """import asyncio, json, time
+import numpy as np
+import dvr_gl
+z, y, x = np.mgrid[-1:1:20j, -1:1:20j, -1:1:20j]
+w = dvr_gl.widget(np.exp(-4 * ((x - 0.35) ** 2 + y ** 2 + z ** 2)).astype(np.float32), size=48)
+w""",
+    # what a browser does: show a view, send events through the comm, confirm each frame it receives
+    """w._has_visible_views = True
+def browser(seconds):
+    end = time.time() + seconds
+    async def run():
+        while time.time() < end:
+            w._frame_feedback = {"index": w._rfb_frame_index, "timestamp": time.time(), "localtime": time.time()}
+            await asyncio.sleep(0.02)
+    return run()
+def send(kind, x, y, **more):
+    w._handle_custom_msg({"type": kind, "x": x, "y": y, "button": 1, "buttons": [1], "modifiers": [],
+                          "timestamp": time.time(), **more}, [])
+w._handle_custom_msg({"type": "resize", "width": 48, "height": 48, "pwidth": 48, "pheight": 48, "ratio": 1.0,
+                      "timestamp": time.time()}, [])
+await browser(1.0)
+first, azimuth = w._rfb_last_frame.copy(), w.scene.camera.orbit[0]""",
+    """send("pointer_down", 24, 24)
+levels = []
+for k in range(1, 6):
+    send("pointer_move", 24 + 5 * k, 24)
+    await browser(0.3)
+    levels.append(w.last_plan.level.block)
+send("pointer_up", 49, 24)
+await browser(2.0)
+final = w._rfb_last_frame
+print(json.dumps({"turned": w.scene.camera.orbit[0] - azimuth, "levels": levels, "refined": w.refined,
+                  "changed": bool((final != first).any()),
+                  "same_as_render": bool(np.array_equal(final, dvr_gl.render(w.scene).srgb8()[..., :3]))}))""",
+]
+
+
+def test_in_a_real_kernel():
+    nbformat = pytest.importorskip("nbformat", reason="nbformat/nbclient/ipykernel: pip install -e '.[notebook]'")
+    nbclient = pytest.importorskip("nbclient", reason="nbclient: pip install -e '.[notebook]'")
+    pytest.importorskip("ipykernel", reason="ipykernel: pip install -e '.[notebook]'")
+    notebook = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in KERNEL_CELLS])
+    nbclient.NotebookClient(notebook, timeout=120, kernel_name="python3").execute()
+    outputs = notebook.cells[-1].outputs
+    result = json.loads(next(o["text"] for o in outputs if o.get("name") == "stdout"))
+    assert result["turned"] == pytest.approx(-25 * 0.4)
+    assert result["changed"] and result["refined"] and result["same_as_render"], result
+    assert max(result["levels"]) > 1, result  # coarse frames while dragging
+    shown = notebook.cells[0].outputs[-1]["data"]
+    assert "application/vnd.jupyter.widget-view+json" in shown and "image/png" in shown
