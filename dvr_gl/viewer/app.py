@@ -31,8 +31,9 @@ import numpy as np
 
 from ..errors import DvrError
 from ..image import composite_over
-from ..renderers import create_renderer
+from ..renderers import create_renderer, registry
 from ..scene.settings import with_sample_distance
+from ..transfer_function_2d import is_2d
 from . import navigation, settings
 from .display import ImageDisplay
 from .hud import FrameClock, FrameStats, hud_lines, nominal_samples
@@ -42,6 +43,7 @@ from .layout import Layout, layout, window_size
 from .refinement import FramePlan, RefinementController
 from .screenshots import write_screenshot
 from .tf_editor import TransferFunctionEditor
+from .tf_editor_2d import BoxEditor2D, BoxTransferFunction2D, renders_2d
 from .timeline import Player, at_step, editable, next_editable, with_transfer_function
 
 imgui = load_imgui()  # before glfw: imgui-bundle points pyGLFW at the GLFW library it ships
@@ -189,6 +191,9 @@ class Viewer:
         self.field_index = fields[0] if fields else 0
         self.editor = TransferFunctionEditor(scene.layers[self.field_index].transfer_function) if fields else None
         self.tf_version = self.editor.version if self.editor is not None else 0
+        self.tf_mode, self.editor_2d, self.tf2d_version = "1d", None, 0   # the 2D editor: opened when asked for
+        if fields and is_2d(scene.layers[self.field_index].transfer_function):
+            self._open_2d()
         self.player = (Player(options.time_steps, options.read_step, step=options.time_step)
                        if options.time_steps > 1 else None)
         self.controller = RefinementController(options.budget_ms / 1e3, self._passes(scene))
@@ -262,6 +267,9 @@ class Viewer:
         self.log.write(event="message", error=error, text=text)
 
     def _sync_editor(self):
+        if self.tf_mode == "2d":
+            self._sync_editor_2d()
+            return
         if self.editor is None or self.editor.version == self.tf_version:
             return
         self.tf_version = self.editor.version
@@ -272,6 +280,73 @@ class Viewer:
             return
         dragging = self.gui is not None and self.gui.busy
         self.set_scene(with_transfer_function(self.scene, self.field_index, tf), interactive=dragging)
+
+    # --- the 2D transfer function (value x gradient magnitude) ---
+
+    def offers_2d(self) -> bool:
+        """Whether the current renderer declares a 2D transfer function for the scene's kind of data (its
+        trait ``transfer_function_2d``) and the edited field is a grid in memory (its histogram is drawn)."""
+        field = self.edited_field if self.editor is not None else None
+        return (field is not None and hasattr(field, "data") and not getattr(field, "out_of_core", False)
+                and renders_2d(self.scene.renderer.name, getattr(self.scene.field, "kind", "grid")))
+
+    def _saved_boxes(self, tf):
+        """``tf`` as a :class:`BoxTransferFunction2D` where the scene file gave it as boxes (one field)."""
+        spec = getattr(getattr(self.scene, "spec", None), "transfer_function", None)
+        boxes = getattr(spec, "boxes_2d", None)
+        if getattr(tf, "boxes", ()) or not boxes or len(self.scene.layers) > 1:
+            return tf
+        return BoxTransferFunction2D.of(boxes, tf.value_range, tf.gradient_range, tf.shape, tf.unit_distance)
+
+    def _open_2d(self) -> bool:
+        """The 2D editor on the edited field (its boxes where its function was drawn from boxes)."""
+        layer = self.scene.layers[self.field_index]
+        tf = layer.transfer_function
+        try:
+            self.editor_2d = BoxEditor2D.for_field(layer.field, self._saved_boxes(tf) if is_2d(tf) else None)
+        except (DvrError, ValueError, MemoryError) as exc:
+            self.notify(f"no 2D transfer function editor for {layer.field.name}: {exc}", error=True)
+            return False
+        self.tf_mode, self.tf2d_version = "2d", self.editor_2d.version
+        return True
+
+    def set_tf_mode(self, mode: str):
+        """Edit a 1D (value) or 2D (value x gradient magnitude) transfer function; the field's function becomes
+        the chosen editor's (a new 2D editor's: none, until a box is added).  Refused, in the status bar, where
+        the renderer does not declare the trait or the settings rule a 2D function out."""
+        if mode == self.tf_mode:
+            return
+        if mode == "2d":
+            if not self.offers_2d():
+                self.notify(f"{self.scene.renderer.name} does not classify this data with a 2D transfer function; "
+                            f"the 1D editor stays", error=True)
+                return
+            if self.editor_2d is None and not self._open_2d():
+                return
+            tf = self.editor_2d.transfer_function
+        else:
+            tf = self.editor.transfer_function()
+        if self._use_transfer_function(tf):
+            self.tf_mode = mode
+            self.log.write(event="tf_mode", mode=mode)
+
+    def _use_transfer_function(self, tf, interactive: bool = False) -> bool:
+        """Show the edited field with ``tf``, unless the registry refuses the scene (said in the status bar)."""
+        scene = with_transfer_function(self.scene, self.field_index, tf)
+        reason = registry.refusal(scene)
+        if reason is not None:
+            self.notify(f"{reason}; keeping the transfer function as it was", error=True)
+            return False
+        self.set_scene(scene, interactive=interactive, costs=is_2d(tf) != is_2d(self.scene.layers[
+            self.field_index].transfer_function))
+        return True
+
+    def _sync_editor_2d(self):
+        if self.editor_2d is None or self.editor_2d.version == self.tf2d_version:
+            return
+        self.tf2d_version = self.editor_2d.version
+        self._use_transfer_function(self.editor_2d.transfer_function,
+                                    interactive=self.gui is not None and self.gui.busy)
 
     @property
     def edited_field(self):
@@ -290,6 +365,9 @@ class Viewer:
         self.field_index = i
         self.editor = TransferFunctionEditor(layers[i].transfer_function)
         self.tf_version = self.editor.version
+        self.tf_mode, self.editor_2d = "1d", None
+        if is_2d(layers[i].transfer_function):
+            self._open_2d()
         self.notify(f"editing field {i + 1} of {len(layers)}: {layers[i].name or layers[i].field.name} "
                     f"({layers[i].role})")
 
@@ -373,6 +451,7 @@ class Viewer:
     def _install_callbacks(self):
         w = self.window
         glfw.set_cursor_pos_callback(w, self._on_cursor)
+        glfw.set_cursor_enter_callback(w, self._on_cursor_enter)
         glfw.set_mouse_button_callback(w, self._on_button)
         glfw.set_scroll_callback(w, self._on_scroll)
         glfw.set_key_callback(w, self._on_key)
@@ -386,6 +465,16 @@ class Viewer:
         self.cursor = (x, y)
         if self.gesture and (dx or dy):
             self.navigate(self.gesture, dx, dy)
+
+    def _on_cursor_enter(self, window, entered):
+        """The cursor left the window (or came back): the panel forgets (or finds) it, so that nothing stays
+        hovered (the status bar's tooltip used to stay over the image after the cursor left by the bottom)."""
+        self.last_event = time.perf_counter()
+        if self.gui:
+            if entered:
+                self.gui.input.cursor(*glfw.get_cursor_pos(window))
+            else:
+                self.gui.input.leave()
 
     def navigate(self, gesture: str, dx: float, dy: float):
         """A drag of ``(dx, dy)`` window pixels: ``orbit``, ``pan`` or ``zoom``."""
@@ -586,6 +675,14 @@ class Viewer:
             out["tf_canvas"] = [round(v, 1) for v in self.gui.tf_canvas]
         if self.gui is not None and self.show_panel:
             out["panel_scroll"] = self.gui.panel_scroll
+            out["tf_mode"] = self.tf_mode
+            out["preset"] = self.gui.preset_shown
+            if self.gui.switch_2d is not None:
+                out["tf_switch_2d"] = [round(v, 1) for v in self.gui.switch_2d]
+            if self.gui.help_box is not None:
+                out["help"] = [round(v, 1) for v in self.gui.help_box]
+            if self.tf_mode == "2d" and self.editor_2d is not None:
+                out["tf_ranges_2d"] = [*self.editor_2d.value_range, *self.editor_2d.gradient_range]
         return out
 
     def step(self):

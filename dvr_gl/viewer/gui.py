@@ -6,11 +6,16 @@
   budget; what the current renderer refuses is greyed out, the reason in a tooltip), the view
   (reset, screenshot), and the **transfer-function editor**: the data histogram (log counts), the
   opacity curve with its control points, the colour bar; click to add a point, drag to move,
-  right-click to delete; the selected point's value, opacity and colour; presets; save and load.
+  right-click to delete; the selected point's value, opacity and colour; presets (the box names the
+  current function's preset, or "custom"); save and load.  Where the renderer declares a 2D transfer
+  function for the data (trait ``transfer_function_2d``), a 1D/2D switch, and the **2D editor**: the
+  log histogram of value x gradient magnitude, the boxes over it (click: add; drag inside: move;
+  drag an edge or corner: resize; right-click or Delete: delete), the selected box's colour and opacity.
 * **Status bar** (the HUD, across the bottom of the window, never over the image; hover for all
   of it): the settings or the last message (errors in red), then the refinement state, the last
   frame's times and samples per second.
-* **Help** (F1): the key and mouse bindings of :mod:`.keys`.
+* **Help** (F1): the key and mouse bindings of :mod:`.keys`, inside the window at any size
+  (:func:`.layout.help_rect`; descriptions wrap beside their keys, and it scrolls when too tall).
 """
 
 from __future__ import annotations
@@ -23,8 +28,10 @@ from ..renderers import registry
 from ..transfer_function import PRESETS, linear_to_srgb, preset, srgb_to_linear
 from . import navigation, settings
 from .imgui_backend import ImGuiInput, ImGuiRenderer
-from .keys import help_lines
-from .tf_editor import CanvasMapping, load_points, nice_opacity_max
+from .keys import help_rows
+from .layout import help_rect
+from .tf_editor import CUSTOM, CanvasMapping, load_points, nice_opacity_max, preset_name
+from .tf_editor_2d import Canvas2D
 
 CANVAS_HEIGHT = 150       # window pixels of the transfer-function canvas (at most; see canvas_height)
 MIN_CANVAS_HEIGHT = 80
@@ -77,7 +84,10 @@ class ViewerGui:
         self.dragging: int | None = None
         self.axis_choice = 0
         self.axis_max: float | None = None
-        self.preset_choice = 0
+        self._preset = (None, -1, CUSTOM)   # (editor, its version, the preset box's name)
+        self.grab: tuple | None = None      # the 2D editor's box being dragged: (index, part, row, x, y)
+        self.switch_2d: tuple | None = None  # the 1D/2D switch's "2D" button (window pixels), when shown
+        self.help_box: tuple | None = None   # where the help overlay was drawn (window pixels)
         self.tf_path = "transfer_function.toml"
         self._histogram_key = None
         self._heights = None
@@ -92,7 +102,7 @@ class ViewerGui:
     @property
     def busy(self) -> bool:
         """A gesture in the panel is going on: a point or a slider is being dragged."""
-        return self.dragging is not None or self.any_active
+        return self.dragging is not None or self.grab is not None or self.any_active
 
     # --- frame ---
 
@@ -115,8 +125,9 @@ class ViewerGui:
             self._set_canvas(None)
         if parts.status is not None:
             self.status_bar(parts.status)
+        self.help_box = None
         if v.show_help:
-            self.help(parts.image)
+            self.help(parts.window, parts.image)
         self.any_active = imgui.is_any_item_active()
         imgui.render()
         self.renderer.render(imgui.get_draw_data(), fb_size)
@@ -161,16 +172,30 @@ class ViewerGui:
         imgui.end()
         imgui.pop_style_var(2)
 
-    def help(self, image_rect):
+    def help(self, window, image_rect):
+        """The keys and mouse (F1), centred on the image and inside the window (:func:`.layout.help_rect`): each
+        key in a column of its own, its description wrapped beside it; scrolling when taller than the window."""
         imgui = self.imgui
-        x, y, w, h = image_rect
-        flags = (imgui.WindowFlags_.no_inputs | imgui.WindowFlags_.always_auto_resize
-                 | imgui.WindowFlags_.no_collapse | imgui.WindowFlags_.no_saved_settings)
-        imgui.set_next_window_pos(imgui.ImVec2(x + w / 2, y + h / 2), 0, imgui.ImVec2(0.5, 0.5))
-        imgui.set_next_window_bg_alpha(0.85)
+        rows = help_rows()
+        style = imgui.get_style()
+        key_w = max(imgui.calc_text_size(k).x for k, _ in rows) + 2 * style.item_spacing.x
+        frame_w = 2 * style.window_padding.x + style.scrollbar_size
+        widest = key_w + max(imgui.calc_text_size(d).x for _, d in rows) + frame_w
+        wrap = max(40.0, min(widest, window[0] - 16) - key_w - frame_w)   # the description column's width
+        lines = sum(max(1, int(np.ceil(imgui.calc_text_size(d).x / wrap))) for _, d in rows)
+        tall = lines * imgui.get_text_line_height_with_spacing() + imgui.get_frame_height() + 2 * style.window_padding.y
+        x, y, w, h = help_rect(window, image_rect, (widest, tall))
+        self.help_box = (x, y, w, h)
+        imgui.set_next_window_pos(imgui.ImVec2(x, y))
+        imgui.set_next_window_size(imgui.ImVec2(w, h))
+        imgui.set_next_window_bg_alpha(0.9)
+        flags = (imgui.WindowFlags_.no_collapse | imgui.WindowFlags_.no_saved_settings | imgui.WindowFlags_.no_move
+                 | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_focus_on_appearing | imgui.WindowFlags_.no_nav)
         imgui.begin("Keys and mouse (F1 closes)", None, flags)
-        for line in help_lines():
-            imgui.text(line)
+        for key, text in rows:
+            imgui.text(key)
+            imgui.same_line(key_w)
+            imgui.text_wrapped(text)
         imgui.end()
 
     # --- side panel ---
@@ -359,6 +384,10 @@ class ViewerGui:
             imgui.same_line()
             if imgui.button("next field (N)"):
                 v.action("next_field")
+        self._mode_switch()
+        if v.tf_mode == "2d" and v.editor_2d is not None:
+            self.editor_2d_section()
+            return
         value_range = self._value_range()
         pos = imgui.get_cursor_screen_pos()
         width = max(imgui.get_content_region_avail().x, 50.0)
@@ -372,13 +401,15 @@ class ViewerGui:
         imgui.text_disabled("click: add | drag: move | right-click: delete")
         self._selected_point()
         _, self.axis_choice = imgui.combo("opacity axis", self.axis_choice, list(OPACITY_AXES))
-        names = list(PRESETS)
-        _, self.preset_choice = imgui.combo("preset", self.preset_choice, names)
-        imgui.same_line()
-        if imgui.button("apply"):
-            volume = v.edited_field
-            editor.replace(preset(names[self.preset_choice], volume.value_range, v.options.rescale_intercept,
-                                  editor.unit_distance))
+        current = self.preset_label()
+        if imgui.begin_combo("preset", current):   # choosing one applies it
+            for name in PRESETS:
+                clicked, _ = imgui.selectable(name, name == current)
+                if clicked:
+                    editor.replace(preset(name, v.edited_field.value_range, v.options.rescale_intercept,
+                                          editor.unit_distance))
+                    self._preset = (editor, editor.version, name)
+            imgui.end_combo()
         _, self.tf_path = imgui.input_text("file", self.tf_path)
         if imgui.button("save"):
             try:
@@ -392,6 +423,134 @@ class ViewerGui:
                 v.notify(f"loaded the transfer function from {self.tf_path}")
             except DvrError as exc:
                 v.notify(str(exc), error=True)
+
+    def preset_label(self) -> str:
+        """The preset box's name: the preset the edited function is (looked up when the editor opens on a field),
+        the one last chosen, or "custom" after any other edit."""
+        v, editor = self.viewer, self.viewer.editor
+        known, version, label = self._preset
+        if known is not editor:
+            spec = getattr(getattr(v.scene, "spec", None), "transfer_function", None)
+            hint = getattr(spec, "preset", None) if len(v.scene.layers) == 1 else None
+            label = preset_name(editor.transfer_function(), v.edited_field.value_range,
+                                v.options.rescale_intercept, hint)
+        elif version != editor.version:
+            label = CUSTOM
+        self._preset = (editor, editor.version, label)
+        return label
+
+    @property
+    def preset_shown(self) -> str | None:
+        """The name the preset box showed last (None: not drawn yet)."""
+        return self._preset[2] if self._preset[0] is not None else None
+
+    def _mode_switch(self):
+        """1D / 2D transfer function, where the renderer declares a 2D one for the data (or one is edited)."""
+        imgui, v = self.imgui, self.viewer
+        self.switch_2d = None
+        if v.tf_mode != "2d" and not v.offers_2d():
+            return
+        if imgui.radio_button("1D: value", v.tf_mode == "1d"):
+            v.set_tf_mode("1d")
+        imgui.same_line()
+        clicked = imgui.radio_button("2D: value x |gradient|", v.tf_mode == "2d")
+        low, high = imgui.get_item_rect_min(), imgui.get_item_rect_max()
+        self.switch_2d = (low.x, low.y, high.x - low.x, high.y - low.y)
+        if clicked:
+            v.set_tf_mode("2d")
+
+    # --- the 2D editor ---
+
+    def editor_2d_section(self):
+        """The log histogram of value x gradient magnitude, the boxes over it, and the selected box's settings."""
+        imgui, v = self.imgui, self.viewer
+        ed = v.editor_2d
+        pos = imgui.get_cursor_screen_pos()
+        width = max(imgui.get_content_region_avail().x, 50.0)
+        canvas = Canvas2D(pos.x, pos.y, width, float(self.canvas_height), ed.value_range, ed.gradient_range)
+        self._set_canvas((pos.x, pos.y, width, float(self.canvas_height)))
+        imgui.invisible_button("tf 2d canvas", imgui.ImVec2(width, self.canvas_height),
+                               imgui.ButtonFlags_.mouse_button_left | imgui.ButtonFlags_.mouse_button_right)
+        self._canvas_2d_input(canvas)
+        self._draw_canvas_2d(canvas)
+        imgui.text_disabled("click: add | drag: move | edge, corner: resize")
+        imgui.text_disabled("right-click or Delete: delete")
+        if imgui.button("add box"):
+            ed.add(sum(ed.value_range) / 2, sum(ed.gradient_range) / 2)
+        i = ed.selected
+        if i is None or i >= len(ed.boxes):
+            imgui.same_line()
+            imgui.text_disabled(f"{len(ed.boxes)} boxes; none selected")
+            return
+        imgui.same_line()
+        if imgui.button("delete box"):
+            ed.delete(i)
+            return
+        box = ed.boxes[i]
+        changed, colour = imgui.color_edit3("colour", list(linear_to_srgb(np.array(box[4:7]))))
+        if changed:
+            ed.set_color(i, _linear(colour))
+        changed, alpha = imgui.slider_float("opacity", box[7], 0.0, 1.0, "%.3f")
+        if changed:
+            ed.set_opacity(i, alpha)
+        if imgui.is_item_deactivated_after_edit():
+            v.end_gesture()
+        imgui.text_disabled(f"value {box[0]:.4g} + {box[2]:.4g}, |gradient| {box[1]:.4g} + {box[3]:.4g}")
+
+    def _canvas_2d_input(self, canvas: Canvas2D):
+        imgui, ed = self.imgui, self.viewer.editor_2d
+        mouse = imgui.get_mouse_pos()
+        if imgui.is_item_hovered() and canvas.contains(mouse.x, mouse.y):
+            hit = ed.hit(canvas, mouse.x, mouse.y)
+            if imgui.is_mouse_clicked(0):   # on a box: grab it; elsewhere: a new box there, grabbed
+                i, part = hit if hit is not None else (ed.add(*canvas.from_pixel(mouse.x, mouse.y)), "inside")
+                ed.selected, self.grab = i, (i, part, list(ed.boxes[i]), mouse.x, mouse.y)
+            elif imgui.is_mouse_clicked(1) and hit is not None:
+                ed.delete(hit[0])
+        if self.grab is not None:
+            i, part, row, x0, y0 = self.grab
+            if imgui.is_mouse_down(0) and i < len(ed.boxes):
+                if imgui.is_mouse_dragging(0, 1.0):
+                    ed.drag(i, part, row, mouse.x - x0, mouse.y - y0, canvas)
+            else:
+                self.grab = None
+                self.viewer.end_gesture()
+        if (ed.selected is not None and ed.selected < len(ed.boxes) and imgui.is_window_focused()
+                and not imgui.get_io().want_text_input and imgui.is_key_pressed(imgui.Key.delete)):
+            ed.delete(ed.selected)
+
+    def _draw_canvas_2d(self, canvas: Canvas2D):
+        imgui, ed = self.imgui, self.viewer.editor_2d
+        draw = imgui.get_window_draw_list()
+        x0, y0, w, h = canvas.x, canvas.y, canvas.width, canvas.height
+        draw.add_rect_filled(imgui.ImVec2(x0, y0), imgui.ImVec2(x0 + w, y0 + h), _col32(0.1, 0.1, 0.12))
+        cells = self._cells_2d()
+        cw, ch = w / cells.shape[0], h / cells.shape[1]
+        for i, j in zip(*np.nonzero(cells)):   # value to the right, gradient magnitude up
+            grey = 0.15 + 0.6 * cells[i, j]
+            draw.add_rect_filled(imgui.ImVec2(x0 + i * cw, y0 + h - (j + 1) * ch),
+                                 imgui.ImVec2(x0 + (i + 1) * cw, y0 + h - j * ch), _col32(grey, grey, grey))
+        draw.push_clip_rect(imgui.ImVec2(x0, y0), imgui.ImVec2(x0 + w, y0 + h), True)
+        for k, box in enumerate(ed.boxes):
+            left, top, right, bottom = canvas.box_rect(box)
+            r, g, b = linear_to_srgb(np.array(box[4:7]))
+            fill = _col32(r, g, b, 0.25 + 0.5 * box[7])
+            draw.add_rect_filled(imgui.ImVec2(left, top), imgui.ImVec2(right, bottom), fill)
+            selected = k == ed.selected
+            draw.add_rect(imgui.ImVec2(left, top), imgui.ImVec2(right, bottom),
+                          _col32(1, 1, 0) if selected else _col32(1, 1, 1), 0.0, 2.0 if selected else 1.0)
+        draw.pop_clip_rect()
+        grey = _col32(0.8, 0.8, 0.8)
+        draw.add_text(imgui.ImVec2(x0 + 3, y0 + 2), grey, f"|gradient| {ed.gradient_range[1]:.4g}")
+        draw.add_text(imgui.ImVec2(x0 + 3, y0 + h - 15), grey, f"{ed.value_range[0]:.4g}")
+        label = f"{ed.value_range[1]:.4g}"
+        draw.add_text(imgui.ImVec2(x0 + w - 7 * len(label) - 3, y0 + h - 15), grey, label)
+
+    def _cells_2d(self) -> np.ndarray:
+        ed = self.viewer.editor_2d
+        if getattr(self, "_cells_key", None) is not ed:
+            self._cells_key, self._cells = ed, ed.display_cells()
+        return self._cells
 
     def _canvas_input(self, mapping: CanvasMapping):
         imgui, editor = self.imgui, self.viewer.editor

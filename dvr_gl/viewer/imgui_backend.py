@@ -18,6 +18,8 @@ import moderngl
 from ..gl.context import make_current
 from ..gl.shaders import create_program, shader_root
 
+NO_POSITION = 3.4028234663852886e38  # FLT_MAX: ImGui's mouse position for "no mouse"
+
 
 def load_imgui():
     """The ``imgui`` module of imgui-bundle, or None when the optional extra is not installed."""
@@ -148,6 +150,10 @@ class ImGuiInput:
 
     def cursor(self, x: float, y: float):
         self.io.add_mouse_pos_event(x, y)
+
+    def leave(self):
+        """The cursor left the window: no position (ImGui's convention, -FLT_MAX), so nothing is hovered."""
+        self.io.add_mouse_pos_event(-NO_POSITION, -NO_POSITION)
 
     def button(self, button: int, pressed: bool):
         if 0 <= button < 5:

@@ -61,16 +61,21 @@ MOUSE = (
     ("wheel, right drag", "zoom"),
     ("transfer-function panel", "click: add a point; drag: move it; right-click: delete; "
                                 "select it to edit its colour"),
+    ("2D transfer-function panel", "click: add a box; drag inside: move it; drag an edge or corner: "
+                                   "resize it; right-click or Delete: delete; select it to edit its colour "
+                                   "and opacity"),
 )
 
 
+def help_rows() -> list[tuple[str, str]]:
+    """The help overlay's rows: ``(key or mouse input, what it does)``; an empty row between the keys and the
+    mouse."""
+    return [(_label(k), d) for k, _, d in key_table() if d] + [("", "")] + list(MOUSE)
+
+
 def help_lines() -> list[str]:
-    """The help overlay's text."""
-    shown = [(k, d) for k, _, d in key_table() if d]
-    lines = [f"{_label(k):>6}  {d}" for k, d in shown]
-    lines.append("")
-    lines += [f"{m}: {d}" for m, d in MOUSE]
-    return lines
+    """The help as text lines (the terminal's, without the GUI)."""
+    return [(f"{k:>6}  {d}" if len(k) <= 6 else f"{k}: {d}") if k else "" for k, d in help_rows()]
 
 
 def _label(key: str) -> str:

@@ -23,6 +23,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 PANEL_WIDTH = 360     # window pixels
+HELP_MARGIN = 8       # window pixels between the help overlay and the window's edges (at most)
 STATUS_HEIGHT = 40    # window pixels: two lines of ImGui's 13-pixel font, 4-pixel spacing and padding
 MIN_AREA = 512        # the render area's default side, and the least height a scene file's window gets
 
@@ -92,3 +93,18 @@ def window_size(image: tuple[int, int], panel: bool, status: bool, fit_image: bo
 def overlaps(a: Rect, b: Rect) -> bool:
     """Whether two rectangles share any area (touching edges do not count)."""
     return a[0] < b[0] + b[2] and b[0] < a[0] + a[2] and a[1] < b[1] + b[3] and b[1] < a[1] + a[3]
+
+
+def help_rect(window: tuple[int, int], area: Rect, content: tuple[float, float]) -> Rect:
+    """Where the help overlay (F1) goes: ``content`` (its width and height, window pixels) centred on the render
+    ``area``, moved and shrunk to lie inside the ``window`` (width, height) :data:`HELP_MARGIN` from its edges
+    (less in a tiny window), so that no line starts off the window's left edge; text that does not fit wraps
+    or scrolls inside it."""
+    win_w, win_h = max(0.0, float(window[0])), max(0.0, float(window[1]))
+    margin = min(HELP_MARGIN, win_w / 4, win_h / 4)
+    w = max(0.0, min(float(content[0]), win_w - 2 * margin))
+    h = max(0.0, min(float(content[1]), win_h - 2 * margin))
+    ax, ay, aw, ah = area
+    x = min(max(ax + (aw - w) / 2, margin), win_w - margin - w)
+    y = min(max(ay + (ah - h) / 2, margin), win_h - margin - h)
+    return (x, y, w, h)

@@ -23,7 +23,7 @@ from ..errors import DvrError, SceneError
 from ..image import write_text
 from ..scene.schema import TransferFunctionSpec, parse_table
 from ..toml_writer import dumps
-from ..transfer_function import TransferFunction
+from ..transfer_function import PRESETS, TransferFunction, find_preset, preset
 
 MIN_GAP = 1e-4        # smallest value gap between neighbouring points, as a fraction of the value range
 PICK_RADIUS = 7.0     # pixels within which a click picks a point
@@ -56,6 +56,31 @@ class CanvasMapping:
         fx = min(1.0, max(0.0, (px - self.x) / self.width))
         fy = min(1.0, max(0.0, (py - self.y) / self.height))
         return lo + fx * (hi - lo), (1.0 - fy) * self.opacity_max
+
+
+CUSTOM = "custom"  # the preset box's name for a function that is no preset (after an edit)
+
+
+def preset_name(tf: TransferFunction, value_range: tuple[float, float], rescale_intercept: float = 0.0,
+                hint: str | None = None) -> str:
+    """The preset whose points over ``value_range`` (with ``rescale_intercept``, as the panel applies presets) are
+    ``tf``'s, to 1e-9 of their magnitude, as :data:`PRESETS` spells it; :data:`CUSTOM` if none.  ``hint`` (the
+    scene's preset, which may be a colour map) is tried first."""
+    points = np.asarray(tf.points, dtype=np.float64)
+    tolerance = 1e-9 * (1.0 + float(np.abs(points).max(initial=0.0)))
+    names = [n for n in PRESETS if n != hint]
+    for name in ([hint] if hint else []) + names:
+        try:
+            found = find_preset(name)
+            lo, hi = value_range
+            candidate = (np.asarray(PRESETS[found][0](lo, hi if hi > lo else lo + 1.0, rescale_intercept),
+                                    dtype=np.float64) if found in PRESETS
+                         else preset(found, value_range, rescale_intercept).points)
+        except (DvrError, ValueError, KeyError):
+            continue
+        if candidate.shape == points.shape and np.allclose(candidate, points, rtol=0.0, atol=tolerance):
+            return found
+    return CUSTOM
 
 
 def nice_opacity_max(opacities, model: str = "alpha") -> float:

@@ -535,3 +535,35 @@ def test_refusals_are_known_before_rendering():
     assert settings.choices("name") == tuple(settings.renderer_names())
     for name in settings.renderer_names():
         assert settings.fixed_planes(name) == registry.plugin(name).fixed_planes
+
+
+# --- the help overlay and the preset box (what a new user hit) ---
+
+@pytest.mark.parametrize("window", [(1, 1), (40, 30), (300, 200), (600, 280), (872, 552), (2000, 1500)])
+@pytest.mark.parametrize("content", [(10.0, 10.0), (700.0, 680.0), (5000.0, 5000.0)])
+def test_the_help_lies_inside_the_window(window, content):
+    """F1's box is inside the window at any window size (it was centred on the image and ran off the left
+    edge, hiding every key name), centred on the render area where it fits, never larger than its content."""
+    from dvr_gl.viewer.layout import help_rect
+
+    parts = layout(window, panel=True, status=True)
+    x, y, w, h = help_rect(window, parts.image, content)
+    assert 0 <= x and 0 <= y and x + w <= window[0] and y + h <= window[1]
+    assert 0 <= w <= content[0] and 0 <= h <= content[1]
+    if content[0] <= parts.image[2] and content[1] <= parts.image[3]:
+        ax, ay, aw, ah = parts.image
+        assert (x + w / 2, y + h / 2) == pytest.approx((ax + aw / 2, ay + ah / 2))
+
+
+def test_the_preset_box_names_the_current_preset_or_custom():
+    """The name of the preset a function is (over the field's range, with the CT intercept), or "custom"."""
+    from dvr_gl.transfer_function import PRESETS, preset
+    from dvr_gl.viewer.tf_editor import preset_name
+
+    for name in list(PRESETS)[:8]:   # dvr-gl's own, then 3D Slicer's (CT: placed with the intercept)
+        assert preset_name(preset(name, (0.0, 3000.0), -1024.0), (0.0, 3000.0), -1024.0) == name
+    editor = TransferFunctionEditor(preset("viridis", (0.0, 1.0)))
+    assert preset_name(editor.transfer_function(), (0.0, 1.0), hint="viridis") == "viridis"
+    editor.add(0.5, 0.7)
+    assert preset_name(editor.transfer_function(), (0.0, 1.0), hint="viridis") == "custom"
+    assert preset_name(preset("viridis", (0.0, 1.0)), (0.0, 2.0)) == "custom"   # another range: not that preset
