@@ -16,6 +16,7 @@ import warnings
 
 from dvr_gl import __version__
 from dvr_gl.errors import DvrError
+from dvr_gl.gl.context import BACKEND_VARIABLE, HEADLESS_BACKENDS
 
 from . import bench as bench_cmd
 from . import completion as completion_cmd
@@ -41,6 +42,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = OneLineParser(prog="dvr", description="dvr-gl: direct volume rendering on OpenGL")
     parser.add_argument("--version", action="version", version=f"dvr-gl {__version__}")
     feedback.add_arguments(parser)
+    add_gl_backend(parser)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name, module in SUBCOMMANDS.items():
         # descriptions keep their line breaks: bench's list of benches, render's list of renderers
@@ -48,9 +50,18 @@ def build_parser() -> argparse.ArgumentParser:
                            formatter_class=argparse.RawDescriptionHelpFormatter)
         p.add_argument("--debug", action="store_true", help="show tracebacks of errors")
         feedback.add_arguments(p)
+        add_gl_backend(p)
         module.add_arguments(p)
         p.set_defaults(run=module.run)
     return parser
+
+
+def add_gl_backend(p: argparse.ArgumentParser):
+    """``--gl-backend``, before or after the subcommand; it sets ``DVR_GL_BACKEND`` (dvr_gl/gl/context.py) for this
+    process and the workers it starts."""
+    p.add_argument("--gl-backend", choices=HEADLESS_BACKENDS, default=argparse.SUPPRESS,
+                   help="the headless OpenGL backend (default: $DVR_GL_BACKEND, else auto: EGL, and OSMesa where EGL "
+                        "gives no context)")
 
 
 # Negative numbers argparse takes for flags (it knows -1 and -.5 only): -1e3, -2.5E-4, -inf, -nan.
@@ -111,6 +122,8 @@ def _main(argv: list[str] | None) -> int:
     args.verbose = getattr(args, "verbose", 0)
     if args.quiet and args.verbose:
         parser.error("give -q or -v, not both")
+    if getattr(args, "gl_backend", None):
+        os.environ[BACKEND_VARIABLE] = args.gl_backend
     verbosity = feedback.QUIET if args.quiet else min(args.verbose, feedback.VERBOSE)
     try:
         with warnings.catch_warnings(), feedback.feedback(args.command, verbosity):
