@@ -11,7 +11,7 @@ from pathlib import Path
 
 from dvr_gl import __version__
 from dvr_gl.errors import install_hint
-from dvr_gl.gl.context import create_context, gl_info
+from dvr_gl.gl.context import chosen_backend, create_context, gl_info, release_context
 from dvr_gl.gl.selftest import selftest
 from dvr_gl.renderers import registry
 
@@ -81,9 +81,12 @@ def run(args) -> int:
     print("renderers (plugins in the entry-point group dvr_gl.renderers):")
     for line in renderer_lines():
         print("  " + line)
+    chosen = chosen_backend()  # before creating: an automatic fall back to OSMesa sets DVR_GL_BACKEND
     ctx = create_context()
     try:
         gl = gl_info(ctx)
+        how = "automatic: EGL, else OSMesa" if chosen == "auto" else f"DVR_GL_BACKEND={chosen}"
+        print(f"OpenGL backend:  {gl['backend']} ({how}; dvr --gl-backend or DVR_GL_BACKEND chooses)")
         print(f"OpenGL vendor:   {gl['vendor']}")
         print(f"OpenGL renderer: {gl['renderer']}")
         print(f"OpenGL version:  {gl['version']}")
@@ -92,7 +95,7 @@ def run(args) -> int:
         problem = selftest(ctx)
         print("GL self-test (shaders, float32 target, read-back): " + (f"FAILED: {problem}" if problem else "ok"))
     finally:
-        ctx.release()
+        release_context(ctx)
     return 1 if problem else 0
 
 
