@@ -213,3 +213,14 @@ def test_in_a_real_kernel():
     assert max(result["levels"]) > 1, result  # coarse frames while dragging
     shown = notebook.cells[0].outputs[-1]["data"]
     assert "application/vnd.jupyter.widget-view+json" in shown and "image/png" in shown
+
+
+def test_the_bench_prints_its_table(capsys):
+    """``dvr bench widget`` runs on a tiny scene and prints one row per renderer (timings not asserted)."""
+    from dvr_gl.apps.cli import main
+
+    default = dvr_gl.load_scene(None, {"volume.demo": "shepp-logan", "volume.size": 16}).renderer.name
+    assert main(["bench", "widget", "--size", "32", "--volume-size", "16", "--moves", "3", "--warm-up", "2",
+                 "--renderer", default]) == 0
+    row = next(line.split() for line in capsys.readouterr().out.splitlines() if line.startswith(default + " "))
+    assert float(row[2]) > 0 and float(row[-1]) >= 0  # frames a second while dragging; release to full image
