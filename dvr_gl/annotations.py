@@ -151,7 +151,8 @@ def font_size(height: int) -> int:
 
 
 def layout(scene, annotations: Annotations) -> dict[str, tuple[int, int, int, int]]:
-    """Each annotation's box ``(x0, y0, x1, y1)`` in pixels (exclusive ends), clipped to the image."""
+    """Each annotation's box ``(x0, y0, x1, y1)`` in pixels (exclusive ends); refused in one line when one
+    does not fit in the image."""
     w, h = scene.image.width, scene.image.height
     f = font_size(h)
     m = max(2, f // 3)  # margin
@@ -178,13 +179,25 @@ def layout(scene, annotations: Annotations) -> dict[str, tuple[int, int, int, in
         if strip[3] - strip[1] < 2 * f or strip[0] < boxes["colorbar"][0]:
             raise DvrError(f"annotate colorbar: a {w}x{h} image has no room for it; render at least 96 pixels "
                            f"high, or drop colorbar")
-    return {k: (max(0, x0), max(0, y0), min(w, x1), min(h, y1)) for k, (x0, y0, x1, y1) in boxes.items()}
+    for name, (x0, y0, x1, y1) in boxes.items():
+        if x0 < 0 or y0 < 0 or x1 > w or y1 > h or x1 <= x0 or y1 <= y0:
+            raise DvrError(f"annotate {name}: a {w}x{h} image has no room for it; render a larger image or drop "
+                           f"{name}")
+    return boxes
 
 
-def annotate(pixels: np.ndarray, scene, annotations: Annotations) -> np.ndarray:
+def annotate(pixels, scene=None, annotations: Annotations | None = None, **items) -> np.ndarray:
     """``pixels`` (8-bit sRGB ``(H, W, 3 or 4)``, as :func:`dvr_gl.image.encode_8bit` gives) with the
     annotations drawn over them, a new array; ``scene``: the scene the picture shows (its camera, field,
-    transfer function and image size)."""
+    transfer function and image size).  ``pixels`` may be a :class:`dvr_gl.Image` (its :meth:`srgb8` and
+    scene); ``items``: :class:`Annotations`' fields, instead of ``annotations``
+    (``annotate(image, axes=True, caption="CT")``)."""
+    if hasattr(pixels, "srgb8") and hasattr(pixels, "scene"):
+        scene = scene if scene is not None else pixels.scene
+        pixels = pixels.srgb8()
+    if scene is None:
+        raise DvrError("annotate: give the scene the pixels show (its camera, field and transfer function)")
+    annotations = annotations if annotations is not None else Annotations(**items)
     out = np.array(pixels, dtype=np.uint8, copy=True)
     if out.ndim != 3 or out.shape[:2] != (scene.image.height, scene.image.width):
         raise DvrError(f"annotate: the pixels are {out.shape}, the scene's image {scene.image.width}x"

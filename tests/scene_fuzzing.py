@@ -271,6 +271,11 @@ def _flag_values(action) -> st.SearchStrategy:
         return st.sampled_from(["0", "-1", "nan", "inf", "abc", "0.5", "1", "1e308"]).map(lambda v: [v])
     if dest in ("setting_lut_size",):
         return st.sampled_from(["0", "1", "2", "-5", "x", "4096", "1.5"]).map(lambda v: [v])
+    if dest in ("annotate",):  # issue 43: the overlay's items (a float output with it: a user error)
+        return st.sampled_from(["all", "axes", "colorbar,scalebar", "scalebar,unit=mm", "caption=a, b", "bogus", "",
+                                "axes,", "caption=", "unit=", "axes=1", "colorbar,value_unit=HU"]).map(lambda v: [v])
+    if dest in ("animate",):  # path: the scene's keyframes (the demo has none: a user error)
+        return st.sampled_from(["orbit", "path", "time", "time,path", "orbit,path", "x", ""]).map(lambda v: [v])
     if dest in ("max_seconds",):
         return st.sampled_from(["0", "-1", "nan", "inf", "x", "60"]).map(lambda v: [v])
     if dest in ("max_memory",):

@@ -451,6 +451,10 @@ def render(args) -> int:
     if annotations and outputs[0].suffix.lower() in FLOAT_FORMATS:
         raise DvrError(f"--annotate draws on the 8-bit picture: write .png, .jpg or an animation, not "
                        f"{outputs[0].suffix} (the float image is never annotated)")
+    if annotations:
+        from dvr_gl.annotations import layout
+
+        layout(scene, annotations)  # an image too small for them: refused before rendering
     if movie:
         check_movie(outputs[0], scene.image.width, scene.image.height, args.fps, scene.image.background)
     depth = getattr(args, "depth", False)
