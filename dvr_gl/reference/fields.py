@@ -17,6 +17,8 @@ their segments span the union of the boxes.  The mixture at a point (docs/severa
   samples inside its box (the converged reference: over its chord of the box), classified by its own transfer
   function with the opacity of one ``unit_distance`` (``a_i``, ``c_i``); the pixel's premultiplied colour
   ``sum_i a_i c_i``, its alpha ``1 - prod_i (1 - a_i)``;
+* a scalar member's 2D transfer function (value and gradient magnitude) classifies it as in one field's scene (its
+  own gradient); a label or rgb member with one is refused (:func:`check`);
 * isosurface: the first sample of any member with ``v_i >= iso_i`` (ties: the member listed first), refined
   by bisection on that member alone; its transfer function's colour at its iso-value, shaded by its gradient.
 """
@@ -28,6 +30,7 @@ import numpy as np
 from ..errors import SceneError
 from ..fields.reconstruction import smooth_pieces
 from ..rays import intersect_box
+from ..transfer_function_2d import is_2d
 from .members import member_scene, optics
 from .model import depth_cue
 
@@ -56,6 +59,12 @@ def check(scene) -> None:
         if r.compositing in PROJECTIONS and layer.role != "scalar":
             raise SceneError(f"{name}: renderer.compositing = {r.compositing} projects each scalar field; a "
                              f"{layer.role} field has no value to project: use emission_absorption or isosurface")
+        if layer.role != "scalar" and is_2d(layer.transfer_function):
+            raise SceneError(f"{name}: " + ("a label field is classified by its label table" if layer.role == "label"
+                                            else "an rgb field is classified by its data's colour and a 1D "
+                                                 "transfer function of its luminance")
+                             + ", not by a 2D transfer function of value and gradient magnitude: give it "
+                             + ("a label table" if layer.role == "label" else "a 1D transfer function"))
         if layer.role != "scalar" and getattr(r, "hemispherical_shading", False):
             raise SceneError(f"{name}: hemispherical shading shades a transfer function's emission over a scalar "
                              f"grid, and a {layer.role} field's is its data's or its table's: turn "

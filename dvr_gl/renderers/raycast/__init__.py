@@ -52,7 +52,7 @@ PLUGIN = RendererPlugin(
               s.GEOMETRY),
     data_kinds=("grid", "fields"),
     field_roles=("scalar", "label", "rgb"),
-    transfer_function_2d=("grid",),
+    transfer_function_2d=("grid", "fields"),
     check="dvr_gl.renderers.raycast.fields_check:check",
     needs_gl=True,
     out_of_core=True,

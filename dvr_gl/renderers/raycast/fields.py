@@ -2,7 +2,8 @@
 loop over the union of the members' boxes, every member sampled in its own grid and classified by its own
 transfer function at every sample, mixed per the contract (``dvr_gl/gl/shaders/common/fields.glsl``:
 extinctions add, emissions add; pre-integration per member; per-channel projections; the first isosurface
-of any member).  Members on one grid travel four to a texture (:mod:`..grid.field_textures`).
+of any member; a member's 2D transfer function of value and gradient magnitude, :class:`Tables2D`).  Members
+on one grid travel four to a texture (:mod:`..grid.field_textures`).
 
 What a frame of several fields does not do (refused in one line by :func:`.fields_check.check`): bricking
 (the members' textures must fit the texture budget and the GL limit whole), rays longer than one pass,
@@ -14,11 +15,13 @@ from __future__ import annotations
 import dataclasses
 from time import perf_counter as now
 
+import moderngl
 import numpy as np
 
 from ... import limits
 from ...errors import SceneError
 from ...gl.shaders import create_program
+from ...transfer_function_2d import is_2d
 from ..grid.field_textures import epsilon_scales, fieldset_defines, frame_field_textures
 from . import acceleration as accel
 from . import ray_bounds
@@ -43,7 +46,52 @@ def fields_features(scene, shader_features) -> dict:
     off) without :data:`NOT_FOR_FIELDS`."""
     off = dataclasses.replace(scene, renderer=dataclasses.replace(scene.renderer, acceleration="off"))
     defines = {k: v for k, v in shader_features(off).items() if k not in NOT_FOR_FIELDS}
-    return defines
+    return {**defines, **tables_2d_defines(scene.layers)}
+
+
+def tables_2d_defines(layers) -> dict:
+    """``FIELD_TABLES_2D`` and ``FIELD_TABLE_2D_OF`` (per member 1 where its transfer function is 2D, else 0: a
+    constant list, so a member's lookup compiles out where it has none) where some member's is; else none."""
+    flags = [int(is_2d(layer.transfer_function)) for layer in layers]
+    if not any(flags):
+        return {}
+    return {"FIELD_TABLES_2D": True, "FIELD_TABLE_2D_OF": ", ".join(str(f) for f in flags)}
+
+
+class Tables2D:
+    """The members' 2D transfer functions (:meth:`~dvr_gl.transfer_function_2d.TransferFunction2D.tabulate_2d`,
+    ``NV_i x NG_i`` texels of ``(r, g, b, sigma)``) in one RGBA32F texture (fetched, not filtered), stacked along
+    y: member ``i``'s texel ``(v, g)`` at column ``v``, row ``row_i + g``.  A member with a 1D function has no
+    rows (its uniforms are never read: ``FIELD_TABLE_2D_OF``)."""
+
+    def __init__(self, ctx, transfer_functions):
+        self.tables = [tf.tabulate_2d() if is_2d(tf) else None for tf in transfer_functions]
+        blocks = [t.texels() for t in self.tables if t is not None]  # (NG, NV, 4) each
+        width = max(b.shape[1] for b in blocks)
+        data = np.concatenate([np.pad(b, ((0, 0), (0, width - b.shape[1]), (0, 0))) for b in blocks])
+        self.texture = ctx.texture((width, len(data)), 4, np.ascontiguousarray(data, np.float32).tobytes(),
+                                   dtype="f4")
+        self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.texture.repeat_x = self.texture.repeat_y = False
+
+    def uniforms(self) -> dict:
+        """Per member (vec2 arrays): its block's first texel (``u_field_tf2d_origin``, column and row) and size
+        (``u_field_tf2d_size``, NV and NG), the value and gradient magnitude of its first texel
+        (``u_field_tf2d_lo``) and texels per unit along each (``u_field_tf2d_scale``); zeros for a 1D member."""
+        out = {"origin": [], "size": [], "lo": [], "scale": []}
+        row = 0
+        for t in self.tables:
+            if t is None:
+                for key in out:
+                    out[key] += [0.0, 0.0]
+                continue
+            u = t.uniforms()
+            out["origin"] += [0.0, float(row)]
+            out["size"] += [float(n) for n in u["u_tf2d_size"]]
+            out["lo"] += [float(x) for x in u["u_tf2d_lo"]]
+            out["scale"] += [float(x) for x in u["u_tf2d_scale"]]
+            row += int(u["u_tf2d_size"][1])
+        return {f"u_field_tf2d_{key}": value for key, value in out.items()}
 
 
 def frame_features(scene, shader_features, bounded: bool) -> dict:
@@ -130,6 +178,9 @@ def draw_fields(renderer, scene, surfaces: dict, shader_features):
                              f"it or render it alone")
     defines = fields_features(scene, shader_features)
     textures, fields = frame_field_textures(renderer, scene, defines, scene.renderer.sample_distance)
+    if "FIELD_TABLES_2D" in defines:  # uploaded only where a member classifies by value and gradient magnitude
+        tfs = tuple(layer.transfer_function for layer in scene.layers)
+        textures["u_field_tf2d"] = renderer._cached("field tables 2d", tfs, lambda: Tables2D(renderer.ctx, tfs))
     defines.update(fields.defines())
     defines, bounds = bound_rays(renderer, scene, defines, textures)
     program = create_program(renderer.ctx, "fullscreen.vert", renderer.fragment_shader, defines,

@@ -7,6 +7,7 @@ import math
 
 from ...errors import SceneError
 from ...fields import diagonal
+from ...transfer_function_2d import is_2d
 
 # One pass of the fragment loop: llvmpipe stops a shader's loops after 65535 iterations (renderer.PASS_SEGMENTS).
 ONE_PASS_SEGMENTS = 65000
@@ -19,6 +20,14 @@ def check(scene):
     if getattr(field, "kind", None) != "fields":
         return
     r = scene.renderer
+    for layer in scene.layers:
+        if layer.role != "scalar" and is_2d(layer.transfer_function):
+            raise SceneError(f"{layer.name or layer.field.name}: "
+                             + ("a label field is classified by its label table" if layer.role == "label"
+                                else "an rgb field is classified by its data's colour and a 1D transfer function "
+                                     "of its luminance")
+                             + ", not by a 2D transfer function of value and gradient magnitude: give it "
+                             + ("a label table" if layer.role == "label" else "a 1D transfer function"))
     roles = {m.role for m in field.members} - {"scalar"}
     if roles and r.compositing in ("mip", "minip", "average"):
         role = sorted(roles)[0]

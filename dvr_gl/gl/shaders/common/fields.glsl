@@ -5,10 +5,16 @@
 // compositing modes need.  The textures and their uniforms: dvr_gl/renderers/grid/field_textures.py.
 //   NUM_FIELDS (members), NUM_FIELD_GROUPS (textures), FIELD_GROUP_OF and FIELD_CHANNEL_OF (each member's
 //   texture and channel, constant lists: GLSL 3.30 indexes samplers by constants only)
+//   FIELD_TABLES_2D with FIELD_TABLE_2D_OF (1 for a member classified by value and gradient magnitude,
+//   common/transfer_function_2d.glsl; its table in u_field_tf2d, dvr_gl/renderers/raycast/fields.py's Tables2D)
 // Needs: volume_sample.glsl (sample_texture_in), transfer_function.glsl's neighbours optics.glsl and
 // shading.glsl, and u_gradient_reference (GRADIENT_OPACITY).  Gradients are central differences one voxel
 // of the member's grid apart (world units), as dvr_gl.reference takes them; gradient = "texture" gives the
 // same field (the filters are linear in the samples), so several fields always take them here.
+
+#if defined(FIELD_TABLES_2D) && !defined(NEEDS_GRADIENT)
+#define NEEDS_GRADIENT  // a 2D member's table reads its gradient's magnitude
+#endif
 
 uniform sampler3D u_field_group[NUM_FIELD_GROUPS];
 uniform vec3 u_field_scale[NUM_FIELD_GROUPS];    // group voxel = world * scale + offset
@@ -207,11 +213,33 @@ vec3 field_gradient_at(int i, vec3 p) {
 }
 #endif
 
-// Member i's (colour, sigma) at its value (an rgb member's: its x, the colour the data's, never negative):
-// gradient opacity scales sigma and shading shades the colour by its own gradient, as classify() does for one
-// field.
+#ifdef FIELD_TABLES_2D
+#include "common/transfer_function_2d.glsl"
+
+const int FIELD_TABLE_2D[NUM_FIELDS] = int[NUM_FIELDS](FIELD_TABLE_2D_OF);
+uniform sampler2D u_field_tf2d;             // the members' tables stacked: member i's NV x NG from its origin
+uniform vec2 u_field_tf2d_origin[NUM_FIELDS];  // first texel (column, row)
+uniform vec2 u_field_tf2d_size[NUM_FIELDS];    // (NV, NG)
+uniform vec2 u_field_tf2d_lo[NUM_FIELDS];      // value and gradient magnitude of the first texel
+uniform vec2 u_field_tf2d_scale[NUM_FIELDS];   // texels per data unit, per (value unit per world unit)
+
+// Member i's 2D table at a value and gradient magnitude (non-associated colour, sigma per world unit).
+vec4 field_transfer_function_2d(int i, float value, float gradient_magnitude) {
+    return table_2d(u_field_tf2d, ivec2(u_field_tf2d_origin[i]), ivec2(u_field_tf2d_size[i]), u_field_tf2d_lo[i],
+                    u_field_tf2d_scale[i], value, gradient_magnitude);
+}
+#endif
+
+// Member i's (colour, sigma) at its value (a 2D member's: at its value and gradient magnitude; an rgb member's:
+// its x, the colour the data's, never negative): gradient opacity scales sigma and shading shades the colour by
+// its own gradient, as classify() does for one field.
 vec4 field_classify_member(int i, vec4 texels, vec3 grad, vec3 dir) {
+#ifdef FIELD_TABLES_2D
+    vec4 tf = FIELD_TABLE_2D[i] == 1 ? field_transfer_function_2d(i, field_value(i, texels), length(grad))
+                                     : field_transfer_function(i, field_value(i, texels));
+#else
     vec4 tf = field_transfer_function(i, field_value(i, texels));
+#endif
 #ifdef FIELD_RGB
     if (FIELD_ROLE[i] == 2) tf.rgb = max(texels.rgb, 0.0);
 #endif

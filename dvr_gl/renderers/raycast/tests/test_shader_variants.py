@@ -77,7 +77,8 @@ FRAME_AXES = {"count_samples": (False, True), "bricked": (False, True),
 
 
 # The axis of several fields (dvr_gl/renderers/raycast/fields.py): none, two channels on one grid, a scalar, a
-# label map and a colour volume; their frames are never bricked, count nothing and bound their rays or not.
+# label map and a colour volume, two channels one of them with a 2D transfer function; their frames are never
+# bricked, count nothing and bound their rays or not.
 FIELDS = "several fields"
 
 
@@ -87,6 +88,10 @@ def field_tables(folder: Path, which: str | None) -> list:
         return []
     if which == "two channels":
         return [{"path": str(folder / "volume.npy")}, {"path": str(folder / "volume.npy")}]
+    if which == "a 2d member":
+        return [{"path": str(folder / "volume.npy"),
+                 "transfer_function": {"boxes_2d": [[0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.5]]}},
+                {"path": str(folder / "volume.npy")}]
     return [{"path": str(folder / "volume.npy")}, {"path": str(folder / "labels.npy"), "role": "label"},
             {"path": str(folder / "colour.npy"), "role": "rgb"}]
 
@@ -206,7 +211,7 @@ def test_every_define_combination_compiles(shared_gl_context, folder):
     make_current(shared_gl_context)
     axes = {**setting_axes(), "geometry": ({}, {"renderer.geometry": [{"path": str(folder / "triangle.obj")}]}),
             "transfer function 2d": ({}, {"transfer_function.boxes_2d": [[0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.5]]}),
-            "fields": ({}, {FIELDS: "two channels"}, {FIELDS: "three roles"})}
+            "fields": ({}, {FIELDS: "two channels"}, {FIELDS: "three roles"}, {FIELDS: "a 2d member"})}
     every = {**axes, **FRAME_AXES}
     scenes = {}
 
