@@ -239,7 +239,7 @@ def colorbar_geometry(box, f) -> tuple[int, int, int, int]:
     """The colour strip's ``(x0, y0, x1, y1)`` inside the colour bar's box."""
     m = max(2, f // 3)
     x1 = box[2] - m
-    return x1 - f, box[1] + f + 2 * m, x1, box[3] - m - f // 2
+    return x1 - f, box[1] + 2 * m + f + f // 2 + 1, x1, box[3] - m - f // 2  # below the unit, half a line
 
 
 def colorbar_values(scene, strip) -> np.ndarray:
