@@ -11,9 +11,7 @@ The parts: :mod:`.looks` (a field's transfer function from a preset, window/leve
 
 from __future__ import annotations
 
-from ..errors import DvrError
-
-INSTALL = "pip install -e '.[widget]' in the dvr-gl checkout"
+from ..errors import DvrError, install_hint
 
 
 def widget(data, *, time_axis: int | None = None, budget: float = 0.1, **render_options):
@@ -29,7 +27,8 @@ def widget(data, *, time_axis: int | None = None, budget: float = 0.1, **render_
         import ipywidgets  # noqa: F401
         import jupyter_rfb  # noqa: F401
     except ImportError as exc:
-        raise DvrError(f"dvr_gl.widget needs jupyter_rfb and ipywidgets ({exc.name} is missing): {INSTALL}") from None
+        raise DvrError(f"dvr_gl.widget needs jupyter_rfb and ipywidgets ({exc.name} is missing): "
+                       f"{install_hint('widget')}") from None
     from .canvas import VolumeWidget
 
     return VolumeWidget.of(data, time_axis=time_axis, budget=budget, **render_options)

@@ -149,18 +149,22 @@ class VolumeWidget(RemoteFrameBuffer):
     def _press(self, event):
         button, shift = event.get("button"), "Shift" in event.get("modifiers", ())
         self.gesture = "orbit" if button == 1 and not shift else "pan" if button in (1, 2, 3) else None
-        self._cursor = (event["x"], event["y"])
+        self._cursor = self._position(event)
+
+    def _position(self, event) -> tuple[float, float]:
+        """The pointer's position in CSS pixels (the last one where an event lacks it)."""
+        return float(event.get("x", self._cursor[0])), float(event.get("y", self._cursor[1]))
 
     def _move(self, event):
         if self.gesture is None:
             return
-        dx, dy = event["x"] - self._cursor[0], event["y"] - self._cursor[1]
-        self._cursor = (event["x"], event["y"])
+        (x, y), (x0, y0) = self._position(event), self._cursor
+        self._cursor = (x, y)
         camera = self._scene.camera
         if self.gesture == "orbit":
-            camera = navigation.orbit(camera, dx, dy)
+            camera = navigation.orbit(camera, x - x0, y - y0)
         else:
-            camera = navigation.pan(camera, dx, dy, self._scene.image.height)
+            camera = navigation.pan(camera, x - x0, y - y0, self._scene.image.height)
         self.set_scene(self._scene.replace(camera=camera), interactive=True)
 
     def _release(self, event):

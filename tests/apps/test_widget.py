@@ -160,6 +160,11 @@ def test_without_the_extra_one_line_says_how_to_install(monkeypatch):
     monkeypatch.setitem(sys.modules, "jupyter_rfb", None)
     with pytest.raises(dvr_gl.DvrError, match=r"pip install -e '\.\[widget\]'"):
         dvr_gl.widget(blob())
+    import subprocess
+
+    script = "import sys, dvr_gl; print(sorted({'jupyter_rfb', 'ipywidgets'} & set(sys.modules)))"
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert out.stdout.strip() == "[]", out  # import dvr_gl never needs the extra
 
 
 KERNEL_CELLS = [
