@@ -192,8 +192,6 @@ class Viewer:
         self.editor = TransferFunctionEditor(scene.layers[self.field_index].transfer_function) if fields else None
         self.tf_version = self.editor.version if self.editor is not None else 0
         self.tf_mode, self.editor_2d, self.tf2d_version = "1d", None, 0   # the 2D editor: opened when asked for
-        if fields and is_2d(scene.layers[self.field_index].transfer_function):
-            self._open_2d()
         self.player = (Player(options.time_steps, options.read_step, step=options.time_step)
                        if options.time_steps > 1 else None)
         self.controller = RefinementController(options.budget_ms / 1e3, self._passes(scene))
@@ -214,6 +212,8 @@ class Viewer:
         self.stalled = -1                     # the version whose rendering failed with no way back
         self.frame_count = 0
         self.log = FrameLog(options.frame_log)
+        if fields and is_2d(scene.layers[self.field_index].transfer_function):
+            self._open_2d()   # a scene with a 2D function opens in the 2D editor (its boxes, where it has them)
         self.keys = _key_table()
         self.benchmark = OrbitBenchmark(options.benchmark) if options.benchmark else None
         self.gui = None
@@ -287,7 +287,7 @@ class Viewer:
         """Whether the current renderer declares a 2D transfer function for the scene's kind of data (its
         trait ``transfer_function_2d``) and the edited field is a grid in memory (its histogram is drawn)."""
         field = self.edited_field if self.editor is not None else None
-        return (field is not None and hasattr(field, "data") and not getattr(field, "out_of_core", False)
+        return (field is not None and not getattr(field, "out_of_core", False) and hasattr(field, "data")
                 and renders_2d(self.scene.renderer.name, getattr(self.scene.field, "kind", "grid")))
 
     def _saved_boxes(self, tf):
