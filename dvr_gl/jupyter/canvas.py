@@ -20,6 +20,7 @@ import base64
 import contextlib
 import dataclasses
 import io
+import math
 import time
 
 import numpy as np
@@ -143,8 +144,12 @@ class VolumeWidget(RemoteFrameBuffer):
         kind = event.get("type") or event.get("event_type")
         handler = {"pointer_down": self._press, "pointer_move": self._move, "pointer_up": self._release,
                    "wheel": self._wheel, "resize": self._resize, "close": lambda _: self.release()}.get(kind)
-        if handler is not None:
+        if handler is None:
+            return
+        try:
             handler(event)
+        except (DvrError, TypeError, ValueError) as exc:  # an event no browser sends: said, and nothing changes
+            self.notify(f"event {kind!r} ignored: {exc}")
 
     def _press(self, event):
         button, shift = event.get("button"), "Shift" in event.get("modifiers", ())
@@ -153,7 +158,10 @@ class VolumeWidget(RemoteFrameBuffer):
 
     def _position(self, event) -> tuple[float, float]:
         """The pointer's position in CSS pixels (the last one where an event lacks it)."""
-        return float(event.get("x", self._cursor[0])), float(event.get("y", self._cursor[1]))
+        x, y = float(event.get("x", self._cursor[0])), float(event.get("y", self._cursor[1]))
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise ValueError(f"the pointer's position must be finite, got ({x}, {y})")
+        return x, y
 
     def _move(self, event):
         if self.gesture is None:
@@ -174,7 +182,7 @@ class VolumeWidget(RemoteFrameBuffer):
 
     def _wheel(self, event):
         steps = -float(event.get("dy", 0.0)) / WHEEL_PIXELS_PER_STEP
-        if steps == 0:
+        if steps == 0 or not math.isfinite(steps):
             return
         self.set_scene(self._scene.replace(camera=navigation.zoom(self._scene.camera, steps)), interactive=True)
         self.settle_later()

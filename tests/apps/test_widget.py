@@ -94,6 +94,15 @@ def test_pan_and_wheel(view):
     np.testing.assert_array_equal(full(view), rendered(view.scene))  # no event loop: the wheel gesture ends at once
 
 
+def test_odd_events_change_nothing(view):
+    before = view.scene
+    for odd in ({"type": "pointer_down", "button": 1, "x": float("nan"), "y": 0}, {"type": "pointer_move", "x": "a"},
+                {"type": "wheel", "dy": float("inf")}, {"type": "wheel", "dy": "x"}, {"type": "resize", "width": -3},
+                {"type": "key_down", "key": "a"}, {"type": "pointer_up"}):
+        view.handle_event(odd)
+    assert view.scene is before and view.get_frame() is not None
+
+
 def test_the_controls_change_the_scene(view):
     c = view.controls
     tf = view.scene.transfer_function
