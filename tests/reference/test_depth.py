@@ -133,3 +133,43 @@ def test_refusals_in_one_line(tmp_path):
     without = [n for n, p in registry.plugins().items() if not p.depth_output]
     if without:
         assert "draws no depth image" in registry.depth_refusal(scene, without[0])
+
+
+def two_blobs():
+    z, y, x = np.meshgrid(*(np.arange(n) for n in (10, 8, 12)), indexing="ij")
+    a = np.exp(-((z - 4) ** 2 + (y - 3) ** 2 + (x - 8) ** 2) / 6.0)
+    b = np.exp(-((z - 5) ** 2 + (y - 4) ** 2 + (x - 3) ** 2) / 6.0)
+    return a.astype(np.float32), b.astype(np.float32)
+
+
+WARM = [[0.0, 1.0, 0.5, 0.2, 0.0], [1.0, 1.0, 0.5, 0.2, 0.95]]
+COLD = [[0.0, 0.2, 0.5, 1.0, 0.0], [1.0, 0.2, 0.5, 1.0, 0.95]]
+
+
+def test_a_mirrored_volume_picks_as_its_mirror_image():
+    """A direction matrix with determinant -1 (drawn in the volume's frame, columns turned back) against the
+    same voxels stored flipped: the same depth image and picks, world positions in the patient frame; the
+    voxel index is the file's own."""
+    from dvr_gl import Volume
+
+    data, _ = two_blobs()
+    turned = Volume(data, spacing=(1.0, 1.0, 1.0), direction=np.diag([-1.0, 1.0, 1.0]))
+    flipped = Volume(np.ascontiguousarray(data[:, :, ::-1]), spacing=(1.0, 1.0, 1.0), origin=(-11.0, 0.0, 0.0))
+    keywords = dict(size=(16, 12), transfer_function=WARM)
+    a, b = (render(v, renderer=JUDGE, depth=True, **keywords).depth for v in (turned, flipped))
+    np.testing.assert_array_equal(a, b)
+    p, q = pick(turned, 8, 5, **keywords), pick(flipped, 8, 5, **keywords)
+    assert p.hit and p.depth == q.depth and p.position == q.position and p.value == q.value
+    assert p.index[:2] == q.index[:2] and p.index[2] == 11 - q.index[2]
+
+
+def test_several_fields_name_the_field_and_every_value():
+    data = np.stack(two_blobs())
+    keywords = dict(size=(16, 12), channel_axis=0, transfer_function=[WARM, COLD])
+    image = render(data, renderer=JUDGE, depth=True, **keywords)
+    p = pick(data, 8, 5, **keywords)
+    assert p.hit and p.depth == pytest.approx(float(image.depth[5, 8]), rel=1e-6)
+    assert p.field == "channel 0" and set(p.values) == {"channel 0", "channel 1"}
+    assert p.values["channel 0"] > p.values["channel 1"]
+    with pytest.raises(SceneError, match="each field has its own mip"):
+        pick(data, 8, 5, compositing="mip", **keywords)
