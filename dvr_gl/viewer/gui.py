@@ -37,6 +37,7 @@ CANVAS_HEIGHT = 150       # window pixels of the transfer-function canvas (at mo
 MIN_CANVAS_HEIGHT = 80
 COLOUR_BAR_HEIGHT = 14
 HISTOGRAM_BINS = 128
+HELP_KEY_CHARS = 12       # a help row's input at most this long goes in the key column (longer: a line of its own)
 OPACITY_AXES = ("auto", "0.01", "0.05", "0.2", "0.5", "1")
 
 
@@ -178,11 +179,13 @@ class ViewerGui:
         imgui = self.imgui
         rows = help_rows()
         style = imgui.get_style()
-        key_w = max(imgui.calc_text_size(k).x for k, _ in rows) + 2 * style.item_spacing.x
+        short = [k for k, _ in rows if len(k) <= HELP_KEY_CHARS]   # keys; a mouse input's words span the box
+        key_w = max(imgui.calc_text_size(k).x for k in short) + 2 * style.item_spacing.x
         frame_w = 2 * style.window_padding.x + style.scrollbar_size
-        widest = key_w + max(imgui.calc_text_size(d).x for _, d in rows) + frame_w
+        texts = [(d if len(k) <= HELP_KEY_CHARS else f"{k}: {d}") for k, d in rows]
+        widest = key_w + max(imgui.calc_text_size(t).x for t in texts) + frame_w
         wrap = max(40.0, min(widest, window[0] - 16) - key_w - frame_w)   # the description column's width
-        lines = sum(max(1, int(np.ceil(imgui.calc_text_size(d).x / wrap))) for _, d in rows)
+        lines = sum(max(1, int(np.ceil(imgui.calc_text_size(t).x / wrap))) for t in texts)
         tall = lines * imgui.get_text_line_height_with_spacing() + imgui.get_frame_height() + 2 * style.window_padding.y
         x, y, w, h = help_rect(window, image_rect, (widest, tall))
         self.help_box = (x, y, w, h)
@@ -193,6 +196,9 @@ class ViewerGui:
                  | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_focus_on_appearing | imgui.WindowFlags_.no_nav)
         imgui.begin("Keys and mouse (F1 closes)", None, flags)
         for key, text in rows:
+            if len(key) > HELP_KEY_CHARS:
+                imgui.text_wrapped(f"{key}: {text}")
+                continue
             imgui.text(key)
             imgui.same_line(key_w)
             imgui.text_wrapped(text)
