@@ -187,6 +187,17 @@ class CameraPath:
         i = min(int(np.searchsorted(self.times, t, side="right")) - 1, len(self.times) - 2)
         return i, (t - self.times[i]) / (self.times[i + 1] - self.times[i])
 
+    def keyframe_tables(self) -> list[dict]:
+        """The keyframes as ``[[camera.keyframe]]`` tables (look-at: ``time``, ``eye``, ``target``, ``up`` and
+        the lens), which a scene file reads back to this path (:meth:`dvr_gl.Scene.with_camera_path`; what a
+        viewer or a notebook that records a path writes)."""
+        tables = []
+        for t, c in zip(self.times, self.cameras):
+            lens = {"fov": c.fov} if c.projection == "perspective" else {"view_height": c.view_height}
+            tables.append({"time": t, "eye": list(c.eye), "target": list(c.target), "up": list(c.basis()[2]),
+                           **lens})
+        return tables
+
     def camera_at(self, t: float) -> Camera:
         """The camera at time ``t`` (seconds; clamped to the path's span); a keyframe's own at its time."""
         if t in self.times:

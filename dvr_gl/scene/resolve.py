@@ -48,6 +48,7 @@ from .model import exclusive_keys
 from .schema import (
     CameraSpec,
     ImageSpec,
+    KeyframeSpec,
     RendererTable,
     SceneSpec,
     TransferFunctionSpec,
@@ -527,6 +528,17 @@ class Scene:
     def camera_path(self):
         """The scene's ``[[camera.keyframe]]`` path (:class:`~dvr_gl.camera_path.CameraPath`), or None."""
         return camera_path_of(self.spec.camera, self.field, self.image) if self.spec else None
+
+    def with_camera_path(self, path) -> "Scene":
+        """The scene with ``path`` (a :class:`~dvr_gl.camera_path.CameraPath`, or None to drop one) as its
+        ``[[camera.keyframe]]`` tables: ``--save-scene`` and :meth:`to_toml` write them, ``--frames`` renders
+        them (the keyframes as look-at cameras: :meth:`~dvr_gl.camera_path.CameraPath.keyframe_tables`)."""
+        spec = self.spec or SceneSpec(renderer=self.renderer)
+        keyframes = [parse_table(KeyframeSpec, t, f"camera.keyframe[{k}]")
+                     for k, t in enumerate(path.keyframe_tables() if path is not None else [])]
+        camera = dataclasses.replace(spec.camera, keyframe=keyframes)
+        camera_path_of(camera, self.field, self.image)
+        return dataclasses.replace(self, spec=dataclasses.replace(spec, camera=camera))
 
     def replace(self, **changes) -> "Scene":
         """The scene with parts replaced.  A new field (``field=`` or ``volume=``) re-frames the camera

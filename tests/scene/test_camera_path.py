@@ -139,3 +139,24 @@ def test_cli_refuses_bad_keyframes_in_one_line(tmp_path, capsys, keyframes, word
     code, _, err = run_cli(capsys, "render", scene, "-o", tmp_path / "p.gif", "--frames", 3)
     assert code == 1 and len(err.strip().splitlines()) == 1 and words in err, err
     assert not (tmp_path / "p.gif").exists()
+
+
+def test_a_recorded_path_is_saved_in_the_scene_and_read_back(tmp_path):
+    """What a viewer or a notebook that records keyframes does: Scene.with_camera_path, then the scene file."""
+    import dvr_gl
+
+    scene = dvr_gl.load_scene(_write(tmp_path, SCENE.format(keyframes="")))
+    path = CameraPath((_orbit(0, 0, 10), _orbit(100, 40, 20, 50), _orbit(200, -20, 5, 20)), (0.0, 1.5, 4.0))
+    saved = tmp_path / "saved.toml"
+    saved.write_text(scene.with_camera_path(path).to_toml(relative_to=tmp_path))
+    back = dvr_gl.load_scene(saved).camera_path()
+    assert back.times == path.times
+    for t in (0.0, 0.7, 1.5, 3.2, 4.0):
+        a, b = back.camera_at(t), path.camera_at(t)
+        assert np.allclose(a.eye, b.eye, atol=1e-9) and np.allclose(a.target, b.target, atol=1e-12)
+        assert np.allclose(a.basis()[2], b.basis()[2], atol=1e-9) and a.fov == pytest.approx(b.fov)
+
+
+def _write(folder, text):
+    (folder / "s.toml").write_text(text)
+    return folder / "s.toml"
