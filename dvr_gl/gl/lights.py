@@ -21,12 +21,14 @@ def shading_uniforms(shading) -> dict:
 
 def set_uniform(program, name, value):
     """Set a uniform by its Python value; one the program lacks (compiled out) is skipped.  Lists are
-    uniform arrays (packed float32), tuples vectors (int or float by the uniform's type)."""
+    uniform arrays (packed float32), tuples vectors (int or float by the uniform's type); an array the
+    compiler shortened (only its first elements read, e.g. at constant indices) takes those first elements."""
     if name not in program:
         return
     uniform = program[name]
     if isinstance(value, list):
-        uniform.write(np.asarray(value, dtype=np.float32).tobytes())
+        data = np.asarray(value, dtype=np.float32).ravel()
+        uniform.write(data[:uniform.array_length * uniform.dimension].tobytes())
     elif isinstance(value, (tuple, np.ndarray)):
         uniform.value = tuple(int(x) if uniform.fmt.endswith("i") else float(x) for x in value)
     else:
