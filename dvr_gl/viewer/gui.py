@@ -86,7 +86,7 @@ class ViewerGui:
         self.axis_choice = 0
         self.axis_max: float | None = None
         self._preset = (None, -1, CUSTOM)   # (editor, its version, the preset box's name)
-        self.grab: tuple | None = None      # the 2D editor's box being dragged: (index, part, row, x, y)
+        self.grab: tuple | None = None      # the 2D editor's box dragged: (index, part, row, x, y, last position)
         self.switch_2d: tuple | None = None  # the 1D/2D switch's "2D" button (window pixels), when shown
         self.help_box: tuple | None = None   # where the help overlay was drawn (window pixels)
         self.tf_path = "transfer_function.toml"
@@ -510,15 +510,20 @@ class ViewerGui:
             hit = ed.hit(canvas, mouse.x, mouse.y)
             if imgui.is_mouse_clicked(0):   # on a box: grab it; elsewhere: a new box there, grabbed
                 i, part = hit if hit is not None else (ed.add(*canvas.from_pixel(mouse.x, mouse.y)), "inside")
-                ed.selected, self.grab = i, (i, part, list(ed.boxes[i]), mouse.x, mouse.y)
+                ed.selected, self.grab = i, (i, part, list(ed.boxes[i]), mouse.x, mouse.y, None)
             elif imgui.is_mouse_clicked(1) and hit is not None:
                 ed.delete(hit[0])
         if self.grab is not None:
-            i, part, row, x0, y0 = self.grab
-            if imgui.is_mouse_down(0) and i < len(ed.boxes):
-                if imgui.is_mouse_dragging(0, 1.0):
+            # the box follows the cursor while the button is down, and to where it was released (the release
+            # and the last moves can reach ImGui in one frame, when a frame was slow)
+            i, part, row, x0, y0, moved = self.grab
+            if i < len(ed.boxes) and imgui.is_mouse_pos_valid() and (moved or imgui.is_mouse_dragging(0, 1.0)
+                                                                    or max(abs(mouse.x - x0), abs(mouse.y - y0)) >= 1):
+                if not moved or (mouse.x, mouse.y) != moved:
                     ed.drag(i, part, row, mouse.x - x0, mouse.y - y0, canvas)
-            else:
+                moved = (mouse.x, mouse.y)
+            self.grab = (i, part, row, x0, y0, moved)
+            if not imgui.is_mouse_down(0) or i >= len(ed.boxes):
                 self.grab = None
                 self.viewer.end_gesture()
         if (ed.selected is not None and ed.selected < len(ed.boxes) and imgui.is_window_focused()
@@ -574,10 +579,15 @@ class ViewerGui:
                 if i is not None and not editor.delete(i):
                     self.viewer.notify("a transfer function keeps at least two points", error=True)
         if self.dragging is not None:
-            if imgui.is_mouse_down(0):
-                if imgui.is_mouse_dragging(0, 1.0):
-                    editor.move(self.dragging, *mapping.from_pixel(mouse.x, mouse.y))
-            else:
+            # to where the button was released too (the release and the last moves can come in one frame)
+            if imgui.is_mouse_pos_valid() and (imgui.is_mouse_dragging(0, 1.0) or imgui.is_mouse_released(0)) \
+                    and self.dragging < len(editor.points):
+                value, opacity = mapping.from_pixel(mouse.x, mouse.y)
+                if (value, opacity) != tuple(editor.points[self.dragging, [0, 4]]) and (
+                        imgui.is_mouse_down(0) or imgui.get_mouse_drag_delta(0, 0.0).x or
+                        imgui.get_mouse_drag_delta(0, 0.0).y):
+                    editor.move(self.dragging, value, opacity)
+            if not imgui.is_mouse_down(0):
                 self.dragging = None
                 self.viewer.end_gesture()
 
