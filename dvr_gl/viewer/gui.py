@@ -11,9 +11,9 @@
   function for the data (trait ``transfer_function_2d``), a 1D/2D switch, and the **2D editor**: the
   log histogram of value x gradient magnitude, the boxes over it (click: add; drag inside: move;
   drag an edge or corner: resize; right-click or Delete: delete), the selected box's colour and opacity.
-* **Status bar** (the HUD, across the bottom of the window, never over the image; hover for all
-  of it): the settings or the last message (errors in red), then the refinement state, the last
-  frame's times and samples per second.
+* **Status bar** (the HUD, across the bottom of the window, never over the image; rest the cursor
+  on it for all of it, where it is cut): the settings or the last message (errors in red), then the
+  refinement state, the last frame's times and samples per second.
 * **Help** (F1): the key and mouse bindings of :mod:`.keys`, inside the window at any size
   (:func:`.layout.help_rect`; descriptions wrap beside their keys, and it scrolls when too tall).
 """
@@ -37,6 +37,7 @@ CANVAS_HEIGHT = 150       # window pixels of the transfer-function canvas (at mo
 MIN_CANVAS_HEIGHT = 80
 COLOUR_BAR_HEIGHT = 14
 HISTOGRAM_BINS = 128
+STATUS_TOOLTIP_SECONDS = 0.4  # the cursor rests this long on a status bar whose lines are cut: they show whole
 HELP_KEY_CHARS = 12       # a help row's input at most this long goes in the key column (longer: a line of its own)
 OPACITY_AXES = ("auto", "0.01", "0.05", "0.2", "0.5", "1")
 
@@ -89,6 +90,7 @@ class ViewerGui:
         self.grab: tuple | None = None      # the 2D editor's box dragged: (index, part, row, x, y, last position)
         self.switch_2d: tuple | None = None  # the 1D/2D switch's "2D" button (window pixels), when shown
         self.help_box: tuple | None = None   # where the help overlay was drawn (window pixels)
+        self._hover_since: float | None = None   # when the cursor came to rest on the status bar (GLFW seconds)
         self.tf_path = "transfer_function.toml"
         self._histogram_key = None
         self._heights = None
@@ -168,7 +170,14 @@ class ViewerGui:
         else:
             imgui.text(lines[0])
         imgui.text(lines[1])
-        if imgui.is_window_hovered():
+        # the lines whole, where the bar cuts them, once the cursor has rested on it (not while it crosses it)
+        cut = any(imgui.calc_text_size(line).x > w - 16 for line in lines)
+        now = self.glfw.get_time()
+        if not (cut and imgui.is_window_hovered()):
+            self._hover_since = None
+        elif self._hover_since is None:
+            self._hover_since = now
+        elif now - self._hover_since >= STATUS_TOOLTIP_SECONDS:
             imgui.set_tooltip("\n".join(lines))
         imgui.end()
         imgui.pop_style_var(2)

@@ -46,8 +46,9 @@ def test_no_copy_of_the_status_bar_stays_over_the_image(viewer):
     test_viewer_xvfb compares), where before the fix the tooltip stayed until the cursor came back."""
     image, _ = viewer.screenshot()
     status = last_layout(viewer)["status"]
-    viewer.x.move(60, status[1] + status[3] / 2)   # over the status bar's text
-    time.sleep(0.6)
+    viewer.x.move(60, status[1] + status[3] / 2)   # over the status bar's text (cut at the window's width)
+    viewer.x.move(61, status[1] + status[3] / 2)
+    time.sleep(2.0)
     hovered = viewer.x.capture(0, 0, SIZE, SIZE).astype(np.float64)
     viewer.x.move(60, status[1] + status[3] + 200)   # out of the window at the bottom (no window manager)
     time.sleep(0.8)
