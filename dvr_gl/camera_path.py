@@ -114,6 +114,7 @@ class CameraPath:
 
     cameras: tuple
     times: tuple
+    steps: tuple | None = None  # a time series' step at each keyframe (step_at), or None
 
     def __post_init__(self):
         cameras, times = tuple(self.cameras), tuple(float(t) for t in self.times)
@@ -122,6 +123,12 @@ class CameraPath:
         if len(cameras) < 2 or len(cameras) != len(times):
             raise SceneError(f"camera.keyframe: a path needs at least two keyframes, each with a time; got "
                              f"{len(cameras)}")
+        if self.steps is not None:
+            steps = tuple(self.steps)
+            if len(steps) != len(times) or not all(isinstance(k, int) and k >= 0 for k in steps):
+                raise SceneError(f"camera.keyframe: give every keyframe a step (an integer >= 0) or none, got "
+                                 f"{list(steps)}")
+            object.__setattr__(self, "steps", steps)
         if not all(map(math.isfinite, times)) or any(b <= a for a, b in zip(times, times[1:])):
             raise SceneError(f"camera.keyframe: the times must be finite and increase from one keyframe to the "
                              f"next, got {list(times)}")
@@ -175,6 +182,14 @@ class CameraPath:
         """The times of an animation's ``frames`` frames: the span sampled evenly, both ends included."""
         return np.linspace(self.start, self.end, frames) if frames > 1 else np.array([self.start])
 
+    def step_at(self, t: float) -> int | None:
+        """The time series' step at time ``t``: the keyframes' steps joined by straight lines in time, rounded
+        down (a keyframe's own at its time); None where the keyframes give none."""
+        if self.steps is None:
+            return None
+        i, h = self._segment(t)
+        return int(math.floor(self.steps[i] + h * (self.steps[i + 1] - self.steps[i]) + 1e-9))
+
     def rotation_at(self, t: float) -> np.ndarray:
         """The camera's ``(right, up, back)`` columns at time ``t`` (a rotation matrix)."""
         i, h = self._segment(t)
@@ -196,6 +211,8 @@ class CameraPath:
             lens = {"fov": c.fov} if c.projection == "perspective" else {"view_height": c.view_height}
             tables.append({"time": t, "eye": list(c.eye), "target": list(c.target), "up": list(c.basis()[2]),
                            **lens})
+            if self.steps is not None:
+                tables[-1]["step"] = self.steps[len(tables) - 1]
         return tables
 
     def camera_at(self, t: float) -> Camera:

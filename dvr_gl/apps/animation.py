@@ -13,7 +13,8 @@
 * ``path`` (the default of ``--frames`` when the scene has ``[[camera.keyframe]]`` tables): the camera follows
   the keyframes' path (:class:`dvr_gl.camera_path.CameraPath`), frame ``i`` of N at time
   ``start + i (end - start) / (N - 1)``: the first and last keyframes are the first and last frames.
-  ``time,path``: with the time steps too.
+  ``time,path``: with the time steps too; keyframes that give a ``step`` choose each frame's step
+  (:meth:`dvr_gl.camera_path.CameraPath.step_at`), and ``path`` then walks the time series by itself.
 """
 
 from __future__ import annotations
@@ -53,7 +54,10 @@ class Animation:
     path: object = None  # a CameraPath the camera follows (instead of an orbit)
 
     def step(self, i: int) -> int:
-        """The time step frame ``i`` shows: ``floor(i steps / frames)``, exact in integers."""
+        """The time step frame ``i`` shows: the path's keyframes' steps where they give them
+        (:meth:`dvr_gl.camera_path.CameraPath.step_at`), else ``floor(i steps / frames)``, exact in integers."""
+        if self.path is not None and self.path.steps is not None:
+            return self.path.step_at(self.path.frame_times(self.frames)[i])
         return i * self.steps // self.frames
 
 

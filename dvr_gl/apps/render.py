@@ -387,6 +387,8 @@ def animation_of(args, source: cli_fields.Source, scene) -> Animation | None:
         return None
     if "path" in kinds and path is None:
         raise DvrError("--animate path: the scene has no [[camera.keyframe]] tables (docs/scene-files.md)")
+    if "path" in kinds and path.steps is not None:
+        kinds = kinds | {"time"}  # the keyframes' steps walk the time series
     steps = 1
     if "time" in kinds:
         if args.time is not None:
@@ -402,6 +404,9 @@ def animation_of(args, source: cli_fields.Source, scene) -> Animation | None:
     if not 1 <= frames <= MAX_FRAMES:
         raise DvrError(f"--frames must be in [1, {MAX_FRAMES}] (the images of the animation, numbered with 4 "
                        f"digits), got {frames}")
+    if "path" in kinds and path.steps is not None and max(path.steps) >= steps:
+        raise DvrError(f"camera.keyframe: step {max(path.steps)} is beyond the time series' {steps} steps "
+                       f"(0 .. {steps - 1})")
     return Animation(frames, "orbit" in kinds, steps, path if "path" in kinds else None)
 
 

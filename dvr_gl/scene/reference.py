@@ -73,7 +73,9 @@ keyframes the camera's rotation moves on the sphere of rotations (Shoemake's SQU
 smooth; between two keyframes, slerp: the view turns about one axis at a constant rate), the eye-to-target
 distance and an orthographic view height in log space, the target and the field of view along a cubic
 (Catmull-Rom slopes; with two keyframes, straight lines); up stays orthogonal to the view. In Python:
-`dvr_gl.CameraPath(cameras, times).camera_at(t)`, or `scene.camera_path()`. Refused in one line: fewer than
+`dvr_gl.CameraPath(cameras, times).camera_at(t)`, or `scene.camera_path()`. With a time series, a `step` in
+every keyframe chooses each frame's step (the keyframes' steps joined by straight lines in time, rounded down).
+Refused in one line: fewer than
 two keyframes, a keyframe without `time`, times that do not increase, an eye on the target, a look-at
 keyframe whose up is parallel to its view.
 

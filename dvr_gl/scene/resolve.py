@@ -411,7 +411,7 @@ def camera_path_of(spec: CameraSpec, field, image: ImageSpec):
         if key.time is None:
             raise SceneError(f"camera.keyframe[{k}]: give its time (seconds along the path)")
         given = {f.name: getattr(key, f.name) for f in dataclasses.fields(key)
-                 if f.name != "time" and getattr(key, f.name) is not None}
+                 if f.name not in ("time", "step") and getattr(key, f.name) is not None}
         base = dataclasses.replace(spec, keyframe=[])
         if "eye" in given:
             base = dataclasses.replace(base, azimuth=None, elevation=None, view=None, distance=None)
@@ -423,7 +423,13 @@ def camera_path_of(spec: CameraSpec, field, image: ImageSpec):
             cameras.append(_resolve_camera(dataclasses.replace(base, **given), field, image))
         except SceneError as exc:
             raise SceneError(f"camera.keyframe[{k}]: {exc}") from None
-    return CameraPath(cameras, [key.time for key in spec.keyframe])
+    steps = [key.step for key in spec.keyframe]
+    stepped = [k for k, step in enumerate(steps) if step is not None]
+    if stepped and len(stepped) != len(steps):
+        missing = next(k for k in range(len(steps)) if k not in stepped)
+        raise SceneError(f"camera.keyframe[{missing}]: give its step too (keyframe {stepped[0]} gives one: every "
+                         f"keyframe or none)")
+    return CameraPath(cameras, [key.time for key in spec.keyframe], tuple(steps) if stepped else None)
 
 
 def _check_image(spec: ImageSpec):

@@ -187,6 +187,9 @@ class KeyframeSpec:
     fov: Optional[float] = checked(None, "vertical field of view, degrees (perspective)", LENS_CHECKS["fov"])
     view_height: Optional[float] = checked(None, "view height, world units (orthographic)",
                                            LENS_CHECKS["view_height"])
+    step: Optional[int] = checked(None, "a time series: the step shown at this keyframe (0 first; between "
+                                        "keyframes it follows the time linearly, rounded down; in every keyframe or "
+                                        "none)", between(0, 10**9))
 
 
 @dataclass

@@ -160,3 +160,24 @@ def test_a_recorded_path_is_saved_in_the_scene_and_read_back(tmp_path):
 def _write(folder, text):
     (folder / "s.toml").write_text(text)
     return folder / "s.toml"
+
+
+def test_keyframe_steps_choose_each_frames_time_step(tmp_path, capsys):
+    """Steps 0 and 4 at times 0 and 2: frame i of 5 (time i / 2) shows step floor(2 t) = i; each step is a
+    constant volume of value k, so the frames brighten step by step."""
+    path = CameraPath((_orbit(0, 0, 10), _orbit(90, 0, 10)), (0.0, 2.0), (0, 4))
+    assert [path.step_at(t) for t in path.frame_times(5)] == [0, 1, 2, 3, 4]
+    for k in range(3):
+        np.save(tmp_path / f"step_{k}.npy", np.full((6, 6, 6), float(k), np.float32))
+    keyframes = "\n".join(f"[[camera.keyframe]]\ntime = {t}\nazimuth = {a}\nstep = {s}\n"
+                          for t, a, s in ((0.0, 0.0, 0), (1.0, 40.0, 2)))
+    scene = tmp_path / "series.toml"
+    scene.write_text(f'[volume]\npath = "step_*.npy"\n[transfer_function]\npoints = [[0, 1, 1, 1, 0], '
+                     f'[2, 1, 1, 1, 0.9]]\n[image]\nwidth = 16\nheight = 16\n[camera]\ndistance = 30.0\n{keyframes}')
+    code, _, err = run_cli(capsys, "render", scene, "-o", tmp_path / "f.png", "--frames", 3)
+    assert code == 0, err
+    means = [read_image(tmp_path / f"f_{i:04d}.png")[..., :3].mean() for i in range(3)]
+    assert means[0] < means[1] < means[2]
+    code, _, err = run_cli(capsys, "render", scene, "-o", tmp_path / "g.png", "--frames", 3,
+                           "--set", "camera.keyframe=[{time=0.0, step=0}, {time=1.0, step=3}]")
+    assert code == 1 and "beyond the time series' 3 steps" in err and len(err.strip().splitlines()) == 1, err
