@@ -41,7 +41,7 @@ from .labels import as_label_table
 from .orientation import view_orbit
 from .renderers import create_renderer, registry
 from .sandbox import Sandbox, active
-from .scene.resolve import Scene, apply_overrides, load_scene, parse_scene, resolve_scene
+from .scene.resolve import Scene, apply_overrides, default_unit_distance, load_scene, parse_scene, resolve_scene
 from .scene.schema import ImageSpec, parse_table, spec_to_dict
 from .transfer_function import TransferFunction, preset
 
@@ -376,9 +376,12 @@ def _changed(scene: Scene, transfer_function, camera, camera_keys: dict, setting
         changes = {k.removeprefix("image."): v for k, v in image.items()}
         scene = scene.replace(image=parse_table(ImageSpec, {**spec_to_dict(scene.image), **changes}, "image"))
     if transfer_function is not None:
+        # the scene's unit distance (given, or one voxel of its data: docs/conventions.md)
+        unit = getattr(scene.transfer_function, "unit_distance", None) or default_unit_distance(scene.field)
         tf = transfer_function if isinstance(transfer_function, TransferFunction) else (
-            preset(transfer_function, scene.field.value_range, rescale_intercept) if isinstance(transfer_function, str)
-            else TransferFunction(np.asarray(transfer_function, dtype=np.float64)))
+            preset(transfer_function, scene.field.value_range, rescale_intercept, unit)
+            if isinstance(transfer_function, str)
+            else TransferFunction(np.asarray(transfer_function, dtype=np.float64), unit))
         scene = scene.replace(transfer_function=tf)
     if camera is not None:
         scene = scene.replace(camera=camera)

@@ -81,9 +81,11 @@ def own_filter(renderer, mode: str = "emission_absorption") -> dict:
 
 
 def _load(data_keys, points, mode, view, renderer, extra=None):
-    """A closed form's scene: its data keys, extinction ``points``, the view, no early termination."""
+    """A closed form's scene: its data keys, extinction ``points``, the view, no early termination; the unit
+    distance 1 world unit, stated (the projections' opacity is that of one unit distance)."""
     overrides = {**own_filter(renderer, mode), **data_keys, "transfer_function.points": points,
-                 "transfer_function.opacity_model": "extinction", "image.width": WIDTH, "image.height": HEIGHT,
+                 "transfer_function.opacity_model": "extinction", "transfer_function.unit_distance": 1.0,
+                 "image.width": WIDTH, "image.height": HEIGHT,
                  "renderer.name": renderer, "renderer.compositing": mode, "renderer.ert_threshold": 1.0,
                  "renderer.converged_tolerance": 1e-6, **VIEWS[view], **(extra or {})}
     return load_scene(None, overrides)
@@ -364,7 +366,7 @@ def _channels_scene(tmp_path, mode, view, renderer):
         path = _save(tmp_path, f"channel{k}", np.full((5, 6, 7), value, np.float32))
         tables.append({"path": path, "spacing": [0.5, 0.6, 0.7], "iso_value": 0.3 if k == 0 else 0.9,
                        "transfer_function": {"points": [[0.0, *colour, sigma], [1.0, *colour, sigma]],
-                                             "opacity_model": "extinction"}})
+                                             "opacity_model": "extinction", "unit_distance": 1.0}})
     overrides = {**own_filter(renderer, mode), "image.width": WIDTH, "image.height": HEIGHT,
                  "renderer.name": renderer, "renderer.compositing": mode, "renderer.ert_threshold": 1.0,
                  "renderer.converged_tolerance": 1e-6, **VIEWS[view]}

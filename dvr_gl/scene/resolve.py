@@ -747,11 +747,29 @@ def _unset(tf: TransferFunctionSpec) -> bool:
     return tf.preset is None and tf.points is None and tf.file is None and tf.table_2d is None and tf.boxes_2d is None
 
 
+def default_unit_distance(field) -> float:
+    """The world length a transfer function's alpha refers to when the scene gives none: one voxel of
+    the data, its ``sample_spacing`` (a grid's smallest spacing, a mesh's median edge length, particles'
+    median smoothing length), so that the same data at another spacing looks the same (docs/conventions.md);
+    an analytic field keeps 1 (its alpha is per world unit, as its closed forms are written)."""
+    return 1.0 if field.kind == "analytic" else float(field.sample_spacing)
+
+
+def with_unit_distance(tf_spec, field):
+    """``tf_spec`` with its unit distance resolved: the scene's, else :func:`default_unit_distance` of
+    ``field``.  The one place a default unit distance is chosen: every transfer function (points, presets,
+    files, 2D tables, label tables, colour volumes, channels) is built from the resolved spec."""
+    if tf_spec.unit_distance is not None:
+        return tf_spec
+    return dataclasses.replace(tf_spec, unit_distance=default_unit_distance(field))
+
+
 def _member_transfer_function(tf_spec, member, k: int, count: int, demo, base_dir: Path, lookup):
     """The transfer function of member ``k`` of ``count``: its table's; a channel of several that names none
     gets a colour of its own (:func:`~dvr_gl.transfer_function.channel_transfer_function`); a label map a
     colour table (:mod:`dvr_gl.labels`), an RGB volume an opacity of its fourth component
     (:mod:`dvr_gl.fields.color`)."""
+    tf_spec = with_unit_distance(tf_spec, member.field)
     if member.role == "label":
         from ..labels import label_transfer_function
 

@@ -143,7 +143,8 @@ class TransferFunctionSpec:
                                                     "opacity], ...]`, colour linear; labels not listed (and 0 unless "
                                                     "listed) are transparent (docs/labels.md)",
                                               excludes=("points", "preset", "file", "name", "stretch"))
-    unit_distance: float = checked(1.0, "world length that `alpha` refers to", world_length)
+    unit_distance: Optional[float] = checked(None, "world length that `alpha` refers to (default: one voxel of the "
+                                                   "data, its smallest spacing; docs/conventions.md)", world_length)
     opacity_model: str = choices("alpha", "extinction", default="alpha",
                                  doc="what the 5th column means: `alpha` per `unit_distance`, or `extinction` sigma")
     rescale_intercept: float = doc(0.0, "CT presets and Slicer files: HU = data + intercept (-1024 for CT "

@@ -205,4 +205,5 @@ def load_points(path: Path | str) -> TransferFunction:
     spec = parse_table(TransferFunctionSpec, table, "transfer_function")
     if not spec.points:
         raise SceneError(f"{path}: [transfer_function] has no points (presets are chosen in the panel)")
-    return TransferFunction(np.array(spec.points, dtype=np.float64), spec.unit_distance, spec.opacity_model)
+    unit = 1.0 if spec.unit_distance is None else spec.unit_distance  # a file's own; no data here to take a voxel of
+    return TransferFunction(np.array(spec.points, dtype=np.float64), unit, spec.opacity_model)

@@ -169,7 +169,8 @@ def test_a_colour_volume_is_an_rgb_member_only():
 
 
 def tf_spec(**keys) -> TransferFunctionSpec:
-    return TransferFunctionSpec(**keys)
+    """A transfer-function table as scene resolution hands it on: its unit distance resolved (here 1)."""
+    return TransferFunctionSpec(**{"unit_distance": 1.0, **keys})
 
 
 def test_default_opacity_ramps_over_luminance_and_is_alpha_itself_with_alpha():
