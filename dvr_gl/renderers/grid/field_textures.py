@@ -124,7 +124,8 @@ def _same_boxes(boxes) -> bool:
 def field_defines(group, channel, roles, share_box: bool = False) -> dict:
     """``FIELDS``, ``NUM_FIELDS`` (members), ``NUM_FIELD_GROUPS`` (textures) and the members' texture,
     channel and role (:data:`ROLE_CODES`) as constant lists (``FIELD_GROUP_OF``, ``FIELD_CHANNEL_OF``,
-    ``FIELD_ROLE_OF``: compile-time, so samplers are indexed by constants as GLSL 3.30 requires); with
+    ``FIELD_ROLE_OF``: compile-time, so samplers are indexed by constants as GLSL 3.30 requires), and
+    ``FIELD_EACH(M)``, the members' loop written out (``M(0) M(1) ...``: common/fields.glsl); with
     ``FIELD_LABELS`` and ``FIELD_RGB`` where a member has that role.  An rgb member's channel is 3, its
     ``x`` (the value its transfer function reads); its colour is the texture's r, g, b.  ``FIELDS_SHARE_BOX``
     where every group's box is the same (channels of one file): the samples, in the union box, are in every
@@ -132,7 +133,8 @@ def field_defines(group, channel, roles, share_box: bool = False) -> dict:
     out = {"FIELDS": True, "NUM_FIELDS": len(group), "NUM_FIELD_GROUPS": max(group) + 1,
            "FIELD_GROUP_OF": ", ".join(str(g) for g in group),
            "FIELD_CHANNEL_OF": ", ".join(str(c) for c in channel),
-           "FIELD_ROLE_OF": ", ".join(str(ROLE_CODES[r]) for r in roles)}
+           "FIELD_ROLE_OF": ", ".join(str(ROLE_CODES[r]) for r in roles),
+           "FIELD_EACH(M)": " ".join(f"M({i})" for i in range(len(group)))}
     if "label" in roles:
         out["FIELD_LABELS"] = True
     if "rgb" in roles:

@@ -4,7 +4,8 @@
 // Replaces classify() of common/classify.glsl (same signature), and gives the per-member values the
 // compositing modes need.  The textures and their uniforms: dvr_gl/renderers/grid/field_textures.py.
 //   NUM_FIELDS (members), NUM_FIELD_GROUPS (textures), FIELD_GROUP_OF and FIELD_CHANNEL_OF (each member's
-//   texture and channel, constant lists: GLSL 3.30 indexes samplers by constants only)
+//   texture and channel, constant lists: GLSL 3.30 indexes samplers by constants only), FIELD_EACH(M) (the
+//   members' loop written out: M(0) M(1) ... M(NUM_FIELDS - 1))
 //   FIELD_TABLES_2D with FIELD_TABLE_2D_OF (1 for a member classified by value and gradient magnitude,
 //   common/transfer_function_2d.glsl; its table in u_field_tf2d, dvr_gl/renderers/raycast/fields.py's Tables2D)
 // Needs: volume_sample.glsl (sample_texture_in), transfer_function.glsl's neighbours optics.glsl and
@@ -252,6 +253,32 @@ vec4 field_classify_member(int i, vec4 texels, vec3 grad, vec3 dir) {
     return tf;
 }
 
+// Member i's (non-associated colour, sigma) at p by its role (texels: its group's at p; grad: its gradient).
+vec4 field_member_classify(int i, vec3 p, vec3 dir, vec4 texels, vec3 grad) {
+#ifdef FIELD_LABELS
+    if (FIELD_ROLE[i] == 1) return field_label_classify(i, p, dir);
+#endif
+    return field_classify_member(i, texels, grad, dir);
+}
+
+// The loops over the members are written out: FIELD_EACH(M) (a define, M(0) M(1) ... M(NUM_FIELDS - 1)) makes
+// each member's index, hence its role, group and channel, a constant.  Mesa unrolls no loop whose body is this
+// large, and a variable member index costs every sample dynamic indexing of every array here and the code of
+// every role: written out, CT + labels took 0.3 of the time (docs/labels.md, "Cost").
+#ifdef NEEDS_GRADIENT
+#define FIELD_GRADIENT_OF(I) field_gradient(I, g)
+#else
+#define FIELD_GRADIENT_OF(I) vec3(0.0)
+#endif
+
+// Member I's part of the mixture at p (in classify()).
+#define FIELD_MIX(I) \
+    if (field_inside(I, s)) { \
+        vec4 cs = field_member_classify(I, p, dir, s.t[FIELD_GROUP[I]], FIELD_GRADIENT_OF(I)); \
+        emitted += cs.a * cs.rgb; \
+        sigma += cs.a; \
+    }
+
 // The mixture's (non-associated colour, extinction) at p: extinctions add, emissions add.
 vec4 classify(vec3 p, vec3 dir) {
     FieldTexels s = field_texels(p);
@@ -260,22 +287,7 @@ vec4 classify(vec3 p, vec3 dir) {
 #endif
     vec3 emitted = vec3(0.0);
     float sigma = 0.0;
-    for (int i = 0; i < NUM_FIELDS; ++i) {
-        if (!field_inside(i, s)) continue;
-#ifdef NEEDS_GRADIENT
-        vec3 grad = field_gradient(i, g);
-#else
-        vec3 grad = vec3(0.0);
-#endif
-#ifdef FIELD_LABELS
-        vec4 cs = FIELD_ROLE[i] == 1 ? field_label_classify(i, p, dir)
-                                     : field_classify_member(i, s.t[FIELD_GROUP[i]], grad, dir);
-#else
-        vec4 cs = field_classify_member(i, s.t[FIELD_GROUP[i]], grad, dir);
-#endif
-        emitted += cs.a * cs.rgb;
-        sigma += cs.a;
-    }
+    FIELD_EACH(FIELD_MIX)
     return vec4(sigma > 0.0 ? emitted / sigma : vec3(0.0), sigma);
 }
 
@@ -341,6 +353,14 @@ vec4 field_segment(int i, float front, float back, float len, vec3 p, FieldTexel
     return e;
 }
 
+// Member I's part of the mixture's segment (in preintegrated_segment(); FIELD_EACH as for classify()).
+#define FIELD_MIX_SEGMENT(I) \
+    if (field_inside(I, s)) { \
+        vec4 e = field_segment(I, front.v[I], back.v[I], len, p, s, FIELD_GRADIENT_OF(I), dir); \
+        weighted += e.rgb * depth_per_opacity(e.a); \
+        tau += e.a; \
+    }
+
 // The mixture's segment of length len (associated colour, optical depth): each member's own table entry
 // (C_i, tau_i), shortened, gradient opacity and shading at the midpoint p as for one field, for members
 // whose box holds p; tau = sum tau_i, C = (1 - e^-tau) / tau sum_i C_i tau_i / (1 - e^-tau_i) (exact for
@@ -352,18 +372,7 @@ vec4 preintegrated_segment(SegmentValue front, SegmentValue back, float len, vec
 #endif
     vec3 weighted = vec3(0.0);
     float tau = 0.0;
-    for (int i = 0; i < NUM_FIELDS; ++i) {
-        if (!field_inside(i, s)) continue;
-        vec4 e = field_segment(i, front.v[i], back.v[i], len, p, s,
-#ifdef NEEDS_GRADIENT
-                               field_gradient(i, g),
-#else
-                               vec3(0.0),
-#endif
-                               dir);
-        weighted += e.rgb * depth_per_opacity(e.a);
-        tau += e.a;
-    }
+    FIELD_EACH(FIELD_MIX_SEGMENT)
     return vec4(weighted / depth_per_opacity(tau), tau);
 }
 #endif
