@@ -72,7 +72,7 @@ def setting_axes() -> dict[str, tuple]:
 
 
 # What a frame decides after shader_features (RayCastRenderer.decide_skipping, _render_bricks).
-FRAME_AXES = {"count_samples": (False, True), "bricked": (False, True),
+FRAME_AXES = {"count_samples": (False, True), "bricked": (False, True), "depth": (False, True),
               "skipping": ("blocks", "blocks and bounds", "bounds only"), "levels": tuple(range(1, MAX_LEVELS + 1))}
 
 
@@ -96,11 +96,12 @@ def field_tables(folder: Path, which: str | None) -> list:
             {"path": str(folder / "colour.npy"), "role": "rgb"}]
 
 
-def frame_defines(scene, count_samples: bool, bricked: bool, skipping: str, levels: int) -> dict:
-    """The defines of a frame of ``scene`` that decided so (a define it cannot add is left out)."""
+def frame_defines(scene, count_samples: bool, bricked: bool, depth: bool, skipping: str, levels: int) -> dict:
+    """The defines of a frame of ``scene`` that decided so (a define it cannot add is left out: a depth image
+    in bricked passes)."""
     if scene.field.kind == "fields":
         return frame_features(scene, shader_features, skipping != "blocks")
-    defines = shader_features(scene, count_samples, bricked)
+    defines = shader_features(scene, count_samples, bricked, depth=depth and not bricked)
     if "ACCELERATE" in defines:
         defines["NUM_LEVELS"] = levels
         if skipping != "blocks" and "COMPOSITE_EMISSION" in defines:  # ray bounds: emission-absorption only
