@@ -76,3 +76,24 @@ def test_refusals_in_one_line(gl_context, extra, words):
         renderer.want_depth = True
         with pytest.raises(SceneError, match=words):
             renderer.render(scene_of(extra))
+
+
+@pytest.mark.parametrize("height, depth", [(1.5, 8.5), (0.8, 9.2)])
+def test_an_opaque_mesh_gives_its_depth_where_the_volume_does_not(tmp_path, gl_context, height, depth):
+    """The slab (z in [0, 1], extinction 1.3, seen from z = 10) with a square at ``height``: in front of the slab
+    the rays end at the square; inside it (0.2 deep, opacity 0.23 < 1/2) the volume never reaches one half. Both
+    ways the pixels over the square have the square's depth (exact in float64; float32 here), the others the
+    slab's ln 2 / 1.3 past its face."""
+    from slab_scenes import meshed_slab_scene, square
+
+    scene = meshed_slab_scene(tmp_path, "raycast", [{"path": square(tmp_path / "square.obj", height)}])
+    with registry.plugin("raycast").create(ctx=gl_context) as renderer:
+        renderer.want_depth = True
+        renderer.render(scene)
+        gpu = renderer.depth
+    judge = reference_depth(scene)
+    origins, _ = scene.camera.pixel_rays(scene.image.width, scene.image.height)
+    over = ((np.abs(origins[:, 0] - 2.0) < 0.75) & (np.abs(origins[:, 1] - 2.0) < 0.75)).reshape(gpu.shape)
+    np.testing.assert_allclose(judge[over], depth, rtol=0, atol=1e-6)  # float32 rounding of the image
+    np.testing.assert_allclose(judge[~over], 9.0 + np.log(2.0) / 1.3, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(gpu, judge, rtol=1e-5)
