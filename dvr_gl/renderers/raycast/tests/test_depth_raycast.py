@@ -82,7 +82,7 @@ def test_refusals_in_one_line(gl_context, extra, words):
 def test_an_opaque_mesh_gives_its_depth_where_the_volume_does_not(tmp_path, gl_context, height, depth):
     """The slab (z in [0, 1], extinction 1.3, seen from z = 10) with a square at ``height``: in front of the slab
     the rays end at the square; inside it (0.2 deep, opacity 0.23 < 1/2) the volume never reaches one half. Both
-    ways the pixels over the square have the square's depth (exact in float64; float32 here), the others the
+    ways the pixels over the square have the square's depth (float64, rounded to float32), the others the
     slab's ln 2 / 1.3 past its face."""
     from slab_scenes import meshed_slab_scene, square
 
