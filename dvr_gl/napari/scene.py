@@ -231,7 +231,8 @@ def view_scene(viewer, renderer: str | None = None, width: int | None = None, de
 def render_view(viewer, renderer: str | None = None, width: int | None = None, depth: float = DEPTH_VOXELS,
                 selected: bool = False, ctx=None):
     """The :class:`~dvr_gl.Image` of :func:`view_scene`, its columns flipped where napari mirrors
-    (:func:`mirrored`), so that it lies as napari's canvas does."""
+    (:func:`mirrored`), so that it lies as napari's canvas does; ``ctx``: a moderngl context for GL renderers
+    (default: a new one, released after; a kept one compiles each program once)."""
     image = render(view_scene(viewer, renderer, width, depth, selected), ctx=ctx)
     if mirrored(napari_camera(viewer)):
         image = Image(np.ascontiguousarray(image.rgba[:, ::-1]), image.scene, image.stats)
@@ -248,11 +249,12 @@ def time_axis(viewer) -> int | None:
 
 def render_animation(viewer, orbit: bool = True, time: bool = False, frames: int | None = None,
                      renderer: str | None = None, width: int | None = None, depth: float = DEPTH_VOXELS,
-                     selected: bool = False, progress=None) -> list:
+                     selected: bool = False, ctx=None, progress=None) -> list:
     """The pictures of an orbit (360 degrees about napari's up direction, frame 0 the current view) and/or a
     walk through napari's time axis (:func:`time_axis`), as ``dvr render --animate`` makes them
     (:mod:`dvr_gl.apps.animation`: every frame keeps the first step's classification).  ``frames``: default
-    36 for an orbit, one per step for time alone.  ``progress(done, total)`` is told after each frame."""
+    36 for an orbit, one per step for time alone.  ``ctx``: a moderngl context for GL renderers (default: a new
+    one).  ``progress(done, total)`` is told after each frame."""
     scene = view_scene(viewer, renderer, width, depth, selected)
     axis = time_axis(viewer) if time else None
     if time and axis is None:
@@ -271,7 +273,7 @@ def render_animation(viewer, orbit: bool = True, time: bool = False, frames: int
     flip = mirrored(napari_camera(viewer))
     images = []
     try:
-        with create_renderer(scene.renderer.name) as r:
+        with create_renderer(scene.renderer.name, ctx=ctx) as r:
             for i in range(count):
                 rgba = r.render(make(i))
                 images.append(Image(np.ascontiguousarray(rgba[:, ::-1]) if flip else rgba, scene, r.stats))

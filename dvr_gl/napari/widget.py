@@ -17,6 +17,7 @@ from qtpy import QtWidgets as qt
 
 from ..errors import DvrError
 from ..fields.layers import as_data
+from ..gl.context import create_context
 from ..image import write_image
 from ..renderers import registry
 from .scene import DEPTH_VOXELS, layer_members, render_animation, render_view, time_axis
@@ -38,6 +39,7 @@ class RenderWidget(qt.QWidget):
     def __init__(self, napari_viewer):
         super().__init__()
         self.viewer = napari_viewer
+        self._ctx = None
         self.renderer = qt.QComboBox()
         self.width_box = qt.QSpinBox()
         self.width_box.setRange(0, 8192)
@@ -93,9 +95,24 @@ class RenderWidget(qt.QWidget):
             self.renderer.setCurrentText(current)
         self.renderer.blockSignals(False)
 
+    def context(self):
+        """The widget's GL context, kept so that each program is compiled once; made at the first render once
+        napari's window is shown, since a context made before napari's canvas makes its own renders nothing
+        after it (measured with Mesa: empty pictures); None before that: each render makes its own."""
+        if self._ctx is None and self._window_shown():
+            self._ctx = create_context()
+        return self._ctx
+
+    def _window_shown(self) -> bool:
+        window = getattr(getattr(self.viewer, "window", None), "_qt_window", None)
+        return window is not None and window.isVisible()
+
     def options(self) -> dict:
-        return {"renderer": self.renderer.currentText() or None, "width": self.width_box.value() or None,
-                "depth": self.depth.value(), "selected": self.selected.isChecked()}
+        """The controls as :func:`~dvr_gl.napari.scene.render_view`'s keywords."""
+        name = self.renderer.currentText() or None
+        gl = name is None or registry.plugin(name).needs_gl
+        return {"renderer": name, "width": self.width_box.value() or None, "depth": self.depth.value(),
+                "selected": self.selected.isChecked(), "ctx": self.context() if gl else None}
 
     # --- the outputs --------------------------------------------------------------------------------
 

@@ -5,6 +5,8 @@ run's Xvfb display (napari's canvas needs a display: Qt's offscreen platform has
 
 import importlib.metadata
 import os
+import subprocess
+import sys
 import tomllib
 from pathlib import Path
 
@@ -14,7 +16,7 @@ import pytest
 napari = pytest.importorskip("napari")
 npe2 = pytest.importorskip("npe2")
 
-from dvr_gl import Camera, LabelTable, Member, TransferFunction, Volume, render  # noqa: E402
+from dvr_gl import Camera, LabelTable, Member, TransferFunction, Volume, VolumeError, render  # noqa: E402
 from dvr_gl.napari import readers  # noqa: E402
 from dvr_gl.presets.colour import srgb_to_linear  # noqa: E402
 
@@ -35,6 +37,22 @@ def test_the_manifest_validates_and_the_entry_point_finds_it():
     found = npe2.PluginManifest._from_entrypoint(entry, importlib.metadata.distribution("dvr-gl"))
     assert found.name == manifest.name  # npe2's own reading of "package:file", checked against the package's name
     assert "napari.yaml" in project["tool"]["setuptools"]["package-data"]["dvr_gl.napari"]  # installed with it
+
+
+def test_npe2_discovers_the_plugin_through_the_entry_point(tmp_path):
+    """npe2's discovery, as napari runs it, in a fresh process that sees dvr-gl's metadata with the entry point
+    of pyproject.toml (a checkout installed before the entry point was added lacks it until reinstalled)."""
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    value = project["project"]["entry-points"]["napari.manifest"]["dvr-gl"]
+    info = tmp_path / "dvr_gl-0.1.0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: dvr-gl\nVersion: 0.1.0\n")
+    (info / "entry_points.txt").write_text(f"[napari.manifest]\ndvr-gl = {value}\n")
+    code = ("import npe2; pm = npe2.PluginManager(); pm.discover(); "
+            "print(sorted(w.display_name for w in pm.get_manifest('dvr-gl').contributions.widgets))")
+    done = subprocess.run([sys.executable, "-W", "ignore", "-c", code], capture_output=True, text=True, timeout=120,
+                          env=dict(os.environ, PYTHONPATH=str(tmp_path)))
+    assert done.stdout.strip() == "['dvr-gl render']", done.stderr[-2000:]
 
 
 # --- the readers ---------------------------------------------------------------------------------------------
@@ -91,6 +109,14 @@ def test_an_oriented_volume_is_placed_where_dvr_gl_places_it(tmp_path):
         np.testing.assert_allclose(layer.data_to_world(index_xyz[::-1]), expected[::-1], atol=1e-9)
 
 
+def test_a_bad_file_is_one_line(tmp_path):
+    path = tmp_path / "bad.nrrd"
+    path.write_bytes(b"NRRD0004\ntype: float\ndimension: 3\nsizes: 4 3\nencoding: raw\n\n" + bytes(96))
+    with pytest.raises(VolumeError) as refused:
+        readers.get_reader(str(path))(str(path))
+    assert "bad.nrrd" in str(refused.value) and "\n" not in str(refused.value)
+
+
 def test_meshes_read_as_surfaces(tmp_path):
     tet = tmp_path / "t.vtk"
     tet.write_text("# vtk DataFile Version 3.0\ntet\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 float\n"
@@ -120,6 +146,14 @@ def viewer(xvfb):
         v.close()
 
 
+@pytest.fixture(scope="module")
+def widget(viewer):
+    """One dock widget for the module (its GL context, once napari's window has been shown, made once)."""
+    from dvr_gl.napari.widget import RenderWidget
+
+    return RenderWidget(viewer)
+
+
 def _scene(viewer):
     """An asymmetric image (a bright block at large x, small y, small z) and a label block, in 3D."""
     viewer.layers.clear()
@@ -134,7 +168,7 @@ def _scene(viewer):
     return image, labels
 
 
-def _expected(viewer, image, labels, camera, renderer, size):
+def _expected(viewer, image, labels, camera, renderer, size, ctx):
     """dvr_gl.render of the same scene built directly from the documented mapping (docs/napari.md)."""
     grid = dict(spacing=(1.0, 1.0, 2.0), origin=(0.0, 0.0, 1.0))
     s = np.linspace(0.0, 1.0, 64)  # the grey colormap, contrast limits 0..1, gamma 1, opacity 1, depth 10 voxels
@@ -144,16 +178,13 @@ def _expected(viewer, image, labels, camera, renderer, size):
     members = [Member(Volume(image, name="image", **grid), "scalar", "image"),
                Member(Volume(labels.astype(np.uint8), name="labels", **grid), "label", "labels")]
     picture = render(members, transfer_function=[tf, table], camera=camera, renderer=renderer, size=size,
-                     background=(0, 0, 0, 1))
+                     background=(0, 0, 0, 1), ctx=ctx)
     return picture.srgb8()[:, ::-1, :3]  # napari's default orientation mirrors (x, y, z): columns flipped
 
 
-def test_the_widget_renders_napari_view_of_an_image_and_labels(viewer):
-    from dvr_gl.napari.widget import RenderWidget
-
+def test_the_widget_renders_napari_view_of_an_image_and_labels(viewer, widget):
     image, labels = _scene(viewer)
     camera = viewer.camera
-    widget = RenderWidget(viewer)
     widget.width_box.setValue(96)
     layer = widget.render_layer()
     picture = np.asarray(layer.data)
@@ -166,7 +197,7 @@ def test_the_widget_renders_napari_view_of_an_image_and_labels(viewer):
     expected_camera = Camera(tuple(centre + (0, 0, height)), tuple(centre), (0, -1, 0), projection="orthographic",
                              view_height=height)
     expected = _expected(viewer, image, labels, expected_camera, layer.name.removeprefix("dvr-gl "),
-                         picture.shape[1::-1])
+                         picture.shape[1::-1], widget.context())
     np.testing.assert_array_equal(picture, expected)  # the same renderer on the same scene: the same bytes
     # orientation in words: the bright grey block (large x, small y) is right of centre and above it
     grey = (picture.min(axis=2) > 100) & (np.ptp(picture, axis=2) < 8)  # the labels are blue
@@ -174,7 +205,7 @@ def test_the_widget_renders_napari_view_of_an_image_and_labels(viewer):
     assert xs.mean() > 0.6 * picture.shape[1] and ys.mean() < 0.4 * picture.shape[0]
 
 
-def test_the_picture_lies_as_napari_canvas_shows_it(viewer):
+def test_the_picture_lies_as_napari_canvas_shows_it(viewer, widget):
     """napari's own canvas (drawn in the window, shown for this test) and the widget's picture at the canvas's
     size put the bright block's centre at the same pixel, in an oblique perspective view and an oblique
     orthographic one (measured: within 0.2 pixels; 1 allowed for napari's sampling at the block's edges)."""
@@ -184,12 +215,13 @@ def test_the_picture_lies_as_napari_canvas_shows_it(viewer):
     viewer.layers["labels"].visible = False
     viewer.layers["image"].rendering = "mip"
     viewer.window.show()
+    assert widget.context() is not None
     try:
         for angles, perspective in (((0, 30, 60), 30.0), ((20, -40, 10), 0.0)):
             viewer.camera.angles, viewer.camera.perspective = angles, perspective
             shot = viewer.screenshot(canvas_only=True)[..., 0]
-            mine = render_view(viewer).srgb8()[..., 0]
-            assert shot.shape == mine.shape
+            mine = render_view(viewer, ctx=widget.context()).srgb8()[..., 0]  # the kept context: window shown
+            assert shot.shape == mine.shape, (shot.shape, mine.shape)
             where = [np.argwhere(a > 100).mean(axis=0) for a in (shot, mine)]
             np.testing.assert_allclose(where[1], where[0], atol=1.0)
     finally:
@@ -197,12 +229,10 @@ def test_the_picture_lies_as_napari_canvas_shows_it(viewer):
         viewer.layers["labels"].visible = True
 
 
-def test_a_refused_view_says_why_in_the_status_line(viewer):
-    from dvr_gl.napari.widget import RenderWidget
-
+def test_a_refused_view_says_why_in_the_status_line(viewer, widget):
     _scene(viewer)
     viewer.dims.ndisplay = 2
-    widget = RenderWidget(viewer)
+    widget.output.setCurrentText("new layer")
     widget.run()
     assert "3D" in widget.status.text() and "\n" not in widget.status.text()
     viewer.dims.ndisplay = 3
