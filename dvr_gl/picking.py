@@ -28,7 +28,8 @@ class Pick:
 
     hit: whether the ray has a depth (see :mod:`dvr_gl.reference.depth`); the fields below are None, and the
         depths infinite, where it has not.
-    value: the data value there (the data's units, after ``rescale_intercept``; for MIP/MinIP the maximum
+    value: the data value there, as stored (``rescale_intercept`` places presets, it does not change the data:
+        CThead's 1624 is 600 HU), reconstructed by the scene's filter; for MIP/MinIP the maximum
         (minimum) itself, for an isosurface about the iso-value).
     index: the nearest voxel ``(z, y, x)`` (grids only; None for other fields).
     position: the world point ``(x, y, z)`` in the scene's frame (world units; the patient frame for
