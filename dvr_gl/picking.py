@@ -30,7 +30,7 @@ class Pick:
         depths infinite, where it has not.
     value: the data value there, as stored (``rescale_intercept`` places presets, it does not change the data:
         CThead's 1624 is 600 HU), reconstructed by the scene's filter; for MIP/MinIP the maximum
-        (minimum) itself, for an isosurface about the iso-value).
+        (minimum) itself, for an isosurface about the iso-value.
     index: the nearest voxel ``(z, y, x)`` (grids only; None for other fields).
     position: the world point ``(x, y, z)`` in the scene's frame (world units; the patient frame for
         oriented data).
@@ -78,7 +78,7 @@ def pick(scene_or_data, x, y, **render_options) -> Pick:
     found = dict(x=col, y=row, hit=True, position=tuple(float(c) for c in world), depth=depth, distance=t)
     if fields.several(scene):
         return Pick(**found, **_fields_at(ref, point))
-    return Pick(**found, value=_value_at(ref, point, t), index=_voxel(scene.field, point[0]))
+    return Pick(**found, value=_value_at(ref, point), index=_voxel(scene.field, point[0]))
 
 
 def _pixel(v, size: int, axis: str) -> int:
@@ -101,7 +101,7 @@ def _one_ray(scene, col: int, row: int):
     return DiscreteReference(scene, rays=rays)
 
 
-def _value_at(ref, point: np.ndarray, t: float) -> float | None:
+def _value_at(ref, point: np.ndarray) -> float | None:
     """The scalar at the picked point (a mesh's outside, where an opaque surface ended the ray: None)."""
     value = float(ref.model.scalar.sample(point)[0])
     return None if math.isnan(value) else value
