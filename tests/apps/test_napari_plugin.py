@@ -132,6 +132,12 @@ def test_meshes_read_as_surfaces(tmp_path):
     assert kind == "surface" and faces.tolist() == [[0, 1, 2]]
     np.testing.assert_array_equal(vertices[2], [0, 2, 0])  # (z, y, x) of x = 0, y = 2
     assert readers.get_reader(str(tmp_path / "picture.png")) is None
+    (tmp_path / "series").mkdir()
+    (tmp_path / "series" / "IM0001.dcm").write_bytes(b"")
+    assert readers.get_reader(str(tmp_path / "series")) is readers.read  # a DICOM series folder
+    (tmp_path / "pictures").mkdir()
+    (tmp_path / "pictures" / "a.png").write_bytes(b"")
+    assert readers.get_reader(str(tmp_path / "pictures")) is None
 
 
 # --- the dock widget ------------------------------------------------------------------------------------------
@@ -241,4 +247,17 @@ def test_a_refused_view_says_why_in_the_status_line(viewer, widget):
     widget.width_box.setValue(32)
     widget.run()
     assert viewer.layers[-1].data.shape[0] == 3, widget.status.text()
+    # time: a 4D layer [t, z, y, x] of two steps, the block moved in x at step 1: two frames that differ
+    viewer.layers.clear()
+    movie = np.zeros((2, 12, 16, 20), np.float32)
+    movie[0, 1:4, 2:5, 14:19] = 1.0
+    movie[1, 1:4, 2:5, 2:7] = 1.0
+    viewer.add_image(movie, name="movie")
+    viewer.dims.ndisplay = 3
+    widget.output.setCurrentText("time")
+    widget.frames.setValue(0)
+    widget.run()
+    frames = np.asarray(viewer.layers[-1].data)
+    assert frames.shape[0] == 2 and not np.array_equal(frames[0], frames[1]), widget.status.text()
+    assert viewer.dims.current_step[0] == 0  # napari's position is put back
     assert os.environ.get("QT_QPA_PLATFORM") == "xcb"
