@@ -17,18 +17,25 @@ bool found;
 
 const vec4 EMPTY_STATE = vec4(0.0);
 
+// Member i's value at p whose level is its isosurface (a label member's: its visibility).
+float field_level(int i, vec3 p, FieldTexels s) {
+#ifdef FIELD_LABELS
+    if (FIELD_ROLE[i] == 1) return field_label_visible(i, p);
+#endif
+    return field_value_at(i, s);
+}
+
+// Member I's value into values[I], and I the hit if none before it is (the members written out: FIELD_EACH,
+// common/fields.glsl).
+#define FIELD_REACHING(I) \
+    values[I] = field_level(I, p, s); \
+    if (hit < 0 && field_inside(I, s) && values[I] >= u_field_iso[I]) hit = I;
+
 // The first member inside its box at or above its iso-value at p (-1: none); every value into `values`.
 int first_reaching(vec3 p, out float values[NUM_FIELDS]) {
     FieldTexels s = field_texels(p);
     int hit = -1;
-    for (int i = 0; i < NUM_FIELDS; ++i) {
-#ifdef FIELD_LABELS
-        values[i] = FIELD_ROLE[i] == 1 ? field_label_visible(i, p) : field_value_at(i, s);
-#else
-        values[i] = field_value_at(i, s);
-#endif
-        if (hit < 0 && field_inside(i, s) && values[i] >= u_field_iso[i]) hit = i;
-    }
+    FIELD_EACH(FIELD_REACHING)
     return hit;
 }
 
