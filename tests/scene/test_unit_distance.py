@@ -57,7 +57,7 @@ def test_the_resolved_unit_distance_is_one_voxel_and_a_given_one_wins():
 def test_a_mesh_of_small_cells_is_visible():
     mesh = jittered_mesh()
     small = type(mesh)(mesh.points * 1e-3, mesh.tets, mesh.values, name="small")
-    images = [dvr_gl.render(mesh_scene(m, **{"renderer.name": "projected-tetrahedra", "image.width": 16,
+    images = [dvr_gl.render(mesh_scene(m, **{"renderer.name": registry.default_for("mesh"), "image.width": 16,
                                              "image.height": 16})).rgba for m in (mesh, small)]
     assert images[1][..., 3].max() > 0.3
     np.testing.assert_allclose(images[1], images[0], rtol=0, atol=2e-5)
