@@ -55,8 +55,10 @@ def _kind(layer) -> str:
 
 def rendered_layers(viewer, selected: bool = False) -> list:
     """The layers to render, in napari's order (bottom first): the visible image and labels layers (what the
-    canvas shows), or with ``selected`` those of them that are selected (all of them when none is)."""
-    usable = [la for la in viewer.layers if la.visible and _kind(la) in ("image", "labels")]
+    canvas shows), or with ``selected`` those of them that are selected (all of them when none is).  RGB image
+    layers are left out: dvr-gl does not render them here, and the widget's own pictures are such layers."""
+    usable = [la for la in viewer.layers if la.visible and _kind(la) in ("image", "labels")
+              and not getattr(la, "rgb", False)]
     chosen = [la for la in usable if la in viewer.layers.selection] if selected else []
     return chosen or usable
 
@@ -66,8 +68,6 @@ def _current_volume(layer, viewer) -> tuple[np.ndarray, list[int]]:
     those data axes."""
     if getattr(layer, "multiscale", False):
         raise SceneError(f"{layer.name}: a multiscale layer; render one of its levels as a layer of its own")
-    if getattr(layer, "rgb", False):
-        raise SceneError(f"{layer.name}: an RGB image layer; dvr-gl renders scalar and label layers here")
     world_ndim = len(viewer.dims.point)
     offset = world_ndim - layer.ndim
     axes = [d - offset for d in viewer.dims.displayed]

@@ -16,19 +16,21 @@ import numpy as np
 from qtpy import QtWidgets as qt
 
 from ..errors import DvrError
-from ..fields.layers import as_data
 from ..gl.context import create_context
 from ..image import write_image
 from ..renderers import registry
-from .scene import DEPTH_VOXELS, layer_members, render_animation, render_view, time_axis
+from .scene import DEPTH_VOXELS, render_animation, render_view, rendered_layers, time_axis
 
 OUTPUTS = ("new layer", "file", "orbit", "time")
 
 
-def renderers_for(data) -> list[str]:
-    """Registered renderers whose declared data kinds and field roles take ``data`` (a field or FieldSet)."""
-    kind = data.kind
-    roles = {m.role for m in getattr(data, "members", ())}
+def renderers_for(layers) -> list[str]:
+    """Registered renderers whose declared data kinds and field roles take napari ``layers`` (image and labels
+    layers, as :func:`~dvr_gl.napari.scene.layer_members` makes them: one image layer is grid data, anything
+    more several fields), read from the layers' types alone (no voxel is read)."""
+    roles = {"label" if type(la).__name__.lower() == "labels" else "scalar" for la in layers}
+    kind = "grid" if len(layers) == 1 and roles == {"scalar"} else "fields"
+    roles = roles if kind == "fields" else set()
     return registry.renderers_with(lambda p: (p.data_kinds is None or kind in p.data_kinds)
                                    and roles <= set(p.field_roles))
 
@@ -83,10 +85,8 @@ class RenderWidget(qt.QWidget):
 
     def refresh_renderers(self, event=None) -> None:
         """List the renderers that take the rendered layers (keeping the chosen one where it still does)."""
-        try:
-            names = renderers_for(as_data(layer_members(self.viewer, self.depth.value(), self.selected.isChecked())[0]))
-        except DvrError:
-            names = registry.names()
+        layers = rendered_layers(self.viewer, self.selected.isChecked())
+        names = renderers_for(layers) if layers else registry.names()
         current = self.renderer.currentText()
         self.renderer.blockSignals(True)
         self.renderer.clear()

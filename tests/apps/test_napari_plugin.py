@@ -205,6 +205,14 @@ def test_the_widget_renders_napari_view_of_an_image_and_labels(viewer, widget):
     expected = _expected(viewer, image, labels, expected_camera, layer.name.removeprefix("dvr-gl "),
                          picture.shape[1::-1], widget.context())
     np.testing.assert_array_equal(picture, expected)  # the same renderer on the same scene: the same bytes
+    # the renderer list: those that take an image and a label map, and none that does not
+    from dvr_gl import registry
+    from dvr_gl.napari.scene import view_scene
+
+    scene = view_scene(viewer, width=96)
+    listed = [widget.renderer.itemText(i) for i in range(widget.renderer.count())]
+    assert listed and all(registry.refusal(scene, name) is None for name in listed)
+    assert all(registry.refusal(scene, name) for name in set(registry.names()) - set(listed))
     # orientation in words: the bright grey block (large x, small y) is right of centre and above it
     grey = (picture.min(axis=2) > 100) & (np.ptp(picture, axis=2) < 8)  # the labels are blue
     ys, xs = np.nonzero(grey)
