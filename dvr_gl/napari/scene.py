@@ -181,7 +181,9 @@ def layer_members(viewer, depth: float = DEPTH_VOXELS, selected: bool = False) -
 
 def view_size(viewer, width: int | None = None) -> tuple[int, int]:
     """The picture's ``(width, height)`` in pixels: the canvas's, or ``width`` wide at the canvas's aspect."""
-    h, w = (int(round(float(x))) for x in viewer.canvas.viewbox_size(viewer.layers))
+    canvas = getattr(viewer, "canvas", None)  # napari 0.9's canvas model; before it, the viewer's _canvas_size
+    size = canvas.viewbox_size(viewer.layers) if canvas is not None else viewer._canvas_size
+    h, w = (int(round(float(x))) for x in size)
     if width is None:
         return max(w, 1), max(h, 1)
     return int(width), max(1, int(round(width * h / w)))
@@ -210,7 +212,8 @@ def napari_camera(viewer):
 def mirrored(camera) -> bool:
     """Whether napari shows (x, y, z) mirrored (its right-handed (z, y, x) orientations): the picture's
     columns are flipped to match."""
-    return str(getattr(camera, "handedness", "right")).lower().endswith("right")
+    # napari before 0.6 had no orientation setting, and its fixed one (away, down, right) mirrors nothing
+    return str(getattr(camera, "handedness", "left")).lower().endswith("right")
 
 
 def view_scene(viewer, renderer: str | None = None, width: int | None = None, depth: float = DEPTH_VOXELS,
