@@ -26,10 +26,13 @@ import time
 import numpy as np
 from jupyter_rfb import RemoteFrameBuffer
 
+from ..annotations import Annotations, annotate
 from ..api import Image, scene_of
+from ..camera_path import CameraPath
 from ..errors import DvrError
 from ..fields.series import TimeSeries
 from ..image import composite_over, encode_8bit
+from ..picking import Pick, pick
 from ..renderers import create_renderer, registry
 from ..scene.settings import with_sample_distance
 from ..viewer import navigation
@@ -38,6 +41,7 @@ from ..viewer.timeline import at_step
 
 WHEEL_PIXELS_PER_STEP = 100.0  # a wheel notch in a browser, CSS pixels (jupyter_rfb turns lines and pages to pixels)
 WHEEL_SETTLE = 0.25            # seconds after the last wheel event that end a wheel gesture
+PICK_REST = 0.15               # seconds the pointer rests (moving with no button down) before it is picked
 
 
 class VolumeWidget(RemoteFrameBuffer):
@@ -57,7 +61,7 @@ class VolumeWidget(RemoteFrameBuffer):
         self.ctx = None
         self.version = 0                 # counts scene changes
         self.gesture: str | None = None  # "orbit" or "pan" while a pointer is down
-        self._cursor = (0.0, 0.0)
+        self._cursor = self._hover = (0.0, 0.0)  # the pointer (CSS pixels): last pressed or moved; resting
         self._settle_handle = None
         self._full: tuple[int, np.ndarray] | None = None  # (version, full-quality premultiplied rgba)
         self._frame: np.ndarray | None = None              # the last frame returned, uint8 (H, W, 3)
@@ -69,6 +73,13 @@ class VolumeWidget(RemoteFrameBuffer):
         self.home = scene.camera
         self.rescale_intercept = rescale_intercept  # for the CT presets the controls offer (HU = data + this)
         self.css_width, self.css_height = f"{scene.image.width}px", f"{scene.image.height}px"
+        self._css_size = (float(scene.image.width), float(scene.image.height))  # the last resize event's
+        self._pick_handle = None
+        self.picked: Pick | None = None  # the last pick under the resting pointer
+        self.pick_text = ""              # what the status line says of it
+        self.annotations = Annotations()  # drawn on full-quality frames (set_annotations)
+        self.keyframes: list = []         # cameras recorded at times 0, 1, 2, ... seconds (add_keyframe)
+        self._with_path: tuple | None = None  # (scene, keyframe count, the scene with the path): a cache
         self._draw(FramePlan(FULL))  # the first picture now: a scene that cannot render fails in the cell
         from .controls import Controls
 
@@ -92,8 +103,14 @@ class VolumeWidget(RemoteFrameBuffer):
 
     @property
     def scene(self):
-        """The scene shown now (camera, transfer functions and settings as the controls left them)."""
-        return self._scene
+        """The scene shown now (camera, transfer functions and settings as the controls left them), with the
+        recorded camera path as its ``[[camera.keyframe]]`` tables once two keyframes exist."""
+        path = self.camera_path
+        if path is None:
+            return self._scene
+        if self._with_path is None or self._with_path[:2] != (self._scene, len(self.keyframes)):
+            self._with_path = (self._scene, len(self.keyframes), self._scene.with_camera_path(path))
+        return self._with_path[2]
 
     @scene.setter
     def scene(self, scene):
@@ -165,6 +182,9 @@ class VolumeWidget(RemoteFrameBuffer):
 
     def _move(self, event):
         if self.gesture is None:
+            if not event.get("buttons"):  # the pointer moving with no button down: pick where it rests
+                self._hover = self._position(event)
+                self.pick_later()
             return
         (x, y), (x0, y0) = self._position(event), self._cursor
         self._cursor = (x, y)
@@ -207,6 +227,8 @@ class VolumeWidget(RemoteFrameBuffer):
 
     def _resize(self, event):
         width, height = int(round(event.get("width", 0))), int(round(event.get("height", 0)))
+        if width > 0 and height > 0:
+            self._css_size = (float(event["width"]), float(event["height"]))
         image = self._scene.image
         if width > 0 and height > 0 and (width, height) != (image.width, image.height):
             self.set_scene(self._scene.replace(image=dataclasses.replace(image, width=width, height=height)),
@@ -214,6 +236,77 @@ class VolumeWidget(RemoteFrameBuffer):
 
     def reset_view(self):
         self.set_scene(self._scene.replace(camera=self.home))
+
+    # --- picking ---
+
+    def image_pixel(self, x: float, y: float) -> tuple[float, float]:
+        """The image pixel coordinates (column, row from the top) of CSS pixel ``(x, y)`` of the widget (the
+        image is rendered at the widget's logical size, so they are equal unless a resize is pending)."""
+        width, height = self._css_size
+        return x * self._scene.image.width / width, y * self._scene.image.height / height
+
+    def pick(self, x: float, y: float) -> Pick:
+        """What lies under CSS pixel ``(x, y)`` (from the left, from the top) of the current scene's full-quality
+        image: :func:`dvr_gl.pick` at :meth:`image_pixel` (one float64 ray, milliseconds)."""
+        return pick(self._scene, *self.image_pixel(x, y))
+
+    def pick_later(self):
+        """Pick under the pointer :data:`PICK_REST` seconds after it last moved, unless it moves again or a
+        gesture starts (at once without an event loop): a drag never waits for a pick."""
+        if self._pick_handle is not None:
+            self._pick_handle.cancel()
+        try:
+            loop = asyncio.get_running_loop()
+        except RuntimeError:
+            self.show_pick()
+            return
+        self._pick_handle = loop.call_later(PICK_REST, self.show_pick)
+
+    def show_pick(self):
+        """Pick under the resting pointer and say what lies there in the status line."""
+        self._pick_handle = None
+        if self.gesture is not None:
+            return
+        try:
+            self.picked = self.pick(*self._hover)
+            self.pick_text = describe_pick(self.picked)
+        except DvrError as exc:   # a mode without a depth (average), a pixel outside the image
+            self.picked, self.pick_text = None, f"pick: {exc}"
+        self.notify(self.message)
+
+    # --- annotations ---
+
+    def set_annotations(self, annotations: Annotations):
+        """Draw ``annotations`` on the full-quality frames from now on (the last one at once, not rendered
+        again); one that does not fit the image is refused in the status line and drawn without it."""
+        self.annotations = annotations
+        if self._full is not None and self._full[0] == self.version and self.last_plan.level.full:
+            self._frame = self._picture(self._full[1], self.last_plan)
+            self.request_draw()
+
+    def annotated(self) -> np.ndarray:
+        """The full-quality picture with the widget's annotations: 8-bit sRGB ``(H, W, 4)``, what
+        ``snapshot().save("view.png", annotations=...)`` writes (the float image has none)."""
+        return annotate(self.snapshot().srgb8(), self._scene, self.annotations)
+
+    # --- the camera path ---
+
+    def add_keyframe(self):
+        """Record the current camera as a keyframe at time = the number of keyframes before it (seconds)."""
+        self.keyframes.append(self._scene.camera)
+        self.notify(self.message)
+
+    def clear_keyframes(self):
+        self.keyframes.clear()
+        self.notify(self.message)
+
+    @property
+    def camera_path(self) -> CameraPath | None:
+        """The recorded keyframes as a :class:`~dvr_gl.camera_path.CameraPath` (keyframe ``k`` at ``k``
+        seconds), or None before two exist."""
+        if len(self.keyframes) < 2:
+            return None
+        return CameraPath(tuple(self.keyframes), tuple(range(len(self.keyframes))))
 
     # --- frames ---
 
@@ -276,7 +369,13 @@ class VolumeWidget(RemoteFrameBuffer):
         block = plan.level.block
         if block > 1:
             pixels = pixels.repeat(block, axis=0).repeat(block, axis=1)
-        return np.ascontiguousarray(pixels[:self._scene.image.height, :self._scene.image.width])
+        pixels = np.ascontiguousarray(pixels[:self._scene.image.height, :self._scene.image.width])
+        if plan.level.full and self.annotations:
+            try:
+                pixels = annotate(pixels, self._scene, self.annotations)
+            except DvrError as exc:   # no room in this image: said, and the picture shown without them
+                self.message = str(exc)
+        return pixels
 
     def _refused(self, exc: DvrError):
         """The renderer refused the scene: say why and go back to the last scene that rendered (if that one
@@ -332,3 +431,13 @@ class VolumeWidget(RemoteFrameBuffer):
         if controls is not None:
             controls.panel.close()
         super().close(*args, **kwargs)   # sends the close event: release()
+
+
+def describe_pick(p: Pick) -> str:
+    """The status line's words for a pick: the value, the voxel ``(z, y, x)`` and the world point ``(x, y, z)``."""
+    if not p.hit:
+        return f"pixel ({p.x}, {p.y}): nothing there"
+    where = f"voxel {tuple(int(i) for i in p.index)}, " if p.index is not None else ""
+    value = f"{p.value:.5g}" if p.value is not None else ", ".join(f"{k} {v:.5g}" for k, v in (p.values or {}).items())
+    position = ", ".join(f"{c:.4g}" for c in p.position)
+    return f"value {value} at {where}world ({position})"

@@ -2,7 +2,9 @@
 window and level in data units, an opacity scale), the renderer (those whose declared data kinds take the
 scene's data) and its main settings (compositing, sample distance in voxels, shading), a clipping plane (facing
 the view when switched on, moved along its normal by a fraction of the box's diagonal), the time step, and a
-status line (the frame's level and time, or why a setting was refused).
+status line (the frame's level and time, what lies under the resting pointer, or why a setting was refused);
+annotations (colour bar, scale bar, axes, a caption) drawn on the full-quality frames; and camera-path
+recording (a keyframe of the current camera, one a second; clear).
 
 Every change goes through :mod:`dvr_gl.viewer.settings` (checked as a scene file's would be and refused, in the
 status line, when the renderer cannot render it).  A slider moved continuously renders coarse frames, and the
@@ -12,10 +14,12 @@ full image once it rests, as a drag does.
 from __future__ import annotations
 
 import dataclasses
+import html
 import math
 
 import ipywidgets as w
 
+from ..annotations import Annotations
 from ..renderers import registry
 from ..transfer_function import PRESETS, TransferFunction
 from ..viewer import settings
@@ -65,6 +69,11 @@ class Controls:
                                      style=style)
         self.time = w.IntSlider(value=0, min=0, max=max(0, view.steps - 1), description="time", style=style)
         self.home = w.Button(description="reset view")
+        self.marks = {name: w.Checkbox(description=label, indent=False, layout=w.Layout(width="auto"))
+                      for name, label in (("colorbar", "colour bar"), ("scalebar", "scale bar"), ("axes", "axes"))}
+        self.caption = w.Text(description="caption", placeholder="(none)", continuous_update=False, style=style)
+        self.keyframe = w.Button(description="keyframe", tooltip="record the current camera (one a second)")
+        self.clear = w.Button(description="clear", tooltip="forget the recorded keyframes")
         self.status = w.HTML()
         self.panel = w.VBox(self._rows(scene), layout=w.Layout(min_width="340px"))
         self.sync()
@@ -80,7 +89,8 @@ class Controls:
             rows += [self.clip, self.clip_at]
         if self.view.steps > 1:
             rows.append(self.time)
-        return rows + [self.home, self.status]
+        return rows + [self.home, w.HBox(list(self.marks.values())), self.caption, w.HBox([self.keyframe, self.clear]),
+                       self.status]
 
     def _observe(self):
         handlers = {self.field: self._on_field, self.preset: self._on_preset, self.window: self._on_look,
@@ -88,9 +98,13 @@ class Controls:
                     self.compositing: self._on_compositing, self.sample: self._on_sample,
                     self.shading: self._on_shading, self.clip: self._on_clip, self.clip_at: self._on_clip,
                     self.time: self._on_time}
+        for control in (*self.marks.values(), self.caption):
+            handlers[control] = self._on_annotations
         for control, handler in handlers.items():
             control.observe(self._guarded(handler), names="value")
         self.home.on_click(lambda _: self.view.reset_view())
+        self.keyframe.on_click(lambda _: self.view.add_keyframe())
+        self.clear.on_click(lambda _: self.view.clear_keyframes())
 
     def _guarded(self, handler):
         def run(change):
@@ -139,8 +153,11 @@ class Controls:
         else:
             text = (f"1/{plan.level.block} resolution, {plan.level.distance_factor:g}x sample distance, "
                     f"{1e3 * view.render_seconds:.0f} ms")
-        message = f"<br><span style='color:#c00'>{view.message}</span>" if view.message else ""
-        self.status.value = f"<small>{settings.describe(view.scene)}<br>{text}{message}</small>"
+        message = f"<br><span style='color:#c00'>{html.escape(view.message)}</span>" if view.message else ""
+        picked = f"<br>{html.escape(view.pick_text)}" if view.pick_text else ""
+        n = len(view.keyframes)
+        path = f"<br>camera path: {n} keyframe{'s' * (n != 1)}, {max(n - 1, 0)} s" if n else ""
+        self.status.value = f"<small>{settings.describe(view._scene)}<br>{text}{picked}{path}{message}</small>"
 
     # --- from the controls to the scene ---
 
@@ -204,6 +221,10 @@ class Controls:
             self._plane = settings.toggle_clip_plane(bare).renderer.clipping.planes[0]
         placed = settings.change(scene, clipping=dataclasses.replace(clipping, planes=[self._plane]))
         return settings.move_clip_plane(placed, self.clip_at.value) if self.clip_at.value else placed
+
+    def _on_annotations(self, change):
+        caption = self.caption.value.strip() or None
+        self.view.set_annotations(Annotations(**{n: c.value for n, c in self.marks.items()}, caption=caption))
 
     def _on_time(self, change):
         self.view.go_to_time(change["new"])

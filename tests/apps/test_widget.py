@@ -238,3 +238,60 @@ def test_the_bench_prints_its_table(capsys):
                  "--renderer", default]) == 0
     row = next(line.split() for line in capsys.readouterr().out.splitlines() if line.startswith(default + " "))
     assert float(row[2]) > 0 and float(row[-1]) >= 0  # frames a second while dragging; release to full image
+
+
+def test_the_resting_pointer_is_picked(view):
+    """A move with no button down picks at once here (no event loop); the status line and ``pick`` say what
+    ``dvr_gl.pick`` says at the same image pixel (the widget's CSS pixels are the image's: same size)."""
+    x, y = SIZE / 2 + 0.3, SIZE / 2 - 2.6
+    view.handle_event(event("pointer_move", x, y, buttons=[]))
+    expected = dvr_gl.pick(view.scene, x, y)
+    assert expected.hit and view.picked == expected == view.pick(x, y)
+    assert f"{expected.value:.5g}" in view.controls.status.value and str(expected.index) in view.pick_text
+    view.handle_event({"type": "resize", "width": SIZE / 2, "height": SIZE / 2})   # a smaller box, before the frame
+    assert view.image_pixel(x / 2, y / 2) == pytest.approx((x / 2 * view.scene.image.width / (SIZE / 2),
+                                                            y / 2 * view.scene.image.height / (SIZE / 2)))
+
+
+def test_annotations_only_inside_their_boxes():
+    from dvr_gl.annotations import Annotations, layout
+
+    w = dvr_gl.widget(blob(), size=128)
+    plain, rgba = w.get_frame().copy(), w.snapshot().rgba.copy()
+    marks = Annotations(colorbar=True, scalebar=True, axes=True, caption="blob")
+    w.controls.caption.value = "blob"
+    for box in w.controls.marks.values():
+        box.value = True
+    assert w.annotations == marks
+    shown = w.get_frame()
+    inside = np.zeros(plain.shape[:2], bool)
+    for x0, y0, x1, y1 in layout(w.scene, marks).values():
+        inside[y0:y1, x0:x1] = True
+    changed = (shown != plain).any(axis=-1)
+    assert changed.any() and not changed[~inside].any()
+    np.testing.assert_array_equal(w.annotated()[..., :3], shown)
+    np.testing.assert_array_equal(w.snapshot().rgba, rgba)   # the float image has none
+    w.close()
+
+
+def test_a_recorded_camera_path_is_saved_with_the_scene(tmp_path):
+    scene = dvr_gl.load_scene(None, {"volume.demo": "shepp-logan", "volume.size": 16, "image.width": 24,
+                                     "image.height": 24})
+    w = dvr_gl.widget(scene)
+    w.controls.keyframe.click()
+    assert w.camera_path is None and w.scene.camera_path() is None
+    drag(w, dx=20, dy=-8)
+    w.handle_event(event("wheel", dx=0, dy=-100))
+    w.controls.keyframe.click()
+    first, second = w.keyframes
+    path = w.camera_path
+    assert path.times == (0.0, 1.0) and path.camera_at(0) == first and path.camera_at(1) == second
+    saved = tmp_path / "path.toml"
+    saved.write_text(w.scene.to_toml())
+    back = dvr_gl.load_scene(saved).camera_path()
+    for t, camera in ((0, first), (1, second)):
+        np.testing.assert_allclose(back.camera_at(t).eye, camera.eye, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(back.camera_at(t).target, camera.target, rtol=0, atol=1e-9)
+    w.controls.clear.click()
+    assert w.camera_path is None and w.scene.camera_path() is None
+    w.close()
