@@ -45,6 +45,8 @@ DEPTH_VOXELS = 10.0
 #: Samples of a colormap between the contrast limits (its transfer function's control points): napari's
 #: colormaps are at most a few dozen linear segments, and a gamma curve is within 0.3 % of its chords at 64.
 COLORMAP_SAMPLES = 64
+#: napari's projecting renderings and dvr-gl's compositing of the same name (``projection`` of :func:`view_scene`).
+PROJECTIONS = {"mip": "mip", "minip": "minip", "average": "average"}
 #: How far from orthonormal a layer's axes may be (after dividing by the scale) before it is called a shear.
 SHEAR_TOLERANCE = 1e-6
 
@@ -111,9 +113,10 @@ def _colormap_rgba(colormap, t: np.ndarray) -> np.ndarray:
     return np.asarray(colormap.map(np.asarray(t, dtype=np.float64)), dtype=np.float64).reshape(len(t), 4)
 
 
-def image_transfer_function(layer, voxel: float, depth: float = DEPTH_VOXELS) -> TransferFunction:
+def image_transfer_function(layer, voxel: float, depth: float = DEPTH_VOXELS, ramp: bool = True) -> TransferFunction:
     """An image layer's colormap, contrast limits, gamma and opacity as a transfer function (module doc);
-    ``voxel``: the layer's smallest spacing (world units)."""
+    ``voxel``: the layer's smallest spacing (world units).  ``ramp=False``: alpha ``opacity * colormap alpha``
+    at every value (a projection's: the projected value classified once, as napari colours its MIP)."""
     lo, hi = (float(c) for c in layer.contrast_limits)
     if not hi > lo:
         hi = lo + max(abs(lo), 1.0) * 1e-6
@@ -121,7 +124,7 @@ def image_transfer_function(layer, voxel: float, depth: float = DEPTH_VOXELS) ->
     t = s ** float(layer.gamma)
     rgba = _colormap_rgba(layer.colormap, t)
     colour = np.clip(srgb_to_linear(np.clip(rgba[:, :3], 0.0, 1.0)), 0.0, 1.0)
-    alpha = np.clip(float(layer.opacity) * rgba[:, 3] * t, 0.0, 1.0)
+    alpha = np.clip(float(layer.opacity) * rgba[:, 3] * (t if ramp else 1.0), 0.0, 1.0)
     points = np.column_stack([lo + s * (hi - lo), colour, alpha])
     return TransferFunction(points, unit_distance=depth * voxel)
 
@@ -217,26 +220,33 @@ def mirrored(camera) -> bool:
 
 
 def view_scene(viewer, renderer: str | None = None, width: int | None = None, depth: float = DEPTH_VOXELS,
-               selected: bool = False, background=(0.0, 0.0, 0.0, 1.0)):
+               selected: bool = False, projection: bool = False, background=(0.0, 0.0, 0.0, 1.0)):
     """The :class:`~dvr_gl.Scene` of napari's current 3D view of its rendered layers (:func:`rendered_layers`)
     with ``renderer`` (a registered name; default: the data's default), ``width`` pixels wide (default: the
-    canvas's size)."""
+    canvas's size).  ``projection``: where one image layer is rendered and napari projects it (its
+    ``rendering`` is one of :data:`PROJECTIONS`), dvr-gl's compositing of that name, the colormap at full
+    opacity; otherwise emission and absorption."""
     if viewer.dims.ndisplay != 3:
         raise SceneError("napari shows a 2D view; switch to 3D (the cube button, or viewer.dims.ndisplay = 3)")
     members, tfs = layer_members(viewer, depth, selected)
+    layers, settings = rendered_layers(viewer, selected), {}
+    mode = getattr(layers[0], "rendering", None) if len(layers) == 1 else None
+    if projection and str(mode) in PROJECTIONS and members[0].role == "scalar":
+        tfs = [image_transfer_function(layers[0], min(members[0].field.spacing), depth, ramp=False)]
+        settings["compositing"] = PROJECTIONS[str(mode)]
     w, h = view_size(viewer, width)
     canvas_height = view_size(viewer)[1]
     camera = view_camera(napari_camera(viewer), canvas_height)
     return scene_of(members, transfer_function=tfs, camera=camera, renderer=renderer, size=(w, h),
-                    background=tuple(background))
+                    background=tuple(background), **settings)
 
 
 def render_view(viewer, renderer: str | None = None, width: int | None = None, depth: float = DEPTH_VOXELS,
-                selected: bool = False, ctx=None):
+                selected: bool = False, projection: bool = False, ctx=None):
     """The :class:`~dvr_gl.Image` of :func:`view_scene`, its columns flipped where napari mirrors
     (:func:`mirrored`), so that it lies as napari's canvas does; ``ctx``: a moderngl context for GL renderers
     (default: a new one, released after; a kept one compiles each program once)."""
-    image = render(view_scene(viewer, renderer, width, depth, selected), ctx=ctx)
+    image = render(view_scene(viewer, renderer, width, depth, selected, projection), ctx=ctx)
     if mirrored(napari_camera(viewer)):
         image = Image(np.ascontiguousarray(image.rgba[:, ::-1]), image.scene, image.stats)
     return image
@@ -252,13 +262,13 @@ def time_axis(viewer) -> int | None:
 
 def render_animation(viewer, orbit: bool = True, time: bool = False, frames: int | None = None,
                      renderer: str | None = None, width: int | None = None, depth: float = DEPTH_VOXELS,
-                     selected: bool = False, ctx=None, progress=None) -> list:
+                     selected: bool = False, projection: bool = False, ctx=None, progress=None) -> list:
     """The pictures of an orbit (360 degrees about napari's up direction, frame 0 the current view) and/or a
     walk through napari's time axis (:func:`time_axis`), as ``dvr render --animate`` makes them
     (:mod:`dvr_gl.apps.animation`: every frame keeps the first step's classification).  ``frames``: default
     36 for an orbit, one per step for time alone.  ``ctx``: a moderngl context for GL renderers (default: a new
     one).  ``progress(done, total)`` is told after each frame."""
-    scene = view_scene(viewer, renderer, width, depth, selected)
+    scene = view_scene(viewer, renderer, width, depth, selected, projection)
     axis = time_axis(viewer) if time else None
     if time and axis is None:
         raise SceneError("no time axis: napari shows no axis beyond the three displayed with more than one step")

@@ -54,6 +54,9 @@ class RenderWidget(qt.QWidget):
         self.selected = qt.QCheckBox("selected layers only")
         self.selected.setToolTip("render the selected image and labels layers, not every visible one")
         self.selected.toggled.connect(self.refresh_renderers)
+        self.projection = qt.QCheckBox("napari's MIP, MinIP, average")
+        self.projection.setToolTip("one image layer whose rendering is mip, minip or average: dvr-gl's projection "
+                                   "of that name, as napari colours it; otherwise emission and absorption")
         self.output = qt.QComboBox()
         self.output.addItems(OUTPUTS)
         self.path = qt.QLineEdit()
@@ -68,7 +71,8 @@ class RenderWidget(qt.QWidget):
         self.status.setWordWrap(True)
         form = qt.QFormLayout()
         rows = (("renderer", self.renderer), ("width", self.width_box), ("depth (voxels)", self.depth),
-                ("layers", self.selected), ("output", self.output), ("file", self.path), ("frames", self.frames))
+                ("layers", self.selected), ("projection", self.projection), ("output", self.output),
+                ("file", self.path), ("frames", self.frames))
         for label, widget in rows:
             form.addRow(label, widget)
         layout = qt.QVBoxLayout(self)
@@ -112,7 +116,8 @@ class RenderWidget(qt.QWidget):
         name = self.renderer.currentText() or None
         gl = name is None or registry.plugin(name).needs_gl
         return {"renderer": name, "width": self.width_box.value() or None, "depth": self.depth.value(),
-                "selected": self.selected.isChecked(), "ctx": self.context() if gl else None}
+                "selected": self.selected.isChecked(), "projection": self.projection.isChecked(),
+                "ctx": self.context() if gl else None}
 
     # --- the outputs --------------------------------------------------------------------------------
 
