@@ -38,6 +38,7 @@ from . import navigation, settings
 from .display import ImageDisplay
 from .hud import FrameClock, FrameStats, hud_lines, nominal_samples
 from .imgui_backend import load_imgui
+from .inspect import VIEWER_ANNOTATIONS, KeyframeRecorder, PickProbe, annotated_display, cursor_pixel, pick_text
 from .keys import help_lines, key_table
 from .layout import Layout, layout, window_size
 from .refinement import FramePlan, RefinementController
@@ -208,6 +209,8 @@ class Viewer:
         self.last_event = time.perf_counter()
         self.message, self.message_error, self.message_until = "", False, 0.0
         self.show_hud, self.show_help, self.show_panel = True, False, self.gui_module is not None
+        self.probe, self.recorder = PickProbe(), KeyframeRecorder()   # I: picking; shift+K: keyframes
+        self.annotations_on = False           # A: annotations over the picture and 8-bit screenshots
         self.running = True
         self.stalled = -1                     # the version whose rendering failed with no way back
         self.frame_count = 0
@@ -403,6 +406,7 @@ class Viewer:
     def status(self) -> str:
         """The HUD's time step and edited field, where there are several."""
         parts = [self.player.describe()] if self.player is not None else []
+        parts += [p for p in (self.recorder.describe(), self.probe.text) if p]
         layers = self.scene.layers
         if len(layers) > 1:
             layer = layers[self.field_index]
@@ -463,6 +467,7 @@ class Viewer:
             self.gui.input.cursor(x, y)
         dx, dy = x - self.cursor[0], y - self.cursor[1]
         self.cursor = (x, y)
+        self.probe.moved(self.last_event)
         if self.gesture and (dx or dy):
             self.navigate(self.gesture, dx, dy)
 
@@ -555,6 +560,10 @@ class Viewer:
             "next_field": self.next_field,
             "reset_view": lambda: self.move_camera(self.initial_camera, False),
             "screenshot": self.screenshot,
+            "toggle_pick": self.toggle_pick,
+            "toggle_annotations": self.toggle_annotations,
+            "add_keyframe": self.add_keyframe,
+            "clear_keyframes": lambda: self.notify(self.recorder.clear()),
             "toggle_hud": lambda: setattr(self, "show_hud", not self.show_hud),
             "toggle_panel": self._toggle_panel,
             "toggle_help": lambda: setattr(self, "show_help", not self.show_help),
@@ -581,7 +590,9 @@ class Viewer:
                 self.notify(f"screenshot not taken: {exc}", error=True)
                 return None
         try:
-            paths = write_screenshot(scene, rgba, Path(self.options.screenshot_dir), self.options.screenshot_format)
+            annotations = VIEWER_ANNOTATIONS if self.annotations_on else None
+            paths = write_screenshot(self.saved_scene(), rgba, Path(self.options.screenshot_dir),
+                                     self.options.screenshot_format, annotations)
         except DvrError as exc:
             self.notify(f"screenshot not written: {exc}", error=True)
             return None
@@ -626,13 +637,62 @@ class Viewer:
             self.accum = rgba.copy() if plan.level.full else None
         if plan.level.full and plan.jitter_pass == 0:
             self.full_image = (self.version, rgba)
-        shown = self.accum if self.accum is not None else rgba
-        self.display.upload(composite_over(shown, self.scene.image.background))
+        shown = composite_over(self.accum if self.accum is not None else rgba, self.scene.image.background)
+        # annotations on full-resolution frames only (about 0.1 s at 512x512 here): a drag never waits for them
+        self.display.upload(self._annotated(shown, scene) if plan.level.full else shown)
         samples = renderer.stats.get("samples")
         self._frame_info = {"measured_samples": samples is not None,
                             "samples": float(samples) if samples is not None else nominal_samples(scene),
                             "size": (scene.image.width, scene.image.height)}
         return seconds
+
+    def _annotated(self, shown: np.ndarray, scene) -> np.ndarray:
+        """The displayed picture, annotated when A is on (an image too small for them: said, and A off)."""
+        if not self.annotations_on:
+            return shown
+        try:
+            return annotated_display(shown, scene)
+        except DvrError as exc:
+            self.annotations_on = False
+            self.notify(f"annotations off: {exc}", error=True)
+            return shown
+
+    def toggle_annotations(self):
+        self.annotations_on = not self.annotations_on
+        self.set_scene(self.scene)   # redrawn with (or without) them
+        self.log.write(event="annotations", on=self.annotations_on)
+
+    def toggle_pick(self):
+        self.probe.enabled = not self.probe.enabled
+        self.notify(f"picking under the cursor {'on' if self.probe.enabled else 'off'} (I)")
+
+    def add_keyframe(self):
+        step = self.player.step if self.player is not None else None
+        self.notify(self.recorder.add(self.scene.camera, step))
+        self.log.write(event="keyframe", keyframes=len(self.recorder.cameras))
+
+    def saved_scene(self):
+        """The scene a screenshot saves: the current one, with the recorded camera path when it has two
+        keyframes or more (``dvr render FILE.toml --frames N`` plays it)."""
+        path = self.recorder.path()
+        return self.scene if path is None else self.scene.with_camera_path(path)
+
+    def _pick(self, now: float):
+        """Pick under a resting cursor (:class:`.inspect.PickProbe`): one float64 ray of the full-size scene."""
+        scene = self.scene
+        pixel = cursor_pixel(self.cursor, self.window_layout().image, (scene.image.width, scene.image.height))
+        dragging = (self.gesture is not None or self.controller.state == "interactive"
+                    or (self.gui is not None and self.gui.busy))
+        if not self.probe.due(now, pixel, self.version, dragging):
+            return
+        from ..picking import pick
+
+        try:
+            text = pick_text(pick(scene, *pixel))
+        except DvrError as exc:
+            text = f"no pick: {exc}"
+        self.probe.show(pixel, self.version, text)
+        self.log.write(event="pick", x=pixel[0], y=pixel[1], text=text)
 
     def _refused(self, exc: DvrError):
         """A renderer refused the settings: say why, and go back to the last settings that rendered."""
@@ -706,6 +766,7 @@ class Viewer:
         self._sync_time(start)
         plan = self.controller.next_frame() if self.stalled != self.version else None
         seconds = self.render(plan) if plan is not None else None
+        self._pick(start)
         self.draw()   # the HUD shows self.stats: the last frame presented before this one
         if plan is not None and seconds is not None:
             seconds, total = self.clock.end()

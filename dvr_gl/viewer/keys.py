@@ -30,7 +30,11 @@ SETTING_KEYS = (
     ("LEFT", "previous_step", ""),
     ("N", "next_field", "several fields: the transfer-function editor edits the next field's"),
     ("R", "reset_view", "reset the view"),
-    ("S", "screenshot", "screenshot: image and effective scene (.toml), numbered"),
+    ("I", "toggle_pick", "picking on/off: the value, voxel and world position under the resting cursor"),
+    ("A", "toggle_annotations", "annotations on/off: colour bar, scale bar, axes (display and 8-bit screenshots)"),
+    ("shift+K", "add_keyframe", "camera path: add the view as a keyframe (k-th at k s); S saves the path"),
+    ("BACKSPACE", "clear_keyframes", "camera path: clear the keyframes"),
+    ("S", "screenshot", "screenshot: image and effective scene (.toml, with a recorded camera path), numbered"),
     ("H", "toggle_hud", "status bar (HUD) on/off"),
     ("TAB", "toggle_panel", "side panel on/off"),
     ("F1", "toggle_help", "this help (also ?)"),
@@ -80,4 +84,5 @@ def help_lines() -> list[str]:
 
 def _label(key: str) -> str:
     return {"RIGHT_BRACKET": "]", "LEFT_BRACKET": "[", "TAB": "Tab", "ESCAPE": "Esc", "COMMA": ",",
-            "shift+COMMA": "<", "SPACE": "Space", "RIGHT": "Right", "LEFT": "Left"}.get(key, key)
+            "shift+COMMA": "<", "SPACE": "Space", "RIGHT": "Right", "LEFT": "Left",
+            "BACKSPACE": "Backspace"}.get(key, key)

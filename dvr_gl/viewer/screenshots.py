@@ -3,7 +3,9 @@
 The image is written exactly as ``dvr render`` writes it (background composited once,
 :func:`dvr_gl.image.write_image`: sRGB 8-bit PNG, or linear float EXR/TIFF), and beside it the
 effective scene (:meth:`dvr_gl.scene.resolve.Scene.to_toml`, paths relative to the file), so
-``dvr render dvr_view_0001.toml -o again.png`` repeats the image.  Nothing is ever replaced.
+``dvr render dvr_view_0001.toml -o again.png`` repeats the image.  Nothing is ever replaced.  With
+annotations on (A), an 8-bit image (.png, .jpg) is written annotated (:func:`dvr_gl.annotations.annotate`);
+a float image (.exr, .tif) never is.
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DvrError
-from ..image import FORMATS, composite_over, write_image, write_text
+from ..image import FLOAT_FORMATS, FORMATS, composite_over, encode_8bit, write_image, write_text
 
 PREFIX = "dvr_view_"
 
@@ -32,9 +34,16 @@ def next_paths(folder: Path, suffix: str = ".png", prefix: str = PREFIX) -> tupl
         n += 1
 
 
-def write_screenshot(scene, rgba: np.ndarray, folder: Path, suffix: str = ".png") -> tuple[Path, Path]:
-    """Write the renderer's image ``rgba`` (premultiplied, no background) of ``scene`` and the scene."""
+def write_screenshot(scene, rgba: np.ndarray, folder: Path, suffix: str = ".png",
+                     annotations=None) -> tuple[Path, Path]:
+    """Write the renderer's image ``rgba`` (premultiplied, no background) of ``scene`` and the scene;
+    ``annotations`` (:class:`dvr_gl.annotations.Annotations`): drawn over an 8-bit image only."""
     image_path, scene_path = next_paths(folder, suffix)
-    write_image(image_path, composite_over(rgba, scene.image.background), overwrite=False)
+    picture = composite_over(rgba, scene.image.background)
+    if annotations and suffix.lower() not in FLOAT_FORMATS:
+        from ..annotations import annotate
+
+        picture = annotate(encode_8bit(picture), scene, annotations)
+    write_image(image_path, picture, overwrite=False)
     write_text(scene_path, scene.to_toml(relative_to=scene_path.resolve().parent), overwrite=False)
     return image_path, scene_path
