@@ -85,10 +85,11 @@ def _current_volume(layer, viewer) -> tuple[np.ndarray, list[int]]:
     return np.transpose(data, [kept.index(a) for a in axes]), axes
 
 
-def _geometry(layer, axes, displayed) -> tuple[tuple, tuple, np.ndarray]:
-    """``(spacing, origin, direction)`` in (x, y, z) of the layer's data-to-world map on the displayed axes."""
+def _geometry(layer, axes) -> tuple[tuple, tuple, np.ndarray]:
+    """``(spacing, origin, direction)`` in (x, y, z) of the layer's data-to-world map on its displayed ``axes``
+    (the layer's world has its own number of axes, the viewer's last ones: the same indices as its data's)."""
     def world(point):
-        return np.asarray(layer.data_to_world(point), dtype=np.float64)[list(displayed)]
+        return np.asarray(layer.data_to_world(point), dtype=np.float64)[list(axes)]
 
     zero = np.zeros(layer.ndim)
     o = world(zero)
@@ -163,7 +164,7 @@ def layer_members(viewer, depth: float = DEPTH_VOXELS, selected: bool = False) -
     members, tfs = [], []
     for layer in layers:
         data, axes = _current_volume(layer, viewer)
-        spacing, origin, direction = _geometry(layer, axes, viewer.dims.displayed)
+        spacing, origin, direction = _geometry(layer, axes)
         voxel = min(spacing)
         if _kind(layer) == "labels":
             data = _label_voxels(data, layer.name)

@@ -266,7 +266,10 @@ def test_a_refused_view_says_why_in_the_status_line(viewer, widget):
     movie = np.zeros((2, 12, 16, 20), np.float32)
     movie[0, 1:4, 2:5, 14:19] = 1.0
     movie[1, 1:4, 2:5, 2:7] = 1.0
-    viewer.add_image(movie, name="movie")
+    viewer.add_image(movie, name="movie", scale=(1.0, 2.0, 1.0, 1.0))
+    still = np.zeros((12, 16, 20), np.uint8)  # a 3D labels layer beside the 4D image: the viewer's last 3 axes
+    still[6:10, 9:14, 3:8] = 1
+    viewer.add_labels(still, scale=(2.0, 1.0, 1.0))
     viewer.dims.ndisplay = 3
     widget.output.setCurrentText("time")
     widget.frames.setValue(0)
