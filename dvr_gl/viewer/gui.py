@@ -347,6 +347,18 @@ class ViewerGui:
         if imgui.button("screenshot (S)"):
             v.action("screenshot")
         imgui.text_disabled(f"screenshots: {v.options.screenshot_dir}/dvr_view_NNNN{v.options.screenshot_format}")
+        if imgui.checkbox("annotations (A)", v.annotations_on)[0]:
+            v.action("toggle_annotations")
+        imgui.same_line()
+        if imgui.checkbox("pick under the cursor (I)", v.probe.enabled)[0]:
+            v.action("toggle_pick")
+        if imgui.button("add keyframe (shift+K)"):
+            v.action("add_keyframe")
+        imgui.same_line()
+        if imgui.button("clear (Backspace)"):
+            v.action("clear_keyframes")
+        imgui.same_line()
+        imgui.text(f"{len(v.recorder.cameras)} keyframes")
         if v.player is not None:
             self.time_controls()
 
