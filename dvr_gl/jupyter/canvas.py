@@ -172,6 +172,9 @@ class VolumeWidget(RemoteFrameBuffer):
         button, shift = event.get("button"), "Shift" in event.get("modifiers", ())
         self.gesture = "orbit" if button == 1 and not shift else "pan" if button in (1, 2, 3) else None
         self._cursor = self._position(event)
+        if self._pick_handle is not None:   # a press: no pick until the pointer rests again
+            self._pick_handle.cancel()
+            self._pick_handle = None
 
     def _position(self, event) -> tuple[float, float]:
         """The pointer's position in CSS pixels (the last one where an event lacks it)."""

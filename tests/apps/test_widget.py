@@ -10,6 +10,7 @@ kernel test also needs the extra ``notebook`` (nbclient, ipykernel); each is ski
 
 from __future__ import annotations
 
+import asyncio
 import json
 import sys
 
@@ -251,6 +252,26 @@ def test_the_resting_pointer_is_picked(view):
     view.handle_event({"type": "resize", "width": SIZE / 2, "height": SIZE / 2})   # a smaller box, before the frame
     assert view.image_pixel(x / 2, y / 2) == pytest.approx((x / 2 * view.scene.image.width / (SIZE / 2),
                                                             y / 2 * view.scene.image.height / (SIZE / 2)))
+
+
+def test_the_pick_waits_for_the_pointer_to_rest(view):
+    """With an event loop (a kernel) the pick comes ``PICK_REST`` seconds after the last move with no button
+    down, and never once a button is pressed: a drag never waits for a pick."""
+    from dvr_gl.jupyter.canvas import PICK_REST
+
+    async def hover():
+        view.handle_event(event("pointer_move", 20, 20, buttons=[]))
+        view.handle_event(event("pointer_move", 24, 25, buttons=[]))
+        assert view.picked is None   # the pointer may go on moving
+        await asyncio.sleep(PICK_REST + 0.1)
+        rested = view.picked
+        view.handle_event(event("pointer_move", 30, 30, buttons=[]))
+        view.handle_event(event("pointer_down", 30, 30))
+        await asyncio.sleep(PICK_REST + 0.1)
+        return rested
+
+    rested = asyncio.run(hover())
+    assert rested == dvr_gl.pick(view.scene, 24, 25) and view.picked is rested
 
 
 def test_annotations_only_inside_their_boxes():
