@@ -9,6 +9,11 @@ released, or :data:`WHEEL_SETTLE` seconds after the last wheel event) the next f
 and the last frame drawn after any change is always a full-quality one.  A coarse frame is enlarged to the
 widget's size by repeating pixels.
 
+A pointer moving with no button down is picked (:func:`dvr_gl.pick`, one ray) once it rests :data:`PICK_REST`
+seconds, for the status line; annotations (:mod:`dvr_gl.annotations`) are drawn on the 8-bit full-quality
+frames only, never into the float image; recorded keyframes (one a second) make ``camera_path``, which
+``scene`` carries as ``[[camera.keyframe]]`` tables.
+
 One renderer per renderer name, and one GL context, live as long as the widget (closed with it), so a frame
 costs one render, not a context and a volume upload.
 """
@@ -108,7 +113,8 @@ class VolumeWidget(RemoteFrameBuffer):
         path = self.camera_path
         if path is None:
             return self._scene
-        if self._with_path is None or self._with_path[:2] != (self._scene, len(self.keyframes)):
+        cached = self._with_path
+        if cached is None or cached[0] is not self._scene or cached[1] != len(self.keyframes):
             self._with_path = (self._scene, len(self.keyframes), self._scene.with_camera_path(path))
         return self._with_path[2]
 
