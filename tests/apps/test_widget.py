@@ -182,7 +182,8 @@ KERNEL_CELLS = [
 import numpy as np
 import dvr_gl
 z, y, x = np.mgrid[-1:1:20j, -1:1:20j, -1:1:20j]
-w = dvr_gl.widget(np.exp(-4 * ((x - 0.35) ** 2 + y ** 2 + z ** 2)).astype(np.float32), size=48)
+w = dvr_gl.widget(np.exp(-4 * ((x - 0.35) ** 2 + y ** 2 + z ** 2)).astype(np.float32), size=48,
+                  budget=0.002)  # coarse frames while dragging even on a quiet machine (48x48 is cheap)
 w""",
     # what a browser does: show a view, send events through the comm, confirm each frame it receives
     """w._has_visible_views = True
