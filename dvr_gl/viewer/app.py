@@ -823,8 +823,9 @@ class Viewer:
         title = f"dvr view: {self.scene.field.name} | {self.scene.renderer.name} | {state}"
         if self.player is not None:
             title += f" | {self.player.describe()}"
-        if self.gui is None:
+        if self.gui is None:   # no status bar: the title has the frame time and the pick
             title += f" | {self.stats.frame_seconds * 1e3:.0f} ms"
+            title += f" | {self.probe.text}" if self.probe.text else ""
         if title != getattr(self, "_title", None):
             glfw.set_window_title(self.window, title)
             self._title = title
