@@ -84,6 +84,7 @@ class VolumeWidget(RemoteFrameBuffer):
         self.pick_text = ""              # what the status line says of it
         self.annotations = Annotations()  # drawn on full-quality frames (set_annotations)
         self.keyframes: list = []         # cameras recorded at times 0, 1, 2, ... seconds (add_keyframe)
+        self.keyframe_steps: list = []    # the time step shown at each (a time series' path gives them)
         self._with_path: tuple | None = None  # (scene, keyframe count, the scene with the path): a cache
         self._draw(FramePlan(FULL))  # the first picture now: a scene that cannot render fails in the cell
         from .controls import Controls
@@ -301,21 +302,25 @@ class VolumeWidget(RemoteFrameBuffer):
     # --- the camera path ---
 
     def add_keyframe(self):
-        """Record the current camera as a keyframe at time = the number of keyframes before it (seconds)."""
+        """Record the current camera (and time step) as a keyframe at time = the number of keyframes before it
+        (seconds)."""
         self.keyframes.append(self._scene.camera)
+        self.keyframe_steps.append(self.time)
         self.notify(self.message)
 
     def clear_keyframes(self):
         self.keyframes.clear()
+        self.keyframe_steps.clear()
         self.notify(self.message)
 
     @property
     def camera_path(self) -> CameraPath | None:
         """The recorded keyframes as a :class:`~dvr_gl.camera_path.CameraPath` (keyframe ``k`` at ``k``
-        seconds), or None before two exist."""
+        seconds; with a time series, the step shown at each), or None before two exist."""
         if len(self.keyframes) < 2:
             return None
-        return CameraPath(tuple(self.keyframes), tuple(range(len(self.keyframes))))
+        steps = tuple(self.keyframe_steps) if self.read_step is not None else None
+        return CameraPath(tuple(self.keyframes), tuple(range(len(self.keyframes))), steps)
 
     # --- frames ---
 

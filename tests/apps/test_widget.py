@@ -142,8 +142,11 @@ def test_a_refused_setting_keeps_the_scene_and_says_why(view):
 def test_time_and_channels():
     series = np.stack([blob(), blob()[:, ::-1].copy()])
     w = dvr_gl.widget(series, time_axis=0, size=24)
+    w.add_keyframe()
     w.controls.time.value = 1
     np.testing.assert_array_equal(w.scene.field.data, series[1])
+    w.add_keyframe()
+    assert w.camera_path.steps == (0, 1)  # a recorded path goes through the steps shown
     w.close()
     channels = np.stack([blob(), blob()[::-1].copy()], axis=-1)
     w = dvr_gl.widget(channels, channel_axis=3, size=24)
