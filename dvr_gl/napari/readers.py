@@ -9,7 +9,8 @@ places every voxel where dvr-gl does (``origin + direction @ (index * spacing)``
 becomes one image layer per channel.  Meshes (``.vtu``, legacy ``.vtk`` UNSTRUCTURED_GRID) become a surface
 layer of their boundary triangles with the point scalars (zeros where the scalars are per cell), and
 triangle meshes (``.obj``, ``.ply``, ``.stl``: :func:`dvr_gl.geometry.read_mesh`) a surface layer.  A file
-dvr-gl cannot read raises the reader's one-line error (napari shows it).
+dvr-gl cannot read raises the reader's one-line error (napari shows it).  A colour volume (NRRD RGB-color,
+RGB TIFF, NIfTI RGB24) becomes an RGB image layer, its colour encoded back to sRGB for napari's display.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from ..fields.grid import IDENTITY
 from ..fields.layers import FieldSet
 from ..geometry import read_mesh
 from ..io import load_field
+from ..presets.colour import linear_to_srgb
 
 VOLUME_SUFFIXES = (".nrrd", ".nhdr", ".mhd", ".mha", ".vti", ".vtk", ".vtu", ".nii", ".nii.gz", ".dcm")
 TRIANGLE_SUFFIXES = (".obj", ".ply", ".stl")
@@ -70,6 +72,11 @@ def volume_layer(volume, name: str) -> tuple:
         affine[:3, :3] = direction[::-1, ::-1]
         affine[:3, 3] = np.asarray(volume.origin)[::-1]
         attributes["affine"] = affine
+    if getattr(volume, "role", None) == "rgb":
+        # a colour volume (z, y, x, 4) of linear colour and its opacity source: napari shows RGB values as
+        # they are, so its colour goes back to sRGB, without the fourth component (luminance or alpha)
+        attributes["rgb"] = True
+        return linear_to_srgb(np.asarray(volume.data)[..., :3]).astype(np.float32), attributes, "image"
     return np.asarray(volume.data), attributes, "image"
 
 
