@@ -689,7 +689,7 @@ class Viewer:
 
         try:
             text = pick_text(pick(scene, *pixel))
-        except DvrError as exc:
+        except (DvrError, ValueError, NotImplementedError, MemoryError) as exc:   # a hover never ends the viewer
             text = f"no pick: {exc}"
         self.probe.show(pixel, self.version, text)
         self.log.write(event="pick", x=pixel[0], y=pixel[1], text=text)

@@ -137,3 +137,15 @@ def test_recorded_keyframes_are_saved_with_the_scene_and_read_back(tmp_path):
     for k, c in enumerate(cameras):
         assert np.allclose(again.camera_at(float(k)).eye, c.eye, atol=1e-9)
     assert "3 keyframes cleared" in recorder.clear() and recorder.path() is None
+
+
+def test_a_mode_without_a_depth_says_why_in_the_status_bar():
+    """The average has no depth: the status text is pick's one-line refusal, and the viewer goes on."""
+    app = pytest.importorskip("dvr_gl.viewer.app")
+    scene = small_scene({"renderer.compositing": "average"})
+    layout = types.SimpleNamespace(image=(0.0, 0.0, 32.0, 32.0))
+    viewer = types.SimpleNamespace(scene=scene, cursor=(16.0, 16.0), window_layout=lambda: layout, gesture=None,
+                                   controller=types.SimpleNamespace(state="full"), gui=None, probe=PickProbe(),
+                                   version=0, log=types.SimpleNamespace(write=lambda **k: None))
+    app.Viewer._pick(viewer, now=10.0)
+    assert viewer.probe.text.startswith("no pick: ") and "average" in viewer.probe.text
