@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import VolumeError
 from ..fields.grid import IDENTITY
 from ..fields.layers import FieldSet
 from ..geometry import read_mesh
@@ -57,7 +58,7 @@ def read(path) -> list[tuple]:
         return [volume_layer(field, field.name)]
     if getattr(field, "kind", None) == "mesh":
         return [mesh_layer(field)]
-    raise ValueError(f"{path}: a {getattr(field, 'kind', type(field).__name__)} field; napari shows grids and meshes "
+    raise VolumeError(f"{path}: a {getattr(field, 'kind', type(field).__name__)} field; napari shows grids and meshes "
                      f"from this reader (particles: use dvr-gl's own renderers)")
 
 
