@@ -154,20 +154,21 @@ DEMOS = {"shepp-logan": shepp_logan, "marschner-lobb": marschner_lobb, "blobs": 
 PARTICLE_DEMOS = ("plummer",)
 
 
-# The default demo's look (dvr render --demo): a translucent ivory skull, a faint blue brain with its two
-# ventricles (value 0) as hollows, orange lesions.  The skull is 1.3-2.2 voxels thin at 96^3, so after the
-# blur its peak value varies around the head with the voxel grid; opacity flat from 0.5 to 1 keeps that
-# variation from drawing contour rings (a ramp up to 1 did).  The skull's edges pass through the lesions'
-# values (0.3-0.42) too: their opacity is low per voxel, so the crossing adds little while a lesion's
-# 10-20 voxels of depth make it bright.
-_SKULL, _BRAIN, _LESION = (0.95, 0.9, 0.8), (0.25, 0.45, 1.0), (1.0, 0.45, 0.1)
+# The default demo's look (dvr render --demo): unshaded emission-absorption, no gradient, so every grid
+# renderer draws it.  A faint blue brain (value 0.2) in which the two ventricles (value 0) show as darker
+# hollows, orange lesions (0.3), and a faint ivory skull (values above 0.5).  The phantom is antialiased
+# (3^3 sub-samples per voxel, then a 0.75-voxel blur), so the skull's edges pass through every value from 0
+# to 1: each band's opacity is low per voxel, so that the thin shells where an edge crosses the brain's or
+# the lesions' band add little while the structures' 10-70 voxels of depth make them show.  The skull is
+# 1.3-2.2 voxels thin at 96^3 and its blurred peak varies around the head with the voxel grid: its opacity
+# is flat from 0.55 to 1 so that variation draws no contour rings.  Shaded, the gradient of that thin shell
+# and of the soft edges drew fine rings (issue 43).
+_SKULL, _BRAIN, _LESION = (0.95, 0.9, 0.8), (0.3, 0.5, 1.0), (1.0, 0.45, 0.1)
 SHEPP_LOGAN_DEMO_POINTS = [
-    [0.0, 0.0, 0.0, 0.0, 0.0], [0.16, *_BRAIN, 0.0], [0.2, *_BRAIN, 0.05], [0.24, *_BRAIN, 0.0],
-    [0.27, *_LESION, 0.0], [0.3, *_LESION, 0.3], [0.42, 1.0, 0.85, 0.2, 0.3], [0.46, 1.0, 0.85, 0.2, 0.0],
-    [0.5, *_SKULL, 0.04], [1.0, *_SKULL, 0.04]]
-# Mostly ambient: in a translucent volume the gradient is small and its direction noisy away from the
-# edges, and a diffuse-only term darkens those samples.
-SHEPP_LOGAN_DEMO_SHADING = {"enabled": True, "ambient": 0.6, "diffuse": 0.5, "specular": 0.4}
+    [0.0, 0.0, 0.0, 0.0, 0.0], [0.14, *_BRAIN, 0.0], [0.2, *_BRAIN, 0.015], [0.26, *_BRAIN, 0.0],
+    [0.27, *_LESION, 0.0], [0.3, *_LESION, 0.06], [0.36, *_LESION, 0.06], [0.39, *_LESION, 0.0],
+    [0.45, *_SKULL, 0.0], [0.55, *_SKULL, 0.012], [1.0, *_SKULL, 0.012]]
+SHEPP_LOGAN_DEMO_SHADING = {"enabled": False}
 
 
 def demo_scene(name: str) -> dict:
