@@ -33,8 +33,9 @@ MESH_RENDERER = picks.baseline("mesh")
 # name, caption, data file (under DATA; None: a built-in demo), the command's other arguments
 PICTURES = [
     ("demo", "The built-in demo (`dvr render --demo`, no data needed): the 3D Shepp-Logan head phantom seen from "
-     "above, an egg of translucent ivory skull with a pale bluish-white inside; the largest lesion shows "
-     "through it as an orange ellipse, the ventricles and the small lesions hardly at all.", None, ["--demo"]),
+     "above, unshaded: a faint ivory skull around a translucent blue brain, in which the two ventricles "
+     "show as a darker hollow and the largest lesion as an orange ellipse; the small lesions hardly show. The "
+     "thin orange line along the rim is where the skull's soft inner edge passes through the lesions' values.", None, ["--demo"]),
     ("cthead", "CThead (University of North Carolina; Stanford volume archive), the `ct-bone-ivory` preset. "
      "Its slices are stored from the top of the head down, so `--up=-z` stands it upright.",
      "regular/cthead.nhdr", ["--transfer-function", "ct-bone-ivory", "--rescale-intercept", "-1024", "--up=-z",
