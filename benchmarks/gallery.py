@@ -35,7 +35,8 @@ PICTURES = [
     ("demo", "The built-in demo (`dvr render --demo`, no data needed): the 3D Shepp-Logan head phantom seen from "
      "above, unshaded: a faint ivory skull around a translucent blue brain, in which the two ventricles "
      "show as a darker hollow and the largest lesion as an orange ellipse; the small lesions hardly show. The "
-     "thin orange line along the rim is where the skull's soft inner edge passes through the lesions' values.", None, ["--demo"]),
+     "thin orange line along the rim is where the skull's soft inner edge passes through the lesions' values.",
+     None, ["--demo"]),
     ("cthead", "CThead (University of North Carolina; Stanford volume archive), the `ct-bone-ivory` preset. "
      "Its slices are stored from the top of the head down, so `--up=-z` stands it upright.",
      "regular/cthead.nhdr", ["--transfer-function", "ct-bone-ivory", "--rescale-intercept", "-1024", "--up=-z",
