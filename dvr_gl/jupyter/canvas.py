@@ -443,6 +443,7 @@ class VolumeWidget(RemoteFrameBuffer):
     def close(self, *args, **kwargs):
         controls = getattr(self, "controls", None)
         if controls is not None:
+            controls.editor.close()
             controls.panel.close()
         super().close(*args, **kwargs)   # sends the close event: release()
 

@@ -1,5 +1,6 @@
 """The widget's controls (ipywidgets), beside the picture: the transfer function of the chosen field (a preset,
-window and level in data units, an opacity scale), the renderer (those whose declared data kinds take the
+window and level in data units, an opacity scale, and the drawn editor of its control points,
+:mod:`.tf_canvas`: an edit turns the preset box to "custom"), the renderer (those whose declared data kinds take the
 scene's data) and its main settings (compositing, sample distance in voxels, shading), a clipping plane (facing
 the view when switched on, moved along its normal by a fraction of the box's diagonal), the time step, and a
 status line (the frame's level and time, what lies under the resting pointer, or why a setting was refused);
@@ -23,8 +24,10 @@ from ..annotations import Annotations
 from ..renderers import registry
 from ..transfer_function import PRESETS, TransferFunction
 from ..viewer import settings
+from ..viewer.tf_editor import CUSTOM
 from ..viewer.timeline import editable, with_transfer_function
 from .looks import Look, preset_look
+from .tf_canvas import TransferFunctionCanvas
 
 AS_GIVEN = "(as given)"
 CLIP_RANGE = 0.5  # the clipping plane moves up to half the box's diagonal either way from the centre
@@ -52,7 +55,7 @@ class Controls:
         style = {"description_width": "110px"}
         self.field = w.Dropdown(options=[(scene.layers[i].name, i) for i in self.fields], description="field",
                                 style=style)
-        self.preset = w.Dropdown(options=[AS_GIVEN, *PRESETS], description="preset", style=style)
+        self.preset = w.Dropdown(options=[AS_GIVEN, *PRESETS, CUSTOM], description="preset", style=style)
         self.window = w.FloatSlider(description="window", style=style, readout_format=".4g")
         self.level = w.FloatSlider(description="level", style=style, readout_format=".4g")
         self.opacity = w.FloatLogSlider(value=1.0, base=10, min=-2, max=2, step=0.05, description="opacity scale",
@@ -75,6 +78,7 @@ class Controls:
         self.keyframe = w.Button(description="keyframe", tooltip="record the current camera (one a second)")
         self.clear = w.Button(description="clear", tooltip="forget the recorded keyframes")
         self.status = w.HTML()
+        self.editor = TransferFunctionCanvas(self)
         self.panel = w.VBox(self._rows(scene), layout=w.Layout(min_width="340px"))
         self.sync()
         self._observe()
@@ -83,7 +87,7 @@ class Controls:
     def _rows(self, scene) -> list:
         rows = [self.field] if len(self.fields) > 1 else []
         if self.fields:
-            rows += [self.preset, self.window, self.level, self.opacity]
+            rows += [self.preset, self.window, self.level, self.opacity, self.editor]
         rows += [self.renderer, self.compositing, self.sample, self.shading]
         if hasattr(scene.renderer, "clipping"):
             rows += [self.clip, self.clip_at]
@@ -128,6 +132,7 @@ class Controls:
                 self.field.value = self.field_index
                 self.preset.value = self.presets[self.field_index]
                 self._show_look(self.looks[self.field_index])
+                self.editor.show_scene()
         finally:
             self._quiet = False
 
@@ -171,6 +176,9 @@ class Controls:
 
     def _on_preset(self, change):
         i, name = self.field_index, change["new"]
+        if name == CUSTOM:   # the function as edited stays
+            self.presets[i] = name
+            return
         if name == AS_GIVEN:
             look = Look.of(self.given[i])
         else:
@@ -190,6 +198,15 @@ class Controls:
         tf: TransferFunction = look.transfer_function()
         self.looks[i] = look
         self._change(lambda s: with_transfer_function(s, i, tf), interactive, costs=False)
+        self.editor.show_scene()
+
+    def edited(self, tf: TransferFunction, interactive: bool = False):
+        """The drawn editor's new function for the chosen field: the preset box says "custom", window, level
+        and opacity scale start again from it (window and level its own span, scale 1); ``interactive``: a point
+        being dragged (coarse frames until it rests)."""
+        self.presets[self.field_index] = CUSTOM
+        self._set_look(Look.of(tf), interactive)
+        self.sync()
 
     def _on_renderer(self, change):
         self._change(lambda s: settings.change(s, name=change["new"]))

@@ -320,3 +320,52 @@ def test_a_recorded_camera_path_is_saved_with_the_scene(tmp_path):
     w.controls.clear.click()
     assert w.camera_path is None and w.scene.camera_path() is None
     w.close()
+
+
+def test_the_drawn_editor_adds_moves_and_deletes_points(view):
+    """The editor's pixels map to (value, opacity) in closed form: value = lo + x / W (hi - lo), opacity =
+    (1 - y / h) top (h: the curve's height above the colour strip, top: the opacity axis, held during a drag).
+    Each edit is the scene's transfer function at once (and the preset box says "custom"); the picture after it
+    is the rendered image of that scene (bit-identical, as the other controls)."""
+    c = view.controls
+    e = c.editor
+    before = view.scene.transfer_function.points.copy()
+    m = e.mapping()
+    (lo, hi), top = m.value_range, m.opacity_max
+    x, y = 0.5 * m.width, 0.2 * m.height
+    assert e.editor.pick(m, x, y) is None    # empty space
+    e.handle_event(event("pointer_down", x, y))
+    points = view.scene.transfer_function.points
+    assert len(points) == len(before) + 1 and c.preset.value == "custom"
+    i = e.dragging
+    np.testing.assert_allclose(points[i, [0, 4]], [lo + 0.5 * (hi - lo), 0.8 * top], rtol=1e-12)
+    dx, dy = 18.0, 9.0
+    e.handle_event(event("pointer_move", x + dx, y + dy))
+    e.handle_event(event("pointer_up", x + dx, y + dy))
+    moved = view.scene.transfer_function.points
+    np.testing.assert_allclose(moved[i, [0, 4]] - points[i, [0, 4]], [dx / m.width * (hi - lo), -dy / m.height * top],
+                               rtol=1e-9, atol=1e-12)
+    np.testing.assert_array_equal(full(view), rendered(view.scene))
+    e.handle_event(event("pointer_down", *m.to_pixel(*moved[i, [0, 4]]), button=2))   # right click: delete
+    np.testing.assert_array_equal(view.scene.transfer_function.points, before)
+    e.handle_event(event("double_click", *m.to_pixel(*before[0, [0, 4]])))            # two points remain
+    assert len(view.scene.transfer_function.points) == 2 and "two points" in view.message
+
+
+def test_the_drawn_editor_shows_the_curve_and_colours(view):
+    """At a column between two points the curve's row is where the function's opacity there maps to; the strip
+    below has the function's colour there (sRGB, 8 bits)."""
+    from dvr_gl.jupyter.tf_canvas import CURVE
+    from dvr_gl.transfer_function import linear_to_srgb
+
+    e = view.controls.editor
+    frame, m = e.get_frame(), e.mapping()
+    points = view.scene.transfer_function.points
+    assert frame.shape == (e.size[1], e.size[0], 3)
+    (lo, hi), column = m.value_range, e.size[0] // 3
+    value = lo + (column + 0.5) / m.width * (hi - lo)
+    row = int(round(m.to_pixel(value, np.interp(value, points[:, 0], points[:, 4]))[1] - 0.5))
+    assert (frame[row, column] == CURVE).all()
+    assert not (frame[:row - 1, column] == CURVE).all(axis=-1).any()   # nothing of the curve above it
+    colour = [np.interp(value, points[:, 0], points[:, k]) for k in (1, 2, 3)]
+    np.testing.assert_array_equal(frame[-1, column], np.round(255 * linear_to_srgb(np.array(colour))))
