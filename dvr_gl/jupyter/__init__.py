@@ -5,7 +5,8 @@ locally, in JupyterLab, Notebook and VS Code.  See docs/widget.md.
 
 The parts: :mod:`.looks` (a field's transfer function from a preset, window/level and an opacity scale; pure),
 :mod:`.canvas` (the frame buffer: pointer and wheel events to the camera, progressive refinement, the frames),
-:mod:`.controls` (the ipywidgets panel beside it).  jupyter_rfb and ipywidgets are the optional extra
+:mod:`.controls` (the ipywidgets panel beside it), :mod:`.tf_canvas` (the panel's drawn transfer-function editor,
+the viewer's editor model on a second, small frame buffer).  jupyter_rfb and ipywidgets are the optional extra
 ``widget``, imported only when a widget is made.
 """
 

@@ -245,3 +245,4 @@ class Controls:
 
     def _on_time(self, change):
         self.view.go_to_time(change["new"])
+        self.editor.show_scene()   # the new step's histogram

@@ -109,7 +109,7 @@ class TransferFunctionCanvas(RemoteFrameBuffer):
                 self.request_draw()
             elif kind == "double_click":
                 self._delete(event)
-        except (TypeError, ValueError) as exc:   # an event no browser sends: said, and nothing changes
+        except (KeyError, TypeError, ValueError) as exc:   # an event no browser sends: said, nothing changes
             self.controls.view.notify(f"editor event {kind!r} ignored: {exc}")
 
     def _position(self, event) -> tuple[float, float]:

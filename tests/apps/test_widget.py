@@ -102,6 +102,11 @@ def test_odd_events_change_nothing(view):
                 {"type": "key_down", "key": "a"}, {"type": "pointer_up"}):
         view.handle_event(odd)
     assert view.scene is before and view.get_frame() is not None
+    editor = view.controls.editor
+    for odd in ({"type": "pointer_down", "button": 1, "x": float("nan"), "y": 0}, {"type": "pointer_down", "x": "a"},
+                {"type": "double_click"}, {"type": "resize", "width": -3}, {"type": "pointer_up"}):
+        editor.handle_event(odd)
+    assert view.scene is before and editor.get_frame() is not None
 
 
 def test_the_controls_change_the_scene(view):
@@ -155,6 +160,11 @@ def test_time_and_channels():
     w.controls.opacity.value = 3.0
     tfs = w.scene.transfer_functions
     assert tfs[1].points[:, 4].max() > tfs[0].points[:, 4].max()
+    editor = w.controls.editor   # the drawn editor follows the chosen field, and edits its function only
+    np.testing.assert_array_equal(editor.editor.points, tfs[1].points)
+    editor.handle_event(event("pointer_down", 30, 20))
+    assert len(w.scene.transfer_functions[1].points) == len(tfs[1].points) + 1
+    np.testing.assert_array_equal(w.scene.transfer_functions[0].points, tfs[0].points)
     w.close()
 
 
