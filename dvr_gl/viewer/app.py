@@ -29,7 +29,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..errors import DvrError
+from ..errors import DvrError, install_hint
 from ..image import composite_over
 from ..renderers import create_renderer, registry
 from ..scene.settings import with_sample_distance
@@ -227,7 +227,7 @@ class Viewer:
         self._install_callbacks()
         self._sync_size()
         if self.gui is None:
-            print("dvr view: keys (install dvr-gl[viewer] for the panels and the transfer-function editor):")
+            print(f"dvr view: keys ({install_hint('viewer')} for the panels and the transfer-function editor):")
             print("\n".join("  " + line for line in help_lines()))
 
     # --- scene changes ---

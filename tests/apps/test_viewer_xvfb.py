@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dvr_gl.errors import install_hint
 from dvr_gl.image import composite_over, read_image
 from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.scene.resolve import load_scene
@@ -431,16 +432,16 @@ def test_without_the_gui_keys_still_work(xvfb, tmp_path):
         v.wait_full()
         v.x.move(SIZE / 2, SIZE / 2)
         frame = v.last_frame()
-        v.x.key("l")                      # shading off
+        v.x.key("l")                      # shading on (the demo is unshaded)
         v.wait_full(frame)
         image, toml = v.screenshot()
         scene = load_scene(toml)
-        assert not scene.renderer.shading.enabled
+        assert scene.renderer.shading.enabled
         assert np.abs(image - render_scene(scene)).max() <= 1e-5
     finally:
         v.close()
     assert v.proc.returncode == 0
-    assert "install dvr-gl[viewer]" in (tmp_path / "viewer.out").read_text()
+    assert install_hint("viewer") in (tmp_path / "viewer.out").read_text()
 
 
 def test_a_refused_scene_is_one_line_before_a_window_opens(xvfb, tmp_path):
