@@ -172,10 +172,17 @@ def _scale_arguments(sa):
                                                      "kept (default: the temporary folder)")
 
 
-def _widget_arguments(wi):
-    from dvr_gl.bench import widget
-
-    widget.add_arguments(wi)
+def _widget_arguments(p):
+    # declared here, not in dvr_gl.bench.widget: building the parser must not import the bench harness
+    p.add_argument("--size", type=int, default=512, help="square widget size, pixels (default 512)")
+    p.add_argument("--volume", metavar="FILE", help="a volume file (default: the Shepp-Logan demo, --volume-size)")
+    p.add_argument("--volume-size", type=int, default=128, help="the demo's size, voxels a side (default 128)")
+    p.add_argument("--renderer", action="append", metavar="NAME", help="a renderer to measure (repeat; default: "
+                                                                       "the GL renderers that take the data)")
+    p.add_argument("--moves", type=int, default=30, help="timed drag moves (default 30)")
+    p.add_argument("--warm-up", type=int, default=10, help="untimed drag moves first (default 10)")
+    p.add_argument("--budget", type=float, default=0.1, help="the widget's frame budget while dragging, seconds "
+                                                             "(default 0.1: 10 frames a second)")
 
 
 def _feedback_arguments(sub):

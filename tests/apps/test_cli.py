@@ -303,7 +303,8 @@ def test_unwritable_scene_path_is_refused_before_rendering(tmp_path, capsys):
 
 def test_no_gl_context_is_one_line_and_no_output(tmp_path):
     """The GPU renderer (the default) on a machine where EGL finds no driver."""
-    env = dict(os.environ, __EGL_VENDOR_LIBRARY_FILENAMES="/nonexistent/egl_vendor.json")
+    # EGL asked for by name: the automatic choice would fall back to OSMesa (docs/backends.md)
+    env = dict(os.environ, __EGL_VENDOR_LIBRARY_FILENAMES="/nonexistent/egl_vendor.json", DVR_GL_BACKEND="egl")
     out = tmp_path / "x.png"
     proc = subprocess.run([sys.executable, "-m", "dvr_gl.apps", "render", "--demo", "-o", str(out), *SMALL],
                           env=env, capture_output=True, text=True)

@@ -64,7 +64,8 @@ def rendered(scene):
 
 @pytest.fixture
 def view():
-    w = dvr_gl.widget(blob(), size=SIZE)
+    # a budget no frame fits, so that dragging is coarse however quiet the machine (a tiny full frame fits 0.1 s)
+    w = dvr_gl.widget(blob(), size=SIZE, budget=0.002)
     yield w
     w.close()
 

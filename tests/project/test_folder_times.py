@@ -26,7 +26,9 @@ def test_a_run_prints_each_folder_its_tests_and_the_total(tmp_path):
     (tmp_path / "fast").mkdir()
     (tmp_path / "slow" / "test_slow.py").write_text("import time\n\ndef test_a():\n    time.sleep(0.3)\n")
     (tmp_path / "fast" / "test_fast.py").write_text("def test_b():\n    pass\n\ndef test_c():\n    pass\n")
-    env = {**os.environ, "PYTHONPATH": str(REPO / "tests")}
+    # only our plugin: the third-party ones the extras install (napari's, npe2's) set up in seconds on the
+    # first test, which would land in the fast folder's time
+    env = {**os.environ, "PYTHONPATH": str(REPO / "tests"), "PYTEST_DISABLE_PLUGIN_AUTOLOAD": "1"}
     run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "folder_times"],
                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stdout + run.stderr

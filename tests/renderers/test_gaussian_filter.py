@@ -96,6 +96,7 @@ def spike_scene(tmp_path, mode_extra, spacing=(1.0, 1.0, 1.0), sigma=1.0, view=N
     data[10, 10, 10] = 1.0
     overrides = {"transfer_function.points": [[0, 1, 1, 1, 0], [1, 1, 1, 1, K_SIGMA]],
                  "transfer_function.opacity_model": "extinction", "renderer.compositing": "average",
+                 "transfer_function.unit_distance": 1.0,   # the closed form's extinction is per world unit
                  "renderer.filter": "gaussian", "renderer.kernel_width": sigma, "renderer.ert_threshold": 1.0,
                  "camera.projection": "orthographic", "camera.view_height": 8.0 * sigma * max(spacing),
                  "image.width": 24, "image.height": 24, **(view or {}), **mode_extra}

@@ -23,7 +23,7 @@ from conftest import run_cli  # noqa: E402
 from dvr_gl.distributed import connect, kd, render, render_frames  # noqa: E402
 from dvr_gl.distributed.plan import bricks_for, check_method, check_scene, plan  # noqa: E402
 from dvr_gl.distributed.worker import payload_of  # noqa: E402
-from dvr_gl.errors import DvrError, SceneError  # noqa: E402
+from dvr_gl.errors import DvrError, SceneError, install_hint  # noqa: E402
 from dvr_gl.renderers import create_renderer, registry  # noqa: E402
 from dvr_gl.scene.resolve import load_scene  # noqa: E402
 from judges import renderers as declaring  # noqa: E402
@@ -192,7 +192,7 @@ def test_dask_missing_names_the_extra(monkeypatch):
     with pytest.raises(DvrError) as e:
         with connect("local:2"):
             pass
-    assert "'dask'" in one_line(e)
+    assert install_hint("dask") in one_line(e)
 
 
 def test_cli_dask(capsys, tmp_path):

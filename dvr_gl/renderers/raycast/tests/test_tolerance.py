@@ -138,7 +138,7 @@ def test_bad_tolerances_are_one_line_errors(tmp_path, capsys):
     out = tmp_path / "x.png"
     other = next(n for n, p in registry.plugins().items() if p.needs_gl and p.declared("tolerance") is None)
     for extra, message in ((["--tolerance", "1e-6", "--no-shading"], "outside the range"),
-                           (["--tolerance", "1e-2"], "without shading"),
+                           (["--tolerance", "1e-2", "--shading"], "without shading"),
                            (["--tolerance", "1e-2", "--no-shading", "--renderer", other],
                             f"{other} does not support renderer.tolerance"),
                            (["--tolerance", "1e-2", "--no-shading", "--compositing", "mip"], "emission_absorption")):

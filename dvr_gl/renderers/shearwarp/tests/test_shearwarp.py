@@ -288,7 +288,8 @@ def blob_scene(tmp_path, n, extra):
     tf = [[0, 1, 0.6, 0.3, 0], [0.05, 1, 0.6, 0.3, 0], [1, 0.3, 0.6, 1, 0.25]]
     return array_scene(tmp_path, data, {"transfer_function.points": tf, "image.width": 48, "image.height": 48,
                                         "camera.distance": 110.0, "camera.target": [0, 0, 0],
-                                        "camera.view_height": 40.0, **NO_ERT, **extra},
+                                        "camera.view_height": 40.0, **NO_ERT, **extra,
+                                        "transfer_function.unit_distance": 1.0},   # one scene at both resolutions
                        spacing=(spacing,) * 3, origin=(c[0],) * 3)
 
 
