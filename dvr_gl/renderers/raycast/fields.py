@@ -127,12 +127,14 @@ def bound_rays(renderer, scene, defines: dict, textures: dict) -> tuple[dict, di
     (a block is empty where its member's extinction is zero for every value the filter can make there; the
     faces of every member's blocks, each on its own grid, drawn into one MIN-blended target: the first entry
     into and the last exit from any member's non-empty blocks).  Where ``renderer.acceleration`` is "on", or
-    "auto" finds :data:`AUTO_EMPTY_FRACTION` of the blocks empty.  The defines and textures to add."""
+    "auto" finds :data:`AUTO_EMPTY_FRACTION` of the blocks empty.  Not where a member is oriented (its direction
+    differs from the first's, :mod:`dvr_gl.fields.layers`): its blocks are not axis-aligned in the shared frame,
+    and the rays span the union box (every sample taken).  The defines and textures to add."""
     r = scene.renderer
     mode = {True: "on", False: "off"}.get(r.acceleration, r.acceleration) if isinstance(r.acceleration, bool) \
         else r.acceleration
-    if "COMPOSITE_EMISSION" not in defines or mode == "off":
-        return defines, {}
+    if "COMPOSITE_EMISSION" not in defines or mode == "off" or scene.field.oriented:
+        return defines, {}  # an oriented member's blocks are not axis-aligned here: the rays span the union box
     preint = textures.get("u_field_preint")
     occupancy = []
     for i, layer in enumerate(scene.layers):
