@@ -1,8 +1,8 @@
 """Several fields in one scene (data kind ``"fields"``): :class:`FieldSet`, the channels of a microscope,
 a CT with its segmentation, a fusion of CT and PET, composited *per sample* in depth order.
 
-Each member is a regular grid (:class:`~dvr_gl.fields.grid.Volume`) with its own dims, spacing and origin
-and a *role* that says how a sample of it is classified:
+Each member is a regular grid (:class:`~dvr_gl.fields.grid.Volume`) with its own dims, spacing, origin and
+orientation and a *role* that says how a sample of it is classified:
 
 * ``"scalar"``: a value, through its own transfer function;
 * ``"label"``: an integer label map, through a categorical table (colour and opacity per label), never
@@ -17,7 +17,8 @@ Each member has its own orientation (direction matrix, :mod:`dvr_gl.orientation`
 *shared frame* the renderers work in, is the first member's own frame; a member whose direction differs is
 an oriented box there, reached by the rigid map :meth:`FieldSet.to_member` from shared-frame points to its own
 frame (``q = A p + b``, ``A = D_m^T D_0``: see :func:`member_transform`).  Members whose direction equals
-the first's (within 1e-6) map by the identity and are treated exactly as before.
+the first's (within 1e-6) map by the identity and are treated exactly as before.  :attr:`FieldSet.bounds` is
+the union of the members' boxes' bounding boxes in the shared frame.
 
 A single scalar grid is never a FieldSet: it stays a :class:`Volume` (kind ``"grid"``), so that a scene
 of one field renders exactly as it always did.
