@@ -3,7 +3,9 @@ loop over the union of the members' boxes, every member sampled in its own grid 
 transfer function at every sample, mixed per the contract (``dvr_gl/gl/shaders/common/fields.glsl``:
 extinctions add, emissions add; pre-integration per member; per-channel projections; the first isosurface
 of any member; a member's 2D transfer function of value and gradient magnitude, :class:`Tables2D`).  Members
-on one grid travel four to a texture (:mod:`..grid.field_textures`).
+on one grid travel four to a texture (:mod:`..grid.field_textures`).  A member with its own direction matrix
+is sampled, box-tested and differentiated in its own frame through ``FIELDS_ORIENTED`` (its gradient turned
+back to the shared frame, :mod:`dvr_gl.fields.layers`); such a frame's rays span the union box (no ray bounds).
 
 What a frame of several fields does not do (refused in one line by :func:`.fields_check.check`): bricking
 (the members' textures must fit the texture budget and the GL limit whole), rays longer than one pass,
