@@ -1,8 +1,8 @@
 """Several fields in one scene (data kind ``"fields"``): :class:`FieldSet`, the channels of a microscope,
 a CT with its segmentation, a fusion of CT and PET, composited *per sample* in depth order.
 
-Each member is a regular grid (:class:`~dvr_gl.fields.grid.Volume`) with its own dims, spacing and origin
-and a *role* that says how a sample of it is classified:
+Each member is a regular grid (:class:`~dvr_gl.fields.grid.Volume`) with its own dims, spacing, origin and
+orientation and a *role* that says how a sample of it is classified:
 
 * ``"scalar"``: a value, through its own transfer function;
 * ``"label"``: an integer label map, through a categorical table (colour and opacity per label), never
@@ -13,8 +13,12 @@ and a *role* that says how a sample of it is classified:
 The mixture at a point (docs/several-fields.md): extinctions add and emissions add,
 ``sigma = sum_i sigma_i``, ``sigma c = sum_i sigma_i c_i``, each member contributing only inside its own
 box (:attr:`Member.bounds`); the ray's extent is the union of the boxes (:attr:`FieldSet.bounds`).
-The members share one orientation (the direction matrix of the first; others must match): the renderers
-work in that frame.
+Each member has its own orientation (direction matrix, :mod:`dvr_gl.orientation`).  The scene's frame, the
+*shared frame* the renderers work in, is the first member's own frame; a member whose direction differs is
+an oriented box there, reached by the rigid map :meth:`FieldSet.to_member` from shared-frame points to its own
+frame (``q = A p + b``, ``A = D_m^T D_0``: see :func:`member_transform`).  Members whose direction equals
+the first's (within 1e-6) map by the identity and are treated exactly as before.  :attr:`FieldSet.bounds` is
+the union of the members' boxes' bounding boxes in the shared frame.
 
 A single scalar grid is never a FieldSet: it stays a :class:`Volume` (kind ``"grid"``), so that a scene
 of one field renders exactly as it always did.
@@ -87,12 +91,8 @@ class FieldSet:
         for m in members:
             if getattr(m.field, "kind", None) != "grid":
                 Member(m.field, m.role, m.name)  # refused there, in one line
-        first = members[0].field.direction
-        for m in members[1:]:
-            if not np.allclose(m.field.direction, first, atol=1e-6):
-                raise SceneError(f"{m.name}: its direction matrix differs from {members[0].name}'s; several fields "
-                                 f"are rendered in one frame: resample it into the first field's orientation")
         object.__setattr__(self, "members", members)
+        object.__setattr__(self, "transforms", tuple(member_transform(members[0].field, m.field) for m in members))
 
     @property
     def fields(self) -> tuple:
@@ -104,9 +104,35 @@ class FieldSet:
 
     @property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """The union of the members' boxes (world units, the volume frame)."""
-        los, his = zip(*(m.bounds for m in self.members))
+        """The union of the members' boxes (world units, the shared frame): an oriented member counts by the
+        axis-aligned bounding box of its box in the shared frame (:meth:`member_bounds`)."""
+        los, his = zip(*(self.member_bounds(i) for i in range(len(self.members))))
         return np.min(los, axis=0), np.max(his, axis=0)
+
+    @property
+    def oriented(self) -> bool:
+        """Whether any member's direction differs from the first's (its map is not the identity)."""
+        return any(t is not None for t in self.transforms)
+
+    def to_member(self, i: int, points) -> np.ndarray:
+        """Shared-frame points ``(..., 3)`` in member ``i``'s own frame (world units, where its box is
+        axis-aligned: sample ``(i, j, k)`` at ``origin + (i sx, j sy, k sz)``)."""
+        points = np.asarray(points, dtype=np.float64)
+        if self.transforms[i] is None:
+            return points
+        a, b = self.transforms[i]
+        return points @ a.T + b
+
+    def member_bounds(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+        """Member ``i``'s box in the shared frame: the box itself, or for an oriented member the axis-aligned
+        bounding box of its eight corners mapped back (``p = A^T (q - b)``)."""
+        lo, hi = self.members[i].bounds
+        if self.transforms[i] is None:
+            return lo, hi
+        a, b = self.transforms[i]
+        corners = np.array([[(lo, hi)[(c >> k) & 1][k] for k in range(3)] for c in range(8)], dtype=np.float64)
+        shared = (corners - b) @ a
+        return shared.min(axis=0), shared.max(axis=0)
 
     box = bounds
 
@@ -159,6 +185,23 @@ class FieldSet:
 
     def __repr__(self) -> str:
         return f"FieldSet({', '.join(f'{m.name or m.field.name}:{m.role}' for m in self.members)})"
+
+
+def member_transform(first, field):
+    """The rigid map ``(A, b)`` from the first member's own frame (the shared frame) to ``field``'s own frame,
+    ``q = A p + b``, or None where their direction matrices agree (within 1e-6: the identity).
+
+    With ``world = o + D (p - o)`` (:func:`dvr_gl.orientation.to_patient_frame`) for each: ``A = D_m^T D_0`` and
+    ``b = o_m - A o_0 + D_m^T (o_0 - o_m)``.  The directions are orthonormal (:func:`~dvr_gl.fields.grid.
+    check_direction`), so ``A`` is too (a rotation, or one with a mirror): distances, and so ray parameters,
+    are kept; a gradient ``g_m`` in the member's frame is ``A^T g_m`` in the shared frame."""
+    d0 = np.asarray(first.direction, dtype=np.float64)
+    dm = np.asarray(field.direction, dtype=np.float64)
+    if np.allclose(dm, d0, atol=1e-6):
+        return None
+    o0, om = np.asarray(first.origin, dtype=np.float64), np.asarray(field.origin, dtype=np.float64)
+    a = dm.T @ d0
+    return a, om - a @ o0 + dm.T @ (o0 - om)
 
 
 class Layer(NamedTuple):

@@ -4,8 +4,10 @@ members' optical models, in float64.
 Each member is classified by its role's model in its own scene (:mod:`.members`: a scalar's single-field
 :class:`~dvr_gl.reference.model.OpticalModel` of its grid, transfer function and iso-value with the scene's
 filter, classification, shading and gradient opacity; a label map's table; a colour volume's data), and
-contributes only inside its own box (closed; world units, the volume frame).  The rays and
-their segments span the union of the boxes.  The mixture at a point (docs/several-fields.md):
+contributes only inside its own box (closed; world units, its own frame: an oriented member's points are mapped
+there, :class:`~.members.OrientedField`, and its box is an oriented box in the shared frame).  The rays and
+their segments span the union of the boxes (their shared-frame bounding boxes).  The mixture at a point
+(docs/several-fields.md):
 
 * emission-absorption and the X-ray: extinctions add and emissions add, ``sigma = sum_i sigma_i`` and
   ``sigma c = sum_i sigma_i c_i`` (so ``c`` is their ratio, 0 where ``sigma = 0``); each ``c_i`` shaded by
@@ -79,22 +81,34 @@ class MemberOptics:
     """One member: its model (:func:`.members.optics`, its role's) and its box (closed, widened by 1e-9 of the
     box to absorb the rounding of points computed on its faces)."""
 
-    def __init__(self, scene, layer, exact: bool, segment_length: float | None):
+    def __init__(self, scene, layer, exact: bool, segment_length: float | None, transform=None):
         self.layer = layer
         self.label = layer.role == "label"
         self.iso = LABEL_ISO if self.label else layer.iso_value
-        self.scene = member_scene(scene, layer)
+        self.transform = transform  # (A, b): shared frame -> the member's own frame; None: the identity
+        self.scene = member_scene(scene, layer, transform)
         self.model = optics(self.scene, layer, exact, segment_length)
         lo, hi = (np.asarray(b, np.float64) for b in layer.field.box)
         slack = 1e-9 * float(np.max(hi - lo) + max(layer.field.spacing))
-        self.box = (lo, hi)
+        self.box = (lo, hi)  # in the member's own frame
         self.lo, self.hi = lo - slack, hi + slack
 
+    def own(self, points: np.ndarray) -> np.ndarray:
+        """Shared-frame points in the member's own frame (where its box is axis-aligned)."""
+        if self.transform is None:
+            return points
+        a, b = self.transform
+        return points @ a.T + b
+
     def inside(self, points: np.ndarray) -> np.ndarray:
-        return np.all((points >= self.lo) & (points <= self.hi), axis=1)
+        q = self.own(points)
+        return np.all((q >= self.lo) & (q <= self.hi), axis=1)
 
     def chord(self, origins, directions, t0, t1) -> tuple[np.ndarray, np.ndarray]:
-        """Each ray's parameters ``[a, b]`` inside the box, within ``[t0, t1]`` (``b <= a``: none)."""
+        """Each ray's parameters ``[a, b]`` inside the box, within ``[t0, t1]`` (``b <= a``: none); an oriented
+        member's: the ray mapped into its frame (rigidly: the parameters are kept) meets its box there."""
+        if self.transform is not None:
+            origins, directions = self.own(origins), directions @ self.transform[0].T
         a, b = intersect_box(origins, directions, *self.box)
         return np.maximum(a, t0), np.minimum(b, t1)
 
@@ -122,7 +136,9 @@ class Mixture:
 
     def __init__(self, scene, exact: bool = False, segment_length: float | None = None):
         check(scene)
-        self.members = [MemberOptics(scene, layer, exact, segment_length) for layer in scene.layers]
+        transforms = scene.field.transforms
+        self.members = [MemberOptics(scene, layer, exact, segment_length, t)
+                        for layer, t in zip(scene.layers, transforms)]
         # every member with a table has one (one setting); a label has none (its segments as post-classified)
         self.preintegration = next((m.model.preintegration for m in self.members
                                     if m.model.preintegration is not None), None)
@@ -415,6 +431,10 @@ def per_channel(ref) -> np.ndarray:
             hit_t[i], rgba[i] = label_first_hit(ref, m)
             continue
         sub = type(ref)(m.scene, nodes=len(ref.x))
+        if m.transform is not None:  # its rays over the oriented box's chord, not its bounding box's
+            rays = sub.rays
+            rays.t0, rays.t1 = m.chord(rays.origins, rays.directions, rays.t0, rays.t1)
+            rays.t1 = np.where(rays.t1 > rays.t0, rays.t1, rays.t0)
         sub.model = m.model  # its role's (an rgb member's reads x), the depth cue over the union box
         if ref.progress is not None:
             sub.progress = lambda done, total, i=i: ref.progress(i * total + done, len(members) * total)

@@ -14,6 +14,11 @@
   shaded with the normal ``-grad I_L* / |grad I_L*|`` (zero below 1e-5 per voxel); no gradient opacity (the
   indicator is not a value).  Categorical, it has no pre-integration table: a segment takes its sample's
   label, ``C = c (1 - exp(-sigma len))``, ``tau = sigma len`` (as post-classification).
+
+An *oriented* member (its direction matrix differs from the first member's, :mod:`dvr_gl.fields.layers`) is
+classified in the shared frame through :class:`OrientedField`: every point is mapped into the member's own frame
+(``q = A p + b``) to be sampled there, directions by ``A``, gradients back by ``A^T``; the lights, the camera
+and the depth cue stay in the shared frame.
 """
 
 from __future__ import annotations
@@ -30,14 +35,73 @@ from .classification import PreClassifier
 from .model import OpticalModel, depth_cue
 
 
-def member_scene(scene, layer):
-    """The single-field scene of one member: its grid, transfer function and iso-value, the scene's camera,
-    image and every other setting."""
+def member_scene(scene, layer, transform=None):
+    """The single-field scene of one member: its grid (seen from the shared frame through ``transform``, the
+    member's ``(A, b)`` of :func:`dvr_gl.fields.layers.member_transform`, where it has one), transfer function
+    and iso-value, the scene's camera, image and every other setting."""
     renderer = scene.renderer
     if hasattr(renderer, "iso_value") and layer.iso_value is not None:
         renderer = dataclasses.replace(renderer, iso_value=float(layer.iso_value))
-    return dataclasses.replace(scene, field=layer.field, transfer_function=layer.transfer_function,
+    field = layer.field if transform is None else OrientedField(layer.field, *transform)
+    return dataclasses.replace(scene, field=field, transfer_function=layer.transfer_function,
                                transfer_functions=(), sources=(), renderer=renderer)
+
+
+class InSharedFrame:
+    """A member's reconstruction (:class:`~dvr_gl.fields.reconstruction.SampledField`) read at shared-frame
+    points: sampled at ``q = A p + b``, its gradient (a row per point) turned back by ``g A`` (``A^T g``), its
+    knots found on the mapped rays (the map is rigid: ray parameters are kept)."""
+
+    def __init__(self, inner, a, b):
+        self.inner, self.a, self.b = inner, a, b
+
+    def __getattr__(self, name):
+        return getattr(self.inner, name)
+
+    def mapped(self, points):
+        return np.asarray(points, dtype=np.float64) @ self.a.T + self.b
+
+    def sample(self, points):
+        return self.inner.sample(self.mapped(points))
+
+    def gradient(self, points):
+        return self.inner.gradient(self.mapped(points)) @ self.a
+
+    def knots(self, origins, directions, t0, t1):
+        return self.inner.knots(self.mapped(origins), np.asarray(directions, np.float64) @ self.a.T, t0, t1)
+
+    def taps(self, points):
+        return self.inner.taps(self.mapped(points))
+
+
+class OrientedField:
+    """An oriented member's grid as the references see it from the shared frame (module doc): what the models
+    ask of a field, with :meth:`reconstruct` and :meth:`reconstruct_values` read through
+    :class:`InSharedFrame`; ``bounds`` the shared-frame bounding box of its box (for the depth cue's range)."""
+
+    def __init__(self, volume, a, b):
+        self.volume, self.a, self.b = volume, np.asarray(a, np.float64), np.asarray(b, np.float64)
+
+    def __getattr__(self, name):
+        return getattr(self.volume, name)
+
+    def to_member(self, points):
+        return np.asarray(points, dtype=np.float64) @ self.a.T + self.b
+
+    @property
+    def bounds(self):
+        lo, hi = self.volume.box
+        corners = np.array([[(lo, hi)[(c >> k) & 1][k] for k in range(3)] for c in range(8)], dtype=np.float64)
+        shared = (corners - self.b) @ self.a
+        return shared.min(axis=0), shared.max(axis=0)
+
+    box = bounds
+
+    def reconstruct(self, *args, **kwargs):
+        return InSharedFrame(self.volume.reconstruct(*args, **kwargs), self.a, self.b)
+
+    def reconstruct_values(self, *args, **kwargs):
+        return InSharedFrame(self.volume.reconstruct_values(*args, **kwargs), self.a, self.b)
 
 
 def optics(scene, layer, exact: bool, segment_length: float | None):
@@ -136,7 +200,11 @@ class LabelOptics:
         self.gradient_reference = None
 
     def labels(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(labels (N,), indicator gradient (N, 3))`` at world points."""
+        """``(labels (N,), indicator gradient (N, 3))`` at world points (an oriented member's: mapped into its
+        frame, the gradient turned back)."""
+        if isinstance(self.field, OrientedField):
+            labels, gradient = label_sample(self.field.volume, self.field.to_member(points), self.filter)
+            return labels, gradient @ self.field.a
         return label_sample(self.field, points, self.filter)
 
     def visible(self, points: np.ndarray) -> np.ndarray:

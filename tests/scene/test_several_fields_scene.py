@@ -41,11 +41,15 @@ def test_union_box_and_groups():
     assert fs.sample_spacing == 1.0
 
 
-def test_members_must_be_grids_in_one_frame():
+def test_members_must_be_grids_each_in_its_own_frame():
+    """A member's own orientation is kept: the union spans its box turned into the first member's frame."""
     a, b = _volumes(2)
     turned = Volume(np.zeros((4, 4, 4), np.float32), direction=((0, -1, 0), (1, 0, 0), (0, 0, 1)), name="turned")
-    with pytest.raises(SceneError, match="direction matrix differs"):
-        FieldSet([a, turned])
+    fs = FieldSet([a, turned])
+    assert fs.oriented and fs.transforms[0] is None
+    lo, hi = fs.member_bounds(1)  # x' along +y, y' along -x: the box [0, 3]^3 turned to x in [-3, 0]
+    np.testing.assert_allclose(lo, [-3.0, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(hi, [0.0, 3.0, 3.0], atol=1e-12)
     with pytest.raises(SceneError, match="must each be a regular grid"):
         FieldSet([a, SphereField((0.0, 0.0, 0.0), 1.0)])
 

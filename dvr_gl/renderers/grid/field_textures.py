@@ -12,7 +12,10 @@
 
 What the shaders read: :meth:`FieldTextures.bind` (the sampler array ``u_field_group``),
 :meth:`FieldTextures.uniforms` and :meth:`FieldTextures.defines`; the atlases' own ``uniforms()``.
-World coordinates are the volume frame's (the members share one direction matrix), in world units.
+World coordinates are the shared frame's (the first member's own frame, :mod:`dvr_gl.fields.layers`), in
+world units.  A group whose direction differs from the first member's (its members share a grid, so one map)
+carries its rigid map ``q = A p + b`` into its own frame (:attr:`FieldGroup.turn`); its scale, offset and box
+are its own frame's, and the shaders read it through ``FIELDS_ORIENTED`` (``u_field_turn``, ``u_field_shift``).
 Every per-member uniform is a float array indexed by member; per group, vec3 arrays indexed by group.
 """
 
@@ -51,8 +54,10 @@ class FieldGroup:
     scale: np.ndarray      # voxel = world * scale + offset (voxel i at its centre, i)
     offset: np.ndarray
     spacing: np.ndarray    # world units per voxel along x, y, z
-    box: tuple             # (lo, hi) world units: where its members contribute (closed)
+    box: tuple             # (lo, hi) world units: where its members contribute (closed), its own frame
     nbytes: int
+    turn: tuple | None = None  # (A, b): shared frame -> its own frame, q = A p + b; None: the identity
+    shared_box: tuple | None = None  # its box's bounding box in the shared frame (the box where turn is None)
 
 
 class FieldTextures:
@@ -71,18 +76,26 @@ class FieldTextures:
 
     def defines(self) -> dict:
         """:func:`field_defines` of these textures."""
-        return field_defines(self.group, self.channel, self.roles, _same_boxes([g.box for g in self.groups]))
+        oriented = any(g.turn is not None for g in self.groups)
+        out = field_defines(self.group, self.channel, self.roles,
+                            not oriented and _same_boxes([g.box for g in self.groups]))
+        return {**out, "FIELDS_ORIENTED": True} if oriented else out
 
     def _boxes(self) -> dict:
         """``u_field_box_lo``, ``u_field_box_hi``: each group's box, its faces on the union box's moved out by
         :data:`BOX_MARGIN` voxels.  A ray's entry and exit points lie on the union box's faces in float64 and
         on either side of them in float32: a member whose box shares the face must count them in, as the
-        reference does (closed boxes); faces inside the union are tested exactly."""
+        reference does (closed boxes); faces inside the union are tested exactly.  An oriented group's box (its
+        own frame) has every face moved out: which of its faces lie on the union's is not tested (a sample
+        within 1e-4 voxel outside an inner face counts in, where the reference's does not)."""
         lo = np.array([g.box[0] for g in self.groups])
         hi = np.array([g.box[1] for g in self.groups])
         margin = BOX_MARGIN * np.array([g.spacing for g in self.groups])
-        lo = np.where(lo <= lo.min(axis=0), lo - margin, lo)
-        hi = np.where(hi >= hi.max(axis=0), hi + margin, hi)
+        turned = np.array([g.turn is not None for g in self.groups])[:, None]
+        union_lo = np.array([g.box[0] if g.shared_box is None else g.shared_box[0] for g in self.groups]).min(axis=0)
+        union_hi = np.array([g.box[1] if g.shared_box is None else g.shared_box[1] for g in self.groups]).max(axis=0)
+        lo = np.where(turned | (lo <= union_lo), lo - margin, lo)
+        hi = np.where(turned | (hi >= union_hi), hi + margin, hi)
         return {"u_field_box_lo": [float(x) for x in lo.ravel()], "u_field_box_hi": [float(x) for x in hi.ravel()]}
 
     def bind(self, program, first_unit: int) -> int:
@@ -103,11 +116,16 @@ class FieldTextures:
         def vec3s(name):
             return [float(x) for g in self.groups for x in np.asarray(getattr(g, name), dtype=np.float64)]
 
-        return {"u_field_scale": vec3s("scale"), "u_field_offset": vec3s("offset"),
-                "u_field_dims": [float(x) for g in self.groups for x in g.dims],
-                "u_field_spacing": vec3s("spacing"),
-                **self._boxes(),
-                "u_field_value_scale": list(self.value_scale), "u_field_value_offset": list(self.value_offset)}
+        out = {"u_field_scale": vec3s("scale"), "u_field_offset": vec3s("offset"),
+               "u_field_dims": [float(x) for g in self.groups for x in g.dims],
+               "u_field_spacing": vec3s("spacing"),
+               **self._boxes(),
+               "u_field_value_scale": list(self.value_scale), "u_field_value_offset": list(self.value_offset)}
+        if any(g.turn is not None for g in self.groups):  # FIELDS_ORIENTED: mat3s column-major, A's columns
+            turns = [(np.eye(3), np.zeros(3)) if g.turn is None else g.turn for g in self.groups]
+            out["u_field_turn"] = [float(x) for a, _ in turns for x in np.asarray(a, np.float64).T.ravel()]
+            out["u_field_shift"] = [float(x) for _, b in turns for x in np.asarray(b, np.float64)]
+        return out
 
     def release(self):
         for g in self.groups:
@@ -150,9 +168,11 @@ def fieldset_defines(fieldset, per_texture: int = 4) -> dict:
     for g, indices in enumerate(fieldset.groups(per_texture)):
         for c, i in enumerate(indices):
             group[i], channel[i] = g, 3 if fieldset.members[i].role == "rgb" else c
-    return field_defines(group, channel, [m.role for m in fieldset.members],
-                         _same_boxes([tuple(np.asarray(b, dtype=np.float64) for b in m.field.box)
-                                      for m in fieldset.members]))
+    oriented = any(t is not None for t in getattr(fieldset, "transforms", ()))
+    out = field_defines(group, channel, [m.role for m in fieldset.members],
+                        not oriented and _same_boxes([tuple(np.asarray(b, dtype=np.float64) for b in m.field.box)
+                                                      for m in fieldset.members]))
+    return {**out, "FIELDS_ORIENTED": True} if oriented else out
 
 
 def upload_fields(ctx, fieldset, per_texture: int = 4) -> FieldTextures:
@@ -176,9 +196,11 @@ def upload_fields(ctx, fieldset, per_texture: int = 4) -> FieldTextures:
         first = fields[0]
         spacing = np.asarray(first.spacing, dtype=np.float64)
         lo, hi = first.box
+        turn = fieldset.transforms[indices[0]] if hasattr(fieldset, "transforms") else None
         out.append(FieldGroup(tuple(indices), texture, tuple(int(x) for x in first.dims), 1.0 / spacing,
                               -np.asarray(first.origin, dtype=np.float64) / spacing, spacing,
-                              (np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)), nbytes))
+                              (np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)), nbytes,
+                              turn, None if turn is None else fieldset.member_bounds(indices[0])))
     return FieldTextures(out, tuple(group), tuple(channel), tuple(scale), tuple(offset),
                          tuple(m.role for m in fieldset.members))
 

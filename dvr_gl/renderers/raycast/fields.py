@@ -3,7 +3,9 @@ loop over the union of the members' boxes, every member sampled in its own grid 
 transfer function at every sample, mixed per the contract (``dvr_gl/gl/shaders/common/fields.glsl``:
 extinctions add, emissions add; pre-integration per member; per-channel projections; the first isosurface
 of any member; a member's 2D transfer function of value and gradient magnitude, :class:`Tables2D`).  Members
-on one grid travel four to a texture (:mod:`..grid.field_textures`).
+on one grid travel four to a texture (:mod:`..grid.field_textures`).  A member with its own direction matrix
+is sampled, box-tested and differentiated in its own frame through ``FIELDS_ORIENTED`` (its gradient turned
+back to the shared frame, :mod:`dvr_gl.fields.layers`); such a frame's rays span the union box (no ray bounds).
 
 What a frame of several fields does not do (refused in one line by :func:`.fields_check.check`): bricking
 (the members' textures must fit the texture budget and the GL limit whole), rays longer than one pass,
@@ -127,12 +129,14 @@ def bound_rays(renderer, scene, defines: dict, textures: dict) -> tuple[dict, di
     (a block is empty where its member's extinction is zero for every value the filter can make there; the
     faces of every member's blocks, each on its own grid, drawn into one MIN-blended target: the first entry
     into and the last exit from any member's non-empty blocks).  Where ``renderer.acceleration`` is "on", or
-    "auto" finds :data:`AUTO_EMPTY_FRACTION` of the blocks empty.  The defines and textures to add."""
+    "auto" finds :data:`AUTO_EMPTY_FRACTION` of the blocks empty.  Not where a member is oriented (its direction
+    differs from the first's, :mod:`dvr_gl.fields.layers`): its blocks are not axis-aligned in the shared frame,
+    and the rays span the union box (every sample taken).  The defines and textures to add."""
     r = scene.renderer
     mode = {True: "on", False: "off"}.get(r.acceleration, r.acceleration) if isinstance(r.acceleration, bool) \
         else r.acceleration
-    if "COMPOSITE_EMISSION" not in defines or mode == "off":
-        return defines, {}
+    if "COMPOSITE_EMISSION" not in defines or mode == "off" or scene.field.oriented:
+        return defines, {}  # an oriented member's blocks are not axis-aligned here: the rays span the union box
     preint = textures.get("u_field_preint")
     occupancy = []
     for i, layer in enumerate(scene.layers):

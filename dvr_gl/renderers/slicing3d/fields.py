@@ -8,7 +8,8 @@ gradient, and mixed (extinctions add, emissions add; a field contributes only in
 Pre-integrated classification mixes the fields' own tables by the contract's rule.  A label member is
 classified by the label rule (``common/labels.glsl``) and its colour table, an rgb member by the data's colour
 and its transfer function of ``x``, as in the ray caster (the same GLSL, the same tables:
-:func:`~dvr_gl.renderers.grid.field_textures.frame_field_textures`).
+:func:`~dvr_gl.renderers.grid.field_textures.frame_field_textures`).  A field with its own direction matrix is
+sampled in its own frame the same way (``FIELDS_ORIENTED``), the slices spanning the union's bounding box.
 
 What the mixture cannot take here is refused in one line (:func:`check`): pre-classified voxels, scattering
 (half-angle slicing and the light volume march one field), and fields whose textures exceed the texture budget

@@ -12,6 +12,10 @@
 // shading.glsl, and u_gradient_reference (GRADIENT_OPACITY).  Gradients are central differences one voxel
 // of the member's grid apart (world units), as dvr_gl.reference takes them; gradient = "texture" gives the
 // same field (the filters are linear in the samples), so several fields always take them here.
+//   FIELDS_ORIENTED: some member's direction differs from the first's (dvr_gl.fields.layers): group g's
+//   texture is read at q = u_field_turn[g] * p + u_field_shift[g], p in the shared frame, q in its own frame
+//   (identity and zero for the others); its box is tested, and its gradient taken, there, the gradient turned
+//   back by transpose(u_field_turn[g]).  Without it (every direction the same) the code is the one of old.
 
 #if defined(FIELD_TABLES_2D) && !defined(NEEDS_GRADIENT)
 #define NEEDS_GRADIENT  // a 2D member's table reads its gradient's magnitude
@@ -25,6 +29,13 @@ uniform vec3 u_field_spacing[NUM_FIELD_GROUPS];  // world units per voxel
 uniform vec3 u_field_box_lo[NUM_FIELD_GROUPS];   // where the group's members contribute (world units)
 uniform vec3 u_field_box_hi[NUM_FIELD_GROUPS];
 uniform float u_field_value_scale[NUM_FIELDS];   // member's data value = texel * scale + offset
+#ifdef FIELDS_ORIENTED
+uniform mat3 u_field_turn[NUM_FIELD_GROUPS];     // shared frame -> the group's own frame: q = turn p + shift
+uniform vec3 u_field_shift[NUM_FIELD_GROUPS];
+#define FIELD_OWN(G, P) (u_field_turn[G] * (P) + u_field_shift[G])
+#else
+#define FIELD_OWN(G, P) (P)
+#endif
 uniform float u_field_value_offset[NUM_FIELDS];
 
 uniform sampler2D u_field_lut;                   // one row per member: (r, g, b, sigma) at N values
@@ -48,6 +59,7 @@ struct FieldTexels {
     bool inside[NUM_FIELD_GROUPS];
 };
 
+// (P in group G's own frame)
 #define FIELD_GROUP_TEXEL(G, P) sample_texture_in(u_field_group[G], (P) * u_field_scale[G] + u_field_offset[G], \
                                                   ivec3(u_field_dims[G]))
 
@@ -57,11 +69,12 @@ bool field_group_inside(int g, vec3 p) {
 #ifdef FIELDS_SHARE_BOX
     return true;  // every member's box is the union box, which the samples lie in
 #endif
-    return all(greaterThanEqual(p, u_field_box_lo[g])) && all(lessThanEqual(p, u_field_box_hi[g]));
+    vec3 q = FIELD_OWN(g, p);
+    return all(greaterThanEqual(q, u_field_box_lo[g])) && all(lessThanEqual(q, u_field_box_hi[g]));
 }
 
-// Group g's texels at world point p + the world offset `shift` (g a constant after unrolling).
-vec4 field_group_texels(int g, vec3 p) {
+// Group g's texels at point p of its own frame (g a constant after unrolling).
+vec4 field_group_texels_own(int g, vec3 p) {
     // samplers by constant indices: one branch per group, the rest compiled out
     if (g == 0) return FIELD_GROUP_TEXEL(0, p);
 #if NUM_FIELD_GROUPS > 1
@@ -80,6 +93,11 @@ vec4 field_group_texels(int g, vec3 p) {
     if (g == 5) return FIELD_GROUP_TEXEL(5, p);
 #endif
     return vec4(0.0);
+}
+
+// Group g's texels at shared-frame point p.
+vec4 field_group_texels(int g, vec3 p) {
+    return field_group_texels_own(g, FIELD_OWN(g, p));
 }
 
 FieldTexels field_texels(vec3 p) {
@@ -127,9 +145,22 @@ uniform float u_field_label_row[NUM_FIELDS];
 
 #define FIELD_LABEL_SAMPLE(G) label_sample(u_field_group[G], lg, p, gradient)
 
+#ifdef FIELDS_ORIENTED
+int field_label_own(int i, int g, vec3 p, out vec3 gradient);
+#endif
+
 // Member i's label at p and its indicator's gradient (per world unit, pointing into the label).
 int field_label(int i, vec3 p, out vec3 gradient) {
     int g = FIELD_GROUP[i];
+#ifdef FIELDS_ORIENTED
+    int label = field_label_own(i, g, FIELD_OWN(g, p), gradient);
+    gradient = gradient * u_field_turn[g];  // A^T g: back into the shared frame
+    return label;
+}
+
+// Member i's label at point p of its group g's own frame and its indicator's gradient there.
+int field_label_own(int i, int g, vec3 p, out vec3 gradient) {
+#endif
     LabelGrid lg = label_grid(FIELD_CHANNEL[i], u_field_value_scale[i], u_field_value_offset[i],
                               ivec3(u_field_dims[g]), u_field_scale[g], u_field_offset[g]);
     if (g == 0) return FIELD_LABEL_SAMPLE(0);
@@ -192,12 +223,27 @@ FieldGradients field_gradients(vec3 p) {
     FieldGradients g;
     for (int k = 0; k < NUM_FIELD_GROUPS; ++k) {
         vec3 h = u_field_spacing[k];
+#ifdef FIELDS_ORIENTED
+        // along the group's own axes, then turned back: (x, y, z) = A^T (x', y', z') for all four channels
+        vec3 q = FIELD_OWN(k, p);
+        vec4 x = (field_group_texels_own(k, q + vec3(h.x, 0.0, 0.0)) - field_group_texels_own(k, q - vec3(h.x, 0.0, 0.0)))
+                 / (2.0 * h.x);
+        vec4 y = (field_group_texels_own(k, q + vec3(0.0, h.y, 0.0)) - field_group_texels_own(k, q - vec3(0.0, h.y, 0.0)))
+                 / (2.0 * h.y);
+        vec4 z = (field_group_texels_own(k, q + vec3(0.0, 0.0, h.z)) - field_group_texels_own(k, q - vec3(0.0, 0.0, h.z)))
+                 / (2.0 * h.z);
+        mat3 a = u_field_turn[k];
+        g.x[k] = a[0][0] * x + a[0][1] * y + a[0][2] * z;
+        g.y[k] = a[1][0] * x + a[1][1] * y + a[1][2] * z;
+        g.z[k] = a[2][0] * x + a[2][1] * y + a[2][2] * z;
+#else
         g.x[k] = (field_group_texels(k, p + vec3(h.x, 0.0, 0.0)) - field_group_texels(k, p - vec3(h.x, 0.0, 0.0)))
                  / (2.0 * h.x);
         g.y[k] = (field_group_texels(k, p + vec3(0.0, h.y, 0.0)) - field_group_texels(k, p - vec3(0.0, h.y, 0.0)))
                  / (2.0 * h.y);
         g.z[k] = (field_group_texels(k, p + vec3(0.0, 0.0, h.z)) - field_group_texels(k, p - vec3(0.0, 0.0, h.z)))
                  / (2.0 * h.z);
+#endif
     }
     return g;
 }

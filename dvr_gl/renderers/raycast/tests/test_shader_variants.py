@@ -77,8 +77,9 @@ FRAME_AXES = {"count_samples": (False, True), "bricked": (False, True), "depth":
 
 
 # The axis of several fields (dvr_gl/renderers/raycast/fields.py): none, two channels on one grid, a scalar, a
-# label map and a colour volume, two channels one of them with a 2D transfer function; their frames are never
-# bricked, count nothing and bound their rays or not.
+# label map and a colour volume, two channels one of them with a 2D transfer function, a label map beside a
+# turned copy of it (its own direction matrix: FIELDS_ORIENTED); their frames are never bricked, count nothing
+# and bound their rays or not.
 FIELDS = "several fields"
 
 
@@ -88,6 +89,8 @@ def field_tables(folder: Path, which: str | None) -> list:
         return []
     if which == "two channels":
         return [{"path": str(folder / "volume.npy")}, {"path": str(folder / "volume.npy")}]
+    if which == "a turned member":
+        return [{"path": str(folder / "volume.npy")}, {"path": str(folder / "turned.mha"), "role": "label"}]
     if which == "a 2d member":
         return [{"path": str(folder / "volume.npy"),
                  "transfer_function": {"boxes_2d": [[0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.5]]}},
@@ -177,6 +180,9 @@ def folder(tmp_path_factory) -> Path:
     np.save(folder / "labels.npy", (rng.random((8, 8, 8)) * 3).astype(np.uint8))
     np.save(folder / "colour.npy", rng.random((8, 8, 8, 4), dtype=np.float32))
     (folder / "triangle.obj").write_text("v 1 1 1\nv 6 1 1\nv 1 6 6\nf 1 2 3\n")
+    header = ("ObjectType = Image\nNDims = 3\nDimSize = 8 8 8\nElementType = MET_UCHAR\n"
+              "TransformMatrix = 0 1 0 -1 0 0 0 0 1\nElementDataFile = LOCAL\n")  # a quarter turn about z
+    (folder / "turned.mha").write_bytes(header.encode() + (rng.random(512) * 3).astype(np.uint8).tobytes())
     return folder
 
 
@@ -212,7 +218,8 @@ def test_every_define_combination_compiles(shared_gl_context, folder):
     make_current(shared_gl_context)
     axes = {**setting_axes(), "geometry": ({}, {"renderer.geometry": [{"path": str(folder / "triangle.obj")}]}),
             "transfer function 2d": ({}, {"transfer_function.boxes_2d": [[0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.5]]}),
-            "fields": ({}, {FIELDS: "two channels"}, {FIELDS: "three roles"}, {FIELDS: "a 2d member"})}
+            "fields": ({}, {FIELDS: "two channels"}, {FIELDS: "three roles"}, {FIELDS: "a 2d member"},
+                       {FIELDS: "a turned member"})}
     every = {**axes, **FRAME_AXES}
     scenes = {}
 
