@@ -39,9 +39,8 @@ from ..fields.series import TimeSeries
 from ..image import composite_over, encode_8bit
 from ..picking import Pick, pick
 from ..renderers import create_renderer, registry
-from ..scene.settings import with_sample_distance
 from ..viewer import navigation
-from ..viewer.refinement import FULL, FramePlan, RefinementController
+from ..viewer.refinement import FULL, FramePlan, RefinementController, plan_scene
 from ..viewer.timeline import at_step
 
 WHEEL_PIXELS_PER_STEP = 100.0  # a wheel notch in a browser, CSS pixels (jupyter_rfb turns lines and pages to pixels)
@@ -352,13 +351,8 @@ class VolumeWidget(RemoteFrameBuffer):
             controls.show_status()
 
     def frame_scene(self, plan: FramePlan):
-        """The scene a frame of ``plan`` renders: fewer pixels, a longer sample distance."""
-        s, level = self._scene, plan.level
-        width, height = level.image_size(s.image.width, s.image.height)
-        renderer = s.renderer
-        if level.distance_factor != 1.0:
-            renderer = with_sample_distance(renderer, s.field, factor=level.distance_factor)
-        return s.replace(image=dataclasses.replace(s.image, width=width, height=height), renderer=renderer)
+        """The scene a frame of ``plan`` renders: the viewer's rule (fewer pixels, a longer sample distance)."""
+        return plan_scene(self._scene, plan)
 
     def _render(self, plan: FramePlan) -> tuple[np.ndarray, float]:
         """Premultiplied rgba of ``plan``'s frame, and the seconds the renderer took."""

@@ -32,7 +32,6 @@ import numpy as np
 from ..errors import DvrError, install_hint
 from ..image import composite_over
 from ..renderers import create_renderer, registry
-from ..scene.settings import with_sample_distance
 from ..transfer_function_2d import is_2d
 from . import navigation, settings
 from .display import ImageDisplay
@@ -41,7 +40,7 @@ from .imgui_backend import load_imgui
 from .inspect import VIEWER_ANNOTATIONS, KeyframeRecorder, PickProbe, annotated_display, cursor_pixel, pick_text
 from .keys import help_lines, key_table
 from .layout import Layout, layout, window_size
-from .refinement import FramePlan, RefinementController
+from .refinement import FramePlan, RefinementController, plan_scene
 from .screenshots import write_screenshot
 from .tf_editor import TransferFunctionEditor
 from .tf_editor_2d import BoxEditor2D, BoxTransferFunction2D, renders_2d
@@ -608,15 +607,8 @@ class Viewer:
         return self.renderers[name]
 
     def frame_scene(self, plan: FramePlan):
-        """The scene a frame of ``plan`` renders: fewer pixels, a longer sample distance, another seed."""
-        s, level = self.scene, plan.level
-        w, h = level.image_size(s.image.width, s.image.height)
-        renderer = s.renderer
-        if level.distance_factor != 1.0:
-            renderer = with_sample_distance(renderer, s.field, factor=level.distance_factor)
-        if plan.jitter_pass:
-            renderer = dataclasses.replace(renderer, jitter_seed=s.renderer.jitter_seed + plan.jitter_pass)
-        return s.replace(image=dataclasses.replace(s.image, width=w, height=h), renderer=renderer)
+        """The scene a frame of ``plan`` renders (:func:`~dvr_gl.viewer.refinement.plan_scene`)."""
+        return plan_scene(self.scene, plan)
 
     def render(self, plan: FramePlan) -> float | None:
         """Render and show a frame of ``plan``; the seconds it took in the renderer (None if refused)."""

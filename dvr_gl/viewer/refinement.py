@@ -21,6 +21,7 @@ window stays responsive between steps.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -198,3 +199,18 @@ class RefinementController:
     @property
     def passes_done(self) -> int:
         return self._passes_done
+
+
+def plan_scene(scene, plan: FramePlan):
+    """The scene a frame of ``plan`` renders: fewer pixels, a longer sample distance, another jitter seed (the
+    viewer's and the notebook widget's frames alike)."""
+    from ..scene.settings import with_sample_distance
+
+    level = plan.level
+    width, height = level.image_size(scene.image.width, scene.image.height)
+    renderer = scene.renderer
+    if level.distance_factor != 1.0:
+        renderer = with_sample_distance(renderer, scene.field, factor=level.distance_factor)
+    if plan.jitter_pass:
+        renderer = dataclasses.replace(renderer, jitter_seed=scene.renderer.jitter_seed + plan.jitter_pass)
+    return scene.replace(image=dataclasses.replace(scene.image, width=width, height=height), renderer=renderer)
