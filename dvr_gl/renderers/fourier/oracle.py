@@ -1,14 +1,15 @@
 """The same-slices reference of ``fourier``: the spectrum interpolated in float64 numpy at the positions
-the GL slice samples (the same kernel, wrap-around and Hermitian half), then the same host steps
-(:mod:`.projection`).  Its difference from the renderer is the spectrum's float32 texture and the
-shader's float32 weights; the model itself is judged by closed forms and the references
+the GL slice samples (the same kernel, wrap-around and Hermitian half) times the filter's transform,
+then the same host steps (:mod:`.projection`).  Its difference from the renderer is the renderer's
+complex64 spectrum and float32 texture, the shader's float32 weights (the windowed kernels' from a
+table, within 1e-7) and filter; the model itself is judged by closed forms and the references
 (``tests/test_fourier.py``)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from .projection import Frame, channels, clips_exactly, finish, shell_integrals, weighted
+from .projection import Frame, channels, clips_exactly, filtered, finish, shell_integrals, weighted
 from .spectrum import WINDOWED, Spectrum, kernel
 
 
@@ -86,5 +87,6 @@ def oracle(scene) -> np.ndarray:
         derivatives = {c: interpolate(spectrum.spectra[c], spectrum.dims, g, r.slice_interpolation, direction,
                                       r.padding, r.slice_taps)
                        for c in weighted(scene)}
+    slices, derivatives = filtered(scene, frame, slices, derivatives)
     shell = shell_integrals(scene, data, border) if clips_exactly(scene) else None
     return finish(scene, frame, spectrum, slices, offsets, derivatives, shell)

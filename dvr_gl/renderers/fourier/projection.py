@@ -31,7 +31,7 @@ from ...rays import RayBatch
 from ...reference.model import gradient_magnitudes
 from ...scene.model import GAUSSIAN_RADIUS
 from ...transfer_function import projected_rgba, xray_rgba
-from .spectrum import padded_length
+from .spectrum import fft_module, padded_length
 
 
 def filter_transform(scene, w: np.ndarray) -> np.ndarray:
@@ -100,8 +100,10 @@ class Frame:
 
     @functools.cached_property
     def u(self) -> np.ndarray:
-        """The grid's frequencies along the image's rows (cycles per world unit)."""
-        return np.fft.fftfreq(self.size[0], self.pixel)
+        """The grid's frequencies along the image's rows (cycles per world unit): the first ``W' / 2 + 1`` of
+        ``fftfreq`` (the projection is real, its transform Hermitian: the other half is the conjugate of
+        this one mirrored, and the inverse is ``irfft2``)."""
+        return np.fft.fftfreq(self.size[0], self.pixel)[:self.size[0] // 2 + 1]
 
     @functools.cached_property
     def v(self) -> np.ndarray:
@@ -110,8 +112,36 @@ class Frame:
 
     @functools.cached_property
     def w(self) -> np.ndarray:
-        """The slice's world frequencies ``(H', W', 3)`` (made when first asked: the limits need only the size)."""
+        """The slice's world frequencies ``(H', W' / 2 + 1, 3)`` (made when first asked: the limits need only
+        the size)."""
         return self.u[None, :, None] * self.right + self.v[:, None, None] * self.down
+
+    @property
+    def columns(self) -> int:
+        """The half slice's columns, ``W' / 2 + 1``: what the GL pass draws."""
+        return self.size[0] // 2 + 1
+
+    def chords(self, scene) -> tuple[np.ndarray, np.ndarray]:
+        """``(H, W)`` each pixel's chord through the volume's box (0 where it misses) and its midpoint's view
+        depth from the eye, in float64: the rays are parallel and start on the eye's plane, so the slabs'
+        parameters are sums of a row's and a column's term (a few ms at 512x512, where the general rays'
+        took 150)."""
+        img = scene.image
+        lo, hi = (np.asarray(v, float) for v in scene.volume.bounds)
+        i = np.arange(img.width) * self.image_pixel
+        j = np.arange(img.height) * self.image_pixel
+        enter, leave = np.full((img.height, img.width), -np.inf), np.full((img.height, img.width), np.inf)
+        for a in range(3):
+            o = self.origin[a] + j[:, None] * self.down[a] + i[None, :] * self.right[a]  # (H, W)
+            d = self.forward[a]
+            if d == 0.0:  # along the slab: inside while the origin is
+                outside = (o < lo[a]) | (o > hi[a])
+                leave = np.where(outside, -np.inf, leave)
+                continue
+            ta, tb = (lo[a] - o) / d, (hi[a] - o) / d
+            enter, leave = np.maximum(enter, np.minimum(ta, tb)), np.minimum(leave, np.maximum(ta, tb))
+        chord = np.maximum(leave - enter, 0.0)
+        return chord, np.where(chord > 0.0, 0.5 * (enter + leave), 0.0)
 
     def depth_direction(self, spectrum) -> np.ndarray:
         """The view axis in the spectrum's index units per world frequency (``f M h``, x, y, z): the
@@ -119,7 +149,7 @@ class Frame:
         return self.forward * np.asarray(spectrum.dims, float) * self.spacing
 
     def grid_positions(self, spectrum) -> np.ndarray:
-        """``g = w M h``: where the slice samples the spectrum, in its index units ``(H', W', 3)`` (x, y, z)."""
+        """``g = w M h``: where the slice samples the spectrum, in its index units ``(H', W' / 2 + 1, 3)``."""
         return self.w * (np.asarray(spectrum.dims, float) * self.spacing)
 
 
@@ -251,16 +281,29 @@ def weighted(scene) -> tuple[int, ...]:
     return shaded + tuple(first + k for k in range(len(shaded)))
 
 
+def filtered(scene, frame: Frame, slices: list[np.ndarray], derivatives=None):
+    """``H = S Phi`` from the interpolated spectra ``S`` (``slices``), and with the depth cue's
+    ``derivatives`` (channel -> ``d``, the interpolant's derivative along ``f M h``) ``f . grad H = d Phi + S
+    (f . grad Phi)``: what the GL slice pass returns (``shaders/slice.frag``), in float64."""
+    phi = filter_transform(scene, frame.w)
+    out = [s * phi for s in slices]
+    if derivatives is None:
+        return out, None
+    dphi = filter_derivative(scene, frame.w, frame.forward)
+    return out, {c: d * phi + slices[c] * dphi for c, d in derivatives.items()}
+
+
 def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, derivatives=None,
            shell=None) -> np.ndarray:
-    """The image ``(H, W, 4)`` float64 from the interpolated spectra ``slices`` (``(H', W')`` complex, one per
-    channel): the filter, the phase, the inverse transform, the constants taken out before the transform
-    (``offsets``, :func:`channels`) added back per chord, and the compositing mode's classification.
+    """The image ``(H, W, 4)`` float64 from the filtered slices ``slices`` (``H = S Phi``, :func:`filtered`;
+    ``(H', W' / 2 + 1)`` complex, one per channel): the phase, the inverse transform (``irfft2``), the
+    constants taken out before the transform (``offsets``, :func:`channels`) added back per chord, and the
+    compositing mode's classification.
 
     Depth cueing (``renderer.depth_cue``, conventions: a weight ``a + b z`` linear in the view depth ``z``):
     the projection of ``((x - x_c).f) g`` has the transform ``(i / 2 pi) f.grad H`` on the slice (``H = S
-    Phi``, Totsuka and Levoy), so ``derivatives`` (channel -> slice) holds the spectrum interpolated and
-    differentiated along ``f M h`` (the kernel's derivative) for the :func:`weighted` channels.
+    Phi``, Totsuka and Levoy), so ``derivatives`` (channel -> slice) holds ``f . grad H`` (:func:`filtered`)
+    for the :func:`weighted` channels.
 
     Hemispherical shading (``renderer.hemispherical_shading``,
     :class:`dvr_gl.reference.model.HemisphericalShading`): ``ambient E + diffuse h (G + grad E . L) / 2``;
@@ -271,28 +314,27 @@ def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, der
     the channels are), taken off when the channels have no compensating ghost layer (:func:`clips_exactly`)."""
     img, r = scene.image, scene.renderer
     w, h = img.width, img.height
-    phi = filter_transform(scene, frame.w)
     centre = spectrum.centre(scene.volume)
     shift = frame.origin - centre
     # exp(2 pi i w.(X_00 - x_c)), separable in u and v (float64: the phase reaches thousands of turns)
     phase = (np.exp(2j * math.pi * frame.v * (shift @ frame.down))[:, None]
              * np.exp(2j * math.pi * frame.u * (shift @ frame.right))[None, :])
     scale = phase / (frame.pixel * frame.pixel)  # du dv W' H' = 1 / p^2
-    rays = RayBatch.for_camera(scene.camera, w, h, scene.volume.bounds)
-    chord = np.maximum(rays.t1 - rays.t0, 0.0).reshape(h, w)
+    chord, middle = frame.chords(scene)
     cued = derivatives is not None
     if cued:
         forward = frame.forward
         eye = np.asarray(scene.camera.eye, float)
         a, b = cue_line(scene)
         z_c = float((centre - eye) @ forward)
-        mid = (rays.origins + 0.5 * (rays.t0 + rays.t1)[:, None] * rays.directions).reshape(h, w, 3)
-        chord_weight = a + b * ((mid - eye) @ forward)  # the mean weight over each chord: w is linear
-        dphi = filter_derivative(scene, frame.w, forward)
+        chord_weight = a + b * middle  # the mean weight over each chord: w is linear
+    fft, _ = fft_module()
+    threads = {"workers": -1} if fft is not np.fft else {}
 
     def project(spectral):
         k = frame.oversampling
-        return np.fft.ifft2(spectral * scale).real[:(h - 1) * k + 1:k, :(w - 1) * k + 1:k]
+        image = fft.irfft2(spectral * scale, s=frame.size[::-1], **threads)
+        return image[:(h - 1) * k + 1:k, :(w - 1) * k + 1:k]
 
     def integral(c, slope=None, weight=cued):
         """The line integral of channel ``c`` (depth-weighted if ``weight``), or of its central differences
@@ -305,11 +347,10 @@ def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, der
             dk = 1j * np.sum(slope * 2.0 * math.pi * frame.forward * np.cos(2.0 * math.pi * frame.w * spacing), axis=-1)
             constant = 0.0
         outside = 0.0 if shell is None else shell[..., c]  # the whole lines' parts beyond the box (exact clip)
-        plain = project(k * s * phi)
+        plain = project(k * s)
         if not weight:
             return plain + constant - outside
-        d = derivatives[c]
-        moment = project((1j / (2.0 * math.pi)) * (k * (phi * d + s * dphi) + dk * s * phi))
+        moment = project((1j / (2.0 * math.pi)) * (k * derivatives[c] + dk * s))
         return (a + b * z_c) * plain + b * moment + constant * chord_weight - outside
 
     shaded = shaded_channels(scene)
@@ -328,7 +369,9 @@ def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, der
     if r.compositing == "average":
         short = hit & (chord < SHORT_CHORD_VOXELS * float(np.min(scene.volume.spacing)))
         if short.any():
-            sums[0][short] = direct_integrals(scene, rays, np.flatnonzero(short))
+            rows = np.flatnonzero(short)
+            sums[0][short] = direct_integrals(scene, RayBatch.for_camera(scene.camera, w, h, scene.volume.bounds,
+                                                                         pixels=rows), np.arange(len(rows)))
         out[hit] = projected_rgba(scene.transfer_function, sums[0][hit] / chord[hit])
     else:  # the X-ray of the classified voxels: (sigma c, sigma) integrated; the band limit rings (Gibbs)
         # where the data jumps, which can take an integral of non-negative voxels below zero: clamped

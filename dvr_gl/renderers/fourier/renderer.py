@@ -21,7 +21,7 @@ from ...gl.shaders import create_program, shader_root
 from ...sandbox import check_bytes
 from ..base import GLRenderer
 from .projection import Frame, Shell, channels, clips_exactly, finish, ghost_layers, weighted
-from .spectrum import KAISER_BETA, WINDOWED, Spectrum, kaiser_bessel_beta
+from .spectrum import WINDOWED, Spectrum
 
 #: Channels x M log2 M of the padded volume's transform (the first frame's): 8e7-1.3e8 a second measured on
 #: two shared cores (240^3 to 800^3 spectra; 800^3: 113 s); the bound, about an hour there.
@@ -32,20 +32,24 @@ SHADERS = (shader_root(__file__),)
 
 
 class SpectrumTextures:
-    """The spectra as RGBA32F 3D textures ``(Mx / 2 + 1, My, Mz)``, two complex channels each."""
+    """The spectra as 3D textures ``(Mx / 2 + 1, My, Mz)``: RGBA32F of two complex channels each, and an odd
+    last channel alone in an RG32F texture (read as ``(re, im, 0, 1)``: the slice's second channel there is
+    never used)."""
 
     def __init__(self, ctx, spectrum: Spectrum):
         self.spectrum = spectrum
         self.textures = []
         halves = spectrum.spectra
         for i in range(0, len(halves), 2):
-            pair = halves[i:i + 2] + [np.zeros_like(halves[0])] * (2 - len(halves[i:i + 2]))
-            texels = np.empty(pair[0].shape + (4,), np.float32)
-            for j, half in enumerate(pair):
-                texels[..., 2 * j] = half.real
-                texels[..., 2 * j + 1] = half.imag
+            pair = [np.ascontiguousarray(h, np.complex64) for h in halves[i:i + 2]]
             mz, my, mxh = pair[0].shape
-            tex = ctx.texture3d((mxh, my, mz), 4, np.ascontiguousarray(texels).tobytes(), dtype="f4")
+            if len(pair) == 2:
+                texels = np.empty(pair[0].shape + (2,), np.complex64)  # re, im, re, im
+                texels[..., 0], texels[..., 1] = pair
+            else:
+                texels = pair[0]
+            tex = ctx.texture3d((mxh, my, mz), 2 * len(pair), texels.view(np.float32), dtype="f4")
+            del texels
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
             self.textures.append(tex)
 
@@ -66,6 +70,28 @@ class ShellTexture:
         texels[..., :padded.shape[-1]] = padded
         self.dims = padded.shape[2::-1][:3]  # (x, y, z)
         self.texture = ctx.texture3d(self.dims, 4, texels.tobytes(), dtype="f4")
+        self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+
+    def release(self):
+        self.texture.release()
+
+
+class KernelTable:
+    """The windowed slice kernel (:func:`.spectrum.kernel`) and its derivative at ``SIZE`` evenly spaced
+    ``|x|`` from 0 to its half-width, an RG32F texture ``(SIZE, 1)`` the slice shader interpolates linearly:
+    within ``h^2 max|k''| / 8`` of the kernel, about 1e-8 (a few the kernel's own evaluation in float32
+    took 30 terms of two Bessel series a weight, 12 weights a slice sample)."""
+
+    SIZE = 8192
+
+    def __init__(self, ctx, interpolation: str, padding: float, taps: int):
+        from .spectrum import kernel
+
+        x = np.linspace(0.0, taps / 2.0, self.SIZE)
+        k = kernel(interpolation, padding, taps)
+        values = np.stack([k(x), k(x, derivative=True)], axis=-1)
+        values[-1] = 0.0  # the half-width: zero, and beyond it
+        self.texture = ctx.texture((self.SIZE, 1), 2, values.astype(np.float32), dtype="f4")
         self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
 
     def release(self):
@@ -127,7 +153,7 @@ class FourierRenderer(GLRenderer):
         taps = r.slice_taps if r.slice_interpolation in WINDOWED else 4
         spectrum = self._cached("spectrum", (data, r.slice_interpolation, r.padding, taps),
                                 lambda: fresh.append(1) or Spectrum(data, r.slice_interpolation, r.padding, border,
-                                                                    taps))
+                                                                    taps, np.float32))
         self.report(2, 3)
         textures = self._cached("spectrum textures", (spectrum,), lambda: SpectrumTextures(self.ctx, spectrum))
         start = time.perf_counter()
@@ -135,29 +161,41 @@ class FourierRenderer(GLRenderer):
         wf, hf = frame.size
         cued = r.depth_cue < 1.0
         count = len(textures.textures)
+        windowed = r.slice_interpolation in WINDOWED
+        gaussian = r.filter == "gaussian"
         defines = {"TRILINEAR": r.slice_interpolation == "trilinear", "TEXTURES": str(count), "SLICE_TAPS": str(taps),
-                   "WINDOWED_SINC": r.slice_interpolation == "windowed_sinc",
-                   "KAISER_BESSEL": r.slice_interpolation == "kaiser_bessel", "DEPTH_CUE": cued}
-        beta = KAISER_BETA if r.slice_interpolation == "windowed_sinc" else kaiser_bessel_beta(r.padding, taps)
+                   "TABLE": str(KernelTable.SIZE) if windowed else "", "DEPTH_CUE": cued,
+                   "FILTER_GAUSSIAN": gaussian, "FILTER_POWER": "" if gaussian else
+                   str({"linear": 2, "cubic_bspline": 4}[r.filter])}
         program = create_program(self.ctx, "fullscreen.vert", "slice.frag",
                                  {k: v for k, v in defines.items() if v}, roots=SHADERS)
         attachments = (4,) * (count * (2 if cued else 1))
-        _, fbo = self.target("slice", wf, hf, attachments)
+        columns = frame.columns  # the half slice: the projection's transform is Hermitian
+        _, fbo = self.target("slice", columns, hf, attachments)
         fbo.use()
         for unit, tex in enumerate(textures.textures):
             tex.use(location=unit)
         program["u_spectra"].value = list(range(count)) if count > 1 else 0  # a one-element array reads as one
+        if windowed:  # the unit after the spectra's
+            table = self._cached("kernel table", (r.slice_interpolation, r.padding, taps),
+                                 lambda: KernelTable(self.ctx, r.slice_interpolation, r.padding, taps))
+            table.texture.use(location=count)
+            program["u_kernel"].value = count
+        spacing = np.asarray(scene.volume.spacing, float)
         self.bind(program, {"u_dims": spectrum.dims, "u_size": frame.size,
                             "u_frequency_step": (1.0 / (wf * frame.pixel), 1.0 / (hf * frame.pixel)),
                             "u_right": tuple(frame.right), "u_down": tuple(frame.down),
-                            "u_grid_scale": tuple(np.asarray(spectrum.dims) * frame.spacing), "u_kaiser_beta": beta,
-                            **({"u_depth_dir": tuple(frame.depth_direction(spectrum))} if cued else {})}, {})
+                            "u_grid_scale": tuple(np.asarray(spectrum.dims) * frame.spacing),
+                            "u_spacing": tuple(spacing), "u_filter_scale": float(np.prod(spacing)),
+                            **({"u_kernel_width": r.kernel_width} if gaussian else {}),
+                            **({"u_depth_dir": tuple(frame.depth_direction(spectrum)),
+                                "u_forward": tuple(frame.forward)} if cued else {})}, {})
         quad = self.ctx.vertex_array(program, [])
         quad.render(moderngl.TRIANGLES, vertices=3)
         quad.release()
         read = []
         for i in range(len(attachments)):
-            raw = self.read(fbo, wf, hf, attachment=i, flip=False)  # fragment row j: the slice's row j
+            raw = self.read(fbo, columns, hf, attachment=i, flip=False)  # fragment row j: the slice's row j
             read += [raw[..., 0] + 1j * raw[..., 1], raw[..., 2] + 1j * raw[..., 3]]
         # the values (two channels a texture, the last pair padded), then their derivatives
         slices = read[:len(spectrum.spectra)]

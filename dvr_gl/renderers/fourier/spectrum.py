@@ -141,12 +141,14 @@ def kernel_transform(interpolation: str, xi: np.ndarray, padding: float = 2.0, t
 
 
 class Spectrum:
-    """The half spectra ``(Mz, My, Mx // 2 + 1)`` complex128 of ``channels`` (``(nz, ny, nx, C)`` float),
-    pre-multiplied for ``interpolation`` and zero-padded by ``padding``; ``dims`` ``(Mx, My, Mz)``,
-    ``start`` the volume's first index in the padded grid per axis (x, y, z), ``seconds`` and ``bytes``
-    what making it took."""
+    """The half spectra ``(Mz, My, Mx // 2 + 1)`` of ``channels`` (``(nz, ny, nx, C)`` float),
+    pre-multiplied for ``interpolation`` and zero-padded by ``padding``: complex128 from float64 (the
+    oracle's), complex64 from ``dtype=np.float32`` (the renderer's, whose textures are float32 anyway: half
+    the memory and about half the transform's time).  ``dims`` ``(Mx, My, Mz)``, ``start`` the volume's
+    first index in the padded grid per axis (x, y, z), ``seconds`` and ``bytes`` what making it took."""
 
-    def __init__(self, channels: np.ndarray, interpolation: str, padding: float, border: int = 0, taps: int = 4):
+    def __init__(self, channels: np.ndarray, interpolation: str, padding: float, border: int = 0, taps: int = 4,
+                 dtype=np.float64):
         import time
 
         start_time = time.perf_counter()
@@ -160,17 +162,16 @@ class Spectrum:
         weights = []
         for axis, (m, k, s) in enumerate(zip(self.dims, n, self.start)):
             xi = (np.arange(k) + s - m / 2.0) / m
-            weights.append(1.0 / kernel_transform(interpolation, xi, padding, taps))
+            weights.append((1.0 / kernel_transform(interpolation, xi, padding, taps)).astype(dtype))
         premultiply = weights[2][:, None, None] * weights[1][None, :, None] * weights[0][None, None, :]
         self.spectra = []
+        complex_type = np.complex64 if np.dtype(dtype) == np.float32 else np.complex128
         for c in range(count):
-            padded = np.zeros((mz, my, mx))
-            sz, sy, sx = self.start[2], self.start[1], self.start[0]
-            padded[sz:sz + nz, sy:sy + ny, sx:sx + nx] = channels[..., c] * premultiply
-            # the padded grid's centre is the transform's origin: shift it to index 0
-            shifted = np.fft.ifftshift(padded)
-            kwargs = {"workers": -1} if self.library == "scipy.fft" else {}
-            self.spectra.append(fft.rfftn(shifted, **kwargs))
+            padded = np.zeros((mz, my, mx), dtype)
+            _place_shifted(padded, channels[..., c] * premultiply, self.start[::-1])
+            kwargs = {"workers": -1, "overwrite_x": True} if self.library == "scipy.fft" else {}
+            self.spectra.append(fft.rfftn(padded, **kwargs).astype(complex_type, copy=False))
+            del padded
         self.border = border  # layers of ghosts around the volume's samples in ``channels``
         self.seconds = time.perf_counter() - start_time
         self.bytes = sum(s.nbytes for s in self.spectra)
@@ -180,3 +181,22 @@ class Spectrum:
         h = np.asarray(volume.spacing, float)
         first = np.asarray(volume.origin, float) - self.border * h  # the first (ghost) sample transformed
         return first + (np.asarray(self.dims) / 2.0 - np.asarray(self.start)) * h
+
+
+def _place_shifted(padded: np.ndarray, block: np.ndarray, start) -> None:
+    """``padded`` (zeros, even lengths ``M``) gets ``block`` at ``start`` per axis, as ``ifftshift`` of the
+    padded grid would hold it (the grid's centre ``M / 2`` at index 0): each axis's run of indices split
+    where it wraps, so no second grid is made."""
+    pieces = []
+    for m, n, s in zip(padded.shape, block.shape, start):
+        first = s - m // 2  # the block's first index after the shift, possibly negative
+        if first >= 0:
+            pieces.append([(slice(first, first + n), slice(0, n))])
+        elif first + n <= 0:
+            pieces.append([(slice(m + first, m + first + n), slice(0, n))])
+        else:
+            pieces.append([(slice(m + first, m), slice(0, -first)), (slice(0, first + n), slice(-first, n))])
+    for (dz, sz) in pieces[0]:
+        for (dy, sy) in pieces[1]:
+            for (dx, sx) in pieces[2]:
+                padded[dz, dy, dx] = block[sz, sy, sx]

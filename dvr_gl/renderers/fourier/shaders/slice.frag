@@ -1,40 +1,65 @@
 #version 430 core
-// One sample of the central slice of the half spectra (dvr_gl/renderers/fourier/spectrum.py): this
-// fragment's frequency (numpy's fftfreq order: fragment x is k, y is l) taken to the spectrum's index
-// units, the spectra interpolated there with float weights (TRILINEAR, WINDOWED_SINC, KAISER_BESSEL, or the cubic
-// B-spline), periodic, the half not stored read as the conjugate of its mirror.  TEXTURES textures of
-// two complex channels each (.rg, .ba).  DEPTH_CUE: also the interpolant's derivative along
-// u_depth_dir (the kernel's derivative weights), for the depth cue's moment
-// (dvr_gl/renderers/fourier/projection.py, finish).  Outputs: the values of each texture's channels,
-// then (DEPTH_CUE) their derivatives in the same order.
+// One sample of the central slice of the half spectra (dvr_gl/renderers/fourier/spectrum.py), times the
+// reconstruction filter's transform: H(w) = S(w M h) Phi(w).  Fragment (k, l) is the frequency of numpy's
+// fftfreq order, k in 0 .. W' / 2 only: the projection is real, so its transform is Hermitian and the
+// host's inverse is irfft2 of this half (dvr_gl/renderers/fourier/projection.py, finish).  The frequency
+// is taken to the spectrum's index units and the spectra interpolated there with float weights
+// (TRILINEAR, the windowed kernels' TABLE, or the cubic B-spline), periodic, the half not stored read as
+// the conjugate of its mirror.  TEXTURES textures of two complex channels each (.rg, .ba).  DEPTH_CUE:
+// also H's derivative along the view, d Phi + S (f . grad Phi) (d: the interpolant's derivative along
+// u_depth_dir, from the kernel's derivative weights), for the depth cue's moment.  Outputs: H of each
+// texture's channels, then (DEPTH_CUE) their derivatives in the same order.
 
 uniform sampler3D u_spectra[TEXTURES];  // (Mx / 2 + 1, My, Mz): re, im of two channels
 #ifdef DEPTH_CUE
 uniform vec3 u_depth_dir;         // f M h: the view axis in index units per world frequency
+uniform vec3 u_forward;           // f: the view axis (world)
 #define OUTPUTS (2 * TEXTURES)
 #else
 #define OUTPUTS TEXTURES
 #endif
 layout(location = 0) out vec4 frags[OUTPUTS];
 uniform ivec3 u_dims;             // M per axis
-uniform ivec2 u_size;             // the slice's samples (W', H')
+uniform ivec2 u_size;             // the slice's full grid (W', H'); W' / 2 + 1 columns are drawn
 uniform vec2 u_frequency_step;    // 1 / (W' p), 1 / (H' p): cycles per world unit
 uniform vec3 u_right;             // the image's axes (world)
 uniform vec3 u_down;
 uniform vec3 u_grid_scale;        // M h: spectrum index units per cycle per world unit
+uniform vec3 u_spacing;           // h: the voxels' spacing (world)
+uniform float u_filter_scale;     // the voxel's volume (Phi's factor)
+#ifdef FILTER_GAUSSIAN
+uniform float u_kernel_width;     // sigma (voxels)
+#endif
 
-// k mod M in [0, M): GLSL leaves % of negative operands undefined, so k is made positive first (the
-// slice's indices stay within 1024 periods of zero: a pixel would have to be 500 times finer than a voxel)
-ivec3 wrap(ivec3 k) {
-    return (k + 1024 * u_dims) % u_dims;
+const float PI = 3.14159265358979;
+
+// The reconstruction filter's transform at world frequency w (projection.py, filter_transform), and its
+// derivative along f (filter_derivative): the Gaussian's, or the tent's (FILTER_POWER 2) or the cubic
+// B-spline's (4) sinc powers per axis.
+float sinc(float x) {
+    return abs(x) > 1e-4 ? sin(PI * x) / (PI * x) : 1.0 - (PI * PI / 6.0) * x * x;
 }
 
-// Where the spectrum at integer index k (any) is stored, and the conjugation that reads it.
-ivec3 stored(ivec3 k, out vec4 conj) {
-    ivec3 m = wrap(k);
-    bool mirrored = m.x > u_dims.x / 2;
-    conj = mirrored ? vec4(1.0, -1.0, 1.0, -1.0) : vec4(1.0);
-    return mirrored ? wrap(-m) : m;
+float sinc_slope(float x) {  // d sinc / dx
+    return abs(x) > 1e-4 ? (cos(PI * x) - sinc(x)) / x : -(PI * PI / 3.0) * x;
+}
+
+void filter_transform(vec3 w, vec3 f, out float phi, out float dphi) {
+    vec3 wh = w * u_spacing;
+#ifdef FILTER_GAUSSIAN
+    float c = 2.0 * PI * PI * u_kernel_width * u_kernel_width;
+    phi = exp(-c * dot(wh, wh)) * u_filter_scale;
+    dphi = phi * (-2.0 * c) * dot(wh * u_spacing, f);
+#else
+    vec3 s = vec3(sinc(wh.x), sinc(wh.y), sinc(wh.z));
+    vec3 s2 = s * s;
+    vec3 p = FILTER_POWER == 2 ? s2 : s2 * s2;
+    phi = p.x * p.y * p.z * u_filter_scale;
+    vec3 ds = vec3(sinc_slope(wh.x), sinc_slope(wh.y), sinc_slope(wh.z));
+    // d/dw_a of s_a^n = n s_a^(n - 1) ds_a h_a
+    vec3 lead = float(FILTER_POWER) * (FILTER_POWER == 2 ? s : s2 * s) * ds * u_spacing;
+    dphi = (f.x * lead.x * p.y * p.z + f.y * p.x * lead.y * p.z + f.z * p.x * p.y * lead.z) * u_filter_scale;
+#endif
 }
 
 #ifdef TRILINEAR
@@ -44,47 +69,21 @@ void weights(float f, out float w[6], out float dw[6]) {
     w[0] = 1.0 - f; w[1] = f;
     dw[0] = -1.0; dw[1] = 1.0;
 }
-#elif defined(WINDOWED_SINC) || defined(KAISER_BESSEL)
-// sinc(x) under a Kaiser window of half-width SLICE_TAPS / 2 (dvr_gl/renderers/fourier/spectrum.py), or
-// KAISER_BESSEL: the window alone (kaiser_window, its shape from the padding)
+#elif defined(TABLE)
+// The windowed kernels (sinc under a Kaiser window, or the Kaiser-Bessel window alone: spectrum.py,
+// kernel) of half-width SLICE_TAPS / 2, from their table: (k, dk/dx) at TABLE evenly spaced |x| from 0 to
+// the half-width (the last zero), linearly interpolated (renderer.py, KernelTable: within 1e-7 of the kernel)
 const int TAPS = SLICE_TAPS;
 const int FIRST = 1 - SLICE_TAPS / 2;
 const float HALF_WIDTH = float(SLICE_TAPS) / 2.0;
-uniform float u_kaiser_beta;
-const float PI = 3.14159265358979;
-
-// I0 and I1 by their power series (z <= beta <= 18: 30 terms reach float32)
-void bessel(float z, out float i0, out float i1) {
-    float q = 0.25 * z * z, t0 = 1.0, t1 = 0.5 * z;
-    i0 = t0;
-    i1 = t1;
-    for (int k = 1; k < 30; ++k) {
-        t0 *= q / float(k * k);
-        t1 *= q / float(k * (k + 1));
-        i0 += t0;
-        i1 += t1;
-    }
-}
+uniform sampler2D u_kernel;       // (TABLE, 1): k, dk at |x|
 
 void kernel_at(float x, out float k, out float dk) {
-    k = 0.0;
-    dk = 0.0;
-    if (abs(x) >= HALF_WIDTH)
-        return;
-    float u = x / HALF_WIDTH, root = sqrt(max(1.0 - u * u, 0.0));
-    float i0, i1, n0, n1;
-    bessel(u_kaiser_beta * root, i0, i1);
-    bessel(u_kaiser_beta, n0, n1);
-    float window = i0 / n0;
-#ifdef KAISER_BESSEL
-    float s = 1.0, ds = 0.0;
-#else
-    float s = abs(x) > 1e-6 ? sin(PI * x) / (PI * x) : 1.0;
-    float ds = abs(x) > 1e-6 ? (cos(PI * x) - s) / x : 0.0;
-#endif
-    float dwindow = root > 1e-6 ? i1 * u_kaiser_beta * (-u / root) / HALF_WIDTH / n0 : 0.0;
-    k = s * window;
-    dk = ds * window + s * dwindow;
+    float t = min(abs(x) * (float(TABLE - 1) / HALF_WIDTH), float(TABLE - 1));
+    int i = min(int(t), TABLE - 2);
+    vec2 v = mix(texelFetch(u_kernel, ivec2(i, 0), 0).rg, texelFetch(u_kernel, ivec2(i + 1, 0), 0).rg, t - float(i));
+    k = v.x;
+    dk = x < 0.0 ? -v.y : v.y;  // k is even, its derivative odd
 }
 
 void weights(float f, out float w[6], out float dw[6]) {
@@ -107,11 +106,18 @@ void weights(float f, out float w[6], out float dw[6]) {
 }
 #endif
 
+// k mod M in [0, M): GLSL leaves % of negative operands undefined, so k is made positive first (the
+// slice's indices stay within 1024 periods of zero: a pixel would have to be 500 times finer than a voxel)
+int wrap(int k, int m) {
+    return (k + 1024 * m) % m;
+}
+
 void main() {
     ivec2 kl = ivec2(gl_FragCoord.xy);
     vec2 index = vec2(kl.x < u_size.x / 2 ? kl.x : kl.x - u_size.x, kl.y < u_size.y / 2 ? kl.y : kl.y - u_size.y);
     vec2 uv = index * u_frequency_step;
-    vec3 g = (uv.x * u_right + uv.y * u_down) * u_grid_scale;
+    vec3 w = uv.x * u_right + uv.y * u_down;
+    vec3 g = w * u_grid_scale;
     vec3 base = floor(g);
     vec3 f = g - base;
     ivec3 b = ivec3(base);
@@ -119,16 +125,29 @@ void main() {
     weights(f.x, wx, dx);
     weights(f.y, wy, dy);
     weights(f.z, wz, dz);
+    // each axis's taps wrapped once, and their mirrors: a tap whose x lies in the half not stored is read
+    // at -k, conjugated
+    int mx[6], my[6], mz[6], nx[6], ny[6], nz[6];
+    bool mirrored[6];
+    for (int o = 0; o < TAPS; ++o) {
+        mx[o] = wrap(b.x + o + FIRST, u_dims.x);
+        my[o] = wrap(b.y + o + FIRST, u_dims.y);
+        mz[o] = wrap(b.z + o + FIRST, u_dims.z);
+        nx[o] = wrap(-mx[o], u_dims.x);
+        ny[o] = wrap(-my[o], u_dims.y);
+        nz[o] = wrap(-mz[o], u_dims.z);
+        mirrored[o] = mx[o] > u_dims.x / 2;
+    }
     vec4 sums[TEXTURES], slopes[TEXTURES];
     for (int t = 0; t < TEXTURES; ++t) {
         sums[t] = vec4(0.0);
         slopes[t] = vec4(0.0);
     }
-    for (int z = 0; z < TAPS; ++z)
-        for (int y = 0; y < TAPS; ++y)
-            for (int x = 0; x < TAPS; ++x) {
-                vec4 conj;
-                ivec3 m = stored(b + ivec3(x + FIRST, y + FIRST, z + FIRST), conj);
+    for (int x = 0; x < TAPS; ++x) {
+        vec4 conj = mirrored[x] ? vec4(1.0, -1.0, 1.0, -1.0) : vec4(1.0);
+        for (int z = 0; z < TAPS; ++z)
+            for (int y = 0; y < TAPS; ++y) {
+                ivec3 m = mirrored[x] ? ivec3(nx[x], ny[y], nz[z]) : ivec3(mx[x], my[y], mz[z]);
                 float w = wz[z] * wy[y] * wx[x];
 #ifdef DEPTH_CUE
                 float dw = u_depth_dir.x * dx[x] * wy[y] * wz[z] + u_depth_dir.y * wx[x] * dy[y] * wz[z]
@@ -142,10 +161,17 @@ void main() {
 #endif
                 }
             }
-    for (int t = 0; t < TEXTURES; ++t) {
-        frags[t] = sums[t];
+    }
+    float phi, dphi;
 #ifdef DEPTH_CUE
-        frags[TEXTURES + t] = slopes[t];
+    filter_transform(w, u_forward, phi, dphi);
+#else
+    filter_transform(w, vec3(0.0), phi, dphi);
+#endif
+    for (int t = 0; t < TEXTURES; ++t) {
+        frags[t] = phi * sums[t];
+#ifdef DEPTH_CUE
+        frags[TEXTURES + t] = phi * slopes[t] + dphi * sums[t];
 #endif
     }
 }
