@@ -17,6 +17,8 @@ registry; these measure across renderers, which they pick by what the plugins de
                        the same scenes: frame time, error against the converged reference, ratios
   dvr bench widget     the notebook widget under simulated pointer events: frames per second while
                        dragging, the time from release to the full image
+  dvr bench gpu        every renderer's frame time at GPU sizes (512^3 to 1024x1024) within a time budget,
+                       the device named; a Markdown table and a JSON file in --out (docs/gpu.md)
 
 The measurements are the optional extra ``bench`` (plots and FLIP);
 they are imported only when a bench runs.
@@ -185,6 +187,33 @@ def _widget_arguments(p):
                                                              "(default 0.1: 10 frames a second)")
 
 
+def _gpu_arguments(p):
+    # declared here, not in dvr_gl.bench.gpu: building the parser must not import the bench harness
+    p.add_argument("--out", metavar="DIR", help="the folder for gpu-bench.md and gpu-bench.json (default: $OUT)")
+    p.add_argument("--volume", metavar="FILE", help="the grid: a volume file (default: the Shepp-Logan demo, "
+                                                    "--volume-size)")
+    p.add_argument("--volume-size", type=int, default=512, help="the demo's nodes a side (default 512)")
+    p.add_argument("--size", type=int, default=1024, help="square image size, pixels (default 1024)")
+    p.add_argument("--mesh-size", type=int, metavar="M", help="the mesh's points a side, 12 (M-1)^3 tetrahedra "
+                                                              "(default: volume size / 16 + 1)")
+    p.add_argument("--particles", type=int, metavar="N", help="SPH particles of the Plummer demo (default: "
+                                                              "(volume size / 2)^3, at most 10^6)")
+    p.add_argument("--frames", type=count, default=5, help="timed frames per case, after the first (default 5)")
+    p.add_argument("--time-budget", type=float, default=300.0, metavar="SECONDS",
+                   help="the whole bench's time; larger sizes that would overrun it are left out, saying so "
+                        "(default 300)")
+    p.add_argument("--peers-python", metavar="PYTHON",
+                   help="the peers environment's interpreter (default .venv-peers/bin/python if it exists)")
+    p.add_argument("--no-peers", action="store_true", help="leave the peers out")
+    p.add_argument("--overwrite", action="store_true", help="replace the files in --out if they exist")
+
+
+def run_gpu(args) -> int:
+    from dvr_gl.bench import gpu
+
+    return gpu.run(args)
+
+
 def _feedback_arguments(sub):
     """``-q``/``-v`` after the benchmark's name too (``dvr bench tradeoff -q``)."""
     from .progress import add_arguments
@@ -240,14 +269,10 @@ def run_quality(args) -> int:
 
 
 def run_renderers(args) -> int:
-    from dvr_gl.bench import renderers
+    from dvr_gl.bench import renderers, volume_keys
 
-    base = {"image.width": args.size, "image.height": args.size}
-    if args.volume:
-        base["volume.path"] = args.volume
-    else:
-        base.update({"volume.demo": "shepp-logan", "volume.size": args.volume_size})
-    what = args.volume or f"Shepp-Logan {args.volume_size}^3"
+    volume, what = volume_keys(args.volume, args.volume_size)
+    base = {"image.width": args.size, "image.height": args.size, **volume}
     args.report.text(f"dvr bench renderers: {what}, {args.size}x{args.size}, sample distance 0.5 voxel "
                      f"(2D stacks: the voxel planes), early termination and acceleration off, {args.repeat} timed "
                      f"frames per case after a warm-up; bricked under {args.budget:g} MB")
@@ -502,4 +527,6 @@ HARNESS = {
               "docs/out-of-core.md)", _scale_arguments, run_scale),
     "widget": ("the notebook widget driven by simulated pointer events: frames per second while dragging, the time "
                "from release to the full image (docs/widget.md)", _widget_arguments, run_widget),
+    "gpu": ("every renderer's frame time at GPU sizes within a time budget, the device named; Markdown and JSON "
+            "in --out (docs/gpu.md)", _gpu_arguments, run_gpu),
 }

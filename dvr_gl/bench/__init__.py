@@ -50,6 +50,14 @@ def converged(reference, float64: bool = False):
     return image
 
 
+def volume_keys(path: str | None, size: int) -> tuple[dict, str]:
+    """A bench's volume as scene keys, and in words: the file ``path`` (``--volume FILE``), else the
+    Shepp-Logan demo on ``size``^3 nodes (``--volume-size N``)."""
+    if path:
+        return {"volume.path": str(path)}, str(path)
+    return {"volume.demo": "shepp-logan", "volume.size": size}, f"Shepp-Logan {size}^3"
+
+
 def format_table(rows: list[dict], columns: list[tuple[str, str, str]]) -> str:
     """Rows as a text table; ``columns`` are (key, heading, format spec)."""
     cells = [[h for _, h, _ in columns]] + [[format(r[k], f) if r.get(k) is not None else "-"

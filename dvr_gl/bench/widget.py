@@ -17,7 +17,7 @@ import statistics
 import time
 from collections import Counter
 
-from . import tick
+from . import tick, volume_keys
 
 COLUMNS = [("renderer", "renderer", ""), ("full_ms", "full frame ms", ".0f"), ("fps", "drag frames/s", ".1f"),
            ("drag_ms", "drag frame ms (median)", ".0f"), ("level", "drag level (most frames)", ""),
@@ -28,16 +28,11 @@ def run(args) -> int:
     from ..renderers import registry
     from ..scene.resolve import load_scene
 
-    overrides = {"image.width": args.size, "image.height": args.size}
-    if args.volume:
-        overrides["volume.path"] = args.volume
-    else:
-        overrides.update({"volume.demo": "shepp-logan", "volume.size": args.volume_size})
-    scene = load_scene(None, overrides)
+    volume, what = volume_keys(args.volume, args.volume_size)
+    scene = load_scene(None, {"image.width": args.size, "image.height": args.size, **volume})
     kind = scene.field.kind
     names = args.renderer or registry.renderers_with(
         lambda p: p.needs_gl and (p.data_kinds is None or kind in p.data_kinds))
-    what = args.volume or f"Shepp-Logan {args.volume_size}^3"
     args.report.text(f"dvr bench widget: {what}, {args.size}x{args.size}, budget {1e3 * args.budget:.0f} ms a frame "
                      f"while dragging; {args.moves} timed moves after {args.warm_up}; kernel side only (render, "
                      f"8-bit conversion, JPEG encoding), no browser")
