@@ -14,15 +14,17 @@ The data, at full size (``--volume-size N``, default 512; ``--size`` pixels a si
 
 Every renderer runs at its defaults, seen from azimuth 30, elevation 20, framed, perspective; where a renderer
 declares that it does not take one of the model's defaults (a projection, a setting's value), its first declared
-choice instead (:func:`fitted`), named in the row.  Time is budgeted
-(``--time-budget`` seconds, the whole bench included: making the data, compiling, uploading): each case (a
-renderer on a kind of data) climbs a ladder of sizes, a quarter, half and the full data side and image side; the
-quarter is its warm-up.  Before each larger step the step's time is predicted from the last one, times at least
-:data:`GROWTH` (twice the side and twice the image: 8 times the voxels, 4 times the pixels, twice the samples a
-ray) or the growth measured between the last two steps if larger; a step predicted to overrun the case's share
-of what is left (what is left over the cases left) is not run, and the row says at which size it stopped and
-why.  A case started when nothing is left is skipped, saying so.  The files are written only at the end, both or
-neither.
+choice instead (:func:`fitted`), named in the row.
+
+Time is budgeted (``--time-budget`` seconds, the whole bench included: making the data, compiling, uploading):
+each case (a renderer on a kind of data) climbs a ladder of sizes, a quarter, half and the full data side and
+image side; the quarter is its warm-up.  Before each larger step the step's time is predicted from the last one,
+times at least :data:`GROWTH` (twice the side and twice the image: 8 times the voxels, 4 times the pixels, twice
+the samples a ray) or the growth measured between the last two steps if larger, plus, where the step's data is
+not made yet, 8 times the last data's making shared among the cases of that kind still to run.  A step predicted
+to overrun the case's share of what is left (what is left over the cases left) is not run, and the row says at
+which size it stopped and why; a case reached when nothing is left is skipped, saying so.  The files are written
+only at the end, both or neither.
 
 Columns: "first frame s" is the first render's wall time (the renderer and its context made, programs compiled,
 data uploaded); "frame ms" the median wall time of ``--frames`` renders after it (the image read back: the GPU
@@ -122,13 +124,25 @@ class Data:
 
     def __init__(self, args):
         self.args, self.fields = args, {}
+        self.making: dict[str, float] = {}  # kind: seconds its last field took to make
+        self.made_s = 0.0  # seconds spent making fields, in all
 
     def field(self, step: Step):
         key = (step.kind, step.data)
         if key not in self.fields:
             self.fields = {k: v for k, v in self.fields.items() if k[0] == step.kind}  # one kind at a time
+            start = time.perf_counter()
             self.fields[key] = getattr(self, f"_{step.kind}")(step.data)
+            self.making[step.kind] = time.perf_counter() - start
+            self.made_s += self.making[step.kind]
         return self.fields[key]
+
+    def predicted_making(self, step: Step, sharing: int) -> float:
+        """Seconds of making ``step``'s field charged to one of the ``sharing`` cases of its kind still to run
+        (none if made already): :data:`GROWTH` times the last field of its kind, shared among them."""
+        if (step.kind, step.data) in self.fields or step.kind not in self.making:
+            return 0.0
+        return GROWTH * self.making[step.kind] / max(sharing, 1)
 
     def scene(self, step: Step, renderer: str):
         """The scene of ``renderer`` at ``step`` (the field made once), and the settings changed from the
@@ -298,14 +312,16 @@ def measure(name: str, scene, frames: int) -> dict:
             "gpu_ms": 1e3 * statistics.median(draws) if draws else None}
 
 
-def climb(ladder: list[Step], share: float, run_step, describe) -> tuple[dict, float]:
+def climb(ladder: list[Step], share: float, run_step, describe, making=lambda step: 0.0) -> tuple[dict, float]:
     """Run ``run_step(step) -> dict`` up ``ladder`` while each next step is predicted to fit in ``share``
-    seconds (module doc); the last step's numbers, a note where it stopped short, and the seconds spent."""
+    seconds (module doc); the last step's numbers, a note where it stopped short, and the seconds spent.
+    ``making(step)``: the predicted seconds of making the step's data charged to this case; a result's
+    ``making_s``, the seconds it spent making data, is left out of the growth of the renderer's own time."""
     row, spent, last = {}, 0.0, None
     growth = GROWTH
     for step in ladder:
         if last is not None:
-            predicted, left = growth * last, share - spent
+            predicted, left = growth * last + making(step), share - spent
             if predicted > left:
                 row["note"] = (f"shrunk: {describe(step)} predicted {predicted:.1f} s, over the {max(left, 0.0):.1f} "
                                f"s left of its share of the time budget")
@@ -318,11 +334,12 @@ def climb(ladder: list[Step], share: float, run_step, describe) -> tuple[dict, f
             row["note"] = f"failed at {describe(step)}: {message}"
             spent += time.perf_counter() - start
             break
-        cost = time.perf_counter() - start
-        spent += cost
+        elapsed = time.perf_counter() - start
+        spent += elapsed
         if "note" in result:  # refused: no larger step will do better
             row["note"] = result["note"]
             break
+        cost = max(elapsed - result.pop("making_s", 0.0), 1e-6)
         if last is not None:
             growth = max(GROWTH, cost / last)
         last = cost
@@ -344,16 +361,18 @@ def run_cases(args, data: Data, todo, clock, reserve: int) -> list[dict]:
             continue
 
         def run_step(step, name=name):
+            before = data.made_s
             scene, changes = data.scene(step, name)
             refused = registry.refusal(scene)
             if refused:
                 return {"note": f"refused: {refused}"}
             return {"size": step.size(scene.field), "image": f"{step.image}x{step.image}",
                     "settings": ", ".join(f"{k} = {v}" for k, v in changes.items()) or None,
-                    **measure(name, scene, args.frames)}
+                    **measure(name, scene, args.frames), "making_s": data.made_s - before}
 
+        sharing = sum(1 for k, _ in todo[i:] if k == kind)
         row, _ = climb(steps(kind, args), left / (len(todo) - i + reserve), run_step,
-                       lambda s: f"{s.size()} at {s.image}x{s.image}")
+                       lambda s: f"{s.size()} at {s.image}x{s.image}", lambda s: data.predicted_making(s, sharing))
         rows.append({**base, **row})
         print(_progress_line(rows[-1]), flush=True)
     return rows

@@ -67,3 +67,11 @@ def test_climb_notes_a_failure_and_keeps_the_last_step():
 
     row, _ = climb([1, 2, 4], 60.0, run_step, lambda s: f"size {s}")
     assert row["step"] == 1 and row["note"] == "failed at size 2: out of memory"
+
+
+def test_climb_charges_the_making_of_data_not_made_yet():
+    """A next step whose data would take 100 s to make is left out of a 60 s share, however fast the renderer."""
+    from dvr_gl.bench.gpu import climb
+
+    row, _ = climb([1, 2], 60.0, lambda step: {"step": step, "making_s": 0.0}, str, making=lambda step: 100.0)
+    assert row["step"] == 1 and row["note"].startswith("shrunk: 2 predicted 100.0 s")
