@@ -382,7 +382,8 @@ def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, der
 
 
 #: Gauss-Legendre points per piece of the shell pass: exact for the field's degree along a ray between
-#: voxel planes (3 for the trilinear field, 9 for the cubic B-spline) times the depth cue's linear weight.
+#: voxel planes (3 for the trilinear field, 9 for the cubic B-spline) times the depth cue's linear weight;
+#: without the cue one fewer is exact (n points integrate degree 2n - 1).
 SHELL_NODES = {"linear": 3, "cubic_bspline": 6}
 
 
@@ -408,7 +409,7 @@ class Shell:
         lo, hi = (np.asarray(v, float) for v in scene.volume.bounds)
         self.origin = lo - (border + self.pad) * h
         self.outer = (lo - (border + reach) * h, hi + (border + reach) * h)
-        self.nodes = SHELL_NODES[scene.renderer.filter]
+        self.nodes = SHELL_NODES[scene.renderer.filter] - (scene.renderer.depth_cue >= 1.0)
 
     def padded(self, ghosted: np.ndarray) -> np.ndarray:
         return np.pad(ghosted, [(self.pad, self.pad)] * 3 + [(0, 0)])

@@ -59,17 +59,20 @@ class SpectrumTextures:
 
 
 class ShellTexture:
-    """The ghosted channels (at most four) zero-padded (:class:`.projection.Shell`), an RGBA32F 3D texture
-    sampled texel by texel by the shell pass."""
+    """The ghosted channels (at most four) zero-padded (:class:`.projection.Shell`), a float32 3D texture of
+    one component a channel (R32F for the average) sampled texel by texel by the shell pass."""
 
     def __init__(self, ctx, scene, ghosted: np.ndarray, border: int):
         self.shell = Shell(scene, border)
         self.empty = self.shell.empty(ghosted)  # nothing beyond the box: no pass, and a one-texel texture
         padded = self.shell.padded(ghosted) if not self.empty else np.zeros((1, 1, 1, ghosted.shape[-1]))
-        texels = np.zeros(padded.shape[:3] + (4,), np.float32)
+        # one component a channel (R32F for the average: a quarter of the memory the pass reads); a fourth
+        # component of 1 where there are three, never read back
+        components = {1: 1, 2: 2}.get(padded.shape[-1], 4)
+        texels = np.zeros(padded.shape[:3] + (components,), np.float32)
         texels[..., :padded.shape[-1]] = padded
         self.dims = padded.shape[2::-1][:3]  # (x, y, z)
-        self.texture = ctx.texture3d(self.dims, 4, texels.tobytes(), dtype="f4")
+        self.texture = ctx.texture3d(self.dims, components, texels, dtype="f4")
         self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
 
     def release(self):
@@ -216,7 +219,8 @@ class FourierRenderer(GLRenderer):
         from .projection import cue_line
 
         r, img = scene.renderer, scene.image
-        texture = self._cached("shell texture", (data,), lambda: ShellTexture(self.ctx, scene, data, border))
+        texture = self._cached("shell texture", (data, r.depth_cue < 1.0),  # the cue sets the nodes
+                               lambda: ShellTexture(self.ctx, scene, data, border))
         if texture.empty:
             return None
         shell = texture.shell

@@ -1,32 +1,46 @@
 """``dvr bench fourier``: Fourier volume rendering against the ray caster, per view and per volume.
 
 Per volume size ``N`` (the blobs demo, ``N^3``: dense, every value positive) and mode (the average and the
-pre-classified X-ray), orthographic: the pre-processing (the channels, ghost layers, pre-multiplication,
-padding and the 3D transform, once) and its spectrum's size; the time per view (the slice in GL, the
-inverse 2D transform and the classification on the host: median after a warm-up) at the image size;
-the ray caster at its defaults at the same size; and at a smaller image, the RMS of both against
-reference-converged, and the ray caster's time at the largest sample distance as accurate as Fourier
-rendering.
+pre-classified X-ray), orthographic: the spectrum's preparation (the channels, ghost layers,
+pre-multiplication, padding and the 3D transform, once) and the first frame; the time per view at the
+image size, Fourier at its defaults and the ray caster at its defaults in one interleaved run (F, R, F,
+R, ...; medians after a warm-up), and their ratio; the RMS of both against reference-converged at a
+smaller image of the same framing.  Then, at the largest ``N``, each mode's error-vs-time points of
+both (Fourier's slice kernels and bandwidths, the ray caster's sample distances), each family timed
+interleaved with the other's default, and whether Fourier's front lies below the ray caster's at every
+error between 1e-4 and 1e-2 RMS.
 """
 
 from __future__ import annotations
 
+import math
 import statistics
+import time
 
-from ....bench import converged, median_seconds
+from ....bench import converged
 from ....bench.picks import baseline
 from ....image import compare_images
 from ....reference.converged import ConvergedReference
 from ....scene.resolve import load_scene
 from ... import create_renderer
 
-DISTANCES = (2.0, 1.0, 0.5, 0.25, 0.125)
 BASELINE = baseline()  # the renderer set beside (the ray caster): the default renderer of grids
-COLUMNS = [("n", "N", "d"), ("mode", "mode", ""), ("pre_s", "pre-processing s", ".2f"),
-           ("spectrum_mb", "spectrum MB", ".0f"), ("fft", "transform", ""), ("view_ms", "fourier ms/view", ".1f"),
-           ("raycast_ms", f"{BASELINE} ms (defaults)", ".1f"), ("speedup", "speed-up", ".1f"),
-           ("rms", "fourier RMS", ".2e"), ("raycast_rms", f"{BASELINE} RMS (defaults)", ".2e"),
-           ("equal", f"{BASELINE} at fourier's RMS", "")]
+#: The ray caster's sample distances (voxels) on its error-vs-time front, beside its defaults.
+DISTANCES = (8.0, 4.0, 2.0, 1.0, 0.5)
+#: Fourier's settings on its front, beside its defaults: cheaper and more accurate slice kernels.
+FOURIER_SETTINGS = (("trilinear slice", {"slice_interpolation": "trilinear"}),
+                    ("cubic B-spline slice", {"slice_interpolation": "cubic_bspline"}),
+                    ("6 taps", {"slice_taps": 6}),
+                    ("6 taps, bandwidth 2", {"slice_taps": 6, "slice_bandwidth": 2.0}))
+#: The error band where Fourier's front is to lie below the ray caster's.
+BAND = (1e-4, 1e-2)
+COLUMNS = [("n", "N", "d"), ("mode", "mode", ""), ("spectrum_s", "spectrum s", ".2f"),
+           ("first_s", "first frame s", ".2f"), ("spectrum_mb", "spectrum MB", ".0f"),
+           ("view_ms", "fourier ms/view", ".1f"), ("raycast_ms", f"{BASELINE} ms (defaults)", ".1f"),
+           ("speedup", "ratio", ".2f"), ("rms", "fourier RMS", ".2e"), ("raycast_rms", f"{BASELINE} RMS", ".2e")]
+FRONT_COLUMNS = [("mode", "mode", ""), ("renderer", "renderer", ""), ("setting", "setting", ""),
+                 ("rms", "RMS", ".2e"), ("ms", "ms/view", ".1f"), ("other_ms", "the other's default ms", ".1f"),
+                 ("front", "on its front", "")]
 
 
 def scene_for(n: int, mode: str, size: int):
@@ -36,37 +50,97 @@ def scene_for(n: int, mode: str, size: int):
                              "image.width": size, "image.height": size})
 
 
-def run(sizes, size: int = 512, error_size: int = 128, repeat: int = 3, progress=None) -> list[dict]:
-    rows = []
+def interleaved(cases, repeat: int) -> list[float]:
+    """Median seconds of each ``(renderer, scene)`` of ``cases``, rendered in turn ``repeat`` times after one
+    untimed round (wall time of ``render``: what a user waits for a view)."""
+    for renderer, scene in cases:
+        renderer.render(scene)
+    times = [[] for _ in cases]
+    for _ in range(repeat):
+        for k, (renderer, scene) in enumerate(cases):
+            start = time.perf_counter()
+            renderer.render(scene)
+            times[k].append(time.perf_counter() - start)
+    return [statistics.median(t) for t in times]
+
+
+def run(sizes, size: int = 512, error_size: int = 128, repeat: int = 3, progress=None,
+        front: bool = True) -> tuple[list[dict], list[dict], list[str]]:
+    """The per-size rows, the error-vs-time points at the largest size (``front``) and one verdict a mode."""
+    rows, points, verdicts = [], [], []
     fourier, raycast = create_renderer("fourier"), create_renderer(BASELINE)
     try:
         for n in sizes:
             for mode in ("average", "xray"):
                 scene = scene_for(n, mode, size)
-                fourier.render(scene)  # pre-processing
-                row = {"n": n, "mode": mode, "pre_s": fourier.stats["preprocess_seconds"],
-                       "spectrum_mb": fourier.stats["spectrum_bytes"] / 2 ** 20, "fft": fourier.stats["fft"]}
-                fourier.render(scene)  # a warm-up view (the program, the targets)
-                views = []
-                for _ in range(repeat):
-                    fourier.render(scene)
-                    views.append(fourier.stats["view_seconds"])
-                row["view_ms"] = 1e3 * statistics.median(views)
+                start = time.perf_counter()
+                fourier.render(scene)  # the spectrum, then the first view
+                row = {"n": n, "mode": mode, "spectrum_s": fourier.stats["preprocess_seconds"],
+                       "first_s": time.perf_counter() - start,
+                       "spectrum_mb": fourier.stats["spectrum_bytes"] / 2 ** 20}
                 ray = scene.with_renderer(name=BASELINE)
-                row["raycast_ms"] = 1e3 * median_seconds(raycast, ray, repeat)
-                row["speedup"] = row["raycast_ms"] / row["view_ms"]
+                f_s, r_s = interleaved([(fourier, scene), (raycast, ray)], repeat)
+                row.update(view_ms=1e3 * f_s, raycast_ms=1e3 * r_s, speedup=r_s / f_s)
                 small = scene_for(n, mode, error_size)
                 truth = converged(ConvergedReference(small.with_renderer(converged_tolerance=1e-4)))
                 row["rms"] = compare_images(fourier.render(small), truth)["rms"]
                 row["raycast_rms"] = compare_images(raycast.render(small.with_renderer(name=BASELINE)), truth)["rms"]
-                row["equal"] = _raycast_at(raycast, ray, small.with_renderer(name=BASELINE), truth, row["rms"], repeat)
                 rows.append(row)
                 if progress:
                     progress(row)
+                if front and n == max(sizes):
+                    found = _front(fourier, raycast, scene, small, truth, repeat)
+                    points += [{"mode": mode, **p} for p in found]
+                    verdicts.append(f"{mode}: {dominance(found)}")
     finally:
         fourier.close()
         raycast.close()
-    return rows
+    return rows, points, verdicts
+
+
+def _front(fourier, raycast, scene, small, truth, repeat: int) -> list[dict]:
+    """Both renderers' error-vs-time points: the ray caster's sample distances timed interleaved with
+    Fourier's defaults, then each of Fourier's settings interleaved with the ray caster's defaults."""
+    ray, small_ray = scene.with_renderer(name=BASELINE), small.with_renderer(name=BASELINE)
+    out = []
+    rays = [("defaults", ray, small_ray)] + [(f"{d:g} voxels", ray.with_renderer(sample_distance_voxels=d),
+                                             small_ray.with_renderer(sample_distance_voxels=d)) for d in DISTANCES]
+    times = interleaved([(fourier, scene)] + [(raycast, timed) for _, timed, _ in rays], repeat)
+    for (name, _, err), seconds in zip(rays, times[1:]):
+        out.append({"renderer": BASELINE, "setting": name, "ms": 1e3 * seconds, "other_ms": 1e3 * times[0],
+                    "rms": compare_images(raycast.render(err), truth)["rms"]})
+    for name, changes in (("defaults", {}),) + FOURIER_SETTINGS:
+        timed, err = scene.with_renderer(**changes), small.with_renderer(**changes)
+        f_s, r_s = interleaved([(fourier, timed), (raycast, ray)], repeat)
+        out.append({"renderer": "fourier", "setting": name, "ms": 1e3 * f_s, "other_ms": 1e3 * r_s,
+                    "rms": compare_images(fourier.render(err), truth)["rms"]})
+    for p in out:
+        p["front"] = "yes" if _on_front(p, [q for q in out if q["renderer"] == p["renderer"]]) else ""
+    return out
+
+
+def _on_front(p, family) -> bool:
+    return not any(q is not p and q["rms"] <= p["rms"] and q["ms"] < p["ms"] for q in family)
+
+
+def cheapest(points, error: float) -> float:
+    """The least time of ``points`` at an RMS of at most ``error`` (infinite where none reaches it)."""
+    return min((p["ms"] for p in points if p["rms"] <= error), default=math.inf)
+
+
+def dominance(points, band=BAND) -> str:
+    """Whether Fourier's front lies below the ray caster's at every error of ``band``: compared at each
+    point's error in the band and at its upper end (both fronts are step functions of the error)."""
+    fourier = [p for p in points if p["renderer"] == "fourier"]
+    rays = [p for p in points if p["renderer"] != "fourier"]
+    levels = sorted({p["rms"] for p in points if band[0] <= p["rms"] <= band[1]} | {band[1]})
+    losses = [(e, cheapest(fourier, e), cheapest(rays, e)) for e in levels
+              if cheapest(fourier, e) >= cheapest(rays, e) and math.isfinite(cheapest(rays, e))]
+    if not losses:
+        return f"fourier's front is below the ray caster's at every error from {band[0]:g} to {band[1]:g} RMS"
+    e, f, r = losses[0]
+    return (f"not dominated: at RMS {e:.2e} the ray caster takes {r:.0f} ms, fourier "
+            f"{'never reaches it' if math.isinf(f) else f'{f:.0f} ms'} ({len(losses)} of {len(levels)} error levels)")
 
 
 SHARED_COLUMNS = [("dataset", "dataset", ""), ("mode", "mode", ""), ("pre_s", "pre-processing s", ".2f"),
@@ -113,13 +187,3 @@ def shared(scenes, size: int = 128, progress=None) -> list[dict]:
                 if progress:
                     progress(rows[-1])
     return rows
-
-
-def _raycast_at(raycast, timed, small, truth, rms: float, repeat: int) -> str:
-    """The ray caster's time (at the timed image size) at the largest sample distance whose RMS (at the
-    small size) is at most ``rms``."""
-    for d in DISTANCES:
-        if compare_images(raycast.render(small.with_renderer(sample_distance_voxels=d)), truth)["rms"] <= rms:
-            ms = 1e3 * median_seconds(raycast, timed.with_renderer(sample_distance_voxels=d), repeat)
-            return f"{ms:.0f} ms at {d:g} voxel"
-    return f"not reached at {DISTANCES[-1]:g} voxel"

@@ -11,11 +11,25 @@ def test_bench_fourier_prints_times_and_errors(tmp_path, capsys):
     rows = [line.split() for line in out.splitlines() if line.startswith("16 ")]
     assert [r[1] for r in rows] == ["average", "xray"]
     for r in rows:
-        assert float(r[2]) >= 0 and float(r[5]) > 0 and float(r[6]) > 0   # pre-processing, ms per view, ray caster
+        assert float(r[2]) > 0 and float(r[3]) >= float(r[2])             # the spectrum, the first frame
+        assert float(r[5]) > 0 and float(r[6]) > 0 and float(r[7]) > 0    # ms a view of both, their ratio
         assert 0 < float(r[8]) < 1e-2                                      # RMS against the converged reference
+    front = [line.split() for line in out.splitlines() if line.startswith(("average ", "xray "))]
+    assert {r[1] for r in front} == {"fourier", "raycast"} and len(front) == 2 * (1 + 5 + 1 + 4)
+    assert sum("fourier's front" in line or "not dominated" in line for line in out.splitlines()) == 2
     assert "| N |" in md.read_text()
     assert main(["bench", "fourier", "--sizes", "16,x"]) == 1
     assert "--sizes" in capsys.readouterr().err
+
+
+def test_dominance_compares_the_fronts_in_the_band():
+    from dvr_gl.renderers.fourier.bench.measure import dominance
+
+    ray = [{"renderer": "raycast", "rms": 5e-3, "ms": 10.0}, {"renderer": "raycast", "rms": 1e-5, "ms": 100.0}]
+    fast = [{"renderer": "fourier", "rms": 2e-5, "ms": 5.0}]
+    assert dominance(ray + fast).startswith("fourier's front is below")
+    slow = [{"renderer": "fourier", "rms": 2e-5, "ms": 50.0}]  # slower at 5e-3, where the ray caster is 10 ms
+    assert dominance(ray + slow).startswith("not dominated: at RMS 5.00e-03")
 
 
 def test_bench_fourier_shared_accuracy_study(shared_data, capsys):
