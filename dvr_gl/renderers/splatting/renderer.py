@@ -26,7 +26,7 @@ from ..base import GLRenderer
 from ..grid.classification import classified_voxels, optics_uniforms, shading_defines
 from ..grid.tables import check_tables, lookup_table
 from ..surfaces import with_surfaces
-from . import low_pass
+from . import host, low_pass
 from .footprint import GaussianFootprint, M4Footprint
 from .particles import SUBPIXEL_RADIUS, ParticleSplats
 from .sheets import (
@@ -137,6 +137,8 @@ class Occlusion:
 
 class SplattingRenderer(GLRenderer):
     name = "splatting"
+    #: Rasterize the frames :func:`.host.serves` on the host (numba, where installed) instead of in GL.
+    host_sheets = True
 
     def work(self, scene):
         """Fragments of footprints, instances and sheets (:mod:`.work`), checked before the frame."""
@@ -178,6 +180,11 @@ class SplattingRenderer(GLRenderer):
         forward, right, up = cam.basis()
         eye = np.asarray(cam.eye, float) - centre
         mode = r.compositing
+        if self.host_sheets and is_grid(scene) and len(splats) and host.serves(scene) and host.compiled() is not None:
+            self.stats.update(splats=len(splats), splats_total=splats.total, culled=splats.total - len(splats))
+            image, stats = host.render(scene, splats, centre, lookup_table(self, scene).lut)
+            self.stats.update(stats)
+            return image
         if mode == "average" or (mode == "xray" and pre):  # sums: one pass, in any order
             order, schedule = np.arange(len(splats)), None
         elif r.sheet_buffer == "none":

@@ -1,0 +1,111 @@
+"""Image-aligned post-classified sheets of a grid's Gaussian splats rasterized on the host (numba), for the
+frames where software GL spends its time on the splats' instances rather than their pixels.
+
+On llvmpipe each kernel drawn into each slab costs about a microsecond and a half whatever its footprint
+(vertex shading, triangle setup and binning of an instanced quad), and an image-aligned frame draws every
+kernel into each of the 7-8 slabs it reaches: CThead's 3.0 million kept splats are 19 million instances.
+Here each splat is taken once per group of :data:`GROUP` slabs: per pixel of its screen rectangle the
+footprint is found once (the nearest approach, ``F(q)``) and split among the group's slabs by the Gaussian's
+cumulative along the ray; each group's sheets are then composited front to back, and the pixels that are
+opaque by then take no more splats (early termination per pixel, as ``splat.frag``'s).  The loops
+(:mod:`.host_compiled`) compute what the shaders compute, in float64 with the closed-form ``erf``, so the
+image is the same-slabs oracle's to float64 rounding and the footprint table's interpolation.
+
+Used where numba is installed and the frame is what it serves (:func:`serves`): the Gaussian, image-aligned
+sheets, post-classified emission-absorption, no shading, clipping, meshes or screen low-pass, exact
+footprints; every other frame, and every frame without numba, is drawn in GL.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from ...clipping import clipping_in_use
+from ...rays import RayBatch
+from ...scene.model import GAUSSIAN_RADIUS
+from . import low_pass
+from .footprint import GaussianFootprint
+from .sheets import kernel_depth_reach, kernel_radius, pixel_rectangles, shaded_sheets, slab_bounds
+
+#: Slabs filled per pass over the splats: a splat is visited once per group it reaches (a kernel reaches
+#: 7-8 slabs of one voxel), and early termination waits for the group's compositing.
+GROUP = 8
+
+
+def compiled():
+    """:mod:`.host_compiled` (numba) when numba is installed, else ``None`` (the frame is drawn in GL)."""
+    try:
+        from . import host_compiled
+    except ImportError:
+        return None
+    return host_compiled
+
+
+def serves(scene) -> bool:
+    """Whether the host path draws this frame (module doc)."""
+    r = scene.renderer
+    return (scene.field.kind == "grid" and r.filter == "gaussian" and r.sheet_buffer == "image_aligned"
+            and r.classification == "post" and r.compositing == "emission_absorption" and not shaded_sheets(scene)
+            and not clipping_in_use(r.clipping) and not r.geometry and not low_pass.enabled(scene)
+            and r.footprint == "exact")
+
+
+def render(scene, splats, centre, table, loops=None) -> tuple[np.ndarray, dict]:
+    """The frame ``(H, W, 4)`` float32 and its stats, from ``splats`` (:class:`.splats.Splats`, positions
+    relative to ``centre``) and the transfer function's ``table`` (:class:`~dvr_gl.transfer_function.
+    TransferFunctionLUT`); ``loops``: :mod:`.host_compiled` or an object with its functions (default: the
+    compiled ones)."""
+    loops = loops or compiled()
+    r, cam, img = scene.renderer, scene.camera, scene.image
+    w, h = img.width, img.height
+    forward = cam.basis()[0]
+    eye = np.asarray(cam.eye, float)
+    rays = RayBatch.for_camera(cam, w, h, scene.field.bounds)
+    origins = np.ascontiguousarray(rays.origins - centre)
+    directions = np.ascontiguousarray(rays.directions, dtype=np.float64)
+    along = directions @ np.asarray(forward, float)
+    bounds = slab_bounds(scene, eye, forward)  # view depths from the eye
+    depth = splats.depths(eye - centre, forward)
+    order = np.argsort(depth, kind="stable")
+    depth = depth[order]
+    positions = np.ascontiguousarray(splats.positions[order])
+    values = np.ascontiguousarray(splats.values[order])
+    core = np.zeros(0) if splats.core is None else np.ascontiguousarray(splats.core[order], dtype=np.float64)
+    rect = np.ascontiguousarray(np.stack(pixel_rectangles(scene, positions + centre, splats.bounding_radii()),
+                                         axis=1))
+    reach = kernel_depth_reach(scene, forward)
+    width = bounds[1] - bounds[0]  # the slabs are even: each kernel's first and last slab
+    slab_range = np.clip(np.floor((np.stack([depth - reach, depth + reach], axis=1) - bounds[0]) / width),
+                         0, len(bounds) - 2).astype(np.int64)
+    inv_spacing = 1.0 / np.asarray(scene.volume.spacing, float)
+    footprint = _footprint_table()
+    image = np.zeros((w * h, 4))
+    sheet = np.zeros((GROUP, w * h))
+    cores = np.zeros((GROUP, w * h))
+    slabs = len(bounds) - 1
+    visits = 0
+    for k0 in range(0, slabs, GROUP):
+        k1 = min(k0 + GROUP, slabs)
+        first = int(np.searchsorted(depth, bounds[k0] - reach, side="left"))
+        last = int(np.searchsorted(depth, bounds[k1] + reach, side="right"))
+        if not (image[:, 3] < r.ert_threshold).any():
+            break
+        sheet[:] = 0.0
+        cores[:] = 0.0
+        visits += last - first
+        crossings = np.ascontiguousarray(bounds[k0:k1 + 1, None] / along[None, :])
+        loops.fill_sheets(first, last, positions, values, core, rect, slab_range, origins, directions, rays.t0,
+                          rays.t1, crossings, k0, inv_spacing, kernel_radius(scene), r.kernel_width, footprint,
+                          image[:, 3], r.ert_threshold, w, sheet[:k1 - k0], cores[:k1 - k0])
+        loops.composite_sheets(sheet, cores, len(core) > 0, rays.t0, rays.t1, along, bounds, k0, k1, table.table,
+                               float(table.domain[0]), float(table.domain[1]), image)
+    stats = {"sheets": slabs, "splats_drawn": visits, "skipped": 0}
+    return image.reshape(h, w, 4).astype(np.float32), stats
+
+
+@functools.lru_cache(maxsize=1)
+def _footprint_table() -> np.ndarray:
+    """The Gaussian's footprint table ``F(q)`` for ``sigma = 1`` (float64, the GL texture's): once per process."""
+    return GaussianFootprint(GAUSSIAN_RADIUS).footprint_table
