@@ -75,3 +75,10 @@ def test_climb_charges_the_making_of_data_not_made_yet():
 
     row, _ = climb([1, 2], 60.0, lambda step: {"step": step, "making_s": 0.0}, str, making=lambda step: 100.0)
     assert row["step"] == 1 and row["note"].startswith("shrunk: 2 predicted 100.0 s")
+
+
+def test_the_peers_scene_is_one_of_dvr_bench_peers():
+    from dvr_gl.bench import gpu, peers
+
+    assert peers.SCENES[gpu.PEER_SCENE] == (gpu.PEER_DEMO, gpu.PEER_MODE)
+    assert set(gpu.PEERS) <= set(peers.PEERS)
