@@ -23,8 +23,9 @@ times at least :data:`GROWTH` (twice the side and twice the image: 8 times the v
 the samples a ray) or the growth measured between the last two steps if larger, plus, where the step's data is
 not made yet, 8 times the last data's making shared among the cases of that kind still to run.  A step predicted
 to overrun the case's share of what is left (what is left over the cases left) is not run, and the row says at
-which size it stopped and why; a case reached when nothing is left is skipped, saying so.  The files are written
-only at the end, both or neither.
+which size it stopped and why; a step that runs past what is left of its share anyway is stopped by a timer
+(its row keeps the step before, and says so); a case reached when nothing is left is skipped, saying so.  The
+files are written only at the end, both or neither.
 
 Columns: "first frame s" is the first render's wall time (the renderer and its context made, programs compiled,
 data uploaded); "frame ms" the median wall time of ``--frames`` renders after it (the image read back: the GPU
@@ -33,15 +34,18 @@ finished); "GPU draw ms" the draw calls to ``glFinish`` where the renderer repor
 
 from __future__ import annotations
 
+import contextlib
 import datetime
 import json
 import math
 import os
 import platform
 import shutil
+import signal
 import statistics
 import subprocess
 import sys
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -51,6 +55,7 @@ from . import tick, volume_keys
 KINDS = ("grid", "mesh", "particles")
 FRACTIONS = (0.25, 0.5, 1.0)  # the ladder: a quarter (the warm-up), half, the full side of data and image
 GROWTH = 8.0  # the least time ratio assumed from one step to the next (8x the voxels, 4x the pixels)
+WARM_UP_LIMIT = 60.0  # seconds the first step of a case may take, whatever its share (it is not predicted)
 MIN_NODES, MIN_IMAGE, MIN_MESH_POINTS, MIN_PARTICLES = 8, 16, 3, 64
 MAX_PARTICLES = 10 ** 6
 PEERS = ("vtk-gpu", "vispy")  # dvr_gl.bench.peers' names of the GPU peers
@@ -313,23 +318,57 @@ def measure(name: str, scene, frames: int) -> dict:
             "gpu_ms": 1e3 * statistics.median(draws) if draws else None}
 
 
+class Overrun(BaseException):
+    """A step ran past the time left to it (a BaseException, as KeyboardInterrupt: no renderer's handler of
+    errors takes it for one of its own)."""
+
+
+@contextlib.contextmanager
+def time_limit(seconds: float):
+    """Raise :class:`Overrun` after ``seconds`` of wall time (in the main thread, where there is an interval
+    timer; elsewhere no limit)."""
+    if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "setitimer"):
+        yield
+        return
+
+    def expire(signum, frame):
+        raise Overrun()
+
+    previous = signal.signal(signal.SIGALRM, expire)
+    signal.setitimer(signal.ITIMER_REAL, max(seconds, 1e-3))
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        signal.signal(signal.SIGALRM, previous)
+
+
 def climb(ladder: list[Step], share: float, run_step, describe, making=lambda step: 0.0) -> tuple[dict, float]:
     """Run ``run_step(step) -> dict`` up ``ladder`` while each next step is predicted to fit in ``share``
     seconds (module doc); the last step's numbers, a note where it stopped short, and the seconds spent.
     ``making(step)``: the predicted seconds of making the step's data charged to this case; a result's
-    ``making_s``, the seconds it spent making data, is left out of the growth of the renderer's own time."""
+    ``making_s``, the seconds it spent making data, is left out of the growth of the renderer's own time.
+    A step that runs past what is left of the share (the warm-up: at least :data:`WARM_UP_LIMIT` seconds) is
+    stopped, and the row keeps the step before it."""
     row, spent, last = {}, 0.0, None
     growth = GROWTH
     for step in ladder:
+        left = share - spent
         if last is not None:
-            predicted, left = growth * last + making(step), share - spent
+            predicted = growth * last + making(step)
             if predicted > left:
                 row["note"] = (f"shrunk: {describe(step)} predicted {predicted:.1f} s, over the {max(left, 0.0):.1f} "
                                f"s left of its share of the time budget")
                 break
+        limit = left if last is not None else max(left, WARM_UP_LIMIT)
         start = time.perf_counter()
         try:
-            result = run_step(step)
+            with time_limit(limit):
+                result = run_step(step)
+        except Overrun:
+            row["note"] = f"stopped: {describe(step)} ran past the {limit:.1f} s left of its share of the time budget"
+            spent += time.perf_counter() - start
+            break
         except Exception as exc:  # a bench records what failed (out of GPU memory, a limit) and goes on
             message = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
             row["note"] = f"failed at {describe(step)}: {message}"
@@ -495,8 +534,6 @@ def check_out(args) -> list[Path]:
 
 def write_both(paths: list[Path], texts: list[str], overwrite: bool):
     """Both files or neither: each written to a temporary file beside it, renamed only when both are written."""
-    import contextlib
-
     from ..image import atomic_output
 
     with contextlib.ExitStack() as stack:

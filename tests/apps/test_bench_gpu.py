@@ -82,3 +82,17 @@ def test_the_peers_scene_is_one_of_dvr_bench_peers():
 
     assert peers.SCENES[gpu.PEER_SCENE] == (gpu.PEER_DEMO, gpu.PEER_MODE)
     assert set(gpu.PEERS) <= set(peers.PEERS)
+
+
+def test_climb_stops_a_step_that_runs_past_its_share():
+    """The second step is predicted to fit (8 x 10 ms) but takes 5 s: the timer stops it at the 0.3 s share."""
+    from dvr_gl.bench.gpu import climb
+
+    def run_step(step):
+        time.sleep(0.01 if step == 1 else 5.0)
+        return {"step": step}
+
+    start = time.perf_counter()
+    row, _ = climb([1, 2, 4], 0.3, run_step, str)
+    assert time.perf_counter() - start < 2.0
+    assert row["step"] == 1 and row["note"].startswith("stopped: 2 ran past the")
