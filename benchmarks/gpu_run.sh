@@ -44,7 +44,10 @@ install() {  # into /tmp/site: the wheels, then dvr-gl itself (its entry points 
         for f in .gl/*.deb; do dpkg -x "$f" /; done
         ldconfig
     fi
-    [ -f "$NVIDIA_EGL" ] && export __EGL_VENDOR_LIBRARY_FILENAMES="$NVIDIA_EGL"
+    if [ -f "$NVIDIA_EGL" ]; then  # EGL through NVIDIA's vendor library (the device README's advice)
+        export __EGL_VENDOR_LIBRARY_FILENAMES="$NVIDIA_EGL"
+        export LD_LIBRARY_PATH="/usr/local/nvidia/lib64:/usr/local/nvidia/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+    fi
     local site=/tmp/dvr-gl-site
     "$PYTHON" -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade --target "$site" .whl/*.whl
     "$PYTHON" -m pip install -q --no-index --find-links .whl --no-deps --no-cache-dir --upgrade --target "$site" .
