@@ -18,6 +18,9 @@ of itself and what is related in front of it) orders every pixel's cells correct
 taking the remaining cell placed nearest the eye as if nothing were in front of it, and counted
 (``stats["cycles_broken"]``).
 
+The per-view loops (the faces' relations and the sort) run compiled with numba where it is installed
+(:mod:`.order_compiled`, the optional extra ``numba``), else in numpy here: the same order either way.
+
 **centroid**: cells by the distance of their centroid from the eye (as VTK's
 ``vtkCellCenterDepthSort``): fast, and wrong where a large cell's centroid lies behind a small
 cell that it hides in part.
@@ -26,6 +29,7 @@ cell that it hides in part.
 from __future__ import annotations
 
 import functools
+import importlib
 import time
 from dataclasses import dataclass
 
@@ -39,6 +43,14 @@ EDGE_MARGIN = 1e-9  # barycentric slack of the boundary faces' ray hits
 TOUCHING = 1e-9     # boundary crossings this close along a ray (relative to the mesh's size) meet
 EDGE_ON = 1e-9      # a face whose plane passes this close to the eye (relative sine) is seen edge on
 PAIRS_PER_CHUNK = 1 << 21
+
+
+def compiled():
+    """:mod:`.order_compiled` (numba) when numba is installed, else ``None`` (the numpy code here)."""
+    try:
+        return importlib.import_module(".order_compiled", __package__)
+    except ImportError:
+        return None
 
 
 @dataclass
@@ -56,6 +68,12 @@ class Adjacency:
     boundary_edges: np.ndarray    # (B, 2, 3) v1 - v0, v2 - v0 (Moller-Trumbore)
     boundary_normal: np.ndarray   # (B, 3) out of its cell
     size: float                   # the boundary's largest extent along an axis
+    face_slots: np.ndarray        # (F, 2) which face of each of its two cells (the vertex it leaves out)
+
+    @functools.cached_property
+    def normal_length(self) -> np.ndarray:
+        """``(F,)`` the interior faces' normals' lengths (for the edge-on test)."""
+        return np.linalg.norm(self.face_normal, axis=1)
 
 
 def adjacency(points: np.ndarray, tets: np.ndarray) -> Adjacency:
@@ -79,7 +97,8 @@ def adjacency(points: np.ndarray, tets: np.ndarray) -> Adjacency:
     out[np.einsum("ij,ij->i", out, centroid - corners[:, 0]) > 0] *= -1.0
     return Adjacency(np.stack([cells[interior_a], cells[interior_b]], axis=1), pa, normal, boundary, boundary_cell,
                      extra, corners, edges, out,
-                     float(np.ptp(corners.reshape(-1, 3), axis=0).max()) if len(corners) else 0.0)
+                     float(np.ptp(corners.reshape(-1, 3), axis=0).max()) if len(corners) else 0.0,
+                     np.stack([which[interior_a], which[interior_b]], axis=1).astype(np.int64))
 
 
 def eye_of(camera):
@@ -104,7 +123,7 @@ def face_relations(adj: Adjacency, camera) -> tuple[np.ndarray, np.ndarray, np.n
     a, b = adj.pairs[:, 0], adj.pairs[:, 1]
     front = np.where(side > 0, b, a)  # the eye beyond a's face: b is on the eye's side
     back = np.where(side > 0, a, b)
-    scale = np.linalg.norm(adj.face_normal, axis=1) * np.linalg.norm(toward_eye, axis=1)
+    scale = adj.normal_length * np.linalg.norm(toward_eye, axis=1)
     edge_on = np.abs(side) <= EDGE_ON * scale
     return front[~edge_on], back[~edge_on], np.nonzero(edge_on)[0]
 
@@ -234,8 +253,10 @@ def _distinct(values: np.ndarray) -> np.ndarray:
 class VisibilityOrder:
     """The orders of one mesh (its faces and centroids computed once)."""
 
-    def __init__(self, mesh):
+    def __init__(self, mesh, compiled_loops: bool = True):
+        """``compiled_loops``: run the per-view loops compiled where numba is installed (else numpy)."""
         self.mesh = mesh
+        self.fast = compiled() if compiled_loops else None
         self.centroids = mesh.points[mesh.tets].mean(axis=1)
 
     @functools.cached_property
@@ -253,9 +274,10 @@ class VisibilityOrder:
             order = np.argsort(depth, kind="stable")
             return order, {"order": "centroid", "order_seconds": time.perf_counter() - start}
         adj = self.adjacency
+        if self.fast is not None:
+            return self._compiled(camera, o_d_t(camera, width, height, pixels), depth, start)
         f1, b1, edge_on = face_relations(adj, camera)
-        o, d = camera.pixel_rays(width, height, None if pixels is None else np.nonzero(pixels)[0])
-        t_min = camera.near_distance(d)
+        o, d, t_min = o_d_t(camera, width, height, pixels)
         f2, b2 = boundary_relations(adj, o, d, t_min)
         # Across a face seen edge on (the eye in its plane) which cell is in front is a matter of
         # rounding, in the relation and in the float32 clipping that splits a ray lying in the plane
@@ -265,8 +287,31 @@ class VisibilityOrder:
         f3, b3 = np.where(nearer, a, b), np.where(nearer, b, a)
         order, broken = topological(len(self.mesh.tets), np.concatenate([f1, f2, f3]), np.concatenate([b1, b2, b3]),
                                     depth)
-        return order, {"order": "exact", "order_seconds": time.perf_counter() - start,
+        return order, {"order": "exact", "compiled": False, "order_seconds": time.perf_counter() - start,
                        "face_relations": int(len(f1)), "boundary_relations": int(len(f2)),
                        "edge_on_faces": int(len(edge_on)),
                        "rays_cast": len(d),
                        "cycles_broken": broken, "non_manifold_faces": adj.non_manifold}
+
+    def _compiled(self, camera, rays, depth, start) -> tuple[np.ndarray, dict]:
+        """The exact order with the per-view loops compiled (:mod:`.order_compiled`): the same order
+        as the numpy code."""
+        adj, fast, n = self.adjacency, self.fast, len(self.mesh.tets)
+        eye, forward = eye_of(camera)
+        perspective = eye is not None
+        front_of, flat = fast.face_fronts(adj.pairs, adj.face_point, adj.face_normal, adj.normal_length,
+                                          eye if perspective else np.zeros(3),
+                                          np.zeros(3) if perspective else forward, perspective, EDGE_ON, depth)
+        f2, b2 = boundary_relations(adj, *rays)
+        order, broken = fast.exact_order(n, adj.face_slots, adj.pairs, front_of, f2.astype(np.int64),
+                                         b2.astype(np.int64), depth)
+        return order, {"order": "exact", "compiled": True, "order_seconds": time.perf_counter() - start,
+                       "face_relations": int(len(adj.pairs) - flat), "boundary_relations": int(len(f2)),
+                       "edge_on_faces": int(flat), "rays_cast": len(rays[1]),
+                       "cycles_broken": int(broken), "non_manifold_faces": adj.non_manifold}
+
+
+def o_d_t(camera, width: int, height: int, pixels):
+    """The rays cast against the boundary: origins, directions and where each starts."""
+    o, d = camera.pixel_rays(width, height, None if pixels is None else np.nonzero(pixels)[0])
+    return o, d, camera.near_distance(d)

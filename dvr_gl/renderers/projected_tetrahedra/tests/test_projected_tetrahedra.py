@@ -17,7 +17,7 @@ from dvr_gl.errors import SceneError
 from dvr_gl.fields.mesh import TetMesh
 from dvr_gl.fields.mesh_rays import boundary_faces, face_neighbours
 from dvr_gl.renderers import create_renderer, registry
-from dvr_gl.renderers.projected_tetrahedra.order import VisibilityOrder, adjacency, topological
+from dvr_gl.renderers.projected_tetrahedra.order import VisibilityOrder, adjacency, compiled, topological
 from dvr_gl.scene.resolve import load_scene
 from judges import CONVERGED, renderers
 from mesh_inputs import BAND_TF, REFERENCE_VIEWS, jittered_mesh, mesh_scene, rms
@@ -202,6 +202,58 @@ def test_topological_order_places_loosely_related_cells_by_depth():
     assert list(order) == [0, 1, 2]  # was [0, 2, 1]: cell 2 in the first level
     order, _ = topological(3, np.array([0]), np.array([1]), np.array([5.0, 1.0, 3.0]))
     assert list(order) == [2, 0, 1]  # cell 1 takes cell 0's depth: behind the unrelated cell 2
+
+
+@pytest.mark.parametrize("camera", [
+    Camera(eye=(2.5, 1.9, 2.2), target=(0.5, 0.4, 0.45), up=(0.0, 0.0, 1.0), fov=40.0),
+    Camera(eye=(0.5, 0.4, 0.45), target=(1.5, 0.4, 0.45), up=(0.0, 0.0, 1.0), fov=60.0),  # inside the mesh
+    Camera(eye=(0.5, 0.4, 5.0), target=(0.5, 0.4, 0.0), up=(0.0, 1.0, 0.0), projection="orthographic",
+           view_height=1.2),  # along an axis: faces seen edge on
+])
+def test_the_compiled_order_equals_the_numpy_order(camera):
+    """The numba loops (order_compiled.py) give the numpy code's order, cell for cell, with the same
+    relations counted; a non-convex mesh (a block cut out) so that boundary relations count too."""
+    pytest.importorskip("numba")
+    mesh = jittered_mesh(n=(7, 6, 5))
+    centroids = mesh.points[mesh.tets].mean(axis=1)
+    keep = ~((centroids[:, 0] > 0.3) & (centroids[:, 0] < 0.7) & (centroids[:, 2] > 0.4))
+    mesh = TetMesh(mesh.points, mesh.tets[keep], mesh.values, name="notched")
+    fast, slow = VisibilityOrder(mesh), VisibilityOrder(mesh, compiled_loops=False)
+    (a, sa), (b, sb) = fast(camera, 24, 20), slow(camera, 24, 20)
+    assert sa["compiled"] and not sb["compiled"]
+    assert np.array_equal(a, b)
+    for key in ("face_relations", "boundary_relations", "edge_on_faces", "rays_cast", "cycles_broken"):
+        assert sa[key] == sb[key], key
+    assert sa["boundary_relations"] > 0
+
+
+def test_the_compiled_sort_equals_the_numpy_sort_with_cycles_and_repeats():
+    """Random relations (cycles, repeated relations, ties of depth): the compiled Kahn's sort gives
+    the numpy sort's order and cycle count; its radix sort is numpy's stable argsort."""
+    pytest.importorskip("numba")
+    fast = compiled()
+    rng = np.random.default_rng(3)
+    n = 300
+    front, back = rng.integers(0, n, 900), rng.integers(0, n, 900)
+    keep = front != back
+    front, back = np.r_[front[keep], front[:50]], np.r_[back[keep], back[:50]]
+    depth = rng.integers(0, 40, n).astype(float) - 20.0  # ties, negatives, both zeros
+    depth[:3] = -0.0
+    none = np.zeros((0, 2), np.int64)
+    order, broken = fast.exact_order(n, none, none, np.zeros(0, np.int64), front, back, depth)
+    expected, expected_broken = topological(n, front, back, depth)
+    assert broken == expected_broken > 0
+    assert np.array_equal(order, expected)
+    values = rng.normal(size=1000) * 10.0 ** rng.integers(-300, 300, 1000)
+    assert np.array_equal(fast.stable_argsort(values), np.argsort(values, kind="stable"))
+
+
+def test_the_order_falls_back_to_numpy_without_numba(monkeypatch):
+    monkeypatch.setitem(sys.modules, "numba", None)
+    monkeypatch.setitem(sys.modules, "dvr_gl.renderers.projected_tetrahedra.order_compiled", None)
+    assert compiled() is None
+    _, stats = VisibilityOrder(jittered_mesh())(Camera(eye=(2.5, 1.9, 2.2), target=(0.5, 0.4, 0.45)), 8, 8)
+    assert not stats["compiled"]
 
 
 @pytest.mark.skipif(not (SHARED_DATA / "unstructured").is_dir(), reason="the shared datasets are absent")
