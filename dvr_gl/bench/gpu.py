@@ -18,14 +18,14 @@ choice instead (:func:`fitted`), named in the row.
 
 Time is budgeted (``--time-budget`` seconds, the whole bench included: making the data, compiling, uploading):
 each case (a renderer on a kind of data) climbs a ladder of sizes, a quarter, half and the full data side and
-image side; the quarter is its warm-up.  Before each larger step the step's time is predicted from the last one,
-times at least :data:`GROWTH` (twice the side and twice the image: 8 times the voxels, 4 times the pixels, twice
-the samples a ray) or the growth measured between the last two steps if larger, plus, where the step's data is
-not made yet, 8 times the last data's making shared among the cases of that kind still to run.  A step predicted
-to overrun the case's share of what is left (what is left over the cases left) is not run, and the row says at
-which size it stopped and why; a step that runs past what is left of its share anyway is stopped by a timer
-(its row keeps the step before, and says so); a case reached when nothing is left is skipped, saying so.  The
-files are written only at the end, both or neither.
+image side; the quarter runs twice, a warm-up (compiling, JIT) and then measured.  Before each larger step the
+step's time is predicted from the last one, times at least :data:`GROWTH` (twice the side and twice the image:
+8 times the voxels, 4 times the pixels, twice the samples a ray) or the growth measured between the last two
+steps if larger, plus, where the step's data is not made yet, 8 times the last data's making shared among the
+cases of that kind still to run.  A step predicted to overrun the case's share of what is left (what is left
+over the cases left) is not run, and the row says at which size it stopped and why; a step that runs past what
+is left of its share anyway is stopped by a timer (its row keeps the step before, and says so); a case reached
+when nothing is left is skipped, saying so.  The files are written only at the end, both or neither.
 
 Columns: "first frame s" is the first render's wall time (the renderer and its context made, programs compiled,
 data uploaded); "frame ms" the median wall time of ``--frames`` renders after it (the image read back: the GPU
@@ -346,13 +346,14 @@ def time_limit(seconds: float):
 def climb(ladder: list[Step], share: float, run_step, describe, making=lambda step: 0.0) -> tuple[dict, float]:
     """Run ``run_step(step) -> dict`` up ``ladder`` while each next step is predicted to fit in ``share``
     seconds (module doc); the last step's numbers, a note where it stopped short, and the seconds spent.
-    ``making(step)``: the predicted seconds of making the step's data charged to this case; a result's
-    ``making_s``, the seconds it spent making data, is left out of the growth of the renderer's own time.
-    A step that runs past what is left of the share (the warm-up: at least :data:`WARM_UP_LIMIT` seconds) is
-    stopped, and the row keeps the step before it."""
+    The first step runs twice: a warm-up (what is paid once a process: compiling, numba's JIT, caches), then
+    measured.  ``making(step)``: the predicted seconds of making the step's data charged to this case; a
+    result's ``making_s``, the seconds it spent making data, is left out of the growth of the renderer's own
+    time.  A step that runs past what is left of the share (the first: at least :data:`WARM_UP_LIMIT`
+    seconds) is stopped, and the row keeps the step before it."""
     row, spent, last = {}, 0.0, None
     growth = GROWTH
-    for step in ladder:
+    for k, step in enumerate(ladder[:1] + list(ladder)):
         left = share - spent
         if last is not None:
             predicted = growth * last + making(step)
@@ -360,31 +361,36 @@ def climb(ladder: list[Step], share: float, run_step, describe, making=lambda st
                 row["note"] = (f"shrunk: {describe(step)} predicted {predicted:.1f} s, over the {max(left, 0.0):.1f} "
                                f"s left of its share of the time budget")
                 break
-        limit = left if last is not None else max(left, WARM_UP_LIMIT)
-        start = time.perf_counter()
-        try:
-            with time_limit(limit):
-                result = run_step(step)
-        except Overrun:
-            row["note"] = f"stopped: {describe(step)} ran past the {limit:.1f} s left of its share of the time budget"
-            spent += time.perf_counter() - start
-            break
-        except Exception as exc:  # a bench records what failed (out of GPU memory, a limit) and goes on
-            message = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
-            row["note"] = f"failed at {describe(step)}: {message}"
-            spent += time.perf_counter() - start
-            break
-        elapsed = time.perf_counter() - start
+        result, note, elapsed = _attempt(run_step, step, left if last is not None else max(left, WARM_UP_LIMIT),
+                                         describe)
         spent += elapsed
-        if "note" in result:  # refused: no larger step will do better
-            row["note"] = result["note"]
+        if note is not None:
+            row["note"] = note
             break
+        if k == 0:  # the warm-up
+            continue
         cost = max(elapsed - result.pop("making_s", 0.0), 1e-6)
         if last is not None:
             growth = max(GROWTH, cost / last)
         last = cost
         row = {**result, "note": None}
     return row, spent
+
+
+def _attempt(run_step, step, limit: float, describe) -> tuple[dict | None, str | None, float]:
+    """``run_step(step)`` within ``limit`` seconds: its result, or a note why there is none (stopped, failed,
+    refused); and the seconds it took."""
+    start = time.perf_counter()
+    try:
+        with time_limit(limit):
+            result = run_step(step)
+    except Overrun:
+        return None, (f"stopped: {describe(step)} ran past the {limit:.1f} s left of its share of the time "
+                      f"budget"), time.perf_counter() - start
+    except Exception as exc:  # a bench records what failed (out of GPU memory, a limit) and goes on
+        message = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        return None, f"failed at {describe(step)}: {message}", time.perf_counter() - start
+    return result, result.get("note"), time.perf_counter() - start  # a note: refused, no larger step does better
 
 
 def run_cases(args, data: Data, todo, clock, reserve: int) -> list[dict]:
