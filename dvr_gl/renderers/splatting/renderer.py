@@ -26,7 +26,7 @@ from ..base import GLRenderer
 from ..grid.classification import classified_voxels, optics_uniforms, shading_defines
 from ..grid.tables import check_tables, lookup_table
 from ..surfaces import with_surfaces
-from . import host, low_pass
+from . import column, host, low_pass
 from .footprint import GaussianFootprint, M4Footprint
 from .particles import SUBPIXEL_RADIUS, ParticleSplats
 from .sheets import (
@@ -44,6 +44,9 @@ from .sheets import (
 )
 from .splats import Splats, ghost_layers, post_visibility
 from .work import splat_work
+
+#: GL drivers that shade on the CPU: there particles' orthographic X-ray is deposited on the host (:mod:`.column`).
+SOFTWARE_GL = ("llvmpipe", "softpipe", "swiftshader")
 
 #: Its own GLSL (before the common library).
 SHADERS = (shader_root(__file__),)
@@ -139,6 +142,8 @@ class SplattingRenderer(GLRenderer):
     name = "splatting"
     #: Rasterize the frames :func:`.host.serves` on the host (numba, where installed) instead of in GL.
     host_sheets = True
+    #: False: particles' X-ray always drawn in GL (the host deposit, :mod:`.column`, is for software GL)
+    host_columns = True
 
     def work(self, scene):
         """Fragments of footprints, instances and sheets (:mod:`.work`), checked before the frame."""
@@ -185,6 +190,12 @@ class SplattingRenderer(GLRenderer):
             image, stats = host.render(scene, splats, centre, lookup_table(self, scene).lut)
             self.stats.update(stats)
             return image
+        if self.host_columns and column.applies(scene, self._software_gl()):
+            sums = column.host_xray(scene, splats, eye, (forward, right, up), m4_tables())
+            if sums is not None:
+                self.stats.update(splats=len(splats), splats_total=splats.total, culled=splats.total - len(splats),
+                                  sheets=0, host=True)
+                return _radiograph(sums).astype(np.float32)
         if mode == "average" or (mode == "xray" and pre):  # sums: one pass, in any order
             order, schedule = np.arange(len(splats)), None
         elif r.sheet_buffer == "none":
@@ -208,6 +219,10 @@ class SplattingRenderer(GLRenderer):
         finally:
             for _, _, b in buffers:
                 b.release()
+
+    def _software_gl(self) -> bool:
+        info = self.ctx.info.get("GL_RENDERER", "").lower()
+        return any(name in info for name in SOFTWARE_GL)
 
     def _visibility(self, scene):
         r, tf = scene.renderer, scene.transfer_function
