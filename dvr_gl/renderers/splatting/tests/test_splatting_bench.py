@@ -13,6 +13,7 @@ def test_bench_splatting_prints_the_schemes_and_the_study(tmp_path, capsys):
     assert [(r[2], r[3]) for r in rows] == [("image_aligned", "post"), ("image_aligned", "pre"),
                                             ("axis_aligned", "post"), ("none", "pre"), ("image_aligned", "post-shaded")]
     assert all(float(r[9]) < 1e-4 for r in rows)          # against its oracle: float32
+    assert float(rows[0][-1]) > 0  # the ratio to the ray caster at equal RMS (interleaved)
     particles = [line.split() for line in table.splitlines() if line.startswith("Plummer,") and ":" not in line]
     assert [(r[4], r[5]) for r in particles] == [("image_aligned", "post"), ("image_aligned", "pre"), ("none", "pre"),
                                                  ("image_aligned", "post-shaded")]
