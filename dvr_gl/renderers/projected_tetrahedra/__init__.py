@@ -14,16 +14,26 @@ from ...scene import sweeps
 from ...scene.plugin import RendererPlugin
 from .order import ORDERS
 
+INTEGRATIONS = ("exact", "shirley-tuchman")
+
 CELL_ORDER = s.Setting("cell_order", str, "exact", "visibility order of the cells: exact (across shared faces "
                        "by the eye's side, across gaps by the pixels' rays) or centroid (by the distance of "
                        "each cell's centre; approximate)", choices=ORDERS, group="projected-tetrahedra")
+
+INTEGRATION = s.Setting("integration", str, "exact", "emission-absorption per cell: exact (every fragment "
+                        "clips its own ray and integrates the transfer function along it) or shirley-tuchman "
+                        "(colour and optical depth at the footprint's thick vertex, interpolated across its "
+                        "triangles: approximate, cheaper per fragment; the exact path where the camera reaches "
+                        "the mesh, with clipping or opaque geometry)", choices=INTEGRATIONS,
+                        group="projected-tetrahedra")
 
 PLUGIN = RendererPlugin(
     name="projected-tetrahedra",
     description="projected tetrahedra in GL for meshes, exact visibility order",
     renderer="dvr_gl.renderers.projected_tetrahedra.renderer:ProjectedTetrahedraRenderer",
     order=70,
-    settings=(s.COMPOSITING.only(*s.COMPOSITING_BEFORE_XRAY), s.ISO_VALUE, CELL_ORDER, s.CLIPPING, s.GEOMETRY),
+    settings=(s.COMPOSITING.only(*s.COMPOSITING_BEFORE_XRAY), s.ISO_VALUE, CELL_ORDER, INTEGRATION, s.CLIPPING,
+              s.GEOMETRY),
     data_kinds=("mesh",),
     needs_gl=True,
     sweeps=(sweeps.Family("cell order", "renderer.cell_order", ("centroid", "exact")),),

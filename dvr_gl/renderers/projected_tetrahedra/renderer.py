@@ -19,6 +19,7 @@ import numpy as np
 
 from ... import limits
 from ...gl.shaders import create_program, shader_root
+from ...sandbox import current
 from ..mesh import SHADERS as MESH_SHADERS
 from ..mesh.textures import MODES, ROW, MeshRenderer, rows
 from .order import VisibilityOrder
@@ -79,7 +80,11 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
         if self._count_fragments:
             defines = {"FRAGMENT_COUNT": True, "CAMERA_ORTHOGRAPHIC": defines["CAMERA_ORTHOGRAPHIC"]}
         defines.update(self._kept_part_defines(scene, surfaces))
-        program = create_program(self.ctx, "pt.vert", "pt.frag", defines, geometry="pt.geom", roots=SHADERS)
+        interpolated = self._shirley_tuchman(scene, defines)
+        stats["integration"] = "shirley-tuchman" if interpolated else "exact"
+        defines["SHIRLEY_TUCHMAN"] = interpolated
+        program = create_program(self.ctx, "pt.vert", "pt_st.frag" if interpolated else "pt.frag", defines,
+                                 geometry="pt.geom", roots=SHADERS)
         self._uniforms(program, scene, textures)
         slots = self._order_texture(self._flag_cover_all(order, scene))
         self.bind(program, {}, {**dict(textures.textures), "u_order": slots, **surfaces})
@@ -91,7 +96,9 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
         self._blending(mode)
         vao = self.ctx.vertex_array(program, [])
         try:
-            step = max(-(-len(order) // BATCHES), 1)
+            # one draw, unless someone watches the progress or a time limit must be checked between draws
+            watched = self.progress is not None or current().max_seconds is not None
+            step = max(-(-len(order) // (BATCHES if watched else 1)), 1)
             for first in range(0, len(order), step):  # in order: GL draws the calls one after another
                 vao.render(moderngl.POINTS, vertices=min(step, len(order) - first), first=first)
                 self.ctx.finish()
@@ -108,6 +115,15 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
         if mode == "emission_absorption" or self._count_fragments:
             return image.astype(np.float32)
         return self._resolve(scene, image).astype(np.float32)
+
+    def _shirley_tuchman(self, scene, defines: dict) -> bool:
+        """Whether this frame takes Shirley and Tuchman's interpolation (``renderer.integration``):
+        emission-absorption only, and the exact path where it does not apply: the camera reaching the
+        mesh (cells with no projection), clipping or opaque geometry (the kept part of each pixel's
+        ray, which the thick vertex's one ray cannot stand for), the fragment counts."""
+        return (getattr(scene.renderer, "integration", "exact") == "shirley-tuchman" and "EMISSION" in defines
+                and not self._count_fragments and not (defines.get("CLIPPING") or defines.get("GEOMETRY"))
+                and not MeshRenderer._reaches_near_plane(scene))
 
     def fragment_counts(self, scene) -> np.ndarray:
         """``(height, width)``: how many cells' fragments each pixel keeps (a ray's pieces found by the
