@@ -30,8 +30,8 @@ DISTANCES = (8.0, 4.0, 2.0, 1.0, 0.5)
 #: Fourier's settings on its front, beside its defaults: cheaper and more accurate slice kernels.
 FOURIER_SETTINGS = (("trilinear slice", {"slice_interpolation": "trilinear"}),
                     ("cubic B-spline slice", {"slice_interpolation": "cubic_bspline"}),
-                    ("6 taps", {"slice_taps": 6}),
-                    ("6 taps, bandwidth 2", {"slice_taps": 6, "slice_bandwidth": 2.0}))
+                    ("padding 1.5", {"padding": 1.5}),
+                    ("6 taps, padding 1.25", {"slice_taps": 6, "padding": 1.25}))
 #: The error band where Fourier's front is to lie below the ray caster's.
 BAND = (1e-4, 1e-2)
 COLUMNS = [("n", "N", "d"), ("mode", "mode", ""), ("spectrum_s", "spectrum s", ".2f"),
