@@ -154,25 +154,84 @@ DEMOS = {"shepp-logan": shepp_logan, "marschner-lobb": marschner_lobb, "blobs": 
 PARTICLE_DEMOS = ("plummer",)
 
 
-# The default demo's look (dvr render --demo): unshaded emission-absorption, no gradient, so every grid
-# renderer draws it.  A faint blue brain (value 0.2) in which the two ventricles (value 0) show as darker
-# hollows, orange lesions (0.3), and a faint ivory skull (values above 0.5).  The phantom is antialiased
-# (3^3 sub-samples per voxel, then a 0.75-voxel blur), so the skull's edges pass through every value from 0
-# to 1: each band's opacity is low per voxel, so that the thin shells where an edge crosses the brain's or
-# the lesions' band add little while the structures' 10-70 voxels of depth make them show.  The skull is
-# 1.3-2.2 voxels thin at 96^3 and its blurred peak varies around the head with the voxel grid: its opacity
-# is flat from 0.55 to 1 so that variation draws no contour rings.  Shaded, the gradient of that thin shell
-# and of the soft edges drew fine rings (issue 43).
+# The default demo's look (dvr render --demo): unshaded emission-absorption.  A translucent blue brain (value
+# 0.2) in which the two ventricles (value 0) show as darker hollows, orange lesions (0.3) and a faint ivory skull
+# (values above 0.5).  The phantom is antialiased (3^3 sub-samples per voxel, then a 0.75-voxel blur), so the
+# skull's edges pass through every value from 0 to 1: each value band's thin shell there adds little to the
+# brain's and the skull's own bands, which their structures' depth outweighs, but a lesion is only 10-30 voxels
+# deep, and the shell where the skull's inner edge crosses the lesions' band, seen edge on (about 11 voxels along
+# the ray), drew a thin orange line along the skull's rim.  Where a renderer classifies by value and gradient
+# magnitude (a 2D transfer function), the lesions' band is drawn only where the gradient is low (the lesions'
+# insides: below 0.04 per voxel; the skull's edge where it crosses 0.3: above 0.17, measured at 96^3 and
+# 128^3); elsewhere the lesions are hollows like the ventricles (a narrow band drew the rim thinner, and rings
+# where renderers sample on voxel planes).  The skull is 1.3-2.2 voxels thin at 96^3 and its blurred peak varies
+# around the head with the voxel grid: its opacity is flat from 0.55 to 1 so that variation draws no contour
+# rings; shaded, the gradient of that thin shell and of the soft edges drew fine rings (issue 43).
 _SKULL, _BRAIN, _LESION = (0.95, 0.9, 0.8), (0.3, 0.5, 1.0), (1.0, 0.45, 0.1)
+#: The demo's bands that every renderer draws (by value alone): brain and skull.
 SHEPP_LOGAN_DEMO_POINTS = [
-    [0.0, 0.0, 0.0, 0.0, 0.0], [0.14, *_BRAIN, 0.0], [0.2, *_BRAIN, 0.015], [0.26, *_BRAIN, 0.0],
-    [0.27, *_LESION, 0.0], [0.3, *_LESION, 0.06], [0.36, *_LESION, 0.06], [0.39, *_LESION, 0.0],
+    [0.0, 0.0, 0.0, 0.0, 0.0], [0.14, *_BRAIN, 0.0], [0.2, *_BRAIN, 0.02], [0.26, *_BRAIN, 0.0],
     [0.45, *_SKULL, 0.0], [0.55, *_SKULL, 0.012], [1.0, *_SKULL, 0.012]]
+#: The lesions' band (value 0.3, and 0.4 where two overlap), drawn where the gradient magnitude is low.
+SHEPP_LOGAN_DEMO_LESIONS = [[0.265, *_LESION, 0.0], [0.3, *_LESION, 0.15], [0.36, *_LESION, 0.15],
+                            [0.39, *_LESION, 0.0]]
+#: The 2D table's axes: value nodes every 0.01 from 0.1 to 0.6 (the bands' corners fall on them or between
+#: two of them; constant beyond, as the points are), and gradient magnitude 0 (every band) to
+#: LESION_GRADIENT (value units per voxel; spacing 1), from which on the lesions' band is gone.
+SHEPP_LOGAN_DEMO_VALUES, LESION_GRADIENT = (0.1, 0.6, 51), 0.1
+#: An X-ray of the phantom (for renderers that draw projections only): extinction rising with the value,
+#: the colours mixed by extinction, so the skull is brightest, the lesions orange and the ventricles darker.
+SHEPP_LOGAN_XRAY_POINTS = [[0.0, 0.0, 0.0, 0.0, 0.0], [0.2, *_BRAIN, 0.008], [0.3, *_LESION, 0.016],
+                           [0.45, *_SKULL, 0.016], [1.0, *_SKULL, 0.04]]
+#: The mean along each ray (a renderer without X-rays): grey, opaque where the mean is 0.35 (chords through
+#: the skull's rim; the brain's 0.2 about half).
+SHEPP_LOGAN_MEAN_POINTS = [[0.0, 0.0, 0.0, 0.0, 0.0], [0.35, *_SKULL, 1.0]]
 SHEPP_LOGAN_DEMO_SHADING = {"enabled": False}
+#: the compositing modes a demo falls back to, in order, where a renderer does not take emission-absorption
+PROJECTION_MODES = ("xray", "average")
 
 
-def demo_scene(name: str) -> dict:
-    """The scene ``dvr render --demo NAME`` starts from (a TOML-shaped dict)."""
+def shepp_logan_demo_table() -> dict:
+    """The demo's 2D transfer function (``transfer_function`` keys): at gradient magnitude 0 the points with
+    the lesions' band, at :data:`LESION_GRADIENT` and above the points without it, linear in between."""
+    lo, hi, n = SHEPP_LOGAN_DEMO_VALUES
+    values = np.linspace(lo, hi, n)
+
+    def rows(points):
+        p = np.asarray(sorted(points), dtype=np.float64)
+        return np.stack([np.interp(values, p[:, 0], p[:, k]) for k in range(1, 5)], axis=-1)
+
+    low, high = rows(SHEPP_LOGAN_DEMO_POINTS + SHEPP_LOGAN_DEMO_LESIONS), rows(SHEPP_LOGAN_DEMO_POINTS)
+    table = np.stack([low, high], axis=1).round(6)
+    return {"table_2d": table.tolist(), "value_range_2d": [lo, hi], "gradient_range_2d": [0.0, LESION_GRADIENT]}
+
+
+def demo_scene(name: str, renderer=None, overrides: dict | None = None) -> dict:
+    """The scene ``dvr render --demo NAME`` starts from (a TOML-shaped dict), for ``renderer``: the
+    :class:`~dvr_gl.scene.plugin.RendererPlugin` that will draw it (the registry's declaration; None: a scene
+    that every grid renderer of emission-absorption draws).  The scene keeps to what the renderer declares:
+    its projections, compositing modes (a projection-only renderer gets an X-ray or an average), the choices
+    of its settings, shading and scattering where it has them, and, for Shepp-Logan, a 2D transfer function
+    where it classifies grids by value and gradient magnitude and ``overrides`` (the command line's dotted scene
+    keys) ask for nothing a 2D transfer function is not rendered with (another compositing mode or
+    classification, scattering) and give no transfer function keys."""
+    scene = _demo_scene(name)
+    if renderer is not None:
+        _adapt(scene, name, renderer, overrides or {})
+    return scene
+
+
+def _takes_2d(overrides: dict) -> bool:
+    """Whether the overrides keep to what a 2D transfer function is rendered with
+    (:func:`dvr_gl.transfer_function_2d.check_scene`) and give no transfer function keys of their own (they
+    would meet the table's: the demo's 1D points take them as before)."""
+    return (not any(key.startswith("transfer_function.") for key in overrides)
+            and overrides.get("renderer.compositing", "emission_absorption") in ("emission_absorption", "xray")
+            and overrides.get("renderer.classification", "post") == "post"
+            and not overrides.get("renderer.scattering.enabled", False))
+
+
+def _demo_scene(name: str) -> dict:
     if name == "blobs":
         size, points = 64, [[0.0, 0.2, 0.3, 0.9, 0.0], [0.3, 0.2, 0.5, 0.9, 0.2], [0.6, 0.9, 0.8, 0.3, 0.6],
                             [1.0, 0.9, 0.3, 0.1, 1.0]]
@@ -196,7 +255,7 @@ def demo_scene(name: str) -> dict:
     if name == "shepp-logan":  # seen from higher up through the translucent skull: the inside shows.  Not cut
         # open with a clipping plane: the demo must render with every renderer, and some declare no clipping
         scene["camera"].update(elevation=45.0, distance=2.3 * size)
-        scene["renderer"] = {"sample_distance_voxels": 0.25, "shading": SHEPP_LOGAN_DEMO_SHADING}
+        scene["renderer"] = {"sample_distance_voxels": 0.25, "shading": dict(SHEPP_LOGAN_DEMO_SHADING)}
     if points:
         scene["transfer_function"] = {"points": points}
     if name in PARTICLE_DEMOS:  # a glowing cloud, no surfaces: unshaded
@@ -206,6 +265,31 @@ def demo_scene(name: str) -> dict:
             "enabled": True, "albedo": 0.9, "method": "light_volume", "light_volume_size": 128,
             "lights": [{"type": "directional", "direction": [0.4, 0.6, -1.0], "intensity": 1.5}]}}
     return scene
+
+
+def _adapt(scene: dict, name: str, renderer, overrides: dict) -> None:
+    """Keep ``scene`` to what ``renderer`` (a RendererPlugin) declares (:func:`demo_scene`), in place."""
+    r = scene["renderer"]
+    if scene.setdefault("camera", {}).get("projection", "perspective") not in renderer.projections:
+        scene["camera"]["projection"] = renderer.projections[0]
+        if name == "shepp-logan" and renderer.projections[0] == "orthographic":  # the head as large as in perspective
+            scene["camera"]["view_height"] = 1.1 * scene["volume"]["size"]
+    modes = renderer.choices("compositing")
+    if "emission_absorption" not in modes and "renderer.compositing" not in overrides:  # (given: as given)
+        r["compositing"] = next((m for m in PROJECTION_MODES if m in modes), modes[0])
+        if name == "shepp-logan":
+            points = SHEPP_LOGAN_XRAY_POINTS if r["compositing"] == "xray" else SHEPP_LOGAN_MEAN_POINTS
+            scene["transfer_function"] = {"points": points}
+    elif name == "shepp-logan" and "grid" in renderer.transfer_function_2d and _takes_2d(overrides):
+        scene["transfer_function"] = shepp_logan_demo_table()
+    for feature in ("shading", "scattering"):
+        if feature in r and renderer.declared(feature) is None:
+            del r[feature]  # the schema's default: off
+    for setting in renderer.settings if name not in PARTICLE_DEMOS else ():  # (particles: the renderer's kernel)
+        value = r.get(setting.name, setting.base.default_value())  # one the renderer does not take: its first
+        if setting.choices and value not in setting.choices:
+            r[setting.name] = setting.choices[0]
+
 
 
 def demo_volume(name: str, size: int = 64) -> Volume:

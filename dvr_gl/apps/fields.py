@@ -150,7 +150,7 @@ def source_of(args, overrides: dict, transfer_functions: list[str]) -> Source:
                        f"order, or one per channel of a file with channels (a scene file's [[volume]] tables each "
                        f"take their own)")
     if not files:
-        base = demo_scene(args.demo) if args.demo and not args.scene else None
+        base = demo_scene(args.demo, demo_renderer(overrides), overrides) if args.demo and not args.scene else None
         return Source(args.scene, overrides, base)
     volume_keys = {k.removeprefix("volume."): v for k, v in overrides.items() if k.startswith("volume.")}
     time = volume_keys.pop("time", None)
@@ -171,6 +171,15 @@ def source_of(args, overrides: dict, transfer_functions: list[str]) -> Source:
         for i in timed:
             tables[i]["time"] = time
     return source
+
+
+def demo_renderer(overrides: dict):
+    """The declaration (:class:`~dvr_gl.scene.plugin.RendererPlugin`) of the renderer that draws the demo: the
+    overrides' ``renderer.name``, else the default renderer of a grid (the demo keeps to what it declares)."""
+    from dvr_gl.renderers import registry
+
+    name = overrides.get("renderer.name")
+    return registry.plugin(name) if name in registry.names() else registry.plugin(registry.default_for("grid"))
 
 
 def channels_of(path: str, overrides: dict) -> int:

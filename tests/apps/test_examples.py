@@ -23,8 +23,14 @@ def test_example_renders(path):
 
 
 def test_shepp_logan_example_is_the_demo_scene():
-    from_demo = load_scene(None, {}, demo_scene("shepp-logan"))
+    """The example spells out what ``dvr render --demo`` renders: the demo for the default renderer."""
+    from dvr_gl.renderers import registry
+
+    default = registry.plugin(registry.default_for("grid"))
+    from_demo = load_scene(None, {}, demo_scene("shepp-logan", default))
     from_file = load_scene(REPO / "examples" / "shepp-logan.toml")
     assert from_demo.renderer == from_file.renderer
     np.testing.assert_allclose(from_demo.camera.eye, from_file.camera.eye)
     np.testing.assert_array_equal(from_demo.transfer_function.points, from_file.transfer_function.points)
+    np.testing.assert_array_equal(getattr(from_demo.transfer_function, "table", None),
+                                  getattr(from_file.transfer_function, "table", None))

@@ -76,7 +76,8 @@ def test_dvr_render_renders_with_it_and_refuses_in_one_line(site, tmp_path):
     ours, judge = read_image(image), read_image(same)
     assert judge[..., :3].max() > 0.01          # the phantom's maximum, faint under the demo's opacities
     assert abs(ours - judge).max() <= 1e-6      # float32 pixels of the same samples (the oracle: 0 measured)
-    refused = dvr(site, "render", *SMALL, "--renderer", NAME, "-o", str(tmp_path / "ea.png"))
+    refused = dvr(site, "render", *SMALL, "--renderer", NAME, "--compositing", "emission_absorption",
+                  "-o", str(tmp_path / "ea.png"))  # (the demo alone adapts: an average for this renderer)
     assert refused.returncode == 1
     assert refused.stderr.strip() == (f"dvr render: error: {NAME} does not support renderer.compositing = "
                                       f"'emission_absorption' (it takes mip, minip or average); use raycast, "

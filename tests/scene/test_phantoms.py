@@ -47,19 +47,57 @@ def test_shepp_logan_values_are_the_modified_densities():
     assert data[32, 32, 0] == 0.0                     # x = -1: outside the head
 
 
-def test_the_demo_is_bright():
-    """The demo (a small copy of it) is coloured: its image's mean linear RGB is above 0.015 (the demo
-    before issue 21: 0.008 at this size; issue 43's unshaded, fainter demo: 0.018), an opaque pixel
-    (alpha above 0.5) shows the orange lesion (red above blue by more than 0.6; now 0.86) and a
-    half-translucent one (alpha above 0.2) the blue brain (blue above red by more than 0.15; now 0.25)."""
-    from dvr_gl.renderers import render
+@pytest.fixture(scope="module")
+def demo_picture():
+    """The default renderer's demo at its size (96^3; the skull's thickness and the gradients it is tuned to are
+    the phantom's at that size), on 96x96 pixels: (RGBA, the premultiplied colour's red minus blue over alpha)."""
+    from dvr_gl.renderers import registry, render
     from dvr_gl.scene.resolve import load_scene
 
-    scene = load_scene(None, {"volume.size": 48, "image.width": 64, "image.height": 64},
-                       demo_scene("shepp-logan"))
+    scene = load_scene(None, {"image.width": 96, "image.height": 96},
+                       demo_scene("shepp-logan", registry.plugin(registry.default_for("grid"))))
     rgba = render(scene)
-    assert rgba[..., :3].mean() > 0.015
-    for alpha, (above, below), least in ((0.5, (0, 2), 0.6), (0.2, (2, 0), 0.15)):
-        seen = rgba[..., 3] > alpha
-        colour = rgba[..., :3][seen] / rgba[..., 3][seen][:, None]
-        assert (colour[:, above] - colour[:, below]).max() > least
+    warm = (rgba[..., 0] - rgba[..., 2]) / np.maximum(rgba[..., 3], 1e-6)
+    return rgba, warm
+
+
+def test_the_demo_is_bright(demo_picture):
+    """The demo is coloured: its image's mean linear RGB is above 0.05 (the demo before issue 21: 0.008; issue
+    43's unshaded one: 0.018 at 48^3; now 0.11), a half-opaque pixel (alpha above 0.5) shows the orange lesion
+    (red above blue by more than 0.25; now 0.36: it lies behind the brain) and one the blue brain (blue above
+    red by more than 0.5; now 0.68)."""
+    rgba, warm = demo_picture
+    assert rgba[..., :3].mean() > 0.05
+    seen = rgba[..., 3] > 0.5
+    assert warm[seen].max() > 0.25
+    assert -warm[seen].min() > 0.5
+
+
+def test_the_demo_has_no_rim(demo_picture):
+    """No orange line along the skull's rim: within 6 pixels of the head's silhouette (alpha above 0.05) no pixel
+    is warmer than the ivory skull (red above blue by 0.15); measured 0.11, and 0.79 with the lesions' band
+    classified by value alone (the skull's soft inner edge crosses the lesions' values: dvr_gl/phantoms.py)."""
+    from scipy import ndimage
+
+    rgba, warm = demo_picture
+    head = rgba[..., 3] > 0.05
+    rim = head & ~ndimage.binary_erosion(head, iterations=6)
+    assert rim.sum() > 500
+    assert warm[rim].max() < 0.2
+
+
+def test_the_demo_keeps_to_each_renderer():
+    """``demo_scene`` with a renderer's declaration gives a scene that renderer does not refuse: every grid
+    renderer, each demo (the projection-only renderers get an orthographic X-ray; kernels, classifications
+    and filters the renderer takes; shading and scattering off where it has none)."""
+    from dvr_gl.phantoms import DEMOS, PARTICLE_DEMOS
+    from dvr_gl.renderers import registry
+    from dvr_gl.scene.resolve import load_scene
+
+    for name, plugin in registry.plugins().items():
+        kinds = plugin.data_kinds or ("grid",)
+        for demo in DEMOS:
+            if ("particles" if demo in PARTICLE_DEMOS else "grid") not in kinds:
+                continue
+            scene = load_scene(None, {"volume.size": 8, "renderer.name": name}, demo_scene(demo, plugin))
+            assert registry.refusal(scene) is None, (name, demo)
