@@ -8,7 +8,11 @@ annotation owns a box (:func:`layout`) on a translucent dark panel; no pixel out
 * ``colorbar``: the transfer function's colour column (non-associated linear RGB, sRGB-encoded as the
   image is) over its domain, top = highest value, with tick labels in the data's units (``HU`` for a
   CT transfer function: a CT preset or a non-zero ``rescale_intercept``, labelled ``data +
-  intercept``; else ``value``).
+  intercept``; else ``value``); to its right the opacity column, a white profile whose width at each
+  value is the square root of the opacity there (alpha per unit distance, or extinction, by the transfer
+  function's model) over that of the largest on the bar: the square root keeps the faint bands that
+  volume rendering lives on visible beside an opaque one (a 2D transfer function: its value marginal,
+  each value's most opaque node).
 * ``scalebar``: a round world length (1, 2 or 5 times a power of ten) of about a fifth of the image's
   width, measured in the plane through the target perpendicular to the view (exact for orthographic
   views; perspective views shrink what lies behind the target and grow what lies in front).  Its unit:
@@ -171,7 +175,7 @@ def layout(scene, annotations: Annotations) -> dict[str, tuple[int, int, int, in
         labels = _colorbar_labels(scene, annotations)
         tw = max(_text_extent(t, f)[0] for _, t in labels)
         title_w = _text_extent(value_units(scene, annotations.value_unit)[0], f)[0]
-        bw = max(tw + f + 3 * m, title_w + 2 * m)
+        bw = max(tw + 2 * f + 4 * m, title_w + 2 * m)
         bottom = boxes["scalebar"][1] - m if "scalebar" in boxes else h - m
         top = max(m, bottom - int(0.6 * h))
         boxes["colorbar"] = (w - m - bw, top, w - m, bottom)
@@ -236,10 +240,25 @@ def _draw_scalebar(out, box, scene, annotations, f):
 
 
 def colorbar_geometry(box, f) -> tuple[int, int, int, int]:
-    """The colour strip's ``(x0, y0, x1, y1)`` inside the colour bar's box."""
+    """The colour strip's ``(x0, y0, x1, y1)`` inside the colour bar's box (left of the opacity column)."""
     m = max(2, f // 3)
-    x1 = box[2] - m
+    x1 = box[2] - 2 * m - f
     return x1 - f, box[1] + 2 * m + f + f // 2 + 1, x1, box[3] - m - f // 2  # below the unit, half a line
+
+
+def opacity_geometry(box, f) -> tuple[int, int, int, int]:
+    """The opacity column's ``(x0, y0, x1, y1)``: beside the colour strip, its rows at the strip's values."""
+    m = max(2, f // 3)
+    _, y0, x1, y1 = colorbar_geometry(box, f)
+    return x1 + m, y0, x1 + m + f, y1
+
+
+def opacity_profile(scene, strip) -> np.ndarray:
+    """Each row's profile width in [0, 1]: the square root of its opacity over the largest on the bar (zeros
+    where the bar is transparent)."""
+    opacity = np.asarray(scene.transfer_function.opacity(colorbar_values(scene, strip)), dtype=np.float64)
+    top = float(opacity.max(initial=0.0))
+    return np.sqrt(opacity / top) if top > 0 else np.zeros_like(opacity)
 
 
 def colorbar_values(scene, strip) -> np.ndarray:
@@ -274,6 +293,7 @@ def _draw_colorbar(out, box, scene, annotations, f):
     rgba = np.concatenate([rgb, np.ones((len(rgb), 1), np.float32)], axis=1)[:, None, :]
     colours = encode_8bit(np.clip(rgba, 0.0, None))[:, 0, :3]
     out[sy0:sy1, sx0:sx1, :3] = colours[:, None, :]
+    _draw_opacity(out, opacity_geometry(box, f), scene)
     lo, hi = _domain(scene)
     for value, label in _colorbar_labels(scene, annotations):
         y = sy0 + int(round((hi - value) / (hi - lo) * (sy1 - sy0))) if hi > lo else sy0
@@ -283,6 +303,18 @@ def _draw_colorbar(out, box, scene, annotations, f):
         _text(out, box, label, sx0 - m - 2 - tw, y - th // 2, f)
     unit, _ = value_units(scene, annotations.value_unit)
     _text(out, box, unit, box[0] + m, box[1] + m, f)
+
+
+def _draw_opacity(out, column, scene):
+    """The opacity profile: each row white from the column's left edge over its share of the width, beyond it
+    the panel with a dim line at the right edge (the largest opacity), and a grey line at the left (zero)."""
+    x0, y0, x1, y1 = column
+    filled = np.round(opacity_profile(scene, column) * (x1 - x0)).astype(int)
+    inside = np.arange(x1 - x0)[None, :] < filled[:, None]
+    region = out[y0:y1, x0:x1, :3]
+    region[:, -1] = 110
+    region[inside] = 255
+    region[:, 0] = np.maximum(region[:, 0], 160)
 
 
 def _draw_axes(out, box, scene, annotations, f):

@@ -17,6 +17,7 @@ from dvr_gl.annotations import (
     colorbar_geometry,
     font_size,
     layout,
+    opacity_geometry,
     parse_annotate,
     scale_bar,
 )
@@ -91,6 +92,25 @@ def test_colour_bar_shows_the_transfer_function():
     expected = _srgb8(scene.transfer_function.color(values))
     # OpenImageIO's sRGB encoding against the formula: within one 8-bit step
     assert np.abs(out[rows, (x0 + x1) // 2, :3] - expected).max() <= 1
+
+
+def test_colour_bar_shows_the_opacity():
+    """The opacity column beside the strip: each row white over the square root of its opacity over the largest
+    (0.9 at the top) of the column's width; measured on rows 7 apart against the points' interpolated opacity,
+    within one pixel of rounding, and the column's rows rise with the opacity (0.1 at the bottom: a third)."""
+    points = [[0.0, 1.0, 0.0, 0.0, 0.1], [0.5, 0.0, 1.0, 0.2, 0.5], [1.0, 0.1, 0.3, 1.0, 0.9]]
+    scene = _scene(size=(120, 200), transfer_function=points)
+    spec = Annotations(colorbar=True)
+    out = annotate(np.zeros((200, 120, 4), np.uint8), scene, spec)
+    box = layout(scene, spec)["colorbar"]
+    x0, y0, x1, y1 = opacity_geometry(box, font_size(200))
+    assert colorbar_geometry(box, font_size(200))[2] < x0 and x1 <= box[2]
+    rows = np.arange(y0, y1, 7)
+    values = 1.0 - (rows - y0 + 0.5) / (y1 - y0)
+    expected = np.sqrt(scene.transfer_function.opacity(values) / 0.9) * (x1 - x0)
+    white = (out[rows, x0:x1, :3] == 255).all(axis=2).sum(axis=1)
+    assert np.abs(white - expected).max() <= 1
+    assert white[0] == x1 - x0 and white[-1] < 0.45 * (x1 - x0)
 
 
 def test_orientation_letters_follow_the_camera():
