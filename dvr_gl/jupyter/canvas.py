@@ -46,6 +46,7 @@ from ..viewer.timeline import at_step
 WHEEL_PIXELS_PER_STEP = 100.0  # a wheel notch in a browser, CSS pixels (jupyter_rfb turns lines and pages to pixels)
 WHEEL_SETTLE = 0.25            # seconds after the last wheel event that end a wheel gesture
 PICK_REST = 0.15               # seconds the pointer rests (moving with no button down) before it is picked
+MAX_PIXEL_RATIO = 2.0          # the default cap on physical pixels per CSS pixel the image is rendered at
 
 
 class VolumeWidget(RemoteFrameBuffer):
@@ -56,7 +57,7 @@ class VolumeWidget(RemoteFrameBuffer):
     """
 
     def __init__(self, scene, read_step=None, steps: int = 1, budget: float = 0.1, rescale_intercept: float = 0.0,
-                 **kwargs):
+                 max_pixel_ratio: float = MAX_PIXEL_RATIO, **kwargs):
         with contextlib.redirect_stdout(io.StringIO()):  # outside IPython jupyter_rfb prints its output area
             super().__init__(**kwargs)
         self._scene = self._good_scene = scene
@@ -78,6 +79,11 @@ class VolumeWidget(RemoteFrameBuffer):
         self.rescale_intercept = rescale_intercept  # for the CT presets the controls offer (HU = data + this)
         self.css_width, self.css_height = f"{scene.image.width}px", f"{scene.image.height}px"
         self._css_size = (float(scene.image.width), float(scene.image.height))  # the last resize event's
+        if not (isinstance(max_pixel_ratio, int | float) and math.isfinite(max_pixel_ratio) and max_pixel_ratio >= 1):
+            raise DvrError(f"max_pixel_ratio must be a number of at least 1 (physical pixels per CSS pixel), got "
+                           f"{max_pixel_ratio!r}")
+        self.max_pixel_ratio = float(max_pixel_ratio)
+        self.pixel_ratio = 1.0  # physical pixels per CSS pixel the image is rendered at (the last resize event's)
         self._pick_handle = None
         self.picked: Pick | None = None  # the last pick under the resting pointer
         self.pick_text = ""              # what the status line says of it
@@ -92,7 +98,8 @@ class VolumeWidget(RemoteFrameBuffer):
         self.request_draw()  # sent once a browser shows the widget
 
     @classmethod
-    def of(cls, data, time_axis: int | None = None, budget: float = 0.1, **options) -> "VolumeWidget":
+    def of(cls, data, time_axis: int | None = None, budget: float = 0.1, max_pixel_ratio: float = MAX_PIXEL_RATIO,
+           **options) -> "VolumeWidget":
         """The widget on ``data`` with :func:`dvr_gl.render`'s options (see :func:`dvr_gl.widget`)."""
         read_step, steps = None, 1
         if isinstance(data, TimeSeries):
@@ -102,7 +109,7 @@ class VolumeWidget(RemoteFrameBuffer):
             steps = int(np.shape(data)[time_axis])
         scene = read_step(0) if read_step is not None else scene_of(data, **options)
         registry.check(scene)
-        return cls(scene, read_step, steps, budget, options.get("rescale_intercept") or 0.0)
+        return cls(scene, read_step, steps, budget, options.get("rescale_intercept") or 0.0, max_pixel_ratio)
 
     # --- the scene ---
 
@@ -201,7 +208,7 @@ class VolumeWidget(RemoteFrameBuffer):
         if self.gesture == "orbit":
             camera = navigation.orbit(camera, x - x0, y - y0)
         else:
-            camera = navigation.pan(camera, x - x0, y - y0, self._scene.image.height)
+            camera = navigation.pan(camera, x - x0, y - y0, self._css_size[1])  # CSS pixels, as the moves
         self.set_scene(self._scene.replace(camera=camera), interactive=True)
 
     def _release(self, event):
@@ -235,9 +242,17 @@ class VolumeWidget(RemoteFrameBuffer):
         self.request_draw()
 
     def _resize(self, event):
-        width, height = int(round(event.get("width", 0))), int(round(event.get("height", 0)))
+        """The widget's box changed (CSS pixels) or the screen's pixel ratio did: the image is rendered at the
+        physical pixels, the CSS size times the ratio (``pixel_ratio`` in jupyter_rfb's old events, ``ratio`` in
+        its new ones), the ratio capped at ``max_pixel_ratio`` (a HiDPI screen's 2 costs four times the pixels)."""
+        ratio = float(event.get("pixel_ratio", event.get("ratio", self.pixel_ratio)))
+        if not (math.isfinite(ratio) and ratio > 0):
+            raise ValueError(f"the pixel ratio must be a positive number, got {ratio}")
+        self.pixel_ratio = min(ratio, self.max_pixel_ratio)
+        css_w, css_h = float(event.get("width", 0)), float(event.get("height", 0))
+        width, height = int(round(css_w * self.pixel_ratio)), int(round(css_h * self.pixel_ratio))
         if width > 0 and height > 0:
-            self._css_size = (float(event["width"]), float(event["height"]))
+            self._css_size = (css_w, css_h)
         image = self._scene.image
         if width > 0 and height > 0 and (width, height) != (image.width, image.height):
             self.set_scene(self._scene.replace(image=dataclasses.replace(image, width=width, height=height)),
@@ -250,7 +265,7 @@ class VolumeWidget(RemoteFrameBuffer):
 
     def image_pixel(self, x: float, y: float) -> tuple[float, float]:
         """The image pixel coordinates (column, row from the top) of CSS pixel ``(x, y)`` of the widget (the
-        image is rendered at the widget's logical size, so they are equal unless a resize is pending)."""
+        image is rendered at the widget's CSS size times the pixel ratio: :meth:`_resize`)."""
         width, height = self._css_size
         return x * self._scene.image.width / width, y * self._scene.image.height / height
 

@@ -256,6 +256,31 @@ def test_the_bench_prints_its_table(capsys):
     assert float(row[2]) > 0 and float(row[-1]) >= 0  # frames a second while dragging; release to full image
 
 
+def test_a_hidpi_screen_gets_physical_pixels(view):
+    """A resize event with pixel ratio 2 (a HiDPI screen; jupyter_rfb's old events say ``pixel_ratio``, its new
+    ones ``ratio``) renders the image at twice the CSS size, the frame is that size, a pointer's CSS pixel maps
+    to the image pixel under it, and a drag turns by CSS pixels (0.4 degree each, as at ratio 1); a ratio above
+    ``max_pixel_ratio`` (default 2) is capped, and a ratio of 1 goes back to the CSS size."""
+    view.handle_event({"type": "resize", "width": 40, "height": 30, "pixel_ratio": 2.0})
+    assert (view.scene.image.width, view.scene.image.height) == (80, 60) and view.pixel_ratio == 2.0
+    assert full(view).shape == (60, 80, 3)
+    assert view.image_pixel(10.0, 15.0) == pytest.approx((20.0, 30.0))
+    assert view.pick(10.0, 15.0) == dvr_gl.pick(view.scene, 20.0, 30.0)
+    azimuth = view.scene.camera.orbit[0]
+    drag(view, dx=10)
+    assert view.scene.camera.orbit[0] == pytest.approx(azimuth - 10 * 0.4)
+    view.handle_event({"type": "resize", "width": 40, "height": 30, "ratio": 3.0})
+    assert (view.scene.image.width, view.scene.image.height) == (80, 60) and view.pixel_ratio == 2.0
+    view.handle_event({"type": "resize", "width": 40, "height": 30, "ratio": 1.0})
+    assert (view.scene.image.width, view.scene.image.height) == (40, 30)
+    capped = dvr_gl.widget(blob(), size=SIZE, max_pixel_ratio=1.5)
+    capped.handle_event({"type": "resize", "width": 40, "height": 30, "pixel_ratio": 2.0})
+    assert (capped.scene.image.width, capped.scene.image.height) == (60, 45)
+    capped.close()
+    with pytest.raises(dvr_gl.DvrError, match="max_pixel_ratio"):
+        dvr_gl.widget(blob(), size=SIZE, max_pixel_ratio=0.5)
+
+
 def test_the_resting_pointer_is_picked(view):
     """A move with no button down picks at once here (no event loop); the status line and ``pick`` say what
     ``dvr_gl.pick`` says at the same image pixel (the widget's CSS pixels are the image's: same size)."""
