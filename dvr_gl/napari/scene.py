@@ -47,6 +47,13 @@ DEPTH_VOXELS = 10.0
 COLORMAP_SAMPLES = 64
 #: napari's projecting renderings and dvr-gl's compositing of the same name (``projection`` of :func:`view_scene`).
 PROJECTIONS = {"mip": "mip", "minip": "minip", "average": "average"}
+#: napari's renderings dvr-gl has no mode for: the mode drawn instead, and what differs (``projection``).
+APPROXIMATIONS = {
+    "attenuated_mip": ("mip", "napari's attenuated_mip is drawn as mip: dvr-gl has no attenuation along the ray "
+                              "(the layer's attenuation {attenuation:g} is not applied)"),
+    "additive": ("average", "napari's additive is drawn as average: dvr-gl has no additive compositing (the mean "
+                            "along each ray, not its sum)"),
+}
 #: How far from orthonormal a layer's axes may be (after dividing by the scale) before it is called a shear.
 SHEAR_TOLERANCE = 1e-6
 
@@ -220,21 +227,54 @@ def mirrored(camera) -> bool:
     return str(getattr(camera, "handedness", "left")).lower().endswith("right")
 
 
+def rendering_mode(layer) -> tuple[dict, bool, str | None]:
+    """An image layer's napari ``rendering`` as dvr-gl settings: ``(settings, projected, note)``.  ``translucent``:
+    emission and absorption (no settings); ``mip``, ``minip``, ``average``: that compositing; ``iso``: the
+    isosurface at the layer's ``iso_threshold`` (data units, as napari's); ``attenuated_mip`` and ``additive``:
+    the nearest mode dvr-gl has (:data:`APPROXIMATIONS`) and a one-line note saying what differs.
+    ``projected``: the value is classified once (the colormap at the layer's opacity, no ramp)."""
+    mode = str(getattr(layer, "rendering", "translucent"))
+    if mode in PROJECTIONS:
+        return {"compositing": PROJECTIONS[mode]}, True, None
+    if mode == "iso":
+        return {"compositing": "isosurface", "iso_value": float(layer.iso_threshold)}, True, None
+    if mode in APPROXIMATIONS:
+        compositing, note = APPROXIMATIONS[mode]
+        return {"compositing": compositing}, True, note.format(attenuation=float(getattr(layer, "attenuation", 0)))
+    if mode != "translucent":
+        return {}, False, f"napari's rendering {mode!r} has no dvr-gl mode; drawn with emission and absorption"
+    return {}, False, None
+
+
+def _followed_layer(viewer, selected: bool):
+    """The one image layer whose rendering a view follows, or None (several layers, or a labels layer)."""
+    layers = rendered_layers(viewer, selected)
+    return layers[0] if len(layers) == 1 and _kind(layers[0]) == "image" else None
+
+
+def rendering_note(viewer, selected: bool = False, projection: bool = True) -> str | None:
+    """The one-line note of :func:`rendering_mode` for the view's followed layer (None when exact or not
+    followed): what a status line says beside the picture."""
+    layer = _followed_layer(viewer, selected) if projection else None
+    return rendering_mode(layer)[2] if layer is not None else None
+
+
 def view_scene(viewer, renderer: str | None = None, width: int | None = None, depth: float = DEPTH_VOXELS,
                selected: bool = False, projection: bool = False, background=(0.0, 0.0, 0.0, 1.0)):
     """The :class:`~dvr_gl.Scene` of napari's current 3D view of its rendered layers (:func:`rendered_layers`)
     with ``renderer`` (a registered name; default: the data's default), ``width`` pixels wide (default: the
-    canvas's size).  ``projection``: where one image layer is rendered and napari projects it (its
-    ``rendering`` is one of :data:`PROJECTIONS`), dvr-gl's compositing of that name, the colormap at full
-    opacity; otherwise emission and absorption."""
+    canvas's size).  ``projection``: where one image layer is rendered, napari's ``rendering`` of it as dvr-gl's
+    mode (:func:`rendering_mode`; a projection or an isosurface classifies with the colormap at the layer's
+    opacity); otherwise emission and absorption."""
     if viewer.dims.ndisplay != 3:
         raise SceneError("napari shows a 2D view; switch to 3D (the cube button, or viewer.dims.ndisplay = 3)")
     members, tfs = layer_members(viewer, depth, selected)
-    layers, settings = rendered_layers(viewer, selected), {}
-    mode = getattr(layers[0], "rendering", None) if len(layers) == 1 else None
-    if projection and str(mode) in PROJECTIONS and members[0].role == "scalar":
-        tfs = [image_transfer_function(layers[0], min(members[0].field.spacing), depth, ramp=False)]
-        settings["compositing"] = PROJECTIONS[str(mode)]
+    settings = {}
+    layer = _followed_layer(viewer, selected) if projection else None
+    if layer is not None:
+        settings, projected, _ = rendering_mode(layer)
+        if projected:
+            tfs = [image_transfer_function(layer, min(members[0].field.spacing), depth, ramp=False)]
     w, h = view_size(viewer, width)
     canvas_height = view_size(viewer)[1]
     camera = view_camera(napari_camera(viewer), canvas_height)

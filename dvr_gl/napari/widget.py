@@ -19,7 +19,7 @@ from ..errors import DvrError
 from ..gl.context import create_context
 from ..image import write_image
 from ..renderers import registry
-from .scene import DEPTH_VOXELS, render_animation, render_view, rendered_layers, time_axis
+from .scene import DEPTH_VOXELS, render_animation, render_view, rendered_layers, rendering_note, time_axis
 
 OUTPUTS = ("new layer", "file", "orbit", "time")
 
@@ -54,9 +54,10 @@ class RenderWidget(qt.QWidget):
         self.selected = qt.QCheckBox("selected layers only")
         self.selected.setToolTip("render the selected image and labels layers, not every visible one")
         self.selected.toggled.connect(self.refresh_renderers)
-        self.projection = qt.QCheckBox("napari's MIP, MinIP, average")
-        self.projection.setToolTip("one image layer whose rendering is mip, minip or average: dvr-gl's projection "
-                                   "of that name, as napari colours it; otherwise emission and absorption")
+        self.projection = qt.QCheckBox("napari's rendering mode")
+        self.projection.setToolTip("one image layer: its rendering as dvr-gl's mode (mip, minip, average, iso at its "
+                                   "iso_threshold; attenuated_mip and additive approximated, said in the status "
+                                   "line); otherwise emission and absorption")
         self.output = qt.QComboBox()
         self.output.addItems(OUTPUTS)
         self.path = qt.QLineEdit()
@@ -160,4 +161,5 @@ class RenderWidget(qt.QWidget):
         except (DvrError, OSError) as exc:
             self.status.setText(str(exc))
             return
-        self.status.setText(f"{done} in {time.perf_counter() - start:.2f} s")
+        note = rendering_note(self.viewer, self.selected.isChecked(), self.projection.isChecked())
+        self.status.setText(f"{done} in {time.perf_counter() - start:.2f} s" + (f"; {note}" if note else ""))

@@ -249,6 +249,46 @@ def test_the_picture_lies_as_napari_canvas_shows_it(viewer, widget):
         viewer.layers["labels"].visible = True
 
 
+def test_napari_rendering_modes_map_to_dvr_gl_modes(viewer, widget):
+    """Each of napari's renderings of one image layer, followed (``projection``): translucent is emission and
+    absorption, mip/minip/average the same compositing, iso the isosurface at the layer's iso_threshold (data
+    units: the block's surface drawn, nothing where the threshold is above the data), attenuated_mip and additive
+    the nearest mode with a one-line note in the status line; not followed, every mode is emission and
+    absorption."""
+    from dvr_gl.napari.scene import render_view, rendering_note, view_scene
+
+    _scene(viewer)
+    viewer.layers["labels"].visible = False
+    layer = viewer.layers["image"]
+    expected = {"translucent": "emission_absorption", "mip": "mip", "minip": "minip", "average": "average",
+                "iso": "isosurface", "attenuated_mip": "mip", "additive": "average"}
+    try:
+        for mode, compositing in expected.items():
+            layer.rendering = mode
+            assert view_scene(viewer, width=32, projection=True).renderer.compositing == compositing, mode
+            assert view_scene(viewer, width=32).renderer.compositing == "emission_absorption"
+            note = rendering_note(viewer)
+            assert (note is not None) == (mode in ("attenuated_mip", "additive")), (mode, note)
+            assert note is None or (mode in note and "\n" not in note)
+        layer.rendering, layer.iso_threshold = "iso", 0.5
+        scene = view_scene(viewer, width=32, projection=True)
+        assert scene.renderer.iso_value == 0.5
+        assert render_view(viewer, width=32, projection=True, ctx=widget.context()).rgba[..., 3].max() > 0.5
+        layer.iso_threshold = 2.0  # above the block's 1: no surface
+        assert render_view(viewer, width=32, projection=True, ctx=widget.context()).rgba[..., 3].max() == 0.0
+        layer.rendering, layer.attenuation = "attenuated_mip", 0.25
+        widget.projection.setChecked(True)
+        widget.output.setCurrentText("new layer")
+        widget.width_box.setValue(32)
+        widget.run()
+        status = widget.status.text()
+        assert "added layer" in status and "attenuated_mip is drawn as mip" in status and "0.25" in status, status
+    finally:
+        widget.projection.setChecked(False)
+        layer.rendering = "translucent"
+        viewer.layers["labels"].visible = True
+
+
 def test_a_refused_view_says_why_in_the_status_line(viewer, widget):
     _scene(viewer)
     viewer.dims.ndisplay = 2
