@@ -446,3 +446,22 @@ def test_the_pruned_transform_is_the_padded_grids(shape, dims):
     for module, threads in ((scipy.fft, True), (np.fft, False)):
         got = spectrum_module.padded_rfftn(block, dims, start, module, threads)
         assert np.abs(got - want).max() < 1e-12
+
+
+@pytest.mark.parametrize("view", [{}, {"camera.azimuth": 90.0, "camera.elevation": 0.0},
+                                  {"camera.target": [3.0, -2.0, 1.0], "image.width": 30}])
+def test_the_chords_of_parallel_rays_are_the_rays_chords(view):
+    """``Frame.chords`` (row and column terms) against the pixels' rays clipped to the box: measured 1e-14
+    (a view along an axis has rays parallel to two slabs)."""
+    from dvr_gl.rays import RayBatch
+    from dvr_gl.renderers.fourier.projection import Frame
+
+    scene = small_scene({**ORTHO, "renderer.compositing": "average", "volume.size": 14, "image.width": 20,
+                         "image.height": 20, **view})
+    chord, middle = Frame(scene).chords(scene)
+    rays = RayBatch.for_camera(scene.camera, scene.image.width, scene.image.height, scene.volume.bounds)
+    want = np.maximum(rays.t1 - rays.t0, 0.0).reshape(chord.shape)
+    assert (want > 0).any() and (want == 0).any()
+    assert np.abs(chord - want).max() < 1e-9
+    hit = want > 0
+    assert np.abs(middle - 0.5 * (rays.t0 + rays.t1).reshape(chord.shape))[hit].max() < 1e-9
