@@ -35,7 +35,9 @@ PICTURES = [
     ("demo", "The built-in demo (`dvr render --demo`, no data needed): the 3D Shepp-Logan head phantom seen from "
      "above, unshaded: a faint ivory skull around a translucent blue brain, in which the two ventricles "
      "show as a darker hollow and the largest lesion as an orange ellipse; the small lesions hardly show. The "
-     "thin orange line along the rim is where the skull's soft inner edge passes through the lesions' values.",
+     "lesions' colour is given by value and gradient magnitude (a 2D transfer function, drawn where the gradient "
+     "is low), so the skull's soft inner edge, which passes through the lesions' values, draws no line along "
+     "the rim.",
      None, ["--demo"]),
     ("cthead", "CThead (University of North Carolina; Stanford volume archive), the `ct-bone-ivory` preset. "
      "Its slices are stored from the top of the head down, so `--up=-z` stands it upright.",
