@@ -42,6 +42,7 @@ from dvr_gl.fields import SphereField
 from dvr_gl.rays import RayBatch, intersect_box
 from dvr_gl.renderers import registry
 from dvr_gl.scene.resolve import load_scene
+from dvr_gl.scene.settings import DEFAULT_SAMPLE_DISTANCE_VOXELS
 
 WIDTH, HEIGHT = 24, 20
 COLOUR = np.array([0.9, 0.5, 0.2])
@@ -83,7 +84,13 @@ def own_filter(renderer, mode: str = "emission_absorption") -> dict:
 def _load(data_keys, points, mode, view, renderer, extra=None):
     """A closed form's scene: its data keys, extinction ``points``, the view, no early termination; the unit
     distance 1 world unit, stated (the projections' opacity is that of one unit distance)."""
-    overrides = {**own_filter(renderer, mode), **data_keys, "transfer_function.points": points,
+    # The fixed sample distance (0.5 voxel) where the renderer takes one: the tolerances were measured there,
+    # and the ray caster's default is otherwise chosen by the scene for an 8-bit display (issue 44), a
+    # coarser step than a closed form checked to float32 rounding needs.
+    fixed = {"renderer.sample_distance_voxels": DEFAULT_SAMPLE_DISTANCE_VOXELS} \
+        if "sample_distance_voxels" in registry.plugin(renderer).setting_names \
+        and not any(k.startswith("renderer.sample_distance") for k in {**data_keys, **(extra or {})}) else {}
+    overrides = {**own_filter(renderer, mode), **data_keys, **fixed, "transfer_function.points": points,
                  "transfer_function.opacity_model": "extinction", "transfer_function.unit_distance": 1.0,
                  "image.width": WIDTH, "image.height": HEIGHT,
                  "renderer.name": renderer, "renderer.compositing": mode, "renderer.ert_threshold": 1.0,

@@ -46,17 +46,29 @@ COMPOSITE_TF = {
 COMPOSITE_TF["cthead"] = [[h + 1024.0, r, g, b, a] for h, r, g, b, a in (
     (-1024, 0, 0, 0, 0), (150, 0.55, 0.25, 0.15, 0), (300, 0.85, 0.7, 0.55, 0.25), (700, 0.95, 0.9, 0.8, 0.8),
     (3000, 1, 1, 0.95, 0.95))]
+#: Issue 44's scenes the defaults were not tuned on: the Shepp-Logan head phantom (uint8: the brain at 51,
+#: its small ellipsoids at 56-76, the skull at 255) with the brain faint and the small ellipsoids brighter.
+COMPOSITE_TF["shepp-logan"] = [[0, 0.2, 0.2, 0.6, 0.0], [40, 0.2, 0.3, 0.8, 0.0], [51, 0.3, 0.5, 0.9, 0.01],
+                               [60, 0.9, 0.6, 0.2, 0.0], [76, 1.0, 0.8, 0.3, 0.06], [100, 1.0, 0.8, 0.3, 0.0],
+                               [230, 0.9, 0.9, 0.9, 0.0], [255, 1.0, 1.0, 1.0, 0.03]]
 #: MIP: a grey ramp over the uint8 range, colour and opacity.
 MIP_TF = [[0, 0.0, 0.0, 0.0, 0.0], [255, 1.0, 1.0, 1.0, 1.0]]
+#: MIP ramps over a dataset's own range (the MNI152 T1 template: 0 to 1570).
+MIP_TFS = {"mni152": [[0, 0.0, 0.0, 0.0, 0.0], [1570, 1.0, 1.0, 1.0, 1.0]]}
 SCENES = {  # key: (phantom or dataset, mode)
     "ml-composite": ("marschner-lobb", "composite"),
     "ml-mip": ("marschner-lobb", "mip"),
     "blobs-composite": ("blobs", "composite"),
     "blobs-mip": ("blobs", "mip"),
     "cthead-bone": ("cthead", "composite"),
+    "shepp-composite": ("shepp-logan", "composite"),   # issue 44: new to the defaults
+    "mri-mip": ("mni152", "mip"),                      # issue 44: new to the defaults
 }
+#: The scenes a run takes unless ``--scenes`` says otherwise.
+DEFAULT_SCENES = tuple(SCENES)
 #: Scenes on the shared datasets (``--data-dir``): the file, and scene keys besides its spacing.
-DATASETS = {"cthead": ("regular/cthead.nhdr", {"camera.up": [0.0, 0.0, -1.0]})}
+DATASETS = {"cthead": ("regular/cthead.nhdr", {"camera.up": [0.0, 0.0, -1.0]}),
+            "mni152": ("regular/MNI152_2009_template.nii.gz", {"camera.up": [0.0, 0.0, 1.0]})}
 CAMERA = {"camera.azimuth": 30.0, "camera.elevation": 20.0, "camera.fov": 30.0, "camera.projection": "perspective"}
 DISTANCE_DIAGONALS = 1.8  # eye to the box centre, in box diagonals
 PEER_SAMPLE_VOXELS = 1.0  # the peers sample once per voxel
@@ -77,7 +89,9 @@ COLUMNS = [("scene", "scene", ""), ("renderer", "renderer", ""), ("setting", "se
 RATIO_COLUMNS = [("scene", "scene", ""), ("peer", "peer", ""), ("peer_ms", "peer ms", ".1f"),
                  ("peer_psnr", "peer PSNR", ".1f"), ("dvrgl", "dvr-gl at the peer's error", ""),
                  ("dvrgl_ms", "dvr-gl ms", ".1f"), ("dvrgl_psnr", "dvr-gl PSNR", ".1f"),
-                 ("ratio", "peer ms / dvr-gl ms", ".2f"), ("ratio_1vox", "vs dvr-gl 1 voxel", ".2f")]
+                 ("ratio", "peer ms / dvr-gl ms", ".2f"), ("ratio_1vox", "vs dvr-gl 1 voxel", ".2f"),
+                 ("defaults_ms", "dvr-gl defaults ms", ".1f"), ("defaults_psnr", "defaults PSNR", ".1f"),
+                 ("defaults_ratio", "peer ms / defaults ms", ".2f")]
 
 
 def default_peers_python() -> str | None:
@@ -128,7 +142,7 @@ def scene_keys(key: str, volume: Path, size: int, extra: dict | None = None) -> 
     return {"volume.path": str(volume), **CAMERA, **extra,
             "camera.distance": DISTANCE_DIAGONALS * diagonal,
             "image.width": size, "image.height": size,
-            "transfer_function.points": MIP_TF if mode == "mip" else COMPOSITE_TF[demo],
+            "transfer_function.points": MIP_TFS.get(demo, MIP_TF) if mode == "mip" else COMPOSITE_TF[demo],
             "transfer_function.unit_distance": 1.0,
             "renderer.compositing": "mip" if mode == "mip" else "emission_absorption",
             "renderer.shading.enabled": False, "renderer.filter": "linear"}
@@ -227,7 +241,7 @@ def runs_for(renderers, have: dict, sweep=None, preintegrated=None) -> list[dict
     sweep (default :data:`PREINTEGRATED_SWEEP`; composite scenes only), then each importable peer."""
     out = []
     if "dvr-gl" in renderers:
-        out.append({"renderer": "dvr-gl", "setting": "defaults (0.5 voxel)", "keys": {}, "voxels": None})
+        out.append({"renderer": "dvr-gl", "setting": "defaults", "keys": {}, "voxels": None, "defaults": True})
         for d in (SWEEP if sweep is None else sweep):
             out.append({"renderer": "dvr-gl", "setting": f"{d:g} voxel", "voxels": d,
                         "keys": {"renderer.sample_distance_voxels": d}})
@@ -337,8 +351,10 @@ def run(renderers=RENDERERS, scenes=tuple(SCENES), size: int = 512, volume_size:
                     continue
                 medians = [1e3 * statistics.median(r["seconds"]) for r in runs]
                 err = compare_images(images[(key, i)][1], truth)
-                rows.append({"scene": key, "renderer": config["renderer"], "setting": config["setting"],
-                             "voxels": config["voxels"] or (0.5 if config["renderer"] == "dvr-gl" else None),
+                settings = runs[0].get("settings", {})
+                rows.append({"scene": key, "renderer": config["renderer"],
+                             "setting": defaults_label(settings) if config.get("defaults") else config["setting"],
+                             "voxels": config["voxels"] or settings.get("sample_distance_voxels"),
                              "ms": statistics.median(medians),
                              "spread": f"{min(medians):.1f}-{max(medians):.1f}",
                              "rms": err["rms"], "psnr": err["psnr"],
@@ -352,20 +368,34 @@ def run(renderers=RENDERERS, scenes=tuple(SCENES), size: int = 512, volume_size:
             own.cleanup()
 
 
+def defaults_label(settings: dict) -> str:
+    """dvr-gl's defaults row, with what the scene chose (the worker's record of the resolved settings)."""
+    voxels = settings.get("sample_distance_voxels")
+    if voxels is None:
+        return "defaults"
+    pre = ", pre-integrated" if settings.get("classification") == "preintegrated" else ""
+    return f"defaults ({voxels:.3g} voxel{pre})"
+
+
 def ratios(rows: list[dict], slack: float = PSNR_SLACK) -> list[dict]:
     """For each peer row: the fastest dvr-gl row of its scene whose PSNR is at least the peer's minus
-    ``slack`` dB, and peer ms / dvr-gl ms; also the ratio to dvr-gl at 1 voxel (the peers' spacing)."""
+    ``slack`` dB, and peer ms / dvr-gl ms; also the ratio to dvr-gl at 1 voxel (the peers' spacing) and
+    dvr-gl's defaults against the peer (their time, PSNR and the ratio: issue 44's comparison)."""
     out = []
     for peer in (r for r in rows if r["renderer"] != "dvr-gl"):
         ours = [r for r in rows if r["renderer"] == "dvr-gl" and r["scene"] == peer["scene"]]
         meeting = [r for r in ours if r["psnr"] >= peer["psnr"] - slack]
         best = min(meeting, key=lambda r: r["ms"]) if meeting else None
         one = next((r for r in ours if r["voxels"] == 1.0 and r["setting"] == "1 voxel"), None)
+        defaults = next((r for r in ours if r["setting"].startswith("defaults")), None)
         out.append({"scene": peer["scene"], "peer": peer["renderer"], "peer_ms": peer["ms"], "peer_psnr": peer["psnr"],
                     "dvrgl": best["setting"] if best else "none of the sweep",
                     "dvrgl_ms": best["ms"] if best else None, "dvrgl_psnr": best["psnr"] if best else None,
                     "ratio": peer["ms"] / best["ms"] if best else None,
-                    "ratio_1vox": peer["ms"] / one["ms"] if one else None})
+                    "ratio_1vox": peer["ms"] / one["ms"] if one else None,
+                    "defaults_ms": defaults["ms"] if defaults else None,
+                    "defaults_psnr": defaults["psnr"] if defaults else None,
+                    "defaults_ratio": peer["ms"] / defaults["ms"] if defaults else None})
     return out
 
 

@@ -170,7 +170,8 @@ def test_tiny_spacing_is_refused_by_the_work_estimate(renderers, tmp_path):
 
     scene = array_scene(tmp_path, np.zeros((8, 8, 8), np.float32), {"image.width": 8, "image.height": 8},
                         spacing=(1e-15, 1.0, 1.0))
-    with pytest.raises(DvrError, match=r"0.5 voxels of the smallest spacing, 1e-15"):
+    # the ray caster's default distance is chosen by the scene (issue 44: 2.75 voxels for this empty one)
+    with pytest.raises(DvrError, match=r"[0-9.]+ voxels of the smallest spacing, 1e-15"):
         renderers[DEFAULT].render(scene)
 
 

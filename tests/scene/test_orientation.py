@@ -55,8 +55,12 @@ def permuted_pair():
 
 
 def image(volume, renderer, ctx=None, **camera):
-    """The rendered RGBA; a GL renderer draws in ``ctx`` (the session's context), else in one of its own."""
-    return np.asarray(dvr_gl.render(volume, renderer=renderer, size=SIZE, transfer_function=TF, ctx=ctx, **camera))
+    """The rendered RGBA; a GL renderer draws in ``ctx`` (the session's context), else in one of its own.  The
+    sample distance is fixed (0.5 voxel) where the renderer takes one: the ray caster's default is chosen
+    from random lines through the stored box (issue 44), which a permuted storage lays out differently."""
+    fixed = {"sample_distance_voxels": 0.5} if registry.plugin(renderer).declared("sample_distance_voxels") else {}
+    return np.asarray(dvr_gl.render(volume, renderer=renderer, size=SIZE, transfer_function=TF, ctx=ctx, **camera,
+                                    **fixed))
 
 
 #: the GL renderers whose samples are points along the rays or on planes (a sample distance, or the

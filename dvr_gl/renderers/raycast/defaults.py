@@ -1,0 +1,293 @@
+"""The ray caster's defaults chosen by the scene: sample distance, classification and early termination
+for an image error an 8-bit display does not show (docs/tolerance.md, "Defaults").
+
+When a scene gives no sample distance and no tolerance, :func:`resolve_defaults` (called from the
+ray caster's ``resolve`` hook) chooses them from the scene itself.  The error is *simulated* on the
+random lines of :func:`.tolerance.line_samples` (192 lines through the box, 8 samples per voxel, the
+scene's filter and exact transfer function): each line is composited as the ray caster would
+composite it at a sample distance ``d`` (every ``k``-th fine sample, ``d = k / 8`` voxel, from a
+random first sample), and the same line at the fine step is its reference.  The RMS of the
+difference over the lines (premultiplied RGBA, the four channels) estimates the RMS error over the
+pixels the volume covers; the largest distance of :data:`LADDER` whose estimate is at most
+``MARGIN * TARGET`` is chosen, for each classification the scene allows, and the cheaper one kept.
+
+* emission-absorption, post-classified: the classified samples' opacities ``1 - exp(-sigma d)``
+  composited front to back;
+* pre-integrated: each segment integrated exactly over the data linear between its two samples (the
+  fine samples of that line), which is what the pre-integration table holds;
+* MIP and MinIP: the extremum of the line's samples at ``d`` against that of the fine samples, each
+  classified once (colour and the opacity of one unit distance): the error of the maximum along a
+  ray of a trilinear field sampled every ``d``.
+
+Early termination drops at most ``1 - threshold`` of a ray's colour: ``TARGET / 4``.  Scenes the
+simulation does not model (shading, gradient opacity, scattering, jitter, other compositing modes,
+several fields) keep the fixed default, :data:`~dvr_gl.scene.settings.DEFAULT_SAMPLE_DISTANCE_VOXELS`.
+The choice depends only on the field, the transfer function and the renderer's model settings, and
+is cached in :data:`CACHE` under their identities (a second scene of the same data costs a lookup).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...fields import diagonal, reconstruct
+from ...scene.settings import DEFAULT_SAMPLE_DISTANCE_VOXELS
+from . import tolerance
+
+#: The defaults' target: RMS error (premultiplied linear RGBA, against the converged reference) of one
+#: 8-bit display step, 1/255 (48.1 dB).  Most pixels then differ from the converged image by less than
+#: one display level, the step 8-bit output quantizes to anyway; docs/tolerance.md, "Defaults".
+TARGET = 1.0 / 255.0
+#: The simulated RMS (over the lines, which cross the volume) must be at most this fraction of the
+#: target: on the peers' scenes it measured 0.9-1.5x the whole image's RMS (docs/tolerance.md).
+MARGIN = 1.0
+#: The lines' fine steps per voxel: their composite is the reference of the simulation.
+PER_VOXEL = 4
+#: Sample distances tried, in voxels: an odd number of fine steps each, so that each segment's middle
+#: is a fine sample (largest first).  At most 2.75: 128 lines can miss a small feature altogether, and a
+#: step below 3 voxels cannot step over a feature 3 voxels thick.
+LADDER = (2.75, 2.25, 1.75, 1.25, 0.75)
+#: Pre-integration is taken only where it meets the target at this many times post-classification's
+#: distance: its samples cost 1.15x (:data:`.tolerance.PREINTEGRATED_COST`), but a pre-integrated frame
+#: jumps only empty blocks, not constant ones (measured on the Shepp-Logan scene of dvr bench peers:
+#: pre-integrated at 0.75 voxel took 1.7x post-classified at 0.75, 1.2x post at 0.5 voxel).
+PREINTEGRATED_GAIN = 2.0
+#: Where even the finest of the ladder misses the target: the fixed default's distance.
+FINEST = DEFAULT_SAMPLE_DISTANCE_VOXELS
+#: Compositing modes the simulation covers.
+MODES = ("emission_absorption", "mip", "minip")
+#: Choices made, by what they depend on: ``{key: DefaultChoice}`` (see :func:`cache_key`).
+CACHE: dict = {}
+CACHE_SIZE = 32
+#: Random lines simulated (:func:`.tolerance.line_samples`).
+LINES = 128
+#: At most this many fine steps along a line (a box this many quarter voxels across keeps the fixed
+#: default: its lines would cost more than the choice saves).
+MAX_STEPS = 16384
+
+
+@dataclass(frozen=True)
+class DefaultChoice:
+    """What :func:`choose_defaults` picked: the settings and the simulated RMS error at them."""
+
+    classification: str
+    sample_distance_voxels: float
+    ert_threshold: float
+    estimated_error: float
+    seconds: float   # what choosing took (the lines and the simulation)
+
+    def renderer_changes(self, voxel: float) -> dict:
+        return {"classification": self.classification, "sample_distance": self.sample_distance_voxels * voxel,
+                "ert_threshold": self.ert_threshold}
+
+    def describe(self, voxel: float = 1.0) -> str:
+        return (f"defaults chosen by the scene: {self.classification} classification, sample distance "
+                f"{self.sample_distance_voxels:g} voxel, early termination at {self.ert_threshold:g}; "
+                f"simulated RMS error {self.estimated_error:.2g} (target {TARGET:.2g})")
+
+
+def modelled(scene) -> bool:
+    """Whether the simulation covers this scene (else the fixed default stays)."""
+    r = scene.renderer
+    if getattr(scene.field, "kind", None) != "grid" or r.compositing not in MODES:
+        return False
+    if r.compositing == "emission_absorption" and (r.shading.enabled or r.gradient_opacity or r.scattering.enabled
+                                                   or r.classification == "pre"):
+        return False
+    return not r.jitter and hasattr(scene.transfer_function, "points")
+
+
+def cache_key(scene) -> tuple:
+    """What the choice depends on: the field (its voxels' digest, geometry and type; an out-of-core
+    field by identity), the transfer function's points and units, and the renderer settings that
+    change the simulated signal."""
+    field, tf, r = scene.field, scene.transfer_function, scene.renderer
+    data = None if getattr(field, "out_of_core", False) else getattr(field, "data", None)
+    if isinstance(data, np.ndarray):
+        digest = hashlib.blake2b(memoryview(np.ascontiguousarray(data)).cast("B"), digest_size=16).hexdigest()
+        what = (digest, data.shape, str(data.dtype), tuple(field.spacing), tuple(field.origin))
+    else:
+        what = ("object", id(field))
+    points = np.asarray(tf.points, dtype=np.float64)
+    return (what, points.tobytes(), points.shape, tf.unit_distance, tf.opacity_model, r.compositing, r.filter,
+            r.classification, r.preintegration_size)
+
+
+def choose_defaults(scene) -> DefaultChoice:
+    """The cached choice for ``scene`` (computed on the first call for its data, transfer function and
+    mode; :func:`cache_key`)."""
+    key = cache_key(scene)
+    hit = CACHE.get(key)
+    if hit is not None and (hit[0] is None or hit[0] is scene.field):
+        return hit[1]
+    choice = simulate_choice(scene)
+    if len(CACHE) >= CACHE_SIZE:
+        CACHE.pop(next(iter(CACHE)))
+    # an entry keyed by an object's identity holds that object, so that its id is not reused
+    CACHE[key] = (scene.field if key[0][0] == "object" else None, choice)
+    return choice
+
+
+def box_lines(scene, count: int = LINES, per_voxel: int = PER_VOXEL):
+    """The data along ``count`` random lines (:func:`.tolerance.random_lines`), inside the box only:
+    ``(s, composed, n, step)``: the values ``s`` (lines, m) at the middles of steps of ``step`` world
+    units from where each line enters the box (``n`` of them on each line; ``m`` the most), and the
+    classified ``(sigma, sigma r, sigma g, sigma b)`` (lines, m, 4), zero past ``n``."""
+    from ...rays import intersect_box
+
+    field, tf = scene.field, scene.transfer_function
+    start, direction, _ = tolerance.random_lines(field, count)
+    t0, t1 = intersect_box(start, direction, *field.bounds)
+    step = field.sample_spacing / per_voxel
+    n = np.where(t1 > t0, np.floor((t1 - t0) / step), 0).astype(np.int64)
+    m = int(n.max(initial=0))
+    t = t0[:, None] + (np.arange(m)[None, :] + 0.5) * step
+    live = np.arange(m)[None, :] < n[:, None]
+    points = start[:, None, :] + direction[:, None, :] * np.where(live, t, t0[:, None])[..., None]
+    s = reconstruct(field, scene.renderer).sample(points.reshape(-1, 3)).reshape(live.shape)
+    return s, classified(s, live, tf), n, step
+
+
+def classified(s, live, tf) -> np.ndarray:
+    """``(sigma, sigma r, sigma g, sigma b)`` of values ``s``, zero where not ``live``."""
+    sigma = np.where(live, tf.extinction(s.ravel()).reshape(s.shape), 0.0)
+    colour = tf.color(s.ravel()).reshape(*s.shape, 3)
+    return np.concatenate([sigma[..., None], sigma[..., None] * colour], axis=-1)
+
+
+def simulate_choice(scene) -> DefaultChoice:
+    """The largest distance of :data:`LADDER` (and its classification) whose simulated error on the
+    scene's random lines is at most ``MARGIN * TARGET``; the cheaper per unit length where two
+    classifications qualify (pre-integration is tried only where it would sample less often)."""
+    begin = time.perf_counter()
+    if diagonal(scene.field) / scene.field.sample_spacing * PER_VOXEL > MAX_STEPS:  # a needle of a box
+        return DefaultChoice("post", FINEST, scene.renderer.ert_threshold, float("nan"), time.perf_counter() - begin)
+    s, composed, n, step = box_lines(scene)
+    mode = scene.renderer.compositing
+    tf = scene.transfer_function
+    if mode == "emission_absorption":
+        fine = composite(*segments(composed, n, 1), step)
+        post = lambda k: rms(composite(*segments(composed, n, k), step), fine)  # noqa: E731
+        pre = lambda k: rms(composite(*segments(linearised(s, n, tf, k), n, 1), step), fine)  # noqa: E731
+    else:
+        sign = 1.0 if mode == "mip" else -1.0
+        fine = extremum_rgba(*segments(s, n, 1), sign, tf)
+        post = lambda k: rms(extremum_rgba(*segments(s, n, k), sign, tf), fine)  # noqa: E731
+        pre = None
+    voxels, error = largest_meeting(post, LADDER)
+    choice = ("post", voxels, error) if voxels is not None else ("post", FINEST, error)
+    if pre is not None and tolerance.narrowest_feature(tf) * (scene.renderer.preintegration_size - 1) \
+            >= tolerance.PREINTEGRATION_NODES:
+        longer = [v for v in LADDER if v >= PREINTEGRATED_GAIN * choice[1]]
+        pv, pe = longest_meeting(pre, longer[::-1])
+        if pv is not None:
+            choice = ("preintegrated", pv, pe)
+    ert = 1.0 - TARGET / 4.0 if mode == "emission_absorption" else scene.renderer.ert_threshold
+    return DefaultChoice(choice[0], choice[1], ert, float(choice[2]), time.perf_counter() - begin)
+
+
+def largest_meeting(error_at, ladder) -> tuple[float | None, float]:
+    """The first distance of ``ladder`` (voxels, largest first) whose simulated RMS error
+    ``error_at(k)`` (``k`` fine steps a segment) is at most ``MARGIN * TARGET``, and that error (None,
+    the last error, where none does)."""
+    error = np.inf
+    for voxels in ladder:
+        error = error_at(int(round(voxels * PER_VOXEL)))
+        if error <= MARGIN * TARGET:
+            return voxels, error
+    return None, error
+
+
+def longest_meeting(error_at, ladder) -> tuple[float | None, float]:
+    """From the shortest distance of ``ladder`` (smallest first) up: the last whose simulated error is
+    at most ``MARGIN * TARGET`` before one that is not (None where the first is not)."""
+    found, found_error = None, np.inf
+    for voxels in ladder:
+        error = error_at(int(round(voxels * PER_VOXEL)))
+        if error > MARGIN * TARGET:
+            break
+        found, found_error = voxels, error
+    return found, found_error
+
+
+def segments(values: np.ndarray, n: np.ndarray, k: int):
+    """The ray caster's segments of each line (``k`` fine steps long from the entry, the last
+    shortened to the ``n`` steps in the box), each sampled at its middle (a fine step's middle: ``k``
+    odd, and the last segment's nearest): ``(samples (lines, m, ...), lengths (lines, m) in fine steps,
+    0 past the end)``."""
+    m = (int(n.max(initial=0)) + k - 1) // k
+    first = k * np.arange(m)[None, :]
+    length = np.clip(n[:, None] - first, 0, k)
+    idx = np.minimum(first + (np.maximum(length, 1) - 1) // 2, max(values.shape[1] - 1, 0))
+    take = idx[..., None] if values.ndim == 3 else idx
+    return np.take_along_axis(values, take, axis=1), length
+
+
+def composite(composed: np.ndarray, length: np.ndarray, step: float) -> np.ndarray:
+    """Front-to-back emission-absorption of each line's segments: samples ``(sigma, sigma r, sigma g,
+    sigma b)``, lengths ``length`` in fine steps of ``step`` world units; premultiplied RGBA ``(lines, 4)``."""
+    sigma = composed[..., 0]
+    depth = sigma * length * step
+    opacity = -np.expm1(-depth)
+    before = np.exp(-(np.cumsum(depth, axis=1) - depth))  # transmittance to each segment
+    colour = np.divide(composed[..., 1:], sigma[..., None], out=np.zeros_like(composed[..., 1:]),
+                       where=sigma[..., None] > 0)
+    weight = before * opacity
+    return np.concatenate([(weight[..., None] * colour).sum(axis=1), weight.sum(axis=1, keepdims=True)], axis=1)
+
+
+def linearised(s, n, tf, k: int) -> np.ndarray:
+    """Each line's data replaced, within each segment ``k`` fine steps long, by the line between the
+    values at the segment's ends (what pre-integration integrates exactly), classified at the fine
+    steps: ``(sigma, sigma r, sigma g, sigma b)``, zero past ``n``."""
+    m = s.shape[1]
+    edge = np.concatenate([s[:, :1], (s[:, 1:] + s[:, :-1]) / 2.0, s[:, -1:]], axis=1)  # at the steps' ends
+    last = np.maximum(n[:, None], 1)
+    i = np.arange(m)[None, :]
+    lo = (i // k) * k
+    hi = np.minimum(lo + k, last)
+    e0 = np.take_along_axis(edge, np.minimum(lo, m), 1)
+    e1 = np.take_along_axis(edge, np.minimum(hi, m), 1)
+    lin = e0 + (e1 - e0) * (i + 0.5 - lo) / np.maximum(hi - lo, 1)
+    return classified(lin, i < n[:, None], tf)
+
+
+def extremum_rgba(s, length, sign: float, tf) -> np.ndarray:
+    """The maximum (``sign`` 1) or minimum (-1) of each line's segment samples, classified once:
+    premultiplied RGBA ``(lines, 4)`` with the opacity of one unit distance; transparent without one."""
+    value = sign * np.max(np.where(length > 0, sign * s, -np.inf), axis=1)
+    has = np.isfinite(value)
+    out = np.zeros((len(s), 4))
+    colour = tf.color(value[has])
+    alpha = -np.expm1(-tf.extinction(value[has]) * tf.unit_distance)
+    out[has] = np.concatenate([colour * alpha[:, None], alpha[:, None]], axis=1)
+    return out
+
+
+def rms(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.sqrt(np.mean((a - b) ** 2)))
+
+
+def resolve_defaults(scene):
+    """``scene`` with the ray caster's defaults chosen by the scene (:func:`choose_defaults`) where it
+    gave no sample distance, no tolerance and no early-termination threshold or classification of its
+    own; unchanged where it did, or where the simulation does not model it."""
+    requested = scene.spec.renderer if scene.spec is not None else None
+    if requested is None or not modelled(scene):
+        return scene
+    if any(getattr(requested, k, None) is not None for k in ("sample_distance", "sample_distance_voxels",
+                                                             "tolerance")):
+        return scene
+    choice = choose_defaults(scene)
+    changes = choice.renderer_changes(scene.field.sample_spacing)
+    defaults = type(requested)()
+    for key in ("classification", "ert_threshold"):  # a value the user gave wins
+        if getattr(requested, key) != getattr(defaults, key):
+            changes.pop(key)
+    return dataclasses.replace(scene, renderer=dataclasses.replace(scene.renderer, **changes))
+
