@@ -19,6 +19,8 @@ def _arguments(p):
     p.add_argument("--frames", type=count, default=3, help="timed frames per case, after one untimed (default 3)")
     p.add_argument("--peers-python", metavar="PYTHON",
                    help="the peers environment's interpreter, for VTK (default .venv-peers/bin/python if it exists)")
+    p.add_argument("--only-pt", action="store_true",
+                   help="only projected tetrahedra (exact order; exact and shirley-tuchman integration) and VTK")
     p.add_argument("--pictures", metavar="DIR", help="write cells-MESH.png into DIR: the first view's reference, "
                                                      "dvr-gl, resampled ray casting and VTK, above 5x their errors")
 
@@ -47,9 +49,10 @@ def _run(args) -> int:
     args.report.text(f"dvr bench cells: the shared meshes, {args.size}x{args.size}, perspective 30 degrees, framed, "
                      f"views azimuth/elevation {', '.join(f'{a:g}/{e:g}' for a, e in measure.VIEWS)}; median of "
                      f"{args.frames} frames after one untimed (dvr-gl: order and draw of the median frame, every "
-                     f"frame sorted again); RMS against reference-converged at {args.error_size}x{args.error_size}")
+                     f"frame sorted again; its cases' frames interleaved; VTK ms / ms above 1: dvr-gl faster)"
+                     f"; RMS against reference-converged at {args.error_size}x{args.error_size}")
     rows, notes = measure.run(names, Path(args.data_dir), args.size, args.error_size, args.frames, python,
-                              pictures=Path(args.pictures) if args.pictures else None,
+                              pictures=Path(args.pictures) if args.pictures else None, only_pt=args.only_pt,
                               progress=lambda r: print(f"{r['mesh']} {r['view']} {r['renderer']}: {r['ms']:.0f} ms, "
                                                        f"RMS {r['rms']:.2e}", flush=True))
     args.report.text()

@@ -2,9 +2,11 @@
 and, where VTK is importable in the peers' environment, VTK's ``vtkProjectedTetrahedraMapper`` in
 the same run.
 
-For each mesh and view: dvr-gl's projected tetrahedra with the exact and the centroid visibility
-order (frame time, its order and draw parts, cells per second, one process: they share the mesh's
-upload and adjacency, built by an untimed frame), dvr-gl's ``cell-raycast`` (its defaults; no
+For each mesh and view: dvr-gl's projected tetrahedra with the exact visibility order and both
+integrations (``exact`` per fragment and ``shirley-tuchman``), and with the centroid order (frame
+time, its order and draw parts, cells per second, one process: they share the mesh's upload and
+adjacency, built by an untimed frame; their frames interleaved, A B C A B C, medians), then VTK
+(``VTK ms / ms``: above 1, dvr-gl is faster), dvr-gl's ``cell-raycast`` (its defaults; no
 order), the ray caster on the mesh resampled onto a grid of
 :data:`RESAMPLE` points along its longest axis (its defaults; the resampling, once per mesh, not
 timed), then VTK in a fresh process (``peer_worker.py``, as ``dvr bench peers``
@@ -31,7 +33,12 @@ VIEWS = ((30.0, 20.0), (120.0, -10.0), (0.0, 90.0))  # azimuth, elevation
 RESAMPLE = 128  # grid points along the longest axis for the resampled ray-casting rows
 COLUMNS = [("mesh", "mesh", ""), ("view", "view", ""), ("renderer", "renderer", ""), ("cells", "cells", ""),
            ("order_ms", "order ms", ".0f"), ("draw_ms", "draw ms", ".0f"), ("ms", "frame ms", ".0f"),
-           ("mtets", "M cells/s", ".3f"), ("rms", "RMS", ".2e"), ("cycles", "cycles broken", "")]
+           ("mtets", "M cells/s", ".3f"), ("rms", "RMS", ".2e"), ("vs_vtk", "VTK ms / ms", ".2f"),
+           ("cycles", "cycles broken", "")]
+#: projected tetrahedra's cases, timed interleaved: label, renderer settings
+CASES = (("dvr-gl exact", {"cell_order": "exact"}),
+         ("dvr-gl shirley-tuchman", {"cell_order": "exact", "integration": "shirley-tuchman"}),
+         ("dvr-gl centroid", {"cell_order": "centroid"}))
 
 
 def write_vtu(mesh, path: Path):
@@ -55,16 +62,36 @@ def _timed(renderer, scene, frames: int) -> dict:
             "draw_ms": part("draw_seconds"), "cycles": middle.get("cycles_broken", "")}
 
 
+def _interleaved(renderer, scenes: list, frames: int) -> list[dict]:
+    """:func:`_timed` for several scenes, their frames taken in turn (A B A B ...), one row each."""
+    for scene in scenes:
+        renderer.render(scene)  # upload, programs, adjacency: untimed
+    stats = [[] for _ in scenes]
+    for _ in range(frames):
+        for i, scene in enumerate(scenes):
+            renderer.render(scene)
+            stats[i].append(dict(renderer.stats))
+    rows = []
+    for runs in stats:
+        middle = sorted(runs, key=lambda s: s["seconds"])[len(runs) // 2]
+        part = lambda key: 1e3 * middle[key] if key in middle else None  # noqa: E731
+        rows.append({"ms": 1e3 * statistics.median(s["seconds"] for s in runs), "order_ms": part("order_seconds"),
+                     "draw_ms": part("draw_seconds"), "cycles": middle.get("cycles_broken", "")})
+    return rows
+
+
 def _rms(image, truth) -> float:
     return float(np.sqrt(np.mean((np.asarray(image, np.float64) - truth) ** 2)))
 
 
 def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: int = 3, python: str | None = None,
-        views=VIEWS, progress=None, timeout: float = 1800.0, pictures: Path | None = None):
-    """Rows (one per mesh, view and renderer) and notes.  ``pictures``: a folder for ``cells-MESH.png``
-    (the first view at the error size: the reference, dvr-gl exact, cell-raycast, resampled ray casting and VTK
-    where measured, above 5x their differences from the reference)."""
-    from ....fields.mesh_resample import resample, resampled_scene
+        views=VIEWS, progress=None, timeout: float = 1800.0, pictures: Path | None = None, only_pt: bool = False):
+    """Rows (one per mesh, view and renderer) and notes.  ``only_pt``: projected tetrahedra in the
+    exact order, both integrations, and VTK (no centroid order, no cell-raycast, no resampling).
+    ``pictures``: a folder for ``cells-MESH.png`` (the first view at the error size: the reference,
+    dvr-gl exact and shirley-tuchman, cell-raycast, resampled ray casting and VTK where measured,
+    above 5x their differences from the reference)."""
+    from ....fields.mesh_resample import resample
     from ....scene.resolve import load_scene
     from ... import create_renderer
 
@@ -75,8 +102,9 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
     pt = create_renderer("projected-tetrahedra")
     # beside it: the other GL mesh renderers (cell-raycast) on its context, the default grid renderer (the ray
     # caster) on the mesh resampled, all against the converged reference
-    walkers = [create_renderer(n, ctx=pt.ctx) for n in picks.renderers(kind="mesh", gl=True) if n != pt.name]
-    raycast = create_renderer(picks.baseline("grid"))
+    walkers = [] if only_pt else [create_renderer(n, ctx=pt.ctx) for n in picks.renderers(kind="mesh", gl=True)
+                                  if n != pt.name]
+    raycast = None if only_pt else create_renderer(picks.baseline("grid"))
     reference = create_renderer(picks.converged())
     try:
         for name in names:
@@ -87,7 +115,7 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
                 continue
             mesh = load_scene(None, {"volume.path": str(path), **({"volume.array": array} if array else {})}).field
             keys = scene_keys(path, array, mesh)
-            grid = resample(mesh, RESAMPLE)
+            grid = None if only_pt else resample(mesh, RESAMPLE)
             vtu = Path(work.name) / f"{name}.vtu"
             if have:
                 write_vtu(mesh, vtu)
@@ -100,13 +128,15 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
                     reference.progress = step
                     truth = reference.render(small.with_renderer(name=reference.name)).astype(np.float64)
                 tiles = [truth]
-                for order in ("exact", "centroid"):
-                    row = {"mesh": name, "view": view, "renderer": f"dvr-gl {order}", "cells": len(mesh.tets),
-                           **_timed(pt, scene.with_renderer(cell_order=order), frames)}
+                cases = CASES[:2] if only_pt else CASES
+                timed = _interleaved(pt, [scene.with_renderer(**keys_) for _, keys_ in cases], frames)
+                first = len(rows)
+                for (label, keys_), times in zip(cases, timed):
+                    row = {"mesh": name, "view": view, "renderer": label, "cells": len(mesh.tets), **times}
                     row["mtets"] = row["cells"] / row["ms"] / 1e3
-                    image = pt.render(small.with_renderer(cell_order=order))
+                    image = pt.render(small.with_renderer(**keys_))
                     row["rms"] = _rms(image, truth)
-                    if order == "exact":
+                    if label != "dvr-gl centroid":
                         tiles.append(image)
                     rows.append(row)
                     if progress:
@@ -121,25 +151,16 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
                     rows.append(row)
                     if progress:
                         progress(row)
-                rs = resampled_scene(scene, RESAMPLE, grid, name=raycast.name)
-                raycast.render(rs)
-                seconds = []
-                for _ in range(frames):
-                    raycast.render(rs)
-                    seconds.append(raycast.stats["seconds"])
-                ms = 1e3 * statistics.median(seconds)
-                image = raycast.render(resampled_scene(small, RESAMPLE, grid, name=raycast.name))
-                tiles.append(image)
-                rows.append({"mesh": name, "view": view, "renderer": f"{raycast.name}, resampled {RESAMPLE}",
-                             "cells": len(mesh.tets), "order_ms": None, "draw_ms": None, "ms": ms,
-                             "mtets": len(mesh.tets) / ms / 1e3, "cycles": "", "rms": _rms(image, truth)})
-                if progress:
-                    progress(rows[-1])
+                if not only_pt:
+                    tiles.append(_resampled_row(rows, raycast, name, view, mesh, scene, small, grid, frames, truth,
+                                                progress))
                 if have:
                     rows.append(_vtk_row(name, view, mesh, scene, vtu, python, size, error_size, frames, truth,
                                          Path(work.name) / f"{name}-{az:g}-{el:g}", timeout, notes))
                     if rows[-1]:
                         tiles.append(rows[-1].pop("image"))
+                        for row in rows[first:-1]:
+                            row["vs_vtk"] = rows[-1]["ms"] / row["ms"]
                         if progress:
                             progress(rows[-1])
                 if pictures is not None and (az, el) == tuple(views[0]):
@@ -149,8 +170,29 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
         for walk in walkers:
             walk.close()
         pt.close()
-        raycast.close()
+        if raycast is not None:
+            raycast.close()
         work.cleanup()
+
+
+def _resampled_row(rows, raycast, name, view, mesh, scene, small, grid, frames, truth, progress):
+    """The ray caster on the resampled mesh: its row (appended) and image."""
+    from ....fields.mesh_resample import resampled_scene
+
+    rs = resampled_scene(scene, RESAMPLE, grid, name=raycast.name)
+    raycast.render(rs)
+    seconds = []
+    for _ in range(frames):
+        raycast.render(rs)
+        seconds.append(raycast.stats["seconds"])
+    ms = 1e3 * statistics.median(seconds)
+    image = raycast.render(resampled_scene(small, RESAMPLE, grid, name=raycast.name))
+    rows.append({"mesh": name, "view": view, "renderer": f"{raycast.name}, resampled {RESAMPLE}",
+                 "cells": len(mesh.tets), "order_ms": None, "draw_ms": None, "ms": ms,
+                 "mtets": len(mesh.tets) / ms / 1e3, "cycles": "", "rms": _rms(image, truth)})
+    if progress:
+        progress(rows[-1])
+    return image
 
 
 def _vtk_row(name, view, mesh, scene, vtu, python, size, error_size, frames, truth, folder, timeout, notes):
