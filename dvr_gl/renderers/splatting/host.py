@@ -85,23 +85,26 @@ def render(scene, splats, centre, table, loops=None) -> tuple[np.ndarray, dict]:
     sheet = np.zeros((GROUP, w * h))
     cores = np.zeros((GROUP, w * h))
     slabs = len(bounds) - 1
-    visits = 0
+    threshold = r.ert_threshold if r.ert_threshold < 1.0 else np.inf  # 1: no early termination (as GL's)
+    visits = skipped = rest = 0  # splats taken per group, of them skipped (opaque), and those left at the end
     for k0 in range(0, slabs, GROUP):
         k1 = min(k0 + GROUP, slabs)
         first = int(np.searchsorted(depth, bounds[k0] - reach, side="left"))
         last = int(np.searchsorted(depth, bounds[k1] + reach, side="right"))
-        if not (image[:, 3] < r.ert_threshold).any():
+        if not (image[:, 3] < threshold).any():  # every pixel opaque: nothing behind counts
+            rest = len(depth) - first
             break
         sheet[:] = 0.0
         cores[:] = 0.0
         visits += last - first
         crossings = np.ascontiguousarray(bounds[k0:k1 + 1, None] / along[None, :])
-        loops.fill_sheets(first, last, positions, values, core, rect, slab_range, origins, directions, rays.t0,
-                          rays.t1, crossings, k0, inv_spacing, kernel_radius(scene), r.kernel_width, footprint,
-                          image[:, 3], r.ert_threshold, w, sheet[:k1 - k0], cores[:k1 - k0])
+        skipped += loops.fill_sheets(first, last, positions, values, core, rect, slab_range, origins, directions,
+                                     rays.t0, rays.t1, crossings, k0, inv_spacing, kernel_radius(scene),
+                                     r.kernel_width, footprint, image[:, 3], threshold, w, sheet[:k1 - k0],
+                                     cores[:k1 - k0])
         loops.composite_sheets(sheet, cores, len(core) > 0, rays.t0, rays.t1, along, bounds, k0, k1, table.table,
                                float(table.domain[0]), float(table.domain[1]), image)
-    stats = {"sheets": slabs, "splats_drawn": visits, "skipped": 0}
+    stats = {"sheets": slabs, "splats_drawn": visits - skipped, "skipped": skipped + rest}
     return image.reshape(h, w, 4).astype(np.float32), stats
 
 

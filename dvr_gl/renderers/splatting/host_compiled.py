@@ -31,21 +31,26 @@ def fill_sheets(first, last, positions, values, core, rect, slab_range, origins,
     ``slab_range``: ``(n, 2)`` the first and last slab each kernel reaches; ``crossings``: ``(slabs + 1,
     pixels)`` where each pixel's ray crosses the group's slab boundaries (ray parameter); ``footprint``:
     ``F(q)`` for ``sigma = 1`` at ``q`` evenly over [0, 1]; ``core``: the splats' core flags, or empty (no
-    culling)."""
+    culling).  Returns the splats skipped: every pixel of their rectangle opaque (early termination)."""
     n_table = footprint.shape[0]
     r2 = radius * radius
     erf_scale = 1.0 / (sigma * math.sqrt(2.0))
     culling = core.shape[0] > 0
     slabs = sheet.shape[0]
+    skipped = 0
     for s in range(first, last):
         cx, cy, cz = positions[s, 0], positions[s, 1], positions[s, 2]
         v = values[s]
+        open_pixel = rect[s, 1] < rect[s, 0] or rect[s, 3] < rect[s, 2]  # off the image: not skipped, just empty
         for j in range(rect[s, 2], rect[s, 3] + 1):
             for i in range(rect[s, 0], rect[s, 1] + 1):
                 p = j * width + i
                 lo = t0[p]
                 hi = t1[p]
-                if alpha[p] >= threshold or not hi > lo:
+                if alpha[p] >= threshold:
+                    continue
+                open_pixel = True
+                if not hi > lo:
                     continue
                 dx = directions[p, 0] * inv_spacing[0]
                 dy = directions[p, 1] * inv_spacing[1]
@@ -92,6 +97,9 @@ def fill_sheets(first, last, positions, values, core, rect, slab_range, origins,
                         ox, oy, oz = ux + t * dx, uy + t * dy, uz + t * dz
                         if ox * ox + oy * oy + oz * oz <= 0.75:
                             cores[k, p] += core[s]
+        if not open_pixel:
+            skipped += 1
+    return skipped
 
 
 @numba.njit(cache=True)
