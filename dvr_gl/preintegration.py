@@ -34,6 +34,8 @@ optically thick segments); ``O(N^2)``.
 from __future__ import annotations
 
 import math
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -203,11 +205,13 @@ def shortened(colour: np.ndarray, depth: np.ndarray, fraction) -> tuple[np.ndarr
 
 
 def preintegrate(transfer_function, segment_length: float, size: int = 256, method: str = "exact",
-                 refinement: int = 4096) -> PreintegrationTable:
+                 refinement: int = 4096, reuse: bool = True) -> PreintegrationTable:
     """The pre-integration table of ``transfer_function`` for segments of ``segment_length``.
 
     ``refinement``: nodes of the underlying 1D table (rounded up to a multiple of ``size - 1``
-    plus one, so the table's nodes are among them).
+    plus one, so the table's nodes are among them).  ``reuse``: return a table kept from an earlier call
+    with the same values (:data:`KEPT_BYTES`; read-only, shared); False builds it anew (a bench timing the
+    build).
     """
     if method not in METHODS:
         raise SceneError(f"preintegration {method!r} is not one of {', '.join(METHODS)}")
@@ -219,8 +223,33 @@ def preintegrate(transfer_function, segment_length: float, size: int = 256, meth
     check_preintegration_memory(n)
     ratio = max(1, -(-(refinement - 1) // (n - 1)))
     fine = transfer_function.tabulate(ratio * (n - 1) + 1)
-    colour, sigma = fine.table[:, :3], fine.table[:, 3]
     d = float(segment_length)
+    key = (method, n, d, tuple(map(float, fine.domain)), fine.table.tobytes())
+    with _KEPT_LOCK:
+        kept = _KEPT.get(key) if reuse else None
+        if kept is not None:
+            _KEPT.move_to_end(key)
+            return kept
+    made = _integrate(fine, ratio, n, d, method)
+    made.table.flags.writeable = False  # shared by every caller with the same values
+    with _KEPT_LOCK:
+        _KEPT[key] = made
+        while sum(t.table.nbytes for t in _KEPT.values()) > KEPT_BYTES and len(_KEPT) > 1:
+            _KEPT.popitem(last=False)
+    return made
+
+
+#: The tables made last, by the values they were made from (the fine 1D table's bytes, its domain, the segment
+#: length, size and method), most recent last: a scene re-made with an equal transfer function (a renderer and
+#: its float64 reference, the viewer's next frame, a test's next case) reuses its table; at most this many bytes.
+KEPT_BYTES = 64 << 20
+_KEPT: OrderedDict = OrderedDict()
+_KEPT_LOCK = threading.Lock()
+
+
+def _integrate(fine, ratio: int, n: int, d: float, method: str) -> PreintegrationTable:
+    """The table of the fine 1D table ``fine`` (``ratio (n - 1) + 1`` nodes) for segments of length ``d``."""
+    colour, sigma = fine.table[:, :3], fine.table[:, 3]
     if method == "fast":
         return PreintegrationTable(_engel(sigma, colour, fine.domain, ratio, n, d), fine.domain, d, method, fine)
     both = _exact(sigma, colour, ratio, n, d)
