@@ -236,3 +236,23 @@ def test_fast_table_on_cthead_bone(shared_data, gl_context):
                                                         sample_distance=scene.field.sample_spacing))
             rms = compare_images(image, truth)["rms"]
             assert rms <= 1e-2 and image[..., :3].max() <= 1.0, (method, rms)
+
+
+def test_a_table_is_kept_for_equal_values_and_equals_a_fresh_build(monkeypatch):
+    """An equal transfer function (another object: a renderer's and its reference's scene) gets the table kept
+    from the first call, read-only, bit-identical to one built anew; another segment length or function gets
+    its own; the kept tables stay within their byte budget."""
+    import dvr_gl.preintegration as preintegration
+
+    points = [[0.0, 0.1, 0.2, 0.9, 0.0], [0.4, 0.9, 0.5, 0.1, 0.8], [1.0, 0.3, 0.9, 0.3, 0.2]]
+    first = preintegrate(TransferFunction(points), 0.7, 32)
+    again = preintegrate(TransferFunction([list(p) for p in points]), 0.7, 32)
+    fresh = preintegrate(TransferFunction(points), 0.7, 32, reuse=False)
+    assert again is first and fresh is not first and not first.table.flags.writeable
+    np.testing.assert_array_equal(first.table, fresh.table)
+    assert preintegrate(TransferFunction(points), 0.35, 32) is not first
+    other = [[0.0, 0.1, 0.2, 0.9, 0.0], [0.4, 0.9, 0.5, 0.1, 0.7], [1.0, 0.3, 0.9, 0.3, 0.2]]
+    assert not np.array_equal(preintegrate(TransferFunction(other), 0.7, 32).table, first.table)
+    monkeypatch.setattr(preintegration, "KEPT_BYTES", first.table.nbytes)
+    preintegrate(TransferFunction(points), 0.9, 32)
+    assert len(preintegration._KEPT) == 1
