@@ -13,6 +13,7 @@ def _arguments(p):
     p.add_argument("--sizes", default="64,128,256", metavar="N,N", help="volume sizes, the blobs demo N^3 "
                                                                          "(default 64,128,256)")
     timing_arguments(p, size=512, error_size=128)
+    p.add_argument("--no-front", action="store_true", help="skip the error-vs-time fronts (the per-size table only)")
     p.add_argument("--shared", action="store_true", help="the accuracy study instead: every regular dataset in "
                                                          "--data-dir at --error-size, against reference-converged")
     p.add_argument("--data-dir", default=SHARED_DATA, help=f"the shared datasets folder (default {SHARED_DATA})")
@@ -39,9 +40,11 @@ def _run(args) -> int:
                      f"{args.error_size}x{args.error_size} of the same framing (tolerance 1e-4)")
     rows, points, verdicts = measure.run(sizes, args.size, args.error_size, args.repeat, progress=lambda r: print(
         f"{r['n']}^3 {r['mode']}: spectrum {r['spectrum_s']:.2f} s, {r['view_ms']:.1f} ms a view, the ray caster "
-        f"{r['raycast_ms']:.1f} ms ({r['speedup']:.2f}x)", flush=True))
+        f"{r['raycast_ms']:.1f} ms ({r['speedup']:.2f}x)", flush=True), front=not args.no_front)
     args.report.text()
     args.report.table(rows, measure.COLUMNS)
+    if args.no_front:
+        return 0
     args.report.text()
     args.report.text(f"Error against time at {max(sizes)}^3 (ms at {args.size}x{args.size}, RMS at "
                      f"{args.error_size}x{args.error_size}); each family timed interleaved with the other's "
