@@ -255,7 +255,9 @@ def _demo_scene(name: str) -> dict:
     if name == "shepp-logan":  # seen from higher up through the translucent skull: the inside shows.  Not cut
         # open with a clipping plane: the demo must render with every renderer, and some declare no clipping
         scene["camera"].update(elevation=45.0, distance=2.3 * size)
-        scene["renderer"] = {"sample_distance_voxels": 0.25, "shading": dict(SHEPP_LOGAN_DEMO_SHADING)}
+        # The renderer's default sample distance (measured against 0.25 voxel at 384x384: at most 3 8-bit levels
+        # apart, 0.06 on average, in half the time, raycast and slicing3d)
+        scene["renderer"] = {"shading": dict(SHEPP_LOGAN_DEMO_SHADING)}
     if points:
         scene["transfer_function"] = {"points": points}
     if name in PARTICLE_DEMOS:  # a glowing cloud, no surfaces: unshaded
