@@ -24,6 +24,9 @@ from .particles import SUBPIXEL_RADIUS
 #: Emission is ``c`` times the optical depth when every particle's colour is this close to one colour
 #: (relative to its sigma): one channel deposited instead of four.
 SAME_COLOUR = 1e-7
+#: Below this many pixel evaluations (the supports' areas) one thread deposits: waking the others costs more
+#: than it saves on a busy machine (10^4 particles at 128x128, 3e6 pixels: 0.1 s on one, 0.2 s on two).
+SERIAL_WORK = 2e7
 
 
 def compiled():
@@ -93,6 +96,17 @@ def deposit_numpy(cx, cy, radius, weights, subpixel, table, box, height: int, wi
     return out
 
 
+def deposit(args: tuple, work: float, use_numpy: bool = False) -> np.ndarray:
+    """:func:`deposit_numpy`'s sums of ``args``, compiled where numba is installed (on one thread below
+    :data:`SERIAL_WORK` pixel evaluations)."""
+    module = None if use_numpy else compiled()
+    if module is None:
+        return deposit_numpy(*args)
+    if work < SERIAL_WORK:
+        return module.deposit_serial(*args)
+    return module.deposit(*args, module.numba.get_num_threads())
+
+
 def host_xray(scene, splats, eye: np.ndarray, basis, tables, use_numpy: bool = False) -> np.ndarray | None:
     """The X-ray's sums ``(sigma c, sigma)`` per pixel, ``(height, width, 4)`` float64, rows from the top (as
     the GL path reads its target); None where a support reaches the near plane (the GL path clips it there).
@@ -122,8 +136,7 @@ def host_xray(scene, splats, eye: np.ndarray, basis, tables, use_numpy: bool = F
     weights = np.ascontiguousarray(weights * scale[:, None])
     table, box = tables.footprint_table, tables.box_table
     args = (cx, cy, radius, weights, subpixel, table, box, img.height, img.width)
-    module = None if use_numpy else compiled()
-    sums = module.deposit(*args, module.numba.get_num_threads()) if module is not None else deposit_numpy(*args)
+    sums = deposit(args, float(np.sum(np.minimum(radius, img.width + img.height) ** 2)) * np.pi, use_numpy)
     out = np.empty((img.height, img.width, 4))
     if one:
         out[..., :3] = sums[0][..., None] * colour[0]

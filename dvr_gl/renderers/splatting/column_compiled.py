@@ -76,16 +76,31 @@ def _one(out, cx, cy, radius, weights, table, box, subpixel):
             continue
         half = math.sqrt(rest)
         i0, i1 = _first(cx - half - 0.5, width, True), _last(cx + half - 0.5, width)
+        dy2 = dy * dy
+        if channels == 1:  # the column density: one sum (the renderer's usual case)
+            row, weight = out[0, j], weights[0]
+            for i in range(i0, i1 + 1):
+                dx = i + 0.5 - cx
+                f = min((dx * dx + dy2) * inverse, 1.0) * (n - 1)
+                k = min(int(f), n - 2)
+                row[i] += weight * (table[k] + (f - k) * (table[k + 1] - table[k]))
+            continue
         for i in range(i0, i1 + 1):
             dx = i + 0.5 - cx
-            q = (dx * dx + dy * dy) * inverse
-            if q >= 1.0:
-                continue
-            f = q * (n - 1)
+            f = min((dx * dx + dy2) * inverse, 1.0) * (n - 1)
             k = min(int(f), n - 2)
             value = table[k] + (f - k) * (table[k + 1] - table[k])
             for c in range(channels):
                 out[c, j, i] += weights[c] * value
+
+
+@numba.njit(cache=True)
+def deposit_serial(cx, cy, radius, weights, subpixel, table, box, height, width):
+    """:func:`deposit` on one thread (small frames: waking threads costs more than it saves)."""
+    out = np.zeros((weights.shape[1], height, width))
+    for p in range(cx.shape[0]):
+        _one(out, cx[p], cy[p], radius[p], weights[p], table, box, subpixel[p])
+    return out
 
 
 @numba.njit(cache=True, parallel=True)

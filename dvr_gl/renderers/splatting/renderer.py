@@ -221,8 +221,11 @@ class SplattingRenderer(GLRenderer):
                 b.release()
 
     def _software_gl(self) -> bool:
-        info = self.ctx.info.get("GL_RENDERER", "").lower()
-        return any(name in info for name in SOFTWARE_GL)
+        """Whether the context's driver shades on the CPU (asked once: ``ctx.info`` takes 20 ms)."""
+        if getattr(self, "_software", None) is None:
+            info = self.ctx.info.get("GL_RENDERER", "").lower()
+            self._software = any(name in info for name in SOFTWARE_GL)
+        return self._software
 
     def _visibility(self, scene):
         r, tf = scene.renderer, scene.transfer_function

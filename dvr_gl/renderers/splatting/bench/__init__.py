@@ -20,6 +20,13 @@ def _arguments(p):
     p.add_argument("--only", metavar="TEXT", help="with --shared: only datasets whose name contains TEXT")
     p.add_argument("--no-shaded", action="store_true", help="leave out the shaded row (its converged reference "
                    "computes gradients at every sample: over an hour on CThead)")
+    p.add_argument("--peers", action="store_true", help="instead: the column density of SPH particles against "
+                   "sarracen (numba), one interleaved run (docs/particles.md)")
+    p.add_argument("--peer-particles", default="10000,100000,1000000", help="with --peers: the Plummer spheres' "
+                   "particle counts, comma-separated (default 10000,100000,1000000)")
+    p.add_argument("--peer-size", type=int, default=512, help="with --peers: square image size (default 512)")
+    p.add_argument("--peers-python", help="with --peers: the peers' interpreter, where sarracen is installed "
+                   "(default .venv-peers/bin/python if it exists; without one dvr-gl alone)")
     p.add_argument("--study-size", type=int, default=48, help="square image size of the 45-degree study "
                                                              "(default 48; 0 leaves it out)")
 
@@ -54,6 +61,8 @@ def _phantom(args) -> dict:
 def _run(args) -> int:
     from . import measure
 
+    if args.peers:
+        return _run_peers(args)
     scenes, notes = _scenes(args)
     args.report.text(f"dvr bench splatting: {args.size}x{args.size}, the Gaussian of width 0.7 (particles: their "
                      f"cubic spline), default camera and "
@@ -70,6 +79,28 @@ def _run(args) -> int:
                          f"{args.study_size}, elevation 0, post-classified; the largest change of each image between "
                          f"azimuth - {measure.STUDY_STEP:g} and + {measure.STUDY_STEP:g} degrees")
         args.report.table(measure.study(_phantom(args), args.study_size), measure.STUDY_COLUMNS)
+    return 0
+
+
+def _run_peers(args) -> int:
+    from ....errors import DvrError
+    from . import peers
+
+    try:
+        counts = [int(n) for n in args.peer_particles.split(",")]
+    except ValueError:
+        raise DvrError(f"--peer-particles must be whole numbers separated by commas, got {args.peer_particles!r}")
+    check_ranges((("--peer-size", args.peer_size, 8, 4096),) + tuple(("--peer-particles", n, 1, 10 ** 7)
+                                                                      for n in counts))
+    python = args.peers_python or peers.default_python()
+    args.report.text(f"dvr bench splatting --peers: the column density of a Plummer sphere (M4, support 2h) at "
+                     f"{args.peer_size}x{args.peer_size}, viewed along -z over the particles' extent, sampled at "
+                     f"pixel centres; median of {args.repeat} frames each, dvr-gl and sarracen in turn, after a "
+                     f"warm-up (sarracen's numba compile excluded); error: RMS against the exact column (float64) "
+                     f"over its peak" + ("" if python else "; no peers' interpreter: dvr-gl alone"))
+    rows = peers.run(counts, args.peer_size, args.repeat, python)
+    args.report.text()
+    args.report.table(rows, peers.COLUMNS)
     return 0
 
 
