@@ -287,7 +287,8 @@ GEOMETRY = Setting("geometry", list[GeometrySpec], None, "opaque triangle meshes
 
 # --- sampling: how closely a renderer approaches the picture ---------------------------------
 
-SAMPLE_DISTANCE = Setting("sample_distance", Optional[float], None, "segment length (default 0.5 voxel)",
+SAMPLE_DISTANCE = Setting("sample_distance", Optional[float], None, "segment length (default 0.5 voxel; the ray "
+                          "caster chooses its own by the scene unless shaded: docs/tolerance.md)",
                           check=positive, units="world units", excludes=("sample_distance_voxels",))
 SAMPLE_DISTANCE_VOXELS = Setting("sample_distance_voxels", Optional[float], None,
                                  "segment length in voxels of the smallest spacing", check=positive,
