@@ -134,6 +134,7 @@ class ViewerProcess:
         self.output = open(folder / "viewer.out", "w")
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "dvr_gl.apps.cli", "view", "--demo", "--set", "volume.size=48",
+             "--transfer-function", "shepp-logan",  # a 1D function the tests edit (the demo's own is 2D)
              *(["--size", f"{size}x{size}"] if size else []), "--screenshot-dir", str(folder),
              "--screenshot-format", "exr",
              "--frame-log", str(self.log), "--passes", str(PASSES), *args],
