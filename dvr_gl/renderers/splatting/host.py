@@ -4,7 +4,7 @@ frames where software GL spends its time on the splats' instances rather than th
 On llvmpipe each kernel drawn into each slab costs about a microsecond and a half whatever its footprint
 (vertex shading, triangle setup and binning of an instanced quad), and an image-aligned frame draws every
 kernel into each of the 7-8 slabs it reaches: CThead's 3.0 million kept splats are 19 million instances.
-Here each splat is taken once per group of :data:`GROUP` slabs: per pixel of its screen rectangle the
+Here each splat is taken once per group of slabs (:func:`group_size`): per pixel of its screen rectangle the
 footprint is found once (the nearest approach, ``F(q)``) and split among the group's slabs by the Gaussian's
 cumulative along the ray; each group's sheets are then composited front to back, and the pixels that are
 opaque by then take no more splats (early termination per pixel, as ``splat.frag``'s).  The loops
@@ -29,9 +29,18 @@ from . import low_pass
 from .footprint import GaussianFootprint
 from .sheets import kernel_depth_reach, kernel_radius, pixel_rectangles, shaded_sheets, slab_bounds
 
-#: Slabs filled per pass over the splats: a splat is visited once per group it reaches (a kernel reaches
-#: 7-8 slabs of one voxel), and early termination waits for the group's compositing.
-GROUP = 8
+#: Slabs filled per pass over the splats, at most: a splat is visited once per group it reaches (a kernel
+#: reaches 7-8 slabs of one voxel), and early termination waits for the group's compositing.  CThead at
+#: 128x128 (process CPU seconds a frame, a busy machine): groups of 4 slabs 9.1, 8 7.0, 16 6.7, 32 5.8.
+GROUP = 32
+#: The group's sheets' size, at most (float64 entries, two arrays): fewer slabs a group in large images.
+GROUP_ENTRIES = 1 << 22
+
+
+def group_size(pixels: int) -> int:
+    """Slabs a group for an image of ``pixels``: :data:`GROUP`, fewer where the sheets would pass
+    :data:`GROUP_ENTRIES` (at least 2)."""
+    return int(min(GROUP, max(2, GROUP_ENTRIES // max(pixels, 1))))
 
 
 def compiled():
@@ -82,13 +91,14 @@ def render(scene, splats, centre, table, loops=None) -> tuple[np.ndarray, dict]:
     inv_spacing = 1.0 / np.asarray(scene.volume.spacing, float)
     footprint = _footprint_table()
     image = np.zeros((w * h, 4))
-    sheet = np.zeros((GROUP, w * h))
-    cores = np.zeros((GROUP, w * h))
+    group = group_size(w * h)
+    sheet = np.zeros((group, w * h))
+    cores = np.zeros((group, w * h))
     slabs = len(bounds) - 1
     threshold = r.ert_threshold if r.ert_threshold < 1.0 else np.inf  # 1: no early termination (as GL's)
     visits = skipped = rest = 0  # splats taken per group, of them skipped (opaque), and those left at the end
-    for k0 in range(0, slabs, GROUP):
-        k1 = min(k0 + GROUP, slabs)
+    for k0 in range(0, slabs, group):
+        k1 = min(k0 + group, slabs)
         first = int(np.searchsorted(depth, bounds[k0] - reach, side="left"))
         last = int(np.searchsorted(depth, bounds[k1] + reach, side="right"))
         if not (image[:, 3] < threshold).any():  # every pixel opaque: nothing behind counts
