@@ -61,11 +61,12 @@ def serves(scene) -> bool:
             and r.footprint == "exact")
 
 
-def render(scene, splats, centre, table, loops=None) -> tuple[np.ndarray, dict]:
+def render(scene, splats, centre, table, loops=None, report=None) -> tuple[np.ndarray, dict]:
     """The frame ``(H, W, 4)`` float32 and its stats, from ``splats`` (:class:`.splats.Splats`, positions
     relative to ``centre``) and the transfer function's ``table`` (:class:`~dvr_gl.transfer_function.
     TransferFunctionLUT`); ``loops``: :mod:`.host_compiled` or an object with its functions (default: the
-    compiled ones)."""
+    compiled ones); ``report(done, total)``: called with the slabs composited after each group (progress,
+    where Ctrl-C and a sandbox's timer stop a frame)."""
     loops = loops or compiled()
     r, cam, img = scene.renderer, scene.camera, scene.image
     w, h = img.width, img.height
@@ -114,6 +115,8 @@ def render(scene, splats, centre, table, loops=None) -> tuple[np.ndarray, dict]:
                                      cores[:k1 - k0])
         loops.composite_sheets(sheet, cores, len(core) > 0, rays.t0, rays.t1, along, bounds, k0, k1, table.table,
                                float(table.domain[0]), float(table.domain[1]), image)
+        if report is not None:
+            report(k1, slabs)
     stats = {"sheets": slabs, "splats_drawn": visits - skipped, "skipped": skipped + rest}
     return image.reshape(h, w, 4).astype(np.float32), stats
 

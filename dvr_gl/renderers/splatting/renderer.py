@@ -187,7 +187,8 @@ class SplattingRenderer(GLRenderer):
         mode = r.compositing
         if self.host_sheets and is_grid(scene) and len(splats) and host.serves(scene) and host.compiled() is not None:
             self.stats.update(splats=len(splats), splats_total=splats.total, culled=splats.total - len(splats))
-            image, stats = host.render(scene, splats, centre, lookup_table(self, scene).lut)
+            image, stats = host.render(scene, splats, centre, lookup_table(self, scene).lut,
+                                       report=self.report if self._steps(scene) > 1 else None)
             self.stats.update(stats)
             return image
         if self.host_columns and column.applies(scene, self._software_gl()):

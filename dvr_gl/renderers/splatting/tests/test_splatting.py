@@ -554,20 +554,26 @@ def test_the_work_estimate_grows_with_slabs_and_size():
                                    {"renderer.classification": "pre", "renderer.sheet_buffer": "none"}])
 def test_a_long_frame_reports_progress(splatting, monkeypatch, extra):
     """Above STEP_SECONDS of estimated work a frame reports each sheet (or each part of an unsheeted
-    draw) to the progress bar, and the image is the one drawn without reporting."""
+    draw) to the progress bar, and the image is the one drawn without reporting; on the host
+    (:mod:`dvr_gl.renderers.splatting.host`), each group of slabs."""
     from dvr_gl.renderers.splatting import renderer as module
 
     scene = small_scene({**GAUSSIAN, **OPAQUE_TF, "volume.size": 16, "image.width": 24, "image.height": 24, **extra})
-    quiet = splatting.render(scene)
-    steps = []
-    monkeypatch.setattr(module, "STEP_SECONDS", 1e-9)
-    splatting.progress = lambda done, total: steps.append((done, total))
-    try:
-        image = splatting.render(scene)
-    finally:
-        splatting.progress = None
-    assert len(steps) > 3 and steps[-1][0] == steps[-1][1] and [d for d, _ in steps] == sorted(d for d, _ in steps)
-    np.testing.assert_allclose(image, quiet, atol=1e-6)
+    for host_sheets in (False, True):
+        splatting.host_sheets = host_sheets
+        monkeypatch.setattr(module, "STEP_SECONDS", 0.25)
+        quiet = splatting.render(scene)
+        steps = []
+        monkeypatch.setattr(module, "STEP_SECONDS", 1e-9)
+        splatting.progress = lambda done, total: steps.append((done, total))
+        try:
+            image = splatting.render(scene)
+        finally:
+            splatting.progress = None
+            splatting.host_sheets = True
+        assert len(steps) > (0 if host_sheets else 3) and steps[-1][0] == steps[-1][1]
+        assert [d for d, _ in steps] == sorted(d for d, _ in steps)
+        np.testing.assert_allclose(image, quiet, atol=1e-6)
 
 
 def test_the_estimate_of_a_view_from_inside_the_box_is_quiet():
