@@ -64,8 +64,6 @@ SCENES = {  # key: (phantom or dataset, mode)
     "shepp-composite": ("shepp-logan", "composite"),   # issue 44: new to the defaults
     "mri-mip": ("mni152", "mip"),                      # issue 44: new to the defaults
 }
-#: The scenes a run takes unless ``--scenes`` says otherwise.
-DEFAULT_SCENES = tuple(SCENES)
 #: Scenes on the shared datasets (``--data-dir``): the file, and scene keys besides its spacing.
 DATASETS = {"cthead": ("regular/cthead.nhdr", {"camera.up": [0.0, 0.0, -1.0]}),
             "mni152": ("regular/MNI152_2009_template.nii.gz", {"camera.up": [0.0, 0.0, 1.0]})}

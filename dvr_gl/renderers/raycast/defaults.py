@@ -37,6 +37,7 @@ import numpy as np
 
 from ...fields import diagonal, reconstruct
 from ...scene.settings import DEFAULT_SAMPLE_DISTANCE_VOXELS
+from ...transfer_function_2d import is_2d
 from . import tolerance
 
 #: The defaults' target: RMS error (premultiplied linear RGBA, against the converged reference) of one
@@ -99,7 +100,8 @@ def modelled(scene) -> bool:
     if r.compositing == "emission_absorption" and (r.shading.enabled or r.gradient_opacity or r.scattering.enabled
                                                    or r.classification == "pre"):
         return False
-    return not r.jitter and hasattr(scene.transfer_function, "points")
+    # a 2D transfer function (value and gradient) is not what the lines classify
+    return not r.jitter and hasattr(scene.transfer_function, "points") and not is_2d(scene.transfer_function)
 
 
 def cache_key(scene) -> tuple:

@@ -44,9 +44,10 @@ def test_the_choice_is_deterministic_and_cached(monkeypatch):
     assert first.renderer.ert_threshold == pytest.approx(1.0 - defaults.TARGET / 4.0)
 
 
-def test_an_explicit_sample_distance_or_tolerance_wins():
-    """A sample distance (in voxels or world units) or a tolerance given keeps what it says, and the
-    defaults' early termination stays the fixed one; the old fixed default is one key away."""
+def test_an_explicit_sample_distance_wins():
+    """A sample distance given (in voxels or world units) keeps what it says, with the fixed early
+    termination: the old fixed default is one key away.  (A tolerance takes the tolerance's path,
+    test_tolerance.py.)"""
     old = load_scene(None, {**ML, "renderer.sample_distance_voxels": DEFAULT_SAMPLE_DISTANCE_VOXELS})
     assert voxels(old) == pytest.approx(0.5)
     assert old.renderer.ert_threshold == ERT_DEFAULT
