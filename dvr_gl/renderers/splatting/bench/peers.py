@@ -99,8 +99,14 @@ class Sarracen:
     """The peers' interpreter running :mod:`.sarracen_worker`."""
 
     def __init__(self, python: str):
-        self.process = subprocess.Popen([python, str(WORKER)], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                        text=True)
+        try:
+            self.process = subprocess.Popen([python, str(WORKER)], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                            text=True)
+        except OSError as e:
+            from ....errors import DvrError
+
+            raise DvrError(f"cannot run the peers' interpreter {python}: {e.strerror or e}; pass --peers-python "
+                           f"or make .venv-peers (benchmarks/peers-requirements.txt)") from None
 
     def frame(self, particles_file: Path, size: int, out: Path) -> tuple[float, np.ndarray]:
         self.process.stdin.write(json.dumps({"particles": str(particles_file), "size": size, "out": str(out)}) + "\n")
