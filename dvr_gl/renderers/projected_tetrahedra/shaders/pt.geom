@@ -28,6 +28,7 @@ uniform vec2 u_image_size;
 uniform vec3 u_eye;      // relative to the mesh's centre, as the points
 uniform vec3 u_forward;
 noperspective out vec4 g_st;  // colour, optical depth (pt_st.frag)
+flat out float g_tau_max;     // the thick vertex's optical depth: the most the interpolation may give
 #endif
 
 flat in uint v_entry[];
@@ -72,6 +73,7 @@ void silhouette_corner(uvec4 ids, vec4 linear, vec2 h, vec2 q0, vec2 q1, vec2 q2
 }
 
 void fan_triangle(uvec4 ids, vec4 linear, vec2 thick, vec4 at_thick, vec2 a, vec2 b, vec2 q0, vec2 q1, vec2 q2) {
+    g_tau_max = at_thick.a;
     emit_st(thick, at_thick);
     silhouette_corner(ids, linear, a, q0, q1, q2);
     silhouette_corner(ids, linear, b, q0, q1, q2);
