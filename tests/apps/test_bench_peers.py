@@ -15,6 +15,11 @@ from dvr_gl.scene.resolve import load_scene
 TINY = {"size": 16, "volume_size": 12, "rounds": 1, "frames": 1, "error_size": 12}
 
 
+def label(row) -> str:
+    """A row's setting, dvr-gl's defaults without the distance the scene chose for them (issue 44)."""
+    return "defaults" if row["setting"].startswith("defaults (") else row["setting"]
+
+
 @pytest.fixture
 def short_sweep(monkeypatch):
     """dvr-gl's defaults and one more distance: fewer fresh processes."""
@@ -71,9 +76,11 @@ def test_stub_peer_sees_what_dvr_gl_sees(tmp_path, monkeypatch):
     rows, ratio_rows, notes, images = peers.run(("dvr-gl", "numpy"), ("ml-composite", "ml-mip"),
                                                 peers_python=sys.executable, cache=tmp_path / "cache",
                                                 work=tmp_path / "work", **TINY)
-    assert [(r["scene"], r["renderer"], r["setting"]) for r in rows] == [
+    assert [(r["scene"], r["renderer"], label(r)) for r in rows] == [
         (s, r, d) for s in ("ml-composite", "ml-mip")
-        for r, d in (("dvr-gl", "defaults (0.5 voxel)"), ("dvr-gl", "1 voxel"), ("numpy", "1 voxel"))]
+        for r, d in (("dvr-gl", "defaults"), ("dvr-gl", "1 voxel"), ("numpy", "1 voxel"))]
+    chosen = next(r for r in rows if r["setting"].startswith("defaults"))  # the row names the distance chosen
+    assert chosen["setting"] == f"defaults ({chosen['settings']['sample_distance_voxels']:.3g} voxel)"
     for key in ("ml-composite", "ml-mip"):
         ours, stub = images[(key, "dvr-gl", "1 voxel")], images[(key, "numpy", "1 voxel")]
         for a, b in zip(ours, stub):
@@ -103,8 +110,8 @@ def test_bench_peers_with_dvr_gl_only(tmp_path, capsys, short_sweep):
     assert main(args) == 0
     out = capsys.readouterr().out
     rows = [line.split() for line in out.splitlines() if line.startswith("blobs-mip ")]
-    assert [r[1:4] if r[2] == "defaults" else r[1:3] for r in rows] == [
-        ["dvr-gl", "defaults", "(0.5"], ["dvr-gl", "2"]]
+    assert [r[1:3] for r in rows] == [["dvr-gl", "defaults"], ["dvr-gl", "2"]]
+    assert rows[0][3].startswith("(")  # the distance the scene chose (issue 44)
     psnr = [float(r[-2]) for r in rows]
     assert all(20 < p < 200 for p in psnr), psnr
     for name in ("peers-blobs-mip.png", "peers-blobs-mip-error.png", "peers-blobs-mip.txt"):
@@ -124,6 +131,10 @@ def test_ratios_pick_the_fastest_dvr_gl_setting_at_the_peers_error():
     assert peer["dvrgl"] == "1 voxel" and peer["ratio"] == pytest.approx(1.5)  # 44.8 >= 45 - 0.5
     assert peer["ratio_1vox"] == pytest.approx(1.5)
     assert sharp["dvrgl"] == "none of the sweep" and sharp["ratio"] is None
+    assert peer["defaults_ms"] is None  # no defaults row here
+    rows[0]["setting"] = "defaults (0.5 voxel)"  # the defaults against each peer (issue 44)
+    peer = peers.ratios(rows)[0]
+    assert (peer["defaults_ms"], peer["defaults_psnr"], peer["defaults_ratio"]) == (40.0, 50.0, 0.75)
 
 
 def test_outline_mask_is_the_ring_around_the_box(tmp_path):
@@ -157,8 +168,8 @@ def test_ct_scene_means_the_same_to_a_peer(tmp_path, monkeypatch, shared_data):
     rows, _, notes, images = peers.run(("dvr-gl", "numpy"), ("cthead-bone",), data_dir=shared_data,
                                        peers_python=sys.executable, cache=tmp_path / "cache",
                                        work=tmp_path / "work", **TINY)
-    assert [(r["renderer"], r["setting"]) for r in rows] == [
-        ("dvr-gl", "defaults (0.5 voxel)"), ("dvr-gl", "1 voxel"), ("numpy", "1 voxel")]
+    assert [(r["renderer"], label(r)) for r in rows] == [
+        ("dvr-gl", "defaults"), ("dvr-gl", "1 voxel"), ("numpy", "1 voxel")]
     job = peers.peer_scene(peers.scene_keys("cthead-bone", tmp_path / "work" / "cthead.npy", 16,
                                             peers.dataset_file("cthead", shared_data, tmp_path / "work")[1]),
                            "composite")
@@ -179,7 +190,7 @@ def test_bench_peers_sweep_option(tmp_path, capsys):
         assert "--sweep" in err and "internal error" not in err
     assert main(base + ["--sweep", "3"]) == 0
     settings = [line.split()[2:4] for line in capsys.readouterr().out.splitlines() if line.startswith("blobs-mip ")]
-    assert settings == [["defaults", "(0.5"], ["3", "voxel"]]
+    assert [s[0] for s in settings] == ["defaults", "3"] and settings[1][1] == "voxel"
 
 
 def test_pre_integrated_points_are_run_on_composite_scenes_only(tmp_path, monkeypatch):
@@ -190,9 +201,21 @@ def test_pre_integrated_points_are_run_on_composite_scenes_only(tmp_path, monkey
     monkeypatch.setattr(peers, "PREINTEGRATED_SWEEP", (4.0,))
     rows, ratio_rows, _, images = peers.run(("dvr-gl",), ("blobs-composite", "blobs-mip"), cache=tmp_path / "cache",
                                             work=tmp_path / "work", **TINY)
-    settings = {s: [r["setting"] for r in rows if r["scene"] == s] for s in ("blobs-composite", "blobs-mip")}
-    assert settings["blobs-composite"] == ["defaults (0.5 voxel)", "1 voxel", "4 voxel", "4 voxel pre-integrated"]
-    assert settings["blobs-mip"] == ["defaults (0.5 voxel)", "1 voxel", "4 voxel"]
+    settings = {s: [label(r) for r in rows if r["scene"] == s] for s in ("blobs-composite", "blobs-mip")}
+    assert settings["blobs-composite"] == ["defaults", "1 voxel", "4 voxel", "4 voxel pre-integrated"]
+    assert settings["blobs-mip"] == ["defaults", "1 voxel", "4 voxel"]
     post = images[("blobs-composite", "dvr-gl", "4 voxel")][0]
     pre = images[("blobs-composite", "dvr-gl", "4 voxel pre-integrated")][0]
     assert np.abs(post - pre).max() > 1e-4
+
+
+def test_the_scenes_new_to_the_defaults(tmp_path):
+    """Issue 44's scenes: the Shepp-Logan phantom with its own transfer function, and the MNI152 MIP with a
+    ramp over the template's range, left out with a note where the shared data is not there."""
+    keys = peers.scene_keys("shepp-composite", peers.volume_file("shepp-logan", 9, tmp_path), 16)
+    assert keys["transfer_function.points"] == peers.COMPOSITE_TF["shepp-logan"]
+    assert keys["renderer.compositing"] == "emission_absorption"
+    rows, _, notes, _ = peers.run(("dvr-gl",), ("mri-mip",), data_dir=tmp_path, cache=tmp_path / "cache",
+                                  work=tmp_path / "work", **TINY)
+    assert rows == [] and any(n.startswith("mri-mip: regular/MNI152_2009_template.nii.gz not found") for n in notes)
+    assert peers.MIP_TFS["mni152"][-1][0] == 1570  # the template's maximum
