@@ -62,7 +62,7 @@ PLUGIN = RendererPlugin(
     # shadow rays march from each sample; the light volume interpolates them (half-angle slicing needs slices)
     scattering_methods=("shadow_rays", "light_volume"),
     oracle="dvr_gl.renderers.raycast.oracle:oracle",
-    resolve="dvr_gl.renderers.raycast.tolerance:resolve",
+    resolve="dvr_gl.renderers.raycast.defaults:resolve",
     sweeps=(sweeps.POST, sweeps.PRE_CLASSIFIED, sweeps.PREINTEGRATED, sweeps.PREINTEGRATED_FAST, sweeps.NEAREST,
             sweeps.CUBIC_BSPLINE, sweeps.LUT_SIZE, sweeps.PREINTEGRATION_TABLE, sweeps.EARLY_TERMINATION,
             sweeps.BRICKED, sweeps.LIGHT_VOLUME),

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...errors import SceneError
 from ...fields import diagonal, reconstruct
 from ...scene.settings import DEFAULT_SAMPLE_DISTANCE_VOXELS
 from ...transfer_function_2d import is_2d
@@ -293,3 +294,18 @@ def resolve_defaults(scene):
             changes.pop(key)
     return dataclasses.replace(scene, renderer=dataclasses.replace(scene.renderer, **changes))
 
+
+def resolve(scene):
+    """The ray caster's resolution hook (its plugin's ``resolve``): ``renderer.tolerance`` replaced by the
+    settings the error model chooses for it and the a-posteriori check confirms (:func:`.tolerance.check`, which
+    renders the scene small on the ray caster), so that the effective scene holds those settings and
+    rendering it again repeats the image.  Without a tolerance or a sample distance, the defaults are
+    chosen by the scene (:func:`resolve_defaults`)."""
+    requested = scene.spec.renderer if scene.spec is not None else scene.renderer
+    wanted = getattr(requested, "tolerance", None)
+    if wanted is None:
+        return resolve_defaults(scene)
+    if requested.sample_distance is not None or requested.sample_distance_voxels is not None:
+        raise SceneError("renderer: give tolerance or a sample distance, not both (the tolerance chooses it)")
+    chosen, choice = tolerance.apply(scene.with_renderer(tolerance=None), wanted)
+    return chosen.replace(tolerance_choice=choice)

@@ -344,22 +344,3 @@ def apply(scene, tolerance: float, model: SamplingModel | None = None, verify: b
     if verify:
         choice = check(scene, choice, tolerance)
     return scene.with_renderer(**choice.renderer_changes()), choice
-
-
-
-def resolve(scene):
-    """The ray caster's resolution hook (its plugin's ``resolve``): ``renderer.tolerance`` replaced by the
-    settings the error model chooses for it and the a-posteriori check confirms (:func:`check`, which
-    renders the scene small on the ray caster), so that the effective scene holds those settings and
-    rendering it again repeats the image.  Without a tolerance or a sample distance, the defaults are
-    chosen by the scene (:func:`.defaults.resolve_defaults`)."""
-    requested = scene.spec.renderer if scene.spec is not None else scene.renderer
-    tolerance = getattr(requested, "tolerance", None)
-    if tolerance is None:
-        from .defaults import resolve_defaults
-
-        return resolve_defaults(scene)
-    if requested.sample_distance is not None or requested.sample_distance_voxels is not None:
-        raise SceneError("renderer: give tolerance or a sample distance, not both (the tolerance chooses it)")
-    chosen, choice = apply(scene.with_renderer(tolerance=None), tolerance)
-    return chosen.replace(tolerance_choice=choice)

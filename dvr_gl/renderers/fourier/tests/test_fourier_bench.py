@@ -1,6 +1,7 @@
 """``dvr bench fourier``: times and errors against N, and the accuracy study on the shared datasets."""
 
 from dvr_gl.apps.cli import main
+from dvr_gl.renderers.fourier.bench.measure import BASELINE  # the ray caster, asked of the registry
 
 
 def test_bench_fourier_prints_times_and_errors(tmp_path, capsys):
@@ -15,7 +16,7 @@ def test_bench_fourier_prints_times_and_errors(tmp_path, capsys):
         assert float(r[5]) > 0 and float(r[6]) > 0 and float(r[7]) > 0    # ms a view of both, their ratio
         assert 0 < float(r[8]) < 1e-2                                      # RMS against the converged reference
     front = [line.split() for line in out.splitlines() if line.startswith(("average ", "xray "))]
-    assert {r[1] for r in front} == {"fourier", "raycast"} and len(front) == 2 * (1 + 5 + 1 + 4)
+    assert {r[1] for r in front} == {"fourier", BASELINE} and len(front) == 2 * (1 + 5 + 1 + 4)
     assert sum("fourier's front" in line or "not dominated" in line for line in out.splitlines()) == 2
     assert "| N |" in md.read_text()
     assert main(["bench", "fourier", "--sizes", "16,x"]) == 1
@@ -25,7 +26,7 @@ def test_bench_fourier_prints_times_and_errors(tmp_path, capsys):
 def test_dominance_compares_the_fronts_in_the_band():
     from dvr_gl.renderers.fourier.bench.measure import dominance
 
-    ray = [{"renderer": "raycast", "rms": 5e-3, "ms": 10.0}, {"renderer": "raycast", "rms": 1e-5, "ms": 100.0}]
+    ray = [{"renderer": BASELINE, "rms": 5e-3, "ms": 10.0}, {"renderer": BASELINE, "rms": 1e-5, "ms": 100.0}]
     fast = [{"renderer": "fourier", "rms": 2e-5, "ms": 5.0}]
     assert dominance(ray + fast).startswith("fourier's front is below")
     slow = [{"renderer": "fourier", "rms": 2e-5, "ms": 50.0}]  # slower at 5e-3, where the ray caster is 10 ms
