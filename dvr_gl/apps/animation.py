@@ -77,10 +77,18 @@ class Frames:
                 self.field = None
                 self.field = self.read_step(k)
                 self.shown = k
-            scene = dataclasses.replace(scene, field=self.field)
+            scene = self._at_step(scene)
         if self.animation.path is not None:
             return scene.replace(camera=self.animation.path.camera_at(self.times[i]))
         return orbit_scene(scene, i, self.animation.frames) if self.animation.orbit else scene
+
+    def _at_step(self, scene):
+        """``scene`` with the shown step's field.  One grid is resolved again for it (the camera and the
+        volume's source kept), so that what the renderer chose from the data (the ray caster's defaults
+        are chosen by the scene) is what ``--time k`` chooses: frame i is that step's image alone."""
+        if getattr(self.field, "kind", None) == "grid" and scene.spec is not None:
+            return scene.replace(field=self.field, camera=scene.camera, volume_source=scene.volume_source)
+        return dataclasses.replace(scene, field=self.field)
 
     @property
     def times(self):
