@@ -98,6 +98,8 @@ def modelled(scene) -> bool:
     r = scene.renderer
     if getattr(scene.field, "kind", None) != "grid" or r.compositing not in MODES:
         return False
+    if getattr(scene.field, "out_of_core", False):  # the lines would read voxels that stay on disk
+        return False
     if r.compositing == "emission_absorption" and (r.shading.enabled or r.gradient_opacity or r.scattering.enabled
                                                    or r.classification == "pre"):
         return False
