@@ -571,7 +571,8 @@ class Scene:
                 spec = dataclasses.replace(spec, camera=_reframed(self.camera))
             source = changes.pop("volume_source", VolumeSpec())
             tf_spec = spec.transfer_function
-            if tf_spec.preset is None and tf_spec.points is None:  # the old data's default preset, by name
+            given = (tf_spec.preset, tf_spec.points, tf_spec.table_2d, tf_spec.boxes_2d, tf_spec.file)
+            if all(v is None for v in given):  # the old data's default preset, by name
                 tf_spec = dataclasses.replace(tf_spec, preset=_default_preset(spec.volume))
             spec = dataclasses.replace(spec, volume=source, transfer_function=tf_spec)
             return resolve_scene(spec, field=field, volume_source=source,
