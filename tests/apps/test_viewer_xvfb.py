@@ -134,7 +134,8 @@ class ViewerProcess:
         self.output = open(folder / "viewer.out", "w")
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "dvr_gl.apps.cli", "view", "--demo", "--set", "volume.size=48",
-             "--transfer-function", "shepp-logan",  # a 1D function the tests edit (the demo's own is 2D)
+             # a 1D function the tests edit (the demo's own is 2D), unless the test gives its own
+             *([] if "--transfer-function" in args else ["--transfer-function", "shepp-logan"]),
              *(["--size", f"{size}x{size}"] if size else []), "--screenshot-dir", str(folder),
              "--screenshot-format", "exr",
              "--frame-log", str(self.log), "--passes", str(PASSES), *args],
