@@ -166,7 +166,7 @@ def tolerance_check(scene, rows: list[dict], truth, repeat: int = 5, tolerances=
         return out, (f"--tolerance not checked: it chooses the ray caster's settings, and the ray caster renders "
                      f"grids, not {kind}")
     name = picks.renderers("tolerance")[0]  # the renderer that declares renderer.tolerance (the ray caster)
-    # its error model is where its resolve (tolerance -> settings) lives: check_tolerance, sampling_model, apply
+    # its error model is beside its resolve hook (tolerance -> settings): check_tolerance, sampling_model, apply
     model = importlib.import_module(load(registry.plugin(name).resolve).__module__)
     scene = scene.with_renderer(name=name)
     try:

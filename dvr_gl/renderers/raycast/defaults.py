@@ -40,6 +40,7 @@ from ...fields import diagonal, reconstruct
 from ...scene.settings import DEFAULT_SAMPLE_DISTANCE_VOXELS
 from ...transfer_function_2d import is_2d
 from . import tolerance
+from .tolerance import apply, check_tolerance, sampling_model  # noqa: F401  the error model beside the hook
 
 #: The defaults' target: RMS error (premultiplied linear RGBA, against the converged reference) of one
 #: 8-bit display step, 1/255 (48.1 dB).  Most pixels then differ from the converged image by less than
