@@ -275,10 +275,10 @@ def view_scene(viewer, renderer: str | None = None, width: int | None = None, de
         settings, projected, _ = rendering_mode(layer)
         if projected:
             tfs = [image_transfer_function(layer, min(members[0].field.spacing), depth, ramp=False)]
-            # napari's projections step about a voxel and refine the extremum; the ray caster's scene-chosen
-            # defaults (one 8-bit step of RMS) step up to 2.75 voxels, so a projection is drawn at half a
-            # voxel to show the extremum napari's canvas shows (tests/apps/test_napari_plugin.py).
-            settings.setdefault("sample_distance_voxels", 0.5)
+    # napari steps about a voxel (and refines a projection's extremum); the ray caster's scene-chosen defaults
+    # (one 8-bit step of RMS) step up to 2.75 voxels, which moved the bright block's outline 4 pixels from where
+    # napari's canvas draws it: napari's view is drawn at half a voxel (tests/apps/test_napari_plugin.py).
+    settings.setdefault("sample_distance_voxels", 0.5)
     w, h = view_size(viewer, width)
     canvas_height = view_size(viewer)[1]
     camera = view_camera(napari_camera(viewer), canvas_height)
