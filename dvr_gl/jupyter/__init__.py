@@ -22,7 +22,8 @@ def widget(data, *, time_axis: int | None = None, budget: float = 0.1, **render_
 
     ``time_axis``: the axis of time steps of a 4D array (a time slider).  ``budget``: seconds a frame may
     take while dragging (coarser frames hold it).  ``max_pixel_ratio``: the most physical pixels per CSS pixel
-    the image is rendered at on a HiDPI screen (default 2; 1: CSS pixels, four times cheaper).  Returns a :class:`~dvr_gl.jupyter.canvas.VolumeWidget`:
+    the image is rendered at on a HiDPI screen (default 2; 1: CSS pixels, four times cheaper).  Returns a
+    :class:`~dvr_gl.jupyter.canvas.VolumeWidget`:
     shown as the last expression of a cell (the picture with its controls); ``.scene`` the current scene,
     ``.snapshot()`` the full-quality :class:`~dvr_gl.Image`; ``.pick(x, y)`` what lies under widget pixel
     ``(x, y)``; ``.annotated()`` the annotated 8-bit picture; ``.camera_path`` the recorded keyframes."""
