@@ -3,6 +3,7 @@ dvr-gl does, and its dock widget renders napari's 3D view of an image and a labe
 the same scene built directly, lying as napari's own canvas does.  One napari viewer for the module, in the
 run's Xvfb display (napari's canvas needs a display: Qt's offscreen platform has no OpenGL widget)."""
 
+import ctypes
 import importlib.metadata
 import os
 import subprocess
@@ -142,8 +143,21 @@ def test_meshes_read_as_surfaces(tmp_path):
 
 # --- the dock widget ------------------------------------------------------------------------------------------
 
+def _clear_pending_gl_errors():
+    """Read away the errors pending on whatever OpenGL context an earlier test of this process left current:
+    napari's new canvas queries its limits on the thread's current context before making its own, and PyOpenGL
+    reports a stale error there as its own (GL_INVALID_OPERATION from ``glGetParameter`` in two CI runs, when
+    pytest-xdist put another GL test file first in the process).  libGL dispatches to the current context,
+    EGL's included; without one, glGetError returns 0."""
+    get_error = ctypes.CDLL("libGL.so.1").glGetError
+    for _ in range(64):  # OpenGL keeps at most one flag per error kind
+        if get_error() == 0:
+            return
+
+
 @pytest.fixture(scope="module")
 def viewer(xvfb):
+    _clear_pending_gl_errors()
     with pytest.MonkeyPatch.context() as env:
         env.setenv("DISPLAY", xvfb)
         env.setenv("QT_QPA_PLATFORM", "xcb")
