@@ -127,10 +127,10 @@ def _peers_arguments(pe):
     pe.add_argument("--volume-size", type=int, default=256, help="phantom samples per axis (default 256)")
     pe.add_argument("--rounds", type=count, default=3, help="rounds of fresh processes, interleaved (default 3)")
     pe.add_argument("--frames", type=count, default=20, help="timed frames per run, after one untimed (default 20)")
-    pe.add_argument("--scenes", metavar="A,B", help="only these scenes (ml-composite, ml-mip, blobs-composite, "
-                                                   "blobs-mip, cthead-bone; default all)")
-    pe.add_argument("--renderers", metavar="A,B", help="only these (dvr-gl, vtk-gpu, vtk-cpu, vispy, pygfx; "
-                                                      "default all)")
+    from dvr_gl.bench import peers  # the scenes and renderers it knows, listed from the code
+
+    pe.add_argument("--scenes", metavar="A,B", help=f"only these scenes ({', '.join(peers.SCENES)}; default all)")
+    pe.add_argument("--renderers", metavar="A,B", help=f"only these ({', '.join(peers.RENDERERS)}; default all)")
     pe.add_argument("--sweep", metavar="D,D", help="dvr-gl's sample distances in voxels besides its defaults "
                                                   "(default 1,2,4,8)")
     pe.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder, for the CThead "

@@ -219,3 +219,13 @@ def test_the_scenes_new_to_the_defaults(tmp_path):
                                   work=tmp_path / "work", **TINY)
     assert rows == [] and any(n.startswith("mri-mip: regular/MNI152_2009_template.nii.gz not found") for n in notes)
     assert peers.MIP_TFS["mni152"][-1][0] == 1570  # the template's maximum
+
+
+def test_help_lists_the_scenes_and_renderers_of_the_code(capsys, monkeypatch):
+    """``--scenes`` and ``--renderers`` name what peers.SCENES and peers.RENDERERS hold (not a hand-kept list)."""
+    monkeypatch.setenv("COLUMNS", "1000")  # argparse wraps at hyphens otherwise
+    with pytest.raises(SystemExit):
+        main(["bench", "peers", "--help"])
+    text = capsys.readouterr().out
+    for name in (*peers.SCENES, *peers.RENDERERS):
+        assert name in text, name
