@@ -8,7 +8,6 @@ from conftest import assert_close
 from dvr_gl.orientation import to_patient_frame
 from dvr_gl.renderers import create_renderer
 from dvr_gl.renderers.shearwarp.oracle import oracle as shearwarp_reference
-from dvr_gl.scene.resolve import load_scene
 from rendered_datasets import DATASETS, dataset_id, judged
 
 
@@ -20,14 +19,13 @@ def renderer(shared_gl_context):
 
 
 @pytest.mark.parametrize("name", list(DATASETS), ids=dataset_id)
-def test_dataset_renders_with_shear_warp(shared_data, renderer, shared_volumes, name):
+def test_dataset_renders_with_shear_warp(renderer, shared_scene, name):
     """Parallel and perspective against shear-warp's same-discretization reference (the same slices
     along the intermediate pixels' rays, warped bilinearly): measured max 3.1e-5 (the bunny,
     orthographic), mean <= 2.5e-7; asserted as for the other renderers."""
-    overrides = {"volume.path": str(shared_data / name), "image.width": 24, "image.height": 24,
-                 "renderer.ert_threshold": 1.0, **DATASETS[name]}
+    overrides = {"image.width": 24, "image.height": 24, "renderer.ert_threshold": 1.0, **DATASETS[name]}
     for projection in ("perspective", "orthographic"):
-        scene = load_scene(None, {**overrides, "camera.projection": projection}).replace(volume=shared_volumes(name))
+        scene = shared_scene(name, {**overrides, "camera.projection": projection})
         image = renderer.render(scene)
         reference = judged(shearwarp_reference, scene)
         assert np.all(np.isfinite(image)) and image.min() >= 0 and image[..., 3].max() <= 1
@@ -36,13 +34,13 @@ def test_dataset_renders_with_shear_warp(shared_data, renderer, shared_volumes, 
 
 
 @pytest.mark.parametrize("name", list(DATASETS), ids=dataset_id)
-def test_dataset_renders_with_shaded_shear_warp(shared_data, renderer, shared_volumes, name):
+def test_dataset_renders_with_shaded_shear_warp(renderer, shared_scene, name):
     """Shaded by the lookup tables over quantized normals (the headlight, perspective), against the same
     slices shaded alike in float64: measured max 2.4e-5 (headsq), mean <= 2.1e-7, every value within
     1e-4 on all twelve; asserted as for the other renderers."""
-    overrides = {"volume.path": str(shared_data / name), "image.width": 24, "image.height": 24,
-                 "renderer.ert_threshold": 1.0, "renderer.shading.enabled": True, **DATASETS[name]}
-    scene = load_scene(None, overrides).replace(volume=shared_volumes(name))
+    overrides = {"image.width": 24, "image.height": 24, "renderer.ert_threshold": 1.0,
+                 "renderer.shading.enabled": True, **DATASETS[name]}
+    scene = shared_scene(name, overrides)
     image = renderer.render(scene)
     reference = judged(shearwarp_reference, scene)
     assert reference[..., 3].max() > 0.05 and np.all(np.isfinite(image))
@@ -51,15 +49,14 @@ def test_dataset_renders_with_shaded_shear_warp(shared_data, renderer, shared_vo
 
 @pytest.mark.parametrize("name", [n for n in DATASETS if n.startswith("regular/")],
                          ids=dataset_id)
-def test_dataset_renders_with_shear_warp_from_inside(shared_data, renderer, shared_volumes, name):
+def test_dataset_renders_with_shear_warp_from_inside(renderer, shared_scene, name):
     """The eye near the volume's centre, a 100-degree view along a diagonal, shaded: the view factored
     by pyramids of rays (three or four here), against the same slices of each pyramid shaded alike in
     float64, warped: measured max 2.4e-6 (headsq), mean <= 1e-7; asserted as for the other renderers.
     The two large datasets (frog 1.2e-6, bunny 2.1e-6) take 20 and 60 s with their references, so they
     are measured, not run here."""
-    scene = load_scene(None, {"volume.path": str(shared_data / name), "image.width": 24, "image.height": 24,
-                              "renderer.ert_threshold": 1.0, "renderer.shading.enabled": True, **DATASETS[name]})
-    scene = scene.replace(volume=shared_volumes(name))
+    scene = shared_scene(name, {"image.width": 24, "image.height": 24, "renderer.ert_threshold": 1.0,
+                                "renderer.shading.enabled": True, **DATASETS[name]})
     lo, hi = (np.asarray(b, dtype=np.float64) for b in scene.volume.box)
     eye = (lo + hi) / 2.0 + 0.013 * (hi - lo)  # off the centre: no slice plane through the eye
     # placed in the volume's frame, given in the patient frame where the camera lives (dvr_gl.orientation)

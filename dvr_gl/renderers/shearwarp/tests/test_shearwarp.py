@@ -376,6 +376,28 @@ def test_normal_codes_round_trip_within_their_cells():
         assert np.degrees(np.arccos(directions[encode_normals(axis[None])[0]] @ axis)) < 1.0
 
 
+@pytest.mark.parametrize("dtype", [np.uint8, np.int16, np.float32])
+def test_compiled_normal_codes_equal_the_numpy_passes(dtype, monkeypatch):
+    """normals_compiled (numba) against VoxelNormals' numpy passes: the same codes and gradient-opacity
+    factors, value for value, on random data with flat regions (no normal), edges and anisotropic spacing."""
+    pytest.importorskip("numba")
+    from dvr_gl.fields.grid import Volume
+    from dvr_gl.renderers.shearwarp.shading import VoxelNormals
+
+    rng = np.random.default_rng(7)
+    data = rng.integers(0, 60, size=(19, 13, 11)).astype(dtype)
+    data[4:9] = 17  # a flat slab: gradients zero inside, NO_NORMAL
+    volume = Volume(data, spacing=(0.7, 1.0, 2.5))
+    monkeypatch.setattr(VoxelNormals, "use_compiled", False)
+    numpy_codes = VoxelNormals(volume, 12.0)
+    monkeypatch.setattr(VoxelNormals, "use_compiled", True)
+    compiled_codes = VoxelNormals(volume, 12.0)
+    assert (numpy_codes.codes == NO_NORMAL).sum() > 100
+    np.testing.assert_array_equal(compiled_codes.codes, numpy_codes.codes)
+    np.testing.assert_array_equal(compiled_codes.factor, numpy_codes.factor)
+    assert VoxelNormals(volume, None).factor is None
+
+
 def test_voxel_gradients_are_the_references_at_the_voxels():
     """Central differences one voxel apart with the edges clamped: the reference field's gradient at
     every voxel centre (the boundary's included)."""
