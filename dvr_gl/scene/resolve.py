@@ -18,7 +18,6 @@ import copy
 import dataclasses
 import os
 import tomllib
-import typing
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -60,6 +59,7 @@ from .schema import (
     spec_to_dict,
     split_volume_tables,
     tables_as_specs,
+    type_hints,
 )
 from .settings import FILTER, check_albedo
 from .settings import resolve_renderer as resolve_settings
@@ -125,7 +125,7 @@ def _overridden(parts: list[str]):
 
 def _table_class(section: str):
     """The dataclass of scene table ``section`` (None for an unknown one: parsing names it)."""
-    tp = typing.get_type_hints(SceneSpec).get(section)
+    tp = type_hints(SceneSpec).get(section)
     return renderer_spec_class() if tp is RendererTable else tp
 
 

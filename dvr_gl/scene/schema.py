@@ -12,6 +12,7 @@ ones.  ``choices`` in a field's metadata restrict string values.  The
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import types
 import typing
@@ -348,9 +349,17 @@ def _convert(value, tp, where: str):
     raise TypeError(f"schema type {tp} not handled")
 
 
+@functools.cache
+def type_hints(cls) -> dict:
+    """``typing.get_type_hints(cls)``, evaluated once per class (it evaluates every annotation's string on
+    each call: 58 of the 88 s that 1789 load_scene calls took in the shader-variant test, measured
+    2026-11-28).  Read only: the dict is shared."""
+    return typing.get_type_hints(cls)
+
+
 def parse_table(cls, table: dict, where: str):
     """Build dataclass ``cls`` from a TOML table, checking every key and value."""
-    hints = typing.get_type_hints(cls)
+    hints = type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls)}
     kwargs = {}
     for key, value in table.items():
@@ -419,7 +428,7 @@ def tables_as_specs(spec, changes: dict, where: str) -> dict:
     """``changes`` to dataclass ``spec`` with each table given as a dict (or a list of them: meshes)
     read as a scene file's would be (``with_renderer(clipping={"planes": ...})``); other values as
     they are."""
-    hints = typing.get_type_hints(type(spec))
+    hints = type_hints(type(spec))
 
     def is_table(value):
         return isinstance(value, dict) or (isinstance(value, list) and any(isinstance(v, dict) for v in value))
