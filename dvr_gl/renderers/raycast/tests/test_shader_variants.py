@@ -118,6 +118,11 @@ def _pair(a: int, i: int, b: int, j: int) -> tuple:
     return (a, i, b, j) if a < b else (b, j, a, i)
 
 
+def _holds(case: dict, core: dict) -> bool:
+    """Whether ``case`` (axis index to value index) has every value of ``core``."""
+    return all(case.get(a) == i for a, i in core.items())
+
+
 class Cases:
     """A pairwise covering array over ``axes`` (name: values), built greedily one case at a time: each case
     starts from the first pair not yet covered and gives every other axis the value covering the most new
@@ -132,7 +137,7 @@ class Cases:
                           for i in range(len(self.values[a])) for j in range(len(self.values[b]))}
 
     def _allowed(self, case: dict) -> bool:
-        return not any(all(case.get(a) == i for a, i in core.items()) for core in self.forbidden)
+        return not any(_holds(case, core) for core in self.forbidden)
 
     def _gain(self, case: dict, axis: int, value: int) -> int:
         return sum(_pair(a, i, axis, value) in self.uncovered for a, i in case.items())
@@ -153,8 +158,8 @@ class Cases:
             trial = {k: v for k, v in core.items() if k != axis}
             if self.refused(trial):
                 core = trial
-        self.forbidden.append(core)
-        self.uncovered = {p for p in self.uncovered if self._allowed({p[0]: p[1], p[2]: p[3]})}
+        self.forbidden.append(core)  # the pairs left already pass the earlier cores: only the new one to check
+        self.uncovered = {p for p in self.uncovered if not _holds({p[0]: p[1], p[2]: p[3]}, core)}
 
     def __iter__(self):
         while self.uncovered:
