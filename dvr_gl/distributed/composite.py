@@ -11,7 +11,9 @@ of both, per compositing mode:
   tau_back`` (exactly what the renderer's next pass would do, starting from the front's state);
 * back-to-front emission and the isosurface: a premultiplied RGBA image, the over operator
   ``C = C_front + (1 - alpha_front) C_back`` for all four channels;
-* MIP and MinIP: the running maximum (minimum) in x, the other channels zero;
+* MIP and MinIP: the running maximum (minimum) in x, and in z the extremum refined between the
+  samples (``renderer.extremum_refinement``) around it: the whole state of the one whose x wins, the
+  front's on a tie (the first sample holding the extremum is the one refined around);
 * average (x: sum of value x length, y: length) and xray (rgb: sum of sigma c l, a: sum of sigma l):
   sums.
 
@@ -50,10 +52,9 @@ def combine(operator: str, front: np.ndarray, back: np.ndarray) -> np.ndarray:
         out[..., 3] = f[..., 3] + b[..., 3]
     elif operator == "over_rgba":
         out = f + (1.0 - f[..., 3:4]) * b
-    elif operator == "max":
-        out = np.maximum(f, b)
-    elif operator == "min":
-        out = np.minimum(f, b)
+    elif operator in ("max", "min"):
+        sign = 1.0 if operator == "max" else -1.0
+        out = np.where((sign * b[..., 0] > sign * f[..., 0])[..., None], b, f)
     elif operator == "sum":
         out = f + b
     else:

@@ -80,6 +80,42 @@ def _chunks(n_seg: np.ndarray, active: np.ndarray, descending: bool = False):
         end -= m
 
 
+#: The golden section's smaller part: where a refinement step probes when the parabola gives no point inside.
+GOLDEN = 0.3819660112501051
+
+
+def refine_extremum(value_at, t, f, lo, hi, step: float, steps: int) -> np.ndarray:
+    """The largest value found by ``steps`` safeguarded parabolic steps around each ray's largest sample
+    (``renderer.extremum_refinement``; MinIP passes the negated field), as the ray caster's GLSL does
+    (shaders/projection.glsl, ``refine_extremum``).
+
+    ``value_at(t)``: the (signed) field at parameters ``t`` (world units along each ray); ``t``, ``f``: the
+    largest sample's parameter and value; ``[lo, hi]``: the ray's kept part.  The bracket is the sample and
+    the points one ``step`` before and after it (clamped to the kept part); each step evaluates the field
+    at the vertex of the parabola through the bracket's three points, or, where that parabola has no
+    maximum strictly inside, at the golden-section point of the longer side, and keeps the best point in
+    the middle.  Returns the largest value evaluated (at least ``f``): between the largest sample and the
+    trilinear field's maximum near it."""
+    a, b = np.maximum(t - step, lo), np.minimum(t + step, hi)
+    m, fm = np.asarray(t, dtype=np.float64), np.asarray(f, dtype=np.float64)
+    fa, fb = value_at(a), value_at(b)
+    for _ in range(steps):
+        q, r = (m - a) * (fm - fb), (m - b) * (fm - fa)
+        den = 2.0 * (q - r)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u = m - ((m - a) * q - (m - b) * r) / den
+        golden = np.where(m - a > b - m, m - GOLDEN * (m - a), m + GOLDEN * (b - m))
+        u = np.where((den > 0.0) & (u > a) & (u < b) & (u != m), u, golden)
+        fu = value_at(u)
+        better, left = fu > fm, u < m
+        a, fa = np.where(better & ~left, m, np.where(~better & left, u, a)), \
+            np.where(better & ~left, fm, np.where(~better & left, fu, fa))
+        b, fb = np.where(better & left, m, np.where(~better & ~left, u, b)), \
+            np.where(better & left, fm, np.where(~better & ~left, fu, fb))
+        m, fm = np.where(better, u, m), np.where(better, fu, fm)
+    return np.fmax(fm, np.fmax(fa, fb))  # fmax: a mesh's field is NaN outside its cells
+
+
 class DiscreteReference:
     """Render a resolved scene with the same discretization as the GPU renderers."""
 
@@ -258,8 +294,13 @@ class DiscreteReference:
         return t_a + np.clip(w, 0.0, 1.0) * (t_b - t_a)
 
     def _projection(self, mode: str) -> np.ndarray:
+        """Average, MIP or MinIP of each ray's samples, classified once.  The extrema are kept as the
+        maximum of ``sign`` times the samples (MinIP: -1), with the parameter of the first sample holding
+        it, which ``renderer.extremum_refinement`` refines around (:func:`refine_extremum`)."""
         n = len(self.rays)
-        acc = np.zeros(n) if mode == "average" else np.full(n, -np.inf if mode == "mip" else np.inf)
+        sign = -1.0 if mode == "minip" else 1.0
+        acc = np.zeros(n) if mode == "average" else np.full(n, -np.inf)
+        at = np.zeros(n)  # the parameter of the extreme sample
         length = np.zeros(n)
         active = self.n_seg > 0
         seen = np.zeros(n, bool)
@@ -268,17 +309,22 @@ class DiscreteReference:
             s = self.model.scalar.sample(grid.points)
             inside = ~np.isnan(s)
             seen[rows] |= grid.scatter(inside, False).any(axis=1)
-            s = np.where(inside, s, {"average": 0.0, "mip": -np.inf, "minip": np.inf}[mode])
             if mode == "average":
+                s = np.where(inside, s, 0.0)
                 acc[rows] += np.sum(grid.scatter(s) * grid.length, axis=1)
                 length[rows] += grid.length.sum(axis=1)
-            elif mode == "mip":
-                acc[rows] = np.maximum(acc[rows], grid.scatter(s, -np.inf).max(axis=1))
             else:
-                acc[rows] = np.minimum(acc[rows], grid.scatter(s, np.inf).min(axis=1))
+                v = grid.scatter(np.where(inside, sign * s, -np.inf), -np.inf)
+                j = np.argmax(v, axis=1)  # the first holding the chunk's extremum
+                best = v[np.arange(len(rows)), j]
+                raised = best > acc[rows]
+                acc[rows[raised]] = best[raised]
+                at[rows[raised]] = grid.t[raised, j[raised]]
             self.samples += int(grid.valid.sum())
         has = (self.n_seg > 0) & seen
-        value = np.where(has, acc, 0.0)
+        if mode != "average" and self.scene.renderer.extremum_refinement and hasattr(self.plan, "d"):
+            acc[has] = self._refined_extremum(np.nonzero(has)[0], at[has], acc[has], sign)
+        value = np.where(has, sign * acc, 0.0)
         if mode == "average":
             value = np.where(has, acc / np.where(length > 0, length, 1.0), 0.0)
         colour, alpha = self.model.classify_value(value[has])
@@ -286,6 +332,15 @@ class DiscreteReference:
         rgba[has, :3] = colour * alpha[:, None]
         rgba[has, 3] = alpha
         return rgba
+
+    def _refined_extremum(self, rows, t, value, sign: float) -> np.ndarray:
+        """:func:`refine_extremum` of rays ``rows`` around their extreme samples (at ``t``, ``sign`` times
+        the field ``value``), within each ray's kept part, one segment each side."""
+        def value_at(tq):
+            return sign * self.model.scalar.sample(self.rays.points(rows, tq[:, None]))
+
+        return refine_extremum(value_at, t, value, self.rays.t0[rows], self.rays.t1[rows], self.plan.d,
+                               self.scene.renderer.extremum_refinement or 0)
 
 
 def same_discretization(scene) -> np.ndarray:

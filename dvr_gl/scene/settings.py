@@ -297,6 +297,11 @@ ORDER = Setting("order", str, "front_to_back", "compositing order (back_to_front
                 "image within rounding)", choices=ORDERS)
 ISO_REFINEMENT = Setting("iso_refinement", int, 8, "bisection steps refining the isosurface's first hit",
                          check=between(0, 64, what=" bisection steps"), flag=False)
+EXTREMUM_REFINEMENT = Setting("extremum_refinement", Optional[int], None, "MIP and MinIP: parabolic steps "
+                              "refining the extremum between the samples around the extreme one (0: the extreme "
+                              "sample itself; default: the ray caster's defaults choose it with the sample distance, "
+                              "docs/tolerance.md; 0 elsewhere)",
+                              check=between(0, 8, what=" parabolic steps"), flag=False)
 JITTER = Setting("jitter", bool, False, "per-pixel sample offset against wood-grain artefacts", must_support=True)
 JITTER_SEED = Setting("jitter_seed", int, 0, "seed of the jitter offsets (32 bits: the shaders' hash)",
                       check=lambda v: None if 0 <= v < 2**32 else "must be in [0, 4294967295]")

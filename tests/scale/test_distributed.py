@@ -33,6 +33,10 @@ SORT_LAST = registry.renderers_with(lambda p: p.sort_last)[0]
 WHOLE_ONLY = next(n for n in declaring(kind="grid", gl=True) if not registry.plugin(n).sort_last)
 
 EXACT = 1e-6  # the issue's bound with early termination off (see the module doc)
+# MIP and MinIP refined between the samples (renderer.extremum_refinement, chosen by the defaults): the parabola's
+# vertex moves with the float32 rounding of each brick's texture coordinates, and the field's slope turns that into
+# a value: measured 1.07e-6 on the blobs' MIP; bounded here by 1e-5.
+REFINED = 1e-5
 W, H = 40, 32  # H divisible by 2 and 4: the bands (and so the bytes) are exact
 
 
@@ -75,7 +79,7 @@ def test_sort_last_equals_single_process(client, single, case, method):
     expected = single.render(s)
     result = render(client, s, method, single)
     assert result.bricks == [4, 4]  # both workers drew
-    assert np.abs(result.image - expected).max() <= EXACT
+    assert np.abs(result.image - expected).max() <= (REFINED if s.renderer.extremum_refinement else EXACT)
     assert expected[..., 3].max() > 0.02  # not an empty image
 
 
@@ -130,7 +134,7 @@ def test_scene_from_a_file_travels_as_its_dict(client, single, tmp_path):
                                      f'[renderer]\nname = "{SORT_LAST}"\nert_threshold = 1.0\ncompositing = "mip"\n')
     s = load_scene(tmp_path / "s.toml")
     assert payload_of(s)[1] == "dict"
-    assert np.abs(render(client, s, "binary_swap", single).image - single.render(s)).max() <= EXACT
+    assert np.abs(render(client, s, "binary_swap", single).image - single.render(s)).max() <= REFINED  # MIP
 
 
 def test_api_dask_keyword(client):

@@ -110,6 +110,8 @@ def shader_features(scene, count_samples: bool = False, bricked: bool = False, d
         defines["BACK_TO_FRONT"] = r.order == "back_to_front"
         defines["EARLY_TERMINATION"] = r.order == "front_to_back" and r.ert_threshold < 1.0
     defines["JITTER"] = r.jitter
+    if r.compositing in ("mip", "minip") and scene.field.kind == "grid":  # several fields: each its own
+        defines["REFINE_EXTREMUM"] = r.extremum_refinement or False
     # every sample counts in an average; pre-classified blocks of a volume read out of core would need
     # a pass over all its voxels
     out_of_core_pre = scene.field.out_of_core and "CLASSIFY_PRE" in defines
@@ -281,8 +283,8 @@ class RayCastRenderer(GridRenderer):
         segment's ends (half a segment away); the isosurface its bracket back to the previous sample."""
         r = scene.renderer
         segment = r.sample_distance / min(scene.volume.spacing)   # voxels, along any axis at most
-        if r.compositing == "isosurface":
-            return segment
+        if r.compositing == "isosurface" or (r.compositing in ("mip", "minip") and r.extremum_refinement):
+            return segment  # the bracket back to the previous sample; the refinement's, one segment each side
         if r.compositing == "emission_absorption" and r.classification == "preintegrated":
             return segment / 2.0
         return 0.0
@@ -542,7 +544,7 @@ class RayCastRenderer(GridRenderer):
         first = next((v for k, v in initial.items() if k in defines), 0.0)
         targets = [self.target(f"state {i}", width, height, (4, 4) if counting else (4,)) for i in range(2)]
         targets[0][1].use()
-        self.ctx.clear(first, 0.0, 0.0, 0.0)
+        self.ctx.clear(first, 0.0, first, 0.0)  # (REFINE_EXTREMUM: z holds the refined extremum)
         if counting:  # the counts start at zero, whatever the state's initial value
             targets[0][0][1].write(np.zeros((height, width, 4), np.float32))
         common = {**self.ray_uniforms(scene), **self.optics_uniforms(scene, lut)}

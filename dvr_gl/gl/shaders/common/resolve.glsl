@@ -19,6 +19,9 @@
     bool seen = state.x < 3.0e38;
     float value = state.x;
   #endif
+  #if defined(REFINE_EXTREMUM) && !defined(COMPOSITE_AVERAGE)
+    value = state.z;  // the extremum refined between the samples (the ray caster's projection.glsl)
+  #endif
     vec4 tf = transfer_function(value);
     float alpha = seen ? opacity_of_depth(tf.a * u_unit_distance) : 0.0;
     frag_color = vec4(tf.rgb * alpha, alpha);

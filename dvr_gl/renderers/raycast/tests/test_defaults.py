@@ -80,7 +80,7 @@ def test_the_defaults_meet_their_target(keys):
 def test_the_simulation_tracks_the_error_as_the_step_grows():
     """On the lines, the simulated error grows with the sample distance (what the ladder's search relies on)."""
     scene = load_scene(None, ML)
-    s, composed, n, step = defaults.box_lines(scene)
+    s, composed, n, step, _ = defaults.box_lines(scene)
     fine = defaults.composite(*defaults.segments(composed, n, 1), step)
     errors = [defaults.rms(defaults.composite(*defaults.segments(composed, n, int(v * defaults.PER_VOXEL)), step),
                            fine) for v in (0.75, 1.75, 3.75)]

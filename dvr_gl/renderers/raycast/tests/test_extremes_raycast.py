@@ -14,7 +14,9 @@ NO_ERT = {"renderer.ert_threshold": 1.0}
 
 @pytest.mark.parametrize("extra", [{}, {"renderer.order": "back_to_front"}, {"renderer.compositing": "isosurface"},
                                    {"renderer.compositing": "isosurface", "renderer.shading.enabled": True},
-                                   {"renderer.compositing": "mip"}, {"renderer.compositing": "average"},
+                                   # MIP refined between the samples, at a step fixed for the windows' count
+                                   {"renderer.compositing": "mip", "renderer.sample_distance_voxels": 0.5,
+                                    "renderer.extremum_refinement": 3}, {"renderer.compositing": "average"},
                                    {"renderer.classification": "preintegrated"}, {"renderer.ert_threshold": 0.9}],
                          ids=lambda e: "-".join(f"{k.split('.')[-1]}={v}" for k, v in e.items()) or "default")
 def test_long_rays_in_passes_equal_one_pass(gl_context, monkeypatch, extra):
