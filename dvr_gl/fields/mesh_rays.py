@@ -87,9 +87,11 @@ def _dot(a, b):
     return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
 
 
-def _image_plane(origins, directions):
-    """A 2D coordinate per ray and a function projecting world points to the same coordinates
-    (``(xy (N, 2), valid (N,))``: invalid where a point is not in front of the eye)."""
+def image_plane(origins, directions):
+    """The rays' image plane: ``(ray_xy (N, 2), eye, forward, basis (3, 2))``, a 2D coordinate per ray
+    and the frame that gives it (``eye`` ``None`` for parallel rays: a point ``p`` is at ``p @ basis``;
+    else at ``((p - eye) @ basis) / ((p - eye) @ forward)``, in front of the eye where the divisor is
+    positive); ``None`` for rays from no camera (neither one eye nor parallel)."""
     f = directions.mean(axis=0)
     f /= np.linalg.norm(f)
     helper = np.eye(3)[np.argmin(np.abs(f))]
@@ -98,8 +100,20 @@ def _image_plane(origins, directions):
     u = np.cross(r, f)
     basis = np.stack([r, u], axis=1)  # (3, 2)
     if np.all(origins == origins[0]):  # perspective: rays from one eye
-        eye = origins[0]
-        ray_xy = (directions @ basis) / (directions @ f)[:, None]
+        return (directions @ basis) / (directions @ f)[:, None], origins[0], f, basis
+    if np.allclose(directions, directions[0], rtol=0, atol=1e-12):  # orthographic: parallel rays
+        return origins @ basis, None, f, basis
+    return None
+
+
+def _image_plane(origins, directions):
+    """A 2D coordinate per ray and a function projecting world points to the same coordinates
+    (``(xy (N, 2), valid (N,))``: invalid where a point is not in front of the eye)."""
+    frame = image_plane(origins, directions)
+    if frame is None:
+        return None, None  # no camera's rays: no image plane
+    ray_xy, eye, f, basis = frame
+    if eye is not None:
 
         def project(p):
             q = p - eye
@@ -108,9 +122,7 @@ def _image_plane(origins, directions):
             with np.errstate(divide="ignore", invalid="ignore"):
                 return (q @ basis) / np.where(valid, w, 1.0)[:, None], valid
         return ray_xy, project
-    if np.allclose(directions, directions[0], rtol=0, atol=1e-12):  # orthographic: parallel rays
-        return origins @ basis, lambda p: (p @ basis, np.ones(len(p), bool))
-    return None, None  # no camera's rays: no image plane
+    return ray_xy, lambda p: (p @ basis, np.ones(len(p), bool))
 
 
 def candidate_pairs(corners, origins, directions):

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...fields.mesh_rays import candidate_pairs, paired_faces
+from ...fields.mesh_rays import candidate_pairs, image_plane, paired_faces
 from ...fields.ragged import ranges
 
 ORDERS = ("exact", "centroid")
@@ -128,12 +128,27 @@ def face_relations(adj: Adjacency, camera) -> tuple[np.ndarray, np.ndarray, np.n
     return front[~edge_on], back[~edge_on], np.nonzero(edge_on)[0]
 
 
-def boundary_relations(adj: Adjacency, origins, directions, t_min) -> tuple[np.ndarray, np.ndarray]:
+def boundary_relations(adj: Adjacency, origins, directions, t_min, fast=None) -> tuple[np.ndarray, np.ndarray]:
     """``(front, back)`` cells across the gaps along the rays: a ray's exit through a boundary face
     of one cell, then its next entry through a boundary face of another (``t_min``: where each ray
-    starts)."""
+    starts).  ``fast``: :mod:`.order_compiled`, whose :func:`~.order_compiled.boundary_hits` finds the
+    same hits in one compiled pass (numpy's candidate pairs where it is ``None``, or the rays come
+    from no camera)."""
     if not len(adj.boundary) or not len(origins):
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    frame = image_plane(origins, directions) if fast is not None else None
+    if frame is not None:
+        ray_xy, eye, forward, basis = frame
+        ray, t, face = fast.boundary_hits(adj.boundary_corners, adj.boundary_edges, ray_xy, origins, directions,
+                                          t_min, np.zeros(3) if eye is None else eye, forward, basis,
+                                          eye is not None, EDGE_MARGIN)
+    else:
+        ray, t, face = _boundary_hits(adj, origins, directions, t_min)
+    return _across_gaps(adj, directions, ray, t, face)
+
+
+def _boundary_hits(adj: Adjacency, origins, directions, t_min):
+    """``(ray, t, face)``: every hit of a ray on a boundary face beyond its ``t_min``."""
     faces, rays = candidate_pairs(adj.boundary_corners, origins, directions)
     hits_ray, hits_t, hits_face = [], [], []
     for i in range(0, len(faces), PAIRS_PER_CHUNK):
@@ -143,7 +158,12 @@ def boundary_relations(adj: Adjacency, origins, directions, t_min) -> tuple[np.n
         hits_ray.append(r[hit])
         hits_t.append(t[hit])
         hits_face.append(f[hit])
-    ray, t, face = (np.concatenate(x) for x in (hits_ray, hits_t, hits_face))
+    return tuple(np.concatenate(x) for x in (hits_ray, hits_t, hits_face))
+
+
+def _across_gaps(adj: Adjacency, directions, ray, t, face) -> tuple[np.ndarray, np.ndarray]:
+    """``(front, back)`` from the boundary hits: each ray's exits related to the entry that ends
+    their gap."""
     cell = adj.boundary_cell[face]
     leaving = np.einsum("ij,ij->i", adj.boundary_normal[face], directions[ray]) > 0
     # A leaving face before an entering one at the same t, and within TOUCHING of it: cells that touch
@@ -302,7 +322,7 @@ class VisibilityOrder:
         front_of, flat = fast.face_fronts(adj.pairs, adj.face_point, adj.face_normal, adj.normal_length,
                                           eye if perspective else np.zeros(3),
                                           np.zeros(3) if perspective else forward, perspective, EDGE_ON, depth)
-        f2, b2 = boundary_relations(adj, *rays)
+        f2, b2 = boundary_relations(adj, *rays, fast=fast)
         order, broken = fast.exact_order(n, adj.face_slots, adj.pairs, front_of, f2.astype(np.int64),
                                          b2.astype(np.int64), depth)
         return order, {"order": "exact", "compiled": True, "order_seconds": time.perf_counter() - start,

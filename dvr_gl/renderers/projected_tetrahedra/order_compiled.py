@@ -199,3 +199,123 @@ def stable_argsort(values):
             counts[d] += 1
         order, spare = spare, order
     return order
+
+
+@numba.njit(cache=True)
+def boundary_hits(corners, edges, ray_xy, origins, directions, t_min, eye, forward, basis, perspective, edge_margin):
+    """``(ray, t, face)`` of every hit of a ray on a boundary face beyond the ray's ``t_min``: the hits
+    :func:`.order.boundary_relations` finds in numpy (``candidate_pairs`` of
+    :mod:`dvr_gl.fields.mesh_rays`, then Moller-Trumbore with the edges included by
+    ``edge_margin`` in barycentric coordinates), in one pass over the faces.  ``ray_xy``, ``eye``,
+    ``forward``, ``basis``: the rays' image plane (:func:`dvr_gl.fields.mesh_rays.image_plane`); a
+    face is tested against the rays binned under its projected bounding box (grown by 1e-9 of the
+    rays' extent; the whole box of rays where some corner is behind the eye), so the test is the
+    numpy code's, pair for pair, in the same arithmetic."""
+    n_rays = len(ray_xy)
+    lo_x, lo_y, hi_x, hi_y = ray_xy[0, 0], ray_xy[0, 1], ray_xy[0, 0], ray_xy[0, 1]
+    for r in range(n_rays):
+        lo_x, lo_y = min(lo_x, ray_xy[r, 0]), min(lo_y, ray_xy[r, 1])
+        hi_x, hi_y = max(hi_x, ray_xy[r, 0]), max(hi_y, ray_xy[r, 1])
+    extent = max(max(hi_x - lo_x, hi_y - lo_y), 1e-300)
+    g = max(1, int(np.sqrt(n_rays)))
+    size = extent / g * (1.0 + 1e-9)
+    start = np.zeros(g * g + 1, np.int64)
+    bin_of = np.empty(n_rays, np.int64)
+    for r in range(n_rays):
+        bx = min(int((ray_xy[r, 0] - lo_x) / size), g - 1)
+        by = min(int((ray_xy[r, 1] - lo_y) / size), g - 1)
+        bin_of[r] = by * g + bx
+        start[bin_of[r] + 1] += 1
+    for b in range(g * g):
+        start[b + 1] += start[b]
+    by_bin = np.empty(n_rays, np.int64)
+    fill = start[:-1].copy()
+    for r in range(n_rays):
+        by_bin[fill[bin_of[r]]] = r
+        fill[bin_of[r]] += 1
+    margin = 1e-9 * extent
+    cap = max(1024, 4 * n_rays)
+    hit_ray, hit_t, hit_face = np.empty(cap, np.int64), np.empty(cap), np.empty(cap, np.int64)
+    found = 0
+    xy = np.empty((3, 2))
+    for face in range(len(corners)):
+        valid = 0
+        for k in range(3):
+            qx, qy, qz = corners[face, k, 0], corners[face, k, 1], corners[face, k, 2]
+            if perspective:
+                qx, qy, qz = qx - eye[0], qy - eye[1], qz - eye[2]
+                w = qx * forward[0] + qy * forward[1] + qz * forward[2]
+                if not w > 0:
+                    continue
+            else:
+                w = 1.0
+            xy[valid, 0] = (qx * basis[0, 0] + qy * basis[1, 0] + qz * basis[2, 0]) / w
+            xy[valid, 1] = (qx * basis[0, 1] + qy * basis[1, 1] + qz * basis[2, 1]) / w
+            valid += 1
+        if valid == 0:
+            continue
+        if valid < 3:  # straddles the eye's plane: every ray
+            blo_x, blo_y, bhi_x, bhi_y = lo_x, lo_y, hi_x, hi_y
+        else:
+            blo_x = min(xy[0, 0], min(xy[1, 0], xy[2, 0])) - margin
+            blo_y = min(xy[0, 1], min(xy[1, 1], xy[2, 1])) - margin
+            bhi_x = max(xy[0, 0], max(xy[1, 0], xy[2, 0])) + margin
+            bhi_y = max(xy[0, 1], max(xy[1, 1], xy[2, 1])) + margin
+            if bhi_x < lo_x or bhi_y < lo_y or blo_x > hi_x or blo_y > hi_y:
+                continue
+        b0x, b0y = _bin(blo_x, lo_x, size, g), _bin(blo_y, lo_y, size, g)
+        b1x, b1y = _bin(bhi_x, lo_x, size, g), _bin(bhi_y, lo_y, size, g)
+        for by in range(b0y, b1y + 1):
+            for bx in range(b0x, b1x + 1):
+                b = by * g + bx
+                for j in range(start[b], start[b + 1]):
+                    r = by_bin[j]
+                    if not (blo_x <= ray_xy[r, 0] <= bhi_x and blo_y <= ray_xy[r, 1] <= bhi_y):
+                        continue
+                    t = _moller_trumbore(corners, edges, face, origins, directions, r, edge_margin)
+                    if t > t_min[r]:
+                        if found == cap:
+                            cap *= 2
+                            hit_ray, hit_t, hit_face = _grown(hit_ray, cap), _grown(hit_t, cap), _grown(hit_face, cap)
+                        hit_ray[found], hit_t[found], hit_face[found] = r, t, face
+                        found += 1
+    return hit_ray[:found], hit_t[:found], hit_face[:found]
+
+
+@numba.njit(cache=True, inline="always")
+def _bin(x, lo, size, g):
+    """The bin of coordinate ``x`` (clipped to the grid; NaN to the first bin, as ``np.nan_to_num``)."""
+    v = (x - lo) / size
+    if not v > 0.0:
+        return 0
+    return int(min(v, g - 1.0))
+
+
+@numba.njit(cache=True)
+def _grown(a, cap):
+    out = np.empty(cap, a.dtype)
+    out[:len(a)] = a
+    return out
+
+
+@numba.njit(cache=True, inline="always")
+def _moller_trumbore(corners, edges, face, origins, directions, r, eps):
+    """The ray's ``t`` on the face where it crosses it (edges included by ``eps``), else NaN: the
+    arithmetic of :func:`.order._moller_trumbore` (``np.cross``, then products summed x + y + z)."""
+    dx, dy, dz = directions[r, 0], directions[r, 1], directions[r, 2]
+    e1x, e1y, e1z = edges[face, 0, 0], edges[face, 0, 1], edges[face, 0, 2]
+    e2x, e2y, e2z = edges[face, 1, 0], edges[face, 1, 1], edges[face, 1, 2]
+    px, py, pz = dy * e2z - dz * e2y, dz * e2x - dx * e2z, dx * e2y - dy * e2x
+    det = e1x * px + e1y * py + e1z * pz
+    if det == 0.0:
+        return np.nan
+    inv = 1.0 / det
+    sx, sy, sz = origins[r, 0] - corners[face, 0, 0], origins[r, 1] - corners[face, 0, 1], \
+        origins[r, 2] - corners[face, 0, 2]
+    u = (sx * px + sy * py + sz * pz) * inv
+    qx, qy, qz = sy * e1z - sz * e1y, sz * e1x - sx * e1z, sx * e1y - sy * e1x
+    v = (dx * qx + dy * qy + dz * qz) * inv
+    t = (e2x * qx + e2y * qy + e2z * qz) * inv
+    if u >= -eps and v >= -eps and u + v <= 1 + eps and np.isfinite(t):
+        return t
+    return np.nan

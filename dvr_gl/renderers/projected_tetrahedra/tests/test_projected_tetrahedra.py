@@ -17,7 +17,14 @@ from dvr_gl.errors import SceneError
 from dvr_gl.fields.mesh import TetMesh
 from dvr_gl.fields.mesh_rays import boundary_faces, face_neighbours
 from dvr_gl.renderers import create_renderer, registry
-from dvr_gl.renderers.projected_tetrahedra.order import VisibilityOrder, adjacency, compiled, topological
+from dvr_gl.renderers.projected_tetrahedra.order import (
+    VisibilityOrder,
+    adjacency,
+    boundary_relations,
+    compiled,
+    o_d_t,
+    topological,
+)
 from dvr_gl.scene.resolve import load_scene
 from judges import CONVERGED, renderers
 from mesh_inputs import BAND_TF, REFERENCE_VIEWS, jittered_mesh, mesh_scene, rms
@@ -264,7 +271,8 @@ def test_shirley_tuchman_falls_back_to_the_exact_integral_inside_the_mesh(pt):
 ])
 def test_the_compiled_order_equals_the_numpy_order(camera):
     """The numba loops (order_compiled.py) give the numpy code's order, cell for cell, with the same
-    relations counted; a non-convex mesh (a block cut out) so that boundary relations count too."""
+    relations counted; a non-convex mesh (a block cut out) so that boundary relations count too, the
+    compiled boundary hits giving numpy's relations in numpy's order."""
     pytest.importorskip("numba")
     mesh = jittered_mesh(n=(7, 6, 5))
     centroids = mesh.points[mesh.tets].mean(axis=1)
@@ -277,6 +285,10 @@ def test_the_compiled_order_equals_the_numpy_order(camera):
     for key in ("face_relations", "boundary_relations", "edge_on_faces", "rays_cast", "cycles_broken"):
         assert sa[key] == sb[key], key
     assert sa["boundary_relations"] > 0
+    rays = o_d_t(camera, 24, 20, None)
+    for got, want in zip(boundary_relations(fast.adjacency, *rays, fast=fast.fast),
+                         boundary_relations(slow.adjacency, *rays)):
+        assert np.array_equal(got, want)
 
 
 def test_the_compiled_sort_equals_the_numpy_sort_with_cycles_and_repeats():
