@@ -13,7 +13,7 @@
 // reaching behind the eye's plane (COVER_ALL) covers the whole image.
 layout(points) in;
 #ifdef SHIRLEY_TUCHMAN
-layout(triangle_strip, max_vertices = 12) out;
+layout(triangle_strip, max_vertices = 8) out;
 #else
 layout(triangle_strip, max_vertices = 8) out;
 #endif
@@ -54,29 +54,41 @@ bool inside(vec2 p, vec2 a, vec2 b, vec2 c) {  // p in the triangle abc, either 
 // fragment), the silhouette's vertices of zero thickness with the transfer function's colour at
 // their scalar; pt_st.frag turns the interpolated pair into opacity.  No margin: neighbouring
 // footprints share their edges, and the rasterizer's fill rule gives a pixel to one of them.
-uint vertex_of(uvec4 ids, vec2 h, vec2 q0, vec2 q1, vec2 q2) {  // the vertex a silhouette corner is
-    return h == q0 ? ids.x : (h == q1 ? ids.y : (h == q2 ? ids.z : ids.w));
+// The cell's vertices (centre-relative), fetched once, and their projections (pixels).
+struct Cell { vec3 p0, p1, p2, p3; vec2 q0, q1, q2, q3; };
+
+vec3 point_of(Cell v, vec2 h) {  // the vertex a silhouette corner is
+    return h == v.q0 ? v.p0 : (h == v.q1 ? v.p1 : (h == v.q2 ? v.p2 : v.p3));
 }
 
-float vertex_scalar(uvec4 ids, vec4 linear, vec2 h, vec2 q0, vec2 q1, vec2 q2) {
-    return dot(linear.xyz, mesh_point(vertex_of(ids, h, q0, q1, q2)).xyz) + linear.w;
+vec3 vertex_colour(vec3 p, vec4 linear) {  // the transfer function's colour at a vertex's scalar
+    float s = dot(linear.xyz, p) + linear.w;
+    return tf_in(tf_interval_at(tf_interval(s)), s).rgb;
 }
+
+// The colours of the four vertices, each looked up once; a silhouette corner takes its vertex's.
+struct Corners { vec2 q0, q1, q2; vec3 c0, c1, c2, c3; };
+
+float cell_tau_max;  // the thick vertex's optical depth, given with every vertex (outputs are undefined after
+                     // EmitVertex)
 
 void emit_st(vec2 pixel, vec4 st) {
     g_st = st;
+    g_tau_max = cell_tau_max;
     emit(pixel);
 }
 
-void silhouette_corner(uvec4 ids, vec4 linear, vec2 h, vec2 q0, vec2 q1, vec2 q2) {
-    float s = vertex_scalar(ids, linear, h, q0, q1, q2);
-    emit_st(h, vec4(tf_in(tf_interval_at(tf_interval(s)), s).rgb, 0.0));
+void corner(Corners k, vec2 h) {  // a silhouette corner: zero thickness
+    emit_st(h, vec4(h == k.q0 ? k.c0 : (h == k.q1 ? k.c1 : (h == k.q2 ? k.c2 : k.c3)), 0.0));
 }
 
-void fan_triangle(uvec4 ids, vec4 linear, vec2 thick, vec4 at_thick, vec2 a, vec2 b, vec2 q0, vec2 q1, vec2 q2) {
-    g_tau_max = at_thick.a;
+// Two triangles of the fan around the thick vertex as one strip, thick a b and thick b c, both
+// counter-clockwise (a strip's odd triangle is drawn as its second, first and third: thick b c).
+void fan_pair(Corners k, vec2 thick, vec4 at_thick, vec2 a, vec2 b, vec2 c) {
+    corner(k, a);
+    corner(k, b);
     emit_st(thick, at_thick);
-    silhouette_corner(ids, linear, a, q0, q1, q2);
-    silhouette_corner(ids, linear, b, q0, q1, q2);
+    corner(k, c);
     EndPrimitive();
 }
 
@@ -96,8 +108,7 @@ vec3 ray_direction(vec3 p) {  // the view ray through p
 #endif
 }
 
-void shirley_tuchman(uvec4 ids, vec2 q0, vec2 q1, vec2 q2, vec2 q3, vec2 h0, vec2 h1, vec2 h2, vec2 h3, bool quad,
-                     int inner) {
+void shirley_tuchman(Cell v, vec2 h0, vec2 h1, vec2 h2, vec2 h3, bool quad, int inner) {
     uint cell = v_entry[0] & ~COVER_ALL;
     vec4 linear = cell_texel(cell, 5u);
     // The thick vertex and the two ends of the cell's thickest piece along its ray.  Class 1: the inner
@@ -112,12 +123,12 @@ void shirley_tuchman(uvec4 ids, vec2 q0, vec2 q1, vec2 q2, vec2 q3, vec2 h0, vec
         float t = abs(den) > 0.0 ? clamp((g.x * f.y - g.y * f.x) / den, 0.0, 1.0) : 0.5;
         float u = abs(den) > 0.0 ? clamp((g.x * e.y - g.y * e.x) / den, 0.0, 1.0) : 0.5;
         thick = h0 + e * t;
-        x0 = under(mesh_point(vertex_of(ids, h0, q0, q1, q2)).xyz, mesh_point(vertex_of(ids, h2, q0, q1, q2)).xyz, t);
-        x1 = under(mesh_point(vertex_of(ids, h1, q0, q1, q2)).xyz, mesh_point(vertex_of(ids, h3, q0, q1, q2)).xyz, u);
+        x0 = under(point_of(v, h0), point_of(v, h2), t);
+        x1 = under(point_of(v, h1), point_of(v, h3), u);
     } else {
         uint k = uint(inner);
-        thick = inner == 0 ? q0 : (inner == 1 ? q1 : (inner == 2 ? q2 : q3));
-        x0 = mesh_point(inner == 0 ? ids.x : (inner == 1 ? ids.y : (inner == 2 ? ids.z : ids.w))).xyz;
+        thick = inner == 0 ? v.q0 : (inner == 1 ? v.q1 : (inner == 2 ? v.q2 : v.q3));
+        x0 = inner == 0 ? v.p0 : (inner == 1 ? v.p1 : (inner == 2 ? v.p2 : v.p3));
         vec4 plane = cell_texel(cell, k);
         vec3 d = ray_direction(x0);
         float nd = dot(plane.xyz, d);
@@ -133,13 +144,17 @@ void shirley_tuchman(uvec4 ids, vec2 q0, vec2 q1, vec2 q2, vec2 q3, vec2 h0, vec
     float s_mid = 0.5 * (s_front + s_back);
     vec3 colour = piece.a > 0.0 ? piece.rgb / piece.a : tf_in(tf_interval_at(tf_interval(s_mid)), s_mid).rgb;
     vec4 at_thick = vec4(colour, tau);
-    fan_triangle(ids, linear, thick, at_thick, h0, h1, q0, q1, q2);
-    fan_triangle(ids, linear, thick, at_thick, h1, h2, q0, q1, q2);
+    cell_tau_max = tau;
+    Corners k = Corners(v.q0, v.q1, v.q2, vertex_colour(v.p0, linear), vertex_colour(v.p1, linear),
+                        vertex_colour(v.p2, linear), vertex_colour(v.p3, linear));
+    fan_pair(k, thick, at_thick, h0, h1, h2);
     if (quad) {
-        fan_triangle(ids, linear, thick, at_thick, h2, h3, q0, q1, q2);
-        fan_triangle(ids, linear, thick, at_thick, h3, h0, q0, q1, q2);
-    } else {
-        fan_triangle(ids, linear, thick, at_thick, h2, h0, q0, q1, q2);
+        fan_pair(k, thick, at_thick, h2, h3, h0);
+    } else {  // the third triangle: thick h2 h0
+        corner(k, h2);
+        corner(k, h0);
+        emit_st(thick, at_thick);
+        EndPrimitive();
     }
 }
 #endif
@@ -153,11 +168,12 @@ void main() {
     }
     uvec4 ids = mesh_cell(v_entry[0]);
     vec2 q0, q1, q2, q3;
+    vec3 p0 = mesh_point(ids.x).xyz, p1 = mesh_point(ids.y).xyz, p2 = mesh_point(ids.z).xyz, p3 = mesh_point(ids.w).xyz;
     {
-        vec4 c0 = u_view_projection * vec4(mesh_point(ids.x).xyz, 1.0);
-        vec4 c1 = u_view_projection * vec4(mesh_point(ids.y).xyz, 1.0);
-        vec4 c2 = u_view_projection * vec4(mesh_point(ids.z).xyz, 1.0);
-        vec4 c3 = u_view_projection * vec4(mesh_point(ids.w).xyz, 1.0);
+        vec4 c0 = u_view_projection * vec4(p0, 1.0);
+        vec4 c1 = u_view_projection * vec4(p1, 1.0);
+        vec4 c2 = u_view_projection * vec4(p2, 1.0);
+        vec4 c3 = u_view_projection * vec4(p3, 1.0);
         q0 = (c0.xy / c0.w * 0.5 + 0.5) * u_image_size;  // pixels
         q1 = (c1.xy / c1.w * 0.5 + 0.5) * u_image_size;
         q2 = (c2.xy / c2.w * 0.5 + 0.5) * u_image_size;
@@ -193,7 +209,7 @@ void main() {
         if (quad) h3 = t; else { h2 = t; h3 = t; }
     }
 #ifdef SHIRLEY_TUCHMAN
-    shirley_tuchman(ids, q0, q1, q2, q3, h0, h1, h2, h3, quad, inner);
+    shirley_tuchman(Cell(p0, p1, p2, p3, q0, q1, q2, q3), h0, h1, h2, h3, quad, inner);
     return;
 #endif
     // Grown: every edge moved out by the margin.  A corner of 90 degrees or more takes its mitre (at
