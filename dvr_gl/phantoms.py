@@ -176,9 +176,12 @@ SHEPP_LOGAN_DEMO_POINTS = [
 SHEPP_LOGAN_DEMO_LESIONS = [[0.265, *_LESION, 0.0], [0.3, *_LESION, 0.15], [0.36, *_LESION, 0.15],
                             [0.39, *_LESION, 0.0]]
 #: The 2D table's axes: value nodes every 0.01 from 0.1 to 0.6 (the bands' corners fall on them or between
-#: two of them; constant beyond, as the points are), and gradient magnitude 0 (every band) to
-#: LESION_GRADIENT (value units per voxel; spacing 1), from which on the lesions' band is gone.
-SHEPP_LOGAN_DEMO_VALUES, LESION_GRADIENT = (0.1, 0.6, 51), 0.1
+#: two of them; constant beyond, as the points are), and gradient magnitude (value units per voxel; spacing 1)
+#: from 0 (every band) to LESION_GRADIENT, from which on the lesions' band is gone, and on to BRAIN_GRADIENT,
+#: where the brain's band is gone too: the skull's outer soft edge passes the brain's values at gradients of
+#: 0.2 and more (a faint blue outline outside the skull), the brain's own voxels in that band at 0.17 at most
+#: (both measured at 96^3), so the brain's band is full up to 0.15 and gone at 0.2.
+SHEPP_LOGAN_DEMO_VALUES, LESION_GRADIENT, BRAIN_GRADIENT = (0.1, 0.6, 51), 0.1, 0.2
 #: An X-ray of the phantom (for renderers that draw projections only): extinction rising with the value,
 #: the colours mixed by extinction, so the skull is brightest, the lesions orange and the ventricles darker.
 SHEPP_LOGAN_XRAY_POINTS = [[0.0, 0.0, 0.0, 0.0, 0.0], [0.2, *_BRAIN, 0.008], [0.3, *_LESION, 0.016],
@@ -192,8 +195,10 @@ PROJECTION_MODES = ("xray", "average")
 
 
 def shepp_logan_demo_table() -> dict:
-    """The demo's 2D transfer function (``transfer_function`` keys): at gradient magnitude 0 the points with
-    the lesions' band, at :data:`LESION_GRADIENT` and above the points without it, linear in between."""
+    """The demo's 2D transfer function (``transfer_function`` keys), on gradient magnitudes 0 to
+    :data:`BRAIN_GRADIENT` every 0.05: at 0 the points with the lesions' band, at :data:`LESION_GRADIENT` to
+    0.15 the points without it, at :data:`BRAIN_GRADIENT` and above without the brain's band too; linear in
+    between."""
     lo, hi, n = SHEPP_LOGAN_DEMO_VALUES
     values = np.linspace(lo, hi, n)
 
@@ -202,8 +207,13 @@ def shepp_logan_demo_table() -> dict:
         return np.stack([np.interp(values, p[:, 0], p[:, k]) for k in range(1, 5)], axis=-1)
 
     low, high = rows(SHEPP_LOGAN_DEMO_POINTS + SHEPP_LOGAN_DEMO_LESIONS), rows(SHEPP_LOGAN_DEMO_POINTS)
-    table = np.stack([low, high], axis=1).round(6)
-    return {"table_2d": table.tolist(), "value_range_2d": [lo, hi], "gradient_range_2d": [0.0, LESION_GRADIENT]}
+    skull = rows([p if p[1:4] != list(_BRAIN) else [*p[:4], 0.0] for p in SHEPP_LOGAN_DEMO_POINTS])
+    step = 0.05
+    gradients = np.arange(0.0, BRAIN_GRADIENT + step / 2, step)
+    table = np.stack([low + (high - low) * min(g / LESION_GRADIENT, 1.0) if g <= LESION_GRADIENT + 1e-12 else
+                      high + (skull - high) * max(g - 0.15, 0.0) / (BRAIN_GRADIENT - 0.15) for g in gradients],
+                     axis=1).round(6) + 0.0  # no -0.0
+    return {"table_2d": table.tolist(), "value_range_2d": [lo, hi], "gradient_range_2d": [0.0, BRAIN_GRADIENT]}
 
 
 def demo_scene(name: str, renderer=None, overrides: dict | None = None) -> dict:

@@ -86,6 +86,20 @@ def test_the_demo_has_no_rim(demo_picture):
     assert warm[rim].max() < 0.2
 
 
+def test_the_demo_has_no_blue_outline(demo_picture):
+    """The head's outermost two pixels (alpha above 0.01) are the ivory skull's colour (red above blue by 0.15
+    over alpha), not the brain's blue (-0.7): the skull's outer soft edge passes the brain's values at high
+    gradient, where the demo's 2D table has no brain (dvr_gl/phantoms.py, BRAIN_GRADIENT).  Measured: 0.142 at
+    least; with the brain's band at every gradient, -0.7 on most of that ring."""
+    from scipy import ndimage
+
+    rgba, warm = demo_picture
+    head = rgba[..., 3] > 0.01
+    outline = head & ~ndimage.binary_erosion(head, iterations=2)
+    assert outline.sum() > 200
+    assert warm[outline].min() > 0.1
+
+
 def test_the_demo_keeps_to_each_renderer():
     """``demo_scene`` with a renderer's declaration gives a scene that renderer does not refuse: every grid
     renderer, each demo (the projection-only renderers get an orthographic X-ray; kernels, classifications
