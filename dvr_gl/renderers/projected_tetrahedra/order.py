@@ -289,7 +289,11 @@ class VisibilityOrder:
         which pixels' rays (``(height * width,)`` booleans, row 0 at the top) may cross a gap and so
         are cast against the boundary; all of them when ``None``."""
         start = time.perf_counter()
-        depth = centroid_depth(self.centroids, camera)
+        eye, _ = eye_of(camera)
+        if self.fast is not None and eye is not None:
+            depth = self.fast.distances(self.centroids, eye)
+        else:
+            depth = centroid_depth(self.centroids, camera)
         if kind == "centroid":
             order = np.argsort(depth, kind="stable")
             return order, {"order": "centroid", "order_seconds": time.perf_counter() - start}

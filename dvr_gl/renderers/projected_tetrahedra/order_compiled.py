@@ -91,9 +91,14 @@ def _relations(n, face_slots, pairs, front_of, extra_front, extra_back):
 @numba.njit(cache=True)
 def _levels(n, behind, extra_start, extra_next, indegree, place):
     """Kahn's sort: each cell's key (``place``, in place) and level, the levels' count and the
-    cycles broken."""
-    level = np.zeros(n, np.int32)
-    done = np.zeros(n, np.bool_)
+    cycles broken.  Each cell's key and count of relations left in front of it side by side in one
+    ``(n, 2)`` array (the count as a float): a relation settled touches one
+    cache line instead of three, and the sort is bound by those random accesses; a cell out holds
+    ``-1 - level`` there."""
+    state = np.empty((n, 2))
+    for i in range(n):
+        state[i, 0] = place[i]
+        state[i, 1] = indegree[i]
     frontier = np.empty(n, np.int32)
     following = np.empty(n, np.int32)
     size = 0
@@ -106,42 +111,44 @@ def _levels(n, behind, extra_start, extra_next, indegree, place):
         if size == 0:  # a cycle: the nearest remaining cell goes first
             best = -1
             for i in range(n):
-                if not done[i] and (best < 0 or place[i] < place[best]):
+                if state[i, 1] >= 0.0 and (best < 0 or state[i, 0] < state[best, 0]):
                     best = i
             frontier[0] = best
-            indegree[best] = 0
             size = 1
             broken += 1
         for k in range(size):
-            c = frontier[k]
-            level[c] = step
-            done[c] = True
+            state[frontier[k], 1] = -1.0 - step  # out, at this level
         remaining -= size
         step += 1
         nxt = 0
         for k in range(size):
             c = frontier[k]
-            key = place[c]
+            key = state[c, 0]
             for j in range(4):
                 if behind[c, j] >= 0:
-                    nxt = _release(behind[c, j], key, place, indegree, done, following, nxt)
+                    nxt = _release(behind[c, j], key, state, following, nxt)
             for j in range(extra_start[c], extra_start[c + 1]):
-                nxt = _release(extra_next[j], key, place, indegree, done, following, nxt)
+                nxt = _release(extra_next[j], key, state, following, nxt)
         frontier, following = following, frontier
         size = nxt
+    level = np.empty(n, np.int32)
+    for i in range(n):
+        place[i] = state[i, 0]
+        level[i] = np.int32(-1.0 - state[i, 1])
     return place, level, step, broken
 
 
 @numba.njit(cache=True, inline="always")
-def _release(s, key, place, indegree, done, following, nxt):
+def _release(s, key, state, following, nxt):
     """One relation to ``s`` settled by a cell of key ``key``: ``s`` takes the larger key and joins
-    the next level when nothing is left in front of it.  The next level's size."""
-    if done[s]:  # out already (past a broken cycle): keeps its key
+    the next level when nothing is left in front of it (a cell out already, past a broken cycle,
+    keeps its key).  The next level's size."""
+    if state[s, 1] < 0.0:
         return nxt
-    if key > place[s]:
-        place[s] = key
-    indegree[s] -= 1
-    if indegree[s] == 0:
+    if key > state[s, 0]:
+        state[s, 0] = key
+    state[s, 1] -= 1.0
+    if state[s, 1] == 0.0:
         following[nxt] = s
         nxt += 1
     return nxt
@@ -319,3 +326,15 @@ def _moller_trumbore(corners, edges, face, origins, directions, r, eps):
     if u >= -eps and v >= -eps and u + v <= 1 + eps and np.isfinite(t):
         return t
     return np.nan
+
+
+@numba.njit(cache=True)
+def distances(points, eye):
+    """``(N,)`` each point's distance from ``eye``: :func:`.order.centroid_depth`'s perspective depth,
+    bit for bit (``np.linalg.norm(points - eye, axis=1)`` sums the squares x + y + z in that
+    order), in one pass instead of four."""
+    out = np.empty(len(points))
+    for i in range(len(points)):
+        dx, dy, dz = points[i, 0] - eye[0], points[i, 1] - eye[1], points[i, 2] - eye[2]
+        out[i] = np.sqrt(dx * dx + dy * dy + dz * dz)
+    return out

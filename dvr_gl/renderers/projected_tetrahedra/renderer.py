@@ -103,7 +103,7 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
                 vao.render(moderngl.POINTS, vertices=min(step, len(order) - first), first=first)
                 self.ctx.finish()
                 self.report(min(first + step, len(order)), len(order))
-            image = self.read(fbo, img.width, img.height).astype(np.float64)
+            image = self.read(fbo, img.width, img.height)  # float32, a fresh array
         finally:
             vao.release()
             slots.release()
@@ -113,8 +113,8 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
                       "cells_drawn": len(order),
                       "cells_per_second": textures.cells / max(now - start, 1e-12)}
         if mode == "emission_absorption" or self._count_fragments:
-            return image.astype(np.float32)
-        return self._resolve(scene, image).astype(np.float32)
+            return image
+        return self._resolve(scene, image.astype(np.float64)).astype(np.float32)
 
     def _shirley_tuchman(self, scene, defines: dict) -> bool:
         """Whether this frame takes Shirley and Tuchman's interpolation (``renderer.integration``):

@@ -293,7 +293,8 @@ def test_the_compiled_order_equals_the_numpy_order(camera):
 
 def test_the_compiled_sort_equals_the_numpy_sort_with_cycles_and_repeats():
     """Random relations (cycles, repeated relations, ties of depth): the compiled Kahn's sort gives
-    the numpy sort's order and cycle count; its radix sort is numpy's stable argsort."""
+    the numpy sort's order and cycle count; its radix sort is numpy's stable argsort, its centroid
+    distances numpy's norms."""
     pytest.importorskip("numba")
     fast = compiled()
     rng = np.random.default_rng(3)
@@ -310,6 +311,8 @@ def test_the_compiled_sort_equals_the_numpy_sort_with_cycles_and_repeats():
     assert np.array_equal(order, expected)
     values = rng.normal(size=1000) * 10.0 ** rng.integers(-300, 300, 1000)
     assert np.array_equal(fast.stable_argsort(values), np.argsort(values, kind="stable"))
+    points, eye = rng.normal(size=(1000, 3)) * 1e3, np.array([0.3, -7.0, 2e3])
+    assert np.array_equal(fast.distances(points, eye), np.linalg.norm(points - eye, axis=1))  # bit for bit
 
 
 def test_the_order_falls_back_to_numpy_without_numba(monkeypatch):
