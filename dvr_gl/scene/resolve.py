@@ -577,19 +577,48 @@ class Scene:
             spec = dataclasses.replace(spec, volume=source, transfer_function=tf_spec)
             return resolve_scene(spec, field=field, volume_source=source,
                                  **{k: v for k, v in changes.items() if k in ("camera", "transfer_function")})
-        return dataclasses.replace(self, spec=spec, **changes)
+        scene = dataclasses.replace(self, spec=spec, **changes)
+        if "transfer_function" in changes and "renderer" not in changes and \
+                scene._chosen_by_scene(spec, scene.renderer.name):
+            return scene._choose_again(spec, scene.renderer.geometry)
+        return scene
 
     def with_renderer(self, **changes) -> "Scene":
         """The scene with renderer settings changed, checked as a scene file's would be.  A sample
-        distance given here replaces one in voxels and a tolerance (and the other way round)."""
+        distance given here replaces one in voxels and a tolerance (and the other way round).  Where the
+        renderer chooses its settings by the scene (its plugin's ``resolve``; no sample distance and no
+        tolerance asked for), it chooses them again for the changed settings."""
         changes = tables_as_specs(self.renderer, changes, "renderer")
         for key in list(changes):
             for other in exclusive_keys(self.renderer, key):
                 changes.setdefault(other, None)
         requested = dataclasses.replace(self.spec.renderer if self.spec else self.renderer, **changes)
-        resolved = resolve_renderer(dataclasses.replace(self.renderer, **changes), self.field)
         spec = dataclasses.replace(self.spec or SceneSpec(), renderer=requested)
+        if self.spec is not None and self._chosen_by_scene(spec, self.renderer.name):
+            return self._choose_again(spec, changes.get("geometry", self.renderer.geometry))
+        resolved = resolve_renderer(dataclasses.replace(self.renderer, **changes), self.field)
         return dataclasses.replace(self, renderer=resolved, spec=spec)
+
+    @staticmethod
+    def _chosen_by_scene(spec, name: str) -> bool:
+        """Whether ``spec``'s renderer (``name`` where it names none) has its plugin choose settings by the
+        scene (a ``resolve`` hook) and asks for no sample distance and no tolerance of its own."""
+        from ..renderers import registry
+
+        r = spec.renderer
+        asked = (r.sample_distance, r.sample_distance_voxels, getattr(r, "tolerance", None))
+        return all(v is None for v in asked) and registry.plugin(r.name or name).resolve is not None
+
+    def _choose_again(self, spec, geometry) -> "Scene":
+        """The scene with its renderer resolved afresh from ``spec``'s request (the settings the plugin chose
+        for the old scene dropped) and chosen again by the plugin's ``resolve``; ``geometry``: the meshes,
+        their paths resolved already."""
+        from ..renderers import registry
+
+        renderer = resolve_renderer(dataclasses.replace(spec.renderer, name=spec.renderer.name or self.renderer.name,
+                                                        geometry=geometry), self.field)
+        scene = dataclasses.replace(self, renderer=renderer, spec=spec, tolerance_choice=None)
+        return registry._load(registry.plugin(renderer.name).resolve)(scene)
 
     def to_dict(self, relative_to: Path | None = None) -> dict:
         """The effective scene as a TOML-ready dict (paths relative to ``relative_to`` if given)."""

@@ -33,6 +33,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import time
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -130,8 +131,7 @@ def cache_key(scene) -> tuple:
     field, tf, r = scene.field, scene.transfer_function, scene.renderer
     data = None if getattr(field, "out_of_core", False) else getattr(field, "data", None)
     if isinstance(data, np.ndarray):
-        digest = hashlib.blake2b(memoryview(np.ascontiguousarray(data)).cast("B"), digest_size=16).hexdigest()
-        what = (digest, data.shape, str(data.dtype), tuple(field.spacing), tuple(field.origin))
+        what = (voxels_digest(data), data.shape, str(data.dtype), tuple(field.spacing), tuple(field.origin))
     else:
         what = ("object", id(field))
     points = np.asarray(tf.points, dtype=np.float64)
@@ -146,6 +146,24 @@ def refinement_steps(scene) -> int | None:
     if r.compositing not in ("mip", "minip"):
         return None
     return EXTREMUM_REFINEMENT if r.extremum_refinement is None else r.extremum_refinement
+
+
+#: Digests of the voxels by array identity, ``{id: (weak reference, digest)}``: a scene changed again
+#: (Scene.with_renderer, a new transfer function) looks its choice up without hashing its voxels again.
+DIGESTS: dict = {}
+
+
+def voxels_digest(data: np.ndarray) -> str:
+    """A digest of ``data``'s bytes, computed once per array object (arrays are not changed in place
+    once in a scene)."""
+    known = DIGESTS.get(id(data))
+    if known is not None and known[0]() is data:
+        return known[1]
+    digest = hashlib.blake2b(memoryview(np.ascontiguousarray(data)).cast("B"), digest_size=16).hexdigest()
+    if len(DIGESTS) >= CACHE_SIZE:
+        DIGESTS.pop(next(iter(DIGESTS)))
+    DIGESTS[id(data)] = (weakref.ref(data), digest)
+    return digest
 
 
 def choose_defaults(scene) -> DefaultChoice:
@@ -375,5 +393,9 @@ def resolve(scene):
         return resolve_defaults(scene)
     if requested.sample_distance is not None or requested.sample_distance_voxels is not None:
         raise SceneError("renderer: give tolerance or a sample distance, not both (the tolerance chooses it)")
-    chosen, choice = tolerance.apply(scene.with_renderer(tolerance=None), wanted)
+    # the settings the tolerance chooses from: the plain ones (Scene.with_renderer would choose the defaults)
+    plain = dataclasses.replace(requested, tolerance=None)
+    base = dataclasses.replace(scene, renderer=dataclasses.replace(scene.renderer, tolerance=None),
+                               spec=dataclasses.replace(scene.spec, renderer=plain) if scene.spec else None)
+    chosen, choice = tolerance.apply(base, wanted)
     return chosen.replace(tolerance_choice=choice)

@@ -86,3 +86,33 @@ def test_the_simulation_tracks_the_error_as_the_step_grows():
                            fine) for v in (0.75, 1.75, 3.75)]
     assert errors[0] < errors[1] < errors[2]
     assert np.isfinite(errors).all()
+
+
+BLOBS = {"volume.demo": "blobs", "volume.size": 33, "image.width": 48, "image.height": 48,
+         "renderer.shading.enabled": False}
+SPIKE = [[0.0, 0.0, 0.0, 0.0, 0.0], [0.5, 0.0, 0.0, 0.0, 0.0], [0.52, 1.0, 1.0, 1.0, 1.0], [0.54, 0.0, 0.0, 0.0, 0.0],
+         [1.0, 0.0, 0.0, 0.0, 0.0]]
+
+
+def chosen(scene) -> tuple:
+    r = scene.renderer
+    return voxels(scene), r.classification, r.ert_threshold, r.extremum_refinement
+
+
+def test_the_choice_follows_a_new_transfer_function_or_mode():
+    """Scene.replace(transfer_function=...) and Scene.with_renderer(...) choose again for what they
+    change, as loading the changed scene would; a step the user gave stays; another renderer keeps the
+    step (the reference judges the ray caster's discretization)."""
+    broad = load_scene(None, BLOBS)
+    spiked = load_scene(None, {**BLOBS, "transfer_function.points": SPIKE})
+    assert chosen(broad) != chosen(spiked)  # the spike needs a shorter step
+    assert chosen(broad.replace(transfer_function=spiked.transfer_function)) == chosen(spiked)
+    assert chosen(spiked.replace(transfer_function=broad.transfer_function)) == chosen(broad)
+    ml = load_scene(None, ML)
+    assert chosen(ml.with_renderer(compositing="mip")) == chosen(load_scene(None, {**ML, **{
+        "renderer.compositing": "mip"}}))
+    assert ml.with_renderer(compositing="mip").renderer.extremum_refinement == defaults.EXTREMUM_REFINEMENT
+    given = load_scene(None, {**BLOBS, "renderer.sample_distance_voxels": 0.3})
+    assert voxels(given.replace(transfer_function=spiked.transfer_function)) == pytest.approx(0.3)
+    assert voxels(given.with_renderer(compositing="mip")) == pytest.approx(0.3)
+    assert voxels(broad.with_renderer(name="reference")) == voxels(broad)
