@@ -132,7 +132,8 @@ def _peers_arguments(pe):
     pe.add_argument("--scenes", metavar="A,B", help=f"only these scenes ({', '.join(peers.SCENES)}; default all)")
     pe.add_argument("--renderers", metavar="A,B", help=f"only these ({', '.join(peers.RENDERERS)}; default all)")
     pe.add_argument("--sweep", metavar="D,D", help="dvr-gl's sample distances in voxels besides its defaults "
-                                                  "(default 1,2,4,8)")
+                                                  "(default 1,2,4,8; MIP scenes also with the extremum refined, "
+                                                  "default 0.75,1,2)")
     pe.add_argument("--data-dir", default="../shared/data", help="the shared datasets folder, for the CThead "
                                                                   "scene (default ../shared/data; left out if absent)")
     pe.add_argument("--peers-python", metavar="PYTHON",

@@ -533,7 +533,7 @@ class DvrGlPeer(Peer):
         r = self.scene_.renderer
         self.settings = {"renderer": r.name,
                          "sample_distance_voxels": r.sample_distance / self.scene_.volume.spacing[0]}
-        for key in ("ert_threshold", "acceleration", "classification", "filter", "tolerance"):
+        for key in ("ert_threshold", "acceleration", "classification", "filter", "tolerance", "extremum_refinement"):
             if hasattr(r, key):
                 self.settings[key] = getattr(r, key)
         self.image = None

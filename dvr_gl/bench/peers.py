@@ -74,6 +74,10 @@ SWEEP = (1.0, 2.0, 4.0, 8.0)  # dvr-gl's sample distances (voxels) besides its d
 # and pre-integrated at long distances (composite scenes): where post-classification aliases a steep
 # transfer function (CThead's bone edge: 31.0 dB post, 32.5 dB pre-integrated at 4 voxels, 0.82x the time)
 PREINTEGRATED_SWEEP = (3.0, 4.0)
+#: MIP scenes: distances (voxels) sampled with the extremum refined between the samples in this many parabolic
+#: steps (renderer.extremum_refinement; the steps the ray caster's defaults take, docs/tolerance.md).
+REFINED_SWEEP = (0.75, 1.0, 2.0)
+REFINEMENT_STEPS = 3
 PEERS = ("vtk-gpu", "vtk-cpu", "vispy", "pygfx")
 RENDERERS = ("dvr-gl",) + PEERS
 PSNR_SLACK = 0.5  # dB: "dvr-gl at the peer's error" may be this much worse
@@ -234,9 +238,10 @@ def available(python: str | None, renderers) -> tuple[dict, dict]:
     return have, {r: f"not installed in {python}" for r in wanted if r not in have}
 
 
-def runs_for(renderers, have: dict, sweep=None, preintegrated=None) -> list[dict]:
-    """The configurations to run: dvr-gl's defaults, sweep (default :data:`SWEEP`) and pre-integrated
-    sweep (default :data:`PREINTEGRATED_SWEEP`; composite scenes only), then each importable peer."""
+def runs_for(renderers, have: dict, sweep=None, preintegrated=None, refined=None) -> list[dict]:
+    """The configurations to run: dvr-gl's defaults, sweep (default :data:`SWEEP`), pre-integrated
+    sweep (default :data:`PREINTEGRATED_SWEEP`; composite scenes only) and refined sweep (default
+    :data:`REFINED_SWEEP`; MIP scenes only), then each importable peer."""
     out = []
     if "dvr-gl" in renderers:
         out.append({"renderer": "dvr-gl", "setting": "defaults", "keys": {}, "voxels": None, "defaults": True})
@@ -247,6 +252,10 @@ def runs_for(renderers, have: dict, sweep=None, preintegrated=None) -> list[dict
             out.append({"renderer": "dvr-gl", "setting": f"{d:g} voxel pre-integrated", "voxels": d,
                         "composite_only": True, "keys": {"renderer.sample_distance_voxels": d,
                                                          "renderer.classification": "preintegrated"}})
+        for d in (REFINED_SWEEP if refined is None else refined):
+            out.append({"renderer": "dvr-gl", "setting": f"{d:g} voxel refined", "voxels": d, "mip_only": True,
+                        "keys": {"renderer.sample_distance_voxels": d,
+                                 "renderer.extremum_refinement": REFINEMENT_STEPS}})
     for r in renderers:
         if r != "dvr-gl" and r in have:
             out.append({"renderer": r, "setting": f"{PEER_SAMPLE_VOXELS:g} voxel", "keys": {}, "voxels": None})
@@ -289,7 +298,7 @@ def run(renderers=RENDERERS, scenes=tuple(SCENES), size: int = 512, volume_size:
     ``data_dir`` lacks are left out with a note."""
     have, missing = available(peers_python, renderers)
     notes = [f"{r}: {why}" for r, why in missing.items()]
-    configs = runs_for(renderers, have, sweep, preintegrated)
+    configs = runs_for(renderers, have, sweep, preintegrated, sweep)  # a sweep given: refined too on MIP
     own = tempfile.TemporaryDirectory(prefix="dvr-peers-") if work is None else None
     work = Path(own.name) if own else Path(work)
     try:
@@ -318,7 +327,9 @@ def run(renderers=RENDERERS, scenes=tuple(SCENES), size: int = 512, volume_size:
                 order = order[rnd % len(order):] + order[:rnd % len(order)]  # each round starts elsewhere
                 for i in order:
                     config = configs[i]
-                    if (key, i) in unsupported or (config.get("composite_only") and SCENES[key][1] == "mip"):
+                    mip = SCENES[key][1] == "mip"
+                    if (key, i) in unsupported or (config.get("composite_only") and mip) or \
+                            (config.get("mip_only") and not mip):
                         continue
                     python = sys.executable if config["renderer"] == "dvr-gl" else peers_python
                     folder = work / "runs" / f"{key}-{i}-{rnd}"
@@ -372,7 +383,8 @@ def defaults_label(settings: dict) -> str:
     if voxels is None:
         return "defaults"
     pre = ", pre-integrated" if settings.get("classification") == "preintegrated" else ""
-    return f"defaults ({voxels:.3g} voxel{pre})"
+    refined = ", refined" if settings.get("extremum_refinement") else ""
+    return f"defaults ({voxels:.3g} voxel{pre}{refined})"
 
 
 def ratios(rows: list[dict], slack: float = PSNR_SLACK) -> list[dict]:

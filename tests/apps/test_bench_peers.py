@@ -25,6 +25,7 @@ def short_sweep(monkeypatch):
     """dvr-gl's defaults and one more distance: fewer fresh processes."""
     monkeypatch.setattr(peers, "SWEEP", (2.0,))
     monkeypatch.setattr(peers, "PREINTEGRATED_SWEEP", ())
+    monkeypatch.setattr(peers, "REFINED_SWEEP", ())
 
 
 def test_worker_matrices_send_dvr_gl_rays_through_pixel_centres(tmp_path):
@@ -73,6 +74,7 @@ def test_stub_peer_sees_what_dvr_gl_sees(tmp_path, monkeypatch):
     rows come out like a real peer's."""
     monkeypatch.setattr(peers, "SWEEP", (1.0,))  # the stub's distance
     monkeypatch.setattr(peers, "PREINTEGRATED_SWEEP", ())
+    monkeypatch.setattr(peers, "REFINED_SWEEP", ())
     rows, ratio_rows, notes, images = peers.run(("dvr-gl", "numpy"), ("ml-composite", "ml-mip"),
                                                 peers_python=sys.executable, cache=tmp_path / "cache",
                                                 work=tmp_path / "work", **TINY)
@@ -165,6 +167,7 @@ def test_ct_scene_means_the_same_to_a_peer(tmp_path, monkeypatch, shared_data):
     (spacing, value range, camera up) renders in the numpy stub as in dvr-gl at the same distance."""
     monkeypatch.setattr(peers, "SWEEP", (1.0,))
     monkeypatch.setattr(peers, "PREINTEGRATED_SWEEP", ())
+    monkeypatch.setattr(peers, "REFINED_SWEEP", ())
     rows, _, notes, images = peers.run(("dvr-gl", "numpy"), ("cthead-bone",), data_dir=shared_data,
                                        peers_python=sys.executable, cache=tmp_path / "cache",
                                        work=tmp_path / "work", **TINY)
@@ -190,23 +193,28 @@ def test_bench_peers_sweep_option(tmp_path, capsys):
         assert "--sweep" in err and "internal error" not in err
     assert main(base + ["--sweep", "3"]) == 0
     settings = [line.split()[2:4] for line in capsys.readouterr().out.splitlines() if line.startswith("blobs-mip ")]
-    assert [s[0] for s in settings] == ["defaults", "3"] and settings[1][1] == "voxel"
+    assert [s[0] for s in settings] == ["defaults", "3", "3"] and settings[1][1] == "voxel"
+    assert settings[2] == ["3", "voxel"]  # refined (MIP), the column cut at two words
 
 
 def test_pre_integrated_points_are_run_on_composite_scenes_only(tmp_path, monkeypatch):
     """The pre-integrated sweep is measured where classification matters (emission-absorption), its
     images differ from the post-classified ones at the same distance, and the ratio to "1 voxel" is to
-    the post-classified row."""
+    the post-classified row; the refined sweep (the extremum refined between samples) on MIP only."""
     monkeypatch.setattr(peers, "SWEEP", (1.0, 4.0))
     monkeypatch.setattr(peers, "PREINTEGRATED_SWEEP", (4.0,))
+    monkeypatch.setattr(peers, "REFINED_SWEEP", (4.0,))
     rows, ratio_rows, _, images = peers.run(("dvr-gl",), ("blobs-composite", "blobs-mip"), cache=tmp_path / "cache",
                                             work=tmp_path / "work", **TINY)
     settings = {s: [label(r) for r in rows if r["scene"] == s] for s in ("blobs-composite", "blobs-mip")}
     assert settings["blobs-composite"] == ["defaults", "1 voxel", "4 voxel", "4 voxel pre-integrated"]
-    assert settings["blobs-mip"] == ["defaults", "1 voxel", "4 voxel"]
+    assert settings["blobs-mip"] == ["defaults", "1 voxel", "4 voxel", "4 voxel refined"]
     post = images[("blobs-composite", "dvr-gl", "4 voxel")][0]
     pre = images[("blobs-composite", "dvr-gl", "4 voxel pre-integrated")][0]
     assert np.abs(post - pre).max() > 1e-4
+    plain = images[("blobs-mip", "dvr-gl", "4 voxel")][0]
+    refined = images[("blobs-mip", "dvr-gl", "4 voxel refined")][0]
+    assert np.abs(plain - refined).max() > 1e-4
 
 
 def test_the_scenes_new_to_the_defaults(tmp_path):
