@@ -54,7 +54,7 @@ def exact_order(n, face_slots, pairs, front_of, extra_front, extra_back, depth):
     by level, then by index.  A relation given twice counts twice both ways (in the in-degree and
     when released), which gives the same levels and keys as counting it once."""
     behind, indegree, extra_start, extra_next = _relations(n, face_slots, pairs, front_of, extra_front, extra_back)
-    place, level, steps, broken = _levels(n, behind, extra_start, extra_next, indegree, depth.astype(np.float64))
+    place, level, steps, broken = _levels(n, behind, extra_start, extra_next, indegree, np.asarray(depth, np.float64))
     by_level = _by_level(level, steps)
     return by_level[stable_argsort(place[by_level])], broken
 
@@ -89,15 +89,15 @@ def _relations(n, face_slots, pairs, front_of, extra_front, extra_back):
 
 
 @numba.njit(cache=True)
-def _levels(n, behind, extra_start, extra_next, indegree, place):
-    """Kahn's sort: each cell's key (``place``, in place) and level, the levels' count and the
+def _levels(n, behind, extra_start, extra_next, indegree, depth):
+    """Kahn's sort: each cell's key (from ``depth``, a new array) and level, the levels' count and the
     cycles broken.  Each cell's key and count of relations left in front of it side by side in one
     ``(n, 2)`` array (the count as a float): a relation settled touches one
     cache line instead of three, and the sort is bound by those random accesses; a cell out holds
     ``-1 - level`` there."""
     state = np.empty((n, 2))
     for i in range(n):
-        state[i, 0] = place[i]
+        state[i, 0] = depth[i]
         state[i, 1] = indegree[i]
     frontier = np.empty(n, np.int32)
     following = np.empty(n, np.int32)
@@ -132,6 +132,7 @@ def _levels(n, behind, extra_start, extra_next, indegree, place):
         frontier, following = following, frontier
         size = nxt
     level = np.empty(n, np.int32)
+    place = np.empty(n)
     for i in range(n):
         place[i] = state[i, 0]
         level[i] = np.int32(-1.0 - state[i, 1])
