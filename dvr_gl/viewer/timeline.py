@@ -76,10 +76,11 @@ def next_editable(layers, current: int) -> int:
     return later[0] if later else (fields[0] if fields else current)
 
 
-def with_transfer_function(scene, index: int, tf):
-    """``scene`` with field ``index``'s transfer function replaced (a scene of one field: its own)."""
+def with_transfer_function(scene, index: int, tf, choose_again: bool = True):
+    """``scene`` with field ``index``'s transfer function replaced (a scene of one field: its own);
+    ``choose_again``: the renderer's settings chosen by the scene are chosen for ``tf`` (Scene.replace)."""
     if not scene.transfer_functions:
-        return scene.replace(transfer_function=tf)
+        return scene.replace(transfer_function=tf, choose_again=choose_again)
     tfs = list(scene.transfer_functions)
     tfs[index] = tf
     return dataclasses.replace(scene, transfer_functions=tuple(tfs), transfer_function=tfs[0])

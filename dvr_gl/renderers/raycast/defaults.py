@@ -201,10 +201,29 @@ def box_lines(scene, count: int = LINES, per_voxel: int = PER_VOXEL):
     ``(s, composed, n, step, lines)``: the values ``s`` (lines, m) at the middles of steps of ``step``
     world units from where each line enters the box (``n`` of them on each line; ``m`` the most), the
     classified ``(sigma, sigma r, sigma g, sigma b)`` (lines, m, 4), zero past ``n``, and the
-    :class:`Lines` themselves."""
+    :class:`Lines` themselves.  The sampled data is kept per field and filter (:data:`SAMPLED`): a new
+    transfer function or mode on the same data classifies them again without sampling again."""
+    key = (cache_key(scene)[0], scene.renderer.filter, count, per_voxel)
+    hit = SAMPLED.get(key)
+    if hit is None or (hit[0] is not None and hit[0] is not scene.field):
+        hit = (scene.field if key[0][0] == "object" else None, sampled_lines(scene, count, per_voxel))
+        if len(SAMPLED) >= SAMPLED_SIZE:
+            SAMPLED.pop(next(iter(SAMPLED)))
+        SAMPLED[key] = hit
+    s, live, n, step, lines = hit[1]
+    return s, classified(s, live, scene.transfer_function), n, step, lines
+
+
+#: The lines' samples by field and filter, ``{key: (field or None, sampled_lines(...))}`` (about 2 MB each).
+SAMPLED: dict = {}
+SAMPLED_SIZE = 4
+
+
+def sampled_lines(scene, count: int, per_voxel: int):
+    """:func:`box_lines`' data before classification: ``(s, live, n, step, lines)``."""
     from ...rays import intersect_box
 
-    field, tf = scene.field, scene.transfer_function
+    field = scene.field
     start, direction, _ = tolerance.random_lines(field, count)
     t0, t1 = intersect_box(start, direction, *field.bounds)
     step = field.sample_spacing / per_voxel
@@ -215,7 +234,7 @@ def box_lines(scene, count: int = LINES, per_voxel: int = PER_VOXEL):
     points = start[:, None, :] + direction[:, None, :] * np.where(live, t, t0[:, None])[..., None]
     reconstruction = reconstruct(field, scene.renderer)
     s = reconstruction.sample(points.reshape(-1, 3)).reshape(live.shape)
-    return s, classified(s, live, tf), n, step, Lines(start, direction, t0, reconstruction)
+    return s, live, n, step, Lines(start, direction, t0, reconstruction)
 
 
 def classified(s, live, tf) -> np.ndarray:

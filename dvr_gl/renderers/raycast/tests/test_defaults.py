@@ -116,3 +116,19 @@ def test_the_choice_follows_a_new_transfer_function_or_mode():
     assert voxels(given.replace(transfer_function=spiked.transfer_function)) == pytest.approx(0.3)
     assert voxels(given.with_renderer(compositing="mip")) == pytest.approx(0.3)
     assert voxels(broad.with_renderer(name="reference")) == voxels(broad)
+
+
+def test_a_new_transfer_function_reuses_the_lines_and_can_wait(monkeypatch):
+    """Choosing for a new transfer function on the same data classifies the kept line samples again
+    (sampled once per field and filter); a transfer function being dragged keeps the old choice."""
+    broad = load_scene(None, BLOBS)
+    spiked = load_scene(None, {**BLOBS, "transfer_function.points": SPIKE})
+    defaults.CACHE.clear()
+    calls = []
+    sample = defaults.sampled_lines
+    monkeypatch.setattr(defaults, "sampled_lines", lambda *a: calls.append(1) or sample(*a))
+    defaults.SAMPLED.clear()
+    defaults.choose_defaults(broad)
+    defaults.choose_defaults(spiked)
+    assert len(calls) == 1
+    assert chosen(broad.replace(transfer_function=spiked.transfer_function, choose_again=False)) == chosen(broad)
