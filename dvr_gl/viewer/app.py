@@ -191,6 +191,7 @@ class Viewer:
         self.field_index = fields[0] if fields else 0
         self.editor = TransferFunctionEditor(scene.layers[self.field_index].transfer_function) if fields else None
         self.tf_version = self.editor.version if self.editor is not None else 0
+        self.tf_unchosen = False  # the scene's transfer function was set while dragging (settings not chosen for it)
         self.tf_mode, self.editor_2d, self.tf2d_version = "1d", None, 0   # the 2D editor: opened when asked for
         self.player = (Player(options.time_steps, options.read_step, step=options.time_step)
                        if options.time_steps > 1 else None)
@@ -272,7 +273,8 @@ class Viewer:
         if self.tf_mode == "2d":
             self._sync_editor_2d()
             return
-        if self.editor is None or self.editor.version == self.tf_version:
+        dragging = self.gui is not None and self.gui.busy
+        if self.editor is None or (self.editor.version == self.tf_version and (dragging or not self.tf_unchosen)):
             return
         self.tf_version = self.editor.version
         try:
@@ -280,8 +282,9 @@ class Viewer:
         except DvrError as exc:
             self.notify(str(exc), error=True)
             return
-        dragging = self.gui is not None and self.gui.busy
-        # while dragging, the step chosen for the transfer function before stays (choosing costs 0.1-0.3 s)
+        # while dragging, the settings chosen for the transfer function before stay (choosing costs 0.1-0.3 s);
+        # they are chosen for the one let go of
+        self.tf_unchosen = dragging
         self.set_scene(with_transfer_function(self.scene, self.field_index, tf, choose_again=not dragging),
                        interactive=dragging)
 
