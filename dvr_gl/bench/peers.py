@@ -77,7 +77,7 @@ PREINTEGRATED_SWEEP = (3.0, 4.0)
 #: MIP scenes: distances (voxels) sampled with the extremum refined between the samples in this many parabolic
 #: steps (renderer.extremum_refinement; the steps the ray caster's defaults take, docs/tolerance.md).
 REFINED_SWEEP = (0.75, 1.0, 2.0)
-REFINEMENT_STEPS = 3
+REFINEMENT_STEPS = 6
 PEERS = ("vtk-gpu", "vtk-cpu", "vispy", "pygfx")
 RENDERERS = ("dvr-gl",) + PEERS
 PSNR_SLACK = 0.5  # dB: "dvr-gl at the peer's error" may be this much worse
