@@ -7,19 +7,11 @@ import pytest
 from conftest import assert_close, small_scene
 from dvr_gl.renderers.splatting import host
 from dvr_gl.renderers.splatting.oracle import oracle as same_slabs
-from dvr_gl.renderers.splatting.renderer import SplattingRenderer
+from dvr_gl.renderers.splatting.tests.conftest import OPAQUE_TF
 
 pytest.importorskip("numba")
 
 GAUSSIAN = {"renderer.name": "splatting", "renderer.filter": "gaussian"}
-OPAQUE_TF = {"transfer_function.points": [[0, 0.2, 0.4, 0.9, 0.0], [0.3, 1.0, 0.8, 0.3, 0.5], [1, 1.0, 1.0, 1.0, 0.9]]}
-
-
-@pytest.fixture(scope="module")
-def splatting(shared_gl_context):
-    r = SplattingRenderer(ctx=shared_gl_context)
-    yield r
-    r.close()
 
 
 def scene_of(extra=None, size=16, image=24):

@@ -12,19 +12,10 @@ from dvr_gl.reference.converged import ConvergedReference
 from dvr_gl.renderers import registry
 from dvr_gl.renderers.splatting.footprint import GaussianFootprint
 from dvr_gl.renderers.splatting.oracle import oracle as same_slabs
-from dvr_gl.renderers.splatting.renderer import SplattingRenderer
+from dvr_gl.renderers.splatting.tests.conftest import OPAQUE_TF
 from dvr_gl.scene.model import GAUSSIAN_RADIUS
 
 GAUSSIAN = {"renderer.name": "splatting", "renderer.filter": "gaussian", "renderer.ert_threshold": 1.0}
-# opaque enough that slabs and splats overlap visibly
-OPAQUE_TF = {"transfer_function.points": [[0, 0.2, 0.4, 0.9, 0.0], [0.3, 1.0, 0.8, 0.3, 0.5], [1, 1.0, 1.0, 1.0, 0.9]]}
-
-
-@pytest.fixture(scope="module")
-def splatting(shared_gl_context):
-    r = SplattingRenderer(ctx=shared_gl_context)
-    yield r
-    r.close()
 
 
 def linear_interpolation_error(table, x, exact):
