@@ -10,6 +10,7 @@ from dvr_gl.renderers import create_renderer
 from dvr_gl.renderers.raycast import defaults
 from dvr_gl.scene.resolve import load_scene
 from dvr_gl.scene.settings import DEFAULT_SAMPLE_DISTANCE_VOXELS, ERT_DEFAULT
+from judges import DISCRETE
 
 # Small scenes, unshaded (the simulation's domain): a semi-transparent tent on Marschner-Lobb, and MIP.
 ML = {"volume.demo": "marschner-lobb", "volume.size": 33, "image.width": 48, "image.height": 48,
@@ -115,7 +116,7 @@ def test_the_choice_follows_a_new_transfer_function_or_mode():
     given = load_scene(None, {**BLOBS, "renderer.sample_distance_voxels": 0.3})
     assert voxels(given.replace(transfer_function=spiked.transfer_function)) == pytest.approx(0.3)
     assert voxels(given.with_renderer(compositing="mip")) == pytest.approx(0.3)
-    assert voxels(broad.with_renderer(name="reference")) == voxels(broad)
+    assert voxels(broad.with_renderer(name=DISCRETE)) == voxels(broad)  # the judge samples as the ray caster did
 
 
 def test_a_new_transfer_function_reuses_the_lines_and_can_wait(monkeypatch):
