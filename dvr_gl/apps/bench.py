@@ -127,10 +127,20 @@ def _peers_arguments(pe):
     pe.add_argument("--volume-size", type=int, default=256, help="phantom samples per axis (default 256)")
     pe.add_argument("--rounds", type=count, default=3, help="rounds of fresh processes, interleaved (default 3)")
     pe.add_argument("--frames", type=count, default=20, help="timed frames per run, after one untimed (default 20)")
-    from dvr_gl.bench import peers  # the scenes and renderers it knows, listed from the code
+    scenes = pe.add_argument("--scenes", metavar="A,B", help="only these scenes (default all)")
+    renderers = pe.add_argument("--renderers", metavar="A,B", help="only these (default all)")
+    plain = pe.format_help
 
-    pe.add_argument("--scenes", metavar="A,B", help=f"only these scenes ({', '.join(peers.SCENES)}; default all)")
-    pe.add_argument("--renderers", metavar="A,B", help=f"only these ({', '.join(peers.RENDERERS)}; default all)")
+    def format_help():
+        """The help with the scenes and renderers the harness knows, listed from its code: imported only when
+        the help is asked for (``dvr render`` builds this parser too, and must not import the harness)."""
+        from dvr_gl.bench import peers
+
+        scenes.help = f"only these scenes ({', '.join(peers.SCENES)}; default all)"
+        renderers.help = f"only these ({', '.join(peers.RENDERERS)}; default all)"
+        return plain()
+
+    pe.format_help = format_help
     pe.add_argument("--sweep", metavar="D,D", help="dvr-gl's sample distances in voxels besides its defaults "
                                                   "(default 1,2,4,8; MIP scenes also with the extremum refined, "
                                                   "default 0.75,1,2)")
