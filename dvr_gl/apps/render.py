@@ -39,7 +39,7 @@ from dvr_gl.image import (
 from dvr_gl.phantoms import DEMOS
 from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.sandbox import Sandbox, active, parse_bytes
-from dvr_gl.scene.schema import RendererTable, SceneSpec, renderer_spec_class
+from dvr_gl.scene.schema import RendererTable, SceneSpec, renderer_spec_class, type_hints
 from dvr_gl.transfer_function import PRESETS, is_transfer_function_file
 
 from . import fields as cli_fields
@@ -87,9 +87,9 @@ def _schema_type(key: str):
     table = SceneSpec
     *path, name = key.split(".")
     for part in path:
-        table = typing.get_type_hints(table)[part]
+        table = type_hints(table)[part]
         table = renderer_spec_class() if table is RendererTable else table
-    kind = typing.get_type_hints(table)[name]
+    kind = type_hints(table)[name]
     inner = [t for t in typing.get_args(kind) if t is not type(None)] if typing.get_origin(kind) in (
         typing.Union, types.UnionType) else [kind]
     field = next(f for f in dataclasses.fields(table) if f.name == name)

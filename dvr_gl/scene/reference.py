@@ -17,7 +17,7 @@ from pathlib import Path
 
 from ..renderers import registry
 from .model import LightSpec, ShadingSpec, exclusive_keys
-from .schema import CameraSpec, ImageSpec, KeyframeSpec, TransferFunctionSpec, VolumeSpec
+from .schema import CameraSpec, ImageSpec, KeyframeSpec, TransferFunctionSpec, VolumeSpec, type_hints
 
 INTRO = """\
 # Scene files
@@ -150,7 +150,7 @@ def _replaces(cls, key: str, prefix: str) -> str:
 
 
 def _table_rows(cls, prefix: str) -> list[str]:
-    hints = typing.get_type_hints(cls)
+    hints = type_hints(cls)
     rows = []
     for f in dataclasses.fields(cls):
         default = f.default_factory() if f.default_factory is not dataclasses.MISSING else f.default

@@ -128,15 +128,19 @@ def cache_key(scene) -> tuple:
     """What the choice depends on: the field (its voxels' digest, geometry and type; an out-of-core
     field by identity), the transfer function's points and units, and the renderer settings that
     change the simulated signal."""
-    field, tf, r = scene.field, scene.transfer_function, scene.renderer
+    tf, r = scene.transfer_function, scene.renderer
+    points = np.asarray(tf.points, dtype=np.float64)
+    return (field_key(scene.field), points.tobytes(), points.shape, tf.unit_distance, tf.opacity_model,
+            r.compositing, r.filter, r.classification, r.preintegration_size, refinement_steps(scene))
+
+
+def field_key(field) -> tuple:
+    """The field's part of :func:`cache_key`: its voxels' digest, geometry and type (an out-of-core field or
+    one without voxels by identity: ``("object", id)``)."""
     data = None if getattr(field, "out_of_core", False) else getattr(field, "data", None)
     if isinstance(data, np.ndarray):
-        what = (voxels_digest(data), data.shape, str(data.dtype), tuple(field.spacing), tuple(field.origin))
-    else:
-        what = ("object", id(field))
-    points = np.asarray(tf.points, dtype=np.float64)
-    return (what, points.tobytes(), points.shape, tf.unit_distance, tf.opacity_model, r.compositing, r.filter,
-            r.classification, r.preintegration_size, refinement_steps(scene))
+        return voxels_digest(data), data.shape, str(data.dtype), tuple(field.spacing), tuple(field.origin)
+    return "object", id(field)
 
 
 def refinement_steps(scene) -> int | None:
@@ -203,7 +207,7 @@ def box_lines(scene, count: int = LINES, per_voxel: int = PER_VOXEL):
     classified ``(sigma, sigma r, sigma g, sigma b)`` (lines, m, 4), zero past ``n``, and the
     :class:`Lines` themselves.  The sampled data is kept per field and filter (:data:`SAMPLED`): a new
     transfer function or mode on the same data classifies them again without sampling again."""
-    key = (cache_key(scene)[0], scene.renderer.filter, count, per_voxel)
+    key = (field_key(scene.field), scene.renderer.filter, count, per_voxel)
     hit = SAMPLED.get(key)
     if hit is None or (hit[0] is not None and hit[0] is not scene.field):
         hit = (scene.field if key[0][0] == "object" else None, sampled_lines(scene, count, per_voxel))
