@@ -37,6 +37,9 @@ class RendererPlugin:
         module is the adapter that says which and why.  None for the references, which are the judges.
     resolve: ``resolve(scene) -> scene``: resolves settings of its own when a scene is read
         (the ray caster turns a tolerance into settings); or ``"module:function"``.
+    resolve_unless: the settings whose request makes ``resolve`` keep what the scene asked for: where a
+        scene asks for none of them, its settings were chosen by the scene, and ``Scene.with_renderer``
+        and ``Scene.replace(transfer_function=...)`` choose them again (``resolve`` run afresh).
     sweeps: the trade-off families (:mod:`dvr_gl.scene.sweeps`) that vary something it reads.
     tolerances: what it promises against the conformance tests' closed forms: the largest
         absolute error outside the exact bounds, per closed form (``"box"``, ``"ramp"``,
@@ -77,6 +80,7 @@ class RendererPlugin:
     check: Any = None
     oracle: Any = None
     resolve: Any = None
+    resolve_unless: tuple[str, ...] = ()
     sweeps: tuple = ()
     tolerances: Any = None
     reference: bool = False

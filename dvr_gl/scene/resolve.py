@@ -604,12 +604,13 @@ class Scene:
     @staticmethod
     def _chosen_by_scene(spec, name: str) -> bool:
         """Whether ``spec``'s renderer (``name`` where it names none) has its plugin choose settings by the
-        scene (a ``resolve`` hook) and asks for no sample distance and no tolerance of its own."""
+        scene (a ``resolve`` hook) and asks for none of the settings the plugin declares would keep its own
+        (``resolve_unless``)."""
         from ..renderers import registry
 
         r = spec.renderer
-        asked = (r.sample_distance, r.sample_distance_voxels, getattr(r, "tolerance", None))
-        return all(v is None for v in asked) and registry.plugin(r.name or name).resolve is not None
+        plugin = registry.plugin(r.name or name)
+        return plugin.resolve is not None and all(getattr(r, key, None) is None for key in plugin.resolve_unless)
 
     def _choose_again(self, spec, geometry) -> "Scene":
         """The scene with its renderer resolved afresh from ``spec``'s request (the settings the plugin chose

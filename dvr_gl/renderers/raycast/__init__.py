@@ -63,6 +63,7 @@ PLUGIN = RendererPlugin(
     scattering_methods=("shadow_rays", "light_volume"),
     oracle="dvr_gl.renderers.raycast.oracle:oracle",
     resolve="dvr_gl.renderers.raycast.defaults:resolve",
+    resolve_unless=("sample_distance", "sample_distance_voxels", "tolerance"),  # defaults.resolve_defaults
     sweeps=(sweeps.POST, sweeps.PRE_CLASSIFIED, sweeps.PREINTEGRATED, sweeps.PREINTEGRATED_FAST, sweeps.NEAREST,
             sweeps.CUBIC_BSPLINE, sweeps.LUT_SIZE, sweeps.PREINTEGRATION_TABLE, sweeps.EARLY_TERMINATION,
             sweeps.BRICKED, sweeps.LIGHT_VOLUME),

@@ -43,7 +43,7 @@ from ...fields import diagonal, reconstruct
 from ...reference.discrete import refine_extremum
 from ...scene.settings import DEFAULT_SAMPLE_DISTANCE_VOXELS
 from ...transfer_function_2d import is_2d
-from . import tolerance
+from . import PLUGIN, tolerance
 from .tolerance import apply, check_tolerance, sampling_model  # noqa: F401  the error model beside the hook
 
 #: The defaults' target: RMS error (premultiplied linear RGBA, against the converged reference) of one
@@ -392,8 +392,7 @@ def resolve_defaults(scene):
     requested = scene.spec.renderer if scene.spec is not None else None
     if requested is None or not modelled(scene):
         return scene
-    if any(getattr(requested, k, None) is not None for k in ("sample_distance", "sample_distance_voxels",
-                                                             "tolerance")):
+    if any(getattr(requested, k, None) is not None for k in PLUGIN.resolve_unless):
         return scene
     choice = choose_defaults(scene)
     changes = choice.renderer_changes(scene.field.sample_spacing)
