@@ -27,7 +27,7 @@ from ...rays import RayBatch
 from ...scene.model import GAUSSIAN_RADIUS
 from . import low_pass
 from .footprint import GaussianFootprint
-from .sheets import kernel_depth_reach, kernel_radius, pixel_rectangles, shaded_sheets, slab_bounds
+from .sheets import kernel_depth_reach, kernel_radius, shaded_sheets, slab_bounds
 
 #: Slabs filled per pass over the splats, at most: a splat is visited once per group it reaches (a kernel
 #: reaches 7-8 slabs of one voxel), and early termination waits for the group's compositing.  CThead at
@@ -35,6 +35,8 @@ from .sheets import kernel_depth_reach, kernel_radius, pixel_rectangles, shaded_
 GROUP = 32
 #: The group's sheets' size, at most (float64 entries, two arrays): fewer slabs a group in large images.
 GROUP_ENTRIES = 1 << 22
+#: Bands of image rows per thread in :func:`.host_compiled.fill_sheets` (several: a band's splats vary).
+BANDS_PER_THREAD = 4
 
 
 def group_size(pixels: int) -> int:
@@ -70,55 +72,63 @@ def render(scene, splats, centre, table, loops=None, report=None) -> tuple[np.nd
     loops = loops or compiled()
     r, cam, img = scene.renderer, scene.camera, scene.image
     w, h = img.width, img.height
-    forward = cam.basis()[0]
+    forward, right, up = cam.basis()
     eye = np.asarray(cam.eye, float)
     rays = RayBatch.for_camera(cam, w, h, scene.field.bounds)
     origins = np.ascontiguousarray(rays.origins - centre)
     directions = np.ascontiguousarray(rays.directions, dtype=np.float64)
     along = directions @ np.asarray(forward, float)
-    bounds = slab_bounds(scene, eye, forward)  # view depths from the eye
-    depth = splats.depths(eye - centre, forward)
-    order = np.argsort(depth, kind="stable")
-    depth = depth[order]
-    positions = np.ascontiguousarray(splats.positions[order])
-    values = np.ascontiguousarray(splats.values[order])
-    core = np.zeros(0) if splats.core is None else np.ascontiguousarray(splats.core[order], dtype=np.float64)
-    rect = np.ascontiguousarray(np.stack(pixel_rectangles(scene, positions + centre, splats.bounding_radii()),
-                                         axis=1))
+    bounds = slab_bounds(scene, eye, forward)  # view depths from the eye; even slabs
+    slabs = len(bounds) - 1
     reach = kernel_depth_reach(scene, forward)
-    width = bounds[1] - bounds[0]  # the slabs are even: each kernel's first and last slab
-    slab_range = np.clip(np.floor((np.stack([depth - reach, depth + reach], axis=1) - bounds[0]) / width),
-                         0, len(bounds) - 2).astype(np.int64)
-    inv_spacing = 1.0 / np.asarray(scene.volume.spacing, float)
+    spacing = np.asarray(scene.volume.spacing, float)
+    group = group_size(w * h)
+    core = np.zeros(0) if splats.core is None else np.ascontiguousarray(splats.core, dtype=np.float64)
+    positions, values, core, rect, slab_range, start = loops.splat_schedule(
+        np.ascontiguousarray(splats.positions, dtype=np.float64), np.ascontiguousarray(splats.values, dtype=np.float64),
+        core, eye - centre, np.ascontiguousarray([forward, right, up], dtype=np.float64),
+        np.asarray(cam.half_extent(w / h), float), kernel_radius(scene) * spacing, cam.projection == "perspective",
+        float(cam.near), w, h, float(bounds[0]), float(bounds[1] - bounds[0]), slabs, reach, group)
+    span = int((slab_range[:, 1] - slab_range[:, 0]).max()) if len(values) else 0  # the most slabs a kernel meets
     footprint = _footprint_table()
     image = np.zeros((w * h, 4))
-    group = group_size(w * h)
     sheet = np.zeros((group, w * h))
     cores = np.zeros((group, w * h))
-    slabs = len(bounds) - 1
+    bands = min(h, BANDS_PER_THREAD * _threads())
     threshold = r.ert_threshold if r.ert_threshold < 1.0 else np.inf  # 1: no early termination (as GL's)
     visits = skipped = rest = 0  # splats taken per group, of them skipped (opaque), and those left at the end
     for k0 in range(0, slabs, group):
         k1 = min(k0 + group, slabs)
-        first = int(np.searchsorted(depth, bounds[k0] - reach, side="left"))
-        last = int(np.searchsorted(depth, bounds[k1] + reach, side="right"))
+        first = int(start[max(k0 - span, 0) // group])  # every splat whose slabs may meet k0 .. k1 - 1
+        last = int(start[k0 // group + 1])
         if not (image[:, 3] < threshold).any():  # every pixel opaque: nothing behind counts
-            rest = len(depth) - first
+            rest = len(values) - first
             break
         sheet[:] = 0.0
         cores[:] = 0.0
-        visits += last - first
+        opened = np.zeros(last - first, bool)
         crossings = np.ascontiguousarray(bounds[k0:k1 + 1, None] / along[None, :])
-        skipped += loops.fill_sheets(first, last, positions, values, core, rect, slab_range, origins, directions,
-                                     rays.t0, rays.t1, crossings, k0, inv_spacing, kernel_radius(scene),
-                                     r.kernel_width, footprint, image[:, 3], threshold, w, sheet[:k1 - k0],
-                                     cores[:k1 - k0])
+        loops.fill_sheets(first, last, positions, values, core, rect, slab_range, origins, directions,
+                          rays.t0, rays.t1, crossings, k0, 1.0 / spacing, kernel_radius(scene), r.kernel_width,
+                          footprint, image[:, 3], threshold, w, bands, sheet[:k1 - k0], cores[:k1 - k0], opened)
+        meets = (slab_range[first:last, 1] >= k0) & (slab_range[first:last, 0] < k1)
+        visits += int(np.count_nonzero(meets))
+        skipped += int(np.count_nonzero(meets & ~opened))
         loops.composite_sheets(sheet, cores, len(core) > 0, rays.t0, rays.t1, along, bounds, k0, k1, table.table,
                                float(table.domain[0]), float(table.domain[1]), image)
         if report is not None:
             report(k1, slabs)
     stats = {"sheets": slabs, "splats_drawn": visits - skipped, "skipped": skipped + rest}
     return image.reshape(h, w, 4).astype(np.float32), stats
+
+
+def _threads() -> int:
+    """The threads numba's parallel loops run on (1 where numba is not installed)."""
+    try:
+        import numba
+    except ImportError:
+        return 1
+    return int(numba.get_num_threads())
 
 
 @functools.lru_cache(maxsize=1)

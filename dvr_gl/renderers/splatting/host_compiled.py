@@ -21,85 +21,216 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
 
 
 @numba.njit(cache=True)
-def fill_sheets(first, last, positions, values, core, rect, slab_range, origins, directions, t0, t1, crossings,
+def _pixel_at_or_after(place, pixels):
+    """The first pixel at or after ``place`` (pixel centres at integers; 1e-9 of slack), in ``0 .. pixels``
+    (``pixels``: none)."""
+    return max(int(math.ceil(min(max(place - 1e-9, -1.0), float(pixels)))), 0)
+
+
+@numba.njit(cache=True)
+def _pixel_at_or_before(place, pixels):
+    """The last pixel at or before ``place``, in ``-1 .. pixels - 1`` (``-1``: none)."""
+    return int(math.floor(min(max(place + 1e-9, -1.0), pixels - 1.0)))
+
+
+@numba.njit(cache=True)
+def _screen_interval(x, z, a_xx, a_xz, a_zz, perspective, near):
+    """The interval of ``x / z`` (perspective) or ``x`` (orthographic) over an ellipsoid whose centre is at
+    ``x`` across and ``z`` along the view from the eye, and whose matrix ``A`` (semi-axes' outer products
+    summed) has ``a_xx = e_x^T A e_x``, ``a_xz``, ``a_zz`` in the plane of the two directions; ``(-inf, inf)``
+    where the ellipsoid reaches the near plane (every pixel).  Perspective: the planes ``x = t z`` through
+    the eye tangent to it, ``(x - t z)^2 = a_xx - 2 t a_xz + t^2 a_zz`` (for a sphere of radius ``r``, the
+    bounding sphere's tangents)."""
+    if not perspective:
+        half = math.sqrt(a_xx)
+        return x - half, x + half
+    if z - math.sqrt(a_zz) <= near:
+        return -math.inf, math.inf
+    a = z * z - a_zz
+    b = x * z - a_xz
+    root = math.sqrt(max(b * b - a * (x * x - a_xx), 0.0))
+    return (b - root) / a, (b + root) / a
+
+
+@numba.njit(cache=True)
+def splat_schedule(positions, values, core, eye, basis, half, semi_axes, perspective, near, width, height, depth0,
+                   slab_width, slabs, reach, group):
+    """The splats in the order :func:`fill_sheets` takes them, with their places on the screen and among the
+    slabs.
+
+    ``positions``: ``(n, 3)`` centres; ``eye``: the eye, both relative to the volume's centre (world units);
+    ``values``, ``core``: the splats' values and core flags (or empty); ``basis``: rows forward, right, up;
+    ``half``: the view's half width and height (:meth:`Camera.half_extent`); ``semi_axes``: ``(3,)`` the
+    kernel's support's semi-axes along the world axes (radius times spacing, world units); slabs ``k`` span
+    view depths ``depth0 + slab_width * [k, k + 1]``, ``slabs`` of them; ``reach``: how far a kernel reaches
+    along the view (world units); ``group``: slabs a group.
+
+    Returns the splats' positions, values and core flags sorted by the group of their first slab (a counting
+    sort: stable, each group's splats in the lattice's order; read in order, written to a stream per group);
+    ``rect`` ``(n, 4)`` the columns and rows ``i0, i1, j0, j1`` (from the top, inclusive; empty where ``i1 <
+    i0``) of the pixels whose centres lie in the screen rectangle of the kernel's ellipsoid; ``slab_range``
+    ``(n, 2)`` their first and last slab; and ``start`` ``(groups + 1,)``: where the splats whose first slab
+    is in group ``g`` begin."""
+    n = positions.shape[0]
+    first = np.empty(n, np.int32)
+    last = np.empty(n, np.int32)
+    groups = (slabs + group - 1) // group
+    count = np.zeros(groups + 1, np.int64)
+    for s in range(n):
+        depth = 0.0
+        for c in range(3):
+            depth += (positions[s, c] - eye[c]) * basis[0, c]
+        first[s] = min(max(int(math.floor((depth - reach - depth0) / slab_width)), 0), slabs - 1)
+        last[s] = min(max(int(math.floor((depth + reach - depth0) / slab_width)), 0), slabs - 1)
+        count[first[s] // group + 1] += 1
+    start = np.cumsum(count)
+    fill = start[:-1].copy()
+    culling = core.shape[0] > 0
+    sorted_positions = np.empty((n, 3))
+    sorted_values = np.empty(n)
+    sorted_core = np.empty(n if culling else 0)
+    slab_range = np.empty((n, 2), np.int32)
+    for s in range(n):
+        o = fill[first[s] // group]
+        fill[first[s] // group] += 1
+        for c in range(3):
+            sorted_positions[o, c] = positions[s, c]
+        sorted_values[o] = values[s]
+        if culling:
+            sorted_core[o] = core[s]
+        slab_range[o, 0] = first[s]
+        slab_range[o, 1] = last[s]
+    # the ellipsoid's matrix A = sum_i semi_axes_i^2 e_i e_i^T in the view's directions
+    a_ff = a_rr = a_uu = a_rf = a_uf = 0.0
+    for c in range(3):
+        e2 = semi_axes[c] * semi_axes[c]
+        a_ff += e2 * basis[0, c] * basis[0, c]
+        a_rr += e2 * basis[1, c] * basis[1, c]
+        a_uu += e2 * basis[2, c] * basis[2, c]
+        a_rf += e2 * basis[1, c] * basis[0, c]
+        a_uf += e2 * basis[2, c] * basis[0, c]
+    rect = np.empty((n, 4), np.int32)
+    for o in range(n):
+        x = y = z = 0.0
+        for c in range(3):
+            p = sorted_positions[o, c] - eye[c]
+            z += p * basis[0, c]
+            x += p * basis[1, c]
+            y += p * basis[2, c]
+        x0, x1 = _screen_interval(x, z, a_rr, a_rf, a_ff, perspective, near)
+        y0, y1 = _screen_interval(y, z, a_uu, a_uf, a_ff, perspective, near)
+        # pixel column i has ndc x (i + 0.5) / w * 2 - 1; row j (from the top) ndc y 1 - 2 (j + 0.5) / h
+        rect[o, 0] = _pixel_at_or_after((x0 / half[0] + 1.0) * 0.5 * width - 0.5, width)
+        rect[o, 1] = _pixel_at_or_before((x1 / half[0] + 1.0) * 0.5 * width - 0.5, width)
+        rect[o, 2] = _pixel_at_or_after((1.0 - y1 / half[1]) * 0.5 * height - 0.5, height)
+        rect[o, 3] = _pixel_at_or_before((1.0 - y0 / half[1]) * 0.5 * height - 0.5, height)
+    return sorted_positions, sorted_values, sorted_core, rect, slab_range, start
+
+
+@numba.njit(cache=True, parallel=True)
+def fill_sheets(first, last, positions, values, core, rect, slab_range, origins, directions, t0, t1, crossings, k0,
+                inv_spacing, radius, sigma, footprint, alpha, threshold, width, bands, sheet, cores, opened):
+    """Add splats ``first .. last - 1`` (:func:`splat_schedule`'s order) to the sheets of slabs ``k0 .. k0 +
+    len(sheet) - 1`` (``sheet``, ``cores``: ``(slabs, pixels)``).  ``positions`` .. ``slab_range``:
+    :func:`splat_schedule`'s; ``crossings``: ``(slabs + 1, pixels)`` where each pixel's ray crosses the
+    group's slab boundaries (ray parameter); ``footprint``: ``F(q)`` for ``sigma = 1`` at ``q`` evenly over
+    [0, 1]; ``core``: the splats' core flags, or empty (no culling).  The image's rows are split into
+    ``bands`` taken in parallel (each pixel is one band's: the sums are the serial loop's).  ``opened[o -
+    first]`` is set where a splat met a pixel below the threshold or lies off the image (the others are
+    skipped by early termination; splats none of whose slabs is in the group are passed over)."""
+    height = alpha.shape[0] // width
+    for band in numba.prange(bands):
+        row0 = band * height // bands
+        row1 = (band + 1) * height // bands - 1
+        for o in range(first, last):
+            if slab_range[o, 1] < k0 or slab_range[o, 0] >= k0 + sheet.shape[0]:
+                continue
+            if rect[o, 1] < rect[o, 0] or rect[o, 3] < rect[o, 2]:
+                opened[o - first] = True  # off the image: not skipped, just empty
+                continue
+            j0 = max(rect[o, 2], row0)
+            j1 = min(rect[o, 3], row1)
+            if j1 < j0:
+                continue
+            if _fill_splat(o, j0, j1, positions, values, core, rect, slab_range, origins, directions,
+                           t0, t1, crossings, k0, inv_spacing, radius, sigma, footprint, alpha, threshold, width,
+                           sheet, cores):
+                opened[o - first] = True
+
+
+@numba.njit(cache=True)
+def _fill_splat(s, j0, j1, positions, values, core, rect, slab_range, origins, directions, t0, t1, crossings,
                 k0, inv_spacing, radius, sigma, footprint, alpha, threshold, width, sheet, cores):
-    """Add splats ``first .. last - 1`` to the sheets of slabs ``k0 .. k0 + len(sheet) - 1`` (``sheet``,
-    ``cores``: ``(slabs, pixels)``).  ``rect``: ``(n, 4)`` columns and rows ``i0, i1, j0, j1`` (inclusive);
-    ``slab_range``: ``(n, 2)`` the first and last slab each kernel reaches; ``crossings``: ``(slabs + 1,
-    pixels)`` where each pixel's ray crosses the group's slab boundaries (ray parameter); ``footprint``:
-    ``F(q)`` for ``sigma = 1`` at ``q`` evenly over [0, 1]; ``core``: the splats' core flags, or empty (no
-    culling).  Returns the splats skipped: every pixel of their rectangle opaque (early termination)."""
+    """Splat ``s`` into the pixels of its rectangle's rows ``j0 .. j1``
+    (:func:`fill_sheets`); whether any of them was below the threshold."""
     n_table = footprint.shape[0]
     r2 = radius * radius
     erf_scale = 1.0 / (sigma * math.sqrt(2.0))
     culling = core.shape[0] > 0
     slabs = sheet.shape[0]
-    skipped = 0
-    for s in range(first, last):
-        cx, cy, cz = positions[s, 0], positions[s, 1], positions[s, 2]
-        v = values[s]
-        open_pixel = rect[s, 1] < rect[s, 0] or rect[s, 3] < rect[s, 2]  # off the image: not skipped, just empty
-        for j in range(rect[s, 2], rect[s, 3] + 1):
-            for i in range(rect[s, 0], rect[s, 1] + 1):
-                p = j * width + i
-                lo = t0[p]
-                hi = t1[p]
-                if alpha[p] >= threshold:
+    cx, cy, cz = positions[s, 0], positions[s, 1], positions[s, 2]
+    v = values[s]
+    open_pixel = False
+    for j in range(j0, j1 + 1):
+        for i in range(rect[s, 0], rect[s, 1] + 1):
+            p = j * width + i
+            lo = t0[p]
+            hi = t1[p]
+            if alpha[p] >= threshold:
+                continue
+            open_pixel = True
+            if not hi > lo:
+                continue
+            dx = directions[p, 0] * inv_spacing[0]
+            dy = directions[p, 1] * inv_spacing[1]
+            dz = directions[p, 2] * inv_spacing[2]
+            ux = (origins[p, 0] + lo * directions[p, 0] - cx) * inv_spacing[0]
+            uy = (origins[p, 1] + lo * directions[p, 1] - cy) * inv_spacing[1]
+            uz = (origins[p, 2] + lo * directions[p, 2] - cz) * inv_spacing[2]
+            a = dx * dx + dy * dy + dz * dz
+            tc = -(ux * dx + uy * dy + uz * dz) / a  # the nearest approach, from lo
+            nx, ny, nz = ux + tc * dx, uy + tc * dy, uz + tc * dz
+            q = (nx * nx + ny * ny + nz * nz) / r2
+            if q >= 1.0:
+                continue
+            f = q * (n_table - 1)
+            e = min(int(f), n_table - 2)
+            w = f - e
+            length = math.sqrt(a)  # voxels per world unit along the ray
+            whole_footprint = ((1.0 - w) * footprint[e] + w * footprint[e + 1]) / (sigma * sigma) / length * v
+            half_chord = radius * math.sqrt(1.0 - q)
+            whole = math.erf(half_chord * erf_scale)
+            ka = max(slab_range[s, 0], k0) - k0
+            kb = min(slab_range[s, 1], k0 + slabs - 1) - k0
+            x_below = -half_chord  # the last boundary's place on the chord, and its erf (telescoping)
+            erf_below = -whole
+            for k in range(ka, kb + 1):
+                a_k = max(lo, crossings[k, p]) - lo
+                b_k = min(hi, crossings[k + 1, p]) - lo
+                if not b_k > a_k:
                     continue
-                open_pixel = True
-                if not hi > lo:
+                x0 = max((a_k - tc) * length, -half_chord)
+                x1 = min((b_k - tc) * length, half_chord)
+                if not x1 > x0:
                     continue
-                dx = directions[p, 0] * inv_spacing[0]
-                dy = directions[p, 1] * inv_spacing[1]
-                dz = directions[p, 2] * inv_spacing[2]
-                ux = (origins[p, 0] + lo * directions[p, 0] - cx) * inv_spacing[0]
-                uy = (origins[p, 1] + lo * directions[p, 1] - cy) * inv_spacing[1]
-                uz = (origins[p, 2] + lo * directions[p, 2] - cz) * inv_spacing[2]
-                a = dx * dx + dy * dy + dz * dz
-                tc = -(ux * dx + uy * dy + uz * dz) / a  # the nearest approach, from lo
-                nx, ny, nz = ux + tc * dx, uy + tc * dy, uz + tc * dz
-                q = (nx * nx + ny * ny + nz * nz) / r2
-                if q >= 1.0:
-                    continue
-                f = q * (n_table - 1)
-                e = min(int(f), n_table - 2)
-                w = f - e
-                length = math.sqrt(a)  # voxels per world unit along the ray
-                whole_footprint = ((1.0 - w) * footprint[e] + w * footprint[e + 1]) / (sigma * sigma) / length * v
-                half_chord = radius * math.sqrt(1.0 - q)
-                whole = math.erf(half_chord * erf_scale)
-                ka = max(slab_range[s, 0], k0) - k0
-                kb = min(slab_range[s, 1], k0 + slabs - 1) - k0
-                x_below = -half_chord  # the last boundary's place on the chord, and its erf (telescoping)
-                erf_below = -whole
-                for k in range(ka, kb + 1):
-                    a_k = max(lo, crossings[k, p]) - lo
-                    b_k = min(hi, crossings[k + 1, p]) - lo
-                    if not b_k > a_k:
-                        continue
-                    x0 = max((a_k - tc) * length, -half_chord)
-                    x1 = min((b_k - tc) * length, half_chord)
-                    if not x1 > x0:
-                        continue
-                    erf0 = erf_below if x0 == x_below else math.erf(x0 * erf_scale)
-                    erf1 = whole if x1 == half_chord else math.erf(x1 * erf_scale)
-                    x_below, erf_below = x1, erf1
-                    if whole > 2e-6:
-                        share = (erf1 - erf0) / (2.0 * whole)
-                    else:
-                        share = (x1 - x0) / (2.0 * half_chord)
-                    sheet[k, p] += whole_footprint * share
-                    if culling:
-                        t = min(max(tc, a_k), b_k)
-                        ox, oy, oz = ux + t * dx, uy + t * dy, uz + t * dz
-                        if ox * ox + oy * oy + oz * oz <= 0.75:
-                            cores[k, p] += core[s]
-        if not open_pixel:
-            skipped += 1
-    return skipped
+                erf0 = erf_below if x0 == x_below else math.erf(x0 * erf_scale)
+                erf1 = whole if x1 == half_chord else math.erf(x1 * erf_scale)
+                x_below, erf_below = x1, erf1
+                if whole > 2e-6:
+                    share = (erf1 - erf0) / (2.0 * whole)
+                else:
+                    share = (x1 - x0) / (2.0 * half_chord)
+                sheet[k, p] += whole_footprint * share
+                if culling:
+                    t = min(max(tc, a_k), b_k)
+                    ox, oy, oz = ux + t * dx, uy + t * dy, uz + t * dz
+                    if ox * ox + oy * oy + oz * oz <= 0.75:
+                        cores[k, p] += core[s]
+    return open_pixel
 
 
 @numba.njit(cache=True)
