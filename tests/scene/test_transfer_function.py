@@ -127,3 +127,17 @@ def test_ct_presets_are_in_hounsfield_units_shifted_by_the_intercept():
     np.testing.assert_allclose(shifted.points[:, 0], hu.points[:, 0] + 1024)
     with pytest.raises(SceneError, match="unknown transfer function preset 'bones'"):
         preset("bones", (0, 1))
+
+
+@pytest.mark.parametrize("data", [np.linspace(0.0, 50.0, 70000).reshape(70, 1000),  # float: evaluated a voxel
+                                  np.arange(70000, dtype=np.uint16).reshape(70, 1000) % 47,  # a table a value
+                                  (np.arange(70000, dtype=np.int16).reshape(70, 1000) % 61) - 9])
+@pytest.mark.parametrize("associated", [True, False])
+def test_pre_classification_is_the_functions_value_at_each_voxel(data, associated):
+    """``classify_voxels`` (in place, and through a table of the values for integer data) against colour
+    and extinction evaluated at each voxel: equal to the last bit."""
+    colour, sigma = TF.evaluate(data.astype(np.float64))
+    want = np.concatenate([colour * sigma[..., None] if associated else colour, sigma[..., None]], axis=-1)
+    got = TF.classify_voxels(data, associated)
+    assert got.shape == data.shape + (4,) and got.dtype == np.float64
+    assert np.array_equal(got, want)
