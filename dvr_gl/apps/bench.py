@@ -485,8 +485,8 @@ def run_peers(args) -> int:
     if pictures is not None and not pictures.is_dir():
         raise DvrError(f"{pictures}: no such folder for the pictures; create it first")
     cache = Path(args.cache) if args.cache else peers.default_cache()
-    args.report.text(f"dvr bench peers: {args.volume_size}^3 uint8 phantoms and CThead (256x256x113 int16, from "
-                     f"--data-dir), {args.size}x{args.size} frames, perspective "
+    args.report.text(f"dvr bench peers: {args.volume_size}^3 uint8 phantoms and the shared datasets (CThead, MNI152, "
+                     f"lobster, hydrogen, brainsmall from --data-dir), {args.size}x{args.size} frames, perspective "
                      f"30 degrees, azimuth 30, elevation 20, distance {peers.DISTANCE_DIAGONALS:g} box diagonals, "
                      f"trilinear, unshaded; {args.rounds} rounds of fresh processes interleaved across renderers, "
                      f"median of {args.frames} frames each after one untimed; error (RMS, PSNR: premultiplied RGBA, "

@@ -51,6 +51,13 @@ COMPOSITE_TF["cthead"] = [[h + 1024.0, r, g, b, a] for h, r, g, b, a in (
 COMPOSITE_TF["shepp-logan"] = [[0, 0.2, 0.2, 0.6, 0.0], [40, 0.2, 0.3, 0.8, 0.0], [51, 0.3, 0.5, 0.9, 0.01],
                                [60, 0.9, 0.6, 0.2, 0.0], [76, 1.0, 0.8, 0.3, 0.06], [100, 1.0, 0.8, 0.3, 0.0],
                                [230, 0.9, 0.9, 0.9, 0.0], [255, 1.0, 1.0, 1.0, 0.03]]
+#: Scenes new to the defaults after they were built (the second check of issue 44): the shared datasets' study
+#: transfer functions of ``dvr bench tradeoff`` (dvr_gl.bench.datasets.STUDIES), a lobster's shell and a
+#: hydrogen atom's narrow shell (alpha 0.5 over 10 units of a uint8 range).
+COMPOSITE_TF["lobster"] = [[0, 0, 0, 0, 0], [100, 0.9, 0.4, 0.2, 0], [120, 0.9, 0.4, 0.2, 0.6],
+                           [140, 0.9, 0.5, 0.3, 0], [255, 0, 0, 0, 0]]
+COMPOSITE_TF["hydrogen"] = [[0, 0, 0, 0, 0], [55, 0.2, 0.6, 1, 0], [60, 0.2, 0.6, 1, 0.5], [65, 0.2, 0.6, 1, 0],
+                            [255, 0, 0, 0, 0]]
 #: MIP: a grey ramp over the uint8 range, colour and opacity.
 MIP_TF = [[0, 0.0, 0.0, 0.0, 0.0], [255, 1.0, 1.0, 1.0, 1.0]]
 #: MIP ramps over a dataset's own range (the MNI152 T1 template: 0 to 1570).
@@ -63,10 +70,16 @@ SCENES = {  # key: (phantom or dataset, mode)
     "cthead-bone": ("cthead", "composite"),
     "shepp-composite": ("shepp-logan", "composite"),   # issue 44: new to the defaults
     "mri-mip": ("mni152", "mip"),                      # issue 44: new to the defaults
+    "lobster-shell": ("lobster", "composite"),         # issue 44: new to the defaults, second check
+    "hydrogen-shell": ("hydrogen", "composite"),
+    "hydrogen-mip": ("hydrogen", "mip"),
+    "brain-mip": ("brainsmall", "mip"),
 }
 #: Scenes on the shared datasets (``--data-dir``): the file, and scene keys besides its spacing.
 DATASETS = {"cthead": ("regular/cthead.nhdr", {"camera.up": [0.0, 0.0, -1.0]}),
-            "mni152": ("regular/MNI152_2009_template.nii.gz", {"camera.up": [0.0, 0.0, 1.0]})}
+            "mni152": ("regular/MNI152_2009_template.nii.gz", {"camera.up": [0.0, 0.0, 1.0]}),
+            "lobster": ("regular/lobster.nhdr", {}), "hydrogen": ("regular/hydrogen_atom.nhdr", {}),
+            "brainsmall": ("regular/brainsmall.nhdr", {})}
 CAMERA = {"camera.azimuth": 30.0, "camera.elevation": 20.0, "camera.fov": 30.0, "camera.projection": "perspective"}
 DISTANCE_DIAGONALS = 1.8  # eye to the box centre, in box diagonals
 PEER_SAMPLE_VOXELS = 1.0  # the peers sample once per voxel
