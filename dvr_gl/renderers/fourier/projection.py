@@ -161,7 +161,7 @@ def channels(scene) -> tuple[np.ndarray, np.ndarray, int]:
     that constant times the chord, added back exactly)."""
     data = np.asarray(scene.volume.data, dtype=np.float64)
     if scene.renderer.compositing == "xray":
-        values = scene.transfer_function.classify_voxels(data, True).astype(np.float64)
+        values = scene.transfer_function.classify_voxels(data, True).astype(np.float64, copy=False)
     else:
         values = data[..., None]
     if scene.renderer.hemispherical_shading:  # the shaded channels' gradient magnitudes, transformed too
@@ -169,7 +169,11 @@ def channels(scene) -> tuple[np.ndarray, np.ndarray, int]:
         values = np.concatenate([values, gradient_magnitudes(shaded, scene.volume.spacing)], axis=-1)
     faces = [values[0], values[-1], values[:, 0], values[:, -1], values[:, :, 0], values[:, :, -1]]
     offsets = np.mean(np.concatenate([f.reshape(-1, values.shape[-1]) for f in faces]), axis=0)
-    ghosted, border = with_ghosts(scene, values - offsets, 0 if clips_exactly(scene) else MOMENTS)
+    if np.shares_memory(values, scene.volume.data):  # the volume's own samples: a copy, never changed
+        values = values - offsets
+    else:  # made here (classified, converted, with the gradient magnitudes): in place, no second copy
+        values -= offsets
+    ghosted, border = with_ghosts(scene, values, 0 if clips_exactly(scene) else MOMENTS)
     return ghosted, offsets, border
 
 
@@ -214,6 +218,8 @@ def with_ghosts(scene, values: np.ndarray, moments: int | None = None) -> tuple[
     moments = MOMENTS if moments is None else moments
     profile, reach = _profile(scene)
     clamped = max(int(math.ceil(reach)) - 1, 0)
+    if clamped + moments == 0:  # no layers (the trilinear field, clipped exactly): no copies of the channels
+        return values, 0
     x = np.linspace(0.0, reach + clamped + moments + 2.0, 40001)
     sigma = scene.renderer.kernel_width
 
