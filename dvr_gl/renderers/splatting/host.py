@@ -8,8 +8,8 @@ Here each splat is taken once per group of slabs (:func:`group_size`): per pixel
 footprint is found once (the nearest approach, ``F(q)``) and split among the group's slabs by the Gaussian's
 cumulative along the ray; each group's sheets are then composited front to back, and the pixels that are
 opaque by then take no more splats (early termination per pixel, as ``splat.frag``'s).  The loops
-(:mod:`.host_compiled`) compute what the shaders compute, in float64 with the closed-form ``erf``, so the
-image is the same-slabs oracle's to float64 rounding and the footprint table's interpolation.
+(:mod:`.host_compiled`) compute what the shaders compute, in float64 from the same tables, so the image is the
+same-slabs oracle's to float64 rounding and the tables' interpolation.
 
 Used where numba is installed and the frame is what it serves (:func:`serves`): the Gaussian, image-aligned
 sheets, post-classified emission-absorption, no shading, clipping, meshes or screen low-pass, exact
@@ -90,7 +90,7 @@ def render(scene, splats, centre, table, loops=None, report=None) -> tuple[np.nd
         np.asarray(cam.half_extent(w / h), float), kernel_radius(scene) * spacing, cam.projection == "perspective",
         float(cam.near), w, h, float(bounds[0]), float(bounds[1] - bounds[0]), slabs, reach, group)
     span = int((slab_range[:, 1] - slab_range[:, 0]).max()) if len(values) else 0  # the most slabs a kernel meets
-    footprint = _footprint_table()
+    footprint, cumulative = _tables()
     image = np.zeros((w * h, 4))
     sheet = np.zeros((group, w * h))
     cores = np.zeros((group, w * h))
@@ -110,7 +110,8 @@ def render(scene, splats, centre, table, loops=None, report=None) -> tuple[np.nd
         crossings = np.ascontiguousarray(bounds[k0:k1 + 1, None] / along[None, :])
         loops.fill_sheets(first, last, positions, values, core, rect, slab_range, origins, directions,
                           rays.t0, rays.t1, crossings, k0, 1.0 / spacing, kernel_radius(scene), r.kernel_width,
-                          footprint, image[:, 3], threshold, w, bands, sheet[:k1 - k0], cores[:k1 - k0], opened)
+                          footprint, cumulative, image[:, 3], threshold, w, bands, sheet[:k1 - k0], cores[:k1 - k0],
+                          opened)
         meets = (slab_range[first:last, 1] >= k0) & (slab_range[first:last, 0] < k1)
         visits += int(np.count_nonzero(meets))
         skipped += int(np.count_nonzero(meets & ~opened))
@@ -132,6 +133,8 @@ def _threads() -> int:
 
 
 @functools.lru_cache(maxsize=1)
-def _footprint_table() -> np.ndarray:
-    """The Gaussian's footprint table ``F(q)`` for ``sigma = 1`` (float64, the GL texture's): once per process."""
-    return GaussianFootprint(GAUSSIAN_RADIUS).footprint_table
+def _tables() -> tuple[np.ndarray, np.ndarray]:
+    """The Gaussian's footprint ``F(q)`` for ``sigma = 1`` and the standard normal's cumulative over ``+-R /
+    sigma`` (float64, the GL textures'): once per process."""
+    table = GaussianFootprint(GAUSSIAN_RADIUS)
+    return table.footprint_table, table.cumulative_table

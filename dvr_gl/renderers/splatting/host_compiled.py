@@ -3,7 +3,8 @@ extra ``numba``); imported only through :func:`.host.compiled`, which leaves the
 not installed.
 
 Both loops compute what ``shaders/splat.frag`` (``kernel_integral``) and ``shaders/sheet.frag`` compute per
-fragment, in float64 with the closed-form ``erf`` instead of the cumulative table:
+fragment, in float64 from the same two tables (the footprint ``F(q)`` and the standard normal's cumulative
+``Phi``, linearly interpolated):
 
 * :func:`fill_sheets`: for each splat of a range and each pixel of its screen rectangle still below the
   early-termination threshold, the kernel's integral along the pixel's ray over each slab's part (inside
@@ -133,12 +134,14 @@ def splat_schedule(positions, values, core, eye, basis, half, semi_axes, perspec
 
 @numba.njit(cache=True, parallel=True)
 def fill_sheets(first, last, positions, values, core, rect, slab_range, origins, directions, t0, t1, crossings, k0,
-                inv_spacing, radius, sigma, footprint, alpha, threshold, width, bands, sheet, cores, opened):
+                inv_spacing, radius, sigma, footprint, cumulative, alpha, threshold, width, bands, sheet, cores,
+                opened):
     """Add splats ``first .. last - 1`` (:func:`splat_schedule`'s order) to the sheets of slabs ``k0 .. k0 +
     len(sheet) - 1`` (``sheet``, ``cores``: ``(slabs, pixels)``).  ``positions`` .. ``slab_range``:
     :func:`splat_schedule`'s; ``crossings``: ``(slabs + 1, pixels)`` where each pixel's ray crosses the
     group's slab boundaries (ray parameter); ``footprint``: ``F(q)`` for ``sigma = 1`` at ``q`` evenly over
-    [0, 1]; ``core``: the splats' core flags, or empty (no culling).  The image's rows are split into
+    [0, 1]; ``cumulative``: ``Phi`` at evenly spaced standard deviations over ``+-radius / sigma``; ``core``:
+    the splats' core flags, or empty (no culling).  The image's rows are split into
     ``bands`` taken in parallel (each pixel is one band's: the sums are the serial loop's).  ``opened[o -
     first]`` is set where a splat met a pixel below the threshold or lies off the image (the others are
     skipped by early termination; splats none of whose slabs is in the group are passed over)."""
@@ -157,19 +160,19 @@ def fill_sheets(first, last, positions, values, core, rect, slab_range, origins,
             if j1 < j0:
                 continue
             if _fill_splat(o, j0, j1, positions, values, core, rect, slab_range, origins, directions,
-                           t0, t1, crossings, k0, inv_spacing, radius, sigma, footprint, alpha, threshold, width,
-                           sheet, cores):
+                           t0, t1, crossings, k0, inv_spacing, radius, sigma, footprint, cumulative, alpha, threshold,
+                           width, sheet, cores):
                 opened[o - first] = True
 
 
 @numba.njit(cache=True)
 def _fill_splat(s, j0, j1, positions, values, core, rect, slab_range, origins, directions, t0, t1, crossings,
-                k0, inv_spacing, radius, sigma, footprint, alpha, threshold, width, sheet, cores):
+                k0, inv_spacing, radius, sigma, footprint, cumulative, alpha, threshold, width, sheet, cores):
     """Splat ``s`` into the pixels of its rectangle's rows ``j0 .. j1``
     (:func:`fill_sheets`); whether any of them was below the threshold."""
     n_table = footprint.shape[0]
     r2 = radius * radius
-    erf_scale = 1.0 / (sigma * math.sqrt(2.0))
+    reach = radius / sigma  # the cumulative table's half range, standard deviations
     culling = core.shape[0] > 0
     slabs = sheet.shape[0]
     cx, cy, cz = positions[s, 0], positions[s, 1], positions[s, 2]
@@ -203,7 +206,7 @@ def _fill_splat(s, j0, j1, positions, values, core, rect, slab_range, origins, d
             length = math.sqrt(a)  # voxels per world unit along the ray
             whole_footprint = ((1.0 - w) * footprint[e] + w * footprint[e + 1]) / (sigma * sigma) / length * v
             half_chord = radius * math.sqrt(1.0 - q)
-            whole = math.erf(half_chord * erf_scale)
+            whole = 2.0 * _phi(half_chord / sigma, cumulative, reach) - 1.0  # the chord's share, erf
             ka = max(slab_range[s, 0], k0) - k0
             kb = min(slab_range[s, 1], k0 + slabs - 1) - k0
             x_below = -half_chord  # the last boundary's place on the chord, and its erf (telescoping)
@@ -217,8 +220,8 @@ def _fill_splat(s, j0, j1, positions, values, core, rect, slab_range, origins, d
                 x1 = min((b_k - tc) * length, half_chord)
                 if not x1 > x0:
                     continue
-                erf0 = erf_below if x0 == x_below else math.erf(x0 * erf_scale)
-                erf1 = whole if x1 == half_chord else math.erf(x1 * erf_scale)
+                erf0 = erf_below if x0 == x_below else 2.0 * _phi(x0 / sigma, cumulative, reach) - 1.0
+                erf1 = whole if x1 == half_chord else 2.0 * _phi(x1 / sigma, cumulative, reach) - 1.0
                 x_below, erf_below = x1, erf1
                 if whole > 2e-6:
                     share = (erf1 - erf0) / (2.0 * whole)
@@ -231,6 +234,20 @@ def _fill_splat(s, j0, j1, positions, values, core, rect, slab_range, origins, d
                     if ox * ox + oy * oy + oz * oz <= 0.75:
                         cores[k, p] += core[s]
     return open_pixel
+
+
+@numba.njit(cache=True)
+def _phi(x, cumulative, reach):
+    """``Phi(x)`` (``x`` in standard deviations) from ``cumulative`` over ``[-reach, reach]``, linearly
+    interpolated (as ``splat.frag`` reads its texture, in float64): 0 and 1 beyond."""
+    u = (x + reach) * ((cumulative.shape[0] - 1) / (2.0 * reach))
+    if u <= 0.0:
+        return 0.0
+    if u >= cumulative.shape[0] - 1:
+        return 1.0
+    e = int(u)
+    w = u - e
+    return (1.0 - w) * cumulative[e] + w * cumulative[e + 1]
 
 
 @numba.njit(cache=True)
