@@ -8,8 +8,9 @@ scene's filter and exact transfer function): each line is composited as the ray 
 composite it at a sample distance ``d`` (every ``k``-th fine sample, ``d = k / 8`` voxel, from a
 random first sample), and the same line at the fine step is its reference.  The RMS of the
 difference over the lines (premultiplied RGBA, the four channels) estimates the RMS error over the
-pixels the volume covers; the largest distance of :data:`LADDER` whose estimate is at most
-``MARGIN * TARGET`` is chosen, for each classification the scene allows, and the cheaper one kept.
+pixels the volume covers (emission-absorption: over the lines that meet the transfer function's content,
+the pixels that show the volume, :func:`visible_lines`); the largest distance of :data:`LADDER` whose
+estimate is at most ``MARGIN * TARGET`` is chosen, for each classification the scene allows, and the cheaper one kept.
 
 * emission-absorption, post-classified: the classified samples' opacities ``1 - exp(-sigma d)``
   composited front to back;
@@ -225,10 +226,17 @@ SAMPLED_SIZE = 4
 
 def sampled_lines(scene, count: int, per_voxel: int):
     """:func:`box_lines`' data before classification: ``(s, live, n, step, lines)``."""
+    start, direction, _ = tolerance.random_lines(scene.field, count)
+    return sampled_along(scene, start, direction, per_voxel)
+
+
+def sampled_along(scene, start, direction, per_voxel: int):
+    """The field's values along the lines ``start + t direction`` inside the box, at the middles of steps
+    of ``1 / per_voxel`` voxel from where each enters it: ``(s, live, n, step, lines)`` as
+    :func:`sampled_lines`."""
     from ...rays import intersect_box
 
     field = scene.field
-    start, direction, _ = tolerance.random_lines(field, count)
     t0, t1 = intersect_box(start, direction, *field.bounds)
     step = field.sample_spacing / per_voxel
     n = np.where(t1 > t0, np.floor((t1 - t0) / step), 0).astype(np.int64)
@@ -239,6 +247,53 @@ def sampled_lines(scene, count: int, per_voxel: int):
     reconstruction = reconstruct(field, scene.renderer)
     s = reconstruction.sample(points.reshape(-1, 3)).reshape(live.shape)
     return s, live, n, step, Lines(start, direction, t0, reconstruction)
+
+
+def visible_lines(scene, s, composed, n):
+    """Emission-absorption: the lines that meet the transfer function's content (a sample of non-zero
+    extinction; the pixels that show the volume), with more drawn through the content where fewer than
+    :data:`CONTENT_LINES` of the uniform ones do (:func:`content_lines`): ``(s, composed, n)``.  Lines that
+    meet nothing have no error, so counting them would dilute the error of the pixels that show something:
+    on the hydrogen atom's narrow shell 5 of 128 uniform lines met it, and the image missed the target by
+    1.2x (docs/peers.md).  Unchanged where there is no content."""
+    crossing = composed[..., 0].max(axis=1, initial=0.0) > 0.0
+    missing = CONTENT_LINES - int(crossing.sum())
+    extra = content_lines(scene, missing) if missing > 0 else None
+    if not crossing.any() and extra is None:
+        return s, composed, n
+    s, composed, n = s[crossing], composed[crossing], n[crossing]
+    if extra is None:
+        return s, composed, n
+    es, live, en = extra[0], extra[1], extra[2]
+    ecomposed = classified(es, live, scene.transfer_function)
+    m = max(s.shape[1], es.shape[1])
+    pad = lambda a: np.pad(a, [(0, 0), (0, m - a.shape[1])] + [(0, 0)] * (a.ndim - 2))  # noqa: E731
+    return (np.concatenate([pad(s), pad(es)]), np.concatenate([pad(composed), pad(ecomposed)]),
+            np.concatenate([n, en]))
+
+
+#: Emission-absorption: the lines meeting the content the simulation wants at least (:func:`visible_lines`).
+CONTENT_LINES = 96
+#: Random points of the box tried for points of the content (:func:`content_lines`).
+CONTENT_CANDIDATES = 1 << 17
+
+
+def content_lines(scene, count: int):
+    """``count`` lines in random directions through random points of the transfer function's content (of
+    :data:`CONTENT_CANDIDATES` uniform points of the box, those where the field's extinction is non-zero),
+    sampled as :func:`sampled_along`; None where no candidate is in the content."""
+    field, tf = scene.field, scene.transfer_function
+    rng = np.random.default_rng(tolerance.SEED + 1)
+    lo, hi = (np.asarray(b, dtype=np.float64) for b in field.bounds)
+    points = lo + rng.random((CONTENT_CANDIDATES, 3)) * (hi - lo)
+    values = reconstruct(field, scene.renderer).sample(points)
+    content = points[np.asarray(tf.extinction(values)) > 0.0]
+    if not len(content):
+        return None
+    centre = content[rng.integers(len(content), size=count)]
+    direction = rng.normal(size=(count, 3))
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    return sampled_along(scene, centre - direction * diagonal(field) / 2.0, direction, PER_VOXEL)
 
 
 def classified(s, live, tf) -> np.ndarray:
@@ -259,6 +314,7 @@ def simulate_choice(scene) -> DefaultChoice:
     mode = scene.renderer.compositing
     tf = scene.transfer_function
     if mode == "emission_absorption":
+        s, composed, n = visible_lines(scene, s, composed, n)
         fine = composite(*segments(composed, n, 1), step)
         post = lambda k: rms(composite(*segments(composed, n, k), step), fine)  # noqa: E731
         pre = lambda k: rms(composite(*segments(linearised(s, n, tf, k), n, 1), step), fine)  # noqa: E731

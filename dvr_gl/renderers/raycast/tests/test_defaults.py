@@ -133,3 +133,24 @@ def test_a_new_transfer_function_reuses_the_lines_and_can_wait(monkeypatch):
     defaults.choose_defaults(spiked)
     assert len(calls) == 1
     assert chosen(broad.replace(transfer_function=spiked.transfer_function, choose_again=False)) == chosen(broad)
+
+
+def test_a_thin_shell_meets_the_target(shared_data):
+    """A narrow tent (alpha 0.5 over 10 of 255 units) on the hydrogen atom is a shell a voxel or two thick
+    that 5 of the 128 uniform lines meet: the error counted over the lines that meet the content, with more
+    drawn through it (defaults.visible_lines), keeps the image within the target.  Measured (64x64, the
+    bench's camera, llvmpipe): 0.95/255 at the 0.75 voxel now chosen; over all the uniform lines 1.25 voxel
+    was chosen and the image missed the target, 1.13/255 (docs/peers.md, hydrogen-shell)."""
+    path = shared_data / "regular" / "hydrogen_atom.nhdr"
+    if not path.exists():
+        pytest.skip(f"{path} absent (the shared datasets)")
+    keys = {"volume.path": str(path), "image.width": 64, "image.height": 64, "renderer.shading.enabled": False,
+            "camera.azimuth": 30.0, "camera.elevation": 20.0, "camera.fov": 30.0,
+            "camera.projection": "perspective", "camera.distance": 1.8 * 220.0,
+            "transfer_function.unit_distance": 1.0,
+            "transfer_function.points": [[0, 0, 0, 0, 0], [55, 0.2, 0.6, 1, 0], [60, 0.2, 0.6, 1, 0.5],
+                                         [65, 0.2, 0.6, 1, 0], [255, 0, 0, 0, 0]]}
+    scene = load_scene(None, keys)
+    with create_renderer("raycast") as renderer:
+        rms = compare_images(renderer.render(scene), converged_truth(scene))["rms"]
+    assert rms <= defaults.TARGET, f"{rms * 255:.3g}/255 at {voxels(scene):g} voxel"
