@@ -94,6 +94,7 @@ class Frame:
             count = int(math.ceil(samples)) + 1 if math.isfinite(samples) else 2 ** 62
             sizes.append(padded_length(count, 1.0) if count < self.MAX_SLICE else count)
         self.size = tuple(sizes)
+        self._made = {}  # what depends on the view, image and volume only: chords, the short chords' rays
 
     #: Samples a side past which the slice is not laid out: more than any GL's texture side (16384 on llvmpipe).
     MAX_SLICE = 1 << 16
@@ -125,7 +126,24 @@ class Frame:
         """``(H, W)`` each pixel's chord through the volume's box (0 where it misses) and its midpoint's view
         depth from the eye, in float64: the rays are parallel and start on the eye's plane, so the slabs'
         parameters are sums of a row's and a column's term (a few ms at 512x512, where the general rays'
-        took 150)."""
+        took 150).  Made once a frame (the renderer keeps its frame while the view, image and volume hold)."""
+        if "chords" not in self._made:
+            self._made["chords"] = self._chords(scene)
+        return self._made["chords"]
+
+    def short_chords(self, scene) -> tuple[np.ndarray, RayBatch | None]:
+        """``(H, W)`` the pixels whose chord is shorter than :data:`SHORT_CHORD_VOXELS` (integrated in the
+        spatial domain) and their rays (None where there are none); made once a frame."""
+        if "short" not in self._made:
+            chord, _ = self.chords(scene)
+            img = scene.image
+            short = (chord > 0) & (chord < SHORT_CHORD_VOXELS * float(np.min(scene.volume.spacing)))
+            rays = (RayBatch.for_camera(scene.camera, img.width, img.height, scene.volume.bounds,
+                                        pixels=np.flatnonzero(short)) if short.any() else None)
+            self._made["short"] = (short, rays)
+        return self._made["short"]
+
+    def _chords(self, scene) -> tuple[np.ndarray, np.ndarray]:
         img = scene.image
         lo, hi = (np.asarray(v, float) for v in scene.volume.bounds)
         i = np.arange(img.width) * self.image_pixel
@@ -373,11 +391,9 @@ def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, der
     out = np.zeros((h, w, 4))
     hit = chord > 0
     if r.compositing == "average":
-        short = hit & (chord < SHORT_CHORD_VOXELS * float(np.min(scene.volume.spacing)))
-        if short.any():
-            rows = np.flatnonzero(short)
-            sums[0][short] = direct_integrals(scene, RayBatch.for_camera(scene.camera, w, h, scene.volume.bounds,
-                                                                         pixels=rows), np.arange(len(rows)))
+        short, rays = frame.short_chords(scene)
+        if rays is not None:
+            sums[0][short] = direct_integrals(scene, rays, np.arange(len(rays.t0)))
         out[hit] = projected_rgba(scene.transfer_function, sums[0][hit] / chord[hit])
     else:  # the X-ray of the classified voxels: (sigma c, sigma) integrated; the band limit rings (Gibbs)
         # where the data jumps, which can take an integral of non-negative voxels below zero: clamped

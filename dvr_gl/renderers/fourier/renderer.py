@@ -150,17 +150,27 @@ class FourierRenderer(GLRenderer):
         key = (scene.volume, r.compositing, scene.transfer_function if xray else None)
         key = (*key, r.filter, r.kernel_width, r.hemispherical_shading)
         self.report(0, 3)  # the steps: the ghosted channels, their transform, the view (the first two cached)
-        data, offsets, border = self._cached("channels", key, lambda: channels(scene))
+        made = {"channels": 0.0, "transform": 0.0, "upload": 0.0}  # seconds of what was made afresh
+
+        def timed(what, make):
+            start = time.perf_counter()
+            value = make()
+            made[what] = time.perf_counter() - start
+            return value
+
+        data, offsets, border = self._cached("channels", key, lambda: timed("channels", lambda: channels(scene)))
         self.report(1, 3)
-        fresh = []
         taps = r.slice_taps if r.slice_interpolation in WINDOWED else 4
         spectrum = self._cached("spectrum", (data, r.slice_interpolation, r.padding, taps),
-                                lambda: fresh.append(1) or Spectrum(data, r.slice_interpolation, r.padding, border,
-                                                                    taps, np.float32))
+                                lambda: timed("transform", lambda: Spectrum(data, r.slice_interpolation, r.padding,
+                                                                            border, taps, np.float32)))
         self.report(2, 3)
-        textures = self._cached("spectrum textures", (spectrum,), lambda: SpectrumTextures(self.ctx, spectrum))
+        textures = self._cached("spectrum textures", (spectrum,),
+                                lambda: timed("upload", lambda: SpectrumTextures(self.ctx, spectrum)))
         start = time.perf_counter()
-        frame = Frame(scene)
+        # the slice's grid, the chords and the short chords' rays: made again only for a new view, image or volume
+        frame = self._cached("frame", (scene.camera, scene.image, scene.volume, r.slice_bandwidth),
+                             lambda: Frame(scene))
         wf, hf = frame.size
         cued = r.depth_cue < 1.0
         count = len(textures.textures)
@@ -208,7 +218,9 @@ class FourierRenderer(GLRenderer):
         image = finish(scene, frame, spectrum, slices, offsets, derivatives, shell)
         end = time.perf_counter()
         self.report(3, 3)
-        self.stats.update(preprocess_seconds=spectrum.seconds if fresh else 0.0, spectrum_bytes=spectrum.bytes,
+        self.stats.update(preprocess_seconds=sum(made.values()), channels_seconds=made["channels"],
+                          transform_seconds=made["transform"], upload_seconds=made["upload"],
+                          spectrum_bytes=spectrum.bytes,
                           spectrum_dims=spectrum.dims, fft=spectrum.library, slice_size=frame.size,
                           slice_seconds=drawn - start, inverse_seconds=end - drawn, view_seconds=end - start)
         return image.astype(np.float32)

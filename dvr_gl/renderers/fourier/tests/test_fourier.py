@@ -124,13 +124,15 @@ def test_gaussian_blob_against_its_closed_form_projection(tmp_path, fourier, int
 
 @pytest.mark.parametrize("interpolation, compositing, bound", [
     ("cubic_bspline", "average", 1e-4), ("cubic_bspline", "xray", 1e-3),
-    ("kaiser_bessel", "average", 5e-4), ("kaiser_bessel", "xray", 1e-2)])
+    ("kaiser_bessel", "average", 1e-4), ("kaiser_bessel", "xray", 1e-3)])
 def test_blob_against_the_converged_reference(tmp_path, fourier, interpolation, compositing, bound):
     """The trilinear field, slice bandwidth 1 (K = 2), against reference-converged of the same field.
     Cubic B-spline slice: measured at most 4.5e-5 and RMS 4.7e-6 (average, alpha up to 0.44), 6.4e-4 and
     7.1e-5 (X-ray, pre-classified, alpha up to 1); at bandwidth 0 with the first-order ghost layer and no
-    spatial integrals of short chords they were 4.6e-4 / 1.3e-5 and 4.4e-4 / 5.8e-5.  Kaiser-Bessel (the
-    default): 2.4e-4 / 2.7e-5 and 4.2e-3 / 5.0e-4.  The B-spline's transform vanishes at the integers, so
+    spatial integrals of short chords they were 4.6e-4 / 1.3e-5 and 4.4e-4 / 5.8e-5; both at padding 2.
+    Kaiser-Bessel (the default, six taps at padding 1.25): 2.1e-5 / 1.4e-6 and 2.4e-4 / 2.7e-5 (four taps at
+    padding 2, the defaults before issue 44: 2.4e-4 / 2.7e-5 and 4.2e-3 / 5.0e-4).  The B-spline's
+    transform vanishes at the integers, so
     the centre of the padded grid, where this blob lies, gets no replica from it, while the
     Kaiser-Bessel kernel ghosts 1.5e-4 of it there; near the grid's edges, where real data lies, it is
     the other way round (1.2e-2 against 4e-4; dvr_gl/renderers/fourier/README.md).  Asserted the bound, RMS a tenth."""
@@ -138,6 +140,8 @@ def test_blob_against_the_converged_reference(tmp_path, fourier, interpolation, 
     scene = blob_scene(tmp_path, data, {"renderer.compositing": compositing, "renderer.classification": "pre",
                                         "renderer.converged_tolerance": 1e-6,
                                         "renderer.slice_interpolation": interpolation,
+                                        # the cubic B-spline's replicas fall with the padding: 2 for it
+                                        "renderer.padding": 2.0 if interpolation == "cubic_bspline" else 1.25,
                                         "transfer_function.points": [[0, 1, 0.5, 0.2, 0], [1, 0.2, 0.5, 1, 3.0]]},
                        size=32)
     image = fourier.render(scene).astype(np.float64)
@@ -158,7 +162,7 @@ def test_depth_cue_against_the_converged_reference(tmp_path, fourier, compositin
     data, _, _ = blob()
     scene = blob_scene(tmp_path, data, {"renderer.compositing": compositing, "renderer.classification": "pre",
                                         "renderer.depth_cue": 0.3, "renderer.converged_tolerance": 1e-6,
-                                        "renderer.slice_interpolation": "cubic_bspline",
+                                        "renderer.slice_interpolation": "cubic_bspline", "renderer.padding": 2.0,
                                         "transfer_function.points": [[0, 1, 0.5, 0.2, 0], [1, 0.2, 0.5, 1, 3.0]]},
                        size=32)
     image = fourier.render(scene).astype(np.float64)
@@ -182,7 +186,7 @@ def test_hemispherical_shading_against_the_converged_reference(tmp_path, fourier
     data, _, _ = blob()
     scene = blob_scene(tmp_path, data, {"renderer.compositing": compositing, "renderer.classification": "pre",
                                         "renderer.hemispherical_shading": True, "renderer.depth_cue": 0.4,
-                                        "renderer.slice_interpolation": "cubic_bspline",
+                                        "renderer.slice_interpolation": "cubic_bspline", "renderer.padding": 2.0,
                                         "renderer.shading.lights": [{"type": "directional",
                                                                      "direction": [1.0, -0.5, 0.3]}],
                                         "renderer.converged_tolerance": 1e-6,
@@ -347,7 +351,6 @@ def test_spectrum_is_made_once_per_volume_and_settings(fourier):
     ({"renderer.compositing": "xray", "renderer.classification": "post"}, "pre"),
     ({"renderer.compositing": "emission_absorption"}, "average"),
     ({"camera.distance": 1.0}, "camera.distance"),
-    ({"renderer.slice_taps": 6, "renderer.slice_interpolation": "cubic_bspline"}, "windowed kernels"),
 ])
 def test_refusals_in_one_line(extra, words):
     scene = small_scene({**ORTHO, "renderer.compositing": "average", **extra})
@@ -408,7 +411,7 @@ def test_the_spectrum_work_is_estimated_and_bounded(fourier):
     from dvr_gl.sandbox import Sandbox, active
 
     wide = small_scene({**ORTHO, "renderer.compositing": "average", "renderer.filter": "gaussian",
-                        "renderer.kernel_width": 30.0, "volume.size": 64})
+                        "renderer.kernel_width": 30.0, "volume.size": 64, "renderer.padding": 2.0})
     work = fourier.work(wide)
     assert work.unit == "fft samples" and "750x750x750" in work.how and work.count > 1e10
     with active(Sandbox(max_seconds=20)), pytest.raises(DvrError, match="fft samples.*kernel_width"):
