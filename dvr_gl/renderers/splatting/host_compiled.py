@@ -207,8 +207,11 @@ def _fill_splat(s, j0, j1, positions, values, core, rect, slab_range, origins, d
             whole_footprint = ((1.0 - w) * footprint[e] + w * footprint[e + 1]) / (sigma * sigma) / length * v
             half_chord = radius * math.sqrt(1.0 - q)
             whole = 2.0 * _phi(half_chord / sigma, cumulative, reach) - 1.0  # the chord's share, erf
-            ka = max(slab_range[s, 0], k0) - k0
-            kb = min(slab_range[s, 1], k0 + slabs - 1) - k0
+            # the slabs the chord crosses (the boundaries are even along the ray), a slab's margin for rounding
+            step = crossings[1, p] - crossings[0, p]
+            before = lo + tc - crossings[0, p]
+            ka = max(slab_range[s, 0] - k0, int(math.floor((before - half_chord / length) / step)) - 1, 0)
+            kb = min(slab_range[s, 1] - k0, int(math.floor((before + half_chord / length) / step)) + 1, slabs - 1)
             x_below = -half_chord  # the last boundary's place on the chord, and its erf (telescoping)
             erf_below = -whole
             for k in range(ka, kb + 1):
