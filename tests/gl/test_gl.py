@@ -32,6 +32,25 @@ def test_selftest_renders_float_values_in_image_row_order(gl_context):
     assert img[1, 1, 2] == np.float32(VALUE) != np.float32(round(VALUE * 255) / 255)
 
 
+
+@pytest.mark.parametrize("height", [1, 5, 20])
+def test_frame_read_turns_rows_top_down(gl_context, height):
+    """GLFrame.read turns GL's bottom-up rows over in place, a few at a time (odd counts, several
+    blocks): row 0 is the top, and the unflipped read is the rows as stored; both fresh and writable."""
+    from dvr_gl.gl.frame import GLFrame
+
+    texels = np.arange(3 * height * 2, dtype=np.float32).reshape(height, 3, 2)  # GL rows, bottom up
+    tex = gl_context.texture((3, height), 2, texels.tobytes(), dtype="f4")
+    fbo = gl_context.framebuffer([tex])
+    try:
+        np.testing.assert_array_equal(GLFrame.read(fbo, 3, height, components=2), texels[::-1])
+        stored = GLFrame.read(fbo, 3, height, components=2, flip=False)
+        np.testing.assert_array_equal(stored, texels)
+        assert stored.flags.writeable and stored.flags.c_contiguous
+    finally:
+        fbo.release()
+        tex.release()
+
 def test_includes_and_defines_are_expanded_with_origins():
     src = shaders.load_shader("selftest.frag", {"SELFTEST_VALUE": "0.5", "FLAG": True, "OFF": False})
     lines = src.text.splitlines()
