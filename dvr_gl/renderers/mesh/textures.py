@@ -10,6 +10,8 @@ The frame around them (context, targets, read-back, binding, release) is the GL 
 
 from __future__ import annotations
 
+import functools
+
 import moderngl
 import numpy as np
 
@@ -126,6 +128,16 @@ class MeshTextures:
             self._boundary[0].release()
 
 
+@functools.cache
+def _gauss_legendre() -> tuple[tuple, tuple, bytes]:
+    """The 4-point Gauss-Legendre rule on [0, 1] as the shaders take it: nodes, weights, and the
+    spectral integration matrix (S on [0, 1]: the integral from 0 to x_i of l_j, half of that on
+    [-1, 1]; column j, row i) as float32 bytes.  Once per process (numpy's ``leggauss`` costs about
+    a millisecond, twice a frame)."""
+    x, w, s = collocation(4)
+    return tuple(0.5 * (x + 1.0)), tuple(0.5 * w), np.ascontiguousarray((0.5 * s).T, dtype=np.float32).tobytes()
+
+
 class _KeptMesh:
     """A mesh's textures and what its renderer built beside them (:meth:`MeshRenderer._mesh_extra`),
     kept and released together."""
@@ -221,7 +233,7 @@ class MeshRenderer(GLRenderer):
         translate[:3, 3] = textures.centre
         vp = projection_matrix(cam, img.width / img.height, near, far) @ view_matrix(cam) @ translate
         f, right, up = cam.basis()
-        x, w, s = collocation(4)
+        x, w, s = _gauss_legendre()
         values = {"u_image_size": (img.width, img.height), "u_margin": MARGIN_PIXELS,
                   "u_eye": tuple(np.asarray(cam.eye) - textures.centre), "u_forward": tuple(f),
                   "u_right": tuple(right), "u_up": tuple(up),
@@ -229,7 +241,7 @@ class MeshRenderer(GLRenderer):
                   "u_iso_value": r.iso_value if r.iso_value is not None else 0.0,
                   "u_depth_scale": 1.0 / self._far(scene),
                   "u_unit_distance": scene.transfer_function.unit_distance,
-                  "u_gauss_x": tuple(0.5 * (x + 1.0)), "u_gauss_w": tuple(0.5 * w)}
+                  "u_gauss_x": x, "u_gauss_w": w}
         clip = ClipRegion.of(r)
         if clip is not None:  # the rays are relative to the mesh's centre (u_eye), the region too
             values.update(clip.shifted(textures.centre).uniforms())
@@ -237,8 +249,7 @@ class MeshRenderer(GLRenderer):
         if "u_view_projection" in program:
             program["u_view_projection"].write(gl_matrix(vp))
         if "u_gauss_s" in program:
-            # S on [0, 1]: integral from 0 to x_i of l_j = half of that on [-1, 1]; column j, row i
-            program["u_gauss_s"].write(np.ascontiguousarray((0.5 * s).T, dtype=np.float32).tobytes())
+            program["u_gauss_s"].write(s)
         p = scene.transfer_function.points
         if "u_tf_sigma_max" in program:
             program["u_tf_sigma_max"].write(interval_sigma_max(scene.transfer_function).astype(np.float32).tobytes())

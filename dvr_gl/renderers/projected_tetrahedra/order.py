@@ -43,6 +43,15 @@ EDGE_MARGIN = 1e-9  # barycentric slack of the boundary faces' ray hits
 TOUCHING = 1e-9     # boundary crossings this close along a ray (relative to the mesh's size) meet
 EDGE_ON = 1e-9      # a face whose plane passes this close to the eye (relative sine) is seen edge on
 PAIRS_PER_CHUNK = 1 << 21
+#: A boundary this close to convex (relative to the mesh's size: no boundary point further outside a
+#: boundary face's plane) counts as convex, so that no ray crosses it more than twice and no ray need
+#: be cast against it.  The shared tetraMesh's flat sides bend by 5.9e-7 (its points' rounding); a
+#: ray crossing such a fold three times runs within that of a face's plane, where the GL draw's
+#: float32 clipping of the ray against the cells' planes is already a matter of rounding.
+CONVEX_SLACK = 1e-6
+#: Boundary faces times boundary points tested at most for :attr:`Adjacency.convex` (once per mesh,
+#: about a tenth of a second; larger boundaries count as not convex unless a fold is found sooner)
+CONVEX_WORK = 50_000_000
 
 
 def compiled():
@@ -74,6 +83,27 @@ class Adjacency:
     def normal_length(self) -> np.ndarray:
         """``(F,)`` the interior faces' normals' lengths (for the edge-on test)."""
         return np.linalg.norm(self.face_normal, axis=1)
+
+    @functools.cached_property
+    def convex(self) -> bool:
+        """Whether the boundary is convex (within :data:`CONVEX_SLACK`): every boundary point on the
+        inner side of every boundary face's plane.  Then no ray crosses the boundary more than twice
+        and there are no gaps to relate.  ``False`` when the test would cost more than
+        :data:`CONVEX_WORK` (a large boundary: the rays decide, as for any non-convex mesh), and for a
+        mesh without a boundary."""
+        if not len(self.boundary):
+            return False
+        points = self.boundary_corners.reshape(-1, 3)[np.unique(self.boundary.ravel(), return_index=True)[1]]
+        normal = self.boundary_normal / np.maximum(np.linalg.norm(self.boundary_normal, axis=1, keepdims=True),
+                                                   1e-300)
+        offset = np.einsum("ij,ij->i", normal, self.boundary_corners[:, 0]) + CONVEX_SLACK * self.size
+        chunk = max(CONVEX_WORK // (16 * len(points)), 1)
+        for first in range(0, len(normal), chunk):
+            if first * len(points) > CONVEX_WORK:
+                return False
+            if (points @ normal[first:first + chunk].T > offset[first:first + chunk]).any():
+                return False
+        return True
 
 
 def adjacency(points: np.ndarray, tets: np.ndarray) -> Adjacency:

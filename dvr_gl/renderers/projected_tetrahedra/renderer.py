@@ -139,10 +139,13 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
         casts against the boundary): those crossing at least three boundary faces, counted by drawing
         the boundary with additive blending, and their neighbours (the rasterizer's rounding at a
         fold of the boundary may count a crossing less).  ``None`` (every ray) when the mesh reaches
-        the eye's plane, where rays start inside it and the plane would clip what they cross."""
+        the eye's plane, where rays start inside it and the plane would clip what they cross; none
+        (and nothing drawn) when the boundary is convex (:attr:`.order.Adjacency.convex`)."""
         img = scene.image
         if self._reaches_near_plane(scene):
             return None
+        if orders.adjacency.convex:  # no ray crosses it more than twice
+            return np.zeros(img.height * img.width, bool)
         buffer, count = textures.boundary(orders.adjacency)
         gaps = np.zeros((img.height, img.width), bool)
         if buffer is None:

@@ -173,6 +173,34 @@ def test_transparent_cells_are_not_drawn(pt, converged):
     assert transparent.sum() >= 10 and pt.stats["cells_drawn"] == len(mesh.tets) - transparent.sum()
 
 
+
+def test_a_convex_boundary_casts_no_rays(pt):
+    """A convex boundary (within CONVEX_SLACK of the mesh's size) has no gaps: no boundary count in GL
+    and no rays cast, and the picture is the one the count and the rays give (0 of them cast there
+    too).  A dent deeper than the slack, a notch cut out and two separate cells are not convex."""
+    mesh = jittered_mesh()  # its boundary points lie on the box's faces
+    assert VisibilityOrder(mesh).adjacency.convex
+    scene = mesh_scene(mesh, **{"renderer.name": "projected-tetrahedra"})
+    image = pt.render(scene)
+    assert pt.stats["rays_cast"] == 0
+    adj = pt._mesh_resources(scene.field)[1].adjacency
+    try:
+        adj.__dict__["convex"] = False  # the count in GL and the rays it picks, as for any mesh
+        counted = pt.render(scene)
+    finally:
+        del adj.__dict__["convex"]
+    np.testing.assert_array_equal(image, counted)
+    face = np.nonzero((mesh.points[:, 2] == 0.0) & (mesh.points[:, 0] > 0) & (mesh.points[:, 0] < 1.0)
+                      & (mesh.points[:, 1] > 0) & (mesh.points[:, 1] < 0.8))[0][0]  # inside the box's bottom face
+    for dent, convex in ((1e-8, True), (1e-3, False)):
+        points = mesh.points.copy()
+        points[face, 2] += dent  # into the mesh
+        assert adjacency(points, mesh.tets).convex == convex, dent
+    centroids = mesh.points[mesh.tets].mean(axis=1)
+    kept = ~((centroids[:, 0] > 0.5) & (centroids[:, 1] > 0.4))
+    assert not adjacency(mesh.points, mesh.tets[kept]).convex
+    assert not VisibilityOrder(overlapping_cells()).adjacency.convex
+
 def test_cells_touching_without_shared_points_are_ordered():
     """Two cells meeting at a face with its points duplicated, not shared (a multi-block grid's block
     interface, as in the oxygen post): no interior face relates them, and the boundary crossings at
