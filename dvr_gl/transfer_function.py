@@ -213,8 +213,13 @@ class TransferFunction:
         if values.dtype.kind in "iu" and values.size > 1 << 16:
             lo, hi = int(values.min()), int(values.max())
             if hi - lo < values.size // 4:  # the table is a quarter of the voxels at most
-                table = self.classify_voxels(np.arange(lo, hi + 1, dtype=np.float64), associated)
-                return table[values.astype(np.int64) - lo if values.dtype.kind == "i" or lo else values]
+                # every value from lo to hi (then float64, as each voxel's would be) and each voxel's offset
+                # from lo: in int64 for signed data, in the data's own type for unsigned (uint64's values
+                # above int64's; no overflow, every voxel is lo or above)
+                kind = np.int64 if values.dtype.kind == "i" else values.dtype.type
+                table = self.classify_voxels((kind(lo) + np.arange(hi - lo + 1).astype(kind)).astype(np.float64),
+                                             associated)
+                return table[values.astype(kind, copy=False) - kind(lo)]
         values = np.asarray(values, dtype=np.float64)
         out = np.empty(values.shape + (4,))  # written in place: no stacked colour, no concatenated copy
         out[..., 3] = self.extinction(values)

@@ -131,7 +131,9 @@ def test_ct_presets_are_in_hounsfield_units_shifted_by_the_intercept():
 
 @pytest.mark.parametrize("data", [np.linspace(0.0, 50.0, 70000).reshape(70, 1000),  # float: evaluated a voxel
                                   np.arange(70000, dtype=np.uint16).reshape(70, 1000) % 47,  # a table a value
-                                  (np.arange(70000, dtype=np.int16).reshape(70, 1000) % 61) - 9])
+                                  (np.arange(70000, dtype=np.int16).reshape(70, 1000) % 61) - 9,
+                                  # offsets from the least value past the type's range (int8: -125 .. 124)
+                                  (np.arange(70000).reshape(70, 1000) % 250 - 125).astype(np.int8)])
 @pytest.mark.parametrize("associated", [True, False])
 def test_pre_classification_is_the_functions_value_at_each_voxel(data, associated):
     """``classify_voxels`` (in place, and through a table of the values for integer data) against colour
