@@ -39,7 +39,7 @@ from .. import progress
 from ..checks import WORLD_RANGE
 from ..errors import SceneError, VolumeError
 from ..sandbox import check_bytes
-from . import sph
+from . import particle_scatter, sph
 from .ragged import joined_knots, ranges, ranks
 
 #: The degree of the polynomial the converged reference fits to a piece between knots (as
@@ -274,6 +274,10 @@ class SPHInterpolant:
         width = 3 if gradient else self.carried.shape[1]
         out = np.zeros((len(points), width))
         with progress.task(label or "", len(points), "point") if label else contextlib.nullcontext() as step:
+            if not gradient and self._scatter(points, out):
+                if step is not None:
+                    step(len(points))
+                return out
             compiled = None if gradient else _compiled_pair_sum()
             for i in range(0, len(points), POINTS_PER_BATCH):
                 if compiled is not None:
@@ -283,6 +287,21 @@ class SPHInterpolant:
                 if step is not None:
                     step(min(i + POINTS_PER_BATCH, len(points)))
         return out
+
+    def _scatter(self, points: np.ndarray, out: np.ndarray) -> bool:
+        """The sum at ``points`` into ``out`` scattered from the particles through a grid of the points
+        (:mod:`.particle_scatter`: compiled, no index of the particles) where there are as many points as
+        particles or more (the value range, a reader's density) and the grid suits them; False otherwise."""
+        p = self.particles
+        if len(points) < len(p) or particle_scatter.compiled() is None or not np.isfinite(points).all():
+            return False
+        levels = particle_scatter.plan(points, p.positions, sph.SUPPORT * p.smoothing_lengths)
+        if levels is None:
+            return False
+        check_bytes(16.0 * len(points) * out.shape[1] + 16.0 * len(points), "the SPH sum at the points",
+                    "use fewer particles")
+        out[:] = particle_scatter.scatter_sum(levels, points, p.positions, p.smoothing_lengths, self.carried)
+        return True
 
     def _batch(self, points: np.ndarray, i: int, gradient: bool, out: np.ndarray):
         """The batch of ``points`` from ``i`` into ``out``."""
