@@ -49,7 +49,8 @@ def _run(args) -> int:
     args.report.text(f"dvr bench cells: the shared meshes, {args.size}x{args.size}, perspective 30 degrees, framed, "
                      f"views azimuth/elevation {', '.join(f'{a:g}/{e:g}' for a, e in measure.VIEWS)}; median of "
                      f"{args.frames} frames after one untimed (dvr-gl: order and draw of the median frame, every "
-                     f"frame sorted again; its cases' frames interleaved; VTK ms / ms above 1: dvr-gl faster)"
+                     f"frame sorted again; its cases' frames interleaved, one VTK frame in each round; VTK ms / ms "
+                     f"above 1: dvr-gl faster)"
                      f"; RMS against reference-converged at {args.error_size}x{args.error_size}")
     rows, notes = measure.run(names, Path(args.data_dir), args.size, args.error_size, args.frames, python,
                               pictures=Path(args.pictures) if args.pictures else None, only_pt=args.only_pt,

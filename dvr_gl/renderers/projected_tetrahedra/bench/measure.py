@@ -9,8 +9,11 @@ adjacency, built by an untimed frame; their frames interleaved, A B C A B C, med
 (``VTK ms / ms``: above 1, dvr-gl is faster), dvr-gl's ``cell-raycast`` (its defaults; no
 order), the ray caster on the mesh resampled onto a grid of
 :data:`RESAMPLE` points along its longest axis (its defaults; the resampling, once per mesh, not
-timed), then VTK in a fresh process (``peer_worker.py``, as ``dvr bench peers``
-runs its peers; VTK sorts its cells again every frame, as dvr-gl does); each one's RMS error
+timed).  VTK runs in a process of the peers' environment kept open beside dvr-gl's
+(:mod:`.vtk_frames`), one frame in each round of projected tetrahedra's interleaved frames (A B C
+A B C ...), and again in a fresh process (``peer_worker.py``, as ``dvr bench peers`` runs its
+peers) for its picture at the error size; VTK sorts its cells again every frame, as dvr-gl does.
+Each one's RMS error
 against ``reference-converged`` at ``error_size``.  The transfer function is semi-transparent over
 the scalar's range, its control values at the scalar's quintiles (the FE stresses are skewed: an
 even spread leaves them invisible), alpha per a tenth of the mesh's diagonal.
@@ -18,7 +21,9 @@ even spread leaves them invisible), alpha per a tenth of the mesh's diagonal.
 
 from __future__ import annotations
 
+import json
 import statistics
+import subprocess
 import tempfile
 from pathlib import Path
 
@@ -62,15 +67,59 @@ def _timed(renderer, scene, frames: int) -> dict:
             "draw_ms": part("draw_seconds"), "cycles": middle.get("cycles_broken", "")}
 
 
-def _interleaved(renderer, scenes: list, frames: int) -> list[dict]:
-    """:func:`_timed` for several scenes, their frames taken in turn (A B A B ...), one row each."""
+class _VtkFrames:
+    """VTK's frames one at a time from a process of the peers' environment (:mod:`.vtk_frames`), to
+    take in turn with dvr-gl's.  ``frame()`` returns its seconds; ``failed`` says why there are none
+    (then the fresh process's frames are used, as before)."""
+
+    def __init__(self, python: str, job_scene: dict, size: int, folder: Path):
+        folder.mkdir(parents=True, exist_ok=True)
+        (folder / "scene.json").write_text(json.dumps(job_scene, default=float))
+        self.failed = None
+        self._log = open(folder / "vtk_frames.log", "w")  # noqa: SIM115 (closed in close())
+        self._proc = subprocess.Popen([python, str(Path(__file__).with_name("vtk_frames.py")),
+                                       str(folder / "scene.json"), str(size)],
+                                      stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._log, text=True)
+        if self._proc.stdout.readline().strip() != "ready":
+            self.failed = f"VTK's interleaved frames did not start (see {folder / 'vtk_frames.log'})"
+
+    def frame(self) -> float | None:
+        if self.failed:
+            return None
+        try:
+            self._proc.stdin.write("frame\n")
+            self._proc.stdin.flush()
+            return float(self._proc.stdout.readline())
+        except (OSError, ValueError) as exc:
+            self.failed = f"VTK's interleaved frames stopped: {exc}"
+            return None
+
+    def close(self):
+        try:
+            self._proc.stdin.close()
+            self._proc.wait(timeout=60)
+        except (OSError, subprocess.TimeoutExpired):
+            self._proc.kill()
+        self._log.close()
+
+
+def _interleaved(renderer, scenes: list, frames: int, beside=None) -> list[dict]:
+    """:func:`_timed` for several scenes, their frames taken in turn (A B A B ...), one row each;
+    ``beside``: a peer's frame (:class:`_VtkFrames`) taken in each round too, its seconds in
+    ``beside.seconds``."""
     for scene in scenes:
         renderer.render(scene)  # upload, programs, adjacency: untimed
     stats = [[] for _ in scenes]
+    if beside is not None:
+        beside.seconds = []
     for _ in range(frames):
         for i, scene in enumerate(scenes):
             renderer.render(scene)
             stats[i].append(dict(renderer.stats))
+        if beside is not None:
+            seconds = beside.frame()
+            if seconds is not None:
+                beside.seconds.append(seconds)
     rows = []
     for runs in stats:
         middle = sorted(runs, key=lambda s: s["seconds"])[len(runs) // 2]
@@ -129,7 +178,15 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
                     truth = reference.render(small.with_renderer(name=reference.name)).astype(np.float64)
                 tiles = [truth]
                 cases = CASES[:2] if only_pt else CASES
-                timed = _interleaved(pt, [scene.with_renderer(**keys_) for _, keys_ in cases], frames)
+                vtk = _VtkFrames(python, _vtk_scene(scene, vtu), size,
+                                 Path(work.name) / f"{name}-{az:g}-{el:g}-frames") if have else None
+                try:
+                    timed = _interleaved(pt, [scene.with_renderer(**keys_) for _, keys_ in cases], frames, vtk)
+                finally:
+                    if vtk is not None:
+                        vtk.close()
+                if vtk is not None and vtk.failed:
+                    notes.append(f"{name} {view}: {vtk.failed}; VTK's frames from its fresh process")
                 first = len(rows)
                 for (label, keys_), times in zip(cases, timed):
                     row = {"mesh": name, "view": view, "renderer": label, "cells": len(mesh.tets), **times}
@@ -155,8 +212,9 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
                     tiles.append(_resampled_row(rows, raycast, name, view, mesh, scene, small, grid, frames, truth,
                                                 progress))
                 if have:
+                    beside = vtk.seconds if vtk is not None and len(vtk.seconds) == frames else None
                     rows.append(_vtk_row(name, view, mesh, scene, vtu, python, size, error_size, frames, truth,
-                                         Path(work.name) / f"{name}-{az:g}-{el:g}", timeout, notes))
+                                         Path(work.name) / f"{name}-{az:g}-{el:g}", timeout, notes, beside))
                     if rows[-1]:
                         tiles.append(rows[-1].pop("image"))
                         for row in rows[first:-1]:
@@ -195,20 +253,27 @@ def _resampled_row(rows, raycast, name, view, mesh, scene, small, grid, frames, 
     return image
 
 
-def _vtk_row(name, view, mesh, scene, vtu, python, size, error_size, frames, truth, folder, timeout, notes):
+def _vtk_scene(scene, vtu: Path) -> dict:
+    """The peer worker's scene for ``vtk-pt``: the mesh's file, transfer function, camera, depth range."""
     from ....gl.geometry import clip_planes
 
     cam = scene.camera
-    job_scene = {"mesh": str(vtu), "transfer_function": scene.transfer_function.points.tolist(),
-                 "unit_distance": scene.transfer_function.unit_distance,
-                 "camera": {"eye": list(cam.eye), "target": list(cam.target), "up": list(cam.up), "fov": cam.fov},
-                 "clipping_range": list(clip_planes(cam, *scene.field.bounds))}
-    res = peers.run_one({"renderer": "vtk-pt", "keys": {}}, job_scene, {}, python, size, frames, error_size,
-                        folder, timeout)
+    return {"mesh": str(vtu), "transfer_function": scene.transfer_function.points.tolist(),
+            "unit_distance": scene.transfer_function.unit_distance,
+            "camera": {"eye": list(cam.eye), "target": list(cam.target), "up": list(cam.up), "fov": cam.fov},
+            "clipping_range": list(clip_planes(cam, *scene.field.bounds))}
+
+
+def _vtk_row(name, view, mesh, scene, vtu, python, size, error_size, frames, truth, folder, timeout, notes,
+             seconds=None):
+    """VTK's row: its picture at the error size from a fresh process, its frame time the median of
+    ``seconds`` (its frames interleaved with dvr-gl's) where given, else of that process's frames."""
+    res = peers.run_one({"renderer": "vtk-pt", "keys": {}}, _vtk_scene(scene, vtu), {}, python, size,
+                        1 if seconds else frames, error_size, folder, timeout)
     if "failed" in res or "unsupported" in res:
         notes.append(f"{name} {view}: vtk-pt {res.get('failed') or res.get('unsupported')}")
         return None
-    ms = 1e3 * statistics.median(res["seconds"])
+    ms = 1e3 * statistics.median(seconds or res["seconds"])
     return {"mesh": name, "view": view, "renderer": f"vtk-pt {res.get('version', '')}".strip(), "cells": len(mesh.tets),
             "order_ms": None, "draw_ms": None, "ms": ms, "mtets": len(mesh.tets) / ms / 1e3,
             "rms": _rms(res["error"], truth), "cycles": "", "image": res["error"]}

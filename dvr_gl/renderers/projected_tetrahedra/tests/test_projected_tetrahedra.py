@@ -477,6 +477,32 @@ def test_dvr_bench_cells(tmp_path, monkeypatch, capsys):
     assert sheet.shape[:2] == (48, 120)
 
 
+
+def test_vtk_frames_interleave_with_the_bench(tmp_path):
+    """dvr bench cells takes VTK's frames one at a time from a process of the peers' environment kept
+    open (vtk_frames.py), in turn with dvr-gl's; without VTK there it says so and gives no frames.
+    VTK's own frames run where the peers' environment has it (skipped elsewhere)."""
+    from dvr_gl.bench.peers import default_peers_python
+    from dvr_gl.renderers.projected_tetrahedra.bench import measure as cells
+
+    mesh = jittered_mesh()
+    scene = mesh_scene(mesh, **{"renderer.name": "projected-tetrahedra"})
+    vtu = tmp_path / "tiny.vtu"
+    cells.write_vtu(mesh, vtu)
+    absent = cells._VtkFrames(sys.executable, cells._vtk_scene(scene, vtu), 32, tmp_path / "absent")
+    absent.close()
+    assert absent.failed and "did not start" in absent.failed and absent.frame() is None
+    python = default_peers_python()
+    if python is None or not cells.peers.available(python, ["vtk-pt"])[0]:
+        pytest.skip("no VTK in a peers environment (.venv-peers: see docs/peers.md)")
+    vtk = cells._VtkFrames(python, cells._vtk_scene(scene, vtu), 32, tmp_path / "vtk")
+    try:
+        assert vtk.failed is None
+        seconds = [vtk.frame(), vtk.frame()]
+    finally:
+        vtk.close()
+    assert all(0 < t < 60 for t in seconds), seconds
+
 def test_a_resampled_mesh_renders_with_the_grid_renderers():
     """The mesh resampled onto a grid renders with the ray caster; its error against the mesh
     reference falls with the resolution (measured RMS 9.1e-3 at 16, 2.2e-3 at 64 samples along the
