@@ -169,8 +169,9 @@ class FourierRenderer(GLRenderer):
                                 lambda: timed("upload", lambda: SpectrumTextures(self.ctx, spectrum)))
         start = time.perf_counter()
         # the slice's grid, the chords and the short chords' rays: made again only for a new view, image or volume
-        frame = self._cached("frame", (scene.camera, scene.image, scene.volume, r.slice_bandwidth),
-                             lambda: Frame(scene))
+        # (camera and volume are frozen: by identity; the image's settings are not: its size by value)
+        frame = self._cached("frame", (scene.camera, scene.image.width, scene.image.height, scene.volume,
+                                       r.slice_bandwidth), lambda: Frame(scene))
         wf, hf = frame.size
         cued = r.depth_cue < 1.0
         count = len(textures.textures)

@@ -354,6 +354,25 @@ def test_spectrum_is_made_once_per_volume_and_settings(fourier):
     assert fourier.stats["preprocess_seconds"] > 0
 
 
+def test_the_views_frame_is_kept_for_its_view_only(fourier, shared_gl_context):
+    """The frame, chords and short chords' rays are kept while the view, image size and volume hold: a view,
+    a turned camera, the first view again and another image size (the image's settings changed in place),
+    all of one volume, come out as a fresh renderer's."""
+    import dataclasses
+
+    scene = small_scene({**ORTHO, "renderer.compositing": "average", "volume.size": 12, "image.width": 16,
+                         "image.height": 16})
+    turned = dataclasses.replace(scene, camera=scene.camera.orbited(azimuth=75.0, elevation=-20.0))
+    first, second, again = fourier.render(scene), fourier.render(turned), fourier.render(scene)
+    with FourierRenderer(ctx=shared_gl_context) as fresh:
+        assert np.array_equal(second, fresh.render(turned)) and not np.array_equal(first, second)
+        assert np.array_equal(first, fresh.render(scene)) and np.array_equal(again, first)
+    scene.image.width = 20  # the same ImageSpec, changed in place
+    wider = fourier.render(scene)
+    with FourierRenderer(ctx=shared_gl_context) as fresh:
+        assert wider.shape[1] == 20 and np.array_equal(wider, fresh.render(scene))
+
+
 @pytest.mark.parametrize("extra, words", [
     ({"camera.projection": "perspective"}, "orthographic"),
     ({"renderer.compositing": "xray", "renderer.classification": "post"}, "pre"),
