@@ -108,13 +108,14 @@ def deposit(args: tuple, work: float, use_numpy: bool = False) -> np.ndarray:
 
 
 def host_xray(scene, splats, eye: np.ndarray, basis, tables, use_numpy: bool = False) -> np.ndarray | None:
-    """The X-ray's sums ``(sigma c, sigma)`` per pixel, ``(height, width, 4)`` float64, rows from the top (as
-    the GL path reads its target); None where a support reaches the near plane (the GL path clips it there).
+    """The X-ray's image (:func:`radiograph`: premultiplied RGBA ``(height, width, 4)`` float32, rows from the
+    top, as the GL path reads its target) from the sums ``(sigma c, sigma)`` per pixel; None where a support
+    reaches the near plane (the GL path clips it there).
     ``splats``: :class:`.particles.ParticleSplats` (pre-classified, relative to the box's centre as
     ``eye``); ``tables``: :class:`.footprint.M4Footprint`."""
     cam, img = scene.camera, scene.image
     if not len(splats):
-        return np.zeros((img.height, img.width, 4))
+        return np.zeros((img.height, img.width, 4), np.float32)
     forward, right, up = basis
     offset = splats.positions - eye
     support = 2.0 * splats.h
@@ -137,10 +138,21 @@ def host_xray(scene, splats, eye: np.ndarray, basis, tables, use_numpy: bool = F
     table, box = tables.footprint_table, tables.box_table
     args = (cx, cy, radius, weights, subpixel, table, box, img.height, img.width)
     sums = deposit(args, float(np.sum(np.minimum(radius, img.width + img.height) ** 2)) * np.pi, use_numpy)
-    out = np.empty((img.height, img.width, 4))
-    if one:
-        out[..., :3] = sums[0][..., None] * colour[0]
-        out[..., 3] = sums[0]
-    else:
-        out[:] = np.moveaxis(sums, 0, -1)
-    return out[::-1]
+    return radiograph(sums, colour[0] if one else None)
+
+
+def radiograph(sums: np.ndarray, colour: np.ndarray | None) -> np.ndarray:
+    """The X-ray's premultiplied RGBA ``(height, width, 4)`` float32, rows from the top, from the deposited
+    sums ``(channels, height, width)`` (rows from the bottom): ``(sigma c, sigma)``, or ``sigma`` alone times
+    the one ``colour``.  The numbers of :func:`~dvr_gl.transfer_function.xray_rgba` (alpha ``1 - exp(-tau)``,
+    colour alpha times ``emitted / tau``), a channel at a time without its ``(N, 4)`` copies."""
+    tau = sums[-1][::-1]
+    alpha = -np.expm1(-tau)
+    out = np.empty(tau.shape + (4,), np.float32)
+    inside = tau > 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for c in range(3):
+            emitted = tau * colour[c] if colour is not None else sums[c][::-1]
+            out[..., c] = np.where(inside, emitted / tau, 0.0) * alpha
+    out[..., 3] = alpha
+    return out

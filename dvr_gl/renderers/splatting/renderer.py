@@ -192,11 +192,11 @@ class SplattingRenderer(GLRenderer):
             self.stats.update(stats)
             return image
         if self.host_columns and column.applies(scene, self._software_gl()):
-            sums = column.host_xray(scene, splats, eye, (forward, right, up), m4_tables())
-            if sums is not None:
+            image = column.host_xray(scene, splats, eye, (forward, right, up), m4_tables())
+            if image is not None:
                 self.stats.update(splats=len(splats), splats_total=splats.total, culled=splats.total - len(splats),
                                   sheets=0, host=True)
-                return _radiograph(sums).astype(np.float32)
+                return image
         if mode == "average" or (mode == "xray" and pre):  # sums: one pass, in any order
             order, schedule = np.arange(len(splats)), None
         elif r.sheet_buffer == "none":
