@@ -37,6 +37,7 @@ def _scatter(px, py, pz, start, lo, size, dims, x, y, z, h, carried, first, last
     meets."""
     nx, ny, nz = dims[0], dims[1], dims[2]
     one = carried.shape[1] == 1
+    flat = out.reshape(out.shape[0] * out.shape[1])  # the sums of one channel, 1D
     for j in range(first, last):
         hj, xj, yj, zj = h[j], x[j], y[j], z[j]
         reach = 2.0 * hj
@@ -56,19 +57,34 @@ def _scatter(px, py, pz, start, lo, size, dims, x, y, z, h, carried, first, last
                 if x0 > x1:
                     continue
                 row = (cz * ny + cy) * nx
-                for k in range(start[row + x0], start[row + x1 + 1]):
-                    dx, dy, dz = px[k] - xj, py[k] - yj, pz[k] - zj
-                    r2 = dx * dx + dy * dy + dz * dz
-                    # branch-free (the loop vectorizes): zero at and beyond the support
-                    q = math.sqrt(r2) * inverse
-                    outer = max(2.0 - q, 0.0)
-                    wq = 1.0 - q * q * (1.5 - 0.75 * q) if q < 1.0 else 0.25 * outer * outer * outer
-                    wk = scale * wq if r2 < r2max else 0.0
-                    if one:
-                        out[k, 0] += wk * weight
-                    else:
-                        for c in range(carried.shape[1]):
-                            out[k, c] += wk * carried[j, c]
+                a, b = start[row + x0], start[row + x1 + 1]
+                if one:
+                    _row(px, py, pz, a, b, xj, yj, zj, r2max, inverse, scale * weight, flat)
+                    continue
+                for k in range(a, b):
+                    wk = scale * _w(px[k] - xj, py[k] - yj, pz[k] - zj, r2max, inverse)
+                    for c in range(carried.shape[1]):
+                        out[k, c] += wk * carried[j, c]
+
+
+@numba.njit(cache=True, inline="always")
+def _w(dx, dy, dz, r2max, inverse):
+    """The M4 kernel's ``w(q)`` at the offset ``(dx, dy, dz)`` (``q = r / h``, ``inverse = 1 / h``), zero at
+    and beyond the support (``r2max = (2 h)^2``); without branches, so that a row's loop vectorizes."""
+    r2 = dx * dx + dy * dy + dz * dz
+    q = math.sqrt(r2) * inverse
+    outer = max(2.0 - q, 0.0)
+    wq = 1.0 - q * q * (1.5 - 0.75 * q) if q < 1.0 else 0.25 * outer * outer * outer
+    return wq if r2 < r2max else 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def _row(px, py, pz, a, b, xj, yj, zj, r2max, inverse, weight, out):
+    """``out[k] += weight w(q)`` for the points ``k`` in ``[a, b)`` (one row of cells); through slices, whose
+    indices numba knows to be in range: the loop vectorizes (2.3 ns a point against 7.9)."""
+    qx, qy, qz, sums = px[a:b], py[a:b], pz[a:b], out[a:b]
+    for k in range(b - a):
+        sums[k] += weight * _w(qx[k] - xj, qy[k] - yj, qz[k] - zj, r2max, inverse)
 
 
 @numba.njit(cache=True)
@@ -111,7 +127,7 @@ def _take(values, order):
 @numba.njit(cache=True, parallel=True)
 def level_sums(px, py, pz, x, y, z, h, carried, lo, size, dims, threads, out):
     """Adds ``sum_j W(|p_k - x_j|, h_j) carried[j]`` over the particles ``j`` (one level: support radii
-    of 2 to 4 cells of ``size``) into ``out[k]`` for every point ``p_k = (px[k], py[k], pz[k])`` in the
+    of one to two cells of ``size``) into ``out[k]`` for every point ``p_k = (px[k], py[k], pz[k])`` in the
     grid (cubes of ``size`` from ``lo``, ``dims`` a side; the points outside are beyond every support): the
     points counted into its cells, the particles visited cell by cell in ``threads`` shares (neighbours in
     turn meet the same points), each scattered (:func:`_scatter`) into its own sums, added at the end."""
