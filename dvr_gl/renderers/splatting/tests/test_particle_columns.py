@@ -145,3 +145,19 @@ def test_the_peers_bench_without_a_peer():
     (row,) = peers.run([300], 48, 1, None, progress=None)
     assert row["subpixel"] == 0  # every support above 2 pixels: both conventions sample pixel centres
     assert row["dvrgl_error"] < 1e-6 and "sarracen_ms" not in row
+
+
+@pytest.mark.parametrize("one", [True, False], ids=["one-colour", "colours"])
+def test_the_radiograph_is_xray_rgba_to_the_last_bit(one):
+    """The host's image, a channel at a time into float32, holds xray_rgba's numbers (float64, cast) exactly,
+    empty pixels (zero optical depth) included, rows flipped to the top."""
+    from dvr_gl.transfer_function import xray_rgba
+
+    rng = np.random.default_rng(4)
+    sums = rng.random((1 if one else 4, 7, 5)) * 3.0
+    sums[:, :2] = 0.0
+    colour = np.array([0.3, 0.7, 0.11])
+    tau = sums[-1][::-1].reshape(-1)
+    emitted = tau[:, None] * colour if one else np.moveaxis(sums[:3], 0, -1)[::-1].reshape(-1, 3)
+    expected = xray_rgba(emitted, tau).reshape(7, 5, 4).astype(np.float32)
+    assert np.array_equal(column.radiograph(sums, colour if one else None), expected)
