@@ -34,28 +34,47 @@ SHADERS = (shader_root(__file__),)
 class SpectrumTextures:
     """The spectra as 3D textures ``(Mx / 2 + 1, My, Mz)``: RGBA32F of two complex channels each, and an odd
     last channel alone in an RG32F texture (read as ``(re, im, 0, 1)``: the slice's second channel there is
-    never used)."""
+    never used).  Rolled by ``ROLL`` along y and z (index ``k`` in row ``(k + ROLL) mod M``): a linearly
+    filtered read is precise to about its row x 6e-8 texels on llvmpipe, so the low frequencies, the
+    spectrum's largest values, of either sign lie in low rows."""
+
+    #: Rows the spectra are rolled by along y and z (the slice shader's ``ROLL``).
+    ROLL = 8
 
     def __init__(self, ctx, spectrum: Spectrum):
         self.spectrum = spectrum
         self.textures = []
         halves = spectrum.spectra
         for i in range(0, len(halves), 2):
-            pair = [np.ascontiguousarray(h, np.complex64) for h in halves[i:i + 2]]
+            pair = halves[i:i + 2]
             mz, my, mxh = pair[0].shape
-            if len(pair) == 2:
-                texels = np.empty(pair[0].shape + (2,), np.complex64)  # re, im, re, im
-                texels[..., 0], texels[..., 1] = pair
-            else:
-                texels = pair[0]
+            texels = np.empty(pair[0].shape + (len(pair),), np.complex64)  # re, im(, re, im)
+            for c, half in enumerate(pair):
+                rolled_into(texels[..., c], half, self.ROLL)
             tex = ctx.texture3d((mxh, my, mz), 2 * len(pair), texels.view(np.float32), dtype="f4")
             del texels
-            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            # LINEAR for the paired taps' filtered reads (texelFetch ignores it); y and z periodic, x clamped
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            tex.repeat_x = False
             self.textures.append(tex)
 
     def release(self):
         for t in self.textures:
             t.release()
+
+
+def rolled_into(out: np.ndarray, half: np.ndarray, shift: int):
+    """``out[(z + shift) mod Mz, (y + shift) mod My, x] = half[z, y, x]`` (``np.roll`` along the first two
+    axes, written into ``out`` without a temporary)."""
+    for axis_blocks in _roll_blocks(half.shape[0], shift):
+        for row_blocks in _roll_blocks(half.shape[1], shift):
+            out[axis_blocks[0], row_blocks[0]] = half[axis_blocks[1], row_blocks[1]]
+
+
+def _roll_blocks(m: int, shift: int):
+    """The (destination, source) slices of a roll by ``shift`` along an axis of ``m``."""
+    s = shift % m
+    return ((slice(s, None), slice(None, m - s)), (slice(None, s), slice(m - s, None)))
 
 
 class ShellTexture:
@@ -103,6 +122,9 @@ class KernelTable:
 
 class FourierRenderer(GLRenderer):
     name = "fourier"
+    #: The Kaiser-Bessel slice's taps two by two, one linearly filtered read a pair (positive weights; not
+    #: with the depth cue, whose derivative weights change sign): 27 reads a slice sample for 216 at six taps.
+    paired_taps = True
 
     def check_textures(self, scene, gl):
         """The spectrum's textures and the slice's target against the GL limits (before any transform)."""
@@ -179,6 +201,8 @@ class FourierRenderer(GLRenderer):
         gaussian = r.filter == "gaussian"
         defines = {"TRILINEAR": r.slice_interpolation == "trilinear", "TEXTURES": str(count), "SLICE_TAPS": str(taps),
                    "TABLE": str(KernelTable.SIZE) if windowed else "", "DEPTH_CUE": cued,
+                   "PAIRED_TAPS": self.paired_taps and r.slice_interpolation == "kaiser_bessel" and not cued,
+                   "ROLL": str(SpectrumTextures.ROLL),
                    "FILTER_GAUSSIAN": gaussian, "FILTER_POWER": "" if gaussian else
                    str({"linear": 2, "cubic_bspline": 4}[r.filter])}
         program = create_program(self.ctx, "fullscreen.vert", "slice.frag",

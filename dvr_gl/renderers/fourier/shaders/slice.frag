@@ -112,19 +112,9 @@ int wrap(int k, int m) {
     return (k + 1024 * m) % m;
 }
 
-void main() {
-    ivec2 kl = ivec2(gl_FragCoord.xy);
-    vec2 index = vec2(kl.x < u_size.x / 2 ? kl.x : kl.x - u_size.x, kl.y < u_size.y / 2 ? kl.y : kl.y - u_size.y);
-    vec2 uv = index * u_frequency_step;
-    vec3 w = uv.x * u_right + uv.y * u_down;
-    vec3 g = w * u_grid_scale;
-    vec3 base = floor(g);
-    vec3 f = g - base;
-    ivec3 b = ivec3(base);
-    float wx[6], wy[6], wz[6], dx[6], dy[6], dz[6];
-    weights(f.x, wx, dx);
-    weights(f.y, wy, dy);
-    weights(f.z, wz, dz);
+// The taps one texel read each (and, DEPTH_CUE, the derivative weights): TAPS^3 reads.
+void tap_sums(ivec3 b, float wx[6], float wy[6], float wz[6], float dx[6], float dy[6], float dz[6],
+              inout vec4 sums[TEXTURES], inout vec4 slopes[TEXTURES]) {
     // each axis's taps wrapped once, and their mirrors: a tap whose x lies in the half not stored is read
     // at -k, conjugated
     int mx[6], my[6], mz[6], nx[6], ny[6], nz[6];
@@ -138,16 +128,12 @@ void main() {
         nz[o] = wrap(-mz[o], u_dims.z);
         mirrored[o] = mx[o] > u_dims.x / 2;
     }
-    vec4 sums[TEXTURES], slopes[TEXTURES];
-    for (int t = 0; t < TEXTURES; ++t) {
-        sums[t] = vec4(0.0);
-        slopes[t] = vec4(0.0);
-    }
     for (int x = 0; x < TAPS; ++x) {
         vec4 conj = mirrored[x] ? vec4(1.0, -1.0, 1.0, -1.0) : vec4(1.0);
         for (int z = 0; z < TAPS; ++z)
             for (int y = 0; y < TAPS; ++y) {
                 ivec3 m = mirrored[x] ? ivec3(nx[x], ny[y], nz[z]) : ivec3(mx[x], my[y], mz[z]);
+                m.yz = ivec2(wrap(m.y + ROLL, u_dims.y), wrap(m.z + ROLL, u_dims.z));  // the stored rows
                 float w = wz[z] * wy[y] * wx[x];
 #ifdef DEPTH_CUE
                 float dw = u_depth_dir.x * dx[x] * wy[y] * wz[z] + u_depth_dir.y * wx[x] * dy[y] * wz[z]
@@ -162,6 +148,94 @@ void main() {
                 }
             }
     }
+}
+
+#ifdef PAIRED_TAPS
+// The taps two by two (the weights are positive: the Kaiser-Bessel kernel's, DEPTH_CUE never): the pair
+// (k, k + 1) of weights (w0, w1) is one linearly filtered read at k + w1 / (w0 + w1) times w0 + w1, so the
+// TAPS^3 texel reads become (TAPS / 2)^3 trilinear ones (LINEAR textures, y and z periodic).  Along x a pair
+// whose two taps lie on one side of the stored half is one read (mirrored whole: at -x, -y, -z,
+// conjugated); a pair across its edge (k = M/2 or k = -1) is two reads at texel centres.
+const int PAIRS = TAPS / 2;
+
+// Pair p of an axis (y or z) of the taps from b + FIRST: its weight, and its row (index units, the rolled
+// texture's) read as is and mirrored.  The row's integer part is wrapped exactly: the filtered read's
+// precision falls with the row (llvmpipe: about row x 6e-8 texels), so the large low frequencies (rows
+// near ROLL) are read precisely.
+void pair_at(int b, int m, float w[6], int p, out float row, out float mirror, out float weight) {
+    weight = w[2 * p] + w[2 * p + 1];
+    float t = w[2 * p + 1] / weight;
+    int k = wrap(b + FIRST + 2 * p, m);
+    row = float(wrap(k + ROLL, m)) + t;
+    mirror = float(wrap(ROLL - k, m)) - t;
+}
+
+void paired_sums(ivec3 b, float wx[6], float wy[6], float wz[6], inout vec4 sums[TEXTURES]) {
+    float py[PAIRS], ny[PAIRS], qy[PAIRS], pz[PAIRS], nz[PAIRS], qz[PAIRS];
+    for (int p = 0; p < PAIRS; ++p) {
+        pair_at(b.y, u_dims.y, wy, p, py[p], ny[p], qy[p]);
+        pair_at(b.z, u_dims.z, wz, p, pz[p], nz[p], qz[p]);
+    }
+    // the x reads: position in the stored half (index units), weight, mirrored
+    float xs[2 * PAIRS], xw[2 * PAIRS];  // a small spectrum may have both edges in one window
+    bool xm[2 * PAIRS];
+    int reads = 0;
+    int half_x = u_dims.x / 2;
+    for (int p = 0; p < PAIRS; ++p) {
+        int k0 = wrap(b.x + FIRST + 2 * p, u_dims.x);
+        int k1 = wrap(k0 + 1, u_dims.x);
+        bool m0 = k0 > half_x, m1 = k1 > half_x;
+        if (m0 == m1) {
+            float weight = wx[2 * p] + wx[2 * p + 1], t = wx[2 * p + 1] / weight;
+            xs[reads] = m0 ? float(u_dims.x - k0) - t : float(k0) + t;  // integers exact: small x precise
+            xw[reads] = weight;
+            xm[reads++] = m0;
+        } else {
+            xs[reads] = float(m0 ? u_dims.x - k0 : k0);
+            xw[reads] = wx[2 * p];
+            xm[reads++] = m0;
+            xs[reads] = float(m1 ? u_dims.x - k1 : k1);
+            xw[reads] = wx[2 * p + 1];
+            xm[reads++] = m1;
+        }
+    }
+    vec3 texels = vec3(float(half_x + 1), vec2(u_dims.yz));
+    for (int i = 0; i < reads; ++i) {
+        vec4 conj = xm[i] ? vec4(1.0, -1.0, 1.0, -1.0) : vec4(1.0);
+        for (int z = 0; z < PAIRS; ++z)
+            for (int y = 0; y < PAIRS; ++y) {
+                vec3 at = (vec3(xs[i], xm[i] ? ny[y] : py[y], xm[i] ? nz[z] : pz[z]) + 0.5) / texels;
+                float w = xw[i] * qy[y] * qz[z];
+                for (int t = 0; t < TEXTURES; ++t)
+                    sums[t] += w * textureLod(u_spectra[t], at, 0.0) * conj;
+            }
+    }
+}
+#endif
+
+void main() {
+    ivec2 kl = ivec2(gl_FragCoord.xy);
+    vec2 index = vec2(kl.x < u_size.x / 2 ? kl.x : kl.x - u_size.x, kl.y < u_size.y / 2 ? kl.y : kl.y - u_size.y);
+    vec2 uv = index * u_frequency_step;
+    vec3 w = uv.x * u_right + uv.y * u_down;
+    vec3 g = w * u_grid_scale;
+    vec3 base = floor(g);
+    vec3 f = g - base;
+    ivec3 b = ivec3(base);
+    float wx[6], wy[6], wz[6], dx[6], dy[6], dz[6];
+    weights(f.x, wx, dx);
+    weights(f.y, wy, dy);
+    weights(f.z, wz, dz);
+    vec4 sums[TEXTURES], slopes[TEXTURES];
+    for (int t = 0; t < TEXTURES; ++t) {
+        sums[t] = vec4(0.0);
+        slopes[t] = vec4(0.0);
+    }
+#ifdef PAIRED_TAPS
+    paired_sums(b, wx, wy, wz, sums);
+#else
+    tap_sums(b, wx, wy, wz, dx, dy, dz, sums, slopes);
+#endif
     float phi, dphi;
 #ifdef DEPTH_CUE
     filter_transform(w, u_forward, phi, dphi);
