@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..sandbox import check_bytes
+
 #: Most grid cells per point a level's grid holds (its cells' starts are int64), plus :data:`FEW_CELLS`:
 #: beyond, the points are too spread out for a uniform grid and the caller's sparse index serves.
 CELLS_PER_POINT = 8
@@ -82,10 +84,14 @@ def scatter_sum(levels: list[Level], points: np.ndarray, centres: np.ndarray, h:
     module = compiled()
     if module is None:
         return None
+    threads = module.numba.get_num_threads()
+    # a level at most: the threads' sums, the points sorted (coordinates, order, cells) and their cells' starts
+    check_bytes(len(points) * (8.0 * (threads + 1) * carried.shape[1] + 48.0 + 8.0 * CELLS_PER_POINT)
+                + 48.0 * len(centres), "the SPH sum at the points", "use fewer particles")
     p = [np.ascontiguousarray(points[:, a], dtype=np.float64) for a in range(3)]
     out = np.zeros((len(points), carried.shape[1]))
     for g in levels:
         m = g.members
         module.level_sums(*p, *(np.ascontiguousarray(centres[m, a]) for a in range(3)), h[m],
-                          np.ascontiguousarray(carried[m]), g.lo, g.size, g.dims, module.numba.get_num_threads(), out)
+                          np.ascontiguousarray(carried[m]), g.lo, g.size, g.dims, threads, out)
     return out

@@ -298,8 +298,6 @@ class SPHInterpolant:
         levels = particle_scatter.plan(points, p.positions, sph.SUPPORT * p.smoothing_lengths)
         if levels is None:
             return False
-        check_bytes(16.0 * len(points) * out.shape[1] + 16.0 * len(points), "the SPH sum at the points",
-                    "use fewer particles")
         out[:] = particle_scatter.scatter_sum(levels, points, p.positions, p.smoothing_lengths, self.carried)
         return True
 
