@@ -50,3 +50,14 @@ def test_points_far_apart_are_gathered():
     """Points 1e17 apart would need a grid of 1e17 cells a side: no plan (the sparse index gathers)."""
     points = np.array([[0.0, 0, 0], [1e17, 0, 0]])
     assert particle_scatter.plan(points, points, np.ones(2)) is None
+
+
+def test_the_scatter_counts_its_memory(monkeypatch):
+    """Over the memory budget the scattered sum refuses in one line naming itself, before allocating."""
+    pytest.importorskip("numba")
+    from dvr_gl import sandbox
+
+    cloud = particles.plummer_sphere(300, seed=1)
+    monkeypatch.setattr(particle_scatter, "check_bytes", lambda n, what, fix: sandbox.check_bytes(n * 1e9, what, fix))
+    with pytest.raises(sandbox.SandboxError, match="the SPH sum at the points would take"):
+        cloud.reconstruct().sample(cloud.positions)
