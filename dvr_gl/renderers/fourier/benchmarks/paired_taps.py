@@ -1,12 +1,14 @@
 """The Kaiser-Bessel slice's taps read two by two against one by one, timed interleaved.
 
     python dvr_gl/renderers/fourier/benchmarks/paired_taps.py [--n 256] [--size 512] [--repeat 5]
+        [--interpolation cubic_bspline] [--padding 2] [--modes average xray]
 
 One renderer, the blobs demo at ``N^3`` (the ``dvr bench fourier`` scenes), the average and the
-pre-classified X-ray at Fourier's defaults: a view with ``paired_taps`` off (TAPS^3 texel fetches a slice
-sample), then on ((TAPS / 2)^3 linearly filtered reads), in turn ``repeat`` times after one untimed
-view each (the spectrum made once); medians of the view's wall time and of the slice pass (the renderer's
-``slice_seconds``: the slice drawn and read back, the shell pass), and the two images' largest difference.
+pre-classified X-ray at Fourier's defaults (or the slice and padding given): a view with ``paired_taps``
+off (TAPS^3 texel fetches a slice sample), then on ((TAPS / 2)^3 linearly filtered reads), in turn
+``repeat`` times after one untimed view each (the spectrum made once); medians of the view's wall time
+and of the slice pass (the renderer's ``slice_seconds``: the slice drawn and read back, the shell pass),
+and the two images' largest difference.
 """
 
 from __future__ import annotations
@@ -44,12 +46,16 @@ def main(argv=None) -> int:
     parser.add_argument("--n", type=int, default=256)
     parser.add_argument("--size", type=int, default=512)
     parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--interpolation", help="renderer.slice_interpolation (default: Fourier's)")
+    parser.add_argument("--padding", type=float, help="renderer.padding (default: Fourier's)")
+    parser.add_argument("--modes", nargs="+", default=["average", "xray"])
     args = parser.parse_args(argv)
+    settings = {k: v for k, v in (("slice_interpolation", args.interpolation), ("padding", args.padding)) if v}
     print(f"| {args.n}^3, {args.size}x{args.size} | per tap ms a view | paired ms | ratio | per tap slice ms "
           "| paired slice ms | max difference |\n|---|---:|---:|---:|---:|---:|---:|")
     with FourierRenderer() as renderer:
-        for mode in ("average", "xray"):
-            row = compare(renderer, scene_for(args.n, mode, args.size), args.repeat)
+        for mode in args.modes:
+            row = compare(renderer, scene_for(args.n, mode, args.size).with_renderer(**settings), args.repeat)
             view, slice_ = row["view"], row["slice"]
             print(f"| {mode} | {1e3 * view[False]:.0f} | {1e3 * view[True]:.0f} | {view[False] / view[True]:.2f} "
                   f"| {1e3 * slice_[False]:.0f} | {1e3 * slice_[True]:.0f} | {row['difference']:.1e} |", flush=True)

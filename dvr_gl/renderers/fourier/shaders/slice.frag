@@ -151,7 +151,8 @@ void tap_sums(ivec3 b, float wx[6], float wy[6], float wz[6], float dx[6], float
 }
 
 #ifdef PAIRED_TAPS
-// The taps two by two (the weights are positive: the Kaiser-Bessel kernel's, DEPTH_CUE never): the pair
+// The taps two by two (the weights are positive: the Kaiser-Bessel and cubic B-spline slices'; DEPTH_CUE
+// never): the pair
 // (k, k + 1) of weights (w0, w1) is one linearly filtered read at k + w1 / (w0 + w1) times w0 + w1, so the
 // TAPS^3 texel reads become (TAPS / 2)^3 trilinear ones (LINEAR textures, y and z periodic).  Along x a pair
 // whose two taps lie on one side of the stored half is one read (mirrored whole: at -x, -y, -z,
