@@ -131,6 +131,29 @@ class FourierRenderer(GLRenderer):
     #: are positive (:data:`PAIRED`; not with the depth cue, whose derivative weights change sign): 27
     #: reads a slice sample for 216 at six taps, 8 for 64.
     paired_taps = True
+    #: Fragments of the filter probe (:meth:`filters_in_float`), and the largest error of a float filter.
+    PROBES, FLOAT_FILTER = 256, 1e-5
+
+    def filters_in_float(self) -> bool:
+        """Whether this GL's linear filter weighs texels with float precision (llvmpipe: within 1e-7),
+        which the paired taps need; GPUs' filters often weigh with 8 bits (errors up to 1 / 512), and
+        there the slice is read tap by tap.  Probed once a renderer: ``PROBES`` reads between two texels."""
+        if getattr(self, "_float_filter", None) is None:
+            data = np.tile(np.array([0.0, 1.0], np.float32), 4)  # (2, 2, 2): each texel's x index
+            texture = self.ctx.texture3d((2, 2, 2), 1, data, dtype="f4")
+            texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            program = create_program(self.ctx, "fullscreen.vert", "filter_probe.frag", {}, roots=SHADERS)
+            _, fbo = self.target("filter probe", self.PROBES, 1)
+            fbo.use()
+            texture.use(location=0)
+            program["u_texels"].value = 0
+            quad = self.ctx.vertex_array(program, [])
+            quad.render(moderngl.TRIANGLES, vertices=3)
+            errors = self.read(fbo, self.PROBES, 1, flip=False)[..., 0]
+            quad.release()
+            texture.release()
+            self._float_filter = bool(np.abs(errors).max() <= self.FLOAT_FILTER)
+        return self._float_filter
 
     def check_textures(self, scene, gl):
         """The spectrum's textures and the slice's target against the GL limits (before any transform)."""
@@ -207,7 +230,8 @@ class FourierRenderer(GLRenderer):
         gaussian = r.filter == "gaussian"
         defines = {"TRILINEAR": r.slice_interpolation == "trilinear", "TEXTURES": str(count), "SLICE_TAPS": str(taps),
                    "TABLE": str(KernelTable.SIZE) if windowed else "", "DEPTH_CUE": cued,
-                   "PAIRED_TAPS": self.paired_taps and r.slice_interpolation in PAIRED and not cued,
+                   "PAIRED_TAPS": (self.paired_taps and r.slice_interpolation in PAIRED and not cued
+                                   and self.filters_in_float()),
                    "ROLL": str(SpectrumTextures.ROLL),
                    "FILTER_GAUSSIAN": gaussian, "FILTER_POWER": "" if gaussian else
                    str({"linear": 2, "cubic_bspline": 4}[r.filter])}
