@@ -31,8 +31,8 @@ def spaced_scene(tmp_path, extra, size=8, spacing=(1.0, 0.5, 2.0)):
                          ids=["perspective", "orthographic"])
 def test_host_sheets_match_the_oracle_and_gl(splatting, extra):
     """Float64 loops reading GL's two tables: measured within 7.1e-8 (perspective) and 1.5e-7 (orthographic)
-    of the oracle (the tables' interpolation; GL's float32: 2.5e-7), asserted 1e-6; the GL path still within conftest's float32
-    assertion of the oracle, and of the host's image."""
+    of the oracle (the tables' interpolation; GL's float32: 2.5e-7), asserted 1e-6; the GL path still within
+    conftest's float32 assertion of the oracle, and of the host's image."""
     scene = scene_of(extra)
     assert host.serves(scene)
     oracle = same_slabs(scene)
