@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from ..image import compare_images
+from .datasets import STUDIES
 
 # --- the scenes (issue 15): two phantoms, 256^3 uint8, composite and MIP; CThead with a bone TF ---
 
@@ -54,10 +55,9 @@ COMPOSITE_TF["shepp-logan"] = [[0, 0.2, 0.2, 0.6, 0.0], [40, 0.2, 0.3, 0.8, 0.0]
 #: Scenes new to the defaults after they were built (the second check of issue 44): the shared datasets' study
 #: transfer functions of ``dvr bench tradeoff`` (dvr_gl.bench.datasets.STUDIES), a lobster's shell and a
 #: hydrogen atom's narrow shell (alpha 0.5 over 10 units of a uint8 range).
-COMPOSITE_TF["lobster"] = [[0, 0, 0, 0, 0], [100, 0.9, 0.4, 0.2, 0], [120, 0.9, 0.4, 0.2, 0.6],
-                           [140, 0.9, 0.5, 0.3, 0], [255, 0, 0, 0, 0]]
-COMPOSITE_TF["hydrogen"] = [[0, 0, 0, 0, 0], [55, 0.2, 0.6, 1, 0], [60, 0.2, 0.6, 1, 0.5], [65, 0.2, 0.6, 1, 0],
-                            [255, 0, 0, 0, 0]]
+_STUDY_POINTS = {name: keys.get("transfer_function.points") for name, _, keys in STUDIES}
+COMPOSITE_TF["lobster"] = _STUDY_POINTS["lobster, shell"]
+COMPOSITE_TF["hydrogen"] = _STUDY_POINTS["hydrogen, narrow shell"]
 #: MIP: a grey ramp over the uint8 range, colour and opacity.
 MIP_TF = [[0, 0.0, 0.0, 0.0, 0.0], [255, 1.0, 1.0, 1.0, 1.0]]
 #: MIP ramps over a dataset's own range (the MNI152 T1 template: 0 to 1570).

@@ -4,6 +4,7 @@ explicit sample distance or tolerance, and within their target against the conve
 import numpy as np
 import pytest
 
+from dvr_gl.bench.peers import COMPOSITE_TF
 from dvr_gl.bench.tradeoff import converged_truth
 from dvr_gl.image import compare_images
 from dvr_gl.renderers import create_renderer
@@ -147,9 +148,7 @@ def test_a_thin_shell_meets_the_target(shared_data):
     keys = {"volume.path": str(path), "image.width": 64, "image.height": 64, "renderer.shading.enabled": False,
             "camera.azimuth": 30.0, "camera.elevation": 20.0, "camera.fov": 30.0,
             "camera.projection": "perspective", "camera.distance": 1.8 * 220.0,
-            "transfer_function.unit_distance": 1.0,
-            "transfer_function.points": [[0, 0, 0, 0, 0], [55, 0.2, 0.6, 1, 0], [60, 0.2, 0.6, 1, 0.5],
-                                         [65, 0.2, 0.6, 1, 0], [255, 0, 0, 0, 0]]}
+            "transfer_function.unit_distance": 1.0, "transfer_function.points": COMPOSITE_TF["hydrogen"]}
     scene = load_scene(None, keys)
     with create_renderer("raycast") as renderer:
         rms = compare_images(renderer.render(scene), converged_truth(scene))["rms"]
