@@ -52,9 +52,14 @@ def _last(x, n):
 
 
 @numba.njit(cache=True)
-def _one(out, cx, cy, radius, weights, table, box, subpixel):
-    """One particle's footprint added to ``out`` ``(channels, height, width)`` (see :func:`deposit`)."""
+def _one(out, cx, cy, radius, weights, table, box, subpixel, ray, half):
+    """One particle's footprint added to ``out`` ``(channels, height, width)`` (see :func:`deposit`); ``ray``:
+    its centre in the view's axes and its support (world units) under a perspective camera, else empty
+    (orthographic)."""
     channels, height, width = out.shape
+    if ray.shape[0] and not subpixel:
+        _one_ray(out, ray[0], ray[1], ray[2], ray[3], weights, table, half[0], half[1])
+        return
     if subpixel:  # each pixel's square: G's differences (weights per unit of pixel area)
         i0, i1 = _first(cx - radius, width), _last(cx + radius, width)
         j0, j1 = _first(cy - radius, height), _last(cy + radius, height)
@@ -95,26 +100,79 @@ def _one(out, cx, cy, radius, weights, table, box, subpixel):
 
 
 @numba.njit(cache=True)
-def deposit_serial(cx, cy, radius, weights, subpixel, table, box, height, width):
+def _one_ray(out, x, y, z, support, weights, table, half_x, half_y):
+    """One particle's footprint along each pixel's own ray (perspective), added to ``out``: ``table`` at ``q =
+    |c x d|^2 / (|d|^2 R^2)``, the ray's squared distance from the centre ``c = (x, y, z)`` (view axes, from
+    the eye) over the support's, the ray's direction ``d = (u, v, 1)`` through the pixel's centre (``u``, ``v``
+    in ``tan`` units of the view's half extents).  The rows are those between the sphere's tangent planes
+    through the eye, each row's pixels those between the roots of ``|c x d|^2 = R^2 |d|^2`` (a quadratic in
+    ``u``, its leading coefficient ``z^2 + y^2 - R^2 > 0`` in front of the eye), widened by a thousandth of a
+    pixel: a pixel beyond the support reads the table's end, zero."""
+    channels, height, width = out.shape
+    n = table.shape[0]
+    r2 = support * support
+    du, dv = 2.0 * half_x / width, 2.0 * half_y / height
+    den = z * z - r2
+    w = math.sqrt(max(y * y + z * z - r2, 0.0))
+    v_lo, v_hi = (y * z - support * w) / den, (y * z + support * w) / den
+    margin = 1e-3
+    j0 = _first((v_lo + half_y) / dv - 0.5 - margin, height, True)
+    j1 = _last((v_hi + half_y) / dv - 0.5 + margin, height)
+    a = z * z + y * y - r2
+    inverse = 1.0 / r2
+    for j in range(j0, j1 + 1):
+        v = (j + 0.5) * dv - half_y
+        b = -2.0 * x * (z + y * v)
+        across = y - z * v
+        length2 = v * v + 1.0
+        c = across * across + (x * x - r2) * length2
+        disc = b * b - 4.0 * a * c
+        if disc < 0.0:
+            continue
+        root = math.sqrt(disc)
+        u0, u1 = (-b - root) / (2.0 * a), (-b + root) / (2.0 * a)
+        i0 = _first((u0 + half_x) / du - 0.5 - margin, width, True)
+        i1 = _last((u1 + half_x) / du - 0.5 + margin, width)
+        a2 = across * across
+        row = out[0, j]
+        for i in range(i0, i1 + 1):
+            u = (i + 0.5) * du - half_x
+            bx = z * u - x
+            ey = x * v - y * u
+            f = min((a2 + bx * bx + ey * ey) / (u * u + length2) * inverse, 1.0) * (n - 1)
+            k = min(int(f), n - 2)
+            value = table[k] + (f - k) * (table[k + 1] - table[k])
+            if channels == 1:
+                row[i] += weights[0] * value
+                continue
+            for ch in range(channels):
+                out[ch, j, i] += weights[ch] * value
+
+
+@numba.njit(cache=True)
+def deposit_serial(cx, cy, radius, weights, subpixel, rays, half, table, box, height, width):
     """:func:`deposit` on one thread (small frames: waking threads costs more than it saves)."""
     out = np.zeros((weights.shape[1], height, width))
     for p in range(cx.shape[0]):
-        _one(out, cx[p], cy[p], radius[p], weights[p], table, box, subpixel[p])
+        _one(out, cx[p], cy[p], radius[p], weights[p], table, box, subpixel[p], rays[p], half)
     return out
 
 
 @numba.njit(cache=True, parallel=True)
-def deposit(cx, cy, radius, weights, subpixel, table, box, height, width, threads):
+def deposit(cx, cy, radius, weights, subpixel, rays, half, table, box, height, width, threads):
     """The sum over particles of ``weights[p]`` times the footprint at each pixel, ``(channels, height,
     width)`` float64: the footprint table ``table`` (``h^2 F`` over ``q = rho^2 / R^2``) at the pixel's
-    centre, or (``subpixel[p]``) the share ``box`` gives the pixel's square.  Pixels in pixel units (the
-    centre of pixel ``i`` at ``i + 0.5``); ``radius`` the support ``R`` in pixels.  As
-    :func:`.column.deposit_numpy`; ``threads`` images, one per thread (``numba.get_num_threads()``)."""
+    centre (orthographic: ``rays`` of ``(N, 0)``), or along the pixel's own ray (perspective: ``rays[p]`` the
+    particle's centre in the view's axes (right, up, forward) from the eye and its support ``R``, world
+    units; ``half`` the view's half extents ``tan``), or (``subpixel[p]``) the share ``box`` gives the
+    pixel's square.  Pixels in pixel units (the centre of pixel ``i`` at ``i + 0.5``); ``radius`` the
+    support in pixels (at the particle's depth).  As :func:`.column.deposit_numpy`; ``threads`` images, one
+    per thread (``numba.get_num_threads()``)."""
     local = np.zeros((threads, weights.shape[1], height, width))
     count = cx.shape[0]
     for t in numba.prange(threads):
         for p in range(t * count // threads, (t + 1) * count // threads):
-            _one(local[t], cx[p], cy[p], radius[p], weights[p], table, box, subpixel[p])
+            _one(local[t], cx[p], cy[p], radius[p], weights[p], table, box, subpixel[p], rays[p], half)
     out = np.zeros((weights.shape[1], height, width))
     for t in range(threads):
         out += local[t]

@@ -35,6 +35,8 @@ class ParticleSplats:
         self.h = particles.smoothing_lengths[keep]
         self.weights = particles.weights[keep]
         self.optics = None if optics is None else np.ascontiguousarray(optics[keep], dtype=np.float32)
+        self._column_weights = None
+        self._view = (None, None)
 
     def __len__(self) -> int:
         return len(self.values)
@@ -52,6 +54,26 @@ class ParticleSplats:
         if self.optics is not None:
             out.append(("in_optics", 4, self.optics[order]))
         return out
+
+    def column_weights(self, same_colour: float) -> tuple[np.ndarray, np.ndarray | None]:
+        """The X-ray's weights per particle, float64, kept between frames (they depend on no view):
+        ``(m / rho) (sigma c, sigma)`` ``(N, 4)``, or ``(m / rho) sigma`` ``(N, 1)`` and the one colour
+        ``c`` where every particle's colour is within ``same_colour`` of the first's (relative to its
+        sigma; else the colour is None).  Pre-classified splats only."""
+        if self._column_weights is None:
+            optics = self.optics.astype(np.float64) * self.weights[:, None]  # (m / rho) (sigma c, sigma)
+            sigma = optics[:, 3:]
+            colour = optics[:1, :3] / sigma[:1]
+            one = bool(np.all(np.abs(optics[:, :3] - sigma * colour) <= same_colour * sigma))
+            self._column_weights = (sigma, colour[0]) if one else (optics, None)
+        return self._column_weights
+
+    def cached_view(self, key, make):
+        """``make()``, kept for the next call with the same ``key`` (the viewer's frames of one view: what
+        :mod:`.column` projects once per view)."""
+        if self._view[0] != key:
+            self._view = (key, make())
+        return self._view[1]
 
     def bounding_radii(self) -> np.ndarray:
         """Each splat's bounding sphere (world units): its support."""

@@ -64,7 +64,7 @@ def exact_column(particles, size: int) -> np.ndarray:
     radius = 2.0 * particles.smoothing_lengths * per
     weights = (particles.masses / particles.smoothing_lengths ** 2)[:, None]
     args = ((x[:, 0] - x0) * per, (x[:, 1] - y0) * per, radius, np.ascontiguousarray(weights),
-            np.zeros(len(x), bool), fine_table(), np.zeros((2, 2)), size, size)
+            np.zeros(len(x), bool), np.empty((len(x), 0)), np.ones(2), fine_table(), column.NO_BOX, size, size)
     return column.deposit(args, float(np.sum(radius ** 2)) * np.pi)[0]
 
 
