@@ -7,11 +7,20 @@
 // CUBIC_BSPLINE: the cubic B-spline field (64 taps), else the trilinear (8): float weights and
 // texelFetch, not the texture unit's filtering (its weights have 8 fractional bits on most hardware),
 // each cell's taps fetched once per piece.
+// FACES (the trilinear field): a walk over the six faces' 2D layers instead (integrate_faces), a quarter of
+// the taps a piece from textures of a face's size.
 // Fragment (i, j) is the image's pixel i from the left, row j from the top.
 
+#ifdef FACES
+// The faces' sample layers zero-padded by one texel, layer 2 a + side the axis a's low (side 0) or high face:
+// texel (i, j) is sample (i - 1, j - 1) along the face's two other axes in order (x: (y, z), y: (x, z), z:
+// (x, y)); zeros beyond (the layers have the largest face's size).
+uniform sampler2DArray u_faces;
+#else
 uniform sampler3D u_field;        // the ghosted channels, zero-padded: texel n at world u_origin + n h
 uniform ivec3 u_texels;
 uniform vec3 u_origin;
+#endif
 uniform vec3 u_spacing;
 uniform vec3 u_box_lo;            // the volume's box (the references' chords)
 uniform vec3 u_box_hi;
@@ -30,6 +39,7 @@ uniform float u_node_weights[NODES];
 uniform int u_max_pieces;         // the longest stretch's voxel planes: a bound on the loop
 out vec4 frag;
 
+#ifndef FACES
 vec4 tap(ivec3 n) {
     return texelFetch(u_field, clamp(n, ivec3(0), u_texels - 1), 0);
 }
@@ -83,6 +93,8 @@ vec4 field(vec4 taps[TAPS], vec3 f) {
 }
 #endif
 
+#endif
+
 // Entry and exit of the box [lo, hi] (slab method; a ray along a slab is inside while its origin is).
 vec2 slab(vec3 o, vec3 d, vec3 lo, vec3 hi) {
     float t0 = -1e30, t1 = 1e30;
@@ -98,6 +110,78 @@ vec2 slab(vec3 o, vec3 d, vec3 lo, vec3 hi) {
     return vec2(t0, t1);
 }
 
+// The depth cue's weight at view depth z for each channel (1 for those it does not weight).
+vec4 cue(float z) {
+    return mix(vec4(1.0), vec4(u_cue.x + u_cue.y * z), u_weighted);
+}
+
+#ifdef FACES
+// The parameters where a line o + t d has its coordinate between lo and hi (all or none along the slab).
+vec2 range(float o, float d, float lo, float hi) {
+    if (d == 0.0) return (o < lo || o > hi) ? vec2(1e30, -1e30) : vec2(-1e30, 1e30);
+    float ta = (lo - o) / d, tb = (hi - o) / d;
+    return vec2(min(ta, tb), max(ta, tb));
+}
+
+// The weighted channels' integral beyond one face (axis a, layer side: 0 low, 1 high) over the line's
+// parameters [ta, tb] (within a voxel of the face): there the trilinear field is (1 - s) times the face
+// layer's bilinear interpolant, s the distance beyond the face in voxels, so the pieces lie between the
+// face's own voxel planes (axes b < c, the face's texel columns and rows), each by Gauss-Legendre.  uo, ud:
+// the line in sample units from the box's low corner; last: the last sample's index per axis.
+vec4 walk(int side, int a, int b, int c, vec3 uo, vec3 ud, vec3 last, float z0,
+          float ta, float tb) {
+    vec4 sum = vec4(0.0);
+    vec2 qo = vec2(uo[b], uo[c]) + 1.0, qd = vec2(ud[b], ud[c]);  // texel units (the padding's texel)
+    ivec2 top = textureSize(u_faces, 0).xy - 2;
+    int layer = 2 * a + side;
+    // s = sa + t sd
+    float sa = side == 0 ? -uo[a] : uo[a] - last[a], sd = side == 0 ? -ud[a] : ud[a];
+    float t = ta;
+    for (int piece = 0; piece < u_max_pieces && t < tb; ++piece) {
+        vec2 q = qo + (t + 1e-5 * max(1.0, t)) * qd;  // nudged inward, as in integrate
+        float next = tb;
+        for (int k = 0; k < 2; ++k) {
+            if (qd[k] > 0.0) next = min(next, (floor(q[k]) + 1.0 - qo[k]) / qd[k]);
+            else if (qd[k] < 0.0) next = min(next, (ceil(q[k]) - 1.0 - qo[k]) / qd[k]);
+        }
+        float half_length = 0.5 * (next - t);
+        ivec2 cell = clamp(ivec2(floor(qo + (t + half_length) * qd)), ivec2(0), top);
+        vec4 t00 = texelFetch(u_faces, ivec3(cell, layer), 0), t10 = texelFetch(u_faces, ivec3(cell + ivec2(1, 0), layer), 0);
+        vec4 t01 = texelFetch(u_faces, ivec3(cell + ivec2(0, 1), layer), 0), t11 = texelFetch(u_faces, ivec3(cell + 1, layer), 0);
+        for (int k = 0; k < NODES; ++k) {
+            float s = t + half_length * (u_nodes[k] + 1.0);
+            vec2 f = qo + s * qd - vec2(cell);
+            float fall = (half_length * u_node_weights[k]) * (1.0 - (sa + s * sd));
+            sum += fall * cue(z0 + s) * mix(mix(t00, t10, f.x), mix(t01, t11, f.x), f.y);
+        }
+        t = next;
+    }
+    return sum;
+}
+
+// The whole line's integral beyond the box, from the shell's entry: the part with its x beyond the box,
+// then y beyond it with x within, then z with x and y within (the shell, cut into six pieces).
+vec4 integrate_faces(vec3 entry, float z0) {
+    vec3 uo = (entry - u_box_lo) / u_spacing, ud = u_forward / u_spacing;
+    vec3 last = (u_box_hi - u_box_lo) / u_spacing;
+    vec4 sum = vec4(0.0);
+    for (int a = 0; a < 3; ++a) {
+        vec2 within = vec2(-1e30, 1e30);  // the other axes: those before a within the box, the rest the shell
+        for (int k = 0; k < 3; ++k) {
+            if (k == a) continue;
+            vec2 r = k < a ? range(uo[k], ud[k], 0.0, last[k]) : range(uo[k], ud[k], -1.0, last[k] + 1.0);
+            within = vec2(max(within.x, r.x), min(within.y, r.y));
+        }
+        for (int side = 0; side < 2; ++side) {
+            vec2 r = side == 0 ? range(uo[a], ud[a], -1.0, 0.0) : range(uo[a], ud[a], last[a], last[a] + 1.0);
+            float ta = max(r.x, within.x), tb = min(r.y, within.y);
+            if (ta >= tb) continue;
+            sum += walk(side, a, a == 0 ? 1 : 0, a == 2 ? 1 : 2, uo, ud, last, z0, ta, tb);
+        }
+    }
+    return sum;
+}
+#else
 // The weighted channels' integral over [ta, tb], piece by piece between the voxel planes.
 vec4 integrate(vec3 o, float ta, float tb) {
     vec4 sum = vec4(0.0);
@@ -120,13 +204,13 @@ vec4 integrate(vec3 o, float ta, float tb) {
         load(cell, taps);
         for (int k = 0; k < NODES; ++k) {
             float s = t + half_length * (u_nodes[k] + 1.0);
-            vec4 weight = mix(vec4(1.0), vec4(u_cue.x + u_cue.y * (z0 + s)), u_weighted);
-            sum += (half_length * u_node_weights[k]) * weight * field(taps, uo + s * ud - vec3(cell));
+            sum += (half_length * u_node_weights[k]) * cue(z0 + s) * field(taps, uo + s * ud - vec3(cell));
         }
         t = next;
     }
     return sum;
 }
+#endif
 
 void main() {
     ivec2 pixel = ivec2(gl_FragCoord.xy);
@@ -139,9 +223,14 @@ void main() {
     box -= vec2(dot(entry - o, u_forward));
     if (outer.y <= 0.0) {
         frag = vec4(0.0);
+#ifdef FACES
+    } else {
+        frag = integrate_faces(entry, dot(entry - u_eye, u_forward));
+#else
     } else if (box.x < box.y) {
         frag = integrate(entry, 0.0, box.x) + integrate(entry, box.y, outer.y);
     } else {
         frag = integrate(entry, 0.0, outer.y);
+#endif
     }
 }
