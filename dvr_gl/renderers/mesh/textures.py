@@ -225,13 +225,19 @@ class MeshRenderer(GLRenderer):
         corners = box_corners(*scene.field.bounds)
         return bool(((corners - np.asarray(scene.camera.eye)) @ forward).min() <= near)
 
+    @staticmethod
+    def view_projection(scene, centre) -> np.ndarray:
+        """``(4, 4)`` float64: points relative to ``centre`` (the mesh textures') to clip coordinates, the
+        GL near and far planes around the mesh's box."""
+        cam, img = scene.camera, scene.image
+        near, far = clip_planes(cam, *scene.field.bounds)
+        translate = np.eye(4)
+        translate[:3, 3] = centre
+        return projection_matrix(cam, img.width / img.height, near, far) @ view_matrix(cam) @ translate
+
     def _uniforms(self, program, scene, textures):
         cam, img, r = scene.camera, scene.image, scene.renderer
-        lo, hi = scene.field.bounds
-        near, far = clip_planes(cam, lo, hi)
-        translate = np.eye(4)
-        translate[:3, 3] = textures.centre
-        vp = projection_matrix(cam, img.width / img.height, near, far) @ view_matrix(cam) @ translate
+        vp = self.view_projection(scene, textures.centre)
         f, right, up = cam.basis()
         x, w, s = _gauss_legendre()
         values = {"u_image_size": (img.width, img.height), "u_margin": MARGIN_PIXELS,

@@ -22,6 +22,8 @@ from ...gl.shaders import create_program, shader_root
 from ...sandbox import current
 from ..mesh import SHADERS as MESH_SHADERS
 from ..mesh.textures import MODES, ROW, MeshRenderer, rows
+from .fan import HostFan
+from .fan import compiled as compiled_fan
 from .order import VisibilityOrder
 
 #: Its own GLSL, then the kit's (before the common library).
@@ -32,12 +34,17 @@ COVER_ALL = np.uint32(1 << 31)  # an order entry's flag: the cell reaches behind
 #: each fragment integrating its piece exactly): measured with the oxygen post (513k cells) at 256^2 to
 #: 4096^2, 5e-6 s a pixel against the GL rate of 3e8 samples a second (limits.RATES): 1500 = 19 x 80.
 FRAGMENTS_PER_CUBE_ROOT = 20
+CELL_INDICES = 12  # a host-built fan's indices a cell (fan.HostFan: four triangles around the thick vertex)
 BATCHES = 32  # draw calls a frame is cut into, in order, for progress and the time limit between them
 
 
 class ProjectedTetrahedraRenderer(MeshRenderer):
     name = "projected-tetrahedra"
     description = "projected tetrahedra in GL for meshes, exact visibility order"
+
+    #: Shirley-Tuchman's fan built on the host where numba is installed (:mod:`.fan`: no geometry shader,
+    #: which llvmpipe runs on one thread); ``False``: built in ``pt.geom`` (as without numba).
+    host_fan = True
 
     def __init__(self, ctx=None):
         super().__init__(ctx)
@@ -82,31 +89,45 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
         defines.update(self._kept_part_defines(scene, surfaces))
         interpolated = self._shirley_tuchman(scene, defines)
         stats["integration"] = "shirley-tuchman" if interpolated else "exact"
+        host = self._host_fan(scene, textures) if interpolated else None
+        if interpolated:
+            stats["fan"] = "host" if host is not None else "geometry shader"
         defines["SHIRLEY_TUCHMAN"] = interpolated
-        program = create_program(self.ctx, "pt.vert", "pt_st.frag" if interpolated else "pt.frag", defines,
-                                 geometry="pt.geom", roots=SHADERS)
-        self._uniforms(program, scene, textures)
-        slots = self._order_texture(self._flag_cover_all(order, scene))
-        self.bind(program, {}, {**dict(textures.textures), "u_order": slots, **surfaces})
+        slots = None
+        if host is not None:  # the fan built on the host, in a vertex buffer (fan.py): no geometry shader
+            program = create_program(self.ctx, "pt_fan.vert", "pt_st.frag", roots=SHADERS)
+            host.build(scene, order, self.view_projection(scene, textures.centre))
+            self._uniforms(program, scene, textures)
+            vao = self.ctx.vertex_array(program, [(host.vertices, "2f 4f 1f", "in_pixel", "in_st", "in_tau_max")],
+                                        index_buffer=host.indices, index_element_size=4)
+            primitive, per_cell = moderngl.TRIANGLES, CELL_INDICES
+        else:  # one point a cell, its footprint built in pt.geom
+            program = create_program(self.ctx, "pt.vert", "pt_st.frag" if interpolated else "pt.frag", defines,
+                                     geometry="pt.geom", roots=SHADERS)
+            self._uniforms(program, scene, textures)
+            slots = self._order_texture(self._flag_cover_all(order, scene))
+            self.bind(program, {}, {**dict(textures.textures), "u_order": slots, **surfaces})
+            vao = self.ctx.vertex_array(program, [])
+            primitive, per_cell = moderngl.POINTS, 1
         _, fbo = self.target("image", img.width, img.height, depth=True)  # the isosurface's nearest hit
         fbo.use()
         fbo.viewport = (0, 0, img.width, img.height)
         clear = {"mip": (-3.0e38, 0.0), "minip": (3.0e38, 0.0)}.get(mode, (0.0, 0.0))
         fbo.clear(clear[0], clear[1], 0.0, 0.0, depth=1.0)
         self._blending(mode)
-        vao = self.ctx.vertex_array(program, [])
         try:
             # one draw, unless someone watches the progress or a time limit must be checked between draws
             watched = self.progress is not None or current().max_seconds is not None
             step = max(-(-len(order) // (BATCHES if watched else 1)), 1)
             for first in range(0, len(order), step):  # in order: GL draws the calls one after another
-                vao.render(moderngl.POINTS, vertices=min(step, len(order) - first), first=first)
+                vao.render(primitive, vertices=per_cell * min(step, len(order) - first), first=per_cell * first)
                 self.ctx.finish()
                 self.report(min(first + step, len(order)), len(order))
             image = self.read(fbo, img.width, img.height)  # float32, a fresh array
         finally:
             vao.release()
-            slots.release()
+            if slots is not None:
+                slots.release()
             self._blending(None)
         now = time.perf_counter()
         self.stats = {**stats, "draw_seconds": now - drawn, "seconds": now - start, "cells": textures.cells,
@@ -115,6 +136,15 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
         if mode == "emission_absorption" or self._count_fragments:
             return image
         return self._resolve(scene, image.astype(np.float64)).astype(np.float32)
+
+    def _host_fan(self, scene, textures):
+        """The mesh's :class:`.fan.HostFan` (kept per mesh) where this frame's Shirley-Tuchman fan is built on
+        the host (:attr:`host_fan` and numba installed), else ``None`` (``pt.geom`` builds it)."""
+        fast = compiled_fan() if self.host_fan else None
+        if fast is None:
+            return None
+        mesh = scene.field
+        return self._cached("host fan", (mesh,), lambda: HostFan(self.ctx, mesh, textures.centre, fast))
 
     def _shirley_tuchman(self, scene, defines: dict) -> bool:
         """Whether this frame takes Shirley and Tuchman's interpolation (``renderer.integration``):
