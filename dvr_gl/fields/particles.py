@@ -12,6 +12,7 @@ m_j W``), whose X-ray is the column density.
 * ``bounds``: the box of the supports; ``sample_spacing`` ("one voxel"): the median ``h``;
 * ``value_range``: zero (outside every support) to the interpolant's largest value at the
   particles (where it peaks for smooth data; an interpolant may exceed it slightly between them);
+  above :data:`RANGE_SAMPLED_ABOVE` particles, at those of the largest quantities;
 * the reconstruction's ``knots`` along a ray are where it enters and leaves each particle's support
   (where the kernel's third derivative jumps from zero, and where a small particle could fall between
   samples): between knots the field is smooth (the kernel is C2 at ``r = h``), and the converged
@@ -49,6 +50,11 @@ SPH_DEGREE = 9
 FILTER = "m4"
 POINTS_PER_BATCH = 8192  # points sampled at once (their pairs with the particles in their cells)
 PAIRS_PER_CHUNK = 4_000_000  # (ray, particle) pairs tested at once for knots
+#: Above this many particles the value range is the interpolant's extremes at the particles of the
+#: :data:`RANGE_SAMPLES` largest (and smallest) quantities, not at every particle (ParticleSet.value_range):
+#: the sum at every one of a million Plummer particles took 2.4 s of a 5.5 s first picture on an idle machine.
+RANGE_SAMPLED_ABOVE = 1 << 18
+RANGE_SAMPLES = 4096
 
 
 class ParticleSet:
@@ -109,8 +115,40 @@ class ParticleSet:
 
     @functools.cached_property
     def value_range(self) -> tuple[float, float]:
+        """Zero to the interpolant's largest value at the particles (its smallest where some quantity is
+        negative); above :data:`RANGE_SAMPLED_ABOVE` particles, where the sum at every particle costs seconds,
+        its largest (smallest) at the :data:`RANGE_SAMPLES` particles of the largest (smallest) quantity
+        (:meth:`_range_at_extremes`)."""
+        if len(self) > RANGE_SAMPLED_ABOVE:
+            extremes = self._range_at_extremes()
+            if extremes is not None:
+                return extremes
         at = self._reconstruction.sample(self.positions, progress=f"{self.name}: the value range")
         return (min(0.0, float(at.min())), max(0.0, float(at.max())))
+
+    def _range_at_extremes(self) -> tuple[float, float] | None:
+        """The value range from the interpolant at the particles of the most extreme quantities only: the
+        interpolant is a weighted sum of its neighbours' quantities, so it peaks where they do (on a million
+        Plummer particles the same maximum as at every particle, to the last bit, in a seventh of the time).
+        A lower bound of the full range's ends: a quantity above the estimate is classified as its top.  Its
+        sign needs no sum (the weights ``m / rho`` and the kernel are not negative).  None where numba or a
+        grid of the chosen points does not serve (the caller sums at every particle)."""
+        values, k = self.values, RANGE_SAMPLES
+        chosen = [np.argpartition(-values, k)[:k]] if values.max() > 0 else []
+        if values.min() < 0:
+            chosen.append(np.argpartition(values, k)[:k])
+        if not chosen:
+            return 0.0, 0.0
+        points = self.positions[np.concatenate(chosen)]
+        reach = sph.SUPPORT * self.smoothing_lengths
+        lo, hi = points.min(axis=0), points.max(axis=0)
+        near = np.all((self.positions > lo - reach[:, None]) & (self.positions < hi + reach[:, None]), axis=1)
+        levels = particle_scatter.plan(points, self.positions[near], reach[near])
+        if levels is None or particle_scatter.compiled() is None:
+            return None
+        at = particle_scatter.scatter_sum(levels, points, self.positions[near], self.smoothing_lengths[near],
+                                          self._reconstruction.carried[near])[:, 0]
+        return min(0.0, float(at.min())), max(0.0, float(at.max()))
 
     @property
     def samples(self) -> np.ndarray:

@@ -61,3 +61,27 @@ def test_the_scatter_counts_its_memory(monkeypatch):
     monkeypatch.setattr(particle_scatter, "check_bytes", lambda n, what, fix: sandbox.check_bytes(n * 1e9, what, fix))
     with pytest.raises(sandbox.SandboxError, match="the SPH sum at the points would take"):
         cloud.reconstruct().sample(cloud.positions)
+
+
+@pytest.mark.parametrize("quantity", ["density", "signed"])
+def test_a_large_sets_value_range_from_its_extreme_particles(monkeypatch, quantity):
+    """Above RANGE_SAMPLED_ABOVE particles (lowered here to 1000, 64 samples) the value range is the interpolant
+    at the particles of the most extreme quantities: a lower bound of the full range's ends in general, and on
+    the Plummer sphere's density (its peak where the densities peak) and a signed smooth quantity (x - 0.3 y,
+    both ends) the full range itself (measured: to the last bit, and to 3e-16); without numba, the full sum
+    (gathered: the same pairs, another order's rounding)."""
+    pytest.importorskip("numba")
+    cloud = particles.plummer_sphere(5000, seed=7)
+    if quantity == "signed":
+        x = cloud.positions
+        cloud = particles.ParticleSet(x, cloud.smoothing_lengths, cloud.masses, cloud.densities,
+                                      x[:, 0] - 0.3 * x[:, 1], array="q")
+    full = cloud.reconstruct().sample(cloud.positions)
+    monkeypatch.setattr(particles, "RANGE_SAMPLED_ABOVE", 1000)
+    monkeypatch.setattr(particles, "RANGE_SAMPLES", 64)
+    lo, hi = cloud._range_at_extremes()
+    assert (lo, hi) == pytest.approx((min(0.0, full.min()), full.max()), rel=1e-15, abs=0.0)
+    assert (lo == 0.0) == (quantity == "density") and min(0.0, full.min()) <= lo and hi <= full.max() * (1 + 1e-15)
+    monkeypatch.setattr(particle_scatter, "compiled", lambda: None)
+    assert cloud._range_at_extremes() is None
+    assert cloud.value_range == pytest.approx((min(0.0, full.min()), full.max()), rel=1e-12)  # gathered
