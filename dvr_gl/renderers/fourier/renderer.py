@@ -311,7 +311,8 @@ class FourierRenderer(GLRenderer):
         read = []
         for i in range(len(attachments)):
             raw = self.read(fbo, columns, hf, attachment=i, flip=False)  # fragment row j: the slice's row j
-            read += [raw[..., 0] + 1j * raw[..., 1], raw[..., 2] + 1j * raw[..., 3]]
+            pair = raw.view(np.complex64)  # (re, im) twice: two complex64 channels, kept in float32 on the host
+            read += [pair[..., 0], pair[..., 1]]
         # the values (two channels a texture, the last pair padded), then their derivatives
         slices = read[:len(spectrum.spectra)]
         derivatives = {c: read[2 * count + c] for c in weighted(scene)} if cued else None
@@ -338,7 +339,8 @@ class FourierRenderer(GLRenderer):
         if texture.empty:
             return None
         shell = texture.shell
-        defines = {"NODES": str(shell.nodes), "CUBIC_BSPLINE": r.filter == "cubic_bspline", "FACES": texture.faces}
+        defines = {"NODES": str(shell.nodes), "CUBIC_BSPLINE": r.filter == "cubic_bspline", "FACES": texture.faces,
+                   "CUED": r.depth_cue < 1.0}
         program = create_program(self.ctx, "fullscreen.vert", "shell.frag",
                                  {k: v for k, v in defines.items() if v}, roots=SHADERS)
         _, fbo = self.target("shell", img.width, img.height)
