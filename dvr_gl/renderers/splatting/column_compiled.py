@@ -134,17 +134,21 @@ def _one_ray(out, x, y, z, support, weights, table, half_x, half_y):
         i0 = _first((u0 + half_x) / du - 0.5 - margin, width, True)
         i1 = _last((u1 + half_x) / du - 0.5 + margin, width)
         a2 = across * across
-        row = out[0, j]
+        if channels == 1:  # the column density: one sum, a loop without branches
+            row, weight = out[0, j], weights[0]
+            for i in range(i0, i1 + 1):
+                u = (i + 0.5) * du - half_x
+                bx, ey = z * u - x, x * v - y * u
+                f = min((a2 + bx * bx + ey * ey) / (u * u + length2) * inverse, 1.0) * (n - 1)
+                k = min(int(f), n - 2)
+                row[i] += weight * (table[k] + (f - k) * (table[k + 1] - table[k]))
+            continue
         for i in range(i0, i1 + 1):
             u = (i + 0.5) * du - half_x
-            bx = z * u - x
-            ey = x * v - y * u
+            bx, ey = z * u - x, x * v - y * u
             f = min((a2 + bx * bx + ey * ey) / (u * u + length2) * inverse, 1.0) * (n - 1)
             k = min(int(f), n - 2)
             value = table[k] + (f - k) * (table[k + 1] - table[k])
-            if channels == 1:
-                row[i] += weights[0] * value
-                continue
             for ch in range(channels):
                 out[ch, j, i] += weights[ch] * value
 
