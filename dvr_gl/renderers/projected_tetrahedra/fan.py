@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import functools
 import importlib
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -39,8 +40,10 @@ def _gauss_legendre() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 class HostFan:
     """One mesh's fan on the host: the points relative to ``centre`` (as the textures hold them), the
-    cells, each cell's scalar ``g . p + c``, and the vertex and index buffers (the index buffer fixed:
-    four triangles around each cell's thick vertex), kept per mesh."""
+    cells, each cell's scalar ``g . p + c``, the vertex rows (five a cell, by cell) and the triangles'
+    indices (twelve a cell, in visibility order), and their GL buffers, kept per mesh.  A frame
+    :meth:`start` builds the fan's vertices in a thread of its own (numba without the GIL) while the
+    renderer computes the order, and :meth:`finish` indexes them in that order."""
 
     def __init__(self, ctx, mesh, centre, fast):
         self.fast, self.centre = fast, np.asarray(centre, np.float64)
@@ -50,31 +53,43 @@ class HostFan:
         self.gradients = np.ascontiguousarray(rec.gradients, dtype=np.float64)
         self.offsets = np.ascontiguousarray(rec.base - np.einsum("ij,ij->i", rec.gradients, rec.anchor - centre))
         cells = len(self.tets)
-        self.out = np.empty((fast.CELL_VERTICES * cells, fast.VERTEX_FLOATS), np.float32)
-        self.vertices = ctx.buffer(reserve=max(self.out.nbytes, 4))
-        base = fast.CELL_VERTICES * np.arange(cells, dtype=np.uint32)[:, None]
-        fan = np.array([0, 1, 2, 0, 2, 3, 0, 3, 4, 0, 4, 1], np.uint32)
-        self.indices = ctx.buffer((base + fan).astype(np.uint32).tobytes() if cells else b"\0\0\0\0")
+        self.rows = np.zeros((fast.CELL_VERTICES * cells, fast.VERTEX_FLOATS), np.float32)
+        self.triangles = np.zeros(fast.CELL_INDICES * cells, np.uint32)
+        self.vertices = ctx.buffer(reserve=max(self.rows.nbytes, 4))
+        self.indices = ctx.buffer(reserve=max(self.triangles.nbytes, 4))
+        self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="pt-fan")
+        self._pending = None
 
-    def build(self, scene, order: np.ndarray, view_projection: np.ndarray) -> int:
-        """Write the fan of ``order``'s cells (drawn in that order) into the vertex buffer; the indices to
-        draw (12 a cell)."""
+    def start(self, scene, view_projection: np.ndarray, drawn: np.ndarray):
+        """Begin building the fan of the cells with ``drawn`` for this view (``view_projection``: centre-
+        relative points to clip coordinates, float64)."""
         fast, cam, img, tf = self.fast, scene.camera, scene.image, scene.transfer_function
-        projected = fast.project(self.points, np.ascontiguousarray(view_projection, np.float64),
-                                 float(img.width), float(img.height))
         forward, _, _ = cam.basis()
-        perspective = cam.projection == "perspective"
-        eye = np.asarray(cam.eye, np.float64) - self.centre
         x, w, s = _gauss_legendre()
-        n = len(order)
-        out = self.out[:fast.CELL_VERTICES * n]
-        fast.fan(np.ascontiguousarray(order, np.int64), self.tets, self.points, projected, self.gradients,
-                 self.offsets, eye, np.asarray(forward, np.float64), perspective,
-                 np.ascontiguousarray(tf.points[:, :5], np.float64), interval_sigma_max(tf).astype(np.float64),
-                 tf.opacity_model == "alpha", float(tf.unit_distance), x, w, s, out)
-        self.vertices.write(out)
-        return fast.CELL_INDICES * n
+        args = (np.ascontiguousarray(drawn, np.bool_), self.tets, self.points, None, self.gradients, self.offsets,
+                np.asarray(cam.eye, np.float64) - self.centre, np.asarray(forward, np.float64),
+                cam.projection == "perspective", np.ascontiguousarray(tf.points[:, :5], np.float64),
+                interval_sigma_max(tf).astype(np.float64), tf.opacity_model == "alpha", float(tf.unit_distance),
+                x, w, s, self.rows)
+
+        def build():
+            projected = fast.project(self.points, np.ascontiguousarray(view_projection, np.float64),
+                                     float(img.width), float(img.height))
+            fast.fan(*args[:3], projected, *args[4:])
+
+        self._pending = self._worker.submit(build)
+
+    def finish(self, order: np.ndarray) -> int:
+        """Wait for the fan, index its triangles in ``order`` (the cells drawn, back to front), upload
+        both; the indices to draw (12 a cell)."""
+        self._pending.result()
+        n = self.fast.CELL_INDICES * len(order)
+        self.fast.indices(np.ascontiguousarray(order, np.int64), self.triangles)
+        self.vertices.write(self.rows)
+        self.indices.write(self.triangles[:n])
+        return n
 
     def release(self):
+        self._worker.shutdown(wait=True)
         self.vertices.release()
         self.indices.release()

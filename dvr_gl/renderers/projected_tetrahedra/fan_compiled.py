@@ -27,7 +27,7 @@ MAX_STEPS = 8192  # as transfer_segment.glsl
 TAU_END = 16.2    # the integral stops past this optical depth (transmittance 1e-7), as transfer_segment.glsl
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def project(points, view_projection, width, height):
     """``(P, 3)``: each point's pixel x and y and its clip w (as ``pt.geom`` projects)."""
     out = np.empty((len(points), 3))
@@ -218,22 +218,25 @@ def _put(out, row, x, y, r, g, b, tau, tau_max):
     out[row, 4], out[row, 5], out[row, 6] = b, tau, tau_max
 
 
-@numba.njit(cache=True)
-def fan(order, tets, points, projected, gradients, offsets, eye, forward, perspective, tf, sigma_max,
+@numba.njit(cache=True, nogil=True)
+def fan(drawn, tets, points, projected, gradients, offsets, eye, forward, perspective, tf, sigma_max,
         alpha_model, unit_distance, gx, gw, gs, out):
-    """Write the fan of ``order``'s cells (drawn in that order) into ``out``, ``(5 len(order), 7)``
-    float32: per cell :data:`CELL_VERTICES` rows of :data:`VERTEX_FLOATS` (pixel x, y; colour;
-    optical depth; the thick vertex's optical depth).  The thick vertex carries the colour and optical
-    depth of the exact integral along the thick piece (colour the integral's over its opacity, or
-    the transfer function's at the piece's middle where it has none), the silhouette's corners zero
-    optical depth and the transfer function's colour at their scalar.  A cell with no projected area
-    writes five equal points (nothing drawn).  ``projected``: :func:`project`'s; ``eye`` (perspective)
-    or ``forward`` (orthographic) give the view rays; ``gx``, ``gw``, ``gs``: the Gauss-Legendre rule on
-    [0, 1] (:func:`transfer_segment`)."""
-    for i in range(len(order)):
-        c = order[i]
+    """Write the fan of every cell ``c`` with ``drawn[c]`` into ``out[5 c:5 c + 5]`` (``out``: ``(5 M, 7)``
+    float32; the other cells' rows are left as they are): :data:`CELL_VERTICES` rows of
+    :data:`VERTEX_FLOATS` (pixel x, y; colour; optical depth; the thick vertex's optical depth).  The
+    thick vertex carries the colour and optical depth of the exact integral along the thick piece
+    (colour the integral's over its opacity, or the transfer function's at the piece's middle where it
+    has none), the silhouette's corners zero optical depth and the transfer function's colour at their
+    scalar.  A cell with no projected area writes five equal points (nothing drawn).  ``projected``:
+    :func:`project`'s; ``eye`` (perspective) or ``forward`` (orthographic) give the view rays; ``gx``,
+    ``gw``, ``gs``: the Gauss-Legendre rule on [0, 1] (:func:`transfer_segment`).  In cell order (the
+    visibility order only picks the indices, :func:`indices`), without the GIL: the renderer builds it
+    while the order is computed."""
+    for c in range(len(tets)):
+        if not drawn[c]:
+            continue
         h0, h1, h2, h3, inner, area = _silhouette(projected, tets[c])
-        row = CELL_VERTICES * i
+        row = CELL_VERTICES * c
         if not area > 0.0:
             for m in range(CELL_VERTICES):
                 _put(out, row + m, projected[h0, 0], projected[h0, 1], 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -259,3 +262,16 @@ def fan(order, tets, points, projected, gradients, offsets, eye, forward, perspe
             s = g0 * points[v, 0] + g1 * points[v, 1] + g2 * points[v, 2] + offset
             cr, cg, cb, _ = _tf_at(tf, _interval(tf, s), s, alpha_model, unit_distance)
             _put(out, row + 1 + m, projected[v, 0], projected[v, 1], cr, cg, cb, 0.0, tau)
+
+
+@numba.njit(cache=True, nogil=True)
+def indices(order, out):
+    """``out[:12 len(order)]``: the triangles of ``order``'s cells' fans, in that order (uint32 vertex
+    indices into :func:`fan`'s rows: thick h0 h1, thick h1 h2, thick h2 h3, thick h3 h0)."""
+    for i in range(len(order)):
+        base = CELL_VERTICES * order[i]
+        j = CELL_INDICES * i
+        for t in range(4):
+            out[j + 3 * t] = base
+            out[j + 3 * t + 1] = base + 1 + t
+            out[j + 3 * t + 2] = base + 1 + (t + 1) % 4

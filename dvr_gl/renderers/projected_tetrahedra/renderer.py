@@ -42,9 +42,10 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
     name = "projected-tetrahedra"
     description = "projected tetrahedra in GL for meshes, exact visibility order"
 
-    #: Shirley-Tuchman's fan built on the host where numba is installed (:mod:`.fan`: no geometry shader,
-    #: which llvmpipe runs on one thread); ``False``: built in ``pt.geom`` (as without numba).
-    host_fan = True
+    #: ``True``: Shirley-Tuchman's fan built on the host where numba is installed (:mod:`.fan`: no geometry
+    #: shader); ``False`` (the default, and without numba): built in ``pt.geom``.  Measured on llvmpipe
+    #: (README): the geometry stage it saves costs about what the numba build costs, so not the default.
+    host_fan = False
 
     def __init__(self, ctx=None):
         super().__init__(ctx)
@@ -70,15 +71,6 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
         mode = r.compositing
         start = time.perf_counter()
         textures, orders = self._mesh_resources(mesh)
-        if mode == "emission_absorption":
-            gaps = self._gap_pixels(scene, textures, orders) if r.cell_order == "exact" else None
-            order, stats = orders(cam, img.width, img.height, r.cell_order, pixels=gaps)
-            # transparent cells are ordered (the relations run through them) but not drawn
-            order = order[textures.visible(scene.transfer_function)[order]][::-1]  # drawn back to front
-            stats["order_seconds"] = time.perf_counter() - start  # with the boundary's count in GL
-        else:
-            order, stats = np.arange(textures.cells), {"order": "none (blended)", "order_seconds": 0.0}
-        drawn = time.perf_counter()
         tf = scene.transfer_function
         defines = {MODES[mode]: True, "CAMERA_ORTHOGRAPHIC": cam.projection == "orthographic"}
         if mode == "emission_absorption":
@@ -88,15 +80,26 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
             defines = {"FRAGMENT_COUNT": True, "CAMERA_ORTHOGRAPHIC": defines["CAMERA_ORTHOGRAPHIC"]}
         defines.update(self._kept_part_defines(scene, surfaces))
         interpolated = self._shirley_tuchman(scene, defines)
-        stats["integration"] = "shirley-tuchman" if interpolated else "exact"
         host = self._host_fan(scene, textures) if interpolated else None
+        if host is not None:  # the fan's vertices built in a thread while the order is computed here
+            host.start(scene, self.view_projection(scene, textures.centre), textures.visible(tf))
+        if mode == "emission_absorption":
+            gaps = self._gap_pixels(scene, textures, orders) if r.cell_order == "exact" else None
+            order, stats = orders(cam, img.width, img.height, r.cell_order, pixels=gaps)
+            # transparent cells are ordered (the relations run through them) but not drawn
+            order = order[textures.visible(scene.transfer_function)[order]][::-1]  # drawn back to front
+            stats["order_seconds"] = time.perf_counter() - start  # with the boundary's count in GL
+        else:
+            order, stats = np.arange(textures.cells), {"order": "none (blended)", "order_seconds": 0.0}
+        drawn = time.perf_counter()
+        stats["integration"] = "shirley-tuchman" if interpolated else "exact"
         if interpolated:
             stats["fan"] = "host" if host is not None else "geometry shader"
         defines["SHIRLEY_TUCHMAN"] = interpolated
         slots = None
         if host is not None:  # the fan built on the host, in a vertex buffer (fan.py): no geometry shader
             program = create_program(self.ctx, "pt_fan.vert", "pt_st.frag", roots=SHADERS)
-            host.build(scene, order, self.view_projection(scene, textures.centre))
+            host.finish(order)
             self._uniforms(program, scene, textures)
             vao = self.ctx.vertex_array(program, [(host.vertices, "2f 4f 1f", "in_pixel", "in_st", "in_tau_max")],
                                         index_buffer=host.indices, index_element_size=4)

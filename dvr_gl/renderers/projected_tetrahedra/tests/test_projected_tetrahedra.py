@@ -288,8 +288,8 @@ def test_shirley_tuchman_with_degenerate_cells(pt, converged):
     (BAND_TF, {"camera.projection": "orthographic", "camera.azimuth": -50.0, "camera.elevation": 35.0}),
 ])
 def test_the_host_fan_equals_the_geometry_shaders_fan(pt, tf, view):
-    """Shirley-Tuchman's fan built on the host in numba (fan_compiled.py, float64; the default where
-    numba is installed) and in pt.geom (float32; without numba) give the same picture: the same
+    """Shirley-Tuchman's fan built on the host in numba (fan_compiled.py, float64; ``host_fan = True``)
+    and in pt.geom (float32; the default, and without numba) give the same picture: the same
     classes, thick vertices and integral, up to float32 rounding of the thick piece's ends and of the
     integral.  Measured on the ramp RMS 2e-7 to 3e-7, largest pixel 9e-6, against the picture's
     alpha up to 0.98 (its error against the reference, test above, is 5e-4 and more); bound RMS
@@ -298,14 +298,14 @@ def test_the_host_fan_equals_the_geometry_shaders_fan(pt, tf, view):
     scene = mesh_scene(jittered_mesh(n=(6, 5, 5)), **{
         "renderer.name": "projected-tetrahedra", "renderer.integration": "shirley-tuchman",
         "transfer_function.points": tf, "image.width": 64, "image.height": 48, **view})
-    host = pt.render(scene)
-    assert pt.stats["fan"] == "host"
-    pt.host_fan = False
+    shader = pt.render(scene)
+    assert pt.stats["fan"] == "geometry shader"  # the default
+    pt.host_fan = True
     try:
-        shader = pt.render(scene)
-        assert pt.stats["fan"] == "geometry shader"
+        host = pt.render(scene)
+        assert pt.stats["fan"] == "host"
     finally:
-        pt.host_fan = True
+        pt.host_fan = False
     assert host[..., 3].max() > 0.3
     assert rms(host, shader) < 2e-6 and np.abs(host - shader).max() < 1e-4, (rms(host, shader),
                                                                                 np.abs(host - shader).max())
