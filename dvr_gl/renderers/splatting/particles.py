@@ -75,6 +75,10 @@ class ParticleSplats:
             self._view = (key, make())
         return self._view[1]
 
+    def forget_view(self):
+        """Drop the kept view (a benchmark timing whole frames of one view)."""
+        self._view = (None, None)
+
     def bounding_radii(self) -> np.ndarray:
         """Each splat's bounding sphere (world units): its support."""
         return sph.SUPPORT * self.h

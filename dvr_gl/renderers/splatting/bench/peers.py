@@ -148,6 +148,7 @@ def run(counts, size: int, repeat: int, python: str | None, progress=print) -> l
                 renderer.render(case)  # warm-up: the particles uploaded, the compiled loops loaded
                 ours, theirs, image, peer_image = [], [], None, None
                 for _ in range(repeat):
+                    forget_views(renderer)  # whole frames: the projection too, as a new view's
                     image = renderer.render(case)
                     ours.append(renderer.stats["seconds"])
                     if peer:
@@ -168,6 +169,13 @@ def run(counts, size: int, repeat: int, python: str | None, progress=print) -> l
         if peer:
             peer.close()
     return rows
+
+
+def forget_views(renderer):
+    """Drop what the renderer's particle splats keep of the last view (:meth:`.ParticleSplats.cached_view`)."""
+    for _, value in renderer._cache.values():
+        if hasattr(value, "forget_view"):
+            value.forget_view()
 
 
 def default_python() -> str | None:

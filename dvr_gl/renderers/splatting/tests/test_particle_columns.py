@@ -179,3 +179,15 @@ def test_the_radiograph_is_xray_rgba_to_the_last_bit(one):
     emitted = tau[:, None] * colour if one else np.moveaxis(sums[:3], 0, -1)[::-1].reshape(-1, 3)
     expected = xray_rgba(emitted, tau).reshape(7, 5, 4).astype(np.float32)
     assert np.array_equal(column.radiograph(sums, colour if one else None), expected)
+
+
+def test_a_kept_view_serves_only_its_own_view(splatting):
+    """The host keeps the last view's projection on the splats: frames of views A, B, A and B again with it
+    dropped are each the view's own (bit for bit), and B's differs from A's."""
+    pytest.importorskip("numba")
+    field = plummer_sphere(200, seed=4)
+    a, b = scene_of(field, **PERSPECTIVE), scene_of(field, **PERSPECTIVE, **{"camera.eye": [0.5, -0.1, 39.0]})
+    first, other, again = splatting.render(a), splatting.render(b), splatting.render(a)
+    assert splatting.stats.get("host") and np.array_equal(first, again) and not np.array_equal(first, other)
+    peers.forget_views(splatting)
+    assert np.array_equal(splatting.render(b), other)
