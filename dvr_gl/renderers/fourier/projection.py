@@ -398,18 +398,21 @@ def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, der
                 for k, c in enumerate(shaded)}
     else:
         sums = {c: integral(c) for c in shaded}
-    out = np.zeros((h, w, 4))
+    # every pixel classified, those off the box set to zero after: a masked scatter of (N, 4) rows took
+    # 11-24 ms of a 512x512 view
     hit = chord > 0
     if r.compositing == "average":
         short, rays = frame.short_chords(scene)
         if rays is not None:
             sums[0][short] = direct_integrals(scene, rays, np.arange(len(rays.t0)))
-        out[hit] = projected_rgba(scene.transfer_function, sums[0][hit] / chord[hit])
+        mean = np.where(hit, sums[0] / np.where(hit, chord, 1.0), 0.0)
+        rgba = projected_rgba(scene.transfer_function, mean.ravel())
     else:  # the X-ray of the classified voxels: (sigma c, sigma) integrated; the band limit rings (Gibbs)
         # where the data jumps, which can take an integral of non-negative voxels below zero: clamped
         tau = integral(3, weight=False)
-        emitted = np.stack([np.maximum(sums[c][hit], 0.0) for c in range(3)], axis=1)
-        out[hit] = xray_rgba(emitted, np.maximum(tau[hit], 0.0))
+        emitted = np.stack([np.maximum(sums[c], 0.0).ravel() for c in range(3)], axis=1)
+        rgba = xray_rgba(emitted, np.maximum(tau, 0.0).ravel())
+    out = np.where(hit[..., None], rgba.reshape(h, w, 4), 0.0)
     return out
 
 
