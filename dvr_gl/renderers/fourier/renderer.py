@@ -100,7 +100,7 @@ class ShellTexture:
         if self.empty:
             ghosted = np.zeros((1, 1, 1, ghosted.shape[-1]))
             self.faces = False
-        components = {1: 1, 2: 2}.get(ghosted.shape[-1], 4)
+        components = self.components = {1: 1, 2: 2}.get(ghosted.shape[-1], 4)
         if self.faces:
             self.textures = {"u_faces": self._face_layers(ctx, ghosted, components)}
             return
@@ -340,7 +340,7 @@ class FourierRenderer(GLRenderer):
             return None
         shell = texture.shell
         defines = {"NODES": str(shell.nodes), "CUBIC_BSPLINE": r.filter == "cubic_bspline", "FACES": texture.faces,
-                   "CUED": r.depth_cue < 1.0}
+                   "CUED": r.depth_cue < 1.0, "GATHER": texture.faces and texture.components == 1}
         program = create_program(self.ctx, "fullscreen.vert", "shell.frag",
                                  {k: v for k, v in defines.items() if v}, roots=SHADERS)
         _, fbo = self.target("shell", img.width, img.height)

@@ -1,4 +1,4 @@
-#version 330 core
+#version 400 core
 // The shell pass of Fourier rendering (dvr_gl/renderers/fourier/projection.py, shell_integrals): per
 // pixel, the integral of the ghosted channels along the whole line outside the volume's box, which the
 // inverse transform includes and the references' clipped chords do not.  The ghosted field is zero
@@ -7,8 +7,8 @@
 // CUBIC_BSPLINE: the cubic B-spline field (64 taps), else the trilinear (8): float weights and
 // texelFetch, not the texture unit's filtering (its weights have 8 fractional bits on most hardware),
 // each cell's taps fetched once per piece.
-// FACES (the trilinear field): a walk over the six faces' 2D layers instead (integrate_faces), a quarter of
-// the taps a piece from textures of a face's size.
+// FACES (the trilinear field): a walk over the six faces' 2D layers instead (integrate_faces), half the
+// taps a piece from a texture of the faces' size; GATHER (one channel): one read a piece.
 // Fragment (i, j) is the image's pixel i from the left, row j from the top.
 
 #ifdef FACES
@@ -151,8 +151,14 @@ vec4 walk(int side, int a, int b, int c, vec3 uo, vec3 ud, vec3 last, float z0,
         }
         float half_length = 0.5 * (next - t);
         ivec2 cell = clamp(ivec2(floor(qo + (t + half_length) * qd)), ivec2(0), top);
+#ifdef GATHER
+        // one channel: the cell's four texels in one read (its corner, between their centres)
+        vec4 g = textureGather(u_faces, vec3((vec2(cell) + 1.0) / vec2(top + 2), float(layer)), 0);
+        vec4 t00 = vec4(g.w), t10 = vec4(g.z), t01 = vec4(g.x), t11 = vec4(g.y);
+#else
         vec4 t00 = texelFetch(u_faces, ivec3(cell, layer), 0), t10 = texelFetch(u_faces, ivec3(cell + ivec2(1, 0), layer), 0);
         vec4 t01 = texelFetch(u_faces, ivec3(cell + ivec2(0, 1), layer), 0), t11 = texelFetch(u_faces, ivec3(cell + 1, layer), 0);
+#endif
         for (int k = 0; k < NODES; ++k) {
             float s = t + half_length * (u_nodes[k] + 1.0);
             vec2 f = qo + s * qd - vec2(cell);
