@@ -45,6 +45,7 @@ BOUNDED = {
     "renderer.sample_distance": st.one_of(st.floats(0.2, 10), st.sampled_from([0.0, -1.0])),
     "renderer.iso_refinement": st.integers(-3, 70),
     "renderer.extremum_refinement": st.integers(-3, 12),
+    "renderer.extremum_brackets": st.integers(-1, 4),
 }
 
 WILD_NUMBERS = st.one_of(

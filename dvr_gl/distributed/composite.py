@@ -13,7 +13,11 @@ of both, per compositing mode:
   ``C = C_front + (1 - alpha_front) C_back`` for all four channels;
 * MIP and MinIP: the running maximum (minimum) in x, and in z the extremum refined between the
   samples (``renderer.extremum_refinement``) around it: the whole state of the one whose x wins, the
-  front's on a tie (the first sample holding the extremum is the one refined around);
+  front's on a tie (the first sample holding the extremum is the one refined around); with two brackets
+  refined (``renderer.extremum_brackets`` 2, operators ``max2`` and ``min2``: y the second candidate, z the
+  best of every pass's refinements, w the extreme sample's segment), z is the better of the two states' (each
+  refinement is a value of the field on the ray: the composite is never worse than either), y the best of
+  the seconds and the losing extremum;
 * average (x: sum of value x length, y: length) and xray (rgb: sum of sigma c l, a: sum of sigma l):
   sums.
 
@@ -29,17 +33,22 @@ import numpy as np
 EMPTY = {"mip": -3.0e38, "minip": 3.0e38}  # the x channel of a ray before any sample, as the GPU's state starts
 
 
-def operator_of(compositing: str, order: str = "front_to_back") -> str:
-    """The operator that combines two states of this compositing mode and order."""
+def operator_of(compositing: str, order: str = "front_to_back", brackets: int = 1) -> str:
+    """The operator that combines two states of this compositing mode and order (MIP and MinIP: with
+    ``brackets`` refined, ``renderer.extremum_brackets``)."""
     if compositing == "emission_absorption":
         return "over_rgba" if order == "back_to_front" else "over_depth"
-    return {"isosurface": "over_rgba", "mip": "max", "minip": "min", "average": "sum", "xray": "sum"}[compositing]
+    extremum = {"mip": "max", "minip": "min"}.get(compositing)
+    if extremum is not None:
+        return extremum + ("2" if brackets == 2 else "")
+    return {"isosurface": "over_rgba", "average": "sum", "xray": "sum"}[compositing]
 
 
 def empty_state(operator: str, height: int, width: int) -> np.ndarray:
     """The state of rays that met no brick (the identity of ``operator``)."""
     state = np.zeros((height, width, 4), np.float32)
-    state[..., 0] = {"max": EMPTY["mip"], "min": EMPTY["minip"]}.get(operator, 0.0)
+    empty = {"max": EMPTY["mip"], "min": EMPTY["minip"]}.get(operator.rstrip("2"), 0.0)
+    state[..., :3 if operator in ("max2", "min2") else 1] = empty  # two brackets: no second, nothing refined
     return state
 
 
@@ -55,6 +64,13 @@ def combine(operator: str, front: np.ndarray, back: np.ndarray) -> np.ndarray:
     elif operator in ("max", "min"):
         sign = 1.0 if operator == "max" else -1.0
         out = np.where((sign * b[..., 0] > sign * f[..., 0])[..., None], b, f)
+    elif operator in ("max2", "min2"):
+        sign = 1.0 if operator == "max2" else -1.0
+        back_wins = (sign * b[..., 0] > sign * f[..., 0])[..., None]
+        out = np.where(back_wins, b, f)
+        losing = sign * np.where(back_wins[..., 0], f[..., 0], b[..., 0])
+        out[..., 1] = sign * np.maximum(np.maximum(sign * f[..., 1], sign * b[..., 1]), losing)
+        out[..., 2] = sign * np.maximum(sign * f[..., 2], sign * b[..., 2])
     elif operator == "sum":
         out = f + b
     else:

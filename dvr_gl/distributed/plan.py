@@ -85,4 +85,6 @@ def plan(renderer, scene, workers: int) -> Plan:
         return node.left is None or node.left_first(eye, forward, ortho)
 
     r = scene.renderer
-    return Plan(root, assigned, order, operator_of(r.compositing, getattr(r, "order", "front_to_back")), front_first)
+    brackets = 2 if getattr(r, "extremum_refinement", None) and getattr(r, "extremum_brackets", None) == 2 else 1
+    return Plan(root, assigned, order, operator_of(r.compositing, getattr(r, "order", "front_to_back"), brackets),
+                front_first)

@@ -116,6 +116,50 @@ def refine_extremum(value_at, t, f, lo, hi, step: float, steps: int) -> np.ndarr
     return np.fmax(fm, np.fmax(fa, fb))  # fmax: a mesh's field is NaN outside its cells
 
 
+class SecondCandidates:
+    """Each ray's extreme sample and its second candidate, the best sample not next to it (``renderer.
+    extremum_brackets`` 2: both brackets are refined), tracked sample by sample as the ray caster's GLSL does
+    (shaders/projection.glsl, ``track_second``).  Values are ``sign`` times the field (MinIP: -1); ``-inf``:
+    none yet.  Over a ray's samples ``s_0, s_1, ...`` (segment indices) the result is: the first sample
+    holding the largest value, at ``i``, and the first holding the largest of those at least two segments
+    from ``i`` (the order of the update keeps exactly that: a new extremum at ``k`` leaves as second the old
+    extreme sample where it is two or more segments back, else the old second or the sample of ``k - 2``)."""
+
+    def __init__(self, n: int):
+        none = np.full(n, -np.inf)
+        self.best, self.at, self.k = none.copy(), np.zeros(n), np.zeros(n, np.int64)  # the extremum
+        self.second, self.second_at = none.copy(), np.zeros(n)
+        self.before, self.before_at = none.copy(), np.zeros(n)   # the sample of segment k - 1
+        self.last_k, self.last, self.last_at = np.full(n, -2, np.int64), none.copy(), np.zeros(n)
+
+    def take(self, rows, k: int, v: np.ndarray, t: np.ndarray):
+        """Samples ``v`` (``(rows, m)``, signed; ``-inf``: none) at parameters ``t`` of segments ``k ..
+        k + m - 1`` of rays ``rows``, in order."""
+        names = ("best", "at", "k", "second", "second_at", "before", "before_at", "last_k", "last", "last_at")
+        st = {name: getattr(self, name)[rows] for name in names}
+        for c in range(v.shape[1]):
+            self._step(st, k + c, v[:, c], t[:, c])
+        for name in names:
+            getattr(self, name)[rows] = st[name]
+
+    @staticmethod
+    def _step(st: dict, k: int, s: np.ndarray, t: np.ndarray):
+        took = s > -np.inf
+        raised = took & (s > st["best"])
+        far = raised & (k - st["k"] >= 2)
+        near = raised & ~far & (st["before"] > st["second"])
+        competes = took & ~raised & (k - st["k"] >= 2) & (s > st["second"])
+        st["second"] = np.select([far, near, competes], [st["best"], st["before"], s], st["second"])
+        st["second_at"] = np.select([far, near, competes], [st["at"], st["before_at"], t], st["second_at"])
+        follows = raised & (st["last_k"] == k - 1)
+        st["before"] = np.where(raised, np.where(follows, st["last"], -np.inf), st["before"])
+        st["before_at"] = np.where(follows, st["last_at"], st["before_at"])
+        st["best"], st["at"], st["k"] = (np.where(raised, s, st["best"]), np.where(raised, t, st["at"]),
+                                         np.where(raised, k, st["k"]))
+        st["last_k"], st["last"], st["last_at"] = (np.where(took, k, st["last_k"]), np.where(took, s, st["last"]),
+                                                   np.where(took, t, st["last_at"]))
+
+
 class DiscreteReference:
     """Render a resolved scene with the same discretization as the GPU renderers."""
 
@@ -296,7 +340,8 @@ class DiscreteReference:
     def _projection(self, mode: str) -> np.ndarray:
         """Average, MIP or MinIP of each ray's samples, classified once.  The extrema are kept as the
         maximum of ``sign`` times the samples (MinIP: -1), with the parameter of the first sample holding
-        it, which ``renderer.extremum_refinement`` refines around (:func:`refine_extremum`)."""
+        it, which ``renderer.extremum_refinement`` refines around (:func:`refine_extremum`); with
+        ``renderer.extremum_brackets`` 2 also around the :class:`SecondCandidates`' second, keeping the better."""
         n = len(self.rays)
         sign = -1.0 if mode == "minip" else 1.0
         acc = np.zeros(n) if mode == "average" else np.full(n, -np.inf)
@@ -304,6 +349,9 @@ class DiscreteReference:
         length = np.zeros(n)
         active = self.n_seg > 0
         seen = np.zeros(n, bool)
+        r = self.scene.renderer
+        second = SecondCandidates(n) if (mode != "average" and r.extremum_refinement and hasattr(self.plan, "d")
+                                         and getattr(r, "extremum_brackets", None) == 2) else None
         for rows, k, m in self._steps(active):
             grid = self.plan.grid(rows, k, m)
             s = self.model.scalar.sample(grid.points)
@@ -320,10 +368,16 @@ class DiscreteReference:
                 raised = best > acc[rows]
                 acc[rows[raised]] = best[raised]
                 at[rows[raised]] = grid.t[raised, j[raised]]
+                if second is not None:
+                    second.take(rows, k, v, grid.t)
             self.samples += int(grid.valid.sum())
         has = (self.n_seg > 0) & seen
         if mode != "average" and self.scene.renderer.extremum_refinement and hasattr(self.plan, "d"):
             acc[has] = self._refined_extremum(np.nonzero(has)[0], at[has], acc[has], sign)
+            if second is not None:  # the better of the two brackets refined
+                two = has & (second.second > -np.inf)
+                acc[two] = np.fmax(acc[two], self._refined_extremum(np.nonzero(two)[0], second.second_at[two],
+                                                                     second.second[two], sign))
         value = np.where(has, sign * acc, 0.0)
         if mode == "average":
             value = np.where(has, acc / np.where(length > 0, length, 1.0), 0.0)

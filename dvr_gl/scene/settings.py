@@ -302,6 +302,11 @@ EXTREMUM_REFINEMENT = Setting("extremum_refinement", Optional[int], None, "MIP a
                               "sample itself; default: the ray caster's defaults choose it with the sample distance, "
                               "docs/tolerance.md; 0 elsewhere)",
                               check=between(0, 8, what=" parabolic steps"), flag=False)
+EXTREMUM_BRACKETS = Setting("extremum_brackets", Optional[int], None, "MIP and MinIP with extremum_refinement: "
+                            "brackets refined, the extreme sample's (1) and also the best sample not next to it, "
+                            "a second peak (2); default: the ray caster's defaults choose 2 with the sample "
+                            "distance, docs/tolerance.md; 1 elsewhere",
+                            check=between(1, 2, what=" brackets"), flag=False)
 JITTER = Setting("jitter", bool, False, "per-pixel sample offset against wood-grain artefacts", must_support=True)
 JITTER_SEED = Setting("jitter_seed", int, 0, "seed of the jitter offsets (32 bits: the shaders' hash)",
                       check=lambda v: None if 0 <= v < 2**32 else "must be in [0, 4294967295]")

@@ -37,6 +37,10 @@ EXACT = 1e-6  # the issue's bound with early termination off (see the module doc
 # vertex moves with the float32 rounding of each brick's texture coordinates, and the field's slope turns that into
 # a value: measured 1.07e-6 on the blobs' MIP; bounded here by 1e-5.
 REFINED = 1e-5
+# Two brackets refined (renderer.extremum_brackets, the defaults' 2): each worker's passes refine the candidates
+# of its own bricks too, and the composite keeps the best refinement (never worse than one pass's, not the same):
+# measured 1.78e-5 from the single process on both MIP cases.
+REFINED_TWO = 1e-4
 W, H = 40, 32  # H divisible by 2 and 4: the bands (and so the bytes) are exact
 
 
@@ -79,7 +83,8 @@ def test_sort_last_equals_single_process(client, single, case, method):
     expected = single.render(s)
     result = render(client, s, method, single)
     assert result.bricks == [4, 4]  # both workers drew
-    assert np.abs(result.image - expected).max() <= (REFINED if s.renderer.extremum_refinement else EXACT)
+    bound = (REFINED_TWO if s.renderer.extremum_brackets == 2 else REFINED) if s.renderer.extremum_refinement else EXACT
+    assert np.abs(result.image - expected).max() <= bound
     assert expected[..., 3].max() > 0.02  # not an empty image
 
 

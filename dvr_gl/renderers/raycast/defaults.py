@@ -18,9 +18,10 @@ estimate is at most ``MARGIN * TARGET`` is chosen, for each classification the s
   fine samples of that line), which is what the pre-integration table holds;
 * MIP and MinIP: the extremum of the line's samples at ``d``, refined between the samples by
   :data:`EXTREMUM_REFINEMENT` parabolic steps (:func:`dvr_gl.reference.discrete.refine_extremum`, what
-  the shader does), against the fine samples' extremum refined the same way, each classified once
-  (colour and the opacity of one unit distance): the error of the maximum along a ray of a trilinear
-  field sampled every ``d``.
+  the shader does) in :data:`EXTREMUM_BRACKETS` brackets (the extreme sample's and the best sample's not
+  next to it, :class:`dvr_gl.reference.discrete.SecondCandidates`), against the fine samples' extremum
+  refined the same way, each classified once (colour and the opacity of one unit distance): the error of
+  the maximum along a ray of a trilinear field sampled every ``d``.  Their target is :data:`MIP_TARGET`.
 
 Early termination drops at most ``1 - threshold`` of a ray's colour: ``TARGET / 4``.  Scenes the
 simulation does not model (shading, gradient opacity, scattering, jitter, other compositing modes,
@@ -51,6 +52,13 @@ from .tolerance import apply, check_tolerance, sampling_model  # noqa: F401  the
 #: 8-bit display step, 1/255 (48.1 dB).  Most pixels then differ from the converged image by less than
 #: one display level, the step 8-bit output quantizes to anyway; docs/tolerance.md, "Defaults".
 TARGET = 1.0 / 255.0
+#: MIP and MinIP's target, half a display step (0.5/255, 54.2 dB).  A projection's error is not spread over
+#: the image as a composite's is: a ray's whole value comes from one point, so a missed peak shows as a
+#: pixel off by many steps, and the peers' refined MIPs reach it (vispy's, which samples again around its
+#: largest sample: 0.34/255 on mri-mip).  With two brackets refined the ray caster meets it at a step
+#: longer than the peers' one sample per voxel on the five MIP scenes of ``dvr bench peers``
+#: (docs/peers.md, "A second bracket and a MIP target").
+MIP_TARGET = 0.5 / 255.0
 #: The simulated RMS (over the lines, which cross the volume) must be at most this fraction of the
 #: target: on the peers' scenes it measured 0.9-1.5x the whole image's RMS (docs/tolerance.md).
 MARGIN = 1.0
@@ -78,8 +86,18 @@ CACHE_SIZE = 32
 #: unrefined to 1.35, 0.97, 0.72 and 0.64/255 with 1, 2, 3 and 6 steps; its image at 1 voxel from 48.6 dB
 #: unrefined to 51.9, 53.8, 56.7, 58.1, 58.9 and 59.1 dB with 1, 2, 3, 4, 6 and 8 steps.
 EXTREMUM_REFINEMENT = 6
+#: MIP and MinIP: the brackets refined where the scene gives none (renderer.extremum_brackets): the extreme
+#: sample's and the best sample's not next to it (a second peak, whose field may rise above the extreme
+#: sample's between the samples).  On 3000 lines through MNI152 at 1.25 voxel, refining the second too
+#: took the value's RMS error from 0.56/255 to 0.35/255 (below one bracket at 1 voxel, 0.57/255) for 8
+#: more texture fetches a ray (docs/peers.md, "Refining more than one bracket").
+EXTREMUM_BRACKETS = 2
 #: Random lines simulated (:func:`.tolerance.line_samples`).
 LINES = 128
+#: MIP and MinIP: lines simulated.  A projection's error comes from the few lines whose peak falls between
+#: the samples (a heavy tail), so 128 lines scatter: on mri-mip with two brackets at 1.75 voxel they gave
+#: 0.42/255, 512 lines 0.55 and 1024 lines 0.92 (the image: 0.39).  512 cost 0.1-0.3 s, once per field.
+MIP_LINES = 512
 #: At most this many fine steps along a line (a box this many quarter voxels across keeps the fixed
 #: default: its lines would cost more than the choice saves).
 MAX_STEPS = 16384
@@ -95,20 +113,26 @@ class DefaultChoice:
     estimated_error: float
     seconds: float   # what choosing took (the lines and the simulation)
     extremum_refinement: int | None = None  # MIP and MinIP: the parabolic steps simulated (else None)
+    extremum_brackets: int | None = None  # MIP and MinIP with refinement: the brackets simulated (else None)
 
     def renderer_changes(self, voxel: float) -> dict:
         changes = {"classification": self.classification, "sample_distance": self.sample_distance_voxels * voxel,
                    "ert_threshold": self.ert_threshold}
         if self.extremum_refinement is not None:
             changes["extremum_refinement"] = self.extremum_refinement
+        if self.extremum_brackets is not None:
+            changes["extremum_brackets"] = self.extremum_brackets
         return changes
 
     def describe(self, voxel: float = 1.0) -> str:
         refined = "" if self.extremum_refinement is None else \
             f", the extremum refined in {self.extremum_refinement} parabolic steps"
+        if self.extremum_brackets == 2:
+            refined += " in two brackets"
+        target = TARGET if self.extremum_refinement is None else MIP_TARGET
         return (f"defaults chosen by the scene: {self.classification} classification, sample distance "
                 f"{self.sample_distance_voxels:g} voxel{refined}, early termination at {self.ert_threshold:g}; "
-                f"simulated RMS error {self.estimated_error:.2g} (target {TARGET:.2g})")
+                f"simulated RMS error {self.estimated_error:.2g} (target {target:.2g})")
 
 
 def modelled(scene) -> bool:
@@ -132,7 +156,8 @@ def cache_key(scene) -> tuple:
     tf, r = scene.transfer_function, scene.renderer
     points = np.asarray(tf.points, dtype=np.float64)
     return (field_key(scene.field), points.tobytes(), points.shape, tf.unit_distance, tf.opacity_model,
-            r.compositing, r.filter, r.classification, r.preintegration_size, refinement_steps(scene))
+            r.compositing, r.filter, r.classification, r.preintegration_size, refinement_steps(scene),
+            refinement_brackets(scene))
 
 
 def field_key(field) -> tuple:
@@ -151,6 +176,21 @@ def refinement_steps(scene) -> int | None:
     if r.compositing not in ("mip", "minip"):
         return None
     return EXTREMUM_REFINEMENT if r.extremum_refinement is None else r.extremum_refinement
+
+
+def refinement_brackets(scene) -> int | None:
+    """MIP and MinIP that refine the extremum: the brackets refined, the scene's own or
+    :data:`EXTREMUM_BRACKETS`; None for the other modes and where nothing is refined."""
+    if not refinement_steps(scene):
+        return None
+    own = scene.renderer.extremum_brackets
+    return EXTREMUM_BRACKETS if own is None else own
+
+
+def target_of(mode: str) -> float:
+    """The defaults' RMS target for compositing ``mode``: :data:`MIP_TARGET` for MIP and MinIP, else
+    :data:`TARGET`."""
+    return MIP_TARGET if mode in ("mip", "minip") else TARGET
 
 
 #: Digests of the voxels by array identity, ``{id: (weak reference, digest)}``: a scene changed again
@@ -310,8 +350,8 @@ def simulate_choice(scene) -> DefaultChoice:
     begin = time.perf_counter()
     if diagonal(scene.field) / scene.field.sample_spacing * PER_VOXEL > MAX_STEPS:  # a needle of a box
         return DefaultChoice("post", FINEST, scene.renderer.ert_threshold, float("nan"), time.perf_counter() - begin)
-    s, composed, n, step, lines = box_lines(scene)
     mode = scene.renderer.compositing
+    s, composed, n, step, lines = box_lines(scene, MIP_LINES if mode in ("mip", "minip") else LINES)
     tf = scene.transfer_function
     if mode == "emission_absorption":
         s, composed, n = visible_lines(scene, s, composed, n)
@@ -319,43 +359,44 @@ def simulate_choice(scene) -> DefaultChoice:
         post = lambda k: rms(composite(*segments(composed, n, k), step), fine)  # noqa: E731
         pre = lambda k: rms(composite(*segments(linearised(s, n, tf, k), n, 1), step), fine)  # noqa: E731
     else:
-        sign, steps = (1.0 if mode == "mip" else -1.0), refinement_steps(scene)
-        fine = extremum_rgba(*refined_segments(s, n, 1, sign, steps, lines, step), sign, tf)
-        post = lambda k: rms(extremum_rgba(*refined_segments(s, n, k, sign, steps, lines, step), sign, tf),  # noqa: E731
-                             fine)
+        sign, steps, brackets = (1.0 if mode == "mip" else -1.0), refinement_steps(scene), refinement_brackets(scene)
+        fine = extremum_rgba(*refined_segments(s, n, 1, sign, steps, lines, step, brackets), sign, tf)
+        post = lambda k: rms(extremum_rgba(*refined_segments(s, n, k, sign, steps, lines, step,  # noqa: E731
+                                                             brackets), sign, tf), fine)
         pre = None
-    voxels, error = largest_meeting(post, LADDER)
+    target = target_of(mode)
+    voxels, error = largest_meeting(post, LADDER, target)
     choice = ("post", voxels, error) if voxels is not None else ("post", FINEST, error)
     if pre is not None and tolerance.narrowest_feature(tf) * (scene.renderer.preintegration_size - 1) \
             >= tolerance.PREINTEGRATION_NODES:
         longer = [v for v in LADDER if v >= PREINTEGRATED_GAIN * choice[1]]
-        pv, pe = longest_meeting(pre, longer[::-1])
+        pv, pe = longest_meeting(pre, longer[::-1], target)
         if pv is not None:
             choice = ("preintegrated", pv, pe)
     ert = 1.0 - TARGET / 4.0 if mode == "emission_absorption" else scene.renderer.ert_threshold
     return DefaultChoice(choice[0], choice[1], ert, float(choice[2]), time.perf_counter() - begin,
-                         refinement_steps(scene))
+                         refinement_steps(scene), refinement_brackets(scene))
 
 
-def largest_meeting(error_at, ladder) -> tuple[float | None, float]:
+def largest_meeting(error_at, ladder, target: float = TARGET) -> tuple[float | None, float]:
     """The first distance of ``ladder`` (voxels, largest first) whose simulated RMS error
-    ``error_at(k)`` (``k`` fine steps a segment) is at most ``MARGIN * TARGET``, and that error (None,
+    ``error_at(k)`` (``k`` fine steps a segment) is at most ``MARGIN * target``, and that error (None,
     the last error, where none does)."""
     error = np.inf
     for voxels in ladder:
         error = error_at(int(round(voxels * PER_VOXEL)))
-        if error <= MARGIN * TARGET:
+        if error <= MARGIN * target:
             return voxels, error
     return None, error
 
 
-def longest_meeting(error_at, ladder) -> tuple[float | None, float]:
+def longest_meeting(error_at, ladder, target: float = TARGET) -> tuple[float | None, float]:
     """From the shortest distance of ``ladder`` (smallest first) up: the last whose simulated error is
-    at most ``MARGIN * TARGET`` before one that is not (None where the first is not)."""
+    at most ``MARGIN * target`` before one that is not (None where the first is not)."""
     found, found_error = None, np.inf
     for voxels in ladder:
         error = error_at(int(round(voxels * PER_VOXEL)))
-        if error > MARGIN * TARGET:
+        if error > MARGIN * target:
             break
         found, found_error = voxels, error
     return found, found_error
@@ -374,26 +415,37 @@ def segments(values: np.ndarray, n: np.ndarray, k: int):
     return np.take_along_axis(values, take, axis=1), length
 
 
-def refined_segments(s, n, k: int, sign: float, steps: int, lines: Lines, step: float):
+def refined_segments(s, n, k: int, sign: float, steps: int, lines: Lines, step: float, brackets: int | None = 1):
     """:func:`segments` of each line at ``k`` fine steps a segment, with the extreme segment's sample
     replaced by its extremum refined as the ray caster refines it (:func:`refine_extremum`: ``steps``
-    parabolic steps, the bracket one segment each side within the box): ``(samples, lengths)``."""
+    parabolic steps, the bracket one segment each side within the box), and with ``brackets`` 2 the
+    second candidate's (the first sample holding the best value two or more segments from the extreme
+    one, :class:`~dvr_gl.reference.discrete.SecondCandidates`) too: ``(samples, lengths)``."""
     samples, length = segments(s, n, k)
     if not steps:
         return samples, length
     signed = np.where(length > 0, sign * samples, -np.inf)
     j = np.argmax(signed, axis=1)  # the first holding the extremum
     rows = np.nonzero(length[:, 0] > 0)[0]
-    j = j[rows]
+    samples = samples.copy()
+    samples[rows, j[rows]] = sign * refined_at(signed, length, rows, j[rows], k, sign, steps, lines, step, n)
+    if brackets == 2:
+        near = np.abs(np.arange(signed.shape[1])[None, :] - j[:, None]) <= 1
+        others = np.where(near, -np.inf, signed)
+        j2 = np.argmax(others, axis=1)
+        rows = rows[others[rows, j2[rows]] > -np.inf]
+        samples[rows, j2[rows]] = sign * refined_at(signed, length, rows, j2[rows], k, sign, steps, lines, step, n)
+    return samples, length
+
+
+def refined_at(signed, length, rows, j, k: int, sign: float, steps: int, lines: Lines, step: float, n):
+    """The (signed) extremum refined around segment ``j`` of lines ``rows`` (:func:`refined_segments`)."""
     fine = k * j + (np.maximum(length[rows, j], 1) - 1) // 2   # the fine step it samples (segments())
     t0 = lines.t0[rows]
     at = t0 + (fine + 0.5) * step
     part = Lines(lines.start[rows], lines.direction[rows], t0, lines.reconstruction)
-    value = refine_extremum(lambda t: sign * part.value_at(t), at, signed[rows, j], t0, t0 + n[rows] * step,
-                            k * step, steps)
-    samples = samples.copy()
-    samples[rows, j] = sign * value
-    return samples, length
+    return refine_extremum(lambda t: sign * part.value_at(t), at, signed[rows, j], t0, t0 + n[rows] * step,
+                           k * step, steps)
 
 
 def composite(composed: np.ndarray, length: np.ndarray, step: float) -> np.ndarray:

@@ -112,6 +112,7 @@ def shader_features(scene, count_samples: bool = False, bricked: bool = False, d
     defines["JITTER"] = r.jitter
     if r.compositing in ("mip", "minip") and scene.field.kind == "grid":  # several fields: each its own
         defines["REFINE_EXTREMUM"] = r.extremum_refinement or False
+        defines["SECOND_BRACKET"] = bool(r.extremum_refinement) and r.extremum_brackets == 2
     # every sample counts in an average; pre-classified blocks of a volume read out of core would need
     # a pass over all its voxels
     out_of_core_pre = scene.field.out_of_core and "CLASSIFY_PRE" in defines
@@ -544,7 +545,7 @@ class RayCastRenderer(GridRenderer):
         first = next((v for k, v in initial.items() if k in defines), 0.0)
         targets = [self.target(f"state {i}", width, height, (4, 4) if counting else (4,)) for i in range(2)]
         targets[0][1].use()
-        self.ctx.clear(first, 0.0, first, 0.0)  # (REFINE_EXTREMUM: z holds the refined extremum)
+        self.ctx.clear(first, first, first, 0.0)  # projection.glsl's EMPTY_STATE (z: the refined extremum)
         if counting:  # the counts start at zero, whatever the state's initial value
             targets[0][0][1].write(np.zeros((height, width, 4), np.float32))
         common = {**self.ray_uniforms(scene), **self.optics_uniforms(scene, lut)}

@@ -20,7 +20,8 @@ PLUGIN = RendererPlugin(
     settings=(s.SAMPLE_DISTANCE, s.SAMPLE_DISTANCE_VOXELS, s.COMPOSITING, s.ORDER, s.CLASSIFICATION,
               s.ASSOCIATED_COLORS, s.PREINTEGRATION, s.PREINTEGRATION_SIZE, s.FILTER, s.KERNEL_WIDTH,
               s.GRADIENT_OPACITY, s.GRADIENT_OPACITY_REFERENCE, s.ISO_VALUE, s.ISO_REFINEMENT, s.EXTREMUM_REFINEMENT,
-              s.JITTER, s.JITTER_SEED, s.ERT_THRESHOLD, s.LUT_SIZE, s.SHADING, s.SCATTERING, s.CLIPPING, s.GEOMETRY),
+              s.EXTREMUM_BRACKETS, s.JITTER, s.JITTER_SEED, s.ERT_THRESHOLD, s.LUT_SIZE, s.SHADING, s.SCATTERING,
+              s.CLIPPING, s.GEOMETRY),
     data_kinds=None,
     reference=True,
     depth_output=True,  # the judge of depth images (dvr_gl.reference.depth)

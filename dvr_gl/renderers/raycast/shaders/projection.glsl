@@ -4,15 +4,21 @@
 // REFINE_EXTREMUM (MIP, MinIP; the number of steps): after the loop, safeguarded parabolic steps around
 // the extreme sample find the field's extremum between the samples (refine_extremum), as
 // dvr_gl.reference.discrete.refine_extremum does; the extreme sample itself still decides what is skipped.
+// SECOND_BRACKET (with REFINE_EXTREMUM): also refines around the second candidate, the best sample not next
+// to the extreme one (a second peak; dvr_gl.reference.discrete.second_candidates), and keeps the better of
+// the two.  State then: (the extremum, the second candidate, the best refined so far, the extreme sample's
+// segment); each pass refines the candidates it found, so across passes (bricks, windows) the state keeps
+// the best of every pass's refinements: never worse than one pass's.  The second candidate bounds what is
+// skipped (a block at or below it can change neither candidate).
 
 float value;   // the running sum, maximum or minimum
 float total;   // average: the length summed
 
 #if defined(COMPOSITE_MIP)
-const vec4 EMPTY_STATE = vec4(-3.0e38, 0.0, -3.0e38, 0.0);
+const vec4 EMPTY_STATE = vec4(-3.0e38, -3.0e38, -3.0e38, 0.0);
 #define SIGN 1.0
 #elif defined(COMPOSITE_MINIP)
-const vec4 EMPTY_STATE = vec4(3.0e38, 0.0, 3.0e38, 0.0);
+const vec4 EMPTY_STATE = vec4(3.0e38, 3.0e38, 3.0e38, 0.0);
 #define SIGN (-1.0)
 #else
 const vec4 EMPTY_STATE = vec4(0.0);
@@ -61,12 +67,53 @@ float refine_extremum(float m, float fm) {
 }
 #endif
 
+#if defined(SECOND_BRACKET) && defined(REFINE_EXTREMUM) && !defined(COMPOSITE_AVERAGE)
+float second;           // the second candidate (SIGN times it is at most SIGN times value)
+int second_k;           // its segment, where this pass found it (else -1)
+int extreme_at;         // the extreme sample's segment (this pass's or an earlier one's)
+float before_extreme;   // SIGN times the sample of segment extreme_at - 1, where this pass took it (else -3e38)
+float last_s;           // SIGN times the sample of the segment before this one (-3e38 after a gap)
+
+// Track the second candidate before sample s (SIGN times it) of segment k updates the extremum: a new
+// extremum at k leaves as second the best sample at least two segments before k (the old extreme one, or,
+// where that was k - 1, the old second or the sample of k - 2); otherwise a sample two or more segments
+// from the extreme one competes as second.  Strict comparisons: the first sample holding a value wins.
+void track_second(int k, float s) {
+    float best = SIGN * value;
+    if (s > best) {
+        if (k - extreme_at >= 2) {
+            second = value;
+            second_k = extreme_k;
+        } else if (before_extreme > SIGN * second) {
+            second = SIGN * before_extreme;
+            second_k = extreme_at - 1;
+        }
+        before_extreme = last_s;
+        extreme_at = k;
+    } else if (k - extreme_at >= 2 && s > SIGN * second) {
+        second = SIGN * s;
+        second_k = k;
+    }
+    last_s = s;
+}
+#define SKIP_BOUND second
+#else
+#define SKIP_BOUND value
+#endif
+
 bool mode_init(vec4 state) {
     value = state.x;
     total = state.y;
 #if defined(REFINE_EXTREMUM) && !defined(COMPOSITE_AVERAGE)
     refined = state.z;
     extreme_k = -1;
+#endif
+#if defined(SECOND_BRACKET) && defined(REFINE_EXTREMUM) && !defined(COMPOSITE_AVERAGE)
+    second = state.y;
+    second_k = -1;
+    extreme_at = int(state.w);
+    before_extreme = -3.0e38;
+    last_s = -3.0e38;
 #endif
     return false;
 }
@@ -76,7 +123,11 @@ bool mode_sample(int k, float start, float len, float t, vec3 p) {
 #if defined(COMPOSITE_AVERAGE)
     value += s * len;
     total += len;
-#elif defined(COMPOSITE_MIP)
+#else
+#if defined(SECOND_BRACKET) && defined(REFINE_EXTREMUM)
+    track_second(k, SIGN * s);
+#endif
+#if defined(COMPOSITE_MIP)
 #ifdef DEPTH
     if (s > value) depth_t = t;  // the first sample holding the maximum
 #endif
@@ -93,10 +144,14 @@ bool mode_sample(int k, float start, float len, float t, vec3 p) {
 #endif
     value = min(value, s);
 #endif
+#endif
     return false;
 }
 
 void mode_gap() {
+#if defined(SECOND_BRACKET) && defined(REFINE_EXTREMUM) && !defined(COMPOSITE_AVERAGE)
+    last_s = -3.0e38;  // the next sample does not follow the last one
+#endif
 }
 
 void mode_run(int k) {
@@ -106,9 +161,9 @@ void mode_run(int k) {
 // the bound moved.  (An average takes every sample: never accelerated.)
 bool mode_skippable(vec4 block) {
 #if defined(COMPOSITE_MIP)
-    return block.y <= value;
+    return block.y <= SKIP_BOUND;
 #else
-    return block.x >= value;
+    return block.x >= SKIP_BOUND;
 #endif
 }
 
@@ -116,9 +171,9 @@ bool mode_skippable(vec4 block) {
 // so far (below the minimum), no block there can be skipped yet.
 bool mode_dense(float key) {
 #if defined(COMPOSITE_MIP)
-    return key > value;
+    return key > SKIP_BOUND;
 #else
-    return key < value;
+    return key < SKIP_BOUND;
 #endif
 }
 
@@ -127,7 +182,12 @@ bool mode_jump(vec4 block, inout int m) {
 }
 
 vec4 mode_finish(vec4 state) {
-#if defined(REFINE_EXTREMUM) && !defined(COMPOSITE_AVERAGE)
+#if defined(SECOND_BRACKET) && defined(REFINE_EXTREMUM) && !defined(COMPOSITE_AVERAGE)
+    float best = SIGN * refined;  // every pass's refinements: each a value of the field on the ray
+    if (extreme_k >= 0) best = max(best, refine_extremum(sample_t(extreme_k), SIGN * value));
+    if (second_k >= 0) best = max(best, refine_extremum(sample_t(second_k), SIGN * second));
+    return vec4(value, second, SIGN * best, float(extreme_at));
+#elif defined(REFINE_EXTREMUM) && !defined(COMPOSITE_AVERAGE)
     if (extreme_k >= 0) refined = SIGN * refine_extremum(sample_t(extreme_k), SIGN * value);
     return vec4(value, total, refined, state.w);
 #else
