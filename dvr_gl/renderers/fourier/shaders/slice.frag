@@ -106,10 +106,12 @@ void weights(float f, out float w[6], out float dw[6]) {
 }
 #endif
 
-// k mod M in [0, M): GLSL leaves % of negative operands undefined, so k is made positive first (the
-// slice's indices stay within 1024 periods of zero: a pixel would have to be 500 times finer than a voxel)
+// k mod M in [0, M), by a float division (its floor within one of k / M for |k| < 2^22: the slice's indices
+// stay far below) and a correction either way; not %, which GLSL leaves undefined for negative operands and
+// a CPU's SIMD units (llvmpipe) divide lane by lane (the slice pass 1.05-1.15x faster at 256^3, 512x512)
 int wrap(int k, int m) {
-    return (k + 1024 * m) % m;
+    int r = k - m * int(floor(float(k) / float(m)));
+    return r < 0 ? r + m : (r >= m ? r - m : r);
 }
 
 // The taps one texel read each (and, DEPTH_CUE, the derivative weights): TAPS^3 reads.
