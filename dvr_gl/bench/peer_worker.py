@@ -533,7 +533,8 @@ class DvrGlPeer(Peer):
         r = self.scene_.renderer
         self.settings = {"renderer": r.name,
                          "sample_distance_voxels": r.sample_distance / self.scene_.volume.spacing[0]}
-        for key in ("ert_threshold", "acceleration", "classification", "filter", "tolerance", "extremum_refinement"):
+        for key in ("ert_threshold", "acceleration", "classification", "filter", "tolerance", "extremum_refinement",
+                    "extremum_brackets"):
             if hasattr(r, key):
                 self.settings[key] = getattr(r, key)
         self.image = None

@@ -397,6 +397,8 @@ def defaults_label(settings: dict) -> str:
         return "defaults"
     pre = ", pre-integrated" if settings.get("classification") == "preintegrated" else ""
     refined = ", refined" if settings.get("extremum_refinement") else ""
+    if refined and settings.get("extremum_brackets") == 2:
+        refined += " in two brackets"
     return f"defaults ({voxels:.3g} voxel{pre}{refined})"
 
 
