@@ -311,6 +311,17 @@ def test_the_host_fan_equals_the_geometry_shaders_fan(pt, tf, view):
                                                                                 np.abs(host - shader).max())
 
 
+def test_the_host_fan_falls_back_to_the_geometry_shader_without_numba(pt, monkeypatch):
+    monkeypatch.setitem(sys.modules, "numba", None)
+    monkeypatch.setitem(sys.modules, "dvr_gl.renderers.projected_tetrahedra.fan_compiled", None)
+    monkeypatch.setattr(pt, "host_fan", True)
+    scene = mesh_scene(jittered_mesh(), **{"renderer.name": "projected-tetrahedra",
+                                           "renderer.integration": "shirley-tuchman", "image.width": 16,
+                                           "image.height": 12})
+    assert pt.render(scene)[..., 3].max() > 0.1
+    assert pt.stats["fan"] == "geometry shader"
+
+
 def test_shirley_tuchman_falls_back_to_the_exact_integral_inside_the_mesh(pt):
     mesh = jittered_mesh()
     scene = mesh_scene(mesh, **{"renderer.name": "projected-tetrahedra", "renderer.integration": "shirley-tuchman",
