@@ -10,6 +10,7 @@ from dvr_gl.fields.particles import ParticleSet, plummer_sphere
 from dvr_gl.renderers.splatting import column
 from dvr_gl.renderers.splatting.bench import peers
 from dvr_gl.renderers.splatting.oracle import oracle as same_slabs
+from dvr_gl.renderers.splatting.particles import ParticleSplats
 from dvr_gl.renderers.splatting.renderer import SplattingRenderer, m4_tables
 from dvr_gl.scene.resolve import apply_overrides, parse_scene, resolve_scene
 
@@ -191,3 +192,22 @@ def test_a_kept_view_serves_only_its_own_view(splatting):
     assert splatting.stats.get("host") and np.array_equal(first, again) and not np.array_equal(first, other)
     peers.forget_views(splatting)
     assert np.array_equal(splatting.render(b), other)
+
+
+def test_the_numpy_deposit_draws_the_hosts_perspective_frame(splatting):
+    """The numpy loops (:func:`column.deposit_numpy`, the reference of the compiled ones) through the whole
+    perspective frame: the compiled frame's image to float32 rounding (the sums agree to 1e-12); and a
+    support reaching the eye's plane leaves the frame to GL (None from the host)."""
+    pytest.importorskip("numba")
+    scene = scene_of(plummer_sphere(60, seed=1), **PERSPECTIVE, **{"camera.eye": [0.2, -0.1, 12.0]})
+    compiled = splatting.render(scene)
+    assert splatting.stats.get("host")
+    field, cam = scene.field, scene.camera
+    centre = 0.5 * (np.asarray(field.bounds[0]) + np.asarray(field.bounds[1]))
+    splats = ParticleSplats(field, centre, scene.transfer_function.classify_voxels(field.samples, True))
+    eye = np.asarray(cam.eye, float) - centre
+    image = column.host_xray(scene, splats, eye, cam.basis(), m4_tables(), use_numpy=True)
+    assert np.abs(image - compiled).max() <= 1e-7 and image[..., 3].max() > 0.05
+    near = scene_of(plummer_sphere(60, seed=1), **PERSPECTIVE, **{"camera.eye": [0.2, -0.1, 1.0]})
+    assert column.host_xray(near, splats, np.asarray(near.camera.eye, float) - centre, near.camera.basis(),
+                            m4_tables(), use_numpy=True) is None
