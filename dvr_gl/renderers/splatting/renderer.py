@@ -45,7 +45,7 @@ from .sheets import (
 from .splats import Splats, ghost_layers, post_visibility
 from .work import splat_work
 
-#: GL drivers that shade on the CPU: there particles' orthographic X-ray is deposited on the host (:mod:`.column`).
+#: GL drivers that shade on the CPU: there particles' X-ray is deposited on the host (:mod:`.column`).
 SOFTWARE_GL = ("llvmpipe", "softpipe", "swiftshader")
 
 #: Its own GLSL (before the common library).

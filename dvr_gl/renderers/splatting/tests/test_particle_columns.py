@@ -1,4 +1,4 @@
-"""Particles' orthographic X-ray deposited on the host (:mod:`dvr_gl.renderers.splatting.column`): against the
+"""Particles' X-ray deposited on the host (:mod:`dvr_gl.renderers.splatting.column`), both projections: against the
 GL path and the same-slabs reference, the compiled loops against numpy, the flux of particles smaller than a
 pixel, extreme particle sets, and the peers' bench without a peer."""
 
