@@ -43,7 +43,7 @@ def face_fronts(pairs, face_point, face_normal, normal_length, eye, forward, per
     return front, flat
 
 
-def exact_order(n, face_slots, pairs, front_of, extra_front, extra_back, depth):
+def exact_order(n, face_slots, pairs, front_of, extra_front, extra_back, depth, original=None):
     """Cells ``0..n-1`` front to back and the cycles broken, as :func:`.order.topological` gives them
     for the relations across the interior faces (``front_of``: each face's front cell, of its two
     in ``pairs``; ``face_slots``: which of its cells' four faces it is, ``(F, 2)``) and the
@@ -52,11 +52,29 @@ def exact_order(n, face_slots, pairs, front_of, extra_front, extra_back, depth):
     one pass in level order carries it); a cycle (no cell left free) is broken by taking the cell
     not yet out with the smallest key (the lowest index among equal ones); the order is by key, ties
     by level, then by index.  A relation given twice counts twice both ways (in the in-degree and
-    when released), which gives the same levels and keys as counting it once."""
+    when released), which gives the same levels and keys as counting it once.
+
+    ``original``: the cells renumbered (:func:`.order.locality_order`: ``original[i]`` is cell ``i``'s
+    index in the mesh): ties (cycles broken, the order's last key) go by the original index and the
+    order is of original indices, the order of the mesh's own numbering."""
     behind, indegree, extra_start, extra_next = _relations(n, face_slots, pairs, front_of, extra_front, extra_back)
-    place, level, steps, broken = _levels(n, behind, extra_start, extra_next, indegree, np.asarray(depth, np.float64))
+    numbering = np.zeros(0, np.int64) if original is None else np.asarray(original, np.int64)
+    place, level, steps, broken = _levels(n, behind, extra_start, extra_next, indegree,
+                                          np.asarray(depth, np.float64), numbering)
+    if original is not None:
+        place, level = _renumbered_back(place, level, numbering)
     by_level = _by_level(level, steps)
     return by_level[stable_argsort(place[by_level])], broken
+
+
+@numba.njit(cache=True)
+def _renumbered_back(place, level, original):
+    """``place`` and ``level`` of the renumbered cells in the mesh's own numbering."""
+    place_back, level_back = np.empty_like(place), np.empty_like(level)
+    for i in range(len(original)):
+        place_back[original[i]] = place[i]
+        level_back[original[i]] = level[i]
+    return place_back, level_back
 
 
 @numba.njit(cache=True)
@@ -89,12 +107,12 @@ def _relations(n, face_slots, pairs, front_of, extra_front, extra_back):
 
 
 @numba.njit(cache=True)
-def _levels(n, behind, extra_start, extra_next, indegree, depth):
+def _levels(n, behind, extra_start, extra_next, indegree, depth, original):
     """Kahn's sort: each cell's key (from ``depth``, a new array) and level, the levels' count and the
-    cycles broken.  Each cell's key and count of relations left in front of it side by side in one
-    ``(n, 2)`` array (the count as a float): a relation settled touches one
-    cache line instead of three, and the sort is bound by those random accesses; a cell out holds
-    ``-1 - level`` there."""
+    cycles broken (a tie of key broken by the lower ``original`` index, else by the lower index).
+    Each cell's key and count of relations left in front of it side by side in one ``(n, 2)`` array
+    (the count as a float): a relation settled touches one cache line instead of three, and the sort
+    is bound by those random accesses; a cell out holds ``-1 - level`` there."""
     state = np.empty((n, 2))
     for i in range(n):
         state[i, 0] = depth[i]
@@ -111,7 +129,8 @@ def _levels(n, behind, extra_start, extra_next, indegree, depth):
         if size == 0:  # a cycle: the nearest remaining cell goes first
             best = -1
             for i in range(n):
-                if state[i, 1] >= 0.0 and (best < 0 or state[i, 0] < state[best, 0]):
+                if state[i, 1] >= 0.0 and (best < 0 or state[i, 0] < state[best, 0] or (
+                        len(original) and state[i, 0] == state[best, 0] and original[i] < original[best])):
                     best = i
             frontier[0] = best
             size = 1

@@ -4,9 +4,11 @@ centroid order visibly fails.  (The closed forms on meshes run in tests/renderer
 
 from __future__ import annotations
 
+import functools
 import sys
 import tempfile
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -18,11 +20,14 @@ from dvr_gl.fields.mesh import TetMesh
 from dvr_gl.fields.mesh_rays import boundary_faces, face_neighbours
 from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.renderers.projected_tetrahedra.order import (
+    NEAR_CELLS,
     VisibilityOrder,
     adjacency,
     boundary_relations,
     compiled,
+    locality_order,
     o_d_t,
+    scattered,
     topological,
 )
 from dvr_gl.scene.resolve import load_scene
@@ -380,6 +385,66 @@ def test_the_compiled_sort_equals_the_numpy_sort_with_cycles_and_repeats():
     assert np.array_equal(fast.stable_argsort(values), np.argsort(values, kind="stable"))
     points, eye = rng.normal(size=(1000, 3)) * 1e3, np.array([0.3, -7.0, 2e3])
     assert np.array_equal(fast.distances(points, eye), np.linalg.norm(points - eye, axis=1))  # bit for bit
+
+
+@pytest.mark.parametrize("loops", ["compiled", "numpy"])
+def test_the_renumbered_sort_gives_the_order_of_the_mesh_numbering(loops):
+    """Random relations (cycles, repeats, ties of depth) on cells renumbered at random: the sort on the
+    new numbers, ties by the original ones, gives the original numbering's order and cycle count."""
+    rng = np.random.default_rng(5)
+    n = 300
+    front, back = rng.integers(0, n, 900), rng.integers(0, n, 900)
+    keep = front != back
+    front, back = front[keep], back[keep]
+    depth = rng.integers(0, 40, n).astype(float)
+    original = rng.permutation(n)
+    rank = np.argsort(original)
+    if loops == "compiled":
+        fast = pytest.importorskip("dvr_gl.renderers.projected_tetrahedra.order_compiled")
+        none = np.zeros((0, 2), np.int64)
+        sort = functools.partial(fast.exact_order, n, none, none, np.zeros(0, np.int64))
+    else:
+        sort = functools.partial(topological, n)
+    expected, expected_broken = sort(front, back, depth)
+    order, broken = sort(rank[front], rank[back], depth[original], original)
+    assert broken == expected_broken > 0
+    assert np.array_equal(order, expected)
+
+
+@pytest.mark.parametrize("compiled_loops", [True, False])
+def test_the_order_on_cells_renumbered_for_locality_is_the_same(compiled_loops):
+    """The per-view loops on the cells renumbered along a Morton curve (VisibilityOrder.renumber) give
+    the order on the mesh's own numbering, cell for cell, with the same counts; a mesh whose cells
+    are shuffled (so the renumbering moves them all) and cut (relations across a gap), seen in
+    perspective and along an axis (faces edge on)."""
+    if compiled_loops:
+        pytest.importorskip("numba")
+    mesh = jittered_mesh(n=(7, 6, 5))
+    centroids = mesh.points[mesh.tets].mean(axis=1)
+    keep = ~((centroids[:, 0] > 0.3) & (centroids[:, 0] < 0.7) & (centroids[:, 2] > 0.4))
+    tets = mesh.tets[keep][np.random.default_rng(1).permutation(int(keep.sum()))]
+    mesh = TetMesh(mesh.points, tets, mesh.values, name="shuffled")
+    for camera in (Camera(eye=(2.5, 1.9, 2.2), target=(0.5, 0.4, 0.45), up=(0.0, 0.0, 1.0), fov=40.0),
+                   Camera(eye=(0.5, 0.4, 5.0), target=(0.5, 0.4, 0.0), up=(0.0, 1.0, 0.0),
+                          projection="orthographic", view_height=1.2)):
+        local, plain = VisibilityOrder(mesh, compiled_loops), VisibilityOrder(mesh, compiled_loops)
+        local.renumber, plain.renumber = True, False
+        (a, sa), (b, sb) = local(camera, 24, 20), plain(camera, 24, 20)
+        assert sa["renumbered"] and not sb["renumbered"]
+        assert not np.array_equal(local.renumbered.cells, np.arange(len(tets)))
+        assert np.array_equal(a, b)
+        for key in ("face_relations", "boundary_relations", "edge_on_faces", "cycles_broken"):
+            assert sa[key] == sb[key], key
+        assert sa["boundary_relations"] > 0
+
+
+def test_a_numbering_is_scattered_where_most_faces_join_far_cells():
+    """Renumbering is chosen where more than half the interior faces join cells over NEAR_CELLS apart."""
+    far, near = [0, NEAR_CELLS + 1], [5, 6]
+    assert scattered(SimpleNamespace(pairs=np.array([far, far, near])))
+    assert not scattered(SimpleNamespace(pairs=np.array([far, near, near])))
+    assert not scattered(SimpleNamespace(pairs=np.zeros((0, 2), np.int64)))
+    assert np.array_equal(locality_order(np.array([[1.0, 1, 1], [0, 0, 0], [1, 0, 0], [0, 1, 0]])), [1, 2, 3, 0])
 
 
 def test_the_order_falls_back_to_numpy_without_numba(monkeypatch):
