@@ -128,6 +128,14 @@ vec2 range(float o, float d, float lo, float hi) {
     return vec2(min(ta, tb), max(ta, tb));
 }
 
+// The parameters where the line is beyond the low face (side 0: index in [-1, 0)) or the high one (side 1:
+// (last, last + 1]); a line in a face's plane is within the box, as the references' chords have it.
+vec2 beyond(float o, float d, float last, int side) {
+    if (d != 0.0) return side == 0 ? range(o, d, -1.0, 0.0) : range(o, d, last, last + 1.0);
+    bool in_shell = side == 0 ? o < 0.0 && o >= -1.0 : o > last && o <= last + 1.0;
+    return in_shell ? vec2(-1e30, 1e30) : vec2(1e30, -1e30);
+}
+
 // The weighted channels' integral beyond one face (axis a, layer side: 0 low, 1 high) over the line's
 // parameters [ta, tb] (within a voxel of the face): there the trilinear field is (1 - s) times the face
 // layer's bilinear interpolant, s the distance beyond the face in voxels, so the pieces lie between the
@@ -184,7 +192,7 @@ vec4 integrate_faces(vec3 entry, float z0) {
             within = vec2(max(within.x, r.x), min(within.y, r.y));
         }
         for (int side = 0; side < 2; ++side) {
-            vec2 r = side == 0 ? range(uo[a], ud[a], -1.0, 0.0) : range(uo[a], ud[a], last[a], last[a] + 1.0);
+            vec2 r = beyond(uo[a], ud[a], last[a], side);
             float ta = max(r.x, within.x), tb = min(r.y, within.y);
             if (ta >= tb) continue;
             sum += walk(side, a, a == 0 ? 1 : 0, a == 2 ? 1 : 2, uo, ud, last, z0, ta, tb);
