@@ -13,6 +13,14 @@ import math
 import numba
 import numpy as np
 
+#: How the loops over a row's run of pixels are compiled: without Python's division checks (a branch that
+#: raises in every iteration keeps LLVM from vectorising; no divisor here is zero: supports over 2 pixels,
+#: ``u^2 + |v|^2 + 1 >= 1``), with fused multiply-adds, the pixel's offset from a 32-bit counter (AVX2 converts
+#: 32-bit integers to doubles four at a time, 64-bit ones not before AVX-512), the run a slice of the row.
+#: On the 10^6-particle column one thread's CPU time fell from 1.27-1.83 s to 1.06-1.14 s (the same sums to
+#: 4e-16, 2026-11-28, a shared machine).
+_RUN = {"error_model": "numpy", "fastmath": {"contract"}}
+
 
 @numba.njit(cache=True, inline="always")
 def _lerp(table, x):
@@ -51,7 +59,7 @@ def _last(x, n):
     return min(int(math.floor(min(max(x, -1.0), float(n)))), n - 1)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **_RUN)
 def _one(out, cx, cy, radius, weights, table, box, subpixel, ray, half):
     """One particle's footprint added to ``out`` ``(channels, height, width)`` (see :func:`deposit`); ``ray``:
     its centre in the view's axes and its support (world units) under a perspective camera, else empty
@@ -82,13 +90,13 @@ def _one(out, cx, cy, radius, weights, table, box, subpixel, ray, half):
         half = math.sqrt(rest)
         i0, i1 = _first(cx - half - 0.5, width, True), _last(cx + half - 0.5, width)
         dy2 = dy * dy
-        if channels == 1:  # the column density: one sum (the renderer's usual case)
-            row, weight = out[0, j], weights[0]
-            for i in range(i0, i1 + 1):
-                dx = i + 0.5 - cx
+        if channels == 1:  # the column density: one sum (the renderer's usual case), vectorised (_RUN)
+            run, weight, d0 = out[0, j, i0:i1 + 1], weights[0], i0 + 0.5 - cx
+            for i in range(run.shape[0]):
+                dx = d0 + np.float64(np.int32(i))
                 f = min((dx * dx + dy2) * inverse, 1.0) * (n - 1)
-                k = min(int(f), n - 2)
-                row[i] += weight * (table[k] + (f - k) * (table[k + 1] - table[k]))
+                k = min(np.int32(f), n - 2)
+                run[i] += weight * (table[k] + (f - k) * (table[k + 1] - table[k]))
             continue
         for i in range(i0, i1 + 1):
             dx = i + 0.5 - cx
@@ -99,7 +107,7 @@ def _one(out, cx, cy, radius, weights, table, box, subpixel, ray, half):
                 out[c, j, i] += weights[c] * value
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **_RUN)
 def _one_ray(out, x, y, z, support, weights, table, half_x, half_y):
     """One particle's footprint along each pixel's own ray (perspective), added to ``out``: ``table`` at ``q =
     |c x d|^2 / (|d|^2 R^2)``, the ray's squared distance from the centre ``c = (x, y, z)`` (view axes, from
@@ -134,14 +142,14 @@ def _one_ray(out, x, y, z, support, weights, table, half_x, half_y):
         i0 = _first((u0 + half_x) / du - 0.5 - margin, width, True)
         i1 = _last((u1 + half_x) / du - 0.5 + margin, width)
         a2 = across * across
-        if channels == 1:  # the column density: one sum, a loop without branches
-            row, weight = out[0, j], weights[0]
-            for i in range(i0, i1 + 1):
-                u = (i + 0.5) * du - half_x
+        if channels == 1:  # the column density: one sum, a loop without branches (_RUN)
+            run, weight, u0 = out[0, j, i0:i1 + 1], weights[0], (i0 + 0.5) * du - half_x
+            for i in range(run.shape[0]):
+                u = u0 + np.float64(np.int32(i)) * du
                 bx, ey = z * u - x, x * v - y * u
                 f = min((a2 + bx * bx + ey * ey) / (u * u + length2) * inverse, 1.0) * (n - 1)
-                k = min(int(f), n - 2)
-                row[i] += weight * (table[k] + (f - k) * (table[k + 1] - table[k]))
+                k = min(np.int32(f), n - 2)
+                run[i] += weight * (table[k] + (f - k) * (table[k + 1] - table[k]))
             continue
         for i in range(i0, i1 + 1):
             u = (i + 0.5) * du - half_x
