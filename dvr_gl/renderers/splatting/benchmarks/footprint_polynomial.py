@@ -25,8 +25,7 @@ column of ``dvr bench splatting --peers``, a machine shared with other work): th
 (no footprint) 0.46 s, the table 1.1-1.3 s, one degree-14 polynomial over each whole row (vectorised, fused
 multiply-adds) 0.8 s, the outer piece's with its square root 0.9-1.2 s; but the three pieces need either
 each row split in runs (five per row, mostly too short for the vector loop: 1.7-2.1 s) or two polynomials
-per pixel and a select (1.6 s).  With two threads the deposit is bound by memory (the per-thread images)
-and the table's loop and a cheaper one take the same 0.85 s.
+per pixel and a select (1.6 s).  (docs/particles.md, the column density against sarracen.)
 """
 
 from __future__ import annotations
