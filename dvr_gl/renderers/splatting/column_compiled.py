@@ -17,7 +17,7 @@ import numpy as np
 #: raises in every iteration keeps LLVM from vectorising; no divisor here is zero: supports over 2 pixels,
 #: ``u^2 + |v|^2 + 1 >= 1``), with fused multiply-adds, the pixel's offset from a 32-bit counter (AVX2 converts
 #: 32-bit integers to doubles four at a time, 64-bit ones not before AVX-512), the run a slice of the row.
-#: On the 10^6-particle column one thread's CPU time fell from 1.27-1.83 s to 1.06-1.14 s (the same sums to
+#: On the 10^6-particle column one thread's CPU time fell from 1.26-1.91 s to 0.95-1.11 s (the same sums to
 #: 4e-16, 2026-11-28, a shared machine).
 _RUN = {"error_model": "numpy", "fastmath": {"contract"}}
 
