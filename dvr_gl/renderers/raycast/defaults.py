@@ -86,6 +86,15 @@ CACHE_SIZE = 32
 #: unrefined to 1.35, 0.97, 0.72 and 0.64/255 with 1, 2, 3 and 6 steps; its image at 1 voxel from 48.6 dB
 #: unrefined to 51.9, 53.8, 56.7, 58.1, 58.9 and 59.1 dB with 1, 2, 3, 4, 6 and 8 steps.
 EXTREMUM_REFINEMENT = 6
+#: MIP and MinIP where the scene gives no renderer.extremum_refinement: the step counts simulated, each at the
+#: largest distance of the ladder meeting the target; the cheapest per ray (:func:`ray_cost`) is kept.  Fewer
+#: steps often need a shorter distance (mri-mip: 4 steps meet the target at 0.75 voxel, 6 at 1.25), but not
+#: always (brain-mip: both at 1.25 voxel, 4 steps 7 % faster; docs/peers.md, "A cheaper refined MIP").
+REFINEMENT_CHOICES = (4, EXTREMUM_REFINEMENT)
+#: What one refinement fetch (a bracket's end or a parabolic step) costs, in samples of the ray's loop: on
+#: brain-mip at 1.25 voxel (llvmpipe, 2026-11-28) one bracket's 8 fetches took 18 % of the unrefined frame
+#: of about 75 samples a ray, the 6 steps of two brackets 12 %: about 1.7-2 samples each.
+REFINE_FETCH_COST = 2.0
 #: MIP and MinIP: the brackets refined where the scene gives none (renderer.extremum_brackets): the extreme
 #: sample's and the best sample's not next to it (a second peak, whose field may rise above the extreme
 #: sample's between the samples).  On 3000 lines through MNI152 at 1.25 voxel, refining the second too
@@ -157,7 +166,7 @@ def cache_key(scene) -> tuple:
     points = np.asarray(tf.points, dtype=np.float64)
     return (field_key(scene.field), points.tobytes(), points.shape, tf.unit_distance, tf.opacity_model,
             r.compositing, r.filter, r.classification, r.preintegration_size, refinement_steps(scene),
-            refinement_brackets(scene))
+            refinement_brackets(scene), getattr(r, "extremum_refinement", None))
 
 
 def field_key(field) -> tuple:
@@ -359,11 +368,9 @@ def simulate_choice(scene) -> DefaultChoice:
         post = lambda k: rms(composite(*segments(composed, n, k), step), fine)  # noqa: E731
         pre = lambda k: rms(composite(*segments(linearised(s, n, tf, k), n, 1), step), fine)  # noqa: E731
     else:
-        sign, steps, brackets = (1.0 if mode == "mip" else -1.0), refinement_steps(scene), refinement_brackets(scene)
-        fine = extremum_rgba(*refined_segments(s, n, 1, sign, steps, lines, step, brackets), sign, tf)
-        post = lambda k: rms(extremum_rgba(*refined_segments(s, n, k, sign, steps, lines, step,  # noqa: E731
-                                                             brackets), sign, tf), fine)
-        pre = None
+        voxels, error, steps = extremum_choice(scene, s, n, lines, step)
+        return DefaultChoice("post", voxels, scene.renderer.ert_threshold, float(error), time.perf_counter() - begin,
+                             steps, refinement_brackets(scene))
     target = target_of(mode)
     voxels, error = largest_meeting(post, LADDER, target)
     choice = ("post", voxels, error) if voxels is not None else ("post", FINEST, error)
@@ -376,6 +383,33 @@ def simulate_choice(scene) -> DefaultChoice:
     ert = 1.0 - TARGET / 4.0 if mode == "emission_absorption" else scene.renderer.ert_threshold
     return DefaultChoice(choice[0], choice[1], ert, float(choice[2]), time.perf_counter() - begin,
                          refinement_steps(scene), refinement_brackets(scene))
+
+
+def extremum_choice(scene, s: np.ndarray, n: np.ndarray, lines, step: float) -> tuple[float, float, int]:
+    """MIP and MinIP: ``(voxels, error, steps)``, the distance (voxels) and refinement steps of the cheapest
+    :func:`ray_cost` among the scene's own steps or :data:`REFINEMENT_CHOICES`, each at the largest distance of
+    :data:`LADDER` whose simulated error on the lines (values ``s``, ``n`` fine steps of ``step`` each) meets
+    :data:`MIP_TARGET` (:data:`FINEST` and the last error where none does; the first choice on a tie)."""
+    mode, tf = scene.renderer.compositing, scene.transfer_function
+    sign, brackets = (1.0 if mode == "mip" else -1.0), refinement_brackets(scene)
+    own = scene.renderer.extremum_refinement
+    best = None
+    for steps in (refinement_steps(scene),) if own is not None else REFINEMENT_CHOICES:
+        fine = extremum_rgba(*refined_segments(s, n, 1, sign, steps, lines, step, brackets), sign, tf)
+        post = lambda k: rms(extremum_rgba(*refined_segments(s, n, k, sign, steps, lines, step,  # noqa: E731
+                                                             brackets), sign, tf), fine)
+        voxels, error = largest_meeting(post, LADDER, target_of(mode))
+        voxels = FINEST if voxels is None else voxels
+        cost = ray_cost(float(np.mean(n)) / PER_VOXEL, voxels, steps, brackets)
+        if best is None or cost < best[0]:
+            best = (cost, voxels, error, steps)
+    return best[1:]
+
+
+def ray_cost(length: float, voxels: float, steps: int, brackets: int | None) -> float:
+    """A ray's modelled cost in samples of the loop: ``length`` voxels sampled every ``voxels``, and each
+    refined bracket's ``steps`` + 2 fetches (its ends) at :data:`REFINE_FETCH_COST` samples each."""
+    return length / voxels + (brackets or 0) * (steps + 2) * REFINE_FETCH_COST if steps else length / voxels
 
 
 def largest_meeting(error_at, ladder, target: float = TARGET) -> tuple[float | None, float]:

@@ -114,7 +114,7 @@ def test_the_choice_follows_a_new_transfer_function_or_mode():
     ml = load_scene(None, ML)
     assert chosen(ml.with_renderer(compositing="mip")) == chosen(load_scene(None, {**ML, **{
         "renderer.compositing": "mip"}}))
-    assert ml.with_renderer(compositing="mip").renderer.extremum_refinement == defaults.EXTREMUM_REFINEMENT
+    assert ml.with_renderer(compositing="mip").renderer.extremum_refinement in defaults.REFINEMENT_CHOICES
     given = load_scene(None, {**BLOBS, "renderer.sample_distance_voxels": 0.3})
     assert voxels(given.replace(transfer_function=spiked.transfer_function)) == pytest.approx(0.3)
     assert voxels(given.with_renderer(compositing="mip")) == pytest.approx(0.3)

@@ -92,23 +92,33 @@ def test_refine_extremum_finds_a_parabolas_vertex_in_one_step():
 
 
 def test_the_defaults_refine_mip_and_choose_a_longer_step():
-    """The MIP defaults refine the extremum (defaults.EXTREMUM_REFINEMENT) and, with it, choose at least the
-    unrefined choice's distance; a scene's own extremum_refinement is kept and simulated."""
+    """The MIP defaults refine the extremum (in one of defaults.REFINEMENT_CHOICES' steps) and, with it, choose
+    at least the unrefined choice's distance; a scene's own extremum_refinement is kept and simulated."""
     keys = {**{k: v for k, v in BLOBS.items() if k not in ("renderer.sample_distance_voxels",
                                                              "renderer.extremum_refinement")},
             "renderer.compositing": "mip", "volume.size": 33}
     chosen = load_scene(None, keys)
-    assert chosen.renderer.extremum_refinement == defaults.EXTREMUM_REFINEMENT
+    assert chosen.renderer.extremum_refinement in defaults.REFINEMENT_CHOICES
     plain = load_scene(None, {**keys, "renderer.extremum_refinement": 0})
     assert plain.renderer.extremum_refinement == 0
     assert chosen.renderer.sample_distance >= plain.renderer.sample_distance
     refined = defaults.choose_defaults(chosen)
     unrefined = defaults.choose_defaults(plain)
+    own = load_scene(None, {**keys, "renderer.extremum_refinement": 6})  # kept, and not the defaults' cache entry
+    assert own.renderer.extremum_refinement == 6 and defaults.choose_defaults(own).extremum_refinement == 6
     assert refined.estimated_error <= unrefined.estimated_error or refined.sample_distance_voxels > \
         unrefined.sample_distance_voxels
 
 
 # --- two brackets (renderer.extremum_brackets = 2): the second candidate, the best sample not next to the extreme one
+
+
+def test_the_cheaper_refinement_per_ray():
+    """ray_cost: a ray's samples plus each bracket's fetches (its ends and steps) at REFINE_FETCH_COST."""
+    assert defaults.ray_cost(100.0, 1.25, 4, 2) == pytest.approx(80.0 + 2 * 6 * defaults.REFINE_FETCH_COST)
+    assert defaults.ray_cost(100.0, 1.25, 4, 2) < defaults.ray_cost(100.0, 1.25, 6, 2)
+    assert defaults.ray_cost(100.0, 1.25, 6, 2) < defaults.ray_cost(100.0, 0.75, 4, 2)  # mri-mip's case
+    assert defaults.ray_cost(100.0, 1.0, 0, None) == 100.0
 
 
 @pytest.mark.parametrize("mode", ["mip", "minip"])
