@@ -396,9 +396,10 @@ def defaults_label(settings: dict) -> str:
     if voxels is None:
         return "defaults"
     pre = ", pre-integrated" if settings.get("classification") == "preintegrated" else ""
-    refined = ", refined" if settings.get("extremum_refinement") else ""
+    steps = settings.get("extremum_refinement")
+    refined = f", refined in {steps} steps" if steps else ""
     if refined and settings.get("extremum_brackets") == 2:
-        refined += " in two brackets"
+        refined += ", two brackets"
     return f"defaults ({voxels:.3g} voxel{pre}{refined})"
 
 
