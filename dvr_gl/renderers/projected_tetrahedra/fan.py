@@ -66,16 +66,17 @@ class HostFan:
         fast, cam, img, tf = self.fast, scene.camera, scene.image, scene.transfer_function
         forward, _, _ = cam.basis()
         x, w, s = _gauss_legendre()
-        args = (np.ascontiguousarray(drawn, np.bool_), self.tets, self.points, None, self.gradients, self.offsets,
-                np.asarray(cam.eye, np.float64) - self.centre, np.asarray(forward, np.float64),
-                cam.projection == "perspective", np.ascontiguousarray(tf.points[:, :5], np.float64),
-                interval_sigma_max(tf).astype(np.float64), tf.opacity_model == "alpha", float(tf.unit_distance),
-                x, w, s, self.rows)
+        drawn = np.ascontiguousarray(drawn, np.bool_)
+        view = (np.asarray(cam.eye, np.float64) - self.centre, np.asarray(forward, np.float64),
+                cam.projection == "perspective")
+        classes = (np.ascontiguousarray(tf.points[:, :5], np.float64), interval_sigma_max(tf).astype(np.float64),
+                   tf.opacity_model == "alpha", float(tf.unit_distance))
 
         def build():
             projected = fast.project(self.points, np.ascontiguousarray(view_projection, np.float64),
                                      float(img.width), float(img.height))
-            fast.fan(*args[:3], projected, *args[4:])
+            fast.fan(drawn, self.tets, self.points, projected, self.gradients, self.offsets, *view, *classes,
+                     x, w, s, self.rows)
 
         self._pending = self._worker.submit(build)
 

@@ -34,7 +34,6 @@ COVER_ALL = np.uint32(1 << 31)  # an order entry's flag: the cell reaches behind
 #: each fragment integrating its piece exactly): measured with the oxygen post (513k cells) at 256^2 to
 #: 4096^2, 5e-6 s a pixel against the GL rate of 3e8 samples a second (limits.RATES): 1500 = 19 x 80.
 FRAGMENTS_PER_CUBE_ROOT = 20
-CELL_INDICES = 12  # a host-built fan's indices a cell (fan.HostFan: four triangles around the thick vertex)
 BATCHES = 32  # draw calls a frame is cut into, in order, for progress and the time limit between them
 
 
@@ -103,7 +102,7 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
             self._uniforms(program, scene, textures)
             vao = self.ctx.vertex_array(program, [(host.vertices, "2f 4f 1f", "in_pixel", "in_st", "in_tau_max")],
                                         index_buffer=host.indices, index_element_size=4)
-            primitive, per_cell = moderngl.TRIANGLES, CELL_INDICES
+            primitive, per_cell = moderngl.TRIANGLES, host.fast.CELL_INDICES  # four triangles a cell
         else:  # one point a cell, its footprint built in pt.geom
             program = create_program(self.ctx, "pt.vert", "pt_st.frag" if interpolated else "pt.frag", defines,
                                      geometry="pt.geom", roots=SHADERS)
