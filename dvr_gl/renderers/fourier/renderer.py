@@ -37,14 +37,18 @@ SHADERS = (shader_root(__file__),)
 
 
 class SpectrumTextures:
-    """The spectra as 3D textures ``(Mx / 2 + 1, My, Mz)``: RGBA32F of two complex channels each, and an odd
-    last channel alone in an RG32F texture (read as ``(re, im, 0, 1)``: the slice's second channel there is
-    never used).  Rolled by ``ROLL`` along y and z (index ``k`` in row ``(k + ROLL) mod M``): a linearly
-    filtered read is precise to about its row x 6e-8 texels on llvmpipe, so the low frequencies, the
-    spectrum's largest values, of either sign lie in low rows."""
+    """The spectra as 3D textures ``(Mx / 2 + 1 + 2 XPAD, My, Mz)`` (x from ``-XPAD`` to ``Mx / 2 + XPAD``: the
+    half spectrum and a few columns of the other half, :func:`extended_into`): RGBA32F of two complex
+    channels each, and an odd last channel alone in an RG32F texture (read as ``(re, im, 0, 1)``: the
+    slice's second channel there is never used).  Rolled by ``ROLL`` along y and z (index ``k`` in row
+    ``(k + ROLL) mod M``): a linearly filtered read is precise to about its row x 6e-8 texels on llvmpipe,
+    so the low frequencies, the spectrum's largest values, of either sign lie in low rows."""
 
     #: Rows the spectra are rolled by along y and z (the slice shader's ``ROLL``).
     ROLL = 8
+    #: Columns of the half not stored on either side (the slice shader's ``XPAD``): six taps from a fragment's
+    #: x in [0, M/2] reach x - 2 .. x + 3, so each pair of taps is one filtered read, with no mirrored pair.
+    XPAD = 3
 
     def __init__(self, ctx, spectrum: Spectrum):
         self.spectrum = spectrum
@@ -53,10 +57,11 @@ class SpectrumTextures:
         for i in range(0, len(halves), 2):
             pair = halves[i:i + 2]
             mz, my, mxh = pair[0].shape
-            texels = np.empty(pair[0].shape + (len(pair),), np.complex64)  # re, im(, re, im)
+            columns = mxh + 2 * self.XPAD
+            texels = np.empty((mz, my, columns, len(pair)), np.complex64)  # re, im(, re, im)
             for c, half in enumerate(pair):
-                rolled_into(texels[..., c], half, self.ROLL)
-            tex = ctx.texture3d((mxh, my, mz), 2 * len(pair), texels.view(np.float32), dtype="f4")
+                extended_into(texels[..., c], half, self.XPAD, self.ROLL)
+            tex = ctx.texture3d((columns, my, mz), 2 * len(pair), texels.view(np.float32), dtype="f4")
             del texels
             # LINEAR for the paired taps' filtered reads (texelFetch ignores it); y and z periodic, x clamped
             tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
@@ -66,6 +71,22 @@ class SpectrumTextures:
     def release(self):
         for t in self.textures:
             t.release()
+
+
+def extended_into(out: np.ndarray, half: np.ndarray, pad: int, shift: int):
+    """``out`` ``(Mz, My, Mx / 2 + 1 + 2 pad)``: the spectrum at x ``-pad .. Mx / 2 + pad`` from its half
+    ``half`` (periodic, ``S(-k)`` the conjugate of ``S(k)``: a column of the half not stored is the
+    conjugate of its mirror, y and z negated), rolled by ``shift`` along y and z (:func:`rolled_into`)."""
+    mxh = half.shape[2]
+    m = 2 * (mxh - 1)
+    rolled_into(out[:, :, pad:pad + mxh], half, shift)
+    for column in [*range(pad), *range(pad + mxh, out.shape[2])]:
+        x = (column - pad) % m
+        if x < mxh:
+            rolled_into(out[:, :, column], half[:, :, x], shift)
+        else:  # negated rows: row k holds (-k) mod M, the flipped rows shifted by one
+            mirror = np.roll(half[::-1, ::-1, m - x], 1, axis=(0, 1))
+            rolled_into(out[:, :, column], np.conj(mirror), shift)
 
 
 def rolled_into(out: np.ndarray, half: np.ndarray, shift: int):
@@ -209,7 +230,7 @@ class FourierRenderer(GLRenderer):
         r = scene.renderer
         border = ghost_layers(scene)
         dims = [padded_length(n + 2 * border, r.padding) for n in scene.volume.dims]  # with the ghost layers
-        side = max(dims[0] // 2 + 1, dims[1], dims[2])
+        side = max(dims[0] // 2 + 1 + 2 * SpectrumTextures.XPAD, dims[1], dims[2])
         if side > gl.texture_3d_size:
             raise SceneError(f"fourier's spectrum needs a {side}-texel 3D texture, over this GL's "
                              f"{gl.texture_3d_size}: use a smaller renderer.padding or volume"
@@ -220,7 +241,8 @@ class FourierRenderer(GLRenderer):
         count = (4 if r.compositing == "xray" else 1) + (3 if r.compositing == "xray" else 1) * r.hemispherical_shading
         # the float64 spectra on the host and their float32 textures, and the shell pass's float32 channels
         shell = ShellTexture.bytes(scene, border) if clips_exactly(scene) else 0
-        check_bytes(count * 24 * (dims[0] // 2 + 1) * dims[1] * dims[2] + shell, "fourier's spectra",
+        columns = dims[0] // 2 + 1 + 2 * SpectrumTextures.XPAD
+        check_bytes(count * 24 * columns * dims[1] * dims[2] + shell, "fourier's spectra",
                     f"use a smaller renderer.padding or volume{' or renderer.kernel_width' * (r.filter == 'gaussian')}")
 
     def work(self, scene) -> limits.Work:
@@ -279,7 +301,7 @@ class FourierRenderer(GLRenderer):
                    "TABLE": str(KernelTable.SIZE) if windowed else "", "DEPTH_CUE": cued,
                    "PAIRED_TAPS": (self.paired_taps and r.slice_interpolation in PAIRED and not cued
                                    and self.filters_in_float()),
-                   "ROLL": str(SpectrumTextures.ROLL),
+                   "ROLL": str(SpectrumTextures.ROLL), "XPAD": str(SpectrumTextures.XPAD),
                    "FILTER_GAUSSIAN": gaussian, "FILTER_POWER": "" if gaussian else
                    str({"linear": 2, "cubic_bspline": 4}[r.filter])}
         program = create_program(self.ctx, "fullscreen.vert", "slice.frag",

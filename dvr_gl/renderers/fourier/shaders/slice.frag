@@ -10,7 +10,7 @@
 // u_depth_dir, from the kernel's derivative weights), for the depth cue's moment.  Outputs: H of each
 // texture's channels, then (DEPTH_CUE) their derivatives in the same order.
 
-uniform sampler3D u_spectra[TEXTURES];  // (Mx / 2 + 1, My, Mz): re, im of two channels
+uniform sampler3D u_spectra[TEXTURES];  // (Mx / 2 + 1 + 2 XPAD, My, Mz), x from -XPAD: re, im of two channels
 #ifdef DEPTH_CUE
 uniform vec3 u_depth_dir;         // f M h: the view axis in index units per world frequency
 uniform vec3 u_forward;           // f: the view axis (world)
@@ -142,7 +142,7 @@ void tap_sums(ivec3 b, float wx[6], float wy[6], float wz[6], float dx[6], float
                            + u_depth_dir.z * wx[x] * wy[y] * dz[z];
 #endif
                 for (int t = 0; t < TEXTURES; ++t) {
-                    vec4 value = texelFetch(u_spectra[t], m, 0) * conj;
+                    vec4 value = texelFetch(u_spectra[t], m + ivec3(XPAD, 0, 0), 0) * conj;
                     sums[t] += w * value;
 #ifdef DEPTH_CUE
                     slopes[t] += dw * value;
@@ -154,65 +154,38 @@ void tap_sums(ivec3 b, float wx[6], float wy[6], float wz[6], float dx[6], float
 
 #ifdef PAIRED_TAPS
 // The taps two by two (the weights are positive: the Kaiser-Bessel and cubic B-spline slices'; DEPTH_CUE
-// never): the pair
-// (k, k + 1) of weights (w0, w1) is one linearly filtered read at k + w1 / (w0 + w1) times w0 + w1, so the
-// TAPS^3 texel reads become (TAPS / 2)^3 trilinear ones (LINEAR textures, y and z periodic).  Along x a pair
-// whose two taps lie on one side of the stored half is one read (mirrored whole: at -x, -y, -z,
-// conjugated); a pair across its edge (k = M/2 or k = -1) is two reads at texel centres.
+// never): the pair (k, k + 1) of weights (w0, w1) is one linearly filtered read at k + w1 / (w0 + w1) times
+// w0 + w1, so the TAPS^3 texel reads become (TAPS / 2)^3 trilinear ones (LINEAR textures, y and z periodic).
+// The fragment's g has its x in [0, M/2] (main: mirrored whole where it is not), and the textures hold
+// XPAD columns of the half not stored on either side, so every pair is one read, with no branch and no
+// array indexed per fragment (llvmpipe keeps those in memory lane by lane).
 const int PAIRS = TAPS / 2;
 
-// Pair p of an axis (y or z) of the taps from b + FIRST: its weight, and its row (index units, the rolled
-// texture's) read as is and mirrored.  The row's integer part is wrapped exactly: the filtered read's
-// precision falls with the row (llvmpipe: about row x 6e-8 texels), so the large low frequencies (rows
-// near ROLL) are read precisely.
-void pair_at(int b, int m, float w[6], int p, out float row, out float mirror, out float weight) {
+// Pair p of an axis (y or z) of the taps from b + FIRST: its weight and its row (index units, the rolled
+// texture's).  The row's integer part is wrapped exactly: the filtered read's precision falls with the row
+// (llvmpipe: about row x 6e-8 texels), so the large low frequencies (rows near ROLL) are read precisely.
+void pair_row(int b, int m, float w[6], int p, out float row, out float weight) {
     weight = w[2 * p] + w[2 * p + 1];
-    float t = w[2 * p + 1] / weight;
-    int k = wrap(b + FIRST + 2 * p, m);
-    row = float(wrap(k + ROLL, m)) + t;
-    mirror = float(wrap(ROLL - k, m)) - t;
+    row = float(wrap(b + FIRST + 2 * p + ROLL, m)) + w[2 * p + 1] / weight;
 }
 
 void paired_sums(ivec3 b, float wx[6], float wy[6], float wz[6], inout vec4 sums[TEXTURES]) {
-    float py[PAIRS], ny[PAIRS], qy[PAIRS], pz[PAIRS], nz[PAIRS], qz[PAIRS];
+    float rx[PAIRS], qx[PAIRS], ry[PAIRS], qy[PAIRS], rz[PAIRS], qz[PAIRS];
     for (int p = 0; p < PAIRS; ++p) {
-        pair_at(b.y, u_dims.y, wy, p, py[p], ny[p], qy[p]);
-        pair_at(b.z, u_dims.z, wz, p, pz[p], nz[p], qz[p]);
+        qx[p] = wx[2 * p] + wx[2 * p + 1];
+        rx[p] = float(b.x + FIRST + 2 * p + XPAD) + wx[2 * p + 1] / qx[p];  // the column: x + XPAD
+        pair_row(b.y, u_dims.y, wy, p, ry[p], qy[p]);
+        pair_row(b.z, u_dims.z, wz, p, rz[p], qz[p]);
     }
-    // the x reads: position in the stored half (index units), weight, mirrored
-    float xs[2 * PAIRS], xw[2 * PAIRS];  // a small spectrum may have both edges in one window
-    bool xm[2 * PAIRS];
-    int reads = 0;
-    int half_x = u_dims.x / 2;
-    for (int p = 0; p < PAIRS; ++p) {
-        int k0 = wrap(b.x + FIRST + 2 * p, u_dims.x);
-        int k1 = wrap(k0 + 1, u_dims.x);
-        bool m0 = k0 > half_x, m1 = k1 > half_x;
-        if (m0 == m1) {
-            float weight = wx[2 * p] + wx[2 * p + 1], t = wx[2 * p + 1] / weight;
-            xs[reads] = m0 ? float(u_dims.x - k0) - t : float(k0) + t;  // integers exact: small x precise
-            xw[reads] = weight;
-            xm[reads++] = m0;
-        } else {
-            xs[reads] = float(m0 ? u_dims.x - k0 : k0);
-            xw[reads] = wx[2 * p];
-            xm[reads++] = m0;
-            xs[reads] = float(m1 ? u_dims.x - k1 : k1);
-            xw[reads] = wx[2 * p + 1];
-            xm[reads++] = m1;
-        }
-    }
-    vec3 texels = vec3(float(half_x + 1), vec2(u_dims.yz));
-    for (int i = 0; i < reads; ++i) {
-        vec4 conj = xm[i] ? vec4(1.0, -1.0, 1.0, -1.0) : vec4(1.0);
+    vec3 texels = vec3(float(u_dims.x / 2 + 1 + 2 * XPAD), vec2(u_dims.yz));
+    for (int x = 0; x < PAIRS; ++x)
         for (int z = 0; z < PAIRS; ++z)
             for (int y = 0; y < PAIRS; ++y) {
-                vec3 at = (vec3(xs[i], xm[i] ? ny[y] : py[y], xm[i] ? nz[z] : pz[z]) + 0.5) / texels;
-                float w = xw[i] * qy[y] * qz[z];
+                vec3 at = (vec3(rx[x], ry[y], rz[z]) + 0.5) / texels;
+                float w = qx[x] * qy[y] * qz[z];
                 for (int t = 0; t < TEXTURES; ++t)
-                    sums[t] += w * textureLod(u_spectra[t], at, 0.0) * conj;
+                    sums[t] += w * textureLod(u_spectra[t], at, 0.0);
             }
-    }
 }
 #endif
 
@@ -222,6 +195,14 @@ void main() {
     vec2 uv = index * u_frequency_step;
     vec3 w = uv.x * u_right + uv.y * u_down;
     vec3 g = w * u_grid_scale;
+#ifdef PAIRED_TAPS
+    // S(-g) is the conjugate of S(g) and the kernel is even: where g's x lies in the half not stored (wrapped
+    // to [-M/2, M/2): the subtraction of a whole period is exact), the fragment is read at -g and conjugated
+    float period = float(u_dims.x);
+    g.x -= period * floor(g.x / period + 0.5);
+    bool mirrored = g.x < 0.0;
+    g = mirrored ? -g : g;
+#endif
     vec3 base = floor(g);
     vec3 f = g - base;
     ivec3 b = ivec3(base);
@@ -236,6 +217,8 @@ void main() {
     }
 #ifdef PAIRED_TAPS
     paired_sums(b, wx, wy, wz, sums);
+    for (int t = 0; t < TEXTURES; ++t)
+        sums[t] *= mirrored ? vec4(1.0, -1.0, 1.0, -1.0) : vec4(1.0);
 #else
     tap_sums(b, wx, wy, wz, dx, dy, dz, sums, slopes);
 #endif
