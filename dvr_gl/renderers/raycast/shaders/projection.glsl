@@ -10,6 +10,8 @@
 // segment); each pass refines the candidates it found, so across passes (bricks, windows) the state keeps
 // the best of every pass's refinements: never worse than one pass's.  The second candidate bounds what is
 // skipped (a block at or below it can change neither candidate).
+// MIP and MinIP read the field through value_at(t): with the hardware's linear filter, an affine map from the
+// ray parameter to the texture coordinate set once a pass (mode_init), one multiply-add per axis a fetch.
 
 float value;   // the running sum, maximum or minimum
 float total;   // average: the length summed
@@ -24,6 +26,36 @@ const vec4 EMPTY_STATE = vec4(3.0e38, 3.0e38, 3.0e38, 0.0);
 const vec4 EMPTY_STATE = vec4(0.0);
 #endif
 
+#if !defined(COMPOSITE_AVERAGE)
+#if defined(FILTER_LINEAR) && !defined(FILTER_IN_SHADER)
+#define AFFINE_FETCH
+// The texture coordinate at parameter t is texcoord_origin + t * texcoord_step: sample_scalar's position, voxel
+// coordinate, clamp and division, hoisted out of the loop (brain-mip's frame 0.79x; docs/peers.md, "A cheaper
+// MIP loop").  The clamp to the outer samples is the texture's clamp-to-edge, which gives a linear fetch the same
+// value there.  Rounding differs from sample_scalar's by a few ulps of the coordinate (the ray's origin is as far
+// as before), which moves an 8-bit texture's filtered value by one step in about 1e-3 of the fetches on llvmpipe.
+vec3 texcoord_origin, texcoord_step;
+#endif
+
+// Texture coordinates for value_at (AFFINE_FETCH); the pass's volume (a brick's, under BRICKED).
+void set_up_fetch() {
+#ifdef AFFINE_FETCH
+    vec3 per_texel = 1.0 / vec3(u_dims);
+    texcoord_origin = (voxel_coord(o) + 0.5) * per_texel;
+    texcoord_step = d * u_world_to_voxel_scale * per_texel;
+#endif
+}
+
+// The field at parameter t of the ray (data units).
+float value_at(float t) {
+#ifdef AFFINE_FETCH
+    return texture(u_volume, texcoord_origin + t * texcoord_step).r * u_value_scale + u_value_offset;
+#else
+    return sample_scalar(o + t * d);
+#endif
+}
+#endif
+
 #if defined(REFINE_EXTREMUM) && !defined(COMPOSITE_AVERAGE)
 float refined;    // the refined extremum (the previous pass's, until this pass raises the extremum)
 int extreme_k;    // the segment of the extreme sample, where this pass found it (else -1)
@@ -31,7 +63,7 @@ const float GOLDEN = 0.3819660112501051;  // the golden section's smaller part
 
 // SIGN times the field at parameter t of the ray.
 float signed_value_at(float t) {
-    return SIGN * sample_scalar(o + t * d);
+    return SIGN * value_at(t);
 }
 
 // The largest of SIGN times the field found by REFINE_EXTREMUM safeguarded parabolic steps from the
@@ -104,6 +136,9 @@ void track_second(int k, float s) {
 bool mode_init(vec4 state) {
     value = state.x;
     total = state.y;
+#if !defined(COMPOSITE_AVERAGE)
+    set_up_fetch();
+#endif
 #if defined(REFINE_EXTREMUM) && !defined(COMPOSITE_AVERAGE)
     refined = state.z;
     extreme_k = -1;
@@ -119,11 +154,12 @@ bool mode_init(vec4 state) {
 }
 
 bool mode_sample(int k, float start, float len, float t, vec3 p) {
-    float s = sample_scalar(p);
 #if defined(COMPOSITE_AVERAGE)
+    float s = sample_scalar(p);
     value += s * len;
     total += len;
 #else
+    float s = value_at(t);
 #if defined(SECOND_BRACKET) && defined(REFINE_EXTREMUM)
     track_second(k, SIGN * s);
 #endif
