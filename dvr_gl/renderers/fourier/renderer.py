@@ -278,7 +278,8 @@ class FourierRenderer(GLRenderer):
             made[what] = time.perf_counter() - start
             return value
 
-        data, offsets, border = self._cached("channels", key, lambda: timed("channels", lambda: channels(scene)))
+        data, offsets, border = self._cached("channels", key,
+                                             lambda: timed("channels", lambda: channels(scene, np.float32)))
         self.report(1, 3)
         taps = r.slice_taps if r.slice_interpolation in WINDOWED else 4
         spectrum = self._cached("spectrum", (data, r.slice_interpolation, r.padding, taps),
