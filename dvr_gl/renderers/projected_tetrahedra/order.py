@@ -178,7 +178,7 @@ def boundary_relations(adj: Adjacency, origins, directions, t_min, fast=None) ->
                                           eye is not None, EDGE_MARGIN)
     else:
         ray, t, face = _boundary_hits(adj, origins, directions, t_min)
-    return _across_gaps(adj, directions, ray, t, face)
+    return _across_gaps(adj, directions, ray, t, face, fast)
 
 
 def _boundary_hits(adj: Adjacency, origins, directions, t_min):
@@ -195,9 +195,10 @@ def _boundary_hits(adj: Adjacency, origins, directions, t_min):
     return tuple(np.concatenate(x) for x in (hits_ray, hits_t, hits_face))
 
 
-def _across_gaps(adj: Adjacency, directions, ray, t, face) -> tuple[np.ndarray, np.ndarray]:
+def _across_gaps(adj: Adjacency, directions, ray, t, face, fast=None) -> tuple[np.ndarray, np.ndarray]:
     """``(front, back)`` from the boundary hits: each ray's exits related to the entry that ends
-    their gap."""
+    their gap (``fast``: :mod:`.order_compiled`, whose :func:`~.order_compiled.across_gaps` gives the
+    same relations in the same order in one pass, for the lexsort, the searches and the gathers)."""
     cell = adj.boundary_cell[face]
     leaving = np.einsum("ij,ij->i", adj.boundary_normal[face], directions[ray]) > 0
     # A leaving face before an entering one at the same t, and within TOUCHING of it: cells that touch
@@ -205,7 +206,10 @@ def _across_gaps(adj: Adjacency, directions, ray, t, face) -> tuple[np.ndarray, 
     # oxygen post) meet at coincident faces whose two triangles give t's a rounding apart, and an
     # entry sorted before the exit it meets would be related to the wrong exit.
     touching = TOUCHING * adj.size
-    order = np.lexsort((~leaving, t - touching * leaving, ray))
+    t_key = t - touching * leaving
+    if fast is not None:
+        return fast.across_gaps(ray, t_key, leaving, cell, len(directions))
+    order = np.lexsort((~leaving, t_key, ray))
     ray, cell, leaving = ray[order], cell[order], leaving[order]
     # Every exit in a gap is in front of the entry that ends the gap: a ray through an edge of the
     # boundary leaves through two cells' faces at once (one of them may hold only a zero-length
@@ -447,15 +451,14 @@ class VisibilityOrder:
     def _compiled(self, adj, original, camera, rays, depth, start) -> tuple[np.ndarray, dict]:
         """The exact order with the per-view loops compiled (:mod:`.order_compiled`): the same order
         as the numpy code (``adj``, ``depth``: the cells renumbered where ``original`` is given)."""
-        fast, n = self.fast, len(self.mesh.tets)
+        fast = self.fast
         eye, forward = eye_of(camera)
         perspective = eye is not None
-        front_of, flat = fast.face_fronts(adj.pairs, adj.face_point, adj.face_normal, adj.normal_length,
-                                          eye if perspective else np.zeros(3),
-                                          np.zeros(3) if perspective else forward, perspective, EDGE_ON, depth)
         f2, b2 = boundary_relations(adj, *rays, fast=fast)
-        order, broken = fast.exact_order(n, adj.face_slots, adj.pairs, front_of, f2.astype(np.int64),
-                                         b2.astype(np.int64), depth, original)
+        order, broken, flat = fast.view_order(adj.pairs, adj.face_point, adj.face_normal, adj.normal_length,
+                                              eye if perspective else np.zeros(3),
+                                              np.zeros(3) if perspective else forward, perspective, EDGE_ON, depth,
+                                              f2, b2, original)
         return order, {"order": "exact", "compiled": True, "order_seconds": time.perf_counter() - start,
                        "renumbered": original is not None,
                        "face_relations": int(len(adj.pairs) - flat), "boundary_relations": int(len(f2)),

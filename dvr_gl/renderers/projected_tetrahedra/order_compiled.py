@@ -1,7 +1,9 @@
 """The exact visibility order's per-view loops compiled with numba (the optional extra ``numba``):
 the same relations and the same topological sort as :mod:`.order`'s numpy code, result for result
-(``tests/test_projected_tetrahedra.py`` checks both paths give the same order), in one pass each
-instead of a few dozen numpy passes and sorts.
+(``tests/test_projected_tetrahedra.py`` checks both paths give the same order, ``tests/test_order_sorts.py``
+the sorts), in one pass each instead of a few dozen numpy passes and sorts: the faces' relations
+written straight into each cell's record (key, counts and the cells behind it in 32 bytes), Kahn's
+sort on the records, and the final order by a bucket sort of the keys.
 
 Imported only through :func:`.order.compiled`, which falls back to the numpy code where numba is
 not installed.  Every function is ``njit(cache=True)``: the first call of a fresh install compiles
@@ -14,20 +16,95 @@ import numba
 import numpy as np
 
 
+def exact_order(n, face_slots, pairs, front_of, extra_front, extra_back, depth, original=None):
+    """Cells ``0..n-1`` front to back and the cycles broken, as :func:`.order.topological` gives them
+    for the relations across the interior faces (``front_of``: each face's front cell, of its two
+    in ``pairs``; ``face_slots`` is not needed and only accepted) and the ``extra`` ones (across
+    gaps): Kahn's sort a level at a time, each cell's key the largest ``depth`` of itself and of
+    every cell related in front of it (final when its cell goes out, so one pass in level order
+    carries it); a cycle (no cell left free) is broken by taking the cell not yet out with the
+    smallest key (the lowest index among equal ones); the order is by key, ties by level, then by
+    index.  A relation given twice counts twice both ways (in the in-degree and when released),
+    which gives the same levels and keys as counting it once.
+
+    ``original``: the cells renumbered (:func:`.order.locality_order`: ``original[i]`` is cell ``i``'s
+    index in the mesh): ties (cycles broken, the order's last key) go by the original index and the
+    order is of original indices, the order of the mesh's own numbering."""
+    records = _records(np.asarray(depth, np.float64))
+    _given_relations(records, pairs, front_of)
+    return _sorted(records, extra_front, extra_back, original)
+
+
+def view_order(pairs, face_point, face_normal, normal_length, eye, forward, perspective, edge_on_sine, depth,
+               extra_front, extra_back, original=None):
+    """``(order, broken, flat)``: :func:`exact_order` with each interior face's front cell decided
+    (:func:`_face_relations`) in the same pass that relates the cells (no array of fronts), and how
+    many faces were seen edge on."""
+    records = _records(np.asarray(depth, np.float64))
+    flat = _face_relations(records, pairs, face_point, face_normal, normal_length, eye, forward, perspective,
+                           edge_on_sine)
+    order, broken = _sorted(records, extra_front, extra_back, original)
+    return order, broken, flat
+
+
+def _records(depth):
+    """Each cell's 32-byte record, in a float64 array ``(4 n,)`` aligned to 64 bytes (two records a
+    cache line): its key (float64, ``depth`` to begin with), then as int32 its count of relations
+    in front of it not yet settled (``-1 - level`` once out), its count of cells behind it across
+    its faces and those cells (at most four).  Kahn's sort is bound by random accesses to the cells;
+    with all a cell needs in one record, a cell going out touches one cache line, and each relation
+    it settles one more (three and one with the key, counts and faces in separate arrays)."""
+    n = len(depth)
+    raw = np.empty(4 * n + 8)
+    first = (-raw.ctypes.data % 64) // 8
+    records = raw[first:first + 4 * n]
+    _fill(records, depth)
+    return records
+
+
 @numba.njit(cache=True)
-def face_fronts(pairs, face_point, face_normal, normal_length, eye, forward, perspective, edge_on_sine, depth):
-    """``(front, edge_on)`` for every interior face: which of its two cells is in front, as
-    :func:`.order.face_relations` and :meth:`.order.VisibilityOrder.__call__` decide it (the cell
-    on the eye's side, the normal pointing out of ``pairs[:, 0]``; a face whose plane passes within
-    ``edge_on_sine`` (relative sine) of the eye, or lies along the view direction, is seen edge on:
-    the cell whose centroid ``depth`` is smaller, or equal, goes first), and how many faces are
-    seen edge on.  ``eye`` for a perspective camera (``perspective``), else ``forward``."""
-    n = len(pairs)
-    front = np.empty(n, np.int64)
+def _fill(records, depth):
+    ints = records.view(np.int32)
+    for i in range(len(depth)):
+        records[4 * i] = depth[i]
+        ints[8 * i + 2] = 0
+        ints[8 * i + 3] = 0
+
+
+@numba.njit(cache=True, inline="always")
+def _relate(ints, front, back):
+    """``front`` in front of ``back`` across their shared face."""
+    out = ints[8 * front + 3]
+    ints[8 * front + 4 + out] = back
+    ints[8 * front + 3] = out + 1
+    ints[8 * back + 2] += 1
+
+
+@numba.njit(cache=True)
+def _given_relations(records, pairs, front_of):
+    ints = records.view(np.int32)
+    for f in range(len(pairs)):
+        a, b = pairs[f, 0], pairs[f, 1]
+        if front_of[f] == a:
+            _relate(ints, a, b)
+        else:
+            _relate(ints, b, a)
+
+
+@numba.njit(cache=True)
+def _face_relations(records, pairs, face_point, face_normal, normal_length, eye, forward, perspective,
+                    edge_on_sine):
+    """The interior faces' relations and how many faces are seen edge on, as
+    :func:`.order.face_relations` and :meth:`.order.VisibilityOrder.__call__` decide them: the cell on
+    the eye's side in front (the normal pointing out of ``pairs[:, 0]``); a face whose plane passes
+    within ``edge_on_sine`` (relative sine) of the eye, or lies along the view direction, is seen
+    edge on: the cell whose centroid depth (its record's key, before the sort) is smaller, or equal,
+    goes first.  ``eye`` for a perspective camera (``perspective``), else ``forward``."""
+    ints = records.view(np.int32)
     flat = 0
     fx, fy, fz = -forward[0], -forward[1], -forward[2]
     toward_length = np.sqrt(fx * fx + fy * fy + fz * fz)
-    for i in range(n):
+    for i in range(len(pairs)):
         if perspective:
             fx = eye[0] - face_point[i, 0]
             fy = eye[1] - face_point[i, 1]
@@ -37,157 +114,181 @@ def face_fronts(pairs, face_point, face_normal, normal_length, eye, forward, per
         a, b = pairs[i, 0], pairs[i, 1]
         if abs(side) <= edge_on_sine * (normal_length[i] * toward_length):
             flat += 1
-            front[i] = a if depth[a] <= depth[b] else b
+            if records[4 * a] <= records[4 * b]:
+                _relate(ints, a, b)
+            else:
+                _relate(ints, b, a)
+        elif side > 0:  # the eye beyond a's face: b is on the eye's side
+            _relate(ints, b, a)
         else:
-            front[i] = b if side > 0 else a  # the eye beyond a's face: b is on the eye's side
-    return front, flat
+            _relate(ints, a, b)
+    return flat
 
 
-def exact_order(n, face_slots, pairs, front_of, extra_front, extra_back, depth, original=None):
-    """Cells ``0..n-1`` front to back and the cycles broken, as :func:`.order.topological` gives them
-    for the relations across the interior faces (``front_of``: each face's front cell, of its two
-    in ``pairs``; ``face_slots``: which of its cells' four faces it is, ``(F, 2)``) and the
-    ``extra`` ones (across gaps): Kahn's sort a level at a time, each cell's key the largest
-    ``depth`` of itself and of every cell related in front of it (final when its cell goes out, so
-    one pass in level order carries it); a cycle (no cell left free) is broken by taking the cell
-    not yet out with the smallest key (the lowest index among equal ones); the order is by key, ties
-    by level, then by index.  A relation given twice counts twice both ways (in the in-degree and
-    when released), which gives the same levels and keys as counting it once.
-
-    ``original``: the cells renumbered (:func:`.order.locality_order`: ``original[i]`` is cell ``i``'s
-    index in the mesh): ties (cycles broken, the order's last key) go by the original index and the
-    order is of original indices, the order of the mesh's own numbering."""
-    behind, indegree, extra_start, extra_next = _relations(n, face_slots, pairs, front_of, extra_front, extra_back)
+def _sorted(records, extra_front, extra_back, original):
+    """The order and the cycles broken, from the records with the faces' relations in them."""
+    extra_start, extra_next = _extra_relations(records, np.asarray(extra_front, np.int64),
+                                               np.asarray(extra_back, np.int64))
     numbering = np.zeros(0, np.int64) if original is None else np.asarray(original, np.int64)
-    place, level, steps, broken = _levels(n, behind, extra_start, extra_next, indegree,
-                                          np.asarray(depth, np.float64), numbering)
-    if original is not None:
-        place, level = _renumbered_back(place, level, numbering)
-    by_level = _by_level(level, steps)
-    return by_level[stable_argsort(place[by_level])], broken
+    broken = _levels(records, extra_start, extra_next, numbering)
+    place, level = _place_level(records, numbering)
+    return _by_key(place, level), broken
 
 
 @numba.njit(cache=True)
-def _renumbered_back(place, level, original):
-    """``place`` and ``level`` of the renumbered cells in the mesh's own numbering."""
-    place_back, level_back = np.empty_like(place), np.empty_like(level)
-    for i in range(len(original)):
-        place_back[original[i]] = place[i]
-        level_back[original[i]] = level[i]
-    return place_back, level_back
-
-
-@numba.njit(cache=True)
-def _relations(n, face_slots, pairs, front_of, extra_front, extra_back):
-    """``behind (n, 4)``: the cell behind each of a cell's faces (-1: none, or in front), each cell's
-    count of relations in front of it, and the extra relations by front cell."""
-    m = len(extra_front)
-    behind = np.full((n, 4), -1, np.int32)  # 32-bit: half the memory the sort's random reads touch
-    indegree = np.zeros(n, np.int32)
-    for f in range(len(pairs)):
-        a, b = pairs[f, 0], pairs[f, 1]
-        if front_of[f] == a:
-            behind[a, face_slots[f, 0]] = b
-            indegree[b] += 1
-        else:
-            behind[b, face_slots[f, 1]] = a
-            indegree[a] += 1
+def _extra_relations(records, extra_front, extra_back):
+    """The relations across gaps (any number a cell) by front cell, ``(start (n + 1,), next)``, counted
+    in the records of their back cells."""
+    ints = records.view(np.int32)
+    n, m = len(records) // 4, len(extra_front)
     extra_start = np.zeros(n + 1, np.int64)
     for r in range(m):
         extra_start[extra_front[r] + 1] += 1
-        indegree[extra_back[r]] += 1
+        ints[8 * extra_back[r] + 2] += 1
     for i in range(n):
         extra_start[i + 1] += extra_start[i]
-    extra_next = np.empty(m, np.int64)
+    extra_next = np.empty(m, np.int32)
     fill = extra_start[:n].copy()
     for r in range(m):
         extra_next[fill[extra_front[r]]] = extra_back[r]
         fill[extra_front[r]] += 1
-    return behind, indegree, extra_start, extra_next
+    return extra_start, extra_next
 
 
 @numba.njit(cache=True)
-def _levels(n, behind, extra_start, extra_next, indegree, depth, original):
-    """Kahn's sort: each cell's key (from ``depth``, a new array) and level, the levels' count and the
-    cycles broken (a tie of key broken by the lower ``original`` index, else by the lower index).
-    Each cell's key and count of relations left in front of it side by side in one ``(n, 2)`` array
-    (the count as a float): a relation settled touches one cache line instead of three, and the sort
-    is bound by those random accesses; a cell out holds ``-1 - level`` there."""
-    state = np.empty((n, 2))
-    for i in range(n):
-        state[i, 0] = depth[i]
-        state[i, 1] = indegree[i]
-    frontier = np.empty(n, np.int32)
-    following = np.empty(n, np.int32)
+def _levels(records, extra_start, extra_next, original):
+    """Kahn's sort on the records: each cell's key and ``-1 - level`` left in its record; the cycles
+    broken (a tie of key broken by the lower ``original`` index, else by the lower index)."""
+    ints = records.view(np.int32)
+    n = len(records) // 4
+    frontier = np.empty(n + 1, np.int32)  # one spare: a release writes its cell before it counts
+    following = np.empty(n + 1, np.int32)
     size = 0
     for i in range(n):
-        if indegree[i] == 0:
-            frontier[size] = i
-            size += 1
+        frontier[size] = i
+        size += ints[8 * i + 2] == 0
     remaining, step, broken = n, 0, 0
     while remaining:
         if size == 0:  # a cycle: the nearest remaining cell goes first
             best = -1
             for i in range(n):
-                if state[i, 1] >= 0.0 and (best < 0 or state[i, 0] < state[best, 0] or (
-                        len(original) and state[i, 0] == state[best, 0] and original[i] < original[best])):
+                if ints[8 * i + 2] >= 0 and (best < 0 or records[4 * i] < records[4 * best] or (
+                        len(original) and records[4 * i] == records[4 * best] and original[i] < original[best])):
                     best = i
             frontier[0] = best
             size = 1
             broken += 1
         for k in range(size):
-            state[frontier[k], 1] = -1.0 - step  # out, at this level
+            ints[8 * frontier[k] + 2] = -1 - step  # out, at this level
         remaining -= size
         step += 1
         nxt = 0
         for k in range(size):
             c = frontier[k]
-            key = state[c, 0]
-            for j in range(4):
-                if behind[c, j] >= 0:
-                    nxt = _release(behind[c, j], key, state, following, nxt)
+            key = records[4 * c]
+            for j in range(ints[8 * c + 3]):
+                nxt = _release(ints[8 * c + 4 + j], key, records, ints, following, nxt)
             for j in range(extra_start[c], extra_start[c + 1]):
-                nxt = _release(extra_next[j], key, state, following, nxt)
+                nxt = _release(extra_next[j], key, records, ints, following, nxt)
         frontier, following = following, frontier
         size = nxt
-    level = np.empty(n, np.int32)
-    place = np.empty(n)
-    for i in range(n):
-        place[i] = state[i, 0]
-        level[i] = np.int32(-1.0 - state[i, 1])
-    return place, level, step, broken
+    return broken
 
 
 @numba.njit(cache=True, inline="always")
-def _release(s, key, state, following, nxt):
+def _release(s, key, records, ints, following, nxt):
     """One relation to ``s`` settled by a cell of key ``key``: ``s`` takes the larger key and joins
     the next level when nothing is left in front of it (a cell out already, past a broken cycle,
-    keeps its key).  The next level's size."""
-    if state[s, 1] < 0.0:
+    keeps its key).  The next level's size.  Without branches on the data (a select and a count),
+    which the sort's mispredictions cost."""
+    count = ints[8 * s + 2]
+    if count < 0:
         return nxt
-    if key > state[s, 0]:
-        state[s, 0] = key
-    state[s, 1] -= 1.0
-    if state[s, 1] == 0.0:
-        following[nxt] = s
-        nxt += 1
-    return nxt
+    v = records[4 * s]
+    records[4 * s] = key if key > v else v
+    count -= 1
+    ints[8 * s + 2] = count
+    following[nxt] = s
+    return nxt + (count == 0)
 
 
 @numba.njit(cache=True)
-def _by_level(level, steps):
-    """The cells by level, then by index (a counting sort)."""
-    n = len(level)
-    per_level = np.zeros(steps + 1, np.int32)
+def _place_level(records, original):
+    """Each cell's key and level from the records, in the mesh's own numbering where ``original``."""
+    ints = records.view(np.int32)
+    n = len(records) // 4
+    place, level = np.empty(n), np.empty(n, np.int32)
     for i in range(n):
-        per_level[level[i] + 1] += 1
-    for k in range(steps):
-        per_level[k + 1] += per_level[k]
-    by_level = np.empty(n, np.int32)
+        j = original[i] if len(original) else i
+        place[j] = records[4 * i]
+        level[j] = -1 - ints[8 * i + 2]
+    return place, level
+
+
+#: A bucket of :func:`_by_key` with more cells than this is sorted by merge sorts, not by insertion.
+SMALL_BUCKET = 32
+
+
+@numba.njit(cache=True)
+def _by_key(place, level):
+    """Cells by ``place``, ties by ``level``, then by index (``np.lexsort((level, place))``; -0.0 and
+    0.0 equal, no NaNs expected): a bucket sort.  The buckets are a monotone function of the value
+    (so the buckets are in order and only a bucket's own cells need sorting): about ``n / 32``
+    equal ranges of value, each split in turn into as many equal parts as half its cells, so that
+    clustered values (the oxygen post's refined blocks) spread too; cells go into their buckets in
+    index order, and each bucket is sorted by (value, level), stably, by insertion (a few cells) or
+    by two stable merge sorts.  Two passes over the values and one scatter, where a radix sort of
+    64-bit keys takes five or six."""
+    n = len(place)
+    lo, hi = np.inf, -np.inf
     for i in range(n):
-        by_level[per_level[level[i]]] = i
-        per_level[level[i]] += 1
-    return by_level
+        lo = min(lo, place[i])
+        hi = max(hi, place[i])
+    span = hi - lo
+    ranges = max(n >> 5, 1) if 0.0 < span < np.inf else 1
+    scale = ranges / span if ranges > 1 else 0.0
+    per_range = np.zeros(ranges + 1, np.int32)
+    for i in range(n):  # x = (place - lo) * scale, x's integer part its range: each step monotone
+        per_range[min(int((place[i] - lo) * scale), ranges - 1) if ranges > 1 else 0] += 1
+    base = np.empty(ranges + 1, np.int32)  # each range's first bucket
+    base[0] = 0
+    for r in range(ranges):
+        per_range[r] = max(per_range[r] >> 1, 1)  # its buckets
+        base[r + 1] = base[r] + per_range[r]
+    buckets = base[ranges]
+    start = np.zeros(buckets + 1, np.int32)
+    bucket = np.empty(n, np.int32)
+    for i in range(n):
+        b = 0
+        if ranges > 1:
+            x = (place[i] - lo) * scale
+            r = min(int(x), ranges - 1)
+            b = base[r] + min(int((x - r) * per_range[r]), per_range[r] - 1)
+        bucket[i] = b
+        start[b + 1] += 1
+    for b in range(buckets):
+        start[b + 1] += start[b]
+    fill = start[:buckets].copy()
+    keys, levels, cells = np.empty(n), np.empty(n, np.int32), np.empty(n, np.int32)
+    for i in range(n):
+        p = fill[bucket[i]]
+        fill[bucket[i]] = p + 1
+        keys[p], levels[p], cells[p] = place[i], level[i], i
+    for b in range(buckets):
+        s, e = start[b], start[b + 1]
+        if e - s > SMALL_BUCKET:
+            by = np.argsort(levels[s:e], kind="mergesort")
+            by = by[np.argsort(keys[s:e][by], kind="mergesort")]
+            cells[s:e] = cells[s:e][by]
+            continue
+        for p in range(s + 1, e):  # insertion, stable
+            k, lv, c = keys[p], levels[p], cells[p]
+            q = p - 1
+            while q >= s and (keys[q] > k or (keys[q] == k and levels[q] > lv)):
+                keys[q + 1], levels[q + 1], cells[q + 1] = keys[q], levels[q], cells[q]
+                q -= 1
+            keys[q + 1], levels[q + 1], cells[q + 1] = k, lv, c
+    return cells
 
 
 @numba.njit(cache=True)
@@ -307,6 +408,57 @@ def boundary_hits(corners, edges, ray_xy, origins, directions, t_min, eye, forwa
                         hit_ray[found], hit_t[found], hit_face[found] = r, t, face
                         found += 1
     return hit_ray[:found], hit_t[:found], hit_face[:found]
+
+
+@numba.njit(cache=True)
+def across_gaps(ray, t_key, leaving, cell, n_rays):
+    """``(front, back)`` cells across the gaps along the rays, as :func:`.order._across_gaps` relates
+    them, relation for relation and in its order: the hits (``ray``, ``t_key``: where along it, an
+    exit moved earlier by the touching distance; ``leaving``; ``cell``) grouped by ray (a counting
+    sort, stable), each ray's sorted by ``t_key``, exits before entries at the same one, then in the
+    order given (``np.lexsort((~leaving, t_key, ray))``), and each entry related to every exit since the
+    ray's previous entry (of another cell)."""
+    m = len(ray)
+    start = np.zeros(n_rays + 1, np.int64)
+    for h in range(m):
+        start[ray[h] + 1] += 1
+    for r in range(n_rays):
+        start[r + 1] += start[r]
+    fill = start[:n_rays].copy()
+    hits = np.empty(m, np.int64)
+    for h in range(m):
+        hits[fill[ray[h]]] = h
+        fill[ray[h]] += 1
+    front, back = np.empty(m, np.int64), np.empty(m, np.int64)
+    found = 0
+    for r in range(n_rays):
+        s, e = start[r], start[r + 1]
+        if e - s > SMALL_BUCKET:  # two stable merge sorts
+            by = np.argsort(~leaving[hits[s:e]], kind="mergesort")
+            by = by[np.argsort(t_key[hits[s:e]][by], kind="mergesort")]
+            hits[s:e] = hits[s:e][by]
+        else:
+            for p in range(s + 1, e):  # insertion, stable
+                h = hits[p]
+                q = p - 1
+                while q >= s and (t_key[hits[q]] > t_key[h] or (
+                        t_key[hits[q]] == t_key[h] and leaving[h] and not leaving[hits[q]])):
+                    hits[q + 1] = hits[q]
+                    q -= 1
+                hits[q + 1] = h
+        first = s  # hits[first:p]: the exits since the ray's last entry
+        for p in range(s, e):
+            h = hits[p]
+            if leaving[h]:
+                continue
+            for q in range(first, p):
+                if cell[hits[q]] != cell[h]:
+                    if found == len(front):
+                        front, back = _grown(front, 2 * found), _grown(back, 2 * found)
+                    front[found], back[found] = cell[hits[q]], cell[h]
+                    found += 1
+            first = p + 1
+    return front[:found], back[:found]
 
 
 @numba.njit(cache=True, inline="always")
