@@ -50,23 +50,33 @@ class SpectrumTextures:
     #: x in [0, M/2] reach x - 2 .. x + 3, so each pair of taps is one filtered read, with no mirrored pair.
     XPAD = 3
 
-    def __init__(self, ctx, spectrum: Spectrum):
-        self.spectrum = spectrum
-        self.textures = []
-        halves = spectrum.spectra
-        for i in range(0, len(halves), 2):
-            pair = halves[i:i + 2]
-            mz, my, mxh = pair[0].shape
-            columns = mxh + 2 * self.XPAD
-            texels = np.empty((mz, my, columns, len(pair)), np.complex64)  # re, im(, re, im)
-            for c, half in enumerate(pair):
-                extended_into(texels[..., c], half, self.XPAD, self.ROLL)
-            tex = ctx.texture3d((columns, my, mz), 2 * len(pair), texels.view(np.float32), dtype="f4")
-            del texels
+    def __init__(self, ctx, data: np.ndarray, interpolation: str, padding: float, border: int, taps: int):
+        """The spectrum of the channels ``data`` (:class:`.spectrum.Spectrum`, complex64), each channel's half
+        written into its texture's layout as it is transformed (no copy of the spectra kept on the host);
+        ``upload_seconds``: the time of the layout and the upload, inside ``spectrum.seconds``."""
+        self.ctx, self.textures, self.upload_seconds = ctx, [], 0.0
+        self.count = data.shape[-1]
+        self._texels = None
+        self.spectrum = Spectrum(data, interpolation, padding, border, taps, np.float32, sink=self._add)
+        self._texels = None
+
+    def _add(self, c: int, half: np.ndarray):
+        """Channel ``c``'s half spectrum (a buffer the next channel overwrites) into the texels of its
+        texture, two channels a texture (one buffer for every pair), uploaded once the texture is full."""
+        start = time.perf_counter()
+        mz, my, mxh = half.shape
+        columns = mxh + 2 * self.XPAD
+        width = min(2, self.count - (c - c % 2))  # two channels a texture, an odd last one alone
+        if self._texels is None or self._texels.shape[3] != width:
+            self._texels = np.empty((mz, my, columns, width), np.complex64)  # re, im(, re, im)
+        extended_into(self._texels[..., c % 2], half, self.XPAD, self.ROLL)
+        if c % 2 == width - 1:
+            tex = self.ctx.texture3d((columns, my, mz), 2 * width, self._texels.view(np.float32), dtype="f4")
             # LINEAR for the paired taps' filtered reads (texelFetch ignores it); y and z periodic, x clamped
             tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
             tex.repeat_x = False
             self.textures.append(tex)
+        self.upload_seconds += time.perf_counter() - start
 
     def release(self):
         for t in self.textures:
@@ -150,7 +160,9 @@ class ShellTexture:
         """A 2D array texture of the six faces' sample layers of ``ghosted`` ``(nz, ny, nx, C)``, each zero-padded
         by one texel and to the largest face's size: layer ``2 a + side`` is axis ``a``'s (x, y, z) low
         (``side`` 0) or high face, its columns and rows the other two axes in the order x, y, z."""
-        faces = [np.take(ghosted, i, axis=2 - a) for a in range(3) for i in (0, -1)]  # (rows, columns, C)
+        # (rows, columns, C), by views: np.take copies a non-contiguous array whole first (the X-ray's
+        # channel-major channels: 1.5 s at 256^3)
+        faces = [ghosted[(slice(None),) * (2 - a) + (i,)] for a in range(3) for i in (0, -1)]
         rows, columns = (max(f.shape[k] for f in faces) + 2 for k in (0, 1))
         layers = np.zeros((6, rows, columns, components), np.float32)
         for layer, face in zip(layers, faces):
@@ -282,12 +294,15 @@ class FourierRenderer(GLRenderer):
                                              lambda: timed("channels", lambda: channels(scene, np.float32)))
         self.report(1, 3)
         taps = r.slice_taps if r.slice_interpolation in WINDOWED else 4
-        spectrum = self._cached("spectrum", (data, r.slice_interpolation, r.padding, taps),
-                                lambda: timed("transform", lambda: Spectrum(data, r.slice_interpolation, r.padding,
-                                                                            border, taps, np.float32)))
+        textures = self._cached("spectrum textures", (data, r.slice_interpolation, r.padding, taps),
+                                lambda: timed("transform", lambda: SpectrumTextures(self.ctx, data,
+                                                                                    r.slice_interpolation,
+                                                                                    r.padding, border, taps)))
+        spectrum = textures.spectrum
+        if made["transform"]:  # the textures' layout and upload, timed apart
+            made["upload"] = textures.upload_seconds
+            made["transform"] -= textures.upload_seconds
         self.report(2, 3)
-        textures = self._cached("spectrum textures", (spectrum,),
-                                lambda: timed("upload", lambda: SpectrumTextures(self.ctx, spectrum)))
         start = time.perf_counter()
         # the slice's grid, the chords and the short chords' rays: made again only for a new view, image or volume
         # (camera and volume are frozen: by identity; the image's settings are not: its size by value)
@@ -337,7 +352,7 @@ class FourierRenderer(GLRenderer):
             pair = raw.view(np.complex64)  # (re, im) twice: two complex64 channels, kept in float32 on the host
             read += [pair[..., 0], pair[..., 1]]
         # the values (two channels a texture, the last pair padded), then their derivatives
-        slices = read[:len(spectrum.spectra)]
+        slices = read[:spectrum.count]
         derivatives = {c: read[2 * count + c] for c in weighted(scene)} if cued else None
         shell = self._shell(scene, frame, data, border) if clips_exactly(scene) else None
         drawn = time.perf_counter()

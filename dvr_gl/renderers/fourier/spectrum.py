@@ -145,38 +145,45 @@ class Spectrum:
     pre-multiplied for ``interpolation`` and zero-padded by ``padding``: complex128 from float64 (the
     oracle's), complex64 from ``dtype=np.float32`` (the renderer's, whose textures are float32 anyway: half
     the memory and about half the transform's time).  ``dims`` ``(Mx, My, Mz)``, ``start`` the volume's
-    first index in the padded grid per axis (x, y, z), ``seconds`` and ``bytes`` what making it took."""
+    first index in the padded grid per axis (x, y, z), ``seconds`` and ``bytes`` what making it took.
+
+    ``sink(c, half)``: each channel's half spectrum is handed to it instead of kept (``spectra`` stays
+    empty, ``count`` says how many): ``half`` is a buffer the next channel overwrites, so the sink copies
+    what it needs (the renderer, straight into its textures' layout), and the transform's buffers are
+    allocated once a spectrum, not once a channel (at 256^3 each is 100-130 MB of fresh pages)."""
 
     def __init__(self, channels: np.ndarray, interpolation: str, padding: float, border: int = 0, taps: int = 4,
-                 dtype=np.float64):
+                 dtype=np.float64, sink=None):
         import time
 
         start_time = time.perf_counter()
         fft, self.library = fft_module()
-        nz, ny, nx, count = channels.shape
+        nz, ny, nx, self.count = channels.shape
         n = (nx, ny, nz)
         self.dims = tuple(padded_length(k, padding) for k in n)
         self.start = tuple((m - k) // 2 for m, k in zip(self.dims, n))
         mx, my, mz = self.dims
-        # 1 / k(xi) per axis over the volume's samples (separable)
+        # 1 / k(xi) per axis over the volume's samples (separable: applied along x before the x pass, and
+        # along y and z to the x pass's lines, which they scale whole)
         weights = []
         for axis, (m, k, s) in enumerate(zip(self.dims, n, self.start)):
             xi = (np.arange(k) + s - m / 2.0) / m
             weights.append((1.0 / kernel_transform(interpolation, xi, padding, taps)).astype(dtype))
-        premultiply = weights[2][:, None, None] * weights[1][None, :, None] * weights[0][None, None, :]
         self.spectra = []
         complex_type = np.complex64 if np.dtype(dtype) == np.float32 else np.complex128
         line = np.zeros((nz, ny, mx), dtype)  # the x pass's zero-padded lines, reused by every channel
-        for c in range(count):
-            # pre-multiplied in the channels' precision, rounded once to the transform's (no temporary)
-            block = np.multiply(channels[..., c], premultiply, out=np.empty(channels.shape[:3], dtype),
-                                casting="same_kind")
-            spectrum = padded_rfftn(block, (mz, my, mx), self.start[::-1], fft, self.library == "scipy.fft", line)
-            del block
-            self.spectra.append(spectrum.astype(complex_type, copy=False))
+        buffers = {} if sink is not None else None
+        self.bytes = 0
+        for c in range(self.count):
+            spectrum = padded_rfftn(channels[..., c], (mz, my, mx), self.start[::-1], fft, self.library == "scipy.fft",
+                                    line, weights[::-1], buffers).astype(complex_type, copy=False)
+            self.bytes += spectrum.nbytes
+            if sink is None:
+                self.spectra.append(spectrum)
+            else:
+                sink(c, spectrum)
         self.border = border  # layers of ghosts around the volume's samples in ``channels``
         self.seconds = time.perf_counter() - start_time
-        self.bytes = sum(s.nbytes for s in self.spectra)
 
     def centre(self, volume) -> np.ndarray:
         """``x_c``: the world point of the padded grid's centre (the transform's origin)."""
@@ -185,7 +192,8 @@ class Spectrum:
         return first + (np.asarray(self.dims) / 2.0 - np.asarray(self.start)) * h
 
 
-def padded_rfftn(block: np.ndarray, dims, start, fft, threads: bool, line: np.ndarray | None = None):
+def padded_rfftn(block: np.ndarray, dims, start, fft, threads: bool, line: np.ndarray | None = None,
+                 weights=None, buffers: dict | None = None):
     """``rfftn`` of ``block`` ``(nz, ny, nx)`` zero-padded to ``dims`` ``(Mz, My, Mx)`` at ``start`` and
     ``ifftshift``-ed (:func:`_place_shifted`), one axis at a time (x, then z, then y), each padded only before
     its own pass: the lines that hold nothing but zeros are not transformed (the x pass transforms ``ny nz``
@@ -193,28 +201,54 @@ def padded_rfftn(block: np.ndarray, dims, start, fft, threads: bool, line: np.nd
     numbers as the whole grid's ``rfftn``; 256^3 at padding 2 measured 6.6-7.8 s against 9.3-10.3 s, the
     orders x, y, z 8.2-8.8 s (two busy cores).  ``line``: zeros ``(nz, ny, Mx)`` of the block's dtype for the
     x pass, or None; the pass writes only the block's own samples there and leaves the rest as it was, so
-    the channels of one spectrum share one (it is not allocated and zeroed for each)."""
+    the channels of one spectrum share one (it is not allocated and zeroed for each).  ``weights``: ``(wz,
+    wy, wx)``, the block multiplied by ``wz[z] wy[y] wx[x]`` on the way (in the x and z passes' copies: no
+    pre-multiplied copy of the block).  ``buffers``: a dict that keeps the z and y passes' grids for the
+    next call (the returned array is then the y pass's grid, overwritten by the next call)."""
     options = {"workers": -1, "overwrite_x": True} if threads else {}
     nz, ny, nx = block.shape
     mz, my, mx = dims
+    wz, wy, wx = weights if weights is not None else (None, None, None)
     if line is None:
         line = np.zeros((nz, ny, mx), block.dtype)
-    _place_shifted(line, block, start, axes=(2,))
+    _place_shifted(line, block, start, axes=(2,), scale=None if wx is None else wx[None, None, :])
     half = fft.rfft(line, axis=2, **({"workers": -1} if threads else {}))  # (nz, ny, Mx / 2 + 1); line kept
-    deep = np.zeros((mz, ny, half.shape[2]), half.dtype)
-    _place_shifted(deep, half, start, axes=(0,))
+    rows = None if wz is None else (wz[:, None] * wy[None, :]).astype(half.real.dtype)[..., None]
+    deep = _grid(buffers, "deep", (mz, ny, half.shape[2]), half.dtype, start, nz, axis=0)
+    _place_shifted(deep, half, start, axes=(0,), scale=rows)
     del half
     deep = fft.fft(deep, axis=0, **options)
-    whole = np.zeros((mz, my, deep.shape[2]), deep.dtype)
+    whole = _grid(buffers, "whole", (mz, my, deep.shape[2]), deep.dtype, start, ny, axis=1)
     _place_shifted(whole, deep, start, axes=(1,))
+    if buffers is not None:
+        buffers["deep"] = deep  # the pass's output, in place where the library could
     del deep
-    return fft.fft(whole, axis=1, **options)
+    whole = fft.fft(whole, axis=1, **options)
+    if buffers is not None:
+        buffers["whole"] = whole
+    return whole
 
 
-def _place_shifted(padded: np.ndarray, block: np.ndarray, start, axes=(0, 1, 2)) -> None:
+def _grid(buffers, name: str, shape, dtype, start, n: int, axis: int) -> np.ndarray:
+    """A zero-padded grid for a pass along ``axis``: new zeros, or (``buffers``) the last call's grid with the
+    rows outside the block's ``n`` (placed at ``start[axis]``, shifted) zeroed again."""
+    grid = None if buffers is None else buffers.get(name)
+    if grid is None or grid.shape != shape or grid.dtype != dtype:
+        return np.zeros(shape, dtype)
+    m = shape[axis]
+    lo = (start[axis] - m // 2 + n) % m  # the block's end after the shift: m - n zero rows from there, wrapping
+    for rows in (slice(lo, min(lo + m - n, m)), slice(0, max(lo + m - n - m, 0))):
+        index = [slice(None)] * 3
+        index[axis] = rows
+        grid[tuple(index)] = 0
+    return grid
+
+
+def _place_shifted(padded: np.ndarray, block: np.ndarray, start, axes=(0, 1, 2), scale=None) -> None:
     """``padded`` (zeros, even lengths ``M`` along ``axes``) gets ``block`` at ``start`` per axis, as
     ``ifftshift`` of the padded grid would hold it (the grid's centre ``M / 2`` at index 0): each axis's run
-    of indices split where it wraps, so no second grid is made.  The other axes are copied as they are."""
+    of indices split where it wraps, so no second grid is made.  The other axes are copied as they are.
+    ``scale``: an array broadcast against ``block`` that multiplies it on the way."""
     pieces = []
     for axis, (m, n, s) in enumerate(zip(padded.shape, block.shape, start)):
         first = s - m // 2  # the block's first index after the shift, possibly negative
@@ -229,4 +263,8 @@ def _place_shifted(padded: np.ndarray, block: np.ndarray, start, axes=(0, 1, 2))
     for (dz, sz) in pieces[0]:
         for (dy, sy) in pieces[1]:
             for (dx, sx) in pieces[2]:
-                padded[dz, dy, dx] = block[sz, sy, sx]
+                if scale is None:
+                    padded[dz, dy, dx] = block[sz, sy, sx]
+                else:  # the scale's own axes of length 1 are taken whole
+                    part = tuple(p if n > 1 else slice(None) for p, n in zip((sz, sy, sx), np.shape(scale)))
+                    np.multiply(block[sz, sy, sx], scale[part], out=padded[dz, dy, dx], casting="same_kind")

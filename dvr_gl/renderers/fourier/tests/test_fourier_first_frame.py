@@ -42,3 +42,18 @@ def test_extended_columns_are_the_periodic_spectrum():
         extended_into(out, half, 3, 2)
         want = np.roll(full, 2, axis=(0, 1))[:, :, [(c - 3) % m for c in range(mxh + 6)]]
         assert np.abs(out - want).max() <= 1e-12 * np.abs(full).max()
+
+
+def test_a_sinks_channels_are_the_kept_spectra():
+    """``Spectrum(sink=...)`` reuses the z and y passes' grids from channel to channel (their padding
+    zeroed again) and pre-multiplies on the way: three channels handed to a sink against the same kept,
+    float64: measured 0 (the same operations); asserted to 1e-12 of the largest."""
+    from dvr_gl.renderers.fourier.spectrum import Spectrum
+
+    channels = np.random.default_rng(4).random((9, 7, 8, 3))
+    kept = Spectrum(channels, "kaiser_bessel", 1.25, 0, 6)
+    handed = []
+    sunk = Spectrum(channels, "kaiser_bessel", 1.25, 0, 6, sink=lambda c, half: handed.append(half.copy()))
+    assert sunk.spectra == [] and sunk.count == 3 and len(handed) == 3
+    peak = max(np.abs(s).max() for s in kept.spectra)
+    assert max(np.abs(a - b).max() for a, b in zip(kept.spectra, handed)) <= 1e-12 * peak
