@@ -29,19 +29,20 @@ const vec4 EMPTY_STATE = vec4(0.0);
 #if !defined(COMPOSITE_AVERAGE)
 #if defined(FILTER_LINEAR) && !defined(FILTER_IN_SHADER)
 #define AFFINE_FETCH
-// The texture coordinate at parameter t is texcoord_origin + t * texcoord_step: sample_scalar's position, voxel
-// coordinate, clamp and division, hoisted out of the loop (brain-mip's frame 0.79x; docs/peers.md, "A cheaper
-// MIP loop").  The clamp to the outer samples is the texture's clamp-to-edge, which gives a linear fetch the same
-// value there.  Rounding differs from sample_scalar's by a few ulps of the coordinate (the ray's origin is as far
-// as before), which moves an 8-bit texture's filtered value by one step in about 1e-3 of the fetches on llvmpipe.
-vec3 texcoord_origin, texcoord_step;
+// The texture coordinate at parameter t is texcoord_entry + (t - t0) * texcoord_step: sample_scalar's position,
+// voxel coordinate, clamp and division, hoisted out of the loop (brain-mip's frame 0.74x; docs/peers.md, "A
+// cheaper MIP loop").  It starts where the ray enters the box, not at the ray's origin, whose coordinate may be
+// large (a small brick's, seen from afar) and cancel.  The clamp to the outer samples is the texture's
+// clamp-to-edge, which gives a linear fetch the same value there.  Rounding differs from sample_scalar's by a few
+// ulps of the coordinate, which flips llvmpipe's 8-bit filtered value by one step in about 1e-3 of the fetches.
+vec3 texcoord_entry, texcoord_step;
 #endif
 
 // Texture coordinates for value_at (AFFINE_FETCH); the pass's volume (a brick's, under BRICKED).
 void set_up_fetch() {
 #ifdef AFFINE_FETCH
     vec3 per_texel = 1.0 / vec3(u_dims);
-    texcoord_origin = (voxel_coord(o) + 0.5) * per_texel;
+    texcoord_entry = (voxel_coord(o + t0 * d) + 0.5) * per_texel;
     texcoord_step = d * u_world_to_voxel_scale * per_texel;
 #endif
 }
@@ -49,7 +50,7 @@ void set_up_fetch() {
 // The field at parameter t of the ray (data units).
 float value_at(float t) {
 #ifdef AFFINE_FETCH
-    return texture(u_volume, texcoord_origin + t * texcoord_step).r * u_value_scale + u_value_offset;
+    return texture(u_volume, texcoord_entry + (t - t0) * texcoord_step).r * u_value_scale + u_value_offset;
 #else
     return sample_scalar(o + t * d);
 #endif

@@ -26,8 +26,9 @@ def test_the_affine_fetch_reads_the_field_at_the_samples(renderer, mode, steps, 
     """The blobs phantom (float32, which llvmpipe filters in float) through the affine map and through
     sample_scalar at each position (renderer.filtering "shader"): they differ by the rounding of the texture
     coordinate.  Measured (16 cases: both modes, views, one texture and bricked, 0 and 4 steps): at most
-    1.4e-6 unrefined; refined MIP at most 8.0e-5 in orthographic views, where the parabola's vertex magnifies
-    it, in 3 of the 576 pixels beyond 1e-5.  A map a twentieth of a texel off fails it (checked)."""
+    6.6e-7 unrefined; refined MIP at most 6.0e-5 in orthographic views, where the parabola's vertex magnifies
+    it, in at most 4 of the 576 pixels beyond 1e-5 (0.7 %; asserted 2 %).  A map a twentieth of a texel
+    off fails it (checked)."""
     keys = {**BLOBS, "renderer.compositing": mode, "renderer.extremum_refinement": steps,
             "camera.projection": view, **({} if budget is None else {"renderer.texture_budget_mb": budget})}
     affine = renderer.render(load_scene(None, keys))
@@ -36,5 +37,5 @@ def test_the_affine_fetch_reads_the_field_at_the_samples(renderer, mode, steps, 
     exact = renderer.render(load_scene(None, {**keys, "renderer.filtering": "shader"}))
     assert "FILTER_IN_SHADER" in renderer.stats["defines"]
     off = np.abs(affine - exact).max(axis=2)
-    assert np.mean(off > 1e-5) <= 0.01
+    assert np.mean(off > 1e-5) <= 0.02
     assert off.max() <= 2e-4

@@ -43,7 +43,8 @@ from dvr_gl.scene.model import PHASE_FUNCTIONS, SCATTERING_METHODS
 from dvr_gl.scene.resolve import load_scene
 
 # Names the shaders define for themselves, or read only from the library's snippets' own logic.
-SELF_DEFINED = {"NEEDS_GRADIENT", "STEP", "SKIPPABLE", "RUN_DENSE", "block_voxel", "u_slab_length"}
+SELF_DEFINED = {"NEEDS_GRADIENT", "STEP", "SKIPPABLE", "RUN_DENSE", "block_voxel", "u_slab_length",
+                "AFFINE_FETCH"}
 
 
 def setting_axes() -> dict[str, tuple]:
