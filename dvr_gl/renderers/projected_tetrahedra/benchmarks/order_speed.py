@@ -2,9 +2,11 @@
 
 Issue 44 item 3 asks the compiled order for at least 5x numpy's speed.  For each shared mesh and view
 of ``dvr bench cells`` (512x512), the rays the renderer casts (those the GL boundary count picks) are
-taken once; then ``VisibilityOrder`` compiled on the cells renumbered for locality (the default),
-compiled on the mesh's own numbering and in numpy (on the mesh's numbering) are timed in turn (A B C A B
-C ..., CPU seconds of this process, medians), and the orders are asserted equal cell for cell.  The
+taken once; then ``VisibilityOrder`` compiled on the cells renumbered for locality, compiled on the
+mesh's own numbering and in numpy (on the mesh's numbering) are timed in turn (A B C A B C ..., CPU
+seconds of this process, medians), and the orders are asserted equal cell for cell.  The renderer's
+default renumbers only a scattered numbering (``order.scattered``): the shared meshes as written run on
+their own numbering, the second column; shuffled (``--shuffle``), renumbered, the first.  The
 renumbering's cost (once per mesh) is printed after each mesh's rows.  ``--shuffle``: the meshes'
 cells shuffled first (a mesh written in a scattered order); ``--frames``: whole frames too, renumbered
 and not in turn (wall seconds, medians; the pictures asserted equal).
