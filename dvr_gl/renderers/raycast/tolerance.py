@@ -337,10 +337,10 @@ def _rms(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.sqrt(np.mean((a.astype(np.float64) - b) ** 2)))
 
 
-def apply(scene, tolerance: float, model: SamplingModel | None = None, verify: bool = True):
+def apply(scene, tolerance: float, model: SamplingModel | None = None, verify: bool = True, renderer=None):
     """``scene`` with the chosen settings, and the :class:`Choice` (``verify``: checked a posteriori
-    by rendering, :func:`check`)."""
+    by rendering, :func:`check`, with ``renderer``: a ray caster to borrow, or None for one of its own)."""
     choice = choose(scene, tolerance, model)
     if verify:
-        choice = check(scene, choice, tolerance)
+        choice = check(scene, choice, tolerance, renderer)
     return scene.with_renderer(**choice.renderer_changes()), choice

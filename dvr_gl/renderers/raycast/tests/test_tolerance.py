@@ -8,13 +8,16 @@ from dvr_gl.apps.cli import main
 from dvr_gl.bench.quality import spike
 from dvr_gl.bench.tradeoff import converged_truth
 from dvr_gl.errors import SceneError
+from dvr_gl.gl.context import make_current
 from dvr_gl.image import compare_images, read_image
 from dvr_gl.phantoms import marschner_lobb, shepp_logan
 from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.renderers.raycast import tolerance
 from dvr_gl.scene.resolve import load_scene
 
-ML = {"volume.demo": "marschner-lobb", "volume.size": 33, "image.width": 48, "image.height": 48,
+# 32x32 images: the promise's RMS errors measured at 32x32 and at 48x48 are alike (at most 0.47 E against
+# 0.45 E; scene by scene within 0.05 E), and the a-posteriori check renders 1024 pixels instead of 2304.
+ML = {"volume.demo": "marschner-lobb", "volume.size": 33, "image.width": 32, "image.height": 32,
       "transfer_function.opacity_model": "extinction"}
 
 
@@ -43,19 +46,27 @@ CASES = {
     "Marschner-Lobb, 5 % spike": {**ML, "transfer_function.points": spike(0.05, 1.0)},
     "Marschner-Lobb, viridis ramp": {**ML, "transfer_function.preset": "viridis",
                                      "transfer_function.opacity_model": "alpha", "camera.azimuth": 70.0},
-    "Shepp-Logan": {"volume.demo": "shepp-logan", "volume.size": 40, "image.width": 48, "image.height": 48},
+    "Shepp-Logan": {"volume.demo": "shepp-logan", "volume.size": 40, "image.width": 32, "image.height": 32},
 }
 
 
-def assert_tolerances_met(scene, tolerances=(1e-2, 3e-3, 1e-3)):
-    """Render with what each tolerance chooses; the RMS error against the converged reference is <= E."""
+@pytest.fixture(scope="module")
+def raycaster(shared_gl_context):
+    """One ray caster on the session's context for the module's renders and a-posteriori checks: its
+    programs are compiled once, not again in a context of each check's own."""
+    with create_renderer("raycast", ctx=make_current(shared_gl_context)) as renderer:
+        yield renderer
+
+
+def assert_tolerances_met(renderer, scene, tolerances=(1e-2, 3e-3, 1e-3)):
+    """Render with what each tolerance chooses (checked by ``renderer`` too); the RMS error against the
+    converged reference is <= E."""
     truth = converged_truth(scene)
-    with create_renderer("raycast") as renderer:
-        for e in tolerances:
-            chosen, choice = tolerance.apply(scene, e)
-            rms = compare_images(renderer.render(chosen), truth)["rms"]
-            assert rms <= e, f"E = {e:g}: measured {rms:.3g} with {choice.describe(1.0)}"
-            assert choice.estimated_error <= tolerance.MARGIN * e
+    for e in tolerances:
+        chosen, choice = tolerance.apply(scene, e, renderer=renderer)
+        rms = compare_images(renderer.render(chosen), truth)["rms"]
+        assert rms <= e, f"E = {e:g}: measured {rms:.3g} with {choice.describe(1.0)}"
+        assert choice.estimated_error <= tolerance.MARGIN * e
 
 
 def test_richardson_estimate_of_a_power_law():
@@ -82,7 +93,7 @@ def narrow(kind: str, bits: int, width: float, centre: float, spike: bool):
     c, w = centre * top, width * top
     points = [[0, 1, 0.5, 0.2, 0], [c - w / 2, 1, 0.5, 0.2, 0], [c, 1, 0.9, 0.6, peak], [c + w / 2, 0.4, 0.6, 1, 0],
               [top, 0.4, 0.6, 1, 0]]
-    return data, {"transfer_function.points": points, "image.width": 48, "image.height": 48,
+    return data, {"transfer_function.points": points, "image.width": 32, "image.height": 32,
                   "transfer_function.opacity_model": "extinction" if spike else "alpha",
                   "renderer.shading.enabled": False, "camera.azimuth": 35.0}
 
@@ -96,21 +107,21 @@ NARROW = {  # not the scenes the check was measured on (docs/tolerance.md): othe
 
 
 @pytest.mark.parametrize("case", list(NARROW))
-def test_tolerance_is_met_on_narrow_features(tmp_path, case):
+def test_tolerance_is_met_on_narrow_features(tmp_path, raycaster, case):
     """Issue 14: transfer-function features of 0.5-5 % of the range on 8- and 16-bit data.  The
     a-priori model alone measured up to 11x E on such scenes; the a-posteriori check (renders at
-    d, d/2, d/4) holds the promise, measured 0.2-0.5 E on the calibration scenes."""
+    d, d/2, d/4) holds the promise, measured 0.2-0.5 E on the calibration scenes (here, 32x32: 0.19-0.47 E)."""
     data, overrides = narrow(*NARROW[case])
-    assert_tolerances_met(array_scene(tmp_path, data, overrides))
+    assert_tolerances_met(raycaster, array_scene(tmp_path, data, overrides))
 
 
 @pytest.mark.parametrize("case", list(CASES))
-def test_tolerance_is_met(case):
+def test_tolerance_is_met(raycaster, case):
     """The promise, on small scenes not used for the fit: the chosen settings' RMS error against the
     converged reference is at most E, for E from 1e-2 to 1e-3.  (The law is the upper envelope of
     the calibration, so the measured error is typically 2-4x below E; docs/tolerance.md's table shows it.)"""
     scene = load_scene(None, CASES[case])
-    assert_tolerances_met(scene)
+    assert_tolerances_met(raycaster, scene)
 
 
 def test_tighter_tolerance_samples_more():
@@ -160,14 +171,15 @@ SHARED = {  # small datasets of ../shared/data with a feature-revealing transfer
 
 
 @pytest.mark.parametrize("name", list(SHARED))
-def test_tolerance_is_met_on_shared_datasets(shared_data, name):
-    """The promise on real data (small datasets, 40x40 images): measured RMS <= E."""
+def test_tolerance_is_met_on_shared_datasets(shared_data, raycaster, name):
+    """The promise on real data (small datasets, 32x32 images): measured RMS <= E (0.02-0.30 E; at 48x48
+    0.02-0.39 E)."""
     path, points = SHARED[name]
-    overrides = {"volume.path": str(shared_data / path), "image.width": 40, "image.height": 40}
+    overrides = {"volume.path": str(shared_data / path), "image.width": 32, "image.height": 32}
     if points:
         overrides["transfer_function.points"] = points
     scene = load_scene(None, overrides)
-    assert_tolerances_met(scene)
+    assert_tolerances_met(raycaster, scene)
 
 
 def test_a_tolerance_the_check_cannot_reach_is_refused(tmp_path, monkeypatch):
