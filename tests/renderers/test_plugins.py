@@ -136,12 +136,13 @@ def test_dvr_bench_tradeoff_sweeps_it(site, tmp_path):
 def test_conformance_tests_cover_it(site):
     """The conformance tests generate the plugin's cases (modes it declares x closed forms x views, and
     its oracle) from the registry, and it passes them."""
-    args = ["-m", "pytest", "-q", "-p", "no:cacheprovider", str(REPO / "tests" / "renderers" / "test_conformance.py"),
-            "-k", NAME]
-    listed = run(site, *args, "--collect-only", cwd=REPO)
-    ids = [line for line in listed.stdout.splitlines() if NAME in line]
-    assert len(ids) >= 20, listed.stdout[-2000:]
+    # One run, verbose: each case's id and outcome on its own line (a collect-only run first cost a second
+    # process and collection for the same list).
+    passed = run(site, "-m", "pytest", "-v", "-p", "no:cacheprovider",
+                 str(REPO / "tests" / "renderers" / "test_conformance.py"), "-k", NAME, cwd=REPO)
+    ids = [line for line in passed.stdout.splitlines() if "test_conformance.py::" in line and NAME in line]
+    assert len(ids) >= 20, passed.stdout[-2000:]
     assert any("ramp-mip-orthographic" in i for i in ids) and any("against_its_oracle" in i for i in ids)
-    passed = run(site, *args, cwd=REPO)
     assert passed.returncode == 0, passed.stdout[-3000:]
+    assert all(" PASSED" in i for i in ids), [i for i in ids if " PASSED" not in i]
     assert f"{len(ids)} passed" in passed.stdout
