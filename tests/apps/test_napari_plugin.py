@@ -5,6 +5,7 @@ run's Xvfb display (napari's canvas needs a display: Qt's offscreen platform has
 
 import ctypes
 import importlib.metadata
+import inspect
 import os
 import subprocess
 import sys
@@ -161,17 +162,24 @@ def _clear_pending_gl_errors():
 IN_A_SHARED_WORKER = "PYTEST_XDIST_WORKER" in os.environ and not os.environ.get("DVR_GL_NAPARI_FRESH")
 
 
+def _widget_tests() -> list[str]:
+    """The node ids of this file's tests that need napari's viewer (the ones skipped in an xdist worker)."""
+    return [f"{__file__}::{name}" for name, test in globals().items()
+            if name.startswith("test_") and "viewer" in inspect.signature(test).parameters]
+
+
 def test_the_widget_in_a_fresh_process():
-    """This file's tests once more in a fresh pytest process, where napari's viewer is the first GL user (the
-    widget's tests, skipped in an xdist worker, run there and must all pass)."""
+    """The widget's tests in a fresh pytest process, where napari's viewer is the first GL user (skipped in an
+    xdist worker, they run there and must all pass; the file's other tests ran in the worker already)."""
     if not IN_A_SHARED_WORKER:
         pytest.skip("this process is fresh: the widget's tests run here")
-    done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:xdist", "-p", "no:cacheprovider", __file__,
-                           "-k", "not fresh_process"],
+    tests = _widget_tests()
+    assert len(tests) >= 4, tests
+    done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:xdist", "-p", "no:cacheprovider", *tests],
                           cwd=ROOT, capture_output=True, text=True, timeout=600,
                           env=dict(os.environ, DVR_GL_NAPARI_FRESH="1"))
     assert done.returncode == 0, done.stdout[-4000:]
-    assert " passed" in done.stdout and "skipped" not in done.stdout.splitlines()[-1], done.stdout[-2000:]
+    assert f"{len(tests)} passed" in done.stdout and "skipped" not in done.stdout.splitlines()[-1], done.stdout[-2000:]
 
 
 @pytest.fixture(scope="module")
