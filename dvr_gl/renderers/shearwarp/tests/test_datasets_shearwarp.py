@@ -18,7 +18,7 @@ def renderer(shared_gl_context):
     made.close()
 
 
-@pytest.mark.parametrize("name", list(DATASETS), ids=dataset_id)
+@pytest.mark.parametrize("name", list(DATASETS), ids=dataset_id, scope="module")
 def test_dataset_renders_with_shear_warp(renderer, shared_scene, name):
     """Parallel and perspective against shear-warp's same-discretization reference (the same slices
     along the intermediate pixels' rays, warped bilinearly): measured max 3.1e-5 (the bunny,
@@ -33,7 +33,7 @@ def test_dataset_renders_with_shear_warp(renderer, shared_scene, name):
         assert_close(image, reference)
 
 
-@pytest.mark.parametrize("name", list(DATASETS), ids=dataset_id)
+@pytest.mark.parametrize("name", list(DATASETS), ids=dataset_id, scope="module")
 def test_dataset_renders_with_shaded_shear_warp(renderer, shared_scene, name):
     """Shaded by the lookup tables over quantized normals (the headlight, perspective), against the same
     slices shaded alike in float64: measured max 2.4e-5 (headsq), mean <= 2.1e-7, every value within
@@ -48,7 +48,7 @@ def test_dataset_renders_with_shaded_shear_warp(renderer, shared_scene, name):
 
 
 @pytest.mark.parametrize("name", [n for n in DATASETS if n.startswith("regular/")],
-                         ids=dataset_id)
+                         ids=dataset_id, scope="module")
 def test_dataset_renders_with_shear_warp_from_inside(renderer, shared_scene, name):
     """The eye near the volume's centre, a 100-degree view along a diagonal, shaded: the view factored
     by pyramids of rays (three or four here), against the same slices of each pyramid shaded alike in
