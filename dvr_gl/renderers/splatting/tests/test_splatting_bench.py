@@ -6,7 +6,7 @@ from dvr_gl.apps.cli import main
 def test_bench_splatting_prints_the_schemes_and_the_study(tmp_path, capsys):
     md = tmp_path / "splatting.md"
     assert main(["bench", "splatting", "--volume-size", "12", "--size", "16", "--repeat", "1", "--study-size", "16",
-                 "--particles", "216", "--markdown", str(md)]) == 0
+                 "--particles", "8", "--markdown", str(md)]) == 0
     out = capsys.readouterr().out
     table, study = out.split("the 45-degree study")
     rows = [line.split() for line in table.splitlines() if line.startswith("Shepp-Logan") and ":" not in line]
