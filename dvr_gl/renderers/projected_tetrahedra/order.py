@@ -115,6 +115,10 @@ def adjacency(points: np.ndarray, tets: np.ndarray) -> Adjacency:
     opposite = tets[cells, which]
     # a face shared by two cells: interior; by one: boundary; by more (a broken mesh): the first
     # two pair up and the rest count as boundary faces
+    # the interior faces by their first cell: the per-view pass over them writes both cells' records
+    # (order_compiled), and in the faces' own order (by their vertices) those writes scatter over the
+    # whole mesh (the jaw's pass: twice Kahn's sort); the order does not depend on the faces' order
+    first = first[np.argsort(cells[first], kind="stable")]
     interior_a, interior_b = first, first + 1
     extra = int(np.all(faces[1:] == faces[:-1], axis=1).sum()) - len(first)  # cells past a pair's two
     lone = np.ones(len(faces), bool)
