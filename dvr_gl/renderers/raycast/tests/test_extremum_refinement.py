@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from conftest import array_scene
+from dvr_gl.gl.context import make_current
 from dvr_gl.reference.discrete import SecondCandidates, refine_extremum
 from dvr_gl.renderers import create_renderer
 from dvr_gl.renderers.raycast import defaults
@@ -20,7 +21,9 @@ BLOBS = {"volume.demo": "blobs", "volume.size": 20, "image.width": 24, "image.he
 
 @pytest.fixture(scope="module")
 def renderer(shared_gl_context):
-    return create_renderer("raycast")
+    """A ray caster on the session's context (borrowed: its programs stay compiled for the other modules)."""
+    with create_renderer("raycast", ctx=make_current(shared_gl_context)) as made:
+        yield made
 
 
 @pytest.mark.parametrize("mode", ["mip", "minip"])
@@ -239,7 +242,7 @@ def test_two_brackets_skip_below_the_second_candidate(shared_gl_context):
     scene = load_scene(None, {**BLOBS, "volume.size": 32, "renderer.sample_distance_voxels": 1.0,
                               "renderer.compositing": "mip", "renderer.extremum_brackets": 2, "renderer.block_size": 4})
     jumps = 0.0
-    with create_renderer("raycast", count_samples=True) as counting:
+    with create_renderer("raycast", count_samples=True, ctx=make_current(shared_gl_context)) as counting:
         for extra in ({}, {"texture_budget_mb": 0.05}):
             stepped = counting.render(scene.with_renderer(acceleration="off", **extra))
             skipped = counting.render(scene.with_renderer(acceleration="on", **extra))

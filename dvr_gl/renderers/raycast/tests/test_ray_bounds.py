@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from conftest import array_scene
+from dvr_gl.gl.context import make_current
 from dvr_gl.rays import intersect_box
 from dvr_gl.renderers.raycast import acceleration as accel
 from dvr_gl.renderers.raycast import ray_bounds
@@ -13,8 +14,10 @@ from dvr_gl.renderers.raycast.renderer import RayCastRenderer
 
 
 @pytest.fixture(scope="module")
-def gpu():
-    renderer = RayCastRenderer(count_samples=True)
+def gpu(shared_gl_context):
+    """A counting ray caster on the session's context (borrowed: its programs stay compiled for the other
+    modules of the run, which compile many of the same)."""
+    renderer = RayCastRenderer(count_samples=True, ctx=make_current(shared_gl_context))
     yield renderer
     renderer.close()
 

@@ -24,6 +24,7 @@ import pytest
 
 from conftest import array_scene, assert_close, small_scene
 from dvr_gl.errors import DvrError
+from dvr_gl.gl.context import make_current
 from dvr_gl.phantoms import shepp_logan
 from dvr_gl.reference.discrete import DiscreteReference
 from dvr_gl.renderers.raycast.renderer import RayCastRenderer, shader_features
@@ -36,8 +37,10 @@ NO_ERT = {"renderer.ert_threshold": 1.0}
 
 
 @pytest.fixture(scope="module")
-def gpu():
-    renderer = RayCastRenderer(count_samples=True)
+def gpu(shared_gl_context):
+    """A counting ray caster on the session's context (borrowed: its programs stay compiled for the other
+    modules of the run, which compile many of the same)."""
+    renderer = RayCastRenderer(count_samples=True, ctx=make_current(shared_gl_context))
     yield renderer
     renderer.close()
 
