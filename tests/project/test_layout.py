@@ -105,20 +105,25 @@ def findings(path: Path, renderers: list[Renderer], root: Path = ROOT) -> list[s
     others = [r for r in renderers if not r.owns(path)]
     if not others:
         return []
-    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    text = path.read_text(encoding="utf-8")
+    tree = ast.parse(text, filename=str(path))
     by_name = {r.name: r for r in others}
-    patterns = [(r, package_pattern(r)) for r in others]
-    skip = argument_names(tree)
+    # (a package's pattern can only match a string that holds its last part: the cheap test first)
+    patterns = [(r, package_pattern(r), r.package.rsplit(".", 1)[-1]) for r in others]
+    skip = argument_names(tree) if "parametrize" in text else set()  # (a second walk only where it can find)
     package = list(path.relative_to(root).parent.parts)
     out = []
     for node in ast.walk(tree):
-        modules = imported(node, package)
-        out += [f"{node.lineno}: imports {r.package} (renderer {r.name!r})" for r in others
-                if any(m == r.package or m.startswith(r.package + ".") for m in modules)]
-        if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in skip:
+        if isinstance(node, (ast.Import, ast.ImportFrom)):  # (the only nodes imported() reads)
+            modules = imported(node, package)
+            out += [f"{node.lineno}: imports {r.package} (renderer {r.name!r})" for r in others
+                    if any(m == r.package or m.startswith(r.package + ".") for m in modules)]
+        elif isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in skip:
             if node.value in by_name:
                 out.append(f"{node.lineno}: the string {node.value!r} (a renderer's name)")
-            for r, pattern in patterns:
+            for r, pattern, last in patterns:
+                if last not in node.value:
+                    continue
                 for match in pattern.finditer(node.value):
                     line = node.lineno + node.value.count("\n", 0, match.start())  # the line in a docstring
                     out.append(f"{line}: a string naming {r.package} (renderer {r.name!r})")
