@@ -183,6 +183,7 @@ def _scale_arguments(sa):
                     help="sizes: the volumes' sizes in GiB (default 1,2,4,8,16)")
     sa.add_argument("--data-dir", metavar="DIR", help="sizes: where the synthetic volumes are written once and "
                                                      "kept (default: the temporary folder)")
+    sa.add_argument("--size", type=int, default=512, help="square image size, pixels (default 512)")
 
 
 def _widget_arguments(p):
@@ -252,7 +253,10 @@ def run(args) -> int:
 
 def run_scale(args) -> int:
     from dvr_gl.bench import scale
+    from dvr_gl.errors import DvrError
 
+    if not 8 <= args.size <= 4096:
+        raise DvrError(f"--size must be 8 to 4096, got {args.size}")
     return scale.run(args)
 
 

@@ -97,6 +97,7 @@ def test_transparent_finds_every_opaque_value_of_the_range():
 from dvr_gl.api import scene_of  # noqa: E402
 from dvr_gl.errors import SceneError  # noqa: E402
 from dvr_gl.fields.grid import Volume  # noqa: E402
+from dvr_gl.gl.context import make_current  # noqa: E402
 from dvr_gl.out_of_core import open_volume, write_synthetic_raw  # noqa: E402
 from dvr_gl.renderers.raycast.renderer import RayCastRenderer  # noqa: E402
 
@@ -114,8 +115,9 @@ def synthetic(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def raycaster():
-    with RayCastRenderer() as r:
+def raycaster(shared_gl_context):
+    """A ray caster on the session's context (borrowed: its programs stay compiled for the other modules)."""
+    with RayCastRenderer(ctx=make_current(shared_gl_context)) as r:
         yield r
 
 
@@ -243,14 +245,19 @@ def test_peak_memory_rendering_a_volume_four_times_the_budget(tmp_path):
 
 
 def test_bench_scale_sizes_prints_its_table(tmp_path, capsys):
-    """``dvr bench scale --part sizes`` on a 10 MiB volume: a row per run, peak memory within the bound."""
+    """``dvr bench scale --part sizes`` on a 10 MiB volume, 64x64 frames: a row per run, peak memory within the
+    bound; a size outside 8 to 4096 is refused in one line."""
     from dvr_gl.apps.cli import main
 
-    assert main(["bench", "scale", "--part", "sizes", "--sizes", "0.01", "--data-dir", str(tmp_path)]) == 0
+    assert main(["bench", "scale", "--part", "sizes", "--sizes", "0.01", "--data-dir", str(tmp_path),
+                 "--size", "64"]) == 0
     rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| 0.01 |")]
     assert [row.split("|")[3].strip() for row in rows] == ["first", "again"]
     assert all(float(row.split("|")[-2]) < 1.0 for row in rows)  # peak / bound
     assert list(tmp_path.glob("*.dvr-ranges.npz"))  # the first run wrote the block ranges' sidecar
+    assert main(["bench", "scale", "--part", "sizes", "--size", "4"]) == 1
+    err = capsys.readouterr().err
+    assert "--size must be 8 to 4096, got 4" in err and len(err.strip().splitlines()) == 1
 
 
 def test_an_ome_zarr_pyramid_read_out_of_core_renders_its_levels(tmp_path, raycaster):
