@@ -25,6 +25,7 @@ slip (``tests/test_fourier.py`` shows what it costs).
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -120,6 +121,16 @@ def padded_length(n: int, padding: float) -> int:
         m += 2
 
 
+@functools.lru_cache(maxsize=4)
+def _gauss_legendre(n: int):
+    """Gauss-Legendre nodes and weights on [-1, 1], once a process: 200 points take an eigenvalue problem,
+    about 0.1 s on the busy machine, where each axis's pre-multiplication asked for them again."""
+    x, w = np.polynomial.legendre.leggauss(n)
+    x.setflags(write=False)
+    w.setflags(write=False)
+    return x, w
+
+
 def kernel_transform(interpolation: str, xi: np.ndarray, padding: float = 2.0, taps: int = 4) -> np.ndarray:
     """What interpolating the spectrum with the kernel multiplies the samples by, at ``xi`` (positions
     over the period): the kernel's transform, ``sinc^2`` for the tent (trilinear), ``sinc^4`` for the cubic
@@ -132,7 +143,7 @@ def kernel_transform(interpolation: str, xi: np.ndarray, padding: float = 2.0, t
         return s ** 4
     if interpolation in WINDOWED:  # Gauss-Legendre over the support (even: a cosine)
         half = taps / 2.0
-        x, w = np.polynomial.legendre.leggauss(200)
+        x, w = _gauss_legendre(200)
         x, w = half * (x + 1.0) / 2.0, w * half / 2.0
         xi = np.asarray(xi, dtype=np.float64)
         k = kernel(interpolation, padding, taps)

@@ -36,8 +36,8 @@ FOURIER_SETTINGS = (("trilinear slice, padding 2", {"slice_interpolation": "tril
                     ("4 taps, padding 1.5", {"slice_taps": 4, "padding": 1.5}))
 #: The error band where Fourier's front is to lie below the ray caster's.
 BAND = (1e-4, 1e-2)
-COLUMNS = [("n", "N", "d"), ("mode", "mode", ""), ("channels_s", "channels s", ".2f"),
-           ("transform_s", "transform s", ".2f"), ("spectrum_s", "spectrum ready s", ".2f"),
+COLUMNS = [("n", "N", "d"), ("mode", "mode", ""), ("channels_s", "channels s", ".3f"),
+           ("transform_s", "transform s", ".3f"), ("spectrum_s", "spectrum ready s", ".3f"),
            ("first_s", "first frame s", ".2f"), ("spectrum_mb", "spectrum MB", ".0f"),
            ("view_ms", "fourier ms/view", ".1f"), ("raycast_ms", f"{BASELINE} ms (defaults)", ".1f"),
            ("speedup", "ratio", ".2f"), ("rms", "fourier RMS", ".2e"), ("raycast_rms", f"{BASELINE} RMS", ".2e")]
