@@ -154,7 +154,8 @@ def test_outline_mask_is_the_ring_around_the_box(tmp_path):
     assert peers.psnr(a, b, keep) == math.inf and peers.psnr(a, b) < 20
 
 
-def test_ct_scene_is_left_out_without_the_datasets(tmp_path):
+def test_ct_scene_is_left_out_without_the_datasets(tmp_path, short_sweep):
+    """(the other scene with the short sweep: its rows only show that it alone was measured)"""
     rows, ratio_rows, notes, images = peers.run(("dvr-gl",), ("cthead-bone", "blobs-mip"), data_dir=tmp_path,
                                                 cache=tmp_path / "cache", work=tmp_path / "work", **TINY)
     assert {r["scene"] for r in rows} == {"blobs-mip"}
