@@ -64,6 +64,7 @@ def _records(depth):
 
 @numba.njit(cache=True)
 def _fill(records, depth):
+    """Each record's key ``depth``, no relations yet."""
     ints = records.view(np.int32)
     for i in range(len(depth)):
         records[4 * i] = depth[i]
@@ -82,6 +83,8 @@ def _relate(ints, front, back):
 
 @numba.njit(cache=True)
 def _given_relations(records, pairs, front_of):
+    """The interior faces' relations from each face's front cell ``front_of`` (one of its ``pairs``); a
+    cell is in at most four pairs (one a face), so its record holds the cells behind it."""
     ints = records.view(np.int32)
     for f in range(len(pairs)):
         a, b = pairs[f, 0], pairs[f, 1]
