@@ -37,18 +37,21 @@ def test_srgb_decoding_is_exact_at_known_values():
     # 8-bit codes 10 and 11 sit either side of the 0.04045 breakpoint: the linear piece, then the power
     assert 10 / 255 < 0.04045 < 11 / 255
     assert table[10] == (10 / 255) / 12.92
-    assert table[11] == ((11 / 255 + 0.055) / 1.055) ** 2.4
+    # the power piece to numpy's pow: within 1 ulp of the C library's (numpy's AVX-512 pow differs from libm's
+    # by 1 ulp at 17 of the 256 codes, measured; without AVX-512 they agree to the bit)
+    np.testing.assert_array_max_ulp(table[11], ((11 / 255 + 0.055) / 1.055) ** 2.4, maxulp=1)
     # the breakpoint itself is on the linear piece, and the pieces meet there (to 1e-8: the standard's rounding)
     assert srgb_decode(np.array([0.04045]))[0] == 0.04045 / 12.92
     assert abs(((0.04045 + 0.055) / 1.055) ** 2.4 - 0.04045 / 12.92) < 1e-8
-    np.testing.assert_array_equal(table, [srgb_formula(k / 255) for k in range(256)])
+    np.testing.assert_array_max_ulp(table, np.array([srgb_formula(k / 255) for k in range(256)]), maxulp=1)
     assert abs(table[128] - 0.21586050011389926) < 1e-15  # the familiar mid-grey
     assert abs(table[128] - (128 / 255) ** 2.2) > 3e-3  # not a gamma of 2.2
 
 
 def test_16_bit_codes_decode_over_their_own_range():
     codes = np.array([0, 1, 2650, 2651, 32768, 65535], np.uint16)  # 2650/65535 < 0.04045 < 2651/65535
-    np.testing.assert_array_equal(srgb_decode(codes), [srgb_formula(k / 65535) for k in codes.tolist()])
+    expected = np.array([srgb_formula(k / 65535) for k in codes.tolist()])
+    np.testing.assert_array_max_ulp(srgb_decode(codes), expected, maxulp=1)  # pow: as above
     assert srgb_decode(codes)[-1] == 1.0
 
 
