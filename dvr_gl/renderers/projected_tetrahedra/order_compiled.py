@@ -16,16 +16,15 @@ import numba
 import numpy as np
 
 
-def exact_order(n, face_slots, pairs, front_of, extra_front, extra_back, depth, original=None):
-    """Cells ``0..n-1`` front to back and the cycles broken, as :func:`.order.topological` gives them
-    for the relations across the interior faces (``front_of``: each face's front cell, of its two
-    in ``pairs``; ``face_slots`` is not needed and only accepted) and the ``extra`` ones (across
-    gaps): Kahn's sort a level at a time, each cell's key the largest ``depth`` of itself and of
-    every cell related in front of it (final when its cell goes out, so one pass in level order
-    carries it); a cycle (no cell left free) is broken by taking the cell not yet out with the
-    smallest key (the lowest index among equal ones); the order is by key, ties by level, then by
-    index.  A relation given twice counts twice both ways (in the in-degree and when released),
-    which gives the same levels and keys as counting it once.
+def exact_order(n, pairs, front_of, extra_front, extra_back, depth, original=None):
+    """Cells ``0..n-1`` front to back and the cycles broken, as :func:`.order.topological` gives them for
+    the relations across the interior faces (``front_of``: each face's front cell, of its two in ``pairs``)
+    and the ``extra`` ones (across gaps): Kahn's sort a level at a time, each cell's key the largest
+    ``depth`` of itself and of every cell related in front of it (final when its cell goes out, so one pass
+    in level order carries it); a cycle (no cell left free) is broken by taking the cell not yet out with
+    the smallest key (the lowest index among equal ones); the order is by key, ties by level, then by index.
+    A relation given twice counts twice both ways (in the in-degree and when released), which gives the same
+    levels and keys as counting it once.
 
     ``original``: the cells renumbered (:func:`.order.locality_order`: ``original[i]`` is cell ``i``'s
     index in the mesh): ties (cycles broken, the order's last key) go by the original index and the

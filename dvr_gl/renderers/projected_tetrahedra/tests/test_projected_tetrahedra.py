@@ -377,7 +377,7 @@ def test_the_compiled_sort_equals_the_numpy_sort_with_cycles_and_repeats():
     depth = rng.integers(0, 40, n).astype(float) - 20.0  # ties, negatives, both zeros
     depth[:3] = -0.0
     none = np.zeros((0, 2), np.int64)
-    order, broken = fast.exact_order(n, none, none, np.zeros(0, np.int64), front, back, depth)
+    order, broken = fast.exact_order(n, none, np.zeros(0, np.int64), front, back, depth)
     expected, expected_broken = topological(n, front, back, depth)
     assert broken == expected_broken > 0
     assert np.array_equal(order, expected)
@@ -402,7 +402,7 @@ def test_the_renumbered_sort_gives_the_order_of_the_mesh_numbering(loops):
     if loops == "compiled":
         fast = pytest.importorskip("dvr_gl.renderers.projected_tetrahedra.order_compiled")
         none = np.zeros((0, 2), np.int64)
-        sort = functools.partial(fast.exact_order, n, none, none, np.zeros(0, np.int64))
+        sort = functools.partial(fast.exact_order, n, none, np.zeros(0, np.int64))
     else:
         sort = functools.partial(topological, n)
     expected, expected_broken = sort(front, back, depth)
