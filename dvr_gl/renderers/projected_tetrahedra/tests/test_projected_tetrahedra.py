@@ -19,6 +19,7 @@ from dvr_gl.errors import SceneError
 from dvr_gl.fields.mesh import TetMesh
 from dvr_gl.fields.mesh_rays import boundary_faces, face_neighbours
 from dvr_gl.renderers import create_renderer, registry
+from dvr_gl.renderers.projected_tetrahedra import fan
 from dvr_gl.renderers.projected_tetrahedra.order import (
     NEAR_CELLS,
     VisibilityOrder,
@@ -317,8 +318,14 @@ def test_the_host_fan_equals_the_geometry_shaders_fan(pt, tf, view):
 
 
 def test_the_host_fan_falls_back_to_the_geometry_shader_without_numba(pt, monkeypatch):
-    monkeypatch.setitem(sys.modules, "numba", None)
-    monkeypatch.setitem(sys.modules, "dvr_gl.renderers.projected_tetrahedra.fan_compiled", None)
+    fan_compiled = "dvr_gl.renderers.projected_tetrahedra.fan_compiled"
+    with monkeypatch.context() as m:  # without numba the compiled fan does not import ...
+        m.setitem(sys.modules, "numba", None)
+        m.delitem(sys.modules, fan_compiled, raising=False)
+        assert fan.compiled() is None
+    # ... and the frame draws the fan in pt.geom.  numba stays importable for the frame: the compiled
+    # order (imported by an earlier test, never called) loads its cache through numba on its first call
+    monkeypatch.setitem(sys.modules, fan_compiled, None)  # the import fails as it does without numba
     monkeypatch.setattr(pt, "host_fan", True)
     scene = mesh_scene(jittered_mesh(), **{"renderer.name": "projected-tetrahedra",
                                            "renderer.integration": "shirley-tuchman", "image.width": 16,
