@@ -8,6 +8,8 @@ is :mod:`.renderer`, its same-slices reference :mod:`.oracle`.
 
 from __future__ import annotations
 
+from typing import Optional
+
 from ...errors import SceneError
 from ...gl.geometry import box_corners
 from ...scene import settings as s
@@ -40,6 +42,17 @@ SLICE_BANDWIDTH = s.Setting("slice_bandwidth", float, 1.0, "how far the central 
                             "sample, so the frequencies above the pixels' limit alias into the image as they do in "
                             "point samples (0: the pixels' limit only, the cheapest)", check=s.between(0.0, 8.0),
                             group="fourier")
+#: The cheaper settings of issue 44's front (dvr_gl/renderers/fourier/README.md, "The front"): the box's clip by
+#: the compensating ghost layer instead of the shell pass, and the slice cut to its low frequencies.
+BOX_CLIP = s.Setting("box_clip", str, "exact", "how the rays are clipped at the volume's box: exact (the shell "
+                     "pass takes off, per pixel, what the whole lines integrate beyond the box) or ghost_layer "
+                     "(a layer on each face that cancels it along the face's normal: exact for rays across a face, "
+                     "to first order for oblique ones, and no pass a view); the Gaussian filter and hemispherical "
+                     "shading always use the ghost layer", choices=("exact", "ghost_layer"), group="fourier")
+SLICE_CUTOFF = s.Setting("slice_cutoff", Optional[float], None, "a low-pass: the slice's frequencies beyond this "
+                         "multiple of the voxels' Nyquist limit along the image's rows or columns are left out (not "
+                         "drawn: the slice pass's work falls with its square; for smooth data); none: every "
+                         "frequency of the slice", check=s.between(0.01, 8.0), group="fourier")
 
 
 def check(scene):
@@ -81,7 +94,8 @@ PLUGIN = RendererPlugin(
     # the X-ray transforms classified voxels
     settings=(s.COMPOSITING.only("average", "xray"), s.CLASSIFICATION.only("pre"),
               s.FILTER.only("linear", "cubic_bspline", "gaussian"), s.KERNEL_WIDTH, s.DEPTH_CUE,
-              s.HEMISPHERICAL_SHADING, SLICE_INTERPOLATION, SLICE_TAPS, PADDING, SLICE_BANDWIDTH),
+              s.HEMISPHERICAL_SHADING, SLICE_INTERPOLATION, SLICE_TAPS, PADDING, SLICE_BANDWIDTH, SLICE_CUTOFF,
+              BOX_CLIP),
     needs_gl=True,
     projections=("orthographic",),  # the projection-slice theorem: parallel projections
     check=check,

@@ -94,10 +94,35 @@ class Frame:
             count = int(math.ceil(samples)) + 1 if math.isfinite(samples) else 2 ** 62
             sizes.append(padded_length(count, 1.0) if count < self.MAX_SLICE else count)
         self.size = tuple(sizes)
+        self.kept = self._kept(scene)
         self._made = {}  # what depends on the view, image and volume only: chords, the short chords' rays
 
     #: Samples a side past which the slice is not laid out: more than any GL's texture side (16384 on llvmpipe).
     MAX_SLICE = 1 << 16
+
+    def _kept(self, scene) -> tuple[int, int, int]:
+        """``renderer.slice_cutoff``'s low-pass: the half slice's first columns, first rows and last rows kept
+        (those whose frequency is at most the cutoff times the voxels' Nyquist limit ``1 / 2h``, ``h`` the finest
+        spacing, along the image's rows and columns); every one without a cutoff."""
+        cutoff = scene.renderer.slice_cutoff
+        columns, rows = self.size[0] // 2 + 1, self.size[1]
+        if cutoff is None:
+            return columns, rows, 0
+        limit = cutoff / (2.0 * float(np.min(self.spacing))) * (1.0 + 1e-9)
+        v = self.v
+        kept = (int(np.count_nonzero(np.abs(self.u) <= limit)), int(np.count_nonzero((v >= 0) & (v <= limit))),
+                int(np.count_nonzero((v < 0) & (v >= -limit))))
+        return (columns, rows, 0) if kept[0] == columns and kept[1] + kept[2] == rows else kept
+
+    def cut(self, values: np.ndarray) -> np.ndarray:
+        """``values`` ``(H', W' / 2 + 1, ...)`` on the half slice, zero where the cutoff leaves the slice out
+        (:meth:`_kept`; what the GL pass does not draw)."""
+        columns, low, high = self.kept
+        out = np.zeros_like(values)
+        out[:low, :columns] = values[:low, :columns]
+        if high:
+            out[-high:, :columns] = values[-high:, :columns]
+        return out
 
     @functools.cached_property
     def u(self) -> np.ndarray:
@@ -379,10 +404,14 @@ def filtered(scene, frame: Frame, slices: list[np.ndarray], derivatives=None):
     ``derivatives`` (channel -> ``d``, the interpolant's derivative along ``f M h``) ``f . grad H = d Phi + S
     (f . grad Phi)``: what the GL slice pass returns (``shaders/slice.frag``), in float64."""
     phi = filter_transform(scene, frame.w)
+    if scene.renderer.slice_cutoff is not None:  # the low-pass: what the GL pass does not draw is zero
+        phi = frame.cut(phi)
     out = [s * phi for s in slices]
     if derivatives is None:
         return out, None
     dphi = filter_derivative(scene, frame.w, frame.forward)
+    if scene.renderer.slice_cutoff is not None:
+        dphi = frame.cut(dphi)
     return out, {c: d * phi + slices[c] * dphi for c, d in derivatives.items()}
 
 
@@ -495,8 +524,10 @@ def clips_exactly(scene) -> bool:
     """Whether the box's clip is exact: the channels get the clamped ghost layers only, and the whole
     lines' integrals beyond the box (:func:`shell_integrals`, the GL shell pass) are taken off.  For the
     piecewise-polynomial filters without hemispherical shading (whose central differences reach a voxel
-    further); the Gaussian and the shaded channels keep the compensating ghost layer (:func:`with_ghosts`)."""
-    return scene.renderer.filter in SHELL_NODES and not scene.renderer.hemispherical_shading
+    further), unless ``renderer.box_clip`` asks for the ghost layer (no pass a view); the Gaussian and the
+    shaded channels keep the compensating ghost layer (:func:`with_ghosts`)."""
+    r = scene.renderer
+    return r.filter in SHELL_NODES and not r.hemispherical_shading and r.box_clip == "exact"
 
 
 class Shell:

@@ -308,7 +308,7 @@ class FourierRenderer(GLRenderer):
         # the slice's grid, the chords and the short chords' rays: made again only for a new view, image or volume
         # (camera and volume are frozen: by identity; the image's settings are not: its size by value)
         frame = self._cached("frame", (scene.camera, scene.image.width, scene.image.height, scene.volume,
-                                       r.slice_bandwidth), lambda: Frame(scene))
+                                       r.slice_bandwidth, r.slice_cutoff), lambda: Frame(scene))
         wf, hf = frame.size
         cued = r.depth_cue < 1.0
         count = len(textures.textures)
@@ -345,7 +345,7 @@ class FourierRenderer(GLRenderer):
                             **({"u_depth_dir": tuple(frame.depth_direction(spectrum)),
                                 "u_forward": tuple(frame.forward)} if cued else {})}, {})
         quad = self.ctx.vertex_array(program, [])
-        quad.render(moderngl.TRIANGLES, vertices=3)
+        self._draw_kept(fbo, quad, frame)
         quad.release()
         read = []
         for i in range(len(attachments)):
@@ -366,6 +366,22 @@ class FourierRenderer(GLRenderer):
                           spectrum_dims=spectrum.dims, fft=spectrum.library, slice_size=frame.size,
                           slice_seconds=drawn - start, inverse_seconds=end - drawn, view_seconds=end - start)
         return image.astype(np.float32)
+
+    @staticmethod
+    def _draw_kept(fbo, quad, frame):
+        """The slice pass over what ``renderer.slice_cutoff`` keeps (:attr:`.projection.Frame.kept`): the
+        first columns of the first and the last rows (the negative frequencies), each band scissored, the rest
+        cleared to zero; the whole half slice without a cutoff."""
+        columns, low, high = frame.kept
+        if (columns, low, high) == (frame.columns, frame.size[1], 0):
+            quad.render(moderngl.TRIANGLES, vertices=3)
+            return
+        fbo.clear(0.0, 0.0, 0.0, 0.0)
+        for first, rows in ((0, low), (frame.size[1] - high, high)):  # fragment row j: the slice's row j
+            if rows and columns:
+                fbo.scissor = (0, first, columns, rows)
+                quad.render(moderngl.TRIANGLES, vertices=3)
+        fbo.scissor = None
 
     def _shell(self, scene, frame, data, border) -> np.ndarray:
         """The shell pass (``shaders/shell.frag``): ``(H, W, C)`` whole-line integrals beyond the box

@@ -47,8 +47,8 @@ def _run(args) -> int:
         return 0
     args.report.text()
     args.report.text(f"Error against time at {max(sizes)}^3 (ms at {args.size}x{args.size}, RMS at "
-                     f"{args.error_size}x{args.error_size}); each family timed interleaved with the other's "
-                     f"defaults (the last column):")
+                     f"{args.error_size}x{args.error_size}); every point timed in one interleaved run (each in "
+                     f"turn, medians of {args.repeat} rounds):")
     args.report.table(points, measure.FRONT_COLUMNS)
     for line in verdicts:
         args.report.text(line)

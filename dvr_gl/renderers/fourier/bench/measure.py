@@ -7,9 +7,9 @@ those and the textures' upload) and the first frame; the time per view at the
 image size, Fourier at its defaults and the ray caster at its defaults in one interleaved run (F, R, F,
 R, ...; medians after a warm-up), and their ratio; the RMS of both against reference-converged at a
 smaller image of the same framing.  Then, at the largest ``N``, each mode's error-vs-time points of
-both (Fourier's slice kernels and bandwidths, the ray caster's sample distances), each family timed
-interleaved with the other's default, and whether Fourier's front lies below the ray caster's at every
-error between 1e-4 and 1e-2 RMS.
+both (Fourier's settings, the ray caster's sample distances), all timed in one interleaved run, and
+whether Fourier's front lies below the ray caster's at every error between 1e-4
+and 1e-2 RMS.
 """
 
 from __future__ import annotations
@@ -26,14 +26,20 @@ from ....scene.resolve import load_scene
 from ... import create_renderer
 
 BASELINE = baseline()  # the renderer set beside (the ray caster): the default renderer of grids
-#: The ray caster's sample distances (voxels) on its error-vs-time front, beside its defaults.
-DISTANCES = (8.0, 4.0, 2.0, 1.0, 0.5)
-#: Fourier's settings on its front, beside its defaults (six taps at padding 1.25): cheaper slice kernels
-#: (the polynomial ones at padding 2, where their replicas are small) and the defaults before issue 44.
-FOURIER_SETTINGS = (("trilinear slice, padding 2", {"slice_interpolation": "trilinear", "padding": 2.0}),
-                    ("cubic B-spline slice, padding 2", {"slice_interpolation": "cubic_bspline", "padding": 2.0}),
-                    ("4 taps, padding 2", {"slice_taps": 4, "padding": 2.0}),
-                    ("4 taps, padding 1.5", {"slice_taps": 4, "padding": 1.5}))
+#: The ray caster's sample distances (voxels) on its error-vs-time front, beside its defaults: from 64 voxels,
+#: whose error on the blobs' X-ray reaches the band's top, to 0.5.
+DISTANCES = (64.0, 32.0, 16.0, 8.0, 4.0, 2.0, 1.0, 0.5)
+#: Fourier's settings on its front, beside its defaults (six taps at padding 1.25, the exact clip): the box
+#: clipped by the ghost layer (no shell pass), the slice cut to its low frequencies (``slice_cutoff``, in
+#: multiples of the voxels' Nyquist limit), fewer taps, and the cubic B-spline slice at padding 2 (where its
+#: replicas are small).
+FOURIER_SETTINGS = (("ghost layer", {"box_clip": "ghost_layer"}),
+                    ("ghost layer, cutoff 0.5", {"box_clip": "ghost_layer", "slice_cutoff": 0.5}),
+                    ("ghost layer, cutoff 0.25", {"box_clip": "ghost_layer", "slice_cutoff": 0.25}),
+                    ("ghost layer, cutoff 0.15", {"box_clip": "ghost_layer", "slice_cutoff": 0.15}),
+                    ("cutoff 0.5", {"slice_cutoff": 0.5}),
+                    ("4 taps, padding 1.5", {"slice_taps": 4, "padding": 1.5}),
+                    ("cubic B-spline slice, padding 2", {"slice_interpolation": "cubic_bspline", "padding": 2.0}))
 #: The error band where Fourier's front is to lie below the ray caster's.
 BAND = (1e-4, 1e-2)
 COLUMNS = [("n", "N", "d"), ("mode", "mode", ""), ("channels_s", "channels s", ".3f"),
@@ -42,8 +48,7 @@ COLUMNS = [("n", "N", "d"), ("mode", "mode", ""), ("channels_s", "channels s", "
            ("view_ms", "fourier ms/view", ".1f"), ("raycast_ms", f"{BASELINE} ms (defaults)", ".1f"),
            ("speedup", "ratio", ".2f"), ("rms", "fourier RMS", ".2e"), ("raycast_rms", f"{BASELINE} RMS", ".2e")]
 FRONT_COLUMNS = [("mode", "mode", ""), ("renderer", "renderer", ""), ("setting", "setting", ""),
-                 ("rms", "RMS", ".2e"), ("ms", "ms/view", ".1f"), ("other_ms", "the other's default ms", ".1f"),
-                 ("front", "on its front", "")]
+                 ("rms", "RMS", ".2e"), ("ms", "ms/view", ".1f"), ("front", "on its front", "")]
 
 
 def scene_for(n: int, mode: str, size: int):
@@ -55,12 +60,15 @@ def scene_for(n: int, mode: str, size: int):
 
 def interleaved(cases, repeat: int) -> list[float]:
     """Median seconds of each ``(renderer, scene)`` of ``cases``, rendered in turn ``repeat`` times after one
-    untimed round (wall time of ``render``: what a user waits for a view)."""
+    untimed round (wall time of ``render``: what a user waits for a view), every other round in the reverse
+    order (so that no case always follows the same one)."""
     for renderer, scene in cases:
         renderer.render(scene)
     times = [[] for _ in cases]
-    for _ in range(repeat):
-        for k, (renderer, scene) in enumerate(cases):
+    order = list(range(len(cases)))
+    for round_ in range(repeat):
+        for k in (order if round_ % 2 == 0 else order[::-1]):
+            renderer, scene = cases[k]
             start = time.perf_counter()
             renderer.render(scene)
             times[k].append(time.perf_counter() - start)
@@ -104,21 +112,35 @@ def run(sizes, size: int = 512, error_size: int = 128, repeat: int = 3, progress
 
 
 def _front(fourier, raycast, scene, small, truth, repeat: int) -> list[dict]:
-    """Both renderers' error-vs-time points: the ray caster's sample distances timed interleaved with
-    Fourier's defaults, then each of Fourier's settings interleaved with the ray caster's defaults."""
+    """Both renderers' error-vs-time points, every one timed in one interleaved run (each point rendered in
+    turn, medians of ``repeat`` rounds: the load's drift shared by all): the ray caster's defaults and sample
+    distances, Fourier's defaults and :data:`FOURIER_SETTINGS`.  Fourier's settings with the same spectrum
+    (those that only cut the slice) share a renderer; the others each have their own, which keeps its
+    spectrum between the rounds (``fourier``, the defaults', is one of them)."""
     ray, small_ray = scene.with_renderer(name=BASELINE), small.with_renderer(name=BASELINE)
-    out = []
-    rays = [("defaults", ray, small_ray)] + [(f"{d:g} voxels", ray.with_renderer(sample_distance_voxels=d),
-                                             small_ray.with_renderer(sample_distance_voxels=d)) for d in DISTANCES]
-    times = interleaved([(fourier, scene)] + [(raycast, timed) for _, timed, _ in rays], repeat)
-    for (name, _, err), seconds in zip(rays, times[1:]):
-        out.append({"renderer": BASELINE, "setting": name, "ms": 1e3 * seconds, "other_ms": 1e3 * times[0],
-                    "rms": compare_images(raycast.render(err), truth)["rms"]})
-    for name, changes in (("defaults", {}),) + FOURIER_SETTINGS:
-        timed, err = scene.with_renderer(**changes), small.with_renderer(**changes)
-        f_s, r_s = interleaved([(fourier, timed), (raycast, ray)], repeat)
-        out.append({"renderer": "fourier", "setting": name, "ms": 1e3 * f_s, "other_ms": 1e3 * r_s,
-                    "rms": compare_images(fourier.render(err), truth)["rms"]})
+    points = [(BASELINE, "defaults", raycast, ray, small_ray)]
+    points += [(BASELINE, f"{d:g} voxels", raycast, ray.with_renderer(sample_distance_voxels=d),
+                small_ray.with_renderer(sample_distance_voxels=d)) for d in DISTANCES]
+    spectra = {}  # the settings a spectrum depends on -> its renderer
+    made = []
+    try:
+        for name, changes in (("defaults", {}),) + FOURIER_SETTINGS:
+            timed = scene.with_renderer(**changes)
+            r = timed.renderer
+            key = (r.slice_interpolation, r.padding, r.slice_taps, r.box_clip)
+            if not spectra:
+                spectra[key] = fourier
+            elif key not in spectra:
+                spectra[key] = create_renderer("fourier")
+                made.append(spectra[key])
+            points.append(("fourier", name, spectra[key], timed, small.with_renderer(**changes)))
+        times = interleaved([(renderer, timed) for _, _, renderer, timed, _ in points], repeat)
+        out = [{"renderer": family, "setting": name, "ms": 1e3 * seconds,
+                "rms": compare_images(renderer.render(err), truth)["rms"]}
+               for (family, name, renderer, _, err), seconds in zip(points, times)]
+    finally:
+        for renderer in made:
+            renderer.close()
     for p in out:
         p["front"] = "yes" if _on_front(p, [q for q in out if q["renderer"] == p["renderer"]]) else ""
     return out
@@ -134,18 +156,24 @@ def cheapest(points, error: float) -> float:
 
 
 def dominance(points, band=BAND) -> str:
-    """Whether Fourier's front lies below the ray caster's at every error of ``band``: compared at each
-    point's error in the band and at its upper end (both fronts are step functions of the error)."""
+    """Whether Fourier's front lies below the ray caster's at every error of ``band`` ("dominates"), at or
+    above it at every one ("dominated"), or below at some ("crossing"): compared at each point's error in
+    the band and at its upper end (both fronts are step functions of the error: the least time at an RMS of
+    at most that error)."""
     fourier = [p for p in points if p["renderer"] == "fourier"]
     rays = [p for p in points if p["renderer"] != "fourier"]
     levels = sorted({p["rms"] for p in points if band[0] <= p["rms"] <= band[1]} | {band[1]})
-    losses = [(e, cheapest(fourier, e), cheapest(rays, e)) for e in levels
-              if cheapest(fourier, e) >= cheapest(rays, e) and math.isfinite(cheapest(rays, e))]
+    wins = [e for e in levels if cheapest(fourier, e) < cheapest(rays, e)]
+    losses = [(e, cheapest(fourier, e), cheapest(rays, e)) for e in levels if e not in wins]
     if not losses:
-        return f"fourier's front is below the ray caster's at every error from {band[0]:g} to {band[1]:g} RMS"
+        return (f"dominates: fourier's front is below the ray caster's at every error from {band[0]:g} to "
+                f"{band[1]:g} RMS")
     e, f, r = losses[0]
-    return (f"not dominated: at RMS {e:.2e} the ray caster takes {r:.0f} ms, fourier "
-            f"{'never reaches it' if math.isinf(f) else f'{f:.0f} ms'} ({len(losses)} of {len(levels)} error levels)")
+    at = (f"at RMS {e:.2e} the ray caster takes {r:.0f} ms, fourier "
+          f"{'never reaches it' if math.isinf(f) else f'{f:.0f} ms'}")
+    if not wins:
+        return f"dominated: fourier is nowhere faster from {band[0]:g} to {band[1]:g} RMS ({at})"
+    return f"crossing: fourier faster at {len(wins)} of {len(levels)} error levels ({at})"
 
 
 SHARED_COLUMNS = [("dataset", "dataset", ""), ("mode", "mode", ""), ("pre_s", "pre-processing s", ".2f"),

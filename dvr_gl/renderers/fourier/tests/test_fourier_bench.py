@@ -18,8 +18,9 @@ def test_bench_fourier_prints_times_and_errors(tmp_path, capsys):
         assert float(r[7]) > 0 and float(r[8]) > 0 and float(r[9]) > 0    # ms a view of both, their ratio
         assert 0 < float(r[10]) < 1e-2                                     # RMS against the converged reference
     front = [line.split() for line in out.splitlines() if line.startswith(("average ", "xray "))]
-    assert {r[1] for r in front} == {"fourier", BASELINE} and len(front) == 2 * (1 + 5 + 1 + 4)
-    assert sum("fourier's front" in line or "not dominated" in line for line in out.splitlines()) == 2
+    assert {r[1] for r in front} == {"fourier", BASELINE} and len(front) == 2 * (1 + 8 + 1 + 7)
+    assert sum(line.startswith(("average: ", "xray: ")) and line.split()[1] in ("dominates:", "dominated:", "crossing:")
+               for line in out.splitlines()) == 2
     assert "| N |" in md.read_text()
     assert main(["bench", "fourier", "--sizes", "16,x"]) == 1
     assert "--sizes" in capsys.readouterr().err
@@ -30,9 +31,14 @@ def test_dominance_compares_the_fronts_in_the_band():
 
     ray = [{"renderer": BASELINE, "rms": 5e-3, "ms": 10.0}, {"renderer": BASELINE, "rms": 1e-5, "ms": 100.0}]
     fast = [{"renderer": "fourier", "rms": 2e-5, "ms": 5.0}]
-    assert dominance(ray + fast).startswith("fourier's front is below")
+    assert dominance(ray + fast).startswith("dominates: fourier's front is below")
     slow = [{"renderer": "fourier", "rms": 2e-5, "ms": 50.0}]  # slower at 5e-3, where the ray caster is 10 ms
-    assert dominance(ray + slow).startswith("not dominated: at RMS 5.00e-03")
+    assert dominance(ray + slow).startswith("dominated: fourier is nowhere faster from 0.0001 to 0.01 RMS (at RMS "
+                                            "5.00e-03 the ray caster takes 10 ms, fourier 50 ms)")
+    middle = [{"renderer": BASELINE, "rms": 2e-4, "ms": 80.0}]  # fourier faster at 2e-4, slower from 5e-3
+    assert dominance(ray + middle + slow).startswith("crossing: fourier faster at 1 of 3 error levels (at RMS 5.00e-03")
+    rough = [{"renderer": "fourier", "rms": 2e-2, "ms": 1.0}]  # fast, but never within the band
+    assert "fourier never reaches it" in dominance(ray + rough)
 
 
 def test_bench_fourier_shared_accuracy_study(shared_data, capsys):
