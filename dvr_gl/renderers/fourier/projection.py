@@ -452,8 +452,14 @@ def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, der
 
     def project(spectral):
         k = frame.oversampling
-        image = fft.irfft2(spectral * scale, s=frame.size[::-1], **threads)
-        return image[:(h - 1) * k + 1:k, :(w - 1) * k + 1:k]
+        columns = spectral.shape[1]
+        if columns == frame.columns:
+            image = fft.irfft2(spectral * scale, s=frame.size[::-1], **threads)
+            return image[:(h - 1) * k + 1:k, :(w - 1) * k + 1:k]
+        # a cutoff's first columns (the rest zero): the columns' transforms of those only, then the rows' of the
+        # image's rows only (irfft2 pads the columns with zeros and transforms them too)
+        rows = fft.ifft(spectral * scale[:, :columns], axis=0, **threads)[:(h - 1) * k + 1:k]
+        return fft.irfft(rows, n=frame.size[0], axis=1, **threads)[:, :(w - 1) * k + 1:k]
 
     def integral(c, slope=None, weight=cued):
         """The line integral of channel ``c`` (depth-weighted if ``weight``), or of its central differences
@@ -462,8 +468,9 @@ def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, der
         k, dk, constant = 1.0, 0.0, offsets[c] * chord
         if slope is not None:
             spacing = np.asarray(scene.volume.spacing, float)
-            k = 1j * np.sum(slope * np.sin(2.0 * math.pi * frame.w * spacing) / spacing, axis=-1)
-            dk = 1j * np.sum(slope * 2.0 * math.pi * frame.forward * np.cos(2.0 * math.pi * frame.w * spacing), axis=-1)
+            wk = frame.w[:, :s.shape[1]]  # the columns read (a cutoff's first ones)
+            k = 1j * np.sum(slope * np.sin(2.0 * math.pi * wk * spacing) / spacing, axis=-1)
+            dk = 1j * np.sum(slope * 2.0 * math.pi * frame.forward * np.cos(2.0 * math.pi * wk * spacing), axis=-1)
             constant = 0.0
         outside = 0.0 if shell is None else shell[..., c]  # the whole lines' parts beyond the box (exact clip)
         plain = project(s if slope is None else k * s)

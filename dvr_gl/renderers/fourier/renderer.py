@@ -348,8 +348,13 @@ class FourierRenderer(GLRenderer):
         self._draw_kept(fbo, quad, frame)
         quad.release()
         read = []
+        kept = frame.kept[0]  # with a cutoff only its first columns are read: the rest is zero (finish pads them)
         for i in range(len(attachments)):
-            raw = self.read(fbo, columns, hf, attachment=i, flip=False)  # fragment row j: the slice's row j
+            if kept == columns:
+                raw = self.read(fbo, columns, hf, attachment=i, flip=False)  # fragment row j: the slice's row j
+            else:
+                raw = np.empty((hf, kept, 4), np.float32)
+                fbo.read_into(raw, viewport=(0, 0, kept, hf), components=4, dtype="f4", attachment=i)
             pair = raw.view(np.complex64)  # (re, im) twice: two complex64 channels, kept in float32 on the host
             read += [pair[..., 0], pair[..., 1]]
         # the values (two channels a texture, the last pair padded), then their derivatives
