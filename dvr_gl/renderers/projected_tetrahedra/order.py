@@ -66,6 +66,34 @@ def compiled():
         return None
 
 
+#: Pixels a cell's projected bounding box is grown by before it is tested for pixel centres
+#: (:func:`reaching`): the geometry shader grows the footprint by a twentieth of a pixel, a mitre by at
+#: most 1.42 of that (0.071), and the host's float64 projection differs from the shader's float32 one
+#: and the rasterizer's snapping by far less than the 0.029 left.
+REACH_MARGIN = 0.1
+
+
+def reaching(points, tets, view_projection, width: int, height: int, fast=None) -> np.ndarray:
+    """``(M,)`` booleans: which cells' projected bounding boxes (grown by :data:`REACH_MARGIN` pixels)
+    hold a pixel centre of the image; the others draw no fragment (the rasterizer keeps only pixel
+    centres inside a footprint, which lies in the box).  ``points``: relative to the centre
+    ``view_projection`` takes (float64), all in front of the eye's plane; pixels in GL window
+    coordinates (centres at ``i + 0.5``).  ``fast``: :mod:`.order_compiled` (one pass), else numpy."""
+    out = np.empty(len(tets), np.bool_)
+    if fast is not None:
+        fast.reaching(points, tets, np.ascontiguousarray(view_projection, np.float64), float(width),
+                      float(height), REACH_MARGIN, out)
+        return out
+    xy = points @ view_projection[:2, :3].T + view_projection[:2, 3]
+    w = points @ view_projection[3, :3] + view_projection[3, 3]
+    q = (xy / w[:, None] * 0.5 + 0.5) * np.array([width, height], float)
+    corners = q[tets]
+    lo = np.maximum(np.ceil(corners.min(axis=1) - REACH_MARGIN - 0.5), 0.0)
+    hi = np.minimum(np.floor(corners.max(axis=1) + REACH_MARGIN - 0.5), [width - 1.0, height - 1.0])
+    np.all(lo <= hi, axis=1, out=out)
+    return out
+
+
 @dataclass
 class Adjacency:
     """The mesh's faces, once per mesh: interior faces (the two cells, a vertex and the normal

@@ -509,3 +509,28 @@ def distances(points, eye):
         dx, dy, dz = points[i, 0] - eye[0], points[i, 1] - eye[1], points[i, 2] - eye[2]
         out[i] = np.sqrt(dx * dx + dy * dy + dz * dz)
     return out
+
+
+@numba.njit(cache=True, nogil=True)
+def reaching(points, tets, view_projection, width, height, margin, out):
+    """``out[c]``: whether cell ``c``'s projected bounding box, grown by ``margin`` pixels, holds a pixel
+    centre of the ``width`` x ``height`` image (:func:`.order.reaching`'s loops; every point in front of
+    the eye's plane)."""
+    m = view_projection
+    q = np.empty((len(points), 2))
+    for i in range(len(points)):
+        x, y, z = points[i, 0], points[i, 1], points[i, 2]
+        w = m[3, 0] * x + m[3, 1] * y + m[3, 2] * z + m[3, 3]
+        q[i, 0] = ((m[0, 0] * x + m[0, 1] * y + m[0, 2] * z + m[0, 3]) / w * 0.5 + 0.5) * width
+        q[i, 1] = ((m[1, 0] * x + m[1, 1] * y + m[1, 2] * z + m[1, 3]) / w * 0.5 + 0.5) * height
+    for c in range(len(tets)):
+        a = tets[c, 0]
+        x0, x1, y0, y1 = q[a, 0], q[a, 0], q[a, 1], q[a, 1]
+        for k in range(1, 4):
+            b = tets[c, k]
+            x0, x1 = min(x0, q[b, 0]), max(x1, q[b, 0])
+            y0, y1 = min(y0, q[b, 1]), max(y1, q[b, 1])
+        # pixel centres at i + 0.5, i = 0 .. width - 1
+        i0, i1 = max(np.ceil(x0 - margin - 0.5), 0.0), min(np.floor(x1 + margin - 0.5), width - 1.0)
+        j0, j1 = max(np.ceil(y0 - margin - 0.5), 0.0), min(np.floor(y1 + margin - 0.5), height - 1.0)
+        out[c] = i0 <= i1 and j0 <= j1

@@ -24,7 +24,7 @@ from ..mesh import SHADERS as MESH_SHADERS
 from ..mesh.textures import MODES, ROW, MeshRenderer, rows
 from .fan import HostFan
 from .fan import compiled as compiled_fan
-from .order import VisibilityOrder
+from .order import VisibilityOrder, reaching
 
 #: Its own GLSL, then the kit's (before the common library).
 SHADERS = (shader_root(__file__), MESH_SHADERS)
@@ -45,6 +45,11 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
     #: shader); ``False`` (the default, and without numba): built in ``pt.geom``.  Measured on llvmpipe
     #: (README): the geometry stage it saves costs about what the numba build costs, so not the default.
     host_fan = False
+    #: Leave out of an emission-absorption frame's draw the cells whose projected bounding box holds no pixel
+    #: centre (:func:`.order.reaching`; they draw no fragment, so the picture is the same): the geometry stage
+    #: and the rasterizer's setup are spent on them for nothing.  Measured (README): the blunt fin 9-14 %
+    #: faster a frame; the oxygen post leaves out 29-35 % of its cells.
+    cull_unreached = True
 
     def __init__(self, ctx=None):
         super().__init__(ctx)
@@ -85,8 +90,12 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
         if mode == "emission_absorption":
             gaps = self._gap_pixels(scene, textures, orders) if r.cell_order == "exact" else None
             order, stats = orders(cam, img.width, img.height, r.cell_order, pixels=gaps)
-            # transparent cells are ordered (the relations run through them) but not drawn
-            order = order[textures.visible(scene.transfer_function)[order]][::-1]  # drawn back to front
+            # transparent cells, and cells that reach no pixel centre, are ordered (the relations run through
+            # them) but not drawn
+            drawn_cells = textures.visible(scene.transfer_function)
+            if self.cull_unreached:
+                drawn_cells = drawn_cells & self._reaching(scene, textures, orders)
+            order = order[drawn_cells[order]][::-1]  # drawn back to front
             stats["order_seconds"] = time.perf_counter() - start  # with the boundary's count in GL
         else:
             order, stats = np.arange(textures.cells), {"order": "none (blended)", "order_seconds": 0.0}
@@ -138,6 +147,18 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
         if mode == "emission_absorption" or self._count_fragments:
             return image
         return self._resolve(scene, image.astype(np.float64)).astype(np.float32)
+
+    def _reaching(self, scene, textures, orders) -> np.ndarray:
+        """Which cells reach a pixel centre (:func:`.order.reaching`, compiled where the order is); all of
+        them where the mesh reaches the eye's plane (a vertex there has no projection)."""
+        mesh, img = scene.field, scene.image
+        if self._reaches_near_plane(scene):
+            return np.ones(len(mesh.tets), bool)
+        points, tets = self._cached("centred mesh", (mesh,), lambda: (
+            np.ascontiguousarray(mesh.points - textures.centre, dtype=np.float64),
+            np.ascontiguousarray(mesh.tets, dtype=np.int64)))
+        return reaching(points, tets, self.view_projection(scene, textures.centre), img.width, img.height,
+                        orders.fast)
 
     def _host_fan(self, scene, textures):
         """The mesh's :class:`.fan.HostFan` (kept per mesh) where this frame's Shirley-Tuchman fan is built on

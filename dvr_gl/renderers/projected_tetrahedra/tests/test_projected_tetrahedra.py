@@ -19,18 +19,21 @@ from dvr_gl.errors import SceneError
 from dvr_gl.fields.mesh import TetMesh
 from dvr_gl.fields.mesh_rays import boundary_faces, face_neighbours
 from dvr_gl.renderers import create_renderer, registry
-from dvr_gl.renderers.projected_tetrahedra import fan
+from dvr_gl.renderers.projected_tetrahedra import INTEGRATIONS, fan
 from dvr_gl.renderers.projected_tetrahedra.order import (
     NEAR_CELLS,
+    REACH_MARGIN,
     VisibilityOrder,
     adjacency,
     boundary_relations,
     compiled,
     locality_order,
     o_d_t,
+    reaching,
     scattered,
     topological,
 )
+from dvr_gl.renderers.projected_tetrahedra.renderer import ProjectedTetrahedraRenderer
 from dvr_gl.scene.resolve import load_scene
 from judges import CONVERGED, renderers
 from mesh_inputs import BAND_TF, REFERENCE_VIEWS, jittered_mesh, mesh_scene, rms
@@ -176,7 +179,59 @@ def test_transparent_cells_are_not_drawn(pt, converged):
     values = mesh.values[mesh.tets]
     lo, hi = values.min(axis=1), values.max(axis=1)
     transparent = (hi <= 0.9) | ((lo >= 1.2) & (hi <= 1.4))
-    assert transparent.sum() >= 10 and pt.stats["cells_drawn"] == len(mesh.tets) - transparent.sum()
+    textures, orders = pt._mesh_resources(scene.field)
+    unreached = ~pt._reaching(scene, textures, orders)  # nor those that reach no pixel centre (below)
+    assert transparent.sum() >= 10
+    assert pt.stats["cells_drawn"] == len(mesh.tets) - (transparent | unreached).sum()
+
+
+@pytest.mark.parametrize("integration", INTEGRATIONS)
+def test_cells_that_reach_no_pixel_centre_are_not_drawn(pt, monkeypatch, integration):
+    """At 5x4 pixels most cells of a finer jittered mesh hold no pixel centre in their projected box: they
+    are left out of the draw (``cull_unreached``), and the picture is, to the bit, the one every cell
+    drawn gives (the rasterizer keeps pixel centres only, so the others drew no fragment)."""
+    mesh = jittered_mesh(n=(7, 6, 5))
+    scene = mesh_scene(mesh, **{"renderer.name": "projected-tetrahedra", "renderer.integration": integration,
+                                "image.width": 5, "image.height": 4})
+    kept = pt.render(scene)
+    drawn = pt.stats["cells_drawn"]
+    monkeypatch.setattr(pt, "cull_unreached", False)
+    every = pt.render(scene)
+    assert pt.stats["cells_drawn"] == len(mesh.tets)
+    assert 0 < drawn < 0.5 * len(mesh.tets), drawn  # measured 525 of 1440
+    assert kept[..., 3].max() > 0.1
+    np.testing.assert_array_equal(kept, every)
+
+
+@pytest.mark.parametrize("fast", [False, True])
+def test_reaching_a_pixel_centre_by_the_grown_box(fast):
+    """:func:`reaching` in closed form: the identity view projection puts a point at pixel
+    ``(x + 1) / 2 * width``; of a 4x4 image's centres (0.5 to 3.5), a box from 1.65 to 2.35 holds none
+    (0.15 from the nearest, beyond the 0.1 margin), one to 2.45 reaches 2.5 within the margin, one
+    outside the image reaches none; the compiled loop agrees with numpy's."""
+    module = compiled() if fast else None
+    if fast and module is None:
+        pytest.skip("numba is not installed")
+    assert REACH_MARGIN == 0.1
+    corners = [(1.65, 1.65), (2.35, 1.65), (1.65, 2.35), (2.35, 2.35)]
+    cells = [[(x, y) for x, y in corners],
+             [(x + 0.1 * (x > 2), y + 0.1 * (y > 2)) for x, y in corners],  # to 2.45 on both axes
+             [(x + 0.1 * (x > 2), y) for x, y in corners],  # to 2.45 along x only
+             [(x + 3.0, y + 0.9) for x, y in corners]]  # beyond the image's last centre, 3.5
+    pixels = np.array([p for cell in cells for p in cell], float)
+    points = np.c_[pixels / 4.0 * 2.0 - 1.0, np.zeros(len(pixels))]
+    tets = np.arange(len(points), dtype=np.int64).reshape(-1, 4)
+    assert reaching(points, tets, np.eye(4), 4, 4, module).tolist() == [False, True, False, False]
+    # and on a mesh, in perspective and orthographic, the two loops cell for cell
+    mesh = jittered_mesh(n=(7, 6, 5))
+    for view in (REFERENCE_VIEWS[0], REFERENCE_VIEWS[3]):
+        scene = mesh_scene(mesh, **{"renderer.name": "projected-tetrahedra", "image.width": 23,
+                                    "image.height": 17, **view})
+        vp = ProjectedTetrahedraRenderer.view_projection(scene, np.zeros(3))
+        tets = mesh.tets.astype(np.int64)
+        some = reaching(mesh.points, tets, vp, 23, 17)
+        assert 0 < some.sum() < len(tets)
+        np.testing.assert_array_equal(reaching(mesh.points, tets, vp, 23, 17, module), some)
 
 
 
