@@ -17,6 +17,7 @@ def test_bench_fourier_prints_times_and_errors(tmp_path, capsys):
         assert ready > 0 and first >= ready                                 # the spectrum, the first frame
         assert float(r[7]) > 0 and float(r[8]) > 0 and float(r[9]) > 0    # ms a view of both, their ratio
         assert 0 < float(r[10]) < 1e-2                                     # RMS against the converged reference
+        assert float(r[12]) > 0                                            # the first frame's CPU time
     front = [line.split() for line in out.splitlines() if line.startswith(("average ", "xray "))]
     assert {r[1] for r in front} == {"fourier", BASELINE} and len(front) == 2 * (1 + 8 + 1 + 7)
     assert sum(line.startswith(("average: ", "xray: ")) and line.split()[1] in ("dominates:", "dominated:", "crossing:")
