@@ -215,12 +215,12 @@ def channels(scene, dtype=np.float64) -> tuple[np.ndarray, np.ndarray, int]:
     ``(sigma c, sigma)`` (associated), then with hemispherical shading the gradient magnitudes of the
     :func:`shaded_channels`; each less the mean of its border samples (a constant's line integral is
     that constant times the chord, added back exactly).  ``dtype``: float64 (the oracle's) or float32 (the
-    renderer's: its spectrum is complex64; the X-ray classified in float32, :func:`classified`, each channel
-    contiguous, a ``(C, nz, ny, nx)`` array seen as ``(nz, ny, nx, C)``)."""
+    renderer's: its spectrum is complex64; the X-ray classified by ``TransferFunction.classify_voxels`` in
+    float32, each channel contiguous, a ``(C, nz, ny, nx)`` array seen as ``(nz, ny, nx, C)``)."""
     single = np.dtype(dtype) == np.float32
     if scene.renderer.compositing == "xray":
-        values = (classified(scene.transfer_function, scene.volume.data) if single else
-                  scene.transfer_function.classify_voxels(np.asarray(scene.volume.data, np.float64), True))
+        values = scene.transfer_function.classify_voxels(scene.volume.data if single else
+                                                         np.asarray(scene.volume.data, np.float64), True, dtype)
     else:
         values = np.asarray(scene.volume.data, dtype=dtype)[..., None]
     if scene.renderer.hemispherical_shading:  # the shaded channels' gradient magnitudes, transformed too
@@ -236,57 +236,6 @@ def channels(scene, dtype=np.float64) -> tuple[np.ndarray, np.ndarray, int]:
         values -= offsets.astype(values.dtype)
     ghosted, border = with_ghosts(scene, values, 0 if clips_exactly(scene) else MOMENTS)
     return ghosted, offsets, border
-
-
-def classified(tf, data: np.ndarray) -> np.ndarray:
-    """The X-ray's associated channels ``(sigma c, sigma)`` of ``data`` in float32, as ``(nz, ny, nx, 4)``
-    over a ``(4, nz, ny, nx)`` array (each channel contiguous: the transform reads them one at a time).
-    Integer data of a narrow range: ``TransferFunction.classify_voxels``'s table (float64, once a value)
-    looked up.  Otherwise the transfer function's segments in float32: 256^3 float voxels in 0.3 s where
-    ``classify_voxels``, in float64 and channel-last, took 3.3 s (its log1p alone 7x float32's); within a
-    few float32 roundings of it (the spectrum is rounded to float32 anyway; measured 1.8e-7 of the largest value on the
-    blobs, 1.1e-7 on random data through a four-point transfer function with alpha up to 1)."""
-    from ...transfer_function import ALPHA_MAX
-
-    values = np.asarray(data)
-    out = np.empty((4,) + values.shape, np.float32)
-    if values.dtype.kind in "iu" and values.size > 1 << 16:
-        lo, hi = int(values.min()), int(values.max())
-        if hi - lo < values.size // 4:  # as classify_voxels: the table a quarter of the voxels at most
-            kind = np.int64 if values.dtype.kind == "i" else values.dtype.type
-            table = tf.classify_voxels((kind(lo) + np.arange(hi - lo + 1).astype(kind)).astype(np.float64), True)
-            index = values.astype(kind, copy=False) - kind(lo)
-            for c in range(4):
-                np.take(table[:, c].astype(np.float32), index, out=out[c])
-            return out.transpose(1, 2, 3, 0)
-    points = tf.points
-    v = np.clip(values.astype(np.float32), np.float32(points[0, 0]), np.float32(points[-1, 0]))
-    # each voxel's segment of the piecewise-linear columns (value, r, g, b, opacity): np.interp's, in float32
-    segment = np.searchsorted(points[1:-1, 0].astype(np.float32), v, side="right") if len(points) > 2 else 0
-    x0 = points[:-1, 0].astype(np.float32)
-    np.subtract(v, x0[segment], out=v)  # the offset into the segment
-
-    def column(k, into):
-        f = points[:, k]
-        slope = (np.diff(f) / np.diff(points[:, 0])).astype(np.float32)  # the values increase strictly
-        np.multiply(v, slope[segment], out=into)
-        into += f[:-1].astype(np.float32)[segment]
-        return into
-
-    sigma = column(4, out[3])
-    if tf.opacity_model == "alpha":  # sigma = -ln(1 - alpha) / unit distance, alpha clamped (extinction_from_alpha)
-        # its condition number is 1 / (1 - alpha): where alpha > 1/2 the voxels are classified again in float64
-        steep = np.flatnonzero(sigma.ravel() > 0.5)
-        np.clip(sigma, 0.0, np.float32(ALPHA_MAX), out=sigma)
-        np.negative(sigma, out=sigma)
-        np.log1p(sigma, out=sigma)
-        sigma *= np.float32(-1.0 / tf.unit_distance)
-        if steep.size:
-            sigma.ravel()[steep] = tf.extinction(values.ravel()[steep])
-    for k in range(3):
-        column(k + 1, out[k])
-        out[k] *= sigma
-    return out.transpose(1, 2, 3, 0)
 
 
 def _profile(scene):

@@ -1,31 +1,33 @@
-"""The first frame's host steps in float32 (issue 44): the X-ray's classification and the slice textures'
-extra columns, against the float64 steps they stand for."""
+"""The first frame's host steps in float32 (issue 44): the X-ray's classification
+(``TransferFunction.classify_voxels`` in float32) and the slice textures' extra columns, against the float64
+steps they stand for."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from dvr_gl.renderers.fourier.projection import classified
 from dvr_gl.renderers.fourier.renderer import extended_into
 from dvr_gl.transfer_function import TransferFunction
 
 POINTS = [[0.0, 1.0, 0.5, 0.2, 0.0], [0.3, 0.2, 0.5, 1.0, 0.7], [0.6, 0.1, 0.1, 0.1, 1.0], [0.9, 1.0, 1.0, 1.0, 0.2]]
 
 
+@pytest.mark.parametrize("associated", [True, False])
 @pytest.mark.parametrize("model", ["alpha", "extinction"])
 @pytest.mark.parametrize("kind", ["float32", "uint16"])
-def test_float32_classification_matches_classify_voxels(model, kind):
+def test_float32_classification_matches_classify_voxels(model, kind, associated):
     """Values below, inside and above the points (alpha reaching 1, where sigma is steepest): measured
     within 1.1e-7 of the largest value (alpha / extinction: float data 4.4e-8 / 1.1e-7, the integer table
-    1.3e-8 / 8.4e-8); asserted 1e-6, a few float32 roundings.  Each channel is contiguous."""
+    1.3e-8 / 8.4e-8); asserted 1e-6, a few float32 roundings; the colour not associated as well.  Each channel
+    is contiguous."""
     rng = np.random.default_rng(7)
     scale = 1000.0 if kind == "uint16" else 1.0
     data = (rng.random((30, 20, 10)) * 1.2 - 0.1) * scale
     data = np.clip(data, 0, None).astype(np.uint16) if kind == "uint16" else data.astype(np.float32)
     tf = TransferFunction(np.array(POINTS) * [scale, 1, 1, 1, 1], 2.0, model)
-    want = tf.classify_voxels(data, True)
-    got = classified(tf, data)
+    want = tf.classify_voxels(data, associated)
+    got = tf.classify_voxels(data, associated, np.float32)
     assert got.dtype == np.float32 and got.shape == want.shape and got[..., 1].flags.c_contiguous
     assert np.abs(got - want).max() <= 1e-6 * np.abs(want).max()
 
