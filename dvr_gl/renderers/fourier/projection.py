@@ -457,17 +457,12 @@ def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, der
 
 def _xray_image(sums, tau: np.ndarray, hit: np.ndarray) -> np.ndarray:
     """``(H, W, 4)``: ``transfer_function.xray_rgba`` of the clamped emission integrals ``sums`` (channel ->
-    ``(H, W)``) and ``tau``, zero off the box (``hit``), written in place: alpha ``1 - exp(-tau)`` and the colour
-    ``emitted x alpha / tau`` (the same up to the order of one product; xray_rgba's stacked, divided,
-    concatenated and masked copies took 34 ms of a 512x512 view's host work on the busy machine)."""
-    out = np.empty(tau.shape + (4,))
-    alpha = np.negative(np.expm1(np.negative(tau)), out=out[..., 3])
-    alpha *= hit
-    factor = np.divide(alpha, tau, out=np.zeros_like(tau), where=tau > 0)
-    for c in range(3):
-        np.maximum(sums[c], 0.0, out=out[..., c])
-        out[..., c] *= factor
-    return out
+    ``(H, W)``) and ``tau`` (clamped), zero off the box (``hit``: there ``tau`` is set to zero, so alpha and
+    the colour are).  ``sums`` and ``tau`` are this view's own arrays: clamped in place."""
+    from ...transfer_function import xray_rgba
+
+    emitted = [np.maximum(sums[c], 0.0, out=sums[c]) for c in range(3)]
+    return xray_rgba(emitted, np.multiply(tau, hit, out=tau))
 
 
 #: Gauss-Legendre points per piece of the shell pass: exact for the field's degree along a ray between
