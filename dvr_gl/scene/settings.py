@@ -413,7 +413,10 @@ def resolve_sample_distance(spec, field) -> float:
 def resolve_renderer(spec, field, settings):
     """``spec`` with every declared setting checked and the data-dependent defaults made explicit:
     the sample distance in world units (``sample_distance_voxels`` dropped), the iso-value (middle of
-    the value range) and the gradient-opacity reference (0.1 of the range per voxel)."""
+    the value range) where the compositing is ``isosurface``, and the gradient-opacity reference (0.1 of
+    the range per voxel) where gradient opacity is on.  Otherwise those two stay as given (``None`` by
+    default) and the field's value range is not read; resolving again after a change (an isosurface asked
+    for later) fills them then."""
     for setting in settings:
         setting.validate(getattr(spec, setting.name))
     d = resolve_sample_distance(spec, field)
@@ -426,11 +429,14 @@ def resolve_renderer(spec, field, settings):
         raise SceneError("renderer.jitter does not apply to pre-integrated classification (which needs no "
                          "jitter against wood-grain); turn one of them off")
     _check_scattering_with(spec)
-    lo, hi = field.value_range
-    iso = spec.iso_value if spec.iso_value is not None else (lo + hi) / 2.0
-    g_ref = spec.gradient_opacity_reference
-    if g_ref is None:
-        g_ref = 0.1 * max(hi - lo, 1e-30) / field.sample_spacing
+    iso, g_ref = spec.iso_value, spec.gradient_opacity_reference
+    # the value range only where a default reads it: a million SPH particles' is the interpolant at each of them
+    if (iso is None and spec.compositing == "isosurface") or (g_ref is None and spec.gradient_opacity):
+        lo, hi = field.value_range
+        if iso is None and spec.compositing == "isosurface":
+            iso = (lo + hi) / 2.0
+        if g_ref is None and spec.gradient_opacity:
+            g_ref = 0.1 * max(hi - lo, 1e-30) / field.sample_spacing
     return dataclasses.replace(spec, sample_distance=d, sample_distance_voxels=None, iso_value=iso,
                                gradient_opacity_reference=g_ref)
 

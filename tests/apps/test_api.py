@@ -133,7 +133,8 @@ def test_replacing_the_volume_reframes_and_re_resolves():
     radius = float(np.linalg.norm(hi - lo)) / 2
     assert moved.camera.orbit[2] == pytest.approx(framing_distance(radius, scene.camera.fov, 1.0))  # frames it
     assert moved.renderer.sample_distance == pytest.approx(1.5)              # 0.5 voxel of 3 units
-    assert moved.renderer.iso_value == pytest.approx(sum(far.value_range) / 2)
+    iso = moved.with_renderer(compositing="isosurface").renderer.iso_value  # resolved where used
+    assert iso == pytest.approx(sum(far.value_range) / 2)
     assert moved.transfer_function.domain[1] == pytest.approx(1.0)          # the demo's preset keeps its name
     image = dvr_gl.render(moved, size=32)
     rows, cols = np.nonzero(image.rgba[..., 3] > 0.01)

@@ -61,8 +61,45 @@ def test_defaults_are_resolved_into_explicit_values():
     r = scene.renderer
     # the sample distance in world units: chosen by the scene (the ray caster's defaults, issue 44), explicit
     assert r.sample_distance > 0 and r.sample_distance_voxels is None
-    assert r.iso_value == pytest.approx(sum(scene.volume.value_range) / 2)
     assert scene.camera.orbit[:2] == (30.0, 20.0)
+    # the iso-value and the gradient-opacity reference where a scene uses them, from the value range
+    assert r.iso_value is None and r.gradient_opacity_reference is None  # emission-absorption, no gradient opacity
+    lo, hi = scene.volume.value_range
+    assert scene.with_renderer(compositing="isosurface").renderer.iso_value == pytest.approx((lo + hi) / 2)
+    g_ref = scene.with_renderer(gradient_opacity=True).renderer.gradient_opacity_reference
+    assert g_ref == pytest.approx(0.1 * (hi - lo) / scene.volume.sample_spacing)
+
+
+def test_a_scene_using_neither_default_never_reads_the_value_range(shared_gl_context):
+    """The iso-value and the gradient-opacity reference are the only defaults read from the value range; a
+    million SPH particles' is the interpolant at the particles (seconds), so a scene that uses neither (and no
+    shading, whose threshold scales with the range) resolves and renders without it."""
+    from dvr_gl.fields.particles import ParticleSet, plummer_sphere
+    from dvr_gl.renderers.splatting.renderer import SplattingRenderer
+    from dvr_gl.scene.resolve import parse_scene, resolve_scene
+
+    class Unread(ParticleSet):
+        @property
+        def value_range(self):
+            raise AssertionError("the value range was read")
+
+    p = plummer_sphere(512)
+    field = Unread(p.positions, p.smoothing_lengths, p.masses, p.densities)
+    overrides = {"renderer.name": "splatting", "image.width": 12, "image.height": 12,
+                 "renderer.shading.enabled": False, "transfer_function.points": [[0, 0, 0, 0, 0], [16, 1, 1, 1, 0.9]]}
+    renderer = SplattingRenderer(ctx=shared_gl_context)
+    try:
+        for compositing in ("emission_absorption", "xray"):
+            spec = parse_scene(apply_overrides({}, {**overrides, "renderer.compositing": compositing}), "test")
+            scene = resolve_scene(spec, field=field)
+            assert scene.renderer.iso_value is None and scene.renderer.gradient_opacity_reference is None
+            assert renderer.render(scene)[..., 3].max() > 1e-3  # drew the particles (X-ray: 7e-3)
+        with pytest.raises(AssertionError, match="value range was read"):  # the check can fail: an isosurface
+            resolve_scene(parse_scene(apply_overrides({}, {**overrides, "renderer.name": "raycast",
+                                                           "renderer.compositing": "isosurface"}), "test"),
+                          field=field)
+    finally:
+        renderer.close()
 
 
 def test_overrides_replace_their_exclusive_partner():

@@ -60,9 +60,12 @@ def optics_uniforms(scene, lut) -> dict:
     the clipping region and scattering: what every ``classify()`` reads."""
     r, field, tf = scene.renderer, scene.field, scene.transfer_function
     lut_lo, lut_hi = lut.domain
-    u = {"u_unit_distance": tf.unit_distance, "u_gradient_reference": r.gradient_opacity_reference,
+    g_ref = r.gradient_opacity_reference  # None where gradient opacity is off (settings.resolve_renderer)
+    u = {"u_unit_distance": tf.unit_distance, "u_gradient_reference": 1.0 if g_ref is None else g_ref,
          "u_lut_size": r.lut_size, "u_lut_lo": lut_lo, "u_lut_scale": (r.lut_size - 1) / (lut_hi - lut_lo),
-         "u_gradient_epsilon": gradient_epsilon(field), **shading_uniforms(r.shading)}
+         **shading_uniforms(r.shading)}
+    if r.shading.enabled and r.shading.lights:  # what shading_defines shades: the value range only then
+        u["u_gradient_epsilon"] = gradient_epsilon(field)
     clip = ClipRegion.of(r)
     return {**u, **scattering_uniforms(scene), **(clip.uniforms() if clip is not None else {})}
 

@@ -273,7 +273,7 @@ class RayCastRenderer(GridRenderer):
         ert = r.ert_threshold
         return {"u_eye": cam.eye, "u_forward": f, "u_right": right, "u_up": up, "u_half_extent": half,
                 "u_image_size": (img.width, img.height), "u_near": cam.near, "u_box_lo": lo, "u_box_hi": hi,
-                "u_sample_distance": r.sample_distance, "u_iso_value": r.iso_value,
+                "u_sample_distance": r.sample_distance, "u_iso_value": r.iso_value if r.iso_value is not None else 0.0,
                 "u_iso_steps": r.iso_refinement, "u_ert_depth": -math.log1p(-ert) if ert < 1.0 else 3.0e38,
                 "u_jitter_seed": r.jitter_seed % 2 ** 32, "u_block_size": r.block_size}
 
