@@ -72,10 +72,15 @@ def xray_rgba(emitted, tau: np.ndarray, out: np.ndarray | None = None) -> np.nda
 
 def projected_rgba(tf: "TransferFunction", values: np.ndarray) -> np.ndarray:
     """Premultiplied RGBA ``(N, 4)`` of projected values (average, MIP, MinIP): each classified once,
-    exactly, with the opacity of one ``unit_distance`` (conventions)."""
-    colour, sigma = tf.evaluate(values)
-    alpha = segment_opacity(sigma, tf.unit_distance)
-    return np.concatenate([colour * alpha[:, None], alpha[:, None]], axis=1)
+    exactly, with the opacity of one ``unit_distance`` (conventions); written in place (the stacked and
+    concatenated copies were about half its time at 512x512)."""
+    values = np.asarray(values, dtype=np.float64)
+    out = np.empty(values.shape + (4,))  # written channel by channel: no stacked colour, no concatenated copy
+    alpha = out[..., 3]
+    alpha[...] = segment_opacity(tf.extinction(values), tf.unit_distance)
+    for c in range(3):
+        np.multiply(tf._interp(values, c + 1), alpha, out=out[..., c])
+    return out
 
 
 @dataclass(frozen=True, eq=False, repr=False)
