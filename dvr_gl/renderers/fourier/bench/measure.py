@@ -162,11 +162,12 @@ def cheapest(points, error: float) -> float:
 def dominance(points, band=BAND) -> str:
     """Whether Fourier's front lies below the ray caster's at every error of ``band`` ("dominates"), at or
     above it at every one ("dominated"), or below at some ("crossing"): compared at each point's error in
-    the band and at its upper end (both fronts are step functions of the error: the least time at an RMS of
-    at most that error)."""
+    the band and at both its ends (both fronts are step functions of the error: the least time at an RMS of
+    at most that error; from the band's lower end to the first point in it, each front is its cheapest point
+    below the band)."""
     fourier = [p for p in points if p["renderer"] == "fourier"]
     rays = [p for p in points if p["renderer"] != "fourier"]
-    levels = sorted({p["rms"] for p in points if band[0] <= p["rms"] <= band[1]} | {band[1]})
+    levels = sorted({p["rms"] for p in points if band[0] <= p["rms"] <= band[1]} | set(band))
     wins = [e for e in levels if cheapest(fourier, e) < cheapest(rays, e)]
     losses = [(e, cheapest(fourier, e), cheapest(rays, e)) for e in levels if e not in wins]
     if not losses:

@@ -33,11 +33,14 @@ def test_dominance_compares_the_fronts_in_the_band():
     ray = [{"renderer": BASELINE, "rms": 5e-3, "ms": 10.0}, {"renderer": BASELINE, "rms": 1e-5, "ms": 100.0}]
     fast = [{"renderer": "fourier", "rms": 2e-5, "ms": 5.0}]
     assert dominance(ray + fast).startswith("dominates: fourier's front is below")
-    slow = [{"renderer": "fourier", "rms": 2e-5, "ms": 50.0}]  # slower at 5e-3, where the ray caster is 10 ms
-    assert dominance(ray + slow).startswith("dominated: fourier is nowhere faster from 0.0001 to 0.01 RMS (at RMS "
-                                            "5.00e-03 the ray caster takes 10 ms, fourier 50 ms)")
-    middle = [{"renderer": BASELINE, "rms": 2e-4, "ms": 80.0}]  # fourier faster at 2e-4, slower from 5e-3
-    assert dominance(ray + middle + slow).startswith("crossing: fourier faster at 1 of 3 error levels (at RMS 5.00e-03")
+    slow = [{"renderer": "fourier", "rms": 2e-5, "ms": 50.0}]  # faster from 1e-4 (100 ms), slower from 5e-3 (10)
+    assert dominance(ray + slow).startswith("crossing: fourier faster at 1 of 3 error levels (at RMS 5.00e-03 the "
+                                            "ray caster takes 10 ms, fourier 50 ms)")
+    middle = [{"renderer": BASELINE, "rms": 2e-4, "ms": 80.0}]  # fourier faster at 1e-4 and 2e-4
+    assert dominance(ray + middle + slow).startswith("crossing: fourier faster at 2 of 4 error levels (at RMS 5.00e-03")
+    slowest = [{"renderer": "fourier", "rms": 2e-5, "ms": 500.0}]  # slower at every level
+    assert dominance(ray + slowest).startswith("dominated: fourier is nowhere faster from 0.0001 to 0.01 RMS (at RMS "
+                                               "1.00e-04 the ray caster takes 100 ms, fourier 500 ms)")
     rough = [{"renderer": "fourier", "rms": 2e-2, "ms": 1.0}]  # fast, but never within the band
     assert "fourier never reaches it" in dominance(ray + rough)
 
