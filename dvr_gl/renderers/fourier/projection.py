@@ -451,7 +451,8 @@ def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, der
     else:  # the X-ray of the classified voxels: (sigma c, sigma) integrated; the band limit rings (Gibbs)
         # where the data jumps, which can take an integral of non-negative voxels below zero: clamped
         return _xray_image(sums, np.maximum(integral(3, weight=False), 0.0), hit)
-    out = np.where(hit[..., None], rgba.reshape(h, w, 4), 0.0)
+    out = rgba.reshape(h, w, 4)
+    out *= hit[..., None]  # zero off the box, in place (the classified colours are finite and not negative)
     return out
 
 
