@@ -70,38 +70,6 @@ def test_defaults_are_resolved_into_explicit_values():
     assert g_ref == pytest.approx(0.1 * (hi - lo) / scene.volume.sample_spacing)
 
 
-def test_a_scene_using_neither_default_never_reads_the_value_range(shared_gl_context):
-    """The iso-value and the gradient-opacity reference are the only defaults read from the value range; a
-    million SPH particles' is the interpolant at the particles (seconds), so a scene that uses neither (and no
-    shading, whose threshold scales with the range) resolves and renders without it."""
-    from dvr_gl.fields.particles import ParticleSet, plummer_sphere
-    from dvr_gl.renderers.splatting.renderer import SplattingRenderer
-    from dvr_gl.scene.resolve import parse_scene, resolve_scene
-
-    class Unread(ParticleSet):
-        @property
-        def value_range(self):
-            raise AssertionError("the value range was read")
-
-    p = plummer_sphere(512)
-    field = Unread(p.positions, p.smoothing_lengths, p.masses, p.densities)
-    overrides = {"renderer.name": "splatting", "image.width": 12, "image.height": 12,
-                 "renderer.shading.enabled": False, "transfer_function.points": [[0, 0, 0, 0, 0], [16, 1, 1, 1, 0.9]]}
-    renderer = SplattingRenderer(ctx=shared_gl_context)
-    try:
-        for compositing in ("emission_absorption", "xray"):
-            spec = parse_scene(apply_overrides({}, {**overrides, "renderer.compositing": compositing}), "test")
-            scene = resolve_scene(spec, field=field)
-            assert scene.renderer.iso_value is None and scene.renderer.gradient_opacity_reference is None
-            assert renderer.render(scene)[..., 3].max() > 1e-3  # drew the particles (X-ray: 7e-3)
-        with pytest.raises(AssertionError, match="value range was read"):  # the check can fail: an isosurface
-            resolve_scene(parse_scene(apply_overrides({}, {**overrides, "renderer.name": "raycast",
-                                                           "renderer.compositing": "isosurface"}), "test"),
-                          field=field)
-    finally:
-        renderer.close()
-
-
 def test_overrides_replace_their_exclusive_partner():
     raw = {"renderer": {"sample_distance_voxels": 0.25}, "transfer_function": {"preset": "grayscale"}}
     out = apply_overrides(raw, {"renderer.sample_distance": 2.0, "transfer_function.points": [[0, 0, 0, 0, 0]]})
