@@ -83,6 +83,22 @@ def projected_rgba(tf: "TransferFunction", values: np.ndarray) -> np.ndarray:
     return out
 
 
+def _narrow_integers(values: np.ndarray):
+    """For integer data of a narrow range (a CT's 16 bits; more than 65,536 voxels and at most a quarter as
+    many values as voxels), classified once a value and looked up: ``(nodes, index)``, every value from the
+    least to the greatest in float64 (as each voxel's would be) and each voxel's offset from the least (in
+    int64 for signed data, in the data's own type for unsigned: uint64's values above int64's; no overflow,
+    every voxel is the least or above).  ``None`` for other data."""
+    if values.dtype.kind not in "iu" or values.size <= 1 << 16:
+        return None
+    lo, hi = int(values.min()), int(values.max())
+    if hi - lo >= values.size // 4:
+        return None
+    kind = np.int64 if values.dtype.kind == "i" else values.dtype.type
+    nodes = (kind(lo) + np.arange(hi - lo + 1).astype(kind)).astype(np.float64)
+    return nodes, values.astype(kind, copy=False) - kind(lo)
+
+
 @dataclass(frozen=True, eq=False, repr=False)
 class TransferFunction:
     """Piecewise-linear transfer function (see module doc).
@@ -228,16 +244,10 @@ class TransferFunction:
         if np.dtype(dtype) == np.float32:
             return self._classify_float32(np.asarray(data), associated)
         values = np.asarray(data)
-        if values.dtype.kind in "iu" and values.size > 1 << 16:
-            lo, hi = int(values.min()), int(values.max())
-            if hi - lo < values.size // 4:  # the table is a quarter of the voxels at most
-                # every value from lo to hi (then float64, as each voxel's would be) and each voxel's offset
-                # from lo: in int64 for signed data, in the data's own type for unsigned (uint64's values
-                # above int64's; no overflow, every voxel is lo or above)
-                kind = np.int64 if values.dtype.kind == "i" else values.dtype.type
-                table = self.classify_voxels((kind(lo) + np.arange(hi - lo + 1).astype(kind)).astype(np.float64),
-                                             associated)
-                return table[values.astype(kind, copy=False) - kind(lo)]
+        narrow = _narrow_integers(values)
+        if narrow is not None:
+            nodes, index = narrow
+            return self.classify_voxels(nodes, associated)[index]
         values = np.asarray(values, dtype=np.float64)
         out = np.empty(values.shape + (4,))  # written in place: no stacked colour, no concatenated copy
         out[..., 3] = self.extinction(values)
@@ -256,16 +266,13 @@ class TransferFunction:
         alpha exceeds 1/2, whose ``-log(1 - alpha)`` float32 would amplify (its condition number is
         ``1 / (1 - alpha)``), those voxels' extinction again in float64."""
         out = np.empty((4,) + values.shape, np.float32)
-        if values.dtype.kind in "iu" and values.size > 1 << 16:
-            lo, hi = int(values.min()), int(values.max())
-            if hi - lo < values.size // 4:  # as in float64: the table a quarter of the voxels at most
-                kind = np.int64 if values.dtype.kind == "i" else values.dtype.type
-                table = self.classify_voxels((kind(lo) + np.arange(hi - lo + 1).astype(kind)).astype(np.float64),
-                                             associated)
-                index = values.astype(kind, copy=False) - kind(lo)
-                for c in range(4):
-                    np.take(table[:, c].astype(np.float32), index, out=out[c])
-                return np.moveaxis(out, 0, -1)
+        narrow = _narrow_integers(values)
+        if narrow is not None:
+            nodes, index = narrow
+            table = self.classify_voxels(nodes, associated)
+            for c in range(4):
+                np.take(table[:, c].astype(np.float32), index, out=out[c])
+            return np.moveaxis(out, 0, -1)
         points = self.points
         v = np.clip(values.astype(np.float32), np.float32(points[0, 0]), np.float32(points[-1, 0]))
         # each voxel's segment of the piecewise-linear columns (value, r, g, b, opacity): np.interp's, in float32

@@ -472,14 +472,23 @@ def _xray_image(sums, tau: np.ndarray, hit: np.ndarray) -> np.ndarray:
 SHELL_NODES = {"linear": 3, "cubic_bspline": 6}
 
 
+def polynomial_nodes(r) -> int | None:
+    """Gauss-Legendre points a piece that integrate the field exactly along a ray between the filter's knots
+    (:data:`SHELL_NODES`; one fewer without the depth cue's linear weight), for the piecewise-polynomial
+    filters without hemispherical shading; ``None`` otherwise (the Gaussian, or the gradient's magnitude,
+    is no polynomial).  ``r``: the renderer's settings."""
+    if r.filter not in SHELL_NODES or r.hemispherical_shading:
+        return None
+    return SHELL_NODES[r.filter] - (r.depth_cue >= 1.0)
+
+
 def clips_exactly(scene) -> bool:
     """Whether the box's clip is exact: the channels get the clamped ghost layers only, and the whole
     lines' integrals beyond the box (:func:`shell_integrals`, the GL shell pass) are taken off.  For the
     piecewise-polynomial filters without hemispherical shading (whose central differences reach a voxel
     further), unless ``renderer.box_clip`` asks for the ghost layer (no pass a view); the Gaussian and the
     shaded channels keep the compensating ghost layer (:func:`with_ghosts`)."""
-    r = scene.renderer
-    return r.filter in SHELL_NODES and not r.hemispherical_shading and r.box_clip == "exact"
+    return polynomial_nodes(scene.renderer) is not None and scene.renderer.box_clip == "exact"
 
 
 class Shell:
@@ -496,7 +505,7 @@ class Shell:
         lo, hi = (np.asarray(v, float) for v in scene.volume.bounds)
         self.origin = lo - (border + self.pad) * h
         self.outer = (lo - (border + reach) * h, hi + (border + reach) * h)
-        self.nodes = SHELL_NODES[scene.renderer.filter] - (scene.renderer.depth_cue >= 1.0)
+        self.nodes = polynomial_nodes(scene.renderer)
 
     def padded(self, ghosted: np.ndarray) -> np.ndarray:
         return np.pad(ghosted, [(self.pad, self.pad)] * 3 + [(0, 0)])
@@ -568,9 +577,7 @@ def direct_integrals(scene, rays: RayBatch, rows: np.ndarray) -> np.ndarray:
     model = OpticalModel(scene, exact=True)
     o, d = rays.origins[rows], rays.directions[rows]
     ray, a, b = smooth_pieces(model.scalar, o, d, rays.t0[rows], rays.t1[rows])
-    r = scene.renderer
-    exact = r.filter in SHELL_NODES and not r.hemispherical_shading
-    x, weights = np.polynomial.legendre.leggauss(SHELL_NODES[r.filter] - (r.depth_cue >= 1.0) if exact else 6)
+    x, weights = np.polynomial.legendre.leggauss(polynomial_nodes(scene.renderer) or 6)
     half = 0.5 * (b - a)
     t = a[:, None] + half[:, None] * (x[None, :] + 1.0)
     points = (o[ray][:, None, :] + t[..., None] * d[ray][:, None, :]).reshape(-1, 3)

@@ -80,6 +80,13 @@ def test_against_its_same_slices_reference(fourier, extra):
     interpolation in float64 numpy, then the same host steps (the GL's in float32 since issue 44's second
     round): measured at most 5.0e-7, the cued extinction case (5.7e-7 just before the float32 host steps; 3e-8
     before the complex64 spectrum; asserted: the float32 assertion of every GPU renderer)."""
+    assert_matches_same_slices(fourier, extra)
+
+
+def assert_matches_same_slices(fourier, extra):
+    """The GL's image of the 14^3 phantom at 20x20 (the average by default, pre-classified, unshaded, with
+    ``extra``) within the float32 assertion of every GPU renderer of the same-slices reference, which must
+    show something (alpha above 1e-3)."""
     scene = small_scene({**ORTHO, "renderer.compositing": "average", "renderer.classification": "pre",
                          "volume.size": 14, "image.width": 20, "image.height": 20, "renderer.shading.enabled": False,
                          **extra})

@@ -8,12 +8,18 @@ import math
 import numpy as np
 import pytest
 
-from conftest import assert_close, small_scene
+from conftest import small_scene
 from dvr_gl.renderers.fourier import oracle, projection
 from dvr_gl.renderers.fourier.oracle import oracle as same_slices
 from dvr_gl.renderers.fourier.projection import Frame, clips_exactly, ghost_layers
 from dvr_gl.renderers.fourier.renderer import FourierRenderer
-from dvr_gl.renderers.fourier.tests.test_fourier import ORTHO, blob, blob_scene, line_integrals
+from dvr_gl.renderers.fourier.tests.test_fourier import (
+    ORTHO,
+    assert_matches_same_slices,
+    blob,
+    blob_scene,
+    line_integrals,
+)
 
 
 @pytest.fixture(scope="module")
@@ -38,13 +44,7 @@ def test_the_cheaper_settings_against_the_same_slices_reference(fourier, extra):
     oracle zeroes what the cutoff leaves out and transforms the whole slice by ``irfft2``): measured at most
     4.0e-8; with the whole slice drawn instead, 1.0e-3 and 8.2e-2 on the first two (asserted: the float32
     assertion of every GPU renderer, as the defaults' cases)."""
-    scene = small_scene({**ORTHO, "renderer.compositing": "average", "renderer.classification": "pre",
-                         "volume.size": 14, "image.width": 20, "image.height": 20, "renderer.shading.enabled": False,
-                         **extra})
-    image = fourier.render(scene)
-    reference = same_slices(scene)
-    assert reference[..., 3].max() > 1e-3
-    assert_close(image, reference)
+    assert_matches_same_slices(fourier, extra)
 
 
 def test_the_cutoff_keeps_the_frequencies_within_it():
