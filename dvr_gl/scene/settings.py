@@ -430,12 +430,14 @@ def resolve_renderer(spec, field, settings):
                          "jitter against wood-grain); turn one of them off")
     _check_scattering_with(spec)
     iso, g_ref = spec.iso_value, spec.gradient_opacity_reference
+    needs_iso = iso is None and spec.compositing == "isosurface"
+    needs_g_ref = g_ref is None and spec.gradient_opacity
     # the value range only where a default reads it: a million SPH particles' is the interpolant at each of them
-    if (iso is None and spec.compositing == "isosurface") or (g_ref is None and spec.gradient_opacity):
+    if needs_iso or needs_g_ref:
         lo, hi = field.value_range
-        if iso is None and spec.compositing == "isosurface":
+        if needs_iso:
             iso = (lo + hi) / 2.0
-        if g_ref is None and spec.gradient_opacity:
+        if needs_g_ref:
             g_ref = 0.1 * max(hi - lo, 1e-30) / field.sample_spacing
     return dataclasses.replace(spec, sample_distance=d, sample_distance_voxels=None, iso_value=iso,
                                gradient_opacity_reference=g_ref)
