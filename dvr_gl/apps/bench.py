@@ -136,7 +136,8 @@ def _peers_arguments(pe):
         the help is asked for (``dvr render`` builds this parser too, and must not import the harness)."""
         from dvr_gl.bench import peers
 
-        scenes.help = f"only these scenes ({', '.join(peers.SCENES)}; default all)"
+        scenes.help = (f"only these scenes ({', '.join(peers.SCENES)}; \"held-out\" for the last "
+                       f"{len(peers.HELD_OUT)}, never tuned on; default all)")
         renderers.help = f"only these ({', '.join(peers.RENDERERS)}; default all)"
         return plain()
 
@@ -463,6 +464,7 @@ def run_peers(args) -> int:
     from dvr_gl.image import atomic_write, check_writable
 
     scenes = args.scenes.split(",") if args.scenes else list(peers.SCENES)
+    scenes = [x for name in scenes for x in (peers.HELD_OUT if name == "held-out" else (name,))]
     renderers = args.renderers.split(",") if args.renderers else list(peers.RENDERERS)
     for what, given, known in (("--scenes", scenes, peers.SCENES), ("--renderers", renderers,
                                                                     peers.RENDERERS + ("numpy",))):
@@ -489,8 +491,9 @@ def run_peers(args) -> int:
     if pictures is not None and not pictures.is_dir():
         raise DvrError(f"{pictures}: no such folder for the pictures; create it first")
     cache = Path(args.cache) if args.cache else peers.default_cache()
-    args.report.text(f"dvr bench peers: {args.volume_size}^3 uint8 phantoms and the shared datasets (CThead, MNI152, "
-                     f"lobster, hydrogen, brainsmall from --data-dir), {args.size}x{args.size} frames, perspective "
+    datasets = ", ".join(dict.fromkeys(peers.SCENES[s][0] for s in scenes if peers.SCENES[s][0] in peers.DATASETS))
+    args.report.text(f"dvr bench peers: {args.volume_size}^3 uint8 phantoms and the shared datasets ({datasets} from "
+                     f"--data-dir), {args.size}x{args.size} frames, perspective "
                      f"30 degrees, azimuth 30, elevation 20, distance {peers.DISTANCE_DIAGONALS:g} box diagonals, "
                      f"trilinear, unshaded; {args.rounds} rounds of fresh processes interleaved across renderers, "
                      f"median of {args.frames} frames each after one untimed; error (RMS, PSNR: premultiplied RGBA, "
@@ -513,6 +516,8 @@ def run_peers(args) -> int:
         args.report.text("Versions: " + ", ".join(versions))
     for note in notes:
         args.report.text(note)
+    if not rows:
+        raise DvrError("no scene was measured (the notes above say why); give --data-dir the shared datasets' folder")
     if pictures is not None:
         references = images.pop("references")
         for path in peers.write_pictures(images, references, pictures):

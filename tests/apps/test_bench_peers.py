@@ -238,3 +238,33 @@ def test_help_lists_the_scenes_and_renderers_of_the_code(capsys, monkeypatch):
     text = capsys.readouterr().out
     for name in (*peers.SCENES, *peers.RENDERERS):
         assert name in text, name
+
+
+def test_the_held_out_scenes_are_declared_whole(tmp_path, capsys):
+    """Issue 44's held-out scenes: each on a dataset the bench can load, with a transfer function for its
+    mode; ``--scenes held-out`` names exactly them, and without the shared data they are left out with a
+    note each (nothing measured)."""
+    for key in peers.HELD_OUT:
+        dataset, mode = peers.SCENES[key]
+        assert dataset in peers.DATASETS, key
+        assert mode == "mip" or dataset in peers.COMPOSITE_TF, key  # MIP: the uint8 ramp unless MIP_TFS has one
+    assert list(peers.SCENES)[-len(peers.HELD_OUT):] == list(peers.HELD_OUT)  # the help's "the last N"
+    args = ["bench", "peers", "--scenes", "held-out", "--renderers", "dvr-gl", "--data-dir", str(tmp_path),
+            "--cache", str(tmp_path / "cache"), "--rounds", "1", "--frames", "1", "--size", "16", "--error-size", "12"]
+    assert main(args) == 1  # nothing measured: no data
+    out, err = capsys.readouterr()
+    assert err.count("\n") == 1 and "no scene was measured" in err and "internal error" not in err
+    for key in peers.HELD_OUT:
+        assert f"{key}: {peers.DATASETS[peers.SCENES[key][0]][0]} not found" in out, key
+
+
+def test_the_dna_scene_reads_one_channel(tmp_path, shared_data):
+    """The confocal stack holds two channels; the held-out MIP scene renders the DNA one (16-bit, 45
+    planes of 130 x 133, about half a micron a sample), and its ramp ends near the channel's 99.9th
+    percentile, as a contrast limit would."""
+    path, extra = peers.dataset_file("dna", shared_data, tmp_path)
+    data = np.load(path)
+    assert data.shape == (45, 130, 133) and data.dtype == np.uint16
+    assert 0.49 < min(extra["volume.spacing"]) < 0.52
+    top = peers.MIP_TFS["dna"][-1][0]
+    assert np.percentile(data, 99.5) < top < data.max()
