@@ -30,7 +30,7 @@ from ...gl.geometry import box_corners
 from ...rays import RayBatch
 from ...reference.model import gradient_magnitudes
 from ...scene.model import GAUSSIAN_RADIUS
-from ...transfer_function import projected_rgba
+from ...transfer_function import ALPHA_MAX, projected_rgba
 from .spectrum import fft_module, padded_length
 
 
@@ -439,19 +439,37 @@ def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, der
                 for k, c in enumerate(shaded)}
     else:
         sums = {c: integral(c) for c in shaded}
-    # every pixel classified, those off the box set to zero after: a masked scatter of (N, 4) rows took
-    # 11-24 ms of a 512x512 view
-    hit = chord > 0
     if r.compositing == "average":
         short, rays = frame.short_chords(scene)
         if rays is not None:
             sums[0][short] = direct_integrals(scene, rays, np.arange(len(rays.t0)))
-        mean = np.where(hit, sums[0] / np.where(hit, chord, 1.0), 0.0)
-        rgba = projected_rgba(scene.transfer_function, mean.ravel())
-    else:  # the X-ray of the classified voxels: (sigma c, sigma) integrated; the band limit rings (Gibbs)
-        # where the data jumps, which can take an integral of non-negative voxels below zero: clamped
-        return _xray_image(sums, np.maximum(integral(3, weight=False), 0.0), hit)
-    out = rgba.reshape(h, w, 4)
+        return average_rgba(scene.transfer_function, sums[0], chord)
+    # the X-ray of the classified voxels: (sigma c, sigma) integrated; the band limit rings (Gibbs) where the
+    # data jumps, which can take an integral of non-negative voxels below zero: clamped
+    return _xray_image(sums, np.maximum(integral(3, weight=False), 0.0), chord > 0)
+
+
+def compiled_average():
+    """:mod:`.average_compiled` (numba) where numba is installed, else ``None`` (the numpy code here)."""
+    try:
+        from . import average_compiled
+    except ImportError:
+        return None
+    return average_compiled
+
+
+def average_rgba(tf, sums: np.ndarray, chord: np.ndarray) -> np.ndarray:
+    """``(H, W, 4)`` premultiplied: each pixel's mean ``sums / chord`` classified (``projected_rgba``: one
+    ``unit_distance``'s opacity), zero where the ray misses the box (``chord`` 0); in one compiled pass where
+    numba is installed (:mod:`.average_compiled`, the same arithmetic)."""
+    module = compiled_average()
+    if module is not None:
+        return module.average_rgba(tf, sums, chord, ALPHA_MAX)
+    # every pixel classified, those off the box set to zero after: a masked scatter of (N, 4) rows took
+    # 11-24 ms of a 512x512 view
+    hit = chord > 0
+    mean = np.where(hit, sums / np.where(hit, chord, 1.0), 0.0)
+    out = projected_rgba(tf, mean.ravel()).reshape(sums.shape + (4,))
     out *= hit[..., None]  # zero off the box, in place (the classified colours are finite and not negative)
     return out
 
@@ -577,12 +595,21 @@ def direct_integrals(scene, rays: RayBatch, rows: np.ndarray) -> np.ndarray:
     model = OpticalModel(scene, exact=True)
     o, d = rays.origins[rows], rays.directions[rows]
     ray, a, b = smooth_pieces(model.scalar, o, d, rays.t0[rows], rays.t1[rows])
-    x, weights = np.polynomial.legendre.leggauss(polynomial_nodes(scene.renderer) or 6)
+    x, weights = gauss_legendre(polynomial_nodes(scene.renderer) or 6)
     half = 0.5 * (b - a)
     t = a[:, None] + half[:, None] * (x[None, :] + 1.0)
     points = (o[ray][:, None, :] + t[..., None] * d[ray][:, None, :]).reshape(-1, 3)
     values = model.projected_values(points).reshape(len(ray), len(x))
     return np.bincount(ray, half * (values @ weights), minlength=len(rows))
+
+
+@functools.lru_cache(maxsize=16)
+def gauss_legendre(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Legendre nodes and weights on [-1, 1], kept (numpy's ``leggauss`` solves an eigenproblem each
+    call: 0.75 ms of a cheap view's 25)."""
+    x, weights = np.polynomial.legendre.leggauss(n)
+    x.flags.writeable = weights.flags.writeable = False
+    return x, weights
 
 
 def cue_line(scene) -> tuple[float, float]:
