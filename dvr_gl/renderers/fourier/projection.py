@@ -424,7 +424,9 @@ def finish(scene, frame: Frame, spectrum, slices: list[np.ndarray], offsets, der
         outside = 0.0 if shell is None else shell[..., c]  # the whole lines' parts beyond the box (exact clip)
         plain = project(s if slope is None else k * s)
         if not weight:
-            return plain + constant - outside
+            total = plain + constant
+            # without the shell nothing to take off: no pass over the image for it (x - 0.0 is x, bit for bit)
+            return total if shell is None else total - outside
         moment = project((1j / (2.0 * math.pi)) * (k * derivatives[c] + dk * s))
         return (a + b * z_c) * plain + b * moment + constant * chord_weight - outside
 

@@ -375,13 +375,16 @@ class FourierRenderer(GLRenderer):
     @staticmethod
     def _draw_kept(fbo, quad, frame):
         """The slice pass over what ``renderer.slice_cutoff`` keeps (:attr:`.projection.Frame.kept`): the
-        first columns of the first and the last rows (the negative frequencies), each band scissored, the rest
-        cleared to zero; the whole half slice without a cutoff."""
+        first columns of the first and the last rows (the negative frequencies), each band scissored, the rows
+        between them in those columns cleared to zero (only those columns are read back: clearing the whole
+        target took 0.75 ms of llvmpipe's time a view, the draw 0.95); the whole half slice without a cutoff."""
         columns, low, high = frame.kept
         if (columns, low, high) == (frame.columns, frame.size[1], 0):
             quad.render(moderngl.TRIANGLES, vertices=3)
             return
-        fbo.clear(0.0, 0.0, 0.0, 0.0)
+        between = frame.size[1] - low - high
+        if between > 0 and columns:
+            fbo.clear(0.0, 0.0, 0.0, 0.0, viewport=(0, low, columns, between))
         for first, rows in ((0, low), (frame.size[1] - high, high)):  # fragment row j: the slice's row j
             if rows and columns:
                 fbo.scissor = (0, first, columns, rows)
