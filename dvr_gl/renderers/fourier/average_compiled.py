@@ -29,8 +29,12 @@ import math
 import numba
 import numpy as np
 
+# The kernels run on one core (no ``parallel=True``): with one of this machine's two cores busy elsewhere,
+# OpenMP's two threads waited for the descheduled one: the cheap average view (cutoffs in turn) took 26-32 ms
+# against 6.1-6.5 on one thread (5.5 against 6.7 on the quiet machine; 2026-11-28).
 
-@numba.njit(cache=True, parallel=True)
+
+@numba.njit(cache=True)
 def classify_means(sums, chord, xp, fp, slopes, alpha_model, unit_distance, alpha_max, out):
     """``out`` ``(H, W, 4)``: the premultiplied RGBA of ``sums / chord`` where ``chord > 0``, zero elsewhere;
     ``xp`` ``(K,)`` the transfer function's values, ``fp`` ``(K, 4)`` its colour and opacity columns,
@@ -38,7 +42,7 @@ def classify_means(sums, chord, xp, fp, slopes, alpha_model, unit_distance, alph
     ``unit_distance`` (else extinction per world unit)."""
     h, w = sums.shape
     last = len(xp) - 1
-    for y in numba.prange(h):  # rows on the cores: the GL is idle by now (its slices were read back)
+    for y in range(h):  # on one core (see the note above)
         for x in range(w):
             length = chord[y, x]
             if not length > 0.0:
@@ -98,24 +102,17 @@ def _trilinear(values, u0, u1, u2):
     return total
 
 
-#: Rays a block of :func:`chord_integrals` (a block on a core, with its own knot buffer).
-CHORD_BLOCK = 64
-
-
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def chord_integrals(values, spacing, origin, origins, directions, t0, t1, nodes, weights):
     """The integral of the trilinear field ``values`` ``(nz, ny, nx)`` (``spacing``, ``origin``: x, y, z world
     units) along each ray ``origins + t directions`` over ``[t0, t1]``: the pieces between the planes where
-    the filter's knots lie (the grid's, inside it), each by Gauss-Legendre ``nodes``/``weights`` on [-1, 1].
-    Blocks of :data:`CHORD_BLOCK` rays on the cores; each ray's sum is its own, in the same order either way."""
-    count = len(t0)
-    out = np.zeros(count)
+    the filter's knots lie (the grid's, inside it), each by Gauss-Legendre ``nodes``/``weights`` on [-1, 1]."""
+    out = np.zeros(len(t0))
     dims = (values.shape[2], values.shape[1], values.shape[0])
-    for block in numba.prange((count + CHORD_BLOCK - 1) // CHORD_BLOCK):
-        knots = np.empty(sum(dims) + 2)
-        for r in range(block * CHORD_BLOCK, min(count, (block + 1) * CHORD_BLOCK)):
-            out[r] = _chord_integral(values, spacing, origin, origins[r], directions[r], t0[r], t1[r], nodes,
-                                     weights, dims, knots)
+    knots = np.empty(sum(dims) + 2)
+    for r in range(len(t0)):
+        out[r] = _chord_integral(values, spacing, origin, origins[r], directions[r], t0[r], t1[r], nodes, weights,
+                                 dims, knots)
     return out
 
 

@@ -68,7 +68,7 @@ class Frame:
     #: default width is 3.5) and the band-limited interpolant's ringing, which falls off with distance
     MARGIN_VOXELS = 8.0
 
-    def __init__(self, scene):
+    def __init__(self, scene, made: dict | None = None):
         cam, img = scene.camera, scene.image
         w, h = img.width, img.height
         forward, right, up = (np.asarray(v, float) for v in cam.basis())
@@ -95,7 +95,9 @@ class Frame:
             sizes.append(padded_length(count, 1.0) if count < self.MAX_SLICE else count)
         self.size = tuple(sizes)
         self.kept = self._kept(scene)
-        self._made = {}  # what depends on the view, image and volume only: chords, the short chords' rays
+        # what depends on the view, image and volume only (chords, the short chords' rays, the phases), not on
+        # the cutoff: ``made``, a dict shared by the frames of one view, or a fresh one
+        self._made = {} if made is None else made
 
     #: Samples a side past which the slice is not laid out: more than any GL's texture side (16384 on llvmpipe).
     MAX_SLICE = 1 << 16
