@@ -31,7 +31,7 @@ import numpy as np
 
 # The kernels run on one core (no ``parallel=True``): with one of this machine's two cores busy elsewhere,
 # OpenMP's two threads waited for the descheduled one: the cheap average view (cutoffs in turn) took 26-32 ms
-# against 6.1-6.5 on one thread (5.5 against 6.7 on the quiet machine; 2026-11-28).
+# against 6.1-6.5 on one thread (5.5 against 6.7 at load 1.1; 2026-11-28).
 
 
 @numba.njit(cache=True)
