@@ -96,3 +96,31 @@ def test_the_cutoff_low_passes_the_blobs_projection(tmp_path, fourier, cutoff, l
     exact = (s / math.sqrt(var)) ** 3 * math.sqrt(2 * math.pi * var) * np.exp(-rho2 / (2 * var))
     error = np.abs(p - exact).max() / exact.max()
     assert low <= error < high
+
+
+@pytest.mark.parametrize("mode", ["average", "xray"])
+def test_cutoffs_in_turn_on_one_renderer_draw_what_fresh_renderers_draw(shared_gl_context, mode):
+    """One renderer alternating cutoffs (a bench's rounds, a user trying them): the frame's view-only parts
+    (chords, short chords, phases) shared by the frames of every cutoff, and the slice pass clearing only the
+    rows between its bands in the kept columns, so what a larger cutoff drew there before must not show
+    through: every image equal to the bit to a fresh renderer's, and the chords made once for the view."""
+    scene = small_scene({**ORTHO, "renderer.compositing": mode, "renderer.classification": "pre",
+                         "renderer.shading.enabled": False, "volume.size": 24, "image.width": 40,
+                         "image.height": 36})
+    cutoffs = [0.6, 0.3, None, 0.3, 0.6, 0.15]
+    one = FourierRenderer(ctx=shared_gl_context)
+    try:
+        chords = []
+        for cutoff in cutoffs:
+            s = scene.with_renderer(slice_cutoff=cutoff)
+            image = one.render(s)
+            chords.append(one._cache["frame"][1].chords(s)[0])
+            fresh = FourierRenderer(ctx=shared_gl_context)
+            try:
+                expected = fresh.render(s)
+            finally:
+                fresh.close()
+            assert np.array_equal(image, expected), cutoff
+    finally:
+        one.close()
+    assert all(c is chords[0] for c in chords)  # one view: its chords made once, for every cutoff
