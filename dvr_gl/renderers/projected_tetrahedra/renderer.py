@@ -3,7 +3,8 @@
 The mesh goes to the GPU once (points relative to its centre, so float32 keeps their precision;
 cells; each cell's face planes and scalar as ``g . p + c``, computed in float64), as textures of
 4096 texels a row; a frame uploads only the visibility order (a texture: no vertex buffer; each
-cell's footprint is drawn by ``pt.geom``).
+cell's footprint is drawn by ``pt.geom``, or Shirley-Tuchman's fan built by ``pt_fan.comp`` into a
+vertex buffer on the GPU: :attr:`ProjectedTetrahedraRenderer.compute_fan`).
 Emission-absorption blends the fragments' premultiplied colours with the over operator, back to
 front; MIP and MinIP blend by max and min, the average by addition, and the isosurface keeps the
 nearest hit by the depth test: those need no order.  The projections' values are classified on
@@ -18,7 +19,7 @@ import moderngl
 import numpy as np
 
 from ... import limits
-from ...gl.shaders import create_program, shader_root
+from ...gl.shaders import ShaderError, create_program, load_shader, program_cache, shader_root
 from ...sandbox import current
 from ..mesh import SHADERS as MESH_SHADERS
 from ..mesh.textures import MODES, ROW, MeshRenderer, rows
@@ -34,6 +35,9 @@ COVER_ALL = np.uint32(1 << 31)  # an order entry's flag: the cell reaches behind
 #: each fragment integrating its piece exactly): measured with the oxygen post (513k cells) at 256^2 to
 #: 4096^2, 5e-6 s a pixel against the GL rate of 3e8 samples a second (limits.RATES): 1500 = 19 x 80.
 FRAGMENTS_PER_CUBE_ROOT = 20
+#: A slot's triangles in the compute fan's rows (thick, h0, h1, h2, h3): pt.geom's strips' triangles,
+#: vertex for vertex (h0 h1 thick, thick h1 h2, h2 h3 thick, thick h3 h0).
+FAN_INDICES = np.array([1, 2, 0, 0, 2, 3, 3, 4, 0, 0, 4, 1], np.uint32)
 BATCHES = 32  # draw calls a frame is cut into, in order, for progress and the time limit between them
 
 
@@ -50,6 +54,12 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
     #: and the rasterizer's setup are spent on them for nothing.  Measured (README): the blunt fin 9-14 %
     #: faster a frame; the oxygen post leaves out 29-35 % of its cells.
     cull_unreached = True
+    #: ``True`` (the default): Shirley-Tuchman's fan built by a compute shader (``pt_fan.comp``, once a frame
+    #: after the order, into a vertex buffer drawn in slot order with ``pt_fan.vert``) where the context has
+    #: GL 4.3; else (and with ``False``) in ``pt.geom``.  The same picture within float32 rounding; llvmpipe
+    #: runs compute shaders on its thread pool, the geometry stage on the calling thread.  Measured (README): 1.04-1.13x
+    #: the geometry shader's frame on every comb view in 3 of 5 interleaved runs (0.88-1.07 in the busiest).
+    compute_fan = True
 
     def __init__(self, ctx=None):
         super().__init__(ctx)
@@ -112,6 +122,15 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
             vao = self.ctx.vertex_array(program, [(host.vertices, "2f 4f 1f", "in_pixel", "in_st", "in_tau_max")],
                                         index_buffer=host.indices, index_element_size=4)
             primitive, per_cell = moderngl.TRIANGLES, host.fast.CELL_INDICES  # four triangles a cell
+        elif interpolated and self._has_compute():  # the fan built by a compute shader, drawn as the host's
+            program = create_program(self.ctx, "pt_fan.vert", "pt_st.frag", roots=SHADERS)
+            slots = self._order_texture(order)
+            fan, indices = self._compute_fan(scene, textures, defines, slots, len(order))
+            self._uniforms(program, scene, textures)
+            vao = self.ctx.vertex_array(program, [(fan, "2f 4f 1f", "in_pixel", "in_st", "in_tau_max")],
+                                        index_buffer=indices, index_element_size=4)
+            primitive, per_cell = moderngl.TRIANGLES, len(FAN_INDICES)
+            stats["fan"] = "compute shader"
         else:  # one point a cell, its footprint built in pt.geom
             program = create_program(self.ctx, "pt.vert", "pt_st.frag" if interpolated else "pt.frag", defines,
                                      geometry="pt.geom", roots=SHADERS)
@@ -147,6 +166,45 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
         if mode == "emission_absorption" or self._count_fragments:
             return image
         return self._resolve(scene, image.astype(np.float64)).astype(np.float32)
+
+    def _has_compute(self) -> bool:
+        """Whether this frame's fan is built by ``pt_fan.comp``: :attr:`compute_fan` and GL 4.3."""
+        return self.compute_fan and self.ctx.version_code >= 430
+
+    def _compute_fan(self, scene, textures, defines, slots, count):
+        """Build the fan of the ``count`` cells in ``slots`` (the order texture) with ``pt_fan.comp`` into a
+        vertex buffer (5 rows of 7 floats a slot, kept per mesh), and the fixed index buffer that draws
+        slot after slot."""
+        cells = textures.cells
+        fan = self._cached("compute fan", (scene.field,), lambda: self.ctx.buffer(reserve=max(5 * 7 * 4 * cells, 4)))
+        indices = self._cached("compute fan indices", (scene.field,), lambda: self.ctx.buffer(
+            (FAN_INDICES[None, :] + 5 * np.arange(cells, dtype=np.uint32)[:, None]).astype(np.uint32).tobytes()))
+        keys = {k: defines[k] for k in ("CAMERA_ORTHOGRAPHIC", "ALPHA_MODEL", "TF_COUNT", "TF_POW2", "EMISSION")
+                if k in defines}
+        comp = self._compute_program("pt_fan.comp", {**keys, "SHIRLEY_TUCHMAN": True})
+        self._uniforms(comp, scene, textures)
+        self.bind(comp, {"u_slots": count}, {**dict(textures.textures), "u_order": slots})
+        fan.bind_to_storage_buffer(0)
+        groups = max(-(-count // 64), 1)
+        gx = min(groups, 65535)
+        comp.run(gx, -(-groups // gx), 1)
+        self.ctx.memory_barrier()
+        return fan, indices
+
+    def _compute_program(self, name: str, defines: dict):
+        """The compute shader ``name`` with ``defines``, compiled once per context (kept with its programs,
+        :func:`.program_cache`, so released with them)."""
+        cache = program_cache(self.ctx)
+        key = ("compute", name, SHADERS, tuple(sorted(defines.items())))
+        if key not in cache:
+            source = load_shader(name, defines, SHADERS)
+            try:
+                cache[key] = self.ctx.compute_shader(source.text)
+            except moderngl.Error as exc:
+                raise ShaderError(f"GLSL compile failed in {name}: {' '.join(str(exc).split())[:300]} (renderer "
+                                  f"{self.ctx.info['GL_RENDERER']}); set compute_fan = False to build the fan "
+                                  f"in pt.geom") from exc
+        return cache[key]
 
     def _reaching(self, scene, textures, orders) -> np.ndarray:
         """Which cells reach a pixel centre (:func:`.order.reaching`, compiled where the order is); all of

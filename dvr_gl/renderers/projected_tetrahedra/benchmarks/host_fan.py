@@ -55,6 +55,7 @@ def measure(pt, name: str, data_dir: Path, frames: int, size: int) -> dict:
         return n
 
     HostFan.start, HostFan.finish = timed_start, timed_finish
+    pt.compute_fan = False  # "gs": the geometry shader's fan (the compute shader's: compute_fan.py)
     try:
         pictures, times = {}, {"host": [], "gs": [], "prebuilt": []}
         for key in times:  # upload, programs, adjacency, numba: untimed
@@ -68,7 +69,7 @@ def measure(pt, name: str, data_dir: Path, frames: int, size: int) -> dict:
                 times[key].append((pt.stats["seconds"], pt.stats["draw_seconds"]))
     finally:
         HostFan.start, HostFan.finish = start, finish
-        pt.host_fan = False
+        pt.host_fan, pt.compute_fan = False, True
     ms = {key: [1e3 * statistics.median(t[i] for t in values) for i in range(2)] for key, values in times.items()}
     return {"mesh": name, "cells": len(mesh.tets), "host": ms["host"], "gs": ms["gs"], "prebuilt": ms["prebuilt"][1],
             "wait": 1e3 * statistics.median(waits), "diff": float(np.abs(pictures["host"] - pictures["gs"]).max())}
