@@ -601,8 +601,8 @@ def direct_integrals(scene, rays: RayBatch, rows: np.ndarray) -> np.ndarray:
     x, weights = gauss_legendre(polynomial_nodes(scene.renderer) or 6)
     field = model.scalar
     module = compiled_average()
-    if (module is not None and getattr(field, "kind", None) == "linear" and getattr(field, "kernel", 1) is None
-            and field.channels == 0 and model.hemispherical is None and model.depth_cue is None):
+    trilinear = getattr(field, "kind", None) == "linear" and field.channels == 0  # a scalar grid's tent
+    if module is not None and trilinear and model.hemispherical is None and model.depth_cue is None:
         # the trilinear field's integrals ray by ray (average_compiled.chord_integrals: the same pieces and nodes)
         return module.chord_integrals(field.values, field.spacing, field.origin, np.ascontiguousarray(o),
                                       np.ascontiguousarray(d), rays.t0[rows], rays.t1[rows], x, weights)
