@@ -76,6 +76,17 @@ def transfer_function(values: np.ndarray) -> list[list[float]]:
     return [[float(v), *c] for v, c in zip(q, COLOURS)]
 
 
+def shared_mesh(name: str, data_dir: Path) -> tuple[dict, object]:
+    """Shared mesh ``name`` of :data:`MESHES` read from ``data_dir``: its scene keys (:func:`mesh_scene_keys`)
+    and the mesh field, read once for every view a bench takes of it."""
+    from ..scene.resolve import load_scene
+
+    source, array = MESHES[name]
+    path = Path(data_dir) / source
+    mesh = load_scene(None, {"volume.path": str(path), **({"volume.array": array} if array else {})}).field
+    return mesh_scene_keys(path, array, mesh), mesh
+
+
 def mesh_scene_keys(path: Path, array: str | None, mesh) -> dict:
     """A mesh's scene keys: its file and array, the quintile transfer function, alpha per a tenth of its
     diagonal (``transfer_function.unit_distance``), and a converged reference to 1e-5."""

@@ -48,7 +48,7 @@ def measure(pt, scene, frames: int) -> dict:
 
 
 def main(argv=None):
-    from dvr_gl.bench.datasets import MESHES, mesh_scene_keys
+    from dvr_gl.bench.datasets import shared_mesh
     from dvr_gl.renderers import create_renderer
     from dvr_gl.scene.resolve import load_scene
 
@@ -66,11 +66,9 @@ def main(argv=None):
     print("|---|---|---:|---:|---:|---:|---:|")
     try:
         for name in args.meshes.split(","):
-            source, array = MESHES[name]
-            path = args.data_dir / source
-            mesh = load_scene(None, {"volume.path": str(path), **({"volume.array": array} if array else {})}).field
+            keys, _ = shared_mesh(name, args.data_dir)
             for az, el in VIEWS:
-                scene = load_scene(None, {**mesh_scene_keys(path, array, mesh), "camera.azimuth": az,
+                scene = load_scene(None, {**keys, "camera.azimuth": az,
                                           "camera.elevation": el, "renderer.name": "projected-tetrahedra",
                                           "image.width": args.size, "image.height": args.size})
                 r = measure(pt, scene.with_renderer(cell_order="exact", integration="shirley-tuchman"), args.frames)

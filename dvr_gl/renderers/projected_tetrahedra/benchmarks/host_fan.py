@@ -30,14 +30,12 @@ import numpy as np
 
 def measure(pt, name: str, data_dir: Path, frames: int, size: int) -> dict:
     """One mesh's row: both paths' frame and draw ms (medians), the host fan's wait, the prebuilt draw."""
-    from dvr_gl.bench.datasets import MESHES, mesh_scene_keys
+    from dvr_gl.bench.datasets import shared_mesh
     from dvr_gl.renderers.projected_tetrahedra.fan import HostFan
     from dvr_gl.scene.resolve import load_scene
 
-    source, array = MESHES[name]
-    path = data_dir / source
-    mesh = load_scene(None, {"volume.path": str(path), **({"volume.array": array} if array else {})}).field
-    scene = load_scene(None, {**mesh_scene_keys(path, array, mesh), "camera.azimuth": 30.0, "camera.elevation": 20.0,
+    keys, mesh = shared_mesh(name, data_dir)
+    scene = load_scene(None, {**keys, "camera.azimuth": 30.0, "camera.elevation": 20.0,
                               "renderer.name": "projected-tetrahedra", "image.width": size, "image.height": size})
     scene = scene.with_renderer(cell_order="exact", integration="shirley-tuchman")
     start, finish, waits, prebuilt = HostFan.start, HostFan.finish, [], [None]

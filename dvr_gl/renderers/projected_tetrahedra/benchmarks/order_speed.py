@@ -31,13 +31,11 @@ VIEWS = ((30.0, 20.0), (120.0, -10.0), (0.0, 90.0))
 
 
 def _scene(name: str, data_dir: Path, azimuth: float, elevation: float, shuffle: bool = False):
-    from dvr_gl.bench.datasets import MESHES, mesh_scene_keys
+    from dvr_gl.bench.datasets import shared_mesh
     from dvr_gl.scene.resolve import load_scene
 
-    source, array = MESHES[name]
-    path = data_dir / source
-    mesh = load_scene(None, {"volume.path": str(path), **({"volume.array": array} if array else {})}).field
-    scene = load_scene(None, {**mesh_scene_keys(path, array, mesh), "camera.azimuth": azimuth,
+    keys, _ = shared_mesh(name, data_dir)
+    scene = load_scene(None, {**keys, "camera.azimuth": azimuth,
                               "camera.elevation": elevation, "renderer.name": "projected-tetrahedra",
                               "image.width": SIZE, "image.height": SIZE})
     return dataclasses.replace(scene, field=_shuffled(scene.field)) if shuffle else scene
