@@ -150,10 +150,9 @@ def _chord_integral(values, spacing, origin, o, direction, a, b, nodes, weights,
             knots[j + 1] = knots[j]
             j -= 1
         knots[j + 1] = x
-    ts = knots
     total = 0.0
     for i in range(m - 1):
-        lo_t, hi_t = ts[i], ts[i + 1]
+        lo_t, hi_t = knots[i], knots[i + 1]
         if not hi_t > lo_t:
             continue
         half = 0.5 * (hi_t - lo_t)
