@@ -75,6 +75,14 @@ LADDER = (2.75, 2.25, 1.75, 1.25, 0.75)
 PREINTEGRATED_GAIN = 2.0
 #: Where even the finest of the ladder misses the target: the fixed default's distance.
 FINEST = DEFAULT_SAMPLE_DISTANCE_VOXELS
+#: Emission-absorption: where even :data:`FINEST` misses the target by more than this factor on the lines, the
+#: target is out of reach: halving the step again (twice the finest's cost) at best quarters the error (second
+#: order), and the finest's frame would pay for an error the display still shows.  The defaults then take the
+#: cheapest choice whose simulated error is no worse than one sample a voxel, post-classified (the classic
+#: default, the peers'): the buckyball's narrow shell (32^3, a 20-unit tent) missed the target by 17.5x at 0.5
+#: voxel and took 63 ms for 28.5 dB, where pre-integrated 2.25 voxel gives 23.5 dB (one voxel: 23.6) in a third
+#: of the time (docs/tolerance.md, "Defaults").
+OUT_OF_REACH = 4.0
 #: Compositing modes the simulation covers.
 MODES = ("emission_absorption", "mip", "minip")
 #: Choices made, by what they depend on: ``{key: DefaultChoice}`` (see :func:`cache_key`).
@@ -101,6 +109,21 @@ REFINE_FETCH_COST = 2.0
 #: took the value's RMS error from 0.56/255 to 0.35/255 (below one bracket at 1 voxel, 0.57/255) for 8
 #: more texture fetches a ray (docs/peers.md, "Refining more than one bracket").
 EXTREMUM_BRACKETS = 2
+#: MIP and MinIP where the scene gives no renderer.extremum_brackets: the brackets simulated with each of
+#: :data:`REFINEMENT_CHOICES`; the cheapest per ray (:func:`ray_cost`) is kept.  The second bracket lets the
+#: distance grow where a second peak lies between the samples (MNI152), but costs its fetches and the loop's
+#: tracking of the second candidate: on the held-out scenes nucleon, ironProt and the confocal DNA channel the
+#: frame at the same distance took 1.28-1.39x one bracket's (512x512, interleaved, 2026-11-29), about what
+#: :func:`ray_cost` makes of it (ironProt at 1.25 voxel: 1.29x), and one bracket met the target at a distance
+#: as long or nearly (docs/peers.md, "Held-out scenes").
+BRACKET_CHOICES = (1, EXTREMUM_BRACKETS)
+#: MIP and MinIP: choices whose :func:`ray_cost` is within this fraction of the cheapest are level, and the one
+#: with more brackets is kept.  The model prices a refinement fetch at a fixed 2 samples (measured 1.7-2) and frames
+#: of one setting scatter by 5-10 % between interleaved runs here, so 10 % cheaper in the model is not reliably
+#: faster; and the second bracket catches the rare ray whose second peak rises above the extreme sample, the heavy
+#: tail that 512 lines sample worst.  brain-mip: one bracket of 6 steps at 1.25 voxel modelled 0.92x two of 4, timed
+#: 0.94x, simulated 0.47/255 against 0.44/255, but its image was at 52.9 dB against 54.2 (docs/peers.md).
+COST_TIE = 0.10
 #: Random lines simulated (:func:`.tolerance.line_samples`).
 LINES = 128
 #: MIP and MinIP: lines simulated.  A projection's error comes from the few lines whose peak falls between
@@ -123,6 +146,7 @@ class DefaultChoice:
     seconds: float   # what choosing took (the lines and the simulation)
     extremum_refinement: int | None = None  # MIP and MinIP: the parabolic steps simulated (else None)
     extremum_brackets: int | None = None  # MIP and MinIP with refinement: the brackets simulated (else None)
+    relaxed_target: float | None = None  # where the target is out of reach: the error of one sample a voxel
 
     def renderer_changes(self, voxel: float) -> dict:
         changes = {"classification": self.classification, "sample_distance": self.sample_distance_voxels * voxel,
@@ -139,9 +163,11 @@ class DefaultChoice:
         if self.extremum_brackets == 2:
             refined += " in two brackets"
         target = TARGET if self.extremum_refinement is None else MIP_TARGET
+        aim = f"target {target:.2g}" if self.relaxed_target is None else \
+            f"target {target:.2g} out of reach at {FINEST:g} voxel: one sample a voxel's {self.relaxed_target:.2g}"
         return (f"defaults chosen by the scene: {self.classification} classification, sample distance "
                 f"{self.sample_distance_voxels:g} voxel{refined}, early termination at {self.ert_threshold:g}; "
-                f"simulated RMS error {self.estimated_error:.2g} (target {target:.2g})")
+                f"simulated RMS error {self.estimated_error:.2g} ({aim})")
 
 
 def modelled(scene) -> bool:
@@ -166,7 +192,7 @@ def cache_key(scene) -> tuple:
     points = np.asarray(tf.points, dtype=np.float64)
     return (field_key(scene.field), points.tobytes(), points.shape, tf.unit_distance, tf.opacity_model,
             r.compositing, r.filter, r.classification, r.preintegration_size, refinement_steps(scene),
-            refinement_brackets(scene), getattr(r, "extremum_refinement", None))
+            refinement_brackets(scene), getattr(r, "extremum_refinement", None), getattr(r, "extremum_brackets", None))
 
 
 def field_key(field) -> tuple:
@@ -368,42 +394,71 @@ def simulate_choice(scene) -> DefaultChoice:
         post = lambda k: rms(composite(*segments(composed, n, k), step), fine)  # noqa: E731
         pre = lambda k: rms(composite(*segments(linearised(s, n, tf, k), n, 1), step), fine)  # noqa: E731
     else:
-        voxels, error, steps = extremum_choice(scene, s, n, lines, step)
+        voxels, error, steps, brackets = extremum_choice(scene, s, n, lines, step)
         return DefaultChoice("post", voxels, scene.renderer.ert_threshold, float(error), time.perf_counter() - begin,
-                             steps, refinement_brackets(scene))
+                             steps, brackets)
     target = target_of(mode)
+    allow_pre = tolerance.narrowest_feature(tf) * (scene.renderer.preintegration_size - 1) \
+        >= tolerance.PREINTEGRATION_NODES
+    choice = emission_choice(post, pre if allow_pre else None, target)
+    relaxed = None
+    if choice[:2] == ("post", FINEST) and post(round(FINEST * PER_VOXEL)) > OUT_OF_REACH * MARGIN * target:
+        relaxed = post(PER_VOXEL)  # out of reach: no less accurate than one sample a voxel, post-classified
+        choice = emission_choice(post, pre if allow_pre else None, relaxed)
+    ert = 1.0 - TARGET / 4.0 if mode == "emission_absorption" else scene.renderer.ert_threshold
+    return DefaultChoice(choice[0], choice[1], ert, float(choice[2]), time.perf_counter() - begin,
+                         refinement_steps(scene), refinement_brackets(scene), relaxed)
+
+
+def emission_choice(post, pre, target: float) -> tuple[str, float, float]:
+    """Emission-absorption: ``(classification, voxels, error)``, the largest distance of :data:`LADDER` whose
+    simulated error ``post(k)`` meets ``target`` (:data:`FINEST` where none does), or pre-integrated (``pre(k)``;
+    None: not allowed) where that meets it at :data:`PREINTEGRATED_GAIN` times the distance or more."""
     voxels, error = largest_meeting(post, LADDER, target)
     choice = ("post", voxels, error) if voxels is not None else ("post", FINEST, error)
-    if pre is not None and tolerance.narrowest_feature(tf) * (scene.renderer.preintegration_size - 1) \
-            >= tolerance.PREINTEGRATION_NODES:
+    if pre is not None:
         longer = [v for v in LADDER if v >= PREINTEGRATED_GAIN * choice[1]]
         pv, pe = longest_meeting(pre, longer[::-1], target)
         if pv is not None:
             choice = ("preintegrated", pv, pe)
-    ert = 1.0 - TARGET / 4.0 if mode == "emission_absorption" else scene.renderer.ert_threshold
-    return DefaultChoice(choice[0], choice[1], ert, float(choice[2]), time.perf_counter() - begin,
-                         refinement_steps(scene), refinement_brackets(scene))
+    return choice
 
 
-def extremum_choice(scene, s: np.ndarray, n: np.ndarray, lines, step: float) -> tuple[float, float, int]:
-    """MIP and MinIP: ``(voxels, error, steps)``, the distance (voxels) and refinement steps of the cheapest
-    :func:`ray_cost` among the scene's own steps or :data:`REFINEMENT_CHOICES`, each at the largest distance of
+def extremum_choice(scene, s: np.ndarray, n: np.ndarray, lines, step: float) -> tuple[float, float, int, int | None]:
+    """MIP and MinIP: ``(voxels, error, steps, brackets)``, the distance (voxels), refinement steps and brackets
+    of the cheapest :func:`ray_cost` among :func:`extremum_choices`, each at the largest distance of
     :data:`LADDER` whose simulated error on the lines (values ``s``, ``n`` fine steps of ``step`` each) meets
-    :data:`MIP_TARGET` (:data:`FINEST` and the last error where none does; the first choice on a tie)."""
+    :data:`MIP_TARGET` (:data:`FINEST` and the last error where none does); of the choices within
+    :data:`COST_TIE` of the cheapest, the one with the most brackets, then the cheapest (the first on a tie)."""
     mode, tf = scene.renderer.compositing, scene.transfer_function
-    sign, brackets = (1.0 if mode == "mip" else -1.0), refinement_brackets(scene)
-    own = scene.renderer.extremum_refinement
-    best = None
-    for steps in (refinement_steps(scene),) if own is not None else REFINEMENT_CHOICES:
+    sign = 1.0 if mode == "mip" else -1.0
+    found = []
+    for steps, brackets in extremum_choices(scene):
         fine = extremum_rgba(*refined_segments(s, n, 1, sign, steps, lines, step, brackets), sign, tf)
         post = lambda k: rms(extremum_rgba(*refined_segments(s, n, k, sign, steps, lines, step,  # noqa: E731
                                                              brackets), sign, tf), fine)
         voxels, error = largest_meeting(post, LADDER, target_of(mode))
         voxels = FINEST if voxels is None else voxels
-        cost = ray_cost(float(np.mean(n)) / PER_VOXEL, voxels, steps, brackets)
-        if best is None or cost < best[0]:
-            best = (cost, voxels, error, steps)
-    return best[1:]
+        found.append((ray_cost(float(np.mean(n)) / PER_VOXEL, voxels, steps, brackets), voxels, error, steps, brackets))
+    return level_choice(found)[1:]
+
+
+def level_choice(found: list[tuple]):
+    """Of ``found`` (``(cost, voxels, error, steps, brackets)`` each), those within :data:`COST_TIE` of the
+    cheapest cost: the one with the most brackets, then the cheapest (the first on a tie)."""
+    cheapest = min(f[0] for f in found)
+    level = [f for f in found if f[0] <= (1.0 + COST_TIE) * cheapest]
+    return min(level, key=lambda f: (-(f[4] or 0), f[0]))
+
+
+def extremum_choices(scene) -> list[tuple[int, int | None]]:
+    """MIP and MinIP: the ``(steps, brackets)`` pairs :func:`extremum_choice` simulates: the scene's own
+    renderer.extremum_refinement or each of :data:`REFINEMENT_CHOICES`, with the scene's own
+    renderer.extremum_brackets or each of :data:`BRACKET_CHOICES` (None where nothing is refined)."""
+    r = scene.renderer
+    steps = (refinement_steps(scene),) if r.extremum_refinement is not None else REFINEMENT_CHOICES
+    brackets = (r.extremum_brackets,) if r.extremum_brackets is not None else BRACKET_CHOICES
+    return [(k, b if k else None) for k in steps for b in (brackets if k else (None,))]
 
 
 def ray_cost(length: float, voxels: float, steps: int, brackets: int | None) -> float:

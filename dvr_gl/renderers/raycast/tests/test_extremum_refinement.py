@@ -222,16 +222,30 @@ def test_second_candidates_follow_the_rule():
             assert tracked.second_at[r] == j and tracked.second[r] == v[r, j], (r, v[r], j)
 
 
-def test_the_defaults_refine_two_brackets():
-    """Where the scene gives no brackets the defaults choose two (and simulate them); one given is kept, and
-    without a chosen distance none is chosen (1: the shader's single bracket)."""
+def test_the_defaults_choose_the_brackets():
+    """Where the scene gives no brackets the defaults simulate one and two (defaults.BRACKET_CHOICES) and keep one
+    of them; one given is kept and simulated as such, and without a chosen distance none is chosen (1: the
+    shader's single bracket)."""
     keys = {**{k: v for k, v in BLOBS.items() if k not in ("renderer.sample_distance_voxels",
                                                              "renderer.extremum_refinement")},
             "renderer.compositing": "mip", "volume.size": 33}
-    assert load_scene(None, keys).renderer.extremum_brackets == defaults.EXTREMUM_BRACKETS == 2
-    assert load_scene(None, {**keys, "renderer.extremum_brackets": 1}).renderer.extremum_brackets == 1
+    assert load_scene(None, keys).renderer.extremum_brackets in defaults.BRACKET_CHOICES == (1, 2)
+    for own in (1, 2):
+        scene = load_scene(None, {**keys, "renderer.extremum_brackets": own})
+        assert scene.renderer.extremum_brackets == own and defaults.choose_defaults(scene).extremum_brackets == own
     assert load_scene(None, {**keys, "renderer.sample_distance_voxels": 1.0}).renderer.extremum_brackets is None
-    assert defaults.choose_defaults(load_scene(None, keys)).extremum_brackets == 2
+    assert defaults.extremum_choices(load_scene(None, {**keys, "renderer.extremum_refinement": 0})) == [(0, None)]
+
+
+def test_choices_level_in_cost_keep_the_second_bracket():
+    """Choices within COST_TIE of the cheapest are level (the model's price of a fetch and the frames' scatter
+    are that coarse), and the one with more brackets wins among them; beyond it the cheapest wins."""
+    one, two = (90.0, 1.25, 4e-4, 6, 1), (98.0, 1.25, 4e-4, 4, 2)   # (cost, voxels, error, steps, brackets)
+    assert defaults.level_choice([one, two]) == two
+    dear = (90.0 * (1.0 + defaults.COST_TIE) + 1.0, 1.25, 4e-4, 4, 2)
+    assert defaults.level_choice([one, dear]) == one
+    assert defaults.level_choice([(50.0, 2.75, 1e-3, 4, 1), (52.0, 2.25, 1e-3, 6, 1)])[0] == 50.0
+    assert defaults.level_choice([(50.0, 2.75, 1e-3, 0, None)])[0] == 50.0
 
 
 def test_two_brackets_skip_below_the_second_candidate(shared_gl_context):
