@@ -136,8 +136,10 @@ def _peers_arguments(pe):
         the help is asked for (``dvr render`` builds this parser too, and must not import the harness)."""
         from dvr_gl.bench import peers
 
-        scenes.help = (f"only these scenes ({', '.join(peers.SCENES)}; \"held-out\" for the last "
-                       f"{len(peers.HELD_OUT)}, never tuned on; default all)")
+        scenes.help = (f"only these scenes ({', '.join(peers.SCENES)}; \"held-out\" for the "
+                       f"{len(peers.HELD_OUT)} before the last {len(peers.HELD_OUT_2)}, never tuned on; "
+                       f"\"held-out-2\" for the last {len(peers.HELD_OUT_2)}, declared on 2026-11-29 before "
+                       f"any run; default all)")
         renderers.help = f"only these ({', '.join(peers.RENDERERS)}; default all)"
         return plain()
 
@@ -464,7 +466,7 @@ def run_peers(args) -> int:
     from dvr_gl.image import atomic_write, check_writable
 
     scenes = args.scenes.split(",") if args.scenes else list(peers.SCENES)
-    scenes = [x for name in scenes for x in (peers.HELD_OUT if name == "held-out" else (name,))]
+    scenes = [x for name in scenes for x in peers.HELD_OUT_SETS.get(name, (name,))]
     renderers = args.renderers.split(",") if args.renderers else list(peers.RENDERERS)
     for what, given, known in (("--scenes", scenes, peers.SCENES), ("--renderers", renderers,
                                                                     peers.RENDERERS + ("numpy",))):

@@ -240,22 +240,86 @@ def test_help_lists_the_scenes_and_renderers_of_the_code(capsys, monkeypatch):
         assert name in text, name
 
 
-def test_the_held_out_scenes_are_declared_whole(tmp_path, capsys):
-    """Issue 44's held-out scenes: each on a dataset the bench can load, with a transfer function for its
-    mode; ``--scenes held-out`` names exactly them, and without the shared data they are left out with a
-    note each (nothing measured)."""
-    for key in peers.HELD_OUT:
+@pytest.mark.parametrize("name", ["held-out", "held-out-2"])
+def test_the_held_out_scenes_are_declared_whole(tmp_path, capsys, name):
+    """Issue 44's held-out scenes (the first set and the second): each on a dataset the bench can load, with
+    a transfer function for its mode; ``--scenes held-out`` (``held-out-2``) names exactly them, and without
+    the shared data they are left out with a note each (nothing measured, one line on stderr)."""
+    held = peers.HELD_OUT_SETS[name]
+    for key in held:
         dataset, mode = peers.SCENES[key]
         assert dataset in peers.DATASETS, key
         assert mode == "mip" or dataset in peers.COMPOSITE_TF, key  # MIP: the uint8 ramp unless MIP_TFS has one
-    assert list(peers.SCENES)[-len(peers.HELD_OUT):] == list(peers.HELD_OUT)  # the help's "the last N"
-    args = ["bench", "peers", "--scenes", "held-out", "--renderers", "dvr-gl", "--data-dir", str(tmp_path),
+    args = ["bench", "peers", "--scenes", name, "--renderers", "dvr-gl", "--data-dir", str(tmp_path),
             "--cache", str(tmp_path / "cache"), "--rounds", "1", "--frames", "1", "--size", "16", "--error-size", "12"]
     assert main(args) == 1  # nothing measured: no data
     out, err = capsys.readouterr()
     assert err.count("\n") == 1 and "no scene was measured" in err and "internal error" not in err
-    for key in peers.HELD_OUT:
+    left_out = [line.split(":")[0] for line in out.splitlines() if line.endswith("(--data-dir), left out")]
+    assert left_out == list(held)  # exactly the set, in its order
+    for key in held:
         assert f"{key}: {peers.DATASETS[peers.SCENES[key][0]][0]} not found" in out, key
+
+
+def test_the_help_says_which_scenes_each_held_out_set_is(capsys, monkeypatch):
+    """The help's "the last N" and "the N before them" are true of peers.SCENES: the second set last, the
+    first just before it; the two sets share no scene, and the second set is three composite, three MIP."""
+    first, second = list(peers.HELD_OUT), list(peers.HELD_OUT_2)
+    assert list(peers.SCENES)[-len(second):] == second
+    assert list(peers.SCENES)[-len(second) - len(first):-len(second)] == first
+    assert not set(first) & set(second)
+    assert sorted(peers.SCENES[k][1] for k in second) == ["composite"] * 3 + ["mip"] * 3
+    monkeypatch.setenv("COLUMNS", "1000")
+    with pytest.raises(SystemExit):
+        main(["bench", "peers", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert f'"held-out" for the {len(first)} before the last {len(second)}' in text
+    assert f'"held-out-2" for the last {len(second)}' in text
+
+
+#: The second held-out set as read from the shared data: dataset -> (zyx shape, dtype, spacing x y z).
+HELD_OUT_2_VOLUMES = {"frog": ((136, 470, 500), np.uint8, (1.0, 1.0, 1.5)),
+                      "mni152": ((193, 229, 193), np.int16, (1.0, 1.0, 1.0)),
+                      "brainsmall": ((84, 128, 128), np.uint8, (1.0, 1.0, 1.0)),
+                      "lobster": ((56, 324, 301), np.uint8, (1.0, 1.0, 1.4)),
+                      "cthead": ((113, 256, 256), np.int16, (1.0, 1.0, 2.0)),
+                      "cell": ((5, 170, 240), np.uint16, (0.0906, 0.0906, 0.32))}
+
+
+def test_the_second_held_out_set_loads_from_its_datasets(tmp_path, shared_data):
+    """Each scene of the second set loads (load only: these scenes are never rendered outside the one run
+    after the defaults change) as the ``.npy`` the bench and the peers read, in the file's own type and
+    spacing; each transfer function's knots rise within the data's range, its last knot at or below the
+    maximum; the MIP ramps end between the 99.5th percentile and the maximum, as a contrast limit would."""
+    assert {peers.SCENES[k][0] for k in peers.HELD_OUT_2} == set(HELD_OUT_2_VOLUMES)
+    for key in peers.HELD_OUT_2:
+        dataset, mode = peers.SCENES[key]
+        path, extra = peers.dataset_file(dataset, shared_data, tmp_path)
+        data = np.load(path)
+        shape, dtype, spacing = HELD_OUT_2_VOLUMES[dataset]
+        assert data.shape == shape and data.dtype == dtype, key
+        assert np.allclose(extra["volume.spacing"], spacing, rtol=1e-3), key
+        points = peers.scene_keys(key, path, 16, extra)["transfer_function.points"]
+        knots = [p[0] for p in points]
+        assert knots == sorted(knots) and knots[0] == 0 and knots[-1] <= data.max(), key
+        if mode == "mip":
+            assert points == peers.MIP_TFS[dataset], key
+            assert np.percentile(data, 99.5) < knots[-1] <= data.max(), key
+        else:
+            assert points == peers.COMPOSITE_TF[dataset] and max(p[4] for p in points) < 1, key
+
+
+def test_the_chromosome_scene_reads_one_channel_at_one_time_point(tmp_path, shared_data):
+    """The dividing cell's file holds 3 time points of 2 channels (TZCYX); the scene renders the chromosome
+    channel (0) at the second time point, exactly those voxels of the file."""
+    import tifffile
+
+    path, _ = peers.dataset_file("cell", shared_data, tmp_path)
+    with tifffile.TiffFile(shared_data / peers.DATASETS["cell"][0]) as tif:
+        assert tif.series[0].axes == "TZCYX"
+        stack = tif.series[0].asarray()
+    assert np.array_equal(np.load(path), stack[1, :, 0])
+    assert not np.array_equal(stack[1, :, 0], stack[0, :, 0]) and not np.array_equal(stack[1, :, 0], stack[1, :, 1])
 
 
 def test_the_dna_scene_reads_one_channel(tmp_path, shared_data):
