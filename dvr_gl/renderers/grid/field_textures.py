@@ -30,7 +30,7 @@ from ...errors import SceneError
 from ...fields import gradient_epsilon
 from ...preintegration import preintegrate
 from ...transfer_function import TransferFunction
-from .textures import FORMATS
+from .textures import FORMATS, texels
 
 #: How far (voxels) a member's box faces on the union box's are moved out (:meth:`FieldTextures._boxes`): far
 #: below a sample's spacing, far above float32 rounding.
@@ -217,10 +217,7 @@ def _group_texture(ctx, fields: list):
         raise SceneError(f"{fields[0].name}: data type {dtype} has no texture format; convert it to uint8, uint16, "
                          f"int16 or float32")
     kind, value_scale, value_offset, size = FORMATS[dtype]
-    stacked = np.stack(data, axis=-1) if len(data) > 1 else data[0][..., None]
-    if dtype == np.int16:  # unorm16 of x + 32768: x's bits with the sign flipped (.textures)
-        stacked = np.bitwise_xor(stacked.view(np.uint16), np.uint16(0x8000))
-    stacked = np.ascontiguousarray(stacked)
+    stacked = np.ascontiguousarray(texels(np.stack(data, axis=-1) if len(data) > 1 else data[0][..., None]))
     return _texture(ctx, stacked, stacked.shape[3], kind), stacked.size * size, value_scale, value_offset
 
 

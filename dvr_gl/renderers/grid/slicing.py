@@ -26,6 +26,7 @@ from ..surfaces import with_surfaces
 from .bricking import visibility_order
 from .classification import classification_features
 from .sampling import GridRenderer
+from .textures import texel_bytes
 
 #: The grid kit's GLSL (the slices' program), before the common library.
 SHADERS = (shader_root(__file__),)
@@ -98,7 +99,7 @@ class SlicingRenderer(GridRenderer):
         tables, light_seconds = self.scattering_tables(scene, defines, views, tables)
         if "HALF_ANGLE" in defines:
             return self._draw_half_angle(scene, defines, program, tables, views[0], start)
-        per_voxel = scene.volume.data.itemsize + self.texture_bytes_per_voxel(defines)
+        per_voxel = texel_bytes(scene.volume.dtype) + self.texture_bytes_per_voxel(defines)
         resident = sum(np.prod(v.dims) for v in views) * per_voxel <= scene.renderer.texture_budget_mb * 2 ** 20
         if len(views) > 1:
             order = visibility_order([v.brick for v in views], scene.volume, scene.camera, front_to_back=False)

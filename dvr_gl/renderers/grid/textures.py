@@ -3,12 +3,19 @@
 =========  ============  ===============================================
 data       texture       back to data units
 =========  ============  ===============================================
-uint8      R8 (unorm)    ``texel * 255``
+uint8      R16F          ``texel`` (0..255: every value exact in half
+                         precision)
 uint16     R16 (unorm)   ``texel * 65535``
 int16      R16 (unorm)   ``texel * 65535 - 32768`` (uploaded + 32768: all
                          65536 values survive, unlike R16_SNORM's -32768)
 float32    R32F          ``texel``
 =========  ============  ===============================================
+
+uint8 as R16F, not R8: llvmpipe filters an R8 texture in 8-bit fixed point and returns the filtered value
+rounded to 8 bits (up to one data unit off; a MIP's image at 54-57 dB on nucleon, ironProt and brainsmall,
+where the same settings with R16F give 57-64 dB, and hydrogen's 68 against 80 dB), while it filters R16F in
+float; and it draws R16F frames as fast or faster (0.77-1.0x R8's on five of the peers' scenes; 2026-11-29,
+docs/peers.md).  The price is two bytes a voxel, which the memory budget counts (:func:`texel_bytes`).
 
 Textures clamp to the edge; 3D textures filter linearly (the shaders use
 ``texelFetch`` where they want no filtering).
@@ -21,12 +28,29 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
+#: ``{data type: (moderngl dtype, value scale, value offset, bytes a texel)}``: a texel's data value is
+#: ``texel * scale + offset``; :func:`texels` turns the data into what is uploaded.
 FORMATS = {
-    np.dtype(np.uint8): ("f1", 255.0, 0.0, 1),
+    np.dtype(np.uint8): ("f2", 1.0, 0.0, 2),
     np.dtype(np.uint16): ("nu2", 65535.0, 0.0, 2),
     np.dtype(np.int16): ("nu2", 65535.0, -32768.0, 2),
     np.dtype(np.float32): ("f4", 1.0, 0.0, 4),
 }
+
+
+def texels(data: np.ndarray) -> np.ndarray:
+    """``data`` as its texture holds it (:data:`FORMATS`): uint8 as float16 (exact), int16 as the uint16 of
+    ``x + 32768`` (``x``'s bits with the sign bit flipped), uint16 and float32 as they are."""
+    if data.dtype == np.uint8:
+        return data.astype(np.float16)
+    if data.dtype == np.int16:
+        return np.bitwise_xor(data.view(np.uint16), np.uint16(0x8000))
+    return data
+
+
+def texel_bytes(dtype) -> int:
+    """Bytes a voxel of ``dtype`` takes in its texture (:data:`FORMATS`; the memory budget's count)."""
+    return FORMATS[np.dtype(dtype)][3]
 
 
 @dataclass
@@ -56,7 +80,7 @@ def upload_volume(ctx, volume) -> VolumeTexture:
     data = volume.data
     if data.dtype == np.int16:
         return VolumeTexture(_int16_texture3d(ctx, data), scale, offset, data.size * size)
-    return VolumeTexture(_texture3d(ctx, data, 1, dtype), scale, offset, data.size * size)
+    return VolumeTexture(_texture3d(ctx, texels(data), 1, dtype), scale, offset, data.size * size)
 
 
 INT16_SLAB_BYTES = 4 << 20  # slices converted and written at a time: a cache-sized buffer

@@ -33,7 +33,7 @@ from ...transfer_function_2d import is_2d
 from ..grid.bricking import ghost_width, plan_bricks, visibility_order
 from ..grid.classification import classification_features
 from ..grid.sampling import GridRenderer
-from ..grid.textures import upload_field
+from ..grid.textures import texel_bytes, upload_field
 from ..grid.views import GridView
 from ..surfaces import with_surfaces
 from . import acceleration as accel
@@ -539,7 +539,7 @@ class RayCastRenderer(GridRenderer):
         front_to_back = "BACK_TO_FRONT" not in defines
         bricks = visibility_order([v.brick for v in views], scene.volume, scene.camera, front_to_back)
         by_brick = {v.brick: v for v in views}
-        per_voxel = scene.volume.dtype.itemsize + self.texture_bytes_per_voxel(defines)
+        per_voxel = texel_bytes(scene.volume.dtype) + self.texture_bytes_per_voxel(defines)
         resident = sum(np.prod(v.dims) for v in views) * per_voxel <= r.texture_budget_mb * 2 ** 20
         initial = {"COMPOSITE_MIP": -3.0e38, "COMPOSITE_MINIP": 3.0e38}
         first = next((v for k, v in initial.items() if k in defines), 0.0)

@@ -13,7 +13,7 @@ import numpy as np
 
 from ...reference import plans
 from ..grid.slicing import SlicingRenderer, core_box
-from ..grid.textures import FORMATS
+from ..grid.textures import FORMATS, texels
 
 
 class Slicing2DRenderer(SlicingRenderer):
@@ -75,8 +75,7 @@ class _StackTexture:
 
     def __init__(self, ctx, data: np.ndarray, axis: int):
         dtype, scale, offset, _ = FORMATS[data.dtype]
-        if data.dtype == np.int16:
-            data = (data.astype(np.int32) + 32768).astype(np.uint16)
+        data = texels(data)
         layers = {2: data, 1: data.transpose(1, 0, 2), 0: data.transpose(2, 0, 1)}[axis]  # [layer, row, col]
         n, h, w = layers.shape
         self.texture = ctx.texture_array((w, h, n), 1, np.ascontiguousarray(layers).tobytes(), dtype=dtype)
