@@ -55,8 +55,6 @@ OVERSAMPLING = 8          # samples per voxel along the lines
 ENERGY = 0.999             # fraction of the signal's variance below the bandwidth
 SEED = 20261121
 MIN_TOLERANCE, MAX_TOLERANCE = 5e-4, 0.1
-# Below this, 8-bit texture-unit filtering weights (llvmpipe) would dominate: filter in the shader.
-SHADER_FILTERING_BELOW = 3e-3
 MARGIN = 0.75             # of E, for the sampling error (early termination takes up to E / 4)
 CHECK_PIXELS = 64 * 64     # the a-posteriori check renders at most this many pixels
 CHECK_HALVINGS = 6         # at most 64x finer than the model's guess
@@ -239,8 +237,9 @@ def choose(scene, tolerance: float, model: SamplingModel | None = None) -> Choic
         d = max(d, voxel / 64.0)
         options.append((cost / d, classification, d))
     _, classification, d = min(options)
-    filtering = "shader" if tolerance < SHADER_FILTERING_BELOW else scene.renderer.filtering
-    return Choice(classification, d, ert, filtering, model.predicted_error(classification, d), model)
+    # The scene's filtering: every texture is filtered in float on llvmpipe (uint8 as R16F: .grid.textures), and
+    # where a texture unit rounds (8-bit weights or results), check() measures it and switches to the shader's.
+    return Choice(classification, d, ert, scene.renderer.filtering, model.predicted_error(classification, d), model)
 
 
 def narrowest_feature(tf) -> float:
@@ -288,7 +287,7 @@ def check(scene, choice: Choice, tolerance: float, renderer=None) -> Choice:
         renders = (2 if choice.filtering == "hardware" else 0) + 3 + CHECK_HALVINGS
         with progress.task(f"tolerance {tolerance:g}: checking the sample distance", renders, "render") as step:
             render = _counting(renderer, step)
-            if choice.filtering == "hardware":  # its 8-bit weights are a bias that no step removes
+            if choice.filtering == "hardware":  # a unit's rounding (8-bit weights) is a bias no step removes
                 shader = small.with_renderer(filtering="shader")
                 if _rms(render(small), render(shader)) > FILTERING_SHARE * tolerance:
                     choice, small = dataclasses.replace(choice, filtering="shader"), shader
