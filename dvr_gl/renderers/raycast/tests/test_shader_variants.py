@@ -57,6 +57,8 @@ def setting_axes() -> dict[str, tuple]:
         elif setting.type is bool:
             axes[setting.name] = ({setting.key: False}, {setting.key: True})
     axes["ert_threshold"] = ({"renderer.ert_threshold": 1.0}, {"renderer.ert_threshold": 0.9})
+    # MIP and MinIP refine one or two brackets (the defaults choose either; SECOND_BRACKET where two)
+    axes["extremum_brackets"] = ({}, {"renderer.extremum_brackets": 1}, {"renderer.extremum_brackets": 2})
     axes["shading"] = ({"renderer.shading.enabled": False},
                        {"renderer.shading.enabled": True, "renderer.shading.two_sided": False},
                        {"renderer.shading.enabled": True, "renderer.shading.lights": [{}, {}]})
