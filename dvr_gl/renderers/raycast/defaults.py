@@ -82,7 +82,7 @@ FINEST = DEFAULT_SAMPLE_DISTANCE_VOXELS
 #: default, the peers'), at most one voxel apart (pre-integrated: two), so that what a step of one voxel shows is
 #: not stepped over (a spike of 1e-4 of the range vanished at 2.75 voxel): the buckyball's narrow shell (32^3, a
 #: 20-unit tent) missed the target by 17.5x at 0.5 voxel and took 63 ms for 28.5 dB, where pre-integrated 1.75
-#: voxel gives 25.4 dB (one voxel: 23.6) in 0.4x the time (docs/tolerance.md, "Defaults").
+#: voxel gives 25.4 dB (one voxel: 23.6) in 0.4x the time (docs/tolerance.md, "A target out of reach").
 OUT_OF_REACH = 4.0
 #: Compositing modes the simulation covers.
 MODES = ("emission_absorption", "mip", "minip")
@@ -116,14 +116,14 @@ EXTREMUM_BRACKETS = 2
 #: tracking of the second candidate: on the held-out scenes nucleon, ironProt and the confocal DNA channel the
 #: frame at the same distance took 1.28-1.39x one bracket's (512x512, interleaved, 2026-11-29), about what
 #: :func:`ray_cost` makes of it (ironProt at 1.25 voxel: 1.29x), and one bracket met the target at a distance
-#: as long or nearly (docs/peers.md, "Held-out scenes").
+#: as long or nearly (docs/tolerance.md, "One bracket or two").
 BRACKET_CHOICES = (1, EXTREMUM_BRACKETS)
 #: MIP and MinIP: choices whose :func:`ray_cost` is within this fraction of the cheapest are level, and the one
 #: with more brackets is kept.  The model prices a refinement fetch at a fixed 2 samples (measured 1.7-2) and frames
 #: of one setting scatter by 5-10 % between interleaved runs here, so 10 % cheaper in the model is not reliably
 #: faster; and the second bracket catches the rare ray whose second peak rises above the extreme sample, the heavy
 #: tail that 512 lines sample worst.  brain-mip: one bracket of 6 steps at 1.25 voxel modelled 0.92x two of 4, timed
-#: 0.94x, simulated 0.47/255 against 0.44/255, but its image was at 52.9 dB against 54.2 (docs/peers.md).
+#: 0.94x, simulated 0.47/255 against 0.44/255, but its image was at 52.9 dB against 54.2 (with R8 textures).
 COST_TIE = 0.10
 #: Random lines simulated (:func:`.tolerance.line_samples`).
 LINES = 128
