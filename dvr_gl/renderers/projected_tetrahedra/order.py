@@ -73,16 +73,21 @@ def compiled():
 REACH_MARGIN = 0.1
 
 
-def reaching(points, tets, view_projection, width: int, height: int, fast=None) -> np.ndarray:
+def reaching(points, tets, view_projection, width: int, height: int, fast=None, tile: int = 0,
+             tiles: np.ndarray | None = None) -> np.ndarray:
     """``(M,)`` booleans: which cells' projected bounding boxes (grown by :data:`REACH_MARGIN` pixels)
     hold a pixel centre of the image; the others draw no fragment (the rasterizer keeps only pixel
     centres inside a footprint, which lies in the box).  ``points``: relative to the centre
     ``view_projection`` takes (float64), all in front of the eye's plane; pixels in GL window
-    coordinates (centres at ``i + 0.5``).  ``fast``: :mod:`.order_compiled` (one pass), else numpy."""
+    coordinates (centres at ``i + 0.5``).  ``fast``: :mod:`.order_compiled` (one pass), else numpy.
+    ``tile > 0``: ``tiles`` (``(M,)`` uint32) gets each cell's first and last column and first and last
+    row of the ``tile`` x ``tile``-pixel screen tiles holding those pixel centres, a byte each from the
+    lowest (zeros where it reaches none; at most 256 tiles a side)."""
     out = np.empty(len(tets), np.bool_)
     if fast is not None:
         fast.reaching(points, tets, np.ascontiguousarray(view_projection, np.float64), float(width),
-                      float(height), REACH_MARGIN, out)
+                      float(height), REACH_MARGIN, out, int(tile), np.zeros(0, np.uint32) if tiles is None
+                      else tiles)
         return out
     xy = points @ view_projection[:2, :3].T + view_projection[:2, 3]
     w = points @ view_projection[3, :3] + view_projection[3, 3]
@@ -91,7 +96,28 @@ def reaching(points, tets, view_projection, width: int, height: int, fast=None) 
     lo = np.maximum(np.ceil(corners.min(axis=1) - REACH_MARGIN - 0.5), 0.0)
     hi = np.minimum(np.floor(corners.max(axis=1) + REACH_MARGIN - 0.5), [width - 1.0, height - 1.0])
     np.all(lo <= hi, axis=1, out=out)
+    if tile > 0:
+        lo[~out], hi[~out] = 0.0, 0.0
+        first, last = lo.astype(np.uint32) // tile, hi.astype(np.uint32) // tile
+        tiles[:] = first[:, 0] | (last[:, 0] << 8) | (first[:, 1] << 16) | (last[:, 1] << 24)
     return out
+
+
+#: Screen tiles (pixels a side) the drawn order is grouped by (:func:`tile_coherent`): llvmpipe's
+#: rasterizer bins triangles into tiles of 64 x 64 pixels and rasterizes a tile's in the order drawn.
+TILE = 64
+
+
+def tile_coherent(order: np.ndarray, tiles: np.ndarray, columns: int, rows: int, fast=None) -> np.ndarray:
+    """``order`` (the cells in the order drawn) regrouped by screen tile, so that the rasterizer, which
+    works a tile at a time, finds a tile's triangles together rather than one in every few hundred; the
+    cells touching any one tile keep their order (``tiles``: the ``columns`` x ``rows`` tiles each cell's
+    pixel centres lie in, packed as :func:`reaching` gives them).  Two cells that cover
+    a common pixel centre share a tile, so every pixel meets the same fragments in the same order: the
+    same picture, to the bit.  ``fast``: :mod:`.order_compiled`; without it (numpy) ``order`` as it is."""
+    if fast is None or not len(order):
+        return order
+    return fast.tile_coherent(np.ascontiguousarray(order), tiles, int(columns), int(rows))
 
 
 @dataclass

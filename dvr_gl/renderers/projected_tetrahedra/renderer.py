@@ -25,7 +25,7 @@ from ..mesh import SHADERS as MESH_SHADERS
 from ..mesh.textures import MODES, ROW, MeshRenderer, rows
 from .fan import HostFan
 from .fan import compiled as compiled_fan
-from .order import VisibilityOrder, reaching
+from .order import TILE, VisibilityOrder, reaching, tile_coherent
 
 #: Its own GLSL, then the kit's (before the common library).
 SHADERS = (shader_root(__file__), MESH_SHADERS)
@@ -60,6 +60,12 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
     #: runs compute shaders on its thread pool, the geometry stage on the calling thread.  Measured (README): 1.04-1.13x
     #: the geometry shader's frame on every comb view in 3 of 5 interleaved runs (0.88-1.07 in the busiest).
     compute_fan = True
+    #: Screen tiles (pixels a side) the emission-absorption draw's order is grouped by where it culls unreached
+    #: cells with numba installed (:func:`.order.tile_coherent`: the cells touching any one tile keep their
+    #: order, so the picture is the same to the bit); 0: the visibility order as it is.  llvmpipe rasterizes
+    #: a 64-pixel tile's triangles in the order drawn, and in the visibility order consecutive cells lie far
+    #: apart on screen.  Measured (README, ``benchmarks/tile_order.py``): the draw shorter, the order longer.
+    tile_pixels = TILE
 
     def __init__(self, ctx=None):
         super().__init__(ctx)
@@ -102,10 +108,15 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
             order, stats = orders(cam, img.width, img.height, r.cell_order, pixels=gaps)
             # transparent cells, and cells that reach no pixel centre, are ordered (the relations run through
             # them) but not drawn
-            drawn_cells = textures.visible(scene.transfer_function)
+            drawn_cells, tiles = textures.visible(scene.transfer_function), None
             if self.cull_unreached:
-                drawn_cells = drawn_cells & self._reaching(scene, textures, orders)
+                reached, tiles = self._reaching(scene, textures, orders, self.tile_pixels)
+                drawn_cells = drawn_cells & reached
             order = order[drawn_cells[order]][::-1]  # drawn back to front
+            if tiles is not None:  # grouped by screen tile, the order kept in every tile: the same picture
+                size = self.tile_pixels
+                order = tile_coherent(order, tiles, -(-img.width // size), -(-img.height // size), orders.fast)
+            stats["tiles"] = self.tile_pixels if tiles is not None else 0
             stats["order_seconds"] = time.perf_counter() - start  # with the boundary's count in GL
         else:
             order, stats = np.arange(textures.cells), {"order": "none (blended)", "order_seconds": 0.0}
@@ -206,17 +217,23 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
                                   f"in pt.geom") from exc
         return cache[key]
 
-    def _reaching(self, scene, textures, orders) -> np.ndarray:
-        """Which cells reach a pixel centre (:func:`.order.reaching`, compiled where the order is); all of
-        them where the mesh reaches the eye's plane (a vertex there has no projection)."""
+    def _reaching(self, scene, textures, orders, tile: int = 0):
+        """``(reached, tiles)``: which cells reach a pixel centre (:func:`.order.reaching`, compiled where the
+        order is), and with ``tile > 0`` and the compiled order each cell's range of ``tile``-pixel screen
+        tiles (else ``None``); every cell and ``None`` where the mesh reaches the eye's plane (a vertex there
+        has no projection)."""
         mesh, img = scene.field, scene.image
         if self._reaches_near_plane(scene):
-            return np.ones(len(mesh.tets), bool)
+            return np.ones(len(mesh.tets), bool), None
         points, tets = self._cached("centred mesh", (mesh,), lambda: (
             np.ascontiguousarray(mesh.points - textures.centre, dtype=np.float64),
             np.ascontiguousarray(mesh.tets, dtype=np.int64)))
-        return reaching(points, tets, self.view_projection(scene, textures.centre), img.width, img.height,
-                        orders.fast)
+        if orders.fast is None or max(img.width, img.height) > 256 * tile:  # a byte a tile's column or row
+            tile = 0
+        tiles = np.empty(len(tets), np.uint32) if tile > 0 else None
+        reached = reaching(points, tets, self.view_projection(scene, textures.centre), img.width, img.height,
+                           orders.fast, tile, tiles)
+        return reached, tiles
 
     def _host_fan(self, scene, textures):
         """The mesh's :class:`.fan.HostFan` (kept per mesh) where this frame's Shirley-Tuchman fan is built on

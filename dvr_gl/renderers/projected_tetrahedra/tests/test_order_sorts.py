@@ -56,3 +56,41 @@ def test_the_compiled_gap_relations_are_numpys():
     assert len(want[0]) > 100
     for g, w in zip(got, want):
         assert np.array_equal(g, w)
+
+
+def _pack(x0, x1, y0, y1):
+    """Tile ranges packed as :func:`.order.reaching` gives them: a byte each, first column lowest."""
+    return (x0 | (x1 << 8) | (y0 << 16) | (y1 << 24)).astype(np.uint32)
+
+
+def test_grouping_by_tile_keeps_the_order_of_every_tiles_cells():
+    """``tile_coherent`` on 20,000 cells in a random order over 8 x 5 tiles, a tenth spanning two (one at
+    the grid's last column or row): a permutation of the order, every tile's cells (those
+    touching it) in the same order as before, and grouped: consecutive cells change tile at most a quarter
+    as often (measured 17 % against 97.5 % before, 1 - 1/40 at random; the cells spanning two tiles, each
+    first in both queues only when both tiles reach it, cut the runs short in a random order)."""
+    from dvr_gl.renderers.projected_tetrahedra.order import tile_coherent
+
+    rng = np.random.default_rng(3)
+    n, columns, rows = 20_000, 8, 5
+    x0, y0 = rng.integers(0, columns, n), rng.integers(0, rows, n)
+    wide = rng.random(n) < 0.1
+    x1 = np.minimum(x0 + wide * rng.integers(0, 2, n), columns - 1)
+    y1 = np.minimum(y0 + wide * (1 - (x1 - x0)), rows - 1)
+    tiles = _pack(x0, x1, y0, y1)
+    order = rng.permutation(n).astype(np.uint32)
+    grouped = tile_coherent(order, tiles, columns, rows, fast)
+    assert np.array_equal(np.sort(grouped), np.arange(n))
+    rank = np.empty(n, np.int64)
+    rank[grouped] = np.arange(n)
+    for ty in range(rows):
+        for tx in range(columns):
+            touching = order[(x0[order] <= tx) & (tx <= x1[order]) & (y0[order] <= ty) & (ty <= y1[order])]
+            assert np.all(np.diff(rank[touching]) > 0), (tx, ty)
+    first = x0 + columns * y0  # each cell's first tile
+
+    def changes(o):
+        return np.mean(first[o][1:] != first[o][:-1])
+
+    assert changes(grouped) < 0.25 * changes(order), (changes(grouped), changes(order))
+    assert tile_coherent(order, tiles, columns, rows, None) is order  # numpy: the order as it is

@@ -180,7 +180,7 @@ def test_transparent_cells_are_not_drawn(pt, converged):
     lo, hi = values.min(axis=1), values.max(axis=1)
     transparent = (hi <= 0.9) | ((lo >= 1.2) & (hi <= 1.4))
     textures, orders = pt._mesh_resources(scene.field)
-    unreached = ~pt._reaching(scene, textures, orders)  # nor those that reach no pixel centre (below)
+    unreached = ~pt._reaching(scene, textures, orders)[0]  # nor those that reach no pixel centre (below)
     assert transparent.sum() >= 10
     assert pt.stats["cells_drawn"] == len(mesh.tets) - (transparent | unreached).sum()
 
@@ -229,10 +229,43 @@ def test_reaching_a_pixel_centre_by_the_grown_box(fast):
                                     "image.height": 17, **view})
         vp = ProjectedTetrahedraRenderer.view_projection(scene, np.zeros(3))
         tets = mesh.tets.astype(np.int64)
-        some = reaching(mesh.points, tets, vp, 23, 17)
+        tiles, again = np.empty(len(tets), np.uint32), np.empty(len(tets), np.uint32)
+        some = reaching(mesh.points, tets, vp, 23, 17, None, 4, tiles)
         assert 0 < some.sum() < len(tets)
-        np.testing.assert_array_equal(reaching(mesh.points, tets, vp, 23, 17, module), some)
+        np.testing.assert_array_equal(reaching(mesh.points, tets, vp, 23, 17, module, 4, again), some)
+        np.testing.assert_array_equal(again, tiles)  # the screen tiles (4 pixels) too
+        assert len(np.unique(tiles[some])) > 10
 
+
+
+@pytest.mark.parametrize("integration", INTEGRATIONS)
+def test_the_order_grouped_by_screen_tile_draws_the_same_picture(pt, monkeypatch, integration):
+    """The drawn order grouped by tiles of 8 pixels (``tile_pixels``; 6 x 5 of them at 48x40) is another
+    order, and the picture is, to the bit, the visibility order's: every pixel meets the same fragments in
+    the same order (the cells touching a tile keep their order)."""
+    from dvr_gl.renderers.projected_tetrahedra import renderer
+
+    if compiled() is None:
+        pytest.skip("numba is not installed (without it the order is drawn as it is)")
+    mesh = jittered_mesh(n=(7, 6, 5))
+    scene = mesh_scene(mesh, **{"renderer.name": "projected-tetrahedra", "renderer.integration": integration,
+                                "image.width": 48, "image.height": 40})
+    orders, group = [], renderer.tile_coherent
+
+    def recorded(order, *args):
+        orders.append((order, group(order, *args)))
+        return orders[-1][1]
+
+    monkeypatch.setattr(renderer, "tile_coherent", recorded)
+    monkeypatch.setattr(pt, "tile_pixels", 8)
+    grouped = pt.render(scene)
+    assert pt.stats["tiles"] == 8
+    before, after = orders[-1]
+    assert np.array_equal(np.sort(before), np.sort(after)) and not np.array_equal(before, after)
+    monkeypatch.setattr(pt, "tile_pixels", 0)
+    visibility = pt.render(scene)
+    assert pt.stats["tiles"] == 0
+    np.testing.assert_array_equal(grouped, visibility)
 
 
 def test_a_convex_boundary_casts_no_rays(pt):
