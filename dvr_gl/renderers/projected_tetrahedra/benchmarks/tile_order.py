@@ -15,6 +15,7 @@ three views at ``--size``:
 
     python dvr_gl/renderers/projected_tetrahedra/benchmarks/tile_order.py --data-dir ../shared/data
         [--meshes jaw,post,comb,bluntfin,notch,tetraMesh] [--integration shirley-tuchman] [--frames 7] [--size 512]
+        [--tile 64]
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 VIEWS = ((30.0, 20.0), (120.0, -10.0), (0.0, 90.0))  # azimuth, elevation (dvr bench cells's)
-PATHS = (64, 0)  # tile_pixels: grouped, then as it is
+PATHS = [64, 0]  # tile_pixels: grouped (--tile), then as it is
 
 
 def measure(pt, scene, frames: int) -> dict:
@@ -65,11 +66,14 @@ def main(argv=None):
     parser.add_argument("--integration", default="shirley-tuchman", choices=("shirley-tuchman", "exact"))
     parser.add_argument("--frames", type=int, default=7, help="frames per path (medians)")
     parser.add_argument("--size", type=int, default=512, help="image width and height")
+    parser.add_argument("--tile", type=int, default=64, help="tile_pixels of the grouped order")
     args = parser.parse_args(argv)
-    if args.frames < 1 or args.size < 1:
-        raise SystemExit("--frames and --size must be at least 1")
+    if args.frames < 1 or args.size < 1 or args.tile < 1:
+        raise SystemExit("--frames, --size and --tile must be at least 1")
+    PATHS[0] = args.tile
     pt = create_renderer("projected-tetrahedra")
-    print(f"{args.integration}, {args.size}x{args.size}, medians of {args.frames} frames a path, interleaved\n")
+    print(f"{args.integration}, {args.size}x{args.size}, tiles of {args.tile} pixels, medians of {args.frames} frames "
+          "a path, interleaved\n")
     print("| mesh | view | grouped frame ms (order, draw) | CPU ms | as it is frame ms (order, draw) | CPU ms "
           "| as it is / grouped frame | median of paired ratios | largest difference |")
     print("|---|---|---:|---:|---:|---:|---:|---:|---:|")
