@@ -140,7 +140,7 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
             slots = self._order_texture(order)
             fan, indices = self._compute_fan(scene, textures, defines, slots, len(order))
             self._uniforms(program, scene, textures)
-            vao = self.ctx.vertex_array(program, [(fan, "2f 4f 1f", "in_pixel", "in_st", "in_tau_max")],
+            vao = self.ctx.vertex_array(program, [(fan, "2f 4f 1f 4x", "in_pixel", "in_st", "in_tau_max")],
                                         index_buffer=indices, index_element_size=4)
             primitive, per_cell = moderngl.TRIANGLES, len(FAN_INDICES)
             stats["fan"] = "compute shader"
@@ -186,10 +186,10 @@ class ProjectedTetrahedraRenderer(MeshRenderer):
 
     def _compute_fan(self, scene, textures, defines, slots, count):
         """Build the fan of the ``count`` cells in ``slots`` (the order texture) with ``pt_fan.comp`` into a
-        vertex buffer (5 rows of 7 floats a slot, kept per mesh), and the fixed index buffer that draws
-        slot after slot."""
+        vertex buffer (5 rows of 8 floats a slot, the last padding, kept per mesh), and the fixed index buffer
+        that draws slot after slot."""
         cells = textures.cells
-        fan = self._cached("compute fan", (scene.field,), lambda: self.ctx.buffer(reserve=max(5 * 7 * 4 * cells, 4)))
+        fan = self._cached("compute fan", (scene.field,), lambda: self.ctx.buffer(reserve=max(5 * 8 * 4 * cells, 4)))
         indices = self._cached("compute fan indices", (scene.field,), lambda: self.ctx.buffer(
             (FAN_INDICES[None, :] + 5 * np.arange(cells, dtype=np.uint32)[:, None]).astype(np.uint32).tobytes()))
         keys = {k: defines[k] for k in ("CAMERA_ORTHOGRAPHIC", "ALPHA_MODEL", "TF_COUNT", "TF_POW2", "EMISSION")

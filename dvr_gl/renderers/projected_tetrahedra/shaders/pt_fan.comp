@@ -2,7 +2,7 @@
 // Projected tetrahedra, Shirley and Tuchman's fan built by a compute shader (SHIRLEY_TUCHMAN only):
 // invocation i builds the fan of the cell in slot i of u_order (the visibility order, back to front)
 // into rows 5 i to 5 i + 4 of the vertex buffer pt_fan.vert reads, in fan.py's layout (pixel x, y;
-// colour; optical depth; the thick vertex's optical depth): the thick vertex, then the silhouette's
+// colour; optical depth; the thick vertex's optical depth) padded to 8 floats: the thick vertex, then the silhouette's
 // corners h0 h1 h2 h3 (a triangle's h0 again as its h3).  The renderer's fixed index buffer draws
 // slot after slot, so the order holds, with pt.geom's triangles vertex for vertex: the same picture.
 // The classification and the thick vertex are pt.geom's (pt_silhouette.glsl).  llvmpipe runs compute
@@ -16,15 +16,15 @@ layout(local_size_x = 64) in;
 uniform usampler2D u_order;  // slot -> cell, 4096 a row
 uniform uint u_slots;        // the cells drawn
 
-layout(std430, binding = 0) writeonly buffer Fan { float rows[]; };
+// A row is fan.py's 7 floats and one of padding, written as two vec4s: llvmpipe stores each lane's
+// value of a store on its own, and 2 stores a row instead of 7 made this pass 18 % shorter on the jaw.
+layout(std430, binding = 0) writeonly buffer Fan { vec4 rows[]; };
 
-const uint CELL_VERTICES = 5u, VERTEX_FLOATS = 7u;
+const uint CELL_VERTICES = 5u;
 
 void put(uint row, vec2 pixel, vec4 st, float tau_max) {
-    uint k = row * VERTEX_FLOATS;
-    rows[k] = pixel.x; rows[k + 1u] = pixel.y;
-    rows[k + 2u] = st.r; rows[k + 3u] = st.g; rows[k + 4u] = st.b; rows[k + 5u] = st.a;
-    rows[k + 6u] = tau_max;
+    rows[2u * row] = vec4(pixel, st.r, st.g);
+    rows[2u * row + 1u] = vec4(st.b, st.a, tau_max, 0.0);
 }
 
 void main() {  // the dispatch is up to 65535 groups wide, rows of them for more
