@@ -304,11 +304,27 @@ def test_int16_upload_in_slabs_keeps_every_value(gl_context, monkeypatch):
 
     from dvr_gl.renderers.grid import textures
 
-    monkeypatch.setattr(textures, "INT16_SLAB_BYTES", 2 * 2 * 5 * 3)  # 2 slices of 5 x 3
+    monkeypatch.setattr(textures, "SLAB_BYTES", 2 * 2 * 5 * 3)  # 2 slices of 5 x 3
     data = np.random.default_rng(1).integers(-32768, 32768, (7, 3, 5)).astype(np.int16)
     data[0, 0, 0], data[-1, -1, -1] = -32768, 32767
     tex = textures.upload_volume(gl_context, SimpleNamespace(data=data))
     texels = np.frombuffer(tex.texture.read(), np.uint16).reshape(data.shape)
     np.testing.assert_array_equal(texels.astype(np.int64) - 32768, data)
     assert tex.value_scale * texels[0, 0, 0] / 65535 + tex.value_offset == -32768
+    tex.texture.release()
+
+
+def test_uint8_upload_in_slabs_keeps_every_value(gl_context, monkeypatch):
+    """uint8 volumes reach the GPU as R16F a slab of slices at a time: with a slab of 2 slices and 7 slices,
+    every voxel's texel is its value exactly (every one of the 256 values present)."""
+    from types import SimpleNamespace
+
+    from dvr_gl.renderers.grid import textures
+
+    monkeypatch.setattr(textures, "SLAB_BYTES", 2 * 2 * 8 * 16)  # 2 slices of 16 x 8
+    data = np.arange(7 * 8 * 16, dtype=np.int64).reshape(7, 8, 16).astype(np.uint8)  # 0..255 each at least once
+    tex = textures.upload_volume(gl_context, SimpleNamespace(data=data))
+    texels = np.frombuffer(tex.texture.read(), np.float16).reshape(data.shape)
+    np.testing.assert_array_equal(texels.astype(np.float64) * tex.value_scale + tex.value_offset, data)
+    assert tex.nbytes == 2 * data.size
     tex.texture.release()
