@@ -3,7 +3,7 @@
 
 * :func:`upload_fields`: one 3D texture per group of :meth:`FieldSet.groups` (members on the same grid, of
   the same dtype, up to four: channels R, RG, RGB, RGBA; an RGB member alone, RGBA), each in the members'
-  own precision (:mod:`.textures`: uint8 as unorm8, uint16 and int16 as unorm16, float32 as float32) with
+  own precision (:mod:`.textures`: uint8 as half float, uint16 and int16 as unorm16, float32 as float32) with
   its own world-to-voxel transform, dims and box.  Member ``i`` is channel :attr:`FieldTextures.channel`
   ``[i]`` of texture :attr:`FieldTextures.group` ``[i]``; its data value is ``texel * scale + offset``.
 * :func:`table_atlas`: the members' transfer-function tables, one row each (N x members, RGBA32F), with each
