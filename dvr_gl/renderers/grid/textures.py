@@ -15,7 +15,7 @@ uint8 as R16F, not R8: llvmpipe filters an R8 texture in 8-bit fixed point and r
 rounded to 8 bits (up to one data unit off; a MIP's image at 54-57 dB on nucleon, ironProt and brainsmall,
 where the same settings with R16F give 57-64 dB, and hydrogen's 68 against 80 dB), while it filters R16F in
 float; and it draws R16F frames as fast or faster (0.77-1.0x R8's on five of the peers' scenes; 2026-11-29,
-docs/peers.md).  The price is two bytes a voxel, which the memory budget counts (:func:`texel_bytes`).
+the ray caster's README).  The price is two bytes a voxel, which the memory budget counts (:func:`texel_bytes`).
 
 Textures clamp to the edge; 3D textures filter linearly (the shaders use
 ``texelFetch`` where they want no filtering).
