@@ -12,7 +12,7 @@ float32    R32F          ``texel``
 =========  ============  ===============================================
 
 uint8 as R16F, not R8: llvmpipe filters an R8 texture in 8-bit fixed point and returns the filtered value
-rounded to 8 bits (up to one data unit off; a MIP's image at 54-57 dB on nucleon, ironProt and brainsmall,
+rounded to 8 bits (up to one data unit off; a MIP's image at 53-57 dB on nucleon, ironProt and brainsmall,
 where the same settings with R16F give 57-64 dB, and hydrogen's 68 against 80 dB), while it filters R16F in
 float; and it draws R16F frames as fast or faster (0.77-1.0x R8's on five of the peers' scenes; 2026-11-29,
 the ray caster's README).  The price is two bytes a voxel, which the memory budget counts (:func:`texel_bytes`).
