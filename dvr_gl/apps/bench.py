@@ -468,11 +468,11 @@ def run_peers(args) -> int:
     scenes = args.scenes.split(",") if args.scenes else list(peers.SCENES)
     scenes = [x for name in scenes for x in peers.HELD_OUT_SETS.get(name, (name,))]
     renderers = args.renderers.split(",") if args.renderers else list(peers.RENDERERS)
-    for what, given, known in (("--scenes", scenes, peers.SCENES), ("--renderers", renderers,
-                                                                    peers.RENDERERS + ("numpy",))):
+    for what, given, known, named in (("--scenes", scenes, peers.SCENES, tuple(peers.HELD_OUT_SETS)),
+                                      ("--renderers", renderers, peers.RENDERERS + ("numpy",), ())):
         unknown = [x for x in given if x not in known]
         if unknown:
-            raise DvrError(f"{what}: unknown {', '.join(unknown)}; choose from {', '.join(known)}")
+            raise DvrError(f"{what}: unknown {', '.join(unknown)}; choose from {', '.join([*known, *named])}")
     for flag, value, low in (("--size", args.size, 8), ("--error-size", args.error_size, 8),
                              ("--volume-size", args.volume_size, 4)):
         if value < low:

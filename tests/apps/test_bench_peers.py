@@ -332,3 +332,11 @@ def test_the_dna_scene_reads_one_channel(tmp_path, shared_data):
     assert 0.49 < min(extra["volume.spacing"]) < 0.52
     top = peers.MIP_TFS["dna"][-1][0]
     assert np.percentile(data, 99.5) < top < data.max()
+
+
+def test_an_unknown_scene_is_refused_naming_the_sets(capsys):
+    """An unknown scene is refused in one line that lists the scenes and the held-out sets' names."""
+    assert main(["bench", "peers", "--scenes", "held-out,bogus", "--renderers", "dvr-gl"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "unknown bogus" in err and "internal error" not in err
+    assert all(name in err for name in ("ml-composite", "chromosomes-mip", "held-out, held-out-2"))
