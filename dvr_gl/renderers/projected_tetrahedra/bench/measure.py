@@ -35,6 +35,13 @@ from ....bench.datasets import mesh_scene_keys as scene_keys
 from ....progress import task as progress_task
 
 VIEWS = ((30.0, 20.0), (120.0, -10.0), (0.0, 90.0))  # azimuth, elevation
+
+
+def view_keys(keys: dict, azimuth: float, elevation: float, size: int) -> dict:
+    """A mesh's scene ``keys`` seen from ``azimuth``, ``elevation`` (degrees) by projected tetrahedra in a
+    ``size`` x ``size`` image: one of this bench's views (and its A/B scripts', ``benchmarks/``)."""
+    return {**keys, "camera.azimuth": azimuth, "camera.elevation": elevation,
+            "renderer.name": "projected-tetrahedra", "image.width": size, "image.height": size}
 RESAMPLE = 128  # grid points along the longest axis for the resampled ray-casting rows
 COLUMNS = [("mesh", "mesh", ""), ("view", "view", ""), ("renderer", "renderer", ""), ("cells", "cells", ""),
            ("order_ms", "order ms", ".0f"), ("draw_ms", "draw ms", ".0f"), ("ms", "frame ms", ".0f"),
@@ -170,9 +177,8 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
                 write_vtu(mesh, vtu)
             for az, el in views:
                 view = f"{az:g}/{el:g}"
-                at = {**keys, "camera.azimuth": az, "camera.elevation": el, "renderer.name": "projected-tetrahedra"}
-                scene = load_scene(None, {**at, "image.width": size, "image.height": size})
-                small = load_scene(None, {**at, "image.width": error_size, "image.height": error_size})
+                scene = load_scene(None, view_keys(keys, az, el, size))
+                small = load_scene(None, view_keys(keys, az, el, error_size))
                 with progress_task("converged reference", unit="step") as step:
                     reference.progress = step
                     truth = reference.render(small.with_renderer(name=reference.name)).astype(np.float64)

@@ -23,8 +23,6 @@ from pathlib import Path
 
 import numpy as np
 
-VIEWS = ((30.0, 20.0), (120.0, -10.0), (0.0, 90.0))  # azimuth, elevation (dvr bench cells's)
-
 
 def measure(pt, scene, frames: int) -> dict:
     """One scene's row: both paths' frame and draw ms (medians), the paired ratio, the largest difference."""
@@ -50,6 +48,7 @@ def measure(pt, scene, frames: int) -> dict:
 def main(argv=None):
     from dvr_gl.bench.datasets import shared_mesh
     from dvr_gl.renderers import create_renderer
+    from dvr_gl.renderers.projected_tetrahedra.bench.measure import VIEWS, view_keys
     from dvr_gl.scene.resolve import load_scene
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -68,9 +67,7 @@ def main(argv=None):
         for name in args.meshes.split(","):
             keys, _ = shared_mesh(name, args.data_dir)
             for az, el in VIEWS:
-                scene = load_scene(None, {**keys, "camera.azimuth": az,
-                                          "camera.elevation": el, "renderer.name": "projected-tetrahedra",
-                                          "image.width": args.size, "image.height": args.size})
+                scene = load_scene(None, view_keys(keys, az, el, args.size))
                 r = measure(pt, scene.with_renderer(cell_order="exact", integration="shirley-tuchman"), args.frames)
                 c, g = r["compute"], r["geometry"]
                 print(f"| {name} | {az:.0f}/{el:.0f} | {c[0]:.0f} ({c[1]:.0f}) | {g[0]:.0f} ({g[1]:.0f}) "

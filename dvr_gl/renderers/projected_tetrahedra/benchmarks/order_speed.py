@@ -27,17 +27,15 @@ from pathlib import Path
 import numpy as np
 
 SIZE = 512
-VIEWS = ((30.0, 20.0), (120.0, -10.0), (0.0, 90.0))
 
 
 def _scene(name: str, data_dir: Path, azimuth: float, elevation: float, shuffle: bool = False):
     from dvr_gl.bench.datasets import shared_mesh
+    from dvr_gl.renderers.projected_tetrahedra.bench.measure import view_keys
     from dvr_gl.scene.resolve import load_scene
 
     keys, _ = shared_mesh(name, data_dir)
-    scene = load_scene(None, {**keys, "camera.azimuth": azimuth,
-                              "camera.elevation": elevation, "renderer.name": "projected-tetrahedra",
-                              "image.width": SIZE, "image.height": SIZE})
+    scene = load_scene(None, view_keys(keys, azimuth, elevation, SIZE))
     return dataclasses.replace(scene, field=_shuffled(scene.field)) if shuffle else scene
 
 
@@ -54,6 +52,7 @@ def _shuffled(mesh):
 def measure(pt, name: str, data_dir: Path, rounds: int, shuffle: bool = False, frames: bool = False):
     """One row a view: rays cast, compiled (renumbered or not) and numpy CPU ms (medians) and the
     ratios, with ``frames`` the frames' wall ms renumbered and not; and the renumbering's seconds."""
+    from dvr_gl.renderers.projected_tetrahedra.bench.measure import VIEWS
     from dvr_gl.renderers.projected_tetrahedra.order import VisibilityOrder
 
     rows, fast, plain, slow = [], None, None, None
