@@ -46,6 +46,8 @@ from .ragged import joined_knots, ranges
 #: data and rays, the interpolant is off by at most 1.5e-5 of the value range at sigma 0.7 (2.7e-5 at
 #: 0.5), the same at degree 15 or 19: the truncation's jumps inside a piece set that floor.
 GAUSSIAN_DEGREE = 9
+#: Points a chunk of :meth:`SampledField._trilinear` (its temporaries stay in the cache).
+CHUNK = 1 << 16
 # Degree of the field as a polynomial of the ray parameter between knots.
 DEGREE = {"nearest": 0, "linear": 3, "cubic_bspline": 9, "catmull_rom": 9, "gaussian": GAUSSIAN_DEGREE}
 
@@ -168,6 +170,8 @@ class SampledField:
         if self.kernel is not None:
             out = self.kernel.kernel_sum(self.flat, (self.nx, self.ny, self.nz), u)
             return out if self.channels else out[:, 0]
+        if self.kind == "linear" and not self.channels:
+            return self._trilinear(u)
         ix, wx = _axis_taps(u[:, 0], self.nx, self.kind)
         iy, wy = _axis_taps(u[:, 1], self.ny, self.kind)
         iz, wz = _axis_taps(u[:, 2], self.nz, self.kind)
@@ -179,6 +183,27 @@ class SampledField:
                 for a in range(ix.shape[1]):
                     out += (wzy * wx[:, a])[:, None] * self.flat[row + ix[:, a]]
         return out if self.channels else out[:, 0]
+
+    def _trilinear(self, u: np.ndarray) -> np.ndarray:
+        """A scalar field's trilinear values at voxel coordinates ``u`` ``(N, 3)``: :meth:`sample`'s taps (clamped
+        to the edge) combined axis by axis, a chunk of :data:`CHUNK` points at a time (its arrays stay in the cache;
+        4-5x the general taps' speed, the same values to float64 rounding)."""
+        flat = self.flat[:, 0]
+        dims = np.array([self.nx, self.ny, self.nz])
+        strides = np.array([1, self.nx, self.nx * self.ny])
+        step = strides * (dims > 1)  # the next sample along each axis (none along an axis of one sample)
+        out = np.empty(len(u))
+        for start in range(0, len(u), CHUNK):
+            c = np.clip(u[start:start + CHUNK], 0.0, dims - 1)
+            i0 = np.minimum(np.floor(c), np.maximum(dims - 2, 0))
+            f = c - i0
+            fx, fy, fz = f[:, 0], f[:, 1], f[:, 2]
+            base = i0.astype(np.int64) @ strides
+            row = lambda b: flat[b] * (1.0 - fx) + flat[b + step[0]] * fx  # noqa: E731  along x at row b
+            near = row(base) * (1.0 - fy) + row(base + step[1]) * fy
+            far = row(base + step[2]) * (1.0 - fy) + row(base + step[2] + step[1]) * fy
+            out[start:start + CHUNK] = near * (1.0 - fz) + far * fz
+        return out
 
     def taps(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The samples :meth:`sample` weighs at world points (spline filters): ``(N, T)`` flat indices

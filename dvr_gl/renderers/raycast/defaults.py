@@ -277,13 +277,14 @@ class Lines:
         return self.reconstruction.sample(self.start + self.direction * t[:, None])
 
 
-def box_lines(scene, count: int = LINES, per_voxel: int = PER_VOXEL):
+def box_lines(scene, count: int = LINES, per_voxel: int = PER_VOXEL, classify: bool = True):
     """The data along ``count`` random lines (:func:`.tolerance.random_lines`), inside the box only:
     ``(s, composed, n, step, lines)``: the values ``s`` (lines, m) at the middles of steps of ``step``
     world units from where each line enters the box (``n`` of them on each line; ``m`` the most), the
-    classified ``(sigma, sigma r, sigma g, sigma b)`` (lines, m, 4), zero past ``n``, and the
-    :class:`Lines` themselves.  The sampled data is kept per field and filter (:data:`SAMPLED`): a new
-    transfer function or mode on the same data classifies them again without sampling again."""
+    classified ``(sigma, sigma r, sigma g, sigma b)`` (lines, m, 4), zero past ``n`` (None unless
+    ``classify``: MIP and MinIP classify only each line's extremum), and the :class:`Lines` themselves.
+    The sampled data is kept per field and filter (:data:`SAMPLED`): a new transfer function or mode on the
+    same data classifies them again without sampling again."""
     key = (field_key(scene.field), scene.renderer.filter, count, per_voxel)
     hit = SAMPLED.get(key)
     if hit is None or (hit[0] is not None and hit[0] is not scene.field):
@@ -292,7 +293,7 @@ def box_lines(scene, count: int = LINES, per_voxel: int = PER_VOXEL):
             SAMPLED.pop(next(iter(SAMPLED)))
         SAMPLED[key] = hit
     s, live, n, step, lines = hit[1]
-    return s, classified(s, live, scene.transfer_function), n, step, lines
+    return s, classified(s, live, scene.transfer_function) if classify else None, n, step, lines
 
 
 #: The lines' samples by field and filter, ``{key: (field or None, sampled_lines(...))}`` (about 2 MB each).
@@ -317,12 +318,21 @@ def sampled_along(scene, start, direction, per_voxel: int):
     step = field.sample_spacing / per_voxel
     n = np.where(t1 > t0, np.floor((t1 - t0) / step), 0).astype(np.int64)
     m = int(n.max(initial=0))
-    t = t0[:, None] + (np.arange(m)[None, :] + 0.5) * step
     live = np.arange(m)[None, :] < n[:, None]
-    points = start[:, None, :] + direction[:, None, :] * np.where(live, t, t0[:, None])[..., None]
     reconstruction = reconstruct(field, scene.renderer)
-    s = reconstruction.sample(points.reshape(-1, 3)).reshape(live.shape)
+    s = np.empty(live.shape)
+    rows = max(1, LINE_CHUNK // max(m, 1))  # lines a chunk: its points stay in the cache
+    for i in range(0, len(n), rows):
+        block = slice(i, i + rows)
+        # past a line's end its entry point is sampled again (the box's, so a valid point; not live)
+        t = np.where(live[block], t0[block, None] + (np.arange(m)[None, :] + 0.5) * step, t0[block, None])
+        points = start[block, None, :] + direction[block, None, :] * t[..., None]
+        s[block] = reconstruction.sample(points.reshape(-1, 3)).reshape(t.shape)
     return s, live, n, step, Lines(start, direction, t0, reconstruction)
+
+
+#: Fine samples a chunk of :func:`sampled_along` (its points, 24 bytes each, stay in the cache).
+LINE_CHUNK = 1 << 16
 
 
 def visible_lines(scene, s, composed, n):
@@ -387,7 +397,8 @@ def simulate_choice(scene) -> DefaultChoice:
     if diagonal(scene.field) / scene.field.sample_spacing * PER_VOXEL > MAX_STEPS:  # a needle of a box
         return DefaultChoice("post", FINEST, scene.renderer.ert_threshold, float("nan"), time.perf_counter() - begin)
     mode = scene.renderer.compositing
-    s, composed, n, step, lines = box_lines(scene, MIP_LINES if mode in ("mip", "minip") else LINES)
+    extremum = mode in ("mip", "minip")
+    s, composed, n, step, lines = box_lines(scene, MIP_LINES if extremum else LINES, classify=not extremum)
     tf = scene.transfer_function
     if mode == "emission_absorption":
         s, composed, n = visible_lines(scene, s, composed, n)
@@ -503,6 +514,8 @@ def segments(values: np.ndarray, n: np.ndarray, k: int):
     m = (int(n.max(initial=0)) + k - 1) // k
     first = k * np.arange(m)[None, :]
     length = np.clip(n[:, None] - first, 0, k)
+    if k == 1:  # every fine step is a segment (the lines' reference)
+        return values[:, :m], length
     idx = np.minimum(first + (np.maximum(length, 1) - 1) // 2, max(values.shape[1] - 1, 0))
     take = idx[..., None] if values.ndim == 3 else idx
     return np.take_along_axis(values, take, axis=1), length
