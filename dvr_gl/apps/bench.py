@@ -136,10 +136,11 @@ def _peers_arguments(pe):
         the help is asked for (``dvr render`` builds this parser too, and must not import the harness)."""
         from dvr_gl.bench import peers
 
-        scenes.help = (f"only these scenes ({', '.join(peers.SCENES)}; \"held-out\" for the "
-                       f"{len(peers.HELD_OUT)} before the last {len(peers.HELD_OUT_2)}, never tuned on; "
-                       f"\"held-out-2\" for the last {len(peers.HELD_OUT_2)}, declared on 2026-11-29 before "
-                       f"any run; default all)")
+        first, second, third = (len(peers.HELD_OUT_SETS[k]) for k in ("held-out", "held-out-2", "held-out-3"))
+        scenes.help = (f"only these scenes ({', '.join(peers.SCENES)}; \"held-out\" for the {first} before "
+                       f"the last {second + third}, never tuned on; \"held-out-2\" for the {second} before the "
+                       f"last {third} and \"held-out-3\" for the last {third}, each declared on 2026-11-29 "
+                       f"before any run; default all)")
         renderers.help = f"only these ({', '.join(peers.RENDERERS)}; default all)"
         return plain()
 
