@@ -100,9 +100,10 @@ MIP_TFS["lobster"] = [[0, 0.0, 0.0, 0.0, 0.0], [160, 1.0, 1.0, 1.0, 1.0]]
 MIP_TFS["cthead"] = [[0, 0.0, 0.0, 0.0, 0.0], [2700, 1.0, 1.0, 1.0, 1.0]]
 MIP_TFS["cell"] = [[0, 0.0, 0.0, 0.0, 0.0], [3600, 1.0, 1.0, 1.0, 1.0]]
 #: The third held-out set (issue 44's "run on new scenes of the same kind", after the second set had been seen
-#: too): declared on 2026-11-29 (04:25 UTC) before any renderer drew them, each (dataset, mode) new to the bench,
-#: their transfer functions written from each dataset's histogram alone (numpy percentiles, of all voxels unless
-#: named), in data units.  Composite: semi-transparent, alpha per unit distance of one voxel (ALPHA_PER_VOXEL).
+#: too): declared on 2026-11-29 (04:23 UTC, the commit) before any peer drew them and dvr-gl any but the bunny's
+#: timing check, each (dataset, mode) new to the bench, their transfer functions written from each dataset's
+#: histogram alone (numpy percentiles, of all voxels unless named), in data units.  Composite: semi-transparent,
+#: alpha per unit distance of one voxel (ALPHA_PER_VOXEL).
 #: The Stanford CT bunny (int16; the scanner's fill outside its field -2000 in 21 % of the voxels; of the voxels
 #: above it p90 240, p95 1323, p99 2361 (in the mode at 2100-2500), p99.9 2462, maximum 4095): clear up to
 #: p90, denser to p99.9.  Its reference at 128x128 and a default frame at 512x512 were timed
