@@ -428,7 +428,8 @@ def simulate_choice(scene) -> DefaultChoice:
     one_voxel = post(PER_VOXEL)  # the classic default's error: one sample a voxel, post-classified
     out_of_reach = choice[:2] == ("post", FINEST) and post(round(FINEST * PER_VOXEL)) > OUT_OF_REACH * MARGIN * target
     classic = None
-    if out_of_reach or choice[2] > one_voxel:  # the target out of reach, or looser than one sample a voxel
+    looser = one_voxel < choice[2] <= MARGIN * target  # met, but less accurately than one sample a voxel
+    if out_of_reach or looser:  # (where the target is missed but in reach, the finest distance stays)
         classic = one_voxel
         choice = classic_choice(post, pre if allow_pre else None, one_voxel)
     ert = 1.0 - TARGET / 4.0 if mode == "emission_absorption" else scene.renderer.ert_threshold
