@@ -93,6 +93,10 @@ FINEST = DEFAULT_SAMPLE_DISTANCE_VOXELS
 #: 1.6-3.4x faster than VTK GPU and 2.7-5.5x than vispy at better error than both; docs/tolerance.md, "Never less
 #: accurate than one sample a voxel").
 OUT_OF_REACH = 4.0
+#: Emission-absorption: the display target's choice counts as less accurate than one sample a voxel where its simulated
+#: error exceeds that one's by more than this fraction of the target (1 % of a display step: no picture shows it;
+#: it keeps rounding noise, errors of 1e-16, from deciding).
+CLASSIC_SLACK = 0.01
 #: Compositing modes the simulation covers.
 MODES = ("emission_absorption", "mip", "minip")
 #: Choices made, by what they depend on: ``{key: DefaultChoice}`` (see :func:`cache_key`).
@@ -428,7 +432,9 @@ def simulate_choice(scene) -> DefaultChoice:
     one_voxel = post(PER_VOXEL)  # the classic default's error: one sample a voxel, post-classified
     out_of_reach = choice[:2] == ("post", FINEST) and post(round(FINEST * PER_VOXEL)) > OUT_OF_REACH * MARGIN * target
     classic = None
-    looser = one_voxel < choice[2] <= MARGIN * target  # met, but less accurately than one sample a voxel
+    # met, but less accurately than one sample a voxel by more than the lines' rounding (a constant field's errors
+    # are 1e-16 apart)
+    looser = one_voxel + CLASSIC_SLACK * target < choice[2] <= MARGIN * target
     if out_of_reach or looser:  # (where the target is missed but in reach, the finest distance stays)
         classic = one_voxel
         choice = classic_choice(post, pre if allow_pre else None, one_voxel)
