@@ -293,19 +293,28 @@ HELD_OUT_2_VOLUMES = {"frog": ((136, 470, 500), np.uint8, (1.0, 1.0, 1.5)),
                       "cell": ((5, 170, 240), np.uint16, (0.0906, 0.0906, 0.32))}
 
 
+def loaded_held_out(keys, volumes: dict, shared_data, tmp_path):
+    """Each held-out scene of ``keys`` loaded as the ``.npy`` the bench and the peers read, checked against
+    ``volumes`` (dataset -> zyx shape, dtype, spacing x y z; exactly the set's datasets): ``(key, dataset,
+    mode, path, extra keys, data)``."""
+    assert {peers.SCENES[k][0] for k in keys} == set(volumes)
+    for key in keys:
+        dataset, mode = peers.SCENES[key]
+        path, extra = peers.dataset_file(dataset, shared_data, tmp_path)
+        data = np.load(path)
+        shape, dtype, spacing = volumes[dataset]
+        assert data.shape == shape and data.dtype == dtype, key
+        assert np.allclose(extra["volume.spacing"], spacing, rtol=1e-3), key
+        yield key, dataset, mode, path, extra, data
+
+
 def test_the_second_held_out_set_loads_from_its_datasets(tmp_path, shared_data):
     """Each scene of the second set loads (load only: these scenes are never rendered outside the one run
     after the defaults change) as the ``.npy`` the bench and the peers read, in the file's own type and
     spacing; each transfer function's knots rise within the data's range, its last knot at or below the
     maximum; the MIP ramps end between the 99.5th percentile and the maximum, as a contrast limit would."""
-    assert {peers.SCENES[k][0] for k in peers.HELD_OUT_2} == set(HELD_OUT_2_VOLUMES)
-    for key in peers.HELD_OUT_2:
-        dataset, mode = peers.SCENES[key]
-        path, extra = peers.dataset_file(dataset, shared_data, tmp_path)
-        data = np.load(path)
-        shape, dtype, spacing = HELD_OUT_2_VOLUMES[dataset]
-        assert data.shape == shape and data.dtype == dtype, key
-        assert np.allclose(extra["volume.spacing"], spacing, rtol=1e-3), key
+    for key, dataset, mode, path, extra, data in loaded_held_out(peers.HELD_OUT_2, HELD_OUT_2_VOLUMES, shared_data,
+                                                                tmp_path):
         points = peers.scene_keys(key, path, 16, extra)["transfer_function.points"]
         knots = [p[0] for p in points]
         assert knots == sorted(knots) and knots[0] == 0 and knots[-1] <= data.max(), key
@@ -350,14 +359,8 @@ def test_the_third_held_out_set_loads_from_its_datasets(tmp_path, shared_data):
     at the percentiles the comments name (numpy's, rounded to the data's integers), clear below the second
     knot, alpha below 1, per one voxel (the smallest spacing, for the bench and the peers alike); the MIP
     ramps end at the 99.9th percentile rounded to 1 % of the maximum, as a contrast limit would."""
-    assert {peers.SCENES[k][0] for k in peers.HELD_OUT_3} == set(HELD_OUT_3_VOLUMES)
-    for key in peers.HELD_OUT_3:
-        dataset, mode = peers.SCENES[key]
-        path, extra = peers.dataset_file(dataset, shared_data, tmp_path)
-        data = np.load(path)
-        shape, dtype, spacing = HELD_OUT_3_VOLUMES[dataset]
-        assert data.shape == shape and data.dtype == dtype, key
-        assert np.allclose(extra["volume.spacing"], spacing, rtol=1e-3), key
+    for key, dataset, mode, path, extra, data in loaded_held_out(peers.HELD_OUT_3, HELD_OUT_3_VOLUMES, shared_data,
+                                                                tmp_path):
         keys = peers.scene_keys(key, path, 16, extra)
         points = keys["transfer_function.points"]
         knots = [p[0] for p in points]
@@ -373,7 +376,7 @@ def test_the_third_held_out_set_loads_from_its_datasets(tmp_path, shared_data):
         assert knots[-len(at):] == want, key
         alphas = [p[4] for p in points]
         assert alphas[:2] == [0.0, 0.0] and max(alphas) < 1, key
-        unit = min(spacing)
+        unit = min(HELD_OUT_3_VOLUMES[dataset][2])
         assert keys["transfer_function.unit_distance"] == pytest.approx(unit, rel=1e-3), key
         assert peers.peer_scene(keys, mode)["unit_distance"] == keys["transfer_function.unit_distance"], key
 

@@ -42,6 +42,18 @@ def view_keys(keys: dict, azimuth: float, elevation: float, size: int) -> dict:
     ``size`` x ``size`` image: one of this bench's views (and its A/B scripts', ``benchmarks/``)."""
     return {**keys, "camera.azimuth": azimuth, "camera.elevation": elevation,
             "renderer.name": "projected-tetrahedra", "image.width": size, "image.height": size}
+
+
+def view_scenes(meshes, data_dir, size: int):
+    """Each shared mesh of ``meshes`` (names) from ``data_dir`` seen from each of :data:`VIEWS` in a ``size`` x
+    ``size`` image: ``(mesh, azimuth, elevation, scene)``, mesh by mesh (the A/B scripts' loop, ``benchmarks/``)."""
+    from ....bench.datasets import shared_mesh
+    from ....scene.resolve import load_scene
+
+    for name in meshes:
+        keys, _ = shared_mesh(name, data_dir)
+        for azimuth, elevation in VIEWS:
+            yield name, azimuth, elevation, load_scene(None, view_keys(keys, azimuth, elevation, size))
 RESAMPLE = 128  # grid points along the longest axis for the resampled ray-casting rows
 COLUMNS = [("mesh", "mesh", ""), ("view", "view", ""), ("renderer", "renderer", ""), ("cells", "cells", ""),
            ("order_ms", "order ms", ".0f"), ("draw_ms", "draw ms", ".0f"), ("ms", "frame ms", ".0f"),

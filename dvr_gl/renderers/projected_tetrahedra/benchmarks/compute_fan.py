@@ -46,10 +46,8 @@ def measure(pt, scene, frames: int) -> dict:
 
 
 def main(argv=None):
-    from dvr_gl.bench.datasets import shared_mesh
     from dvr_gl.renderers import create_renderer
-    from dvr_gl.renderers.projected_tetrahedra.bench.measure import VIEWS, view_keys
-    from dvr_gl.scene.resolve import load_scene
+    from dvr_gl.renderers.projected_tetrahedra.bench.measure import view_scenes
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data-dir", type=Path, required=True, help="the shared data folder")
@@ -64,14 +62,11 @@ def main(argv=None):
           "| geometry / compute frame | median of paired ratios | largest difference |")
     print("|---|---|---:|---:|---:|---:|---:|")
     try:
-        for name in args.meshes.split(","):
-            keys, _ = shared_mesh(name, args.data_dir)
-            for az, el in VIEWS:
-                scene = load_scene(None, view_keys(keys, az, el, args.size))
-                r = measure(pt, scene.with_renderer(cell_order="exact", integration="shirley-tuchman"), args.frames)
-                c, g = r["compute"], r["geometry"]
-                print(f"| {name} | {az:.0f}/{el:.0f} | {c[0]:.0f} ({c[1]:.0f}) | {g[0]:.0f} ({g[1]:.0f}) "
-                      f"| {g[0] / c[0]:.2f} | {r['paired']:.2f} | {r['diff']:.1e} |", flush=True)
+        for name, az, el, scene in view_scenes(args.meshes.split(","), args.data_dir, args.size):
+            r = measure(pt, scene.with_renderer(cell_order="exact", integration="shirley-tuchman"), args.frames)
+            c, g = r["compute"], r["geometry"]
+            print(f"| {name} | {az:.0f}/{el:.0f} | {c[0]:.0f} ({c[1]:.0f}) | {g[0]:.0f} ({g[1]:.0f}) "
+                  f"| {g[0] / c[0]:.2f} | {r['paired']:.2f} | {r['diff']:.1e} |", flush=True)
     finally:
         pt.close()
 
