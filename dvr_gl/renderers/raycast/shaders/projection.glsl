@@ -67,24 +67,41 @@ float signed_value_at(float t) {
     return SIGN * value_at(t);
 }
 
-// The largest of SIGN times the field found by REFINE_EXTREMUM safeguarded parabolic steps from the
-// bracket (m - u_sample_distance, m, m + u_sample_distance) clamped to [t0, t1], m the extreme sample's
-// parameter and fm its signed value: each step probes the vertex of the parabola through the bracket's
-// points, or the golden-section point of its longer side where that parabola has no maximum inside, and
-// keeps the best point in the middle.
-float refine_extremum(float m, float fm) {
-    float a = max(m - u_sample_distance, t0);
-    float b = min(m + u_sample_distance, t1);
-    float fa = signed_value_at(a);
-    float fb = signed_value_at(b);
-    for (int i = 0; i < REFINE_EXTREMUM; i++) {
-        float q = (m - a) * (fm - fb);
-        float r = (m - b) * (fm - fa);
-        float den = 2.0 * (q - r);
-        float u = den > 0.0 ? m - ((m - a) * q - (m - b) * r) / den : m;
-        if (!(u > a && u < b && u != m)) u = m - a > b - m ? m - GOLDEN * (m - a) : m + GOLDEN * (b - m);
+// The largest of SIGN times the field found by REFINE_EXTREMUM safeguarded parabolic steps from each of
+// `brackets` brackets (m - u_sample_distance, m, m + u_sample_distance) clamped to [t0, t1], m the candidate's
+// parameter (m0, then m1) and fm its signed value: each bracket's ends are fetched, then each step probes the
+// vertex of the parabola through the bracket's points, or the golden-section point of its longer side where
+// that parabola has no maximum inside, and keeps the best point in the middle.
+// One loop with one fetch for every bracket's ends and steps: llvmpipe inlines the sampling code at each call
+// site, and twelve unrolled copies (two brackets of four steps) ran about 5 loop samples a fetch (the code no
+// longer fits the instruction cache), one call site about 1.5 (docs/peers.md, "One fetch site for the
+// refinement").  The trip count is kept from being a constant so that the compiler does not unroll it again.
+float refine_extremum(float m0, float fm0, float m1, float fm1, int brackets) {
+    const int PER_BRACKET = REFINE_EXTREMUM + 2;  // the two ends, then the steps
+    int fetches = brackets * PER_BRACKET + int(u_sample_distance < 0.0);  // not a constant: not unrolled
+    float best = -3.0e38;
+    float m = m0, fm = fm0, a = t0, b = t1, fa = 0.0, fb = 0.0;
+    int j = 0;  // the fetch within the bracket
+    for (int i = 0; i < fetches; i++) {
+        if (j == 0) {
+            if (i > 0) { m = m1; fm = fm1; }
+            a = max(m - u_sample_distance, t0);
+            b = min(m + u_sample_distance, t1);
+        }
+        float u = j == 0 ? a : b;
+        if (j >= 2) {
+            float q = (m - a) * (fm - fb);
+            float r = (m - b) * (fm - fa);
+            float den = 2.0 * (q - r);
+            u = den > 0.0 ? m - ((m - a) * q - (m - b) * r) / den : m;
+            if (!(u > a && u < b && u != m)) u = m - a > b - m ? m - GOLDEN * (m - a) : m + GOLDEN * (b - m);
+        }
         float fu = signed_value_at(u);
-        if (fu > fm) {
+        if (j == 0) {
+            fa = fu;
+        } else if (j == 1) {
+            fb = fu;
+        } else if (fu > fm) {
             if (u < m) { b = m; fb = fm; } else { a = m; fa = fm; }
             m = u;
             fm = fu;
@@ -95,8 +112,12 @@ float refine_extremum(float m, float fm) {
             b = u;
             fb = fu;
         }
+        if (++j == PER_BRACKET) {
+            best = max(best, max(fm, max(fa, fb)));
+            j = 0;
+        }
     }
-    return max(fm, max(fa, fb));
+    return best;
 }
 #endif
 
@@ -221,11 +242,16 @@ bool mode_jump(vec4 block, inout int m) {
 vec4 mode_finish(vec4 state) {
 #if defined(SECOND_BRACKET) && defined(REFINE_EXTREMUM) && !defined(COMPOSITE_AVERAGE)
     float best = SIGN * refined;  // every pass's refinements: each a value of the field on the ray
-    if (extreme_k >= 0) best = max(best, refine_extremum(sample_t(extreme_k), SIGN * value));
-    if (second_k >= 0) best = max(best, refine_extremum(sample_t(second_k), SIGN * second));
+    if (extreme_k >= 0 && second_k >= 0) {
+        best = max(best, refine_extremum(sample_t(extreme_k), SIGN * value, sample_t(second_k), SIGN * second, 2));
+    } else if (extreme_k >= 0 || second_k >= 0) {
+        bool first = extreme_k >= 0;
+        best = max(best, refine_extremum(sample_t(first ? extreme_k : second_k), SIGN * (first ? value : second),
+                                         0.0, 0.0, 1));
+    }
     return vec4(value, second, SIGN * best, float(extreme_at));
 #elif defined(REFINE_EXTREMUM) && !defined(COMPOSITE_AVERAGE)
-    if (extreme_k >= 0) refined = SIGN * refine_extremum(sample_t(extreme_k), SIGN * value);
+    if (extreme_k >= 0) refined = SIGN * refine_extremum(sample_t(extreme_k), SIGN * value, 0.0, 0.0, 1);
     return vec4(value, total, refined, state.w);
 #else
     return vec4(value, total, state.zw);
