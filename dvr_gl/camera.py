@@ -190,6 +190,36 @@ class Camera:
             d = np.broadcast_to(f, o.shape).copy()
         return o, d
 
+    def pixel_rectangle(self, points, width: int, height: int, margin: int = 1) -> tuple[int, int, int, int] | None:
+        """``(x, y, w, h)`` in pixels, rows counted from the bottom (GL's window coordinates, a scissor box):
+        every pixel whose ray through its centre meets the convex hull of ``points`` (world, ``(n, 3)``), with
+        ``margin`` pixels more on every side for rounding; clamped to the image (``w`` or ``h`` 0: no pixel).
+        None where it cannot tell: a point at or behind the eye's plane (perspective), which projects
+        nowhere.  A ray meets the hull only through the hull's projection, which lies within the points'
+        projected bounding rectangle: the rays are straight lines through the eye (or parallel)."""
+        f, r, u = self.basis()
+        rel = np.asarray(points, dtype=np.float64) - np.asarray(self.eye)
+        half_w, half_h = self.half_extent(width / height)
+        x, y = rel @ r / half_w, rel @ u / half_h  # normalized device coordinates, times the depth (perspective)
+        if self.projection == "perspective":
+            z = rel @ f
+            if not np.all(z > 1e-9 * max(1.0, float(np.abs(rel).max()))):
+                return None
+            x, y = x / z, y / z
+        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
+            return None
+        # pixel i's centre is at ndc (i + 0.5) / size * 2 - 1: the pixels from the first centre at or after the
+        # least coordinate to the last at or before the largest, widened by the margin
+        def span(lo: float, hi: float, size: int) -> tuple[int, int]:
+            first = math.ceil(max(-1.0, (lo + 1.0) * size / 2.0 - 0.5)) - margin
+            last = math.floor(min(size + 1.0, (hi + 1.0) * size / 2.0 - 0.5)) + margin
+            first, last = min(max(first, 0), size), min(last, size - 1)
+            return first, max(last - first + 1, 0)
+
+        x0, w = span(float(x.min()), float(x.max()), width)
+        y0, h = span(float(y.min()), float(y.max()), height)
+        return x0, y0, w, h
+
     def near_distance(self, directions: np.ndarray) -> np.ndarray:
         """Ray parameter of the near plane along each (unit) direction."""
         if self.near == 0:

@@ -122,3 +122,65 @@ def test_jitter_offsets_are_deterministic_uniform_and_float32_exact():
     assert not np.array_equal(j, jitter_offsets(64, 48, seed=4))
     np.testing.assert_array_equal(j.astype(np.float32).astype(np.float64), j)
     assert abs(j.mean() - 0.5) < 0.02
+
+
+def box_corners(lo, hi) -> np.ndarray:
+    return np.array([[(lo, hi)[(i >> a) & 1][a] for a in range(3)] for i in range(8)], dtype=np.float64)
+
+
+@pytest.mark.parametrize("projection", ["perspective", "orthographic"])
+def test_pixel_rectangle_holds_every_pixel_whose_ray_meets_the_box(projection):
+    """Camera.pixel_rectangle (the ray caster's scissor box) holds every pixel whose ray through its centre meets
+    a box, on random views, near and far, off-centre and partly outside the image (rows counted from the
+    bottom): a pixel left out would be drawn empty.  Far views leave most of the image out."""
+    rng = np.random.default_rng(7)
+    lo, hi = np.array([-1.0, -0.5, -0.25]), np.array([1.0, 0.5, 0.25])
+    width, height = 37, 23
+    smaller = 0
+    for _ in range(60):
+        target = rng.uniform(-1.5, 1.5, 3)
+        camera = Camera.from_orbit(tuple(target), (0, 0, 1), rng.uniform(-180, 180), rng.uniform(-80, 80),
+                                   rng.uniform(2.0, 12.0), projection=projection, fov=rng.uniform(10, 90),
+                                   view_height=rng.uniform(0.5, 6.0))
+        rect = camera.pixel_rectangle(box_corners(lo, hi), width, height)
+        assert rect is not None
+        x, y, w, h = rect
+        assert 0 <= x and 0 <= y and w >= 0 and h >= 0 and x + w <= width and y + h <= height
+        o, d = camera.pixel_rays(width, height)
+        t0, t1 = intersect_box(o, d, lo, hi)
+        hit = np.nonzero(t1 >= np.maximum(t0, 0.0))[0]
+        cols, rows = hit % width, height - 1 - hit // width  # GL's rows count from the bottom
+        assert np.all((cols >= x) & (cols < x + w) & (rows >= y) & (rows < y + h))
+        smaller += w * h < width * height / 2
+    assert smaller >= 10
+
+
+@pytest.mark.parametrize("projection", ["perspective", "orthographic"])
+def test_pixel_rectangle_of_a_face_on_box_is_its_pixels_and_the_margin(projection):
+    """Seen face on (along z), a box projects to a rectangle (perspective: its near face's, which holds the far
+    one's): the scissor box is exactly its pixels' bounding box widened by the margin, one pixel each side."""
+    lo, hi = np.array([-0.83, -0.31, -0.4]), np.array([0.52, 0.77, 0.4])
+    camera = Camera(eye=(0.1, 0.05, 4.0), target=(0.1, 0.05, 0.0), up=(0.0, 1.0, 0.0), projection=projection,
+                    fov=40.0, view_height=3.0)
+    width, height = 61, 47
+    o, d = camera.pixel_rays(width, height)
+    t0, t1 = intersect_box(o, d, lo, hi)
+    hit = np.nonzero(t1 >= np.maximum(t0, 0.0))[0]
+    cols, rows = hit % width, height - 1 - hit // width
+    x, y, w, h = camera.pixel_rectangle(box_corners(lo, hi), width, height)
+    assert (x, y, x + w - 1, y + h - 1) == (cols.min() - 1, rows.min() - 1, cols.max() + 1, rows.max() + 1)
+
+
+def test_pixel_rectangle_cannot_tell_with_the_eye_inside_or_behind():
+    """A point at or behind the eye's plane projects nowhere (the eye inside the box, or the box behind it):
+    None, every pixel drawn; a box in front of the eye but beside the view leaves no pixel."""
+    corners = box_corners((-1, -1, -1), (1, 1, 1))
+    inside = Camera(eye=(0.2, 0.1, 0.0), target=(1.0, 0.0, 0.0))
+    assert inside.pixel_rectangle(corners, 16, 16) is None
+    behind = Camera(eye=(0.0, -3.0, 0.0), target=(0.0, -6.0, 0.0))
+    assert behind.pixel_rectangle(corners, 16, 16) is None
+    beside = Camera(eye=(0.0, -10.0, 0.0), target=(4.0, 0.0, 0.0), fov=10.0)  # the box 22 degrees off the axis
+    x, y, w, h = beside.pixel_rectangle(corners, 16, 16)
+    o, d = beside.pixel_rays(16, 16)
+    t0, t1 = intersect_box(o, d, (-1, -1, -1), (1, 1, 1))
+    assert w * h == 0 and not np.any(t1 >= np.maximum(t0, 0.0))
