@@ -117,45 +117,61 @@ def refine_extremum(value_at, t, f, lo, hi, step: float, steps: int) -> np.ndarr
 
 
 class SecondCandidates:
-    """Each ray's extreme sample and its second candidate, the best sample not next to it (``renderer.
-    extremum_brackets`` 2: both brackets are refined), tracked sample by sample as the ray caster's GLSL does
-    (shaders/projection.glsl, ``track_second``).  Values are ``sign`` times the field (MinIP: -1); ``-inf``:
-    none yet.  Over a ray's samples ``s_0, s_1, ...`` (segment indices) the result is: the first sample
-    holding the largest value, at ``i``, and the first holding the largest of those at least two segments
-    from ``i`` (the order of the update keeps exactly that: a new extremum at ``k`` leaves as second the old
-    extreme sample where it is two or more segments back, else the old second or the sample of ``k - 2``)."""
+    """Each ray's extreme sample and its second candidate, the best peak of the samples other than the extreme
+    one and not next to it (``renderer.extremum_brackets`` 2: both brackets are refined), tracked sample by
+    sample as the ray caster's GLSL does (shaders/projection.glsl, ``track_second``).  Values are ``sign`` times
+    the field (MinIP: -1); ``-inf``: none (a missing sample: beside a gap, a ray's end or another brick's
+    sample).  A peak is a sample at least as large as the samples beside it (a missing one counts as ``-inf``).
+    Over a ray's samples ``s_0, s_1, ...`` (segment indices) the result is: the first sample holding the
+    largest value, at ``i`` (a peak), and the first peak holding the largest value of the peaks at least two
+    segments from ``i``.  A sample is known to be a peak when the next one comes (or none does: :meth:`finish`);
+    of the peaks, the best so far and the best at least two segments from it are kept (peaks next to each
+    other are equal, so a new best is never next to the old one, which becomes the second)."""
 
     def __init__(self, n: int):
         none = np.full(n, -np.inf)
-        self.best, self.at, self.k = none.copy(), np.zeros(n), np.zeros(n, np.int64)  # the extremum
+        self.best, self.at, self.k = none.copy(), np.zeros(n), np.zeros(n, np.int64)  # the best peak
         self.second, self.second_at = none.copy(), np.zeros(n)
-        self.before, self.before_at = none.copy(), np.zeros(n)   # the sample of segment k - 1
-        self.last_k, self.last, self.last_at = np.full(n, -2, np.int64), none.copy(), np.zeros(n)
+        self.last_k, self.last, self.last_at = np.full(n, -2, np.int64), none.copy(), np.zeros(n)  # undecided
+        self.rises = np.ones(n, bool)  # the undecided sample is at least the one before it
+
+    NAMES = ("best", "at", "k", "second", "second_at", "last_k", "last", "last_at", "rises")
 
     def take(self, rows, k: int, v: np.ndarray, t: np.ndarray):
         """Samples ``v`` (``(rows, m)``, signed; ``-inf``: none) at parameters ``t`` of segments ``k ..
         k + m - 1`` of rays ``rows``, in order."""
-        names = ("best", "at", "k", "second", "second_at", "before", "before_at", "last_k", "last", "last_at")
-        st = {name: getattr(self, name)[rows] for name in names}
+        st = {name: getattr(self, name)[rows] for name in self.NAMES}
         for c in range(v.shape[1]):
             self._step(st, k + c, v[:, c], t[:, c])
-        for name in names:
+        for name in self.NAMES:
             getattr(self, name)[rows] = st[name]
 
+    def finish(self):
+        """After the last samples: each ray's undecided sample has no next one."""
+        st = {name: getattr(self, name) for name in self.NAMES}
+        self._offer(st, (st["last_k"] >= 0) & st["rises"], st["last"], st["last_k"], st["last_at"])
+        for name in ("best", "at", "k", "second", "second_at"):
+            setattr(self, name, st[name])
+        self.last_k[:] = -2
+
     @staticmethod
-    def _step(st: dict, k: int, s: np.ndarray, t: np.ndarray):
+    def _offer(st: dict, peak, c, k, t):
+        """Peaks ``c`` (where ``peak``) of segments ``k`` at parameters ``t``: the best, or the second."""
+        higher = peak & (c > st["best"])
+        second = peak & ~higher & (c > st["second"]) & (k - st["k"] >= 2)
+        st["second"] = np.select([higher, second], [st["best"], c], st["second"])
+        st["second_at"] = np.select([higher, second], [st["at"], t], st["second_at"])
+        st["best"], st["at"], st["k"] = (np.where(higher, c, st["best"]), np.where(higher, t, st["at"]),
+                                         np.where(higher, k, st["k"]))
+
+    @classmethod
+    def _step(cls, st: dict, k: int, s: np.ndarray, t: np.ndarray):
         took = s > -np.inf
-        raised = took & (s > st["best"])
-        far = raised & (k - st["k"] >= 2)
-        near = raised & ~far & (st["before"] > st["second"])
-        competes = took & ~raised & (k - st["k"] >= 2) & (s > st["second"])
-        st["second"] = np.select([far, near, competes], [st["best"], st["before"], s], st["second"])
-        st["second_at"] = np.select([far, near, competes], [st["at"], st["before_at"], t], st["second_at"])
-        follows = raised & (st["last_k"] == k - 1)
-        st["before"] = np.where(raised, np.where(follows, st["last"], -np.inf), st["before"])
-        st["before_at"] = np.where(follows, st["last_at"], st["before_at"])
-        st["best"], st["at"], st["k"] = (np.where(raised, s, st["best"]), np.where(raised, t, st["at"]),
-                                         np.where(raised, k, st["k"]))
+        follows = took & (st["last_k"] == k - 1)
+        # a sample not followed by this one (a gap) is decided as soon as this one comes, as the GLSL's gap does
+        decided = took & (st["last_k"] >= 0) & st["rises"] & (~follows | (st["last"] >= s))
+        cls._offer(st, decided, st["last"], st["last_k"], st["last_at"])
+        st["rises"] = np.where(took, ~follows | (s >= st["last"]), st["rises"])
         st["last_k"], st["last"], st["last_at"] = (np.where(took, k, st["last_k"]), np.where(took, s, st["last"]),
                                                    np.where(took, t, st["last_at"]))
 
@@ -371,6 +387,8 @@ class DiscreteReference:
                 if second is not None:
                     second.take(rows, k, v, grid.t)
             self.samples += int(grid.valid.sum())
+        if second is not None:
+            second.finish()
         has = (self.n_seg > 0) & seen
         if mode != "average" and self.scene.renderer.extremum_refinement and hasattr(self.plan, "d"):
             acc[has] = self._refined_extremum(np.nonzero(has)[0], at[has], acc[has], sign)

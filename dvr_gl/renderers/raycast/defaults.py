@@ -22,7 +22,7 @@ accurate than one sample a voxel").
   fine samples of that line), which is what the pre-integration table holds;
 * MIP and MinIP: the extremum of the line's samples at ``d``, refined between the samples by
   :data:`EXTREMUM_REFINEMENT` parabolic steps (:func:`dvr_gl.reference.discrete.refine_extremum`, what
-  the shader does) in :data:`EXTREMUM_BRACKETS` brackets (the extreme sample's and the best sample's not
+  the shader does) in :data:`EXTREMUM_BRACKETS` brackets (the extreme sample's and the best peak's not
   next to it, :class:`dvr_gl.reference.discrete.SecondCandidates`), against the fine samples' extremum
   refined the same way, each classified once (colour and the opacity of one unit distance): the error of
   the maximum along a ray of a trilinear field sampled every ``d``.  Their target is :data:`MIP_TARGET`.
@@ -556,8 +556,9 @@ def refined_segments(s, n, k: int, sign: float, steps: int, lines: Lines, step: 
     """:func:`segments` of each line at ``k`` fine steps a segment, with the extreme segment's sample
     replaced by its extremum refined as the ray caster refines it (:func:`refine_extremum`: ``steps``
     parabolic steps, the bracket one segment each side within the box), and with ``brackets`` 2 the
-    second candidate's (the first sample holding the best value two or more segments from the extreme
-    one, :class:`~dvr_gl.reference.discrete.SecondCandidates`) too: ``(samples, lengths)``."""
+    second candidate's (the first peak, a sample at least the samples beside it, holding the best value two or
+    more segments from the extreme one, :class:`~dvr_gl.reference.discrete.SecondCandidates`) too:
+    ``(samples, lengths)``."""
     samples, length = segments(s, n, k)
     if not steps:
         return samples, length
@@ -566,9 +567,12 @@ def refined_segments(s, n, k: int, sign: float, steps: int, lines: Lines, step: 
     rows = np.nonzero(length[:, 0] > 0)[0]
     samples = samples.copy()
     samples[rows, j[rows]] = sign * refined_at(signed, length, rows, j[rows], k, sign, steps, lines, step, n)
-    if brackets == 2:
+    if brackets == 2:  # the best peak (at least the samples beside it) two or more segments from the extreme one
+        none = np.full((len(signed), 1), -np.inf)
+        peak = (signed >= np.concatenate([none, signed[:, :-1]], axis=1)) & \
+            (signed >= np.concatenate([signed[:, 1:], none], axis=1))
         near = np.abs(np.arange(signed.shape[1])[None, :] - j[:, None]) <= 1
-        others = np.where(near, -np.inf, signed)
+        others = np.where(near | ~peak, -np.inf, signed)
         j2 = np.argmax(others, axis=1)
         rows = rows[others[rows, j2[rows]] > -np.inf]
         samples[rows, j2[rows]] = sign * refined_at(signed, length, rows, j2[rows], k, sign, steps, lines, step, n)

@@ -4,9 +4,9 @@
 // REFINE_EXTREMUM (MIP, MinIP; the number of steps): after the loop, safeguarded parabolic steps around
 // the extreme sample find the field's extremum between the samples (refine_extremum), as
 // dvr_gl.reference.discrete.refine_extremum does; the extreme sample itself still decides what is skipped.
-// SECOND_BRACKET (with REFINE_EXTREMUM): also refines around the second candidate, the best sample not next
-// to the extreme one (a second peak; dvr_gl.reference.discrete.second_candidates), and keeps the better of
-// the two.  State then: (the extremum, the second candidate, the best refined so far, the extreme sample's
+// SECOND_BRACKET (with REFINE_EXTREMUM): also refines around the second candidate, the best peak of the
+// samples other than the extreme one and not next to it (track_second; dvr_gl.reference.discrete.SecondCandidates),
+// and keeps the better of the two.  State then: (the extremum, the second candidate, the best refined so far, the extreme sample's
 // segment); each pass refines the candidates it found, so across passes (bricks, windows) the state keeps
 // the best of every pass's refinements: never worse than one pass's.  The second candidate bounds what is
 // skipped (a block at or below it can change neither candidate).
@@ -122,33 +122,49 @@ float refine_extremum(float m0, float fm0, float m1, float fm1, int brackets) {
 #endif
 
 #if defined(SECOND_BRACKET) && defined(REFINE_EXTREMUM) && !defined(COMPOSITE_AVERAGE)
+// The second candidate: the best peak of the samples other than the extreme sample and not next to it.  A peak
+// is a sample at least as large as the samples beside it (SIGN times each); beside a ray's ends, a gap or a
+// jump there is none (a jumped block holds nothing above the second: skipping changes no candidate).  So the
+// second bracket goes to a second peak, not to the extreme peak's own shoulder two segments away, which the
+// best sample not next to it often was (a broad peak's shoulder outranks a narrower peak elsewhere: the dividing
+// cell's chromosomes, docs/peers.md, "A cheaper refinement").  A sample is known to be a peak one sample late.
 float second;           // the second candidate (SIGN times it is at most SIGN times value)
 int second_k;           // its segment, where this pass found it (else -1)
-int extreme_at;         // the extreme sample's segment (this pass's or an earlier one's)
-float before_extreme;   // SIGN times the sample of segment extreme_at - 1, where this pass took it (else -3e38)
-float last_s;           // SIGN times the sample of the segment before this one (-3e38 after a gap)
+float peak;             // SIGN times the best peak so far (at the end: the extremum)
+int peak_k;             // its segment (this pass's or an earlier one's)
+int peak_here;          // the same, where this pass found it (else -1)
+float last_s;           // SIGN times the last sample, whose peak is not decided yet
+int last_k;             // its segment (-2: none)
+bool last_rises;        // it is at least the sample before it (or has none beside it)
 
-// Track the second candidate before sample s (SIGN times it) of segment k updates the extremum: a new
-// extremum at k leaves as second the best sample at least two segments before k (the old extreme one, or,
-// where that was k - 1, the old second or the sample of k - 2); otherwise a sample two or more segments
-// from the extreme one competes as second.  Strict comparisons: the first sample holding a value wins.
-void track_second(int k, float s) {
-    float best = SIGN * value;
-    if (s > best) {
-        if (k - extreme_at >= 2) {
-            second = value;
-            second_k = extreme_k;
-        } else if (before_extreme > SIGN * second) {
-            second = SIGN * before_extreme;
-            second_k = extreme_at - 1;
-        }
-        before_extreme = last_s;
-        extreme_at = k;
-    } else if (k - extreme_at >= 2 && s > SIGN * second) {
-        second = SIGN * s;
+// The peak c (SIGN times it) of segment k: the best peak so far, or the best not next to it.
+void offer_peak(float c, int k) {
+    if (c > peak) {
+        second = SIGN * peak;  // the old best is two or more segments back: peaks next to each other are equal
+        second_k = peak_here;
+        peak = c;
+        peak_k = k;
+        peak_here = k;
+    } else if (c > SIGN * second && k - peak_k >= 2) {
+        second = SIGN * c;
         second_k = k;
     }
+}
+
+// The last sample has no next one (a gap, the pass's end): a peak where it rises.
+void close_last() {
+    if (last_k >= 0 && last_rises) offer_peak(last_s, last_k);
+    last_k = -2;
+}
+
+// Sample s (SIGN times it) of segment k decides whether the last sample is a peak, and waits for its own.
+// Strict comparisons: the first sample holding a value wins.
+void track_second(int k, float s) {
+    bool follows = last_k == k - 1;
+    if (last_k >= 0 && last_rises && (!follows || last_s >= s)) offer_peak(last_s, last_k);
+    last_rises = !follows || s >= last_s;
     last_s = s;
+    last_k = k;
 }
 #define SKIP_BOUND second
 #else
@@ -168,9 +184,11 @@ bool mode_init(vec4 state) {
 #if defined(SECOND_BRACKET) && defined(REFINE_EXTREMUM) && !defined(COMPOSITE_AVERAGE)
     second = state.y;
     second_k = -1;
-    extreme_at = int(state.w);
-    before_extreme = -3.0e38;
-    last_s = -3.0e38;
+    peak = SIGN * state.x;
+    peak_k = int(state.w);
+    peak_here = -1;
+    last_k = -2;
+    last_rises = true;
 #endif
     return false;
 }
@@ -208,7 +226,7 @@ bool mode_sample(int k, float start, float len, float t, vec3 p) {
 
 void mode_gap() {
 #if defined(SECOND_BRACKET) && defined(REFINE_EXTREMUM) && !defined(COMPOSITE_AVERAGE)
-    last_s = -3.0e38;  // the next sample does not follow the last one
+    close_last();  // the next sample does not follow the last one
 #endif
 }
 
@@ -241,6 +259,7 @@ bool mode_jump(vec4 block, inout int m) {
 
 vec4 mode_finish(vec4 state) {
 #if defined(SECOND_BRACKET) && defined(REFINE_EXTREMUM) && !defined(COMPOSITE_AVERAGE)
+    close_last();
     float best = SIGN * refined;  // every pass's refinements: each a value of the field on the ray
     if (extreme_k >= 0 && second_k >= 0) {
         best = max(best, refine_extremum(sample_t(extreme_k), SIGN * value, sample_t(second_k), SIGN * second, 2));
@@ -249,7 +268,7 @@ vec4 mode_finish(vec4 state) {
         best = max(best, refine_extremum(sample_t(first ? extreme_k : second_k), SIGN * (first ? value : second),
                                          0.0, 0.0, 1));
     }
-    return vec4(value, second, SIGN * best, float(extreme_at));
+    return vec4(value, second, SIGN * best, float(peak_k));
 #elif defined(REFINE_EXTREMUM) && !defined(COMPOSITE_AVERAGE)
     if (extreme_k >= 0) refined = SIGN * refine_extremum(sample_t(extreme_k), SIGN * value, 0.0, 0.0, 1);
     return vec4(value, total, refined, state.w);
