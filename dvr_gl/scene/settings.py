@@ -303,8 +303,8 @@ EXTREMUM_REFINEMENT = Setting("extremum_refinement", Optional[int], None, "MIP a
                               "docs/tolerance.md; 0 elsewhere)",
                               check=between(0, 8, what=" parabolic steps"), flag=False)
 EXTREMUM_BRACKETS = Setting("extremum_brackets", Optional[int], None, "MIP and MinIP with extremum_refinement: "
-                            "brackets refined, the extreme sample's (1) and also the best sample not next to it, "
-                            "a second peak (2); default: the ray caster's defaults choose 2 with the sample "
+                            "brackets refined, the extreme sample's (1) and also the best peak of the samples not next "
+                            "to it, a second peak (2); default: the ray caster's defaults choose 2 with the sample "
                             "distance, docs/tolerance.md; 1 elsewhere",
                             check=between(1, 2, what=" brackets"), flag=False)
 JITTER = Setting("jitter", bool, False, "per-pixel sample offset against wood-grain artefacts", must_support=True)

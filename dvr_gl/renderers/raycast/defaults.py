@@ -115,10 +115,14 @@ EXTREMUM_REFINEMENT = 6
 REFINEMENT_CHOICES = (4, EXTREMUM_REFINEMENT)
 #: What one refinement fetch (a bracket's end or a parabolic step) costs, in samples of the ray's loop: on
 #: brain-mip at 1.25 voxel (llvmpipe, 2026-11-28) one bracket's 8 fetches took 18 % of the unrefined frame
-#: of about 75 samples a ray, the 6 steps of two brackets 12 %: about 1.7-2 samples each.
+#: of about 75 samples a ray, the 6 steps of two brackets 12 %: about 1.7-2 samples each.  Since the refinement
+#: fetches from one call site in a loop and the frame is scissored to the volume's pixels (2026-11-29), measured
+#: again at 512x512 against the loop's counted samples: 1.0-1.2 on the chromosomes' slab at 1.25 voxel, 1.7-2.2 on
+#: brain-mip, 1.7-2.5 on mri-mip, 2.6-2.7 on the spindle slab at 2.25 voxel (docs/peers.md, "A cheaper
+#: refinement"): 2 kept.
 REFINE_FETCH_COST = 2.0
 #: MIP and MinIP: the brackets refined where the scene gives none (renderer.extremum_brackets): the extreme
-#: sample's and the best sample's not next to it (a second peak, whose field may rise above the extreme
+#: sample's and the best peak's of the samples not next to it (a second peak, whose field may rise above the extreme
 #: sample's between the samples).  On 3000 lines through MNI152 at 1.25 voxel, refining the second too
 #: took the value's RMS error from 0.56/255 to 0.35/255 (below one bracket at 1 voxel, 0.57/255) for 8
 #: more texture fetches a ray (docs/peers.md, "Refining more than one bracket").
