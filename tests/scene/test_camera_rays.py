@@ -5,6 +5,7 @@ import pytest
 
 from dvr_gl.camera import Camera, framing_distance, orbit_of
 from dvr_gl.errors import SceneError
+from dvr_gl.gl.geometry import box_corners
 from dvr_gl.rays import RayBatch, intersect_box, jitter_offsets, pcg_hash, segment_bounds, segment_counts
 
 
@@ -122,10 +123,6 @@ def test_jitter_offsets_are_deterministic_uniform_and_float32_exact():
     assert not np.array_equal(j, jitter_offsets(64, 48, seed=4))
     np.testing.assert_array_equal(j.astype(np.float32).astype(np.float64), j)
     assert abs(j.mean() - 0.5) < 0.02
-
-
-def box_corners(lo, hi) -> np.ndarray:
-    return np.array([[(lo, hi)[(i >> a) & 1][a] for a in range(3)] for i in range(8)], dtype=np.float64)
 
 
 @pytest.mark.parametrize("projection", ["perspective", "orthographic"])

@@ -5,11 +5,11 @@
 // the extreme sample find the field's extremum between the samples (refine_extremum), as
 // dvr_gl.reference.discrete.refine_extremum does; the extreme sample itself still decides what is skipped.
 // SECOND_BRACKET (with REFINE_EXTREMUM): also refines around the second candidate, the best peak of the
-// samples other than the extreme one and not next to it (track_second; dvr_gl.reference.discrete.SecondCandidates),
-// and keeps the better of the two.  State then: (the extremum, the second candidate, the best refined so far, the extreme sample's
-// segment); each pass refines the candidates it found, so across passes (bricks, windows) the state keeps
-// the best of every pass's refinements: never worse than one pass's.  The second candidate bounds what is
-// skipped (a block at or below it can change neither candidate).
+// samples other than the extreme one and not next to it (track_second; dvr_gl.reference.discrete.
+// SecondCandidates), and keeps the better of the two.  State then: (the extremum, the second candidate, the
+// best refined so far, the extreme sample's segment); each pass refines the candidates it found, so across
+// passes (bricks, windows) the state keeps the best of every pass's refinements: never worse than one pass's.
+// The second candidate bounds what is skipped (a block at or below it can change neither candidate).
 // MIP and MinIP read the field through value_at(t): with the hardware's linear filter, an affine map from the
 // ray parameter to the texture coordinate set once a pass (mode_init), one multiply-add per axis a fetch.
 
