@@ -517,12 +517,13 @@ class RayCastRenderer(GridRenderer):
         seconds = limits.estimated_seconds(self.work(scene))
         return int(min(scene.image.height, max(1, math.ceil(seconds / BAND_SECONDS))))
 
-    def _draw(self, program, fbo, width, height, bands: int = 1, rect=None) -> float:
+    def _draw(self, program, fbo, width, height, bands: int = 1, rect=None, clear: bool = True) -> float:
         """Draw the full-screen pass into ``fbo``, in ``bands`` scissored bands of rows; between bands
         the frame reports progress, so that Ctrl-C and a sandbox's time limit stop it there (no Python
         runs while one draw call is under way).  ``rect`` (x, y, w, h; :func:`box_rectangle`): only the
         pixels whose rays can meet the volume are drawn, the rest cleared to zero, what the pass writes for
-        a ray that misses it.  Returns the seconds spent drawing."""
+        a ray that misses it (``clear`` False: left as they are, a brick's pass over a copy of the state).
+        Returns the seconds spent drawing."""
         fbo.use()
         self.ctx.viewport = (0, 0, width, height)
         self.ctx.disable(self.ctx.BLEND | self.ctx.DEPTH_TEST)
@@ -530,9 +531,10 @@ class RayCastRenderer(GridRenderer):
         edges = np.linspace(0, height, bands + 1).round().astype(int)
         x, w = (0, width) if rect is None else (rect[0], rect[2])
         if rect is not None:
+            edges = np.clip(edges, rect[1], rect[1] + rect[3])
+        if rect is not None and clear:
             fbo.scissor = None
             fbo.clear(0.0, 0.0, 0.0, 0.0)
-            edges = np.clip(edges, rect[1], rect[1] + rect[3])
         try:
             drawn = now()
             for band, (y0, y1) in enumerate(zip(edges[:-1], edges[1:])):
@@ -587,7 +589,12 @@ class RayCastRenderer(GridRenderer):
                         "u_core_closed": np.asarray(brick.last, dtype=float), "u_brick_lo": lo, "u_brick_hi": hi,
                         "u_segment_window": window}
             self.bind(program, uniforms, textures)
-            gpu_seconds += self._draw(program, targets[1 - current][1], width, height)
+            # only the pixels whose rays can meet the brick (a ray that misses it keeps its state): the state copied
+            # first, then those drawn over it (the counts' second attachment: the whole pass, as before)
+            rect = None if counting else scene.camera.pixel_rectangle(box_corners(lo, hi), width, height)
+            if rect is not None:
+                self.ctx.copy_framebuffer(targets[1 - current][1], targets[current][1])
+            gpu_seconds += self._draw(program, targets[1 - current][1], width, height, rect=rect, clear=False)
             current = 1 - current
             self.report(done + 1, len(passes))  # long bricked or windowed frames: a progress bar, Ctrl-C
         if not resolve:
@@ -606,7 +613,7 @@ class RayCastRenderer(GridRenderer):
         self.bind(resolve, {"u_unit_distance": scene.transfer_function.unit_distance,
                             **self.optics_uniforms(scene, lut)}, {**tables, "u_state": state})
         out = self.target("main", width, height)[1]
-        gpu_seconds += self._draw(resolve, out, width, height)
+        gpu_seconds += self._draw(resolve, out, width, height, rect=box_rectangle(scene))
         image = self.read(out, width, height)
         self.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines,
                       "bricks": len(bricks), "passes": len(passes), **decided}

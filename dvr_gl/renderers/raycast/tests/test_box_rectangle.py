@@ -1,9 +1,11 @@
 """The one-pass frame drawn only within the pixels whose rays can meet the volume (renderer.box_rectangle, a
-scissor box): the same image, bit for bit, as the whole image drawn, in every compositing mode and view."""
+scissor box), and each brick's pass only within those whose rays can meet the brick: the same image, bit for
+bit, as the whole image drawn, in every compositing mode and view."""
 
 import numpy as np
 import pytest
 
+from dvr_gl.camera import Camera
 from dvr_gl.gl.context import make_current
 from dvr_gl.renderers import create_renderer
 from dvr_gl.renderers.raycast import renderer as raycast
@@ -51,3 +53,17 @@ def test_the_eye_inside_the_box_draws_every_pixel():
     """Where the eye is inside the box no rectangle can be told: every pixel is drawn (None)."""
     scene = load_scene(None, {**BASE, "camera.distance": 1.0})
     assert raycast.box_rectangle(scene) is None
+
+
+@pytest.mark.parametrize("case", ["composite", "mip two brackets", "minip", "average", "xray", "isosurface",
+                                  "back to front", "orthographic"])
+def test_the_bricks_scissored_passes_are_the_whole_passes(renderer, monkeypatch, case):
+    """Bricked (a texture budget of a few bricks), each pass draws only over the pixels whose rays can meet its
+    brick, on a copy of the state (a ray that misses the brick keeps it): the images equal the whole passes' to the
+    bit."""
+    scene = load_scene(None, {**BASE, **CASES[case], "renderer.texture_budget_mb": 0.01})
+    scissored = renderer.render(scene)
+    assert renderer.stats["bricks"] > 2
+    monkeypatch.setattr(Camera, "pixel_rectangle", lambda *args, **kw: None)
+    whole = renderer.render(scene)
+    assert np.array_equal(scissored, whole)
