@@ -199,7 +199,9 @@ def draw_fields(renderer, scene, surfaces: dict, shader_features):
     fields.bind(program, len(textures))
     width, height = scene.image.width, scene.image.height
     _, fbo = renderer.target("main", width, height)
-    gpu_seconds = renderer._draw(program, fbo, width, height, renderer.bands(scene))
+    # every mode's empty state here is zero, which a ray that misses the union box writes (box_rectangle)
+    rect = None if "DEPTH" in defines else ray_bounds.box_rectangle(scene)
+    gpu_seconds = renderer._draw(program, fbo, width, height, renderer.bands(scene), rect)
     image = renderer.read(fbo, width, height)
     renderer.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines, "bricks": 1,
                       "accelerated": False, "ray_bounds": "RAY_BOUNDS" in defines,

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...gl.geometry import depth_range
+from ...gl.geometry import box_corners, depth_range
 
 # A face's vertices per axis: the quad's corners as (u, v) offsets in the two other axes.
 _QUAD = np.array([(0, 0), (1, 0), (1, 1), (0, 0), (1, 1), (0, 1)])
@@ -141,3 +141,14 @@ class BoundsFaces:
             array.release()
         if self.buffer is not None:
             self.buffer.release()
+
+
+def box_rectangle(scene) -> tuple[int, int, int, int] | None:
+    """A one-pass frame's scissor box (x, y, w, h, rows from the bottom; the resolve's too): the pixels whose rays
+    can meet the field's box, where that leaves some out (else None: every pixel is drawn).  Outside it llvmpipe would
+    still run the pass's code after the ray loop (the refinement, the resolve) for every block of pixels,
+    masked but not skipped: with a thin slab small in a 512x512 image a MIP frame's refinement took 2.8 ms where
+    its loop took 0.3 (docs/peers.md, "A cheaper refinement")."""
+    width, height = scene.image.width, scene.image.height
+    rect = scene.camera.pixel_rectangle(box_corners(*scene.field.box), width, height)
+    return None if rect is None or rect == (0, 0, width, height) else rect

@@ -40,7 +40,7 @@ from . import acceleration as accel
 from . import out_of_core, ray_bounds
 from .acceleration import level_count
 from .fields import draw_fields
-from .ray_bounds import BoundsFaces
+from .ray_bounds import BoundsFaces, box_rectangle
 
 #: The ray caster's own GLSL (before the common library).
 SHADERS = (shader_root(__file__),)
@@ -187,17 +187,6 @@ def worth_skipping(estimate, sample_distance: float) -> bool:
     lookup = LOOKUP_COST_BOUNDED if estimate.bounded else LOOKUP_COST[estimate.mode]
     cost = (1.0 - estimate.fraction) * samples + lookup * estimate.lookups
     return estimate.fraction >= AUTO_MIN_SKIPPABLE and cost < samples
-
-
-def box_rectangle(scene) -> tuple[int, int, int, int] | None:
-    """The one-pass frame's scissor box (x, y, w, h, rows from the bottom): the pixels whose rays can meet the
-    volume's box, where that leaves some out (else None: every pixel is drawn).  Outside it llvmpipe would
-    still run the pass's code after the ray loop (the refinement, the resolve) for every block of pixels,
-    masked but not skipped: with a thin slab small in a 512x512 image a MIP frame's refinement took 2.8 ms where
-    its loop took 0.3 (docs/peers.md, "A cheaper refinement")."""
-    width, height = scene.image.width, scene.image.height
-    rect = scene.camera.pixel_rectangle(box_corners(*scene.field.box), width, height)
-    return None if rect is None or rect == (0, 0, width, height) else rect
 
 
 def segment_windows(scene, accelerated: bool = False) -> list[tuple[int, int]]:

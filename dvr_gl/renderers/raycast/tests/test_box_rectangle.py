@@ -5,11 +5,14 @@ bit, as the whole image drawn, in every compositing mode and view."""
 import numpy as np
 import pytest
 
+from dvr_gl.api import scene_of
 from dvr_gl.camera import Camera
+from dvr_gl.fields.grid import Volume
 from dvr_gl.gl.context import make_current
 from dvr_gl.renderers import create_renderer
 from dvr_gl.renderers.raycast import renderer as raycast
 from dvr_gl.scene.resolve import load_scene
+from dvr_gl.transfer_function import TransferFunction
 
 BASE = {"volume.demo": "blobs", "volume.size": 20, "image.width": 40, "image.height": 30}
 CASES = {
@@ -67,3 +70,20 @@ def test_the_bricks_scissored_passes_are_the_whole_passes(renderer, monkeypatch,
     monkeypatch.setattr(Camera, "pixel_rectangle", lambda *args, **kw: None)
     whole = renderer.render(scene)
     assert np.array_equal(scissored, whole)
+
+
+@pytest.mark.parametrize("compositing", ["emission_absorption", "mip", "isosurface"])
+def test_several_fields_scissored_are_the_whole_frame(renderer, monkeypatch, compositing):
+    """Several fields (one pass of their mixture): every mode's empty state is zero, so the scissored frame equals
+    the whole one to the bit."""
+    z, y, x = np.mgrid[0:10, 0:11, 0:12].astype(np.float32)
+    fields = [Volume((np.sin(x / 3) * np.cos(y / 4) + z / 10).astype(np.float32)),
+              Volume((((x - 6) ** 2 + (y - 5) ** 2 + (z - 5) ** 2) / 50).astype(np.float32))]
+    tfs = [TransferFunction([[lo, 0.9, 0.4, 0.2, 0.0], [hi, 0.2, 0.5, 0.9, 0.8]]) for lo, hi in ((-1, 2), (0, 2))]
+    scene = scene_of(fields, transfer_function=tfs, renderer="raycast", size=(40, 30), compositing=compositing,
+                     **({"iso_value": 0.5} if compositing == "isosurface" else {}))
+    rect = raycast.box_rectangle(scene)
+    assert rect is not None and rect[2] * rect[3] < 0.9 * 40 * 30
+    scissored = renderer.render(scene)
+    monkeypatch.setattr(Camera, "pixel_rectangle", lambda *args, **kw: None)
+    assert np.array_equal(scissored, renderer.render(scene))
