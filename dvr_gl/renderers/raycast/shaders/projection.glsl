@@ -262,12 +262,13 @@ vec4 mode_finish(vec4 state) {
 #if defined(SECOND_BRACKET) && defined(REFINE_EXTREMUM) && !defined(COMPOSITE_AVERAGE)
     close_last();
     float best = SIGN * refined;  // every pass's refinements: each a value of the field on the ray
-    if (extreme_k >= 0 && second_k >= 0) {
-        best = max(best, refine_extremum(sample_t(extreme_k), SIGN * value, sample_t(second_k), SIGN * second, 2));
-    } else if (extreme_k >= 0 || second_k >= 0) {
-        bool first = extreme_k >= 0;
-        best = max(best, refine_extremum(sample_t(first ? extreme_k : second_k), SIGN * (first ? value : second),
-                                         0.0, 0.0, 1));
+    // the candidates this pass found, the extreme one first: one call, so one inlined copy of the fetch
+    bool extreme_here = extreme_k >= 0;
+    int brackets = int(extreme_here) + int(second_k >= 0);
+    if (brackets > 0) {
+        best = max(best, refine_extremum(sample_t(extreme_here ? extreme_k : second_k),
+                                         SIGN * (extreme_here ? value : second), sample_t(second_k), SIGN * second,
+                                         brackets));
     }
     return vec4(value, second, SIGN * best, float(peak_k));
 #elif defined(REFINE_EXTREMUM) && !defined(COMPOSITE_AVERAGE)

@@ -164,7 +164,13 @@ def two_peaks_scene(tmp_path, brackets: int):
     voxels the samples fall beside the narrow peak, below the broad one's largest sample, so one bracket
     refines the broad peak (0.8); the trilinear field's maximum is 1, at node 13."""
     x = np.arange(33.0)
-    line = np.maximum(np.exp(-(x - 13.0) ** 2 / 2.0), 0.8 * np.exp(-(x - 24.0) ** 2 / 32.0))
+    return peaks_along_x(tmp_path, np.maximum(np.exp(-(x - 13.0) ** 2 / 2.0), 0.8 * np.exp(-(x - 24.0) ** 2 / 32.0)),
+                         brackets)
+
+
+def peaks_along_x(tmp_path, line: np.ndarray, brackets: int):
+    """A field varying along x only (``line``: its 33 nodes), seen along x in parallel projection, MIP at 2.75
+    voxels refined in six steps and ``brackets`` brackets, a grey ramp over [0, 1]."""
     data = np.broadcast_to(line, (9, 9, 33)).astype(np.float32)
     return array_scene(tmp_path, data, {
         "image.width": 5, "image.height": 5, "camera.projection": "orthographic", "camera.azimuth": 90.0,
@@ -206,13 +212,8 @@ def shoulder_scene(tmp_path) -> dict:
     node 22) across x, seen along x at 2.75 voxels with two brackets: the broad peak's shoulders two segments from
     its largest sample (0.61-0.74) outrank the narrow one's largest sample (0.55)."""
     x = np.arange(33.0)
-    line = np.maximum(np.exp(-(x - 2.0) ** 2 / 2.0), 0.85 * np.exp(-(x - 22.0) ** 2 / 162.0))
-    data = np.broadcast_to(line, (9, 9, 33)).astype(np.float32)
-    return array_scene(tmp_path, data, {
-        "image.width": 5, "image.height": 5, "camera.projection": "orthographic", "camera.azimuth": 90.0,
-        "camera.elevation": 0.0, "transfer_function.points": [[0, 0, 0, 0, 0], [1, 1, 1, 1, 1]],
-        "renderer.compositing": "mip", "renderer.sample_distance_voxels": 2.75,
-        "renderer.extremum_refinement": 6, "renderer.extremum_brackets": 2})
+    return peaks_along_x(tmp_path, np.maximum(np.exp(-(x - 2.0) ** 2 / 2.0), 0.85 * np.exp(-(x - 22.0) ** 2 / 162.0)),
+                         2)
 
 
 def test_the_second_bracket_goes_to_a_peak_not_a_shoulder(tmp_path, renderer):
