@@ -479,9 +479,10 @@ class VisibilityOrder:
             depth = self.fast.distances(self.centroids, eye)
         else:
             depth = centroid_depth(self.centroids, camera)
-        if kind == "centroid":
-            order = np.argsort(depth, kind="stable")
-            return order, {"order": "centroid", "order_seconds": time.perf_counter() - start}
+        if kind == "centroid":  # compiled: a radix sort, linear in the cells (the jaw's 454,288: 12-19 ms, numpy 53-58)
+            order = self.fast.stable_argsort(depth) if self.fast is not None else np.argsort(depth, kind="stable")
+            return order, {"order": "centroid", "order_seconds": time.perf_counter() - start,
+                           "compiled": self.fast is not None}
         adj, original = self.adjacency, None
         if self.scattered if self.renumber is None else self.renumber:
             local = self.renumbered

@@ -20,7 +20,8 @@ def _arguments(p):
     p.add_argument("--peers-python", metavar="PYTHON",
                    help="the peers environment's interpreter, for VTK (default .venv-peers/bin/python if it exists)")
     p.add_argument("--only-pt", action="store_true",
-                   help="only projected tetrahedra (exact order; exact and shirley-tuchman integration) and VTK")
+                   help="only projected tetrahedra (exact order: exact and shirley-tuchman integration; "
+                        "shirley-tuchman in VTK's centroid order) and VTK")
     p.add_argument("--pictures", metavar="DIR", help="write cells-MESH.png into DIR: the first view's reference, "
                                                      "dvr-gl, resampled ray casting and VTK, above 5x their errors")
 

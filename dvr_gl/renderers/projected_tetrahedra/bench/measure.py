@@ -3,7 +3,7 @@ and, where VTK is importable in the peers' environment, VTK's ``vtkProjectedTetr
 the same run.
 
 For each mesh and view: dvr-gl's projected tetrahedra with the exact visibility order and both
-integrations (``exact`` per fragment and ``shirley-tuchman``), and with the centroid order (frame
+integrations (``exact`` per fragment and ``shirley-tuchman``), and with the centroid order (each integration; frame
 time, its order and draw parts, cells per second, one process: they share the mesh's upload and
 adjacency, built by an untimed frame; their frames interleaved, A B C A B C, medians), then VTK
 (``VTK ms / ms``: above 1, dvr-gl is faster), dvr-gl's ``cell-raycast`` (its defaults; no
@@ -59,10 +59,14 @@ COLUMNS = [("mesh", "mesh", ""), ("view", "view", ""), ("renderer", "renderer", 
            ("order_ms", "order ms", ".0f"), ("draw_ms", "draw ms", ".0f"), ("ms", "frame ms", ".0f"),
            ("mtets", "M cells/s", ".3f"), ("rms", "RMS", ".2e"), ("vs_vtk", "VTK ms / ms", ".2f"),
            ("cycles", "cycles broken", "")]
-#: projected tetrahedra's cases, timed interleaved: label, renderer settings
+#: projected tetrahedra's cases, timed interleaved: label, renderer settings.  The last pairs VTK's own order (cell
+#: centres' depth, ``vtkCellCenterDepthSort``) with the Shirley-Tuchman fan: VTK's algorithm, ours.
 CASES = (("dvr-gl exact", {"cell_order": "exact"}),
          ("dvr-gl shirley-tuchman", {"cell_order": "exact", "integration": "shirley-tuchman"}),
-         ("dvr-gl centroid", {"cell_order": "centroid"}))
+         ("dvr-gl centroid", {"cell_order": "centroid"}),
+         ("dvr-gl shirley-tuchman centroid", {"cell_order": "centroid", "integration": "shirley-tuchman"}))
+#: ``--only-pt``: both integrations in the exact order, and VTK's algorithm
+ONLY_PT = ("dvr-gl exact", "dvr-gl shirley-tuchman", "dvr-gl shirley-tuchman centroid")
 
 
 def write_vtu(mesh, path: Path):
@@ -155,7 +159,8 @@ def _rms(image, truth) -> float:
 def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: int = 3, python: str | None = None,
         views=VIEWS, progress=None, timeout: float = 1800.0, pictures: Path | None = None, only_pt: bool = False):
     """Rows (one per mesh, view and renderer) and notes.  ``only_pt``: projected tetrahedra in the
-    exact order, both integrations, and VTK (no centroid order, no cell-raycast, no resampling).
+    exact order, both integrations, Shirley-Tuchman in VTK's centroid order, and VTK (no cell-raycast, no
+    resampling).
     ``pictures``: a folder for ``cells-MESH.png`` (the first view at the error size: the reference,
     dvr-gl exact and shirley-tuchman, cell-raycast, resampled ray casting and VTK where measured,
     above 5x their differences from the reference)."""
@@ -195,7 +200,7 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
                     reference.progress = step
                     truth = reference.render(small.with_renderer(name=reference.name)).astype(np.float64)
                 tiles = [truth]
-                cases = CASES[:2] if only_pt else CASES
+                cases = [c for c in CASES if c[0] in ONLY_PT] if only_pt else CASES
                 vtk = _VtkFrames(python, _vtk_scene(scene, vtu), size,
                                  Path(work.name) / f"{name}-{az:g}-{el:g}-frames") if have else None
                 try:
@@ -211,7 +216,7 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
                     row["mtets"] = row["cells"] / row["ms"] / 1e3
                     image = pt.render(small.with_renderer(**keys_))
                     row["rms"] = _rms(image, truth)
-                    if label != "dvr-gl centroid":
+                    if "centroid" not in label:
                         tiles.append(image)
                     rows.append(row)
                     if progress:
