@@ -58,7 +58,7 @@ def _run(args) -> int:
                               progress=lambda r: print(f"{r['mesh']} {r['view']} {r['renderer']}: {r['ms']:.0f} ms, "
                                                        f"RMS {r['rms']:.2e}", flush=True))
     args.report.text()
-    args.report.table(rows, measure.COLUMNS, notes)
+    args.report.table(rows, measure.COLUMNS, notes + measure.against_vtk(rows))
     return 0
 
 

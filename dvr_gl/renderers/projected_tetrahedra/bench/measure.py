@@ -256,6 +256,21 @@ def run(names, data_dir: Path, size: int = 512, error_size: int = 256, frames: i
         work.cleanup()
 
 
+def against_vtk(rows: list[dict]) -> list[str]:
+    """One line per dvr-gl case measured beside VTK: on how many views it is at least as fast (``VTK ms / ms``
+    at least 1), the range of that ratio, and of VTK's RMS over its own (above 1: dvr-gl more accurate)."""
+    vtk = {(r["mesh"], r["view"]): r for r in rows if r["renderer"].startswith("vtk-pt")}
+    lines = []
+    for label in dict.fromkeys(r["renderer"] for r in rows if r.get("vs_vtk") is not None):
+        mine = [r for r in rows if r["renderer"] == label and r.get("vs_vtk") is not None]
+        speed = [r["vs_vtk"] for r in mine]
+        error = [vtk[r["mesh"], r["view"]]["rms"] / r["rms"] for r in mine if r["rms"] > 0]
+        lines.append(f"{label}: at least as fast as VTK on {sum(s >= 1.0 for s in speed)} of {len(speed)} views "
+                     f"({min(speed):.2f}-{max(speed):.2f}x)"
+                     + (f", VTK's RMS {min(error):.3g}-{max(error):.3g}x its own" if error else ""))
+    return lines
+
+
 def _resampled_row(rows, raycast, name, view, mesh, scene, small, grid, frames, truth, progress):
     """The ray caster on the resampled mesh: its row (appended) and image."""
     from ....fields.mesh_resample import resampled_scene

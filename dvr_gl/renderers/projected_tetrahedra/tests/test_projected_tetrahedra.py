@@ -666,6 +666,22 @@ def test_the_tradeoff_bench_sweeps_a_mesh_through_the_registry():
     assert not checks and "renders grids, not mesh" in note
 
 
+def test_the_cells_bench_sums_up_each_case_against_vtk():
+    """``dvr bench cells``' lines under the table: per dvr-gl case, the views where it is at least as fast as
+    VTK, the range of VTK ms / ms and of VTK's RMS over the case's; cases not timed beside VTK left out."""
+    from dvr_gl.renderers.projected_tetrahedra.bench.measure import against_vtk
+
+    row = lambda mesh, view, renderer, rms, vs=None: {"mesh": mesh, "view": view, "renderer": renderer,  # noqa: E731
+                                                      "rms": rms, "vs_vtk": vs}
+    rows = [row("a", "30/20", "dvr-gl st", 1e-3, 0.9), row("a", "30/20", "vtk-pt 9", 2e-2),
+            row("a", "0/90", "dvr-gl st", 4e-3, 1.0), row("a", "0/90", "vtk-pt 9", 2e-2),
+            row("b", "0/90", "dvr-gl st", 2e-3, 1.5), row("b", "0/90", "dvr-gl cell-raycast", 1e-7),
+            row("b", "0/90", "vtk-pt 9", 1e-2)]
+    assert against_vtk(rows) == ["dvr-gl st: at least as fast as VTK on 2 of 3 views (0.90-1.50x), "
+                                 "VTK's RMS 5-20x its own"]
+    assert against_vtk([r for r in rows if r["renderer"] != "dvr-gl st"]) == []
+
+
 def test_dvr_bench_cells(tmp_path, monkeypatch, capsys):
     """The bench on a mesh of its own: per view, the exact and the centroid order (Shirley-Tuchman in each
     too) with their times and errors against the reference (the exact one at float32 level), VTK listed as
