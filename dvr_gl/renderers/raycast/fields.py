@@ -200,7 +200,7 @@ def draw_fields(renderer, scene, surfaces: dict, shader_features):
     width, height = scene.image.width, scene.image.height
     _, fbo = renderer.target("main", width, height)
     # every mode's empty state here is zero, which a ray that misses the union box writes (box_rectangle)
-    rect = None if "DEPTH" in defines else ray_bounds.box_rectangle(scene)
+    rect = ray_bounds.box_rectangle(scene, defines=defines)
     gpu_seconds = renderer._draw(program, fbo, width, height, renderer.bands(scene), rect)
     image = renderer.read(fbo, width, height)
     renderer.stats = {"seconds": now() - start, "gpu_seconds": gpu_seconds, "defines": defines, "bricks": 1,

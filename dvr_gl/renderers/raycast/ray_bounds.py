@@ -143,12 +143,16 @@ class BoundsFaces:
             self.buffer.release()
 
 
-def box_rectangle(scene) -> tuple[int, int, int, int] | None:
-    """A one-pass frame's scissor box (x, y, w, h, rows from the bottom; the resolve's too): the pixels whose rays
-    can meet the field's box, where that leaves some out (else None: every pixel is drawn).  Outside it llvmpipe would
-    still run the pass's code after the ray loop (the refinement, the resolve) for every block of pixels,
-    masked but not skipped: with a thin slab small in a 512x512 image a MIP frame's refinement took 2.8 ms where
-    its loop took 0.3 (docs/peers.md, "A cheaper refinement")."""
+def box_rectangle(scene, box=None, defines=()) -> tuple[int, int, int, int] | None:
+    """A pass's scissor box (x, y, w, h, rows from the bottom): the pixels whose rays can meet ``box`` (``(lo, hi)``,
+    world; default the field's box: a one-pass frame's, the resolve's), or None where every pixel is drawn: the
+    rectangle is the whole image or cannot be told, or the pass writes a depth image (``"DEPTH" in defines``), whose
+    misses hold 3e38, not the clear's zero.  Outside it llvmpipe would still run the pass's code after the ray loop
+    (the refinement, the resolve) for every block of pixels, masked but not skipped: with a thin slab small in a
+    512x512 image a MIP frame's refinement took 2.8 ms where its loop took 0.3 (docs/peers.md, "A cheaper
+    refinement")."""
+    if "DEPTH" in defines:
+        return None
     width, height = scene.image.width, scene.image.height
-    rect = scene.camera.pixel_rectangle(box_corners(*scene.field.box), width, height)
+    rect = scene.camera.pixel_rectangle(box_corners(*(scene.field.box if box is None else box)), width, height)
     return None if rect is None or rect == (0, 0, width, height) else rect

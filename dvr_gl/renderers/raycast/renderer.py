@@ -25,7 +25,7 @@ from ... import rays as rays_mod
 from ...errors import SceneError
 from ...fields import diagonal
 from ...gl.frame import same_key
-from ...gl.geometry import box_corners, gl_matrix, projection_matrix, view_matrix
+from ...gl.geometry import gl_matrix, projection_matrix, view_matrix
 from ...gl.shaders import create_program, shader_root
 from ...orientation import volume_frame_scene
 from ...scene.settings import shadow_step
@@ -387,7 +387,7 @@ class RayCastRenderer(GridRenderer):
         width, height = scene.image.width, scene.image.height
         components = (4,) + ((4,) if self.count_samples else ()) + ((1,) if "DEPTH" in defines else ())
         _, fbo = self.target("main", width, height, components)
-        rect = None if "DEPTH" in defines else box_rectangle(scene)  # a depth image's misses are 3e38, not 0
+        rect = box_rectangle(scene, defines=defines)
         gpu_seconds = self.bounds_seconds + self._draw(program, fbo, width, height, self.bands(scene), rect)
         image = self.read(fbo, width, height)
         if "DEPTH" in defines:  # 3e38: no depth (float32 has no infinity to write from GLSL 3.30)
@@ -580,7 +580,7 @@ class RayCastRenderer(GridRenderer):
             self.bind(program, uniforms, textures)
             # only the pixels whose rays can meet the brick (a ray that misses it keeps its state): the state copied
             # first, then those drawn over it (the counts' second attachment: the whole pass, as before)
-            rect = None if counting else scene.camera.pixel_rectangle(box_corners(lo, hi), width, height)
+            rect = None if counting else box_rectangle(scene, (lo, hi))  # None: the whole image, no copy needed
             if rect is not None:
                 self.ctx.copy_framebuffer(targets[1 - current][1], targets[current][1])
             gpu_seconds += self._draw(program, targets[1 - current][1], width, height, rect=rect, clear=False)
