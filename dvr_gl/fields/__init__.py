@@ -10,7 +10,7 @@ implements one protocol, :class:`Field`:
 * ``sample_spacing``: the world length of "one voxel", the unit of sample distances
   given in voxels (a grid's smallest spacing);
 * ``reconstruct(filter, **parameters)``: the continuous field under a reconstruction filter
-  (parameters: the Gaussian's ``kernel_width``; :func:`reconstruct` passes a scene's), a
+  (parameters: the Gaussian's ``kernel_width`` and ``kernel_radius``; :func:`reconstruct` passes a scene's), a
   :class:`Reconstruction`: values and gradients at world points, its polynomial
   degree between knots, and the ``knots`` along rays where it is not smooth (the
   converged reference cuts rays there);
@@ -74,8 +74,9 @@ class Field(Protocol):
 
 def filter_parameters(spec) -> dict:
     """The keyword arguments of ``reconstruct`` beyond the filter's name that renderer settings ``spec``
-    give: the Gaussian's width (only a field that offers the Gaussian takes it)."""
-    return {"kernel_width": spec.kernel_width} if spec.filter == "gaussian" else {}
+    give: the Gaussian's width and where it is cut (only a field that offers the Gaussian takes them)."""
+    return {"kernel_width": spec.kernel_width, "kernel_radius": spec.kernel_radius} if spec.filter == "gaussian" \
+        else {}
 
 
 def reconstruct(field: Field, spec) -> Reconstruction:

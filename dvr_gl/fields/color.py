@@ -201,11 +201,12 @@ class ColorVolume:
         """``x`` ``(nz, ny, nx)``: the value the transfer function reads (histograms, suggested opacities)."""
         return self.data[..., 3]
 
-    def reconstruct(self, filter: str = "linear", kernel_width: float | None = None) -> "ColorReconstruction":
+    def reconstruct(self, filter: str = "linear", kernel_width: float | None = None,
+                    kernel_radius: float | None = None) -> "ColorReconstruction":
         """The four components under a reconstruction filter, filtered alike: ``sample`` gives ``(N, 4)``,
         ``gradient`` the gradient of ``x`` (:class:`ColorReconstruction`)."""
         _check_grid_filter(filter)
-        return ColorReconstruction(self.data, self.spacing, self.origin, filter, kernel_width)
+        return ColorReconstruction(self.data, self.spacing, self.origin, filter, kernel_width, kernel_radius)
 
     def describe(self) -> str:
         nx, ny, nz = self.dims

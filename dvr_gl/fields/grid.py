@@ -176,20 +176,22 @@ class Volume:
         """The sample values, ``data``."""
         return self.data
 
-    def reconstruct(self, filter: str = "linear", kernel_width: float | None = None):
+    def reconstruct(self, filter: str = "linear", kernel_width: float | None = None,
+                    kernel_radius: float | None = None):
         """The continuous field under a reconstruction filter (:mod:`.reconstruction`); ``kernel_width``:
-        the Gaussian's standard deviation in voxels."""
+        the Gaussian's standard deviation in voxels, ``kernel_radius`` where it is cut (standard deviations)."""
         from .reconstruction import SampledField
 
         _check_grid_filter(filter)
-        return SampledField(self.data, self.spacing, self.origin, filter, kernel_width)
+        return SampledField(self.data, self.spacing, self.origin, filter, kernel_width, kernel_radius)
 
-    def reconstruct_values(self, values: np.ndarray, filter: str = "linear", kernel_width: float | None = None):
+    def reconstruct_values(self, values: np.ndarray, filter: str = "linear", kernel_width: float | None = None,
+                           kernel_radius: float | None = None):
         """Other values at this grid's samples (``(nz, ny, nx[, C])``), reconstructed alike."""
         from .reconstruction import SampledField
 
         _check_grid_filter(filter)
-        return SampledField(values, self.spacing, self.origin, filter, kernel_width)
+        return SampledField(values, self.spacing, self.origin, filter, kernel_width, kernel_radius)
 
     def world_to_index(self, points: np.ndarray) -> np.ndarray:
         """Continuous voxel coordinates ``(i, j, k)`` (x, y, z order) of world points ``(..., 3)``."""

@@ -164,7 +164,7 @@ class ParticleSet:
     def __repr__(self) -> str:
         return f"ParticleSet({self.describe()})"
 
-    def reconstruct(self, filter: str = FILTER, kernel_width=None) -> "SPHInterpolant":
+    def reconstruct(self, filter: str = FILTER, kernel_width=None, kernel_radius=None) -> "SPHInterpolant":
         if filter != FILTER:
             raise SceneError(f"{self.name}: SPH particles are interpolated with their cubic-spline kernel; set "
                              f"renderer.filter = \"{FILTER}\" (got {filter!r})")

@@ -83,15 +83,19 @@ _erf = np.vectorize(math.erf, otypes=[np.float64])  # numpy has no erf; tables a
 
 class GaussianKernel:
     """The truncated 3D Gaussian in voxel units: ``K(d) = exp(-|d|^2 / (2 sigma^2)) / M`` for
-    ``|d| <= R = GAUSSIAN_RADIUS sigma``, zero beyond; ``M`` makes its integral one (the truncated
-    mass, in closed form), so its line integral is a footprint of unit area."""
+    ``|d| <= R = a sigma`` (``a`` = ``radius_in_sigmas``, the scene's ``renderer.kernel_radius``, by default
+    :data:`GAUSSIAN_RADIUS`), zero beyond; ``M`` makes its integral one (the truncated mass, in closed form),
+    so its line integral is a footprint of unit area."""
 
-    def __init__(self, sigma: float):
+    def __init__(self, sigma: float, radius_in_sigmas: float | None = None):
         if not sigma > 0:
             raise ValueError(f"the Gaussian's kernel_width must be positive, got {sigma!r}")
+        a = GAUSSIAN_RADIUS if radius_in_sigmas is None else float(radius_in_sigmas)
+        if not a > 0:
+            raise ValueError(f"the Gaussian's kernel_radius must be positive, got {radius_in_sigmas!r}")
         self.sigma = float(sigma)
-        self.radius = GAUSSIAN_RADIUS * self.sigma
-        a = GAUSSIAN_RADIUS
+        self.radius_in_sigmas = a
+        self.radius = a * self.sigma
         # The standard normal's mass inside a sphere of radius a (the chi distribution of 3 degrees).
         inside = math.erf(a / math.sqrt(2.0)) - math.sqrt(2.0 / math.pi) * a * math.exp(-0.5 * a * a)
         self.scale = 1.0 / ((2.0 * math.pi) ** 1.5 * self.sigma ** 3 * inside)
@@ -147,11 +151,12 @@ class GaussianKernel:
 class SampledField:
     """A volume (scalar ``(nz, ny, nx)`` or multi-channel ``(nz, ny, nx, C)``) reconstructed by a filter.
 
-    ``kernel_width``: the Gaussian's standard deviation in voxels (``gaussian`` only).
+    ``kernel_width``: the Gaussian's standard deviation in voxels, ``kernel_radius`` where it is cut, in
+    standard deviations (``gaussian`` only; :class:`GaussianKernel`).
     """
 
     def __init__(self, values: np.ndarray, spacing, origin, kind: str = "linear",
-                 kernel_width: float | None = None):
+                 kernel_width: float | None = None, kernel_radius: float | None = None):
         if kind not in DEGREE:
             raise ValueError(f"unknown filter {kind!r}; choose one of {', '.join(FILTERS)}")
         self.values = values
@@ -162,7 +167,8 @@ class SampledField:
         self.origin = np.asarray(origin, dtype=np.float64)
         self.kind = kind
         self.degree = DEGREE[kind]
-        self.kernel = GaussianKernel(kernel_width or DEFAULT_KERNEL_WIDTH) if kind == "gaussian" else None
+        self.kernel = GaussianKernel(kernel_width or DEFAULT_KERNEL_WIDTH, kernel_radius) if kind == "gaussian" \
+            else None
 
     def sample(self, points: np.ndarray) -> np.ndarray:
         """Field values at world points ``(N, 3)``: ``(N,)`` or ``(N, C)`` float64."""

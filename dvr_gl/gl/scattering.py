@@ -75,7 +75,7 @@ def light_volume_key(scene, pass_defines: dict) -> tuple:
     r = scene.renderer
     return (scene.volume, scene.transfer_function, repr(r.scattering.lights), r.scattering.light_volume_size,
             shadow_step(r, scene.field), repr(sorted(pass_defines.items())), r.lut_size,
-            r.gradient_opacity_reference, r.kernel_width)
+            r.gradient_opacity_reference, r.kernel_width, r.kernel_radius)
 
 
 class LightVolumeTexture:

@@ -28,6 +28,7 @@ import dataclasses
 import numpy as np
 
 from ..errors import SceneError
+from ..fields import filter_parameters
 from ..labels import label_sample
 from ..preintegration import shortened
 from ..shading import blinn_phong, normals_from_gradient
@@ -152,8 +153,7 @@ def colour_model(model: OpticalModel, scene) -> None:
         rgb = np.asarray(scene.field.data[..., :3], np.float64)
         first = rgb * sigma[..., None] if r.associated_colors else rgb
         model.classify.field = scene.field.reconstruct_values(np.concatenate([first, sigma[..., None]], axis=-1),
-                                                              r.filter, **({"kernel_width": r.kernel_width}
-                                                                           if r.filter == "gaussian" else {}))
+                                                              r.filter, **filter_parameters(r))
     else:
         model.classify = ColourClassifier(reconstruction, model.table)
     if model.preintegration is not None:

@@ -68,7 +68,7 @@ class HemisphericalShading:
         self.h = float(self.spacing.min())
         self.field = field  # E: a field of C channels (sample -> (N, C))
         magnitudes = gradient_magnitudes(samples, vol.spacing)
-        self.magnitude = SampledField(magnitudes, vol.spacing, vol.origin, r.filter, r.kernel_width)
+        self.magnitude = SampledField(magnitudes, vol.spacing, vol.origin, r.filter, r.kernel_width, r.kernel_radius)
 
     def __call__(self, points: np.ndarray) -> np.ndarray:
         e = self.field(points)

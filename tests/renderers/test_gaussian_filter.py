@@ -45,6 +45,39 @@ def test_kernel_has_unit_integral_and_its_footprint_is_its_line_integral():
     assert np.abs(kernel.footprint(rho2) - gauss2d).max() < 2e-5 * gauss2d[0]
 
 
+@pytest.mark.parametrize("a", [3.0, 4.0, 6.0])
+def test_a_kernel_cut_elsewhere_keeps_unit_mass(a):
+    """``renderer.kernel_radius``: the kernel cut at ``a`` standard deviations, scaled back to unit mass (the
+    3D normal's mass inside radius ``a``: 0.971, 0.9989, 1 - 7.5e-8); its footprint integrates to one over
+    the disc it covers (the trapezoid rule over 200,001 radii: within 1e-8; the rim's square root)."""
+    kernel = GaussianKernel(0.7, a)
+    assert kernel.radius == pytest.approx(a * 0.7)
+    rho2 = np.linspace(0.0, kernel.radius ** 2, 200001)
+    assert np.trapezoid(kernel.footprint(rho2), rho2) * math.pi == pytest.approx(1.0, abs=1e-8)  # d(pi rho^2)
+    assert kernel.footprint(kernel.radius ** 2 * 1.0001) == 0.0
+    # the peak rises by the mass cut away: 1 / (1 - mass beyond a)
+    inside = math.erf(a / math.sqrt(2.0)) - math.sqrt(2.0 / math.pi) * a * math.exp(-0.5 * a * a)
+    assert kernel(np.zeros(1))[0] * (2 * math.pi) ** 1.5 * 0.7 ** 3 == pytest.approx(1.0 / inside, rel=1e-12)
+    with pytest.raises(ValueError, match="kernel_radius"):
+        GaussianKernel(0.7, 0.0)
+
+
+def test_the_references_read_the_scenes_kernel_radius(tmp_path):
+    """Both references reconstruct with the scene's cut: a spike's X-ray is its kernel's footprint, so the
+    pixel at the footprint's rim is zero when cut at 3 standard deviations and not at 5."""
+    data = np.zeros((15, 15, 15))
+    data[7, 7, 7] = 1.0
+    keys = {"renderer.filter": "gaussian", "renderer.kernel_width": 1.0, "renderer.compositing": "xray",
+            "camera.projection": "orthographic", "image.width": 31, "image.height": 31}
+    cut = {a: array_scene(tmp_path, data, {**keys, "renderer.kernel_radius": a}) for a in (3.0, 5.0)}
+    for judge in (DiscreteReference, ConvergedReference):
+        images = {a: np.asarray(judge(sc).render(), float)[..., 0] for a, sc in cut.items()}
+        centre = images[5.0][15, 15]
+        assert centre > 0 and images[3.0][15, 15] > centre  # unit mass inside a smaller sphere: a higher peak
+        ring = images[5.0] > 0
+        assert (images[3.0] > 0).sum() < ring.sum()  # the footprint's disc: radius 3 voxels against 5
+
+
 @pytest.mark.parametrize("sigma", [0.5, 0.7, 1.3])
 def test_field_is_the_sum_of_the_samples_kernels(sigma):
     rng = np.random.default_rng(3)

@@ -21,9 +21,9 @@ PLUGIN = RendererPlugin(
     description="CPU float64, exact transfer function, integrated to a tolerance",
     renderer="dvr_gl.renderers.reference_converged.renderer:ConvergedReferenceRenderer",
     order=60,
-    settings=(s.COMPOSITING, s.CLASSIFICATION, s.ASSOCIATED_COLORS, s.FILTER, s.KERNEL_WIDTH, s.GRADIENT_OPACITY,
-              s.GRADIENT_OPACITY_REFERENCE, s.ISO_VALUE, s.JITTER, s.SHADING, s.SCATTERING, s.CLIPPING, s.GEOMETRY,
-              s.DEPTH_CUE, s.HEMISPHERICAL_SHADING, CONVERGED_TOLERANCE),
+    settings=(s.COMPOSITING, s.CLASSIFICATION, s.ASSOCIATED_COLORS, s.FILTER, s.KERNEL_WIDTH, s.KERNEL_RADIUS,
+              s.GRADIENT_OPACITY, s.GRADIENT_OPACITY_REFERENCE, s.ISO_VALUE, s.JITTER, s.SHADING, s.SCATTERING,
+              s.CLIPPING, s.GEOMETRY, s.DEPTH_CUE, s.HEMISPHERICAL_SHADING, CONVERGED_TOLERANCE),
     data_kinds=None,
     reference=True,
     # several fields: the members' models mixed per sample (dvr_gl/reference/fields.py), which refuses in one

@@ -12,8 +12,9 @@ A kernel ``K(r)`` radial in voxel units with support radius ``R``, met by a line
   (Phi(c) - Phi(-c))`` with ``Phi`` the standard normal's cumulative distribution, in units of
   ``sigma``: the second table.
 
-Both are computed once and serve every width: with ``R`` a fixed multiple of ``sigma``
-(:data:`dvr_gl.scene.model.GAUSSIAN_RADIUS`), ``F`` in voxel units is ``F_1(q) / sigma^2``.  Their sizes come
+Both are computed once per truncation and serve every width: with ``R`` a fixed multiple of ``sigma``
+(``renderer.kernel_radius``, by default :data:`dvr_gl.scene.model.GAUSSIAN_RADIUS`), ``F`` in voxel units is
+``F_1(q) / sigma^2``.  Their sizes come
 from the shader's linear interpolation (``tests/test_splatting.py`` measures it): 16384 entries each
 (one texture row, GL 4's smallest maximum), at most 7e-8 of the peak for ``F`` and 1.1e-8 for
 ``Phi``: the sums of many splats carry the relative error of the tables, and a transfer function
@@ -38,7 +39,7 @@ class GaussianFootprint:
 
     def __init__(self, radius_in_sigmas: float, size: int = TABLE_SIZE):
         self.a = float(radius_in_sigmas)  # R / sigma
-        self.unit = GaussianKernel(1.0)
+        self.unit = GaussianKernel(1.0, self.a)
         self.footprint_table = self.footprint(np.linspace(0.0, 1.0, size), 1.0)
         self.cumulative_table = self.cumulative(np.linspace(-self.a, self.a, size))
 

@@ -24,7 +24,6 @@ import numpy as np
 
 from ...clipping import clipping_in_use
 from ...rays import RayBatch
-from ...scene.model import GAUSSIAN_RADIUS
 from . import low_pass
 from .footprint import GaussianFootprint
 from .sheets import kernel_depth_reach, kernel_radius, shaded_sheets, slab_bounds
@@ -90,7 +89,7 @@ def render(scene, splats, centre, table, loops=None, report=None) -> tuple[np.nd
         np.asarray(cam.half_extent(w / h), float), kernel_radius(scene) * spacing, cam.projection == "perspective",
         float(cam.near), w, h, float(bounds[0]), float(bounds[1] - bounds[0]), slabs, reach, group)
     span = int((slab_range[:, 1] - slab_range[:, 0]).max()) if len(values) else 0  # the most slabs a kernel meets
-    footprint, cumulative = _tables()
+    footprint, cumulative = _tables(r.kernel_radius)
     image = np.zeros((w * h, 4))
     sheet = np.zeros((group, w * h))
     cores = np.zeros((group, w * h))
@@ -132,9 +131,10 @@ def _threads() -> int:
     return int(numba.get_num_threads())
 
 
-@functools.lru_cache(maxsize=1)
-def _tables() -> tuple[np.ndarray, np.ndarray]:
+@functools.lru_cache(maxsize=2)
+def _tables(radius_in_sigmas: float) -> tuple[np.ndarray, np.ndarray]:
     """The Gaussian's footprint ``F(q)`` for ``sigma = 1`` and the standard normal's cumulative over ``+-R /
-    sigma`` (float64, the GL textures'): once per process."""
-    table = GaussianFootprint(GAUSSIAN_RADIUS)
+    sigma`` (float64, the GL textures'), cut at ``radius_in_sigmas`` (``renderer.kernel_radius``): once per
+    process and truncation."""
+    table = GaussianFootprint(radius_in_sigmas)
     return table.footprint_table, table.cumulative_table

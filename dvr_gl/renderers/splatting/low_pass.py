@@ -13,7 +13,7 @@ depth), is added to the kernel's covariance.  In voxel units, with ``a = right /
 
 The kernel stays a Gaussian of unit integral (each splat's flux is kept), read through the metric
 ``G = sigma^2 C^-1`` (``|u|^2`` becomes ``u^T G u``) times ``sqrt(det G)``, and cut at
-``GAUSSIAN_RADIUS`` standard deviations in that metric (an ellipsoid).
+``renderer.kernel_radius`` standard deviations in that metric (an ellipsoid).
 
 * Orthographic, the widened kernel's line integral is the footprint convolved with the screen
   Gaussian (up to the truncation, 1e-5 of the kernel's mass).  In perspective the pixel's width
@@ -34,7 +34,6 @@ import numpy as np
 
 from ...gl.geometry import box_corners
 from ...scene import settings as s
-from ...scene.model import GAUSSIAN_RADIUS
 
 SCREEN_LOW_PASS = s.Setting("screen_low_pass", float, 0.0, "EWA's screen-space low-pass against aliasing where "
                             "Gaussian splats are smaller than a pixel: its standard deviation (0: none, each pixel "
@@ -80,7 +79,7 @@ def reach_voxels(scene) -> float:
     """The widest kernel's reach along any grid axis, whole voxels (at least the Gaussian's radius): the
     kernel at the box's farthest depth, along the axis of the smallest spacing, rounded up so that small
     camera moves keep the ghost layers and the culling masks."""
-    radius = GAUSSIAN_RADIUS * scene.renderer.kernel_width
+    radius = scene.renderer.kernel_radius * scene.renderer.kernel_width
     if not enabled(scene):
         return radius
     lo, hi = scene.field.bounds

@@ -175,7 +175,7 @@ class _WidenedKernels:
         pre = pre_classified(scene)
         self.splats = Splats(vol, kernel_reach(scene), np.zeros(3), tf.classify_voxels(vol.data, True) if pre else None)
         self.values = self.splats.optics.astype(np.float64) if pre else self.splats.values[:, None]
-        self.kernel = GaussianKernel(scene.renderer.kernel_width)
+        self.kernel = GaussianKernel(scene.renderer.kernel_width, scene.renderer.kernel_radius)
         self.metric = low_pass.metric(scene, self.splats.positions)
 
     def integrals(self, rays, t0, t1, idx=None) -> np.ndarray:
@@ -511,7 +511,7 @@ def _splats_alone(scene, rays) -> np.ndarray:
     rank = np.empty(len(splats), np.int64)
     rank[np.argsort(-depth, kind="stable")[::-1]] = np.arange(len(splats))  # 0: the front splat
     if grid:
-        kernel = GaussianKernel(r.kernel_width) if r.filter == "gaussian" else None
+        kernel = GaussianKernel(r.kernel_width, r.kernel_radius) if r.filter == "gaussian" else None
         splat, pixel, integral = _all_pair_integrals(scene, rays, splats, np.arange(len(splats)), kernel)
     else:
         small = subpixel_mask(scene, splats.positions, splats.h)
@@ -552,7 +552,7 @@ def _axis_sheets(scene, rays) -> np.ndarray:
     ordered = unique[np.lexsort((unique, axis_order(scene, unique)))]
     slot = np.empty(unique.max() + 1, np.int64)
     slot[ordered] = np.arange(len(ordered))                  # the planes' compositing order
-    kernel = GaussianKernel(r.kernel_width) if r.filter == "gaussian" else None
+    kernel = GaussianKernel(r.kernel_width, r.kernel_radius) if r.filter == "gaussian" else None
     splat, pixel, integral = _all_pair_integrals(scene, rays, splats, np.arange(len(splats)), kernel)
     key = slot[planes[splat]] * len(rays) + pixel
     size = len(ordered) * len(rays)

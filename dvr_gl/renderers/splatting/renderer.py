@@ -68,14 +68,15 @@ class FootprintTextures:
     """The kernel's footprint tables as R32F textures (nearest; the shader interpolates): the Gaussian's
     for a grid, the cubic spline's for particles."""
 
-    def __init__(self, ctx, particles: bool = False):
+    def __init__(self, ctx, particles: bool = False, radius_in_sigmas: float = GAUSSIAN_RADIUS):
+        """``radius_in_sigmas``: where the Gaussian is cut (``renderer.kernel_radius``; grids only)."""
         if particles:
             m4 = m4_tables()
             tables = (("u_m4_footprint", m4.footprint_table[None, :]),
                       ("u_m4_chord", m4.chord_table), ("u_m4_box", m4.box_table.T),
                       ("u_m4_slab", m4.slab_table[None, :]))
         else:
-            gaussian = GaussianFootprint(GAUSSIAN_RADIUS)
+            gaussian = GaussianFootprint(radius_in_sigmas)
             tables = (("u_footprint", gaussian.footprint_table[None, :]),
                       ("u_cumulative", gaussian.cumulative_table[None, :]))
         self.textures = {}
@@ -262,7 +263,7 @@ class SplattingRenderer(GLRenderer):
              "u_near": cam.near, "u_box_lo": tuple(lo), "u_box_hi": tuple(hi)}
         if is_grid(scene):
             u.update(u_spacing=tuple(field.spacing), u_radius=kernel_radius(scene), u_sigma=r.kernel_width,
-                     u_sigmas=GAUSSIAN_RADIUS, u_low_pass=r.screen_low_pass)
+                     u_sigmas=r.kernel_radius, u_low_pass=r.screen_low_pass)
         clip = ClipRegion.of(r)
         if clip is not None:  # in the shaders' coordinates: relative to the box's centre
             u.update(clip.shifted(centre).uniforms())
@@ -295,7 +296,9 @@ class SplattingRenderer(GLRenderer):
         w, h = img.width, img.height
         uniforms = self._uniforms(scene, centre, eye, basis)
         particles = not is_grid(scene)
-        tables = self._cached("footprint tables", (particles,), lambda: FootprintTextures(self.ctx, particles))
+        radius = None if particles else r.kernel_radius
+        tables = self._cached("footprint tables", (particles, radius),
+                              lambda: FootprintTextures(self.ctx, particles, radius or GAUSSIAN_RADIUS))
         textures = {**tables.textures, **self._surfaces}
         ctx = self.ctx
         ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)

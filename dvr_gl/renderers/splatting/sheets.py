@@ -15,7 +15,7 @@ import numpy as np
 from ...fields.ragged import ranges
 from ...gl.geometry import box_corners
 from ...reference.plans import stack_axis
-from ...scene.model import CLASSIFIED_ALONG_RAY, GAUSSIAN_RADIUS
+from ...scene.model import CLASSIFIED_ALONG_RAY
 from . import low_pass
 from .splats import slabs, support_depth
 
@@ -28,7 +28,7 @@ def kernel_radius(scene) -> float:
     B-spline's cube's corner."""
     if scene.renderer.filter == "cubic_bspline":
         return BSPLINE_RADIUS
-    return GAUSSIAN_RADIUS * scene.renderer.kernel_width
+    return scene.renderer.kernel_radius * scene.renderer.kernel_width
 
 
 def kernel_reach(scene) -> float:

@@ -27,18 +27,23 @@ def spaced_scene(tmp_path, extra, size=8, spacing=(1.0, 0.5, 2.0)):
     return array_scene(tmp_path, data, {**GAUSSIAN, **OPAQUE_TF, "renderer.ert_threshold": 1.0, **extra}, spacing)
 
 
-@pytest.mark.parametrize("extra", [{}, {"camera.projection": "orthographic", "camera.azimuth": 70.0}],
-                         ids=["perspective", "orthographic"])
-def test_host_sheets_match_the_oracle_and_gl(splatting, extra):
+@pytest.mark.parametrize("extra, within", [({}, 1e-6),
+                                           ({"camera.projection": "orthographic", "camera.azimuth": 70.0}, 1e-6),
+                                           ({"renderer.kernel_radius": 4.0}, 1e-5)],
+                         ids=["perspective", "orthographic", "cut-at-4-sigma"])
+def test_host_sheets_match_the_oracle_and_gl(splatting, extra, within):
     """Float64 loops reading GL's two tables: measured within 7.1e-8 (perspective) and 1.5e-7 (orthographic)
     of the oracle (the tables' interpolation; GL's float32: 2.5e-7), asserted 1e-6; the GL path still within
-    conftest's float32 assertion of the oracle, and of the host's image."""
+    conftest's float32 assertion of the oracle, and of the host's image.  Cut at 4 standard deviations
+    (``renderer.kernel_radius``) the tables interpolate a footprint whose rim (a square root's edge) is
+    exp(-8) = 3.4e-4 of its peak instead of 3.7e-6: measured 4.7e-6 from the oracle (GL's: 4.6e-6), asserted
+    1e-5."""
     scene = scene_of(extra)
     assert host.serves(scene)
     oracle = same_slabs(scene)
     assert oracle[..., 3].max() > 0.3
     image = splatting.render(scene)
-    assert np.abs(image - oracle).max() < 1e-6
+    assert np.abs(image - oracle).max() < within
     splatting.host_sheets = False
     try:
         drawn = splatting.render(scene)

@@ -34,3 +34,17 @@ def test_bench_splatting_leaves_the_shaded_row_out(capsys):
     rows = [line.split() for line in out.splitlines() if line.startswith("Shepp-Logan") and ":" not in line]
     assert [r[3] for r in rows] == ["post", "pre", "post", "pre"]
     assert "the shaded row left out" in out
+
+
+def test_bench_splatting_cuts_the_kernel_where_asked(capsys):
+    """``--kernel-radius``: the grid's kernel cut at 4 standard deviations, against its own oracle; the header says
+    so; a radius outside 3-6 is refused in one line."""
+    assert main(["bench", "splatting", "--volume-size", "8", "--size", "8", "--repeat", "1", "--study-size", "0",
+                 "--particles", "0", "--no-shaded", "--kernel-radius", "4"]) == 0
+    out = capsys.readouterr().out
+    assert "cut at 4 standard deviations" in out
+    rows = [line.split() for line in out.splitlines() if line.startswith("Shepp-Logan") and ":" not in line]
+    assert len(rows) == 4 and all(float(r[9]) < 1e-4 for r in rows)  # against its oracle (of the same cut)
+    assert main(["bench", "splatting", "--volume-size", "8", "--size", "8", "--particles", "0",
+                 "--kernel-radius", "2"]) == 1
+    assert "renderer.kernel_radius must be in [3, 6]" in capsys.readouterr().err
