@@ -55,9 +55,8 @@ def read_nifti(path: Path, channel: int | None = None, time: int | None = None, 
     """The volume, or the chosen step of a 4D/5D file: its chosen channel, or a
     :class:`.channels.RawChannels` of every channel; ``color``: the step's colour ``[z, y, x, 3|4]``."""
     nib = require("nibabel", "nibabel", "nifti")
-    path = check_input_path(Path(path), "NIfTI file")
-    errors = (EOFError, zlib.error, OSError, ValueError, OverflowError, TypeError, IndexError, KeyError,
-              nib.filebasedimages.ImageFileError, nib.spatialimages.HeaderDataError)
+    path = _checked_files(nib, path)
+    errors = _errors(nib)
     try:
         with _quiet(nib.imageglobals.logger):
             img = nib.load(str(path))
@@ -126,14 +125,39 @@ def _geometry(affine, field, spacing, path) -> tuple:
 def nifti_axes(path: Path, fourth_axis: str | None = None) -> Axes:
     """The channels and time steps the header states (no voxel read)."""
     nib = require("nibabel", "nibabel", "nifti")
-    path = check_input_path(Path(path), "NIfTI file")
+    path = _checked_files(nib, path)
     try:
         with _quiet(nib.imageglobals.logger):
             header = nib.load(str(path)).header
-    except (EOFError, zlib.error, OSError, ValueError, OverflowError, TypeError, IndexError, KeyError,
-            nib.filebasedimages.ImageFileError, nib.spatialimages.HeaderDataError) as exc:
+    except _errors(nib) as exc:
         raise VolumeError(f"{path}: NIfTI file is truncated or corrupt ({exc})") from None
     return _layout(header, path, fourth_axis)[0]
+
+
+#: A NIfTI pair's two files (nibabel's ``types_filenames``: ``x.hdr`` and ``x.img``, the case kept, compressed alike).
+PAIR_TYPES = (("image", ".img"), ("header", ".hdr"))
+PAIR_SUFFIXES = (".gz", ".bz2", ".zst")
+
+
+def _checked_files(nib, path) -> Path:
+    """``path``, after the sandbox's check of every file nibabel will open: a ``.nii`` alone, a pair's header
+    and image both (given either, nibabel opens the other by name: a companion linked outside the sandbox's
+    roots, or a FIFO, must be refused as the named file is)."""
+    path = check_input_path(Path(path), "NIfTI file")
+    name = path.name.lower()
+    for suffix in ("",) + PAIR_SUFFIXES:
+        if name.endswith((".hdr" + suffix, ".img" + suffix)):
+            companions = nib.filename_parser.types_filenames(str(path), PAIR_TYPES, trailing_suffixes=PAIR_SUFFIXES)
+            for kind, other in companions.items():
+                check_input_path(Path(other), f"NIfTI pair's {kind} file")
+            break
+    return path
+
+
+def _errors(nib) -> tuple:
+    """What nibabel raises on a damaged file (each becomes one line naming the file)."""
+    return (EOFError, zlib.error, OSError, ValueError, OverflowError, TypeError, IndexError, KeyError,
+            nib.filebasedimages.ImageFileError, nib.spatialimages.HeaderDataError, nib.wrapstruct.WrapStructError)
 
 
 def _layout(header, path: Path, fourth_axis) -> tuple[Axes, tuple | None]:
@@ -216,8 +240,12 @@ def _check_header(nib, img, path: Path, reads: int = 1) -> tuple[tuple, bool, tu
     dtype = header.get_data_dtype()
     if not dtype.names or any(dtype[n] != np.uint8 for n in dtype.names):  # RGB24, RGBA32: a colour's codes
         check_sample_type(dtype, str(path), "datatype", str(dtype))
-    # nibabel's loaded header has negative pixdim already made positive: check the stored one
-    with nib.openers.ImageOpener(str(path)) as stored:
+    # nibabel's loaded header has negative pixdim already made positive: check the stored one (a pair's in its
+    # header file, whichever of the two was named)
+    files = img.file_map  # a .nii: "image" only
+    header_file = Path(files.get("header", files["image"]).filename or path)
+    image_file = Path(files["image"].filename or path)
+    with nib.openers.ImageOpener(str(header_file)) as stored:
         pixdim = type(header).from_fileobj(stored, check=False)["pixdim"]
     spacing = check_spacing(pixdim[1:4], str(path), "pixdim[1..3]")
     proxy = img.dataobj
@@ -233,7 +261,7 @@ def _check_header(nib, img, path: Path, reads: int = 1) -> tuple[tuple, bool, tu
         if offset > MAX_GZIP_OFFSET:
             raise VolumeError(f"{path}: vox_offset {offset} is beyond any header and extensions "
                               f"({MAX_GZIP_OFFSET} bytes); fix the header")
-    elif path.stat().st_size < offset + nbytes:
-        raise VolumeError(f"{path}: the file holds {path.stat().st_size} bytes, but vox_offset {offset} and "
-                          f"{shape} of {dtype} need {offset + nbytes}; the file is truncated or the header wrong")
+    elif image_file.stat().st_size < offset + nbytes:
+        raise VolumeError(f"{image_file}: the file holds {image_file.stat().st_size} bytes, but vox_offset {offset} "
+                          f"and {shape} of {dtype} need {offset + nbytes}; the file is truncated or the header wrong")
     return shape, scaled, spacing
