@@ -321,6 +321,8 @@ def cli_outcome(argv: list[str]) -> tuple[str, str]:
             code = exc.code
     text = err.getvalue()
     lines = text.strip().splitlines()
+    if "--verbose" in argv or "-v" in argv:  # the log's own lines ("scene loaded and resolved in ...") come first
+        lines = [line for line in lines if line.startswith("dvr ") or "Traceback" in line or "Error" in line]
     if code == 0:  # stderr may hold the progress bar and dvr's own warnings, never Python's or a traceback
         leaked = any(word in text for word in ("Warning:", "Traceback", "error"))
         return ("other" if leaked else "ok"), text
