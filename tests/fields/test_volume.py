@@ -65,6 +65,21 @@ def test_non_finite_values_are_an_error_unless_replaced(bad):
     assert v.data[1, 1, 1] == 0.0 and v.value_range == (0.0, 1.0)
 
 
+@pytest.mark.parametrize("scale", [1e-35, 1e-40, 1e-45])
+def test_float_values_too_close_for_the_gpu_are_refused(scale):
+    """Values spanning less than 1e-33 (here 1e-35, and subnormal ones) rendered silently black or wrong on the GPU
+    (fields/grid.py, NARROWEST_FLOAT_RANGE): refused in one line that says how to fix them; a constant volume and
+    values spanning 1e-30 are kept."""
+    data = np.zeros((2, 2, 2), np.float32)
+    data[1, 1, 1] = np.float32(scale)
+    with pytest.raises(VolumeError, match="too narrow for float32 arithmetic.*scale the data"):
+        Volume(data)
+    kept = np.zeros((2, 2, 2), np.float32)
+    kept[1, 1, 1] = np.float32(1e-30)
+    assert Volume(kept).value_range == (0.0, float(np.float32(1e-30)))
+    assert Volume(np.full((2, 2, 2), 1e-40, np.float32)).value_range[0] > 0  # constant: nothing to tell apart
+
+
 def test_float64_beyond_float32_range_is_an_error():
     with pytest.raises(VolumeError, match="float32 range"):
         Volume(np.full((1, 1, 2), 1e300))
