@@ -202,9 +202,9 @@ def scene_of(data, *, spacing=None, origin=None, transfer_function=None, rescale
     elif isinstance(transfer_function, str):
         overrides["transfer_function.preset"] = transfer_function
         if rescale_intercept is not None:
-            overrides["transfer_function.rescale_intercept"] = float(rescale_intercept)
+            overrides["transfer_function.rescale_intercept"] = _number(rescale_intercept, "rescale_intercept")
     elif transfer_function is not None:
-        overrides["transfer_function.points"] = np.asarray(transfer_function, dtype=np.float64).tolist()
+        overrides["transfer_function.points"] = _points(transfer_function).tolist()
     if isinstance(data, (str, os.PathLike)):
         path = Path(data)
         if path.suffix.lower() == ".toml":
@@ -223,6 +223,28 @@ def scene_of(data, *, spacing=None, origin=None, transfer_function=None, rescale
     field = _field_of(data, spacing, origin)
     spec = parse_scene(apply_overrides({}, overrides), "render()")
     return resolve_scene(spec, field=field, camera=camera, transfer_function=tf)
+
+
+def _or(value, default):
+    """``value``, or ``default`` where it is None (an array has no truth value: ``or`` raised on one)."""
+    return default if value is None else value
+
+
+def _number(value, name: str) -> float:
+    """``value`` as a float, or one line naming the argument."""
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise SceneError(f"{name} must be a number, got {value!r}") from None
+
+
+def _points(tf) -> np.ndarray:
+    """A transfer function's control points as float64 rows, or one line saying what they must be."""
+    try:
+        return np.asarray(tf, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise SceneError(f"transfer_function: give control points as rows of numbers (value, r, g, b, opacity), "
+                         f"a preset's name or a TransferFunction, got {tf!r:.80}") from None
 
 
 def _is_points(tf) -> bool:
@@ -302,7 +324,7 @@ def _with_transfer_functions(data, tfs, rescale_intercept, **keywords) -> Scene:
         elif isinstance(tf, str):
             out.append(preset(tf, layer.field.value_range, rescale_intercept or 0.0))
         else:
-            out.append(TransferFunction(np.asarray(tf, dtype=np.float64)))
+            out.append(TransferFunction(_points(tf)))
     return dataclasses.replace(scene, transfer_function=out[0], transfer_functions=tuple(out) if len(out) > 1 else ())
 
 
@@ -311,12 +333,12 @@ def _field_of(data, spacing, origin):
     from .io.labelled import is_data_array
 
     if is_data_array(data):  # its dims name the axes and its coordinates give the geometry (Volume does it)
-        return Volume(data, spacing=spacing or (1.0, 1.0, 1.0), origin=origin or (0.0, 0.0, 0.0))
+        return Volume(data, spacing=_or(spacing, (1.0, 1.0, 1.0)), origin=_or(origin, (0.0, 0.0, 0.0)))
     if isinstance(data, np.ndarray) or (hasattr(data, "__array__") and not isinstance(data, Field)):
         array = np.asarray(data)
         if array.ndim != 3:
             raise SceneError(f"data: expected a 3D array indexed [z, y, x], got shape {array.shape}")
-        return Volume(array, spacing=spacing or (1.0, 1.0, 1.0), origin=origin or (0.0, 0.0, 0.0), name="array")
+        return Volume(array, spacing=_or(spacing, (1.0, 1.0, 1.0)), origin=_or(origin, (0.0, 0.0, 0.0)), name="array")
     if isinstance(data, Field) or getattr(data, "kind", None) == "fields" or isinstance(data, Member):
         if spacing is not None or origin is not None:
             raise SceneError("spacing and origin apply to arrays; a field has its own")
@@ -381,7 +403,7 @@ def _changed(scene: Scene, transfer_function, camera, camera_keys: dict, setting
         tf = transfer_function if isinstance(transfer_function, TransferFunction) else (
             preset(transfer_function, scene.field.value_range, rescale_intercept, unit)
             if isinstance(transfer_function, str)
-            else TransferFunction(np.asarray(transfer_function, dtype=np.float64), unit))
+            else TransferFunction(_points(transfer_function), unit))
         scene = scene.replace(transfer_function=tf)
     if camera is not None:
         scene = scene.replace(camera=camera)

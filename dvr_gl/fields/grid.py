@@ -31,6 +31,14 @@ SCALAR_TYPES = (np.dtype(np.uint8), np.dtype(np.uint16), np.dtype(np.int16), np.
 NARROWEST_FLOAT_RANGE = 1e-33
 
 
+def _numbers(values, what: str, name: str) -> tuple:
+    """``values`` as a tuple of floats, or one line naming the volume and what they are."""
+    try:
+        return tuple(float(v) for v in values)
+    except (TypeError, ValueError):
+        raise VolumeError(f"{name}: {what} must be three numbers (x, y, z), got {values!r}") from None
+
+
 def check_float32_range(value_range: tuple[float, float], dtype, name: str) -> None:
     """Refuse float data whose values span less than :data:`NARROWEST_FLOAT_RANGE` (but differ), in one line."""
     lo, hi = value_range
@@ -111,8 +119,8 @@ class Volume:
             raise VolumeError(f"{self.name}: {bad} NaN or Inf values; choose a replacement value "
                               f"(scene key volume.nan_value, or --nan-value)")
         data.setflags(write=False)
-        spacing = tuple(float(s) for s in self.spacing)
-        origin = tuple(float(o) for o in self.origin)
+        spacing = _numbers(self.spacing, "spacing", self.name)
+        origin = _numbers(self.origin, "origin", self.name)
         if len(spacing) != 3 or not all(np.isfinite(spacing)) or min(spacing) <= 0:
             raise VolumeError(f"{self.name}: spacing must be three positive numbers, got {self.spacing}")
         if len(origin) != 3 or not all(np.isfinite(origin)):

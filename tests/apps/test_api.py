@@ -177,9 +177,24 @@ def test_any_field_renders_with_the_renderers_that_declare_its_kind():
     ({"fov": 0}, "camera.fov must be in (0, 180) degrees"),
     ({"sample_distance_voxels": 0}, "renderer.sample_distance_voxels must be positive"),
     ({"spacing": (1e300, 1, 1)}, "array: the spacing: a voxel of 1 and a box of 7e+300 world units are out of range"),
+    # found by the fuzz campaign of 2026-11-29: ValueError and TypeError before
+    ({"spacing": "abc"}, "array: spacing must be three numbers (x, y, z), got 'abc'"),
+    ({"spacing": 2.0}, "array: spacing must be three numbers"),
+    ({"spacing": (1j, 1, 1)}, "array: spacing must be three numbers"),
+    ({"origin": "0,0,0"}, "array: origin must be three numbers"),
+    ({"transfer_function": [["a", 1, 1, 1, 1]]}, "transfer_function: give control points as rows of numbers"),
+    ({"transfer_function": {"a": 1}}, "transfer_function: give control points as rows of numbers"),
+    ({"transfer_function": "ct-bone", "rescale_intercept": "x"}, "rescale_intercept must be a number, got 'x'"),
 ])
 def test_bad_keywords_name_the_key(keywords, fragment):
     """Keywords are checked as scene keys are: a DvrError naming them, never a ValueError (issue 14)."""
     with pytest.raises(dvr_gl.DvrError) as caught:
         dvr_gl.render(np.zeros((8, 8, 8), np.float32), renderer=DISCRETE, **{"size": 8, **keywords})
     assert fragment in str(caught.value)
+
+
+def test_an_array_spacing_is_three_numbers():
+    """``spacing=np.array(...)``: its truth value is ambiguous, and ``spacing or (1, 1, 1)`` raised on it."""
+    image = dvr_gl.render(np.zeros((4, 4, 4), np.float32), renderer=DISCRETE, size=8,
+                          spacing=np.array([1.0, 2.0, 3.0]))
+    assert image.scene.field.spacing == (1.0, 2.0, 3.0)
