@@ -98,6 +98,8 @@ class Image:
         """Write ``.png``/``.jpg`` (8-bit sRGB) or ``.exr``/``.tif`` (linear float), never replacing a
         file unless ``overwrite``; ``annotations``: a dict of :meth:`annotated`'s keywords (8-bit formats
         only)."""
+        if annotations is not None and not isinstance(annotations, dict):
+            raise SceneError(f"annotations: give a dict of annotated()'s keywords, got {annotations!r:.80}")
         write_image(path, self.annotated(**annotations) if annotations else self.composited(), overwrite)
         return Path(path)
 

@@ -93,11 +93,16 @@ class Camera:
             raise SceneError(f"camera: projection {self.projection!r} is not one of {', '.join(PROJECTIONS)}")
         for key, check in LENS_CHECKS.items():
             value = getattr(self, key)
+            if not isinstance(value, (int, float, np.integer, np.floating)) or isinstance(value, bool):
+                raise SceneError(f"camera.{key} must be a number, got {value!r}")
             problem = check(value) if math.isfinite(value) else "must be a finite number"
             if problem:
                 raise SceneError(f"camera.{key} {problem}, got {value}")
         for name in ("eye", "target", "up"):
-            v = tuple(float(x) for x in getattr(self, name))
+            try:
+                v = tuple(float(x) for x in getattr(self, name))
+            except (TypeError, ValueError):
+                raise SceneError(f"camera.{name} must be three numbers, got {getattr(self, name)!r}") from None
             limit = math.inf if name == "up" else WORLD_RANGE[1]  # up is a direction: any finite length
             if len(v) != 3 or not all(abs(x) <= limit for x in v):  # NaN fails too
                 raise SceneError(f"camera.{name} must be three finite numbers"

@@ -253,6 +253,8 @@ def load_volume(path, format: str = "auto", *, dims=None, dtype=None, endian: st
         a :class:`Volume`, or a :class:`~dvr_gl.fields.layers.FieldSet` for a file of several channels
         read with none chosen.
     """
+    if nan_value is not None and not isinstance(nan_value, (int, float, np.integer, np.floating)):
+        raise VolumeError(f"nan_value must be a number, got {nan_value!r}")
     if isinstance(path, (list, tuple)):
         return _load_series(list(path), format, spacing=spacing, origin=origin, nan_value=nan_value,
                             series=series, dims=dims, dtype=dtype, array=array, level=level, channel=channel,

@@ -198,3 +198,25 @@ def test_an_array_spacing_is_three_numbers():
     image = dvr_gl.render(np.zeros((4, 4, 4), np.float32), renderer=DISCRETE, size=8,
                           spacing=np.array([1.0, 2.0, 3.0]))
     assert image.scene.field.spacing == (1.0, 2.0, 3.0)
+
+
+@pytest.mark.parametrize("call, fragment", [
+    (lambda tmp: dvr_gl.Camera(eye="abc", target=(0, 0, 0)), "camera.eye must be three numbers"),
+    (lambda tmp: dvr_gl.Camera(eye=(0, 0, 5), target=(0, 0, 0), up=3), "camera.up must be three numbers"),
+    (lambda tmp: dvr_gl.Camera(eye=(0, 0, 5), target=(0, 0, 0), fov="w"), "camera.fov must be a number"),
+    (lambda tmp: dvr_gl.load_volume(_npy(tmp), nan_value="x"), "nan_value must be a number"),
+    (lambda tmp: dvr_gl.load_volume(_npy(tmp), origin="abc"), "origin must be three numbers"),
+    (lambda tmp: dvr_gl.render(np.zeros((4, 4, 4), np.float32), renderer=DISCRETE, size=8).save(
+        tmp / "a.png", annotations="bogus"), "annotations: give a dict"),
+])
+def test_bad_arguments_of_the_api_name_themselves(tmp_path, call, fragment):
+    """Found by the fuzz campaign of 2026-11-29: each raised a ValueError or TypeError; now a DvrError of one
+    line naming the argument, and no file written."""
+    with pytest.raises(dvr_gl.DvrError, match=fragment):
+        call(tmp_path)
+    assert not (tmp_path / "a.png").exists()
+
+
+def _npy(folder):
+    np.save(folder / "v.npy", np.zeros((4, 4, 4), np.float32))
+    return folder / "v.npy"
