@@ -39,6 +39,7 @@ from ...geometry import over_surface, surface_rgba
 from ...gl.geometry import depth_range
 from ...gl.shaders import create_program, shader_root
 from ...rays import RayBatch, intersect_box
+from ...sandbox import check_bytes
 from ..base import GLRenderer
 from .factorization import factorize_view, pixel_directions
 from .run_length import RunLengthVolume, SliceClassifier, expand_runs
@@ -353,9 +354,29 @@ def on_border(fact, u, v) -> np.ndarray:
     return (u <= 0) | (v <= 0) | (u >= width - 1) | (v >= height - 1)
 
 
+#: Shear-warp's own unit of work: each slice composited touches the whole intermediate image (its open pixels'
+#: counts, refreshed every few slices, and the scratch of its pieces), so beside the voxels a frame costs about
+#: slices x intermediate pixels, which the shear widens: a 1 x 2000 x 2 volume composites 2000 slices into 650 x 890
+#: pixels in 1.45 s (8e8 a second, on two shared cores, 2026-11-29), and a 1 x 20000 x 2 one (58 million pixels)
+#: ran past 400 s unrefused.  Bound: about 20 minutes at that rate.
+PIXEL_SLICES = limits.work_unit("intermediate pixel-slices", 1e12, 8e8)
+#: Host bytes an intermediate pixel takes while its slices composite: its ray (origin, direction, ends), colour,
+#: optical depth, slab length, counts and scratch in float64, and the image handed to the warp.
+BYTES_PER_INTERMEDIATE_PIXEL = 256
+WORK_FIX = "downsample the volume along its longest axis, lower --size, or use raycast (whose rays do not widen)"
+
+
 class ShearWarpRenderer(GLRenderer):
     name = "shearwarp"
     description = "shear-warp: run-length encoded slices composited on the host, warped in GL"
+
+    def work(self, scene) -> limits.Work:
+        """Slices x intermediate pixels over the view's factorizations (:data:`PIXEL_SLICES`)."""
+        facts = factorize_view(scene.camera, scene.volume, scene.image.width, scene.image.height)
+        count = sum(float(len(f.slices)) * f.size[0] * f.size[1] for f in facts)
+        big = max(facts, key=lambda f: f.size[0] * f.size[1])
+        return limits.Work(count, PIXEL_SLICES, f"{len(big.slices)} slices x {big.size[0]}x{big.size[1]} intermediate "
+                           f"pixels{f' in each of {len(facts)} factorizations' if len(facts) > 1 else ''}", WORK_FIX)
 
     def encoding(self, scene, axis: int) -> RunLengthVolume:
         """The run-length encoding across ``axis``, rebuilt only when the volume, transfer function,
@@ -384,6 +405,8 @@ class ShearWarpRenderer(GLRenderer):
         for fact in factorize_view(scene.camera, scene.volume, scene.image.width, scene.image.height):
             limits.check_texture("shear-warp's intermediate image", fact.size, gl,
                                  "downsample the volume or use another renderer (raycast bricks large volumes)")
+            check_bytes(fact.size[0] * fact.size[1] * BYTES_PER_INTERMEDIATE_PIXEL,
+                        f"shear-warp's {fact.size[0]}x{fact.size[1]} intermediate image", WORK_FIX)
 
     def draw(self, scene) -> np.ndarray:
         self.activate()
