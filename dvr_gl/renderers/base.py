@@ -117,6 +117,7 @@ class GLRenderer(GLFrame, Renderer):
         """The work bound, then the image against the render-target limit and the memory budget, then
         what the renderer puts on the GPU (:meth:`check_textures`)."""
         super().check_resources(scene)
+        limits.check_float32_frame(scene, self.name)
         self.activate()
         gl = limits.gl_limits(self.ctx)
         limits.check_image(scene, gl)

@@ -15,7 +15,7 @@ import time
 import numpy as np
 import pytest
 
-from conftest import assert_close, small_scene
+from conftest import array_scene, assert_close, small_scene
 from dvr_gl import limits
 from dvr_gl.apps import cli
 from dvr_gl.errors import DvrError
@@ -311,3 +311,27 @@ def test_cli_lut_over_the_limit_on_a_real_volume(shared_data, tmp_path, capsys):
     else:
         assert status == 0
 
+
+
+@pytest.mark.parametrize("keys", [{"volume.origin": [1e6, 1e6, 1e6]},
+                                  {"camera.projection": "orthographic", "camera.distance": 1e7}, {"camera.fov": 0.002}],
+                         ids=["far-origin", "far-orthographic-eye", "tiny-fov"])
+def test_a_frame_too_far_from_the_origin_for_float32_is_refused(renderers, tmp_path, keys):
+    """Found by the fuzz campaign of 2026-11-29: the GPU's float32 world coordinates blanked the picture of a volume
+    or an eye far from the origin (black at 1e8), unrefused.  Beyond limits.FAR_FROM_ORIGIN (1e4) box diagonals
+    each GL renderer refuses in one line; the same volume 100 diagonals out renders, and the float64 reference takes
+    the far one."""
+    data = np.random.default_rng(5).random((8, 8, 8)).astype(np.float32)
+    base = {"image.width": 8, "image.height": 8}
+    origin = keys.get("volume.origin", (0.0, 0.0, 0.0))
+    for name in GL_RENDERERS:
+        far = array_scene(tmp_path, data, {**base, **{k: v for k, v in keys.items() if k != "volume.origin"},
+                                           "renderer.name": name}, origin=origin)
+        with pytest.raises(DvrError) as exc:
+            renderers[name].render(far)
+        assert "computes in float32" in one_line(exc) and "move volume.origin nearer 0" in str(exc.value)
+        near = array_scene(tmp_path, data, {**base, "renderer.name": name}, origin=(700.0, 700.0, 700.0))
+        assert renderers[name].render(near)[..., 3].max() > 0
+    far = array_scene(tmp_path, data, {**base, **{k: v for k, v in keys.items() if k != "volume.origin"},
+                                       "renderer.name": DISCRETE}, origin=origin)
+    assert create_renderer(DISCRETE).render(far).shape == (8, 8, 4)
