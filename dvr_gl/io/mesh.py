@@ -168,6 +168,18 @@ def _dims(blob: bytes, path: Path) -> tuple[int, int, int]:
     return dims
 
 
+def _default_plot3d_array(arrays: dict, q: Path) -> str:
+    """Density, or energy where density is constant (a solution of no flow).  Density with NaN or Inf is
+    refused, not passed over for energy: its range says nothing then, and another array rendered in its
+    place would be a silently wrong image."""
+    density = arrays["density"]
+    bad = int((~np.isfinite(density)).sum())
+    if bad:
+        raise VolumeError(f"{q}: array 'density' has {bad} NaN or Inf values; choose another array "
+                          f"(volume.array): {', '.join(PLOT3D_ARRAYS[1:])}")
+    return "density" if np.ptp(density) > 0 else "energy"
+
+
 def read_plot3d(xyz: Path, q: Path | None = None, array: str | None = None) -> TetMesh:
     """A single-grid, whole-file, big-endian PLOT3D grid (``xyz``, optional IBLANK) and its solution
     (``q``: density, momentum x/y/z, stagnation energy) as hexahedra split into tetrahedra.  ``q``
@@ -203,7 +215,7 @@ def read_plot3d(xyz: Path, q: Path | None = None, array: str | None = None) -> T
     arrays = dict(zip(PLOT3D_ARRAYS[:5], qv))
     arrays["momentum_magnitude"] = np.sqrt(qv[1] ** 2 + qv[2] ** 2 + qv[3] ** 2)
     if array is None:
-        array = "density" if np.ptp(arrays["density"]) > 0 else "energy"
+        array = _default_plot3d_array(arrays, q)
     if array not in arrays:
         raise VolumeError(f"{q}: no array {array!r}; PLOT3D solutions have {', '.join(PLOT3D_ARRAYS)}")
     cells = (ni - 1) * (nj - 1) * (nk - 1)

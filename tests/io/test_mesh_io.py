@@ -348,3 +348,24 @@ def test_telling_a_legacy_mesh_from_a_grid_reads_nothing_outside_the_sandbox(tmp
         for read in (load_field, is_legacy_unstructured):  # the peek itself is checked, not only the reader
             with pytest.raises(SandboxError, match="outside the allowed folders"):
                 read(inside / "link.vtk")
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_plot3d_density_of_nan_is_refused_not_passed_over_for_energy(tmp_path, bad):
+    """A density with one NaN (or Inf) had no range (``np.ptp`` NaN, not > 0), so energy was rendered in its
+    place, silently; it is refused in one line, and a named other array still reads."""
+    dims = np.array([2, 2, 2], ">i4").tobytes()
+    xyz = dims + np.array([[i & 1, i >> 1 & 1, i >> 2] for i in range(8)], ">f4").T.tobytes()
+    density = np.arange(1, 9, dtype=">f4")
+    density[3] = bad
+    energy = np.arange(10, 18, dtype=">f4")
+    q = dims + np.zeros(4, ">f4").tobytes() + density.tobytes() + np.zeros(24, ">f4").tobytes() + energy.tobytes()
+    _write(tmp_path, "gxyz.bin", xyz)
+    _write(tmp_path, "gq.bin", q)
+    with pytest.raises(DvrError, match=r"gq.bin: array 'density' has 1 NaN or Inf values; choose another array "
+                                       r"\(volume.array\)") as refused:
+        read_plot3d(tmp_path / "gxyz.bin")
+    assert "\n" not in str(refused.value)
+    mesh = read_plot3d(tmp_path / "gxyz.bin", array="energy")
+    assert mesh.array == "energy"
+    assert (mesh.values.min(), mesh.values.max()) == (10, 17)  # energy's, not density's (1 to 8)
