@@ -244,6 +244,9 @@ class ZarrSource(Source):
         kept = [n for n, i in zip(array.shape, self.index) if isinstance(i, slice)]
         nz, ny, nx = (kept[o] for o in self.order)
         self.dims = (int(nx), int(ny), int(nz))
+        if min(self.dims) < 1:  # refused here, as a whole load refuses it: the block ranges would step by 0
+            raise VolumeError(f"{self.name}: zero-sized dimension in shape (z, y, x) = {(nz, ny, nx)}; a volume "
+                              f"needs at least one sample along each axis: fix or rewrite the store")
         self.stored = np.dtype(array.dtype)
         if self.stored.kind not in "biuf":
             raise VolumeError(f"{self.name}: dtype {self.stored} is not a scalar type a volume can hold")

@@ -163,6 +163,20 @@ def test_zarr_source_odd_chunks(tmp_path, fmt):
     check_reads(pickle.loads(pickle.dumps(v)), DATA)  # the store reopened by its path
 
 
+@pytest.mark.parametrize("shape", [(2, 0, 4), (2, 3, 0), (0, 3, 4)])
+def test_zarr_of_a_zero_length_axis_is_refused_out_of_core_as_in_memory(tmp_path, shape):
+    """An axis of no sample: the block ranges stepped by 0 (range() arg 3, ZeroDivisionError, an internal
+    error); refused in one line where the source learns the shape, as a whole load refuses it."""
+    store = tmp_path / "z.zarr"
+    zarr.create_array(str(store), shape=shape, chunks=(1, 1, 4), dtype="<i2", zarr_format=2)
+    message = rf"z.zarr: zero-sized dimension in shape \(z, y, x\) = \({shape[0]}, {shape[1]}, {shape[2]}\)"
+    with pytest.raises(VolumeError, match=message):
+        load_volume(store)
+    with pytest.raises(VolumeError, match=message + "; a volume needs at least one sample along each axis") as err:
+        open_volume(store, out_of_core=True, sidecar=False)
+    assert "\n" not in str(err.value)
+
+
 def test_ome_zarr_axes_by_name_and_levels(tmp_path):
     """Axes stored x, z, y behind a time axis of size 1; the coarser levels open lazily, fine to coarse,
     each with its own spacing and origin, equal to what load_volume reads of that level."""
