@@ -46,6 +46,7 @@ import numpy as np
 from .. import progress
 from ..errors import DvrError, VolumeError
 from ..sandbox import SandboxError, check_bytes, current
+from . import blosc
 from .channels import Axes, RawChannels, channel_names, check_count, pick_channel, pick_step, seconds
 from .common import RawArray, check_sample_type, check_spacing, require, show
 
@@ -320,6 +321,7 @@ def _checked_store_class():
         def __init__(self, root, *, read_only: bool = False):
             super().__init__(root, read_only=read_only)
             self.folders = {}  # resolved folders (check_key)
+            self.layouts = {}  # each folder's blosc chunks (blosc.find_layout)
 
         def check(self, key, whole: bool = False):
             check_key(self.root, key, self.folders, whole)
@@ -337,7 +339,20 @@ def _checked_store_class():
 
         def get_sync(self, key, *, prototype=None, byte_range=None):
             self.check(key, whole=byte_range is None)
-            return super().get_sync(key, prototype=prototype, byte_range=byte_range)
+            found = super().get_sync(key, prototype=prototype, byte_range=byte_range)
+            if found is not None:
+                self.check_chunk(key, found, byte_range)
+            return found
+
+        def check_chunk(self, key, found, byte_range=None):
+            """A blosc chunk's header checked against it before numcodecs decodes it (:mod:`.blosc`: c-blosc
+            trusts the header, and reads past a chunk whose header lies); a shard's, each inner chunk's."""
+            if key.rpartition("/")[2] in METADATA_FILES:
+                return
+            expect = blosc.find_layout(str(self.root), key, self.layouts, lambda k: self.check(k, whole=True))
+            if expect is not None:
+                blosc.check_read(found.as_numpy_array(), expect, _part(byte_range),
+                                 f"{self.root}: chunk {show(key)}")
 
         async def list_dir(self, prefix):
             self.check(prefix)
@@ -345,6 +360,19 @@ def _checked_store_class():
                 yield key
 
     return CheckedStore
+
+
+def _part(byte_range) -> tuple[str, int]:
+    """What a read of ``byte_range`` is (:func:`.blosc.check_read`): ``("whole", 0)``, ``("range", start)``
+    (bytes ``start`` on: a shard's inner chunk, or its index at the start) or ``("other", 0)`` (a suffix: the
+    index at a shard's end)."""
+    from zarr.abc.store import RangeByteRequest
+
+    if byte_range is None:
+        return "whole", 0
+    if isinstance(byte_range, RangeByteRequest):
+        return "range", int(byte_range.start)
+    return "other", 0
 
 
 def check_key(root: Path, key: str, folders: dict | None = None, whole: bool = False) -> None:

@@ -367,3 +367,195 @@ def test_files_larger_than_the_memory_budget_are_not_read(tmp_path):
     edit_attrs(image, lambda a: ms(a).update(datasets=ms(a)["datasets"] * 100000))
     with pytest.raises(VolumeError, match="the image has 100000 levels, over 64"):
         load_volume(image)
+
+
+# --- blosc chunks whose header lies: c-blosc read past them (a segfault, heap memory as samples) --------
+
+import struct  # noqa: E402
+
+numcodecs = pytest.importorskip("numcodecs")
+from zarr.codecs import BloscCodec, Crc32cCodec, TransposeCodec  # noqa: E402
+
+BLOSC_DATA = np.arange(2 * 6 * 8, dtype=np.int16).reshape(2, 6, 8) % 7  # [z, y, x], compressible
+
+
+def blosc_store(path, fmt, cname="lz4", shuffle=1, data=BLOSC_DATA, **options):
+    """``data`` in blosc chunks of one plane, zarr ``fmt`` 2 (compressor 'blosc') or 3 (codec 'blosc')."""
+    compressor = numcodecs.Blosc(cname=cname, shuffle=shuffle) if fmt == 2 else \
+        BloscCodec(cname=cname, shuffle=["noshuffle", "shuffle", "bitshuffle"][shuffle])
+    options.setdefault("compressors", compressor)
+    zarr.create_array(str(path), shape=data.shape, chunks=(1,) + data.shape[1:], dtype=data.dtype, zarr_format=fmt,
+                      **options)[...] = data
+    return path
+
+
+def chunk_of(path, fmt):
+    return path / ("0.0.0" if fmt == 2 else "c/0/0/0")
+
+
+def _header(chunk, **fields):
+    """The chunk with header fields replaced: ``typesize`` (byte 3), ``nbytes``, ``blocksize``, ``cbytes``."""
+    b = bytearray(chunk)
+    if "typesize" in fields:
+        b[3] = fields["typesize"]
+    for name, at in (("nbytes", 4), ("blocksize", 8), ("cbytes", 12)):
+        if name in fields:
+            struct.pack_into("<I", b, at, fields[name])
+    return bytes(b)
+
+
+#: damage, and what the refusal says of it
+BLOSC_DAMAGE = {
+    "sizes ~2 GB (bytes 7, 15)": (lambda b: b[:7] + b"\x7f" + b[8:15] + b"\x7f" + b[16:],
+                                  r"header gives 2130706\d+ compressed bytes, the chunk holds"),
+    "cut to 20 bytes": (lambda b: b[:20], r"header gives \d+ compressed bytes, the chunk holds 20\)"),
+    "cut inside the header": (lambda b: b[:10], r"10 bytes, shorter than blosc's 16-byte header"),
+    "nbytes 2 GB": (lambda b: _header(b, nbytes=2 << 30), r"gives 2147483648 bytes uncompressed, the array's "
+                                                          r"chunk holds 96"),
+    "nbytes short": (lambda b: _header(b, nbytes=8), r"gives 8 bytes uncompressed, the array's chunk holds 96"),
+    "blocksize 0": (lambda b: _header(b, blocksize=0), r"gives blocks of 0 bytes for 96 bytes"),
+    "blocksize over nbytes": (lambda b: _header(b, blocksize=1 << 20), r"blocks of 1048576 bytes for 96"),
+    "typesize 0": (lambda b: _header(b, typesize=0), r"gives a type size of 0"),
+}
+
+
+@pytest.mark.parametrize("fmt", [2, 3])
+@pytest.mark.parametrize("damage", list(BLOSC_DAMAGE))
+def test_a_blosc_chunk_whose_header_lies_is_refused_in_one_line(tmp_path, fmt, damage):
+    """Each damaged header, read whole and out of core: one line naming the store and the chunk, before
+    numcodecs decodes it (it segfaulted, or decoded heap memory: values changing from read to read)."""
+    from dvr_gl.out_of_core import open_volume
+
+    path = blosc_store(tmp_path / "b.zarr", fmt)
+    chunk = chunk_of(path, fmt)
+    change, says = BLOSC_DAMAGE[damage]
+    chunk.write_bytes(change(chunk.read_bytes()))
+    key = "0.0.0" if fmt == 2 else "c/0/0/0"
+    message = rf"b.zarr: chunk '{key}': the blosc chunk is damaged \(.*{says}.*; rewrite the store"
+    with pytest.raises(VolumeError, match=message) as err:
+        load_volume(path)
+    assert "\n" not in str(err.value)
+    with pytest.raises(VolumeError, match=message):
+        open_volume(path, out_of_core=True, sidecar=False)
+
+
+def test_a_memcpyed_blosc_chunk_of_the_wrong_length_is_refused(tmp_path):
+    """A chunk stored uncompressed (flag 0x2: random samples) holds nbytes after its header, no more, no less."""
+    data = np.random.default_rng(1).integers(-30000, 30000, (2, 6, 8)).astype(np.int16)
+    path = blosc_store(tmp_path / "m.zarr", 2, cname="blosclz", shuffle=0, data=data)
+    chunk = chunk_of(path, 2).read_bytes()
+    assert chunk[2] & 0x2 and len(chunk) == 16 + 96  # stored uncompressed
+    np.testing.assert_array_equal(load_volume(path).data, data)
+    chunk_of(path, 2).write_bytes(_header(chunk + bytes(8), cbytes=len(chunk) + 8))
+    with pytest.raises(VolumeError, match=r"it is stored uncompressed, 104 bytes for 96"):
+        load_volume(path)
+
+
+@pytest.mark.parametrize("fmt", [2, 3])
+@pytest.mark.parametrize("damage", ["sizes ~2 GB (bytes 7, 15)", "cut to 20 bytes"])
+def test_a_damaged_blosc_chunk_through_the_cli(tmp_path, fmt, damage):
+    """In a fresh process, under a sandbox (``dvr render`` and ``dvr info`` exited 139, a segfault, or rendered
+    heap memory): one line, exit 1, no image."""
+    path = blosc_store(tmp_path / "b.zarr", fmt)
+    chunk = chunk_of(path, fmt)
+    chunk.write_bytes(BLOSC_DAMAGE[damage][0](chunk.read_bytes()))
+    for command in (["render", "--sandbox", str(tmp_path), str(path), "-o", str(tmp_path / "x.png"), "--size",
+                     "32x32"], ["info", str(path)]):
+        run = subprocess.run([sys.executable, "-m", "dvr_gl.apps.cli", *command], capture_output=True, text=True,
+                             timeout=300)
+        assert run.returncode == 1, (command[0], run.returncode, run.stderr)
+        assert run.stderr.count("\n") == 1 and "the blosc chunk is damaged" in run.stderr, run.stderr
+    assert not (tmp_path / "x.png").exists()
+
+
+@pytest.mark.parametrize("fmt", [2, 3])
+@pytest.mark.parametrize("cname, shuffle", [("lz4", 1), ("zstd", 2), ("blosclz", 0), ("zlib", 1), ("lz4hc", 2)])
+def test_valid_blosc_chunks_still_read(tmp_path, fmt, cname, shuffle):
+    """Chunks zarr writes with blosc, compressible and not (stored uncompressed), of 1 to 8 bytes a sample,
+    read whole and out of core as written: the header check refuses none."""
+    from dvr_gl.out_of_core import open_volume
+
+    rng = np.random.default_rng(0)
+    for k, data in enumerate([BLOSC_DATA, rng.integers(0, 255, (3, 5, 7)).astype(np.uint8),
+                              rng.random((3, 5, 7)).astype(np.float32), rng.random((2, 5, 7))]):
+        path = blosc_store(tmp_path / f"v{k}.zarr", fmt, cname, shuffle, data=data)
+        read = load_volume(path).data
+        np.testing.assert_array_equal(read, data.astype(read.dtype))
+        v = open_volume(path, out_of_core=True, sidecar=False)
+        np.testing.assert_array_equal(v.read((0, 0, 0), v.dims), data.astype(read.dtype))
+
+
+@pytest.mark.parametrize("case", ["v2 filters", "v3 crc32c", "v3 transpose", "v3 numcodecs.blosc", "v2 group",
+                                  "v3 group"])
+def test_valid_blosc_chunks_behind_other_codecs_still_read(tmp_path, case):
+    """A filter that changes the size (delta to int32), a checksum after the frame, a transpose, numcodecs'
+    own v3 codec, an array in a consolidated group: each found and checked, none refused."""
+    import numcodecs.zarr3
+
+    fmt = int(case[1])
+    options = {"v2 filters": {"filters": [numcodecs.Delta(dtype="<i2", astype="<i4")]},
+               "v3 crc32c": {"compressors": [BloscCodec(cname="zstd"), Crc32cCodec()]},
+               "v3 transpose": {"filters": [TransposeCodec(order=(2, 1, 0))]},
+               "v3 numcodecs.blosc": {"compressors": numcodecs.zarr3.Blosc(cname="lz4")}}.get(case, {})
+    if "group" in case:
+        group = zarr.open_group(str(tmp_path / "g.zarr"), mode="w", zarr_format=fmt)
+        compressor = numcodecs.Blosc() if fmt == 2 else BloscCodec()
+        group.create_array("a", shape=BLOSC_DATA.shape, chunks=(1, 6, 8), dtype=BLOSC_DATA.dtype,
+                           compressors=compressor)[...] = BLOSC_DATA
+        zarr.consolidate_metadata(str(tmp_path / "g.zarr"))
+        path = tmp_path / "g.zarr"
+    else:
+        path = blosc_store(tmp_path / "c.zarr", fmt, **options)
+    np.testing.assert_array_equal(load_volume(path).data, BLOSC_DATA)
+
+
+def test_blosc_is_checked_as_the_consolidated_metadata_says(tmp_path):
+    """zarr reads an array's metadata from the group's consolidated metadata: the check follows it, so a
+    .zarray that says zlib does not hide a damaged blosc chunk (this segfaulted)."""
+    path = tmp_path / "g.zarr"
+    group = zarr.open_group(str(path), mode="w", zarr_format=2)
+    group.create_array("a", shape=BLOSC_DATA.shape, chunks=(1, 6, 8), dtype=BLOSC_DATA.dtype,
+                       compressors=numcodecs.Blosc())[...] = BLOSC_DATA
+    zarr.consolidate_metadata(str(path))
+    own = json.loads((path / "a/.zarray").read_text())
+    (path / "a/.zarray").write_text(json.dumps({**own, "compressor": {"id": "zlib", "level": 1}}))
+    np.testing.assert_array_equal(load_volume(path).data, BLOSC_DATA)
+    chunk = path / "a/0.0.0"
+    chunk.write_bytes(BLOSC_DAMAGE["sizes ~2 GB (bytes 7, 15)"][0](chunk.read_bytes()))
+    with pytest.raises(VolumeError, match=r"g.zarr: chunk 'a/0.0.0': the blosc chunk is damaged"):
+        load_volume(path)
+
+
+def sharded_blosc(path, index_location):
+    """BLOSC_DATA in one shard of two inner blosc chunks (a plane each), its index at ``index_location``."""
+    from zarr.codecs import BytesCodec, ShardingCodec
+
+    sharding = ShardingCodec(chunk_shape=(1, 6, 8), codecs=[BytesCodec(), BloscCodec(cname="zstd")],
+                             index_location=index_location)
+    zarr.create_array(str(path), shape=BLOSC_DATA.shape, chunks=BLOSC_DATA.shape, dtype=BLOSC_DATA.dtype,
+                      zarr_format=3, serializer=sharding, compressors=None)[...] = BLOSC_DATA
+    return path
+
+
+@pytest.mark.parametrize("index_location", ["end", "start"])
+def test_blosc_chunks_inside_a_shard_are_checked(tmp_path, index_location):
+    """Each inner chunk of a shard: read whole (the shard's index locates each) and alone (out of core, a
+    plane: zarr reads that chunk's byte range); valid ones read, a damaged one refused in one line."""
+    from dvr_gl.io.zarr import open_zarr
+    from dvr_gl.out_of_core import ZarrSource
+
+    path = sharded_blosc(tmp_path / "s.zarr", index_location)
+    np.testing.assert_array_equal(load_volume(path).data, BLOSC_DATA)
+    np.testing.assert_array_equal(ZarrSource(open_zarr(path)[0], store=path).read((0, 0, 1), (8, 6, 1)),
+                                  BLOSC_DATA[1:2])  # [z, y, x]
+    shard = bytearray((path / "c/0/0/0").read_bytes())
+    index = shard[:36] if index_location == "start" else shard[-36:]  # 2 chunks x 16 bytes, a crc32c
+    second = struct.unpack_from("<Q", index, 16)[0]
+    shard[second + 15] = 0x7f  # the second inner chunk's cbytes ~2 GB
+    (path / "c/0/0/0").write_bytes(bytes(shard))
+    with pytest.raises(VolumeError, match=r"s.zarr: chunk 'c/0/0/0' \(chunk 1 inside the shard\): the blosc chunk "
+                                          r"is damaged \(its header gives 21\d+ compressed bytes"):
+        load_volume(path)
+    with pytest.raises(VolumeError, match=rf"\(a chunk inside the shard, at byte {second}\): the blosc chunk is "
+                                          r"damaged"):
+        ZarrSource(open_zarr(path)[0], store=path).read((0, 0, 1), (8, 6, 1))
