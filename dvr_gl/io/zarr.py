@@ -25,6 +25,8 @@ What is checked, before any voxel is read (each a one-line :class:`VolumeError`)
 * every file the store reads (metadata and chunks, :func:`open_store`): inside the store, a regular
   file, read whole only within the memory budget, and under a sandbox with roots inside them once
   links are followed (a chunk linked to a file elsewhere is refused, not read);
+* a blosc chunk (a shard's inner chunks too) whose header does not fit it or the array is refused before
+  numcodecs decodes it (:mod:`.blosc`: c-blosc trusts the header, and reads past the chunk);
 * a chunk that does not decode (corrupt, cut, of another size) is refused in one line, and the zarr
   reads still under way are let finish first, so that nothing else is printed.
 """
