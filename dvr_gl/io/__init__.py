@@ -54,7 +54,7 @@ from ..sandbox import check_input_path
 from .channels import Axes, RawChannels, pick_step
 from .common import RawArray, check_spacing
 from .compression import exists_or_split
-from .series import VOLUME_FORMATS, is_pattern, series_axes, series_format, step_file
+from .series import VOLUME_FORMATS, check_matches, is_pattern, series_axes, series_format, step_file
 
 FORMATS = ("raw", "nrrd", "nifti", "metaimage", "vtk", "npy", "tiff", "dicom", "vti", "zarr", "vtu", "plot3d", "csv",
            "npz", "hdf5")
@@ -261,6 +261,7 @@ def load_volume(path, format: str = "auto", *, dims=None, dtype=None, endian: st
                             time=time, fourth_axis=fourth_axis)
     path = Path(os.path.expanduser(str(path)))
     pattern = is_pattern(path)
+    check_matches(path)
     if not pattern and not path.is_dir() and not exists_or_split(path):
         raise VolumeError(f"{path}: file not found")
     if not pattern and os.path.lexists(path) and not path.is_dir():
@@ -318,6 +319,7 @@ def file_axes(path, format: str = "auto", **options) -> Axes:
         return Axes()  # a DICOM series: one volume
     path = Path(os.path.expanduser(str(path)))
     pattern = is_pattern(path)
+    check_matches(path)
     if not pattern and os.path.lexists(path) and not path.is_dir():
         check_input_path(path, "volume file")
     fmt = detect_format(path) if format == "auto" else format

@@ -46,6 +46,7 @@ from .. import progress
 from ..errors import VolumeError
 from ..sandbox import check_bytes, check_input_path, memory_budget
 from .common import ORTHOGONALITY, RawArray, axes_geometry, require
+from .series import is_pattern
 
 GAP_TOLERANCE = 0.01  # relative: gaps between slice positions may differ by 1% of the median gap
 ORIENTATION_TOLERANCE = 1e-4  # ImageOrientationPatient's numbers, written to about 6 decimals
@@ -76,7 +77,7 @@ def members(path: Path) -> list[Path]:
     followed) before anything reads it: a member linked to a file outside the roots is refused, not
     skipped, as is a glob reaching outside them."""
     text = str(path)
-    if any(c in text for c in "*?["):
+    if is_pattern(text):
         found = [Path(p) for p in sorted(glob.glob(text))]
     elif path.is_dir():
         found = sorted(path.iterdir())
@@ -95,7 +96,7 @@ def series_candidates(path) -> list[Path]:
                 raise VolumeError(f"{f}: not a DICOM file (no DICM marker at byte 128); leave it out of the list")
         return files
     path = Path(path)
-    found = members(path) if path.is_dir() or any(c in str(path) for c in "*?[") else \
+    found = members(path) if path.is_dir() or is_pattern(path) else \
         [check_input_path(path, "DICOM file")]
     files = [f for f in found if is_dicom(f)]
     if not files:

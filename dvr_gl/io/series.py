@@ -13,6 +13,7 @@ as its file states it.
 from __future__ import annotations
 
 import glob
+import os
 import re
 from pathlib import Path
 
@@ -30,7 +31,18 @@ def natural_key(p: Path):
 
 
 def is_pattern(path) -> bool:
-    return any(c in str(path) for c in "*?[")
+    """Whether a path is read as a glob: it holds ``*``, ``?`` or ``[`` and names nothing itself.  A file
+    (or folder) named ``scan[1].nrrd`` is that file, never the glob that would match ``scan1.nrrd``."""
+    text = str(path)
+    return any(c in text for c in "*?[") and not os.path.lexists(text)
+
+
+def check_matches(path) -> None:
+    """Refuse a glob that matches no file, naming it: else the readers of globs of slices would say
+    that no TIFF (or DICOM) files were found, about a path the user may have meant as a file name."""
+    if is_pattern(path) and not _matches(path):
+        raise VolumeError(f"{path}: no such file, and read as a glob pattern it matches no file; "
+                          f"check the name (or the pattern)")
 
 
 def series_format(path, suffix_format) -> str | None:

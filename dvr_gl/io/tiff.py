@@ -51,7 +51,7 @@ from ..errors import VolumeError
 from ..sandbox import check_bytes, check_input_path
 from .channels import MAX_COUNT, Axes, RawChannels, channel_names, pick_channel, pick_step, seconds
 from .common import RawArray, show
-from .series import natural_key
+from .series import is_pattern, natural_key
 
 # tag -> what it holds: the pixels' offsets and byte counts, in strips or tiles; the resolution (pixels per unit)
 STRIP_OFFSETS, STRIP_COUNTS, TILE_OFFSETS, TILE_COUNTS, DESCRIPTION = 273, 279, 324, 325, 270
@@ -198,7 +198,7 @@ def stack_files(path: Path) -> list[Path]:
     import glob
 
     text = str(path)
-    if any(c in text for c in "*?["):
+    if is_pattern(text):
         files = [Path(p) for p in glob.glob(text)]
     elif path.is_dir():
         files = [p for p in path.iterdir() if p.suffix.lower() in (".tif", ".tiff")]

@@ -853,11 +853,12 @@ def is_volume_path(path) -> bool:
     scene file: anything but ``.toml`` whose suffix a reader knows."""
     from ..errors import VolumeError
     from ..io import detect_format
+    from ..io.series import is_pattern
 
     p = Path(os.path.expanduser(str(path)))
     if p.suffix.lower() == ".toml":
         return False
-    if p.is_dir() or any(c in str(p) for c in "*?["):
+    if p.is_dir() or is_pattern(p):
         return True
     try:
         detect_format(p)

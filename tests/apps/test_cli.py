@@ -211,6 +211,7 @@ BAD_INPUTS = {
                      ["renderer.lut_size must be an integer of at most 64 bits"]),
     "negative seed": (lambda t: ["--demo", "--jitter-seed", -1], ["renderer.jitter_seed must be in [0, 4294967295]"]),
     "zero up": (lambda t: ["--demo", "--set", "camera.up=[0,0,0]"], ["camera.up must be a non-zero vector"]),
+    "glob matching nothing": (lambda t: [t / "scan[1].nrrd"], ["scan[1].nrrd: no such file", "matches no file"]),
     # a folder where the scene goes is a folder of slices (TIFF or DICOM): the reader says what it lacks
     "scene is a folder": (lambda t: [t], ["no TIFF files found (nor DICOM"]),
 }
@@ -236,6 +237,15 @@ def test_bad_input_gives_one_line_and_no_output(tmp_path, capsys, case):
     assert_one_line_error(code, err, *fragments)
     assert not out.exists()
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".dvr-")]  # no temporary files
+
+
+def test_a_volume_named_like_a_glob_is_that_file(tmp_path, capsys):
+    """``scan[1].npy`` renders that file, not ``scan1.npy`` (which the glob would match: here refused)."""
+    _nan_npy(tmp_path).rename(tmp_path / "scan1.npy")
+    _ones_npy(tmp_path).rename(tmp_path / "scan[1].npy")
+    code, stdout, err = run(capsys, "render", tmp_path / "scan[1].npy", "-o", tmp_path / "o.png", *SMALL[:2])
+    assert code == 0 and "wrote" in stdout, err
+    assert (tmp_path / "o.png").exists()
 
 
 def test_nan_replacement_value_makes_the_data_usable(tmp_path, capsys):

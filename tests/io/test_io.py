@@ -87,6 +87,19 @@ def test_missing_file(tmp_path):
         load_volume(tmp_path / "nope.nrrd")
 
 
+def test_a_file_named_like_a_glob_is_that_file(tmp_path):
+    """``scan[1].npy`` names the file of that name, not the glob that matches ``scan1.npy``; a name that
+    is neither a file nor a pattern matching one is refused naming it (not as missing TIFF slices)."""
+    np.save(tmp_path / "scan[1].npy", DATA)
+    np.save(tmp_path / "scan1.npy", DATA + 1)
+    np.testing.assert_array_equal(load_volume(tmp_path / "scan[1].npy").data, DATA)
+    np.testing.assert_array_equal(load_volume(tmp_path / "scan[1]*.npy").data, DATA + 1)  # a glob: scan1.npy
+    for name in ("scan[2].npy", "x*.tif"):
+        with pytest.raises(VolumeError, match=r"matches no file") as info:
+            load_volume(tmp_path / name)
+        assert name in str(info.value) and "TIFF" not in str(info.value)
+
+
 def test_unknown_suffix(tmp_path):
     path = tmp_path / "v.qqq"
     path.write_bytes(b"1")
