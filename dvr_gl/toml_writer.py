@@ -1,4 +1,5 @@
-"""Writing TOML: tomli-w, with numpy's values made plain and a comment header.
+"""Writing TOML: tomli-w, with numpy's values made plain and a comment header; reading it (:func:`loads_toml`)
+with nesting too deep for Python refused in one line.
 
 The standard library reads TOML (``tomllib``) but does not write it; tomli-w is the well-kept writer
 that pairs with it.  tomli-w writes floats with ``str``, which round-trips exactly, so a saved
@@ -9,10 +10,13 @@ are turned into Python numbers and lists first.
 
 from __future__ import annotations
 
+import tomllib
 from collections.abc import Mapping
 
 import numpy as np
 import tomli_w
+
+from .errors import SceneError
 
 
 def plain(value):
@@ -33,3 +37,14 @@ def dumps(data: dict, header: str = "") -> str:
     each line of ``header`` as a comment above it."""
     lines = "".join(f"# {ln}\n" for ln in header.splitlines()) + ("\n" if header else "")
     return lines + tomli_w.dumps(plain(data), indent=4)
+
+
+def loads_toml(text: str, what: str) -> dict:
+    """``tomllib.loads(text)``, with arrays or tables nested too deeply for Python's recursion (``x = [[[[...``
+    a thousand deep) refused in one line naming ``what``, not escaping as a RecursionError (an internal
+    error).  A malformed text raises :class:`tomllib.TOMLDecodeError` as before, for the caller to word."""
+    try:
+        return tomllib.loads(text)
+    except RecursionError:
+        raise SceneError(f"{what}: arrays or tables nested too deeply; no setting nests more than a few "
+                         f"levels, check the brackets") from None

@@ -40,6 +40,7 @@ from dvr_gl.phantoms import DEMOS
 from dvr_gl.renderers import create_renderer, registry
 from dvr_gl.sandbox import Sandbox, active, parse_bytes
 from dvr_gl.scene.schema import RendererTable, SceneSpec, renderer_spec_class, type_hints
+from dvr_gl.toml_writer import loads_toml
 from dvr_gl.transfer_function import PRESETS, is_transfer_function_file
 
 from . import fields as cli_fields
@@ -269,7 +270,7 @@ def parse_size(text: str) -> tuple[int, int]:
 def parse_value(text: str):
     """A --set value in TOML syntax; a bare word is a string."""
     try:
-        return tomllib.loads(f"v = {text}")["v"]
+        return loads_toml(f"v = {text}", f"--set value {text[:40]!r}")["v"]
     except tomllib.TOMLDecodeError:
         return text
 

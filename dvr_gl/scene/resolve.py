@@ -32,7 +32,7 @@ from ..fields import diagonal
 from ..io import load_field
 from ..orientation import to_patient_frame, view_orbit
 from ..sandbox import check_bytes, check_input_path
-from ..toml_writer import dumps
+from ..toml_writer import dumps, loads_toml
 from ..transfer_function import (
     TransferFunction,
     find_preset,
@@ -71,7 +71,7 @@ def read_scene_dict(path: Path) -> dict:
     check_bytes(os.path.getsize(path), f"{path}: the scene file", "scene files are a few kB; check the path")
     try:
         with open(path, "rb") as fh:
-            return tomllib.load(fh)
+            return loads_toml(fh.read().decode("utf-8"), str(path))
     except OSError as exc:
         raise SceneError(f"{path}: cannot read the scene file ({exc.strerror or exc})") from None
     except tomllib.TOMLDecodeError as exc:

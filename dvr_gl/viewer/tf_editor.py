@@ -22,7 +22,7 @@ import numpy as np
 from ..errors import DvrError, SceneError
 from ..image import write_text
 from ..scene.schema import TransferFunctionSpec, parse_table
-from ..toml_writer import dumps
+from ..toml_writer import dumps, loads_toml
 from ..transfer_function import PRESETS, TransferFunction, find_preset, preset
 
 MIN_GAP = 1e-4        # smallest value gap between neighbouring points, as a fraction of the value range
@@ -194,7 +194,7 @@ def load_points(path: Path | str) -> TransferFunction:
     (a file saved by the editor, or a scene file)."""
     path = Path(path)
     try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8"))
+        raw = loads_toml(path.read_text(encoding="utf-8"), str(path))
     except FileNotFoundError:
         raise SceneError(f"{path}: file not found") from None
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:

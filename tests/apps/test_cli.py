@@ -212,6 +212,10 @@ BAD_INPUTS = {
     "negative seed": (lambda t: ["--demo", "--jitter-seed", -1], ["renderer.jitter_seed must be in [0, 4294967295]"]),
     "zero up": (lambda t: ["--demo", "--set", "camera.up=[0,0,0]"], ["camera.up must be a non-zero vector"]),
     "glob matching nothing": (lambda t: [t / "scan[1].nrrd"], ["scan[1].nrrd: no such file", "matches no file"]),
+    "deep --set": (lambda t: ["--demo", "--set", "transfer_function.points=" + "[" * 2000 + "]" * 2000],
+                   ["--set value '[[[", "nested too deeply"]),
+    "deep scene": (lambda t: [_scene(t, '[volume]\ndemo = "shepp-logan"\nx = ' + "[" * 2000 + "]" * 2000 + "\n")],
+                   ["s.toml: arrays or tables nested too deeply"]),
     # a folder where the scene goes is a folder of slices (TIFF or DICOM): the reader says what it lacks
     "scene is a folder": (lambda t: [t], ["no TIFF files found (nor DICOM"]),
 }

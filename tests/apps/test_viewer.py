@@ -236,6 +236,9 @@ def test_save_and_load(tmp_path):
         load_points(tmp_path / "empty.toml")
     with pytest.raises(SceneError, match="not found"):
         load_points(tmp_path / "missing.toml")
+    (tmp_path / "deep.toml").write_text("[transfer_function]\npoints = " + "[" * 2000 + "]" * 2000 + "\n")
+    with pytest.raises(SceneError, match="deep.toml: arrays or tables nested too deeply"):
+        load_points(tmp_path / "deep.toml")
 
 
 def test_nice_opacity_axis():
