@@ -70,6 +70,7 @@ def check_writable(path: Path, overwrite: bool = False) -> Path:
     if len(os.fsencode(path.name)) > name_max:
         raise DvrError(f"{path.name[:40]}...: the output file name is {len(os.fsencode(path.name))} bytes, "
                        f"longer than the {name_max} the file system allows; choose a shorter name")
+    sandbox.check_path_name(path, "output file")  # a NUL byte, a folder's name too long
     if path.is_dir():
         raise DvrError(f"{path}: is a folder; give a file name such as {path / 'image.png'}")
     sandbox.check_output_path(path)

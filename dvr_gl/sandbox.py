@@ -169,10 +169,31 @@ def _cpu_backstop(seconds: float):
         resource.setrlimit(resource.RLIMIT_CPU, (soft, hard))
 
 
+#: The longest name (one part of a path) and path, in bytes, that Linux allows (a name: macOS and Windows too).
+NAME_MAX, PATH_MAX = 255, 4095
+
+
+def check_path_name(path, what: str = "file") -> Path:
+    """``path`` if the system could name it: no NUL byte and no name over :data:`NAME_MAX` bytes.  Either
+    makes every look-up fail (``ValueError``, ``OSError`` ENAMETOOLONG) wherever it first comes, even in
+    ``Path.is_dir``: refused here, in one line, where a user's path enters."""
+    text = os.fsdecode(os.fspath(path))
+    if "\x00" in text:
+        raise SandboxError(f"{text!r}: the {what}'s path holds a NUL byte, which no file name can; check the path")
+    longest = max([len(os.fsencode(part)) for part in Path(text).parts] or [0])
+    if longest > NAME_MAX:
+        raise SandboxError(f"{text[:40]}...: a name in the {what}'s path is too long ({longest} bytes, over the "
+                           f"{NAME_MAX} a file system allows); check the path")
+    if len(os.fsencode(text)) > PATH_MAX:
+        raise SandboxError(f"{text[:40]}...: the {what}'s path is too long ({len(os.fsencode(text))} bytes, over "
+                           f"{PATH_MAX}); check the path")
+    return Path(text)
+
+
 def check_input_path(path, what: str = "file") -> Path:
     """``path`` if it may be read: a regular file (FIFOs, devices and sockets refused) inside the
     sandbox's roots.  ``what`` names it in the message ("volume file", "NRRD data file", ...)."""
-    path = Path(path)
+    path = check_path_name(path, what)
     box = current()
     if not box.allows(path):
         roots = ", ".join(str(r) for r in box.roots)
@@ -196,7 +217,7 @@ def check_output_path(path, what: str = "output file") -> Path:
     """``path`` if it may be written: inside the sandbox's roots, judged by where it will be created
     (its folder, symlinks followed), and by the target of a link already at that name (stricter than
     needed: the rename that writes it would replace the link, not follow it)."""
-    path = Path(path)
+    path = check_path_name(path, what)
     box = current()
     folder = os.path.realpath(path.parent if str(path.parent) else ".")
     if not box.allows(Path(folder) / path.name):

@@ -50,7 +50,7 @@ import numpy as np
 
 from ..errors import VolumeError
 from ..fields.grid import Volume, replace_non_finite
-from ..sandbox import check_input_path
+from ..sandbox import check_input_path, check_path_name
 from .channels import Axes, RawChannels, pick_step
 from .common import RawArray, check_spacing
 from .compression import exists_or_split
@@ -76,7 +76,7 @@ def detect_format(path) -> str:
     (DICOM, else TIFF slices), a folder holding zarr metadata as zarr; a list of files is a DICOM series."""
     if isinstance(path, (list, tuple)):
         return "dicom"
-    path = Path(path)
+    path = check_path_name(path, "volume file")
     name = path.name.lower()
     if path.is_dir() and (name.endswith(".zarr") or any((path / m).is_file() for m in ZARR_METADATA)):
         return "zarr"
@@ -174,7 +174,7 @@ def load_field(path, format: str = "auto", *, array: str | None = None, solution
 
     if isinstance(path, (list, tuple)):  # the files of a DICOM series
         return load_volume(path, format, array=array, **grid_options)
-    path = Path(os.path.expanduser(str(path)))
+    path = check_path_name(os.path.expanduser(str(path)), "volume file")
     try:
         fmt = detect_format(path) if format == "auto" else format
     except VolumeError:  # no known suffix: the grid reader's checks (the sandbox's first) say what is wrong
@@ -259,7 +259,7 @@ def load_volume(path, format: str = "auto", *, dims=None, dtype=None, endian: st
         return _load_series(list(path), format, spacing=spacing, origin=origin, nan_value=nan_value,
                             series=series, dims=dims, dtype=dtype, array=array, level=level, channel=channel,
                             time=time, fourth_axis=fourth_axis)
-    path = Path(os.path.expanduser(str(path)))
+    path = check_path_name(os.path.expanduser(str(path)), "volume file")
     pattern = is_pattern(path)
     check_matches(path)
     if not pattern and not path.is_dir() and not exists_or_split(path):
@@ -317,7 +317,7 @@ def file_axes(path, format: str = "auto", **options) -> Axes:
     others are ignored).  A file without channels or time: ``Axes()`` (one step)."""
     if isinstance(path, (list, tuple)):
         return Axes()  # a DICOM series: one volume
-    path = Path(os.path.expanduser(str(path)))
+    path = check_path_name(os.path.expanduser(str(path)), "volume file")
     pattern = is_pattern(path)
     check_matches(path)
     if not pattern and os.path.lexists(path) and not path.is_dir():

@@ -31,7 +31,7 @@ from ..errors import DvrError, SceneError
 from ..fields import diagonal
 from ..io import load_field
 from ..orientation import to_patient_frame, view_orbit
-from ..sandbox import check_bytes, check_input_path
+from ..sandbox import check_bytes, check_input_path, check_path_name
 from ..toml_writer import dumps, loads_toml
 from ..transfer_function import (
     TransferFunction,
@@ -178,11 +178,11 @@ def _resolve_volume(spec: VolumeSpec, base_dir: Path, memory_budget_mb: float | 
         return phantoms.demo_volume(spec.demo, spec.size), spec
     if not spec.path:
         raise SceneError("volume: no volume given; set volume.path (or --volume FILE) or volume.demo (--demo)")
-    path = Path(os.path.expanduser(spec.path))
+    path = check_path_name(os.path.expanduser(spec.path), "volume file")
     if not path.is_absolute():
         path = base_dir / path
     solution = spec.solution
-    if solution is not None and not Path(os.path.expanduser(solution)).is_absolute():
+    if solution is not None and not check_path_name(os.path.expanduser(solution), "solution file").is_absolute():
         solution = str(base_dir / os.path.expanduser(solution))
     from ..out_of_core import MEMORY_BUDGET_MB, open_for_scene
 
@@ -286,7 +286,7 @@ def _resolve_transfer_function(spec: TransferFunctionSpec, field, demo: str | No
 
 
 def _tf_path(file: str, base_dir: Path) -> Path:
-    path = Path(os.path.expanduser(file))
+    path = check_path_name(os.path.expanduser(file), "transfer function file")
     return path if path.is_absolute() else Path(base_dir) / path
 
 
@@ -828,7 +828,7 @@ def _resolve_geometry(renderer, base_dir: Path):
 
     resolved = []
     for g in meshes:
-        path = Path(g.path).expanduser()
+        path = check_path_name(g.path, "mesh file").expanduser()
         path = path if path.is_absolute() else base_dir / path
         read_mesh(path)
         resolved.append(dataclasses.replace(g, path=str(path.resolve())))
@@ -855,7 +855,7 @@ def is_volume_path(path) -> bool:
     from ..io import detect_format
     from ..io.series import is_pattern
 
-    p = Path(os.path.expanduser(str(path)))
+    p = check_path_name(os.path.expanduser(str(path)), "input file")
     if p.suffix.lower() == ".toml":
         return False
     if p.is_dir() or is_pattern(p):

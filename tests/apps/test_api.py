@@ -115,6 +115,12 @@ def test_image_pixels_and_files(tmp_path):
     np.testing.assert_allclose(read_image(exr), composited, atol=1e-7)
     with pytest.raises(dvr_gl.DvrError, match="exists"):
         image.save(png)
+    with pytest.raises(dvr_gl.DvrError, match="output file's path holds a NUL byte"):
+        image.save(tmp_path / "x\x00.png")
+    with pytest.raises(dvr_gl.DvrError, match="output file's path is too long|a name in the output file's path"):
+        image.save(tmp_path / ("a" * 300) / "x.png")
+    with pytest.raises(dvr_gl.DvrError, match="volume file's path holds a NUL byte"):
+        dvr_gl.render(str(tmp_path / "v\x00.nrrd"))
     assert image._repr_png_()[:8] == b"\x89PNG\r\n\x1a\n"
     assert repr(image).startswith(f"Image(24x24, {DEFAULT}")
 

@@ -216,6 +216,10 @@ BAD_INPUTS = {
                    ["--set value '[[[", "nested too deeply"]),
     "deep scene": (lambda t: [_scene(t, '[volume]\ndemo = "shepp-logan"\nx = ' + "[" * 2000 + "]" * 2000 + "\n")],
                    ["s.toml: arrays or tables nested too deeply"]),
+    "nul in a path": (lambda t: [_scene(t, '[volume]\npath = "ok\\u0000.nrrd"\n')],
+                      ["'ok\\x00.nrrd': the volume file's path holds a NUL byte"]),
+    "name too long": (lambda t: [t / ("a" * 300 + ".nrrd")],
+                      ["a name in the input file's path is too long (305 bytes"]),
     # a folder where the scene goes is a folder of slices (TIFF or DICOM): the reader says what it lacks
     "scene is a folder": (lambda t: [t], ["no TIFF files found (nor DICOM"]),
 }

@@ -76,6 +76,23 @@ def test_devices_are_refused():
         load_scene("/dev/zero")
 
 
+LONG = "a" * 300
+
+
+@pytest.mark.parametrize("path, fragment", [
+    ("ok\x00.nrrd", "volume file's path holds a NUL byte"), (LONG + ".nrrd", r"too long \(305 bytes, over the 255"),
+    (LONG + "/v.nrrd", r"too long \(300 bytes"), ("*\x00.nrrd", "NUL byte")])
+def test_paths_no_file_can_have_are_one_line(tmp_path, path, fragment):
+    """A NUL byte or a name over 255 bytes fails every look-up (ValueError, OSError ENAMETOOLONG, even in
+    Path.is_dir): refused where the path enters, a volume's, a scene file's and a transfer function's."""
+    with pytest.raises(SandboxError, match=fragment):
+        load_scene(None, {"volume.path": path})
+    with pytest.raises(SandboxError, match=fragment.replace("volume", "scene")):
+        load_scene(tmp_path / path.replace(".nrrd", ".toml"))
+    with pytest.raises(SandboxError, match=fragment.replace("volume", "transfer function")):
+        load_scene(None, {"volume.demo": "shepp-logan", "transfer_function.file": path})
+
+
 def test_a_fifo_is_never_replaced_by_an_output(tmp_path, capsys):
     os.mkfifo(tmp_path / "o.png")
     code = main(["render", "--demo", "--size", "8", "--set", "volume.size=8", "--overwrite",
