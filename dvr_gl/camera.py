@@ -20,7 +20,11 @@ from .errors import SceneError
 PROJECTIONS = ("perspective", "orthographic")
 #: What the lens keys allow, as scene-file checks (``[camera]`` in :mod:`dvr_gl.scene.schema` uses these too,
 #: so a scene and a Camera built in Python are refused with the same words).
-LENS_CHECKS = {"fov": between(0, 180, open_lo=True, open_hi=True, what=" degrees"),
+#: The narrowest field of view (degrees).  Narrower, the framing distance (about 57000 times the object's radius
+#: over the fov) outgrows float32 (fov 1e-12 drew half the picture, 1e-300 a black one, 5e-324 divided by zero);
+#: a view without perspective is the orthographic projection.
+MIN_FOV = 1e-3
+LENS_CHECKS = {"fov": between(MIN_FOV, 180, open_hi=True, what=" degrees"),
                "view_height": world_length, "near": between(0, WORLD_RANGE[1], what=" world units")}
 
 

@@ -30,7 +30,7 @@ import numpy as np
 
 from ..api import Image, render, scene_of
 from ..apps.animation import Animation, Frames
-from ..camera import Camera
+from ..camera import MIN_FOV, Camera
 from ..errors import SceneError
 from ..fields.grid import Volume
 from ..fields.layers import Member, as_data
@@ -207,7 +207,7 @@ def view_camera(camera, canvas_height: float) -> Camera:
     target = np.asarray(camera.center, dtype=np.float64)[-3:][::-1]
     height = float(canvas_height) / float(camera.zoom)  # world units at the centre plane
     fov = float(camera.perspective)
-    if fov <= 0:
+    if fov < MIN_FOV:  # napari's 0 (and what no perspective camera of dvr-gl takes): orthographic
         return Camera(tuple(target - view * height), tuple(target), tuple(up), projection="orthographic",
                       view_height=height)
     distance = height / (2.0 * np.tan(np.radians(fov) / 2.0))

@@ -180,7 +180,7 @@ def test_any_field_renders_with_the_renderers_that_declare_its_kind():
     ({"background": "red"}, "background: give linear RGB or RGBA"),
     ({"background": (1, 0, 2)}, "image.background must be in [0, 1]"),
     ({"transfer_function": []}, "transfer_function.points must be a non-empty list"),
-    ({"fov": 0}, "camera.fov must be in (0, 180) degrees"),
+    ({"fov": 0}, "camera.fov must be in [0.001, 180) degrees"),
     ({"sample_distance_voxels": 0}, "renderer.sample_distance_voxels must be positive"),
     ({"spacing": (1e300, 1, 1)}, "array: the spacing: a voxel of 1 and a box of 7e+300 world units are out of range"),
     # found by the fuzz campaign of 2026-11-29: ValueError and TypeError before

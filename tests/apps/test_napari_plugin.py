@@ -361,3 +361,17 @@ def test_a_refused_view_says_why_in_the_status_line(viewer, widget):
     assert frames.shape[0] == 2 and not np.array_equal(frames[0], frames[1]), widget.status.text()
     assert viewer.dims.current_step[0] == 0  # napari's position is put back
     assert os.environ.get("QT_QPA_PLATFORM") == "xcb"
+
+
+def test_a_perspective_too_narrow_for_dvr_gl_is_orthographic():
+    """napari's perspective 0 is orthographic; so is one below dvr-gl's narrowest field of view (refused as a
+    perspective fov: its framing distance outgrows float32), not an error from the widget."""
+    from types import SimpleNamespace
+
+    from dvr_gl.camera import MIN_FOV
+    from dvr_gl.napari.scene import view_camera
+
+    for perspective, projection in ((0.0, "orthographic"), (MIN_FOV / 10, "orthographic"), (30.0, "perspective")):
+        camera = SimpleNamespace(view_direction=(1.0, 0.0, 0.0), up_direction=(0.0, 0.0, 1.0), center=(5, 5, 5),
+                                 zoom=2.0, perspective=perspective)
+        assert view_camera(camera, 100).projection == projection
