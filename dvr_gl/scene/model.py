@@ -88,9 +88,9 @@ class ShadingSpec:
     """Blinn-Phong shading from the gradient (emission-absorption and isosurface)."""
 
     enabled: bool = doc(False, "Blinn-Phong from the gradient (emission-absorption, isosurface)")
-    ambient: float = doc(0.2, "ambient coefficient")
-    diffuse: float = doc(0.7, "diffuse coefficient")
-    specular: float = doc(0.3, "specular coefficient")
+    ambient: float = doc(0.2, "ambient coefficient (0 .. 10)")
+    diffuse: float = doc(0.7, "diffuse coefficient (0 .. 10)")
+    specular: float = doc(0.3, "specular coefficient (0 .. 10)")
     shininess: float = doc(32.0, "specular exponent")
     two_sided: bool = doc(True, "light both sides of a surface (the normal turned toward the viewer)")
     lights: list[LightSpec] = doc(None, "`[[renderer.shading.lights]]` tables (default: one headlight)",

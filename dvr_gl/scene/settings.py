@@ -140,11 +140,19 @@ class Setting:
 
 # --- checks ----------------------------------------------------------------------------------
 
+#: The largest ambient, diffuse and specular coefficient: ten times a surface's full reflection, past any
+#: wanted exaggeration (the presets' are at most 1); larger ones ran colours off (diffuse 1e6: 27237 over alpha).
+MAX_SHADING_COEFFICIENT = 10.0
+
+
 def _check_shading(sh: ShadingSpec) -> None:
     """The [renderer.shading] table's values, each named by its own key."""
-    for key in ("ambient", "diffuse", "specular", "shininess"):
-        if getattr(sh, key) < 0:
-            raise SceneError(f"renderer.shading.{key} must be >= 0, got {getattr(sh, key)}")
+    for key in ("ambient", "diffuse", "specular"):
+        if not 0 <= getattr(sh, key) <= MAX_SHADING_COEFFICIENT:
+            raise SceneError(f"renderer.shading.{key} must be in [0, {MAX_SHADING_COEFFICIENT:g}], "
+                             f"got {getattr(sh, key)}")
+    if sh.shininess < 0:
+        raise SceneError(f"renderer.shading.shininess must be >= 0, got {sh.shininess}")
     for i, light in enumerate(sh.lights):
         if light.type == "directional" and not any(light.direction):
             raise SceneError(f"renderer.shading.lights[{i}].direction must be a non-zero vector")

@@ -176,7 +176,9 @@ BAD_INPUTS = {
                          [f"{NO_PREINTEGRATION} does not support renderer.classification = 'preintegrated'",
                           f"use {DEFAULT}"]),
     "shading value": (lambda t: ["--demo", "--set", "renderer.shading.ambient=-1"],
-                      ["renderer.shading.ambient must be >= 0, got -1.0"]),
+                      ["renderer.shading.ambient must be in [0, 10], got -1.0"]),
+    "huge shading value": (lambda t: ["--demo", "--set", "renderer.shading.diffuse=1e6"],
+                           ["renderer.shading.diffuse must be in [0, 10], got 1000000.0"]),
     # issue 14: each of these was silently accepted, misreported or an internal error
     "zero sample distance": (lambda t: ["--demo", "--sample-distance-voxels", 0],
                              ["renderer.sample_distance_voxels must be positive, got 0.0"]),
