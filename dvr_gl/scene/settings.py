@@ -29,6 +29,7 @@ from typing import Any, Callable, Optional
 from ..checks import at_least, between, positive, world_coordinates
 from ..clipping import check_clipping, clipping_in_use
 from ..errors import SceneError
+from ..fields import diagonal
 from ..out_of_core import volume as out_of_core
 from .model import (
     CLASSIFICATIONS,
@@ -413,6 +414,13 @@ def shadow_step(spec, field) -> float:
     return spec.sample_distance if voxels is None else voxels * field.sample_spacing
 
 
+def _sample_distance_key(spec) -> tuple:
+    """The sample distance's key and value as the scene gives it (in voxels where so given; else in world units)."""
+    if spec.sample_distance is None and spec.sample_distance_voxels is not None:
+        return "sample_distance_voxels", spec.sample_distance_voxels
+    return ("sample_distance",)
+
+
 def resolve_sample_distance(spec, field) -> float:
     """The sample distance in world units: ``sample_distance``, or ``sample_distance_voxels`` (default
     0.5) times the field's voxel; the one place that turns voxels into world units."""
@@ -424,6 +432,31 @@ def resolve_sample_distance(spec, field) -> float:
     return voxels * field.sample_spacing
 
 
+#: The longest sample distance, in diagonals of the field's box: past one diagonal a ray takes one sample
+#: already; far past it float32 breaks (a distance of 1e39 overflowed to a black image).
+MAX_SAMPLE_DIAGONALS = 1e6
+
+
+def max_sample_distance(field) -> float:
+    """The longest sample distance (world units) allowed for ``field``: :data:`MAX_SAMPLE_DIAGONALS` diagonals."""
+    return MAX_SAMPLE_DIAGONALS * max(diagonal(field), field.sample_spacing)
+
+
+def check_sample_distance(world: float, field, key: str = "sample_distance", given=None) -> float:
+    """``world`` (the sample distance, world units) if positive and at most :data:`MAX_SAMPLE_DIAGONALS` times
+    the field's diagonal; ``key`` and ``given`` name the setting as the user wrote it (one in voxels)."""
+    given = world if given is None else given
+    if world is None or not world > 0:  # each factor was checked positive; their product can underflow to 0
+        raise SceneError(f"renderer.{key} must be positive, got {given}")
+    limit = max_sample_distance(field)
+    if not world <= limit:
+        world_units = "" if key == "sample_distance" else f" ({world:.3g} world units)"
+        raise SceneError(f"renderer.{key} = {given:g}{world_units} is over {limit:.3g} world units, "
+                         f"{MAX_SAMPLE_DIAGONALS:g} times the volume's diagonal (one diagonal already takes one "
+                         f"sample a ray); give less")
+    return world
+
+
 def resolve_renderer(spec, field, settings):
     """``spec`` with every declared setting checked and the data-dependent defaults made explicit:
     the sample distance in world units (``sample_distance_voxels`` dropped), the iso-value (middle of
@@ -433,9 +466,7 @@ def resolve_renderer(spec, field, settings):
     for later) fills them then."""
     for setting in settings:
         setting.validate(getattr(spec, setting.name))
-    d = resolve_sample_distance(spec, field)
-    if not d > 0:  # each factor was checked positive; their product can still underflow to 0
-        raise SceneError(f"renderer.sample_distance must be positive, got {d}")
+    d = check_sample_distance(resolve_sample_distance(spec, field), field, *_sample_distance_key(spec))
     if spec.classification == "preintegrated" and spec.compositing == "xray":
         raise SceneError("renderer.classification = preintegrated does not apply to xray (its tables attenuate "
                          "within a segment); use post or pre")
@@ -464,10 +495,9 @@ def with_sample_distance(renderer_spec, field, world: float | None = None, voxel
     if voxels is not None:
         world = resolve_sample_distance(dataclasses.replace(renderer_spec, sample_distance=None,
                                                             sample_distance_voxels=voxels), field)
-    elif factor is not None:
-        world = renderer_spec.sample_distance * factor
-    if world is None or not world > 0:
-        raise SceneError(f"renderer.sample_distance must be positive, got {world}")
+    elif factor is not None:  # a coarser preview (the viewer's refinement): at most the longest allowed
+        world = min(renderer_spec.sample_distance * factor, max_sample_distance(field))
+    check_sample_distance(world, field, *(("sample_distance_voxels", voxels) if voxels is not None else ()))
     # a distance given by hand replaces what excludes it (one in voxels; a tolerance, which chose one)
     dropped = dict.fromkeys(exclusive_keys(renderer_spec, SAMPLE_DISTANCE.name))
     return dataclasses.replace(renderer_spec, **dropped, sample_distance=float(world))

@@ -184,6 +184,12 @@ BAD_INPUTS = {
                              ["renderer.sample_distance_voxels must be positive, got 0.0"]),
     "negative sample distance": (lambda t: ["--demo", "--set", "renderer.sample_distance=-1"],
                                  ["renderer.sample_distance must be positive"]),
+    "huge sample distance": (lambda t: ["--demo", "--sample-distance", 1e39],
+                             ["renderer.sample_distance = 1e+39 is over", "world units, 1e+06 times the "
+                              "volume's diagonal"]),
+    "huge sample distance in voxels": (lambda t: ["--volume", _ones_npy(t), "--sample-distance-voxels", 1e308],
+                                       ["renderer.sample_distance_voxels = 1e+308 (1e+308 world units) is over "
+                                        "5.2e+06 world units"]),  # 1e6 diagonals of 3 voxels of 1
     "empty points": (lambda t: [_scene(t, '[volume]\ndemo = "shepp-logan"\n[transfer_function]\npoints = []\n')],
                      ["transfer_function.points must be a non-empty list"]),
     "ragged points": (lambda t: ["--demo", "--set", "transfer_function.points=[[0,1,1,1,1],[1,1]]"],

@@ -77,6 +77,23 @@ def test_with_renderer_and_the_viewer_drop_the_excluded_settings():
     assert getattr(finer, tol) is None and finer.sample_distance == 0.25 * scene.field.sample_spacing
 
 
+def test_a_sample_distance_far_past_the_box_is_refused_or_capped():
+    """Past a million diagonals float32 breaks (1e39: a black picture): refused as the user gave it, in world
+    units or voxels; a coarser preview of a distance near the bound (the viewer's refinement) is capped."""
+    from dvr_gl.fields import diagonal
+    from dvr_gl.scene.settings import MAX_SAMPLE_DIAGONALS
+
+    for key in ("sample_distance", "sample_distance_voxels"):
+        with pytest.raises(SceneError, match=f"renderer.{key} = 1e\\+39 .*times the volume's diagonal"):
+            load_scene(None, {**SMALL, f"renderer.{key}": 1e39})
+    scene = load_scene(None, SMALL)
+    limit = MAX_SAMPLE_DIAGONALS * diagonal(scene.field)
+    with pytest.raises(SceneError, match="renderer.sample_distance_voxels = 1e\\+39"):
+        with_sample_distance(scene.renderer, scene.field, voxels=1e39)
+    near = with_sample_distance(scene.renderer, scene.field, world=limit / 2)
+    assert with_sample_distance(near, scene.field, factor=4.0).sample_distance == pytest.approx(limit)
+
+
 def test_a_renderers_own_keys_read_in_its_namespace():
     owner, key, _ = _owned()
     default = registry.setting(key).default_value()
