@@ -302,10 +302,12 @@ GEOMETRY = Setting("geometry", list[GeometrySpec], None, "opaque triangle meshes
 # --- sampling: how closely a renderer approaches the picture ---------------------------------
 
 SAMPLE_DISTANCE = Setting("sample_distance", Optional[float], None, "segment length (default 0.5 voxel; the ray "
-                          "caster chooses its own by the scene unless shaded: docs/tolerance.md)",
+                          "caster chooses its own by the scene unless shaded: docs/tolerance.md; at most a million "
+                          "diagonals of the volume)",
                           check=positive, units="world units", excludes=("sample_distance_voxels",))
 SAMPLE_DISTANCE_VOXELS = Setting("sample_distance_voxels", Optional[float], None,
-                                 "segment length in voxels of the smallest spacing", check=positive,
+                                 "segment length in voxels of the smallest spacing (at most a million diagonals of "
+                                 "the volume)", check=positive,
                                  units="voxels", excludes=("sample_distance",))
 ORDER = Setting("order", str, "front_to_back", "compositing order (back_to_front: the over operator; the same "
                 "image within rounding)", choices=ORDERS)
