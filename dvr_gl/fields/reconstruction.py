@@ -94,7 +94,6 @@ class GaussianKernel:
         if not a > 0:
             raise ValueError(f"the Gaussian's kernel_radius must be positive, got {radius_in_sigmas!r}")
         self.sigma = float(sigma)
-        self.radius_in_sigmas = a
         self.radius = a * self.sigma
         # The standard normal's mass inside a sphere of radius a (the chi distribution of 3 degrees).
         inside = math.erf(a / math.sqrt(2.0)) - math.sqrt(2.0 / math.pi) * a * math.exp(-0.5 * a * a)
